@@ -1,0 +1,90 @@
+//! The acceleration structure shared by both tracers: an obvhs BVH2 over the scene's triangles.
+//!
+//! Triangles are stored relative to `offset` (the centre of the scene's bounds, in f64), so the
+//! f32 GPU path keeps full precision however far from the world origin a scene is placed.
+//! They are reordered into BVH leaf order, so a leaf's `first_index..first_index+prim_count`
+//! addresses them directly on both CPU and GPU.
+
+use std::time::{Duration, Instant};
+
+use glam::{DVec3, Vec3A};
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+
+use crate::scene::{Scene, Triangles};
+
+pub struct SceneBvh {
+    /// World position of the local origin of `triangles` and of the BVH.
+    pub offset: DVec3,
+    pub bvh: Bvh2,
+    /// Triangle corners relative to `offset`, in BVH leaf order.
+    pub triangles: Vec<[DVec3; 3]>,
+    /// Scene face of each triangle, in BVH leaf order.
+    pub face: Vec<u32>,
+    /// sRGB colour of each scene face.
+    pub face_colours: Vec<[u8; 3]>,
+    /// Time spent in obvhs's builder.
+    pub build_time: Duration,
+}
+
+impl SceneBvh {
+    pub fn build(scene: &Scene) -> Self {
+        let triangles = scene.triangulate();
+        let (lo, hi) = scene.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
+        Self::from_triangles(&triangles, (lo + hi) / 2.0, scene.faces.iter().map(|f| f.colour).collect())
+    }
+
+    fn from_triangles(triangles: &Triangles, offset: DVec3, face_colours: Vec<[u8; 3]>) -> Self {
+        let local: Vec<[DVec3; 3]> = triangles.corners.iter().map(|t| t.map(|p| p - offset)).collect();
+        let boxes: Vec<Aabb> = local.iter().map(padded_aabb).collect();
+        let start = Instant::now();
+        let mut core_time = Duration::ZERO;
+        let bvh = if boxes.is_empty() {
+            Bvh2::default()
+        } else {
+            obvhs::bvh2::builder::build_bvh2(&boxes, BvhBuildParams::medium_build(), &mut core_time)
+        };
+        let build_time = start.elapsed();
+        let order = &bvh.primitive_indices;
+        Self {
+            offset,
+            triangles: order.iter().map(|&i| local[i as usize]).collect(),
+            face: order.iter().map(|&i| triangles.face[i as usize]).collect(),
+            bvh,
+            face_colours,
+            build_time,
+        }
+    }
+
+    /// Deepest node below the root, which bounds the traversal stack any tracer needs.
+    pub fn depth(&self) -> usize {
+        if self.bvh.nodes.is_empty() {
+            return 0;
+        }
+        let mut deepest = 0;
+        let mut pending = vec![(0usize, 0usize)];
+        while let Some((index, depth)) = pending.pop() {
+            deepest = deepest.max(depth);
+            let node = &self.bvh.nodes[index];
+            if !node.is_leaf() {
+                let first = node.first_index as usize;
+                pending.push((first, depth + 1));
+                pending.push((first + 1, depth + 1));
+            }
+        }
+        deepest
+    }
+}
+
+/// A triangle's f32 box, grown so that f32 box tests never reject a ray the f64 triangle test
+/// would accept (rounding of the box, the ray origin and the inverse direction).
+fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
+    let lo = corners[0].min(corners[1]).min(corners[2]);
+    let hi = corners[0].max(corners[1]).max(corners[2]);
+    let pad = 1e-5 * (1.0 + lo.abs().max(hi.abs()).max_element());
+    Aabb::new(
+        Vec3A::from((lo - pad).as_vec3()),
+        Vec3A::from((hi + pad).as_vec3()),
+    )
+}

@@ -1,0 +1,46 @@
+use std::f64::consts::{PI, TAU};
+
+use glam::{DVec2, DVec3, dvec2, dvec3};
+
+use super::CameraRay;
+
+/// A full-sphere equirectangular panorama around the body z axis.
+///
+/// Column u looks at azimuth φ = π − 2π(u + ½)/W (φ counter-clockwise from body +x, so body
+/// forward is the middle column and body left is left of it); row v at elevation
+/// ε = π/2 − π(v + ½)/H. Turning the body by 2π/W about z shifts the image by one column.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Equirectangular {
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Equirectangular {
+    pub fn ray(&self, pixel: DVec2) -> CameraRay {
+        let azimuth = PI - TAU * (pixel.x + 0.5) / self.width as f64;
+        let elevation = PI / 2.0 - PI * (pixel.y + 0.5) / self.height as f64;
+        CameraRay {
+            origin: DVec3::ZERO,
+            direction: dvec3(
+                elevation.cos() * azimuth.cos(),
+                elevation.cos() * azimuth.sin(),
+                elevation.sin(),
+            ),
+            t_min: 0.0,
+        }
+    }
+
+    pub fn project(&self, point: DVec3) -> Option<DVec2> {
+        let horizontal = point.truncate().length();
+        if horizontal == 0.0 && point.z == 0.0 {
+            return None;
+        }
+        let azimuth = point.y.atan2(point.x);
+        let elevation = point.z.atan2(horizontal);
+        // atan2 ∈ (−π, π] puts u in [−½, W − ½): the image's own column range.
+        Some(dvec2(
+            (PI - azimuth) / TAU * self.width as f64 - 0.5,
+            (PI / 2.0 - elevation) / PI * self.height as f64 - 0.5,
+        ))
+    }
+}

@@ -1,0 +1,57 @@
+use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
+
+use super::CameraRay;
+
+/// An ideal perspective camera with OpenCV intrinsics, mounted looking along body +x.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pinhole {
+    pub width: u32,
+    pub height: u32,
+    pub fx: f64,
+    pub fy: f64,
+    pub cx: f64,
+    pub cy: f64,
+}
+
+/// body_from_optical: optical z (forward) → body x, optical x (right) → body −y,
+/// optical y (down) → body −z.
+pub const BODY_FROM_OPTICAL: DMat3 = DMat3::from_cols(
+    DVec3::new(0.0, -1.0, 0.0),
+    DVec3::new(0.0, 0.0, -1.0),
+    DVec3::new(1.0, 0.0, 0.0),
+);
+
+impl Pinhole {
+    /// Square pixels, principal point at the image centre ((W−1)/2, (H−1)/2), horizontal field
+    /// of view `hfov` radians across the full image width.
+    pub fn with_horizontal_fov(width: u32, height: u32, hfov: f64) -> Self {
+        let f = width as f64 / 2.0 / (hfov / 2.0).tan();
+        Self {
+            width,
+            height,
+            fx: f,
+            fy: f,
+            cx: (width as f64 - 1.0) / 2.0,
+            cy: (height as f64 - 1.0) / 2.0,
+        }
+    }
+
+    pub fn ray(&self, pixel: DVec2) -> CameraRay {
+        let optical = dvec3((pixel.x - self.cx) / self.fx, (pixel.y - self.cy) / self.fy, 1.0);
+        CameraRay {
+            origin: DVec3::ZERO,
+            direction: (BODY_FROM_OPTICAL * optical).normalize(),
+            t_min: 0.0,
+        }
+    }
+
+    pub fn project(&self, point: DVec3) -> Option<DVec2> {
+        let optical = BODY_FROM_OPTICAL.transpose() * point;
+        (optical.z > 0.0).then(|| {
+            dvec2(
+                self.fx * optical.x / optical.z + self.cx,
+                self.fy * optical.y / optical.z + self.cy,
+            )
+        })
+    }
+}

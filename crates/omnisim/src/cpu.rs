@@ -1,0 +1,99 @@
+//! The f64 reference tracer: the accuracy yardstick for the GPU path and the fallback backend.
+//!
+//! BVH traversal uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull conservatively);
+//! every triangle test and every returned distance is f64.
+
+use glam::{DVec2, DVec3, Vec3A};
+use obvhs::ray::{Ray, RayHit};
+use rayon::prelude::*;
+
+use crate::bvh::SceneBvh;
+use crate::camera::Camera;
+use crate::frame::{Frame, NO_FACE};
+use crate::pose::Pose;
+
+/// Barycentric slack that closes the gaps f64 rounding leaves along shared edges.
+const EDGE_TOLERANCE: f64 = 1e-10;
+
+/// A closest hit: distance along the (unit) ray and triangle index in BVH order.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    pub t: f64,
+    pub triangle: usize,
+}
+
+/// Möller–Trumbore in f64; returns t where the ray meets the triangle.
+fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f64> {
+    let e1 = corners[1] - corners[0];
+    let e2 = corners[2] - corners[0];
+    let p = direction.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = origin - corners[0];
+    let u = s.dot(p) * inv;
+    if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = direction.dot(q) * inv;
+    if v < -EDGE_TOLERANCE || u + v > 1.0 + EDGE_TOLERANCE {
+        return None;
+    }
+    Some(e2.dot(q) * inv)
+}
+
+/// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`.
+pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) -> Option<Hit> {
+    let ray = Ray::new(
+        Vec3A::from(origin.as_vec3()),
+        Vec3A::from(direction.as_vec3()),
+        0.0,
+        f32::INFINITY,
+    );
+    let mut best: Option<Hit> = None;
+    let mut record = RayHit::none();
+    bvh.bvh.ray_traverse(ray, &mut record, |_, triangle| {
+        match intersect(&bvh.triangles[triangle], origin, direction) {
+            Some(t) if t > t_min && best.is_none_or(|b| t < b.t) => {
+                best = Some(Hit { t, triangle });
+                // Rounded up so the f32 culling never discards a nearer candidate.
+                (t * (1.0 + 1e-6)) as f32
+            }
+            _ => f32::INFINITY,
+        }
+    });
+    best
+}
+
+/// Renders one frame on all CPU threads.
+pub fn render(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
+    let (width, height) = camera.size();
+    let world_from_body = pose.world_from_body_rotation();
+    let mut frame = Frame::empty(width, height);
+    let origin_local = pose.position - bvh.offset;
+    frame
+        .pixels_mut()
+        .par_chunks_mut(width as usize)
+        .enumerate()
+        .for_each(|(row, pixels)| {
+            for (column, pixel) in pixels.iter_mut().enumerate() {
+                let Some(ray) = camera.ray(DVec2::new(column as f64, row as f64)) else {
+                    continue;
+                };
+                let origin = origin_local + world_from_body * ray.origin;
+                let direction = world_from_body * ray.direction;
+                if let Some(hit) = closest_hit(bvh, origin, direction, ray.t_min) {
+                    let face = bvh.face[hit.triangle];
+                    pixel.face = face;
+                    pixel.colour = bvh.face_colours[face as usize];
+                    pixel.range = hit.t as f32;
+                    pixel.point = bvh.offset + origin + hit.t * direction;
+                }
+            }
+        });
+    debug_assert!(frame.pixels().iter().all(|p| p.face == NO_FACE || p.range.is_finite()));
+    frame
+}

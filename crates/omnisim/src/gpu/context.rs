@@ -1,0 +1,63 @@
+//! Finding an adapter and opening a device, saying plainly which one and why.
+
+/// Why the GPU backend is unavailable or failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter found ({0}); on Linux install Mesa's Vulkan drivers (Debian: mesa-vulkan-drivers) or use the CPU backend")]
+    NoAdapter(String),
+    #[error("the adapter '{adapter}' refused a device: {source}")]
+    Device {
+        adapter: String,
+        source: wgpu::RequestDeviceError,
+    },
+    #[error("the scene's BVH is {depth} levels deep; the GPU traversal stack holds {limit}")]
+    BvhTooDeep { depth: usize, limit: usize },
+    #[error("reading results back from the GPU failed: {0}")]
+    Readback(String),
+    #[error("the image is {width}×{height}: one row alone exceeds the adapter's storage limit")]
+    ImageTooWide { width: u32, height: u32 },
+}
+
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter: wgpu::AdapterInfo,
+    pub limits: wgpu::Limits,
+}
+
+impl GpuContext {
+    /// Opens the adapter chosen by `WGPU_BACKEND` / `WGPU_ADAPTER_NAME` / `WGPU_POWER_PREF`
+    /// when set, else the best Vulkan, Metal or DX12 adapter. OpenGL is used only when asked
+    /// for (`WGPU_BACKEND=gl`), so a missing Vulkan driver is reported, not papered over.
+    pub fn new() -> Result<Self, GpuError> {
+        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if wgpu::Backends::from_env().is_none() {
+            descriptor.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(descriptor);
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&instance, None))
+            .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("omnisim"),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|source| GpuError::Device {
+            adapter: info.name.clone(),
+            source,
+        })?;
+        Ok(Self {
+            device,
+            queue,
+            adapter: info,
+            limits,
+        })
+    }
+
+    /// "name (backend, device type)", for messages and benchmark records.
+    pub fn describe(&self) -> String {
+        format!("{} ({:?}, {:?})", self.adapter.name, self.adapter.backend, self.adapter.device_type)
+    }
+}

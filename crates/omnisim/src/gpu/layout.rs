@@ -1,0 +1,109 @@
+//! Host twins of the WGSL structs in `shaders/common.wgsl`, laid out by WGSL's rules.
+//! Keep in sync: `tests/tests/shaders.rs` compares every size and offset with naga's layout.
+
+use bytemuck::{Pod, Zeroable};
+
+/// WGSL twin: `CameraParams`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct CameraParams {
+    /// mat3x3<f32>: three columns, each padded to 16 bytes.
+    pub world_from_body: [[f32; 4]; 3],
+    pub origin: [f32; 3],
+    pub kind: u32,
+    pub width: u32,
+    pub height: u32,
+    pub row_offset: u32,
+    pub band_rows: u32,
+    pub focal: [f32; 2],
+    pub principal: [f32; 2],
+    pub mirror_a: f32,
+    pub mirror_b: f32,
+    pub mirror_c: f32,
+    pub rim_sq: f32,
+}
+
+/// WGSL twin: `Triangle`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Triangle {
+    pub v0: [f32; 3],
+    pub face: u32,
+    pub e1: [f32; 3],
+    pub _pad1: u32,
+    pub e2: [f32; 3],
+    pub _pad2: u32,
+}
+
+/// WGSL twin: `PixelHit`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct PixelHit {
+    pub point: [f32; 3],
+    pub range: f32,
+    pub face: u32,
+    pub colour: u32,
+    /// WGSL rounds the struct up to its 16-byte alignment.
+    pub _pad: [u32; 2],
+}
+
+/// WGSL twin: `BvhNode` is obvhs's `Bvh2Node` with the `small_bvh2_node` feature.
+pub type BvhNode = obvhs::bvh2::node::Bvh2Node;
+
+/// (struct name, size, [(field, offset)]) of every host twin, for the layout test.
+pub fn host_layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
+    use std::mem::{offset_of, size_of};
+    vec![
+        (
+            "CameraParams",
+            size_of::<CameraParams>(),
+            vec![
+                ("world_from_body", offset_of!(CameraParams, world_from_body)),
+                ("origin", offset_of!(CameraParams, origin)),
+                ("kind", offset_of!(CameraParams, kind)),
+                ("width", offset_of!(CameraParams, width)),
+                ("height", offset_of!(CameraParams, height)),
+                ("row_offset", offset_of!(CameraParams, row_offset)),
+                ("band_rows", offset_of!(CameraParams, band_rows)),
+                ("focal", offset_of!(CameraParams, focal)),
+                ("principal", offset_of!(CameraParams, principal)),
+                ("mirror_a", offset_of!(CameraParams, mirror_a)),
+                ("mirror_b", offset_of!(CameraParams, mirror_b)),
+                ("mirror_c", offset_of!(CameraParams, mirror_c)),
+                ("rim_sq", offset_of!(CameraParams, rim_sq)),
+            ],
+        ),
+        (
+            "Triangle",
+            size_of::<Triangle>(),
+            vec![
+                ("v0", offset_of!(Triangle, v0)),
+                ("face", offset_of!(Triangle, face)),
+                ("e1", offset_of!(Triangle, e1)),
+                ("_pad1", offset_of!(Triangle, _pad1)),
+                ("e2", offset_of!(Triangle, e2)),
+                ("_pad2", offset_of!(Triangle, _pad2)),
+            ],
+        ),
+        (
+            "PixelHit",
+            size_of::<PixelHit>(),
+            vec![
+                ("point", offset_of!(PixelHit, point)),
+                ("range", offset_of!(PixelHit, range)),
+                ("face", offset_of!(PixelHit, face)),
+                ("colour", offset_of!(PixelHit, colour)),
+            ],
+        ),
+        (
+            "BvhNode",
+            size_of::<BvhNode>(),
+            vec![
+                ("min", offset_of!(BvhNode, min)),
+                ("prim_count", offset_of!(BvhNode, prim_count)),
+                ("max", offset_of!(BvhNode, max)),
+                ("first_index", offset_of!(BvhNode, first_index)),
+            ],
+        ),
+    ]
+}

@@ -1,0 +1,28 @@
+//! The WGSL program, assembled from one file per concern (WGSL has no `#include`).
+
+/// The shader files in the order they are concatenated: definitions first, entry point last.
+pub const FILES: [(&str, &str); 6] = [
+    ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
+    ("camera_pinhole.wgsl", include_str!("../../../../shaders/camera_pinhole.wgsl")),
+    ("camera_equirect.wgsl", include_str!("../../../../shaders/camera_equirect.wgsl")),
+    ("camera_hyperbolic.wgsl", include_str!("../../../../shaders/camera_hyperbolic.wgsl")),
+    ("bvh.wgsl", include_str!("../../../../shaders/bvh.wgsl")),
+    ("trace.wgsl", include_str!("../../../../shaders/trace.wgsl")),
+];
+
+/// Entry point of the trace pass.
+pub const ENTRY_POINT: &str = "trace_pixels";
+
+/// Workgroup size of `trace_pixels` in x and y.
+pub const WORKGROUP_SIZE: u32 = 8;
+
+/// Traversal stack depth of `bvh.wgsl`; deeper BVHs are refused before dispatch.
+pub const STACK_SIZE: usize = 64;
+
+/// The whole program as one WGSL source.
+pub fn source() -> String {
+    FILES
+        .iter()
+        .map(|(name, text)| format!("// ---- {name} ----\n{text}\n"))
+        .collect()
+}

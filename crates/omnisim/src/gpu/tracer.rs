@@ -1,0 +1,217 @@
+//! Uploads a scene once, then traces frames: one dispatch per band of image rows, each band
+//! small enough for the adapter's storage-binding limit (128 MiB on lavapipe).
+
+use glam::DVec3;
+use wgpu::util::DeviceExt;
+
+use super::context::{GpuContext, GpuError};
+use super::layout::{CameraParams, PixelHit, Triangle};
+use super::shader;
+use crate::bvh::SceneBvh;
+use crate::camera::Camera;
+use crate::frame::{Frame, NO_FACE, Pixel};
+use crate::pose::Pose;
+
+pub struct GpuTracer {
+    context: GpuContext,
+    pipeline: wgpu::ComputePipeline,
+    nodes: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    face_colours: wgpu::Buffer,
+    offset: DVec3,
+}
+
+impl GpuTracer {
+    pub fn new(context: GpuContext, bvh: &SceneBvh) -> Result<Self, GpuError> {
+        let depth = bvh.depth();
+        if depth >= shader::STACK_SIZE {
+            return Err(GpuError::BvhTooDeep {
+                depth,
+                limit: shader::STACK_SIZE,
+            });
+        }
+        let device = &context.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("omnisim trace"),
+            source: wgpu::ShaderSource::Wgsl(shader::source().into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("omnisim trace"),
+            layout: None,
+            module: &module,
+            entry_point: Some(shader::ENTRY_POINT),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let storage = |label: &str, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let triangles: Vec<Triangle> = bvh
+            .triangles
+            .iter()
+            .zip(&bvh.face)
+            .map(|(t, &face)| Triangle {
+                v0: t[0].as_vec3().to_array(),
+                face,
+                e1: (t[1] - t[0]).as_vec3().to_array(),
+                _pad1: 0,
+                e2: (t[2] - t[0]).as_vec3().to_array(),
+                _pad2: 0,
+            })
+            .collect();
+        let colours: Vec<u32> = bvh.face_colours.iter().map(|c| u32::from_le_bytes([c[0], c[1], c[2], 255])).collect();
+        Ok(Self {
+            nodes: storage("bvh nodes", bytemuck::cast_slice(&bvh.bvh.nodes)),
+            triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
+            face_colours: storage("face colours", bytemuck::cast_slice(&colours)),
+            offset: bvh.offset,
+            pipeline,
+            context,
+        })
+    }
+
+    pub fn context(&self) -> &GpuContext {
+        &self.context
+    }
+
+    pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, GpuError> {
+        let (width, height) = camera.size();
+        let row_bytes = width as u64 * std::mem::size_of::<PixelHit>() as u64;
+        let max_binding = (self.context.limits.max_storage_buffer_binding_size as u64)
+            .min(self.context.limits.max_buffer_size);
+        let max_rows_by_dispatch = self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE as u64;
+        let band_rows = (max_binding / row_bytes).min(max_rows_by_dispatch).min(height as u64) as u32;
+        if band_rows == 0 {
+            return Err(GpuError::ImageTooWide { width, height });
+        }
+        let device = &self.context.device;
+        let mut params = camera_params(camera, pose, self.offset);
+        let band_bytes = band_rows as u64 * row_bytes;
+        let output = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pixel hits"),
+            size: band_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pixel hits readback"),
+            size: band_bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("camera"),
+            size: std::mem::size_of::<CameraParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: self.nodes.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: self.triangles.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: self.face_colours.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: output.as_entire_binding() },
+            ],
+        });
+        let mut frame = Frame::empty(width, height);
+        let mut row = 0;
+        while row < height {
+            let rows = band_rows.min(height - row);
+            params.row_offset = row;
+            params.band_rows = rows;
+            self.context.queue.write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
+            let mut encoder = device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                pass.dispatch_workgroups(width.div_ceil(shader::WORKGROUP_SIZE), rows.div_ceil(shader::WORKGROUP_SIZE), 1);
+            }
+            let bytes = rows as u64 * row_bytes;
+            encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, bytes);
+            self.context.queue.submit([encoder.finish()]);
+            let hits = self.read(&readback, bytes)?;
+            let start = row as usize * width as usize;
+            for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()].iter_mut().zip(&hits) {
+                if hit.face != NO_FACE {
+                    let [r, g, b, _] = hit.colour.to_le_bytes();
+                    *pixel = Pixel {
+                        colour: [r, g, b],
+                        range: hit.range,
+                        face: hit.face,
+                        point: self.offset + glam::Vec3::from_array(hit.point).as_dvec3(),
+                    };
+                }
+            }
+            row += rows;
+        }
+        Ok(frame)
+    }
+
+    fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<PixelHit>, GpuError> {
+        let (sender, receiver) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, ..bytes, move |result| {
+            let _ = sender.send(result);
+        });
+        self.context
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        receiver
+            .recv()
+            .map_err(|e| GpuError::Readback(e.to_string()))?
+            .map_err(|e| GpuError::Readback(e.to_string()))?;
+        let hits = {
+            let view = buffer.get_mapped_range(..bytes).map_err(|e| GpuError::Readback(e.to_string()))?;
+            bytemuck::cast_slice::<u8, PixelHit>(&view).to_vec()
+        };
+        buffer.unmap();
+        Ok(hits)
+    }
+}
+
+/// The uniform block of one render: camera model parameters and the pose, with the viewpoint
+/// made relative to the scene offset in f64 before rounding to f32.
+fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
+    let rotation = pose.world_from_body_rotation();
+    let column = |c: DVec3| [c.x as f32, c.y as f32, c.z as f32, 0.0];
+    let (width, height) = camera.size();
+    let mut params = CameraParams {
+        world_from_body: [column(rotation.x_axis), column(rotation.y_axis), column(rotation.z_axis)],
+        origin: (pose.position - offset).as_vec3().to_array(),
+        kind: camera.gpu_kind(),
+        width,
+        height,
+        row_offset: 0,
+        band_rows: height,
+        focal: [1.0, 1.0],
+        principal: [0.0, 0.0],
+        mirror_a: 0.0,
+        mirror_b: 0.0,
+        mirror_c: 0.0,
+        rim_sq: -1.0,
+    };
+    match camera {
+        Camera::Pinhole(c) => {
+            params.focal = [c.fx as f32, c.fy as f32];
+            params.principal = [c.cx as f32, c.cy as f32];
+        }
+        Camera::Equirectangular(_) => {}
+        Camera::Hyperbolic(c) => {
+            params.focal = [c.focal as f32, c.focal as f32];
+            params.principal = [c.cx as f32, c.cy as f32];
+            params.mirror_a = c.a as f32;
+            params.mirror_b = c.b as f32;
+            params.mirror_c = c.c() as f32;
+            params.rim_sq = c.rim_radius.map_or(-1.0, |r| (r * r) as f32);
+        }
+    }
+    params
+}

@@ -1,0 +1,33 @@
+use std::path::PathBuf;
+
+/// Why a scene could not be loaded or written. Every variant names the file; the ones about
+/// content name the line and the object, so the message alone says where to look.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    Parse {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{}{}: object '{object}': {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Invalid {
+        path: PathBuf,
+        line: Option<usize>,
+        object: String,
+        message: String,
+    },
+    #[error("{}: {message}", path.display())]
+    Scene { path: PathBuf, message: String },
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}

@@ -1,0 +1,83 @@
+//! Writes the triangulated scene so other tools (Open3D, CloudCompare, MeshLab, Blender) load
+//! exactly the geometry omnisim traces, with each face's colour on its corners.
+
+use std::io::Write;
+use std::path::Path;
+
+use super::{Scene, SceneError};
+use crate::output::atomic::write_atomically;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExportFormat {
+    /// Binary little-endian PLY: float x y z, uchar red green blue per vertex; int face lists.
+    Ply,
+    /// Wavefront OBJ with the common `v x y z r g b` vertex-colour extension, one `o` per object.
+    Obj,
+}
+
+impl ExportFormat {
+    pub fn from_path(path: &Path) -> Option<Self> {
+        match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
+            "ply" => Some(Self::Ply),
+            "obj" => Some(Self::Obj),
+            _ => None,
+        }
+    }
+}
+
+pub(super) fn export(scene: &Scene, path: &Path, format: ExportFormat) -> Result<(), SceneError> {
+    let triangles = scene.triangulate();
+    write_atomically(path, |out| {
+        match format {
+            ExportFormat::Ply => {
+                // Corners are not shared: a vertex takes the colour of its face.
+                write!(
+                    out,
+                    "ply\nformat binary_little_endian 1.0\ncomment omnisim scene '{}', metres, z up\n\
+                     element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+                     property uchar red\nproperty uchar green\nproperty uchar blue\n\
+                     element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+                    scene.name,
+                    triangles.len() * 3,
+                    triangles.len()
+                )?;
+                for (corners, face) in triangles.corners.iter().zip(&triangles.face) {
+                    let colour = scene.faces[*face as usize].colour;
+                    for c in corners {
+                        for v in [c.x, c.y, c.z] {
+                            out.write_all(&(v as f32).to_le_bytes())?;
+                        }
+                        out.write_all(&colour)?;
+                    }
+                }
+                for i in 0..triangles.len() as i32 {
+                    out.write_all(&[3])?;
+                    for k in 0..3 {
+                        out.write_all(&(3 * i + k).to_le_bytes())?;
+                    }
+                }
+            }
+            ExportFormat::Obj => {
+                writeln!(out, "# omnisim scene '{}', metres, z up; v x y z r g b (colours 0-1)", scene.name)?;
+                let mut current_object = u32::MAX;
+                for (i, (corners, face)) in triangles.corners.iter().zip(&triangles.face).enumerate() {
+                    let face = &scene.faces[*face as usize];
+                    if face.object != current_object {
+                        current_object = face.object;
+                        writeln!(out, "o {}", scene.objects[face.object as usize].name.replace(char::is_whitespace, "_"))?;
+                    }
+                    let [r, g, b] = face.colour.map(|c| c as f64 / 255.0);
+                    for c in corners {
+                        writeln!(out, "v {} {} {} {r:.6} {g:.6} {b:.6}", c.x, c.y, c.z)?;
+                    }
+                    writeln!(out, "f {} {} {}", 3 * i + 1, 3 * i + 2, 3 * i + 3)?;
+                }
+            }
+        }
+        Ok(())
+    })
+    .map_err(|source| SceneError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
+}

@@ -1,0 +1,145 @@
+//! The RON schema of a scene file, exactly as a person writes it.
+//!
+//! Everything here is plain data deserialised by serde; `deny_unknown_fields` makes a misspelt
+//! field an error instead of a silently ignored line. Geometry is produced from these
+//! descriptions in `library.rs` and checked in `validate.rs`.
+
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+
+/// An sRGB colour, 0–255 per channel.
+pub type Rgb = (u8, u8, u8);
+
+/// How the angles of this file are written.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+pub enum AngleUnit {
+    #[default]
+    Degrees,
+    Radians,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Unit of every `rotation` in the file.
+    #[serde(default)]
+    pub angles: AngleUnit,
+    pub objects: Vec<ObjectFile>,
+}
+
+/// One entry of the object library.
+#[derive(Debug, Clone, Deserialize)]
+pub enum ObjectFile {
+    /// A parallelepiped of edge lengths `size` = (l1, l2, l3) along its own x, y, z.
+    Box(BoxFile),
+    /// A vertical rectangle standing on the segment `from`–`to` of the floor plan.
+    Wall(WallFile),
+    /// A horizontal polygon at height `z` (floors, ceilings, rugs).
+    Floor(FloorFile),
+    /// Any planar polygon, vertices in order around its boundary.
+    Polygon(PolygonFile),
+    /// A triangle mesh read from a PLY or OBJ file.
+    Mesh(MeshFile),
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxFile {
+    pub name: String,
+    /// (l1, l2, l3): lengths along the box's own x, y, z axes, metres.
+    pub size: (f64, f64, f64),
+    /// Centre of the bottom face, world metres.
+    #[serde(default)]
+    pub position: (f64, f64, f64),
+    /// (θx, θy, θz), world_from_object = Rx·Ry·Rz, in the file's angle unit.
+    #[serde(default)]
+    pub rotation: (f64, f64, f64),
+    pub colour: Rgb,
+    /// Per-face colours overriding `colour`: keys front (+x), back (−x), left (+y),
+    /// right (−y), top (+z), bottom (−z).
+    #[serde(default)]
+    pub faces: BTreeMap<String, Rgb>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WallFile {
+    pub name: String,
+    /// Floor-plan start point (x, y), metres.
+    pub from: (f64, f64),
+    /// Floor-plan end point (x, y), metres.
+    pub to: (f64, f64),
+    /// Height of the bottom edge, metres.
+    #[serde(default)]
+    pub bottom: f64,
+    pub height: f64,
+    pub colour: Rgb,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FloorFile {
+    pub name: String,
+    /// Floor-plan corners (x, y) in order around the boundary, metres.
+    pub corners: Vec<(f64, f64)>,
+    #[serde(default)]
+    pub z: f64,
+    pub colour: Rgb,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PolygonFile {
+    pub name: String,
+    /// Vertices (x, y, z) in order around the boundary, metres.
+    pub vertices: Vec<(f64, f64, f64)>,
+    pub colour: Rgb,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshFile {
+    pub name: String,
+    /// PLY or OBJ file, relative to the scene file's folder.
+    pub path: String,
+    /// Colour of faces the mesh file gives no colour.
+    pub colour: Rgb,
+    /// Uniform scale applied first (e.g. 0.001 for a mesh in millimetres).
+    #[serde(default = "one")]
+    pub scale: f64,
+    #[serde(default)]
+    pub rotation: (f64, f64, f64),
+    /// Translation applied last, metres.
+    #[serde(default)]
+    pub position: (f64, f64, f64),
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl ObjectFile {
+    pub fn name(&self) -> &str {
+        match self {
+            ObjectFile::Box(o) => &o.name,
+            ObjectFile::Wall(o) => &o.name,
+            ObjectFile::Floor(o) => &o.name,
+            ObjectFile::Polygon(o) => &o.name,
+            ObjectFile::Mesh(o) => &o.name,
+        }
+    }
+
+    pub fn kind(&self) -> &'static str {
+        match self {
+            ObjectFile::Box(_) => "Box",
+            ObjectFile::Wall(_) => "Wall",
+            ObjectFile::Floor(_) => "Floor",
+            ObjectFile::Polygon(_) => "Polygon",
+            ObjectFile::Mesh(_) => "Mesh",
+        }
+    }
+}

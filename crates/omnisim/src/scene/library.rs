@@ -1,0 +1,200 @@
+//! The object library: turns each object of a scene file into planar faces.
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use glam::{DVec3, dvec3};
+
+use super::file::{AngleUnit, BoxFile, FloorFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile};
+use super::{Face, Scene, SceneError, SceneObject, mesh, validate};
+use crate::pose::rotation_xyz;
+
+/// Box face names, in the order their colours are listed in error messages.
+const BOX_FACES: [&str; 6] = ["front", "back", "left", "right", "top", "bottom"];
+
+pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let mut scene = Scene {
+        name: file.name,
+        description: file.description,
+        ..Scene::default()
+    };
+    let mut names = HashSet::new();
+    for object in &file.objects {
+        let name = object.name();
+        let invalid = |message: String| SceneError::Invalid {
+            path: path.to_path_buf(),
+            line: locate_object(text, name),
+            object: name.to_string(),
+            message: format!("{}: {message}", object.kind()),
+        };
+        if name.trim().is_empty() {
+            return Err(invalid("the name is empty; give every object a name".into()));
+        }
+        if !names.insert(name.to_string()) {
+            return Err(invalid("another object has this name; names must be unique".into()));
+        }
+        let index = scene.objects.len() as u32;
+        let angle = |r: (f64, f64, f64)| {
+            let v = dvec3(r.0, r.1, r.2);
+            match file.angles {
+                AngleUnit::Degrees => v * (std::f64::consts::PI / 180.0),
+                AngleUnit::Radians => v,
+            }
+        };
+        let faces = match object {
+            ObjectFile::Box(b) => box_faces(b, angle(b.rotation)),
+            ObjectFile::Wall(w) => wall_face(w),
+            ObjectFile::Floor(f) => floor_face(f),
+            ObjectFile::Polygon(p) => polygon_face(p),
+            ObjectFile::Mesh(m) => mesh_faces(m, angle(m.rotation), path, &mut scene.warnings),
+        }
+        .map_err(&invalid)?;
+        for (vertices, colour) in faces {
+            validate::check_face(&vertices).map_err(&invalid)?;
+            scene.faces.push(Face {
+                vertices,
+                colour: [colour.0, colour.1, colour.2],
+                object: index,
+            });
+        }
+        scene.objects.push(SceneObject {
+            name: name.to_string(),
+            kind: object.kind(),
+        });
+    }
+    if scene.faces.is_empty() {
+        return Err(SceneError::Scene {
+            path: path.to_path_buf(),
+            message: "the scene has no faces; add at least one object".into(),
+        });
+    }
+    Ok(scene)
+}
+
+type RawFace = (Vec<DVec3>, (u8, u8, u8));
+
+fn positive(what: &str, value: f64) -> Result<(), String> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("{what} must be a positive finite number of metres, not {value}"))
+    }
+}
+
+fn box_faces(b: &BoxFile, angles: DVec3) -> Result<Vec<RawFace>, String> {
+    positive("size.0 (l1)", b.size.0)?;
+    positive("size.1 (l2)", b.size.1)?;
+    positive("size.2 (l3)", b.size.2)?;
+    if let Some(unknown) = b.faces.keys().find(|k| !BOX_FACES.contains(&k.as_str())) {
+        return Err(format!(
+            "unknown face '{unknown}' in faces; the faces are {}",
+            BOX_FACES.join(", ")
+        ));
+    }
+    let (hx, hy, h) = (b.size.0 / 2.0, b.size.1 / 2.0, b.size.2);
+    let corner = |x: f64, y: f64, z: f64| dvec3(x, y, z);
+    let local: [(&str, [DVec3; 4]); 6] = [
+        ("front", [corner(hx, -hy, 0.0), corner(hx, hy, 0.0), corner(hx, hy, h), corner(hx, -hy, h)]),
+        ("back", [corner(-hx, hy, 0.0), corner(-hx, -hy, 0.0), corner(-hx, -hy, h), corner(-hx, hy, h)]),
+        ("left", [corner(hx, hy, 0.0), corner(-hx, hy, 0.0), corner(-hx, hy, h), corner(hx, hy, h)]),
+        ("right", [corner(-hx, -hy, 0.0), corner(hx, -hy, 0.0), corner(hx, -hy, h), corner(-hx, -hy, h)]),
+        ("top", [corner(-hx, -hy, h), corner(hx, -hy, h), corner(hx, hy, h), corner(-hx, hy, h)]),
+        ("bottom", [corner(-hx, hy, 0.0), corner(hx, hy, 0.0), corner(hx, -hy, 0.0), corner(-hx, -hy, 0.0)]),
+    ];
+    let world_from_object = rotation_xyz(angles);
+    let position = dvec3(b.position.0, b.position.1, b.position.2);
+    Ok(local
+        .iter()
+        .map(|(name, corners)| {
+            let colour = b.faces.get(*name).copied().unwrap_or(b.colour);
+            let vertices = corners.iter().map(|c| position + world_from_object * *c).collect();
+            (vertices, colour)
+        })
+        .collect())
+}
+
+fn wall_face(w: &WallFile) -> Result<Vec<RawFace>, String> {
+    positive("height", w.height)?;
+    let (a, b) = (w.from, w.to);
+    let top = w.bottom + w.height;
+    Ok(vec![(
+        vec![
+            dvec3(a.0, a.1, w.bottom),
+            dvec3(b.0, b.1, w.bottom),
+            dvec3(b.0, b.1, top),
+            dvec3(a.0, a.1, top),
+        ],
+        w.colour,
+    )])
+}
+
+fn floor_face(f: &FloorFile) -> Result<Vec<RawFace>, String> {
+    let vertices = f.corners.iter().map(|c| dvec3(c.0, c.1, f.z)).collect();
+    Ok(vec![(vertices, f.colour)])
+}
+
+fn polygon_face(p: &PolygonFile) -> Result<Vec<RawFace>, String> {
+    let vertices = p.vertices.iter().map(|v| dvec3(v.0, v.1, v.2)).collect();
+    Ok(vec![(vertices, p.colour)])
+}
+
+fn mesh_faces(
+    m: &MeshFile,
+    angles: DVec3,
+    scene_path: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<RawFace>, String> {
+    positive("scale", m.scale)?;
+    let mesh_path = scene_path.parent().unwrap_or(Path::new(".")).join(&m.path);
+    let triangles = mesh::load(&mesh_path).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
+    let world_from_object = rotation_xyz(angles);
+    let position = dvec3(m.position.0, m.position.1, m.position.2);
+    let mut faces = Vec::with_capacity(triangles.len());
+    let mut dropped = 0usize;
+    for triangle in triangles {
+        let vertices: Vec<DVec3> = triangle
+            .vertices
+            .iter()
+            .map(|v| position + world_from_object * (*v * m.scale))
+            .collect();
+        if validate::check_face(&vertices).is_err() {
+            // A zero-area triangle can never be hit; real scans contain many.
+            dropped += 1;
+            continue;
+        }
+        let colour = triangle.colour.map(|c| (c[0], c[1], c[2])).unwrap_or(m.colour);
+        faces.push((vertices, colour));
+    }
+    if dropped > 0 {
+        warnings.push(format!("mesh '{}': dropped {dropped} degenerate triangles", m.name));
+    }
+    if faces.is_empty() {
+        return Err(format!("mesh {} has no usable triangles", mesh_path.display()));
+    }
+    Ok(faces)
+}
+
+/// The 1-based line where the object named `name` is written, found by its `name: "…"` field.
+fn locate_object(text: &str, name: &str) -> Option<usize> {
+    let quoted = format!("\"{name}\"");
+    text.lines()
+        .position(|line| {
+            line.find(&quoted).is_some_and(|at| {
+                let before = line[..at].trim_end();
+                before.ends_with(':') && before[..before.len() - 1].trim_end().ends_with("name")
+            })
+        })
+        .map(|i| i + 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::locate_object;
+
+    #[test]
+    fn locates_object_by_name_field() {
+        let text = "Scene(\n  objects: [\n    Box(\n      name: \"table\",\n";
+        assert_eq!(locate_object(text, "table"), Some(4));
+        assert_eq!(locate_object(text, "chair"), None);
+    }
+}

@@ -1,0 +1,104 @@
+//! Scenes: a face soup of coloured planar polygons grouped into named objects.
+//!
+//! `Scene::load` reads a RON file (schema in `file.rs`), expands each library object into
+//! faces (`library.rs`, meshes via `mesh.rs`), checks every face (`validate.rs`) and reports
+//! any problem with the file, line and object it comes from.
+
+mod error;
+mod export;
+pub mod file;
+mod library;
+mod mesh;
+mod triangulate;
+mod validate;
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+
+pub use error::SceneError;
+pub use export::ExportFormat;
+pub use triangulate::Triangles;
+
+/// A planar convex-or-concave polygon with one colour, the unit a scene is made of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Face {
+    /// Vertices in order around the boundary, world metres.
+    pub vertices: Vec<DVec3>,
+    /// sRGB colour.
+    pub colour: [u8; 3],
+    /// Index into `Scene::objects`.
+    pub object: u32,
+}
+
+/// A named object of the scene file, kept so faces can be traced back to what the user wrote.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneObject {
+    pub name: String,
+    /// Library kind: Box, Wall, Floor, Polygon or Mesh.
+    pub kind: &'static str,
+}
+
+/// A validated scene.
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    pub name: String,
+    pub description: String,
+    /// Where it was loaded from, if from a file.
+    pub source: Option<PathBuf>,
+    pub objects: Vec<SceneObject>,
+    pub faces: Vec<Face>,
+    /// Things the user may want to know that did not stop loading (e.g. dropped degenerate
+    /// mesh triangles).
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Reads, expands and validates a scene file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut scene = Self::from_ron(&text, path)?;
+        scene.source = Some(path.to_path_buf());
+        Ok(scene)
+    }
+
+    /// Parses scene text; `path` names the file in errors and anchors mesh paths.
+    pub fn from_ron(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        let options = ron::Options::default().with_default_extension(
+            ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES
+                | ron::extensions::Extensions::IMPLICIT_SOME,
+        );
+        let parsed: file::SceneFile =
+            options
+                .from_str(text)
+                .map_err(|e| SceneError::Parse {
+                    path: path.to_path_buf(),
+                    line: e.span.start.line,
+                    column: e.span.start.col,
+                    message: e.code.to_string(),
+                })?;
+        library::build(parsed, text, path)
+    }
+
+    /// Splits every face into triangles, keeping face and object ids.
+    pub fn triangulate(&self) -> Triangles {
+        triangulate::triangulate(self)
+    }
+
+    /// Axis-aligned bounds of all vertices, or `None` for an empty scene.
+    pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
+        let mut points = self.faces.iter().flat_map(|f| f.vertices.iter().copied());
+        let first = points.next()?;
+        Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
+    }
+
+    /// Writes the triangulated scene with face colours, for other tools to load exactly the
+    /// geometry omnisim traces.
+    pub fn export(&self, path: &Path, format: ExportFormat) -> Result<(), SceneError> {
+        export::export(self, path, format)
+    }
+}

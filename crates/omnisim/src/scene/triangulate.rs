@@ -1,0 +1,92 @@
+//! Splits planar faces into triangles for the BVH, remembering which face each came from.
+
+use glam::DVec3;
+
+use super::Scene;
+use super::validate::newell_normal;
+
+/// The triangles of a scene. Triangle `i` has corners `corners[i]` and belongs to face
+/// `face[i]` of the scene.
+#[derive(Debug, Clone, Default)]
+pub struct Triangles {
+    pub corners: Vec<[DVec3; 3]>,
+    pub face: Vec<u32>,
+}
+
+impl Triangles {
+    pub fn len(&self) -> usize {
+        self.corners.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.corners.is_empty()
+    }
+}
+
+pub(super) fn triangulate(scene: &Scene) -> Triangles {
+    let mut out = Triangles::default();
+    for (face_id, face) in scene.faces.iter().enumerate() {
+        for [a, b, c] in polygon_triangles(&face.vertices) {
+            out.corners.push([face.vertices[a], face.vertices[b], face.vertices[c]]);
+            out.face.push(face_id as u32);
+        }
+    }
+    out
+}
+
+/// Index triples covering a simple planar polygon: a fan when convex, ear clipping otherwise.
+fn polygon_triangles(vertices: &[DVec3]) -> Vec<[usize; 3]> {
+    let n = vertices.len();
+    let normal = newell_normal(vertices);
+    let convex = (0..n).all(|i| {
+        let (a, b, c) = (vertices[i], vertices[(i + 1) % n], vertices[(i + 2) % n]);
+        (b - a).cross(c - b).dot(normal) >= 0.0
+    });
+    if convex {
+        return (1..n - 1).map(|i| [0, i, i + 1]).collect();
+    }
+    // Project onto the coordinate plane the polygon is most face-on to; ear clipping (earcutr)
+    // only needs 2-D coordinates with the same orientation-independent topology.
+    let drop = normal.abs().max_position();
+    let flat: Vec<f64> = vertices
+        .iter()
+        .flat_map(|v| {
+            let a = v.to_array();
+            [a[(drop + 1) % 3], a[(drop + 2) % 3]]
+        })
+        .collect();
+    match earcutr::earcut(&flat, &[], 2) {
+        Ok(indices) if indices.len() / 3 == n - 2 => indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+        // A self-intersecting outline has no exact triangulation; a fan still covers it.
+        _ => (1..n - 1).map(|i| [0, i, i + 1]).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::dvec3;
+
+    fn area(vertices: &[DVec3], triangles: &[[usize; 3]]) -> f64 {
+        triangles
+            .iter()
+            .map(|t| (vertices[t[1]] - vertices[t[0]]).cross(vertices[t[2]] - vertices[t[0]]).length() / 2.0)
+            .sum()
+    }
+
+    #[test]
+    fn concave_polygon_keeps_its_area() {
+        // An L shape of area 3 in a vertical plane.
+        let l = [
+            dvec3(0., 0., 0.),
+            dvec3(2., 0., 0.),
+            dvec3(2., 0., 1.),
+            dvec3(1., 0., 1.),
+            dvec3(1., 0., 2.),
+            dvec3(0., 0., 2.),
+        ];
+        let t = polygon_triangles(&l);
+        assert_eq!(t.len(), 4);
+        assert!((area(&l, &t) - 3.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,74 @@
+// Data shared by every stage of the trace: the camera uniform, the scene buffers and the output.
+// Host twins: crates/omnisim/src/gpu/layout.rs (a test checks sizes and offsets against naga).
+
+const CAMERA_PINHOLE: u32 = 0u;
+const CAMERA_EQUIRECTANGULAR: u32 = 1u;
+const CAMERA_HYPERBOLIC: u32 = 2u;
+
+const NO_FACE: u32 = 0xffffffffu;
+// Larger than any distance in a scene; WGSL has no infinity literal.
+const FAR: f32 = 3.0e38;
+const PI: f32 = 3.14159265358979;
+
+struct CameraParams {
+    // world_from_body rotation of the pose.
+    world_from_body: mat3x3<f32>,
+    // Viewpoint relative to the scene offset (see bvh.rs), metres.
+    origin: vec3<f32>,
+    kind: u32,
+    width: u32,
+    height: u32,
+    // First image row of this dispatch (large images are traced in bands).
+    row_offset: u32,
+    band_rows: u32,
+    focal: vec2<f32>,
+    principal: vec2<f32>,
+    mirror_a: f32,
+    mirror_b: f32,
+    mirror_c: f32,
+    // Squared mirror rim radius; negative for none.
+    rim_sq: f32,
+}
+
+struct BvhNode {
+    min: vec3<f32>,
+    prim_count: u32,
+    max: vec3<f32>,
+    first_index: u32,
+}
+
+// A triangle as corner v0 and edges e1 = v1 − v0, e2 = v2 − v0 (edges computed in f64).
+struct Triangle {
+    v0: vec3<f32>,
+    face: u32,
+    e1: vec3<f32>,
+    _pad1: u32,
+    e2: vec3<f32>,
+    _pad2: u32,
+}
+
+struct PixelHit {
+    // Hit point relative to the scene offset.
+    point: vec3<f32>,
+    range: f32,
+    face: u32,
+    colour: u32,
+}
+
+// A camera ray in the body frame; `valid` is false where the pixel sees nothing.
+struct CameraRay {
+    origin: vec3<f32>,
+    t_min: f32,
+    direction: vec3<f32>,
+    valid: bool,
+}
+
+@group(0) @binding(0) var<uniform> camera: CameraParams;
+@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(3) var<storage, read> face_colours: array<u32>;
+@group(0) @binding(4) var<storage, read_write> hits: array<PixelHit>;
+
+fn miss_ray() -> CameraRay {
+    return CameraRay(vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), false);
+}
