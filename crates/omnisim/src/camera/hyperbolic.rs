@@ -38,11 +38,14 @@ pub struct UnifiedModel {
 }
 
 impl HyperbolicMirror {
-    /// Mirror (a, b) seen by a `width`×`height` camera whose focal length makes the mirror's
-    /// asymptote circle (pixel radius f·a/b) touch the shorter image side.
-    pub fn fitted(width: u32, height: u32, a: f64, b: f64) -> Self {
+    /// Mirror (a, b) seen by a `width`×`height` camera whose focal length makes the mirror
+    /// fill the shorter image side. With `max_elevation` (radians above the horizon) the rim
+    /// is placed where the mirror sees that elevation and the rim circle touches the image
+    /// border; without it the mirror reaches its asymptote (elevation asin(b/c)), whose
+    /// circle (pixel radius f·a/b) touches the border.
+    pub fn fitted(width: u32, height: u32, a: f64, b: f64, max_elevation: Option<f64>) -> Self {
         let radius = width.min(height) as f64 / 2.0;
-        Self {
+        let mut mirror = Self {
             width,
             height,
             a,
@@ -51,7 +54,21 @@ impl HyperbolicMirror {
             cx: (width as f64 - 1.0) / 2.0,
             cy: (height as f64 - 1.0) / 2.0,
             rim_radius: None,
+        };
+        if let Some(elevation) = max_elevation {
+            let (sin, cos) = elevation.sin_cos();
+            // The mirror point seen along s = (cos ε, 0, sin ε) from F' is λ·s, λ = a²/(b − c·sin ε).
+            mirror.rim_radius = Some(a * a * cos / (b - mirror.c() * sin));
+            // Its pixel radius is f·a²/(b²+c²)·cos ε/(ξ − sin ε); solve for f.
+            let unit_focal = Self { focal: 1.0, ..mirror.clone() }.unified_model();
+            mirror.focal = radius * (unit_focal.xi - sin) / (unit_focal.gamma_x * cos);
         }
+        mirror
+    }
+
+    /// Highest elevation above the horizon any mirror of this shape can see: asin(b/c).
+    pub fn asymptote_elevation(&self) -> f64 {
+        (self.b / self.c()).asin()
     }
 
     /// Focal distance c = √(a² + b²).

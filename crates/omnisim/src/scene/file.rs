@@ -20,7 +20,7 @@ pub enum AngleUnit {
 }
 
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "Scene")]
 pub struct SceneFile {
     pub name: String,
     #[serde(default)]

@@ -1,0 +1,148 @@
+//! `omnisim bench`: rays per second and BVH build time, one JSON object per backend.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::bail;
+use clap::{Args, ValueEnum};
+use glam::dvec3;
+use omnisim::scene::{Face, SceneObject};
+use omnisim::{BackendChoice, Pose, Renderer, Scene};
+use serde_json::json;
+
+use crate::camera_args::CameraArgs;
+use crate::poses::parse_pose;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BenchBackend {
+    Gpu,
+    Cpu,
+    /// The GPU (if an adapter opens) and then the CPU.
+    Both,
+}
+
+/// Measure tracing speed: median time per image over --runs after --warmup renders.
+///
+/// Prints one JSON object per backend on stdout: Mrays/s (primary rays, one per pixel, from
+/// the median), median/min/max ms per image, BVH build ms, triangle count, backend, adapter.
+#[derive(Debug, Clone, Args)]
+#[command(after_help = "Examples:\n  \
+omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --backend both\n  \
+omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --synthetic-triangles 200000")]
+pub struct BenchArgs {
+    /// Scene file (RON).
+    #[arg(default_value = "scenes/env1.ron")]
+    pub scene: PathBuf,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// Viewpoint and rotation x,y,z,θx,θy,θz (metres, degrees).
+    #[arg(long, value_parser = parse_pose, default_value = "0,0,0.4,0,0,0", allow_hyphen_values = true)]
+    pub pose: Pose,
+    #[arg(long, value_enum, default_value = "both")]
+    pub backend: BenchBackend,
+    /// Timed renders per backend (the median is reported).
+    #[arg(long, default_value_t = 7)]
+    pub runs: usize,
+    /// Untimed renders first (shader compilation, caches).
+    #[arg(long, default_value_t = 2)]
+    pub warmup: usize,
+    /// Add a wavy height-field mesh of about this many triangles over the floor, to measure a
+    /// heavy scene.
+    #[arg(long)]
+    pub synthetic_triangles: Option<usize>,
+}
+
+pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    let camera = args.camera.build()?;
+    let mut scene = Scene::load(&args.scene)?;
+    if let Some(count) = args.synthetic_triangles {
+        add_height_field(&mut scene, count)?;
+    }
+    let choices = match args.backend {
+        BenchBackend::Gpu => vec![BackendChoice::Gpu],
+        BenchBackend::Cpu => vec![BackendChoice::Cpu],
+        BenchBackend::Both => vec![BackendChoice::Auto, BackendChoice::Cpu],
+    };
+    let (width, height) = camera.size();
+    for choice in choices {
+        let renderer = Renderer::new(&scene, choice)?;
+        if choice == BackendChoice::Auto && renderer.backend_name() == "cpu" {
+            eprintln!("note: {}", renderer.reason());
+            continue;
+        }
+        for _ in 0..args.warmup {
+            renderer.render(&camera, &args.pose)?;
+        }
+        let mut times = Vec::with_capacity(args.runs);
+        let mut hits = 0;
+        for _ in 0..args.runs {
+            let start = Instant::now();
+            let frame = renderer.render(&camera, &args.pose)?;
+            times.push(start.elapsed().as_secs_f64());
+            hits = frame.hit_count();
+        }
+        times.sort_by(f64::total_cmp);
+        let median = times[times.len() / 2];
+        let record = json!({
+            "scene": scene.name,
+            "triangles": renderer.bvh().triangles.len(),
+            "bvh_build_ms": renderer.bvh().build_time.as_secs_f64() * 1e3,
+            "camera": camera.model_name(),
+            "width": width,
+            "height": height,
+            "hit_pixels": hits,
+            "backend": renderer.backend_name(),
+            "device": renderer.device_name(),
+            "threads": rayon_threads(),
+            "warmup": args.warmup,
+            "runs": args.runs,
+            "median_ms": median * 1e3,
+            "min_ms": times[0] * 1e3,
+            "max_ms": times[times.len() - 1] * 1e3,
+            "mrays_per_s": (width as f64 * height as f64) / median / 1e6,
+        });
+        println!("{record}");
+    }
+    Ok(())
+}
+
+fn rayon_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// A wavy height field of ~`count` triangles, 10 cm above the scene's floor, over the middle
+/// 60 % of its footprint; each triangle is its own face with a colour that varies across it.
+fn add_height_field(scene: &mut Scene, count: usize) -> anyhow::Result<()> {
+    let Some((lo, hi)) = scene.bounds() else { bail!("the scene is empty") };
+    if count < 2 {
+        bail!("--synthetic-triangles must be at least 2");
+    }
+    let cells = ((count as f64 / 2.0).sqrt().ceil() as usize).max(1);
+    let centre = (lo + hi) / 2.0;
+    let half = (hi - lo) * 0.3;
+    let object = scene.objects.len() as u32;
+    scene.objects.push(SceneObject {
+        name: "synthetic height field".into(),
+        kind: "Mesh",
+    });
+    let point = |i: usize, j: usize| {
+        let (s, t) = (i as f64 / cells as f64, j as f64 / cells as f64);
+        let x = centre.x - half.x + 2.0 * half.x * s;
+        let y = centre.y - half.y + 2.0 * half.y * t;
+        let z = lo.z + 0.1 + 0.05 * ((s * 40.0).sin() * (t * 33.0).cos() + 1.0);
+        dvec3(x, y, z)
+    };
+    for i in 0..cells {
+        for j in 0..cells {
+            let colour = [(40 + i * 200 / cells) as u8, (40 + j * 200 / cells) as u8, 120];
+            let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1));
+            for vertices in [vec![a, b, c], vec![a, c, d]] {
+                scene.faces.push(Face { vertices, colour, object });
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,229 @@
+//! `omnisim render`: images, range and point clouds from one or many poses.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use omnisim::output::{self, atomic::write_atomically};
+use omnisim::{BackendChoice, Camera, Pose, Renderer, Scene};
+use serde_json::json;
+
+use crate::camera_args::CameraArgs;
+use crate::poses::{parse_pose, read_pose_file};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BackendArg {
+    /// GPU if an adapter opens, else the CPU (the reason is printed).
+    Auto,
+    /// wgpu compute shaders (f32); fails if no adapter.
+    Gpu,
+    /// f64 reference tracer on all cores.
+    Cpu,
+}
+
+impl From<BackendArg> for BackendChoice {
+    fn from(b: BackendArg) -> Self {
+        match b {
+            BackendArg::Auto => BackendChoice::Auto,
+            BackendArg::Gpu => BackendChoice::Gpu,
+            BackendArg::Cpu => BackendChoice::Cpu,
+        }
+    }
+}
+
+/// Render a scene through a camera from one or more poses.
+///
+/// For every pose N it writes <scene>-N.png (colour), <scene>-N-range.exr (f32 metres,
+/// channel "range", +inf = no hit) and <scene>-N.ply (binary coloured point cloud, world
+/// frame); then poses.txt (TUM: index tx ty tz qx qy qz qw, world_from_body) and render.json
+/// (camera, conventions, backend, every pose).
+#[derive(Debug, Clone, Args)]
+#[command(after_help = "Examples:\n  \
+omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
+omnisim render scenes/env2.ron --camera omni --poses scenes/paper-omni-poses.txt --out out/env2\n  \
+omnisim render scenes/env1.ron --camera equirect --size 2048x1024 --pose 0,0,0.4 --out out/pano")]
+pub struct RenderArgs {
+    /// Scene file (RON), e.g. scenes/env1.ron.
+    pub scene: PathBuf,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// Pose x,y,z,θx,θy,θz: viewpoint in metres, rotation R = Rx·Ry·Rz in degrees. Repeatable.
+    #[arg(long = "pose", value_parser = parse_pose, allow_hyphen_values = true)]
+    pub poses: Vec<Pose>,
+    /// File of poses, one "x y z θx θy θz" per line (metres, degrees; # comments).
+    #[arg(long)]
+    pub poses_file: Option<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: BackendArg,
+    /// Skip the PLY point clouds.
+    #[arg(long)]
+    pub no_ply: bool,
+}
+
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let camera = args.camera.build()?;
+    let mut poses = args.poses.clone();
+    if let Some(file) = &args.poses_file {
+        poses.extend(read_pose_file(file)?);
+    }
+    if poses.is_empty() {
+        bail!("no pose given: add --pose x,y,z,θx,θy,θz (metres, degrees) or --poses-file FILE");
+    }
+    let scene = Scene::load(&args.scene)?;
+    for warning in &scene.warnings {
+        eprintln!("warning: {warning}");
+    }
+    let renderer = Renderer::new(&scene, args.backend.into())?;
+    eprintln!(
+        "scene '{}': {} faces, {} triangles (BVH built in {:.1} ms)",
+        scene.name,
+        scene.faces.len(),
+        renderer.bvh().triangles.len(),
+        renderer.bvh().build_time.as_secs_f64() * 1e3
+    );
+    eprintln!("backend: {} on {} — {}", renderer.backend_name(), renderer.device_name(), renderer.reason());
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output folder {}", args.out.display()))?;
+
+    let progress = ProgressBar::new(poses.len() as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut written = Vec::new();
+    let render_started = Instant::now();
+    for (index, pose) in poses.iter().enumerate() {
+        let frame = renderer
+            .render(&camera, pose)
+            .with_context(|| format!("rendering pose {index}"))?;
+        let stem = args.out.join(format!("{}-{index:04}", scene.name));
+        let png = stem.with_extension("png");
+        output::write_png(&png, &frame)?;
+        let exr = path_with_suffix(&stem, "-range.exr");
+        output::write_range_exr(&exr, &frame)?;
+        written.push(png);
+        written.push(exr);
+        if !args.no_ply {
+            let ply = stem.with_extension("ply");
+            let comment = format!("scene {} camera {} pose {}", scene.name, camera.model_name(), describe_pose(pose));
+            output::write_point_cloud_ply(&ply, &frame, &comment)?;
+            written.push(ply);
+        }
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    let render_seconds = render_started.elapsed().as_secs_f64();
+
+    let poses_path = args.out.join("poses.txt");
+    write_atomically(&poses_path, |out| {
+        use std::io::Write;
+        writeln!(out, "# omnisim poses, TUM format: index tx ty tz qx qy qz qw (world_from_body; metres)")?;
+        for (index, pose) in poses.iter().enumerate() {
+            let t = pose.position;
+            let [qx, qy, qz, qw] = pose.quaternion_xyzw();
+            writeln!(out, "{index} {} {} {} {qx} {qy} {qz} {qw}", t.x, t.y, t.z)?;
+        }
+        Ok(())
+    })
+    .with_context(|| format!("cannot write {}", poses_path.display()))?;
+    let metadata_path = args.out.join("render.json");
+    let metadata = metadata(&scene, &args.scene, &camera, &poses, &renderer);
+    write_atomically(&metadata_path, |out| {
+        serde_json::to_writer_pretty(&mut *out, &metadata).map_err(std::io::Error::other)
+    })
+    .with_context(|| format!("cannot write {}", metadata_path.display()))?;
+    written.push(poses_path);
+    written.push(metadata_path);
+
+    for path in &written {
+        println!("{}", path.display());
+    }
+    let (w, h) = camera.size();
+    eprintln!(
+        "rendered {} {}x{} {} image(s) in {:.2} s ({:.1} ms per image on {}); total {:.2} s",
+        poses.len(),
+        w,
+        h,
+        camera.model_name(),
+        render_seconds,
+        render_seconds * 1e3 / poses.len() as f64,
+        renderer.backend_name(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn path_with_suffix(stem: &Path, suffix: &str) -> PathBuf {
+    let mut name = stem.file_name().unwrap_or_default().to_os_string();
+    name.push(suffix);
+    stem.with_file_name(name)
+}
+
+fn describe_pose(pose: &Pose) -> String {
+    let (t, a) = (pose.position, pose.angles_degrees());
+    format!("x={} y={} z={} m, θx={} θy={} θz={} deg", t.x, t.y, t.z, a.x, a.y, a.z)
+}
+
+fn camera_json(camera: &Camera) -> serde_json::Value {
+    let (width, height) = camera.size();
+    let mut value = json!({ "model": camera.model_name(), "width": width, "height": height });
+    let extra = match camera {
+        Camera::Pinhole(c) => json!({
+            "fx": c.fx, "fy": c.fy, "cx": c.cx, "cy": c.cy,
+            "optical_frame": "OpenCV (x right, y down, z forward); looks along body +x",
+        }),
+        Camera::Equirectangular(_) => json!({
+            "azimuth_of_column_u": "pi - 2*pi*(u + 0.5)/width, counter-clockwise from body +x",
+            "elevation_of_row_v": "pi/2 - pi*(v + 0.5)/height",
+        }),
+        Camera::Hyperbolic(c) => {
+            let unified = c.unified_model();
+            json!({
+                "mirror": "hyperbolic (x^2+y^2)/a^2 - z^2/b^2 = -1, upper sheet, axis = body +z, camera at the outer focus",
+                "a": c.a, "b": c.b, "c": c.c(), "focal_px": c.focal, "cx": c.cx, "cy": c.cy,
+                "rim_radius": c.rim_radius,
+                "mirror_rays": "reflect (law of reflection at the mirror surface)",
+                "unified_model": { "xi": unified.xi, "gamma_x": unified.gamma_x, "gamma_y": unified.gamma_y,
+                    "projection": "u = cx + gamma_x*s_x/(xi - s_z), v = cy + gamma_y*s_y/(xi - s_z), s = unit direction from F' in the body frame" },
+                "image_azimuth": "a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi (u right, v down): the image is mirrored on screen",
+            })
+        }
+    };
+    if let (Some(map), serde_json::Value::Object(extra)) = (value.as_object_mut(), extra) {
+        map.extend(extra);
+    }
+    value
+}
+
+fn metadata(scene: &Scene, scene_path: &Path, camera: &Camera, poses: &[Pose], renderer: &Renderer) -> serde_json::Value {
+    json!({
+        "omnisim": env!("CARGO_PKG_VERSION"),
+        "scene": { "name": scene.name, "file": scene_path, "faces": scene.faces.len() },
+        "camera": camera_json(camera),
+        "backend": { "name": renderer.backend_name(), "device": renderer.device_name(), "reason": renderer.reason() },
+        "conventions": {
+            "units": "metres; angles in degrees here",
+            "world": "right-handed, z up",
+            "body": "x forward, y left, z up; pose position = viewpoint (optical centre or mirror viewpoint F')",
+            "rotation": "world_from_body = Rx(theta_x)*Ry(theta_y)*Rz(theta_z)",
+            "pixels": "u = column, v = row, pixel centres at integer coordinates, (0,0) top-left",
+            "range": output::RANGE_CONVENTION,
+            "point_cloud": "binary little-endian PLY, float x y z in world metres + uchar red green blue, hit pixels only",
+        },
+        "frames": poses.iter().enumerate().map(|(index, pose)| {
+            let a = pose.angles_degrees();
+            json!({
+                "index": index,
+                "stem": format!("{}-{index:04}", scene.name),
+                "position": pose.position.to_array(),
+                "angles_deg": [a.x, a.y, a.z],
+                "quaternion_xyzw": pose.quaternion_xyzw(),
+                "world_from_body": pose.world_from_body().transpose().to_cols_array_2d(),
+            })
+        }).collect::<Vec<_>>(),
+    })
+}

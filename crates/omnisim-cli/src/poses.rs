@@ -1,0 +1,64 @@
+//! Poses as people type them: `x,y,z,θx,θy,θz` in metres and degrees, on the command line or
+//! one per line in a file.
+
+use std::path::Path;
+
+use anyhow::{Context, bail};
+use glam::dvec3;
+use omnisim::Pose;
+
+/// Parses `x,y,z,θx,θy,θz` (commas or spaces; angles in degrees; missing angles are 0).
+pub fn parse_pose(text: &str) -> Result<Pose, String> {
+    let fields: Vec<&str> = text.split([',', ' ', '\t']).filter(|f| !f.is_empty()).collect();
+    if fields.len() != 3 && fields.len() != 6 {
+        return Err(format!(
+            "'{text}' has {} numbers; a pose is x,y,z (metres) optionally followed by θx,θy,θz (degrees)",
+            fields.len()
+        ));
+    }
+    let mut values = [0.0f64; 6];
+    for (value, field) in values.iter_mut().zip(&fields) {
+        *value = field
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("'{field}' in '{text}' is not a finite number"))?;
+    }
+    Ok(Pose::from_degrees(
+        dvec3(values[0], values[1], values[2]),
+        dvec3(values[3], values[4], values[5]),
+    ))
+}
+
+/// Reads a pose file: one pose per line as for `--pose`; `#` starts a comment.
+pub fn read_pose_file(path: &Path) -> anyhow::Result<Vec<Pose>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read pose file {}", path.display()))?;
+    let mut poses = Vec::new();
+    for (number, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let pose = parse_pose(line).map_err(|e| anyhow::anyhow!("{}:{}: {e}", path.display(), number + 1))?;
+        poses.push(pose);
+    }
+    if poses.is_empty() {
+        bail!("{}: no poses in the file (one 'x y z θx θy θz' per line)", path.display());
+    }
+    Ok(poses)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_commas_spaces_and_defaults() {
+        let pose = parse_pose("1.5, 0 0.4,0,0,60").unwrap();
+        assert_eq!(pose.position, dvec3(1.5, 0.0, 0.4));
+        assert!((pose.angles.z - 60f64.to_radians()).abs() < 1e-15);
+        assert_eq!(parse_pose("1,2,3").unwrap().angles, dvec3(0.0, 0.0, 0.0));
+        assert!(parse_pose("1,2").unwrap_err().contains("2 numbers"));
+        assert!(parse_pose("1,2,nan").unwrap_err().contains("not a finite"));
+    }
+}
