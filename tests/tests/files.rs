@@ -1,0 +1,143 @@
+//! Output files read back by independent readers (png, exr, ply-rs, tobj) equal what was
+//! rendered or exported.
+
+mod common;
+
+use glam::dvec3;
+use omnisim::bvh::SceneBvh;
+use omnisim::scene::ExportFormat;
+use omnisim::{Pose, cpu, output};
+use ply_rs_bw::parser::Parser;
+use ply_rs_bw::ply::{DefaultElement, Property};
+
+fn rendered() -> omnisim::Frame {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let camera = &common::cameras()[2];
+    let frame = cpu::render(&bvh, camera, &Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)));
+    assert!(frame.hit_count() > 0 && frame.hit_count() < frame.pixels().len(), "omni image has mirror and background");
+    frame
+}
+
+fn float(p: &Property) -> f32 {
+    match p {
+        Property::Float(v) => *v,
+        other => panic!("expected float, got {other:?}"),
+    }
+}
+
+fn uchar(p: &Property) -> u8 {
+    match p {
+        Property::UChar(v) => *v,
+        other => panic!("expected uchar, got {other:?}"),
+    }
+}
+
+#[test]
+fn png_reads_back_pixel_for_pixel() {
+    let frame = rendered();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("colour.png");
+    output::write_png(&path, &frame).unwrap();
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut bytes = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut bytes).unwrap();
+    assert_eq!((info.width, info.height), (frame.width, frame.height));
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    let expected: Vec<u8> = frame.pixels().iter().flat_map(|p| p.colour).collect();
+    assert_eq!(&bytes[..info.buffer_size()], &expected[..]);
+}
+
+#[test]
+fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
+    let frame = rendered();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("range.exr");
+    output::write_range_exr(&path, &frame).unwrap();
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(&path)
+        .unwrap();
+    let layer = &image.layer_data[0];
+    assert_eq!(layer.size.0, frame.width as usize);
+    let comments = layer.attributes.comments.as_ref().map(|t| t.to_string()).unwrap_or_default();
+    assert!(comments.contains("metres") && comments.contains("+inf"), "{comments}");
+    let channel = &layer.channel_data.list[0];
+    assert_eq!(channel.name.to_string(), output::RANGE_CHANNEL);
+    let values: Vec<f32> = channel.sample_data.values_as_f32().collect();
+    assert_eq!(values.len(), frame.pixels().len());
+    for (value, pixel) in values.iter().zip(frame.pixels()) {
+        assert_eq!(value.to_bits(), pixel.range.to_bits());
+        assert_eq!(value.is_infinite(), !pixel.is_hit());
+    }
+}
+
+#[test]
+fn ply_point_cloud_reads_back_point_for_point() {
+    let frame = rendered();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cloud.ply");
+    output::write_point_cloud_ply(&path, &frame, "test").unwrap();
+    let ply = Parser::<DefaultElement>::new()
+        .read_ply(&mut std::io::BufReader::new(std::fs::File::open(&path).unwrap()))
+        .unwrap();
+    assert_eq!(ply.header.encoding, ply_rs_bw::ply::Encoding::BinaryLittleEndian);
+    let vertices = &ply.payload["vertex"];
+    let hits: Vec<_> = frame.pixels().iter().filter(|p| p.is_hit()).collect();
+    assert_eq!(vertices.len(), hits.len());
+    for (vertex, pixel) in vertices.iter().zip(hits) {
+        assert_eq!(float(&vertex["x"]), pixel.point.x as f32);
+        assert_eq!(float(&vertex["y"]), pixel.point.y as f32);
+        assert_eq!(float(&vertex["z"]), pixel.point.z as f32);
+        assert_eq!([uchar(&vertex["red"]), uchar(&vertex["green"]), uchar(&vertex["blue"])], pixel.colour);
+    }
+}
+
+#[test]
+fn exported_scene_has_every_triangle_and_colour() {
+    let scene = common::load("env2.ron");
+    let triangles = scene.triangulate();
+    let dir = tempfile::tempdir().unwrap();
+
+    let ply_path = dir.path().join("env2.ply");
+    scene.export(&ply_path, ExportFormat::Ply).unwrap();
+    let ply = Parser::<DefaultElement>::new()
+        .read_ply(&mut std::io::BufReader::new(std::fs::File::open(&ply_path).unwrap()))
+        .unwrap();
+    let vertices = &ply.payload["vertex"];
+    assert_eq!(ply.payload["face"].len(), triangles.len());
+    assert_eq!(vertices.len(), 3 * triangles.len());
+    for (i, (corners, face)) in triangles.corners.iter().zip(&triangles.face).enumerate() {
+        for (k, corner) in corners.iter().enumerate() {
+            let v = &vertices[3 * i + k];
+            assert_eq!(float(&v["x"]), corner.x as f32);
+            assert_eq!(float(&v["z"]), corner.z as f32);
+            assert_eq!(uchar(&v["green"]), scene.faces[*face as usize].colour[1]);
+        }
+    }
+
+    let obj_path = dir.path().join("env2.obj");
+    scene.export(&obj_path, ExportFormat::Obj).unwrap();
+    let (models, _) = tobj::load_obj(&obj_path, &tobj::LoadOptions { triangulate: true, ..Default::default() }).unwrap();
+    assert_eq!(models.len(), scene.objects.len());
+    let total: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    assert_eq!(total, triangles.len());
+    let first = &models[0].mesh;
+    let colour = scene.faces[0].colour.map(|c| c as f32 / 255.0);
+    assert!((first.vertex_color[0] - colour[0]).abs() < 1e-6);
+}
+
+#[test]
+fn failed_write_leaves_nothing_behind() {
+    let frame = rendered();
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no such folder").join("colour.png");
+    assert!(output::write_png(&missing, &frame).is_err());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
