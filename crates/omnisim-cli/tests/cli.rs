@@ -1,0 +1,123 @@
+//! The `omnisim` binary as a user runs it: a real render writes every promised file; bad
+//! input fails with a clear message, a non-zero exit code and no output left behind.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn omnisim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(args)
+        .current_dir(workspace())
+        .output()
+        .expect("omnisim runs")
+}
+
+fn workspace() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn render_writes_image_range_cloud_poses_and_metadata() {
+    let out = tempfile::tempdir().unwrap();
+    let out_dir = out.path().join("frames");
+    let result = omnisim(&[
+        "render",
+        "scenes/env1.ron",
+        "--camera",
+        "omni",
+        "--pose",
+        "1.5,0,0.4,0,0,60",
+        "--pose",
+        "0,0,0.4",
+        "--backend",
+        "cpu",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(result.status.success(), "{}", text(&result.stderr));
+    let stdout = text(&result.stdout);
+    for name in ["env1-0000.png", "env1-0000-range.exr", "env1-0000.ply", "env1-0001.png", "poses.txt", "render.json"] {
+        assert!(out_dir.join(name).is_file(), "{name} missing");
+        assert!(stdout.contains(name), "{name} not reported");
+    }
+    let stderr = text(&result.stderr);
+    assert!(stderr.contains("backend: cpu") && stderr.contains("rendered 2"), "{stderr}");
+    let poses = std::fs::read_to_string(out_dir.join("poses.txt")).unwrap();
+    let second: Vec<f64> = poses.lines().nth(2).unwrap().split(' ').map(|v| v.parse().unwrap()).collect();
+    assert_eq!(second, vec![1.0, 0.0, 0.0, 0.4, 0.0, 0.0, 0.0, 1.0]);
+    let first: Vec<f64> = poses.lines().nth(1).unwrap().split(' ').map(|v| v.parse().unwrap()).collect();
+    assert!((first[6] - 30f64.to_radians().sin()).abs() < 1e-12 && (first[7] - 30f64.to_radians().cos()).abs() < 1e-12);
+    let metadata: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out_dir.join("render.json")).unwrap()).unwrap();
+    assert_eq!(metadata["camera"]["model"], "hyperbolic-catadioptric");
+    assert_eq!(metadata["frames"].as_array().unwrap().len(), 2);
+    // No partial files remain.
+    assert!(std::fs::read_dir(&out_dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains("partial")));
+}
+
+#[test]
+fn scene_check_and_export() {
+    let out = tempfile::tempdir().unwrap();
+    let check = omnisim(&["scene", "check", "scenes/env2.ron"]);
+    assert!(check.status.success());
+    assert!(text(&check.stdout).contains("partition"));
+    let ply = out.path().join("env2.ply");
+    let export = omnisim(&["scene", "export", "scenes/env2.ron", ply.to_str().unwrap()]);
+    assert!(export.status.success(), "{}", text(&export.stderr));
+    assert!(std::fs::metadata(&ply).unwrap().len() > 1000);
+    let wrong = omnisim(&["scene", "export", "scenes/env2.ron", out.path().join("env2.stl").to_str().unwrap()]);
+    assert!(!wrong.status.success() && text(&wrong.stderr).contains(".ply or .obj"));
+}
+
+/// Writes `scene` to a temporary folder, renders it, and returns (stderr, whether the output
+/// folder exists).
+fn render_bad(scene: &str) -> (String, bool) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.ron");
+    std::fs::write(&path, scene).unwrap();
+    let out_dir = dir.path().join("out");
+    let result = omnisim(&["render", path.to_str().unwrap(), "--pose", "0,0,1", "--backend", "cpu", "--out", out_dir.to_str().unwrap()]);
+    assert!(!result.status.success(), "bad scene accepted: {scene}");
+    assert_eq!(result.status.code(), Some(1));
+    (text(&result.stderr), Path::new(&out_dir).exists())
+}
+
+#[test]
+fn bad_scene_files_fail_clearly_and_write_nothing() {
+    let cases = [
+        ("Scene(name: \"t\", objects: [\n  Wall(name: \"w\" from: (0.0, 0.0)),\n])", "bad.ron:2:", ""),
+        ("Scene(name: \"t\", objects: [\n  Box(name: \"crate\", size: (1.0, NaN, 1.0), colour: (1,1,1)),\n])", "bad.ron:2: object 'crate'", "finite"),
+        (
+            "Scene(name: \"t\", objects: [\n  Polygon(name: \"line\", vertices: [(0.0,0.0,0.0),(1.0,0.0,0.0),(2.0,0.0,0.0)], colour: (1,1,1)),\n])",
+            "bad.ron:2: object 'line'",
+            "degenerate",
+        ),
+        (
+            "Scene(name: \"t\", objects: [\n  Polygon(name: \"bent\", vertices: [(0.0,0.0,0.0),(1.0,0.0,0.0),(1.0,1.0,0.0),(0.0,1.0,0.5)], colour: (1,1,1)),\n])",
+            "bad.ron:2: object 'bent'",
+            "not planar",
+        ),
+        ("Scene(name: \"t\", objects: [\n  Floor(name: \"f\", corners: [(0.0,0.0),(1.0,0.0),(1.0,1.0)], colour: (1,1,1), shiny: true),\n])", "bad.ron:2:", "shiny"),
+        ("Scene(name: \"t\", objects: [\n  Mesh(name: \"statue\", path: \"statue.obj\", colour: (1,1,1)),\n])", "bad.ron:2: object 'statue'", "not found"),
+    ];
+    for (scene, location, detail) in cases {
+        let (stderr, out_exists) = render_bad(scene);
+        assert!(stderr.contains(location) && stderr.contains(detail), "expected '{location}' and '{detail}' in: {stderr}");
+        assert!(!out_exists, "output folder created for a bad scene");
+    }
+    let missing = omnisim(&["render", "scenes/nope.ron", "--pose", "0,0,1"]);
+    assert!(!missing.status.success() && text(&missing.stderr).contains("scenes/nope.ron"));
+}
+
+#[test]
+fn bad_options_are_explained() {
+    let no_pose = omnisim(&["render", "scenes/env1.ron"]);
+    assert!(!no_pose.status.success() && text(&no_pose.stderr).contains("--pose"));
+    let bad_pose = omnisim(&["render", "scenes/env1.ron", "--pose", "1,2"]);
+    assert!(!bad_pose.status.success() && text(&bad_pose.stderr).contains("x,y,z"));
+    let too_high = omnisim(&["render", "scenes/env1.ron", "--pose", "0,0,0", "--max-elevation", "80"]);
+    assert!(!too_high.status.success() && text(&too_high.stderr).contains("asin(b/c)"), "{}", text(&too_high.stderr));
+}
