@@ -3,7 +3,8 @@
 
 const CAMERA_PINHOLE: u32 = 0u;
 const CAMERA_EQUIRECTANGULAR: u32 = 1u;
-const CAMERA_HYPERBOLIC: u32 = 2u;
+const CAMERA_CATADIOPTRIC: u32 = 2u;
+const CAMERA_CYLINDRICAL: u32 = 3u;
 
 const NO_FACE: u32 = 0xffffffffu;
 // Larger than any distance in a scene; WGSL has no infinity literal.
@@ -21,13 +22,33 @@ struct CameraParams {
     // First image row of this dispatch (large images are traced in bands).
     row_offset: u32,
     band_rows: u32,
+    // Pixels per unit: fx, fy (pinhole, catadioptric); fy of the cylinder (cylindrical).
     focal: vec2<f32>,
     principal: vec2<f32>,
-    mirror_a: f32,
-    mirror_b: f32,
-    mirror_c: f32,
+    // Pinhole: optical centre in the body frame. Catadioptric: body position of the origin of
+    // the frame C the mirror is given in (C = the mirror frame shifted to the nominal camera).
+    lens_origin: vec3<f32>,
+    // Catadioptric: only mirror points with z_C above this count (hyperbola's upper sheet).
+    mirror_min_z: f32,
+    // Catadioptric: rotation of the camera's optical axes in C (misalignment tilt).
+    camera_tilt: mat3x3<f32>,
+    // Catadioptric: the mirror in C, x·diag·x + linear·x + constant = 0.
+    mirror_diag: vec3<f32>,
+    mirror_constant: f32,
+    mirror_linear: vec3<f32>,
+    // +1: mirror axis along body +z; −1: along body −z (body_from_C rotation diag(1, s, s)).
+    mount_sign: f32,
+    // Catadioptric: camera centre in C (misalignment offset).
+    camera_offset: vec3<f32>,
     // Squared mirror rim radius; negative for none.
     rim_sq: f32,
+    // Squared pixel radius hidden by the camera body.
+    hidden_centre_sq: f32,
+    // Booleans as u32: orthographic camera (parabolic), all rays through one viewpoint,
+    // the paper's shortcut instead of reflection.
+    orthographic: u32,
+    central: u32,
+    shortcut: u32,
 }
 
 struct BvhNode {

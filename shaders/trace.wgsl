@@ -5,7 +5,8 @@ fn camera_ray(pixel: vec2<f32>) -> CameraRay {
     switch camera.kind {
         case CAMERA_PINHOLE: { return pinhole_ray(pixel); }
         case CAMERA_EQUIRECTANGULAR: { return equirect_ray(pixel); }
-        case CAMERA_HYPERBOLIC: { return hyperbolic_ray(pixel); }
+        case CAMERA_CATADIOPTRIC: { return catadioptric_ray(pixel); }
+        case CAMERA_CYLINDRICAL: { return cylindrical_ray(pixel); }
         default: { return miss_ray(); }
     }
 }

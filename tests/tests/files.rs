@@ -14,8 +14,15 @@ fn rendered() -> omnisim::Frame {
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
     let camera = &common::cameras()[2];
-    let frame = cpu::render(&bvh, camera, &Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)));
-    assert!(frame.hit_count() > 0 && frame.hit_count() < frame.pixels().len(), "omni image has mirror and background");
+    let frame = cpu::render(
+        &bvh,
+        camera,
+        &Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
+    );
+    assert!(
+        frame.hit_count() > 0 && frame.hit_count() < frame.pixels().len(),
+        "omni image has mirror and background"
+    );
     frame
 }
 
@@ -66,8 +73,16 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
         .unwrap();
     let layer = &image.layer_data[0];
     assert_eq!(layer.size.0, frame.width as usize);
-    let comments = layer.attributes.comments.as_ref().map(|t| t.to_string()).unwrap_or_default();
-    assert!(comments.contains("metres") && comments.contains("+inf"), "{comments}");
+    let comments = layer
+        .attributes
+        .comments
+        .as_ref()
+        .map(|t| t.to_string())
+        .unwrap_or_default();
+    assert!(
+        comments.contains("metres") && comments.contains("+inf"),
+        "{comments}"
+    );
     let channel = &layer.channel_data.list[0];
     assert_eq!(channel.name.to_string(), output::RANGE_CHANNEL);
     let values: Vec<f32> = channel.sample_data.values_as_f32().collect();
@@ -85,9 +100,14 @@ fn ply_point_cloud_reads_back_point_for_point() {
     let path = dir.path().join("cloud.ply");
     output::write_point_cloud_ply(&path, &frame, "test").unwrap();
     let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut std::io::BufReader::new(std::fs::File::open(&path).unwrap()))
+        .read_ply(&mut std::io::BufReader::new(
+            std::fs::File::open(&path).unwrap(),
+        ))
         .unwrap();
-    assert_eq!(ply.header.encoding, ply_rs_bw::ply::Encoding::BinaryLittleEndian);
+    assert_eq!(
+        ply.header.encoding,
+        ply_rs_bw::ply::Encoding::BinaryLittleEndian
+    );
     let vertices = &ply.payload["vertex"];
     let hits: Vec<_> = frame.pixels().iter().filter(|p| p.is_hit()).collect();
     assert_eq!(vertices.len(), hits.len());
@@ -95,7 +115,14 @@ fn ply_point_cloud_reads_back_point_for_point() {
         assert_eq!(float(&vertex["x"]), pixel.point.x as f32);
         assert_eq!(float(&vertex["y"]), pixel.point.y as f32);
         assert_eq!(float(&vertex["z"]), pixel.point.z as f32);
-        assert_eq!([uchar(&vertex["red"]), uchar(&vertex["green"]), uchar(&vertex["blue"])], pixel.colour);
+        assert_eq!(
+            [
+                uchar(&vertex["red"]),
+                uchar(&vertex["green"]),
+                uchar(&vertex["blue"])
+            ],
+            pixel.colour
+        );
     }
 }
 
@@ -108,7 +135,9 @@ fn exported_scene_has_every_triangle_and_colour() {
     let ply_path = dir.path().join("env2.ply");
     scene.export(&ply_path, ExportFormat::Ply).unwrap();
     let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut std::io::BufReader::new(std::fs::File::open(&ply_path).unwrap()))
+        .read_ply(&mut std::io::BufReader::new(
+            std::fs::File::open(&ply_path).unwrap(),
+        ))
         .unwrap();
     let vertices = &ply.payload["vertex"];
     assert_eq!(ply.payload["face"].len(), triangles.len());
@@ -124,7 +153,14 @@ fn exported_scene_has_every_triangle_and_colour() {
 
     let obj_path = dir.path().join("env2.obj");
     scene.export(&obj_path, ExportFormat::Obj).unwrap();
-    let (models, _) = tobj::load_obj(&obj_path, &tobj::LoadOptions { triangulate: true, ..Default::default() }).unwrap();
+    let (models, _) = tobj::load_obj(
+        &obj_path,
+        &tobj::LoadOptions {
+            triangulate: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert_eq!(models.len(), scene.objects.len());
     let total: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
     assert_eq!(total, triangles.len());

@@ -3,9 +3,9 @@
 
 mod common;
 
+use glam::dvec3;
 use omnisim::bvh::SceneBvh;
 use omnisim::{Pose, cpu};
-use glam::dvec3;
 
 fn poses() -> Vec<Pose> {
     vec![
@@ -22,7 +22,9 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
     for room in common::ROOMS {
         let scene = common::load(room);
         let bvh = SceneBvh::build(&scene);
-        let Some(gpu) = common::gpu_tracer(&bvh) else { return };
+        let Some(gpu) = common::gpu_tracer(&bvh) else {
+            return;
+        };
         for camera in common::cameras() {
             let (mut pixels, mut same_face, mut worst_range) = (0usize, 0usize, 0f64);
             for pose in poses() {
@@ -38,7 +40,11 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
                         }
                     }
                 }
-                assert!(reference.hit_count() > 0, "{room} {}: nothing visible", camera.model_name());
+                assert!(
+                    reference.hit_count() > 0,
+                    "{room} {}: nothing visible",
+                    camera.model_name()
+                );
             }
             let agreement = same_face as f64 / pixels as f64;
             eprintln!(
@@ -46,8 +52,16 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
                 camera.model_name(),
                 agreement * 100.0
             );
-            assert!(agreement >= 0.9999, "{room} {}: face ids agree on only {agreement}", camera.model_name());
-            assert!(worst_range <= 1e-5, "{room} {}: range error {worst_range}", camera.model_name());
+            assert!(
+                agreement >= 0.9999,
+                "{room} {}: face ids agree on only {agreement}",
+                camera.model_name()
+            );
+            assert!(
+                worst_range <= 1e-5,
+                "{room} {}: range error {worst_range}",
+                camera.model_name()
+            );
         }
     }
 }
@@ -56,14 +70,21 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
 fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let Some(gpu) = common::gpu_tracer(&bvh) else { return };
+    let Some(gpu) = common::gpu_tracer(&bvh) else {
+        return;
+    };
     let pose = Pose::from_degrees(dvec3(0.3, -0.2, 0.9), dvec3(5.0, 10.0, 30.0));
     for camera in common::cameras() {
         let frame = gpu.render(&camera, &pose).expect("GPU render");
         for p in frame.pixels().iter().filter(|p| p.is_hit()) {
             let distance = (p.point - pose.position).length();
             // Central cameras: the hit lies `range` from the viewpoint.
-            assert!((distance - p.range as f64).abs() <= 1e-5 * distance, "{} vs {}", distance, p.range);
+            assert!(
+                (distance - p.range as f64).abs() <= 1e-5 * distance,
+                "{} vs {}",
+                distance,
+                p.range
+            );
         }
     }
 }

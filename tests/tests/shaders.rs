@@ -5,17 +5,31 @@ use omnisim::gpu::layout::host_layouts;
 use omnisim::gpu::shader;
 
 fn module() -> naga::Module {
-    naga::front::wgsl::parse_str(&shader::source()).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&shader::source())))
+    naga::front::wgsl::parse_str(&shader::source())
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&shader::source())))
 }
 
 #[test]
 fn every_shader_file_is_valid_wgsl() {
     let module = module();
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&shader::source())));
-    assert!(module.entry_points.iter().any(|e| e.name == shader::ENTRY_POINT));
-    assert_eq!(shader::FILES.len(), std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders")).unwrap().count());
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&shader::source())));
+    assert!(
+        module
+            .entry_points
+            .iter()
+            .any(|e| e.name == shader::ENTRY_POINT)
+    );
+    assert_eq!(
+        shader::FILES.len(),
+        std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders"))
+            .unwrap()
+            .count()
+    );
 }
 
 #[test]

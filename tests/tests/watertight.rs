@@ -21,7 +21,11 @@ fn random_poses(scene: &omnisim::Scene, count: usize, seed: u64) -> Vec<Pose> {
                 rng.random_range(lo.y + margin..hi.y - margin),
                 rng.random_range(lo.z + margin..hi.z - margin),
             );
-            let a = dvec3(rng.random_range(-PI..PI), rng.random_range(-PI..PI), rng.random_range(-PI..PI));
+            let a = dvec3(
+                rng.random_range(-PI..PI),
+                rng.random_range(-PI..PI),
+                rng.random_range(-PI..PI),
+            );
             Pose::new(p, a)
         })
         .collect()
@@ -29,18 +33,31 @@ fn random_poses(scene: &omnisim::Scene, count: usize, seed: u64) -> Vec<Pose> {
 
 #[test]
 fn no_ray_escapes_a_closed_room() {
-    let camera = Camera::Equirectangular(Equirectangular { width: 96, height: 48 });
+    let camera = Camera::Equirectangular(Equirectangular {
+        width: 96,
+        height: 48,
+    });
     for (seed, room) in common::ROOMS.iter().enumerate() {
         let scene = common::load(room);
         let bvh = SceneBvh::build(&scene);
         for pose in random_poses(&scene, 200, seed as u64) {
             let frame = cpu::render(&bvh, &camera, &pose);
-            assert_eq!(frame.hit_count(), 96 * 48, "{room}: rays escaped at {pose:?}");
+            assert_eq!(
+                frame.hit_count(),
+                96 * 48,
+                "{room}: rays escaped at {pose:?}"
+            );
         }
-        let Some(gpu) = common::gpu_tracer(&bvh) else { continue };
+        let Some(gpu) = common::gpu_tracer(&bvh) else {
+            continue;
+        };
         for pose in random_poses(&scene, 20, 100 + seed as u64) {
             let frame = gpu.render(&camera, &pose).unwrap();
-            assert_eq!(frame.hit_count(), 96 * 48, "{room}: GPU rays escaped at {pose:?}");
+            assert_eq!(
+                frame.hit_count(),
+                96 * 48,
+                "{room}: GPU rays escaped at {pose:?}"
+            );
         }
     }
 }

@@ -40,22 +40,55 @@ fn render_writes_image_range_cloud_poses_and_metadata() {
     ]);
     assert!(result.status.success(), "{}", text(&result.stderr));
     let stdout = text(&result.stdout);
-    for name in ["env1-0000.png", "env1-0000-range.exr", "env1-0000.ply", "env1-0001.png", "poses.txt", "render.json"] {
+    for name in [
+        "env1-0000.png",
+        "env1-0000-range.exr",
+        "env1-0000.ply",
+        "env1-0001.png",
+        "poses.txt",
+        "render.json",
+    ] {
         assert!(out_dir.join(name).is_file(), "{name} missing");
         assert!(stdout.contains(name), "{name} not reported");
     }
     let stderr = text(&result.stderr);
-    assert!(stderr.contains("backend: cpu") && stderr.contains("rendered 2"), "{stderr}");
+    assert!(
+        stderr.contains("backend: cpu") && stderr.contains("rendered 2"),
+        "{stderr}"
+    );
     let poses = std::fs::read_to_string(out_dir.join("poses.txt")).unwrap();
-    let second: Vec<f64> = poses.lines().nth(2).unwrap().split(' ').map(|v| v.parse().unwrap()).collect();
+    let second: Vec<f64> = poses
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split(' ')
+        .map(|v| v.parse().unwrap())
+        .collect();
     assert_eq!(second, vec![1.0, 0.0, 0.0, 0.4, 0.0, 0.0, 0.0, 1.0]);
-    let first: Vec<f64> = poses.lines().nth(1).unwrap().split(' ').map(|v| v.parse().unwrap()).collect();
-    assert!((first[6] - 30f64.to_radians().sin()).abs() < 1e-12 && (first[7] - 30f64.to_radians().cos()).abs() < 1e-12);
-    let metadata: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out_dir.join("render.json")).unwrap()).unwrap();
+    let first: Vec<f64> = poses
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(' ')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(
+        (first[6] - 30f64.to_radians().sin()).abs() < 1e-12
+            && (first[7] - 30f64.to_radians().cos()).abs() < 1e-12
+    );
+    let metadata: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("render.json")).unwrap())
+            .unwrap();
     assert_eq!(metadata["camera"]["model"], "hyperbolic-catadioptric");
     assert_eq!(metadata["frames"].as_array().unwrap().len(), 2);
     // No partial files remain.
-    assert!(std::fs::read_dir(&out_dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains("partial")));
+    assert!(
+        std::fs::read_dir(&out_dir).unwrap().all(|e| !e
+            .unwrap()
+            .file_name()
+            .to_string_lossy()
+            .contains("partial"))
+    );
 }
 
 #[test]
@@ -68,7 +101,12 @@ fn scene_check_and_export() {
     let export = omnisim(&["scene", "export", "scenes/env2.ron", ply.to_str().unwrap()]);
     assert!(export.status.success(), "{}", text(&export.stderr));
     assert!(std::fs::metadata(&ply).unwrap().len() > 1000);
-    let wrong = omnisim(&["scene", "export", "scenes/env2.ron", out.path().join("env2.stl").to_str().unwrap()]);
+    let wrong = omnisim(&[
+        "scene",
+        "export",
+        "scenes/env2.ron",
+        out.path().join("env2.stl").to_str().unwrap(),
+    ]);
     assert!(!wrong.status.success() && text(&wrong.stderr).contains(".ply or .obj"));
 }
 
@@ -79,7 +117,16 @@ fn render_bad(scene: &str) -> (String, bool) {
     let path = dir.path().join("bad.ron");
     std::fs::write(&path, scene).unwrap();
     let out_dir = dir.path().join("out");
-    let result = omnisim(&["render", path.to_str().unwrap(), "--pose", "0,0,1", "--backend", "cpu", "--out", out_dir.to_str().unwrap()]);
+    let result = omnisim(&[
+        "render",
+        path.to_str().unwrap(),
+        "--pose",
+        "0,0,1",
+        "--backend",
+        "cpu",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
     assert!(!result.status.success(), "bad scene accepted: {scene}");
     assert_eq!(result.status.code(), Some(1));
     (text(&result.stderr), Path::new(&out_dir).exists())
@@ -88,8 +135,16 @@ fn render_bad(scene: &str) -> (String, bool) {
 #[test]
 fn bad_scene_files_fail_clearly_and_write_nothing() {
     let cases = [
-        ("Scene(name: \"t\", objects: [\n  Wall(name: \"w\" from: (0.0, 0.0)),\n])", "bad.ron:2:", ""),
-        ("Scene(name: \"t\", objects: [\n  Box(name: \"crate\", size: (1.0, NaN, 1.0), colour: (1,1,1)),\n])", "bad.ron:2: object 'crate'", "finite"),
+        (
+            "Scene(name: \"t\", objects: [\n  Wall(name: \"w\" from: (0.0, 0.0)),\n])",
+            "bad.ron:2:",
+            "",
+        ),
+        (
+            "Scene(name: \"t\", objects: [\n  Box(name: \"crate\", size: (1.0, NaN, 1.0), colour: (1,1,1)),\n])",
+            "bad.ron:2: object 'crate'",
+            "finite",
+        ),
         (
             "Scene(name: \"t\", objects: [\n  Polygon(name: \"line\", vertices: [(0.0,0.0,0.0),(1.0,0.0,0.0),(2.0,0.0,0.0)], colour: (1,1,1)),\n])",
             "bad.ron:2: object 'line'",
@@ -100,12 +155,23 @@ fn bad_scene_files_fail_clearly_and_write_nothing() {
             "bad.ron:2: object 'bent'",
             "not planar",
         ),
-        ("Scene(name: \"t\", objects: [\n  Floor(name: \"f\", corners: [(0.0,0.0),(1.0,0.0),(1.0,1.0)], colour: (1,1,1), shiny: true),\n])", "bad.ron:2:", "shiny"),
-        ("Scene(name: \"t\", objects: [\n  Mesh(name: \"statue\", path: \"statue.obj\", colour: (1,1,1)),\n])", "bad.ron:2: object 'statue'", "not found"),
+        (
+            "Scene(name: \"t\", objects: [\n  Floor(name: \"f\", corners: [(0.0,0.0),(1.0,0.0),(1.0,1.0)], colour: (1,1,1), shiny: true),\n])",
+            "bad.ron:2:",
+            "shiny",
+        ),
+        (
+            "Scene(name: \"t\", objects: [\n  Mesh(name: \"statue\", path: \"statue.obj\", colour: (1,1,1)),\n])",
+            "bad.ron:2: object 'statue'",
+            "not found",
+        ),
     ];
     for (scene, location, detail) in cases {
         let (stderr, out_exists) = render_bad(scene);
-        assert!(stderr.contains(location) && stderr.contains(detail), "expected '{location}' and '{detail}' in: {stderr}");
+        assert!(
+            stderr.contains(location) && stderr.contains(detail),
+            "expected '{location}' and '{detail}' in: {stderr}"
+        );
         assert!(!out_exists, "output folder created for a bad scene");
     }
     let missing = omnisim(&["render", "scenes/nope.ron", "--pose", "0,0,1"]);
@@ -118,6 +184,17 @@ fn bad_options_are_explained() {
     assert!(!no_pose.status.success() && text(&no_pose.stderr).contains("--pose"));
     let bad_pose = omnisim(&["render", "scenes/env1.ron", "--pose", "1,2"]);
     assert!(!bad_pose.status.success() && text(&bad_pose.stderr).contains("x,y,z"));
-    let too_high = omnisim(&["render", "scenes/env1.ron", "--pose", "0,0,0", "--max-elevation", "80"]);
-    assert!(!too_high.status.success() && text(&too_high.stderr).contains("asin(b/c)"), "{}", text(&too_high.stderr));
+    let too_high = omnisim(&[
+        "render",
+        "scenes/env1.ron",
+        "--pose",
+        "0,0,0",
+        "--max-elevation",
+        "80",
+    ]);
+    assert!(
+        !too_high.status.success() && text(&too_high.stderr).contains("asin(b/c)"),
+        "{}",
+        text(&too_high.stderr)
+    );
 }

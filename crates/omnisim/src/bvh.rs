@@ -32,11 +32,19 @@ impl SceneBvh {
     pub fn build(scene: &Scene) -> Self {
         let triangles = scene.triangulate();
         let (lo, hi) = scene.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
-        Self::from_triangles(&triangles, (lo + hi) / 2.0, scene.faces.iter().map(|f| f.colour).collect())
+        Self::from_triangles(
+            &triangles,
+            (lo + hi) / 2.0,
+            scene.faces.iter().map(|f| f.colour).collect(),
+        )
     }
 
     fn from_triangles(triangles: &Triangles, offset: DVec3, face_colours: Vec<[u8; 3]>) -> Self {
-        let local: Vec<[DVec3; 3]> = triangles.corners.iter().map(|t| t.map(|p| p - offset)).collect();
+        let local: Vec<[DVec3; 3]> = triangles
+            .corners
+            .iter()
+            .map(|t| t.map(|p| p - offset))
+            .collect();
         let boxes: Vec<Aabb> = local.iter().map(padded_aabb).collect();
         let start = Instant::now();
         let mut core_time = Duration::ZERO;

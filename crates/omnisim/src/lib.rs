@@ -6,6 +6,7 @@
 //! (wgpu, `shaders/`) or the f64 CPU reference ([`cpu`]) does the tracing.
 
 pub mod bvh;
+pub mod calibration;
 pub mod camera;
 pub mod cpu;
 pub mod frame;
@@ -15,7 +16,9 @@ pub mod pose;
 pub mod renderer;
 pub mod scene;
 
-pub use camera::{Camera, CameraRay, Equirectangular, HyperbolicMirror, Pinhole};
+pub use camera::{
+    Camera, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig,
+};
 pub use frame::{Frame, Pixel};
 pub use pose::Pose;
 pub use renderer::{BackendChoice, RenderError, Renderer};

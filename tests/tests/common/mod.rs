@@ -5,10 +5,12 @@ use std::path::PathBuf;
 
 use omnisim::bvh::SceneBvh;
 use omnisim::gpu::{GpuContext, GpuTracer};
-use omnisim::{Camera, Equirectangular, HyperbolicMirror, Pinhole, Scene};
+use omnisim::{Camera, Catadioptric, Equirectangular, Pinhole, Scene};
 
 pub fn scene_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(name)
 }
 
 pub fn load(name: &str) -> Scene {
@@ -21,8 +23,17 @@ pub const ROOMS: [&str; 2] = ["env1.ron", "env2.ron"];
 pub fn cameras() -> Vec<Camera> {
     vec![
         Camera::Pinhole(Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians())),
-        Camera::Equirectangular(Equirectangular { width: 512, height: 256 }),
-        Camera::Hyperbolic(HyperbolicMirror::fitted(250, 250, 0.04, 0.16, Some(20f64.to_radians()))),
+        Camera::Equirectangular(Equirectangular {
+            width: 512,
+            height: 256,
+        }),
+        Camera::Catadioptric(Catadioptric::hyperbolic(
+            250,
+            250,
+            0.04,
+            0.16,
+            Some(20f64.to_radians()),
+        )),
     ]
 }
 
@@ -35,7 +46,9 @@ pub fn gpu_tracer(bvh: &SceneBvh) -> Option<GpuTracer> {
             if std::env::var_os("CI").is_some() {
                 panic!("CI is set but the GPU backend is unavailable: {error}");
             }
-            eprintln!("\n**** SKIPPED GPU CHECK: no GPU adapter ({error}). Install mesa-vulkan-drivers to run it. ****\n");
+            eprintln!(
+                "\n**** SKIPPED GPU CHECK: no GPU adapter ({error}). Install mesa-vulkan-drivers to run it. ****\n"
+            );
             None
         }
     }

@@ -7,10 +7,10 @@ use anyhow::bail;
 use clap::{Args, ValueEnum};
 use glam::dvec3;
 use omnisim::scene::{Face, SceneObject};
-use omnisim::{BackendChoice, Pose, Renderer, Scene};
+use omnisim::{BackendChoice, Camera, Pose, Renderer, Scene};
 use serde_json::json;
 
-use crate::camera_args::CameraArgs;
+use crate::camera_args::{CameraArgs, Rig};
 use crate::poses::parse_pose;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -56,7 +56,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
     }
-    let camera = args.camera.build()?;
+    let camera = match args.camera.build()? {
+        Rig::Single(camera) => camera,
+        Rig::Stereo(stereo) => Camera::Pinhole(stereo.cameras()[0].clone()),
+    };
     let mut scene = Scene::load(&args.scene)?;
     if let Some(count) = args.synthetic_triangles {
         add_height_field(&mut scene, count)?;
@@ -116,7 +119,9 @@ fn rayon_threads() -> usize {
 /// A wavy height field of ~`count` triangles, 10 cm above the scene's floor, over the middle
 /// 60 % of its footprint; each triangle is its own face with a colour that varies across it.
 fn add_height_field(scene: &mut Scene, count: usize) -> anyhow::Result<()> {
-    let Some((lo, hi)) = scene.bounds() else { bail!("the scene is empty") };
+    let Some((lo, hi)) = scene.bounds() else {
+        bail!("the scene is empty")
+    };
     if count < 2 {
         bail!("--synthetic-triangles must be at least 2");
     }
@@ -137,10 +142,23 @@ fn add_height_field(scene: &mut Scene, count: usize) -> anyhow::Result<()> {
     };
     for i in 0..cells {
         for j in 0..cells {
-            let colour = [(40 + i * 200 / cells) as u8, (40 + j * 200 / cells) as u8, 120];
-            let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1));
+            let colour = [
+                (40 + i * 200 / cells) as u8,
+                (40 + j * 200 / cells) as u8,
+                120,
+            ];
+            let (a, b, c, d) = (
+                point(i, j),
+                point(i + 1, j),
+                point(i + 1, j + 1),
+                point(i, j + 1),
+            );
             for vertices in [vec![a, b, c], vec![a, c, d]] {
-                scene.faces.push(Face { vertices, colour, object });
+                scene.faces.push(Face {
+                    vertices,
+                    colour,
+                    object,
+                });
             }
         }
     }

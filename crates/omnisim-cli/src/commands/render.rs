@@ -6,11 +6,12 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use omnisim::camera::MirrorShape;
 use omnisim::output::{self, atomic::write_atomically};
-use omnisim::{BackendChoice, Camera, Pose, Renderer, Scene};
+use omnisim::{BackendChoice, Camera, Pose, Renderer, Scene, calibration};
 use serde_json::json;
 
-use crate::camera_args::CameraArgs;
+use crate::camera_args::{CameraArgs, Rig};
 use crate::poses::{parse_pose, read_pose_file};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -67,7 +68,8 @@ pub struct RenderArgs {
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
-    let camera = args.camera.build()?;
+    let rig = args.camera.build()?;
+    let views = views(&rig);
     let mut poses = args.poses.clone();
     if let Some(file) = &args.poses_file {
         poses.extend(read_pose_file(file)?);
@@ -87,8 +89,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         renderer.bvh().triangles.len(),
         renderer.bvh().build_time.as_secs_f64() * 1e3
     );
-    eprintln!("backend: {} on {} — {}", renderer.backend_name(), renderer.device_name(), renderer.reason());
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create output folder {}", args.out.display()))?;
+    eprintln!(
+        "backend: {} on {} — {}",
+        renderer.backend_name(),
+        renderer.device_name(),
+        renderer.reason()
+    );
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output folder {}", args.out.display()))?;
 
     let progress = ProgressBar::new(poses.len() as u64).with_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
@@ -97,31 +105,50 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut written = Vec::new();
     let render_started = Instant::now();
     for (index, pose) in poses.iter().enumerate() {
-        let frame = renderer
-            .render(&camera, pose)
-            .with_context(|| format!("rendering pose {index}"))?;
         let stem = args.out.join(format!("{}-{index:04}", scene.name));
-        let png = stem.with_extension("png");
-        output::write_png(&png, &frame)?;
-        let exr = path_with_suffix(&stem, "-range.exr");
-        output::write_range_exr(&exr, &frame)?;
-        written.push(png);
-        written.push(exr);
-        if !args.no_ply {
-            let ply = stem.with_extension("ply");
-            let comment = format!("scene {} camera {} pose {}", scene.name, camera.model_name(), describe_pose(pose));
-            output::write_point_cloud_ply(&ply, &frame, &comment)?;
-            written.push(ply);
+        let mut frames = Vec::with_capacity(views.len());
+        for (suffix, camera) in &views {
+            let frame = renderer
+                .render(camera, pose)
+                .with_context(|| format!("rendering pose {index}"))?;
+            let png = path_with_suffix(&stem, &format!("{suffix}.png"));
+            output::write_png(&png, &frame)?;
+            let exr = path_with_suffix(&stem, &format!("{suffix}-range.exr"));
+            output::write_range_exr(&exr, &frame)?;
+            written.extend([png, exr]);
+            if !args.no_ply {
+                let ply = path_with_suffix(&stem, &format!("{suffix}.ply"));
+                let comment = format!(
+                    "scene {} camera {}{suffix} pose {}",
+                    scene.name,
+                    camera.model_name(),
+                    describe_pose(pose)
+                );
+                output::write_point_cloud_ply(&ply, &frame, &comment)?;
+                written.push(ply);
+            }
+            frames.push(frame);
+        }
+        if let Rig::Stereo(stereo) = &rig {
+            let disparity =
+                stereo.disparity(&frames[0], pose.world_from_body_rotation(), pose.position);
+            let path = path_with_suffix(&stem, "-disparity.exr");
+            output::write_disparity_exr(&path, (frames[0].width, frames[0].height), disparity)?;
+            written.push(path);
         }
         progress.inc(1);
     }
     progress.finish_and_clear();
     let render_seconds = render_started.elapsed().as_secs_f64();
 
+    written.extend(write_calibration(&args.out, &rig, &views)?);
     let poses_path = args.out.join("poses.txt");
     write_atomically(&poses_path, |out| {
         use std::io::Write;
-        writeln!(out, "# omnisim poses, TUM format: index tx ty tz qx qy qz qw (world_from_body; metres)")?;
+        writeln!(
+            out,
+            "# omnisim poses, TUM format: index tx ty tz qx qy qz qw (world_from_body; metres)"
+        )?;
         for (index, pose) in poses.iter().enumerate() {
             let t = pose.position;
             let [qx, qy, qz, qw] = pose.quaternion_xyzw();
@@ -131,7 +158,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     })
     .with_context(|| format!("cannot write {}", poses_path.display()))?;
     let metadata_path = args.out.join("render.json");
-    let metadata = metadata(&scene, &args.scene, &camera, &poses, &renderer);
+    let metadata = metadata(&scene, &args.scene, &rig, &poses, &renderer);
     write_atomically(&metadata_path, |out| {
         serde_json::to_writer_pretty(&mut *out, &metadata).map_err(std::io::Error::other)
     })
@@ -142,19 +169,89 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for path in &written {
         println!("{}", path.display());
     }
-    let (w, h) = camera.size();
+    let (w, h) = views[0].1.size();
     eprintln!(
-        "rendered {} {}x{} {} image(s) in {:.2} s ({:.1} ms per image on {}); total {:.2} s",
+        "rendered {} pose(s) × {} {}x{} {} image(s) in {:.2} s ({:.1} ms per pose on {}); total {:.2} s",
         poses.len(),
+        views.len(),
         w,
         h,
-        camera.model_name(),
+        views[0].1.model_name(),
         render_seconds,
         render_seconds * 1e3 / poses.len() as f64,
         renderer.backend_name(),
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// The images one pose produces: (file-name suffix, camera).
+fn views(rig: &Rig) -> Vec<(&'static str, Camera)> {
+    match rig {
+        Rig::Single(camera) => vec![("", camera.clone())],
+        Rig::Stereo(stereo) => {
+            let [left, right] = stereo.cameras();
+            vec![
+                ("-left", Camera::Pinhole(left)),
+                ("-right", Camera::Pinhole(right)),
+            ]
+        }
+    }
+}
+
+/// Calibration in the formats robotics tools read, and a ray map per view; returns the paths.
+fn write_calibration(
+    out: &Path,
+    rig: &Rig,
+    views: &[(&'static str, Camera)],
+) -> anyhow::Result<Vec<PathBuf>> {
+    let mut files: Vec<(PathBuf, String)> = Vec::new();
+    match rig {
+        Rig::Single(Camera::Pinhole(pinhole)) => {
+            files.push((
+                out.join("calibration-opencv.yaml"),
+                calibration::opencv_pinhole(pinhole),
+            ));
+            files.push((
+                out.join("calibration-kalibr.yaml"),
+                calibration::kalibr_pinhole(pinhole, None),
+            ));
+        }
+        Rig::Stereo(stereo) => {
+            files.push((
+                out.join("calibration-opencv-stereo.yaml"),
+                calibration::opencv_stereo(stereo),
+            ));
+            files.push((
+                out.join("calibration-kalibr.yaml"),
+                calibration::kalibr_pinhole(&stereo.camera, Some(stereo.baseline)),
+            ));
+        }
+        Rig::Single(Camera::Catadioptric(mirror)) => {
+            if let (Some(omnidir), Some(kalibr)) = (
+                calibration::opencv_omnidir(mirror),
+                calibration::kalibr_omni(mirror),
+            ) {
+                files.push((out.join("calibration-opencv-omnidir.yaml"), omnidir));
+                files.push((out.join("calibration-kalibr.yaml"), kalibr));
+            }
+        }
+        Rig::Single(Camera::Equirectangular(_) | Camera::Cylindrical(_)) => {}
+    }
+    let mut written = Vec::new();
+    for (path, text) in files {
+        write_atomically(&path, |file| {
+            std::io::Write::write_all(file, text.as_bytes())
+        })
+        .with_context(|| format!("cannot write {}", path.display()))?;
+        written.push(path);
+    }
+    for (suffix, camera) in views {
+        let path = out.join(format!("raymap{suffix}.exr"));
+        output::write_ray_map_exr(&path, camera)?;
+        written.push(path);
+    }
+    Ok(written)
 }
 
 fn path_with_suffix(stem: &Path, suffix: &str) -> PathBuf {
@@ -165,31 +262,57 @@ fn path_with_suffix(stem: &Path, suffix: &str) -> PathBuf {
 
 fn describe_pose(pose: &Pose) -> String {
     let (t, a) = (pose.position, pose.angles_degrees());
-    format!("x={} y={} z={} m, θx={} θy={} θz={} deg", t.x, t.y, t.z, a.x, a.y, a.z)
+    format!(
+        "x={} y={} z={} m, θx={} θy={} θz={} deg",
+        t.x, t.y, t.z, a.x, a.y, a.z
+    )
 }
 
 fn camera_json(camera: &Camera) -> serde_json::Value {
     let (width, height) = camera.size();
-    let mut value = json!({ "model": camera.model_name(), "width": width, "height": height });
+    let mut value = json!({ "model": camera.model_name(), "width": width, "height": height, "central": camera.is_central() });
     let extra = match camera {
         Camera::Pinhole(c) => json!({
-            "fx": c.fx, "fy": c.fy, "cx": c.cx, "cy": c.cy,
+            "fx": c.fx, "fy": c.fy, "cx": c.cx, "cy": c.cy, "position_in_body": c.position.to_array(),
             "optical_frame": "OpenCV (x right, y down, z forward); looks along body +x",
         }),
         Camera::Equirectangular(_) => json!({
             "azimuth_of_column_u": "pi - 2*pi*(u + 0.5)/width, counter-clockwise from body +x",
             "elevation_of_row_v": "pi/2 - pi*(v + 0.5)/height",
         }),
-        Camera::Hyperbolic(c) => {
-            let unified = c.unified_model();
+        Camera::Cylindrical(c) => json!({
+            "fy": c.fy, "cy": c.cy,
+            "azimuth_of_column_u": "pi - 2*pi*(u + 0.5)/width, counter-clockwise from body +x",
+            "row_v": "a ray rises (cy - v)/fy per unit of horizontal distance",
+        }),
+        Camera::Catadioptric(c) => {
+            let mirror = match c.mirror {
+                MirrorShape::Hyperbolic { a, b } => json!({
+                    "shape": "hyperbolic: (x^2+y^2)/a^2 - z^2/b^2 = -1, upper sheet; perspective camera at the outer focus",
+                    "a": a, "b": b, "c": c.c() }),
+                MirrorShape::Parabolic { a, b, h } => json!({
+                    "shape": "parabolic: z = h*(x^2/a^2 + y^2/b^2); orthographic camera along the axis (focal = pixels per metre)",
+                    "a": a, "b": b, "h": h }),
+                MirrorShape::Spherical {
+                    radius,
+                    camera_distance,
+                } => json!({
+                    "shape": "spherical: x^2+y^2+z^2 = R^2; perspective camera at (0,0,-D); body origin at the centre",
+                    "radius": radius, "camera_distance": camera_distance }),
+            };
             json!({
-                "mirror": "hyperbolic (x^2+y^2)/a^2 - z^2/b^2 = -1, upper sheet, axis = body +z, camera at the outer focus",
-                "a": c.a, "b": c.b, "c": c.c(), "focal_px": c.focal, "cx": c.cx, "cy": c.cy,
+                "mirror": mirror,
+                "focal": c.focal, "cx": c.cx, "cy": c.cy,
                 "rim_radius": c.rim_radius,
-                "mirror_rays": "reflect (law of reflection at the mirror surface)",
-                "unified_model": { "xi": unified.xi, "gamma_x": unified.gamma_x, "gamma_y": unified.gamma_y,
-                    "projection": "u = cx + gamma_x*s_x/(xi - s_z), v = cy + gamma_y*s_y/(xi - s_z), s = unit direction from F' in the body frame" },
-                "image_azimuth": "a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi (u right, v down): the image is mirrored on screen",
+                "hidden_centre_px": c.hidden_centre_px,
+                "mount": format!("{:?}", c.mount),
+                "misalignment": { "offset_m": c.misalignment.offset.to_array(), "tilt_rad": c.misalignment.tilt.to_array() },
+                "mirror_rays": format!("{:?}", c.rays),
+                "body_origin_in_mirror_frame": c.body_origin_in_mirror().to_array(),
+                "unified_model": c.unified_model().map(|m| json!({ "xi": m.xi, "gamma_x": m.gamma_x, "gamma_y": m.gamma_y,
+                    "projection": "u = cx + gamma_x*s_x/(xi - s_z), v = cy + gamma_y*s_y/(xi - s_z), s = unit direction from F' in the mirror frame" })),
+                "image_azimuth": "mount up: a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi (u right, v down): the image is mirrored on screen",
+                "rays": "see raymap.exr: per-pixel origin and direction in the body frame",
             })
         }
     };
@@ -199,11 +322,26 @@ fn camera_json(camera: &Camera) -> serde_json::Value {
     value
 }
 
-fn metadata(scene: &Scene, scene_path: &Path, camera: &Camera, poses: &[Pose], renderer: &Renderer) -> serde_json::Value {
+fn metadata(
+    scene: &Scene,
+    scene_path: &Path,
+    rig: &Rig,
+    poses: &[Pose],
+    renderer: &Renderer,
+) -> serde_json::Value {
+    let camera = match rig {
+        Rig::Single(camera) => camera_json(camera),
+        Rig::Stereo(stereo) => {
+            let [left, right] = stereo.cameras();
+            json!({ "model": "stereo", "baseline": stereo.baseline,
+                    "left": camera_json(&Camera::Pinhole(left)), "right": camera_json(&Camera::Pinhole(right)),
+                    "disparity": "<stem>-disparity.exr: u_left - u_right = fx*baseline/z for the left image" })
+        }
+    };
     json!({
         "omnisim": env!("CARGO_PKG_VERSION"),
         "scene": { "name": scene.name, "file": scene_path, "faces": scene.faces.len() },
-        "camera": camera_json(camera),
+        "camera": camera,
         "backend": { "name": renderer.backend_name(), "device": renderer.device_name(), "reason": renderer.reason() },
         "conventions": {
             "units": "metres; angles in degrees here",
@@ -212,6 +350,7 @@ fn metadata(scene: &Scene, scene_path: &Path, camera: &Camera, poses: &[Pose], r
             "rotation": "world_from_body = Rx(theta_x)*Ry(theta_y)*Rz(theta_z)",
             "pixels": "u = column, v = row, pixel centres at integer coordinates, (0,0) top-left",
             "range": output::RANGE_CONVENTION,
+            "ray_map": output::RAY_MAP_CONVENTION,
             "point_cloud": "binary little-endian PLY, float x y z in world metres + uchar red green blue, hit pixels only",
         },
         "frames": poses.iter().enumerate().map(|(index, pose)| {

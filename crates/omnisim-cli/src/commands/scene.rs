@@ -39,9 +39,16 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
                 scene.faces.len(),
                 scene.triangulate().len()
             );
-            println!("bounds: x [{}, {}], y [{}, {}], z [{}, {}] m", lo.x, hi.x, lo.y, hi.y, lo.z, hi.z);
+            println!(
+                "bounds: x [{}, {}], y [{}, {}], z [{}, {}] m",
+                lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
+            );
             for (index, object) in scene.objects.iter().enumerate() {
-                let faces = scene.faces.iter().filter(|f| f.object as usize == index).count();
+                let faces = scene
+                    .faces
+                    .iter()
+                    .filter(|f| f.object as usize == index)
+                    .count();
                 println!("  {:<8} {:<24} {faces} faces", object.kind, object.name);
             }
         }

@@ -4,34 +4,40 @@
 //! WGSL twin in `shaders/camera_*.wgsl`; `Camera::gpu_kind` ties the two together. Pixel
 //! coordinates follow OpenCV: u = column, v = row, pixel centres at integer coordinates.
 
+pub mod catadioptric;
+mod cylindrical;
 mod equirect;
-mod hyperbolic;
-mod pinhole;
+pub(crate) mod pinhole;
+mod stereo;
 
 use glam::{DVec2, DVec3};
 
+pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Mount, UnifiedModel};
+pub use cylindrical::Cylindrical;
 pub use equirect::Equirectangular;
-pub use hyperbolic::HyperbolicMirror;
 pub use pinhole::Pinhole;
+pub use stereo::StereoRig;
 
 /// A ray of a camera in its body frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraRay {
-    /// Where range is measured from: the viewpoint for central cameras.
+    /// Where range is measured from: the viewpoint for central cameras, the mirror point for
+    /// non-central ones.
     pub origin: DVec3,
     /// Unit direction.
     pub direction: DVec3,
-    /// Tracing starts this far along the ray (at the mirror for catadioptric cameras), so
-    /// nothing between the viewpoint and the mirror surface is seen.
+    /// Tracing starts this far along the ray (at the mirror for central catadioptric
+    /// cameras), so nothing between the viewpoint and the mirror surface is seen.
     pub t_min: f64,
 }
 
-/// Every supported vision system.
+/// Every single-image vision system (a stereo rig is two `Pinhole`s, see `StereoRig`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Camera {
     Pinhole(Pinhole),
     Equirectangular(Equirectangular),
-    Hyperbolic(HyperbolicMirror),
+    Cylindrical(Cylindrical),
+    Catadioptric(Catadioptric),
 }
 
 impl Camera {
@@ -40,26 +46,38 @@ impl Camera {
         match self {
             Camera::Pinhole(c) => (c.width, c.height),
             Camera::Equirectangular(c) => (c.width, c.height),
-            Camera::Hyperbolic(c) => (c.width, c.height),
+            Camera::Cylindrical(c) => (c.width, c.height),
+            Camera::Catadioptric(c) => (c.width, c.height),
         }
     }
 
     /// The ray seen at pixel (u, v), or `None` where the pixel sees nothing of the scene
-    /// (outside the mirror).
+    /// (outside the mirror, the camera body).
     pub fn ray(&self, pixel: DVec2) -> Option<CameraRay> {
         match self {
             Camera::Pinhole(c) => Some(c.ray(pixel)),
             Camera::Equirectangular(c) => Some(c.ray(pixel)),
-            Camera::Hyperbolic(c) => c.ray(pixel),
+            Camera::Cylindrical(c) => Some(c.ray(pixel)),
+            Camera::Catadioptric(c) => c.ray(pixel),
         }
     }
 
-    /// Closed-form projection of a body-frame point seen from the viewpoint, where one exists.
+    /// Closed-form projection of a body-frame point, where one exists (central cameras).
     pub fn project(&self, point: DVec3) -> Option<DVec2> {
         match self {
             Camera::Pinhole(c) => c.project(point),
             Camera::Equirectangular(c) => c.project(point),
-            Camera::Hyperbolic(c) => c.project(point),
+            Camera::Cylindrical(c) => c.project(point),
+            Camera::Catadioptric(c) => c.project(point),
+        }
+    }
+
+    /// Whether all rays share one origin (the pose position).
+    pub fn is_central(&self) -> bool {
+        match self {
+            Camera::Pinhole(c) => c.position == DVec3::ZERO,
+            Camera::Equirectangular(_) | Camera::Cylindrical(_) => true,
+            Camera::Catadioptric(c) => c.is_central(),
         }
     }
 
@@ -68,7 +86,12 @@ impl Camera {
         match self {
             Camera::Pinhole(_) => "pinhole",
             Camera::Equirectangular(_) => "equirectangular",
-            Camera::Hyperbolic(_) => "hyperbolic-catadioptric",
+            Camera::Cylindrical(_) => "cylindrical",
+            Camera::Catadioptric(c) => match c.mirror {
+                MirrorShape::Hyperbolic { .. } => "hyperbolic-catadioptric",
+                MirrorShape::Parabolic { .. } => "parabolic-catadioptric",
+                MirrorShape::Spherical { .. } => "spherical-catadioptric",
+            },
         }
     }
 
@@ -77,7 +100,8 @@ impl Camera {
         match self {
             Camera::Pinhole(_) => 0,
             Camera::Equirectangular(_) => 1,
-            Camera::Hyperbolic(_) => 2,
+            Camera::Catadioptric(_) => 2,
+            Camera::Cylindrical(_) => 3,
         }
     }
 }

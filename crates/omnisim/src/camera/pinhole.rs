@@ -5,6 +5,8 @@ use super::CameraRay;
 /// An ideal perspective camera with OpenCV intrinsics, mounted looking along body +x.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pinhole {
+    /// Optical centre in the body frame (zero except for the cameras of a stereo rig).
+    pub position: DVec3,
     pub width: u32,
     pub height: u32,
     pub fx: f64,
@@ -27,6 +29,7 @@ impl Pinhole {
     pub fn with_horizontal_fov(width: u32, height: u32, hfov: f64) -> Self {
         let f = width as f64 / 2.0 / (hfov / 2.0).tan();
         Self {
+            position: DVec3::ZERO,
             width,
             height,
             fx: f,
@@ -37,16 +40,20 @@ impl Pinhole {
     }
 
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
-        let optical = dvec3((pixel.x - self.cx) / self.fx, (pixel.y - self.cy) / self.fy, 1.0);
+        let optical = dvec3(
+            (pixel.x - self.cx) / self.fx,
+            (pixel.y - self.cy) / self.fy,
+            1.0,
+        );
         CameraRay {
-            origin: DVec3::ZERO,
+            origin: self.position,
             direction: (BODY_FROM_OPTICAL * optical).normalize(),
             t_min: 0.0,
         }
     }
 
     pub fn project(&self, point: DVec3) -> Option<DVec2> {
-        let optical = BODY_FROM_OPTICAL.transpose() * point;
+        let optical = BODY_FROM_OPTICAL.transpose() * (point - self.position);
         (optical.z > 0.0).then(|| {
             dvec2(
                 self.fx * optical.x / optical.z + self.cx,

@@ -3,7 +3,9 @@
 /// Why the GPU backend is unavailable or failed.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
-    #[error("no GPU adapter found ({0}); on Linux install Mesa's Vulkan drivers (Debian: mesa-vulkan-drivers) or use the CPU backend")]
+    #[error(
+        "no GPU adapter found ({0}); on Linux install Mesa's Vulkan drivers (Debian: mesa-vulkan-drivers) or use the CPU backend"
+    )]
     NoAdapter(String),
     #[error("the adapter '{adapter}' refused a device: {source}")]
     Device {
@@ -35,8 +37,10 @@ impl GpuContext {
             descriptor.backends = wgpu::Backends::PRIMARY;
         }
         let instance = wgpu::Instance::new(descriptor);
-        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&instance, None))
-            .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
+            &instance, None,
+        ))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -58,6 +62,9 @@ impl GpuContext {
 
     /// "name (backend, device type)", for messages and benchmark records.
     pub fn describe(&self) -> String {
-        format!("{} ({:?}, {:?})", self.adapter.name, self.adapter.backend, self.adapter.device_type)
+        format!(
+            "{} ({:?}, {:?})",
+            self.adapter.name, self.adapter.backend, self.adapter.device_type
+        )
     }
 }

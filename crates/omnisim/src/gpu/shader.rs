@@ -1,11 +1,27 @@
 //! The WGSL program, assembled from one file per concern (WGSL has no `#include`).
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
-pub const FILES: [(&str, &str); 6] = [
-    ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
-    ("camera_pinhole.wgsl", include_str!("../../../../shaders/camera_pinhole.wgsl")),
-    ("camera_equirect.wgsl", include_str!("../../../../shaders/camera_equirect.wgsl")),
-    ("camera_hyperbolic.wgsl", include_str!("../../../../shaders/camera_hyperbolic.wgsl")),
+pub const FILES: [(&str, &str); 7] = [
+    (
+        "common.wgsl",
+        include_str!("../../../../shaders/common.wgsl"),
+    ),
+    (
+        "camera_pinhole.wgsl",
+        include_str!("../../../../shaders/camera_pinhole.wgsl"),
+    ),
+    (
+        "camera_equirect.wgsl",
+        include_str!("../../../../shaders/camera_equirect.wgsl"),
+    ),
+    (
+        "camera_cylindrical.wgsl",
+        include_str!("../../../../shaders/camera_cylindrical.wgsl"),
+    ),
+    (
+        "camera_catadioptric.wgsl",
+        include_str!("../../../../shaders/camera_catadioptric.wgsl"),
+    ),
     ("bvh.wgsl", include_str!("../../../../shaders/bvh.wgsl")),
     ("trace.wgsl", include_str!("../../../../shaders/trace.wgsl")),
 ];

@@ -1,16 +1,17 @@
 //! Uploads a scene once, then traces frames: one dispatch per band of image rows, each band
 //! small enough for the adapter's storage-binding limit (128 MiB on lavapipe).
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
 use super::layout::{CameraParams, PixelHit, Triangle};
 use super::shader;
 use crate::bvh::SceneBvh;
-use crate::camera::Camera;
+use crate::camera::{Camera, MirrorRays, Mount};
 use crate::frame::{Frame, NO_FACE, Pixel};
 use crate::pose::Pose;
+use crate::pose::rotation_xyz;
 
 pub struct GpuTracer {
     context: GpuContext,
@@ -63,7 +64,11 @@ impl GpuTracer {
                 _pad2: 0,
             })
             .collect();
-        let colours: Vec<u32> = bvh.face_colours.iter().map(|c| u32::from_le_bytes([c[0], c[1], c[2], 255])).collect();
+        let colours: Vec<u32> = bvh
+            .face_colours
+            .iter()
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], 255]))
+            .collect();
         Ok(Self {
             nodes: storage("bvh nodes", bytemuck::cast_slice(&bvh.bvh.nodes)),
             triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
@@ -83,8 +88,11 @@ impl GpuTracer {
         let row_bytes = width as u64 * std::mem::size_of::<PixelHit>() as u64;
         let max_binding = (self.context.limits.max_storage_buffer_binding_size as u64)
             .min(self.context.limits.max_buffer_size);
-        let max_rows_by_dispatch = self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE as u64;
-        let band_rows = (max_binding / row_bytes).min(max_rows_by_dispatch).min(height as u64) as u32;
+        let max_rows_by_dispatch = self.context.limits.max_compute_workgroups_per_dimension as u64
+            * shader::WORKGROUP_SIZE as u64;
+        let band_rows = (max_binding / row_bytes)
+            .min(max_rows_by_dispatch)
+            .min(height as u64) as u32;
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
@@ -113,11 +121,26 @@ impl GpuTracer {
             label: Some("trace"),
             layout: &self.pipeline.get_bind_group_layout(0),
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: self.nodes.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: self.triangles.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: self.face_colours.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: output.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: self.triangles.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: self.face_colours.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: output.as_entire_binding(),
+                },
             ],
         });
         let mut frame = Frame::empty(width, height);
@@ -126,20 +149,29 @@ impl GpuTracer {
             let rows = band_rows.min(height - row);
             params.row_offset = row;
             params.band_rows = rows;
-            self.context.queue.write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
+            self.context
+                .queue
+                .write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
             let mut encoder = device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(width.div_ceil(shader::WORKGROUP_SIZE), rows.div_ceil(shader::WORKGROUP_SIZE), 1);
+                pass.dispatch_workgroups(
+                    width.div_ceil(shader::WORKGROUP_SIZE),
+                    rows.div_ceil(shader::WORKGROUP_SIZE),
+                    1,
+                );
             }
             let bytes = rows as u64 * row_bytes;
             encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, bytes);
             self.context.queue.submit([encoder.finish()]);
             let hits = self.read(&readback, bytes)?;
             let start = row as usize * width as usize;
-            for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()].iter_mut().zip(&hits) {
+            for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()]
+                .iter_mut()
+                .zip(&hits)
+            {
                 if hit.face != NO_FACE {
                     let [r, g, b, _] = hit.colour.to_le_bytes();
                     *pixel = Pixel {
@@ -169,7 +201,9 @@ impl GpuTracer {
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
         let hits = {
-            let view = buffer.get_mapped_range(..bytes).map_err(|e| GpuError::Readback(e.to_string()))?;
+            let view = buffer
+                .get_mapped_range(..bytes)
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
             bytemuck::cast_slice::<u8, PixelHit>(&view).to_vec()
         };
         buffer.unmap();
@@ -180,12 +214,13 @@ impl GpuTracer {
 /// The uniform block of one render: camera model parameters and the pose, with the viewpoint
 /// made relative to the scene offset in f64 before rounding to f32.
 fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
-    let rotation = pose.world_from_body_rotation();
     let column = |c: DVec3| [c.x as f32, c.y as f32, c.z as f32, 0.0];
+    let columns = |m: DMat3| [column(m.x_axis), column(m.y_axis), column(m.z_axis)];
+    let vector = |v: DVec3| v.as_vec3().to_array();
     let (width, height) = camera.size();
     let mut params = CameraParams {
-        world_from_body: [column(rotation.x_axis), column(rotation.y_axis), column(rotation.z_axis)],
-        origin: (pose.position - offset).as_vec3().to_array(),
+        world_from_body: columns(pose.world_from_body_rotation()),
+        origin: vector(pose.position - offset),
         kind: camera.gpu_kind(),
         width,
         height,
@@ -193,24 +228,51 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
         band_rows: height,
         focal: [1.0, 1.0],
         principal: [0.0, 0.0],
-        mirror_a: 0.0,
-        mirror_b: 0.0,
-        mirror_c: 0.0,
+        lens_origin: [0.0; 3],
+        mirror_min_z: 0.0,
+        camera_tilt: columns(DMat3::IDENTITY),
+        mirror_diag: [0.0; 3],
+        mirror_constant: 0.0,
+        mirror_linear: [0.0; 3],
+        mount_sign: 1.0,
+        camera_offset: [0.0; 3],
         rim_sq: -1.0,
+        hidden_centre_sq: 0.0,
+        orthographic: 0,
+        central: 1,
+        shortcut: 0,
     };
     match camera {
         Camera::Pinhole(c) => {
             params.focal = [c.fx as f32, c.fy as f32];
             params.principal = [c.cx as f32, c.cy as f32];
+            params.lens_origin = vector(c.position);
         }
         Camera::Equirectangular(_) => {}
-        Camera::Hyperbolic(c) => {
+        Camera::Cylindrical(c) => {
+            params.focal = [1.0, c.fy as f32];
+            params.principal = [0.0, c.cy as f32];
+        }
+        Camera::Catadioptric(c) => {
+            // Frame C: the mirror frame shifted to the nominal camera position N.
+            let nominal = c.nominal_camera_in_mirror();
+            let quadric = c.quadric().shifted(nominal);
             params.focal = [c.focal as f32, c.focal as f32];
             params.principal = [c.cx as f32, c.cy as f32];
-            params.mirror_a = c.a as f32;
-            params.mirror_b = c.b as f32;
-            params.mirror_c = c.c() as f32;
+            params.lens_origin =
+                vector(c.body_from_mirror() * (nominal - c.body_origin_in_mirror()));
+            params.mirror_min_z = quadric.min_z.max(-3.0e38) as f32;
+            params.camera_tilt = columns(rotation_xyz(c.misalignment.tilt));
+            params.mirror_diag = vector(quadric.diag);
+            params.mirror_constant = quadric.constant as f32;
+            params.mirror_linear = vector(quadric.linear);
+            params.mount_sign = if c.mount == Mount::Up { 1.0 } else { -1.0 };
+            params.camera_offset = vector(c.misalignment.offset);
             params.rim_sq = c.rim_radius.map_or(-1.0, |r| (r * r) as f32);
+            params.hidden_centre_sq = (c.hidden_centre_px * c.hidden_centre_px) as f32;
+            params.orthographic = u32::from(!c.is_perspective());
+            params.central = u32::from(c.is_central());
+            params.shortcut = u32::from(c.rays == MirrorRays::Shortcut);
         }
     }
     params

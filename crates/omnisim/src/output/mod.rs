@@ -8,6 +8,9 @@ use std::path::{Path, PathBuf};
 
 use image::ImageEncoder;
 
+use glam::DVec2;
+
+use crate::camera::Camera;
 use crate::frame::Frame;
 use atomic::write_atomically;
 
@@ -37,7 +40,12 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     let bytes: Vec<u8> = frame.pixels().iter().flat_map(|p| p.colour).collect();
     write_atomically(path, |out| {
         image::codecs::png::PngEncoder::new(out)
-            .write_image(&bytes, frame.width, frame.height, image::ExtendedColorType::Rgb8)
+            .write_image(
+                &bytes,
+                frame.width,
+                frame.height,
+                image::ExtendedColorType::Rgb8,
+            )
             .map_err(std::io::Error::other)
     })
     .map_err(failed(path))
@@ -45,19 +53,105 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
 
 /// Single-channel f32 EXR named `range`, metres, +inf where nothing is hit.
 pub fn write_range_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
+    let ranges = frame.pixels().iter().map(|p| p.range).collect();
+    write_channel_exr(
+        path,
+        (frame.width, frame.height),
+        RANGE_CHANNEL,
+        RANGE_CONVENTION,
+        ranges,
+    )
+}
+
+/// Single-channel f32 EXR named `disparity` (pixels, u_left − u_right), NaN where no hit.
+pub fn write_disparity_exr(
+    path: &Path,
+    size: (u32, u32),
+    disparity: Vec<f32>,
+) -> Result<(), OutputError> {
+    let convention = "disparity of the left image in pixels: u_left - u_right = fx*baseline/z, z = depth along \
+                      the optical axis; NaN where nothing is hit";
+    write_channel_exr(path, size, "disparity", convention, disparity)
+}
+
+/// One f32 channel, with its convention in the header's `comments`.
+fn write_channel_exr(
+    path: &Path,
+    size: (u32, u32),
+    channel: &str,
+    convention: &str,
+    values: Vec<f32>,
+) -> Result<(), OutputError> {
     use exr::prelude::*;
-    let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
     let mut attributes = LayerAttributes::named("omnisim");
-    attributes.comments = Some(Text::from(RANGE_CONVENTION));
+    attributes.comments = Some(Text::from(convention));
     attributes.software_name = Some(Text::from(concat!("omnisim ", env!("CARGO_PKG_VERSION"))));
     let layer = Layer::new(
-        (frame.width as usize, frame.height as usize),
+        (size.0 as usize, size.1 as usize),
         attributes,
         Encoding::FAST_LOSSLESS,
-        AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(RANGE_CHANNEL, FlatSamples::F32(ranges))])),
+        AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
+            channel,
+            FlatSamples::F32(values),
+        )])),
     );
     write_atomically(path, |out| {
-        Image::from_layer(layer).write().to_buffered(out).map_err(std::io::Error::other)
+        Image::from_layer(layer)
+            .write()
+            .to_buffered(out)
+            .map_err(std::io::Error::other)
+    })
+    .map_err(failed(path))
+}
+
+/// Text stored in ray-map EXR headers.
+pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x forward, y left, z up; metres): channels \
+     origin.X/Y/Z and direction.X/Y/Z (unit); a hit at range r is origin + r*direction; NaN where the pixel has no ray";
+
+/// Six-channel f32 EXR of every pixel's ray in the body frame: `origin.{X,Y,Z}` and
+/// `direction.{X,Y,Z}`; NaN where the pixel sees nothing. Non-central cameras need it to
+/// rebuild points from range.
+pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError> {
+    use exr::prelude::*;
+    let (width, height) = camera.size();
+    let mut channels: [Vec<f32>; 6] = Default::default();
+    for v in 0..height {
+        for u in 0..width {
+            let values = match camera.ray(DVec2::new(u as f64, v as f64)) {
+                Some(ray) => [ray.origin.to_array(), ray.direction.to_array()].concat(),
+                None => vec![f64::NAN; 6],
+            };
+            for (channel, value) in channels.iter_mut().zip(values) {
+                channel.push(value as f32);
+            }
+        }
+    }
+    let names = [
+        "origin.X",
+        "origin.Y",
+        "origin.Z",
+        "direction.X",
+        "direction.Y",
+        "direction.Z",
+    ];
+    let list = names
+        .iter()
+        .zip(channels)
+        .map(|(name, samples)| AnyChannel::new(*name, FlatSamples::F32(samples)))
+        .collect();
+    let mut attributes = LayerAttributes::named("omnisim-rays");
+    attributes.comments = Some(Text::from(RAY_MAP_CONVENTION));
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        attributes,
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    write_atomically(path, |out| {
+        Image::from_layer(layer)
+            .write()
+            .to_buffered(out)
+            .map_err(std::io::Error::other)
     })
     .map_err(failed(path))
 }

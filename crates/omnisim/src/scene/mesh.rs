@@ -18,7 +18,12 @@ pub(super) fn load(path: &Path) -> Result<Vec<MeshTriangle>, String> {
     if !path.exists() {
         return Err("file not found; the path is relative to the scene file's folder".into());
     }
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
         Some("ply") => load_ply(path),
         Some("obj") => load_obj(path),
         _ => Err("unknown mesh format; use a .ply or .obj file".into()),
@@ -58,7 +63,11 @@ fn colour_of(element: &DefaultElement) -> Option<[u8; 3]> {
             .find_map(|n| element.get(*n).and_then(scalar))
             .map(|v| v.clamp(0.0, 255.0) as u8)
     };
-    Some([channel(["red", "r"])?, channel(["green", "g"])?, channel(["blue", "b"])?])
+    Some([
+        channel(["red", "r"])?,
+        channel(["green", "g"])?,
+        channel(["blue", "b"])?,
+    ])
 }
 
 fn load_ply(path: &Path) -> Result<Vec<MeshTriangle>, String> {
@@ -67,13 +76,23 @@ fn load_ply(path: &Path) -> Result<Vec<MeshTriangle>, String> {
     let ply = Parser::<DefaultElement>::new()
         .read_ply(&mut reader)
         .map_err(|e| format!("not a readable PLY file: {e}"))?;
-    let vertices = ply.payload.get("vertex").ok_or("the PLY file has no 'vertex' element")?;
-    let faces = ply.payload.get("face").ok_or("the PLY file has no 'face' element (a point cloud is not a mesh)")?;
+    let vertices = ply
+        .payload
+        .get("vertex")
+        .ok_or("the PLY file has no 'vertex' element")?;
+    let faces = ply
+        .payload
+        .get("face")
+        .ok_or("the PLY file has no 'face' element (a point cloud is not a mesh)")?;
     let positions = vertices
         .iter()
         .enumerate()
         .map(|(i, v)| {
-            let c = |k: &str| v.get(k).and_then(scalar).ok_or(format!("vertex {i} has no numeric '{k}'"));
+            let c = |k: &str| {
+                v.get(k)
+                    .and_then(scalar)
+                    .ok_or(format!("vertex {i} has no numeric '{k}'"))
+            };
             Ok((dvec3(c("x")?, c("y")?, c("z")?), colour_of(v)))
         })
         .collect::<Result<Vec<_>, String>>()?;
@@ -87,11 +106,20 @@ fn load_ply(path: &Path) -> Result<Vec<MeshTriangle>, String> {
             usize::try_from(i)
                 .ok()
                 .and_then(|i| positions.get(i))
-                .ok_or(format!("face {f} refers to vertex {i}, but there are {} vertices", positions.len()))
+                .ok_or(format!(
+                    "face {f} refers to vertex {i}, but there are {} vertices",
+                    positions.len()
+                ))
         };
-        let corners = indices.iter().map(|&i| corner(i)).collect::<Result<Vec<_>, _>>()?;
+        let corners = indices
+            .iter()
+            .map(|&i| corner(i))
+            .collect::<Result<Vec<_>, _>>()?;
         if corners.len() < 3 {
-            return Err(format!("face {f} has {} vertices; a face needs 3 or more", corners.len()));
+            return Err(format!(
+                "face {f} has {} vertices; a face needs 3 or more",
+                corners.len()
+            ));
         }
         let face_colour = colour_of(face).or_else(|| mean_colour(corners.iter().map(|c| c.1)));
         for k in 1..corners.len() - 1 {
@@ -123,7 +151,8 @@ fn load_obj(path: &Path) -> Result<Vec<MeshTriangle>, String> {
         single_index: true,
         ..Default::default()
     };
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| format!("not a readable OBJ file: {e}"))?;
+    let (models, _materials) =
+        tobj::load_obj(path, &options).map_err(|e| format!("not a readable OBJ file: {e}"))?;
     let mut triangles = Vec::new();
     for model in models {
         let mesh = &model.mesh;
@@ -132,7 +161,12 @@ fn load_obj(path: &Path) -> Result<Vec<MeshTriangle>, String> {
             mesh.positions
                 .get(i..i + 3)
                 .map(|p| dvec3(p[0] as f64, p[1] as f64, p[2] as f64))
-                .ok_or_else(|| format!("object '{}' refers to a vertex that does not exist", model.name))
+                .ok_or_else(|| {
+                    format!(
+                        "object '{}' refers to a vertex that does not exist",
+                        model.name
+                    )
+                })
         };
         let colour = |i: u32| {
             let i = i as usize * 3;

@@ -72,15 +72,12 @@ impl Scene {
             ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES
                 | ron::extensions::Extensions::IMPLICIT_SOME,
         );
-        let parsed: file::SceneFile =
-            options
-                .from_str(text)
-                .map_err(|e| SceneError::Parse {
-                    path: path.to_path_buf(),
-                    line: e.span.start.line,
-                    column: e.span.start.col,
-                    message: e.code.to_string(),
-                })?;
+        let parsed: file::SceneFile = options.from_str(text).map_err(|e| SceneError::Parse {
+            path: path.to_path_buf(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            message: e.code.to_string(),
+        })?;
         library::build(parsed, text, path)
     }
 

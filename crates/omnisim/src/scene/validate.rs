@@ -18,22 +18,37 @@ pub(super) fn newell_normal(vertices: &[DVec3]) -> DVec3 {
 /// Returns why `vertices` cannot be a face, in words for the person who wrote it.
 pub(super) fn check_face(vertices: &[DVec3]) -> Result<(), String> {
     if vertices.len() < 3 {
-        return Err(format!("a face needs at least 3 vertices, this one has {}", vertices.len()));
+        return Err(format!(
+            "a face needs at least 3 vertices, this one has {}",
+            vertices.len()
+        ));
     }
     if let Some(i) = vertices.iter().position(|v| !v.is_finite()) {
-        return Err(format!("vertex {i} is not a finite number ({:?}); check for NaN or inf", vertices[i]));
+        return Err(format!(
+            "vertex {i} is not a finite number ({:?}); check for NaN or inf",
+            vertices[i]
+        ));
     }
-    let (lo, hi) = vertices.iter().fold((vertices[0], vertices[0]), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let (lo, hi) = vertices
+        .iter()
+        .fold((vertices[0], vertices[0]), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        });
     let extent = (hi - lo).length();
     let n = vertices.len();
     for i in 0..n {
         if vertices[i].distance(vertices[(i + 1) % n]) <= 1e-12 * (1.0 + extent) {
-            return Err(format!("vertices {i} and {} coincide; remove one", (i + 1) % n));
+            return Err(format!(
+                "vertices {i} and {} coincide; remove one",
+                (i + 1) % n
+            ));
         }
     }
     let normal = newell_normal(vertices);
     if normal.length() <= 1e-12 * extent * extent {
-        return Err("the face is degenerate: it has no area (are its vertices on one line?)".into());
+        return Err(
+            "the face is degenerate: it has no area (are its vertices on one line?)".into(),
+        );
     }
     let unit = normal.normalize();
     let centroid = vertices.iter().copied().sum::<DVec3>() / n as f64;
@@ -58,17 +73,34 @@ mod tests {
     use glam::dvec3;
 
     fn square(z_of_last: f64) -> Vec<DVec3> {
-        vec![dvec3(0., 0., 0.), dvec3(1., 0., 0.), dvec3(1., 1., 0.), dvec3(0., 1., z_of_last)]
+        vec![
+            dvec3(0., 0., 0.),
+            dvec3(1., 0., 0.),
+            dvec3(1., 1., 0.),
+            dvec3(0., 1., z_of_last),
+        ]
     }
 
     #[test]
     fn accepts_a_square_and_rejects_bad_faces() {
         assert!(check_face(&square(0.0)).is_ok());
-        assert!(check_face(&square(0.01)).unwrap_err().contains("not planar"));
-        assert!(check_face(&square(f64::NAN)).unwrap_err().contains("finite"));
+        assert!(
+            check_face(&square(0.01))
+                .unwrap_err()
+                .contains("not planar")
+        );
+        assert!(
+            check_face(&square(f64::NAN))
+                .unwrap_err()
+                .contains("finite")
+        );
         let collinear = [dvec3(0., 0., 0.), dvec3(1., 0., 0.), dvec3(2., 0., 0.)];
         assert!(check_face(&collinear).unwrap_err().contains("degenerate"));
-        assert!(check_face(&square(0.0)[..2]).unwrap_err().contains("at least 3"));
+        assert!(
+            check_face(&square(0.0)[..2])
+                .unwrap_err()
+                .contains("at least 3")
+        );
     }
 
     #[test]

@@ -1,0 +1,462 @@
+//! Catadioptric cameras: a camera looking at a mirror of revolution, traced exactly by the law
+//! of reflection at the mirror surface (DESIGN.md §3).
+//!
+//! Each mirror lives in its own surface frame S (axis +z, from the camera towards the mirror):
+//! - hyperbolic: upper sheet of (x²+y²)/a² − z²/b² = −1, foci (0,0,±c), c = √(a²+b²); a
+//!   pinhole at the outer focus (0,0,−c); viewpoint F' = (0,0,c);
+//! - parabolic: z = h·(x²/a² + y²/b²), seen by an orthographic camera along +z; central with
+//!   viewpoint (focus) (0,0,a²/(4h)) when a = b;
+//! - spherical: sphere of radius R at the origin, pinhole at (0,0,−D); never central; the body
+//!   origin is the sphere's centre.
+//!
+//! The body frame is S moved to the viewpoint (body origin) and, for `Mount::Down`, turned by
+//! π about x so the mirror axis is body −z. With no misalignment the camera's optical axes are
+//! S's axes, so a point at body azimuth φ appears at image angle atan2(v − cy, u − cx) = φ
+//! (mount up): on screen the image is mirrored, as one reflection flips handedness.
+
+use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
+
+use super::CameraRay;
+use crate::pose::rotation_xyz;
+
+/// The mirror's shape and, for the spherical mirror, where its camera is.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MirrorShape {
+    /// (x²+y²)/a² − z²/b² = −1, metres; perspective camera at the outer focus.
+    Hyperbolic { a: f64, b: f64 },
+    /// z = h·(x²/a² + y²/b²), metres; orthographic camera. Central only when a = b.
+    Parabolic { a: f64, b: f64, h: f64 },
+    /// Sphere of `radius` seen by a perspective camera `camera_distance` from its centre.
+    Spherical { radius: f64, camera_distance: f64 },
+}
+
+/// Which way the mirror axis points in the body frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Mount {
+    /// Mirror above the camera, axis along body +z (ground robots).
+    #[default]
+    Up,
+    /// Mirror below the camera, axis along body −z.
+    Down,
+}
+
+/// How mirror rays are found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum MirrorRays {
+    /// Law of reflection at the mirror surface: exact for every mirror and misalignment.
+    #[default]
+    Reflect,
+    /// The reference paper's method: from the viewpoint F' through the mirror point. Exact
+    /// only for an aligned central mirror.
+    Shortcut,
+}
+
+/// The camera displaced from its nominal place: `offset` (metres, surface frame) and a
+/// `tilt` R = Rx·Ry·Rz (radians) of its optical axes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Misalignment {
+    pub offset: DVec3,
+    pub tilt: DVec3,
+}
+
+impl Misalignment {
+    pub fn is_zero(&self) -> bool {
+        self.offset == DVec3::ZERO && self.tilt == DVec3::ZERO
+    }
+}
+
+/// Mei's unified-model parameters of an aligned central catadioptric camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UnifiedModel {
+    pub xi: f64,
+    pub gamma_x: f64,
+    pub gamma_y: f64,
+    pub cx: f64,
+    pub cy: f64,
+}
+
+/// A quadric x·diag·x + linear·x + constant = 0 with a diagonal quadratic part.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Quadric {
+    pub diag: DVec3,
+    pub linear: DVec3,
+    pub constant: f64,
+    /// Only points with z above this belong to the mirror (the hyperbola's upper sheet).
+    pub min_z: f64,
+}
+
+impl Quadric {
+    pub fn value(&self, p: DVec3) -> f64 {
+        (self.diag * p).dot(p) + self.linear.dot(p) + self.constant
+    }
+
+    pub fn gradient(&self, p: DVec3) -> DVec3 {
+        2.0 * self.diag * p + self.linear
+    }
+
+    /// The same surface in coordinates shifted by `origin` (p' = p − origin).
+    pub fn shifted(&self, origin: DVec3) -> Quadric {
+        Quadric {
+            diag: self.diag,
+            linear: self.gradient(origin),
+            constant: self.value(origin),
+            min_z: self.min_z - origin.z,
+        }
+    }
+
+    /// Smallest t > 0 where `origin + t·d` is on the mirror, by cancellation-free roots.
+    pub fn first_hit(&self, origin: DVec3, d: DVec3) -> Option<f64> {
+        let qa = (self.diag * d).dot(d);
+        let qb = 2.0 * (self.diag * origin).dot(d) + self.linear.dot(d);
+        let qc = self.value(origin);
+        let roots = if qa.abs() <= 1e-15 * (qb.abs() + qc.abs()) {
+            // Parallel to an asymptote or the axis of a paraboloid: the equation is linear.
+            [-qc / qb, f64::NAN]
+        } else {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc < 0.0 {
+                return None;
+            }
+            let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+            [q / qa, qc / q]
+        };
+        roots
+            .into_iter()
+            .filter(|&t| t.is_finite() && t > 0.0 && origin.z + t * d.z > self.min_z)
+            .min_by(f64::total_cmp)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Catadioptric {
+    pub width: u32,
+    pub height: u32,
+    pub mirror: MirrorShape,
+    /// Focal length in pixels (perspective camera of hyperbolic and spherical mirrors), or
+    /// pixels per metre (orthographic camera of parabolic mirrors).
+    pub focal: f64,
+    pub cx: f64,
+    pub cy: f64,
+    /// Radius of the mirror's rim (in the surface frame's xy), metres; `None` for no rim.
+    pub rim_radius: Option<f64>,
+    /// Pixels closer than this to (cx, cy) see the camera's own body: background.
+    pub hidden_centre_px: f64,
+    pub mount: Mount,
+    pub misalignment: Misalignment,
+    pub rays: MirrorRays,
+}
+
+impl Catadioptric {
+    fn new(width: u32, height: u32, mirror: MirrorShape, focal: f64) -> Self {
+        Self {
+            width,
+            height,
+            mirror,
+            focal,
+            cx: (width as f64 - 1.0) / 2.0,
+            cy: (height as f64 - 1.0) / 2.0,
+            rim_radius: None,
+            hidden_centre_px: 0.0,
+            mount: Mount::Up,
+            misalignment: Misalignment::default(),
+            rays: MirrorRays::Reflect,
+        }
+    }
+
+    fn image_radius(width: u32, height: u32) -> f64 {
+        width.min(height) as f64 / 2.0
+    }
+
+    /// Hyperbolic mirror (a, b) filling the shorter image side. With `max_elevation`
+    /// (radians above the horizon) the rim is placed where the mirror sees that elevation,
+    /// r = a²·cos ε/(b − c·sin ε), and the rim circle touches the image border; without it
+    /// the mirror reaches its asymptote (elevation asin(b/c), pixel radius f·a/b).
+    pub fn hyperbolic(width: u32, height: u32, a: f64, b: f64, max_elevation: Option<f64>) -> Self {
+        let radius = Self::image_radius(width, height);
+        let mut camera = Self::new(
+            width,
+            height,
+            MirrorShape::Hyperbolic { a, b },
+            radius * b / a,
+        );
+        if let Some(elevation) = max_elevation {
+            let (sin, cos) = elevation.sin_cos();
+            let c = a.hypot(b);
+            camera.rim_radius = Some(a * a * cos / (b - c * sin));
+            // The rim's pixel radius is f·a²/(b²+c²)·cos ε/(ξ − sin ε); solve for f.
+            let xi = 2.0 * b * c / (b * b + c * c);
+            camera.focal = radius * (xi - sin) * (b * b + c * c) / (a * a * cos);
+        }
+        camera
+    }
+
+    /// Paraboloid z = h·(x²+y²)/a² with its rim where it sees `max_elevation`, the rim circle
+    /// on the image border: focus p = a²/(4h), rim r = 2p·cos ε/(1 − sin ε).
+    pub fn parabolic(width: u32, height: u32, a: f64, h: f64, max_elevation: f64) -> Self {
+        let p = a * a / (4.0 * h);
+        let (sin, cos) = max_elevation.sin_cos();
+        let rim = 2.0 * p * cos / (1.0 - sin);
+        let mut camera = Self::new(
+            width,
+            height,
+            MirrorShape::Parabolic { a, b: a, h },
+            Self::image_radius(width, height) / rim,
+        );
+        camera.rim_radius = Some(rim);
+        camera
+    }
+
+    /// Sphere of `radius` seen from `camera_distance`, its silhouette on the image border.
+    pub fn spherical(width: u32, height: u32, radius: f64, camera_distance: f64) -> Self {
+        let half_angle = (radius / camera_distance).asin();
+        let focal = Self::image_radius(width, height) / half_angle.tan();
+        Self::new(
+            width,
+            height,
+            MirrorShape::Spherical {
+                radius,
+                camera_distance,
+            },
+            focal,
+        )
+    }
+
+    /// Hyperbola focal distance c = √(a² + b²) (0 for other mirrors).
+    pub fn c(&self) -> f64 {
+        match self.mirror {
+            MirrorShape::Hyperbolic { a, b } => a.hypot(b),
+            _ => 0.0,
+        }
+    }
+
+    /// Whether the camera looks through a lens at a point (perspective) rather than along
+    /// parallel rays (orthographic, parabolic mirrors).
+    pub fn is_perspective(&self) -> bool {
+        !matches!(self.mirror, MirrorShape::Parabolic { .. })
+    }
+
+    /// Every pixel's ray passes through one viewpoint: an aligned hyperbolic mirror, or an
+    /// aligned paraboloid of revolution.
+    pub fn is_central(&self) -> bool {
+        self.misalignment.is_zero()
+            && match self.mirror {
+                MirrorShape::Hyperbolic { .. } => true,
+                MirrorShape::Parabolic { a, b, .. } => a == b,
+                MirrorShape::Spherical { .. } => false,
+            }
+    }
+
+    /// Why this camera cannot be traced as configured, if it cannot.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be a positive finite number, not {v}"))
+            }
+        };
+        match self.mirror {
+            MirrorShape::Hyperbolic { a, b } => {
+                positive("mirror a", a)?;
+                positive("mirror b", b)?;
+            }
+            MirrorShape::Parabolic { a, b, h } => {
+                positive("mirror a", a)?;
+                positive("mirror b", b)?;
+                positive("mirror h", h)?;
+            }
+            MirrorShape::Spherical {
+                radius,
+                camera_distance,
+            } => {
+                positive("sphere radius", radius)?;
+                if !(camera_distance > radius) {
+                    return Err(format!(
+                        "the camera must be outside the sphere: distance {camera_distance} m ≤ radius {radius} m"
+                    ));
+                }
+            }
+        }
+        positive("focal", self.focal)?;
+        if let Some(rim) = self.rim_radius {
+            positive("rim radius", rim)?;
+        }
+        if self.rays == MirrorRays::Shortcut && !self.is_central() {
+            return Err(
+                "the shortcut (rays from the viewpoint F' through the mirror point) is only exact for an aligned \
+                 central mirror (hyperbolic, or parabolic with a = b, no misalignment); use reflect"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+
+    /// The mirror surface in the surface frame S.
+    pub fn quadric(&self) -> Quadric {
+        match self.mirror {
+            MirrorShape::Hyperbolic { a, b } => Quadric {
+                diag: dvec3(1.0 / (a * a), 1.0 / (a * a), -1.0 / (b * b)),
+                linear: DVec3::ZERO,
+                constant: 1.0,
+                min_z: 0.0,
+            },
+            MirrorShape::Parabolic { a, b, h } => Quadric {
+                diag: dvec3(h / (a * a), h / (b * b), 0.0),
+                linear: dvec3(0.0, 0.0, -1.0),
+                constant: 0.0,
+                min_z: f64::NEG_INFINITY,
+            },
+            MirrorShape::Spherical { radius, .. } => Quadric {
+                diag: DVec3::ONE,
+                linear: DVec3::ZERO,
+                constant: -radius * radius,
+                min_z: f64::NEG_INFINITY,
+            },
+        }
+    }
+
+    /// The body origin in S: F' for central mirrors, the paraboloid's (x-section) focus, the
+    /// sphere's centre.
+    pub fn body_origin_in_mirror(&self) -> DVec3 {
+        match self.mirror {
+            MirrorShape::Hyperbolic { .. } => dvec3(0.0, 0.0, self.c()),
+            MirrorShape::Parabolic { a, h, .. } => dvec3(0.0, 0.0, a * a / (4.0 * h)),
+            MirrorShape::Spherical { .. } => DVec3::ZERO,
+        }
+    }
+
+    /// Where the aligned camera sits in S: the pinhole, or for the orthographic camera the
+    /// point of its image plane on the axis (any plane below the mirror gives the same rays).
+    pub fn nominal_camera_in_mirror(&self) -> DVec3 {
+        match self.mirror {
+            MirrorShape::Hyperbolic { .. } => dvec3(0.0, 0.0, -self.c()),
+            MirrorShape::Parabolic { a, b, .. } => dvec3(0.0, 0.0, -2.0 * a.max(b)),
+            MirrorShape::Spherical {
+                camera_distance, ..
+            } => dvec3(0.0, 0.0, -camera_distance),
+        }
+    }
+
+    /// body_from_mirror rotation: identity, or Rx(π) for a mirror mounted below.
+    pub fn body_from_mirror(&self) -> DMat3 {
+        match self.mount {
+            Mount::Up => DMat3::IDENTITY,
+            Mount::Down => DMat3::from_diagonal(dvec3(1.0, -1.0, -1.0)),
+        }
+    }
+
+    /// The camera's ray for `pixel` in S, before the mirror: (origin, unit direction).
+    pub fn camera_ray_in_mirror(&self, pixel: DVec2) -> (DVec3, DVec3) {
+        let tilt = rotation_xyz(self.misalignment.tilt);
+        let centre = self.nominal_camera_in_mirror() + self.misalignment.offset;
+        let offset = (pixel - dvec2(self.cx, self.cy)) / self.focal;
+        if self.is_perspective() {
+            (centre, (tilt * offset.extend(1.0)).normalize())
+        } else {
+            (centre + tilt * offset.extend(0.0), tilt * DVec3::Z)
+        }
+    }
+
+    /// Traces pixel (u, v) to the mirror and off it. `None` where the pixel sees the camera
+    /// body, misses the mirror, or hits it past the rim.
+    pub fn ray(&self, pixel: DVec2) -> Option<CameraRay> {
+        let centre = pixel - dvec2(self.cx, self.cy);
+        if centre.length_squared() < self.hidden_centre_px * self.hidden_centre_px {
+            return None;
+        }
+        let (origin, d) = self.camera_ray_in_mirror(pixel);
+        let quadric = self.quadric();
+        let q = origin + quadric.first_hit(origin, d)? * d;
+        if let Some(rim) = self.rim_radius
+            && q.x * q.x + q.y * q.y > rim * rim
+        {
+            return None;
+        }
+        let body_from_mirror = self.body_from_mirror();
+        let q_body = body_from_mirror * (q - self.body_origin_in_mirror());
+        let normal = quadric.gradient(q).normalize();
+        let reflected = body_from_mirror * (d - 2.0 * d.dot(normal) * normal).normalize();
+        Some(match self.rays {
+            MirrorRays::Shortcut => CameraRay {
+                origin: DVec3::ZERO,
+                direction: q_body.normalize(),
+                t_min: q_body.length(),
+            },
+            MirrorRays::Reflect if self.is_central() => CameraRay {
+                origin: DVec3::ZERO,
+                direction: reflected,
+                t_min: q_body.length(),
+            },
+            MirrorRays::Reflect => CameraRay {
+                origin: q_body,
+                direction: reflected,
+                t_min: 0.0,
+            },
+        })
+    }
+
+    /// Mei's unified model of an aligned central mirror; `None` for non-central cameras.
+    pub fn unified_model(&self) -> Option<UnifiedModel> {
+        if !self.is_central() {
+            return None;
+        }
+        let (xi, scale) = match self.mirror {
+            MirrorShape::Hyperbolic { a, b } => {
+                let c = self.c();
+                (2.0 * b * c / (b * b + c * c), a * a / (b * b + c * c))
+            }
+            MirrorShape::Parabolic { a, h, .. } => (1.0, a * a / (2.0 * h)),
+            MirrorShape::Spherical { .. } => return None,
+        };
+        Some(UnifiedModel {
+            xi,
+            gamma_x: self.focal * scale,
+            gamma_y: self.focal * scale,
+            cx: self.cx,
+            cy: self.cy,
+        })
+    }
+
+    /// Highest elevation above the horizon (mirror frame) the mirror shape can show without a
+    /// rim: asin(b/c) for the hyperbola, 90° otherwise.
+    pub fn asymptote_elevation(&self) -> f64 {
+        match self.mirror {
+            MirrorShape::Hyperbolic { b, .. } => (b / self.c()).asin(),
+            _ => std::f64::consts::FRAC_PI_2,
+        }
+    }
+
+    /// Closed-form (unified model) pixel of a body-frame point, for central cameras; `None`
+    /// outside the mirror's field of view, past the rim or behind the camera body.
+    pub fn project(&self, point: DVec3) -> Option<DVec2> {
+        let model = self.unified_model()?;
+        let s = (self.body_from_mirror().transpose() * point).try_normalize()?;
+        // Distance from the viewpoint to the mirror along s.
+        let lambda = match self.mirror {
+            MirrorShape::Hyperbolic { a, b } => {
+                let denominator = b - self.c() * s.z;
+                if denominator <= 0.0 {
+                    return None;
+                }
+                a * a / denominator
+            }
+            MirrorShape::Parabolic { a, h, .. } => {
+                if s.z >= 1.0 {
+                    return None;
+                }
+                a * a / (2.0 * h) / (1.0 - s.z)
+            }
+            MirrorShape::Spherical { .. } => return None,
+        };
+        if let Some(rim) = self.rim_radius
+            && (lambda * s).truncate().length() > rim
+        {
+            return None;
+        }
+        let pixel = dvec2(
+            model.cx + model.gamma_x * s.x / (model.xi - s.z),
+            model.cy + model.gamma_y * s.y / (model.xi - s.z),
+        );
+        (pixel.distance(dvec2(self.cx, self.cy)) >= self.hidden_centre_px).then_some(pixel)
+    }
+}

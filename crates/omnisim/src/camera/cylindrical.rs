@@ -1,0 +1,52 @@
+use std::f64::consts::{PI, TAU};
+
+use glam::{DVec2, DVec3, dvec2, dvec3};
+
+use super::CameraRay;
+
+/// A 360° cylindrical panorama around the body z axis.
+///
+/// Columns as the equirectangular panorama: azimuth φ = π − 2π(u + ½)/W. Rows are uniform in
+/// height on a unit-radius cylinder: a ray at row v rises (cy − v)/fy per unit of horizontal
+/// distance, with fy = (H/2)/tan(vfov/2) and cy = (H − 1)/2, so the horizon is the middle row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cylindrical {
+    pub width: u32,
+    pub height: u32,
+    /// Vertical focal length, pixels per unit of tan(elevation).
+    pub fy: f64,
+    pub cy: f64,
+}
+
+impl Cylindrical {
+    /// `vfov`: total vertical field of view in radians (symmetric about the horizon).
+    pub fn with_vertical_fov(width: u32, height: u32, vfov: f64) -> Self {
+        Self {
+            width,
+            height,
+            fy: height as f64 / 2.0 / (vfov / 2.0).tan(),
+            cy: (height as f64 - 1.0) / 2.0,
+        }
+    }
+
+    pub fn ray(&self, pixel: DVec2) -> CameraRay {
+        let azimuth = PI - TAU * (pixel.x + 0.5) / self.width as f64;
+        let rise = (self.cy - pixel.y) / self.fy;
+        CameraRay {
+            origin: DVec3::ZERO,
+            direction: dvec3(azimuth.cos(), azimuth.sin(), rise).normalize(),
+            t_min: 0.0,
+        }
+    }
+
+    pub fn project(&self, point: DVec3) -> Option<DVec2> {
+        let horizontal = point.truncate().length();
+        (horizontal > 0.0).then(|| {
+            let azimuth = point.y.atan2(point.x);
+            dvec2(
+                (PI - azimuth) / TAU * self.width as f64 - 0.5,
+                self.cy - self.fy * point.z / horizontal,
+            )
+        })
+    }
+}

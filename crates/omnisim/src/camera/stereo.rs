@@ -1,0 +1,47 @@
+use glam::{DVec3, dvec3};
+
+use super::Pinhole;
+use crate::frame::Frame;
+
+/// Two identical pinholes side by side, looking along body +x: the left one at +B/2 on body
+/// y, the right one at −B/2. The pose is the rig's centre. Rectified by construction: the
+/// right camera is the left one moved by B along its own optical x (to the right).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StereoRig {
+    pub camera: Pinhole,
+    /// Distance between the optical centres, metres.
+    pub baseline: f64,
+}
+
+impl StereoRig {
+    /// (left, right) cameras with their optical centres placed in the body frame.
+    pub fn cameras(&self) -> [Pinhole; 2] {
+        let place = |y: f64| Pinhole {
+            position: dvec3(0.0, y, 0.0),
+            ..self.camera.clone()
+        };
+        [place(self.baseline / 2.0), place(-self.baseline / 2.0)]
+    }
+
+    /// Ground-truth disparity of the left image: u_left − u_right = fx·B/z, with z the depth of
+    /// each hit along the left camera's optical axis (body x); NaN where nothing is hit.
+    pub fn disparity(
+        &self,
+        left: &Frame,
+        world_from_body: glam::DMat3,
+        position: DVec3,
+    ) -> Vec<f32> {
+        let left_centre = position + world_from_body * self.cameras()[0].position;
+        let forward = world_from_body * DVec3::X;
+        left.pixels()
+            .iter()
+            .map(|p| {
+                if p.is_hit() {
+                    (self.camera.fx * self.baseline / forward.dot(p.point - left_centre)) as f32
+                } else {
+                    f32::NAN
+                }
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,65 @@
+// Catadioptric ray generation: the camera's ray to the mirror, reflected by the law of
+// reflection (or, for the paper's shortcut, taken from the viewpoint through the mirror point).
+// f64 twin and the frames: crates/omnisim/src/camera/catadioptric.rs. Everything here is in
+// the frame C: the mirror frame shifted (in f64, on the host) to the nominal camera, so the
+// quadric's coefficients carry no cancellation into f32.
+
+fn body_from_c(v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(v.x, camera.mount_sign * v.y, camera.mount_sign * v.z);
+}
+
+fn catadioptric_ray(pixel: vec2<f32>) -> CameraRay {
+    let centred = pixel - camera.principal;
+    if dot(centred, centred) < camera.hidden_centre_sq {
+        return miss_ray();
+    }
+    let offset = centred / camera.focal;
+    var origin = camera.camera_offset;
+    var d: vec3<f32>;
+    if camera.orthographic != 0u {
+        origin += camera.camera_tilt * vec3<f32>(offset, 0.0);
+        d = camera.camera_tilt * vec3<f32>(0.0, 0.0, 1.0);
+    } else {
+        d = normalize(camera.camera_tilt * vec3<f32>(offset, 1.0));
+    }
+    let qa = dot(camera.mirror_diag * d, d);
+    let qb = 2.0 * dot(camera.mirror_diag * origin, d) + dot(camera.mirror_linear, d);
+    let qc = dot(camera.mirror_diag * origin, origin) + dot(camera.mirror_linear, origin) + camera.mirror_constant;
+    var roots: array<f32, 2>;
+    if abs(qa) <= 1e-12 * (abs(qb) + abs(qc)) {
+        // Parallel to an asymptote or to a paraboloid's axis: the equation is linear.
+        roots = array<f32, 2>(-qc / qb, -1.0);
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc < 0.0 {
+            return miss_ray();
+        }
+        // Cancellation-free roots.
+        let q = -0.5 * (qb + select(-1.0, 1.0, qb >= 0.0) * sqrt(disc));
+        roots = array<f32, 2>(q / qa, qc / q);
+    }
+    var t = FAR;
+    for (var k = 0; k < 2; k++) {
+        let root = roots[k];
+        if root > 0.0 && root < t && origin.z + root * d.z > camera.mirror_min_z {
+            t = root;
+        }
+    }
+    if t == FAR {
+        return miss_ray();
+    }
+    let hit = origin + t * d;
+    if camera.rim_sq >= 0.0 && dot(hit.xy, hit.xy) > camera.rim_sq {
+        return miss_ray();
+    }
+    let normal = normalize(2.0 * camera.mirror_diag * hit + camera.mirror_linear);
+    let reflected = body_from_c(normalize(d - 2.0 * dot(d, normal) * normal));
+    let hit_body = body_from_c(hit) + camera.lens_origin;
+    if camera.shortcut != 0u {
+        return CameraRay(vec3<f32>(0.0), length(hit_body), normalize(hit_body), true);
+    }
+    if camera.central != 0u {
+        return CameraRay(vec3<f32>(0.0), length(hit_body), reflected, true);
+    }
+    return CameraRay(hit_body, 0.0, reflected, true);
+}
