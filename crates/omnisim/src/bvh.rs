@@ -29,14 +29,18 @@ pub struct SceneBvh {
 }
 
 impl SceneBvh {
+    /// Builds the BVH with the local origin at the centre of the scene's bounds.
     pub fn build(scene: &Scene) -> Self {
-        let triangles = scene.triangulate();
         let (lo, hi) = scene.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
-        Self::from_triangles(
-            &triangles,
-            (lo + hi) / 2.0,
-            scene.faces.iter().map(|f| f.colour).collect(),
-        )
+        Self::build_with_offset(scene, (lo + hi) / 2.0)
+    }
+
+    /// Builds the BVH with the local origin at `offset` (world metres). `build` picks the
+    /// scene's centre; other offsets exist to measure what that choice buys (docs/accuracy.md).
+    pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
+        let triangles = scene.triangulate();
+        let face_colours = scene.faces.iter().map(|f| f.colour).collect();
+        Self::from_triangles(&triangles, offset, face_colours)
     }
 
     fn from_triangles(triangles: &Triangles, offset: DVec3, face_colours: Vec<[u8; 3]>) -> Self {
