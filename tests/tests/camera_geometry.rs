@@ -16,21 +16,9 @@ use rand::{Rng, SeedableRng, rngs::StdRng};
 /// Eqs. (8)–(11) of the reference paper, row by row.
 fn paper_rotation(tx: f64, ty: f64, tz: f64) -> DMat3 {
     let rows = |r: [[f64; 3]; 3]| DMat3::from_cols_array_2d(&r).transpose();
-    let rx = rows([
-        [1.0, 0.0, 0.0],
-        [0.0, tx.cos(), -tx.sin()],
-        [0.0, tx.sin(), tx.cos()],
-    ]);
-    let ry = rows([
-        [ty.cos(), 0.0, ty.sin()],
-        [0.0, 1.0, 0.0],
-        [-ty.sin(), 0.0, ty.cos()],
-    ]);
-    let rz = rows([
-        [tz.cos(), -tz.sin(), 0.0],
-        [tz.sin(), tz.cos(), 0.0],
-        [0.0, 0.0, 1.0],
-    ]);
+    let rx = rows([[1.0, 0.0, 0.0], [0.0, tx.cos(), -tx.sin()], [0.0, tx.sin(), tx.cos()]]);
+    let ry = rows([[ty.cos(), 0.0, ty.sin()], [0.0, 1.0, 0.0], [-ty.sin(), 0.0, ty.cos()]]);
+    let rz = rows([[tz.cos(), -tz.sin(), 0.0], [tz.sin(), tz.cos(), 0.0], [0.0, 0.0, 1.0]]);
     rx * ry * rz
 }
 
@@ -68,8 +56,7 @@ fn pinhole_hits_project_back_to_their_pixels_by_k_r_t() {
         [pinhole.cx, pinhole.cy, 1.0],
     ]);
     // optical_from_body, rows: x_opt = −y_body, y_opt = −z_body, z_opt = x_body.
-    let optical_from_body =
-        DMat3::from_cols_array_2d(&[[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]);
+    let optical_from_body = DMat3::from_cols_array_2d(&[[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]);
     let mut rng = StdRng::seed_from_u64(2);
     let gpu = common::gpu_tracer(&bvh);
     for _ in 0..8 {
@@ -100,10 +87,7 @@ fn pinhole_hits_project_back_to_their_pixels_by_k_r_t() {
                     let pixel = frame.pixel(u, v);
                     assert!(pixel.is_hit(), "closed room: every pinhole pixel hits");
                     let error = (project(pixel.point) - dvec2(u as f64, v as f64)).length();
-                    assert!(
-                        error < tolerance,
-                        "pixel ({u},{v}) reprojects {error} px away"
-                    );
+                    assert!(error < tolerance, "pixel ({u},{v}) reprojects {error} px away");
                 }
             }
         }
@@ -149,10 +133,7 @@ fn turning_a_panorama_about_z_shifts_it_by_whole_columns() {
     let turned = cpu::render(
         &bvh,
         &camera,
-        &Pose::new(
-            position,
-            dvec3(0.0, 0.0, 2.0 * PI * shift as f64 / width as f64),
-        ),
+        &Pose::new(position, dvec3(0.0, 0.0, 2.0 * PI * shift as f64 / width as f64)),
     );
     let (mut same, mut total) = (0, 0);
     for v in 0..128 {
@@ -163,10 +144,7 @@ fn turning_a_panorama_about_z_shifts_it_by_whole_columns() {
             total += 1;
             if a.face == b.face {
                 same += 1;
-                assert!(
-                    (a.range - b.range).abs() <= 1e-6 * b.range,
-                    "range at ({u},{v})"
-                );
+                assert!((a.range - b.range).abs() <= 1e-6 * b.range, "range at ({u},{v})");
             }
         }
     }
@@ -185,10 +163,7 @@ fn mei_projection(m: &Catadioptric, s: DVec3) -> DVec2 {
     let xi = 2.0 * b * c / (b * b + c * c);
     let gamma = m.focal * a * a / (b * b + c * c);
     let s = s.normalize();
-    dvec2(
-        m.cx + gamma * s.x / (xi - s.z),
-        m.cy + gamma * s.y / (xi - s.z),
-    )
+    dvec2(m.cx + gamma * s.x / (xi - s.z), m.cy + gamma * s.y / (xi - s.z))
 }
 
 #[test]

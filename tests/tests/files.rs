@@ -79,10 +79,7 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
         .as_ref()
         .map(|t| t.to_string())
         .unwrap_or_default();
-    assert!(
-        comments.contains("metres") && comments.contains("+inf"),
-        "{comments}"
-    );
+    assert!(comments.contains("metres") && comments.contains("+inf"), "{comments}");
     let channel = &layer.channel_data.list[0];
     assert_eq!(channel.name.to_string(), output::RANGE_CHANNEL);
     let values: Vec<f32> = channel.sample_data.values_as_f32().collect();
@@ -100,14 +97,9 @@ fn ply_point_cloud_reads_back_point_for_point() {
     let path = dir.path().join("cloud.ply");
     output::write_point_cloud_ply(&path, &frame, "test").unwrap();
     let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut std::io::BufReader::new(
-            std::fs::File::open(&path).unwrap(),
-        ))
+        .read_ply(&mut std::io::BufReader::new(std::fs::File::open(&path).unwrap()))
         .unwrap();
-    assert_eq!(
-        ply.header.encoding,
-        ply_rs_bw::ply::Encoding::BinaryLittleEndian
-    );
+    assert_eq!(ply.header.encoding, ply_rs_bw::ply::Encoding::BinaryLittleEndian);
     let vertices = &ply.payload["vertex"];
     let hits: Vec<_> = frame.pixels().iter().filter(|p| p.is_hit()).collect();
     assert_eq!(vertices.len(), hits.len());
@@ -116,11 +108,7 @@ fn ply_point_cloud_reads_back_point_for_point() {
         assert_eq!(float(&vertex["y"]), pixel.point.y as f32);
         assert_eq!(float(&vertex["z"]), pixel.point.z as f32);
         assert_eq!(
-            [
-                uchar(&vertex["red"]),
-                uchar(&vertex["green"]),
-                uchar(&vertex["blue"])
-            ],
+            [uchar(&vertex["red"]), uchar(&vertex["green"]), uchar(&vertex["blue"])],
             pixel.colour
         );
     }
@@ -135,9 +123,7 @@ fn exported_scene_has_every_triangle_and_colour() {
     let ply_path = dir.path().join("env2.ply");
     scene.export(&ply_path, ExportFormat::Ply).unwrap();
     let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut std::io::BufReader::new(
-            std::fs::File::open(&ply_path).unwrap(),
-        ))
+        .read_ply(&mut std::io::BufReader::new(std::fs::File::open(&ply_path).unwrap()))
         .unwrap();
     let vertices = &ply.payload["vertex"];
     assert_eq!(ply.payload["face"].len(), triangles.len());

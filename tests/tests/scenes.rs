@@ -19,11 +19,7 @@ fn shipped_rooms_load_with_distinct_objects() {
         assert!(scene.objects.len() >= 12, "{room}");
         assert!(scene.warnings.is_empty());
         let colours: std::collections::HashSet<_> = scene.faces.iter().map(|f| f.colour).collect();
-        assert!(
-            colours.len() >= 12,
-            "{room} has only {} colours",
-            colours.len()
-        );
+        assert!(colours.len() >= 12, "{room} has only {} colours", colours.len());
     }
 }
 
@@ -39,16 +35,10 @@ fn box_becomes_six_faces_at_its_pose() {
     assert_eq!(scene.faces.len(), 6);
     let (lo, hi) = scene.bounds().unwrap();
     // Turned 90° about z: l1 = 2 now runs along y.
-    assert!(
-        (lo - dvec3(0.5, -1.0, 0.0)).length() < 1e-12
-            && (hi - dvec3(1.5, 1.0, 0.5)).length() < 1e-12
-    );
+    assert!((lo - dvec3(0.5, -1.0, 0.0)).length() < 1e-12 && (hi - dvec3(1.5, 1.0, 0.5)).length() < 1e-12);
     let top = scene.faces.iter().find(|f| f.colour == [9, 9, 9]).unwrap();
     assert!(top.vertices.iter().all(|v| (v.z - 0.5).abs() < 1e-12));
-    assert_eq!(
-        scene.faces.iter().filter(|f| f.colour == [1, 2, 3]).count(),
-        5
-    );
+    assert_eq!(scene.faces.iter().filter(|f| f.colour == [1, 2, 3]).count(), 5);
 }
 
 #[test]
@@ -62,11 +52,7 @@ fn meshes_load_from_ply_and_obj_with_colours_and_transform() {
          0 0 0 10 20 30\n1 0 0 10 20 30\n1 1 0 10 20 30\n0 1 0 10 20 30\n4 0 1 2 3\n",
     )
     .unwrap();
-    std::fs::write(
-        dir.path().join("tri.obj"),
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
-    )
-    .unwrap();
+    std::fs::write(dir.path().join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     let path = dir.path().join("scene.ron");
     std::fs::write(
         &path,
@@ -79,12 +65,7 @@ fn meshes_load_from_ply_and_obj_with_colours_and_transform() {
     let scene = Scene::load(&path).unwrap();
     assert_eq!(scene.faces.len(), 3);
     assert_eq!(scene.faces[0].colour, [10, 20, 30]);
-    assert!(
-        scene.faces[0]
-            .vertices
-            .iter()
-            .all(|v| v.z == 1.0 && v.x <= 2.0)
-    );
+    assert!(scene.faces[0].vertices.iter().all(|v| v.z == 1.0 && v.x <= 2.0));
     assert_eq!(scene.faces[2].colour, [5, 6, 7]);
     // Rx(90°) takes the OBJ's +y corner to +z.
     assert!((scene.faces[2].vertices[2] - dvec3(0.0, 0.0, 1.0)).length() < 1e-12);
@@ -128,10 +109,7 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
     let bent = error_of(
         "Scene(name: \"t\", objects: [\n  Polygon(name: \"bent\", vertices: [(0.0,0.0,0.0),(1.0,0.0,0.0),(1.0,1.0,0.0),(0.0,1.0,0.1)], colour: (1,1,1)),\n])",
     );
-    assert!(
-        bent.contains("object 'bent'") && bent.contains("not planar"),
-        "{bent}"
-    );
+    assert!(bent.contains("object 'bent'") && bent.contains("not planar"), "{bent}");
 
     let colour = error_of(
         "Scene(name: \"t\", objects: [\n  Floor(name: \"f\", corners: [(0.0,0.0),(1.0,0.0),(1.0,1.0)], colour: (300,1,1)),\n])",
@@ -142,9 +120,7 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
         "Scene(name: \"t\", objects: [\n  Mesh(name: \"statue\", path: \"missing.ply\", colour: (1,1,1)),\n])",
     );
     assert!(
-        mesh.contains("test.ron:2: object 'statue'")
-            && mesh.contains("missing.ply")
-            && mesh.contains("not found"),
+        mesh.contains("test.ron:2: object 'statue'") && mesh.contains("missing.ply") && mesh.contains("not found"),
         "{mesh}"
     );
 

@@ -12,18 +12,10 @@ fn module() -> naga::Module {
 #[test]
 fn every_shader_file_is_valid_wgsl() {
     let module = module();
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::empty(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&shader::source())));
-    assert!(
-        module
-            .entry_points
-            .iter()
-            .any(|e| e.name == shader::ENTRY_POINT)
-    );
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&shader::source())));
+    assert!(module.entry_points.iter().any(|e| e.name == shader::ENTRY_POINT));
     assert_eq!(
         shader::FILES.len(),
         std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders"))

@@ -33,31 +33,20 @@ fn random_poses(scene: &omnisim::Scene, count: usize, seed: u64) -> Vec<Pose> {
 
 #[test]
 fn no_ray_escapes_a_closed_room() {
-    let camera = Camera::Equirectangular(Equirectangular {
-        width: 96,
-        height: 48,
-    });
+    let camera = Camera::Equirectangular(Equirectangular { width: 96, height: 48 });
     for (seed, room) in common::ROOMS.iter().enumerate() {
         let scene = common::load(room);
         let bvh = SceneBvh::build(&scene);
         for pose in random_poses(&scene, 200, seed as u64) {
             let frame = cpu::render(&bvh, &camera, &pose);
-            assert_eq!(
-                frame.hit_count(),
-                96 * 48,
-                "{room}: rays escaped at {pose:?}"
-            );
+            assert_eq!(frame.hit_count(), 96 * 48, "{room}: rays escaped at {pose:?}");
         }
         let Some(gpu) = common::gpu_tracer(&bvh) else {
             continue;
         };
         for pose in random_poses(&scene, 20, 100 + seed as u64) {
             let frame = gpu.render(&camera, &pose).unwrap();
-            assert_eq!(
-                frame.hit_count(),
-                96 * 48,
-                "{room}: GPU rays escaped at {pose:?}"
-            );
+            assert_eq!(frame.hit_count(), 96 * 48, "{room}: GPU rays escaped at {pose:?}");
         }
     }
 }

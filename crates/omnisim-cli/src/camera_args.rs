@@ -124,9 +124,7 @@ fn parse_elevation(text: &str) -> Result<MaxElevation, String> {
         .ok()
         .filter(|d| d.is_finite() && *d > -90.0 && *d < 90.0)
         .map(|d| MaxElevation(Some(d)))
-        .ok_or_else(|| {
-            format!("'{text}' is not an elevation in degrees between -90 and 90, or 'none'")
-        })
+        .ok_or_else(|| format!("'{text}' is not an elevation in degrees between -90 and 90, or 'none'"))
 }
 
 fn parse_vector(text: &str) -> Result<DVec3, String> {
@@ -145,12 +143,7 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let (w, h) = text
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("'{text}' is not WIDTHxHEIGHT, e.g. 640x480"))?;
-    let parse = |s: &str| {
-        s.trim()
-            .parse::<u32>()
-            .ok()
-            .filter(|&n| (1..=32768).contains(&n))
-    };
+    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&n| (1..=32768).contains(&n));
     match (parse(w), parse(h)) {
         (Some(w), Some(h)) => Ok((w, h)),
         _ => Err(format!(
@@ -247,9 +240,7 @@ impl CameraArgs {
                 let elevation = match (elevation, self.rim) {
                     (Some(e), _) => e,
                     (None, Some(_)) => 0.0,
-                    (None, None) => bail!(
-                        "a paraboloid has no asymptote: give --max-elevation in degrees or --rim"
-                    ),
+                    (None, None) => bail!("a paraboloid has no asymptote: give --max-elevation in degrees or --rim"),
                 };
                 let mut camera = Catadioptric::parabolic(w, h, a, height, elevation);
                 if let Some(b) = self.mirror_b {

@@ -9,10 +9,7 @@ use omnisim::Pose;
 
 /// Parses `x,y,z,θx,θy,θz` (commas or spaces; angles in degrees; missing angles are 0).
 pub fn parse_pose(text: &str) -> Result<Pose, String> {
-    let fields: Vec<&str> = text
-        .split([',', ' ', '\t'])
-        .filter(|f| !f.is_empty())
-        .collect();
+    let fields: Vec<&str> = text.split([',', ' ', '\t']).filter(|f| !f.is_empty()).collect();
     if fields.len() != 3 && fields.len() != 6 {
         return Err(format!(
             "'{text}' has {} numbers; a pose is x,y,z (metres) optionally followed by θx,θy,θz (degrees)",
@@ -35,16 +32,14 @@ pub fn parse_pose(text: &str) -> Result<Pose, String> {
 
 /// Reads a pose file: one pose per line as for `--pose`; `#` starts a comment.
 pub fn read_pose_file(path: &Path) -> anyhow::Result<Vec<Pose>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read pose file {}", path.display()))?;
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read pose file {}", path.display()))?;
     let mut poses = Vec::new();
     for (number, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();
         if line.is_empty() {
             continue;
         }
-        let pose = parse_pose(line)
-            .map_err(|e| anyhow::anyhow!("{}:{}: {e}", path.display(), number + 1))?;
+        let pose = parse_pose(line).map_err(|e| anyhow::anyhow!("{}:{}: {e}", path.display(), number + 1))?;
         poses.push(pose);
     }
     if poses.is_empty() {

@@ -72,22 +72,16 @@ fn render_writes_image_range_cloud_poses_and_metadata() {
         .split(' ')
         .map(|v| v.parse().unwrap())
         .collect();
-    assert!(
-        (first[6] - 30f64.to_radians().sin()).abs() < 1e-12
-            && (first[7] - 30f64.to_radians().cos()).abs() < 1e-12
-    );
+    assert!((first[6] - 30f64.to_radians().sin()).abs() < 1e-12 && (first[7] - 30f64.to_radians().cos()).abs() < 1e-12);
     let metadata: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out_dir.join("render.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("render.json")).unwrap()).unwrap();
     assert_eq!(metadata["camera"]["model"], "hyperbolic-catadioptric");
     assert_eq!(metadata["frames"].as_array().unwrap().len(), 2);
     // No partial files remain.
     assert!(
-        std::fs::read_dir(&out_dir).unwrap().all(|e| !e
+        std::fs::read_dir(&out_dir)
             .unwrap()
-            .file_name()
-            .to_string_lossy()
-            .contains("partial"))
+            .all(|e| !e.unwrap().file_name().to_string_lossy().contains("partial"))
     );
 }
 
@@ -184,14 +178,7 @@ fn bad_options_are_explained() {
     assert!(!no_pose.status.success() && text(&no_pose.stderr).contains("--pose"));
     let bad_pose = omnisim(&["render", "scenes/env1.ron", "--pose", "1,2"]);
     assert!(!bad_pose.status.success() && text(&bad_pose.stderr).contains("x,y,z"));
-    let too_high = omnisim(&[
-        "render",
-        "scenes/env1.ron",
-        "--pose",
-        "0,0,0",
-        "--max-elevation",
-        "80",
-    ]);
+    let too_high = omnisim(&["render", "scenes/env1.ron", "--pose", "0,0,0", "--max-elevation", "80"]);
     assert!(
         !too_high.status.success() && text(&too_high.stderr).contains("asin(b/c)"),
         "{}",

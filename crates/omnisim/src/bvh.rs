@@ -44,11 +44,7 @@ impl SceneBvh {
     }
 
     fn from_triangles(triangles: &Triangles, offset: DVec3, face_colours: Vec<[u8; 3]>) -> Self {
-        let local: Vec<[DVec3; 3]> = triangles
-            .corners
-            .iter()
-            .map(|t| t.map(|p| p - offset))
-            .collect();
+        let local: Vec<[DVec3; 3]> = triangles.corners.iter().map(|t| t.map(|p| p - offset)).collect();
         let boxes: Vec<Aabb> = local.iter().map(padded_aabb).collect();
         let start = Instant::now();
         let mut core_time = Duration::ZERO;
@@ -95,8 +91,5 @@ fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
     let lo = corners[0].min(corners[1]).min(corners[2]);
     let hi = corners[0].max(corners[1]).max(corners[2]);
     let pad = 1e-5 * (1.0 + lo.abs().max(hi.abs()).max_element());
-    Aabb::new(
-        Vec3A::from((lo - pad).as_vec3()),
-        Vec3A::from((hi + pad).as_vec3()),
-    )
+    Aabb::new(Vec3A::from((lo - pad).as_vec3()), Vec3A::from((hi + pad).as_vec3()))
 }

@@ -33,11 +33,7 @@ pub fn opencv_pinhole(camera: &Pinhole) -> String {
             # top-left pixel's centre; optical frame x right, y down, z forward. Ideal lens: no distortion.\n\
             # body_from_camera: rotation taking optical-frame vectors to the robot body frame (x forward,\n\
             # y left, z up); camera_position_in_body in metres.\n";
-    let _ = writeln!(
-        out,
-        "image_width: {}\nimage_height: {}",
-        camera.width, camera.height
-    );
+    let _ = writeln!(out, "image_width: {}\nimage_height: {}", camera.width, camera.height);
     out += &opencv_matrix(
         "camera_matrix",
         3,
@@ -72,13 +68,7 @@ pub fn opencv_stereo(rig: &StereoRig) -> String {
     out
 }
 
-fn kalibr_camera(
-    out: &mut String,
-    index: usize,
-    model: &str,
-    intrinsics: &[f64],
-    size: (u32, u32),
-) {
+fn kalibr_camera(out: &mut String, index: usize, model: &str, intrinsics: &[f64], size: (u32, u32)) {
     let values: Vec<String> = intrinsics.iter().map(|v| format!("{v:?}")).collect();
     let _ = write!(
         out,
@@ -92,30 +82,16 @@ fn kalibr_camera(
 
 /// Kalibr camchain of a pinhole (one camera) or a stereo rig (two, with T_cn_cnm1).
 pub fn kalibr_pinhole(camera: &Pinhole, stereo_baseline: Option<f64>) -> String {
-    let mut out = String::from(
-        "# omnisim camchain (Kalibr). Pixel centres at integer coordinates; metres.\ncam0:\n",
-    );
+    let mut out = String::from("# omnisim camchain (Kalibr). Pixel centres at integer coordinates; metres.\ncam0:\n");
     let intrinsics = [camera.fx, camera.fy, camera.cx, camera.cy];
-    kalibr_camera(
-        &mut out,
-        0,
-        "pinhole",
-        &intrinsics,
-        (camera.width, camera.height),
-    );
+    kalibr_camera(&mut out, 0, "pinhole", &intrinsics, (camera.width, camera.height));
     if let Some(baseline) = stereo_baseline {
         let _ = write!(
             out,
             "cam1:\n  T_cn_cnm1:\n  - [1.0, 0.0, 0.0, {:?}]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n  - [0.0, 0.0, 0.0, 1.0]\n",
             -baseline
         );
-        kalibr_camera(
-            &mut out,
-            1,
-            "pinhole",
-            &intrinsics,
-            (camera.width, camera.height),
-        );
+        kalibr_camera(&mut out, 1, "pinhole", &intrinsics, (camera.width, camera.height));
     }
     out
 }
@@ -135,11 +111,7 @@ pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
     let mut out = String::from(HEADER);
     out += "# omnisim catadioptric camera as Mei's unified model (exact for this aligned central mirror).\n";
     out += OMNI_FRAME_NOTE;
-    let _ = writeln!(
-        out,
-        "image_width: {}\nimage_height: {}",
-        camera.width, camera.height
-    );
+    let _ = writeln!(out, "image_width: {}\nimage_height: {}", camera.width, camera.height);
     out += &opencv_matrix(
         "camera_matrix",
         3,

@@ -94,11 +94,6 @@ pub fn render(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
                 }
             }
         });
-    debug_assert!(
-        frame
-            .pixels()
-            .iter()
-            .all(|p| p.face == NO_FACE || p.range.is_finite())
-    );
+    debug_assert!(frame.pixels().iter().all(|p| p.face == NO_FACE || p.range.is_finite()));
     frame
 }

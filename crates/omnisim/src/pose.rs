@@ -7,9 +7,7 @@ use glam::{DMat3, DMat4, DQuat, DVec3};
 
 /// `Rx(θx)·Ry(θy)·Rz(θz)` of the reference paper (eqs. 8–11), angles in radians.
 pub fn rotation_xyz(angles: DVec3) -> DMat3 {
-    DMat3::from_rotation_x(angles.x)
-        * DMat3::from_rotation_y(angles.y)
-        * DMat3::from_rotation_z(angles.z)
+    DMat3::from_rotation_x(angles.x) * DMat3::from_rotation_y(angles.y) * DMat3::from_rotation_z(angles.z)
 }
 
 /// A 6-DoF pose of the camera viewpoint (optical centre, or effective viewpoint F' of a

@@ -42,10 +42,7 @@ impl Renderer {
         let bvh = SceneBvh::build(scene);
         let (backend, reason) = match choice {
             BackendChoice::Cpu => (Backend::Cpu, "the CPU backend was requested".to_string()),
-            BackendChoice::Gpu => (
-                Self::open_gpu(&bvh)?,
-                "the GPU backend was requested".to_string(),
-            ),
+            BackendChoice::Gpu => (Self::open_gpu(&bvh)?, "the GPU backend was requested".to_string()),
             BackendChoice::Auto => match Self::open_gpu(&bvh) {
                 Ok(gpu) => (gpu, "auto: a GPU adapter was found".to_string()),
                 Err(e) => (
@@ -54,18 +51,11 @@ impl Renderer {
                 ),
             },
         };
-        Ok(Self {
-            bvh,
-            backend,
-            reason,
-        })
+        Ok(Self { bvh, backend, reason })
     }
 
     fn open_gpu(bvh: &SceneBvh) -> Result<Backend, GpuError> {
-        Ok(Backend::Gpu(Box::new(GpuTracer::new(
-            GpuContext::new()?,
-            bvh,
-        )?)))
+        Ok(Backend::Gpu(Box::new(GpuTracer::new(GpuContext::new()?, bvh)?)))
     }
 
     pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {

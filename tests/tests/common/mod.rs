@@ -3,14 +3,14 @@
 
 use std::path::PathBuf;
 
+use glam::dvec3;
 use omnisim::bvh::SceneBvh;
+use omnisim::camera::{MirrorShape, Misalignment, Mount};
 use omnisim::gpu::{GpuContext, GpuTracer};
-use omnisim::{Camera, Catadioptric, Equirectangular, Pinhole, Scene};
+use omnisim::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole, Scene, StereoRig};
 
 pub fn scene_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../scenes")
-        .join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name)
 }
 
 pub fn load(name: &str) -> Scene {
@@ -19,22 +19,64 @@ pub fn load(name: &str) -> Scene {
 
 pub const ROOMS: [&str; 2] = ["env1.ron", "env2.ron"];
 
-/// One camera of each model, at test-friendly sizes.
+/// The paper's hyperbolic omni camera with the default 20° rim.
+pub fn paper_omni() -> Catadioptric {
+    Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))
+}
+
+/// One camera of each model and option, at test-friendly sizes.
 pub fn cameras() -> Vec<Camera> {
+    let pinhole = Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians());
+    let stereo_right = StereoRig {
+        camera: pinhole.clone(),
+        baseline: 0.12,
+    }
+    .cameras()[1]
+        .clone();
+    let mut misaligned = paper_omni();
+    misaligned.misalignment = Misalignment {
+        offset: dvec3(0.002, -0.001, 0.003),
+        tilt: dvec3(0.01, -0.02, 0.3),
+    };
+    let mut turned_over = paper_omni();
+    turned_over.mount = Mount::Down;
+    turned_over.hidden_centre_px = 20.0;
+    let mut elliptic = Catadioptric::parabolic(250, 250, 0.04, 0.02, 20f64.to_radians());
+    elliptic.mirror = MirrorShape::Parabolic {
+        a: 0.04,
+        b: 0.05,
+        h: 0.02,
+    };
     vec![
-        Camera::Pinhole(Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians())),
+        Camera::Pinhole(pinhole),
+        Camera::Pinhole(stereo_right),
         Camera::Equirectangular(Equirectangular {
             width: 512,
             height: 256,
         }),
-        Camera::Catadioptric(Catadioptric::hyperbolic(
-            250,
-            250,
-            0.04,
-            0.16,
-            Some(20f64.to_radians()),
-        )),
+        Camera::Cylindrical(Cylindrical::with_vertical_fov(512, 128, 100f64.to_radians())),
+        Camera::Catadioptric(paper_omni()),
+        Camera::Catadioptric(misaligned),
+        Camera::Catadioptric(turned_over),
+        Camera::Catadioptric(Catadioptric::parabolic(250, 250, 0.04, 0.02, 20f64.to_radians())),
+        Camera::Catadioptric(elliptic),
+        Camera::Catadioptric(Catadioptric::spherical(250, 250, 0.05, 0.25)),
     ]
+}
+
+/// Human-readable name of a camera from `cameras()`, for messages.
+pub fn describe(camera: &Camera) -> String {
+    match camera {
+        Camera::Pinhole(p) => format!("pinhole at {}", p.position),
+        Camera::Catadioptric(c) => format!(
+            "{:?} mount {:?} central {} hidden {}",
+            c.mirror,
+            c.mount,
+            c.is_central(),
+            c.hidden_centre_px
+        ),
+        other => other.model_name().to_string(),
+    }
 }
 
 /// A GPU tracer for `bvh`, or `None` after a loud message when no adapter exists and CI is

@@ -130,8 +130,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             frames.push(frame);
         }
         if let Rig::Stereo(stereo) = &rig {
-            let disparity =
-                stereo.disparity(&frames[0], pose.world_from_body_rotation(), pose.position);
+            let disparity = stereo.disparity(&frames[0], pose.world_from_body_rotation(), pose.position);
             let path = path_with_suffix(&stem, "-disparity.exr");
             output::write_disparity_exr(&path, (frames[0].width, frames[0].height), disparity)?;
             written.push(path);
@@ -191,20 +190,13 @@ fn views(rig: &Rig) -> Vec<(&'static str, Camera)> {
         Rig::Single(camera) => vec![("", camera.clone())],
         Rig::Stereo(stereo) => {
             let [left, right] = stereo.cameras();
-            vec![
-                ("-left", Camera::Pinhole(left)),
-                ("-right", Camera::Pinhole(right)),
-            ]
+            vec![("-left", Camera::Pinhole(left)), ("-right", Camera::Pinhole(right))]
         }
     }
 }
 
 /// Calibration in the formats robotics tools read, and a ray map per view; returns the paths.
-fn write_calibration(
-    out: &Path,
-    rig: &Rig,
-    views: &[(&'static str, Camera)],
-) -> anyhow::Result<Vec<PathBuf>> {
+fn write_calibration(out: &Path, rig: &Rig, views: &[(&'static str, Camera)]) -> anyhow::Result<Vec<PathBuf>> {
     let mut files: Vec<(PathBuf, String)> = Vec::new();
     match rig {
         Rig::Single(Camera::Pinhole(pinhole)) => {
@@ -228,10 +220,9 @@ fn write_calibration(
             ));
         }
         Rig::Single(Camera::Catadioptric(mirror)) => {
-            if let (Some(omnidir), Some(kalibr)) = (
-                calibration::opencv_omnidir(mirror),
-                calibration::kalibr_omni(mirror),
-            ) {
+            if let (Some(omnidir), Some(kalibr)) =
+                (calibration::opencv_omnidir(mirror), calibration::kalibr_omni(mirror))
+            {
                 files.push((out.join("calibration-opencv-omnidir.yaml"), omnidir));
                 files.push((out.join("calibration-kalibr.yaml"), kalibr));
             }
@@ -240,10 +231,8 @@ fn write_calibration(
     }
     let mut written = Vec::new();
     for (path, text) in files {
-        write_atomically(&path, |file| {
-            std::io::Write::write_all(file, text.as_bytes())
-        })
-        .with_context(|| format!("cannot write {}", path.display()))?;
+        write_atomically(&path, |file| std::io::Write::write_all(file, text.as_bytes()))
+            .with_context(|| format!("cannot write {}", path.display()))?;
         written.push(path);
     }
     for (suffix, camera) in views {
@@ -262,15 +251,13 @@ fn path_with_suffix(stem: &Path, suffix: &str) -> PathBuf {
 
 fn describe_pose(pose: &Pose) -> String {
     let (t, a) = (pose.position, pose.angles_degrees());
-    format!(
-        "x={} y={} z={} m, θx={} θy={} θz={} deg",
-        t.x, t.y, t.z, a.x, a.y, a.z
-    )
+    format!("x={} y={} z={} m, θx={} θy={} θz={} deg", t.x, t.y, t.z, a.x, a.y, a.z)
 }
 
 fn camera_json(camera: &Camera) -> serde_json::Value {
     let (width, height) = camera.size();
-    let mut value = json!({ "model": camera.model_name(), "width": width, "height": height, "central": camera.is_central() });
+    let mut value =
+        json!({ "model": camera.model_name(), "width": width, "height": height, "central": camera.is_central() });
     let extra = match camera {
         Camera::Pinhole(c) => json!({
             "fx": c.fx, "fy": c.fy, "cx": c.cx, "cy": c.cy, "position_in_body": c.position.to_array(),
@@ -322,13 +309,7 @@ fn camera_json(camera: &Camera) -> serde_json::Value {
     value
 }
 
-fn metadata(
-    scene: &Scene,
-    scene_path: &Path,
-    rig: &Rig,
-    poses: &[Pose],
-    renderer: &Renderer,
-) -> serde_json::Value {
+fn metadata(scene: &Scene, scene_path: &Path, rig: &Rig, poses: &[Pose], renderer: &Renderer) -> serde_json::Value {
     let camera = match rig {
         Rig::Single(camera) => camera_json(camera),
         Rig::Stereo(stereo) => {

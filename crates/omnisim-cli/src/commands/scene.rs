@@ -44,11 +44,7 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
                 lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
             );
             for (index, object) in scene.objects.iter().enumerate() {
-                let faces = scene
-                    .faces
-                    .iter()
-                    .filter(|f| f.object as usize == index)
-                    .count();
+                let faces = scene.faces.iter().filter(|f| f.object as usize == index).count();
                 println!("  {:<8} {:<24} {faces} faces", object.kind, object.name);
             }
         }

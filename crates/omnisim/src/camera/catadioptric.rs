@@ -173,12 +173,7 @@ impl Catadioptric {
     /// the mirror reaches its asymptote (elevation asin(b/c), pixel radius f·a/b).
     pub fn hyperbolic(width: u32, height: u32, a: f64, b: f64, max_elevation: Option<f64>) -> Self {
         let radius = Self::image_radius(width, height);
-        let mut camera = Self::new(
-            width,
-            height,
-            MirrorShape::Hyperbolic { a, b },
-            radius * b / a,
-        );
+        let mut camera = Self::new(width, height, MirrorShape::Hyperbolic { a, b }, radius * b / a);
         if let Some(elevation) = max_elevation {
             let (sin, cos) = elevation.sin_cos();
             let c = a.hypot(b);
@@ -331,9 +326,7 @@ impl Catadioptric {
         match self.mirror {
             MirrorShape::Hyperbolic { .. } => dvec3(0.0, 0.0, -self.c()),
             MirrorShape::Parabolic { a, b, .. } => dvec3(0.0, 0.0, -2.0 * a.max(b)),
-            MirrorShape::Spherical {
-                camera_distance, ..
-            } => dvec3(0.0, 0.0, -camera_distance),
+            MirrorShape::Spherical { camera_distance, .. } => dvec3(0.0, 0.0, -camera_distance),
         }
     }
 

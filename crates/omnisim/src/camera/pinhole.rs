@@ -40,11 +40,7 @@ impl Pinhole {
     }
 
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
-        let optical = dvec3(
-            (pixel.x - self.cx) / self.fx,
-            (pixel.y - self.cy) / self.fy,
-            1.0,
-        );
+        let optical = dvec3((pixel.x - self.cx) / self.fx, (pixel.y - self.cy) / self.fy, 1.0);
         CameraRay {
             origin: self.position,
             direction: (BODY_FROM_OPTICAL * optical).normalize(),

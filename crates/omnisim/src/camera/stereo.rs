@@ -25,12 +25,7 @@ impl StereoRig {
 
     /// Ground-truth disparity of the left image: u_left − u_right = fx·B/z, with z the depth of
     /// each hit along the left camera's optical axis (body x); NaN where nothing is hit.
-    pub fn disparity(
-        &self,
-        left: &Frame,
-        world_from_body: glam::DMat3,
-        position: DVec3,
-    ) -> Vec<f32> {
+    pub fn disparity(&self, left: &Frame, world_from_body: glam::DMat3, position: DVec3) -> Vec<f32> {
         let left_centre = position + world_from_body * self.cameras()[0].position;
         let forward = world_from_body * DVec3::X;
         left.pixels()

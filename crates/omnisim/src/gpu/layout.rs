@@ -86,10 +86,7 @@ pub fn host_layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> 
                 ("mount_sign", offset_of!(CameraParams, mount_sign)),
                 ("camera_offset", offset_of!(CameraParams, camera_offset)),
                 ("rim_sq", offset_of!(CameraParams, rim_sq)),
-                (
-                    "hidden_centre_sq",
-                    offset_of!(CameraParams, hidden_centre_sq),
-                ),
+                ("hidden_centre_sq", offset_of!(CameraParams, hidden_centre_sq)),
                 ("orthographic", offset_of!(CameraParams, orthographic)),
                 ("central", offset_of!(CameraParams, central)),
                 ("shortcut", offset_of!(CameraParams, shortcut)),

@@ -2,10 +2,7 @@
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
 pub const FILES: [(&str, &str); 7] = [
-    (
-        "common.wgsl",
-        include_str!("../../../../shaders/common.wgsl"),
-    ),
+    ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     (
         "camera_pinhole.wgsl",
         include_str!("../../../../shaders/camera_pinhole.wgsl"),

@@ -86,13 +86,11 @@ impl GpuTracer {
     pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, GpuError> {
         let (width, height) = camera.size();
         let row_bytes = width as u64 * std::mem::size_of::<PixelHit>() as u64;
-        let max_binding = (self.context.limits.max_storage_buffer_binding_size as u64)
-            .min(self.context.limits.max_buffer_size);
-        let max_rows_by_dispatch = self.context.limits.max_compute_workgroups_per_dimension as u64
-            * shader::WORKGROUP_SIZE as u64;
-        let band_rows = (max_binding / row_bytes)
-            .min(max_rows_by_dispatch)
-            .min(height as u64) as u32;
+        let max_binding =
+            (self.context.limits.max_storage_buffer_binding_size as u64).min(self.context.limits.max_buffer_size);
+        let max_rows_by_dispatch =
+            self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE as u64;
+        let band_rows = (max_binding / row_bytes).min(max_rows_by_dispatch).min(height as u64) as u32;
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
@@ -168,10 +166,7 @@ impl GpuTracer {
             self.context.queue.submit([encoder.finish()]);
             let hits = self.read(&readback, bytes)?;
             let start = row as usize * width as usize;
-            for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()]
-                .iter_mut()
-                .zip(&hits)
-            {
+            for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()].iter_mut().zip(&hits) {
                 if hit.face != NO_FACE {
                     let [r, g, b, _] = hit.colour.to_le_bytes();
                     *pixel = Pixel {
@@ -259,8 +254,7 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
             let quadric = c.quadric().shifted(nominal);
             params.focal = [c.focal as f32, c.focal as f32];
             params.principal = [c.cx as f32, c.cy as f32];
-            params.lens_origin =
-                vector(c.body_from_mirror() * (nominal - c.body_origin_in_mirror()));
+            params.lens_origin = vector(c.body_from_mirror() * (nominal - c.body_origin_in_mirror()));
             params.mirror_min_z = quadric.min_z.max(-3.0e38) as f32;
             params.camera_tilt = columns(rotation_xyz(c.misalignment.tilt));
             params.mirror_diag = vector(quadric.diag);

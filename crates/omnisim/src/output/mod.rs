@@ -40,12 +40,7 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     let bytes: Vec<u8> = frame.pixels().iter().flat_map(|p| p.colour).collect();
     write_atomically(path, |out| {
         image::codecs::png::PngEncoder::new(out)
-            .write_image(
-                &bytes,
-                frame.width,
-                frame.height,
-                image::ExtendedColorType::Rgb8,
-            )
+            .write_image(&bytes, frame.width, frame.height, image::ExtendedColorType::Rgb8)
             .map_err(std::io::Error::other)
     })
     .map_err(failed(path))
@@ -64,11 +59,7 @@ pub fn write_range_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
 }
 
 /// Single-channel f32 EXR named `disparity` (pixels, u_left − u_right), NaN where no hit.
-pub fn write_disparity_exr(
-    path: &Path,
-    size: (u32, u32),
-    disparity: Vec<f32>,
-) -> Result<(), OutputError> {
+pub fn write_disparity_exr(path: &Path, size: (u32, u32), disparity: Vec<f32>) -> Result<(), OutputError> {
     let convention = "disparity of the left image in pixels: u_left - u_right = fx*baseline/z, z = depth along \
                       the optical axis; NaN where nothing is hit";
     write_channel_exr(path, size, "disparity", convention, disparity)

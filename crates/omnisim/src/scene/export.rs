@@ -58,13 +58,23 @@ pub(super) fn export(scene: &Scene, path: &Path, format: ExportFormat) -> Result
                 }
             }
             ExportFormat::Obj => {
-                writeln!(out, "# omnisim scene '{}', metres, z up; v x y z r g b (colours 0-1)", scene.name)?;
+                writeln!(
+                    out,
+                    "# omnisim scene '{}', metres, z up; v x y z r g b (colours 0-1)",
+                    scene.name
+                )?;
                 let mut current_object = u32::MAX;
                 for (i, (corners, face)) in triangles.corners.iter().zip(&triangles.face).enumerate() {
                     let face = &scene.faces[*face as usize];
                     if face.object != current_object {
                         current_object = face.object;
-                        writeln!(out, "o {}", scene.objects[face.object as usize].name.replace(char::is_whitespace, "_"))?;
+                        writeln!(
+                            out,
+                            "o {}",
+                            scene.objects[face.object as usize]
+                                .name
+                                .replace(char::is_whitespace, "_")
+                        )?;
                     }
                     let [r, g, b] = face.colour.map(|c| c as f64 / 255.0);
                     for c in corners {

@@ -5,9 +5,7 @@ use std::path::Path;
 
 use glam::{DVec3, dvec3};
 
-use super::file::{
-    AngleUnit, BoxFile, FloorFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile,
-};
+use super::file::{AngleUnit, BoxFile, FloorFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile};
 use super::{Face, Scene, SceneError, SceneObject, mesh, validate};
 use crate::pose::rotation_xyz;
 
@@ -30,14 +28,10 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
             message: format!("{}: {message}", object.kind()),
         };
         if name.trim().is_empty() {
-            return Err(invalid(
-                "the name is empty; give every object a name".into(),
-            ));
+            return Err(invalid("the name is empty; give every object a name".into()));
         }
         if !names.insert(name.to_string()) {
-            return Err(invalid(
-                "another object has this name; names must be unique".into(),
-            ));
+            return Err(invalid("another object has this name; names must be unique".into()));
         }
         let index = scene.objects.len() as u32;
         let angle = |r: (f64, f64, f64)| {
@@ -163,10 +157,7 @@ fn box_faces(b: &BoxFile, angles: DVec3) -> Result<Vec<RawFace>, String> {
         .iter()
         .map(|(name, corners)| {
             let colour = b.faces.get(*name).copied().unwrap_or(b.colour);
-            let vertices = corners
-                .iter()
-                .map(|c| position + world_from_object * *c)
-                .collect();
+            let vertices = corners.iter().map(|c| position + world_from_object * *c).collect();
             (vertices, colour)
         })
         .collect())
@@ -205,8 +196,7 @@ fn mesh_faces(
 ) -> Result<Vec<RawFace>, String> {
     positive("scale", m.scale)?;
     let mesh_path = scene_path.parent().unwrap_or(Path::new(".")).join(&m.path);
-    let triangles =
-        mesh::load(&mesh_path).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
+    let triangles = mesh::load(&mesh_path).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);
     let mut faces = Vec::with_capacity(triangles.len());
@@ -222,23 +212,14 @@ fn mesh_faces(
             dropped += 1;
             continue;
         }
-        let colour = triangle
-            .colour
-            .map(|c| (c[0], c[1], c[2]))
-            .unwrap_or(m.colour);
+        let colour = triangle.colour.map(|c| (c[0], c[1], c[2])).unwrap_or(m.colour);
         faces.push((vertices, colour));
     }
     if dropped > 0 {
-        warnings.push(format!(
-            "mesh '{}': dropped {dropped} degenerate triangles",
-            m.name
-        ));
+        warnings.push(format!("mesh '{}': dropped {dropped} degenerate triangles", m.name));
     }
     if faces.is_empty() {
-        return Err(format!(
-            "mesh {} has no usable triangles",
-            mesh_path.display()
-        ));
+        return Err(format!("mesh {} has no usable triangles", mesh_path.display()));
     }
     Ok(faces)
 }

@@ -103,18 +103,12 @@ fn load_ply(path: &Path) -> Result<Vec<MeshTriangle>, String> {
             .find_map(|k| face.get(*k).and_then(index_list))
             .ok_or(format!("face {f} has no 'vertex_indices' list"))?;
         let corner = |i: i64| {
-            usize::try_from(i)
-                .ok()
-                .and_then(|i| positions.get(i))
-                .ok_or(format!(
-                    "face {f} refers to vertex {i}, but there are {} vertices",
-                    positions.len()
-                ))
+            usize::try_from(i).ok().and_then(|i| positions.get(i)).ok_or(format!(
+                "face {f} refers to vertex {i}, but there are {} vertices",
+                positions.len()
+            ))
         };
-        let corners = indices
-            .iter()
-            .map(|&i| corner(i))
-            .collect::<Result<Vec<_>, _>>()?;
+        let corners = indices.iter().map(|&i| corner(i)).collect::<Result<Vec<_>, _>>()?;
         if corners.len() < 3 {
             return Err(format!(
                 "face {f} has {} vertices; a face needs 3 or more",
@@ -151,8 +145,7 @@ fn load_obj(path: &Path) -> Result<Vec<MeshTriangle>, String> {
         single_index: true,
         ..Default::default()
     };
-    let (models, _materials) =
-        tobj::load_obj(path, &options).map_err(|e| format!("not a readable OBJ file: {e}"))?;
+    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| format!("not a readable OBJ file: {e}"))?;
     let mut triangles = Vec::new();
     for model in models {
         let mesh = &model.mesh;
@@ -161,12 +154,7 @@ fn load_obj(path: &Path) -> Result<Vec<MeshTriangle>, String> {
             mesh.positions
                 .get(i..i + 3)
                 .map(|p| dvec3(p[0] as f64, p[1] as f64, p[2] as f64))
-                .ok_or_else(|| {
-                    format!(
-                        "object '{}' refers to a vertex that does not exist",
-                        model.name
-                    )
-                })
+                .ok_or_else(|| format!("object '{}' refers to a vertex that does not exist", model.name))
         };
         let colour = |i: u32| {
             let i = i as usize * 3;

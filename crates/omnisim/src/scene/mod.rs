@@ -69,8 +69,7 @@ impl Scene {
     /// Parses scene text; `path` names the file in errors and anchors mesh paths.
     pub fn from_ron(text: &str, path: &Path) -> Result<Scene, SceneError> {
         let options = ron::Options::default().with_default_extension(
-            ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES
-                | ron::extensions::Extensions::IMPLICIT_SOME,
+            ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES | ron::extensions::Extensions::IMPLICIT_SOME,
         );
         let parsed: file::SceneFile = options.from_str(text).map_err(|e| SceneError::Parse {
             path: path.to_path_buf(),

@@ -27,8 +27,7 @@ pub(super) fn triangulate(scene: &Scene) -> Triangles {
     let mut out = Triangles::default();
     for (face_id, face) in scene.faces.iter().enumerate() {
         for [a, b, c] in polygon_triangles(&face.vertices) {
-            out.corners
-                .push([face.vertices[a], face.vertices[b], face.vertices[c]]);
+            out.corners.push([face.vertices[a], face.vertices[b], face.vertices[c]]);
             out.face.push(face_id as u32);
         }
     }
@@ -57,10 +56,7 @@ fn polygon_triangles(vertices: &[DVec3]) -> Vec<[usize; 3]> {
         })
         .collect();
     match earcutr::earcut(&flat, &[], 2) {
-        Ok(indices) if indices.len() / 3 == n - 2 => indices
-            .chunks_exact(3)
-            .map(|t| [t[0], t[1], t[2]])
-            .collect(),
+        Ok(indices) if indices.len() / 3 == n - 2 => indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
         // A self-intersecting outline has no exact triangulation; a fan still covers it.
         _ => (1..n - 1).map(|i| [0, i, i + 1]).collect(),
     }

@@ -31,24 +31,17 @@ pub(super) fn check_face(vertices: &[DVec3]) -> Result<(), String> {
     }
     let (lo, hi) = vertices
         .iter()
-        .fold((vertices[0], vertices[0]), |(lo, hi), v| {
-            (lo.min(*v), hi.max(*v))
-        });
+        .fold((vertices[0], vertices[0]), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
     let extent = (hi - lo).length();
     let n = vertices.len();
     for i in 0..n {
         if vertices[i].distance(vertices[(i + 1) % n]) <= 1e-12 * (1.0 + extent) {
-            return Err(format!(
-                "vertices {i} and {} coincide; remove one",
-                (i + 1) % n
-            ));
+            return Err(format!("vertices {i} and {} coincide; remove one", (i + 1) % n));
         }
     }
     let normal = newell_normal(vertices);
     if normal.length() <= 1e-12 * extent * extent {
-        return Err(
-            "the face is degenerate: it has no area (are its vertices on one line?)".into(),
-        );
+        return Err("the face is degenerate: it has no area (are its vertices on one line?)".into());
     }
     let unit = normal.normalize();
     let centroid = vertices.iter().copied().sum::<DVec3>() / n as f64;
@@ -84,23 +77,11 @@ mod tests {
     #[test]
     fn accepts_a_square_and_rejects_bad_faces() {
         assert!(check_face(&square(0.0)).is_ok());
-        assert!(
-            check_face(&square(0.01))
-                .unwrap_err()
-                .contains("not planar")
-        );
-        assert!(
-            check_face(&square(f64::NAN))
-                .unwrap_err()
-                .contains("finite")
-        );
+        assert!(check_face(&square(0.01)).unwrap_err().contains("not planar"));
+        assert!(check_face(&square(f64::NAN)).unwrap_err().contains("finite"));
         let collinear = [dvec3(0., 0., 0.), dvec3(1., 0., 0.), dvec3(2., 0., 0.)];
         assert!(check_face(&collinear).unwrap_err().contains("degenerate"));
-        assert!(
-            check_face(&square(0.0)[..2])
-                .unwrap_err()
-                .contains("at least 3")
-        );
+        assert!(check_face(&square(0.0)[..2]).unwrap_err().contains("at least 3"));
     }
 
     #[test]
