@@ -295,7 +295,6 @@ fn marker_centroids_land_where_the_unified_model_says() {
                 let expected = predicted_centroid(&camera, *marker);
                 let centroid = centroid.unwrap_or_else(|| panic!("{backend}: marker at {marker} not seen"));
                 worst = worst.max(centroid.distance(expected));
-                eprintln!(centroid.distance(expected));
             }
             eprintln!(
                 "{} {backend}: worst marker centroid error {worst:.3} px",
