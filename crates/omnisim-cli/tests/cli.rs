@@ -185,3 +185,101 @@ fn bad_options_are_explained() {
         text(&too_high.stderr)
     );
 }
+
+#[test]
+fn stereo_writes_both_images_disparity_and_calibration() {
+    let out = tempfile::tempdir().unwrap();
+    let dir = out.path().join("stereo");
+    let args = [
+        "render",
+        "scenes/env1.ron",
+        "--camera",
+        "stereo",
+        "--size",
+        "160x120",
+        "--baseline",
+        "0.2",
+    ];
+    let result = omnisim(
+        &[
+            &args[..],
+            &["--pose", "0,0,1", "--backend", "cpu", "--out", dir.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(result.status.success(), "{}", text(&result.stderr));
+    for name in [
+        "env1-0000-left.png",
+        "env1-0000-right.png",
+        "env1-0000-left-range.exr",
+        "env1-0000-disparity.exr",
+        "calibration-opencv-stereo.yaml",
+        "calibration-kalibr.yaml",
+        "raymap-left.exr",
+        "raymap-right.exr",
+    ] {
+        assert!(dir.join(name).is_file(), "{name} missing");
+    }
+    let kalibr = std::fs::read_to_string(dir.join("calibration-kalibr.yaml")).unwrap();
+    assert!(
+        kalibr.contains("cam1:") && kalibr.contains("T_cn_cnm1") && kalibr.contains("-0.2"),
+        "{kalibr}"
+    );
+}
+
+#[test]
+fn mirror_options_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("omni");
+    let out = out.to_str().unwrap();
+    let shortcut_misaligned = omnisim(&[
+        "render",
+        "scenes/env1.ron",
+        "--pose",
+        "0,0,0.4",
+        "--mirror-rays",
+        "shortcut",
+        "--misalign-offset",
+        "0.001,0,0",
+        "--out",
+        out,
+    ]);
+    assert!(!shortcut_misaligned.status.success());
+    assert!(
+        text(&shortcut_misaligned.stderr).contains("aligned"),
+        "{}",
+        text(&shortcut_misaligned.stderr)
+    );
+    let inside_sphere = omnisim(&[
+        "render",
+        "scenes/env1.ron",
+        "--pose",
+        "0,0,0.4",
+        "--mirror",
+        "spherical",
+        "--camera-distance",
+        "0.01",
+        "--out",
+        out,
+    ]);
+    assert!(!inside_sphere.status.success() && text(&inside_sphere.stderr).contains("outside the sphere"));
+    assert!(!Path::new(out).exists());
+    let parabolic = omnisim(&[
+        "render",
+        "scenes/env1.ron",
+        "--pose",
+        "0,0,0.4",
+        "--mirror",
+        "parabolic",
+        "--backend",
+        "cpu",
+        "--out",
+        out,
+    ]);
+    assert!(parabolic.status.success(), "{}", text(&parabolic.stderr));
+    let omnidir = std::fs::read_to_string(Path::new(out).join("calibration-opencv-omnidir.yaml")).unwrap();
+    assert!(
+        omnidir.contains("xi: !!opencv-matrix") && omnidir.contains("data: [ 1.0 ]"),
+        "{omnidir}"
+    );
+}
