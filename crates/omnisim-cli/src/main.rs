@@ -4,6 +4,7 @@
 //! library.
 
 mod camera_args;
+mod chart_svg;
 mod commands;
 mod poses;
 

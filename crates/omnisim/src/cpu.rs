@@ -3,13 +3,13 @@
 //! BVH traversal uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull conservatively);
 //! every triangle test and every returned distance is f64.
 
-use glam::{DVec2, DVec3, Vec3A};
+use glam::{DMat3, DVec2, DVec3, Vec3A};
 use obvhs::ray::{Ray, RayHit};
 use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
-use crate::frame::{Frame, NO_FACE};
+use crate::frame::Frame;
 use crate::pose::Pose;
 
 /// Barycentric slack that closes the gaps f64 rounding leaves along shared edges.
@@ -68,32 +68,57 @@ pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) 
     best
 }
 
+/// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
+pub struct LocalPose {
+    world_from_body: DMat3,
+    origin: DVec3,
+}
+
+impl LocalPose {
+    pub fn new(bvh: &SceneBvh, pose: &Pose) -> Self {
+        Self {
+            world_from_body: pose.world_from_body_rotation(),
+            origin: pose.position - bvh.offset,
+        }
+    }
+}
+
+/// A traced pixel: its ray (scene-local origin, world direction) and closest hit.
+pub struct TracedPixel {
+    pub origin: DVec3,
+    pub direction: DVec3,
+    pub hit: Hit,
+}
+
+/// Traces the camera ray through `pixel` (sub-pixel positions allowed); `None` where the
+/// pixel has no ray or the ray hits nothing.
+pub fn trace_pixel(bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Option<TracedPixel> {
+    let ray = camera.ray(pixel)?;
+    let origin = pose.origin + pose.world_from_body * ray.origin;
+    let direction = pose.world_from_body * ray.direction;
+    let hit = closest_hit(bvh, origin, direction, ray.t_min)?;
+    Some(TracedPixel { origin, direction, hit })
+}
+
 /// Renders one frame on all CPU threads.
 pub fn render(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
     let (width, height) = camera.size();
-    let world_from_body = pose.world_from_body_rotation();
+    let local = LocalPose::new(bvh, pose);
     let mut frame = Frame::empty(width, height);
-    let origin_local = pose.position - bvh.offset;
     frame
         .pixels_mut()
         .par_chunks_mut(width as usize)
         .enumerate()
         .for_each(|(row, pixels)| {
             for (column, pixel) in pixels.iter_mut().enumerate() {
-                let Some(ray) = camera.ray(DVec2::new(column as f64, row as f64)) else {
-                    continue;
-                };
-                let origin = origin_local + world_from_body * ray.origin;
-                let direction = world_from_body * ray.direction;
-                if let Some(hit) = closest_hit(bvh, origin, direction, ray.t_min) {
-                    let face = bvh.face[hit.triangle];
+                if let Some(traced) = trace_pixel(bvh, camera, &local, DVec2::new(column as f64, row as f64)) {
+                    let face = bvh.face[traced.hit.triangle];
                     pixel.face = face;
                     pixel.colour = bvh.face_colours[face as usize];
-                    pixel.range = hit.t as f32;
-                    pixel.point = bvh.offset + origin + hit.t * direction;
+                    pixel.range = traced.hit.t as f32;
+                    pixel.point = bvh.offset + traced.origin + traced.hit.t * traced.direction;
                 }
             }
         });
-    debug_assert!(frame.pixels().iter().all(|p| p.face == NO_FACE || p.range.is_finite()));
     frame
 }

@@ -5,6 +5,7 @@
 //! pose) → rays → hits → [`Frame`] → [`output`] writers. [`Renderer`] hides whether the GPU
 //! (wgpu, `shaders/`) or the f64 CPU reference ([`cpu`]) does the tracing.
 
+pub mod antialias;
 pub mod bvh;
 pub mod calibration;
 pub mod camera;

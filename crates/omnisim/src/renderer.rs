@@ -65,6 +65,19 @@ impl Renderer {
         }
     }
 
+    /// Renders, then refines the colour of pixels on face edges with `samples_per_axis²`
+    /// stratified samples each, traced by the f64 CPU tracer whatever the backend.
+    pub fn render_antialiased(
+        &self,
+        camera: &Camera,
+        pose: &Pose,
+        samples_per_axis: u32,
+    ) -> Result<Frame, RenderError> {
+        let mut frame = self.render(camera, pose)?;
+        crate::antialias::supersample_edges(&self.bvh, camera, pose, &mut frame, samples_per_axis);
+        Ok(frame)
+    }
+
     /// "gpu" or "cpu".
     pub fn backend_name(&self) -> &'static str {
         match self.backend {

@@ -46,6 +46,11 @@ pub struct BenchArgs {
     /// Untimed renders first (shader compilation, caches).
     #[arg(long, default_value_t = 2)]
     pub warmup: usize,
+    /// Instead of rays per second, measure time per image against error for every method
+    /// (CPU f64, GPU f32, 1/4/16 samples on edges, the paper's shortcut) and draw the chart
+    /// to this SVG file; one JSON object per method on stdout.
+    #[arg(long)]
+    pub chart: Option<PathBuf>,
     /// Add a wavy height-field mesh of about this many triangles over the floor, to measure a
     /// heavy scene.
     #[arg(long)]
@@ -63,6 +68,9 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(count) = args.synthetic_triangles {
         add_height_field(&mut scene, count)?;
+    }
+    if let Some(chart) = &args.chart {
+        return super::speed_accuracy::run(&scene, &camera, &args.pose, args.runs, chart);
     }
     let choices = match args.backend {
         BenchBackend::Gpu => vec![BackendChoice::Gpu],

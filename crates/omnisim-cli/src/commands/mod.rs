@@ -1,3 +1,4 @@
 pub mod bench;
 pub mod render;
 pub mod scene;
+pub mod speed_accuracy;
