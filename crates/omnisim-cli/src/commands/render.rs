@@ -250,7 +250,9 @@ fn write_calibration(out: &Path, rig: &Rig, views: &[(&'static str, Camera)]) ->
 fn parse_square(text: &str) -> Result<u32, String> {
     match text.parse::<u32>() {
         Ok(n) if (1..=1024).contains(&n) && n.isqrt() * n.isqrt() == n => Ok(n),
-        _ => Err(format!("'{text}' is not a square number of samples from 1 to 1024 (1, 4, 16, 64, ...)")),
+        _ => Err(format!(
+            "'{text}' is not a square number of samples from 1 to 1024 (1, 4, 16, 64, ...)"
+        )),
     }
 }
 

@@ -1,0 +1,63 @@
+//! `cargo bench -p omnisim-benches`: BVH build time and whole-image render time for each
+//! camera model on env1, on the f64 CPU tracer and (when an adapter opens) the GPU.
+//! `omnisim bench` reports the same quantities as JSON for scripts and notes.
+
+use std::path::Path;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::dvec3;
+use omnisim::bvh::SceneBvh;
+use omnisim::gpu::{GpuContext, GpuTracer};
+use omnisim::{Camera, Catadioptric, Equirectangular, Pinhole, Pose, Scene, cpu};
+
+fn env1() -> Scene {
+    Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/env1.ron")).expect("env1 loads")
+}
+
+fn cameras() -> Vec<(&'static str, Camera)> {
+    vec![
+        (
+            "pinhole 640x480",
+            Camera::Pinhole(Pinhole::with_horizontal_fov(640, 480, 60f64.to_radians())),
+        ),
+        (
+            "equirect 1024x512",
+            Camera::Equirectangular(Equirectangular {
+                width: 1024,
+                height: 512,
+            }),
+        ),
+        (
+            "omni 250x250",
+            Camera::Catadioptric(Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))),
+        ),
+    ]
+}
+
+fn benchmarks(c: &mut Criterion) {
+    let scene = env1();
+    c.bench_function("bvh build env1", |b| b.iter(|| SceneBvh::build(&scene)));
+    let bvh = SceneBvh::build(&scene);
+    let gpu = GpuContext::new()
+        .ok()
+        .map(|context| GpuTracer::new(context, &bvh).expect("GPU tracer"));
+    let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
+    let mut group = c.benchmark_group("render env1");
+    group.sample_size(20);
+    for (name, camera) in cameras() {
+        let (w, h) = camera.size();
+        group.throughput(Throughput::Elements(w as u64 * h as u64));
+        group.bench_function(format!("cpu f64 {name}"), |b| {
+            b.iter(|| cpu::render(&bvh, &camera, &pose))
+        });
+        if let Some(gpu) = &gpu {
+            group.bench_function(format!("gpu f32 {name}"), |b| {
+                b.iter(|| gpu.render(&camera, &pose).expect("render"))
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, benchmarks);
+criterion_main!(benches);
