@@ -13,10 +13,10 @@ use ply_rs_bw::ply::{DefaultElement, Property};
 fn rendered() -> omnisim::Frame {
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let camera = &common::cameras()[2];
+    let camera = omnisim::Camera::Catadioptric(common::paper_omni());
     let frame = cpu::render(
         &bvh,
-        camera,
+        &camera,
         &Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
     );
     assert!(
