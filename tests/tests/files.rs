@@ -62,15 +62,7 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("range.exr");
     output::write_range_exr(&path, &frame).unwrap();
-    use exr::prelude::*;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(&path)
-        .unwrap();
+    let image = common::read_exr(&path);
     let layer = &image.layer_data[0];
     assert_eq!(layer.size.0, frame.width as usize);
     let comments = layer

@@ -393,15 +393,7 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("raymap.exr");
     output::write_ray_map_exr(&path, &camera).unwrap();
-    use exr::prelude::*;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(&path)
-        .unwrap();
+    let image = common::read_exr(&path);
     let channel = |name: &str| -> Vec<f32> {
         let list = &image.layer_data[0].channel_data.list;
         let c = list

@@ -95,3 +95,18 @@ pub fn gpu_tracer(bvh: &SceneBvh) -> Option<GpuTracer> {
         }
     }
 }
+
+/// Every channel and attribute of an EXR file, read with the exr crate's reader.
+pub fn read_exr(
+    path: &std::path::Path,
+) -> exr::image::Image<exr::image::Layers<exr::image::AnyChannels<exr::image::FlatSamples>>> {
+    use exr::prelude::*;
+    read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .expect("EXR reads back")
+}

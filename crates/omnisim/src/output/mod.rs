@@ -73,18 +73,29 @@ fn write_channel_exr(
     convention: &str,
     values: Vec<f32>,
 ) -> Result<(), OutputError> {
+    write_exr(path, size, convention, vec![(channel, values)])
+}
+
+/// f32 channels of one image, with their convention in the header's `comments`.
+fn write_exr(
+    path: &Path,
+    size: (u32, u32),
+    convention: &str,
+    channels: Vec<(&str, Vec<f32>)>,
+) -> Result<(), OutputError> {
     use exr::prelude::*;
     let mut attributes = LayerAttributes::named("omnisim");
     attributes.comments = Some(Text::from(convention));
     attributes.software_name = Some(Text::from(concat!("omnisim ", env!("CARGO_PKG_VERSION"))));
+    let list = channels
+        .into_iter()
+        .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
+        .collect();
     let layer = Layer::new(
         (size.0 as usize, size.1 as usize),
         attributes,
         Encoding::FAST_LOSSLESS,
-        AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
-            channel,
-            FlatSamples::F32(values),
-        )])),
+        AnyChannels::sort(list),
     );
     write_atomically(path, |out| {
         Image::from_layer(layer)
@@ -103,7 +114,6 @@ pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x
 /// `direction.{X,Y,Z}`; NaN where the pixel sees nothing. Non-central cameras need it to
 /// rebuild points from range.
 pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError> {
-    use exr::prelude::*;
     let (width, height) = camera.size();
     let mut channels: [Vec<f32>; 6] = Default::default();
     for v in 0..height {
@@ -125,26 +135,12 @@ pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError
         "direction.Y",
         "direction.Z",
     ];
-    let list = names
-        .iter()
-        .zip(channels)
-        .map(|(name, samples)| AnyChannel::new(*name, FlatSamples::F32(samples)))
-        .collect();
-    let mut attributes = LayerAttributes::named("omnisim-rays");
-    attributes.comments = Some(Text::from(RAY_MAP_CONVENTION));
-    let layer = Layer::new(
-        (width as usize, height as usize),
-        attributes,
-        Encoding::FAST_LOSSLESS,
-        AnyChannels::sort(list),
-    );
-    write_atomically(path, |out| {
-        Image::from_layer(layer)
-            .write()
-            .to_buffered(out)
-            .map_err(std::io::Error::other)
-    })
-    .map_err(failed(path))
+    write_exr(
+        path,
+        (width, height),
+        RAY_MAP_CONVENTION,
+        names.into_iter().zip(channels).collect(),
+    )
 }
 
 /// Binary little-endian PLY of every hit pixel: float x y z (world metres), uchar red green
