@@ -13,6 +13,15 @@ use crate::frame::{Frame, NO_FACE, Pixel};
 use crate::pose::Pose;
 use crate::pose::rotation_xyz;
 
+/// Per-frame GPU buffers for one band size.
+struct BandBuffers {
+    bytes: u64,
+    output: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    uniform: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
 pub struct GpuTracer {
     context: GpuContext,
     pipeline: wgpu::ComputePipeline,
@@ -20,6 +29,7 @@ pub struct GpuTracer {
     triangles: wgpu::Buffer,
     face_colours: wgpu::Buffer,
     offset: DVec3,
+    band: std::sync::Mutex<Option<BandBuffers>>,
 }
 
 impl GpuTracer {
@@ -74,6 +84,7 @@ impl GpuTracer {
             triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
             face_colours: storage("face colours", bytemuck::cast_slice(&colours)),
             offset: bvh.offset,
+            band: std::sync::Mutex::new(None),
             pipeline,
             context,
         })
@@ -97,50 +108,12 @@ impl GpuTracer {
         let device = &self.context.device;
         let mut params = camera_params(camera, pose, self.offset);
         let band_bytes = band_rows as u64 * row_bytes;
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("pixel hits"),
-            size: band_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("pixel hits readback"),
-            size: band_bytes,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("camera"),
-            size: std::mem::size_of::<CameraParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("trace"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.nodes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.triangles.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: self.face_colours.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: output.as_entire_binding(),
-                },
-            ],
-        });
+        // Consecutive frames of one size (trajectories, grids) reuse their buffers.
+        let mut cache = self.band.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if cache.as_ref().is_some_and(|b| b.bytes != band_bytes) {
+            *cache = None;
+        }
+        let buffers = &*cache.get_or_insert_with(|| self.band_buffers(band_bytes));
         let mut frame = Frame::empty(width, height);
         let mut row = 0;
         while row < height {
@@ -149,12 +122,12 @@ impl GpuTracer {
             params.band_rows = rows;
             self.context
                 .queue
-                .write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
+                .write_buffer(&buffers.uniform, 0, bytemuck::bytes_of(&params));
             let mut encoder = device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
+                pass.set_bind_group(0, &buffers.bind_group, &[]);
                 pass.dispatch_workgroups(
                     width.div_ceil(shader::WORKGROUP_SIZE),
                     rows.div_ceil(shader::WORKGROUP_SIZE),
@@ -162,9 +135,9 @@ impl GpuTracer {
                 );
             }
             let bytes = rows as u64 * row_bytes;
-            encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, bytes);
+            encoder.copy_buffer_to_buffer(&buffers.output, 0, &buffers.readback, 0, bytes);
             self.context.queue.submit([encoder.finish()]);
-            let hits = self.read(&readback, bytes)?;
+            let hits = self.read(&buffers.readback, bytes)?;
             let start = row as usize * width as usize;
             for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()].iter_mut().zip(&hits) {
                 if hit.face != NO_FACE {
@@ -180,6 +153,55 @@ impl GpuTracer {
             row += rows;
         }
         Ok(frame)
+    }
+
+    /// Output, readback and camera buffers for bands of `bytes`, bound with the scene.
+    fn band_buffers(&self, bytes: u64) -> BandBuffers {
+        let device = &self.context.device;
+        let buffer = |label, size, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let output = buffer(
+            "pixel hits",
+            bytes,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let readback = buffer(
+            "pixel hits readback",
+            bytes,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        let uniform = buffer(
+            "camera",
+            std::mem::size_of::<CameraParams>() as u64,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let resources = [&uniform, &self.nodes, &self.triangles, &self.face_colours, &output];
+        let entries: Vec<wgpu::BindGroupEntry> = resources
+            .iter()
+            .enumerate()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("trace"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        BandBuffers {
+            bytes,
+            output,
+            readback,
+            uniform,
+            bind_group,
+        }
     }
 
     fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<PixelHit>, GpuError> {
