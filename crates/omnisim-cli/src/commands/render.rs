@@ -36,10 +36,12 @@ impl From<BackendArg> for BackendChoice {
 
 /// Render a scene through a camera from one or more poses.
 ///
-/// For every pose N it writes <scene>-N.png (colour), <scene>-N-range.exr (f32 metres,
-/// channel "range", +inf = no hit) and <scene>-N.ply (binary coloured point cloud, world
-/// frame); then poses.txt (TUM: index tx ty tz qx qy qz qw, world_from_body) and render.json
-/// (camera, conventions, backend, every pose).
+/// For every pose N it writes <scene>-N.png (colour), <scene>-N-range.exr (f32 metres from the
+/// ray origin, channel "range", +inf = no hit) and <scene>-N.ply (binary coloured point cloud,
+/// world frame); a stereo rig writes -left and -right of each and -disparity.exr. Once per
+/// run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
+/// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
+/// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
 omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
