@@ -276,7 +276,7 @@ impl CameraArgs {
             MountArg::Up => Mount::Up,
             MountArg::Down => Mount::Down,
         };
-        if !(self.hidden_centre >= 0.0) {
+        if self.hidden_centre.is_nan() || self.hidden_centre < 0.0 {
             bail!("--hidden-centre must be a radius in pixels ≥ 0");
         }
         camera.hidden_centre_px = self.hidden_centre;

@@ -265,7 +265,7 @@ impl Catadioptric {
                 camera_distance,
             } => {
                 positive("sphere radius", radius)?;
-                if !(camera_distance > radius) {
+                if !camera_distance.is_finite() || camera_distance <= radius {
                     return Err(format!(
                         "the camera must be outside the sphere: distance {camera_distance} m ≤ radius {radius} m"
                     ));

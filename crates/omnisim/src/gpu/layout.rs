@@ -60,8 +60,11 @@ pub struct PixelHit {
 /// WGSL twin: `BvhNode` is obvhs's `Bvh2Node` with the `small_bvh2_node` feature.
 pub type BvhNode = obvhs::bvh2::node::Bvh2Node;
 
-/// (struct name, size, [(field, offset)]) of every host twin, for the layout test.
-pub fn host_layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
+/// A host struct's name, size and (field, offset) list.
+pub type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
+
+/// The layout of every host twin, for the layout test.
+pub fn host_layouts() -> Vec<StructLayout> {
     use std::mem::{offset_of, size_of};
     vec![
         (

@@ -97,8 +97,11 @@ impl GpuTracer {
     pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, GpuError> {
         let (width, height) = camera.size();
         let row_bytes = width as u64 * std::mem::size_of::<PixelHit>() as u64;
-        let max_binding =
-            (self.context.limits.max_storage_buffer_binding_size as u64).min(self.context.limits.max_buffer_size);
+        let max_binding = self
+            .context
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.context.limits.max_buffer_size);
         let max_rows_by_dispatch =
             self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE as u64;
         let band_rows = (max_binding / row_bytes).min(max_rows_by_dispatch).min(height as u64) as u32;
