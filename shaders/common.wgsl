@@ -49,6 +49,8 @@ struct CameraParams {
     orthographic: u32,
     central: u32,
     shortcut: u32,
+    // Edge supersampling (antialias.wgsl): n for n×n samples per edge pixel.
+    samples_per_axis: u32,
 }
 
 struct BvhNode {

@@ -105,3 +105,30 @@ fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
         }
     }
 }
+
+#[test]
+fn gpu_edge_supersampling_matches_the_f64_reference() {
+    let scene = common::load("env2.ron");
+    let bvh = SceneBvh::build(&scene);
+    let Some(gpu) = common::gpu_tracer(&bvh) else { return };
+    let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
+    for camera in [Camera::Catadioptric(common::paper_omni()), common::cameras()[0].clone()] {
+        let mut reference = cpu::render(&bvh, &camera, &pose);
+        let refined = omnisim::antialias::supersample_edges(&bvh, &camera, &pose, &mut reference, 4);
+        let mut frame = gpu.render(&camera, &pose).unwrap();
+        assert_eq!(gpu.refine_edges(&camera, &pose, &mut frame, 4).unwrap(), refined);
+        let close = reference
+            .pixels()
+            .iter()
+            .zip(frame.pixels())
+            .filter(|(r, g)| (0..3).all(|k| r.colour[k].abs_diff(g.colour[k]) <= 1))
+            .count();
+        let share = close as f64 / frame.pixels().len() as f64;
+        eprintln!(
+            "{}: {refined} edge pixels; colours within 1 of the reference on {:.4} %",
+            camera.model_name(),
+            share * 100.0
+        );
+        assert!(refined > 500 && share >= 0.999, "{share}");
+    }
+}

@@ -31,6 +31,9 @@ pub struct CameraParams {
     pub orthographic: u32,
     pub central: u32,
     pub shortcut: u32,
+    pub samples_per_axis: u32,
+    /// WGSL rounds the struct up to its 16-byte alignment.
+    pub _pad: [u32; 3],
 }
 
 /// WGSL twin: `Triangle`.
@@ -93,6 +96,7 @@ pub fn host_layouts() -> Vec<StructLayout> {
                 ("orthographic", offset_of!(CameraParams, orthographic)),
                 ("central", offset_of!(CameraParams, central)),
                 ("shortcut", offset_of!(CameraParams, shortcut)),
+                ("samples_per_axis", offset_of!(CameraParams, samples_per_axis)),
             ],
         ),
         (

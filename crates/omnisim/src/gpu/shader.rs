@@ -1,7 +1,7 @@
 //! The WGSL program, assembled from one file per concern (WGSL has no `#include`).
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
-pub const FILES: [(&str, &str); 7] = [
+pub const FILES: [(&str, &str); 8] = [
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     (
         "camera_pinhole.wgsl",
@@ -21,10 +21,17 @@ pub const FILES: [(&str, &str); 7] = [
     ),
     ("bvh.wgsl", include_str!("../../../../shaders/bvh.wgsl")),
     ("trace.wgsl", include_str!("../../../../shaders/trace.wgsl")),
+    ("antialias.wgsl", include_str!("../../../../shaders/antialias.wgsl")),
 ];
 
 /// Entry point of the trace pass.
 pub const ENTRY_POINT: &str = "trace_pixels";
+
+/// Entry point of the edge supersampling pass.
+pub const REFINE_ENTRY_POINT: &str = "refine_edges";
+
+/// Workgroup size of `refine_edges`.
+pub const REFINE_WORKGROUP_SIZE: u32 = 64;
 
 /// Workgroup size of `trace_pixels` in x and y.
 pub const WORKGROUP_SIZE: u32 = 8;

@@ -25,6 +25,7 @@ struct BandBuffers {
 pub struct GpuTracer {
     context: GpuContext,
     pipeline: wgpu::ComputePipeline,
+    refine_pipeline: wgpu::ComputePipeline,
     nodes: wgpu::Buffer,
     triangles: wgpu::Buffer,
     face_colours: wgpu::Buffer,
@@ -46,14 +47,18 @@ impl GpuTracer {
             label: Some("omnisim trace"),
             source: wgpu::ShaderSource::Wgsl(shader::source().into()),
         });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("omnisim trace"),
-            layout: None,
-            module: &module,
-            entry_point: Some(shader::ENTRY_POINT),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pipeline_for = |entry_point| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry_point),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let pipeline = pipeline_for(shader::ENTRY_POINT);
+        let refine_pipeline = pipeline_for(shader::REFINE_ENTRY_POINT);
         let storage = |label: &str, contents: &[u8]| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -86,6 +91,7 @@ impl GpuTracer {
             offset: bvh.offset,
             band: std::sync::Mutex::new(None),
             pipeline,
+            refine_pipeline,
             context,
         })
     }
@@ -140,7 +146,7 @@ impl GpuTracer {
             let bytes = rows as u64 * row_bytes;
             encoder.copy_buffer_to_buffer(&buffers.output, 0, &buffers.readback, 0, bytes);
             self.context.queue.submit([encoder.finish()]);
-            let hits = self.read(&buffers.readback, bytes)?;
+            let hits: Vec<PixelHit> = self.read(&buffers.readback, bytes)?;
             let start = row as usize * width as usize;
             for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()].iter_mut().zip(&hits) {
                 if hit.face != NO_FACE {
@@ -156,6 +162,88 @@ impl GpuTracer {
             row += rows;
         }
         Ok(frame)
+    }
+
+    /// Replaces the colour of every edge pixel (see `antialias::edge_pixels`) by the mean of
+    /// `samples_per_axis²` stratified samples traced on the GPU. Returns how many pixels.
+    pub fn refine_edges(
+        &self,
+        camera: &Camera,
+        pose: &Pose,
+        frame: &mut Frame,
+        samples_per_axis: u32,
+    ) -> Result<usize, GpuError> {
+        let edges: Vec<u32> = crate::antialias::edge_pixels(frame)
+            .into_iter()
+            .map(|i| i as u32)
+            .collect();
+        if samples_per_axis <= 1 || edges.is_empty() {
+            return Ok(0);
+        }
+        let device = &self.context.device;
+        let mut params = camera_params(camera, pose, self.offset);
+        params.samples_per_axis = samples_per_axis;
+        let bytes = (edges.len() * std::mem::size_of::<u32>()) as u64;
+        let init = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let uniform = init("camera", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+        let pixels = init("edge pixels", bytemuck::cast_slice(&edges), wgpu::BufferUsages::STORAGE);
+        let buffer = |label, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let colours = buffer(
+            "edge colours",
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let readback = buffer(
+            "edge colours readback",
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        let bindings = [
+            (0, &uniform),
+            (1, &self.nodes),
+            (2, &self.triangles),
+            (3, &self.face_colours),
+            (5, &pixels),
+            (6, &colours),
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = bindings
+            .iter()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding: *binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("refine edges"),
+            layout: &self.refine_pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.refine_pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups((edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE), 1, 1);
+        }
+        encoder.copy_buffer_to_buffer(&colours, 0, &readback, 0, bytes);
+        self.context.queue.submit([encoder.finish()]);
+        let refined: Vec<u32> = self.read(&readback, bytes)?;
+        for (&index, colour) in edges.iter().zip(refined) {
+            let [r, g, b, _] = colour.to_le_bytes();
+            frame.pixels_mut()[index as usize].colour = [r, g, b];
+        }
+        Ok(edges.len())
     }
 
     /// Output, readback and camera buffers for bands of `bytes`, bound with the scene.
@@ -207,7 +295,7 @@ impl GpuTracer {
         }
     }
 
-    fn read(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<PixelHit>, GpuError> {
+    fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
         let (sender, receiver) = std::sync::mpsc::channel();
         buffer.map_async(wgpu::MapMode::Read, ..bytes, move |result| {
             let _ = sender.send(result);
@@ -224,7 +312,7 @@ impl GpuTracer {
             let view = buffer
                 .get_mapped_range(..bytes)
                 .map_err(|e| GpuError::Readback(e.to_string()))?;
-            bytemuck::cast_slice::<u8, PixelHit>(&view).to_vec()
+            bytemuck::cast_slice::<u8, T>(&view).to_vec()
         };
         buffer.unmap();
         Ok(hits)
@@ -261,6 +349,8 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
         orthographic: 0,
         central: 1,
         shortcut: 0,
+        samples_per_axis: 1,
+        _pad: [0; 3],
     };
     match camera {
         Camera::Pinhole(c) => {
