@@ -15,7 +15,21 @@ fn every_shader_file_is_valid_wgsl() {
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
         .validate(&module)
         .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&shader::source())));
-    assert!(module.entry_points.iter().any(|e| e.name == shader::ENTRY_POINT));
+    let trace = module
+        .entry_points
+        .iter()
+        .find(|e| e.name == shader::ENTRY_POINT)
+        .expect("trace entry point");
+    assert_eq!(
+        trace.workgroup_size,
+        [shader::WORKGROUP_SIZE[0], shader::WORKGROUP_SIZE[1], 1]
+    );
+    let refine = module
+        .entry_points
+        .iter()
+        .find(|e| e.name == shader::REFINE_ENTRY_POINT)
+        .expect("refine entry point");
+    assert_eq!(refine.workgroup_size, [shader::REFINE_WORKGROUP_SIZE, 1, 1]);
     assert_eq!(
         shader::FILES.len(),
         std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders"))

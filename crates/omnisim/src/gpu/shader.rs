@@ -33,8 +33,9 @@ pub const REFINE_ENTRY_POINT: &str = "refine_edges";
 /// Workgroup size of `refine_edges`.
 pub const REFINE_WORKGROUP_SIZE: u32 = 64;
 
-/// Workgroup size of `trace_pixels` in x and y.
-pub const WORKGROUP_SIZE: u32 = 8;
+/// Workgroup size of `trace_pixels` in x (columns) and y (rows); the shaders test checks it
+/// against the WGSL attribute.
+pub const WORKGROUP_SIZE: [u32; 2] = [8, 8];
 
 /// Traversal stack depth of `bvh.wgsl`; deeper BVHs are refused before dispatch.
 pub const STACK_SIZE: usize = 64;

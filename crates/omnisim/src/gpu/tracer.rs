@@ -109,7 +109,7 @@ impl GpuTracer {
             .max_storage_buffer_binding_size
             .min(self.context.limits.max_buffer_size);
         let max_rows_by_dispatch =
-            self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE as u64;
+            self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE[1] as u64;
         let band_rows = (max_binding / row_bytes).min(max_rows_by_dispatch).min(height as u64) as u32;
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
@@ -138,8 +138,8 @@ impl GpuTracer {
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &buffers.bind_group, &[]);
                 pass.dispatch_workgroups(
-                    width.div_ceil(shader::WORKGROUP_SIZE),
-                    rows.div_ceil(shader::WORKGROUP_SIZE),
+                    width.div_ceil(shader::WORKGROUP_SIZE[0]),
+                    rows.div_ceil(shader::WORKGROUP_SIZE[1]),
                     1,
                 );
             }
