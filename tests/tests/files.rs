@@ -155,3 +155,38 @@ fn failed_write_leaves_nothing_behind() {
     assert!(output::write_png(&missing, &frame).is_err());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+#[test]
+fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let pinhole = omnisim::Pinhole::with_horizontal_fov(160, 120, 90f64.to_radians());
+    let pose = Pose::from_degrees(dvec3(-2.0, 0.3, 0.5), dvec3(0.0, 10.0, 20.0));
+    let frame = cpu::render(&bvh, &omnisim::Camera::Pinhole(pinhole.clone()), &pose);
+    let mut depth = pinhole.axial_depth(&frame, &pose);
+    depth[0] = f32::INFINITY; // a miss
+    depth[1] = 20.0; // beyond what 16 bits hold at 1/5000 m
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("depth.png");
+    output::write_tum_depth_png(&path, (160, 120), &depth).unwrap();
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut bytes = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut bytes).unwrap();
+    assert_eq!(
+        (info.color_type, info.bit_depth),
+        (png::ColorType::Grayscale, png::BitDepth::Sixteen)
+    );
+    let stored: Vec<u16> = bytes
+        .chunks_exact(2)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        .collect();
+    assert_eq!(&stored[..2], &[0, 0]);
+    for (value, z) in stored.iter().zip(&depth).skip(2) {
+        assert_eq!(*value as f64, (*z as f64 * 5000.0).round(), "z = {z}");
+    }
+    // z is the depth along the optical axis: the hit point's optical-frame z.
+    let forward = pose.world_from_body_rotation() * glam::DVec3::X;
+    let pixel = frame.pixel(80, 60);
+    assert!(((pixel.point - pose.position).dot(forward) - depth[60 * 160 + 80] as f64).abs() < 1e-6);
+}

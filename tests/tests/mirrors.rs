@@ -96,7 +96,7 @@ fn stereo_disparity_is_f_b_over_z_on_a_planar_wall() {
     // Facing the east wall (x = 3) squarely from x = 0.5: z = 2.5 m on the whole wall.
     let pose = Pose::from_degrees(dvec3(0.5, -0.4, 1.2), DVec3::ZERO);
     let frame = cpu::render(&bvh, &Camera::Pinhole(left.clone()), &pose);
-    let disparity = rig.disparity(&frame, pose.world_from_body_rotation(), pose.position);
+    let disparity = rig.disparity(&frame, &pose);
     let east_wall = scene.objects.iter().position(|o| o.name == "east wall").unwrap() as u32;
     let expected = rig.camera.fx * rig.baseline / 2.5;
     let mut on_wall = 0;

@@ -213,6 +213,8 @@ fn stereo_writes_both_images_disparity_and_calibration() {
         "env1-0000-right.png",
         "env1-0000-left-range.exr",
         "env1-0000-disparity.exr",
+        "env1-0000-left-depth.png",
+        "env1-0000-right-depth.exr",
         "calibration-opencv-stereo.yaml",
         "calibration-kalibr.yaml",
         "raymap-left.exr",

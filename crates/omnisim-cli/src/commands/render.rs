@@ -38,7 +38,8 @@ impl From<BackendArg> for BackendChoice {
 ///
 /// For every pose N it writes <scene>-N.png (colour), <scene>-N-range.exr (f32 metres from the
 /// ray origin, channel "range", +inf = no hit) and <scene>-N.ply (binary coloured point cloud,
-/// world frame); a stereo rig writes -left and -right of each and -disparity.exr. Once per
+/// world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16 bit) and -depth.exr (z,
+/// metres); a stereo rig writes -left and -right of each and -disparity.exr. Once per
 /// run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
 /// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
 /// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
@@ -122,6 +123,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             let exr = path_with_suffix(&stem, &format!("{suffix}-range.exr"));
             output::write_range_exr(&exr, &frame)?;
             written.extend([png, exr]);
+            if let Camera::Pinhole(pinhole) = camera {
+                let depth = pinhole.axial_depth(&frame, pose);
+                let size = (frame.width, frame.height);
+                let depth_png = path_with_suffix(&stem, &format!("{suffix}-depth.png"));
+                output::write_tum_depth_png(&depth_png, size, &depth)?;
+                let depth_exr = path_with_suffix(&stem, &format!("{suffix}-depth.exr"));
+                output::write_axial_depth_exr(&depth_exr, size, depth)?;
+                written.extend([depth_png, depth_exr]);
+            }
             if !args.no_ply {
                 let ply = path_with_suffix(&stem, &format!("{suffix}.ply"));
                 let comment = format!(
@@ -136,7 +146,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             frames.push(frame);
         }
         if let Rig::Stereo(stereo) = &rig {
-            let disparity = stereo.disparity(&frames[0], pose.world_from_body_rotation(), pose.position);
+            let disparity = stereo.disparity(&frames[0], pose);
             let path = path_with_suffix(&stem, "-disparity.exr");
             output::write_disparity_exr(&path, (frames[0].width, frames[0].height), disparity)?;
             written.push(path);
@@ -346,6 +356,7 @@ fn metadata(scene: &Scene, scene_path: &Path, rig: &Rig, poses: &[Pose], rendere
             "rotation": "world_from_body = Rx(theta_x)*Ry(theta_y)*Rz(theta_z)",
             "pixels": "u = column, v = row, pixel centres at integer coordinates, (0,0) top-left",
             "range": output::RANGE_CONVENTION,
+            "depth": format!("pinhole and stereo: <stem>-depth.exr ({}); <stem>-depth.png, TUM RGB-D 16-bit: value = z * {}, 0 = no hit or z > 13.1 m", output::AXIAL_DEPTH_CONVENTION, output::TUM_DEPTH_SCALE),
             "ray_map": output::RAY_MAP_CONVENTION,
             "point_cloud": "binary little-endian PLY, float x y z in world metres + uchar red green blue, hit pixels only",
         },

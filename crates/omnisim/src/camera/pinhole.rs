@@ -1,6 +1,8 @@
 use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
 
 use super::CameraRay;
+use crate::frame::Frame;
+use crate::pose::Pose;
 
 /// An ideal perspective camera with OpenCV intrinsics, mounted looking along body +x.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,6 +48,25 @@ impl Pinhole {
             direction: (BODY_FROM_OPTICAL * optical).normalize(),
             t_min: 0.0,
         }
+    }
+
+    /// Depth z of every hit of `frame` (rendered by this camera at `pose`) along the optical
+    /// axis, metres; +inf where nothing is hit. The `z` of DESIGN.md §2, for RGB-D users.
+    pub fn axial_depth(&self, frame: &Frame, pose: &Pose) -> Vec<f32> {
+        let world_from_body = pose.world_from_body_rotation();
+        let centre = pose.position + world_from_body * self.position;
+        let axis = world_from_body * (BODY_FROM_OPTICAL * DVec3::Z);
+        frame
+            .pixels()
+            .iter()
+            .map(|p| {
+                if p.is_hit() {
+                    axis.dot(p.point - centre) as f32
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect()
     }
 
     pub fn project(&self, point: DVec3) -> Option<DVec2> {

@@ -1,7 +1,8 @@
-use glam::{DVec3, dvec3};
+use glam::dvec3;
 
 use super::Pinhole;
 use crate::frame::Frame;
+use crate::pose::Pose;
 
 /// Two identical pinholes side by side, looking along body +x: the left one at +B/2 on body
 /// y, the right one at −B/2. The pose is the rig's centre. Rectified by construction: the
@@ -24,15 +25,14 @@ impl StereoRig {
     }
 
     /// Ground-truth disparity of the left image: u_left − u_right = fx·B/z, with z the depth of
-    /// each hit along the left camera's optical axis (body x); NaN where nothing is hit.
-    pub fn disparity(&self, left: &Frame, world_from_body: glam::DMat3, position: DVec3) -> Vec<f32> {
-        let left_centre = position + world_from_body * self.cameras()[0].position;
-        let forward = world_from_body * DVec3::X;
-        left.pixels()
-            .iter()
-            .map(|p| {
-                if p.is_hit() {
-                    (self.camera.fx * self.baseline / forward.dot(p.point - left_centre)) as f32
+    /// each hit along the left camera's optical axis; NaN where nothing is hit.
+    pub fn disparity(&self, left: &Frame, pose: &Pose) -> Vec<f32> {
+        self.cameras()[0]
+            .axial_depth(left, pose)
+            .into_iter()
+            .map(|z| {
+                if z.is_finite() {
+                    (self.camera.fx * self.baseline / z as f64) as f32
                 } else {
                     f32::NAN
                 }

@@ -65,6 +65,41 @@ pub fn write_disparity_exr(path: &Path, size: (u32, u32), disparity: Vec<f32>) -
     write_channel_exr(path, size, "disparity", convention, disparity)
 }
 
+/// Single-channel f32 EXR named `z`: depth along the optical axis in metres, +inf where no hit.
+pub fn write_axial_depth_exr(path: &Path, size: (u32, u32), depth: Vec<f32>) -> Result<(), OutputError> {
+    write_channel_exr(path, size, "z", AXIAL_DEPTH_CONVENTION, depth)
+}
+
+/// Text stored with axial depth.
+pub const AXIAL_DEPTH_CONVENTION: &str =
+    "z: depth along the camera's optical axis in metres (f32); +inf where nothing is hit";
+
+/// Scale of TUM RGB-D depth PNGs: stored value = metres × 5000.
+pub const TUM_DEPTH_SCALE: f64 = 5000.0;
+
+/// 16-bit grey PNG of axial depth in the TUM RGB-D convention: value = z × 5000 rounded,
+/// 0 where nothing is hit or where z is beyond 13.1 m (65535 / 5000), which 16 bits cannot hold.
+pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Result<(), OutputError> {
+    let values: Vec<u16> = depth
+        .iter()
+        .map(|&z| {
+            let scaled = (z as f64 * TUM_DEPTH_SCALE).round();
+            if scaled.is_finite() && (1.0..=65535.0).contains(&scaled) {
+                scaled as u16
+            } else {
+                0
+            }
+        })
+        .collect();
+    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    write_atomically(path, |out| {
+        image::codecs::png::PngEncoder::new(out)
+            .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
+            .map_err(std::io::Error::other)
+    })
+    .map_err(failed(path))
+}
+
 /// One f32 channel, with its convention in the header's `comments`.
 fn write_channel_exr(
     path: &Path,
