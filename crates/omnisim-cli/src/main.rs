@@ -32,6 +32,8 @@ enum Command {
     Render(commands::render::RenderArgs),
     #[command(subcommand)]
     Scene(commands::scene::SceneCommand),
+    #[command(subcommand)]
+    Poses(commands::poses::PosesCommand),
     Bench(commands::bench::BenchArgs),
 }
 
@@ -40,6 +42,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Render(args) => commands::render::run(args),
         Command::Scene(command) => commands::scene::run(command),
+        Command::Poses(command) => commands::poses::run(command),
         Command::Bench(args) => commands::bench::run(args),
     };
     match result {

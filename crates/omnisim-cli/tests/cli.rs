@@ -285,3 +285,103 @@ fn mirror_options_are_checked() {
         "{omnidir}"
     );
 }
+
+#[test]
+fn pose_files_for_grids_trajectories_and_random_tests_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let grid = dir.path().join("grid.txt");
+    let made = omnisim(&[
+        "poses",
+        "grid",
+        "--x=-2:2:1",
+        "--y=-1:1:1",
+        "--z",
+        "0.4",
+        "--angles",
+        "0,0,90",
+        "--out",
+        grid.to_str().unwrap(),
+    ]);
+    assert!(made.status.success(), "{}", text(&made.stderr));
+    let lines: Vec<String> = std::fs::read_to_string(&grid)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(String::from)
+        .collect();
+    assert_eq!(lines.len(), 15);
+    assert_eq!(lines[1], "-1 -1 0.4 0 0 90");
+
+    let trajectory = omnisim(&[
+        "poses",
+        "trajectory",
+        "--through=-2,-1,0.4",
+        "--through",
+        "2,-1,0.4",
+        "--spacing",
+        "0.5",
+    ]);
+    assert!(trajectory.status.success());
+    assert_eq!(
+        text(&trajectory.stdout).lines().filter(|l| !l.starts_with('#')).count(),
+        9
+    );
+
+    let random = dir.path().join("random.txt");
+    let args = [
+        "poses",
+        "random",
+        "scenes/env2.ron",
+        "--count",
+        "4",
+        "--z",
+        "0.4",
+        "--seed",
+        "3",
+        "--out",
+    ];
+    assert!(
+        omnisim(&[&args[..], &[random.to_str().unwrap()]].concat())
+            .status
+            .success()
+    );
+    let again = omnisim(&[
+        "poses",
+        "random",
+        "scenes/env2.ron",
+        "--count",
+        "4",
+        "--z",
+        "0.4",
+        "--seed",
+        "3",
+    ]);
+    assert_eq!(
+        std::fs::read_to_string(&random).unwrap(),
+        text(&again.stdout),
+        "same seed, same poses"
+    );
+    let out = dir.path().join("frames");
+    let rendered = omnisim(&[
+        "render",
+        "scenes/env2.ron",
+        "--camera",
+        "equirect",
+        "--size",
+        "64x32",
+        "--poses-file",
+        random.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--no-ply",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(rendered.status.success(), "{}", text(&rendered.stderr));
+    assert!(out.join("env2-0003.png").is_file());
+
+    let impossible = omnisim(&["poses", "random", "scenes/env1.ron", "--count", "3", "--clearance", "5"]);
+    assert!(!impossible.status.success() && text(&impossible.stderr).contains("--clearance"));
+    let backwards = omnisim(&["poses", "grid", "--x", "1:0:1", "--y", "0", "--z", "0"]);
+    assert!(!backwards.status.success() && text(&backwards.stderr).contains("START:STOP:STEP"));
+}

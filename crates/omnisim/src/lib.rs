@@ -14,6 +14,7 @@ pub mod frame;
 pub mod gpu;
 pub mod output;
 pub mod pose;
+pub mod pose_sets;
 pub mod renderer;
 pub mod scene;
 
