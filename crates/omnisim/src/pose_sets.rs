@@ -12,7 +12,7 @@ use crate::pose::Pose;
 
 /// Values start, start + step, … up to stop (inclusive, to within a millionth of a step).
 pub fn steps(start: f64, stop: f64, step: f64) -> Vec<f64> {
-    if !(step > 0.0) || stop < start {
+    if step.is_nan() || step <= 0.0 || stop < start {
         return vec![start];
     }
     let count = ((stop - start) / step + 1e-6).floor() as usize + 1;
