@@ -6,6 +6,7 @@
 mod camera_args;
 mod chart_svg;
 mod commands;
+mod metadata;
 mod poses;
 
 use clap::{Parser, Subcommand};
