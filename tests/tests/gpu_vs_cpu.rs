@@ -132,3 +132,18 @@ fn gpu_edge_supersampling_matches_the_f64_reference() {
         assert!(refined > 500 && share >= 0.999, "{share}");
     }
 }
+
+#[test]
+fn images_traced_in_bands_equal_images_traced_at_once() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let Some(mut gpu) = common::gpu_tracer(&bvh) else {
+        return;
+    };
+    let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
+    let camera = common::cameras()[2].clone();
+    let whole = gpu.render(&camera, &pose).unwrap();
+    gpu.limit_band_rows(7); // 256 rows: 36 full bands and a last one of 4 rows
+    let banded = gpu.render(&camera, &pose).unwrap();
+    assert_eq!(whole.pixels(), banded.pixels());
+}

@@ -31,6 +31,7 @@ pub struct GpuTracer {
     face_colours: wgpu::Buffer,
     offset: DVec3,
     band: std::sync::Mutex<Option<BandBuffers>>,
+    max_band_rows: Option<u32>,
 }
 
 impl GpuTracer {
@@ -90,10 +91,17 @@ impl GpuTracer {
             face_colours: storage("face colours", bytemuck::cast_slice(&colours)),
             offset: bvh.offset,
             band: std::sync::Mutex::new(None),
+            max_band_rows: None,
             pipeline,
             refine_pipeline,
             context,
         })
+    }
+
+    /// Traces at most `rows` image rows per dispatch (at least 1), below the adapter's own
+    /// limit: for adapters that struggle with large buffers, and to test the banding.
+    pub fn limit_band_rows(&mut self, rows: u32) {
+        self.max_band_rows = Some(rows.max(1));
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -110,7 +118,10 @@ impl GpuTracer {
             .min(self.context.limits.max_buffer_size);
         let max_rows_by_dispatch =
             self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE[1] as u64;
-        let band_rows = (max_binding / row_bytes).min(max_rows_by_dispatch).min(height as u64) as u32;
+        let band_rows = (max_binding / row_bytes)
+            .min(max_rows_by_dispatch)
+            .min(self.max_band_rows.unwrap_or(u32::MAX) as u64)
+            .min(height as u64) as u32;
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
