@@ -24,13 +24,7 @@ use omnisim::pose::rotation_xyz;
 use omnisim::{Camera, Catadioptric, Equirectangular, Frame, Pinhole, Pose, Scene, cpu};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
-/// The reference paper's omnidirectional camera: hyperbolic mirror a = 40 mm, b = 160 mm,
-/// rim where it sees 20° above the horizon, rim circle on the border of a 250×250 image.
-fn paper_omni() -> Catadioptric {
-    Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))
-}
-
-/// Pixel radius of `paper_omni`'s rim circle: half the shorter image side.
+/// Pixel radius of `common::paper_omni`'s rim circle: half the shorter image side.
 const RIM_RADIUS_PX: f64 = 125.0;
 
 /// Every pixel centre of a `width`×`height` image, row by row.
@@ -128,7 +122,7 @@ struct ShortcutError {
 /// frame) by the law of reflection, puts the scene point 2 m along each exact ray, and
 /// projects it with the aligned camera's closed form, as the paper's method would.
 fn shortcut_error(offset: DVec3) -> ShortcutError {
-    let aligned = paper_omni();
+    let aligned = common::paper_omni();
     let mut camera = aligned.clone();
     camera.misalignment.offset = offset;
     let (mut errors, mut unprojectable) = (Vec::new(), 0);
@@ -186,7 +180,7 @@ fn shortcut_error_grows_with_camera_offset_and_validate_refuses_it() {
         }
     }
 
-    let mut shortcut = paper_omni();
+    let mut shortcut = common::paper_omni();
     shortcut.rays = MirrorRays::Shortcut;
     assert_eq!(shortcut.validate(), Ok(()), "aligned shortcut is exact");
     for offset in [dvec3(1e-3, 0.0, 0.0), dvec3(0.0, 0.0, 1e-3)] {
@@ -282,7 +276,7 @@ fn rim_cut_off(camera: &Catadioptric, theta: f64, mut inside: f64, mut outside: 
 
 #[test]
 fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
-    let mirror = paper_omni();
+    let mirror = common::paper_omni();
     let centre = dvec2(mirror.cx, mirror.cy);
     let angles = 3600;
     let mut worst_cut_off = 0f64;
