@@ -94,7 +94,7 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
         "Scene(name: \"t\", objects: [\n\n  Box(name: \"crate\", size: (1.0, NaN, 1.0), colour: (1,1,1)),\n])",
     );
     assert!(
-        nan.starts_with("test.ron:3: object 'crate'") && nan.contains("positive finite"),
+        nan.starts_with("test.ron:3:7: object 'crate'") && nan.contains("positive finite"),
         "{nan}"
     );
 
@@ -102,7 +102,7 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
         "Scene(name: \"t\", objects: [\n  Polygon(name: \"line\", vertices: [(0.0,0.0,0.0),(1.0,0.0,0.0),(2.0,0.0,0.0)], colour: (1,1,1)),\n])",
     );
     assert!(
-        degenerate.starts_with("test.ron:2: object 'line'") && degenerate.contains("degenerate"),
+        degenerate.starts_with("test.ron:2:11: object 'line'") && degenerate.contains("degenerate"),
         "{degenerate}"
     );
 
@@ -120,7 +120,7 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
         "Scene(name: \"t\", objects: [\n  Mesh(name: \"statue\", path: \"missing.ply\", colour: (1,1,1)),\n])",
     );
     assert!(
-        mesh.contains("test.ron:2: object 'statue'") && mesh.contains("missing.ply") && mesh.contains("not found"),
+        mesh.contains("test.ron:2:8: object 'statue'") && mesh.contains("missing.ply") && mesh.contains("not found"),
         "{mesh}"
     );
 

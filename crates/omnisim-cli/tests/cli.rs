@@ -136,17 +136,17 @@ fn bad_scene_files_fail_clearly_and_write_nothing() {
         ),
         (
             "Scene(name: \"t\", objects: [\n  Box(name: \"crate\", size: (1.0, NaN, 1.0), colour: (1,1,1)),\n])",
-            "bad.ron:2: object 'crate'",
+            "bad.ron:2:7: object 'crate'",
             "finite",
         ),
         (
             "Scene(name: \"t\", objects: [\n  Polygon(name: \"line\", vertices: [(0.0,0.0,0.0),(1.0,0.0,0.0),(2.0,0.0,0.0)], colour: (1,1,1)),\n])",
-            "bad.ron:2: object 'line'",
+            "bad.ron:2:11: object 'line'",
             "degenerate",
         ),
         (
             "Scene(name: \"t\", objects: [\n  Polygon(name: \"bent\", vertices: [(0.0,0.0,0.0),(1.0,0.0,0.0),(1.0,1.0,0.0),(0.0,1.0,0.5)], colour: (1,1,1)),\n])",
-            "bad.ron:2: object 'bent'",
+            "bad.ron:2:11: object 'bent'",
             "not planar",
         ),
         (
@@ -156,7 +156,7 @@ fn bad_scene_files_fail_clearly_and_write_nothing() {
         ),
         (
             "Scene(name: \"t\", objects: [\n  Mesh(name: \"statue\", path: \"statue.obj\", colour: (1,1,1)),\n])",
-            "bad.ron:2: object 'statue'",
+            "bad.ron:2:8: object 'statue'",
             "not found",
         ),
     ];

@@ -1,7 +1,7 @@
 use std::path::PathBuf;
 
 /// Why a scene could not be loaded or written. Every variant names the file; the ones about
-/// content name the line and the object, so the message alone says where to look.
+/// content name the line, the column and the object, so the message alone says where to look.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error("cannot read {}: {source}", path.display())]
@@ -13,10 +13,11 @@ pub enum SceneError {
         column: usize,
         message: String,
     },
-    #[error("{}{}: object '{object}': {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    #[error("{}{}: object '{object}': {message}", path.display(), location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default())]
     Invalid {
         path: PathBuf,
-        line: Option<usize>,
+        /// (line, column) of the object's `name` field, 1-based.
+        location: Option<(usize, usize)>,
         object: String,
         message: String,
     },

@@ -23,7 +23,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let name = object.name();
         let invalid = |message: String| SceneError::Invalid {
             path: path.to_path_buf(),
-            line: locate_object(text, name),
+            location: locate_object(text, name),
             object: name.to_string(),
             message: format!("{}: {message}", object.kind()),
         };
@@ -224,17 +224,15 @@ fn mesh_faces(
     Ok(faces)
 }
 
-/// The 1-based line where the object named `name` is written, found by its `name: "…"` field.
-fn locate_object(text: &str, name: &str) -> Option<usize> {
+/// The 1-based (line, column) of the `name` field that names the object `name`.
+fn locate_object(text: &str, name: &str) -> Option<(usize, usize)> {
     let quoted = format!("\"{name}\"");
-    text.lines()
-        .position(|line| {
-            line.find(&quoted).is_some_and(|at| {
-                let before = line[..at].trim_end();
-                before.ends_with(':') && before[..before.len() - 1].trim_end().ends_with("name")
-            })
-        })
-        .map(|i| i + 1)
+    text.lines().enumerate().find_map(|(number, line)| {
+        let at = line.find(&quoted)?;
+        let before = line[..at].trim_end().strip_suffix(':')?.trim_end();
+        let field = before.strip_suffix("name")?;
+        Some((number + 1, field.chars().count() + 1))
+    })
 }
 
 #[cfg(test)]
@@ -244,7 +242,7 @@ mod tests {
     #[test]
     fn locates_object_by_name_field() {
         let text = "Scene(\n  objects: [\n    Box(\n      name: \"table\",\n";
-        assert_eq!(locate_object(text, "table"), Some(4));
+        assert_eq!(locate_object(text, "table"), Some((4, 7)));
         assert_eq!(locate_object(text, "chair"), None);
     }
 }
