@@ -307,7 +307,7 @@ fn marker_centroids_land_where_the_unified_model_says() {
 
 /// The numbers of `data: [ … ]` under `name:` in an OpenCV YAML file.
 fn yaml_matrix(text: &str, name: &str) -> Vec<f64> {
-    let block = &text[text.find(&format!("{name}:")).unwrap_or_else(|| panic!("no {name}"))..];
+    let block = &text[text.find(&format!("\n{name}:")).unwrap_or_else(|| panic!("no {name}"))..];
     let data = &block[block.find('[').unwrap() + 1..block.find(']').unwrap()];
     data.split(',').map(|v| v.trim().parse().unwrap()).collect()
 }
@@ -355,6 +355,38 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
             (projected - pixel).length()
         );
         checked += 1;
+    }
+    // Pinhole: K and body_from_camera (row by row) reproduce its projection; Kalibr agrees.
+    let pinhole = Pinhole {
+        fx: 300.0,
+        fy: 310.0,
+        cx: 150.2,
+        cy: 99.7,
+        ..Pinhole::with_horizontal_fov(320, 200, 1.0)
+    };
+    let opencv = calibration::opencv_pinhole(&pinhole);
+    let (k, r) = (
+        yaml_matrix(&opencv, "camera_matrix"),
+        yaml_matrix(&opencv, "body_from_camera"),
+    );
+    assert_eq!(
+        kalibr_intrinsics(&calibration::kalibr_pinhole(&pinhole, None)),
+        vec![k[0], k[4], k[2], k[5]]
+    );
+    for _ in 0..200 {
+        let body = dvec3(
+            rng.random_range(0.5..5.0),
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-1.0..1.0),
+        );
+        // optical = body_from_camera^T · body.
+        let optical = dvec3(
+            r[0] * body.x + r[3] * body.y + r[6] * body.z,
+            r[1] * body.x + r[4] * body.y + r[7] * body.z,
+            r[2] * body.x + r[5] * body.y + r[8] * body.z,
+        );
+        let projected = dvec2(k[0] * optical.x / optical.z + k[2], k[4] * optical.y / optical.z + k[5]);
+        assert!((pinhole.project(body).unwrap() - projected).length() < 1e-9);
     }
     // Stereo: X_right = X_left + T, both projected with their camera matrices.
     let rig = StereoRig {

@@ -31,7 +31,7 @@ pub fn opencv_pinhole(camera: &Pinhole) -> String {
     let mut out = String::from(HEADER);
     out += "# omnisim pinhole camera. OpenCV conventions: pixel centres at integer coordinates, (0,0) the\n\
             # top-left pixel's centre; optical frame x right, y down, z forward. Ideal lens: no distortion.\n\
-            # body_from_camera: rotation taking optical-frame vectors to the robot body frame (x forward,\n\
+            # body_from_camera is the rotation taking optical-frame vectors to the body frame (x forward,\n\
             # y left, z up); camera_position_in_body in metres.\n";
     let _ = writeln!(out, "image_width: {}\nimage_height: {}", camera.width, camera.height);
     out += &opencv_matrix(
