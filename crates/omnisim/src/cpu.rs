@@ -122,3 +122,29 @@ pub fn render(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
         });
     frame
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_rays_with_negative_zero_components_hit_the_walls() {
+        let text = r#"Scene(name: "cube", objects: [Box(name: "room", size: (4.0, 2.0, 2.0), colour: (9, 9, 9))])"#;
+        let scene = crate::scene::Scene::from_ron(text, std::path::Path::new("cube.ron")).unwrap();
+        let bvh = SceneBvh::build(&scene);
+        let origin = DVec3::new(0.1, 0.2, 0.9) - bvh.offset;
+        // −DVec3::X is (−1, −0, −0): signed zeros must not change what a ray hits.
+        let expected = [
+            (DVec3::X, 1.9),
+            (-DVec3::X, 2.1),
+            (DVec3::Y, 0.8),
+            (-DVec3::Y, 1.2),
+            (DVec3::Z, 1.1),
+            (-DVec3::Z, 0.9),
+        ];
+        for (direction, distance) in expected {
+            let hit = closest_hit(&bvh, origin, direction, 0.0).unwrap_or_else(|| panic!("{direction} escaped"));
+            assert!((hit.t - distance).abs() < 1e-12, "{direction}: {} vs {distance}", hit.t);
+        }
+    }
+}
