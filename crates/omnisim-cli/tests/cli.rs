@@ -4,9 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn omnisim(args: &[&str]) -> Output {
+/// Runs `omnisim` with a command line (split on white space) from the workspace folder.
+fn omnisim(line: &str) -> Output {
     Command::new(env!("CARGO_BIN_EXE_omnisim"))
-        .args(args)
+        .args(line.split_whitespace())
         .current_dir(workspace())
         .output()
         .expect("omnisim runs")
@@ -24,20 +25,10 @@ fn text(bytes: &[u8]) -> String {
 fn render_writes_image_range_cloud_poses_and_metadata() {
     let out = tempfile::tempdir().unwrap();
     let out_dir = out.path().join("frames");
-    let result = omnisim(&[
-        "render",
-        "scenes/env1.ron",
-        "--camera",
-        "omni",
-        "--pose",
-        "1.5,0,0.4,0,0,60",
-        "--pose",
-        "0,0,0.4",
-        "--backend",
-        "cpu",
-        "--out",
-        out_dir.to_str().unwrap(),
-    ]);
+    let result = omnisim(&format!(
+        "render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --pose 0,0,0.4 --backend cpu --out {}",
+        out_dir.display()
+    ));
     assert!(result.status.success(), "{}", text(&result.stderr));
     let stdout = text(&result.stdout);
     for name in [
@@ -88,19 +79,17 @@ fn render_writes_image_range_cloud_poses_and_metadata() {
 #[test]
 fn scene_check_and_export() {
     let out = tempfile::tempdir().unwrap();
-    let check = omnisim(&["scene", "check", "scenes/env2.ron"]);
+    let check = omnisim("scene check scenes/env2.ron");
     assert!(check.status.success());
     assert!(text(&check.stdout).contains("partition"));
     let ply = out.path().join("env2.ply");
-    let export = omnisim(&["scene", "export", "scenes/env2.ron", ply.to_str().unwrap()]);
+    let export = omnisim(&format!("scene export scenes/env2.ron {}", ply.display()));
     assert!(export.status.success(), "{}", text(&export.stderr));
     assert!(std::fs::metadata(&ply).unwrap().len() > 1000);
-    let wrong = omnisim(&[
-        "scene",
-        "export",
-        "scenes/env2.ron",
-        out.path().join("env2.stl").to_str().unwrap(),
-    ]);
+    let wrong = omnisim(&format!(
+        "scene export scenes/env2.ron {}",
+        out.path().join("env2.stl").display()
+    ));
     assert!(!wrong.status.success() && text(&wrong.stderr).contains(".ply or .obj"));
 }
 
@@ -111,16 +100,11 @@ fn render_bad(scene: &str) -> (String, bool) {
     let path = dir.path().join("bad.ron");
     std::fs::write(&path, scene).unwrap();
     let out_dir = dir.path().join("out");
-    let result = omnisim(&[
-        "render",
-        path.to_str().unwrap(),
-        "--pose",
-        "0,0,1",
-        "--backend",
-        "cpu",
-        "--out",
-        out_dir.to_str().unwrap(),
-    ]);
+    let result = omnisim(&format!(
+        "render {} --pose 0,0,1 --backend cpu --out {}",
+        path.display(),
+        out_dir.display()
+    ));
     assert!(!result.status.success(), "bad scene accepted: {scene}");
     assert_eq!(result.status.code(), Some(1));
     (text(&result.stderr), Path::new(&out_dir).exists())
@@ -168,17 +152,17 @@ fn bad_scene_files_fail_clearly_and_write_nothing() {
         );
         assert!(!out_exists, "output folder created for a bad scene");
     }
-    let missing = omnisim(&["render", "scenes/nope.ron", "--pose", "0,0,1"]);
+    let missing = omnisim("render scenes/nope.ron --pose 0,0,1");
     assert!(!missing.status.success() && text(&missing.stderr).contains("scenes/nope.ron"));
 }
 
 #[test]
 fn bad_options_are_explained() {
-    let no_pose = omnisim(&["render", "scenes/env1.ron"]);
+    let no_pose = omnisim("render scenes/env1.ron");
     assert!(!no_pose.status.success() && text(&no_pose.stderr).contains("--pose"));
-    let bad_pose = omnisim(&["render", "scenes/env1.ron", "--pose", "1,2"]);
+    let bad_pose = omnisim("render scenes/env1.ron --pose 1,2");
     assert!(!bad_pose.status.success() && text(&bad_pose.stderr).contains("x,y,z"));
-    let too_high = omnisim(&["render", "scenes/env1.ron", "--pose", "0,0,0", "--max-elevation", "80"]);
+    let too_high = omnisim("render scenes/env1.ron --pose 0,0,0 --max-elevation 80");
     assert!(
         !too_high.status.success() && text(&too_high.stderr).contains("asin(b/c)"),
         "{}",
@@ -190,23 +174,10 @@ fn bad_options_are_explained() {
 fn stereo_writes_both_images_disparity_and_calibration() {
     let out = tempfile::tempdir().unwrap();
     let dir = out.path().join("stereo");
-    let args = [
-        "render",
-        "scenes/env1.ron",
-        "--camera",
-        "stereo",
-        "--size",
-        "160x120",
-        "--baseline",
-        "0.2",
-    ];
-    let result = omnisim(
-        &[
-            &args[..],
-            &["--pose", "0,0,1", "--backend", "cpu", "--out", dir.to_str().unwrap()],
-        ]
-        .concat(),
-    );
+    let result = omnisim(&format!(
+        "render scenes/env1.ron --camera stereo --size 160x120 --baseline 0.2 --pose 0,0,1 --backend cpu --out {}",
+        dir.display()
+    ));
     assert!(result.status.success(), "{}", text(&result.stderr));
     for name in [
         "env1-0000-left.png",
@@ -233,53 +204,28 @@ fn stereo_writes_both_images_disparity_and_calibration() {
 fn mirror_options_are_checked() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("omni");
-    let out = out.to_str().unwrap();
-    let shortcut_misaligned = omnisim(&[
-        "render",
-        "scenes/env1.ron",
-        "--pose",
-        "0,0,0.4",
-        "--mirror-rays",
-        "shortcut",
-        "--misalign-offset",
-        "0.001,0,0",
-        "--out",
-        out,
-    ]);
+    let shortcut_misaligned = omnisim(&format!(
+        "render scenes/env1.ron --pose 0,0,0.4 --mirror-rays shortcut --misalign-offset 0.001,0,0 --out {}",
+        out.display()
+    ));
     assert!(!shortcut_misaligned.status.success());
     assert!(
         text(&shortcut_misaligned.stderr).contains("aligned"),
         "{}",
         text(&shortcut_misaligned.stderr)
     );
-    let inside_sphere = omnisim(&[
-        "render",
-        "scenes/env1.ron",
-        "--pose",
-        "0,0,0.4",
-        "--mirror",
-        "spherical",
-        "--camera-distance",
-        "0.01",
-        "--out",
-        out,
-    ]);
+    let inside_sphere = omnisim(&format!(
+        "render scenes/env1.ron --pose 0,0,0.4 --mirror spherical --camera-distance 0.01 --out {}",
+        out.display()
+    ));
     assert!(!inside_sphere.status.success() && text(&inside_sphere.stderr).contains("outside the sphere"));
-    assert!(!Path::new(out).exists());
-    let parabolic = omnisim(&[
-        "render",
-        "scenes/env1.ron",
-        "--pose",
-        "0,0,0.4",
-        "--mirror",
-        "parabolic",
-        "--backend",
-        "cpu",
-        "--out",
-        out,
-    ]);
+    assert!(!out.exists());
+    let parabolic = omnisim(&format!(
+        "render scenes/env1.ron --pose 0,0,0.4 --mirror parabolic --backend cpu --out {}",
+        out.display()
+    ));
     assert!(parabolic.status.success(), "{}", text(&parabolic.stderr));
-    let omnidir = std::fs::read_to_string(Path::new(out).join("calibration-opencv-omnidir.yaml")).unwrap();
+    let omnidir = std::fs::read_to_string(out.join("calibration-opencv-omnidir.yaml")).unwrap();
     assert!(
         omnidir.contains("xi: !!opencv-matrix") && omnidir.contains("data: [ 1.0 ]"),
         "{omnidir}"
@@ -290,18 +236,10 @@ fn mirror_options_are_checked() {
 fn pose_files_for_grids_trajectories_and_random_tests_render() {
     let dir = tempfile::tempdir().unwrap();
     let grid = dir.path().join("grid.txt");
-    let made = omnisim(&[
-        "poses",
-        "grid",
-        "--x=-2:2:1",
-        "--y=-1:1:1",
-        "--z",
-        "0.4",
-        "--angles",
-        "0,0,90",
-        "--out",
-        grid.to_str().unwrap(),
-    ]);
+    let made = omnisim(&format!(
+        "poses grid --x=-2:2:1 --y=-1:1:1 --z 0.4 --angles 0,0,90 --out {}",
+        grid.display()
+    ));
     assert!(made.status.success(), "{}", text(&made.stderr));
     let lines: Vec<String> = std::fs::read_to_string(&grid)
         .unwrap()
@@ -312,15 +250,7 @@ fn pose_files_for_grids_trajectories_and_random_tests_render() {
     assert_eq!(lines.len(), 15);
     assert_eq!(lines[1], "-1 -1 0.4 0 0 90");
 
-    let trajectory = omnisim(&[
-        "poses",
-        "trajectory",
-        "--through=-2,-1,0.4",
-        "--through",
-        "2,-1,0.4",
-        "--spacing",
-        "0.5",
-    ]);
+    let trajectory = omnisim("poses trajectory --through=-2,-1,0.4 --through 2,-1,0.4 --spacing 0.5");
     assert!(trajectory.status.success());
     assert_eq!(
         text(&trajectory.stdout).lines().filter(|l| !l.starts_with('#')).count(),
@@ -328,60 +258,28 @@ fn pose_files_for_grids_trajectories_and_random_tests_render() {
     );
 
     let random = dir.path().join("random.txt");
-    let args = [
-        "poses",
-        "random",
-        "scenes/env2.ron",
-        "--count",
-        "4",
-        "--z",
-        "0.4",
-        "--seed",
-        "3",
-        "--out",
-    ];
-    assert!(
-        omnisim(&[&args[..], &[random.to_str().unwrap()]].concat())
-            .status
-            .success()
-    );
-    let again = omnisim(&[
-        "poses",
-        "random",
-        "scenes/env2.ron",
-        "--count",
-        "4",
-        "--z",
-        "0.4",
-        "--seed",
-        "3",
-    ]);
+    let made = omnisim(&format!(
+        "poses random scenes/env2.ron --count 4 --z 0.4 --seed 3 --out {}",
+        random.display()
+    ));
+    assert!(made.status.success());
+    let again = omnisim("poses random scenes/env2.ron --count 4 --z 0.4 --seed 3");
     assert_eq!(
         std::fs::read_to_string(&random).unwrap(),
         text(&again.stdout),
         "same seed, same poses"
     );
     let out = dir.path().join("frames");
-    let rendered = omnisim(&[
-        "render",
-        "scenes/env2.ron",
-        "--camera",
-        "equirect",
-        "--size",
-        "64x32",
-        "--poses-file",
-        random.to_str().unwrap(),
-        "--backend",
-        "cpu",
-        "--no-ply",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let rendered = omnisim(&format!(
+        "render scenes/env2.ron --camera equirect --size 64x32 --poses-file {} --backend cpu --no-ply --out {}",
+        random.display(),
+        out.display()
+    ));
     assert!(rendered.status.success(), "{}", text(&rendered.stderr));
     assert!(out.join("env2-0003.png").is_file());
 
-    let impossible = omnisim(&["poses", "random", "scenes/env1.ron", "--count", "3", "--clearance", "5"]);
+    let impossible = omnisim("poses random scenes/env1.ron --count 3 --clearance 5");
     assert!(!impossible.status.success() && text(&impossible.stderr).contains("--clearance"));
-    let backwards = omnisim(&["poses", "grid", "--x", "1:0:1", "--y", "0", "--z", "0"]);
+    let backwards = omnisim("poses grid --x 1:0:1 --y 0 --z 0");
     assert!(!backwards.status.success() && text(&backwards.stderr).contains("START:STOP:STEP"));
 }
