@@ -228,18 +228,7 @@ impl GpuTracer {
             (5, &pixels),
             (6, &colours),
         ];
-        let entries: Vec<wgpu::BindGroupEntry> = bindings
-            .iter()
-            .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                binding: *binding,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("refine edges"),
-            layout: &self.refine_pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
+        let bind_group = self.bind_group("refine edges", &self.refine_pipeline, &bindings);
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -283,20 +272,14 @@ impl GpuTracer {
             std::mem::size_of::<CameraParams>() as u64,
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
-        let resources = [&uniform, &self.nodes, &self.triangles, &self.face_colours, &output];
-        let entries: Vec<wgpu::BindGroupEntry> = resources
-            .iter()
-            .enumerate()
-            .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                binding: binding as u32,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("trace"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
+        let bindings = [
+            (0, &uniform),
+            (1, &self.nodes),
+            (2, &self.triangles),
+            (3, &self.face_colours),
+            (4, &output),
+        ];
+        let bind_group = self.bind_group("trace", &self.pipeline, &bindings);
         BandBuffers {
             bytes,
             output,
@@ -304,6 +287,27 @@ impl GpuTracer {
             uniform,
             bind_group,
         }
+    }
+
+    /// Binds whole buffers to the numbered bindings of group 0 of `pipeline`.
+    fn bind_group(
+        &self,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        bindings: &[(u32, &wgpu::Buffer)],
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = bindings
+            .iter()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding: *binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        self.context.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        })
     }
 
     fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
