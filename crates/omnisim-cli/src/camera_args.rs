@@ -145,6 +145,11 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
         .ok_or_else(|| format!("'{text}' is not WIDTHxHEIGHT, e.g. 640x480"))?;
     let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&n| (1..=32768).contains(&n));
     match (parse(w), parse(h)) {
+        // A frame holds about 40 bytes a pixel in memory (colour, range, face, f64 point).
+        (Some(w), Some(h)) if w as u64 * h as u64 > 100_000_000 => Err(format!(
+            "'{text}' is {} megapixels; omnisim renders at most 100 megapixels per image",
+            w as u64 * h as u64 / 1_000_000
+        )),
         (Some(w), Some(h)) => Ok((w, h)),
         _ => Err(format!(
             "'{text}': width and height must be whole numbers from 1 to 32768"

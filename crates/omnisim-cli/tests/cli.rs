@@ -158,6 +158,12 @@ fn bad_scene_files_fail_clearly_and_write_nothing() {
 
 #[test]
 fn bad_options_are_explained() {
+    let huge = omnisim("render scenes/env1.ron --pose 0,0,1 --size 20000x20000");
+    assert!(
+        !huge.status.success() && text(&huge.stderr).contains("400 megapixels"),
+        "{}",
+        text(&huge.stderr)
+    );
     let no_pose = omnisim("render scenes/env1.ron");
     assert!(!no_pose.status.success() && text(&no_pose.stderr).contains("--pose"));
     let bad_pose = omnisim("render scenes/env1.ron --pose 1,2");
