@@ -17,11 +17,14 @@ use clap::{Parser, Subcommand};
     version,
     about = "Ground-truth images, range and point clouds from simulated cameras in virtual rooms",
     long_about = "Ground-truth images, range and point clouds from simulated cameras in virtual rooms.\n\n\
-Scenes are RON files of coloured planar faces (see scenes/). Cameras: pinhole, equirectangular \
-panorama and hyperbolic catadioptric (omnidirectional), traced exactly ray by ray. Frames: \
+Scenes are RON files of coloured planar faces (see scenes/). Cameras: pinhole, stereo, \
+equirectangular and cylindrical panoramas, and catadioptric (hyperbolic, parabolic or spherical \
+mirror), traced exactly ray by ray. Frames: \
 metres, radians inside; world z up; body x forward, y left, z up; pose rotation \
 R = Rx(θx)·Ry(θy)·Rz(θz) as in the reference paper.\n\n\
-Example:\n  omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/"
+Examples:\n  omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
+omnisim poses grid --x=-2:2:0.5 --y=-1.5:1.5:0.5 --z 0.4 --out grid.txt\n  \
+omnisim render scenes/env1.ron --camera omni --poses-file grid.txt --out out/grid"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -31,6 +34,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     Render(commands::render::RenderArgs),
+    /// Check a scene file, or export its triangles for other tools.
     #[command(subcommand)]
     Scene(commands::scene::SceneCommand),
     #[command(subcommand)]
