@@ -18,11 +18,13 @@ fn sample_colour(pixel: vec2<f32>) -> vec3<f32> {
 }
 
 @compute @workgroup_size(64)
-fn refine_edges(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&edge_pixels) {
+fn refine_edges(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    // Rows of workgroups when there are more edge pixels than one dimension can dispatch.
+    let slot = id.y * groups.x * 64u + id.x;
+    if slot >= arrayLength(&edge_pixels) {
         return;
     }
-    let index = edge_pixels[id.x];
+    let index = edge_pixels[slot];
     let centre = vec2<f32>(f32(index % camera.width), f32(index / camera.width));
     let n = camera.samples_per_axis;
     var sum = vec3<f32>(0.0);
@@ -32,5 +34,5 @@ fn refine_edges(@builtin(global_invocation_id) id: vec3<u32>) {
             sum += sample_colour(centre + offset);
         }
     }
-    edge_colours[id.x] = pack4x8unorm(vec4<f32>(sum / f32(n * n), 1.0));
+    edge_colours[slot] = pack4x8unorm(vec4<f32>(sum / f32(n * n), 1.0));
 }

@@ -61,7 +61,7 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
     let frame = rendered();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("range.exr");
-    output::write_range_exr(&path, &frame).unwrap();
+    output::write_range_exr(&path, &frame, &omnisim::Camera::Catadioptric(common::paper_omni())).unwrap();
     let image = common::read_exr(&path);
     let layer = &image.layer_data[0];
     assert_eq!(layer.size.0, frame.width as usize);

@@ -54,7 +54,7 @@ fn camera_json(camera: &Camera) -> serde_json::Value {
                 "body_origin_in_mirror_frame": c.body_origin_in_mirror().to_array(),
                 "unified_model": c.unified_model().map(|m| json!({ "xi": m.xi, "gamma_x": m.gamma_x, "gamma_y": m.gamma_y,
                     "projection": "u = cx + gamma_x*s_x/(xi - s_z), v = cy + gamma_y*s_y/(xi - s_z), s = unit direction from F' in the mirror frame" })),
-                "image_azimuth": "mount up: a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi (u right, v down): the image is mirrored on screen",
+                "image_azimuth": "a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down (u right, v down): the image is mirrored on screen",
                 "rays": "see raymap.exr: per-pixel origin and direction in the body frame",
             })
         }
@@ -83,10 +83,13 @@ pub fn metadata(scene: &Scene, scene_path: &Path, rig: &Rig, poses: &[Pose], ren
         "conventions": {
             "units": "metres; angles in degrees here",
             "world": "right-handed, z up",
-            "body": "x forward, y left, z up; pose position = viewpoint (optical centre or mirror viewpoint F')",
+            "body": "x forward, y left, z up; pose position = the body origin: the optical centre (pinhole), the rig's centre (stereo), a central mirror's viewpoint F', the sphere's centre, or a non-central paraboloid's focus",
             "rotation": "world_from_body = Rx(theta_x)*Ry(theta_y)*Rz(theta_z)",
             "pixels": "u = column, v = row, pixel centres at integer coordinates, (0,0) top-left",
-            "range": output::RANGE_CONVENTION,
+            "range": match rig {
+                Rig::Single(camera) => output::range_convention(camera),
+                Rig::Stereo(stereo) => output::range_convention(&Camera::Pinhole(stereo.cameras()[0].clone())),
+            },
             "depth": format!("pinhole and stereo: <stem>-depth.exr ({}); <stem>-depth.png, TUM RGB-D 16-bit: value = z * {}, 0 = no hit or z > 13.1 m", output::AXIAL_DEPTH_CONVENTION, output::TUM_DEPTH_SCALE),
             "ray_map": output::RAY_MAP_CONVENTION,
             "point_cloud": "binary little-endian PLY, float x y z in world metres + uchar red green blue, hit pixels only",

@@ -289,3 +289,27 @@ fn pose_files_for_grids_trajectories_and_random_tests_render() {
     let backwards = omnisim("poses grid --x 1:0:1 --y 0 --z 0");
     assert!(!backwards.status.success() && text(&backwards.stderr).contains("START:STOP:STEP"));
 }
+
+#[test]
+fn every_example_in_render_help_runs() {
+    let help = text(&omnisim("render --help").stdout);
+    let examples: Vec<&str> = help
+        .lines()
+        .map(str::trim)
+        .filter(|l| l.starts_with("omnisim render "))
+        .collect();
+    assert!(examples.len() >= 3, "{help}");
+    let dir = tempfile::tempdir().unwrap();
+    for (i, example) in examples.iter().enumerate() {
+        // Same command, written to a temporary folder, on the CPU so it runs anywhere.
+        let words: Vec<&str> = example.split_whitespace().skip(1).collect();
+        let out_at = words.iter().position(|w| *w == "--out").expect("examples name --out");
+        let mut line = words[..out_at].join(" ");
+        line += &format!(
+            " --out {} --backend cpu --no-ply",
+            dir.path().join(i.to_string()).display()
+        );
+        let result = omnisim(&line);
+        assert!(result.status.success(), "{example}: {}", text(&result.stderr));
+    }
+}

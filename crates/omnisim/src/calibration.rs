@@ -101,7 +101,8 @@ const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the
 # reflection, as the mirror is: with positive focal lengths below, u = cx + gx*x/(z + xi*|X|),\n\
 # v = cy + gy*y/(z + xi*|X|) for X = X_model. Tools that need a proper rotation can instead use\n\
 # R_model_from_M = Rx(pi) (rvec = (pi, 0, 0)) with fy negated, or keep K and flip rows: v' = 2*cy - v.\n\
-# body_from_mirror gives M in the robot body frame (x forward, y left, z up).\n\
+# body_from_mirror gives M in the robot body frame (x forward, y left, z up): a point at body azimuth\n\
+# phi appears at image angle atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down.\n\
 # Pixel centres at integer coordinates. Ideal mirror and lens: no distortion.\n";
 
 /// OpenCV omnidir YAML (cv::omnidir): camera_matrix, distortion (k1 k2 p1 p2 = 0), xi.

@@ -66,7 +66,7 @@ impl Renderer {
     }
 
     /// Renders, then refines the colour of pixels on face edges with `samples_per_axis²`
-    /// stratified samples each, traced by the f64 CPU tracer whatever the backend.
+    /// stratified samples each, traced by the same backend.
     pub fn render_antialiased(
         &self,
         camera: &Camera,
@@ -74,7 +74,14 @@ impl Renderer {
         samples_per_axis: u32,
     ) -> Result<Frame, RenderError> {
         let mut frame = self.render(camera, pose)?;
-        crate::antialias::supersample_edges(&self.bvh, camera, pose, &mut frame, samples_per_axis);
+        match &self.backend {
+            Backend::Gpu(tracer) => {
+                tracer.refine_edges(camera, pose, &mut frame, samples_per_axis)?;
+            }
+            Backend::Cpu => {
+                crate::antialias::supersample_edges(&self.bvh, camera, pose, &mut frame, samples_per_axis);
+            }
+        }
         Ok(frame)
     }
 

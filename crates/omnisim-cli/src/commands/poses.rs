@@ -89,6 +89,9 @@ fn number(text: &str) -> Result<f64, String> {
         .ok_or_else(|| format!("'{text}' is not a finite number"))
 }
 
+/// The most poses one file may hold (a billion-pose typo should fail, not exhaust memory).
+const MAX_POSES: usize = 10_000_000;
+
 /// The values of one grid axis.
 #[derive(Debug, Clone)]
 pub struct Values(Vec<f64>);
@@ -97,7 +100,14 @@ fn parse_range(text: &str) -> Result<Values, String> {
     let parts: Vec<f64> = text.split(':').map(number).collect::<Result<_, _>>()?;
     match parts[..] {
         [v] => Ok(Values(vec![v])),
-        [start, stop, step] if step > 0.0 && stop >= start => Ok(Values(pose_sets::steps(start, stop, step))),
+        [start, stop, step] if step > 0.0 && stop >= start => {
+            if (stop - start) / step >= MAX_POSES as f64 {
+                return Err(format!(
+                    "'{text}' makes more than {MAX_POSES} values; use a larger step"
+                ));
+            }
+            Ok(Values(pose_sets::steps(start, stop, step)))
+        }
         _ => Err(format!(
             "'{text}' is not VALUE or START:STOP:STEP with STEP > 0 and STOP ≥ START"
         )),
@@ -146,11 +156,14 @@ fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
 
 pub fn run(command: PosesCommand) -> anyhow::Result<()> {
     match command {
-        PosesCommand::Grid { x, y, z, angles, out } => write(
-            &pose_sets::grid(&x.0, &y.0, &z.0, angles * (std::f64::consts::PI / 180.0)),
-            "grid",
-            &out,
-        ),
+        PosesCommand::Grid { x, y, z, angles, out } => {
+            let count = x.0.len() as f64 * y.0.len() as f64 * z.0.len() as f64;
+            if count > MAX_POSES as f64 {
+                bail!("the grid has {count} poses; at most {MAX_POSES} are written, use larger steps");
+            }
+            let poses = pose_sets::grid(&x.0, &y.0, &z.0, angles * (std::f64::consts::PI / 180.0));
+            write(&poses, "grid", &out)
+        }
         PosesCommand::Trajectory {
             waypoints,
             spacing,
@@ -161,6 +174,10 @@ pub fn run(command: PosesCommand) -> anyhow::Result<()> {
             }
             if !(spacing.is_finite() && spacing > 0.0) {
                 bail!("--spacing must be a positive number of metres, not {spacing}");
+            }
+            let length: f64 = waypoints.windows(2).map(|w| w[0].distance(w[1])).sum();
+            if length / spacing > MAX_POSES as f64 {
+                bail!("{length} m every {spacing} m is more than {MAX_POSES} poses; use a larger --spacing");
             }
             write(&pose_sets::trajectory(&waypoints, spacing), "trajectory", &out)
         }
@@ -173,6 +190,15 @@ pub fn run(command: PosesCommand) -> anyhow::Result<()> {
             clearance,
             out,
         } => {
+            if !(1..=MAX_POSES).contains(&count) {
+                bail!("--count must be from 1 to {MAX_POSES}, not {count}");
+            }
+            if !(max_tilt.is_finite() && (0.0..=90.0).contains(&max_tilt)) {
+                bail!("--max-tilt is the largest |θx| and |θy| in degrees, from 0 to 90, not {max_tilt}");
+            }
+            if !(clearance.is_finite() && clearance >= 0.0) {
+                bail!("--clearance must be a distance in metres, 0 or more, not {clearance}");
+            }
             let scene = Scene::load(&scene)?;
             let (lo, hi) = scene.bounds().context("the scene is empty")?;
             let (z_low, z_high) = z.unwrap_or((lo.z, hi.z));

@@ -45,7 +45,7 @@ impl From<BackendArg> for BackendChoice {
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
 omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
-omnisim render scenes/env2.ron --camera omni --poses scenes/paper-omni-poses.txt --out out/env2\n  \
+omnisim render scenes/env2.ron --camera omni --poses-file scenes/paper-omni-poses.txt --out out/env2\n  \
 omnisim render scenes/env1.ron --camera equirect --size 2048x1024 --pose 0,0,0.4 --out out/pano")]
 pub struct RenderArgs {
     /// Scene file (RON), e.g. scenes/env1.ron.
@@ -120,7 +120,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             let png = path_with_suffix(&stem, &format!("{suffix}.png"));
             output::write_png(&png, &frame)?;
             let exr = path_with_suffix(&stem, &format!("{suffix}-range.exr"));
-            output::write_range_exr(&exr, &frame)?;
+            output::write_range_exr(&exr, &frame, camera)?;
             written.extend([png, exr]);
             if let Camera::Pinhole(pinhole) = camera {
                 let depth = pinhole.axial_depth(&frame, pose);

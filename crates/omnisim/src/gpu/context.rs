@@ -14,6 +14,14 @@ pub enum GpuError {
     },
     #[error("the scene's BVH is {depth} levels deep; the GPU traversal stack holds {limit}")]
     BvhTooDeep { depth: usize, limit: usize },
+    #[error(
+        "the scene's {buffer} take {bytes} bytes; the adapter binds at most {limit} bytes per buffer (use the CPU backend)"
+    )]
+    SceneTooLarge {
+        buffer: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
     #[error("reading results back from the GPU failed: {0}")]
     Readback(String),
     #[error("the image is {width}×{height}: one row alone exceeds the adapter's storage limit")]

@@ -85,6 +85,22 @@ impl GpuTracer {
             .iter()
             .map(|c| u32::from_le_bytes([c[0], c[1], c[2], 255]))
             .collect();
+        let limit = context
+            .limits
+            .max_storage_buffer_binding_size
+            .min(context.limits.max_buffer_size);
+        let sizes = [
+            ("BVH nodes", std::mem::size_of_val(bvh.bvh.nodes.as_slice())),
+            ("triangles", std::mem::size_of_val(triangles.as_slice())),
+            ("face colours", std::mem::size_of_val(colours.as_slice())),
+        ];
+        if let Some(&(buffer, bytes)) = sizes.iter().find(|(_, bytes)| *bytes as u64 > limit) {
+            return Err(GpuError::SceneTooLarge {
+                buffer,
+                bytes: bytes as u64,
+                limit,
+            });
+        }
         Ok(Self {
             nodes: storage("bvh nodes", bytemuck::cast_slice(&bvh.bvh.nodes)),
             triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
@@ -234,7 +250,9 @@ impl GpuTracer {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_pipeline(&self.refine_pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
-            pass.dispatch_workgroups((edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE), 1, 1);
+            let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
+            let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
+            pass.dispatch_workgroups(columns, groups.div_ceil(columns), 1);
         }
         encoder.copy_buffer_to_buffer(&colours, 0, &readback, 0, bytes);
         self.context.queue.submit([encoder.finish()]);

@@ -17,9 +17,16 @@ use atomic::write_atomically;
 /// The EXR channel holding range.
 pub const RANGE_CHANNEL: &str = "range";
 
-/// Text stored in the EXR header and the PLY comments.
-pub const RANGE_CONVENTION: &str = "range: Euclidean distance in metres (f32) from the camera ray origin (the viewpoint; for \
-     catadioptric cameras the mirror's effective viewpoint F') to the first surface hit; +inf where nothing is hit";
+/// What range means for `camera`, stored in the EXR header and the metadata.
+pub fn range_convention(camera: &Camera) -> &'static str {
+    if camera.is_central() {
+        "range: Euclidean distance in metres (f32) from the viewpoint (the optical centre, or a central mirror's \
+         effective viewpoint F') to the first surface hit; +inf where nothing is hit"
+    } else {
+        "range: Euclidean distance in metres (f32) from each pixel's own ray origin (the mirror point, or the \
+         camera's optical centre in the body frame; see raymap.exr) to the first surface hit; +inf where nothing is hit"
+    }
+}
 
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write {}: {message}", path.display())]
@@ -46,14 +53,15 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     .map_err(failed(path))
 }
 
-/// Single-channel f32 EXR named `range`, metres, +inf where nothing is hit.
-pub fn write_range_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
+/// Single-channel f32 EXR named `range`, metres, +inf where nothing is hit; `camera` made
+/// `frame` and decides what range is measured from (`range_convention`).
+pub fn write_range_exr(path: &Path, frame: &Frame, camera: &Camera) -> Result<(), OutputError> {
     let ranges = frame.pixels().iter().map(|p| p.range).collect();
     write_channel_exr(
         path,
         (frame.width, frame.height),
         RANGE_CHANNEL,
-        RANGE_CONVENTION,
+        range_convention(camera),
         ranges,
     )
 }

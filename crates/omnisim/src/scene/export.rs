@@ -37,7 +37,7 @@ pub(super) fn export(scene: &Scene, path: &Path, format: ExportFormat) -> Result
                      element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
                      property uchar red\nproperty uchar green\nproperty uchar blue\n\
                      element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-                    scene.name,
+                    scene.name.replace(['\n', '\r'], " "),
                     triangles.len() * 3,
                     triangles.len()
                 )?;
@@ -61,7 +61,7 @@ pub(super) fn export(scene: &Scene, path: &Path, format: ExportFormat) -> Result
                 writeln!(
                     out,
                     "# omnisim scene '{}', metres, z up; v x y z r g b (colours 0-1)",
-                    scene.name
+                    scene.name.replace(['\n', '\r'], " ")
                 )?;
                 let mut current_object = u32::MAX;
                 for (i, (corners, face)) in triangles.corners.iter().zip(&triangles.face).enumerate() {

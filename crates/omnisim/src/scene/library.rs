@@ -1,6 +1,6 @@
 //! The object library: turns each object of a scene file into planar faces.
 
-use std::collections::HashSet;
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{DVec3, dvec3};
@@ -18,19 +18,21 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         description: file.description,
         ..Scene::default()
     };
-    let mut names = HashSet::new();
+    // How many objects of each name came before: the n-th of a name is its n-th mention.
+    let mut seen: HashMap<&str, usize> = HashMap::new();
     for object in &file.objects {
         let name = object.name();
+        let earlier = *seen.entry(name).and_modify(|n| *n += 1).or_insert(0);
         let invalid = |message: String| SceneError::Invalid {
             path: path.to_path_buf(),
-            location: locate_object(text, name),
+            location: locate_object(text, name, earlier),
             object: name.to_string(),
             message: format!("{}: {message}", object.kind()),
         };
         if name.trim().is_empty() {
             return Err(invalid("the name is empty; give every object a name".into()));
         }
-        if !names.insert(name.to_string()) {
+        if earlier > 0 {
             return Err(invalid("another object has this name; names must be unique".into()));
         }
         let index = scene.objects.len() as u32;
@@ -224,15 +226,18 @@ fn mesh_faces(
     Ok(faces)
 }
 
-/// The 1-based (line, column) of the `name` field that names the object `name`.
-fn locate_object(text: &str, name: &str) -> Option<(usize, usize)> {
+/// The 1-based (line, column) of the `occurrence`-th (from 0) `name` field naming `name`.
+fn locate_object(text: &str, name: &str, occurrence: usize) -> Option<(usize, usize)> {
     let quoted = format!("\"{name}\"");
-    text.lines().enumerate().find_map(|(number, line)| {
-        let at = line.find(&quoted)?;
-        let before = line[..at].trim_end().strip_suffix(':')?.trim_end();
-        let field = before.strip_suffix("name")?;
-        Some((number + 1, field.chars().count() + 1))
-    })
+    text.lines()
+        .enumerate()
+        .filter_map(|(number, line)| {
+            let at = line.find(&quoted)?;
+            let before = line[..at].trim_end().strip_suffix(':')?.trim_end();
+            let field = before.strip_suffix("name")?;
+            Some((number + 1, field.chars().count() + 1))
+        })
+        .nth(occurrence)
 }
 
 #[cfg(test)]
@@ -242,7 +247,9 @@ mod tests {
     #[test]
     fn locates_object_by_name_field() {
         let text = "Scene(\n  objects: [\n    Box(\n      name: \"table\",\n";
-        assert_eq!(locate_object(text, "table"), Some((4, 7)));
-        assert_eq!(locate_object(text, "chair"), None);
+        assert_eq!(locate_object(text, "table", 0), Some((4, 7)));
+        assert_eq!(locate_object(text, "chair", 0), None);
+        let twice = "  Wall(name: \"w\"),\n  Wall(name: \"w\"),\n";
+        assert_eq!(locate_object(twice, "w", 1), Some((2, 8)));
     }
 }
