@@ -80,13 +80,16 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
     let malformed = error_of(
         "Scene(name: \"t\", objects: [\n  Wall(name: \"w\", from: (0.0, 0.0) to: (1.0, 0.0), height: 1.0, colour: (1,1,1)),\n])",
     );
-    assert!(malformed.starts_with("test.ron:2:"), "{malformed}");
+    assert!(
+        malformed.starts_with("test.ron:2:") && malformed.contains("object 'w'"),
+        "{malformed}"
+    );
 
     let unknown = error_of(
         "Scene(name: \"t\", objects: [\n  Floor(name: \"f\", corners: [(0.0,0.0),(1.0,0.0),(1.0,1.0)], color: (1,1,1)),\n])",
     );
     assert!(
-        unknown.starts_with("test.ron:2:") && unknown.contains("color"),
+        unknown.starts_with("test.ron:2:") && unknown.contains("color") && unknown.contains("object 'f'"),
         "{unknown}"
     );
 
@@ -114,7 +117,10 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
     let colour = error_of(
         "Scene(name: \"t\", objects: [\n  Floor(name: \"f\", corners: [(0.0,0.0),(1.0,0.0),(1.0,1.0)], colour: (300,1,1)),\n])",
     );
-    assert!(colour.starts_with("test.ron:2:"), "{colour}");
+    assert!(
+        colour.starts_with("test.ron:2:") && colour.contains("object 'f'"),
+        "{colour}"
+    );
 
     let mesh = error_of(
         "Scene(name: \"t\", objects: [\n  Mesh(name: \"statue\", path: \"missing.ply\", colour: (1,1,1)),\n])",

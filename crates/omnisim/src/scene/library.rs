@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::{DVec3, dvec3};
 
 use super::file::{AngleUnit, BoxFile, FloorFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile};
-use super::{Face, Scene, SceneError, SceneObject, mesh, validate};
+use super::{Face, Scene, SceneError, SceneObject, locate, mesh, validate};
 use crate::pose::rotation_xyz;
 
 /// Box face names, in the order their colours are listed in error messages.
@@ -25,7 +25,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let earlier = *seen.entry(name).and_modify(|n| *n += 1).or_insert(0);
         let invalid = |message: String| SceneError::Invalid {
             path: path.to_path_buf(),
-            location: locate_object(text, name, earlier),
+            location: locate::name_field(text, name, earlier),
             object: name.to_string(),
             message: format!("{}: {message}", object.kind()),
         };
@@ -224,32 +224,4 @@ fn mesh_faces(
         return Err(format!("mesh {} has no usable triangles", mesh_path.display()));
     }
     Ok(faces)
-}
-
-/// The 1-based (line, column) of the `occurrence`-th (from 0) `name` field naming `name`.
-fn locate_object(text: &str, name: &str, occurrence: usize) -> Option<(usize, usize)> {
-    let quoted = format!("\"{name}\"");
-    text.lines()
-        .enumerate()
-        .filter_map(|(number, line)| {
-            let at = line.find(&quoted)?;
-            let before = line[..at].trim_end().strip_suffix(':')?.trim_end();
-            let field = before.strip_suffix("name")?;
-            Some((number + 1, field.chars().count() + 1))
-        })
-        .nth(occurrence)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::locate_object;
-
-    #[test]
-    fn locates_object_by_name_field() {
-        let text = "Scene(\n  objects: [\n    Box(\n      name: \"table\",\n";
-        assert_eq!(locate_object(text, "table", 0), Some((4, 7)));
-        assert_eq!(locate_object(text, "chair", 0), None);
-        let twice = "  Wall(name: \"w\"),\n  Wall(name: \"w\"),\n";
-        assert_eq!(locate_object(twice, "w", 1), Some((2, 8)));
-    }
 }

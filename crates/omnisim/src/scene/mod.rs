@@ -8,6 +8,7 @@ mod error;
 mod export;
 pub mod file;
 mod library;
+mod locate;
 mod mesh;
 mod triangulate;
 mod validate;
@@ -71,11 +72,18 @@ impl Scene {
         let options = ron::Options::default().with_default_extension(
             ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES | ron::extensions::Extensions::IMPLICIT_SOME,
         );
-        let parsed: file::SceneFile = options.from_str(text).map_err(|e| SceneError::Parse {
-            path: path.to_path_buf(),
-            line: e.span.start.line,
-            column: e.span.start.col,
-            message: e.code.to_string(),
+        let parsed: file::SceneFile = options.from_str(text).map_err(|e| {
+            let (line, column) = (e.span.start.line, e.span.start.col);
+            let message = match locate::object_at(text, line, column) {
+                Some(object) => format!("object '{object}': {}", e.code),
+                None => e.code.to_string(),
+            };
+            SceneError::Parse {
+                path: path.to_path_buf(),
+                line,
+                column,
+                message,
+            }
         })?;
         library::build(parsed, text, path)
     }

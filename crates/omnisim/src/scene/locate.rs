@@ -1,0 +1,121 @@
+//! Finding objects in a scene file's text, so that errors can say where: serde and RON give
+//! positions but not which object of the list they fall in. Written by hand because it needs
+//! only a bracket-depth scan (strings and comments skipped), not a second parser.
+
+/// The 1-based (line, column) of the `occurrence`-th (from 0) `name` field naming `name`.
+pub(super) fn name_field(text: &str, name: &str, occurrence: usize) -> Option<(usize, usize)> {
+    let quoted = format!("\"{name}\"");
+    text.lines()
+        .enumerate()
+        .filter_map(|(number, line)| {
+            let at = line.find(&quoted)?;
+            let before = line[..at].trim_end().strip_suffix(':')?.trim_end();
+            let field = before.strip_suffix("name")?;
+            Some((number + 1, field.chars().count() + 1))
+        })
+        .nth(occurrence)
+}
+
+/// The name of the object of the `objects: [...]` list whose text contains the 1-based
+/// (line, column), if it has a `name: "…"` field.
+pub(super) fn object_at(text: &str, line: usize, column: usize) -> Option<String> {
+    let target = offset_of(text, line, column)?;
+    let list = text.find("objects")?;
+    let mut depth = 0usize;
+    let mut start = None;
+    let mut chars = text[list..].char_indices().map(|(i, c)| (i + list, c)).peekable();
+    while let Some((i, c)) = chars.next() {
+        match c {
+            '"' => {
+                // Skip the string, escapes included.
+                while let Some((_, s)) = chars.next() {
+                    match s {
+                        '\\' => {
+                            chars.next();
+                        }
+                        '"' => break,
+                        _ => {}
+                    }
+                }
+            }
+            '/' if chars.peek().is_some_and(|&(_, n)| n == '/') => {
+                while chars.next_if(|&(_, n)| n != '\n').is_some() {}
+            }
+            '(' | '[' | '{' => {
+                depth += 1;
+                // Depth 1 is inside `objects: [`; an object opens at depth 2.
+                if depth == 2 {
+                    start = Some(i);
+                }
+            }
+            ')' | ']' | '}' => {
+                if depth == 2
+                    && let Some(s) = start.take()
+                    && (s..=i).contains(&target)
+                {
+                    return object_name(&text[s..=i]);
+                }
+                depth = depth.checked_sub(1)?;
+                if depth == 0 {
+                    return None;
+                }
+            }
+            _ => {}
+        }
+    }
+    // The list never closed (a syntax error): the last object opened before the position.
+    start.filter(|&s| s <= target).and_then(|s| object_name(&text[s..]))
+}
+
+/// The text of the object's `name: "…"` field (escapes kept as written).
+fn object_name(object: &str) -> Option<String> {
+    let at = object.find("name")?;
+    let rest = object[at + 4..]
+        .trim_start()
+        .strip_prefix(':')?
+        .trim_start()
+        .strip_prefix('"')?;
+    let mut escaped = false;
+    let end = rest.char_indices().find_map(|(i, c)| {
+        let closes = !escaped && c == '"';
+        escaped = !escaped && c == '\\';
+        closes.then_some(i)
+    })?;
+    Some(rest[..end].to_string())
+}
+
+fn offset_of(text: &str, line: usize, column: usize) -> Option<usize> {
+    let start: usize = text
+        .split_inclusive('\n')
+        .take(line.checked_sub(1)?)
+        .map(str::len)
+        .sum();
+    let line_text = text[start..].split('\n').next()?;
+    let byte = line_text
+        .char_indices()
+        .nth(column.saturating_sub(1))
+        .map_or(line_text.len(), |(b, _)| b);
+    Some(start + byte)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locates_object_by_name_field() {
+        let text = "Scene(\n  objects: [\n    Box(\n      name: \"table\",\n";
+        assert_eq!(name_field(text, "table", 0), Some((4, 7)));
+        assert_eq!(name_field(text, "chair", 0), None);
+        let twice = "  Wall(name: \"w\"),\n  Wall(name: \"w\"),\n";
+        assert_eq!(name_field(twice, "w", 1), Some((2, 8)));
+    }
+
+    #[test]
+    fn finds_the_object_around_a_position() {
+        let text = "Scene(name: \"s\", objects: [\n  // a comment (with a bracket\n  Wall(name: \"a (\\\"x\", height: 1.0),\n  Box(name: \"b\",\n      colour: (300, 1, 1)),\n])";
+        assert_eq!(object_at(text, 3, 10).as_deref(), Some("a (\\\"x"));
+        assert_eq!(object_at(text, 5, 16).as_deref(), Some("b"));
+        assert_eq!(object_at(text, 1, 3), None);
+    }
+}
