@@ -3,7 +3,7 @@
 use glam::DVec3;
 
 use super::Scene;
-use super::validate::newell_normal;
+use super::validate::{flatten, newell_normal};
 
 /// The triangles of a scene. Triangle `i` has corners `corners[i]` and belongs to face
 /// `face[i]` of the scene.
@@ -45,16 +45,8 @@ fn polygon_triangles(vertices: &[DVec3]) -> Vec<[usize; 3]> {
     if convex {
         return (1..n - 1).map(|i| [0, i, i + 1]).collect();
     }
-    // Project onto the coordinate plane the polygon is most face-on to; ear clipping (earcutr)
-    // only needs 2-D coordinates with the same orientation-independent topology.
-    let drop = normal.abs().max_position();
-    let flat: Vec<f64> = vertices
-        .iter()
-        .flat_map(|v| {
-            let a = v.to_array();
-            [a[(drop + 1) % 3], a[(drop + 2) % 3]]
-        })
-        .collect();
+    // Ear clipping (earcutr) works on the polygon flattened to 2-D.
+    let flat: Vec<f64> = flatten(vertices, normal).iter().flat_map(|p| p.to_array()).collect();
     match earcutr::earcut(&flat, &[], 2) {
         Ok(indices) if indices.len() / 3 == n - 2 => indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
         // Validation refuses crossing outlines, so earcutr should not fail; a fan is the safety net.

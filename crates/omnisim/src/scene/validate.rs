@@ -73,16 +73,22 @@ pub(super) fn check_face(vertices: &[DVec3]) -> Result<(), String> {
     Ok(())
 }
 
-/// The first pair of non-adjacent edges that touch or cross, in the plane of the face.
-fn crossing_edges(vertices: &[DVec3], normal: DVec3) -> Option<(usize, usize)> {
+/// The polygon in 2-D: projected onto the coordinate plane it is most face-on to, which keeps
+/// its shape's topology (crossings, ear clipping) for any planar polygon with this `normal`.
+pub(super) fn flatten(vertices: &[DVec3], normal: DVec3) -> Vec<DVec2> {
     let drop = normal.abs().max_position();
-    let flat: Vec<DVec2> = vertices
+    vertices
         .iter()
         .map(|v| {
             let a = v.to_array();
             DVec2::new(a[(drop + 1) % 3], a[(drop + 2) % 3])
         })
-        .collect();
+        .collect()
+}
+
+/// The first pair of non-adjacent edges that touch or cross, in the plane of the face.
+fn crossing_edges(vertices: &[DVec3], normal: DVec3) -> Option<(usize, usize)> {
+    let flat = flatten(vertices, normal);
     let n = flat.len();
     let orient = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - a);
     let within = |a: DVec2, b: DVec2, p: DVec2| p.cmpge(a.min(b)).all() && p.cmple(a.max(b)).all();
