@@ -52,7 +52,11 @@ fn meshes_load_from_ply_and_obj_with_colours_and_transform() {
          0 0 0 10 20 30\n1 0 0 10 20 30\n1 1 0 10 20 30\n0 1 0 10 20 30\n4 0 1 2 3\n",
     )
     .unwrap();
-    std::fs::write(dir.path().join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(
+        dir.path().join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n",
+    )
+    .unwrap();
     let path = dir.path().join("scene.ron");
     std::fs::write(
         &path,
@@ -63,7 +67,12 @@ fn meshes_load_from_ply_and_obj_with_colours_and_transform() {
     )
     .unwrap();
     let scene = Scene::load(&path).unwrap();
+    // The OBJ's second triangle has its corners on one line: dropped, with a warning.
     assert_eq!(scene.faces.len(), 3);
+    assert_eq!(
+        scene.warnings,
+        vec!["mesh 'tri': dropped 1 degenerate triangles".to_string()]
+    );
     assert_eq!(scene.faces[0].colour, [10, 20, 30]);
     assert!(scene.faces[0].vertices.iter().all(|v| v.z == 1.0 && v.x <= 2.0));
     assert_eq!(scene.faces[2].colour, [5, 6, 7]);

@@ -141,7 +141,6 @@ impl GpuTracer {
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
-        let device = &self.context.device;
         let mut params = camera_params(camera, pose, self.offset);
         let band_bytes = band_rows as u64 * row_bytes;
         // Consecutive frames of one size (trajectories, grids) reuse their buffers.
@@ -159,21 +158,17 @@ impl GpuTracer {
             self.context
                 .queue
                 .write_buffer(&buffers.uniform, 0, bytemuck::bytes_of(&params));
-            let mut encoder = device.create_command_encoder(&Default::default());
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.pipeline);
-                pass.set_bind_group(0, &buffers.bind_group, &[]);
-                pass.dispatch_workgroups(
-                    width.div_ceil(shader::WORKGROUP_SIZE[0]),
-                    rows.div_ceil(shader::WORKGROUP_SIZE[1]),
-                    1,
-                );
-            }
-            let bytes = rows as u64 * row_bytes;
-            encoder.copy_buffer_to_buffer(&buffers.output, 0, &buffers.readback, 0, bytes);
-            self.context.queue.submit([encoder.finish()]);
-            let hits: Vec<PixelHit> = self.read(&buffers.readback, bytes)?;
+            let groups = [
+                width.div_ceil(shader::WORKGROUP_SIZE[0]),
+                rows.div_ceil(shader::WORKGROUP_SIZE[1]),
+            ];
+            let hits: Vec<PixelHit> = self.run_pass(
+                &self.pipeline,
+                &buffers.bind_group,
+                groups,
+                (&buffers.output, &buffers.readback),
+                rows as u64 * row_bytes,
+            )?;
             let start = row as usize * width as usize;
             for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()].iter_mut().zip(&hits) {
                 if hit.face != NO_FACE {
@@ -245,18 +240,11 @@ impl GpuTracer {
             (6, &colours),
         ];
         let bind_group = self.bind_group("refine edges", &self.refine_pipeline, &bindings);
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.refine_pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
-            let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
-            pass.dispatch_workgroups(columns, groups.div_ceil(columns), 1);
-        }
-        encoder.copy_buffer_to_buffer(&colours, 0, &readback, 0, bytes);
-        self.context.queue.submit([encoder.finish()]);
-        let refined: Vec<u32> = self.read(&readback, bytes)?;
+        let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
+        let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
+        let groups = [columns, groups.div_ceil(columns)];
+        let refined: Vec<u32> =
+            self.run_pass(&self.refine_pipeline, &bind_group, groups, (&colours, &readback), bytes)?;
         for (&index, colour) in edges.iter().zip(refined) {
             let [r, g, b, _] = colour.to_le_bytes();
             frame.pixels_mut()[index as usize].colour = [r, g, b];
@@ -305,6 +293,28 @@ impl GpuTracer {
             uniform,
             bind_group,
         }
+    }
+
+    /// Dispatches `pipeline` over `groups` (x, y) workgroups, copies the first `bytes` of
+    /// `output` to the mappable `readback` and reads them back.
+    fn run_pass<T: bytemuck::Pod>(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bind_group: &wgpu::BindGroup,
+        groups: [u32; 2],
+        (output, readback): (&wgpu::Buffer, &wgpu::Buffer),
+        bytes: u64,
+    ) -> Result<Vec<T>, GpuError> {
+        let mut encoder = self.context.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind_group, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], 1);
+        }
+        encoder.copy_buffer_to_buffer(output, 0, readback, 0, bytes);
+        self.context.queue.submit([encoder.finish()]);
+        self.read(readback, bytes)
     }
 
     /// Binds whole buffers to the numbered bindings of group 0 of `pipeline`.

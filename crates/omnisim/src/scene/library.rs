@@ -48,16 +48,33 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
             ObjectFile::Wall(w) => wall_face(w),
             ObjectFile::Floor(f) => floor_face(f),
             ObjectFile::Polygon(p) => polygon_face(p),
-            ObjectFile::Mesh(m) => mesh_faces(m, angle(m.rotation), path, &mut scene.warnings),
+            ObjectFile::Mesh(m) => mesh_faces(m, angle(m.rotation), path),
         }
         .map_err(&invalid)?;
+        let is_mesh = matches!(object, ObjectFile::Mesh(_));
+        let mut dropped = 0usize;
         for (vertices, colour) in faces {
-            validate::check_face(&vertices).map_err(&invalid)?;
+            if let Err(problem) = validate::check_face(&vertices) {
+                if !is_mesh {
+                    return Err(invalid(problem));
+                }
+                // A zero-area mesh triangle can never be hit; real scans contain many.
+                dropped += 1;
+                continue;
+            }
             scene.faces.push(Face {
                 vertices,
                 colour: [colour.0, colour.1, colour.2],
                 object: index,
             });
+        }
+        if dropped > 0 {
+            if scene.faces.last().is_none_or(|f| f.object != index) {
+                return Err(invalid("the mesh has no usable triangles".into()));
+            }
+            scene
+                .warnings
+                .push(format!("mesh '{name}': dropped {dropped} degenerate triangles"));
         }
         scene.objects.push(SceneObject {
             name: name.to_string(),
@@ -190,38 +207,23 @@ fn polygon_face(p: &PolygonFile) -> Result<Vec<RawFace>, String> {
     Ok(vec![(vertices, p.colour)])
 }
 
-fn mesh_faces(
-    m: &MeshFile,
-    angles: DVec3,
-    scene_path: &Path,
-    warnings: &mut Vec<String>,
-) -> Result<Vec<RawFace>, String> {
+fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path) -> Result<Vec<RawFace>, String> {
     positive("scale", m.scale)?;
     let mesh_path = scene_path.parent().unwrap_or(Path::new(".")).join(&m.path);
     let triangles = mesh::load(&mesh_path).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);
-    let mut faces = Vec::with_capacity(triangles.len());
-    let mut dropped = 0usize;
-    for triangle in triangles {
-        let vertices: Vec<DVec3> = triangle
-            .vertices
-            .iter()
-            .map(|v| position + world_from_object * (*v * m.scale))
-            .collect();
-        if validate::check_face(&vertices).is_err() {
-            // A zero-area triangle can never be hit; real scans contain many.
-            dropped += 1;
-            continue;
-        }
-        let colour = triangle.colour.map(|c| (c[0], c[1], c[2])).unwrap_or(m.colour);
-        faces.push((vertices, colour));
-    }
-    if dropped > 0 {
-        warnings.push(format!("mesh '{}': dropped {dropped} degenerate triangles", m.name));
-    }
-    if faces.is_empty() {
-        return Err(format!("mesh {} has no usable triangles", mesh_path.display()));
-    }
+    let faces = triangles
+        .into_iter()
+        .map(|triangle| {
+            let vertices = triangle
+                .vertices
+                .iter()
+                .map(|v| position + world_from_object * (*v * m.scale))
+                .collect();
+            let colour = triangle.colour.map(|c| (c[0], c[1], c[2])).unwrap_or(m.colour);
+            (vertices, colour)
+        })
+        .collect();
     Ok(faces)
 }
