@@ -1,21 +1,9 @@
 // Edge supersampling: one invocation per edge pixel traces samples_per_axis² stratified
-// sub-pixel rays and writes their mean colour. CPU twin: crates/omnisim/src/antialias.rs.
+// sub-pixel rays, shades each, and writes the mean linear colour and the mean of the 8-bit
+// colours. CPU twin: crates/omnisim/src/antialias.rs.
 
 @group(0) @binding(5) var<storage, read> edge_pixels: array<u32>;
-@group(0) @binding(6) var<storage, read_write> edge_colours: array<u32>;
-
-fn sample_colour(pixel: vec2<f32>) -> vec3<f32> {
-    let ray = camera_ray(pixel);
-    if !ray.valid {
-        return vec3<f32>(0.0);
-    }
-    let origin = camera.origin + camera.world_from_body * ray.origin;
-    let hit = closest_hit(origin, camera.world_from_body * ray.direction, ray.t_min);
-    if hit.t >= FAR {
-        return vec3<f32>(0.0);
-    }
-    return unpack4x8unorm(face_colours[triangles[hit.triangle].face]).rgb;
-}
+@group(0) @binding(6) var<storage, read_write> edge_colours: array<ShadedPixel>;
 
 @compute @workgroup_size(64)
 fn refine_edges(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -27,12 +15,17 @@ fn refine_edges(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workg
     let index = edge_pixels[slot];
     let centre = vec2<f32>(f32(index % camera.width), f32(index / camera.width));
     let n = camera.samples_per_axis;
-    var sum = vec3<f32>(0.0);
+    var linear = vec3<f32>(0.0);
+    var encoded = vec3<u32>(0u);
     for (var sy = 0u; sy < n; sy++) {
         for (var sx = 0u; sx < n; sx++) {
             let offset = (vec2<f32>(f32(sx), f32(sy)) + 0.5) / f32(n) - 0.5;
-            sum += sample_colour(centre + offset);
+            let sample = shade_hit(trace_pixel(centre + offset));
+            linear += sample.linear;
+            encoded += vec3<u32>(unpack4x8unorm(sample.colour).rgb * 255.0 + 0.5);
         }
     }
-    edge_colours[slot] = pack4x8unorm(vec4<f32>(sum / f32(n * n), 1.0));
+    let count = n * n;
+    let mean = (encoded + count / 2u) / count;
+    edge_colours[slot] = ShadedPixel(linear / f32(count), mean.r | (mean.g << 8u) | (mean.b << 16u));
 }

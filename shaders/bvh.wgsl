@@ -1,5 +1,6 @@
-// Closest-hit traversal of obvhs's BVH2 (32-byte `small_bvh2_node` nodes), following
-// obvhs's `Bvh2::ray_traverse_dynamic` step for step. CPU twin: crates/omnisim/src/cpu.rs.
+// Closest-hit and any-hit (shadow) traversal of obvhs's BVH2 (32-byte `small_bvh2_node`
+// nodes), following obvhs's `Bvh2::ray_traverse_dynamic` step for step.
+// CPU twin: crates/omnisim/src/cpu.rs (closest_hit, occluded).
 
 const STACK_SIZE: u32 = 64u;
 // Barycentric slack that closes the gaps f32 rounding leaves along shared edges.
@@ -53,27 +54,57 @@ fn intersect_triangle(tri: Triangle, origin: vec3<f32>, direction: vec3<f32>) ->
     return dot(tri.e2, q) * inv;
 }
 
-fn intersect_leaf(node: BvhNode, origin: vec3<f32>, direction: vec3<f32>, t_min: f32, best: ptr<function, Hit>) {
+// A traversal request: the ray, the interval (t_min, best.t) searched, a face to ignore (the
+// face a shadow ray leaves), and whether any hit ends the search.
+struct Query {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+    t_min: f32,
+    skip_face: u32,
+    any_hit: bool,
+}
+
+fn intersect_leaf(node: BvhNode, query: Query, best: ptr<function, Hit>) {
     for (var i = node.first_index; i < node.first_index + node.prim_count; i++) {
-        let t = intersect_triangle(triangles[i], origin, direction);
-        if t > t_min && t < (*best).t {
+        let triangle = triangles[i];
+        if triangle.face == query.skip_face {
+            continue;
+        }
+        let t = intersect_triangle(triangle, query.origin, query.direction);
+        if t > query.t_min && t < (*best).t {
             *best = Hit(t, i);
+            if query.any_hit {
+                return;
+            }
         }
     }
 }
 
 fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
-    var best = Hit(FAR, 0u);
+    return traverse(Query(origin, direction, t_min, NO_FACE, false), FAR);
+}
+
+// Whether anything but `skip_face` lies on the ray strictly between 0 and t_max.
+fn occluded(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, skip_face: u32) -> bool {
+    return traverse(Query(origin, direction, 0.0, skip_face, true), t_max).t < t_max;
+}
+
+// The hit nearest in (query.t_min, t_max), or Hit(t_max, 0) if none; with any_hit, the first
+// found.
+fn traverse(query: Query, t_max: f32) -> Hit {
+    var best = Hit(t_max, 0u);
     if arrayLength(&nodes) == 0u {
         return best;
     }
+    let origin = query.origin;
+    let direction = query.direction;
     let inv_direction = vec3<f32>(safe_inverse(direction.x), safe_inverse(direction.y), safe_inverse(direction.z));
     let root = nodes[0];
     if box_entry(root, origin, inv_direction) >= FAR {
         return best;
     }
     if root.prim_count > 0u {
-        intersect_leaf(root, origin, direction, t_min, &best);
+        intersect_leaf(root, query, &best);
         return best;
     }
     var stack: array<u32, STACK_SIZE>;
@@ -95,7 +126,10 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
         var go_left = false;
         if left_t < best.t {
             if left.prim_count > 0u {
-                intersect_leaf(left, origin, direction, t_min, &best);
+                intersect_leaf(left, query, &best);
+                if query.any_hit && best.t < t_max {
+                    return best;
+                }
             } else {
                 go_left = true;
             }
@@ -103,7 +137,10 @@ fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
         var go_right = false;
         if right_t < best.t {
             if right.prim_count > 0u {
-                intersect_leaf(right, origin, direction, t_min, &best);
+                intersect_leaf(right, query, &best);
+                if query.any_hit && best.t < t_max {
+                    return best;
+                }
             } else {
                 go_right = true;
             }

@@ -1,4 +1,5 @@
-// Data shared by every stage of the trace: the camera uniform, the scene buffers and the output.
+// Data shared by every stage: the camera uniform, the scene buffers, materials and lights, the
+// hit and shaded planes.
 // Host twins: crates/omnisim/src/gpu/layout.rs (a test checks sizes and offsets against naga).
 
 const CAMERA_PINHOLE: u32 = 0u;
@@ -70,12 +71,41 @@ struct Triangle {
     _pad2: u32,
 }
 
+// The hit planes of one pixel (trace.wgsl writes them, shade.wgsl reads them).
 struct PixelHit {
     // Hit point relative to the scene offset.
     point: vec3<f32>,
     range: f32,
+    // Unit face normal turned towards the ray origin.
+    normal: vec3<f32>,
     face: u32,
+}
+
+// The shading stage's output for one pixel: linear colour and packed 8-bit sRGB.
+struct ShadedPixel {
+    linear: vec3<f32>,
     colour: u32,
+}
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_DIRECTIONAL: u32 = 1u;
+
+// Point: vector = position relative to the scene offset, strength = linear colour × candela.
+// Directional: vector = unit travel direction, strength = linear colour × lux.
+struct GpuLight {
+    vector: vec3<f32>,
+    kind: u32,
+    strength: vec3<f32>,
+    _pad: u32,
+}
+
+struct ShadingParams {
+    ambient: f32,
+    // 1 / white: the exposure, lux⁻¹.
+    inverse_white: f32,
+    light_count: u32,
+    // 0: flat face colours; 1: lit.
+    lit: u32,
 }
 
 // A camera ray in the body frame; `valid` is false where the pixel sees nothing.
@@ -89,8 +119,12 @@ struct CameraRay {
 @group(0) @binding(0) var<uniform> camera: CameraParams;
 @group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(3) var<storage, read> face_colours: array<u32>;
+// Linear albedo of each face (w unused).
+@group(0) @binding(3) var<storage, read> materials: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> hits: array<PixelHit>;
+@group(0) @binding(7) var<storage, read> lights: array<GpuLight>;
+@group(0) @binding(8) var<uniform> shading: ShadingParams;
+@group(0) @binding(9) var<storage, read_write> shaded: array<ShadedPixel>;
 
 fn miss_ray() -> CameraRay {
     return CameraRay(vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), false);

@@ -1,5 +1,6 @@
 // Entry point: one invocation per pixel generates the camera ray, turns it into the world,
-// finds the closest face and writes colour, range, face id and hit point.
+// finds the closest face and writes the hit planes: point, range, face id and normal.
+// CPU twin: crates/omnisim/src/cpu.rs (trace_pixel).
 
 fn camera_ray(pixel: vec2<f32>) -> CameraRay {
     switch camera.kind {
@@ -11,23 +12,29 @@ fn camera_ray(pixel: vec2<f32>) -> CameraRay {
     }
 }
 
+// The hit planes of the camera ray through `pixel` (sub-pixel positions allowed).
+fn trace_pixel(pixel: vec2<f32>) -> PixelHit {
+    var out = PixelHit(vec3<f32>(0.0), FAR, vec3<f32>(0.0), NO_FACE);
+    let ray = camera_ray(pixel);
+    if ray.valid {
+        let origin = camera.origin + camera.world_from_body * ray.origin;
+        let direction = camera.world_from_body * ray.direction;
+        let hit = closest_hit(origin, direction, ray.t_min);
+        if hit.t < FAR {
+            let triangle = triangles[hit.triangle];
+            let normal = normalize(cross(triangle.e1, triangle.e2));
+            let facing = select(normal, -normal, dot(normal, direction) > 0.0);
+            out = PixelHit(origin + hit.t * direction, hit.t, facing, triangle.face);
+        }
+    }
+    return out;
+}
+
 @compute @workgroup_size(8, 8)
 fn trace_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= camera.width || id.y >= camera.band_rows {
         return;
     }
     let row = id.y + camera.row_offset;
-    let index = id.y * camera.width + id.x;
-    var out = PixelHit(vec3<f32>(0.0), FAR, NO_FACE, 0u);
-    let ray = camera_ray(vec2<f32>(f32(id.x), f32(row)));
-    if ray.valid {
-        let origin = camera.origin + camera.world_from_body * ray.origin;
-        let direction = camera.world_from_body * ray.direction;
-        let hit = closest_hit(origin, direction, ray.t_min);
-        if hit.t < FAR {
-            let face = triangles[hit.triangle].face;
-            out = PixelHit(origin + hit.t * direction, hit.t, face, face_colours[face]);
-        }
-    }
-    hits[index] = out;
+    hits[id.y * camera.width + id.x] = trace_pixel(vec2<f32>(f32(id.x), f32(row)));
 }

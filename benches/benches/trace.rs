@@ -7,8 +7,7 @@ use std::path::Path;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::dvec3;
 use omnisim::bvh::SceneBvh;
-use omnisim::gpu::{GpuContext, GpuTracer};
-use omnisim::{Camera, Catadioptric, Equirectangular, Pinhole, Pose, Scene, cpu};
+use omnisim::{BackendChoice, Camera, Catadioptric, Equirectangular, Pinhole, Planes, Pose, Renderer, Scene};
 
 fn env1() -> Scene {
     Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/env1.ron")).expect("env1 loads")
@@ -37,10 +36,12 @@ fn cameras() -> Vec<(&'static str, Camera)> {
 fn benchmarks(c: &mut Criterion) {
     let scene = env1();
     c.bench_function("bvh build env1", |b| b.iter(|| SceneBvh::build(&scene)));
-    let bvh = SceneBvh::build(&scene);
-    let gpu = GpuContext::new()
-        .ok()
-        .map(|context| GpuTracer::new(context, &bvh).expect("GPU tracer"));
+    let cpu = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+    let cpu_scene = cpu.prepare(&scene).expect("scene");
+    let gpu = Renderer::new(BackendChoice::Gpu).ok().map(|gpu| {
+        let prepared = gpu.prepare(&scene).expect("GPU scene");
+        (gpu, prepared)
+    });
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
     let mut group = c.benchmark_group("render env1");
     group.sample_size(20);
@@ -48,11 +49,11 @@ fn benchmarks(c: &mut Criterion) {
         let (w, h) = camera.size();
         group.throughput(Throughput::Elements(w as u64 * h as u64));
         group.bench_function(format!("cpu f64 {name}"), |b| {
-            b.iter(|| cpu::render(&bvh, &camera, &pose))
+            b.iter(|| cpu.render(&cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
         });
-        if let Some(gpu) = &gpu {
+        if let Some((gpu, prepared)) = &gpu {
             group.bench_function(format!("gpu f32 {name}"), |b| {
-                b.iter(|| gpu.render(&camera, &pose).expect("render"))
+                b.iter(|| gpu.render(prepared, &camera, &pose, Planes::COLOUR).expect("render"))
             });
         }
     }

@@ -69,7 +69,7 @@ fn pinhole_reprojection(far: DVec3) {
     // optical_from_body, rows: x_opt = −y_body, y_opt = −z_body, z_opt = x_body.
     let optical_from_body = DMat3::from_cols_array_2d(&[[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]);
     let mut rng = StdRng::seed_from_u64(2);
-    let gpu = common::gpu_tracer(&bvh);
+    let gpu = common::gpu_tracer(&scene, &bvh);
     for _ in 0..8 {
         let position = far
             + dvec3(
@@ -89,7 +89,7 @@ fn pinhole_reprojection(far: DVec3) {
             let p = k * (r * x + t);
             dvec2(p.x / p.z, p.y / p.z)
         };
-        let mut frames = vec![(cpu::render(&bvh, &camera, &pose), 1e-6)];
+        let mut frames = vec![(cpu::trace(&bvh, &camera, &pose), 1e-6)];
         if let Some(gpu) = &gpu {
             frames.push((gpu.render(&camera, &pose).unwrap(), 0.01));
         }
@@ -140,9 +140,9 @@ fn turning_a_panorama_about_z_shifts_it_by_whole_columns() {
     let width = 256u32;
     let camera = Camera::Equirectangular(Equirectangular { width, height: 128 });
     let position = dvec3(0.5, -0.3, 0.6);
-    let base = cpu::render(&bvh, &camera, &Pose::new(position, DVec3::ZERO));
+    let base = cpu::trace(&bvh, &camera, &Pose::new(position, DVec3::ZERO));
     let shift = 37u32;
-    let turned = cpu::render(
+    let turned = cpu::trace(
         &bvh,
         &camera,
         &Pose::new(position, dvec3(0.0, 0.0, 2.0 * PI * shift as f64 / width as f64)),

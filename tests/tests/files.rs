@@ -12,13 +12,13 @@ use ply_rs_bw::ply::{DefaultElement, Property};
 
 fn rendered() -> omnisim::Frame {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
     let camera = omnisim::Camera::Catadioptric(common::paper_omni());
-    let frame = cpu::render(
-        &bvh,
-        &camera,
-        &Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
-    );
+    let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene))
+        .render(
+            &camera,
+            &Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
+        )
+        .unwrap();
     assert!(
         frame.hit_count() > 0 && frame.hit_count() < frame.pixels().len(),
         "omni image has mirror and background"
@@ -52,7 +52,7 @@ fn png_reads_back_pixel_for_pixel() {
     let info = reader.next_frame(&mut bytes).unwrap();
     assert_eq!((info.width, info.height), (frame.width, frame.height));
     assert_eq!(info.color_type, png::ColorType::Rgb);
-    let expected: Vec<u8> = frame.pixels().iter().flat_map(|p| p.colour).collect();
+    let expected: Vec<u8> = frame.colour().unwrap().iter().flatten().copied().collect();
     assert_eq!(&bytes[..info.buffer_size()], &expected[..]);
 }
 
@@ -93,15 +93,20 @@ fn ply_point_cloud_reads_back_point_for_point() {
         .unwrap();
     assert_eq!(ply.header.encoding, ply_rs_bw::ply::Encoding::BinaryLittleEndian);
     let vertices = &ply.payload["vertex"];
-    let hits: Vec<_> = frame.pixels().iter().filter(|p| p.is_hit()).collect();
+    let hits: Vec<_> = frame
+        .pixels()
+        .iter()
+        .zip(frame.colour().unwrap())
+        .filter(|(p, _)| p.is_hit())
+        .collect();
     assert_eq!(vertices.len(), hits.len());
-    for (vertex, pixel) in vertices.iter().zip(hits) {
+    for (vertex, (pixel, colour)) in vertices.iter().zip(hits) {
         assert_eq!(float(&vertex["x"]), pixel.point.x as f32);
         assert_eq!(float(&vertex["y"]), pixel.point.y as f32);
         assert_eq!(float(&vertex["z"]), pixel.point.z as f32);
         assert_eq!(
             [uchar(&vertex["red"]), uchar(&vertex["green"]), uchar(&vertex["blue"])],
-            pixel.colour
+            *colour
         );
     }
 }
@@ -162,7 +167,7 @@ fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     let bvh = SceneBvh::build(&scene);
     let pinhole = omnisim::Pinhole::with_horizontal_fov(160, 120, 90f64.to_radians());
     let pose = Pose::from_degrees(dvec3(-2.0, 0.3, 0.5), dvec3(0.0, 10.0, 20.0));
-    let frame = cpu::render(&bvh, &omnisim::Camera::Pinhole(pinhole.clone()), &pose);
+    let frame = cpu::trace(&bvh, &omnisim::Camera::Pinhole(pinhole.clone()), &pose);
     let mut depth = pinhole.axial_depth(&frame, &pose);
     depth[0] = f32::INFINITY; // a miss
     depth[1] = 20.0; // beyond what 16 bits hold at 1/5000 m

@@ -210,14 +210,16 @@ fn far_scene_keeps_gpu_precision_with_the_scene_local_offset() {
         let pose = Pose::new(dvec3(0.3, -0.2, 0.5) + shift, DVec3::ZERO);
         let local = SceneBvh::build(&scene);
         let naive = SceneBvh::build_with_offset(&scene, DVec3::ZERO);
-        let reference = cpu::render(&local, &camera, &pose);
+        let reference = cpu::trace(&local, &camera, &pose);
         // The reference itself must not care where its local origin is (up to the f32
         // rounding of the range a frame stores).
-        let cpu_naive = Agreement::measure(&reference, &cpu::render(&naive, &camera, &pose));
-        let (Some(gpu_local), Some(gpu_naive)) = (common::gpu_tracer(&local), common::gpu_tracer(&naive)) else {
+        let cpu_naive = Agreement::measure(&reference, &cpu::trace(&naive, &camera, &pose));
+        let (Some(gpu_local), Some(gpu_naive)) =
+            (common::gpu_tracer(&scene, &local), common::gpu_tracer(&scene, &naive))
+        else {
             return;
         };
-        let render = |gpu: omnisim::gpu::GpuTracer| gpu.render(&camera, &pose).expect("GPU render");
+        let render = |gpu: common::Tracer| gpu.render(&camera, &pose).expect("GPU render");
         let default = Agreement::measure(&reference, &render(gpu_local));
         let world = Agreement::measure(&reference, &render(gpu_naive));
         eprintln!(
@@ -314,12 +316,12 @@ fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
     // ray generator's verdict; CPU and GPU may differ only next to the rim circle.
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let Some(gpu) = common::gpu_tracer(&bvh) else {
+    let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
         return;
     };
     let camera = Camera::Catadioptric(mirror.clone());
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
-    let reference = cpu::render(&bvh, &camera, &pose);
+    let reference = cpu::trace(&bvh, &camera, &pose);
     let frame = gpu.render(&camera, &pose).expect("GPU render");
     let (mut near_rim, mut near_rim_differ, mut far_differ) = (0, 0, Vec::new());
     for ((pixel, r), g) in pixel_centres(mirror.width, mirror.height)
@@ -528,11 +530,11 @@ fn millimetre_marker_and_ten_kilometre_floor_on_cpu_and_gpu() {
     let projected_centre = projected.iter().sum::<DVec2>() / 4.0;
 
     let bvh = SceneBvh::build(&scene);
-    let Some(gpu) = common::gpu_tracer(&bvh) else {
+    let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
         return;
     };
     let frames = [
-        ("CPU", cpu::render(&bvh, &camera, &pose)),
+        ("CPU", cpu::trace(&bvh, &camera, &pose)),
         ("GPU", gpu.render(&camera, &pose).expect("GPU render")),
     ];
     let mut marker_pixels = 0;

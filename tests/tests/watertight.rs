@@ -38,10 +38,10 @@ fn no_ray_escapes_a_closed_room() {
         let scene = common::load(room);
         let bvh = SceneBvh::build(&scene);
         for pose in random_poses(&scene, 200, seed as u64) {
-            let frame = cpu::render(&bvh, &camera, &pose);
+            let frame = cpu::trace(&bvh, &camera, &pose);
             assert_eq!(frame.hit_count(), 96 * 48, "{room}: rays escaped at {pose:?}");
         }
-        let Some(gpu) = common::gpu_tracer(&bvh) else {
+        let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
             continue;
         };
         for pose in random_poses(&scene, 20, 100 + seed as u64) {

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use omnisim::camera::MirrorShape;
 use omnisim::output;
-use omnisim::{Camera, Pose, Renderer, Scene};
+use omnisim::{Camera, Pose, PreparedScene, Renderer, Scene};
 use serde_json::json;
 
 use crate::camera_args::Rig;
@@ -65,7 +65,13 @@ fn camera_json(camera: &Camera) -> serde_json::Value {
     value
 }
 
-pub fn metadata(scene: &Scene, scene_path: &Path, rig: &Rig, poses: &[Pose], renderer: &Renderer) -> serde_json::Value {
+pub fn metadata(
+    scene: &Scene,
+    scene_path: &Path,
+    rig: &Rig,
+    poses: &[Pose],
+    (renderer, prepared): (&Renderer, &PreparedScene),
+) -> serde_json::Value {
     let camera = match rig {
         Rig::Single(camera) => camera_json(camera),
         Rig::Stereo(stereo) => {
@@ -79,7 +85,8 @@ pub fn metadata(scene: &Scene, scene_path: &Path, rig: &Rig, poses: &[Pose], ren
         "omnisim": env!("CARGO_PKG_VERSION"),
         "scene": { "name": scene.name, "file": scene_path, "faces": scene.faces.len() },
         "camera": camera,
-        "backend": { "name": renderer.backend_name(), "device": renderer.device_name(), "reason": renderer.reason() },
+        "backend": { "name": prepared.backend_name(), "device": renderer.device_name(),
+                     "reason": prepared.fallback().unwrap_or(renderer.reason()) },
         "conventions": {
             "units": "metres; angles in degrees here",
             "world": "right-handed, z up",

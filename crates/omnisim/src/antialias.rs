@@ -1,8 +1,11 @@
 //! Edge supersampling: pixels where the face changes are traced again at n×n stratified
-//! sub-pixel positions (f64 CPU tracer) and given the mean colour. Range, face id and hit point
-//! stay those of the pixel centre, so the geometric outputs remain exact per pixel.
+//! sub-pixel positions (f64 CPU tracer), each sample shaded by the shading stage, and given
+//! the mean. The 8-bit colour is the mean of the samples' 8-bit colours (a box filter on what
+//! a viewer sees, as before lights existed); the linear plane is the mean in linear light.
+//! Range, face id, normal and hit point stay those of the pixel centre, so the geometric
+//! outputs remain exact per pixel.
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
@@ -10,6 +13,7 @@ use crate::camera::Camera;
 use crate::cpu;
 use crate::frame::{BACKGROUND, Frame};
 use crate::pose::Pose;
+use crate::shading::{self, Appearance};
 
 /// Pixels whose face id differs from one of their 4-neighbours.
 pub fn edge_pixels(frame: &Frame) -> Vec<usize> {
@@ -27,10 +31,19 @@ pub fn edge_pixels(frame: &Frame) -> Vec<usize> {
         .collect()
 }
 
-/// Replaces the colour of every edge pixel by the mean of `samples_per_axis²` stratified
-/// samples. Returns how many pixels were refined.
+/// Sub-pixel offsets of n×n stratified samples, row by row.
+pub(crate) fn sample_offsets(samples_per_axis: u32) -> impl Iterator<Item = DVec2> {
+    let n = samples_per_axis as f64;
+    (0..samples_per_axis).flat_map(move |sy| {
+        (0..samples_per_axis).map(move |sx| DVec2::new((sx as f64 + 0.5) / n - 0.5, (sy as f64 + 0.5) / n - 0.5))
+    })
+}
+
+/// Replaces the shaded planes of every edge pixel by the mean of `samples_per_axis²`
+/// stratified samples. Returns how many pixels were refined.
 pub fn supersample_edges(
     bvh: &SceneBvh,
+    appearance: &Appearance,
     camera: &Camera,
     pose: &Pose,
     frame: &mut Frame,
@@ -41,30 +54,43 @@ pub fn supersample_edges(
     }
     let edges = edge_pixels(frame);
     let width = frame.width as usize;
-    let n = samples_per_axis as usize;
     let local = cpu::LocalPose::new(bvh, pose);
-    let colours: Vec<[u8; 3]> = edges
+    let count = samples_per_axis * samples_per_axis;
+    let refined: Vec<([u8; 3], [f32; 3])> = edges
         .par_iter()
         .map(|&i| {
             let centre = DVec2::new((i % width) as f64, (i / width) as f64);
-            let mut sum = [0u32; 3];
-            for sy in 0..n {
-                for sx in 0..n {
-                    let offset = DVec2::new((sx as f64 + 0.5) / n as f64 - 0.5, (sy as f64 + 0.5) / n as f64 - 0.5);
-                    let colour = cpu::trace_pixel(bvh, camera, &local, centre + offset).map_or(BACKGROUND, |traced| {
-                        bvh.face_colours[bvh.face[traced.hit.triangle] as usize]
-                    });
-                    for k in 0..3 {
-                        sum[k] += colour[k] as u32;
-                    }
+            let mut encoded = [0u32; 3];
+            let mut linear = DVec3::ZERO;
+            for offset in sample_offsets(samples_per_axis) {
+                let hit = cpu::trace_pixel(bvh, camera, &local, centre + offset);
+                let sample = shading::shade(bvh, appearance, &hit);
+                let colour = if hit.is_hit() {
+                    shading::encode(sample)
+                } else {
+                    BACKGROUND
+                };
+                for k in 0..3 {
+                    encoded[k] += colour[k] as u32;
                 }
+                linear += sample;
             }
-            let count = (n * n) as u32;
-            sum.map(|s| ((s + count / 2) / count) as u8)
+            (
+                encoded.map(|s| ((s + count / 2) / count) as u8),
+                (linear / count as f64).as_vec3().to_array(),
+            )
         })
         .collect();
-    for (&i, colour) in edges.iter().zip(colours) {
-        frame.pixels_mut()[i].colour = colour;
+    let (colour, linear) = frame.shading_mut();
+    if let Some(colour) = colour {
+        for (&i, (c, _)) in edges.iter().zip(&refined) {
+            colour[i] = *c;
+        }
+    }
+    if let Some(linear) = linear {
+        for (&i, (_, l)) in edges.iter().zip(&refined) {
+            linear[i] = *l;
+        }
     }
     edges.len()
 }
@@ -78,7 +104,7 @@ mod tests {
     use std::path::Path;
 
     /// A pinhole facing two coloured half-planes whose border crosses a pixel at its centre.
-    fn half_and_half() -> (SceneBvh, Camera, Pose) {
+    fn half_and_half() -> (Scene, SceneBvh, Camera, Pose) {
         let scene = Scene::from_ron(
             r#"Scene(name: "halves", objects: [
                 Polygon(name: "left", vertices: [(2.0, 0.0, -1.0), (2.0, 1.0, -1.0), (2.0, 1.0, 1.0), (2.0, 0.0, 1.0)], colour: (200, 0, 0)),
@@ -90,6 +116,7 @@ mod tests {
         // Odd width: the middle column's centre looks exactly along the border y = 0.
         let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(9, 9, 0.2));
         (
+            scene.clone(),
             SceneBvh::build(&scene),
             camera,
             Pose::new(DVec3::ZERO, dvec3(0.0, 0.0, 0.0)),
@@ -98,16 +125,19 @@ mod tests {
 
     #[test]
     fn border_pixels_get_the_mean_of_both_faces() {
-        let (bvh, camera, pose) = half_and_half();
-        let mut frame = cpu::render(&bvh, &camera, &pose);
+        let (scene, bvh, camera, pose) = half_and_half();
+        let appearance = Appearance::of(&scene);
+        let mut frame = cpu::trace(&bvh, &camera, &pose);
+        crate::shading::shade_frame(&bvh, &appearance, &mut frame, crate::frame::Planes::COLOUR);
         let edges = edge_pixels(&frame);
         assert!(!edges.is_empty() && edges.iter().all(|&i| (3..=5).contains(&(i % 9))));
-        let refined = supersample_edges(&bvh, &camera, &pose, &mut frame, 4);
+        let refined = supersample_edges(&bvh, &appearance, &camera, &pose, &mut frame, 4);
         assert_eq!(refined, edges.len());
+        let colour = |u, v| frame.colour().unwrap()[frame.index(u, v)];
         // The middle column is half red, half blue: 16 samples split 8/8.
-        assert_eq!(frame.pixel(4, 4).colour, [100, 0, 50]);
+        assert_eq!(colour(4, 4), [100, 0, 50]);
         // Columns left and right of it lie wholly on one face and keep its colour.
-        assert_eq!(frame.pixel(3, 4).colour, [200, 0, 0]);
-        assert_eq!(frame.pixel(5, 4).colour, [0, 0, 100]);
+        assert_eq!(colour(3, 4), [200, 0, 0]);
+        assert_eq!(colour(5, 4), [0, 0, 100]);
     }
 }

@@ -14,6 +14,7 @@ use obvhs::bvh2::Bvh2;
 
 use crate::scene::{Scene, Triangles};
 
+#[derive(Clone)]
 pub struct SceneBvh {
     /// World position of the local origin of `triangles` and of the BVH.
     pub offset: DVec3,
@@ -22,8 +23,9 @@ pub struct SceneBvh {
     pub triangles: Vec<[DVec3; 3]>,
     /// Scene face of each triangle, in BVH leaf order.
     pub face: Vec<u32>,
-    /// sRGB colour of each scene face.
-    pub face_colours: Vec<[u8; 3]>,
+    /// Unit normal of each scene face (f64, orientation as the face's vertex order), so that
+    /// shading works with exact normals whatever precision the hit came in.
+    pub face_normals: Vec<DVec3>,
     /// Time spent in obvhs's builder.
     pub build_time: Duration,
 }
@@ -39,11 +41,11 @@ impl SceneBvh {
     /// scene's centre; other offsets exist to measure what that choice buys (docs/accuracy.md).
     pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
         let triangles = scene.triangulate();
-        let face_colours = scene.faces.iter().map(|f| f.colour).collect();
-        Self::from_triangles(&triangles, offset, face_colours)
+        let face_normals = (0..scene.faces.len()).map(|face| scene.face_normal(face)).collect();
+        Self::from_triangles(&triangles, offset, face_normals)
     }
 
-    fn from_triangles(triangles: &Triangles, offset: DVec3, face_colours: Vec<[u8; 3]>) -> Self {
+    fn from_triangles(triangles: &Triangles, offset: DVec3, face_normals: Vec<DVec3>) -> Self {
         let local: Vec<[DVec3; 3]> = triangles.corners.iter().map(|t| t.map(|p| p - offset)).collect();
         let boxes: Vec<Aabb> = local.iter().map(padded_aabb).collect();
         let start = Instant::now();
@@ -60,7 +62,7 @@ impl SceneBvh {
             triangles: order.iter().map(|&i| local[i as usize]).collect(),
             face: order.iter().map(|&i| triangles.face[i as usize]).collect(),
             bvh,
-            face_colours,
+            face_normals,
             build_time,
         }
     }

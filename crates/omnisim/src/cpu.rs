@@ -1,7 +1,8 @@
 //! The f64 reference tracer: the accuracy yardstick for the GPU path and the fallback backend.
 //!
 //! BVH traversal uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull conservatively);
-//! every triangle test and every returned distance is f64.
+//! every triangle test and every returned distance is f64. Tracing yields hit planes only;
+//! `shading.rs` turns them into colour.
 
 use glam::{DMat3, DVec2, DVec3, Vec3A};
 use obvhs::ray::{Ray, RayHit};
@@ -9,7 +10,7 @@ use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
-use crate::frame::Frame;
+use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
 
 /// Barycentric slack that closes the gaps f64 rounding leaves along shared edges.
@@ -68,14 +69,40 @@ pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) 
     best
 }
 
+/// Whether anything but face `skip_face` lies on the ray (scene-local origin, unit
+/// direction) strictly between t = 0 and `t_max`: the shadow test. Any hit ends the search.
+pub fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
+    // The f32 bound is rounded up, so culling never drops an occluder the f64 test accepts.
+    let bound = if t_max.is_finite() {
+        (t_max * (1.0 + 1e-6) + 1e-6) as f32
+    } else {
+        f32::INFINITY
+    };
+    let ray = Ray::new(
+        Vec3A::from(origin.as_vec3()),
+        Vec3A::from(direction.as_vec3()),
+        0.0,
+        bound,
+    );
+    !bvh.bvh.ray_traverse_miss(ray, |_, triangle| {
+        if bvh.face[triangle] == skip_face {
+            return f32::INFINITY;
+        }
+        match intersect(&bvh.triangles[triangle], origin, direction) {
+            Some(t) if t > 0.0 && t < t_max => 0.0,
+            _ => f32::INFINITY,
+        }
+    })
+}
+
 /// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
-pub struct LocalPose {
+pub(crate) struct LocalPose {
     world_from_body: DMat3,
     origin: DVec3,
 }
 
 impl LocalPose {
-    pub fn new(bvh: &SceneBvh, pose: &Pose) -> Self {
+    pub(crate) fn new(bvh: &SceneBvh, pose: &Pose) -> Self {
         Self {
             world_from_body: pose.world_from_body_rotation(),
             origin: pose.position - bvh.offset,
@@ -83,44 +110,40 @@ impl LocalPose {
     }
 }
 
-/// A traced pixel: its ray (scene-local origin, world direction) and closest hit.
-pub struct TracedPixel {
-    pub origin: DVec3,
-    pub direction: DVec3,
-    pub hit: Hit,
-}
-
-/// Traces the camera ray through `pixel` (sub-pixel positions allowed); `None` where the
-/// pixel has no ray or the ray hits nothing.
-pub fn trace_pixel(bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Option<TracedPixel> {
-    let ray = camera.ray(pixel)?;
+/// Traces the camera ray through `pixel` (sub-pixel positions allowed): the hit planes of
+/// that ray, [`Pixel::MISS`] where the pixel has no ray or the ray hits nothing.
+pub(crate) fn trace_pixel(bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Pixel {
+    let Some(ray) = camera.ray(pixel) else {
+        return Pixel::MISS;
+    };
     let origin = pose.origin + pose.world_from_body * ray.origin;
     let direction = pose.world_from_body * ray.direction;
-    let hit = closest_hit(bvh, origin, direction, ray.t_min)?;
-    Some(TracedPixel { origin, direction, hit })
+    let Some(hit) = closest_hit(bvh, origin, direction, ray.t_min) else {
+        return Pixel::MISS;
+    };
+    let face = bvh.face[hit.triangle];
+    let normal = bvh.face_normals[face as usize];
+    Pixel {
+        face,
+        range: hit.t as f32,
+        point: bvh.offset + origin + hit.t * direction,
+        normal: if normal.dot(direction) > 0.0 { -normal } else { normal }.as_vec3(),
+    }
 }
 
-/// Renders one frame on all CPU threads.
-pub fn render(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
+/// Traces one frame's hit planes on all CPU threads.
+pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
     let (width, height) = camera.size();
     let local = LocalPose::new(bvh, pose);
-    let mut frame = Frame::empty(width, height);
-    frame
-        .pixels_mut()
-        .par_chunks_mut(width as usize)
+    let mut hits = vec![Pixel::MISS; width as usize * height as usize];
+    hits.par_chunks_mut(width.max(1) as usize)
         .enumerate()
         .for_each(|(row, pixels)| {
             for (column, pixel) in pixels.iter_mut().enumerate() {
-                if let Some(traced) = trace_pixel(bvh, camera, &local, DVec2::new(column as f64, row as f64)) {
-                    let face = bvh.face[traced.hit.triangle];
-                    pixel.face = face;
-                    pixel.colour = bvh.face_colours[face as usize];
-                    pixel.range = traced.hit.t as f32;
-                    pixel.point = bvh.offset + traced.origin + traced.hit.t * traced.direction;
-                }
+                *pixel = trace_pixel(bvh, camera, &local, DVec2::new(column as f64, row as f64));
             }
         });
-    frame
+    Frame::from_hits(width, height, hits)
 }
 
 #[cfg(test)]

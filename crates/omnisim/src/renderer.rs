@@ -1,12 +1,21 @@
 //! One entry point for rendering, whichever backend does the work.
+//!
+//! A [`Renderer`] holds the backend (device and compiled pipelines) for the life of the
+//! program; [`Renderer::prepare`] turns a [`Scene`] into a [`PreparedScene`] (BVH and geometry
+//! buffers), whose colours and lights can then change between frames without rebuilding
+//! either. Frames are traced into hit planes and shaded by one shading stage.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use crate::antialias;
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
 use crate::cpu;
-use crate::frame::Frame;
-use crate::gpu::{GpuContext, GpuError, GpuTracer};
+use crate::frame::{Frame, NO_FACE, Planes};
+use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
 use crate::scene::Scene;
+use crate::shading::{self, Appearance};
 
 /// Which backend the user asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -14,36 +23,62 @@ pub enum BackendChoice {
     /// The GPU if an adapter can be opened, else the CPU (saying why).
     #[default]
     Auto,
+    /// The wgpu backend; fails if no adapter opens.
     Gpu,
+    /// The f64 reference tracer on all cores.
     Cpu,
 }
 
+/// Why a render could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    /// The GPU backend failed.
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// An appearance that does not fit the prepared scene's geometry.
+    #[error("the appearance has {given} face colours but the scene has {faces} faces")]
+    FaceCount {
+        /// Colours given.
+        given: usize,
+        /// Faces of the scene.
+        faces: usize,
+    },
 }
 
 enum Backend {
-    Gpu(Box<GpuTracer>),
+    Gpu(Box<GpuRenderer>),
     Cpu,
 }
 
+/// The backend, opened once and used for any number of scenes and frames.
 pub struct Renderer {
-    bvh: SceneBvh,
     backend: Backend,
+    choice: BackendChoice,
     /// Why this backend was chosen, for the user.
     reason: String,
+    geometry_builds: AtomicUsize,
+}
+
+/// A scene made ready for tracing: geometry (BVH, and its GPU buffers) plus the appearance
+/// (face colours and lights), which can change without touching the geometry.
+pub struct PreparedScene {
+    geometry: SceneBvh,
+    appearance: Appearance,
+    /// Object id (1-based) of each face.
+    face_object: Vec<u32>,
+    object_names: Vec<String>,
+    gpu: Option<GpuScene>,
+    /// Set when `auto` traces this scene on the CPU although a GPU is open, and why.
+    fallback: Option<String>,
 }
 
 impl Renderer {
-    /// Builds the BVH and opens the requested backend.
-    pub fn new(scene: &Scene, choice: BackendChoice) -> Result<Self, RenderError> {
-        let bvh = SceneBvh::build(scene);
+    /// Opens the requested backend and compiles its pipelines.
+    pub fn new(choice: BackendChoice) -> Result<Self, RenderError> {
         let (backend, reason) = match choice {
             BackendChoice::Cpu => (Backend::Cpu, "the CPU backend was requested".to_string()),
-            BackendChoice::Gpu => (Self::open_gpu(&bvh)?, "the GPU backend was requested".to_string()),
-            BackendChoice::Auto => match Self::open_gpu(&bvh) {
+            BackendChoice::Gpu => (Self::open_gpu()?, "the GPU backend was requested".to_string()),
+            BackendChoice::Auto => match Self::open_gpu() {
                 Ok(gpu) => (gpu, "auto: a GPU adapter was found".to_string()),
                 Err(e) => (
                     Backend::Cpu,
@@ -51,38 +86,159 @@ impl Renderer {
                 ),
             },
         };
-        Ok(Self { bvh, backend, reason })
+        Ok(Self {
+            backend,
+            choice,
+            reason,
+            geometry_builds: AtomicUsize::new(0),
+        })
     }
 
-    fn open_gpu(bvh: &SceneBvh) -> Result<Backend, GpuError> {
-        Ok(Backend::Gpu(Box::new(GpuTracer::new(GpuContext::new()?, bvh)?)))
+    fn open_gpu() -> Result<Backend, GpuError> {
+        Ok(Backend::Gpu(Box::new(GpuRenderer::new(GpuContext::new()?))))
     }
 
-    pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {
-        match &self.backend {
-            Backend::Gpu(tracer) => Ok(tracer.render(camera, pose)?),
-            Backend::Cpu => Ok(cpu::render(&self.bvh, camera, pose)),
+    /// Builds the BVH of `scene` and, on the GPU, uploads it with the scene's appearance.
+    /// With `auto`, a scene the adapter cannot hold is traced on the CPU (see
+    /// [`PreparedScene::fallback`]).
+    pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene, RenderError> {
+        let geometry = SceneBvh::build(scene);
+        self.geometry_builds.fetch_add(1, Ordering::Relaxed);
+        self.prepare_with(scene, geometry)
+    }
+
+    /// Prepares `scene` with a BVH built elsewhere (e.g. around another local origin, see
+    /// [`SceneBvh::build_with_offset`]); `geometry` must have been built from `scene`.
+    pub fn prepare_with(&self, scene: &Scene, geometry: SceneBvh) -> Result<PreparedScene, RenderError> {
+        let appearance = Appearance::of(scene);
+        let (gpu, fallback) = match &self.backend {
+            Backend::Cpu => (None, None),
+            Backend::Gpu(renderer) => match GpuScene::new(renderer.context(), &geometry, &appearance) {
+                Ok(gpu) => (Some(gpu), None),
+                Err(e) if self.choice == BackendChoice::Auto => (
+                    None,
+                    Some(format!(
+                        "auto: the GPU cannot hold this scene ({e}); using the f64 CPU tracer"
+                    )),
+                ),
+                Err(e) => return Err(e.into()),
+            },
+        };
+        Ok(PreparedScene {
+            geometry,
+            appearance,
+            face_object: scene.faces.iter().map(|f| f.object + 1).collect(),
+            object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
+            gpu,
+            fallback,
+        })
+    }
+
+    /// Replaces the face colours and lights of `prepared`: no BVH build, no pipeline build,
+    /// only the small appearance buffers are rewritten.
+    pub fn set_appearance(&self, prepared: &mut PreparedScene, appearance: Appearance) -> Result<(), RenderError> {
+        let faces = prepared.geometry.face_normals.len();
+        if appearance.face_colours.len() != faces {
+            return Err(RenderError::FaceCount {
+                given: appearance.face_colours.len(),
+                faces,
+            });
         }
+        if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
+            gpu.set_appearance(renderer.context(), &appearance);
+        }
+        prepared.appearance = appearance;
+        Ok(())
     }
 
-    /// Renders, then refines the colour of pixels on face edges with `samples_per_axis²`
-    /// stratified samples each, traced by the same backend.
-    pub fn render_antialiased(
+    /// Traces one frame and computes the planes `planes` asks for.
+    pub fn render(
         &self,
+        prepared: &PreparedScene,
         camera: &Camera,
         pose: &Pose,
+        planes: Planes,
+    ) -> Result<Frame, RenderError> {
+        let mut frame = match self.gpu(prepared) {
+            Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
+            None => {
+                let mut frame = cpu::trace(&prepared.geometry, camera, pose);
+                if planes.needs_shading() {
+                    shading::shade_frame(&prepared.geometry, &prepared.appearance, &mut frame, planes);
+                }
+                frame
+            }
+        };
+        if planes.contains(crate::frame::Plane::Object) {
+            let objects = frame
+                .pixels()
+                .iter()
+                .map(|p| {
+                    if p.face == NO_FACE {
+                        0
+                    } else {
+                        prepared.face_object[p.face as usize]
+                    }
+                })
+                .collect();
+            frame.set_object(objects);
+        }
+        Ok(frame)
+    }
+
+    /// Renders, then refines the shaded planes of pixels on face edges with
+    /// `samples_per_axis²` stratified samples each, traced and shaded by the same backend.
+    pub fn render_antialiased(
+        &self,
+        prepared: &PreparedScene,
+        camera: &Camera,
+        pose: &Pose,
+        planes: Planes,
         samples_per_axis: u32,
     ) -> Result<Frame, RenderError> {
-        let mut frame = self.render(camera, pose)?;
-        match &self.backend {
-            Backend::Gpu(tracer) => {
-                tracer.refine_edges(camera, pose, &mut frame, samples_per_axis)?;
-            }
-            Backend::Cpu => {
-                crate::antialias::supersample_edges(&self.bvh, camera, pose, &mut frame, samples_per_axis);
+        let mut frame = self.render(prepared, camera, pose, planes)?;
+        if planes.needs_shading() {
+            match self.gpu(prepared) {
+                Some((renderer, gpu)) => {
+                    renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis)?;
+                }
+                None => {
+                    antialias::supersample_edges(
+                        &prepared.geometry,
+                        &prepared.appearance,
+                        camera,
+                        pose,
+                        &mut frame,
+                        samples_per_axis,
+                    );
+                }
             }
         }
         Ok(frame)
+    }
+
+    /// Shades `frame` again with `prepared`'s current appearance, without tracing: what a
+    /// change of colours or lights costs.
+    pub fn reshade(
+        &self,
+        prepared: &PreparedScene,
+        camera: &Camera,
+        pose: &Pose,
+        frame: &mut Frame,
+        planes: Planes,
+    ) -> Result<(), RenderError> {
+        match self.gpu(prepared) {
+            Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
+            None => shading::shade_frame(&prepared.geometry, &prepared.appearance, frame, planes),
+        }
+        Ok(())
+    }
+
+    fn gpu<'a>(&'a self, prepared: &'a PreparedScene) -> Option<(&'a GpuRenderer, &'a GpuScene)> {
+        match (&self.backend, &prepared.gpu) {
+            (Backend::Gpu(renderer), Some(gpu)) => Some((renderer, gpu)),
+            _ => None,
+        }
     }
 
     /// "gpu" or "cpu".
@@ -96,16 +252,53 @@ impl Renderer {
     /// The adapter in use, or a description of the CPU backend.
     pub fn device_name(&self) -> String {
         match &self.backend {
-            Backend::Gpu(tracer) => tracer.context().describe(),
+            Backend::Gpu(renderer) => renderer.context().describe(),
             Backend::Cpu => format!("f64 CPU tracer on {} threads", rayon::current_num_threads()),
         }
     }
 
+    /// Why this backend was chosen.
     pub fn reason(&self) -> &str {
         &self.reason
     }
 
-    pub fn bvh(&self) -> &SceneBvh {
-        &self.bvh
+    /// How many BVHs this renderer has built (one per [`Renderer::prepare`]).
+    pub fn geometry_builds(&self) -> usize {
+        self.geometry_builds.load(Ordering::Relaxed)
+    }
+
+    /// The GPU backend, if that is the one in use (to limit its bands, or read its adapter).
+    pub fn gpu_renderer(&mut self) -> Option<&mut GpuRenderer> {
+        match &mut self.backend {
+            Backend::Gpu(renderer) => Some(renderer),
+            Backend::Cpu => None,
+        }
+    }
+}
+
+impl PreparedScene {
+    /// The BVH and triangles.
+    pub fn geometry(&self) -> &SceneBvh {
+        &self.geometry
+    }
+
+    /// The face colours and lights used by the next frame.
+    pub fn appearance(&self) -> &Appearance {
+        &self.appearance
+    }
+
+    /// Object names; object id `i` (1-based, as in the object plane) is `object_names()[i - 1]`.
+    pub fn object_names(&self) -> &[String] {
+        &self.object_names
+    }
+
+    /// "gpu" or "cpu": which backend traces this scene.
+    pub fn backend_name(&self) -> &'static str {
+        if self.gpu.is_some() { "gpu" } else { "cpu" }
+    }
+
+    /// Why `auto` traces this scene on the CPU although a GPU is open, if it does.
+    pub fn fallback(&self) -> Option<&str> {
+        self.fallback.as_deref()
     }
 }

@@ -6,8 +6,10 @@ use std::path::PathBuf;
 use glam::dvec3;
 use omnisim::bvh::SceneBvh;
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
-use omnisim::gpu::{GpuContext, GpuTracer};
-use omnisim::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole, Scene, StereoRig};
+use omnisim::{
+    BackendChoice, Camera, Catadioptric, Cylindrical, Equirectangular, Frame, Pinhole, Planes, Pose, PreparedScene,
+    RenderError, Renderer, Scene, StereoRig,
+};
 
 pub fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name)
@@ -79,11 +81,34 @@ pub fn describe(camera: &Camera) -> String {
     }
 }
 
-/// A GPU tracer for `bvh`, or `None` after a loud message when no adapter exists and CI is
-/// not set. In CI a missing adapter fails the test.
-pub fn gpu_tracer(bvh: &SceneBvh) -> Option<GpuTracer> {
-    match GpuContext::new() {
-        Ok(context) => Some(GpuTracer::new(context, bvh).expect("GPU tracer builds")),
+/// A renderer with one scene prepared on it.
+pub struct Tracer {
+    pub renderer: Renderer,
+    pub scene: PreparedScene,
+}
+
+impl Tracer {
+    /// Hit planes and 8-bit colour of one frame.
+    pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {
+        self.renderer.render(&self.scene, camera, pose, Planes::COLOUR)
+    }
+}
+
+/// `scene` prepared (with the BVH `bvh`) on the f64 CPU tracer.
+pub fn cpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Tracer {
+    let renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+    let scene = renderer.prepare_with(scene, bvh.clone()).expect("CPU scene");
+    Tracer { renderer, scene }
+}
+
+/// `scene` prepared (with the BVH `bvh`) on the GPU, or `None` after a loud message when no
+/// adapter exists and CI is not set. In CI a missing adapter fails the test.
+pub fn gpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Option<Tracer> {
+    match Renderer::new(BackendChoice::Gpu) {
+        Ok(renderer) => {
+            let scene = renderer.prepare_with(scene, bvh.clone()).expect("GPU scene");
+            Some(Tracer { renderer, scene })
+        }
         Err(error) => {
             if std::env::var_os("CI").is_some() {
                 panic!("CI is set but the GPU backend is unavailable: {error}");

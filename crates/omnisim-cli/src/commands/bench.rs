@@ -7,7 +7,7 @@ use anyhow::bail;
 use clap::{Args, ValueEnum};
 use glam::dvec3;
 use omnisim::scene::{Face, SceneObject};
-use omnisim::{BackendChoice, Camera, Pose, Renderer, Scene};
+use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene};
 use serde_json::json;
 
 use crate::camera_args::{CameraArgs, Rig};
@@ -79,28 +79,37 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     };
     let (width, height) = camera.size();
     for choice in choices {
-        let renderer = Renderer::new(&scene, choice)?;
-        if choice == BackendChoice::Auto && renderer.backend_name() == "cpu" {
-            eprintln!("note: {}", renderer.reason());
+        let renderer = Renderer::new(choice)?;
+        let prepared = renderer.prepare(&scene)?;
+        if choice == BackendChoice::Auto && prepared.backend_name() == "cpu" {
+            eprintln!("note: {}", prepared.fallback().unwrap_or(renderer.reason()));
             continue;
         }
+        let render = || renderer.render(&prepared, &camera, &args.pose, Planes::COLOUR);
         for _ in 0..args.warmup {
-            renderer.render(&camera, &args.pose)?;
+            render()?;
         }
         let mut times = Vec::with_capacity(args.runs);
+        let mut reshade_times = Vec::with_capacity(args.runs);
         let mut hits = 0;
         for _ in 0..args.runs {
             let start = Instant::now();
-            let frame = renderer.render(&camera, &args.pose)?;
+            let mut frame = render()?;
             times.push(start.elapsed().as_secs_f64());
             hits = frame.hit_count();
+            let start = Instant::now();
+            renderer.reshade(&prepared, &camera, &args.pose, &mut frame, Planes::COLOUR)?;
+            reshade_times.push(start.elapsed().as_secs_f64());
         }
-        times.sort_by(f64::total_cmp);
-        let median = times[times.len() / 2];
+        let median_seconds = median(&mut times);
+        let lights_on = scene.lighting.as_ref().map_or(0, |l| l.lights_on().count());
         let record = json!({
             "scene": scene.name,
-            "triangles": renderer.bvh().triangles.len(),
-            "bvh_build_ms": renderer.bvh().build_time.as_secs_f64() * 1e3,
+            "triangles": prepared.geometry().triangles.len(),
+            "bvh_build_ms": prepared.geometry().build_time.as_secs_f64() * 1e3,
+            "lit": scene.lighting.is_some(),
+            "lights_on": lights_on,
+            "reshade_median_ms": median(&mut reshade_times) * 1e3,
             "camera": camera.model_name(),
             "width": width,
             "height": height,
@@ -110,14 +119,20 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "threads": rayon_threads(),
             "warmup": args.warmup,
             "runs": args.runs,
-            "median_ms": median * 1e3,
+            "median_ms": median_seconds * 1e3,
             "min_ms": times[0] * 1e3,
             "max_ms": times[times.len() - 1] * 1e3,
-            "mrays_per_s": (width as f64 * height as f64) / median / 1e6,
+            "mrays_per_s": (width as f64 * height as f64) / median_seconds / 1e6,
         });
         println!("{record}");
     }
     Ok(())
+}
+
+/// Median of `times` (sorted in place).
+fn median(times: &mut [f64]) -> f64 {
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
 }
 
 fn rayon_threads() -> usize {

@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use omnisim::output::{self, atomic::write_atomically};
-use omnisim::{BackendChoice, Camera, Pose, Renderer, Scene, calibration};
+use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene, calibration};
 
 use crate::camera_args::{CameraArgs, Rig};
 use crate::metadata::metadata;
@@ -87,19 +87,20 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for warning in &scene.warnings {
         eprintln!("warning: {warning}");
     }
-    let renderer = Renderer::new(&scene, args.backend.into())?;
+    let renderer = Renderer::new(args.backend.into())?;
+    let prepared = renderer.prepare(&scene)?;
     eprintln!(
         "scene '{}': {} faces, {} triangles (BVH built in {:.1} ms)",
         scene.name,
         scene.faces.len(),
-        renderer.bvh().triangles.len(),
-        renderer.bvh().build_time.as_secs_f64() * 1e3
+        prepared.geometry().triangles.len(),
+        prepared.geometry().build_time.as_secs_f64() * 1e3
     );
     eprintln!(
         "backend: {} on {} — {}",
-        renderer.backend_name(),
+        prepared.backend_name(),
         renderer.device_name(),
-        renderer.reason()
+        prepared.fallback().unwrap_or(renderer.reason())
     );
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output folder {}", args.out.display()))?;
@@ -115,7 +116,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let mut frames = Vec::with_capacity(views.len());
         for (suffix, camera) in &views {
             let frame = renderer
-                .render_antialiased(camera, pose, args.edge_samples.isqrt())
+                .render_antialiased(&prepared, camera, pose, Planes::COLOUR, args.edge_samples.isqrt())
                 .with_context(|| format!("rendering pose {index}"))?;
             let png = path_with_suffix(&stem, &format!("{suffix}.png"));
             output::write_png(&png, &frame)?;
@@ -172,7 +173,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     })
     .with_context(|| format!("cannot write {}", poses_path.display()))?;
     let metadata_path = args.out.join("render.json");
-    let metadata = metadata(&scene, &args.scene, &rig, &poses, &renderer);
+    let metadata = metadata(&scene, &args.scene, &rig, &poses, (&renderer, &prepared));
     write_atomically(&metadata_path, |out| {
         serde_json::to_writer_pretty(&mut *out, &metadata).map_err(std::io::Error::other)
     })
@@ -193,7 +194,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         views[0].1.model_name(),
         render_seconds,
         render_seconds * 1e3 / poses.len() as f64,
-        renderer.backend_name(),
+        prepared.backend_name(),
         started.elapsed().as_secs_f64()
     );
     Ok(())

@@ -8,7 +8,7 @@ use anyhow::Context;
 use glam::dvec3;
 use omnisim::camera::MirrorRays;
 use omnisim::output::atomic::write_atomically;
-use omnisim::{BackendChoice, Camera, Frame, Pose, Renderer, Scene};
+use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, Renderer, Scene};
 use serde_json::json;
 
 use crate::chart_svg::{Point, scatter};
@@ -17,8 +17,9 @@ use crate::chart_svg::{Point, scatter};
 fn colour_error(frame: &Frame, truth: &Frame) -> (f64, f64) {
     let mut sum = 0u64;
     let mut differing = 0usize;
-    for (a, b) in frame.pixels().iter().zip(truth.pixels()) {
-        let d: u64 = (0..3).map(|k| a.colour[k].abs_diff(b.colour[k]) as u64).sum();
+    let colour = |f: &'_ Frame| f.colour().map(<[_]>::to_vec).unwrap_or_default();
+    for (a, b) in colour(frame).iter().zip(&colour(truth)) {
+        let d: u64 = (0..3).map(|k| a[k].abs_diff(b[k]) as u64).sum();
         sum += d;
         differing += usize::from(d > 0);
     }
@@ -40,12 +41,20 @@ fn timed(runs: usize, mut render: impl FnMut() -> anyhow::Result<Frame>) -> anyh
 }
 
 pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Path) -> anyhow::Result<()> {
-    let cpu = Renderer::new(scene, BackendChoice::Cpu)?;
-    let gpu = Renderer::new(scene, BackendChoice::Gpu).ok();
+    let open = |choice| -> anyhow::Result<(Renderer, PreparedScene)> {
+        let renderer = Renderer::new(choice)?;
+        let prepared = renderer.prepare(scene)?;
+        Ok((renderer, prepared))
+    };
+    let cpu = open(BackendChoice::Cpu)?;
+    let gpu = open(BackendChoice::Gpu).ok();
     if gpu.is_none() {
         eprintln!("note: no GPU adapter; the chart has CPU methods only");
     }
-    let truth = cpu.render_antialiased(camera, pose, 8)?;
+    let render = |(renderer, prepared): &(Renderer, PreparedScene), camera: &Camera, samples| {
+        renderer.render_antialiased(prepared, camera, pose, Planes::COLOUR, samples)
+    };
+    let truth = render(&cpu, camera, 8)?;
     let mut points = Vec::new();
     let mut record = |label: String, seconds: f64, frame: &Frame, truth: &Frame, device: String| {
         let (error, differing) = colour_error(frame, truth);
@@ -63,12 +72,12 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
     for (name, renderer) in [("CPU f64", Some(&cpu)), ("GPU f32", gpu.as_ref())] {
         let Some(renderer) = renderer else { continue };
         for samples in [1u32, 2, 4] {
-            let (seconds, frame) = timed(runs, || Ok(renderer.render_antialiased(camera, pose, samples)?))?;
+            let (seconds, frame) = timed(runs, || Ok(render(renderer, camera, samples)?))?;
             let label = match samples {
                 1 => format!("{name}, 1 sample/px"),
                 n => format!("{name}, {} samples on edges", n * n),
             };
-            record(label, seconds, &frame, &truth, renderer.device_name());
+            record(label, seconds, &frame, &truth, renderer.0.device_name());
         }
     }
     if let Camera::Catadioptric(mirror) = camera
@@ -82,7 +91,7 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
         });
         let mut off_focus = mirror.clone();
         off_focus.misalignment.offset = dvec3(0.001, 0.0, 0.0);
-        let off_truth = cpu.render_antialiased(&Camera::Catadioptric(off_focus.clone()), pose, 8)?;
+        let off_truth = render(&cpu, &Camera::Catadioptric(off_focus.clone()), 8)?;
         off_focus.rays = MirrorRays::Shortcut;
         let off_shortcut = Camera::Catadioptric(off_focus);
         for (name, method, reference) in [
@@ -90,12 +99,12 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
             ("shortcut, camera 1 mm off focus", &off_shortcut, &off_truth),
         ] {
             for samples in [1u32, 4] {
-                let (seconds, frame) = timed(runs, || Ok(cpu.render_antialiased(method, pose, samples)?))?;
+                let (seconds, frame) = timed(runs, || Ok(render(&cpu, method, samples)?))?;
                 let label = match samples {
                     1 => format!("CPU f64 {name}, 1 sample/px"),
                     n => format!("CPU f64 {name}, {} samples on edges", n * n),
                 };
-                record(label, seconds, &frame, reference, cpu.device_name());
+                record(label, seconds, &frame, reference, cpu.0.device_name());
             }
         }
     }

@@ -66,6 +66,13 @@ impl GpuContext {
         })
     }
 
+    /// The largest storage buffer the adapter binds, bytes.
+    pub fn storage_limit(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+    }
+
     /// "name (backend, device type)", for messages and benchmark records.
     pub fn describe(&self) -> String {
         format!(

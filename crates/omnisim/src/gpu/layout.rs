@@ -48,16 +48,49 @@ pub struct Triangle {
     pub _pad2: u32,
 }
 
-/// WGSL twin: `PixelHit`.
+/// WGSL twin: `PixelHit`, the hit planes of one pixel.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct PixelHit {
+    /// Hit point relative to the scene offset.
     pub point: [f32; 3],
     pub range: f32,
+    /// Unit face normal turned towards the ray origin.
+    pub normal: [f32; 3],
     pub face: u32,
+}
+
+/// WGSL twin: `ShadedPixel`, the shading stage's output for one pixel.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct ShadedPixel {
+    pub linear: [f32; 3],
+    /// 8-bit sRGB packed as `pack4x8unorm` (r in the low byte).
     pub colour: u32,
-    /// WGSL rounds the struct up to its 16-byte alignment.
-    pub _pad: [u32; 2],
+}
+
+/// WGSL twin: `GpuLight`. Point lights: `vector` = position relative to the scene offset and
+/// `strength` = linear colour × candela; directional: `vector` = unit travel direction and
+/// `strength` = linear colour × lux.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct GpuLight {
+    pub vector: [f32; 3],
+    pub kind: u32,
+    pub strength: [f32; 3],
+    pub _pad: u32,
+}
+
+/// WGSL twin: `ShadingParams`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct ShadingParams {
+    pub ambient: f32,
+    /// 1 / white (lux⁻¹): the exposure.
+    pub inverse_white: f32,
+    pub light_count: u32,
+    /// 0: flat face colours; 1: lit.
+    pub lit: u32,
 }
 
 /// WGSL twin: `BvhNode` is obvhs's `Bvh2Node` with the `small_bvh2_node` feature.
@@ -117,8 +150,35 @@ pub fn host_layouts() -> Vec<StructLayout> {
             vec![
                 ("point", offset_of!(PixelHit, point)),
                 ("range", offset_of!(PixelHit, range)),
+                ("normal", offset_of!(PixelHit, normal)),
                 ("face", offset_of!(PixelHit, face)),
-                ("colour", offset_of!(PixelHit, colour)),
+            ],
+        ),
+        (
+            "ShadedPixel",
+            size_of::<ShadedPixel>(),
+            vec![
+                ("linear", offset_of!(ShadedPixel, linear)),
+                ("colour", offset_of!(ShadedPixel, colour)),
+            ],
+        ),
+        (
+            "GpuLight",
+            size_of::<GpuLight>(),
+            vec![
+                ("vector", offset_of!(GpuLight, vector)),
+                ("kind", offset_of!(GpuLight, kind)),
+                ("strength", offset_of!(GpuLight, strength)),
+            ],
+        ),
+        (
+            "ShadingParams",
+            size_of::<ShadingParams>(),
+            vec![
+                ("ambient", offset_of!(ShadingParams, ambient)),
+                ("inverse_white", offset_of!(ShadingParams, inverse_white)),
+                ("light_count", offset_of!(ShadingParams, light_count)),
+                ("lit", offset_of!(ShadingParams, lit)),
             ],
         ),
         (

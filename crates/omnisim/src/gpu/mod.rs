@@ -1,10 +1,12 @@
-//! The wgpu backend: one compute pass per image band traces every pixel (ray generation,
-//! BVH traversal, shading) in `shaders/`, on any adapter wgpu finds (lavapipe in CI).
+//! The wgpu backend: WGSL compute passes in `shaders/` trace every pixel (ray generation, BVH
+//! traversal) into hit planes and shade them, on any adapter wgpu finds (lavapipe in CI).
 
 mod context;
 pub mod layout;
+mod scene;
 pub mod shader;
 mod tracer;
 
 pub use context::{GpuContext, GpuError};
-pub use tracer::GpuTracer;
+pub use scene::GpuScene;
+pub use tracer::GpuRenderer;

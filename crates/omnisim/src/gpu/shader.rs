@@ -1,7 +1,7 @@
 //! The WGSL program, assembled from one file per concern (WGSL has no `#include`).
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
-pub const FILES: [(&str, &str); 8] = [
+pub const FILES: [(&str, &str); 9] = [
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     (
         "camera_pinhole.wgsl",
@@ -21,11 +21,15 @@ pub const FILES: [(&str, &str); 8] = [
     ),
     ("bvh.wgsl", include_str!("../../../../shaders/bvh.wgsl")),
     ("trace.wgsl", include_str!("../../../../shaders/trace.wgsl")),
+    ("shade.wgsl", include_str!("../../../../shaders/shade.wgsl")),
     ("antialias.wgsl", include_str!("../../../../shaders/antialias.wgsl")),
 ];
 
 /// Entry point of the trace pass.
 pub const ENTRY_POINT: &str = "trace_pixels";
+
+/// Entry point of the shading pass.
+pub const SHADE_ENTRY_POINT: &str = "shade_pixels";
 
 /// Entry point of the edge supersampling pass.
 pub const REFINE_ENTRY_POINT: &str = "refine_edges";

@@ -1,54 +1,50 @@
-//! Uploads a scene once, then traces frames: one dispatch per band of image rows, each band
-//! small enough for the adapter's storage-binding limit (128 MiB on lavapipe).
+//! The device and the compiled pipelines, made once and used for any number of scenes and
+//! frames: a trace pass writes the hit planes, a shade pass turns them into colour, a refine
+//! pass supersamples edge pixels. Images are traced in bands of rows, each small enough for
+//! the adapter's storage-binding limit (128 MiB on lavapipe).
 
-use glam::{DMat3, DVec3};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use glam::{DMat3, DVec3, Vec3};
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
-use super::layout::{CameraParams, PixelHit, Triangle};
+use super::layout::{CameraParams, PixelHit, ShadedPixel};
+use super::scene::{BandBuffers, GpuScene};
 use super::shader;
-use crate::bvh::SceneBvh;
 use crate::camera::{Camera, MirrorRays, Mount};
-use crate::frame::{Frame, NO_FACE, Pixel};
-use crate::pose::Pose;
-use crate::pose::rotation_xyz;
+use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Planes};
+use crate::pose::{Pose, rotation_xyz};
 
-/// Per-frame GPU buffers for one band size.
-struct BandBuffers {
-    bytes: u64,
-    output: wgpu::Buffer,
-    readback: wgpu::Buffer,
-    uniform: wgpu::Buffer,
-    bind_group: wgpu::BindGroup,
-}
+/// How many compute pipelines this process has compiled, for tests that prove a change of
+/// colours or lights compiles nothing.
+static PIPELINES_BUILT: AtomicUsize = AtomicUsize::new(0);
 
-pub struct GpuTracer {
+/// The GPU backend: device, queue and the three compute pipelines.
+pub struct GpuRenderer {
     context: GpuContext,
-    pipeline: wgpu::ComputePipeline,
-    refine_pipeline: wgpu::ComputePipeline,
-    nodes: wgpu::Buffer,
-    triangles: wgpu::Buffer,
-    face_colours: wgpu::Buffer,
-    offset: DVec3,
-    band: std::sync::Mutex<Option<BandBuffers>>,
+    trace: wgpu::ComputePipeline,
+    shade: wgpu::ComputePipeline,
+    refine: wgpu::ComputePipeline,
     max_band_rows: Option<u32>,
 }
 
-impl GpuTracer {
-    pub fn new(context: GpuContext, bvh: &SceneBvh) -> Result<Self, GpuError> {
-        let depth = bvh.depth();
-        if depth >= shader::STACK_SIZE {
-            return Err(GpuError::BvhTooDeep {
-                depth,
-                limit: shader::STACK_SIZE,
-            });
-        }
+/// Where the hits of a band come from: traced now, or uploaded from a frame to re-shade.
+enum HitSource<'a> {
+    Trace,
+    Upload(&'a [Pixel]),
+}
+
+impl GpuRenderer {
+    /// Compiles the WGSL program and its pipelines on `context`'s device.
+    pub fn new(context: GpuContext) -> Self {
         let device = &context.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("omnisim trace"),
+            label: Some("omnisim"),
             source: wgpu::ShaderSource::Wgsl(shader::source().into()),
         });
         let pipeline_for = |entry_point| {
+            PIPELINES_BUILT.fetch_add(1, Ordering::Relaxed);
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry_point),
                 layout: None,
@@ -58,60 +54,18 @@ impl GpuTracer {
                 cache: None,
             })
         };
-        let pipeline = pipeline_for(shader::ENTRY_POINT);
-        let refine_pipeline = pipeline_for(shader::REFINE_ENTRY_POINT);
-        let storage = |label: &str, contents: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-        };
-        let triangles: Vec<Triangle> = bvh
-            .triangles
-            .iter()
-            .zip(&bvh.face)
-            .map(|(t, &face)| Triangle {
-                v0: t[0].as_vec3().to_array(),
-                face,
-                e1: (t[1] - t[0]).as_vec3().to_array(),
-                _pad1: 0,
-                e2: (t[2] - t[0]).as_vec3().to_array(),
-                _pad2: 0,
-            })
-            .collect();
-        let colours: Vec<u32> = bvh
-            .face_colours
-            .iter()
-            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], 255]))
-            .collect();
-        let limit = context
-            .limits
-            .max_storage_buffer_binding_size
-            .min(context.limits.max_buffer_size);
-        let sizes = [
-            ("BVH nodes", std::mem::size_of_val(bvh.bvh.nodes.as_slice())),
-            ("triangles", std::mem::size_of_val(triangles.as_slice())),
-            ("face colours", std::mem::size_of_val(colours.as_slice())),
-        ];
-        if let Some(&(buffer, bytes)) = sizes.iter().find(|(_, bytes)| *bytes as u64 > limit) {
-            return Err(GpuError::SceneTooLarge {
-                buffer,
-                bytes: bytes as u64,
-                limit,
-            });
-        }
-        Ok(Self {
-            nodes: storage("bvh nodes", bytemuck::cast_slice(&bvh.bvh.nodes)),
-            triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
-            face_colours: storage("face colours", bytemuck::cast_slice(&colours)),
-            offset: bvh.offset,
-            band: std::sync::Mutex::new(None),
-            max_band_rows: None,
-            pipeline,
-            refine_pipeline,
+        Self {
+            trace: pipeline_for(shader::ENTRY_POINT),
+            shade: pipeline_for(shader::SHADE_ENTRY_POINT),
+            refine: pipeline_for(shader::REFINE_ENTRY_POINT),
             context,
-        })
+            max_band_rows: None,
+        }
+    }
+
+    /// Compute pipelines compiled by this process so far (every `GpuRenderer` adds three).
+    pub fn pipelines_built() -> usize {
+        PIPELINES_BUILT.load(Ordering::Relaxed)
     }
 
     /// Traces at most `rows` image rows per dispatch (at least 1), below the adapter's own
@@ -120,76 +74,161 @@ impl GpuTracer {
         self.max_band_rows = Some(rows.max(1));
     }
 
+    /// The device in use.
     pub fn context(&self) -> &GpuContext {
         &self.context
     }
 
-    pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, GpuError> {
+    /// Traces a frame and shades the planes `planes` asks for.
+    pub(crate) fn render(
+        &self,
+        scene: &GpuScene,
+        camera: &Camera,
+        pose: &Pose,
+        planes: Planes,
+    ) -> Result<Frame, GpuError> {
+        let (width, height) = camera.size();
+        let mut frame = Frame::empty(width, height);
+        self.run_bands(scene, camera, pose, &mut frame, planes, HitSource::Trace)?;
+        Ok(frame)
+    }
+
+    /// Shades `frame`'s hit planes again (after a change of colours or lights), no tracing.
+    pub(crate) fn reshade(
+        &self,
+        scene: &GpuScene,
+        camera: &Camera,
+        pose: &Pose,
+        frame: &mut Frame,
+        planes: Planes,
+    ) -> Result<(), GpuError> {
+        let hits = frame.pixels().to_vec();
+        self.run_bands(scene, camera, pose, frame, planes, HitSource::Upload(&hits))
+    }
+
+    fn run_bands(
+        &self,
+        scene: &GpuScene,
+        camera: &Camera,
+        pose: &Pose,
+        frame: &mut Frame,
+        planes: Planes,
+        source: HitSource,
+    ) -> Result<(), GpuError> {
         let (width, height) = camera.size();
         let row_bytes = width as u64 * std::mem::size_of::<PixelHit>() as u64;
-        let max_binding = self
-            .context
-            .limits
-            .max_storage_buffer_binding_size
-            .min(self.context.limits.max_buffer_size);
         let max_rows_by_dispatch =
             self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE[1] as u64;
-        let band_rows = (max_binding / row_bytes)
+        let band_rows = (self.context.storage_limit() / row_bytes.max(1))
             .min(max_rows_by_dispatch)
             .min(self.max_band_rows.unwrap_or(u32::MAX) as u64)
             .min(height as u64) as u32;
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
-        let mut params = camera_params(camera, pose, self.offset);
-        let band_bytes = band_rows as u64 * row_bytes;
+        let mut params = camera_params(camera, pose, scene.offset);
+        let shade = planes.needs_shading();
         // Consecutive frames of one size (trajectories, grids) reuse their buffers.
-        let mut cache = self.band.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        if cache.as_ref().is_some_and(|b| b.bytes != band_bytes) {
+        let mut cache = scene.band.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if cache.as_ref().is_some_and(|b| (b.rows, b.width) != (band_rows, width)) {
             *cache = None;
         }
-        let buffers = &*cache.get_or_insert_with(|| self.band_buffers(band_bytes));
-        let mut frame = Frame::empty(width, height);
+        let buffers = &*cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
+        let bind_group =
+            |pipeline: &wgpu::ComputePipeline, bindings: &[(u32, &wgpu::Buffer)]| self.bind_group(pipeline, bindings);
+        let trace_group = bind_group(
+            &self.trace,
+            &[
+                (0, &buffers.camera),
+                (1, &scene.nodes),
+                (2, &scene.triangles),
+                (4, &buffers.hits),
+            ],
+        );
+        let shade_group = bind_group(
+            &self.shade,
+            &[
+                (0, &buffers.camera),
+                (1, &scene.nodes),
+                (2, &scene.triangles),
+                (3, &scene.materials),
+                (4, &buffers.hits),
+                (7, &scene.lights),
+                (8, &scene.shading),
+                (9, &buffers.shaded),
+            ],
+        );
+        let pixel_count = width as usize * height as usize;
+        let mut hits_out = Vec::with_capacity(pixel_count);
+        let mut shaded_out: Vec<ShadedPixel> = Vec::with_capacity(if shade { pixel_count } else { 0 });
         let mut row = 0;
         while row < height {
             let rows = band_rows.min(height - row);
             params.row_offset = row;
             params.band_rows = rows;
-            self.context
-                .queue
-                .write_buffer(&buffers.uniform, 0, bytemuck::bytes_of(&params));
+            let queue = &self.context.queue;
+            queue.write_buffer(&buffers.camera, 0, bytemuck::bytes_of(&params));
+            let range = row as usize * width as usize..(row + rows) as usize * width as usize;
+            if let HitSource::Upload(hits) = &source {
+                let local: Vec<PixelHit> = hits[range.clone()].iter().map(|h| gpu_hit(h, scene.offset)).collect();
+                queue.write_buffer(&buffers.hits, 0, bytemuck::cast_slice(&local));
+            }
             let groups = [
                 width.div_ceil(shader::WORKGROUP_SIZE[0]),
                 rows.div_ceil(shader::WORKGROUP_SIZE[1]),
             ];
-            let hits: Vec<PixelHit> = self.run_pass(
-                &self.pipeline,
-                &buffers.bind_group,
-                groups,
-                (&buffers.output, &buffers.readback),
-                rows as u64 * row_bytes,
-            )?;
-            let start = row as usize * width as usize;
-            for (pixel, hit) in frame.pixels_mut()[start..start + hits.len()].iter_mut().zip(&hits) {
-                if hit.face != NO_FACE {
-                    let [r, g, b, _] = hit.colour.to_le_bytes();
-                    *pixel = Pixel {
-                        colour: [r, g, b],
-                        range: hit.range,
-                        face: hit.face,
-                        point: self.offset + glam::Vec3::from_array(hit.point).as_dvec3(),
-                    };
-                }
+            let pixels = range.len() as u64;
+            let mut encoder = self.context.device.create_command_encoder(&Default::default());
+            if matches!(source, HitSource::Trace) {
+                dispatch(&mut encoder, &self.trace, &trace_group, groups);
+                copy(
+                    &mut encoder,
+                    &buffers.hits,
+                    &buffers.hits_readback,
+                    pixels * size_of::<PixelHit>(),
+                );
+            }
+            if shade {
+                dispatch(&mut encoder, &self.shade, &shade_group, groups);
+                copy(
+                    &mut encoder,
+                    &buffers.shaded,
+                    &buffers.shaded_readback,
+                    pixels * size_of::<ShadedPixel>(),
+                );
+            }
+            queue.submit([encoder.finish()]);
+            if matches!(source, HitSource::Trace) {
+                let hits: Vec<PixelHit> = self.read(&buffers.hits_readback, pixels * size_of::<PixelHit>())?;
+                hits_out.extend(hits.iter().map(|h| host_hit(h, scene.offset)));
+            }
+            if shade {
+                shaded_out
+                    .extend(self.read::<ShadedPixel>(&buffers.shaded_readback, pixels * size_of::<ShadedPixel>())?);
             }
             row += rows;
         }
-        Ok(frame)
+        if matches!(source, HitSource::Trace) {
+            *frame = Frame::from_hits(width, height, hits_out);
+        }
+        if shade {
+            let colour = shaded_out
+                .iter()
+                .zip(frame.pixels())
+                .map(|(s, hit)| if hit.is_hit() { unpack(s.colour) } else { BACKGROUND })
+                .collect();
+            let linear = shaded_out.iter().map(|s| s.linear).collect();
+            frame.set_shading(planes, linear, colour);
+        }
+        Ok(())
     }
 
-    /// Replaces the colour of every edge pixel (see `antialias::edge_pixels`) by the mean of
-    /// `samples_per_axis²` stratified samples traced on the GPU. Returns how many pixels.
-    pub fn refine_edges(
+    /// Replaces the shaded planes of every edge pixel (see `antialias::edge_pixels`) by the
+    /// mean of `samples_per_axis²` stratified samples traced and shaded on the GPU. Returns
+    /// how many pixels were refined.
+    pub(crate) fn refine_edges(
         &self,
+        scene: &GpuScene,
         camera: &Camera,
         pose: &Pose,
         frame: &mut Frame,
@@ -203,9 +242,9 @@ impl GpuTracer {
             return Ok(0);
         }
         let device = &self.context.device;
-        let mut params = camera_params(camera, pose, self.offset);
+        let mut params = camera_params(camera, pose, scene.offset);
         params.samples_per_axis = samples_per_axis;
-        let bytes = (edges.len() * std::mem::size_of::<u32>()) as u64;
+        let bytes = edges.len() as u64 * size_of::<ShadedPixel>();
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -215,115 +254,88 @@ impl GpuTracer {
         };
         let uniform = init("camera", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
         let pixels = init("edge pixels", bytemuck::cast_slice(&edges), wgpu::BufferUsages::STORAGE);
-        let buffer = |label, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: bytes,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        let colours = buffer(
+        let colours = self.buffer(
             "edge colours",
+            bytes,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         );
-        let readback = buffer(
+        let readback = self.buffer(
             "edge colours readback",
+            bytes,
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         );
-        let bindings = [
-            (0, &uniform),
-            (1, &self.nodes),
-            (2, &self.triangles),
-            (3, &self.face_colours),
-            (5, &pixels),
-            (6, &colours),
-        ];
-        let bind_group = self.bind_group("refine edges", &self.refine_pipeline, &bindings);
+        let bind_group = self.bind_group(
+            &self.refine,
+            &[
+                (0, &uniform),
+                (1, &scene.nodes),
+                (2, &scene.triangles),
+                (3, &scene.materials),
+                (5, &pixels),
+                (6, &colours),
+                (7, &scene.lights),
+                (8, &scene.shading),
+            ],
+        );
         let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
         let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
-        let groups = [columns, groups.div_ceil(columns)];
-        let refined: Vec<u32> =
-            self.run_pass(&self.refine_pipeline, &bind_group, groups, (&colours, &readback), bytes)?;
-        for (&index, colour) in edges.iter().zip(refined) {
-            let [r, g, b, _] = colour.to_le_bytes();
-            frame.pixels_mut()[index as usize].colour = [r, g, b];
+        let mut encoder = device.create_command_encoder(&Default::default());
+        dispatch(
+            &mut encoder,
+            &self.refine,
+            &bind_group,
+            [columns, groups.div_ceil(columns)],
+        );
+        copy(&mut encoder, &colours, &readback, bytes);
+        self.context.queue.submit([encoder.finish()]);
+        let refined: Vec<ShadedPixel> = self.read(&readback, bytes)?;
+        let (colour, linear) = frame.shading_mut();
+        if let Some(colour) = colour {
+            for (&index, s) in edges.iter().zip(&refined) {
+                colour[index as usize] = unpack(s.colour);
+            }
+        }
+        if let Some(linear) = linear {
+            for (&index, s) in edges.iter().zip(&refined) {
+                linear[index as usize] = s.linear;
+            }
         }
         Ok(edges.len())
     }
 
-    /// Output, readback and camera buffers for bands of `bytes`, bound with the scene.
-    fn band_buffers(&self, bytes: u64) -> BandBuffers {
-        let device = &self.context.device;
-        let buffer = |label, size, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage,
-                mapped_at_creation: false,
-            })
-        };
-        let output = buffer(
-            "pixel hits",
-            bytes,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let readback = buffer(
-            "pixel hits readback",
-            bytes,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-        let uniform = buffer(
-            "camera",
-            std::mem::size_of::<CameraParams>() as u64,
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        );
-        let bindings = [
-            (0, &uniform),
-            (1, &self.nodes),
-            (2, &self.triangles),
-            (3, &self.face_colours),
-            (4, &output),
-        ];
-        let bind_group = self.bind_group("trace", &self.pipeline, &bindings);
+    /// Hit, shaded and readback buffers for bands of `rows` × `width` pixels.
+    fn band_buffers(&self, rows: u32, width: u32) -> BandBuffers {
+        let pixels = rows as u64 * width as u64;
+        let output = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let readback = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        let hit_bytes = pixels * size_of::<PixelHit>() as u64;
+        let shaded_bytes = pixels * size_of::<ShadedPixel>() as u64;
         BandBuffers {
-            bytes,
-            output,
-            readback,
-            uniform,
-            bind_group,
+            rows,
+            width,
+            hits: self.buffer("hits", hit_bytes, output),
+            hits_readback: self.buffer("hits readback", hit_bytes, readback),
+            shaded: self.buffer("shaded", shaded_bytes, output),
+            shaded_readback: self.buffer("shaded readback", shaded_bytes, readback),
+            camera: self.buffer(
+                "camera",
+                size_of::<CameraParams>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
         }
     }
 
-    /// Dispatches `pipeline` over `groups` (x, y) workgroups, copies the first `bytes` of
-    /// `output` to the mappable `readback` and reads them back.
-    fn run_pass<T: bytemuck::Pod>(
-        &self,
-        pipeline: &wgpu::ComputePipeline,
-        bind_group: &wgpu::BindGroup,
-        groups: [u32; 2],
-        (output, readback): (&wgpu::Buffer, &wgpu::Buffer),
-        bytes: u64,
-    ) -> Result<Vec<T>, GpuError> {
-        let mut encoder = self.context.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, bind_group, &[]);
-            pass.dispatch_workgroups(groups[0], groups[1], 1);
-        }
-        encoder.copy_buffer_to_buffer(output, 0, readback, 0, bytes);
-        self.context.queue.submit([encoder.finish()]);
-        self.read(readback, bytes)
+    fn buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.context.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
     }
 
     /// Binds whole buffers to the numbered bindings of group 0 of `pipeline`.
-    fn bind_group(
-        &self,
-        label: &str,
-        pipeline: &wgpu::ComputePipeline,
-        bindings: &[(u32, &wgpu::Buffer)],
-    ) -> wgpu::BindGroup {
+    fn bind_group(&self, pipeline: &wgpu::ComputePipeline, bindings: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> = bindings
             .iter()
             .map(|(binding, buffer)| wgpu::BindGroupEntry {
@@ -332,7 +344,7 @@ impl GpuTracer {
             })
             .collect();
         self.context.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
+            label: None,
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         })
@@ -351,14 +363,63 @@ impl GpuTracer {
             .recv()
             .map_err(|e| GpuError::Readback(e.to_string()))?
             .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let hits = {
+        let values = {
             let view = buffer
                 .get_mapped_range(..bytes)
                 .map_err(|e| GpuError::Readback(e.to_string()))?;
             bytemuck::cast_slice::<u8, T>(&view).to_vec()
         };
         buffer.unmap();
-        Ok(hits)
+        Ok(values)
+    }
+}
+
+fn dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    groups: [u32; 2],
+) {
+    let mut pass = encoder.begin_compute_pass(&Default::default());
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind_group, &[]);
+    pass.dispatch_workgroups(groups[0], groups[1], 1);
+}
+
+fn copy(encoder: &mut wgpu::CommandEncoder, from: &wgpu::Buffer, to: &wgpu::Buffer, bytes: u64) {
+    encoder.copy_buffer_to_buffer(from, 0, to, 0, bytes);
+}
+
+fn size_of<T>() -> u64 {
+    std::mem::size_of::<T>() as u64
+}
+
+/// 8-bit sRGB from `pack4x8unorm`.
+fn unpack(packed: u32) -> [u8; 3] {
+    let [r, g, b, _] = packed.to_le_bytes();
+    [r, g, b]
+}
+
+/// A GPU hit as the frame's hit planes (points back in world metres, in f64).
+fn host_hit(hit: &PixelHit, offset: DVec3) -> Pixel {
+    if hit.face == NO_FACE {
+        return Pixel::MISS;
+    }
+    Pixel {
+        face: hit.face,
+        range: hit.range,
+        point: offset + Vec3::from_array(hit.point).as_dvec3(),
+        normal: Vec3::from_array(hit.normal),
+    }
+}
+
+/// A frame's hit as GPU data, for re-shading.
+fn gpu_hit(hit: &Pixel, offset: DVec3) -> PixelHit {
+    PixelHit {
+        point: (hit.point - offset).as_vec3().to_array(),
+        range: hit.range,
+        normal: hit.normal.to_array(),
+        face: hit.face,
     }
 }
 

@@ -42,9 +42,13 @@ fn failed(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {
     }
 }
 
-/// 8-bit sRGB PNG of the face colours; background black.
+/// 8-bit sRGB PNG of the frame's colour plane; background black.
 pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
-    let bytes: Vec<u8> = frame.pixels().iter().flat_map(|p| p.colour).collect();
+    let colour = frame.colour().ok_or_else(|| OutputError {
+        path: path.to_path_buf(),
+        message: "the frame has no colour plane (render it with Planes::COLOUR)".into(),
+    })?;
+    let bytes: Vec<u8> = colour.iter().flatten().copied().collect();
     write_atomically(path, |out| {
         image::codecs::png::PngEncoder::new(out)
             .write_image(&bytes, frame.width, frame.height, image::ExtendedColorType::Rgb8)
@@ -187,9 +191,12 @@ pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError
 }
 
 /// Binary little-endian PLY of every hit pixel: float x y z (world metres), uchar red green
-/// blue. Readable by Open3D, CloudCompare, MeshLab and PCL.
+/// blue (the colour plane, or grey 128 where the frame has none). Readable by Open3D,
+/// CloudCompare, MeshLab and PCL.
 pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Result<(), OutputError> {
-    let hits: Vec<_> = frame.pixels().iter().filter(|p| p.is_hit()).collect();
+    let grey = vec![[128u8; 3]; frame.pixels().len()];
+    let colours = frame.colour().unwrap_or(&grey);
+    let hits: Vec<_> = frame.pixels().iter().zip(colours).filter(|(p, _)| p.is_hit()).collect();
     write_atomically(path, |out| {
         write!(
             out,
@@ -199,11 +206,11 @@ pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Resul
             comment.replace('\n', " "),
             hits.len()
         )?;
-        for p in hits {
+        for (p, colour) in hits {
             for v in [p.point.x, p.point.y, p.point.z] {
                 out.write_all(&(v as f32).to_le_bytes())?;
             }
-            out.write_all(&p.colour)?;
+            out.write_all(colour)?;
         }
         Ok(())
     })

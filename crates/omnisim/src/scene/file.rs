@@ -29,6 +29,83 @@ pub struct SceneFile {
     #[serde(default)]
     pub angles: AngleUnit,
     pub objects: Vec<ObjectFile>,
+    /// Light points and exposure; without it faces are drawn in their flat colours.
+    #[serde(default)]
+    pub lighting: Option<LightingFile>,
+}
+
+/// The lighting of a scene (model in `lighting.rs` and README).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightingFile {
+    /// Uniform, unshadowed illuminance on every face, lux.
+    #[serde(default)]
+    pub ambient: f64,
+    /// Exposure: the illuminance, lux, at which a white face reaches full scale.
+    #[serde(default = "default_white")]
+    pub white: f64,
+    #[serde(default)]
+    pub lights: Vec<LightFile>,
+}
+
+fn default_white() -> f64 {
+    100.0
+}
+
+/// One light of the `lights` list.
+#[derive(Debug, Clone, Deserialize)]
+pub enum LightFile {
+    /// A light point: inverse-square fall-off, hard shadows.
+    Point(PointLightFile),
+    /// A light at infinity (the sun): parallel rays, hard shadows.
+    Directional(DirectionalLightFile),
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointLightFile {
+    pub name: String,
+    /// World position, metres.
+    pub position: (f64, f64, f64),
+    /// Luminous intensity, candela.
+    pub intensity: f64,
+    /// sRGB tint; white by default.
+    #[serde(default = "white_light")]
+    pub colour: Rgb,
+    /// Whether the light is switched on.
+    #[serde(default = "yes")]
+    pub on: bool,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalLightFile {
+    pub name: String,
+    /// Direction the light travels in (towards the scene), world frame; need not be unit.
+    pub direction: (f64, f64, f64),
+    /// Illuminance on a surface facing the light, lux.
+    pub illuminance: f64,
+    #[serde(default = "white_light")]
+    pub colour: Rgb,
+    #[serde(default = "yes")]
+    pub on: bool,
+}
+
+fn white_light() -> Rgb {
+    (255, 255, 255)
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl LightFile {
+    pub fn name(&self) -> &str {
+        match self {
+            LightFile::Point(l) => &l.name,
+            LightFile::Directional(l) => &l.name,
+        }
+    }
 }
 
 /// One entry of the object library.

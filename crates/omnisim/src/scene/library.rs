@@ -5,8 +5,11 @@ use std::path::Path;
 
 use glam::{DVec3, dvec3};
 
-use super::file::{AngleUnit, BoxFile, FloorFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile};
+use super::file::{
+    AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile,
+};
 use super::{Face, Scene, SceneError, SceneObject, locate, mesh, validate};
+use crate::lighting::{Light, LightKind, Lighting, linear_rgb};
 use crate::pose::rotation_xyz;
 
 /// Box face names, in the order their colours are listed in error messages.
@@ -87,7 +90,107 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
             message: "the scene has no faces; add at least one object".into(),
         });
     }
+    if let Some(lighting) = &file.lighting {
+        scene.lighting = Some(build_lighting(lighting, &seen, text, path)?);
+    }
     Ok(scene)
+}
+
+/// Checks the lighting section; light names share one namespace with object names so that
+/// errors can be located by name and data-set specs can address either without ambiguity.
+fn build_lighting(
+    file: &LightingFile,
+    object_names: &HashMap<&str, usize>,
+    text: &str,
+    path: &Path,
+) -> Result<Lighting, SceneError> {
+    let scene_error = |message: String| SceneError::Scene {
+        path: path.to_path_buf(),
+        message: format!("lighting: {message}"),
+    };
+    if !(file.ambient.is_finite() && file.ambient >= 0.0) {
+        return Err(scene_error(format!(
+            "ambient must be a finite illuminance ≥ 0 lux, not {}",
+            file.ambient
+        )));
+    }
+    if !(file.white.is_finite() && file.white > 0.0) {
+        return Err(scene_error(format!(
+            "white (the exposure) must be a positive finite illuminance in lux, not {}",
+            file.white
+        )));
+    }
+    let mut lights: Vec<Light> = Vec::with_capacity(file.lights.len());
+    for light in &file.lights {
+        let name = light.name();
+        let earlier = object_names.get(name).map_or(0, |n| n + 1) + lights.iter().filter(|l| l.name == name).count();
+        let invalid = |message: String| SceneError::Invalid {
+            path: path.to_path_buf(),
+            location: locate::name_field(text, name, earlier),
+            object: name.to_string(),
+            message: format!("light: {message}"),
+        };
+        if name.trim().is_empty() {
+            return Err(invalid("the name is empty; give every light a name".into()));
+        }
+        if earlier > 0 {
+            return Err(invalid(
+                "an object or another light has this name; names must be unique".into(),
+            ));
+        }
+        let finite = |what: &str, v: (f64, f64, f64)| {
+            let v = dvec3(v.0, v.1, v.2);
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(invalid(format!("{what} must be finite, not {v}")))
+            }
+        };
+        let strength = |what: &str, unit: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(v)
+            } else {
+                Err(invalid(format!(
+                    "{what} must be a finite number of {unit} ≥ 0, not {v}"
+                )))
+            }
+        };
+        let (kind, colour, on) = match light {
+            LightFile::Point(p) => (
+                LightKind::Point {
+                    position: finite("position", p.position)?,
+                    intensity: strength("intensity", "candela", p.intensity)?,
+                },
+                p.colour,
+                p.on,
+            ),
+            LightFile::Directional(d) => {
+                let direction = finite("direction", d.direction)?;
+                if direction.length() == 0.0 {
+                    return Err(invalid("direction must not be (0, 0, 0)".into()));
+                }
+                (
+                    LightKind::Directional {
+                        direction: direction.normalize(),
+                        illuminance: strength("illuminance", "lux", d.illuminance)?,
+                    },
+                    d.colour,
+                    d.on,
+                )
+            }
+        };
+        lights.push(Light {
+            name: name.to_string(),
+            kind,
+            colour: linear_rgb([colour.0, colour.1, colour.2]),
+            on,
+        });
+    }
+    Ok(Lighting {
+        ambient: file.ambient,
+        white: file.white,
+        lights,
+    })
 }
 
 type RawFace = (Vec<DVec3>, (u8, u8, u8));

@@ -49,6 +49,8 @@ pub struct Scene {
     pub source: Option<PathBuf>,
     pub objects: Vec<SceneObject>,
     pub faces: Vec<Face>,
+    /// Light points and exposure; `None` draws every face in its flat colour.
+    pub lighting: Option<crate::lighting::Lighting>,
     /// Things the user may want to know that did not stop loading (e.g. dropped degenerate
     /// mesh triangles).
     pub warnings: Vec<String>,
@@ -91,6 +93,11 @@ impl Scene {
     /// Splits every face into triangles, keeping face and object ids.
     pub fn triangulate(&self) -> Triangles {
         triangulate::triangulate(self)
+    }
+
+    /// Unit normal of face `face`, oriented by its vertex order (Newell's method).
+    pub fn face_normal(&self, face: usize) -> DVec3 {
+        validate::newell_normal(&self.faces[face].vertices).normalize()
     }
 
     /// Axis-aligned bounds of all vertices, or `None` for an empty scene.

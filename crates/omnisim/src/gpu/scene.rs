@@ -1,0 +1,169 @@
+//! A scene on the GPU: geometry buffers (BVH nodes, triangles) uploaded once, and the small
+//! appearance buffers (materials, lights, shading uniform) rewritten whenever colours or
+//! lights change, without touching the geometry or the pipelines.
+
+use std::sync::Mutex;
+
+use bytemuck::Zeroable;
+use glam::DVec3;
+use wgpu::util::DeviceExt;
+
+use super::context::{GpuContext, GpuError};
+use super::layout::{GpuLight, ShadingParams, Triangle};
+use super::shader;
+use crate::bvh::SceneBvh;
+use crate::lighting::{LightKind, linear_rgb};
+use crate::shading::Appearance;
+
+/// Per-frame buffers for one band size, reused between frames of one size.
+pub(super) struct BandBuffers {
+    pub(super) rows: u32,
+    pub(super) width: u32,
+    pub(super) hits: wgpu::Buffer,
+    pub(super) hits_readback: wgpu::Buffer,
+    pub(super) shaded: wgpu::Buffer,
+    pub(super) shaded_readback: wgpu::Buffer,
+    pub(super) camera: wgpu::Buffer,
+}
+
+/// Buffers of one prepared scene.
+pub struct GpuScene {
+    pub(super) offset: DVec3,
+    pub(super) nodes: wgpu::Buffer,
+    pub(super) triangles: wgpu::Buffer,
+    pub(super) materials: wgpu::Buffer,
+    pub(super) lights: wgpu::Buffer,
+    pub(super) shading: wgpu::Buffer,
+    pub(super) band: Mutex<Option<BandBuffers>>,
+    /// Face count, fixed by the geometry; appearances must match it.
+    faces: usize,
+}
+
+impl GpuScene {
+    /// Uploads the geometry and the appearance; refuses what the adapter cannot bind.
+    pub(crate) fn new(context: &GpuContext, bvh: &SceneBvh, appearance: &Appearance) -> Result<Self, GpuError> {
+        let depth = bvh.depth();
+        if depth >= shader::STACK_SIZE {
+            return Err(GpuError::BvhTooDeep {
+                depth,
+                limit: shader::STACK_SIZE,
+            });
+        }
+        let triangles: Vec<Triangle> = bvh
+            .triangles
+            .iter()
+            .zip(&bvh.face)
+            .map(|(t, &face)| Triangle {
+                v0: t[0].as_vec3().to_array(),
+                face,
+                e1: (t[1] - t[0]).as_vec3().to_array(),
+                _pad1: 0,
+                e2: (t[2] - t[0]).as_vec3().to_array(),
+                _pad2: 0,
+            })
+            .collect();
+        let limit = context.storage_limit();
+        let sizes = [
+            ("BVH nodes", std::mem::size_of_val(bvh.bvh.nodes.as_slice())),
+            ("triangles", std::mem::size_of_val(triangles.as_slice())),
+            ("materials", bvh.face_normals.len() * 16),
+        ];
+        if let Some(&(buffer, bytes)) = sizes.iter().find(|(_, bytes)| *bytes as u64 > limit) {
+            return Err(GpuError::SceneTooLarge {
+                buffer,
+                bytes: bytes as u64,
+                limit,
+            });
+        }
+        let device = &context.device;
+        let storage = |label: &str, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            })
+        };
+        // An empty node list still needs a bindable buffer.
+        let nodes: &[u8] = bytemuck::cast_slice(&bvh.bvh.nodes);
+        let (materials, lights, shading) = appearance_data(bvh.offset, appearance);
+        Ok(Self {
+            offset: bvh.offset,
+            nodes: storage("bvh nodes", if nodes.is_empty() { &[0; 32] } else { nodes }),
+            triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
+            materials: storage("materials", bytemuck::cast_slice(&materials)),
+            lights: storage("lights", bytemuck::cast_slice(&lights)),
+            shading: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("shading"),
+                contents: bytemuck::bytes_of(&shading),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            }),
+            band: Mutex::new(None),
+            faces: bvh.face_normals.len(),
+        })
+    }
+
+    /// Rewrites the materials, lights and shading uniform in place (the lights buffer is
+    /// replaced only when it must grow).
+    pub(crate) fn set_appearance(&mut self, context: &GpuContext, appearance: &Appearance) {
+        debug_assert_eq!(appearance.face_colours.len(), self.faces);
+        let (materials, lights, shading) = appearance_data(self.offset, appearance);
+        let queue = &context.queue;
+        queue.write_buffer(&self.materials, 0, bytemuck::cast_slice(&materials));
+        let bytes: &[u8] = bytemuck::cast_slice(&lights);
+        if bytes.len() as u64 > self.lights.size() {
+            self.lights = context.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("lights"),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
+        } else {
+            queue.write_buffer(&self.lights, 0, bytes);
+        }
+        queue.write_buffer(&self.shading, 0, bytemuck::bytes_of(&shading));
+    }
+}
+
+/// The appearance as GPU data: linear albedo per face, lights relative to the scene offset
+/// (at least one entry, since WGSL arrays cannot be empty), and the shading uniform.
+fn appearance_data(offset: DVec3, appearance: &Appearance) -> (Vec<[f32; 4]>, Vec<GpuLight>, ShadingParams) {
+    let materials = appearance
+        .face_colours
+        .iter()
+        .map(|&c| linear_rgb(c).as_vec3().extend(1.0).to_array())
+        .collect();
+    let mut lights: Vec<GpuLight> = appearance
+        .lighting
+        .iter()
+        .flat_map(|l| l.lights_on())
+        .map(|light| {
+            let (vector, kind, strength) = match light.kind {
+                LightKind::Point { position, intensity } => (position - offset, 0, intensity),
+                LightKind::Directional { direction, illuminance } => (direction, 1, illuminance),
+            };
+            GpuLight {
+                vector: vector.as_vec3().to_array(),
+                kind,
+                strength: (light.colour * strength).as_vec3().to_array(),
+                _pad: 0,
+            }
+        })
+        .collect();
+    let shading = match &appearance.lighting {
+        None => ShadingParams {
+            ambient: 0.0,
+            inverse_white: 1.0,
+            light_count: 0,
+            lit: 0,
+        },
+        Some(lighting) => ShadingParams {
+            ambient: lighting.ambient as f32,
+            inverse_white: (1.0 / lighting.white) as f32,
+            light_count: lights.len() as u32,
+            lit: 1,
+        },
+    };
+    if lights.is_empty() {
+        lights.push(GpuLight::zeroed());
+    }
+    (materials, lights, shading)
+}

@@ -1,0 +1,110 @@
+//! Light points, the ambient term and exposure: what the shading stage (`shading.rs` and its
+//! WGSL twin `shaders/shade.wgsl`) turns into colour.
+//!
+//! The model is photometric and stated in README: a face's linear albedo is its sRGB colour
+//! decoded; a point light of luminous intensity I (candela) at distance d lights a face with
+//! illuminance E = I·cosθ/d² (Lambert's cosine law, inverse-square fall-off) when nothing lies
+//! between them (hard shadows); a directional light gives E = E⊥·cosθ; the ambient term adds a
+//! uniform, unshadowed illuminance. The linear pixel value is albedo · ΣE / `white`, where
+//! `white` (lux) is the fixed exposure at which a white face reaches full scale; sRGB encoding
+//! comes last. Faces are two-sided: a face is lit only from the side the camera sees.
+
+use glam::DVec3;
+use serde::Serialize;
+
+/// Where a light is and how its light arrives.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum LightKind {
+    /// A light point radiating equally in every direction, with inverse-square fall-off.
+    Point {
+        /// World position, metres.
+        position: DVec3,
+        /// Luminous intensity, candela (lumen per steradian).
+        intensity: f64,
+    },
+    /// A light at infinity (the sun), arriving along one direction.
+    Directional {
+        /// Unit direction the light travels in (from the light towards the scene), world frame.
+        direction: DVec3,
+        /// Illuminance on a surface facing the light, lux.
+        illuminance: f64,
+    },
+}
+
+/// One named light of a scene.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Light {
+    /// Name from the scene file, unique in the scene; data-set specs switch lights by name.
+    pub name: String,
+    /// Geometry and strength.
+    pub kind: LightKind,
+    /// Linear RGB tint, each channel in [0, 1] (decoded from the file's sRGB colour).
+    pub colour: DVec3,
+    /// Switched-off lights stay in the scene and cost nothing.
+    pub on: bool,
+}
+
+/// The lighting of a scene. A scene without one is drawn in flat face colours.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Lighting {
+    /// Uniform illuminance reaching every face whatever its orientation, lux (no shadows).
+    pub ambient: f64,
+    /// Exposure: the illuminance, lux, at which a white face reaches full scale.
+    pub white: f64,
+    /// Light points and directional lights.
+    pub lights: Vec<Light>,
+}
+
+impl Lighting {
+    /// The lights that are switched on.
+    pub fn lights_on(&self) -> impl Iterator<Item = &Light> {
+        self.lights.iter().filter(|l| l.on)
+    }
+
+    /// A light by name, for switching or moving it between frames.
+    pub fn light_mut(&mut self, name: &str) -> Option<&mut Light> {
+        self.lights.iter_mut().find(|l| l.name == name)
+    }
+}
+
+/// sRGB decoding of an 8-bit channel (IEC 61966-2-1), exact in f64.
+pub fn srgb_to_linear(value: u8) -> f64 {
+    let c = value as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB encoding of a linear value, clamped to [0, 1], rounded to 8 bits.
+pub fn linear_to_srgb(value: f64) -> u8 {
+    let c = value.clamp(0.0, 1.0);
+    let encoded = if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (encoded * 255.0).round() as u8
+}
+
+/// Linear RGB of an sRGB colour.
+pub fn linear_rgb(colour: [u8; 3]) -> DVec3 {
+    DVec3::new(
+        srgb_to_linear(colour[0]),
+        srgb_to_linear(colour[1]),
+        srgb_to_linear(colour[2]),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_byte_survives_decoding_and_encoding() {
+        for value in 0..=255u8 {
+            assert_eq!(linear_to_srgb(srgb_to_linear(value)), value);
+        }
+    }
+}
