@@ -195,3 +195,123 @@ fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     let pixel = frame.pixel(80, 60);
     assert!(((pixel.point - pose.position).dot(forward) - depth[60 * 160 + 80] as f64).abs() < 1e-6);
 }
+
+/// Every plane of the paper's omni camera in env1, rendered on the f64 CPU tracer.
+fn rendered_with_every_plane(pose: &Pose) -> (omnisim::Scene, omnisim::Frame) {
+    let scene = common::load("env1.ron");
+    let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+    let camera = omnisim::Camera::Catadioptric(common::paper_omni());
+    let frame = tracer
+        .renderer
+        .render(&tracer.scene, &camera, pose, omnisim::Planes::ALL)
+        .unwrap();
+    (scene, frame)
+}
+
+/// Values of a 16-bit grey PNG.
+fn read_png16(path: &std::path::Path) -> Vec<u16> {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut bytes = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut bytes).unwrap();
+    assert_eq!(
+        (info.color_type, info.bit_depth),
+        (png::ColorType::Grayscale, png::BitDepth::Sixteen)
+    );
+    bytes[..info.buffer_size()]
+        .chunks_exact(2)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        .collect()
+}
+
+#[test]
+fn segmentation_ids_round_trip_through_png_and_legend() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut face_of_pixel = Vec::new();
+    for (index, pose) in [
+        Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
+        Pose::from_degrees(dvec3(-1.0, 0.5, 0.2), dvec3(10.0, 0.0, -30.0)),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let (scene, frame) = rendered_with_every_plane(pose);
+        let legend = output::SegmentationLegend::of(&scene);
+        let size = (frame.width, frame.height);
+        let object_path = dir.path().join(format!("{index}-object.png"));
+        let face_path = dir.path().join(format!("{index}-face.png"));
+        output::write_id_png(&object_path, size, frame.object().unwrap()).unwrap();
+        output::write_id_png(&face_path, size, &output::face_ids(&frame)).unwrap();
+        let (objects, faces) = (read_png16(&object_path), read_png16(&face_path));
+        assert_eq!(legend.objects.len(), scene.objects.len());
+        let mut seen = std::collections::BTreeSet::new();
+        for ((pixel, &object), &face) in frame.pixels().iter().zip(&objects).zip(&faces) {
+            assert_eq!(object == 0, !pixel.is_hit());
+            assert_eq!(face == 0, !pixel.is_hit());
+            if !pixel.is_hit() {
+                continue;
+            }
+            // The face id is the scene face + 1 and lies in its object's range of the legend.
+            assert_eq!(face as u32, pixel.face + 1);
+            let entry = &legend.objects[object as usize - 1];
+            assert_eq!(entry.id, object as u32);
+            assert!((entry.first_face..=entry.last_face).contains(&(face as u32)));
+            assert_eq!(
+                entry.name,
+                scene.objects[scene.faces[pixel.face as usize].object as usize].name
+            );
+            seen.insert(object);
+        }
+        assert!(seen.len() >= 8, "only {} objects seen", seen.len());
+        face_of_pixel.push(faces);
+    }
+    // The same legend serves every pose: ids are the scene's, not the frame's.
+    assert_ne!(face_of_pixel[0], face_of_pixel[1]);
+}
+
+#[test]
+fn normals_are_unit_face_the_camera_and_read_back_from_exr() {
+    let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
+    let (_, frame) = rendered_with_every_plane(&pose);
+    for p in frame.pixels().iter().filter(|p| p.is_hit()) {
+        assert!((p.normal.length() - 1.0).abs() < 1e-6, "{}", p.normal);
+        // Central camera: the ray comes from the viewpoint, so the normal faces it.
+        assert!(p.normal.as_dvec3().dot(p.point - pose.position) < 0.0);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("normal.exr");
+    output::write_normal_exr(&path, &frame).unwrap();
+    let image = common::read_exr(&path);
+    let channels = &image.layer_data[0].channel_data.list;
+    for (axis, name) in ["normal.X", "normal.Y", "normal.Z"].iter().enumerate() {
+        let channel = channels.iter().find(|c| c.name.to_string() == *name).unwrap();
+        for (value, p) in channel.sample_data.values_as_f32().zip(frame.pixels()) {
+            if p.is_hit() {
+                assert_eq!(value.to_bits(), p.normal.to_array()[axis].to_bits());
+            } else {
+                assert!(value.is_nan());
+            }
+        }
+    }
+}
+
+#[test]
+fn linear_colour_exr_reads_back_and_encodes_to_the_png_colour() {
+    let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
+    let (_, frame) = rendered_with_every_plane(&pose);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("linear.exr");
+    output::write_linear_exr(&path, &frame).unwrap();
+    let image = common::read_exr(&path);
+    let channels = &image.layer_data[0].channel_data.list;
+    let linear = frame.linear_colour().unwrap();
+    for (k, name) in ["R", "G", "B"].iter().enumerate() {
+        let channel = channels.iter().find(|c| c.name.to_string() == *name).unwrap();
+        for (value, l) in channel.sample_data.values_as_f32().zip(linear) {
+            assert_eq!(value.to_bits(), l[k].to_bits());
+        }
+    }
+    for (l, c) in linear.iter().zip(frame.colour().unwrap()) {
+        assert_eq!(omnisim::shading::encode(glam::Vec3::from_array(*l).as_dvec3()), *c);
+    }
+}

@@ -94,6 +94,9 @@ fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
             continue;
         }
         for p in frame.pixels().iter().filter(|p| p.is_hit()) {
+            // Normals are unit and face the viewpoint the ray came from.
+            assert!((p.normal.length() - 1.0).abs() < 1e-5, "{}", p.normal);
+            assert!(p.normal.as_dvec3().dot(p.point - pose.position) < 0.0);
             let distance = (p.point - pose.position).length();
             // Central cameras: the hit lies `range` from the viewpoint.
             assert!(

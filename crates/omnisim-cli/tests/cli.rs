@@ -313,3 +313,26 @@ fn every_example_in_render_help_runs() {
         assert!(result.status.success(), "{example}: {}", text(&result.stderr));
     }
 }
+
+#[test]
+fn render_writes_segmentation_normals_and_linear_colour_on_request() {
+    let out = tempfile::tempdir().unwrap();
+    let result = omnisim(&format!(
+        "render scenes/env1.ron --camera stereo --size 64x48 --pose 0,0,0.6,0,0,30 --backend cpu \
+         --segmentation --normals --linear --no-ply --out {}",
+        out.path().display()
+    ));
+    assert!(result.status.success(), "{}", text(&result.stderr));
+    for side in ["left", "right"] {
+        for suffix in ["object.png", "face.png", "normal.exr", "linear.exr"] {
+            let name = format!("env1-0000-{side}-{suffix}");
+            assert!(out.path().join(&name).is_file(), "{name} missing");
+        }
+    }
+    let legend: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.path().join("segmentation.json")).unwrap()).unwrap();
+    let objects = legend["objects"].as_array().unwrap();
+    assert_eq!(objects[0]["name"], "floor");
+    assert_eq!(objects[0]["id"], 1);
+    assert_eq!(objects.len(), 17);
+}

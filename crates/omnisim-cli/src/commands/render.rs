@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use omnisim::output::{self, atomic::write_atomically};
-use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene, calibration};
+use omnisim::{BackendChoice, Camera, Plane, Planes, Pose, Renderer, Scene, calibration};
 
 use crate::camera_args::{CameraArgs, Rig};
 use crate::metadata::metadata;
@@ -70,6 +70,18 @@ pub struct RenderArgs {
     /// Skip the PLY point clouds.
     #[arg(long)]
     pub no_ply: bool,
+    /// Also write segmentation: <stem>-object.png and <stem>-face.png (16-bit ids, 0 = nothing
+    /// hit) and segmentation.json, the legend of object names and ids (the same for every pose).
+    #[arg(long)]
+    pub segmentation: bool,
+    /// Also write <stem>-normal.exr: unit surface normals in the world frame, turned towards
+    /// the camera (channels normal.X/Y/Z, NaN where nothing is hit).
+    #[arg(long)]
+    pub normals: bool,
+    /// Also write <stem>-linear.exr: linear colour before sRGB encoding (channels R, G, B; 1.0 =
+    /// full scale), for studies of illumination.
+    #[arg(long)]
+    pub linear: bool,
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -109,6 +121,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let mut planes = Planes::COLOUR;
+    if args.linear {
+        planes = planes.with(Plane::LinearColour);
+    }
+    if args.segmentation {
+        planes = planes.with(Plane::Object);
+    }
     let mut written = Vec::new();
     let render_started = Instant::now();
     for (index, pose) in poses.iter().enumerate() {
@@ -116,7 +135,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let mut frames = Vec::with_capacity(views.len());
         for (suffix, camera) in &views {
             let frame = renderer
-                .render_antialiased(&prepared, camera, pose, Planes::COLOUR, args.edge_samples.isqrt())
+                .render_antialiased(&prepared, camera, pose, planes, args.edge_samples.isqrt())
                 .with_context(|| format!("rendering pose {index}"))?;
             let png = path_with_suffix(&stem, &format!("{suffix}.png"));
             output::write_png(&png, &frame)?;
@@ -131,6 +150,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 let depth_exr = path_with_suffix(&stem, &format!("{suffix}-depth.exr"));
                 output::write_axial_depth_exr(&depth_exr, size, depth)?;
                 written.extend([depth_png, depth_exr]);
+            }
+            let size = (frame.width, frame.height);
+            if let Some(objects) = frame.object() {
+                let object_png = path_with_suffix(&stem, &format!("{suffix}-object.png"));
+                output::write_id_png(&object_png, size, objects)?;
+                let face_png = path_with_suffix(&stem, &format!("{suffix}-face.png"));
+                output::write_id_png(&face_png, size, &output::face_ids(&frame))?;
+                written.extend([object_png, face_png]);
+            }
+            if args.normals {
+                let normal_exr = path_with_suffix(&stem, &format!("{suffix}-normal.exr"));
+                output::write_normal_exr(&normal_exr, &frame)?;
+                written.push(normal_exr);
+            }
+            if args.linear {
+                let linear_exr = path_with_suffix(&stem, &format!("{suffix}-linear.exr"));
+                output::write_linear_exr(&linear_exr, &frame)?;
+                written.push(linear_exr);
             }
             if !args.no_ply {
                 let ply = path_with_suffix(&stem, &format!("{suffix}.ply"));
@@ -157,6 +194,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let render_seconds = render_started.elapsed().as_secs_f64();
 
     written.extend(write_calibration(&args.out, &rig, &views)?);
+    if args.segmentation {
+        let legend_path = args.out.join("segmentation.json");
+        let legend = output::SegmentationLegend::of(&scene);
+        write_atomically(&legend_path, |out| {
+            serde_json::to_writer_pretty(&mut *out, &legend).map_err(std::io::Error::other)
+        })
+        .with_context(|| format!("cannot write {}", legend_path.display()))?;
+        written.push(legend_path);
+    }
     let poses_path = args.out.join("poses.txt");
     write_atomically(&poses_path, |out| {
         use std::io::Write;

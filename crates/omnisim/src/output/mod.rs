@@ -1,7 +1,14 @@
-//! Writers for rendered frames: PNG colour, EXR range, PLY coloured point cloud. Each writes
+//! Writers for rendered frames: PNG colour, EXR range, PLY coloured point cloud, and (in
+//! `planes.rs`) segmentation, normals and linear colour. Each writes
 //! atomically (see `atomic.rs`) and names its units and conventions inside the file.
 
 pub mod atomic;
+mod planes;
+
+pub use planes::{
+    LINEAR_CONVENTION, MAX_SEGMENT_ID, NORMAL_CONVENTION, SegmentObject, SegmentationLegend, face_ids, write_id_png,
+    write_linear_exr, write_normal_exr,
+};
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
