@@ -174,18 +174,7 @@ fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("depth.png");
     output::write_tum_depth_png(&path, (160, 120), &depth).unwrap();
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut bytes = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut bytes).unwrap();
-    assert_eq!(
-        (info.color_type, info.bit_depth),
-        (png::ColorType::Grayscale, png::BitDepth::Sixteen)
-    );
-    let stored: Vec<u16> = bytes
-        .chunks_exact(2)
-        .map(|b| u16::from_be_bytes([b[0], b[1]]))
-        .collect();
+    let stored = read_png16(&path);
     assert_eq!(&stored[..2], &[0, 0]);
     for (value, z) in stored.iter().zip(&depth).skip(2) {
         assert_eq!(*value as f64, (*z as f64 * 5000.0).round(), "z = {z}");
