@@ -11,7 +11,8 @@ use crate::scene::Scene;
 /// Which backend the user asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BackendChoice {
-    /// The GPU if an adapter can be opened, else the CPU (saying why).
+    /// A hardware GPU if one opens, else the CPU (saying why); software adapters are slower
+    /// than the CPU tracer on the same cores.
     #[default]
     Auto,
     Gpu,
@@ -42,8 +43,11 @@ impl Renderer {
         let bvh = SceneBvh::build(scene);
         let (backend, reason) = match choice {
             BackendChoice::Cpu => (Backend::Cpu, "the CPU backend was requested".to_string()),
-            BackendChoice::Gpu => (Self::open_gpu(&bvh)?, "the GPU backend was requested".to_string()),
-            BackendChoice::Auto => match Self::open_gpu(&bvh) {
+            BackendChoice::Gpu => (
+                Self::open_gpu(&bvh, GpuContext::new)?,
+                "the GPU backend was requested".to_string(),
+            ),
+            BackendChoice::Auto => match Self::open_gpu(&bvh, GpuContext::new_hardware) {
                 Ok(gpu) => (gpu, "auto: a GPU adapter was found".to_string()),
                 Err(e) => (
                     Backend::Cpu,
@@ -54,8 +58,8 @@ impl Renderer {
         Ok(Self { bvh, backend, reason })
     }
 
-    fn open_gpu(bvh: &SceneBvh) -> Result<Backend, GpuError> {
-        Ok(Backend::Gpu(Box::new(GpuTracer::new(GpuContext::new()?, bvh)?)))
+    fn open_gpu(bvh: &SceneBvh, open: fn() -> Result<GpuContext, GpuError>) -> Result<Backend, GpuError> {
+        Ok(Backend::Gpu(Box::new(GpuTracer::new(open()?, bvh)?)))
     }
 
     pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {

@@ -17,7 +17,7 @@ use crate::poses::parse_pose;
 pub enum BenchBackend {
     Gpu,
     Cpu,
-    /// The GPU (if an adapter opens) and then the CPU.
+    /// The GPU (if an adapter opens, software ones included) and then the CPU.
     Both,
 }
 
@@ -70,20 +70,23 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         add_height_field(&mut scene, count)?;
     }
     if let Some(chart) = &args.chart {
+        super::prepare_file(chart)?;
         return super::speed_accuracy::run(&scene, &camera, &args.pose, args.runs, chart);
     }
     let choices = match args.backend {
         BenchBackend::Gpu => vec![BackendChoice::Gpu],
         BenchBackend::Cpu => vec![BackendChoice::Cpu],
-        BenchBackend::Both => vec![BackendChoice::Auto, BackendChoice::Cpu],
+        BenchBackend::Both => vec![BackendChoice::Gpu, BackendChoice::Cpu],
     };
     let (width, height) = camera.size();
     for choice in choices {
-        let renderer = Renderer::new(&scene, choice)?;
-        if choice == BackendChoice::Auto && renderer.backend_name() == "cpu" {
-            eprintln!("note: {}", renderer.reason());
-            continue;
-        }
+        let renderer = match Renderer::new(&scene, choice) {
+            Err(e) if args.backend == BenchBackend::Both => {
+                eprintln!("note: no GPU measured: {e}");
+                continue;
+            }
+            renderer => renderer?,
+        };
         for _ in 0..args.warmup {
             renderer.render(&camera, &args.pose)?;
         }
@@ -115,7 +118,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "max_ms": times[times.len() - 1] * 1e3,
             "mrays_per_s": (width as f64 * height as f64) / median / 1e6,
         });
-        println!("{record}");
+        crate::stdout::line(record)?;
     }
     Ok(())
 }
