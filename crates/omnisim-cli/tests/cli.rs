@@ -68,11 +68,13 @@ fn render_writes_image_range_cloud_poses_and_metadata() {
         serde_json::from_str(&std::fs::read_to_string(out_dir.join("render.json")).unwrap()).unwrap();
     assert_eq!(metadata["camera"]["model"], "hyperbolic-catadioptric");
     assert_eq!(metadata["frames"].as_array().unwrap().len(), 2);
-    // No partial files remain.
+    // No temporary files remain.
     assert!(
-        std::fs::read_dir(&out_dir)
+        std::fs::read_dir(&out_dir).unwrap().all(|e| !e
             .unwrap()
-            .all(|e| !e.unwrap().file_name().to_string_lossy().contains("partial"))
+            .file_name()
+            .to_string_lossy()
+            .starts_with(".omnisim-tmp-"))
     );
 }
 

@@ -62,9 +62,6 @@ impl GpuContext {
         let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&instance, None))
             .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
-        if hardware_only && info.device_type == wgpu::DeviceType::Cpu {
-            return Err(GpuError::SoftwareAdapter(format!("{} ({:?})", info.name, info.backend)));
-        }
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("omnisim"),
@@ -75,12 +72,24 @@ impl GpuContext {
             adapter: info.name.clone(),
             source,
         })?;
-        Ok(Self {
+        let context = Self {
             device,
             queue,
             adapter: info,
             limits,
-        })
+        };
+        if hardware_only && context.is_software() {
+            return Err(GpuError::SoftwareAdapter(format!(
+                "{} ({:?})",
+                context.adapter.name, context.adapter.backend
+            )));
+        }
+        Ok(context)
+    }
+
+    /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
+    pub fn is_software(&self) -> bool {
+        self.adapter.device_type == wgpu::DeviceType::Cpu
     }
 
     /// "name (backend, device type)", for messages and benchmark records.
