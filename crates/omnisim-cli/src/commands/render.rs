@@ -38,9 +38,9 @@ impl From<BackendArg> for BackendChoice {
 ///
 /// For every pose N it writes <scene>-N.png (colour), <scene>-N-range.exr (f32 metres from the
 /// ray origin, channel "Y", header quantity "range", +inf = no hit) and <scene>-N.ply (binary
-/// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16 bit) and -depth.exr (z,
-/// metres); a stereo rig writes -left and -right of each and -disparity.exr. Once per
-/// run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
+/// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16
+/// bit) and -depth.exr (z, metres); a stereo rig writes -left and -right of each and
+/// -disparity.exr. Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
 /// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
 /// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
 ///
