@@ -77,7 +77,7 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
         .other
         .get(&exr::prelude::Text::from(output::QUANTITY_ATTRIBUTE));
     assert!(
-        matches!(quantity, Some(exr::prelude::AttributeValue::Text(t)) if t.to_string() == "range"),
+        matches!(quantity, Some(exr::prelude::AttributeValue::Text(t)) if t.eq("range")),
         "{quantity:?}"
     );
     assert_eq!(layer.encoding.compression, exr::prelude::Compression::ZIP16);

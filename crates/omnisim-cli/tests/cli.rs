@@ -234,10 +234,7 @@ fn mirror_options_are_checked() {
     ));
     assert!(parabolic.status.success(), "{}", text(&parabolic.stderr));
     let omnidir = std::fs::read_to_string(out.join("calibration-opencv-omnidir.yaml")).unwrap();
-    assert!(
-        omnidir.contains("\nxi: 1.0\n"),
-        "{omnidir}"
-    );
+    assert!(omnidir.contains("\nxi: 1.0\n"), "{omnidir}");
 }
 
 #[test]

@@ -105,7 +105,7 @@ fn kalibr_camera(out: &mut String, index: usize, model: &str, intrinsics: &[f64]
 
 /// Kalibr camchain of one pinhole, with its T_cam_imu.
 pub fn kalibr_pinhole(camera: &Pinhole) -> String {
-    kalibr_pinholes(&[camera.clone()], None)
+    kalibr_pinholes(std::slice::from_ref(camera), None)
 }
 
 /// Kalibr camchain of a stereo rig: left and right, each with T_cam_imu, and the right's

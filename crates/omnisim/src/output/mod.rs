@@ -140,9 +140,11 @@ fn write_exr(
     channels: Vec<(&str, Vec<f32>)>,
 ) -> Result<(), OutputError> {
     use exr::prelude::*;
-    let mut attributes = LayerAttributes::default();
-    attributes.comments = Some(Text::from(convention));
-    attributes.software_name = Some(Text::from(concat!("omnisim ", env!("CARGO_PKG_VERSION"))));
+    let mut attributes = LayerAttributes {
+        comments: Some(Text::from(convention)),
+        software_name: Some(Text::from(concat!("omnisim ", env!("CARGO_PKG_VERSION")))),
+        ..Default::default()
+    };
     // exr keeps custom attributes in a HashMap, written in its random order: one custom
     // attribute only, so the bytes stay reproducible.
     attributes.other.insert(
