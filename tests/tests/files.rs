@@ -72,8 +72,19 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
         .map(|t| t.to_string())
         .unwrap_or_default();
     assert!(comments.contains("metres") && comments.contains("+inf"), "{comments}");
+    let quantity = layer
+        .attributes
+        .other
+        .get(&exr::prelude::Text::from(output::QUANTITY_ATTRIBUTE));
+    assert!(
+        matches!(quantity, Some(exr::prelude::AttributeValue::Text(t)) if t.eq("range")),
+        "{quantity:?}"
+    );
+    assert_eq!(layer.encoding.compression, exr::prelude::Compression::ZIP16);
+    // Blocks in a fixed order: the bytes depend on the values only.
+    assert_eq!(layer.encoding.line_order, exr::prelude::LineOrder::Increasing);
     let channel = &layer.channel_data.list[0];
-    assert_eq!(channel.name.to_string(), output::RANGE_CHANNEL);
+    assert_eq!(channel.name.to_string(), output::VALUE_CHANNEL);
     let values: Vec<f32> = channel.sample_data.values_as_f32().collect();
     assert_eq!(values.len(), frame.pixels().len());
     for (value, pixel) in values.iter().zip(frame.pixels()) {
@@ -87,7 +98,10 @@ fn ply_point_cloud_reads_back_point_for_point() {
     let frame = rendered();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("cloud.ply");
-    output::write_point_cloud_ply(&path, &frame, "test").unwrap();
+    output::write_point_cloud_ply(&path, &frame, "pose θx=30°").unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let header_end = bytes.windows(10).position(|w| w == b"end_header").unwrap();
+    assert!(bytes[..header_end].is_ascii(), "PLY headers are ASCII");
     let ply = Parser::<DefaultElement>::new()
         .read_ply(&mut std::io::BufReader::new(std::fs::File::open(&path).unwrap()))
         .unwrap();
@@ -303,4 +317,65 @@ fn linear_colour_exr_reads_back_and_encodes_to_the_png_colour() {
     for (l, c) in linear.iter().zip(frame.colour().unwrap()) {
         assert_eq!(omnisim::shading::encode(glam::Vec3::from_array(*l).as_dvec3()), *c);
     }
+}
+
+/// Every writer, twice: the same values give the same bytes.
+#[test]
+fn every_file_is_byte_reproducible() {
+    let frame = rendered();
+    let camera = omnisim::Camera::Catadioptric(common::paper_omni());
+    let dir = tempfile::tempdir().unwrap();
+    let write = |n: usize| -> Vec<Vec<u8>> {
+        let path = |name: &str| dir.path().join(format!("{n}-{name}"));
+        let depth: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
+        let size = (frame.width, frame.height);
+        output::write_png(&path("c.png"), &frame).unwrap();
+        output::write_range_exr(&path("r.exr"), &frame, &camera).unwrap();
+        output::write_axial_depth_exr(&path("z.exr"), size, depth.clone()).unwrap();
+        output::write_disparity_exr(&path("d.exr"), size, depth.clone()).unwrap();
+        output::write_tum_depth_png(&path("z.png"), size, &depth).unwrap();
+        output::write_ray_map_exr(&path("rays.exr"), &camera).unwrap();
+        output::write_point_cloud_ply(&path("p.ply"), &frame, "test").unwrap();
+        ["c.png", "r.exr", "z.exr", "d.exr", "z.png", "rays.exr", "p.ply"]
+            .map(|name| std::fs::read(path(name)).unwrap())
+            .to_vec()
+    };
+    let (first, second) = (write(0), write(1));
+    for (a, b) in first.iter().zip(&second) {
+        assert!(a == b, "two writes of the same values differ");
+    }
+}
+
+/// A link planted at any name a temporary could take is never followed, and the result is a
+/// regular file even where the destination itself was a link.
+#[cfg(unix)]
+#[test]
+fn temporary_files_never_follow_links() {
+    let frame = rendered();
+    let dir = tempfile::tempdir().unwrap();
+    let victim = dir.path().join("victim");
+    std::fs::write(&victim, "precious").unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let pid = std::process::id();
+    for name in [
+        format!(".colour.png.partial-{pid}"),
+        format!(".colour.png.partial-{}", pid + 1),
+        format!("{}{pid}-", output::atomic::TEMPORARY_PREFIX),
+        "colour.png".to_string(),
+    ] {
+        std::os::unix::fs::symlink(&victim, out.join(name)).unwrap();
+    }
+    let path = out.join("colour.png");
+    output::write_png(&path, &frame).unwrap();
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "precious");
+    assert!(std::fs::symlink_metadata(&path).unwrap().file_type().is_file());
+    let temporaries = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| {
+            let name = e.as_ref().unwrap().file_name().to_string_lossy().into_owned();
+            name.starts_with(output::atomic::TEMPORARY_PREFIX) && !name.ends_with('-')
+        })
+        .count();
+    assert_eq!(temporaries, 0, "no temporary left behind");
 }

@@ -160,3 +160,27 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     let banded = gpu.render(&camera, &pose).unwrap();
     assert_eq!(whole, banded);
 }
+
+/// `auto` takes a hardware adapter, never a software one (llvmpipe: the f64 CPU tracer is
+/// faster on the same cores), and says why; `gpu` takes whatever adapter there is.
+#[test]
+fn auto_prefers_the_cpu_tracer_over_a_software_adapter() {
+    let scene = common::load("env1.ron");
+    let Some(mut gpu) = common::gpu_tracer(&scene, &SceneBvh::build(&scene)) else {
+        return;
+    };
+    let software = gpu.renderer.gpu_renderer().unwrap().context().is_software();
+    let auto = omnisim::Renderer::new(omnisim::BackendChoice::Auto).unwrap();
+    if software {
+        assert_eq!(auto.backend_name(), "cpu");
+        assert!(
+            auto.reason().contains("software") && auto.reason().contains("--backend gpu"),
+            "{}",
+            auto.reason()
+        );
+        let forced = omnisim::Renderer::new(omnisim::BackendChoice::Gpu).unwrap();
+        assert_eq!(forced.backend_name(), "gpu");
+    } else {
+        assert_eq!(auto.backend_name(), "gpu", "{}", auto.reason());
+    }
+}

@@ -312,14 +312,34 @@ fn yaml_matrix(text: &str, name: &str) -> Vec<f64> {
     data.split(',').map(|v| v.trim().parse().unwrap()).collect()
 }
 
-/// The numbers of the Kalibr `intrinsics: [ … ]` line.
+/// The numbers of the first Kalibr `intrinsics: [ … ]` line.
 fn kalibr_intrinsics(text: &str) -> Vec<f64> {
     let line = text
         .lines()
         .find(|l| l.trim_start().starts_with("intrinsics:"))
         .unwrap();
+    numbers_in_brackets(line)
+}
+
+fn numbers_in_brackets(line: &str) -> Vec<f64> {
     let data = &line[line.find('[').unwrap() + 1..line.find(']').unwrap()];
     data.split(',').map(|v| v.trim().parse().unwrap()).collect()
+}
+
+/// The first Kalibr `T_cam_imu` (camera_from_body) as a function of body points.
+fn kalibr_camera_from_body(text: &str) -> impl Fn(DVec3) -> DVec3 {
+    let start = text.find("T_cam_imu:").expect("T_cam_imu");
+    let rows: Vec<Vec<f64>> = text[start..].lines().skip(1).take(3).map(numbers_in_brackets).collect();
+    move |p: DVec3| {
+        let row = |r: &Vec<f64>| r[0] * p.x + r[1] * p.y + r[2] * p.z + r[3];
+        dvec3(row(&rows[0]), row(&rows[1]), row(&rows[2]))
+    }
+}
+
+/// `xi: value` of an OpenCV omnidir file.
+fn yaml_real(text: &str, name: &str) -> f64 {
+    let line = text.lines().find(|l| l.starts_with(&format!("{name}:"))).unwrap();
+    line[name.len() + 1..].trim().parse().unwrap()
 }
 
 #[test]
@@ -330,10 +350,22 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
     omni.mount = Mount::Down;
     let opencv = calibration::opencv_omnidir(&omni).unwrap();
     let k = yaml_matrix(&opencv, "camera_matrix");
-    let xi = yaml_matrix(&opencv, "xi")[0];
+    let xi = yaml_real(&opencv, "xi");
     let body_from_mirror = yaml_matrix(&opencv, "body_from_mirror");
-    let kalibr = kalibr_intrinsics(&calibration::kalibr_omni(&omni).unwrap());
-    assert_eq!(kalibr, vec![xi, k[0], k[4], k[2], k[5]]);
+    let kalibr_text = calibration::kalibr_omni(&omni).unwrap();
+    let kalibr = kalibr_intrinsics(&kalibr_text);
+    // Kalibr's proper camera frame Rx(π)·M negates fv.
+    assert_eq!(kalibr, vec![xi, k[0], -k[4], k[2], k[5]]);
+    let kalibr_camera = kalibr_camera_from_body(&kalibr_text);
+    let mounted_up = Catadioptric {
+        mount: Mount::Up,
+        ..omni.clone()
+    };
+    assert_ne!(
+        kalibr_text,
+        calibration::kalibr_omni(&mounted_up).unwrap(),
+        "the mount is in the file"
+    );
     let traced = Camera::Catadioptric(omni);
     let mut checked = 0;
     while checked < 1000 {
@@ -354,6 +386,18 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
             "omnidir calibration off by {}",
             (projected - pixel).length()
         );
+        // Kalibr: T_cam_imu takes the body direction (F' is the body origin) to its frame.
+        let x = kalibr_camera(b);
+        let denominator = x.z + kalibr[0] * x.length();
+        let projected = dvec2(
+            kalibr[1] * x.x / denominator + kalibr[3],
+            kalibr[2] * x.y / denominator + kalibr[4],
+        );
+        assert!(
+            (projected - pixel).length() < 0.01,
+            "Kalibr omni off by {}",
+            (projected - pixel).length()
+        );
         checked += 1;
     }
     // Pinhole: K and body_from_camera (row by row) reproduce its projection; Kalibr agrees.
@@ -369,10 +413,9 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
         yaml_matrix(&opencv, "camera_matrix"),
         yaml_matrix(&opencv, "body_from_camera"),
     );
-    assert_eq!(
-        kalibr_intrinsics(&calibration::kalibr_pinhole(&pinhole, None)),
-        vec![k[0], k[4], k[2], k[5]]
-    );
+    let kalibr_text = calibration::kalibr_pinhole(&pinhole);
+    assert_eq!(kalibr_intrinsics(&kalibr_text), vec![k[0], k[4], k[2], k[5]]);
+    let kalibr_camera = kalibr_camera_from_body(&kalibr_text);
     for _ in 0..200 {
         let body = dvec3(
             rng.random_range(0.5..5.0),
@@ -387,6 +430,7 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
         );
         let projected = dvec2(k[0] * optical.x / optical.z + k[2], k[4] * optical.y / optical.z + k[5]);
         assert!((pinhole.project(body).unwrap() - projected).length() < 1e-9);
+        assert!((kalibr_camera(body) - optical).length() < 1e-12, "Kalibr T_cam_imu");
     }
     // Stereo: X_right = X_left + T, both projected with their camera matrices.
     let rig = StereoRig {
@@ -396,6 +440,13 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
     let stereo = calibration::opencv_stereo(&rig);
     let (m2, t) = (yaml_matrix(&stereo, "M2"), yaml_matrix(&stereo, "T"));
     let [left, right] = rig.cameras();
+    // The stereo file places the left camera as the pinhole file does; Kalibr places both.
+    let pinhole_file = calibration::opencv_pinhole(&left);
+    for name in ["body_from_camera", "camera_position_in_body"] {
+        assert_eq!(yaml_matrix(&stereo, name), yaml_matrix(&pinhole_file, name), "{name}");
+    }
+    let kalibr = calibration::kalibr_stereo(&rig);
+    let right_from_body = kalibr_camera_from_body(&kalibr[kalibr.find("cam1:").unwrap()..]);
     for _ in 0..200 {
         let body = dvec3(
             rng.random_range(1.0..5.0),
@@ -411,6 +462,10 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
             m2[4] * optical_right.y / optical_right.z + m2[5],
         );
         assert!((right.project(body).unwrap() - expected).length() < 1e-9);
+        assert!(
+            (right_from_body(body) - optical_right).length() < 1e-9,
+            "Kalibr cam1 T_cam_imu"
+        );
     }
 }
 

@@ -144,3 +144,26 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
     );
     assert!(duplicate.contains("unique"), "{duplicate}");
 }
+
+/// README's scene example is real: it loads from `scenes/`, statue mesh included.
+#[test]
+fn readme_scene_example_loads() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
+    let start = readme.find("```ron\n").expect("README has a RON example") + "```ron\n".len();
+    let example = &readme[start..start + readme[start..].find("```").unwrap()];
+    let scene = Scene::from_ron(example, &common::scene_path("readme-example.ron"))
+        .unwrap_or_else(|e| panic!("README's example: {e}"));
+    let statue = scene.objects.iter().position(|o| o.name == "statue").expect("statue") as u32;
+    let triangles = scene.faces.iter().filter(|f| f.object == statue).count();
+    assert!((300..=2000).contains(&triangles), "statue of {triangles} triangles");
+    let top = scene
+        .faces
+        .iter()
+        .filter(|f| f.object == statue)
+        .flat_map(|f| f.vertices.iter().map(|v| v.z))
+        .fold(f64::MIN, f64::max);
+    assert!(
+        (1.6..1.8).contains(&top),
+        "the statue (millimetres scaled to metres) stands {top} m tall"
+    );
+}

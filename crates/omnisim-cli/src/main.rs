@@ -8,6 +8,8 @@ mod chart_svg;
 mod commands;
 mod metadata;
 mod poses;
+mod run_folder;
+mod stdout;
 
 use clap::{Parser, Subcommand};
 
@@ -43,6 +45,7 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    let _runtime_dir = quiet_wayland_probe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => commands::render::run(args),
@@ -52,11 +55,26 @@ fn main() -> std::process::ExitCode {
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) if stdout::is_broken_pipe(&error) => std::process::ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("error: {error:#}");
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// Mesa's Vulkan device-select layer looks for a Wayland compositor whenever adapters are
+/// listed, and without XDG_RUNTIME_DIR libwayland prints "XDG_RUNTIME_DIR is invalid or not set"
+/// twice. With no runtime dir there is no compositor to find, so an empty private one changes
+/// nothing but the noise. Returns the folder, removed when dropped.
+fn quiet_wayland_probe() -> Option<tempfile::TempDir> {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return None;
+    }
+    let dir = tempfile::Builder::new().prefix("omnisim-runtime-").tempdir().ok()?;
+    // SAFETY: called first thing in main, before any other thread exists.
+    unsafe { std::env::set_var("XDG_RUNTIME_DIR", dir.path()) };
+    Some(dir)
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use glam::DMat3;
+use glam::{DMat3, DVec3};
 
 use crate::camera::{Catadioptric, Pinhole, StereoRig, pinhole::BODY_FROM_OPTICAL};
 
@@ -26,6 +26,11 @@ fn rows(m: DMat3) -> [f64; 9] {
     m.transpose().to_cols_array()
 }
 
+fn opencv_body_from_camera(camera: &Pinhole) -> String {
+    opencv_matrix("body_from_camera", 3, 3, &rows(BODY_FROM_OPTICAL))
+        + &opencv_matrix("camera_position_in_body", 3, 1, &camera.position.to_array())
+}
+
 /// OpenCV YAML of one pinhole: camera_matrix, zero distortion, and body_from_camera.
 pub fn opencv_pinhole(camera: &Pinhole) -> String {
     let mut out = String::from(HEADER);
@@ -41,8 +46,7 @@ pub fn opencv_pinhole(camera: &Pinhole) -> String {
         &k_matrix(camera.fx, camera.fy, camera.cx, camera.cy),
     );
     out += &opencv_matrix("distortion_coefficients", 1, 5, &[0.0; 5]);
-    out += &opencv_matrix("body_from_camera", 3, 3, &rows(BODY_FROM_OPTICAL));
-    out += &opencv_matrix("camera_position_in_body", 3, 1, &camera.position.to_array());
+    out += &opencv_body_from_camera(camera);
     out
 }
 
@@ -52,7 +56,9 @@ pub fn opencv_stereo(rig: &StereoRig) -> String {
     let c = &rig.camera;
     let mut out = String::from(HEADER);
     out += "# omnisim stereo rig, rectified by construction. OpenCV conventions (pixel centres at integer\n\
-            # coordinates; optical frames x right, y down, z forward). X_right = R * X_left + T, metres.\n";
+            # coordinates; optical frames x right, y down, z forward). X_right = R * X_left + T, metres.\n\
+            # body_from_camera (rotation, optical frame to body frame x forward, y left, z up) and\n\
+            # camera_position_in_body (metres) place the left camera on the robot.\n";
     let _ = writeln!(
         out,
         "image_width: {}\nimage_height: {}\nbaseline: {:?}",
@@ -65,7 +71,24 @@ pub fn opencv_stereo(rig: &StereoRig) -> String {
     out += &opencv_matrix("D2", 1, 5, &[0.0; 5]);
     out += &opencv_matrix("R", 3, 3, &rows(DMat3::IDENTITY));
     out += &opencv_matrix("T", 3, 1, &[-rig.baseline, 0.0, 0.0]);
+    out += &opencv_body_from_camera(&rig.cameras()[0]);
     out
+}
+
+const KALIBR_BODY_NOTE: &str = "# T_cam_imu of each camera is camera_from_body: it maps points in the robot body frame\n\
+# (x forward, y left, z up; the frame of poses.txt), which stands in for the IMU frame, to the\n\
+# camera frame. Metres.\n";
+
+/// A Kalibr 4×4 transform entry `name` = [rotation | translation].
+fn kalibr_transform(name: &str, rotation: DMat3, translation: DVec3) -> String {
+    // + 0.0 turns −0 into 0.
+    let r = (rotation.transpose() + DMat3::ZERO).to_cols_array_2d();
+    let t = (translation + 0.0).to_array();
+    let mut out = format!("  {name}:\n");
+    for i in 0..3 {
+        let _ = writeln!(out, "  - [{:?}, {:?}, {:?}, {:?}]", r[i][0], r[i][1], r[i][2], t[i]);
+    }
+    out + "  - [0.0, 0.0, 0.0, 1.0]\n"
 }
 
 fn kalibr_camera(out: &mut String, index: usize, model: &str, intrinsics: &[f64], size: (u32, u32)) {
@@ -80,18 +103,29 @@ fn kalibr_camera(out: &mut String, index: usize, model: &str, intrinsics: &[f64]
     );
 }
 
-/// Kalibr camchain of a pinhole (one camera) or a stereo rig (two, with T_cn_cnm1).
-pub fn kalibr_pinhole(camera: &Pinhole, stereo_baseline: Option<f64>) -> String {
-    let mut out = String::from("# omnisim camchain (Kalibr). Pixel centres at integer coordinates; metres.\ncam0:\n");
-    let intrinsics = [camera.fx, camera.fy, camera.cx, camera.cy];
-    kalibr_camera(&mut out, 0, "pinhole", &intrinsics, (camera.width, camera.height));
-    if let Some(baseline) = stereo_baseline {
-        let _ = write!(
-            out,
-            "cam1:\n  T_cn_cnm1:\n  - [1.0, 0.0, 0.0, {:?}]\n  - [0.0, 1.0, 0.0, 0.0]\n  - [0.0, 0.0, 1.0, 0.0]\n  - [0.0, 0.0, 0.0, 1.0]\n",
-            -baseline
-        );
-        kalibr_camera(&mut out, 1, "pinhole", &intrinsics, (camera.width, camera.height));
+/// Kalibr camchain of one pinhole, with its T_cam_imu.
+pub fn kalibr_pinhole(camera: &Pinhole) -> String {
+    kalibr_pinholes(std::slice::from_ref(camera), None)
+}
+
+/// Kalibr camchain of a stereo rig: left and right, each with T_cam_imu, and the right's
+/// T_cn_cnm1.
+pub fn kalibr_stereo(rig: &StereoRig) -> String {
+    kalibr_pinholes(&rig.cameras(), Some(rig.baseline))
+}
+
+fn kalibr_pinholes(cameras: &[Pinhole], baseline: Option<f64>) -> String {
+    let mut out = String::from("# omnisim camchain (Kalibr). Pixel centres at integer coordinates; metres.\n");
+    out += KALIBR_BODY_NOTE;
+    for (index, camera) in cameras.iter().enumerate() {
+        let _ = writeln!(out, "cam{index}:");
+        let camera_from_body = BODY_FROM_OPTICAL.transpose();
+        out += &kalibr_transform("T_cam_imu", camera_from_body, -(camera_from_body * camera.position));
+        if let (Some(baseline), 1..) = (baseline, index) {
+            out += &kalibr_transform("T_cn_cnm1", DMat3::IDENTITY, DVec3::new(-baseline, 0.0, 0.0));
+        }
+        let intrinsics = [camera.fx, camera.fy, camera.cx, camera.cy];
+        kalibr_camera(&mut out, index, "pinhole", &intrinsics, (camera.width, camera.height));
     }
     out
 }
@@ -105,7 +139,8 @@ const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the
 # phi appears at image angle atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down.\n\
 # Pixel centres at integer coordinates. Ideal mirror and lens: no distortion.\n";
 
-/// OpenCV omnidir YAML (cv::omnidir): camera_matrix, distortion (k1 k2 p1 p2 = 0), xi.
+/// OpenCV omnidir YAML (cv::omnidir): camera_matrix, distortion (k1 k2 p1 p2 = 0), xi as a
+/// real, as OpenCV's own omni_calibration sample writes it.
 /// `None` for non-central cameras, which no unified model describes (use the ray map).
 pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
     let model = camera.unified_model()?;
@@ -120,22 +155,35 @@ pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
         &k_matrix(model.gamma_x, model.gamma_y, model.cx, model.cy),
     );
     out += &opencv_matrix("distortion_coefficients", 1, 4, &[0.0; 4]);
-    out += &opencv_matrix("xi", 1, 1, &[model.xi]);
+    out += "# xi is a real number (as OpenCV's omni_calibration sample writes it): Python\n\
+            # fs.getNode('xi').real(), C++ double xi = fs[\"xi\"]; cv::omnidir takes it as a double.\n";
+    let _ = writeln!(out, "xi: {:?}", model.xi);
     out += &opencv_matrix("body_from_mirror", 3, 3, &rows(camera.body_from_mirror()));
     Some(out)
 }
 
-/// Kalibr camchain with the `omni` model (intrinsics xi fu fv pu pv); `None` if non-central.
+/// Kalibr camchain with the `omni` model (intrinsics xi fu fv pu pv) and T_cam_imu; `None` if
+/// non-central. Kalibr needs a proper rotation, so its camera frame is the mirror frame turned
+/// by Rx(π) and fv is negated (the OpenCV file keeps positive focal lengths and a reflection).
 pub fn kalibr_omni(camera: &Catadioptric) -> Option<String> {
     let model = camera.unified_model()?;
-    let mut out = String::from("# omnisim camchain (Kalibr omni model).\n");
-    out += OMNI_FRAME_NOTE;
+    let mut out = String::from("# omnisim camchain (Kalibr omni model), exact for this aligned central mirror.\n");
+    out += "# Frames: the camera frame is the mirror frame M (origin at the viewpoint F', +z from the camera\n\
+            # towards the mirror) turned half a turn about x: X_cam = (x_M, -y_M, -z_M), a proper rotation.\n\
+            # With it fv is negative: u = pu + fu*x/(z + xi*|X|), v = pv + fv*y/(z + xi*|X|) reproduce the\n\
+            # rendered pixels (the mirror flips the image's handedness). Pixel centres at integer\n\
+            # coordinates. Ideal mirror and lens: no distortion.\n";
+    out += KALIBR_BODY_NOTE;
     out += "cam0:\n";
+    let camera_from_mirror = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
+    // The viewpoint F' is the body origin of a central camera.
+    let camera_from_body = camera_from_mirror * camera.body_from_mirror().transpose();
+    out += &kalibr_transform("T_cam_imu", camera_from_body, DVec3::ZERO);
     kalibr_camera(
         &mut out,
         0,
         "omni",
-        &[model.xi, model.gamma_x, model.gamma_y, model.cx, model.cy],
+        &[model.xi, model.gamma_x, -model.gamma_y, model.cx, model.cy],
         (camera.width, camera.height),
     );
     Some(out)

@@ -20,7 +20,8 @@ use crate::shading::{self, Appearance};
 /// Which backend the user asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BackendChoice {
-    /// The GPU if an adapter can be opened, else the CPU (saying why).
+    /// A hardware GPU if one opens, else the CPU (saying why); software adapters are slower
+    /// than the CPU tracer on the same cores.
     #[default]
     Auto,
     /// The wgpu backend; fails if no adapter opens.
@@ -77,8 +78,11 @@ impl Renderer {
     pub fn new(choice: BackendChoice) -> Result<Self, RenderError> {
         let (backend, reason) = match choice {
             BackendChoice::Cpu => (Backend::Cpu, "the CPU backend was requested".to_string()),
-            BackendChoice::Gpu => (Self::open_gpu()?, "the GPU backend was requested".to_string()),
-            BackendChoice::Auto => match Self::open_gpu() {
+            BackendChoice::Gpu => (
+                Self::open_gpu(GpuContext::new)?,
+                "the GPU backend was requested".to_string(),
+            ),
+            BackendChoice::Auto => match Self::open_gpu(GpuContext::new_hardware) {
                 Ok(gpu) => (gpu, "auto: a GPU adapter was found".to_string()),
                 Err(e) => (
                     Backend::Cpu,
@@ -94,8 +98,8 @@ impl Renderer {
         })
     }
 
-    fn open_gpu() -> Result<Backend, GpuError> {
-        Ok(Backend::Gpu(Box::new(GpuRenderer::new(GpuContext::new()?))))
+    fn open_gpu(open: fn() -> Result<GpuContext, GpuError>) -> Result<Backend, GpuError> {
+        Ok(Backend::Gpu(Box::new(GpuRenderer::new(open()?))))
     }
 
     /// Builds the BVH of `scene` and, on the GPU, uploads it with the scene's appearance.

@@ -17,7 +17,7 @@ use crate::poses::parse_pose;
 pub enum BenchBackend {
     Gpu,
     Cpu,
-    /// The GPU (if an adapter opens) and then the CPU.
+    /// The GPU (if an adapter opens, software ones included) and then the CPU.
     Both,
 }
 
@@ -70,21 +70,27 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         add_height_field(&mut scene, count)?;
     }
     if let Some(chart) = &args.chart {
+        super::prepare_file(chart)?;
         return super::speed_accuracy::run(&scene, &camera, &args.pose, args.runs, chart);
     }
     let choices = match args.backend {
         BenchBackend::Gpu => vec![BackendChoice::Gpu],
         BenchBackend::Cpu => vec![BackendChoice::Cpu],
-        BenchBackend::Both => vec![BackendChoice::Auto, BackendChoice::Cpu],
+        BenchBackend::Both => vec![BackendChoice::Gpu, BackendChoice::Cpu],
     };
     let (width, height) = camera.size();
     for choice in choices {
-        let renderer = Renderer::new(choice)?;
-        let prepared = renderer.prepare(&scene)?;
-        if choice == BackendChoice::Auto && prepared.backend_name() == "cpu" {
-            eprintln!("note: {}", prepared.fallback().unwrap_or(renderer.reason()));
-            continue;
-        }
+        let opened = Renderer::new(choice).and_then(|renderer| {
+            let prepared = renderer.prepare(&scene)?;
+            Ok((renderer, prepared))
+        });
+        let (renderer, prepared) = match opened {
+            Err(e) if args.backend == BenchBackend::Both => {
+                eprintln!("note: no GPU measured: {e}");
+                continue;
+            }
+            opened => opened?,
+        };
         let render = || renderer.render(&prepared, &camera, &args.pose, Planes::COLOUR);
         for _ in 0..args.warmup {
             render()?;
@@ -124,7 +130,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "max_ms": times[times.len() - 1] * 1e3,
             "mrays_per_s": (width as f64 * height as f64) / median_seconds / 1e6,
         });
-        println!("{record}");
+        crate::stdout::line(record)?;
     }
     Ok(())
 }

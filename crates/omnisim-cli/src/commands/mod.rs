@@ -1,5 +1,18 @@
+//! The subcommands, and what they share.
+
 pub mod bench;
 pub mod poses;
 pub mod render;
 pub mod scene;
 pub mod speed_accuracy;
+
+/// Creates the folder of a file the user named and checks it is writable before any long work;
+/// prints what it cleaned up.
+pub fn prepare_file(path: &std::path::Path) -> anyhow::Result<()> {
+    let notes = omnisim::output::folder::prepare_file(path)
+        .map_err(|e| anyhow::anyhow!(e).context(format!("cannot write {}", path.display())))?;
+    for note in notes {
+        eprintln!("note: {note}");
+    }
+    Ok(())
+}

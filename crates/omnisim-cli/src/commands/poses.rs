@@ -146,6 +146,7 @@ fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
     };
     match &out.out {
         Some(path) => {
+            super::prepare_file(path)?;
             write_atomically(path, |file| fill(file)).with_context(|| format!("cannot write {}", path.display()))?;
             eprintln!("{} poses written to {}", poses.len(), path.display());
         }

@@ -1,12 +1,12 @@
 //! `omnisim render`: images, range and point clouds from one or many poses.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
-use omnisim::output::{self, atomic::write_atomically};
+use omnisim::output::{self, atomic::write_atomically, folder::RunFolder};
 use omnisim::{BackendChoice, Camera, Plane, Planes, Pose, Renderer, Scene, calibration};
 
 use crate::camera_args::{CameraArgs, Rig};
@@ -15,7 +15,8 @@ use crate::poses::{parse_pose, read_pose_file};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum BackendArg {
-    /// GPU if an adapter opens, else the CPU (the reason is printed).
+    /// A hardware GPU if one opens, else the f64 CPU tracer, which also beats software Vulkan
+    /// (llvmpipe) on the same cores; the reason is printed.
     Auto,
     /// wgpu compute shaders (f32); fails if no adapter.
     Gpu,
@@ -36,12 +37,15 @@ impl From<BackendArg> for BackendChoice {
 /// Render a scene through a camera from one or more poses.
 ///
 /// For every pose N it writes <scene>-N.png (colour), <scene>-N-range.exr (f32 metres from the
-/// ray origin, channel "range", +inf = no hit) and <scene>-N.ply (binary coloured point cloud,
-/// world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16 bit) and -depth.exr (z,
-/// metres); a stereo rig writes -left and -right of each and -disparity.exr. Once per
-/// run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
+/// ray origin, channel "Y", header quantity "range", +inf = no hit) and <scene>-N.ply (binary
+/// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16
+/// bit) and -depth.exr (z, metres); a stereo rig writes -left and -right of each and
+/// -disparity.exr. Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
 /// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
 /// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
+///
+/// A folder holds one run: omnisim-run.txt lists the run and its files, a re-run of the same
+/// command replaces them, and another run is refused unless --overwrite.
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
 omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
@@ -58,9 +62,14 @@ pub struct RenderArgs {
     /// File of poses, one "x y z θx θy θz" per line (metres, degrees; # comments).
     #[arg(long)]
     pub poses_file: Option<PathBuf>,
-    /// Output folder (created if missing).
+    /// Output folder (created if missing). It holds one run: another run's files there are
+    /// refused unless --overwrite; the same command again replaces its own files.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
+    /// Remove the files of the run already in --out (only those its omnisim-run.txt lists)
+    /// before writing; in a folder no run recorded, write anyway.
+    #[arg(long)]
+    pub overwrite: bool,
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: BackendArg,
     /// Anti-aliased colour: pixels on face edges are traced again with this many stratified
@@ -114,8 +123,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         renderer.device_name(),
         prepared.fallback().unwrap_or(renderer.reason())
     );
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create output folder {}", args.out.display()))?;
+    let mut run = crate::run_folder::open(&args, &poses)?;
 
     let progress = ProgressBar::new(poses.len() as u64).with_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
@@ -131,46 +139,45 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut written = Vec::new();
     let render_started = Instant::now();
     for (index, pose) in poses.iter().enumerate() {
-        let stem = args.out.join(format!("{}-{index:04}", scene.name));
+        let stem = format!("{}-{index:04}", scene.name);
         let mut frames = Vec::with_capacity(views.len());
         for (suffix, camera) in &views {
             let frame = renderer
                 .render_antialiased(&prepared, camera, pose, planes, args.edge_samples.isqrt())
                 .with_context(|| format!("rendering pose {index}"))?;
-            let png = path_with_suffix(&stem, &format!("{suffix}.png"));
+            let png = run.claim(format!("{stem}{suffix}.png"))?;
             output::write_png(&png, &frame)?;
-            let exr = path_with_suffix(&stem, &format!("{suffix}-range.exr"));
+            let exr = run.claim(format!("{stem}{suffix}-range.exr"))?;
             output::write_range_exr(&exr, &frame, camera)?;
             written.extend([png, exr]);
+            let size = (frame.width, frame.height);
             if let Camera::Pinhole(pinhole) = camera {
                 let depth = pinhole.axial_depth(&frame, pose);
-                let size = (frame.width, frame.height);
-                let depth_png = path_with_suffix(&stem, &format!("{suffix}-depth.png"));
+                let depth_png = run.claim(format!("{stem}{suffix}-depth.png"))?;
                 output::write_tum_depth_png(&depth_png, size, &depth)?;
-                let depth_exr = path_with_suffix(&stem, &format!("{suffix}-depth.exr"));
+                let depth_exr = run.claim(format!("{stem}{suffix}-depth.exr"))?;
                 output::write_axial_depth_exr(&depth_exr, size, depth)?;
                 written.extend([depth_png, depth_exr]);
             }
-            let size = (frame.width, frame.height);
             if let Some(objects) = frame.object() {
-                let object_png = path_with_suffix(&stem, &format!("{suffix}-object.png"));
+                let object_png = run.claim(format!("{stem}{suffix}-object.png"))?;
                 output::write_id_png(&object_png, size, objects)?;
-                let face_png = path_with_suffix(&stem, &format!("{suffix}-face.png"));
+                let face_png = run.claim(format!("{stem}{suffix}-face.png"))?;
                 output::write_id_png(&face_png, size, &output::face_ids(&frame))?;
                 written.extend([object_png, face_png]);
             }
             if args.normals {
-                let normal_exr = path_with_suffix(&stem, &format!("{suffix}-normal.exr"));
+                let normal_exr = run.claim(format!("{stem}{suffix}-normal.exr"))?;
                 output::write_normal_exr(&normal_exr, &frame)?;
                 written.push(normal_exr);
             }
             if args.linear {
-                let linear_exr = path_with_suffix(&stem, &format!("{suffix}-linear.exr"));
+                let linear_exr = run.claim(format!("{stem}{suffix}-linear.exr"))?;
                 output::write_linear_exr(&linear_exr, &frame)?;
                 written.push(linear_exr);
             }
             if !args.no_ply {
-                let ply = path_with_suffix(&stem, &format!("{suffix}.ply"));
+                let ply = run.claim(format!("{stem}{suffix}.ply"))?;
                 let comment = format!(
                     "scene {} camera {}{suffix} pose {}",
                     scene.name,
@@ -184,7 +191,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         if let Rig::Stereo(stereo) = &rig {
             let disparity = stereo.disparity(&frames[0], pose);
-            let path = path_with_suffix(&stem, "-disparity.exr");
+            let path = run.claim(format!("{stem}-disparity.exr"))?;
             output::write_disparity_exr(&path, (frames[0].width, frames[0].height), disparity)?;
             written.push(path);
         }
@@ -193,9 +200,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     progress.finish_and_clear();
     let render_seconds = render_started.elapsed().as_secs_f64();
 
-    written.extend(write_calibration(&args.out, &rig, &views)?);
+    written.extend(write_calibration(&mut run, &rig, &views)?);
     if args.segmentation {
-        let legend_path = args.out.join("segmentation.json");
+        let legend_path = run.claim("segmentation.json")?;
         let legend = output::SegmentationLegend::of(&scene);
         write_atomically(&legend_path, |out| {
             serde_json::to_writer_pretty(&mut *out, &legend).map_err(std::io::Error::other)
@@ -203,7 +210,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", legend_path.display()))?;
         written.push(legend_path);
     }
-    let poses_path = args.out.join("poses.txt");
+    let poses_path = run.claim("poses.txt")?;
     write_atomically(&poses_path, |out| {
         use std::io::Write;
         writeln!(
@@ -218,7 +225,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Ok(())
     })
     .with_context(|| format!("cannot write {}", poses_path.display()))?;
-    let metadata_path = args.out.join("render.json");
+    let metadata_path = run.claim("render.json")?;
     let metadata = metadata(&scene, &args.scene, &rig, &poses, (&renderer, &prepared));
     write_atomically(&metadata_path, |out| {
         serde_json::to_writer_pretty(&mut *out, &metadata).map_err(std::io::Error::other)
@@ -227,8 +234,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     written.push(poses_path);
     written.push(metadata_path);
 
+    run.finish()?;
     for path in &written {
-        println!("{}", path.display());
+        crate::stdout::line(path.display())?;
     }
     let (w, h) = views[0].1.size();
     eprintln!(
@@ -258,47 +266,36 @@ fn views(rig: &Rig) -> Vec<(&'static str, Camera)> {
 }
 
 /// Calibration in the formats robotics tools read, and a ray map per view; returns the paths.
-fn write_calibration(out: &Path, rig: &Rig, views: &[(&'static str, Camera)]) -> anyhow::Result<Vec<PathBuf>> {
-    let mut files: Vec<(PathBuf, String)> = Vec::new();
+fn write_calibration(run: &mut RunFolder, rig: &Rig, views: &[(&'static str, Camera)]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut files: Vec<(&str, String)> = Vec::new();
     match rig {
         Rig::Single(Camera::Pinhole(pinhole)) => {
-            files.push((
-                out.join("calibration-opencv.yaml"),
-                calibration::opencv_pinhole(pinhole),
-            ));
-            files.push((
-                out.join("calibration-kalibr.yaml"),
-                calibration::kalibr_pinhole(pinhole, None),
-            ));
+            files.push(("calibration-opencv.yaml", calibration::opencv_pinhole(pinhole)));
+            files.push(("calibration-kalibr.yaml", calibration::kalibr_pinhole(pinhole)));
         }
         Rig::Stereo(stereo) => {
-            files.push((
-                out.join("calibration-opencv-stereo.yaml"),
-                calibration::opencv_stereo(stereo),
-            ));
-            files.push((
-                out.join("calibration-kalibr.yaml"),
-                calibration::kalibr_pinhole(&stereo.camera, Some(stereo.baseline)),
-            ));
+            files.push(("calibration-opencv-stereo.yaml", calibration::opencv_stereo(stereo)));
+            files.push(("calibration-kalibr.yaml", calibration::kalibr_stereo(stereo)));
         }
         Rig::Single(Camera::Catadioptric(mirror)) => {
             if let (Some(omnidir), Some(kalibr)) =
                 (calibration::opencv_omnidir(mirror), calibration::kalibr_omni(mirror))
             {
-                files.push((out.join("calibration-opencv-omnidir.yaml"), omnidir));
-                files.push((out.join("calibration-kalibr.yaml"), kalibr));
+                files.push(("calibration-opencv-omnidir.yaml", omnidir));
+                files.push(("calibration-kalibr.yaml", kalibr));
             }
         }
         Rig::Single(Camera::Equirectangular(_) | Camera::Cylindrical(_)) => {}
     }
     let mut written = Vec::new();
-    for (path, text) in files {
+    for (name, text) in files {
+        let path = run.claim(name)?;
         write_atomically(&path, |file| std::io::Write::write_all(file, text.as_bytes()))
             .with_context(|| format!("cannot write {}", path.display()))?;
         written.push(path);
     }
     for (suffix, camera) in views {
-        let path = out.join(format!("raymap{suffix}.exr"));
+        let path = run.claim(format!("raymap{suffix}.exr"))?;
         output::write_ray_map_exr(&path, camera)?;
         written.push(path);
     }
@@ -314,13 +311,10 @@ fn parse_square(text: &str) -> Result<u32, String> {
     }
 }
 
-fn path_with_suffix(stem: &Path, suffix: &str) -> PathBuf {
-    let mut name = stem.file_name().unwrap_or_default().to_os_string();
-    name.push(suffix);
-    stem.with_file_name(name)
-}
-
 fn describe_pose(pose: &Pose) -> String {
     let (t, a) = (pose.position, pose.angles_degrees());
-    format!("x={} y={} z={} m, θx={} θy={} θz={} deg", t.x, t.y, t.z, a.x, a.y, a.z)
+    format!(
+        "x={} y={} z={} m, theta_x={} theta_y={} theta_z={} deg",
+        t.x, t.y, t.z, a.x, a.y, a.z
+    )
 }

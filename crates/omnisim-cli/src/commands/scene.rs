@@ -32,28 +32,29 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
                 eprintln!("warning: {warning}");
             }
             let (lo, hi) = scene.bounds().context("the scene is empty")?;
-            println!(
+            crate::stdout::line(format_args!(
                 "scene '{}': {} objects, {} faces, {} triangles",
                 scene.name,
                 scene.objects.len(),
                 scene.faces.len(),
                 scene.triangulate().len()
-            );
-            println!(
+            ))?;
+            crate::stdout::line(format_args!(
                 "bounds: x [{}, {}], y [{}, {}], z [{}, {}] m",
                 lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
-            );
+            ))?;
             for (index, object) in scene.objects.iter().enumerate() {
                 let faces = scene.faces.iter().filter(|f| f.object as usize == index).count();
-                println!("  {:<8} {:<24} {faces} faces", object.kind, object.name);
+                crate::stdout::line(format_args!("  {:<8} {:<24} {faces} faces", object.kind, object.name))?;
             }
         }
         SceneCommand::Export { scene, output } => {
             let format = ExportFormat::from_path(&output)
                 .with_context(|| format!("{}: use a .ply or .obj file name", output.display()))?;
             let loaded = Scene::load(&scene)?;
+            crate::commands::prepare_file(&output)?;
             loaded.export(&output, format)?;
-            println!("{}", output.display());
+            crate::stdout::line(output.display())?;
         }
     }
     Ok(())

@@ -58,16 +58,16 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
     let mut points = Vec::new();
     let mut record = |label: String, seconds: f64, frame: &Frame, truth: &Frame, device: String| {
         let (error, differing) = colour_error(frame, truth);
-        println!(
-            "{}",
+        crate::stdout::line(
             json!({ "method": label, "median_ms": seconds * 1e3, "mean_abs_colour_error": error,
-                    "pixels_differing": differing, "device": device })
-        );
+                    "pixels_differing": differing, "device": device }),
+        )?;
         points.push(Point {
             label,
             x: seconds * 1e3,
             y: error,
         });
+        anyhow::Ok(())
     };
     for (name, renderer) in [("CPU f64", Some(&cpu)), ("GPU f32", gpu.as_ref())] {
         let Some(renderer) = renderer else { continue };
@@ -77,7 +77,7 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
                 1 => format!("{name}, 1 sample/px"),
                 n => format!("{name}, {} samples on edges", n * n),
             };
-            record(label, seconds, &frame, &truth, renderer.0.device_name());
+            record(label, seconds, &frame, &truth, renderer.0.device_name())?;
         }
     }
     if let Camera::Catadioptric(mirror) = camera
@@ -104,7 +104,7 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
                     1 => format!("CPU f64 {name}, 1 sample/px"),
                     n => format!("CPU f64 {name}, {} samples on edges", n * n),
                 };
-                record(label, seconds, &frame, reference, cpu.0.device_name());
+                record(label, seconds, &frame, reference, cpu.0.device_name())?;
             }
         }
     }

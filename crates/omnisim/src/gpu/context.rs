@@ -3,10 +3,13 @@
 /// Why the GPU backend is unavailable or failed.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
-    #[error(
-        "no GPU adapter found ({0}); on Linux install Mesa's Vulkan drivers (Debian: mesa-vulkan-drivers) or use the CPU backend"
-    )]
+    #[error("no Vulkan, Metal or DX12 adapter found ({0}); install the GPU's Vulkan driver, or use the CPU backend")]
     NoAdapter(String),
+    #[error(
+        "the only adapter, {0}, is a software rasteriser on the CPU, where the f64 CPU tracer is faster \
+         (--backend gpu uses it anyway)"
+    )]
+    SoftwareAdapter(String),
     #[error("the adapter '{adapter}' refused a device: {source}")]
     Device {
         adapter: String,
@@ -40,6 +43,17 @@ impl GpuContext {
     /// when set, else the best Vulkan, Metal or DX12 adapter. OpenGL is used only when asked
     /// for (`WGPU_BACKEND=gl`), so a missing Vulkan driver is reported, not papered over.
     pub fn new() -> Result<Self, GpuError> {
+        Self::open(false)
+    }
+
+    /// As [`GpuContext::new`], but refuses a software adapter (llvmpipe, lavapipe, WARP: wgpu's
+    /// `DeviceType::Cpu`): the `auto` backend's choice. wgpu ranks hardware adapters first, so
+    /// a software one means there is no other.
+    pub fn new_hardware() -> Result<Self, GpuError> {
+        Self::open(true)
+    }
+
+    fn open(hardware_only: bool) -> Result<Self, GpuError> {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if wgpu::Backends::from_env().is_none() {
             descriptor.backends = wgpu::Backends::PRIMARY;
@@ -58,12 +72,24 @@ impl GpuContext {
             adapter: info.name.clone(),
             source,
         })?;
-        Ok(Self {
+        let context = Self {
             device,
             queue,
             adapter: info,
             limits,
-        })
+        };
+        if hardware_only && context.is_software() {
+            return Err(GpuError::SoftwareAdapter(format!(
+                "{} ({:?})",
+                context.adapter.name, context.adapter.backend
+            )));
+        }
+        Ok(context)
+    }
+
+    /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
+    pub fn is_software(&self) -> bool {
+        self.adapter.device_type == wgpu::DeviceType::Cpu
     }
 
     /// The largest storage buffer the adapter binds, bytes.

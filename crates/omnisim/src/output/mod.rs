@@ -1,8 +1,14 @@
 //! Writers for rendered frames: PNG colour, EXR range, PLY coloured point cloud, and (in
 //! `planes.rs`) segmentation, normals and linear colour. Each writes
 //! atomically (see `atomic.rs`) and names its units and conventions inside the file.
+//!
+//! EXRs are ZIP-compressed scan lines stored in increasing order (blocks compressed in parallel
+//! are written sorted): the same values give the same bytes. Single-value images (range, depth, disparity) hold one channel
+//! named `Y`, the luminance channel every reader opens (OpenCV reads no other single channel);
+//! what the values are is in the header: the string attribute `quantity` and `comments`.
 
 pub mod atomic;
+pub mod folder;
 mod planes;
 
 pub use planes::{
@@ -21,8 +27,11 @@ use crate::camera::Camera;
 use crate::frame::Frame;
 use atomic::write_atomically;
 
-/// The EXR channel holding range.
-pub const RANGE_CHANNEL: &str = "range";
+/// The channel of single-value EXRs (range, depth, disparity).
+pub const VALUE_CHANNEL: &str = "Y";
+
+/// The EXR header attribute naming what an EXR holds: `range`, `z`, `disparity` or `rays`.
+pub const QUANTITY_ATTRIBUTE: &str = "quantity";
 
 /// What range means for `camera`, stored in the EXR header and the metadata.
 pub fn range_convention(camera: &Camera) -> &'static str {
@@ -64,27 +73,29 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     .map_err(failed(path))
 }
 
-/// Single-channel f32 EXR named `range`, metres, +inf where nothing is hit; `camera` made
-/// `frame` and decides what range is measured from (`range_convention`).
+/// Single-channel f32 EXR of range (`quantity` = `range`), metres, +inf where nothing is hit;
+/// `camera` made `frame` and decides what range is measured from (`range_convention`).
 pub fn write_range_exr(path: &Path, frame: &Frame, camera: &Camera) -> Result<(), OutputError> {
     let ranges = frame.pixels().iter().map(|p| p.range).collect();
     write_channel_exr(
         path,
         (frame.width, frame.height),
-        RANGE_CHANNEL,
+        "range",
         range_convention(camera),
         ranges,
     )
 }
 
-/// Single-channel f32 EXR named `disparity` (pixels, u_left − u_right), NaN where no hit.
+/// Single-channel f32 EXR of disparity (`quantity` = `disparity`; pixels, u_left − u_right),
+/// NaN where no hit.
 pub fn write_disparity_exr(path: &Path, size: (u32, u32), disparity: Vec<f32>) -> Result<(), OutputError> {
     let convention = "disparity of the left image in pixels: u_left - u_right = fx*baseline/z, z = depth along \
                       the optical axis; NaN where nothing is hit";
     write_channel_exr(path, size, "disparity", convention, disparity)
 }
 
-/// Single-channel f32 EXR named `z`: depth along the optical axis in metres, +inf where no hit.
+/// Single-channel f32 EXR of depth along the optical axis (`quantity` = `z`), metres, +inf
+/// where no hit.
 pub fn write_axial_depth_exr(path: &Path, size: (u32, u32), depth: Vec<f32>) -> Result<(), OutputError> {
     write_channel_exr(path, size, "z", AXIAL_DEPTH_CONVENTION, depth)
 }
@@ -119,28 +130,38 @@ pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Resu
     .map_err(failed(path))
 }
 
-/// One f32 channel, with its convention in the header's `comments`.
+/// One f32 channel named `Y` holding `quantity`, with its convention in `comments`.
 fn write_channel_exr(
     path: &Path,
     size: (u32, u32),
-    channel: &str,
+    quantity: &str,
     convention: &str,
     values: Vec<f32>,
 ) -> Result<(), OutputError> {
-    write_exr(path, size, convention, vec![(channel, values)])
+    write_exr(path, size, quantity, convention, vec![(VALUE_CHANNEL, values)])
 }
 
-/// f32 channels of one image, with their convention in the header's `comments`.
+/// f32 channels of one image: `quantity` in the header attribute of that name, the convention
+/// in `comments`.
 fn write_exr(
     path: &Path,
     size: (u32, u32),
+    quantity: &str,
     convention: &str,
     channels: Vec<(&str, Vec<f32>)>,
 ) -> Result<(), OutputError> {
     use exr::prelude::*;
-    let mut attributes = LayerAttributes::named("omnisim");
-    attributes.comments = Some(Text::from(convention));
-    attributes.software_name = Some(Text::from(concat!("omnisim ", env!("CARGO_PKG_VERSION"))));
+    let mut attributes = LayerAttributes {
+        comments: Some(Text::from(convention)),
+        software_name: Some(Text::from(concat!("omnisim ", env!("CARGO_PKG_VERSION")))),
+        ..Default::default()
+    };
+    // exr keeps custom attributes in a HashMap, written in its random order: one custom
+    // attribute only, so the bytes stay reproducible.
+    attributes.other.insert(
+        Text::from(QUANTITY_ATTRIBUTE),
+        AttributeValue::Text(Text::from(quantity)),
+    );
     let list = channels
         .into_iter()
         .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
@@ -148,7 +169,7 @@ fn write_exr(
     let layer = Layer::new(
         (size.0 as usize, size.1 as usize),
         attributes,
-        Encoding::FAST_LOSSLESS,
+        Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(list),
     );
     write_atomically(path, |out| {
@@ -192,6 +213,7 @@ pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError
     write_exr(
         path,
         (width, height),
+        "rays",
         RAY_MAP_CONVENTION,
         names.into_iter().zip(channels).collect(),
     )
@@ -210,7 +232,7 @@ pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Resul
             "ply\nformat binary_little_endian 1.0\ncomment omnisim point cloud, world frame, metres, z up\n\
              comment {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
              property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
-            comment.replace('\n', " "),
+            ascii_line(comment),
             hits.len()
         )?;
         for (p, colour) in hits {
@@ -222,4 +244,24 @@ pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Resul
         Ok(())
     })
     .map_err(failed(path))
+}
+
+/// `text` as one printable-ASCII line: PLY headers are ASCII (python-plyfile refuses anything
+/// else), so other characters are escaped as `\u{...}`.
+fn ascii_line(text: &str) -> String {
+    text.chars()
+        .map(|c| match c {
+            ' '..='~' => c.to_string(),
+            '\n' | '\r' | '\t' => " ".into(),
+            _ => c.escape_unicode().to_string(),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn ply_comments_become_printable_ascii() {
+        assert_eq!(super::ascii_line("θx=30\nnext"), "\\u{3b8}x=30 next");
+    }
 }

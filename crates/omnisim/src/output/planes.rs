@@ -117,6 +117,7 @@ pub fn write_normal_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     write_exr(
         path,
         (frame.width, frame.height),
+        "normal",
         NORMAL_CONVENTION,
         vec![("normal.X", x), ("normal.Y", y), ("normal.Z", z)],
     )
@@ -132,6 +133,7 @@ pub fn write_linear_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
     write_exr(
         path,
         (frame.width, frame.height),
+        "linear colour",
         LINEAR_CONVENTION,
         vec![("R", channel(0)), ("G", channel(1)), ("B", channel(2))],
     )

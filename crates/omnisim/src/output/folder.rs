@@ -1,0 +1,328 @@
+//! Output folders hold one run each. A manifest ([`MANIFEST_NAME`]) records which run wrote the
+//! folder and every file it wrote, each listed before it is written, so that a later run can
+//! refuse to mix its files with another run's, or remove exactly that run's files when told
+//! to (`overwrite`), even after a kill.
+
+use std::collections::HashSet;
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use super::atomic::{TEMPORARY_PREFIX, remove_stale_temporaries, write_atomically};
+
+/// The manifest's file name in every run folder.
+pub const MANIFEST_NAME: &str = "omnisim-run.txt";
+
+const MANIFEST_HEADER: &str = "# omnisim run manifest: the run that wrote this folder and every file it wrote.\n\
+# omnisim render refuses to write another run into this folder; --overwrite removes exactly the\n\
+# files listed here first. A run ends with the line 'complete'.\n";
+
+#[derive(Debug, thiserror::Error)]
+pub enum FolderError {
+    #[error("cannot use output folder {}: {source}", dir.display())]
+    Io { dir: PathBuf, source: std::io::Error },
+    #[error(
+        "{} holds the {count} files of another run ({previous}); this run's files would mix with them. \
+         Choose another output folder, or add --overwrite to remove that run's files first (nothing else is touched)",
+        dir.display()
+    )]
+    AnotherRun {
+        dir: PathBuf,
+        previous: String,
+        count: usize,
+    },
+    #[error(
+        "{} already holds files that no omnisim run recorded (no {MANIFEST_NAME}), e.g. '{example}'. Choose an empty \
+         or new output folder, or add --overwrite to write into it anyway (files with the same names are replaced, \
+         nothing else is touched)",
+        dir.display()
+    )]
+    Unrecorded { dir: PathBuf, example: String },
+    #[error("'{name}' is not a plain file name: outputs stay inside the output folder")]
+    BadName { name: String },
+}
+
+/// An output folder opened for one run.
+#[derive(Debug)]
+pub struct RunFolder {
+    dir: PathBuf,
+    manifest: File,
+    claimed: HashSet<String>,
+    /// What opening did that the user should hear about (stale files removed).
+    pub notes: Vec<String>,
+}
+
+/// What a manifest says.
+struct Manifest {
+    identity: String,
+    command: String,
+    files: Vec<String>,
+}
+
+impl RunFolder {
+    /// Creates `dir` if needed, removes temporaries that killed runs left, and checks that the
+    /// folder is free for the run `identity` (a one-line key: equal keys mean the same run, whose
+    /// re-run may replace its own files). `command` is shown to whoever finds the folder taken.
+    pub fn open(dir: &Path, identity: &str, command: &str, overwrite: bool) -> Result<Self, FolderError> {
+        let io = |source| FolderError::Io {
+            dir: dir.to_path_buf(),
+            source,
+        };
+        std::fs::create_dir_all(dir).map_err(io)?;
+        let mut notes = Vec::new();
+        let stale = remove_stale_temporaries(dir).map_err(io)?;
+        if stale > 0 {
+            notes.push(format!(
+                "removed {stale} temporary file(s) that an interrupted run left in {}",
+                dir.display()
+            ));
+        }
+        let manifest_path = dir.join(MANIFEST_NAME);
+        let carried = match read_manifest(&manifest_path).map_err(io)? {
+            Some(previous) if previous.identity == identity => previous.files,
+            Some(previous) if !overwrite => {
+                return Err(FolderError::AnotherRun {
+                    dir: dir.to_path_buf(),
+                    previous: previous.command,
+                    count: previous.files.len(),
+                });
+            }
+            Some(previous) => {
+                let removed = remove_listed(dir, &previous.files).map_err(io)?;
+                notes.push(format!(
+                    "--overwrite: removed {removed} file(s) of the previous run ({})",
+                    previous.command
+                ));
+                Vec::new()
+            }
+            None => {
+                if let (Some(example), false) = (unrecorded_file(dir).map_err(io)?, overwrite) {
+                    return Err(FolderError::Unrecorded {
+                        dir: dir.to_path_buf(),
+                        example,
+                    });
+                }
+                Vec::new()
+            }
+        };
+        write_atomically(&manifest_path, |out| {
+            out.write_all(MANIFEST_HEADER.as_bytes())?;
+            writeln!(out, "run {}", one_line(identity))?;
+            writeln!(out, "command {}", one_line(command))?;
+            for name in &carried {
+                writeln!(out, "file {name}")?;
+            }
+            Ok(())
+        })
+        .map_err(io)?;
+        let manifest = OpenOptions::new().append(true).open(&manifest_path).map_err(io)?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            manifest,
+            claimed: carried.into_iter().collect(),
+            notes,
+        })
+    }
+
+    /// Records `name` as this run's file, before it is written, and returns its path in the
+    /// folder. Names that could leave the folder are refused.
+    pub fn claim(&mut self, name: impl Into<String>) -> Result<PathBuf, FolderError> {
+        let name = name.into();
+        if !is_plain_name(&name) {
+            return Err(FolderError::BadName { name });
+        }
+        if !self.claimed.contains(&name) {
+            writeln!(self.manifest, "file {name}").map_err(|source| FolderError::Io {
+                dir: self.dir.clone(),
+                source,
+            })?;
+            self.claimed.insert(name.clone());
+        }
+        Ok(self.dir.join(name))
+    }
+
+    /// Marks the run complete in the manifest.
+    pub fn finish(mut self) -> Result<(), FolderError> {
+        let io = |source| FolderError::Io {
+            dir: self.dir.clone(),
+            source,
+        };
+        writeln!(self.manifest, "complete").map_err(io)?;
+        self.manifest.sync_all().map_err(io)
+    }
+}
+
+/// Prepares the destination of a single output file the user named: creates its folder,
+/// removes stale temporaries there and checks that a file can be created, so a long
+/// computation does not end in an unwritable path. Returns notes for the user.
+pub fn prepare_file(path: &Path) -> Result<Vec<String>, FolderError> {
+    let dir = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    };
+    let io = |source| FolderError::Io {
+        dir: dir.to_path_buf(),
+        source,
+    };
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let stale = remove_stale_temporaries(dir).map_err(io)?;
+    tempfile::Builder::new()
+        .prefix(&format!("{TEMPORARY_PREFIX}{}-", std::process::id()))
+        .tempfile_in(dir)
+        .map_err(io)?;
+    Ok(if stale > 0 {
+        vec![format!(
+            "removed {stale} temporary file(s) that an interrupted run left in {}",
+            dir.display()
+        )]
+    } else {
+        Vec::new()
+    })
+}
+
+fn one_line(text: &str) -> String {
+    text.chars().map(|c| if c.is_control() { ' ' } else { c }).collect()
+}
+
+fn is_plain_name(name: &str) -> bool {
+    !name.is_empty()
+        && name != "."
+        && name != ".."
+        && !name.contains(['/', '\\'])
+        && !name.chars().any(char::is_control)
+        && name != MANIFEST_NAME
+}
+
+fn read_manifest(path: &Path) -> std::io::Result<Option<Manifest>> {
+    let text = match std::fs::read(path) {
+        Ok(bytes) => String::from_utf8_lossy(&bytes).into_owned(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let mut manifest = Manifest {
+        identity: String::new(),
+        command: "an unknown run".into(),
+        files: Vec::new(),
+    };
+    let mut seen = HashSet::new();
+    for line in text.lines() {
+        if let Some(identity) = line.strip_prefix("run ") {
+            manifest.identity = identity.to_string();
+        } else if let Some(command) = line.strip_prefix("command ") {
+            manifest.command = command.to_string();
+        } else if let Some(name) = line.strip_prefix("file ") {
+            // A hand-edited manifest must not make --overwrite remove anything outside the folder.
+            if is_plain_name(name) && seen.insert(name) {
+                manifest.files.push(name.to_string());
+            }
+        }
+    }
+    Ok(Some(manifest))
+}
+
+/// Removes the listed files that exist (never a folder); returns how many.
+fn remove_listed(dir: &Path, names: &[String]) -> std::io::Result<usize> {
+    let mut removed = 0;
+    for name in names {
+        let path = dir.join(name);
+        match std::fs::symlink_metadata(&path) {
+            Ok(metadata) if !metadata.is_dir() => {
+                std::fs::remove_file(&path)?;
+                removed += 1;
+            }
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(removed)
+}
+
+/// A file in `dir` that no manifest accounts for (hidden files and sub-folders aside).
+fn unrecorded_file(dir: &Path) -> std::io::Result<Option<String>> {
+    for entry in std::fs::read_dir(dir)? {
+        let entry = entry?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if !name.starts_with('.') && !entry.file_type()?.is_dir() {
+            return Ok(Some(name));
+        }
+    }
+    Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(dir: &Path, identity: &str, overwrite: bool, names: &[&str]) -> Result<(), FolderError> {
+        let mut folder = RunFolder::open(dir, identity, &format!("run {identity}"), overwrite)?;
+        for name in names {
+            let path = folder.claim(*name)?;
+            std::fs::write(path, identity).unwrap();
+        }
+        folder.finish()
+    }
+
+    #[test]
+    fn another_run_is_refused_and_overwrite_removes_only_its_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        run(&out, "omni", false, &["a.png", "calibration.yaml"]).unwrap();
+        // The same run again is fine.
+        run(&out, "omni", false, &["a.png", "calibration.yaml"]).unwrap();
+        let refused = run(&out, "pinhole", false, &["a.png"]).unwrap_err();
+        assert!(matches!(refused, FolderError::AnotherRun { count: 2, .. }), "{refused}");
+        assert!(refused.to_string().contains("run omni") && refused.to_string().contains("--overwrite"));
+        std::fs::write(out.join("mine.txt"), "the user's").unwrap();
+        run(&out, "pinhole", true, &["a.png"]).unwrap();
+        assert!(!out.join("calibration.yaml").exists());
+        assert_eq!(std::fs::read_to_string(out.join("a.png")).unwrap(), "pinhole");
+        assert!(out.join("mine.txt").exists());
+    }
+
+    #[test]
+    fn a_killed_rerun_keeps_every_file_listed() {
+        let dir = tempfile::tempdir().unwrap();
+        run(dir.path(), "omni", false, &["a.png", "b.png"]).unwrap();
+        // Re-run killed after its first file: b.png must still be listed.
+        let mut folder = RunFolder::open(dir.path(), "omni", "omni", false).unwrap();
+        folder.claim("a.png").unwrap();
+        drop(folder);
+        run(dir.path(), "other", true, &[]).unwrap();
+        assert!(!dir.path().join("a.png").exists() && !dir.path().join("b.png").exists());
+    }
+
+    #[test]
+    fn unrecorded_files_are_refused_and_names_stay_inside() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("notes.txt"), "x").unwrap();
+        assert!(matches!(
+            run(dir.path(), "omni", false, &[]),
+            Err(FolderError::Unrecorded { .. })
+        ));
+        for bad in ["../escaped.png", "/etc/x", "..", "a\nb", MANIFEST_NAME] {
+            assert!(matches!(
+                run(dir.path(), "omni", true, &[bad]),
+                Err(FolderError::BadName { .. })
+            ));
+        }
+        // A manifest naming files outside the folder removes nothing there.
+        let victim = dir.path().join("victim");
+        std::fs::write(&victim, "x").unwrap();
+        let out = dir.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        std::fs::write(out.join(MANIFEST_NAME), "run omni\nfile ../victim\n").unwrap();
+        run(&out, "pinhole", true, &[]).unwrap();
+        assert!(victim.exists());
+    }
+
+    #[test]
+    fn prepare_file_creates_the_folder_and_refuses_an_impossible_one() {
+        let dir = tempfile::tempdir().unwrap();
+        prepare_file(&dir.path().join("a/b/chart.svg")).unwrap();
+        assert!(dir.path().join("a/b").is_dir());
+        assert_eq!(std::fs::read_dir(dir.path().join("a/b")).unwrap().count(), 0);
+        std::fs::write(dir.path().join("file"), "x").unwrap();
+        assert!(prepare_file(&dir.path().join("file/chart.svg")).is_err());
+    }
+}

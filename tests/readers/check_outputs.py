@@ -1,0 +1,197 @@
+"""Reads omnisim render folders with the readers people use and checks the values.
+
+Usage: python3 tests/readers/check_outputs.py DIR  (every folder under DIR with a render.json)
+
+OpenCV (EXR, FileStorage, cv2.omnidir.projectPoints), OpenEXR (ray maps and headers),
+python-plyfile (point clouds), PyYAML (Kalibr camchains, as Kalibr reads them) and evo_traj
+(poses.txt). Pixels are checked against the point clouds: a PLY lists the hit pixels in row
+order, the pixels where the range EXR is finite, so every point has a known pixel centre that
+each calibration file must project it to within 0.01 px. Versions: requirements.txt.
+"""
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"  # before cv2 is imported
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+import OpenEXR  # noqa: E402
+import plyfile  # noqa: E402
+import yaml  # noqa: E402
+
+PIXEL_TOLERANCE = 0.01
+checks = 0
+
+
+def check(condition, message):
+    global checks
+    if not condition:
+        raise AssertionError(message)
+    checks += 1
+
+
+def read_value_exr(path, quantity):
+    """The single-channel EXR as OpenCV reads it, checked against OpenEXR's reading."""
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    check(image is not None, f"OpenCV cannot read {path}")
+    check(image.dtype == np.float32 and image.ndim == 2, f"{path}: {image.dtype} {image.shape}")
+    exr = OpenEXR.File(str(path))
+    header = exr.header()
+    check(header.get("quantity") == quantity, f"{path}: quantity {header.get('quantity')!r}")
+    check("metres" in header.get("comments", "") or quantity == "disparity", f"{path}: comments")
+    stored = exr.channels()["Y"].pixels
+    check(np.array_equal(image.view(np.uint32), stored.view(np.uint32)), f"{path}: OpenCV values differ")
+    return image
+
+
+def read_ray_map(path):
+    channels = OpenEXR.File(str(path)).channels()
+    origin = np.stack([channels[f"origin.{a}"].pixels for a in "XYZ"], axis=-1).astype(np.float64)
+    direction = np.stack([channels[f"direction.{a}"].pixels for a in "XYZ"], axis=-1).astype(np.float64)
+    return origin, direction
+
+
+def read_cloud(path):
+    vertex = plyfile.PlyData.read(str(path))["vertex"]
+    return np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float64)
+
+
+def storage(path):
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    check(fs.isOpened(), f"FileStorage cannot open {path}")
+    return fs
+
+
+def matrix(fs, name):
+    value = fs.getNode(name).mat()
+    check(value is not None, f"no matrix {name}")
+    return value
+
+
+def close(projected, pixels, what):
+    error = np.abs(projected.reshape(-1, 2) - pixels).max()
+    check(error < PIXEL_TOLERANCE, f"{what}: pixels off by up to {error:.4f} px")
+
+
+def pinhole_pixels(points_camera, k, d):
+    projected, _ = cv2.projectPoints(points_camera.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+    return projected
+
+
+def check_view(folder, frame, suffix, rotation, position, raymap):
+    """One image of one pose: range (OpenCV = OpenEXR), rays + range rebuild the PLY points."""
+    stem = folder / f"{frame['stem']}{suffix}"
+    rng = read_value_exr(f"{stem}-range.exr", "range")
+    points = read_cloud(f"{stem}.ply")
+    rows, cols = np.nonzero(np.isfinite(rng))
+    check(len(rows) == len(points) > 0, f"{stem}: {len(points)} points for {len(rows)} hit pixels")
+    origin, direction = raymap
+    body = origin[rows, cols] + rng[rows, cols, None].astype(np.float64) * direction[rows, cols]
+    rebuilt = body @ rotation.T + position
+    error = np.linalg.norm(rebuilt - points, axis=1) / (1 + rng[rows, cols])
+    check(error.max() < 1e-5, f"{stem}: range and ray map miss the PLY points by {error.max():.2e}")
+    return points, np.stack([cols, rows], axis=-1).astype(np.float64)
+
+
+def check_folder(folder):
+    meta = json.loads((folder / "render.json").read_text())
+    camera = meta["camera"]
+    model = camera["model"]
+    views = ["-left", "-right"] if model == "stereo" else [""]
+    result = subprocess.run([str(pathlib.Path(sys.executable).parent / "evo_traj"), "tum", str(folder / "poses.txt")],
+                            capture_output=True, text=True)
+    check(result.returncode == 0, f"evo_traj tum {folder}/poses.txt: {result.stderr}")
+    raymaps = {v: read_ray_map(folder / f"raymap{v}.exr") for v in views}
+    for frame in meta["frames"]:
+        world_from_body = np.array(frame["world_from_body"])
+        rotation, position = world_from_body[:3, :3], world_from_body[:3, 3]
+        seen = {v: check_view(folder, frame, v, rotation, position, raymaps[v]) for v in views}
+        body = {v: (points - position) @ rotation for v, (points, _) in seen.items()}
+        if model in ("pinhole", "stereo"):
+            check_pinholes(folder, frame, seen, body)
+        if (folder / "calibration-opencv-omnidir.yaml").exists():
+            check_omni(folder, seen[""], body[""])
+        print(f"{folder.name} {frame['stem']}: OK ({sum(len(p) for p, _ in seen.values())} points)")
+
+
+def kalibr_project(cam, body):
+    t = np.array(cam["T_cam_imu"], dtype=np.float64)
+    x = body @ t[:3, :3].T + t[:3, 3]
+    if cam["camera_model"] == "omni":
+        xi, fu, fv, pu, pv = cam["intrinsics"]
+        z = x[:, 2] + xi * np.linalg.norm(x, axis=1)
+    else:
+        fu, fv, pu, pv = cam["intrinsics"]
+        z = x[:, 2]
+    return np.stack([pu + fu * x[:, 0] / z, pv + fv * x[:, 1] / z], axis=-1)
+
+
+def check_pinholes(folder, frame, seen, body):
+    kalibr = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
+    if "-left" in seen:
+        fs = storage(folder / "calibration-opencv-stereo.yaml")
+        k = {"-left": matrix(fs, "M1"), "-right": matrix(fs, "M2")}
+        d = {"-left": matrix(fs, "D1"), "-right": matrix(fs, "D2")}
+        r, t = matrix(fs, "R"), matrix(fs, "T")
+        baseline = fs.getNode("baseline").real()
+        cameras = {"-left": "cam0", "-right": "cam1"}
+    else:
+        fs = storage(folder / "calibration-opencv.yaml")
+        k, d = {"": matrix(fs, "camera_matrix")}, {"": matrix(fs, "distortion_coefficients")}
+        cameras = {"": "cam0"}
+    body_from_camera = matrix(fs, "body_from_camera")
+    position = matrix(fs, "camera_position_in_body").ravel()
+    for view, (points, pixels) in seen.items():
+        # The OpenCV file places the (left) camera; the right one is X_right = R X_left + T.
+        optical = (body[view] - position) @ body_from_camera
+        if view == "-right":
+            optical = optical @ r.T + t.ravel()
+        close(pinhole_pixels(optical, k[view], d[view]), pixels, f"{folder.name} {view} OpenCV")
+        close(kalibr_project(kalibr[cameras[view]], body[view]), pixels, f"{folder.name} {view} Kalibr")
+        depth = read_value_exr(folder / f"{frame['stem']}{view}-depth.exr", "z")
+        rows, cols = pixels[:, 1].astype(int), pixels[:, 0].astype(int)
+        error = np.abs(depth[rows, cols] - optical[:, 2]) / optical[:, 2]
+        check(error.max() < 1e-5, f"{folder.name}{view}: depth off by {error.max():.2e}")
+    if "-left" in seen:
+        disparity = read_value_exr(folder / f"{frame['stem']}-disparity.exr", "disparity")
+        pixels = seen["-left"][1]
+        rows, cols = pixels[:, 1].astype(int), pixels[:, 0].astype(int)
+        optical = (body["-left"] - position) @ body_from_camera
+        expected = k["-left"][0, 0] * baseline / optical[:, 2]
+        error = np.abs(disparity[rows, cols] - expected) / expected
+        check(error.max() < 1e-5, f"{folder.name}: disparity off by {error.max():.2e}")
+
+
+def check_omni(folder, seen, body):
+    points, pixels = seen
+    fs = storage(folder / "calibration-opencv-omnidir.yaml")
+    k, d = matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients")
+    xi = fs.getNode("xi").real()  # a real, as the file says
+    check(0 < xi <= 1, f"xi = {xi}")
+    mirror = body @ matrix(fs, "body_from_mirror")
+    model = mirror * np.array([1.0, 1.0, -1.0])  # the file's model frame (a reflection)
+    projected, _ = cv2.omnidir.projectPoints(model.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, xi, d)
+    close(projected, pixels, f"{folder.name} cv2.omnidir")
+    kalibr = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
+    rotation = np.array(kalibr["cam0"]["T_cam_imu"], dtype=np.float64)[:3, :3]
+    check(abs(np.linalg.det(rotation) - 1) < 1e-12, "Kalibr T_cam_imu is a proper rotation")
+    close(kalibr_project(kalibr["cam0"], body), pixels, f"{folder.name} Kalibr omni")
+
+
+def main():
+    root = pathlib.Path(sys.argv[1])
+    folders = sorted(p.parent for p in root.rglob("render.json"))
+    if not folders:
+        sys.exit(f"no render.json under {root}")
+    for folder in folders:
+        check_folder(folder)
+    print(f"{checks} checks passed in {len(folders)} folders with OpenCV {cv2.__version__}, "
+          f"OpenEXR {OpenEXR.__version__}, plyfile, PyYAML, evo")
+
+
+if __name__ == "__main__":
+    main()
