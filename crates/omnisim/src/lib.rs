@@ -12,6 +12,7 @@ pub mod camera;
 pub mod cpu;
 pub mod frame;
 pub mod gpu;
+pub mod input;
 pub mod output;
 pub mod pose;
 pub mod pose_sets;
