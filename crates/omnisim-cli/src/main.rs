@@ -8,6 +8,7 @@ mod chart_svg;
 mod commands;
 mod metadata;
 mod poses;
+mod warnings;
 
 use clap::{Parser, Subcommand};
 
@@ -53,14 +54,49 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", describe(&error));
             std::process::ExitCode::FAILURE
         }
     }
 }
 
+/// The error and its causes joined by ": ", leaving out a cause whose text the message already
+/// holds (library errors quote their OS error, which is also their source).
+fn describe(error: &anyhow::Error) -> String {
+    let mut message = String::new();
+    for cause in error.chain().map(ToString::to_string) {
+        if !message.contains(&cause) {
+            if !message.is_empty() {
+                message.push_str(": ");
+            }
+            message.push_str(&cause);
+        }
+    }
+    message
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn causes_already_quoted_are_not_repeated() {
+        let os = std::io::Error::from(std::io::ErrorKind::NotFound);
+        let quoted = anyhow::Error::new(std::io::Error::other(format!("cannot read x: {os}")));
+        let error = anyhow::Error::new(os).context(format!(
+            "cannot read x: {}",
+            std::io::Error::from(std::io::ErrorKind::NotFound)
+        ));
+        assert_eq!(
+            super::describe(&error).matches("not found").count(),
+            1,
+            "{}",
+            super::describe(&error)
+        );
+        assert_eq!(
+            super::describe(&quoted.context("rendering")),
+            format!("rendering: {}", "cannot read x: entity not found")
+        );
+    }
+
     #[test]
     fn command_line_definition_is_consistent() {
         use clap::CommandFactory;

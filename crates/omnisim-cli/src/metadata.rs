@@ -98,7 +98,7 @@ pub fn metadata(scene: &Scene, scene_path: &Path, rig: &Rig, poses: &[Pose], ren
             let a = pose.angles_degrees();
             json!({
                 "index": index,
-                "stem": format!("{}-{index:04}", scene.name),
+                "stem": format!("{}-{index:04}", scene.file_stem()),
                 "position": pose.position.to_array(),
                 "angles_deg": [a.x, a.y, a.z],
                 "quaternion_xyzw": pose.quaternion_xyzw(),

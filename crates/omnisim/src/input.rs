@@ -60,6 +60,16 @@ fn check(path: &Path, metadata: &std::fs::Metadata, limit: u64) -> Result<(), In
     Ok(())
 }
 
+/// Whether `path` could be read by `open_regular`, checked without opening it: lets a command
+/// report a missing input before anything else.
+pub fn check_regular(path: &Path, limit: u64) -> Result<(), InputError> {
+    let metadata = std::fs::metadata(path).map_err(|error| InputError::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    check(path, &metadata, limit)
+}
+
 /// Opens `path` for reading if it is a regular file of at most `limit` bytes; the reader stops
 /// at `limit` even if the file grows meanwhile. The type is checked before opening, since
 /// opening a FIFO blocks until a writer appears.
@@ -68,7 +78,7 @@ pub fn open_regular(path: &Path, limit: u64) -> Result<Take<File>, InputError> {
         path: path.to_path_buf(),
         error,
     };
-    check(path, &std::fs::metadata(path).map_err(io)?, limit)?;
+    check_regular(path, limit)?;
     let file = File::open(path).map_err(io)?;
     // Swapped for something else between the two calls: check what was opened.
     check(path, &file.metadata().map_err(io)?, limit)?;

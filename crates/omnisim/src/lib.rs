@@ -19,7 +19,7 @@ pub mod pose_sets;
 pub mod renderer;
 pub mod scene;
 
-pub use camera::{Camera, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
+pub use camera::{Camera, CameraError, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
 pub use frame::{Frame, Pixel};
 pub use pose::Pose;
 pub use renderer::{BackendChoice, RenderError, Renderer};

@@ -22,6 +22,8 @@ pub enum BackendChoice {
 pub enum RenderError {
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    #[error("the camera cannot make an image: {0}")]
+    Camera(#[from] crate::camera::CameraError),
 }
 
 enum Backend {
@@ -59,6 +61,7 @@ impl Renderer {
     }
 
     pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {
+        camera.validate()?;
         match &self.backend {
             Backend::Gpu(tracer) => Ok(tracer.render(camera, pose)?),
             Backend::Cpu => Ok(cpu::render(&self.bvh, camera, pose)),

@@ -190,6 +190,7 @@ pub fn run(command: PosesCommand) -> anyhow::Result<()> {
             clearance,
             out,
         } => {
+            omnisim::input::check_regular(&scene, omnisim::input::SCENE_LIMIT)?;
             if !(1..=MAX_POSES).contains(&count) {
                 bail!("--count must be from 1 to {MAX_POSES}, not {count}");
             }
@@ -211,7 +212,7 @@ pub fn run(command: PosesCommand) -> anyhow::Result<()> {
                 clearance,
             };
             let poses = pose_sets::random(&SceneBvh::build(&scene), &spec).with_context(|| {
-                format!("could not find {count} positions {clearance} m clear of every surface; lower --clearance or widen --z")
+                format!("could not find {count} positions {clearance} m clear of every surface; lower --clearance, widen --z or ask for fewer")
             })?;
             write(&poses, "random", &out)
         }

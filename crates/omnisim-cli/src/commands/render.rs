@@ -74,6 +74,7 @@ pub struct RenderArgs {
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
+    omnisim::input::check_regular(&args.scene, omnisim::input::SCENE_LIMIT)?;
     let rig = args.camera.build()?;
     let views = views(&rig);
     let mut poses = args.poses.clone();
@@ -101,6 +102,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         renderer.device_name(),
         renderer.reason()
     );
+    crate::warnings::misplaced_poses(&scene, &renderer, &poses);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output folder {}", args.out.display()))?;
 
@@ -111,12 +113,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut written = Vec::new();
     let render_started = Instant::now();
     for (index, pose) in poses.iter().enumerate() {
-        let stem = args.out.join(format!("{}-{index:04}", scene.name));
+        let stem = args.out.join(format!("{}-{index:04}", scene.file_stem()));
         let mut frames = Vec::with_capacity(views.len());
         for (suffix, camera) in &views {
             let frame = renderer
                 .render_antialiased(camera, pose, args.edge_samples.isqrt())
                 .with_context(|| format!("rendering pose {index}"))?;
+            crate::warnings::empty_frame(index, suffix, &frame);
             let png = path_with_suffix(&stem, &format!("{suffix}.png"));
             output::write_png(&png, &frame)?;
             let exr = path_with_suffix(&stem, &format!("{suffix}-range.exr"));

@@ -1,10 +1,12 @@
 //! `omnisim scene`: check and export scene files.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Subcommand;
 use omnisim::Scene;
+use omnisim::pose::{MICROMETRES, rounded};
 use omnisim::scene::ExportFormat;
 
 #[derive(Debug, Subcommand)]
@@ -39,13 +41,19 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
                 scene.faces.len(),
                 scene.triangulate().len()
             );
+            // Bounds to the micrometre: 2.3, not 2.3000000000000003.
+            let (lo, hi) = (lo.map(|v| rounded(v, MICROMETRES)), hi.map(|v| rounded(v, MICROMETRES)));
             println!(
                 "bounds: x [{}, {}], y [{}, {}], z [{}, {}] m",
                 lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
             );
-            for (index, object) in scene.objects.iter().enumerate() {
-                let faces = scene.faces.iter().filter(|f| f.object as usize == index).count();
-                println!("  {:<8} {:<24} {faces} faces", object.kind, object.name);
+            let mut faces = vec![0usize; scene.objects.len()];
+            for face in &scene.faces {
+                faces[face.object as usize] += 1;
+            }
+            let mut out = std::io::stdout().lock();
+            for (object, faces) in scene.objects.iter().zip(faces) {
+                writeln!(out, "  {:<8} {:<24} {faces} faces", object.kind, object.name)?;
             }
         }
         SceneCommand::Export { scene, output } => {
