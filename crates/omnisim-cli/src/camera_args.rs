@@ -48,7 +48,8 @@ pub enum MirrorRaysArg {
 
 #[derive(Debug, Clone, Args)]
 pub struct CameraArgs {
-    /// Vision system to simulate.
+    /// Vision system to simulate. Options that do not apply to it are refused, and so is a
+    /// camera that cannot make an image (the message gives the valid range).
     #[arg(long, value_enum, default_value = "omni")]
     pub camera: CameraKind,
     /// Image size WIDTHxHEIGHT in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250].

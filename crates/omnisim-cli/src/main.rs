@@ -24,7 +24,7 @@ mirror), traced exactly ray by ray. Frames: \
 metres, radians inside; world z up; body x forward, y left, z up; pose rotation \
 R = Rx(θx)·Ry(θy)·Rz(θz) as in the reference paper.\n\n\
 Examples:\n  omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
-omnisim poses grid --x=-2:2:0.5 --y=-1.5:1.5:0.5 --z 0.4 --out grid.txt\n  \
+omnisim poses grid --x=-2:2:0.5 --y=-1:0.5:0.5 --z 0.4 --out grid.txt\n  \
 omnisim render scenes/env1.ron --camera omni --poses-file grid.txt --out out/grid"
 )]
 struct Cli {

@@ -12,6 +12,11 @@ use omnisim::scene::ExportFormat;
 #[derive(Debug, Subcommand)]
 pub enum SceneCommand {
     /// Load and validate a scene; print its objects, faces and bounds.
+    ///
+    /// The scene name must be 1-100 bytes of letters, digits, '-', '_', '.' and spaces (it names
+    /// output files); coordinates must lie within ±1e6 m; meshes are read from the scene's
+    /// folder and below only (no '..' or absolute paths), OBJ material files never; only
+    /// regular files are read (scenes up to 64 MiB, meshes 2 GiB).
     Check {
         /// Scene file (RON).
         scene: PathBuf,

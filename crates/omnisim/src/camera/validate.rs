@@ -22,8 +22,9 @@ const BASELINE: (f64, f64) = (1e-6, crate::scene::MAX_COORDINATE);
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CameraError {
     #[error(
-        "the image is {width}x{height} = {} pixels; omnisim renders images of 1 to {MAX_PIXELS} pixels (100 megapixels), each side at least 1",
-        *width as u64 * *height as u64
+        "the image is {width}x{height} = {} pixels ({} megapixels); omnisim renders images of 1 to {MAX_PIXELS} pixels (100 megapixels), each side at least 1",
+        *width as u64 * *height as u64,
+        (*width as u64 * *height as u64) as f64 / 1e6
     )]
     Size { width: u32, height: u32 },
     #[error("{name} = {} {unit} is outside its valid range, {} to {} {unit}", number(*value), number(range.0), number(range.1))]
@@ -131,10 +132,10 @@ impl Catadioptric {
                 within("sphere radius", radius, RIG_LENGTH, "m")?;
                 // The camera must be outside the sphere: more than the radius away.
                 let range = (radius, RIG_LENGTH.1);
-                within("camera distance", camera_distance, range, "m")?;
+                within("camera distance (outside the sphere)", camera_distance, range, "m")?;
                 if camera_distance == radius {
                     return Err(CameraError::Range {
-                        name: "camera distance",
+                        name: "camera distance (outside the sphere)",
                         value: camera_distance,
                         range,
                         unit: "m",
@@ -214,10 +215,10 @@ mod tests {
             error.contains("100010000 pixels") && !error.contains(" is 100 megapixels"),
             "{error}"
         );
-        let mut pinhole = Pinhole::with_horizontal_fov(0, 480, 1.0);
-        assert!(pinhole.validate().is_err());
-        pinhole.width = 640;
+        let mut pinhole = Pinhole::with_horizontal_fov(640, 480, 1.0);
         assert!(pinhole.validate().is_ok());
+        pinhole.width = 0;
+        assert!(matches!(pinhole.validate(), Err(CameraError::Size { width: 0, .. })));
     }
 
     #[test]
@@ -256,7 +257,10 @@ mod tests {
             .contains("no pixel")
         );
         let error = refusal(Catadioptric::spherical(250, 250, 0.05, 1e300));
-        assert!(error.contains("camera distance = 1e300 m"), "{error}");
+        assert!(
+            error.contains("camera distance (outside the sphere) = 1e300 m"),
+            "{error}"
+        );
         let rig = StereoRig {
             camera: Pinhole::with_horizontal_fov(64, 48, 1.0),
             baseline: 1e300,
