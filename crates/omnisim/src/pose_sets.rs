@@ -118,7 +118,7 @@ pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Result<Vec<Pose>, TooFewCle
         if drawn >= budget {
             return Err(give_up(drawn, poses.len()));
         }
-        if drawn > 0 && drawn % TRIAL_DRAWS == 0 {
+        if drawn > 0 && drawn.is_multiple_of(TRIAL_DRAWS) {
             // Draws still needed at the rate so far (+1: no acceptance yet is no promise).
             let needed = (spec.count - poses.len()) as f64 * drawn as f64 / (poses.len() as f64 + 1.0);
             if drawn as f64 + needed > budget as f64 {

@@ -41,7 +41,7 @@ fn code(text: &str, from: usize) -> impl Iterator<Item = (usize, char)> + '_ {
                 '/' if chars.peek().is_some_and(|&(_, n)| n == '*') => {
                     chars.next();
                     let mut last = ' ';
-                    while let Some((_, n)) = chars.next() {
+                    for (_, n) in chars.by_ref() {
                         if last == '*' && n == '/' {
                             break;
                         }
