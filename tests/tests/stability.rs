@@ -182,10 +182,13 @@ fn shortcut_error_grows_with_camera_offset_and_validate_refuses_it() {
 
     let mut shortcut = common::paper_omni();
     shortcut.rays = MirrorRays::Shortcut;
-    assert_eq!(shortcut.validate(), Ok(()), "aligned shortcut is exact");
+    assert_eq!(shortcut.check_rays(), Ok(()), "aligned shortcut is exact");
     for offset in [dvec3(1e-3, 0.0, 0.0), dvec3(0.0, 0.0, 1e-3)] {
         shortcut.misalignment.offset = offset;
-        let refusal = shortcut.validate().expect_err("non-central shortcut refused");
+        let refusal = shortcut
+            .check_rays()
+            .expect_err("non-central shortcut refused")
+            .to_string();
         assert!(refusal.contains("shortcut"), "{refusal}");
     }
 }

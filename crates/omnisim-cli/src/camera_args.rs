@@ -48,43 +48,45 @@ pub enum MirrorRaysArg {
 
 #[derive(Debug, Clone, Args)]
 pub struct CameraArgs {
-    /// Vision system to simulate.
+    /// Vision system to simulate. Options that do not apply to it are refused, and so is a
+    /// camera that cannot make an image (the message gives the valid range).
     #[arg(long, value_enum, default_value = "omni")]
     pub camera: CameraKind,
     /// Image size WIDTHxHEIGHT in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250].
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
-    /// Pinhole/stereo: horizontal field of view in degrees (square pixels, centred principal point).
-    #[arg(long, default_value_t = 60.0)]
-    pub hfov: f64,
-    /// Stereo: distance between the two optical centres, metres.
-    #[arg(long, default_value_t = 0.12)]
-    pub baseline: f64,
-    /// Cylindrical: vertical field of view in degrees, symmetric about the horizon.
-    #[arg(long, default_value_t = 90.0)]
-    pub vfov: f64,
+    /// Pinhole/stereo: horizontal field of view in degrees (square pixels, centred principal
+    /// point) [default: 60].
+    #[arg(long)]
+    pub hfov: Option<f64>,
+    /// Stereo: distance between the two optical centres, metres [default: 0.12].
+    #[arg(long)]
+    pub baseline: Option<f64>,
+    /// Cylindrical: vertical field of view in degrees, symmetric about the horizon [default: 90].
+    #[arg(long)]
+    pub vfov: Option<f64>,
     /// Focal length in pixels (pinhole, stereo, hyperbolic, spherical) or pixels per metre
     /// (parabolic); overrides --hfov and the omni fit.
     #[arg(long)]
     pub focal: Option<f64>,
-    /// Omni: mirror shape.
-    #[arg(long, value_enum, default_value = "hyperbolic")]
-    pub mirror: MirrorKind,
+    /// Omni: mirror shape [default: hyperbolic].
+    #[arg(long, value_enum)]
+    pub mirror: Option<MirrorKind>,
     /// Omni: mirror parameter a in metres [default: hyperbolic 0.04 (the paper's 40 mm), parabolic 0.04].
     #[arg(long)]
     pub mirror_a: Option<f64>,
     /// Omni: mirror parameter b in metres [default: hyperbolic 0.16 (the paper's 160 mm); parabolic = a].
     #[arg(long)]
     pub mirror_b: Option<f64>,
-    /// Omni, parabolic: height h in z = h·(x²/a² + y²/b²), metres.
-    #[arg(long, default_value_t = 0.02)]
-    pub mirror_h: f64,
-    /// Omni, spherical: sphere radius in metres.
-    #[arg(long, default_value_t = 0.05)]
-    pub sphere_radius: f64,
-    /// Omni, spherical: distance from the sphere's centre to the pinhole in metres.
-    #[arg(long, default_value_t = 0.25)]
-    pub camera_distance: f64,
+    /// Omni, parabolic: height h in z = h·(x²/a² + y²/b²), metres [default: 0.02].
+    #[arg(long)]
+    pub mirror_h: Option<f64>,
+    /// Omni, spherical: sphere radius in metres [default: 0.05].
+    #[arg(long)]
+    pub sphere_radius: Option<f64>,
+    /// Omni, spherical: distance from the sphere's centre to the pinhole in metres [default: 0.25].
+    #[arg(long)]
+    pub camera_distance: Option<f64>,
     /// Omni: radius of the mirror rim in metres [default: where the mirror sees --max-elevation].
     #[arg(long, conflicts_with = "max_elevation")]
     pub rim: Option<f64>,
@@ -94,12 +96,12 @@ pub struct CameraArgs {
     /// [default: 20]
     #[arg(long, value_parser = parse_elevation)]
     pub max_elevation: Option<MaxElevation>,
-    /// Omni: which way the mirror axis points in the body frame.
-    #[arg(long, value_enum, default_value = "up")]
-    pub mount: MountArg,
-    /// Omni: radius in pixels of the image centre hidden by the camera's own body.
-    #[arg(long, default_value_t = 0.0)]
-    pub hidden_centre: f64,
+    /// Omni: which way the mirror axis points in the body frame [default: up].
+    #[arg(long, value_enum)]
+    pub mount: Option<MountArg>,
+    /// Omni: radius in pixels of the image centre hidden by the camera's own body [default: 0].
+    #[arg(long)]
+    pub hidden_centre: Option<f64>,
     /// Omni: camera displaced from its nominal place by x,y,z metres (mirror frame); the image
     /// becomes non-central and is still traced exactly.
     #[arg(long, value_parser = parse_vector, allow_hyphen_values = true)]
@@ -107,9 +109,9 @@ pub struct CameraArgs {
     /// Omni: camera axes tilted by θx,θy,θz degrees (R = Rx·Ry·Rz).
     #[arg(long, value_parser = parse_vector, allow_hyphen_values = true)]
     pub misalign_tilt: Option<DVec3>,
-    /// Omni: how mirror rays are found.
-    #[arg(long, value_enum, default_value = "reflect")]
-    pub mirror_rays: MirrorRaysArg,
+    /// Omni: how mirror rays are found [default: reflect].
+    #[arg(long, value_enum)]
+    pub mirror_rays: Option<MirrorRaysArg>,
 }
 
 /// `--max-elevation`: degrees, or `None` for a mirror without rim.
@@ -145,11 +147,7 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
         .ok_or_else(|| format!("'{text}' is not WIDTHxHEIGHT, e.g. 640x480"))?;
     let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&n| (1..=32768).contains(&n));
     match (parse(w), parse(h)) {
-        // A frame holds about 40 bytes a pixel in memory (colour, range, face, f64 point).
-        (Some(w), Some(h)) if w as u64 * h as u64 > 100_000_000 => Err(format!(
-            "'{text}' is {} megapixels; omnisim renders at most 100 megapixels per image",
-            w as u64 * h as u64 / 1_000_000
-        )),
+        // The pixel count (at most 100 megapixels) is the library's check, `Camera::validate`.
         (Some(w), Some(h)) => Ok((w, h)),
         _ => Err(format!(
             "'{text}': width and height must be whole numbers from 1 to 32768"
@@ -163,35 +161,77 @@ pub enum Rig {
     Stereo(StereoRig),
 }
 
-fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
+/// Options given that the chosen camera does not use: ignoring them silently would render
+/// something other than what was asked for.
+fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
+    use CameraKind::*;
+    let omni = args.camera == Omni;
+    let mirror = args.mirror.unwrap_or(MirrorKind::Hyperbolic);
+    let pinhole = matches!(args.camera, Pinhole | Stereo);
+    let spherical = mirror == MirrorKind::Spherical;
+    let options = [
+        ("--hfov", args.hfov.is_some(), pinhole),
+        ("--baseline", args.baseline.is_some(), args.camera == Stereo),
+        ("--vfov", args.vfov.is_some(), args.camera == Cylindrical),
+        ("--focal", args.focal.is_some(), pinhole || omni),
+        ("--mirror", args.mirror.is_some(), omni),
+        ("--mirror-a", args.mirror_a.is_some(), omni && !spherical),
+        ("--mirror-b", args.mirror_b.is_some(), omni && !spherical),
+        (
+            "--mirror-h",
+            args.mirror_h.is_some(),
+            omni && mirror == MirrorKind::Parabolic,
+        ),
+        ("--sphere-radius", args.sphere_radius.is_some(), omni && spherical),
+        ("--camera-distance", args.camera_distance.is_some(), omni && spherical),
+        ("--rim", args.rim.is_some(), omni),
+        ("--max-elevation", args.max_elevation.is_some(), omni && !spherical),
+        ("--mount", args.mount.is_some(), omni),
+        ("--hidden-centre", args.hidden_centre.is_some(), omni),
+        ("--misalign-offset", args.misalign_offset.is_some(), omni),
+        ("--misalign-tilt", args.misalign_tilt.is_some(), omni),
+        ("--mirror-rays", args.mirror_rays.is_some(), omni),
+    ];
+    if let Some((option, ..)) = options.iter().find(|(_, given, applies)| *given && !applies) {
+        let name =
+            |value: Option<clap::builder::PossibleValue>| value.map(|v| v.get_name().to_owned()).unwrap_or_default();
+        let mut camera = name(args.camera.to_possible_value());
+        if omni {
+            camera += &format!(" --mirror {}", name(mirror.to_possible_value()));
+        }
+        bail!("{option} does not apply to --camera {camera}; remove it (see omnisim render --help)");
+    }
+    Ok(())
+}
+
+fn degrees_between_0_and_180(option: &str, degrees: f64) -> anyhow::Result<f64> {
+    if degrees > 0.0 && degrees < 180.0 {
+        Ok(degrees.to_radians())
     } else {
-        bail!("--{name} must be a positive number, not {v}")
+        bail!("{option} must be between 0 and 180 degrees (exclusive), not {degrees}")
     }
 }
 
 impl CameraArgs {
     fn pinhole(&self, default_size: (u32, u32)) -> anyhow::Result<Pinhole> {
         let (w, h) = self.size.unwrap_or(default_size);
-        let hfov = self.hfov;
-        if !(hfov > 0.0 && hfov < 180.0) {
-            bail!("--hfov must be between 0 and 180 degrees (exclusive), not {hfov}");
-        }
-        let mut pinhole = Pinhole::with_horizontal_fov(w, h, hfov.to_radians());
+        let hfov = degrees_between_0_and_180("--hfov", self.hfov.unwrap_or(60.0))?;
+        let mut pinhole = Pinhole::with_horizontal_fov(w, h, hfov);
         if let Some(f) = self.focal {
-            let f = positive("focal", f)?;
             (pinhole.fx, pinhole.fy) = (f, f);
         }
         Ok(pinhole)
     }
 
+    /// The camera or rig these options describe, checked by the library (`validate`): the
+    /// command line refuses exactly what a library caller would be refused.
     pub fn build(&self) -> anyhow::Result<Rig> {
-        Ok(match self.camera {
+        check_applicable(self)?;
+        let rig = match self.camera {
             CameraKind::Pinhole => Rig::Single(Camera::Pinhole(self.pinhole((640, 480))?)),
             CameraKind::Stereo => Rig::Stereo(StereoRig {
                 camera: self.pinhole((640, 480))?,
-                baseline: positive("baseline", self.baseline)?,
+                baseline: self.baseline.unwrap_or(0.12),
             }),
             CameraKind::Equirect => {
                 let (width, height) = self.size.unwrap_or((1024, 512));
@@ -199,20 +239,17 @@ impl CameraArgs {
             }
             CameraKind::Cylindrical => {
                 let (w, h) = self.size.unwrap_or((1024, 256));
-                if !(self.vfov > 0.0 && self.vfov < 180.0) {
-                    bail!(
-                        "--vfov must be between 0 and 180 degrees (exclusive), not {}",
-                        self.vfov
-                    );
-                }
-                Rig::Single(Camera::Cylindrical(Cylindrical::with_vertical_fov(
-                    w,
-                    h,
-                    self.vfov.to_radians(),
-                )))
+                let vfov = degrees_between_0_and_180("--vfov", self.vfov.unwrap_or(90.0))?;
+                Rig::Single(Camera::Cylindrical(Cylindrical::with_vertical_fov(w, h, vfov)))
             }
             CameraKind::Omni => Rig::Single(Camera::Catadioptric(self.catadioptric()?)),
-        })
+        };
+        match &rig {
+            Rig::Single(camera) => camera.validate(),
+            Rig::Stereo(stereo) => stereo.validate(),
+        }
+        .context("the camera cannot make an image")?;
+        Ok(rig)
     }
 
     fn catadioptric(&self) -> anyhow::Result<Catadioptric> {
@@ -223,10 +260,10 @@ impl CameraArgs {
         } else {
             requested.0.map(f64::to_radians)
         };
-        let mut camera = match self.mirror {
+        let a = self.mirror_a.unwrap_or(0.04);
+        let mut camera = match self.mirror.unwrap_or(MirrorKind::Hyperbolic) {
             MirrorKind::Hyperbolic => {
-                let a = positive("mirror-a", self.mirror_a.unwrap_or(0.04))?;
-                let b = positive("mirror-b", self.mirror_b.unwrap_or(0.16))?;
+                let b = self.mirror_b.unwrap_or(0.16);
                 let camera = Catadioptric::hyperbolic(w, h, a, b, elevation);
                 if let Some(e) = elevation
                     && e >= camera.asymptote_elevation()
@@ -240,8 +277,7 @@ impl CameraArgs {
                 camera
             }
             MirrorKind::Parabolic => {
-                let a = positive("mirror-a", self.mirror_a.unwrap_or(0.04))?;
-                let height = positive("mirror-h", self.mirror_h)?;
+                let height = self.mirror_h.unwrap_or(0.02);
                 let elevation = match (elevation, self.rim) {
                     (Some(e), _) => e,
                     (None, Some(_)) => 0.0,
@@ -249,54 +285,37 @@ impl CameraArgs {
                 };
                 let mut camera = Catadioptric::parabolic(w, h, a, height, elevation);
                 if let Some(b) = self.mirror_b {
-                    camera.mirror = MirrorShape::Parabolic {
-                        a,
-                        b: positive("mirror-b", b)?,
-                        h: height,
-                    };
+                    camera.mirror = MirrorShape::Parabolic { a, b, h: height };
                 }
                 camera
             }
-            MirrorKind::Spherical => {
-                if self.max_elevation.is_some() {
-                    bail!(
-                        "--max-elevation is for hyperbolic and parabolic mirrors; limit a spherical mirror with --rim"
-                    );
-                }
-                Catadioptric::spherical(
-                    w,
-                    h,
-                    positive("sphere-radius", self.sphere_radius)?,
-                    self.camera_distance,
-                )
-            }
+            MirrorKind::Spherical => Catadioptric::spherical(
+                w,
+                h,
+                self.sphere_radius.unwrap_or(0.05),
+                self.camera_distance.unwrap_or(0.25),
+            ),
         };
-        if let Some(rim) = self.rim {
-            camera.rim_radius = Some(positive("rim", rim)?);
+        if self.rim.is_some() {
+            camera.rim_radius = self.rim;
         }
         if let Some(f) = self.focal {
-            camera.focal = positive("focal", f)?;
+            camera.focal = f;
         }
-        camera.mount = match self.mount {
+        camera.mount = match self.mount.unwrap_or(MountArg::Up) {
             MountArg::Up => Mount::Up,
             MountArg::Down => Mount::Down,
         };
-        if self.hidden_centre.is_nan() || self.hidden_centre < 0.0 {
-            bail!("--hidden-centre must be a radius in pixels ≥ 0");
-        }
-        camera.hidden_centre_px = self.hidden_centre;
+        camera.hidden_centre_px = self.hidden_centre.unwrap_or(0.0);
         camera.misalignment = Misalignment {
             offset: self.misalign_offset.unwrap_or(DVec3::ZERO),
             tilt: self.misalign_tilt.unwrap_or(DVec3::ZERO) * (std::f64::consts::PI / 180.0),
         };
-        camera.rays = match self.mirror_rays {
+        camera.rays = match self.mirror_rays.unwrap_or(MirrorRaysArg::Reflect) {
             MirrorRaysArg::Reflect => MirrorRays::Reflect,
             MirrorRaysArg::Shortcut => MirrorRays::Shortcut,
         };
-        camera
-            .validate()
-            .map_err(anyhow::Error::msg)
-            .context("the omnidirectional camera cannot be traced")?;
+        camera.check_rays()?;
         Ok(camera)
     }
 }

@@ -10,6 +10,7 @@ mod metadata;
 mod poses;
 mod run_folder;
 mod stdout;
+mod warnings;
 
 use clap::{Parser, Subcommand};
 
@@ -25,7 +26,7 @@ mirror), traced exactly ray by ray. Frames: \
 metres, radians inside; world z up; body x forward, y left, z up; pose rotation \
 R = Rx(θx)·Ry(θy)·Rz(θz) as in the reference paper.\n\n\
 Examples:\n  omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
-omnisim poses grid --x=-2:2:0.5 --y=-1.5:1.5:0.5 --z 0.4 --out grid.txt\n  \
+omnisim poses grid --x=-2:2:0.5 --y=-1:0.5:0.5 --z 0.4 --out grid.txt\n  \
 omnisim render scenes/env1.ron --camera omni --poses-file grid.txt --out out/grid"
 )]
 struct Cli {
@@ -57,7 +58,7 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) if stdout::is_broken_pipe(&error) => std::process::ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error:#}");
+            eprintln!("error: {}", describe(&error));
             std::process::ExitCode::FAILURE
         }
     }
@@ -77,8 +78,43 @@ fn quiet_wayland_probe() -> Option<tempfile::TempDir> {
     Some(dir)
 }
 
+/// The error and its causes joined by ": ", leaving out a cause whose text the message already
+/// holds (library errors quote their OS error, which is also their source).
+fn describe(error: &anyhow::Error) -> String {
+    let mut message = String::new();
+    for cause in error.chain().map(ToString::to_string) {
+        if !message.contains(&cause) {
+            if !message.is_empty() {
+                message.push_str(": ");
+            }
+            message.push_str(&cause);
+        }
+    }
+    message
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn causes_already_quoted_are_not_repeated() {
+        let os = std::io::Error::from(std::io::ErrorKind::NotFound);
+        let quoted = anyhow::Error::new(std::io::Error::other(format!("cannot read x: {os}")));
+        let error = anyhow::Error::new(os).context(format!(
+            "cannot read x: {}",
+            std::io::Error::from(std::io::ErrorKind::NotFound)
+        ));
+        assert_eq!(
+            super::describe(&error).matches("not found").count(),
+            1,
+            "{}",
+            super::describe(&error)
+        );
+        assert_eq!(
+            super::describe(&quoted.context("rendering")),
+            format!("rendering: {}", "cannot read x: entity not found")
+        );
+    }
+
     #[test]
     fn command_line_definition_is_consistent() {
         use clap::CommandFactory;

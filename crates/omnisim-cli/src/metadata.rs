@@ -105,7 +105,7 @@ pub fn metadata(
             let a = pose.angles_degrees();
             json!({
                 "index": index,
-                "stem": format!("{}-{index:04}", scene.name),
+                "stem": format!("{}-{index:04}", scene.file_stem()),
                 "position": pose.position.to_array(),
                 "angles_deg": [a.x, a.y, a.z],
                 "quaternion_xyzw": pose.quaternion_xyzw(),

@@ -6,13 +6,23 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use glam::dvec3;
 use omnisim::Pose;
+use omnisim::input::excerpt;
+use omnisim::scene::MAX_COORDINATE;
 
-/// Parses `x,y,z,θx,θy,θz` (commas or spaces; angles in degrees; missing angles are 0).
+/// Parses `x,y,z,θx,θy,θz` (commas or spaces; angles in degrees; missing angles are 0). An
+/// empty value between commas is an error, not skipped: `1,,2,3` is not (1, 2, 3).
 pub fn parse_pose(text: &str) -> Result<Pose, String> {
-    let fields: Vec<&str> = text.split([',', ' ', '\t']).filter(|f| !f.is_empty()).collect();
+    let shown = excerpt(text, 80);
+    let mut fields = Vec::new();
+    for part in text.split(',') {
+        if part.trim().is_empty() && text.contains(',') {
+            return Err(format!("'{shown}' has an empty value between commas"));
+        }
+        fields.extend(part.split_whitespace());
+    }
     if fields.len() != 3 && fields.len() != 6 {
         return Err(format!(
-            "'{text}' has {} numbers; a pose is x,y,z (metres) optionally followed by θx,θy,θz (degrees)",
+            "'{shown}' has {} numbers; a pose is x,y,z (metres) optionally followed by θx,θy,θz (degrees)",
             fields.len()
         ));
     }
@@ -22,7 +32,12 @@ pub fn parse_pose(text: &str) -> Result<Pose, String> {
             .parse::<f64>()
             .ok()
             .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("'{field}' in '{text}' is not a finite number"))?;
+            .ok_or_else(|| format!("'{}' in '{shown}' is not a finite number", excerpt(field, 40)))?;
+    }
+    if let Some(v) = values[..3].iter().find(|v| v.abs() > MAX_COORDINATE) {
+        return Err(format!(
+            "{v:e} m in '{shown}' is beyond ±{MAX_COORDINATE:e} m, where scenes may lie"
+        ));
     }
     Ok(Pose::from_degrees(
         dvec3(values[0], values[1], values[2]),
@@ -30,9 +45,10 @@ pub fn parse_pose(text: &str) -> Result<Pose, String> {
     ))
 }
 
-/// Reads a pose file: one pose per line as for `--pose`; `#` starts a comment.
+/// Reads a pose file (a regular file of at most 256 MiB): one pose per line as for `--pose`;
+/// `#` starts a comment.
 pub fn read_pose_file(path: &Path) -> anyhow::Result<Vec<Pose>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read pose file {}", path.display()))?;
+    let text = omnisim::input::read_text(path, omnisim::input::POSE_FILE_LIMIT).context("cannot read the pose file")?;
     let mut poses = Vec::new();
     for (number, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();
@@ -63,5 +79,10 @@ mod tests {
         assert_eq!(parse_pose("1,2,3").unwrap().angles, dvec3(0.0, 0.0, 0.0));
         assert!(parse_pose("1,2").unwrap_err().contains("2 numbers"));
         assert!(parse_pose("1,2,nan").unwrap_err().contains("not a finite"));
+        assert!(parse_pose("1,,2,3").unwrap_err().contains("empty value"));
+        assert!(parse_pose("1,2,3,").unwrap_err().contains("empty value"));
+        assert!(parse_pose("1,2,1e7").unwrap_err().contains("beyond"));
+        let long = format!("1 2 {}", "3".repeat(10_000_000));
+        assert!(parse_pose(&long).unwrap_err().len() < 300);
     }
 }

@@ -162,7 +162,7 @@ fn bad_scene_files_fail_clearly_and_write_nothing() {
 fn bad_options_are_explained() {
     let huge = omnisim("render scenes/env1.ron --pose 0,0,1 --size 20000x20000");
     assert!(
-        !huge.status.success() && text(&huge.stderr).contains("400 megapixels"),
+        !huge.status.success() && text(&huge.stderr).contains("400000000 pixels (400 megapixels)"),
         "{}",
         text(&huge.stderr)
     );
@@ -571,4 +571,198 @@ fn outputs_open_in_the_readers_people_use() {
     eprintln!("{}", text(&check.stdout));
     assert!(check.status.success(), "{}", text(&check.stderr));
     assert!(text(&check.stdout).contains("checks passed in 7 folders"));
+}
+
+#[test]
+fn a_hostile_scene_name_writes_nothing_outside_the_output_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let inner = dir.path().join("a/b");
+    std::fs::create_dir_all(&inner).unwrap();
+    for name in ["../escaped", "../../escaped", "/tmp/omnisim-escaped", "a\\u{0}b"] {
+        let scene = inner.join("s.ron");
+        std::fs::write(
+            &scene,
+            format!("Scene(name: \"{name}\", objects: [Wall(name: \"w\", from: (0.0, 0.0), to: (1.0, 0.0), height: 1.0, colour: (1, 1, 1))])"),
+        )
+        .unwrap();
+        let out = inner.join("out");
+        let result = omnisim(&format!(
+            "render {} --camera equirect --size 16x8 --pose 0,-1,0.5 --backend cpu --out {}",
+            scene.display(),
+            out.display()
+        ));
+        assert!(
+            !result.status.success() && text(&result.stderr).contains("s.ron:1:7: the scene name"),
+            "{}",
+            text(&result.stderr)
+        );
+        let everything: Vec<_> = walk(dir.path());
+        assert_eq!(everything, vec![scene.clone()], "{name}");
+        assert!(!Path::new("/tmp/omnisim-escaped-0000.png").exists());
+    }
+}
+
+/// Every file under `dir`.
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            files.extend(walk(&path))
+        } else {
+            files.push(path)
+        }
+    }
+    files
+}
+
+#[test]
+fn lenient_command_lines_and_nonsense_cameras_are_refused() {
+    for (line, expected) in [
+        ("render scenes/env1.ron --pose=1,,2,3", "empty value between commas"),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --camera equirect --mirror-a=0",
+            "--mirror-a does not apply to --camera equirect",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --camera omni --mirror spherical --mirror-h 0.1",
+            "--mirror-h does not apply to --camera omni --mirror spherical",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --camera pinhole --vfov 40",
+            "--vfov does not apply",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --rim 1e-9",
+            "rim radius = 1e-9 m is outside its valid range, 1e-6 to 1000 m",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --focal 1e-300",
+            "focal = 1e-300 px is outside its valid range",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --misalign-tilt 180,0,0",
+            "no pixel",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --hidden-centre inf",
+            "hidden centre = inf px is outside its valid range",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --mirror spherical --camera-distance 1e300",
+            "camera distance (outside the sphere) = 1e300 m",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --camera stereo --baseline 1e300",
+            "baseline = 1e300 m is outside its valid range",
+        ),
+        (
+            "render scenes/env1.ron --pose 0,0,0 --camera equirect --size 10001x10000",
+            "(100.01 megapixels)",
+        ),
+    ] {
+        let result = omnisim(line);
+        let stderr = text(&result.stderr);
+        assert!(
+            !result.status.success() && stderr.contains(expected),
+            "{line}: {stderr}"
+        );
+        assert!(!stderr.contains("is 100 megapixels"), "{stderr}");
+    }
+}
+
+#[test]
+fn first_hour_errors_are_brief_and_in_order() {
+    // A missing scene is named first, even with other mistakes on the line, and the OS error once.
+    let missing = text(&omnisim("render scenes/nope.ron --camera equirect --mirror-a=0").stderr);
+    assert!(missing.contains("cannot read scenes/nope.ron"), "{missing}");
+    assert_eq!(missing.matches("os error 2").count(), 1, "{missing}");
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.txt");
+    std::fs::write(&poses, format!("0 0 0.4\n1 2 {}\n", "7".repeat(10_000_000))).unwrap();
+    let long = omnisim(&format!("render scenes/env1.ron --poses-file {}", poses.display()));
+    let stderr = text(&long.stderr);
+    assert!(
+        !long.status.success() && stderr.contains("poses.txt:2:") && stderr.len() < 1000,
+        "{} bytes",
+        stderr.len()
+    );
+    // A FIFO as pose file fails at once instead of waiting for a writer.
+    let fifo = dir.path().join("fifo.txt");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let started = std::time::Instant::now();
+    let blocked = omnisim(&format!("render scenes/env1.ron --poses-file {}", fifo.display()));
+    assert!(
+        text(&blocked.stderr).contains("is a FIFO (named pipe), not a regular file"),
+        "{}",
+        text(&blocked.stderr)
+    );
+    assert!(started.elapsed().as_secs() < 20);
+}
+
+#[test]
+fn numbers_people_read_carry_no_float_noise() {
+    let trajectory = text(
+        &omnisim("poses trajectory --through=-2,-1,0.4 --through 2,-1,0.4 --through 2,1,0.4 --spacing 0.1").stdout,
+    );
+    for value in trajectory
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .flat_map(|l| l.split(' '))
+    {
+        assert!(value.len() <= 12, "noisy number {value} in:\n{trajectory}");
+    }
+    let check = text(&omnisim("scene check scenes/env1.ron").stdout);
+    assert!(check.contains("z [-0.3, 2.3] m"), "{check}");
+    let dir = tempfile::tempdir().unwrap();
+    let result = omnisim(&format!(
+        "render scenes/env1.ron --camera equirect --size 16x8 --pose 0,0,0.4,0,0,30 --backend cpu --out {}",
+        dir.path().display()
+    ));
+    assert!(result.status.success(), "{}", text(&result.stderr));
+    let metadata: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("render.json")).unwrap()).unwrap();
+    assert_eq!(metadata["frames"][0]["angles_deg"], serde_json::json!([0.0, 0.0, 30.0]));
+}
+
+#[test]
+fn unsatisfiable_random_poses_fail_fast() {
+    let started = std::time::Instant::now();
+    let result = omnisim("poses random scenes/env1.ron --count 10000000 --clearance 3");
+    let stderr = text(&result.stderr);
+    assert!(
+        !result.status.success() && stderr.contains("only 0 of 10000 positions drawn were clear"),
+        "{stderr}"
+    );
+    assert!(started.elapsed().as_secs() < 20, "{:?}", started.elapsed());
+}
+
+#[test]
+fn readme_pose_examples_stay_out_of_the_furniture() {
+    let readme = std::fs::read_to_string(workspace().join("README.md")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for kind in ["grid", "trajectory"] {
+        let line = readme
+            .lines()
+            .find(|l| l.contains(&format!("-- poses {kind} ")))
+            .expect("README example");
+        let arguments = line.split(&format!("-- poses {kind} ")).nth(1).unwrap();
+        let arguments = arguments.split(" --out").next().unwrap();
+        let poses = dir.path().join(format!("{kind}.txt"));
+        assert!(
+            omnisim(&format!("poses {kind} {arguments} --out {}", poses.display()))
+                .status
+                .success()
+        );
+        let rendered = omnisim(&format!(
+            "render scenes/env1.ron --camera equirect --size 8x4 --no-ply --backend cpu --poses-file {} --out {}",
+            poses.display(),
+            dir.path().join(kind).display()
+        ));
+        let stderr = text(&rendered.stderr);
+        assert!(
+            rendered.status.success() && !stderr.contains("warning"),
+            "{kind}: {stderr}"
+        );
+    }
 }

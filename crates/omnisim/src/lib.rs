@@ -14,6 +14,7 @@ pub mod camera;
 pub mod cpu;
 pub mod frame;
 pub mod gpu;
+pub mod input;
 pub mod lighting;
 pub mod output;
 pub mod pose;
@@ -22,7 +23,7 @@ pub mod renderer;
 pub mod scene;
 pub mod shading;
 
-pub use camera::{Camera, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
+pub use camera::{Camera, CameraError, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
 pub use frame::{Frame, Pixel, Plane, Planes};
 pub use lighting::{Light, LightKind, Lighting};
 pub use pose::Pose;

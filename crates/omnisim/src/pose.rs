@@ -46,7 +46,33 @@ impl Pose {
         [q.x, q.y, q.z, q.w]
     }
 
+    /// Angles in degrees, rounded to 1e-9° (far below any meaning) so that 30° typed reads
+    /// back as 30 in every file, not 29.999999999999996.
     pub fn angles_degrees(&self) -> DVec3 {
-        self.angles * (180.0 / std::f64::consts::PI)
+        (self.angles * (180.0 / std::f64::consts::PI)).map(|a| rounded(a, 1e9))
+    }
+}
+
+/// `value` rounded to 1/`per_unit` (e.g. 1e6: micrometres of metres), −0 made 0: derived
+/// numbers printed for people without float noise (2.3, not 2.3000000000000003).
+pub fn rounded(value: f64, per_unit: f64) -> f64 {
+    // Dividing by the exact integer `per_unit` (not multiplying by its inexact inverse) gives
+    // the nearest float to the decimal, which prints as the decimal.
+    (value * per_unit).round() / per_unit + 0.0
+}
+
+/// Positions are derived (grid steps, trajectories, random draws) to the micrometre.
+pub const MICROMETRES: f64 = 1e6;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derived_numbers_print_without_noise() {
+        assert_eq!(format!("{}", rounded(0.1 + 0.2, MICROMETRES)), "0.3");
+        assert_eq!(format!("{}", rounded(-1e-17, MICROMETRES)), "0");
+        let pose = Pose::new(DVec3::ZERO, glam::dvec3(0.0, 0.0, 30f64.to_radians() - 4e-16));
+        assert_eq!(pose.angles_degrees().z.to_string(), "30");
     }
 }

@@ -1,6 +1,7 @@
 //! Sets of poses for data sets: a grid map, a trajectory through waypoints, random test poses.
 //! Every set is a plain `Vec<Pose>`; the CLI writes them as pose files for `render`.
 
+use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use glam::{DVec3, dvec3};
@@ -8,7 +9,8 @@ use rand::{Rng, SeedableRng, rngs::StdRng};
 
 use crate::bvh::SceneBvh;
 use crate::cpu;
-use crate::pose::Pose;
+use crate::pose::{MICROMETRES, Pose, rounded};
+use crate::scene::Scene;
 
 /// Values start, start + step, … up to stop (inclusive, to within a millionth of a step).
 pub fn steps(start: f64, stop: f64, step: f64) -> Vec<f64> {
@@ -16,7 +18,9 @@ pub fn steps(start: f64, stop: f64, step: f64) -> Vec<f64> {
         return vec![start];
     }
     let count = ((stop - start) / step + 1e-6).floor() as usize + 1;
-    (0..count).map(|i| start + i as f64 * step).collect()
+    (0..count)
+        .map(|i| rounded(start + i as f64 * step, MICROMETRES))
+        .collect()
 }
 
 /// Every combination of the given x, y, z values (x fastest), all with `angles` (radians).
@@ -44,7 +48,8 @@ pub fn trajectory(waypoints: &[DVec3], spacing: f64) -> Vec<Pose> {
         let direction = (b - a) / length;
         let mut along = if poses.is_empty() { 0.0 } else { spacing - carried };
         while along < length - 1e-12 {
-            poses.push(Pose::new(a + direction * along, facing(direction)));
+            let position = (a + direction * along).map(|v| rounded(v, MICROMETRES));
+            poses.push(Pose::new(position, facing(direction)));
             along += spacing;
         }
         carried = length - (along - spacing);
@@ -69,10 +74,30 @@ pub struct RandomPoses {
     pub clearance: f64,
 }
 
+/// Why `random` gave up: the clearance is met too rarely to find `count` poses.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "only {accepted} of {drawn} positions drawn were clear; at that rate {count} poses would take more than \
+     {budget} draws"
+)]
+pub struct TooFewClear {
+    pub accepted: usize,
+    pub drawn: usize,
+    pub count: usize,
+    pub budget: usize,
+}
+
+/// Draws after which the acceptance rate is judged.
+const TRIAL_DRAWS: usize = 10_000;
+/// Draws allowed per pose asked for.
+const DRAWS_PER_POSE: usize = 1000;
+
 /// Uniformly drawn poses whose position is at least `clearance` from every surface along the
-/// six axis directions and enclosed (every axis ray hits the scene). Reproducible for a seed.
-/// `None` if fewer than `count` such positions turn up in 1000 × count draws.
-pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Option<Vec<Pose>> {
+/// six axis directions and enclosed (every axis ray hits the scene). Reproducible for a seed;
+/// positions to the micrometre. Fails fast: after `TRIAL_DRAWS` draws (and every
+/// `TRIAL_DRAWS` more) the acceptance rate so far must promise `count` poses within
+/// `DRAWS_PER_POSE × count` draws.
+pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Result<Vec<Pose>, TooFewClear> {
     let mut rng = StdRng::seed_from_u64(spec.seed);
     let axes = [DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z];
     let free = |p: DVec3| {
@@ -80,16 +105,33 @@ pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Option<Vec<Pose>> {
             .all(|&d| cpu::closest_hit(bvh, p - bvh.offset, d, 0.0).is_some_and(|hit| hit.t >= spec.clearance))
     };
     let draw = |rng: &mut StdRng, lo: f64, hi: f64| if hi > lo { rng.random_range(lo..=hi) } else { lo };
-    let mut poses = Vec::with_capacity(spec.count);
-    for _ in 0..spec.count.saturating_mul(1000) {
-        if poses.len() == spec.count {
-            break;
+    let budget = spec.count.saturating_mul(DRAWS_PER_POSE).max(TRIAL_DRAWS);
+    let mut poses = Vec::with_capacity(spec.count.min(1 << 20));
+    let mut drawn = 0usize;
+    while poses.len() < spec.count {
+        let give_up = |drawn: usize, accepted: usize| TooFewClear {
+            accepted,
+            drawn,
+            count: spec.count,
+            budget,
+        };
+        if drawn >= budget {
+            return Err(give_up(drawn, poses.len()));
         }
+        if drawn > 0 && drawn.is_multiple_of(TRIAL_DRAWS) {
+            // Draws still needed at the rate so far (+1: no acceptance yet is no promise).
+            let needed = (spec.count - poses.len()) as f64 * drawn as f64 / (poses.len() as f64 + 1.0);
+            if drawn as f64 + needed > budget as f64 {
+                return Err(give_up(drawn, poses.len()));
+            }
+        }
+        drawn += 1;
         let p = dvec3(
             draw(&mut rng, spec.low.x, spec.high.x),
             draw(&mut rng, spec.low.y, spec.high.y),
             draw(&mut rng, spec.low.z, spec.high.z),
-        );
+        )
+        .map(|v| rounded(v, MICROMETRES));
         let angles = dvec3(
             draw(&mut rng, -spec.max_tilt, spec.max_tilt),
             draw(&mut rng, -spec.max_tilt, spec.max_tilt),
@@ -99,7 +141,58 @@ pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Option<Vec<Pose>> {
             poses.push(Pose::new(p, angles));
         }
     }
-    (poses.len() == spec.count).then_some(poses)
+    Ok(poses)
+}
+
+/// Where a pose's position lies that a renderer would silently accept but a user would not
+/// mean: outside the scene's bounds, or inside a closed object (a `Box`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Misplaced {
+    OutsideBounds,
+    /// Inside the named object.
+    Inside(String),
+}
+
+/// Whether `position` is outside the scene or inside one of its boxes. Inside is decided by
+/// the parity of a box's crossings along three generic rays (two must agree), so it costs a
+/// few dozen ray casts.
+pub fn misplaced(scene: &Scene, bvh: &SceneBvh, position: DVec3) -> Option<Misplaced> {
+    let (lo, hi) = scene.bounds()?;
+    if position.cmplt(lo).any() || position.cmpgt(hi).any() {
+        return Some(Misplaced::OutsideBounds);
+    }
+    let directions = [
+        dvec3(0.5773, 0.5774, 0.5775),
+        dvec3(-0.6, 0.48, -0.64),
+        dvec3(0.28, -0.96, 0.0),
+    ];
+    let mut votes: HashMap<u32, usize> = HashMap::new();
+    for direction in directions {
+        let direction = direction.normalize();
+        let mut crossings: HashMap<u32, usize> = HashMap::new();
+        let mut t_min = 0.0;
+        // A bounded walk: a ray crosses few faces in any sensible scene.
+        for _ in 0..10_000 {
+            let Some(hit) = cpu::closest_hit(bvh, position - bvh.offset, direction, t_min) else {
+                break;
+            };
+            let object = scene.faces[bvh.face[hit.triangle] as usize].object;
+            if scene.objects[object as usize].kind == "Box" {
+                *crossings.entry(object).or_default() += 1;
+            }
+            t_min = hit.t * (1.0 + 1e-12) + 1e-12;
+        }
+        for (object, count) in crossings {
+            if count % 2 == 1 {
+                *votes.entry(object).or_default() += 1;
+            }
+        }
+    }
+    votes
+        .into_iter()
+        .filter(|&(_, v)| v >= 2)
+        .min()
+        .map(|(object, _)| Misplaced::Inside(scene.objects[object as usize].name.clone()))
 }
 
 #[cfg(test)]
@@ -153,7 +246,41 @@ mod tests {
                     ..spec
                 }
             )
-            .is_none()
+            .is_err()
+        );
+        // Ten million poses nowhere to be found: refused after the first trial, not 47 minutes.
+        let started = std::time::Instant::now();
+        let refusal = random(
+            &bvh,
+            &RandomPoses {
+                clearance: 1.1,
+                count: 10_000_000,
+                ..spec
+            },
+        )
+        .unwrap_err();
+        assert_eq!((refusal.accepted, refusal.drawn), (0, TRIAL_DRAWS));
+        assert!(started.elapsed().as_secs_f64() < 5.0);
+    }
+
+    #[test]
+    fn poses_inside_boxes_or_outside_the_scene_are_found() {
+        let text = r#"Scene(name: "room", objects: [
+            Floor(name: "floor", corners: [(-3.0, -2.0), (3.0, -2.0), (3.0, 2.0), (-3.0, 2.0)], colour: (1, 1, 1)),
+            Floor(name: "ceiling", corners: [(-3.0, -2.0), (3.0, -2.0), (3.0, 2.0), (-3.0, 2.0)], z: 2.0, colour: (1, 1, 1)),
+            Box(name: "table", size: (1.0, 1.0, 0.8), position: (1.0, 0.0, 0.0), colour: (9, 9, 9)),
+        ])"#;
+        let scene = crate::scene::Scene::from_ron(text, std::path::Path::new("room.ron")).unwrap();
+        let bvh = SceneBvh::build(&scene);
+        assert_eq!(misplaced(&scene, &bvh, dvec3(0.0, 0.0, 1.0)), None);
+        assert_eq!(
+            misplaced(&scene, &bvh, dvec3(1.2, 0.1, 0.4)),
+            Some(Misplaced::Inside("table".into()))
+        );
+        assert_eq!(misplaced(&scene, &bvh, dvec3(1.2, 0.1, 0.9)), None);
+        assert_eq!(
+            misplaced(&scene, &bvh, dvec3(0.0, 0.0, 3.0)),
+            Some(Misplaced::OutsideBounds)
         );
     }
 

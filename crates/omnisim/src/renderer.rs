@@ -44,6 +44,9 @@ pub enum RenderError {
         /// Faces of the scene.
         faces: usize,
     },
+    /// A camera that cannot make an image.
+    #[error("the camera cannot make an image: {0}")]
+    Camera(#[from] crate::camera::CameraError),
 }
 
 enum Backend {
@@ -163,6 +166,7 @@ impl Renderer {
         pose: &Pose,
         planes: Planes,
     ) -> Result<Frame, RenderError> {
+        camera.validate()?;
         let mut frame = match self.gpu(prepared) {
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {

@@ -16,7 +16,7 @@ use omnisim::{Pose, Scene};
 #[derive(Debug, Subcommand)]
 pub enum PosesCommand {
     /// A grid map: every combination of the x, y and z values.
-    #[command(after_help = "Example:\n  omnisim poses grid --x=-2:2:0.5 --y=-1.5:1.5:0.5 --z 0.4 --out grid.txt")]
+    #[command(after_help = "Example:\n  omnisim poses grid --x=-2:2:0.5 --y=-1:0.5:0.5 --z 0.4 --out grid.txt")]
     Grid {
         /// x values, START:STOP:STEP (inclusive) or one value, metres.
         #[arg(long, value_parser = parse_range, allow_hyphen_values = true)]
@@ -36,7 +36,7 @@ pub enum PosesCommand {
     /// A trajectory: poses every --spacing metres along straight lines through the waypoints,
     /// each turned (θz) to face the direction of travel.
     #[command(
-        after_help = "Example:\n  omnisim poses trajectory --through=-2,-1,0.4 --through 2,-1,0.4 --through 2,1,0.4 --spacing 0.1"
+        after_help = "Example:\n  omnisim poses trajectory --through=-2,-1,0.4 --through 2,-1,0.4 --through 2,0.3,0.4 --through=-2,0.3,0.4 --spacing 0.1"
     )]
     Trajectory {
         /// A waypoint x,y,z in metres; give two or more, in order.
@@ -191,6 +191,7 @@ pub fn run(command: PosesCommand) -> anyhow::Result<()> {
             clearance,
             out,
         } => {
+            omnisim::input::check_regular(&scene, omnisim::input::SCENE_LIMIT)?;
             if !(1..=MAX_POSES).contains(&count) {
                 bail!("--count must be from 1 to {MAX_POSES}, not {count}");
             }
@@ -212,7 +213,7 @@ pub fn run(command: PosesCommand) -> anyhow::Result<()> {
                 clearance,
             };
             let poses = pose_sets::random(&SceneBvh::build(&scene), &spec).with_context(|| {
-                format!("could not find {count} positions {clearance} m clear of every surface; lower --clearance or widen --z")
+                format!("could not find {count} positions {clearance} m clear of every surface; lower --clearance, widen --z or ask for fewer")
             })?;
             write(&poses, "random", &out)
         }

@@ -95,6 +95,7 @@ pub struct RenderArgs {
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
+    omnisim::input::check_regular(&args.scene, omnisim::input::SCENE_LIMIT)?;
     let rig = args.camera.build()?;
     let views = views(&rig);
     let mut poses = args.poses.clone();
@@ -123,6 +124,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         renderer.device_name(),
         prepared.fallback().unwrap_or(renderer.reason())
     );
+    crate::warnings::misplaced_poses(&scene, prepared.geometry(), &poses);
     let mut run = crate::run_folder::open(&args, &poses)?;
 
     let progress = ProgressBar::new(poses.len() as u64).with_style(
@@ -139,12 +141,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut written = Vec::new();
     let render_started = Instant::now();
     for (index, pose) in poses.iter().enumerate() {
-        let stem = format!("{}-{index:04}", scene.name);
+        let stem = format!("{}-{index:04}", scene.file_stem());
         let mut frames = Vec::with_capacity(views.len());
         for (suffix, camera) in &views {
             let frame = renderer
                 .render_antialiased(&prepared, camera, pose, planes, args.edge_samples.isqrt())
                 .with_context(|| format!("rendering pose {index}"))?;
+            crate::warnings::empty_frame(index, suffix, &frame);
             let png = run.claim(format!("{stem}{suffix}.png"))?;
             output::write_png(&png, &frame)?;
             let exr = run.claim(format!("{stem}{suffix}-range.exr"))?;

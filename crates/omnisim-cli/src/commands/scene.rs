@@ -5,11 +5,17 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Subcommand;
 use omnisim::Scene;
+use omnisim::pose::{MICROMETRES, rounded};
 use omnisim::scene::ExportFormat;
 
 #[derive(Debug, Subcommand)]
 pub enum SceneCommand {
     /// Load and validate a scene; print its objects, faces and bounds.
+    ///
+    /// The scene name must be 1-100 bytes of letters, digits, '-', '_', '.' and spaces (it names
+    /// output files); coordinates must lie within ±1e6 m; meshes are read from the scene's
+    /// folder and below only (no '..' or absolute paths), OBJ material files never; only
+    /// regular files are read (scenes up to 64 MiB, meshes 2 GiB).
     Check {
         /// Scene file (RON).
         scene: PathBuf,
@@ -39,12 +45,17 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
                 scene.faces.len(),
                 scene.triangulate().len()
             ))?;
+            // Bounds to the micrometre: 2.3, not 2.3000000000000003.
+            let (lo, hi) = (lo.map(|v| rounded(v, MICROMETRES)), hi.map(|v| rounded(v, MICROMETRES)));
             crate::stdout::line(format_args!(
                 "bounds: x [{}, {}], y [{}, {}], z [{}, {}] m",
                 lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
             ))?;
-            for (index, object) in scene.objects.iter().enumerate() {
-                let faces = scene.faces.iter().filter(|f| f.object as usize == index).count();
+            let mut faces = vec![0usize; scene.objects.len()];
+            for face in &scene.faces {
+                faces[face.object as usize] += 1;
+            }
+            for (object, faces) in scene.objects.iter().zip(faces) {
                 crate::stdout::line(format_args!("  {:<8} {:<24} {faces} faces", object.kind, object.name))?;
             }
         }

@@ -241,51 +241,6 @@ impl Catadioptric {
             }
     }
 
-    /// Why this camera cannot be traced as configured, if it cannot.
-    pub fn validate(&self) -> Result<(), String> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{name} must be a positive finite number, not {v}"))
-            }
-        };
-        match self.mirror {
-            MirrorShape::Hyperbolic { a, b } => {
-                positive("mirror a", a)?;
-                positive("mirror b", b)?;
-            }
-            MirrorShape::Parabolic { a, b, h } => {
-                positive("mirror a", a)?;
-                positive("mirror b", b)?;
-                positive("mirror h", h)?;
-            }
-            MirrorShape::Spherical {
-                radius,
-                camera_distance,
-            } => {
-                positive("sphere radius", radius)?;
-                if !camera_distance.is_finite() || camera_distance <= radius {
-                    return Err(format!(
-                        "the camera must be outside the sphere: distance {camera_distance} m ≤ radius {radius} m"
-                    ));
-                }
-            }
-        }
-        positive("focal", self.focal)?;
-        if let Some(rim) = self.rim_radius {
-            positive("rim radius", rim)?;
-        }
-        if self.rays == MirrorRays::Shortcut && !self.is_central() {
-            return Err(
-                "the shortcut (rays from the viewpoint F' through the mirror point) is only exact for an aligned \
-                 central mirror (hyperbolic, or parabolic with a = b, no misalignment); use reflect"
-                    .into(),
-            );
-        }
-        Ok(())
-    }
-
     /// The mirror surface in the surface frame S.
     pub fn quadric(&self) -> Quadric {
         match self.mirror {

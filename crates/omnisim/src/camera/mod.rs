@@ -9,6 +9,7 @@ mod cylindrical;
 mod equirect;
 pub(crate) mod pinhole;
 mod stereo;
+mod validate;
 
 use glam::{DVec2, DVec3};
 
@@ -17,6 +18,7 @@ pub use cylindrical::Cylindrical;
 pub use equirect::Equirectangular;
 pub use pinhole::Pinhole;
 pub use stereo::StereoRig;
+pub use validate::{CameraError, MAX_PIXELS};
 
 /// A ray of a camera in its body frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

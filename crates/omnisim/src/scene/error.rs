@@ -4,8 +4,9 @@ use std::path::PathBuf;
 /// content name the line, the column and the object, so the message alone says where to look.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("cannot read {}: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    /// The scene file could not be read (missing, not a regular file, too large, not text).
+    #[error(transparent)]
+    Input(#[from] crate::input::InputError),
     #[error("{}:{line}:{column}: {message}", path.display())]
     Parse {
         path: PathBuf,

@@ -1,14 +1,14 @@
 //! The object library: turns each object of a scene file into planar faces.
 
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Component, Path};
 
 use glam::{DVec3, dvec3};
 
 use super::file::{
     AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile,
 };
-use super::{Face, Scene, SceneError, SceneObject, locate, mesh, validate};
+use super::{Face, Scene, SceneError, SceneObject, locate, mesh, names, validate};
 use crate::lighting::{Light, LightKind, Lighting, linear_rgb};
 use crate::pose::rotation_xyz;
 
@@ -16,6 +16,15 @@ use crate::pose::rotation_xyz;
 const BOX_FACES: [&str; 6] = ["front", "back", "left", "right", "top", "bottom"];
 
 pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, SceneError> {
+    if let Err(problem) = names::check_scene_name(&file.name) {
+        let (line, column) = locate::scene_field(text, "name").unwrap_or((1, 1));
+        return Err(SceneError::Parse {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: problem,
+        });
+    }
     let mut scene = Scene {
         name: file.name,
         description: file.description,
@@ -57,6 +66,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let is_mesh = matches!(object, ObjectFile::Mesh(_));
         let mut dropped = 0usize;
         for (vertices, colour) in faces {
+            validate::check_coordinates(&vertices).map_err(&invalid)?;
             if let Err(problem) = validate::check_face(&vertices) {
                 if !is_mesh {
                     return Err(invalid(problem));
@@ -71,10 +81,10 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 object: index,
             });
         }
+        if is_mesh && scene.faces.last().is_none_or(|f| f.object != index) {
+            return Err(invalid("the mesh has no usable triangles (all have zero area)".into()));
+        }
         if dropped > 0 {
-            if scene.faces.last().is_none_or(|f| f.object != index) {
-                return Err(invalid("the mesh has no usable triangles".into()));
-            }
             scene
                 .warnings
                 .push(format!("mesh '{name}': dropped {dropped} degenerate triangles"));
@@ -312,8 +322,21 @@ fn polygon_face(p: &PolygonFile) -> Result<Vec<RawFace>, String> {
 
 fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path) -> Result<Vec<RawFace>, String> {
     positive("scale", m.scale)?;
-    let mesh_path = scene_path.parent().unwrap_or(Path::new(".")).join(&m.path);
-    let triangles = mesh::load(&mesh_path).map_err(|e| format!("mesh {}: {e}", mesh_path.display()))?;
+    // A scene file may come from anyone: it reads meshes from its own folder and below only.
+    let relative = Path::new(&m.path);
+    if m.path.is_empty()
+        || relative
+            .components()
+            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(format!(
+            "mesh path '{}' must be relative to the scene file's folder and stay inside it (no '..', no absolute \
+             path); put the mesh beside the scene or in a folder below it",
+            crate::input::excerpt(&m.path.escape_debug().to_string(), 80)
+        ));
+    }
+    let mesh_path = scene_path.parent().unwrap_or(Path::new(".")).join(relative);
+    let triangles = mesh::load(&mesh_path)?;
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);
     let faces = triangles

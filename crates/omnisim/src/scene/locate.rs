@@ -16,6 +16,66 @@ pub(super) fn name_field(text: &str, name: &str, occurrence: usize) -> Option<(u
         .nth(occurrence)
 }
 
+/// The characters of RON text outside strings and comments, with their byte offsets.
+fn code(text: &str, from: usize) -> impl Iterator<Item = (usize, char)> + '_ {
+    let mut chars = text[from..].char_indices().map(move |(i, c)| (i + from, c)).peekable();
+    std::iter::from_fn(move || {
+        loop {
+            let (i, c) = chars.next()?;
+            match c {
+                '"' => {
+                    // Skip the string, escapes included.
+                    while let Some((_, s)) = chars.next() {
+                        match s {
+                            '\\' => {
+                                chars.next();
+                            }
+                            '"' => break,
+                            _ => {}
+                        }
+                    }
+                }
+                '/' if chars.peek().is_some_and(|&(_, n)| n == '/') => {
+                    while chars.next_if(|&(_, n)| n != '\n').is_some() {}
+                }
+                '/' if chars.peek().is_some_and(|&(_, n)| n == '*') => {
+                    chars.next();
+                    let mut last = ' ';
+                    for (_, n) in chars.by_ref() {
+                        if last == '*' && n == '/' {
+                            break;
+                        }
+                        last = n;
+                    }
+                }
+                _ => return Some((i, c)),
+            }
+        }
+    })
+}
+
+/// The 1-based (line, column) of the scene's own `field` (outside `objects`), e.g. `name`.
+pub(super) fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
+    let mut depth = 0usize;
+    let mut previous_is_word = false;
+    for (i, c) in code(text, 0) {
+        match c {
+            '(' | '[' | '{' => depth += 1,
+            ')' | ']' | '}' => depth = depth.saturating_sub(1),
+            _ if depth == 1 && !previous_is_word && text[i..].starts_with(field) => {
+                let after = text[i + field.len()..].trim_start();
+                let word_ends = !text[i + field.len()..].starts_with(|n: char| n.is_alphanumeric() || n == '_');
+                if word_ends && after.starts_with(':') {
+                    return Some(line_column(text, i));
+                }
+            }
+            _ => {}
+        }
+        previous_is_word = c.is_alphanumeric() || c == '_';
+    }
+    None
+}
+
 /// The name of the object of the `objects: [...]` list whose text contains the 1-based
 /// (line, column), if it has a `name: "…"` field.
 pub(super) fn object_at(text: &str, line: usize, column: usize) -> Option<String> {
@@ -23,24 +83,8 @@ pub(super) fn object_at(text: &str, line: usize, column: usize) -> Option<String
     let list = text.find("objects")?;
     let mut depth = 0usize;
     let mut start = None;
-    let mut chars = text[list..].char_indices().map(|(i, c)| (i + list, c)).peekable();
-    while let Some((i, c)) = chars.next() {
+    for (i, c) in code(text, list) {
         match c {
-            '"' => {
-                // Skip the string, escapes included.
-                while let Some((_, s)) = chars.next() {
-                    match s {
-                        '\\' => {
-                            chars.next();
-                        }
-                        '"' => break,
-                        _ => {}
-                    }
-                }
-            }
-            '/' if chars.peek().is_some_and(|&(_, n)| n == '/') => {
-                while chars.next_if(|&(_, n)| n != '\n').is_some() {}
-            }
             '(' | '[' | '{' => {
                 depth += 1;
                 // Depth 1 is inside `objects: [`; an object opens at depth 2.
@@ -65,6 +109,16 @@ pub(super) fn object_at(text: &str, line: usize, column: usize) -> Option<String
     }
     // The list never closed (a syntax error): the last object opened before the position.
     start.filter(|&s| s <= target).and_then(|s| object_name(&text[s..]))
+}
+
+/// 1-based (line, column in characters) of a byte offset.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset];
+    let line_start = before.rfind('\n').map_or(0, |n| n + 1);
+    (
+        before.matches('\n').count() + 1,
+        before[line_start..].chars().count() + 1,
+    )
 }
 
 /// The text of the object's `name: "…"` field (escapes kept as written).
@@ -117,5 +171,12 @@ mod tests {
         assert_eq!(object_at(text, 3, 10).as_deref(), Some("a (\\\"x"));
         assert_eq!(object_at(text, 5, 16).as_deref(), Some("b"));
         assert_eq!(object_at(text, 1, 3), None);
+    }
+
+    #[test]
+    fn finds_the_scene_name_field() {
+        let text = "/* name: 1 */ Scene(\n  // name: 2\n  objects: [Wall(name: \"w\")],\n  rename: 0, name: \"x\")";
+        assert_eq!(scene_field(text, "name"), Some((4, 14)));
+        assert_eq!(scene_field("Scene(objects: [])", "name"), None);
     }
 }

@@ -1,11 +1,12 @@
 //! Reads triangle meshes (PLY through ply-rs-bw, OBJ through tobj) so that real-world geometry
 //! and other tools' scenes can be placed in a scene.
 
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use glam::{DVec3, dvec3};
-use ply_rs_bw::parser::Parser;
-use ply_rs_bw::ply::{DefaultElement, Property};
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{Encoding, Property, PropertyAccess, PropertyAccessResult};
 
 /// One triangle of a mesh, in the mesh file's own coordinates.
 pub(super) struct MeshTriangle {
@@ -14,20 +15,36 @@ pub(super) struct MeshTriangle {
     pub colour: Option<[u8; 3]>,
 }
 
+/// Most triangles one mesh may have (about 15 GB of memory at 300 bytes each): a lying or
+/// enormous header fails at once instead of exhausting memory.
+pub const MAX_MESH_TRIANGLES: usize = 50_000_000;
+
+/// Reads a mesh file. `path` must be a regular file of at most [`crate::input::MESH_LIMIT`]
+/// bytes; errors name the file and a position, never the bytes found there.
 pub(super) fn load(path: &Path) -> Result<Vec<MeshTriangle>, String> {
-    if !path.exists() {
-        return Err("file not found; the path is relative to the scene file's folder".into());
-    }
-    match path
+    let reader = crate::input::open_regular(path, crate::input::MESH_LIMIT).map_err(|e| match e {
+        crate::input::InputError::Io { error, .. } if error.kind() == std::io::ErrorKind::NotFound => format!(
+            "{}: file not found; mesh paths are relative to the scene file's folder",
+            path.display()
+        ),
+        other => other.to_string(),
+    })?;
+    let reader = BufReader::new(reader);
+    let result = match path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .as_deref()
     {
-        Some("ply") => load_ply(path),
-        Some("obj") => load_obj(path),
+        Some("ply") => load_ply(reader),
+        Some("obj") => load_obj(reader),
         _ => Err("unknown mesh format; use a .ply or .obj file".into()),
+    };
+    let triangles = result.map_err(|e| format!("{}: {e}", path.display()))?;
+    if triangles.is_empty() {
+        return Err(format!("{}: the mesh has no triangles", path.display()));
     }
+    Ok(triangles)
 }
 
 fn scalar(p: &Property) -> Option<f64> {
@@ -44,81 +61,196 @@ fn scalar(p: &Property) -> Option<f64> {
     })
 }
 
-fn index_list(p: &Property) -> Option<Vec<i64>> {
+fn index_list(p: Property) -> Option<Vec<i64>> {
     Some(match p {
-        Property::ListChar(v) => v.iter().map(|&i| i as i64).collect(),
-        Property::ListUChar(v) => v.iter().map(|&i| i as i64).collect(),
-        Property::ListShort(v) => v.iter().map(|&i| i as i64).collect(),
-        Property::ListUShort(v) => v.iter().map(|&i| i as i64).collect(),
-        Property::ListInt(v) => v.iter().map(|&i| i as i64).collect(),
-        Property::ListUInt(v) => v.iter().map(|&i| i as i64).collect(),
+        Property::ListChar(v) => v.into_iter().map(i64::from).collect(),
+        Property::ListUChar(v) => v.into_iter().map(i64::from).collect(),
+        Property::ListShort(v) => v.into_iter().map(i64::from).collect(),
+        Property::ListUShort(v) => v.into_iter().map(i64::from).collect(),
+        Property::ListInt(v) => v.into_iter().map(i64::from).collect(),
+        Property::ListUInt(v) => v.into_iter().map(i64::from).collect(),
         _ => return None,
     })
 }
 
-fn colour_of(element: &DefaultElement) -> Option<[u8; 3]> {
-    let channel = |names: [&str; 2]| {
-        names
-            .iter()
-            .find_map(|n| element.get(*n).and_then(scalar))
-            .map(|v| v.clamp(0.0, 255.0) as u8)
-    };
-    Some([
-        channel(["red", "r"])?,
-        channel(["green", "g"])?,
-        channel(["blue", "b"])?,
-    ])
+/// The colour channel a PLY property name stands for.
+fn channel(name: &str) -> Option<usize> {
+    match name {
+        "red" | "r" => Some(0),
+        "green" | "g" => Some(1),
+        "blue" | "b" => Some(2),
+        _ => None,
+    }
 }
 
-fn load_ply(path: &Path) -> Result<Vec<MeshTriangle>, String> {
-    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    let mut reader = std::io::BufReader::new(file);
-    let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut reader)
-        .map_err(|e| format!("not a readable PLY file: {e}"))?;
-    let vertices = ply
-        .payload
-        .get("vertex")
-        .ok_or("the PLY file has no 'vertex' element")?;
-    let faces = ply
-        .payload
-        .get("face")
-        .ok_or("the PLY file has no 'face' element (a point cloud is not a mesh)")?;
-    let positions = vertices
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let c = |k: &str| {
-                v.get(k)
-                    .and_then(scalar)
-                    .ok_or(format!("vertex {i} has no numeric '{k}'"))
-            };
-            Ok((dvec3(c("x")?, c("y")?, c("z")?), colour_of(v)))
-        })
-        .collect::<Result<Vec<_>, String>>()?;
+/// A PLY vertex as omnisim needs it: ply-rs's default element (a hash map per vertex) takes
+/// ten times the memory.
+#[derive(Default)]
+struct PlyVertex {
+    position: [f64; 3],
+    /// Which of x, y, z were given.
+    given: [bool; 3],
+    rgb: [Option<u8>; 3],
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        Self::default()
+    }
+
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        let axis = match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            _ => {
+                if let (Some(k), Some(v)) = (channel(name), scalar(&property)) {
+                    self.rgb[k] = Some(v.clamp(0.0, 255.0) as u8);
+                }
+                return PropertyAccessResult::Ignored;
+            }
+        };
+        match scalar(&property) {
+            Some(v) => {
+                (self.position[axis], self.given[axis]) = (v, true);
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::UnsupportedType,
+        }
+    }
+}
+
+#[derive(Default)]
+struct PlyFace {
+    indices: Vec<i64>,
+    rgb: [Option<u8>; 3],
+}
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        Self::default()
+    }
+
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        if let Some(k) = channel(name) {
+            self.rgb[k] = scalar(&property).map(|v| v.clamp(0.0, 255.0) as u8);
+            return PropertyAccessResult::Ignored;
+        }
+        if !matches!(name, "vertex_indices" | "vertex_index") {
+            return PropertyAccessResult::Ignored;
+        }
+        match index_list(property) {
+            Some(indices) => {
+                self.indices = indices;
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::UnsupportedType,
+        }
+    }
+}
+
+/// Elements other than vertices and faces are read past.
+struct Skipped;
+
+impl PropertyAccess for Skipped {
+    fn new() -> Self {
+        Skipped
+    }
+}
+
+fn rgb(channels: [Option<u8>; 3]) -> Option<[u8; 3]> {
+    Some([channels[0]?, channels[1]?, channels[2]?])
+}
+
+/// Where a PLY parse failed and what was expected, without the parser's message (which quotes
+/// the line it could not read: a mesh path pointing at a secret file must not print it).
+fn ply_error(stage: &str, error: &ply_rs_bw::parser::ParseError, ascii: bool) -> String {
+    let at = match error.line() {
+        Some(line) if ascii || stage == "header" => format!("line {line}: "),
+        _ => String::new(),
+    };
+    let what = match error.kind() {
+        std::io::ErrorKind::UnexpectedEof => format!("the file ends inside the {stage}"),
+        _ if stage == "header" => "expected a PLY header: 'ply', 'format ascii|binary_little_endian|binary_big_endian \
+             1.0', then 'comment', 'element' and 'property' lines, then 'end_header'"
+            .to_string(),
+        _ => format!("the {stage} does not match what the header declares"),
+    };
+    format!("not a readable PLY file: {at}{what}")
+}
+
+fn load_ply(reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
+    let mut reader = Reader::new(reader);
+    let vertex_parser = Parser::<PlyVertex>::new();
+    let header = vertex_parser
+        .read_header(&mut reader)
+        .map_err(|e| ply_error("header", &e, true))?;
+    let ascii = header.encoding == Encoding::Ascii;
+    let (mut vertices, mut faces) = (None, None);
+    for (name, element) in &header.elements {
+        let stage = format!("data of element '{name}'");
+        let error = |e| ply_error(&stage, &e, ascii);
+        match name.as_str() {
+            "vertex" => {
+                vertices = Some(
+                    vertex_parser
+                        .read_payload_for_element(&mut reader, element, &header)
+                        .map_err(error)?,
+                )
+            }
+            "face" => {
+                if element.count > MAX_MESH_TRIANGLES {
+                    return Err(format!(
+                        "{} faces; omnisim reads at most {MAX_MESH_TRIANGLES} per mesh",
+                        element.count
+                    ));
+                }
+                faces = Some(
+                    Parser::<PlyFace>::new()
+                        .read_payload_for_element(&mut reader, element, &header)
+                        .map_err(error)?,
+                );
+            }
+            _ => {
+                Parser::<Skipped>::new()
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(error)?;
+            }
+        }
+        if vertices.is_some() && faces.is_some() {
+            break;
+        }
+    }
+    let vertices = vertices.ok_or("the PLY file has no 'vertex' element")?;
+    let faces = faces.ok_or("the PLY file has no 'face' element (a point cloud is not a mesh)")?;
+    if let Some(i) = vertices.iter().position(|v| v.given != [true; 3]) {
+        return Err(format!("vertex {i} lacks a numeric x, y or z"));
+    }
     let mut triangles = Vec::with_capacity(faces.len());
     for (f, face) in faces.iter().enumerate() {
-        let indices = ["vertex_indices", "vertex_index"]
-            .iter()
-            .find_map(|k| face.get(*k).and_then(index_list))
-            .ok_or(format!("face {f} has no 'vertex_indices' list"))?;
         let corner = |i: i64| {
-            usize::try_from(i).ok().and_then(|i| positions.get(i)).ok_or(format!(
+            usize::try_from(i).ok().and_then(|i| vertices.get(i)).ok_or(format!(
                 "face {f} refers to vertex {i}, but there are {} vertices",
-                positions.len()
+                vertices.len()
             ))
         };
-        let corners = indices.iter().map(|&i| corner(i)).collect::<Result<Vec<_>, _>>()?;
+        let corners = face.indices.iter().map(|&i| corner(i)).collect::<Result<Vec<_>, _>>()?;
         if corners.len() < 3 {
             return Err(format!(
                 "face {f} has {} vertices; a face needs 3 or more",
                 corners.len()
             ));
         }
-        let face_colour = colour_of(face).or_else(|| mean_colour(corners.iter().map(|c| c.1)));
+        let face_colour = rgb(face.rgb).or_else(|| mean_colour(corners.iter().map(|c| rgb(c.rgb))));
+        let point = |v: &PlyVertex| DVec3::from_array(v.position);
         for k in 1..corners.len() - 1 {
+            if triangles.len() == MAX_MESH_TRIANGLES {
+                return Err(format!(
+                    "more than {MAX_MESH_TRIANGLES} triangles; omnisim reads at most that many per mesh"
+                ));
+            }
             triangles.push(MeshTriangle {
-                vertices: [corners[0].0, corners[k].0, corners[k + 1].0],
+                vertices: [point(corners[0]), point(corners[k]), point(corners[k + 1])],
                 colour: face_colour,
             });
         }
@@ -139,13 +271,16 @@ fn mean_colour(colours: impl Iterator<Item = Option<[u8; 3]>>) -> Option<[u8; 3]
     (count > 0).then(|| sum.map(|s| ((s + count / 2) / count) as u8))
 }
 
-fn load_obj(path: &Path) -> Result<Vec<MeshTriangle>, String> {
+/// OBJ geometry and vertex colours; `mtllib` material files are not read (colours come from
+/// vertex colours or the object's `colour`), so an OBJ can name no other file to open.
+fn load_obj(mut reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| format!("not a readable OBJ file: {e}"))?;
+    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed))
+        .map_err(|e| format!("not a readable OBJ file: {e}"))?;
     let mut triangles = Vec::new();
     for model in models {
         let mesh = &model.mesh;

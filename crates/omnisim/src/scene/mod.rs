@@ -10,6 +10,7 @@ pub mod file;
 mod library;
 mod locate;
 mod mesh;
+mod names;
 mod triangulate;
 mod validate;
 
@@ -19,7 +20,9 @@ use glam::DVec3;
 
 pub use error::SceneError;
 pub use export::ExportFormat;
+pub use names::MAX_NAME_BYTES;
 pub use triangulate::Triangles;
+pub use validate::MAX_COORDINATE;
 
 /// A planar convex-or-concave polygon with one colour, the unit a scene is made of.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,13 +60,11 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Reads, expands and validates a scene file.
+    /// Reads, expands and validates a scene file (a regular file of at most
+    /// [`crate::input::SCENE_LIMIT`] bytes).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::input::read_text(path, crate::input::SCENE_LIMIT)?;
         let mut scene = Self::from_ron(&text, path)?;
         scene.source = Some(path.to_path_buf());
         Ok(scene)
@@ -88,6 +89,12 @@ impl Scene {
             }
         })?;
         library::build(parsed, text, path)
+    }
+
+    /// The stem of this scene's output file names: the name itself when it was loaded from a
+    /// file (names are checked on load), otherwise the name made safe.
+    pub fn file_stem(&self) -> String {
+        names::file_stem(&self.name)
     }
 
     /// Splits every face into triangles, keeping face and object ids.

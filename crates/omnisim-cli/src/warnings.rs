@@ -1,0 +1,39 @@
+//! Warnings about renders that succeed but are probably not what was meant: poses outside the
+//! scene or inside furniture, and images that see nothing.
+
+use omnisim::bvh::SceneBvh;
+use omnisim::pose_sets::{Misplaced, misplaced};
+use omnisim::{Frame, Pose, Scene};
+
+/// Most poses named one by one in a warning; the rest are counted.
+const LISTED: usize = 5;
+
+/// Warns (on stderr) about poses outside the scene's bounds or inside one of its boxes.
+pub fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]) {
+    let found: Vec<(usize, Misplaced)> = poses
+        .iter()
+        .enumerate()
+        .filter_map(|(index, pose)| Some((index, misplaced(scene, geometry, pose.position)?)))
+        .collect();
+    for (index, place) in found.iter().take(LISTED) {
+        let p = poses[*index].position;
+        let what = match place {
+            Misplaced::OutsideBounds => "is outside the scene's bounds".to_string(),
+            Misplaced::Inside(object) => format!("is inside '{object}'"),
+        };
+        eprintln!("warning: pose {index} at ({}, {}, {}) {what}", p.x, p.y, p.z);
+    }
+    if found.len() > LISTED {
+        eprintln!(
+            "warning: {} more poses are outside the scene or inside an object",
+            found.len() - LISTED
+        );
+    }
+}
+
+/// Warns when a rendered image sees nothing (its point cloud would be empty).
+pub fn empty_frame(index: usize, view: &str, frame: &Frame) {
+    if !frame.pixels().iter().any(|p| p.is_hit()) {
+        eprintln!("warning: pose {index}{view} sees nothing: the image is black and the point cloud empty");
+    }
+}

@@ -1,0 +1,273 @@
+//! Whether a camera can make an image: a size the renderers handle, every parameter finite and
+//! within a range where f64 rays keep their digits, and (for mirrors) some pixel that sees the
+//! mirror. Library callers get the same refusals as the command line.
+
+use glam::dvec2;
+
+use super::{Camera, Catadioptric, MirrorShape, Pinhole, StereoRig};
+
+/// Most pixels one image may have (a frame holds about 40 bytes a pixel in memory).
+pub const MAX_PIXELS: u64 = 100_000_000;
+/// Lengths of a camera rig (mirror sizes, rim, camera distance, misalignment), metres.
+const RIG_LENGTH: (f64, f64) = (1e-6, 1e3);
+/// Focal lengths, pixels (or pixels per metre for the orthographic camera of a paraboloid).
+const FOCAL: (f64, f64) = (1e-6, 1e12);
+/// Principal points and pixel radii, pixels.
+const PIXELS: (f64, f64) = (-1e9, 1e9);
+/// Angles of a misaligned camera, radians (a full turn either way).
+const TURN: (f64, f64) = (-std::f64::consts::TAU, std::f64::consts::TAU);
+/// Stereo baseline and lens positions, metres: the scene's own limit.
+const BASELINE: (f64, f64) = (1e-6, crate::scene::MAX_COORDINATE);
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CameraError {
+    #[error(
+        "the image is {width}x{height} = {} pixels ({} megapixels); omnisim renders images of 1 to {MAX_PIXELS} pixels (100 megapixels), each side at least 1",
+        *width as u64 * *height as u64,
+        (*width as u64 * *height as u64) as f64 / 1e6
+    )]
+    Size { width: u32, height: u32 },
+    #[error("{name} = {} {unit} is outside its valid range, {} to {} {unit}", number(*value), number(range.0), number(range.1))]
+    Range {
+        name: &'static str,
+        value: f64,
+        range: (f64, f64),
+        unit: &'static str,
+    },
+    #[error("no pixel of the image sees the scene: {0}")]
+    NoImage(String),
+    #[error("{0}")]
+    Method(&'static str),
+}
+
+/// A number as people read it: plain for ordinary magnitudes, scientific otherwise (1e-300
+/// printed in full is 300 zeros).
+fn number(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+fn within(name: &'static str, value: f64, range: (f64, f64), unit: &'static str) -> Result<(), CameraError> {
+    if value >= range.0 && value <= range.1 {
+        Ok(())
+    } else {
+        Err(CameraError::Range {
+            name,
+            value,
+            range,
+            unit,
+        })
+    }
+}
+
+fn check_size(width: u32, height: u32) -> Result<(), CameraError> {
+    if width == 0 || height == 0 || width as u64 * height as u64 > MAX_PIXELS {
+        return Err(CameraError::Size { width, height });
+    }
+    Ok(())
+}
+
+impl Camera {
+    /// Why this camera cannot make an image, if it cannot. Cheap (a few thousand rays at most):
+    /// renderers call it before every image.
+    pub fn validate(&self) -> Result<(), CameraError> {
+        let (width, height) = self.size();
+        check_size(width, height)?;
+        match self {
+            Camera::Pinhole(c) => c.validate(),
+            Camera::Equirectangular(_) => Ok(()),
+            Camera::Cylindrical(c) => {
+                within("cylindrical fy", c.fy, FOCAL, "px")?;
+                within("cylindrical cy", c.cy, PIXELS, "px")
+            }
+            Camera::Catadioptric(c) => c.validate(),
+        }
+    }
+}
+
+impl Pinhole {
+    pub fn validate(&self) -> Result<(), CameraError> {
+        check_size(self.width, self.height)?;
+        within("pinhole fx", self.fx, FOCAL, "px")?;
+        within("pinhole fy", self.fy, FOCAL, "px")?;
+        within("pinhole cx", self.cx, PIXELS, "px")?;
+        within("pinhole cy", self.cy, PIXELS, "px")?;
+        for value in self.position.to_array() {
+            within("pinhole position", value, (-BASELINE.1, BASELINE.1), "m")?;
+        }
+        Ok(())
+    }
+}
+
+impl StereoRig {
+    pub fn validate(&self) -> Result<(), CameraError> {
+        within("stereo baseline", self.baseline, BASELINE, "m")?;
+        self.cameras().iter().try_for_each(Pinhole::validate)
+    }
+}
+
+impl Catadioptric {
+    /// Parameter ranges, then a grid of at most 64×64 pixels must find one that sees the
+    /// mirror (a rim of a nanometre, a camera turned away or a hidden centre larger than the
+    /// image leave none).
+    pub fn validate(&self) -> Result<(), CameraError> {
+        check_size(self.width, self.height)?;
+        match self.mirror {
+            MirrorShape::Hyperbolic { a, b } => {
+                within("mirror a", a, RIG_LENGTH, "m")?;
+                within("mirror b", b, RIG_LENGTH, "m")?;
+            }
+            MirrorShape::Parabolic { a, b, h } => {
+                within("mirror a", a, RIG_LENGTH, "m")?;
+                within("mirror b", b, RIG_LENGTH, "m")?;
+                within("mirror h", h, RIG_LENGTH, "m")?;
+            }
+            MirrorShape::Spherical {
+                radius,
+                camera_distance,
+            } => {
+                within("sphere radius", radius, RIG_LENGTH, "m")?;
+                // The camera must be outside the sphere: more than the radius away.
+                let range = (radius, RIG_LENGTH.1);
+                within("camera distance (outside the sphere)", camera_distance, range, "m")?;
+                if camera_distance == radius {
+                    return Err(CameraError::Range {
+                        name: "camera distance (outside the sphere)",
+                        value: camera_distance,
+                        range,
+                        unit: "m",
+                    });
+                }
+            }
+        }
+        within("focal", self.focal, FOCAL, "px")?;
+        within("cx", self.cx, PIXELS, "px")?;
+        within("cy", self.cy, PIXELS, "px")?;
+        if let Some(rim) = self.rim_radius {
+            within("rim radius", rim, RIG_LENGTH, "m")?;
+        }
+        within("hidden centre", self.hidden_centre_px, (0.0, PIXELS.1), "px")?;
+        for value in self.misalignment.offset.to_array() {
+            within("misalignment offset", value, (-RIG_LENGTH.1, RIG_LENGTH.1), "m")?;
+        }
+        for value in self.misalignment.tilt.to_array() {
+            within("misalignment tilt", value, TURN, "rad")?;
+        }
+        let step = (self.width.max(self.height) as f64 / 64.0).max(1.0);
+        let samples = |size: u32| {
+            (0..)
+                .map(move |k| k as f64 * step)
+                .take_while(move |&p| p < size as f64)
+        };
+        let sees = samples(self.height).any(|v| {
+            samples(self.width).any(|u| {
+                self.ray(dvec2(u, v))
+                    .is_some_and(|r| r.direction.is_finite() && r.origin.is_finite() && r.t_min.is_finite())
+            })
+        });
+        if sees {
+            Ok(())
+        } else {
+            Err(CameraError::NoImage(format!(
+                "no pixel (sampled every {step:.0} px) sees the mirror; the rim, focal length, hidden centre or \
+                 misalignment put it outside the image"
+            )))
+        }
+    }
+
+    /// Whether the chosen ray method is exact for this mirror: the reference paper's shortcut
+    /// is exact only for an aligned central mirror.
+    pub fn check_rays(&self) -> Result<(), CameraError> {
+        if self.rays == super::MirrorRays::Shortcut && !self.is_central() {
+            return Err(CameraError::Method(
+                "the shortcut (rays from the viewpoint F' through the mirror point) is only exact for an aligned \
+                 central mirror (hyperbolic, or parabolic with a = b, no misalignment); use reflect",
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Equirectangular, camera::Mount};
+    use glam::dvec3;
+
+    fn paper() -> Catadioptric {
+        Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))
+    }
+
+    fn refusal(camera: Catadioptric) -> String {
+        Camera::Catadioptric(camera).validate().unwrap_err().to_string()
+    }
+
+    #[test]
+    fn sizes_outside_1_to_100_megapixels_are_refused() {
+        let camera = |width, height| Camera::Equirectangular(Equirectangular { width, height });
+        assert!(camera(0, 10).validate().is_err());
+        assert!(camera(10_000, 10_000).validate().is_ok());
+        let error = camera(10_001, 10_000).validate().unwrap_err().to_string();
+        assert!(
+            error.contains("100010000 pixels") && !error.contains(" is 100 megapixels"),
+            "{error}"
+        );
+        let mut pinhole = Pinhole::with_horizontal_fov(640, 480, 1.0);
+        assert!(pinhole.validate().is_ok());
+        pinhole.width = 0;
+        assert!(matches!(pinhole.validate(), Err(CameraError::Size { width: 0, .. })));
+    }
+
+    #[test]
+    fn nonsense_parameters_are_refused_with_the_valid_range() {
+        assert_eq!(Camera::Catadioptric(paper()).validate(), Ok(()));
+        let error = refusal(Catadioptric {
+            rim_radius: Some(1e-9),
+            ..paper()
+        });
+        assert!(
+            error.contains("rim radius = 1e-9 m") && error.contains("1e-6 to 1000 m"),
+            "{error}"
+        );
+        let error = refusal(Catadioptric {
+            focal: 1e-300,
+            ..paper()
+        });
+        assert!(
+            error.contains("focal = 1e-300") && error.contains("valid range"),
+            "{error}"
+        );
+        let mut turned = paper();
+        turned.misalignment.tilt = dvec3(std::f64::consts::PI, 0.0, 0.0);
+        assert!(refusal(turned).contains("no pixel"));
+        let error = refusal(Catadioptric {
+            hidden_centre_px: f64::INFINITY,
+            ..paper()
+        });
+        assert!(error.contains("hidden centre = inf"), "{error}");
+        assert!(
+            refusal(Catadioptric {
+                hidden_centre_px: 1000.0,
+                mount: Mount::Down,
+                ..paper()
+            })
+            .contains("no pixel")
+        );
+        let error = refusal(Catadioptric::spherical(250, 250, 0.05, 1e300));
+        assert!(
+            error.contains("camera distance (outside the sphere) = 1e300 m"),
+            "{error}"
+        );
+        let rig = StereoRig {
+            camera: Pinhole::with_horizontal_fov(64, 48, 1.0),
+            baseline: 1e300,
+        };
+        assert!(rig.validate().unwrap_err().to_string().contains("baseline = 1e300 m"));
+        let mut pinhole = Pinhole::with_horizontal_fov(64, 48, 1.0);
+        pinhole.fx = 1e-300;
+        assert!(Camera::Pinhole(pinhole).validate().is_err());
+    }
+}

@@ -1,0 +1,140 @@
+//! Reading files a user names: only regular files (a FIFO would block forever, `/dev/zero`
+//! would fill memory), never more bytes than a stated limit, and error messages that name the
+//! file without quoting what is in it.
+
+use std::fs::File;
+use std::io::{Read, Take};
+use std::path::{Path, PathBuf};
+
+/// Largest scene file read: 64 MiB holds some 400,000 objects.
+pub const SCENE_LIMIT: u64 = 64 << 20;
+/// Largest mesh file read (a binary PLY of ~150 M triangles).
+pub const MESH_LIMIT: u64 = 2 << 30;
+/// Largest pose file read (~5 million poses).
+pub const POSE_FILE_LIMIT: u64 = 256 << 20;
+
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("cannot read {}: {error}", path.display())]
+    Io { path: PathBuf, error: std::io::Error },
+    #[error("{} is {kind}, not a regular file; omnisim reads only regular files", path.display())]
+    NotAFile { path: PathBuf, kind: &'static str },
+    #[error("{} is {size} bytes, more than the {limit} bytes omnisim reads from such a file", path.display())]
+    TooLarge { path: PathBuf, size: u64, limit: u64 },
+    #[error("{} is not UTF-8 text (at byte {at})", path.display())]
+    NotText { path: PathBuf, at: usize },
+}
+
+/// What a non-regular file is, in words.
+fn kind_of(file_type: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if file_type.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if file_type.is_char_device() || file_type.is_block_device() {
+            return "a device";
+        }
+        if file_type.is_socket() {
+            return "a socket";
+        }
+    }
+    if file_type.is_dir() { "a folder" } else { "not a file" }
+}
+
+fn check(path: &Path, metadata: &std::fs::Metadata, limit: u64) -> Result<(), InputError> {
+    if !metadata.is_file() {
+        return Err(InputError::NotAFile {
+            path: path.to_path_buf(),
+            kind: kind_of(metadata.file_type()),
+        });
+    }
+    if metadata.len() > limit {
+        return Err(InputError::TooLarge {
+            path: path.to_path_buf(),
+            size: metadata.len(),
+            limit,
+        });
+    }
+    Ok(())
+}
+
+/// Whether `path` could be read by `open_regular`, checked without opening it: lets a command
+/// report a missing input before anything else.
+pub fn check_regular(path: &Path, limit: u64) -> Result<(), InputError> {
+    let metadata = std::fs::metadata(path).map_err(|error| InputError::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    check(path, &metadata, limit)
+}
+
+/// Opens `path` for reading if it is a regular file of at most `limit` bytes; the reader stops
+/// at `limit` even if the file grows meanwhile. The type is checked before opening, since
+/// opening a FIFO blocks until a writer appears.
+pub fn open_regular(path: &Path, limit: u64) -> Result<Take<File>, InputError> {
+    let io = |error| InputError::Io {
+        path: path.to_path_buf(),
+        error,
+    };
+    check_regular(path, limit)?;
+    let file = File::open(path).map_err(io)?;
+    // Swapped for something else between the two calls: check what was opened.
+    check(path, &file.metadata().map_err(io)?, limit)?;
+    Ok(file.take(limit))
+}
+
+/// The whole text of a regular UTF-8 file of at most `limit` bytes.
+pub fn read_text(path: &Path, limit: u64) -> Result<String, InputError> {
+    let mut bytes = Vec::new();
+    open_regular(path, limit)?
+        .read_to_end(&mut bytes)
+        .map_err(|error| InputError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+    String::from_utf8(bytes).map_err(|e| InputError::NotText {
+        path: path.to_path_buf(),
+        at: e.utf8_error().valid_up_to(),
+    })
+}
+
+/// At most `max` characters of `text` for an error message, with how much was left out: a
+/// 10 MB line must not be echoed whole.
+pub fn excerpt(text: &str, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        None => text.to_string(),
+        Some((cut, _)) => format!("{}… ({} more bytes)", &text[..cut], text.len() - cut),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn refuses_folders_devices_and_large_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let error = read_text(dir.path(), 10).unwrap_err().to_string();
+        assert!(error.contains("is a folder"), "{error}");
+        #[cfg(unix)]
+        {
+            let error = read_text(Path::new("/dev/zero"), 10).unwrap_err().to_string();
+            assert!(error.contains("a device"), "{error}");
+        }
+        let file = dir.path().join("f.txt");
+        std::fs::write(&file, "0123456789abc").unwrap();
+        let error = read_text(&file, 10).unwrap_err().to_string();
+        assert!(error.contains("13 bytes, more than the 10"), "{error}");
+        assert_eq!(read_text(&file, 13).unwrap(), "0123456789abc");
+        std::fs::write(&file, b"ab\xffcd").unwrap();
+        assert!(read_text(&file, 10).unwrap_err().to_string().contains("at byte 2"));
+    }
+
+    #[test]
+    fn excerpts_are_short() {
+        assert_eq!(excerpt("abc", 5), "abc");
+        assert_eq!(excerpt(&"é".repeat(100), 3), "ééé… (194 more bytes)");
+    }
+}
