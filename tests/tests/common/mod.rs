@@ -90,7 +90,12 @@ pub struct Tracer {
 impl Tracer {
     /// Hit planes and 8-bit colour of one frame.
     pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {
-        self.renderer.render(&self.scene, camera, pose, Planes::COLOUR)
+        self.render_planes(camera, pose, Planes::COLOUR)
+    }
+
+    /// Hit planes and the planes `planes` asks for.
+    pub fn render_planes(&self, camera: &Camera, pose: &Pose, planes: Planes) -> Result<Frame, RenderError> {
+        self.renderer.render(&self.scene, camera, pose, planes)
     }
 }
 
