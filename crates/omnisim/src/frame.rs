@@ -110,6 +110,9 @@ impl Pixel {
     }
 }
 
+/// The 8-bit and linear colour planes, where present, for in-place refinement.
+pub(crate) type ShadedPlanesMut<'a> = (Option<&'a mut [[u8; 3]]>, Option<&'a mut [[f32; 3]]>);
+
 /// A rendered image as named planes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Frame {
@@ -198,9 +201,9 @@ impl Frame {
         self.linear_colour = planes.contains(Plane::LinearColour).then_some(linear);
     }
 
-    /// Mutable shaded planes, for edge supersampling.
-    pub(crate) fn shading_mut(&mut self) -> (Option<&mut Vec<[u8; 3]>>, Option<&mut Vec<[f32; 3]>>) {
-        (self.colour.as_mut(), self.linear_colour.as_mut())
+    /// Mutable shaded planes (8-bit, linear), for edge supersampling.
+    pub(crate) fn shading_mut(&mut self) -> ShadedPlanesMut<'_> {
+        (self.colour.as_deref_mut(), self.linear_colour.as_deref_mut())
     }
 
     /// Sets the object-id plane.

@@ -80,7 +80,7 @@ fn illuminance(geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
             LightKind::Directional { direction, illuminance } => (-direction, f64::INFINITY, illuminance),
         };
         let cosine = normal.dot(towards);
-        if !(cosine > 0.0) || cpu::occluded(geometry, origin, towards, distance, hit.face) {
+        if cosine.is_nan() || cosine <= 0.0 || cpu::occluded(geometry, origin, towards, distance, hit.face) {
             continue;
         }
         total += light.colour * (strength * cosine);

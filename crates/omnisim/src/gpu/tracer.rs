@@ -308,8 +308,8 @@ impl GpuRenderer {
         let pixels = rows as u64 * width as u64;
         let output = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let readback = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
-        let hit_bytes = pixels * size_of::<PixelHit>() as u64;
-        let shaded_bytes = pixels * size_of::<ShadedPixel>() as u64;
+        let hit_bytes = pixels * size_of::<PixelHit>();
+        let shaded_bytes = pixels * size_of::<ShadedPixel>();
         BandBuffers {
             rows,
             width,
@@ -319,7 +319,7 @@ impl GpuRenderer {
             shaded_readback: self.buffer("shaded readback", shaded_bytes, readback),
             camera: self.buffer(
                 "camera",
-                size_of::<CameraParams>() as u64,
+                size_of::<CameraParams>(),
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
         }

@@ -60,7 +60,7 @@ impl SegmentationLegend {
                     .enumerate()
                     .filter(|(_, f)| f.object as usize == index);
                 let first = faces.next().map_or(0, |(i, _)| i as u32 + 1);
-                let last = faces.last().map_or(first, |(i, _)| i as u32 + 1);
+                let last = faces.next_back().map_or(first, |(i, _)| i as u32 + 1);
                 SegmentObject {
                     id: index as u32 + 1,
                     name: object.name.clone(),
