@@ -4,7 +4,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use glam::{DVec3, dvec3};
 use omnisim::camera::{MirrorRays, MirrorShape, Misalignment, Mount};
-use omnisim::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
+use omnisim::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole, Rig, StereoRig};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CameraKind {
@@ -155,12 +155,6 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
             "'{text}': width and height must be whole numbers from 1 to 32768"
         )),
     }
-}
-
-/// What `--camera` asks for: one camera, or a stereo rig of two.
-pub enum Rig {
-    Single(Camera),
-    Stereo(StereoRig),
 }
 
 fn positive(name: &str, v: f64) -> anyhow::Result<f64> {
