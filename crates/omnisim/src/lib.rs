@@ -13,6 +13,7 @@ pub mod calibration;
 pub mod camera;
 pub mod cpu;
 pub mod frame;
+#[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod lighting;
 pub mod metadata;

@@ -58,10 +58,13 @@ pub fn trajectory(waypoints: &[DVec3], spacing: f64) -> Vec<Pose> {
 /// What `random` may draw.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RandomPoses {
+    /// How many poses to draw.
     pub count: usize,
+    /// Seed of the generator: the same seed gives the same poses.
     pub seed: u64,
-    /// Lowest and highest corner of the box positions are drawn in, world metres.
+    /// Lowest corner of the box positions are drawn in, world metres.
     pub low: DVec3,
+    /// Highest corner of that box.
     pub high: DVec3,
     /// Largest |θx| and |θy| (radians); θz is uniform over the full turn.
     pub max_tilt: f64,

@@ -12,6 +12,7 @@ use crate::bvh::SceneBvh;
 use crate::camera::Camera;
 use crate::cpu;
 use crate::frame::{Frame, NO_FACE, Planes};
+#[cfg(feature = "gpu")]
 use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -33,8 +34,12 @@ pub enum BackendChoice {
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
     /// The GPU backend failed.
+    #[cfg(feature = "gpu")]
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The GPU backend was asked for, but this build of omnisim has none.
+    #[error("omnisim was built without its `gpu` feature, so it has no GPU backend")]
+    GpuNotBuilt,
     /// An appearance that does not fit the prepared scene's geometry.
     #[error("the appearance has {given} face colours but the scene has {faces} faces")]
     FaceCount {
@@ -46,6 +51,7 @@ pub enum RenderError {
 }
 
 enum Backend {
+    #[cfg(feature = "gpu")]
     Gpu(Box<GpuRenderer>),
     Cpu,
 }
@@ -53,6 +59,7 @@ enum Backend {
 /// The backend, opened once and used for any number of scenes and frames.
 pub struct Renderer {
     backend: Backend,
+    #[cfg(feature = "gpu")]
     choice: BackendChoice,
     /// Why this backend was chosen, for the user.
     reason: String,
@@ -67,6 +74,7 @@ pub struct PreparedScene {
     /// Object id (1-based) of each face.
     face_object: Vec<u32>,
     object_names: Vec<String>,
+    #[cfg(feature = "gpu")]
     gpu: Option<GpuScene>,
     /// Set when `auto` traces this scene on the CPU although a GPU is open, and why.
     fallback: Option<String>,
@@ -88,14 +96,21 @@ impl Renderer {
         };
         Ok(Self {
             backend,
+            #[cfg(feature = "gpu")]
             choice,
             reason,
             geometry_builds: AtomicUsize::new(0),
         })
     }
 
-    fn open_gpu() -> Result<Backend, GpuError> {
+    #[cfg(feature = "gpu")]
+    fn open_gpu() -> Result<Backend, RenderError> {
         Ok(Backend::Gpu(Box::new(GpuRenderer::new(GpuContext::new()?))))
+    }
+
+    #[cfg(not(feature = "gpu"))]
+    fn open_gpu() -> Result<Backend, RenderError> {
+        Err(RenderError::GpuNotBuilt)
     }
 
     /// Builds the BVH of `scene` and, on the GPU, uploads it with the scene's appearance.
@@ -111,6 +126,7 @@ impl Renderer {
     /// [`SceneBvh::build_with_offset`]); `geometry` must have been built from `scene`.
     pub fn prepare_with(&self, scene: &Scene, geometry: SceneBvh) -> Result<PreparedScene, RenderError> {
         let appearance = Appearance::of(scene);
+        #[cfg(feature = "gpu")]
         let (gpu, fallback) = match &self.backend {
             Backend::Cpu => (None, None),
             Backend::Gpu(renderer) => match GpuScene::new(renderer.context(), &geometry, &appearance) {
@@ -124,11 +140,14 @@ impl Renderer {
                 Err(e) => return Err(e.into()),
             },
         };
+        #[cfg(not(feature = "gpu"))]
+        let fallback = None;
         Ok(PreparedScene {
             geometry,
             appearance,
             face_object: scene.faces.iter().map(|f| f.object + 1).collect(),
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
+            #[cfg(feature = "gpu")]
             gpu,
             fallback,
         })
@@ -144,6 +163,7 @@ impl Renderer {
                 faces,
             });
         }
+        #[cfg(feature = "gpu")]
         if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
             gpu.set_appearance(renderer.context(), &appearance);
         }
@@ -160,6 +180,7 @@ impl Renderer {
         planes: Planes,
     ) -> Result<Frame, RenderError> {
         let mut frame = match self.gpu(prepared) {
+            #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
                 let mut frame = cpu::trace(&prepared.geometry, camera, pose);
@@ -199,6 +220,7 @@ impl Renderer {
         let mut frame = self.render(prepared, camera, pose, planes)?;
         if planes.needs_shading() {
             match self.gpu(prepared) {
+                #[cfg(feature = "gpu")]
                 Some((renderer, gpu)) => {
                     renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis)?;
                 }
@@ -219,6 +241,7 @@ impl Renderer {
 
     /// Shades `frame` again with `prepared`'s current appearance, without tracing: what a
     /// change of colours or lights costs.
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
     pub fn reshade(
         &self,
         prepared: &PreparedScene,
@@ -228,12 +251,15 @@ impl Renderer {
         planes: Planes,
     ) -> Result<(), RenderError> {
         match self.gpu(prepared) {
+            #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
             None => shading::shade_frame(&prepared.geometry, &prepared.appearance, frame, planes),
         }
         Ok(())
     }
 
+    /// The GPU backend and scene, where `prepared` is traced on the GPU.
+    #[cfg(feature = "gpu")]
     fn gpu<'a>(&'a self, prepared: &'a PreparedScene) -> Option<(&'a GpuRenderer, &'a GpuScene)> {
         match (&self.backend, &prepared.gpu) {
             (Backend::Gpu(renderer), Some(gpu)) => Some((renderer, gpu)),
@@ -241,9 +267,17 @@ impl Renderer {
         }
     }
 
+    /// Without the `gpu` feature every scene is traced on the CPU (`None`, always: the
+    /// uninhabited type spares the callers a `cfg` on their CPU arm).
+    #[cfg(not(feature = "gpu"))]
+    fn gpu(&self, _prepared: &PreparedScene) -> Option<std::convert::Infallible> {
+        None
+    }
+
     /// "gpu" or "cpu".
     pub fn backend_name(&self) -> &'static str {
         match self.backend {
+            #[cfg(feature = "gpu")]
             Backend::Gpu(_) => "gpu",
             Backend::Cpu => "cpu",
         }
@@ -252,6 +286,7 @@ impl Renderer {
     /// The adapter in use, or a description of the CPU backend.
     pub fn device_name(&self) -> String {
         match &self.backend {
+            #[cfg(feature = "gpu")]
             Backend::Gpu(renderer) => renderer.context().describe(),
             Backend::Cpu => format!("f64 CPU tracer on {} threads", rayon::current_num_threads()),
         }
@@ -268,6 +303,7 @@ impl Renderer {
     }
 
     /// The GPU backend, if that is the one in use (to limit its bands, or read its adapter).
+    #[cfg(feature = "gpu")]
     pub fn gpu_renderer(&mut self) -> Option<&mut GpuRenderer> {
         match &mut self.backend {
             Backend::Gpu(renderer) => Some(renderer),
@@ -294,11 +330,36 @@ impl PreparedScene {
 
     /// "gpu" or "cpu": which backend traces this scene.
     pub fn backend_name(&self) -> &'static str {
-        if self.gpu.is_some() { "gpu" } else { "cpu" }
+        #[cfg(feature = "gpu")]
+        if self.gpu.is_some() {
+            return "gpu";
+        }
+        "cpu"
     }
 
     /// Why `auto` traces this scene on the CPU although a GPU is open, if it does.
     pub fn fallback(&self) -> Option<&str> {
         self.fallback.as_deref()
+    }
+}
+
+#[cfg(all(test, not(feature = "gpu")))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn without_the_gpu_feature_gpu_is_refused_and_auto_says_why_it_uses_the_cpu() {
+        let error = Renderer::new(BackendChoice::Gpu)
+            .err()
+            .expect("no GPU backend in this build");
+        assert!(matches!(error, RenderError::GpuNotBuilt));
+        assert!(error.to_string().contains("`gpu` feature"), "{error}");
+        let auto = Renderer::new(BackendChoice::Auto).expect("auto falls back to the CPU");
+        assert_eq!(auto.backend_name(), "cpu");
+        assert!(
+            auto.reason().starts_with("auto: GPU unavailable") && auto.reason().contains("`gpu` feature"),
+            "{}",
+            auto.reason()
+        );
     }
 }

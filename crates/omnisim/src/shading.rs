@@ -84,7 +84,7 @@ fn illuminance(geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
 }
 
 /// Shades every pixel of `frame` on all CPU threads, filling the planes `planes` asks for.
-pub fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &mut Frame, planes: Planes) {
+pub(crate) fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &mut Frame, planes: Planes) {
     let (linear, colour) = frame
         .pixels()
         .par_iter()

@@ -102,8 +102,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let lights_on = scene.lighting.as_ref().map_or(0, |l| l.lights_on().count());
         let record = json!({
             "scene": scene.name,
-            "triangles": prepared.geometry().triangles.len(),
-            "bvh_build_ms": prepared.geometry().build_time.as_secs_f64() * 1e3,
+            "triangles": prepared.geometry().triangles().len(),
+            "bvh_build_ms": prepared.geometry().build_time().as_secs_f64() * 1e3,
             "lit": scene.lighting.is_some(),
             "lights_on": lights_on,
             "reshade_median_ms": median(&mut reshade_times) * 1e3,

@@ -104,8 +104,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         "scene '{}': {} faces, {} triangles (BVH built in {:.1} ms)",
         scene.name,
         scene.faces.len(),
-        prepared.geometry().triangles.len(),
-        prepared.geometry().build_time.as_secs_f64() * 1e3
+        prepared.geometry().triangles().len(),
+        prepared.geometry().build_time().as_secs_f64() * 1e3
     );
     eprintln!(
         "backend: {} on {} — {}",

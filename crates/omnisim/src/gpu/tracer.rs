@@ -37,7 +37,7 @@ enum HitSource<'a> {
 
 impl GpuRenderer {
     /// Compiles the WGSL program and its pipelines on `context`'s device.
-    pub fn new(context: GpuContext) -> Self {
+    pub(crate) fn new(context: GpuContext) -> Self {
         let device = &context.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("omnisim"),
@@ -75,7 +75,7 @@ impl GpuRenderer {
     }
 
     /// The device in use.
-    pub fn context(&self) -> &GpuContext {
+    pub(crate) fn context(&self) -> &GpuContext {
         &self.context
     }
 

@@ -37,10 +37,13 @@ pub fn range_convention(camera: &Camera) -> &'static str {
     }
 }
 
+/// A file that could not be written, and why; nothing is left at `path`.
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write {}: {message}", path.display())]
 pub struct OutputError {
+    /// The file.
     pub path: PathBuf,
+    /// What went wrong.
     pub message: String,
 }
 
