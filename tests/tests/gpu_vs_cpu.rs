@@ -169,7 +169,7 @@ fn auto_prefers_the_cpu_tracer_over_a_software_adapter() {
     let Some(mut gpu) = common::gpu_tracer(&scene, &SceneBvh::build(&scene)) else {
         return;
     };
-    let software = gpu.renderer.gpu_renderer().unwrap().context().is_software();
+    let software = gpu.renderer.gpu_renderer().unwrap().is_software();
     let auto = omnisim::Renderer::new(omnisim::BackendChoice::Auto).unwrap();
     if software {
         assert_eq!(auto.backend_name(), "cpu");

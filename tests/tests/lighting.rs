@@ -387,7 +387,7 @@ fn no_light_leaks_through_the_edges_and_corners_of_a_closed_box() {
         let origin = through + outward * 10f64.powf(rng.random_range(-6.0..0.5));
         let to_lamp = closed.lamp - origin;
         let distance = to_lamp.length();
-        if !cpu::occluded(&bvh, origin - bvh.offset, to_lamp / distance, distance, 0) {
+        if !cpu::occluded(&bvh, origin - bvh.offset(), to_lamp / distance, distance, 0) {
             leaks.push(through);
         }
     }
@@ -733,8 +733,8 @@ fn lit_rooms_are_the_reference_rooms_with_lamps_in_free_space() {
         assert_eq!(names, ["ceiling lamp", "desk lamp"], "{lit_name}");
         let bvh = SceneBvh::build(&lit);
         let object_hit = |origin: DVec3, direction: DVec3| {
-            cpu::closest_hit(&bvh, origin - bvh.offset, direction, 0.0).map(|hit| {
-                let face = &lit.faces[bvh.face[hit.triangle] as usize];
+            cpu::closest_hit(&bvh, origin - bvh.offset(), direction, 0.0).map(|hit| {
+                let face = &lit.faces[bvh.triangle_face(hit.triangle) as usize];
                 (lit.objects[face.object as usize].name.as_str(), hit.t)
             })
         };

@@ -392,12 +392,12 @@ const CUBE_CENTRE: DVec3 = DVec3::splat(0.5);
 fn rays_at_shared_edges_and_corners_never_escape_a_cube_room() {
     for (label, world_from_cube) in cube_rooms() {
         let bvh = SceneBvh::build(&cube_room(CUBE_CENTRE, world_from_cube));
-        let centre_local = CUBE_CENTRE - bvh.offset;
+        let centre_local = CUBE_CENTRE - bvh.offset();
         let mut rng = StdRng::seed_from_u64(7);
         // Targets on every triangle edge (face borders and the diagonals inside each face):
         // both ends (cube corners) and random points along it.
         let mut targets = Vec::new();
-        for t in &bvh.triangles {
+        for t in bvh.triangles() {
             for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
                 targets.extend([a, b]);
                 targets.extend((0..8).map(|_| a.lerp(b, rng.random_range(0.0..1.0))));
@@ -456,7 +456,7 @@ fn rays_in_and_parallel_to_the_plane_of_a_face_stop_at_the_edge_they_reach() {
         // exactly 0, origin coordinate exactly the plane's. Turned, both are rounded.
         let exactly_in_plane = world_from_cube == DMat3::IDENTITY;
         let bvh = SceneBvh::build(&cube_room(CUBE_CENTRE, world_from_cube));
-        let centre_local = CUBE_CENTRE - bvh.offset;
+        let centre_local = CUBE_CENTRE - bvh.offset();
         let mut rng = StdRng::seed_from_u64(8);
         for inset in INSETS {
             let (mut rays, mut early, mut worst) = (0, 0, 0f64);

@@ -4,7 +4,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use glam::{DVec3, dvec3};
 use omnisim::camera::{MirrorRays, MirrorShape, Misalignment, Mount};
-use omnisim::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
+use omnisim::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole, Rig, StereoRig};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CameraKind {
@@ -153,12 +153,6 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
             "'{text}': width and height must be whole numbers from 1 to 32768"
         )),
     }
-}
-
-/// What `--camera` asks for: one camera, or a stereo rig of two.
-pub enum Rig {
-    Single(Camera),
-    Stereo(StereoRig),
 }
 
 /// Options given that the chosen camera does not use: ignoring them silently would render

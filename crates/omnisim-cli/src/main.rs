@@ -6,7 +6,6 @@
 mod camera_args;
 mod chart_svg;
 mod commands;
-mod metadata;
 mod poses;
 mod run_folder;
 mod stdout;

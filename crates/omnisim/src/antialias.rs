@@ -41,7 +41,7 @@ pub(crate) fn sample_offsets(samples_per_axis: u32) -> impl Iterator<Item = DVec
 
 /// Replaces the shaded planes of every edge pixel by the mean of `samples_per_axis²`
 /// stratified samples. Returns how many pixels were refined.
-pub fn supersample_edges(
+pub(crate) fn supersample_edges(
     bvh: &SceneBvh,
     appearance: &Appearance,
     camera: &Camera,

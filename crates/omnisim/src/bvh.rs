@@ -14,20 +14,22 @@ use obvhs::bvh2::Bvh2;
 
 use crate::scene::{Scene, Triangles};
 
+/// A scene's triangles in a BVH, around a local origin: what both tracers traverse. Built once
+/// per geometry ([`crate::Renderer::prepare`]); colours and lights live elsewhere.
 #[derive(Clone)]
 pub struct SceneBvh {
     /// World position of the local origin of `triangles` and of the BVH.
-    pub offset: DVec3,
-    pub bvh: Bvh2,
+    pub(crate) offset: DVec3,
+    pub(crate) bvh: Bvh2,
     /// Triangle corners relative to `offset`, in BVH leaf order.
-    pub triangles: Vec<[DVec3; 3]>,
+    pub(crate) triangles: Vec<[DVec3; 3]>,
     /// Scene face of each triangle, in BVH leaf order.
-    pub face: Vec<u32>,
+    pub(crate) face: Vec<u32>,
     /// Unit normal of each scene face (f64, orientation as the face's vertex order), so that
     /// shading works with exact normals whatever precision the hit came in.
-    pub face_normals: Vec<DVec3>,
+    pub(crate) face_normals: Vec<DVec3>,
     /// Time spent in obvhs's builder.
-    pub build_time: Duration,
+    pub(crate) build_time: Duration,
 }
 
 impl SceneBvh {
@@ -81,6 +83,26 @@ impl SceneBvh {
             face_normals,
             build_time,
         }
+    }
+
+    /// World position of the local origin: triangles and tracing rays are given relative to it.
+    pub fn offset(&self) -> DVec3 {
+        self.offset
+    }
+
+    /// Triangle corners relative to [`SceneBvh::offset`], in BVH leaf order.
+    pub fn triangles(&self) -> &[[DVec3; 3]] {
+        &self.triangles
+    }
+
+    /// Time the BVH builder took.
+    pub fn build_time(&self) -> Duration {
+        self.build_time
+    }
+
+    /// Scene face of triangle `triangle` (an index in BVH leaf order, as in [`crate::cpu::Hit`]).
+    pub fn triangle_face(&self, triangle: usize) -> u32 {
+        self.face[triangle]
     }
 
     /// Deepest node below the root, which bounds the traversal stack any tracer needs.

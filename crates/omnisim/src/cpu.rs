@@ -19,7 +19,9 @@ const EDGE_TOLERANCE: f64 = 1e-10;
 /// A closest hit: distance along the (unit) ray and triangle index in BVH order.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hit {
+    /// Distance along the ray.
     pub t: f64,
+    /// Triangle index in BVH leaf order.
     pub triangle: usize,
 }
 

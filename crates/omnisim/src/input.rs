@@ -13,16 +13,43 @@ pub const MESH_LIMIT: u64 = 2 << 30;
 /// Largest pose file read (~5 million poses).
 pub const POSE_FILE_LIMIT: u64 = 256 << 20;
 
+/// Why an input file was not read.
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
+    /// The system refused (missing, no permission).
     #[error("cannot read {}: {error}", path.display())]
-    Io { path: PathBuf, error: std::io::Error },
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the system said.
+        error: std::io::Error,
+    },
+    /// A FIFO, device, socket or folder: reading it could block or never end.
     #[error("{} is {kind}, not a regular file; omnisim reads only regular files", path.display())]
-    NotAFile { path: PathBuf, kind: &'static str },
+    NotAFile {
+        /// The file.
+        path: PathBuf,
+        /// What it is instead.
+        kind: &'static str,
+    },
+    /// Larger than omnisim reads from such a file.
     #[error("{} is {size} bytes, more than the {limit} bytes omnisim reads from such a file", path.display())]
-    TooLarge { path: PathBuf, size: u64, limit: u64 },
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size, bytes.
+        size: u64,
+        /// The cap, bytes.
+        limit: u64,
+    },
+    /// Not UTF-8 text.
     #[error("{} is not UTF-8 text (at byte {at})", path.display())]
-    NotText { path: PathBuf, at: usize },
+    NotText {
+        /// The file.
+        path: PathBuf,
+        /// Offset of the first invalid byte.
+        at: usize,
+    },
 }
 
 /// What a non-regular file is, in words.

@@ -21,6 +21,7 @@ pub struct Pose {
 }
 
 impl Pose {
+    /// A pose from a position (metres) and angles (radians).
     pub fn new(position: DVec3, angles: DVec3) -> Self {
         Self { position, angles }
     }
@@ -30,6 +31,7 @@ impl Pose {
         Self::new(position, angles_deg * (std::f64::consts::PI / 180.0))
     }
 
+    /// The rotation `Rx(θx)·Ry(θy)·Rz(θz)` taking body-frame vectors to the world frame.
     pub fn world_from_body_rotation(&self) -> DMat3 {
         rotation_xyz(self.angles)
     }

@@ -63,10 +63,13 @@ pub fn trajectory(waypoints: &[DVec3], spacing: f64) -> Vec<Pose> {
 /// What `random` may draw.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RandomPoses {
+    /// How many poses to draw.
     pub count: usize,
+    /// Seed of the generator: the same seed gives the same poses.
     pub seed: u64,
-    /// Lowest and highest corner of the box positions are drawn in, world metres.
+    /// Lowest corner of the box positions are drawn in, world metres.
     pub low: DVec3,
+    /// Highest corner of that box.
     pub high: DVec3,
     /// Largest |θx| and |θy| (radians); θz is uniform over the full turn.
     pub max_tilt: f64,
@@ -81,9 +84,13 @@ pub struct RandomPoses {
      {budget} draws"
 )]
 pub struct TooFewClear {
+    /// Clear positions found.
     pub accepted: usize,
+    /// Positions drawn.
     pub drawn: usize,
+    /// Poses asked for.
     pub count: usize,
+    /// Most draws allowed for them.
     pub budget: usize,
 }
 
@@ -148,6 +155,7 @@ pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Result<Vec<Pose>, TooFewCle
 /// mean: outside the scene's bounds, or inside a closed object (a `Box`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Misplaced {
+    /// Outside the axis-aligned bounds of every face.
     OutsideBounds,
     /// Inside the named object.
     Inside(String),

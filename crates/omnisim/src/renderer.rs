@@ -12,6 +12,7 @@ use crate::bvh::SceneBvh;
 use crate::camera::Camera;
 use crate::cpu;
 use crate::frame::{Frame, NO_FACE, Planes};
+#[cfg(feature = "gpu")]
 use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -34,8 +35,12 @@ pub enum BackendChoice {
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
     /// The GPU backend failed.
+    #[cfg(feature = "gpu")]
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The GPU backend was asked for, but this build of omnisim has none.
+    #[error("omnisim was built without its `gpu` feature, so it has no GPU backend")]
+    GpuNotBuilt,
     /// An appearance that does not fit the prepared scene's geometry.
     #[error("the appearance has {given} face colours but the scene has {faces} faces")]
     FaceCount {
@@ -50,6 +55,7 @@ pub enum RenderError {
 }
 
 enum Backend {
+    #[cfg(feature = "gpu")]
     Gpu(Box<GpuRenderer>),
     Cpu,
 }
@@ -57,6 +63,7 @@ enum Backend {
 /// The backend, opened once and used for any number of scenes and frames.
 pub struct Renderer {
     backend: Backend,
+    #[cfg(feature = "gpu")]
     choice: BackendChoice,
     /// Why this backend was chosen, for the user.
     reason: String,
@@ -71,6 +78,7 @@ pub struct PreparedScene {
     /// Object id (1-based) of each face.
     face_object: Vec<u32>,
     object_names: Vec<String>,
+    #[cfg(feature = "gpu")]
     gpu: Option<GpuScene>,
     /// Set when `auto` traces this scene on the CPU although a GPU is open, and why.
     fallback: Option<String>,
@@ -81,11 +89,8 @@ impl Renderer {
     pub fn new(choice: BackendChoice) -> Result<Self, RenderError> {
         let (backend, reason) = match choice {
             BackendChoice::Cpu => (Backend::Cpu, "the CPU backend was requested".to_string()),
-            BackendChoice::Gpu => (
-                Self::open_gpu(GpuContext::new)?,
-                "the GPU backend was requested".to_string(),
-            ),
-            BackendChoice::Auto => match Self::open_gpu(GpuContext::new_hardware) {
+            BackendChoice::Gpu => (Self::open_gpu(false)?, "the GPU backend was requested".to_string()),
+            BackendChoice::Auto => match Self::open_gpu(true) {
                 Ok(gpu) => (gpu, "auto: a GPU adapter was found".to_string()),
                 Err(e) => (
                     Backend::Cpu,
@@ -95,14 +100,27 @@ impl Renderer {
         };
         Ok(Self {
             backend,
+            #[cfg(feature = "gpu")]
             choice,
             reason,
             geometry_builds: AtomicUsize::new(0),
         })
     }
 
-    fn open_gpu(open: fn() -> Result<GpuContext, GpuError>) -> Result<Backend, GpuError> {
-        Ok(Backend::Gpu(Box::new(GpuRenderer::new(open()?))))
+    /// The GPU backend; `hardware_only` refuses a software adapter (what `auto` wants).
+    #[cfg(feature = "gpu")]
+    fn open_gpu(hardware_only: bool) -> Result<Backend, RenderError> {
+        let context = if hardware_only {
+            GpuContext::new_hardware()?
+        } else {
+            GpuContext::new()?
+        };
+        Ok(Backend::Gpu(Box::new(GpuRenderer::new(context))))
+    }
+
+    #[cfg(not(feature = "gpu"))]
+    fn open_gpu(_hardware_only: bool) -> Result<Backend, RenderError> {
+        Err(RenderError::GpuNotBuilt)
     }
 
     /// Builds the BVH of `scene` and, on the GPU, uploads it with the scene's appearance.
@@ -118,6 +136,7 @@ impl Renderer {
     /// [`SceneBvh::build_with_offset`]); `geometry` must have been built from `scene`.
     pub fn prepare_with(&self, scene: &Scene, geometry: SceneBvh) -> Result<PreparedScene, RenderError> {
         let appearance = Appearance::of(scene);
+        #[cfg(feature = "gpu")]
         let (gpu, fallback) = match &self.backend {
             Backend::Cpu => (None, None),
             Backend::Gpu(renderer) => match GpuScene::new(renderer.context(), &geometry, &appearance) {
@@ -131,11 +150,14 @@ impl Renderer {
                 Err(e) => return Err(e.into()),
             },
         };
+        #[cfg(not(feature = "gpu"))]
+        let fallback = None;
         Ok(PreparedScene {
             geometry,
             appearance,
             face_object: scene.faces.iter().map(|f| f.object + 1).collect(),
             object_names: scene.objects.iter().map(|o| o.name.clone()).collect(),
+            #[cfg(feature = "gpu")]
             gpu,
             fallback,
         })
@@ -151,6 +173,7 @@ impl Renderer {
                 faces,
             });
         }
+        #[cfg(feature = "gpu")]
         if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
             gpu.set_appearance(renderer.context(), &appearance);
         }
@@ -168,6 +191,7 @@ impl Renderer {
     ) -> Result<Frame, RenderError> {
         camera.validate()?;
         let mut frame = match self.gpu(prepared) {
+            #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
                 let mut frame = cpu::trace(&prepared.geometry, camera, pose);
@@ -207,6 +231,7 @@ impl Renderer {
         let mut frame = self.render(prepared, camera, pose, planes)?;
         if planes.needs_shading() {
             match self.gpu(prepared) {
+                #[cfg(feature = "gpu")]
                 Some((renderer, gpu)) => {
                     renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis)?;
                 }
@@ -227,6 +252,7 @@ impl Renderer {
 
     /// Shades `frame` again with `prepared`'s current appearance, without tracing: what a
     /// change of colours or lights costs.
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
     pub fn reshade(
         &self,
         prepared: &PreparedScene,
@@ -236,12 +262,15 @@ impl Renderer {
         planes: Planes,
     ) -> Result<(), RenderError> {
         match self.gpu(prepared) {
+            #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
             None => shading::shade_frame(&prepared.geometry, &prepared.appearance, frame, planes),
         }
         Ok(())
     }
 
+    /// The GPU backend and scene, where `prepared` is traced on the GPU.
+    #[cfg(feature = "gpu")]
     fn gpu<'a>(&'a self, prepared: &'a PreparedScene) -> Option<(&'a GpuRenderer, &'a GpuScene)> {
         match (&self.backend, &prepared.gpu) {
             (Backend::Gpu(renderer), Some(gpu)) => Some((renderer, gpu)),
@@ -249,9 +278,17 @@ impl Renderer {
         }
     }
 
+    /// Without the `gpu` feature every scene is traced on the CPU (`None`, always: the
+    /// uninhabited type spares the callers a `cfg` on their CPU arm).
+    #[cfg(not(feature = "gpu"))]
+    fn gpu(&self, _prepared: &PreparedScene) -> Option<std::convert::Infallible> {
+        None
+    }
+
     /// "gpu" or "cpu".
     pub fn backend_name(&self) -> &'static str {
         match self.backend {
+            #[cfg(feature = "gpu")]
             Backend::Gpu(_) => "gpu",
             Backend::Cpu => "cpu",
         }
@@ -260,6 +297,7 @@ impl Renderer {
     /// The adapter in use, or a description of the CPU backend.
     pub fn device_name(&self) -> String {
         match &self.backend {
+            #[cfg(feature = "gpu")]
             Backend::Gpu(renderer) => renderer.context().describe(),
             Backend::Cpu => format!("f64 CPU tracer on {} threads", rayon::current_num_threads()),
         }
@@ -276,6 +314,7 @@ impl Renderer {
     }
 
     /// The GPU backend, if that is the one in use (to limit its bands, or read its adapter).
+    #[cfg(feature = "gpu")]
     pub fn gpu_renderer(&mut self) -> Option<&mut GpuRenderer> {
         match &mut self.backend {
             Backend::Gpu(renderer) => Some(renderer),
@@ -302,11 +341,36 @@ impl PreparedScene {
 
     /// "gpu" or "cpu": which backend traces this scene.
     pub fn backend_name(&self) -> &'static str {
-        if self.gpu.is_some() { "gpu" } else { "cpu" }
+        #[cfg(feature = "gpu")]
+        if self.gpu.is_some() {
+            return "gpu";
+        }
+        "cpu"
     }
 
     /// Why `auto` traces this scene on the CPU although a GPU is open, if it does.
     pub fn fallback(&self) -> Option<&str> {
         self.fallback.as_deref()
+    }
+}
+
+#[cfg(all(test, not(feature = "gpu")))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn without_the_gpu_feature_gpu_is_refused_and_auto_says_why_it_uses_the_cpu() {
+        let error = Renderer::new(BackendChoice::Gpu)
+            .err()
+            .expect("no GPU backend in this build");
+        assert!(matches!(error, RenderError::GpuNotBuilt));
+        assert!(error.to_string().contains("`gpu` feature"), "{error}");
+        let auto = Renderer::new(BackendChoice::Auto).expect("auto falls back to the CPU");
+        assert_eq!(auto.backend_name(), "cpu");
+        assert!(
+            auto.reason().starts_with("auto: GPU unavailable") && auto.reason().contains("`gpu` feature"),
+            "{}",
+            auto.reason()
+        );
     }
 }

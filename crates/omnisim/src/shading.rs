@@ -92,7 +92,7 @@ fn illuminance(geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
 /// Face colours are decoded once per frame; without lighting a pixel's 8-bit colour is its
 /// face's colour, which is what encoding the decoded colour gives (`lighting.rs` tests every
 /// byte), without the cost of encoding.
-pub fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &mut Frame, planes: Planes) {
+pub(crate) fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &mut Frame, planes: Planes) {
     let albedo: Vec<DVec3> = appearance.face_colours.iter().map(|&c| linear_rgb(c)).collect();
     let lighting = appearance.lighting.as_ref();
     let (linear, colour) = frame

@@ -7,10 +7,10 @@ use anyhow::bail;
 use clap::{Args, ValueEnum};
 use glam::dvec3;
 use omnisim::scene::{Face, SceneObject};
-use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene};
+use omnisim::{BackendChoice, Planes, Pose, Renderer, Scene};
 use serde_json::json;
 
-use crate::camera_args::{CameraArgs, Rig};
+use crate::camera_args::CameraArgs;
 use crate::poses::parse_pose;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -61,10 +61,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
     }
-    let camera = match args.camera.build()? {
-        Rig::Single(camera) => camera,
-        Rig::Stereo(stereo) => Camera::Pinhole(stereo.cameras()[0].clone()),
-    };
+    let camera = args.camera.build()?.first_camera();
     let mut scene = Scene::load(&args.scene)?;
     if let Some(count) = args.synthetic_triangles {
         add_height_field(&mut scene, count)?;
@@ -111,8 +108,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let lights_on = scene.lighting.as_ref().map_or(0, |l| l.lights_on().count());
         let record = json!({
             "scene": scene.name,
-            "triangles": prepared.geometry().triangles.len(),
-            "bvh_build_ms": prepared.geometry().build_time.as_secs_f64() * 1e3,
+            "triangles": prepared.geometry().triangles().len(),
+            "bvh_build_ms": prepared.geometry().build_time().as_secs_f64() * 1e3,
             "lit": scene.lighting.is_some(),
             "lights_on": lights_on,
             "reshade_median_ms": median(&mut reshade_times) * 1e3,

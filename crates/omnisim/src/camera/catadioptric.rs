@@ -23,11 +23,28 @@ use crate::pose::rotation_xyz;
 #[derive(Debug, Clone, PartialEq)]
 pub enum MirrorShape {
     /// (x²+y²)/a² − z²/b² = −1, metres; perspective camera at the outer focus.
-    Hyperbolic { a: f64, b: f64 },
+    Hyperbolic {
+        /// Semi-axis a, metres.
+        a: f64,
+        /// Semi-axis b, metres.
+        b: f64,
+    },
     /// z = h·(x²/a² + y²/b²), metres; orthographic camera. Central only when a = b.
-    Parabolic { a: f64, b: f64, h: f64 },
+    Parabolic {
+        /// Radius scale along x, metres.
+        a: f64,
+        /// Radius scale along y, metres (a = b: a paraboloid of revolution).
+        b: f64,
+        /// Height h, metres.
+        h: f64,
+    },
     /// Sphere of `radius` seen by a perspective camera `camera_distance` from its centre.
-    Spherical { radius: f64, camera_distance: f64 },
+    Spherical {
+        /// Sphere radius, metres.
+        radius: f64,
+        /// Distance from the sphere's centre to the camera, metres.
+        camera_distance: f64,
+    },
 }
 
 /// Which way the mirror axis points in the body frame.
@@ -55,11 +72,14 @@ pub enum MirrorRays {
 /// `tilt` R = Rx·Ry·Rz (radians) of its optical axes.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Misalignment {
+    /// Displacement of the camera, metres, mirror frame.
     pub offset: DVec3,
+    /// Tilt (θx, θy, θz) of the camera axes, radians.
     pub tilt: DVec3,
 }
 
 impl Misalignment {
+    /// Whether the camera sits exactly at its nominal place (a central mirror stays central).
     pub fn is_zero(&self) -> bool {
         self.offset == DVec3::ZERO && self.tilt == DVec3::ZERO
     }
@@ -68,28 +88,38 @@ impl Misalignment {
 /// Mei's unified-model parameters of an aligned central catadioptric camera.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UnifiedModel {
+    /// Mirror parameter ξ (1 for a paraboloid, 0 for a pinhole).
     pub xi: f64,
+    /// Generalised focal length in x, pixels.
     pub gamma_x: f64,
+    /// Generalised focal length in y, pixels.
     pub gamma_y: f64,
+    /// Principal point, column.
     pub cx: f64,
+    /// Principal point, row.
     pub cy: f64,
 }
 
 /// A quadric x·diag·x + linear·x + constant = 0 with a diagonal quadratic part.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Quadric {
+    /// Diagonal of the quadratic part.
     pub diag: DVec3,
+    /// Linear part.
     pub linear: DVec3,
+    /// Constant term.
     pub constant: f64,
     /// Only points with z above this belong to the mirror (the hyperbola's upper sheet).
     pub min_z: f64,
 }
 
 impl Quadric {
+    /// The quadric's value at `p`: zero on the surface, its sign tells the sides apart.
     pub fn value(&self, p: DVec3) -> f64 {
         (self.diag * p).dot(p) + self.linear.dot(p) + self.constant
     }
 
+    /// Gradient at `p`: the surface normal, unnormalised.
     pub fn gradient(&self, p: DVec3) -> DVec3 {
         2.0 * self.diag * p + self.linear
     }
@@ -127,22 +157,32 @@ impl Quadric {
     }
 }
 
+/// A catadioptric camera: a perspective or orthographic camera looking at a mirror of
+/// revolution, traced by the law of reflection at the mirror surface.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Catadioptric {
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
+    /// Shape and size of the mirror.
     pub mirror: MirrorShape,
     /// Focal length in pixels (perspective camera of hyperbolic and spherical mirrors), or
     /// pixels per metre (orthographic camera of parabolic mirrors).
     pub focal: f64,
+    /// Image column of the mirror axis.
     pub cx: f64,
+    /// Image row of the mirror axis.
     pub cy: f64,
     /// Radius of the mirror's rim (in the surface frame's xy), metres; `None` for no rim.
     pub rim_radius: Option<f64>,
     /// Pixels closer than this to (cx, cy) see the camera's own body: background.
     pub hidden_centre_px: f64,
+    /// Which way the mirror axis points in the body frame.
     pub mount: Mount,
+    /// Camera displacement from its nominal place (makes the camera non-central).
     pub misalignment: Misalignment,
+    /// How mirror rays are found.
     pub rays: MirrorRays,
 }
 

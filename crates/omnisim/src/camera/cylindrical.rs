@@ -11,10 +11,13 @@ use super::CameraRay;
 /// distance, with fy = (H/2)/tan(vfov/2) and cy = (H − 1)/2, so the horizon is the middle row.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Cylindrical {
+    /// Image width, pixels (360°).
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
     /// Vertical focal length, pixels per unit of tan(elevation).
     pub fy: f64,
+    /// Row of the horizon.
     pub cy: f64,
 }
 
@@ -29,6 +32,7 @@ impl Cylindrical {
         }
     }
 
+    /// The ray of pixel (u, v), from the body origin.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
         let azimuth = PI - TAU * (pixel.x + 0.5) / self.width as f64;
         let rise = (self.cy - pixel.y) / self.fy;
@@ -39,6 +43,7 @@ impl Cylindrical {
         }
     }
 
+    /// Pixel of a body-frame point; `None` on the body z axis.
     pub fn project(&self, point: DVec3) -> Option<DVec2> {
         let horizontal = point.truncate().length();
         (horizontal > 0.0).then(|| {

@@ -11,11 +11,14 @@ use super::CameraRay;
 /// ε = π/2 − π(v + ½)/H. Turning the body by 2π/W about z shifts the image by one column.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Equirectangular {
+    /// Image width, pixels (360° of azimuth).
     pub width: u32,
+    /// Image height, pixels (180° of elevation).
     pub height: u32,
 }
 
 impl Equirectangular {
+    /// The ray of pixel (u, v), from the body origin.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
         let azimuth = PI - TAU * (pixel.x + 0.5) / self.width as f64;
         let elevation = PI / 2.0 - PI * (pixel.y + 0.5) / self.height as f64;
@@ -30,6 +33,7 @@ impl Equirectangular {
         }
     }
 
+    /// Pixel of a body-frame point; `None` at the origin.
     pub fn project(&self, point: DVec3) -> Option<DVec2> {
         let horizontal = point.truncate().length();
         if horizontal == 0.0 && point.z == 0.0 {

@@ -36,9 +36,13 @@ pub struct CameraRay {
 /// Every single-image vision system (a stereo rig is two `Pinhole`s, see `StereoRig`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Camera {
+    /// A perspective camera (also each camera of a stereo rig).
     Pinhole(Pinhole),
+    /// A full-sphere equirectangular panorama.
     Equirectangular(Equirectangular),
+    /// A 360° cylindrical panorama.
     Cylindrical(Cylindrical),
+    /// A camera looking at a mirror.
     Catadioptric(Catadioptric),
 }
 
@@ -98,6 +102,7 @@ impl Camera {
     }
 
     /// Which ray generator of `shaders/` implements this model (`CAMERA_*` constants there).
+    #[cfg(feature = "gpu")]
     pub(crate) fn gpu_kind(&self) -> u32 {
         match self {
             Camera::Pinhole(_) => 0,

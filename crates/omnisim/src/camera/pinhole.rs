@@ -9,17 +9,23 @@ use crate::pose::Pose;
 pub struct Pinhole {
     /// Optical centre in the body frame (zero except for the cameras of a stereo rig).
     pub position: DVec3,
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
+    /// Focal length in x, pixels.
     pub fx: f64,
+    /// Focal length in y, pixels.
     pub fy: f64,
+    /// Principal point, column.
     pub cx: f64,
+    /// Principal point, row.
     pub cy: f64,
 }
 
 /// body_from_optical: optical z (forward) → body x, optical x (right) → body −y,
 /// optical y (down) → body −z.
-pub const BODY_FROM_OPTICAL: DMat3 = DMat3::from_cols(
+pub(crate) const BODY_FROM_OPTICAL: DMat3 = DMat3::from_cols(
     DVec3::new(0.0, -1.0, 0.0),
     DVec3::new(0.0, 0.0, -1.0),
     DVec3::new(1.0, 0.0, 0.0),
@@ -41,6 +47,7 @@ impl Pinhole {
         }
     }
 
+    /// The ray of pixel (u, v), from the optical centre, in the body frame.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
         let optical = dvec3((pixel.x - self.cx) / self.fx, (pixel.y - self.cy) / self.fy, 1.0);
         CameraRay {
@@ -69,6 +76,7 @@ impl Pinhole {
             .collect()
     }
 
+    /// Pixel of a body-frame point; `None` behind the camera.
     pub fn project(&self, point: DVec3) -> Option<DVec2> {
         let optical = BODY_FROM_OPTICAL.transpose() * (point - self.position);
         (optical.z > 0.0).then(|| {

@@ -9,6 +9,7 @@ use crate::pose::Pose;
 /// right camera is the left one moved by B along its own optical x (to the right).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StereoRig {
+    /// Intrinsics shared by both cameras (its `position` is ignored).
     pub camera: Pinhole,
     /// Distance between the optical centres, metres.
     pub baseline: f64,

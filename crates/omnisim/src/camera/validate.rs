@@ -19,23 +19,38 @@ const TURN: (f64, f64) = (-std::f64::consts::TAU, std::f64::consts::TAU);
 /// Stereo baseline and lens positions, metres: the scene's own limit.
 const BASELINE: (f64, f64) = (1e-6, crate::scene::MAX_COORDINATE);
 
+/// Why a camera cannot make an image; every message states the valid range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CameraError {
+    /// Image size outside 1 pixel to [`MAX_PIXELS`].
     #[error(
         "the image is {width}x{height} = {} pixels ({} megapixels); omnisim renders images of 1 to {MAX_PIXELS} pixels (100 megapixels), each side at least 1",
         *width as u64 * *height as u64,
         (*width as u64 * *height as u64) as f64 / 1e6
     )]
-    Size { width: u32, height: u32 },
+    Size {
+        /// Width asked for, pixels.
+        width: u32,
+        /// Height asked for, pixels.
+        height: u32,
+    },
+    /// A parameter outside the range where the model makes sense.
+
     #[error("{name} = {} {unit} is outside its valid range, {} to {} {unit}", number(*value), number(range.0), number(range.1))]
     Range {
+        /// Which parameter.
         name: &'static str,
+        /// The value given.
         value: f64,
+        /// Smallest and largest valid values.
         range: (f64, f64),
+        /// Unit of the three numbers.
         unit: &'static str,
     },
+    /// Every parameter is in range, but no pixel has a ray (e.g. a rim smaller than a pixel).
     #[error("no pixel of the image sees the scene: {0}")]
     NoImage(String),
+    /// A ray method the camera cannot use (the paper's shortcut on a non-central mirror).
     #[error("{0}")]
     Method(&'static str),
 }
@@ -89,6 +104,7 @@ impl Camera {
 }
 
 impl Pinhole {
+    /// Checks size, focal lengths, principal point and position.
     pub fn validate(&self) -> Result<(), CameraError> {
         check_size(self.width, self.height)?;
         within("pinhole fx", self.fx, FOCAL, "px")?;
@@ -103,6 +119,7 @@ impl Pinhole {
 }
 
 impl StereoRig {
+    /// Checks the baseline and both cameras.
     pub fn validate(&self) -> Result<(), CameraError> {
         within("stereo baseline", self.baseline, BASELINE, "m")?;
         self.cameras().iter().try_for_each(Pinhole::validate)

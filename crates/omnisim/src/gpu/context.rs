@@ -3,53 +3,76 @@
 /// Why the GPU backend is unavailable or failed.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
+    /// No adapter opened (no driver, or none of the requested backend).
     #[error("no Vulkan, Metal or DX12 adapter found ({0}); install the GPU's Vulkan driver, or use the CPU backend")]
     NoAdapter(String),
+    /// `auto` found only a software adapter, which is slower than the CPU tracer.
     #[error(
         "the only adapter, {0}, is a software rasteriser on the CPU, where the f64 CPU tracer is faster \
          (--backend gpu uses it anyway)"
     )]
     SoftwareAdapter(String),
+    /// The adapter opened but gave no device.
     #[error("the adapter '{adapter}' refused a device: {source}")]
     Device {
+        /// Adapter name.
         adapter: String,
+        /// What wgpu said.
         source: wgpu::RequestDeviceError,
     },
+    /// The BVH is deeper than the shader's traversal stack.
     #[error("the scene's BVH is {depth} levels deep; the GPU traversal stack holds {limit}")]
-    BvhTooDeep { depth: usize, limit: usize },
+    BvhTooDeep {
+        /// Depth of the scene's BVH.
+        depth: usize,
+        /// Entries of the shader's stack.
+        limit: usize,
+    },
+    /// A scene buffer exceeds what the adapter binds.
     #[error(
         "the scene's {buffer} take {bytes} bytes; the adapter binds at most {limit} bytes per buffer (use the CPU backend)"
     )]
     SceneTooLarge {
+        /// Which buffer.
         buffer: &'static str,
+        /// Its size.
         bytes: u64,
+        /// The adapter's limit.
         limit: u64,
     },
+    /// Mapping a result buffer failed.
     #[error("reading results back from the GPU failed: {0}")]
     Readback(String),
+    /// Even a band of one row is too large for the adapter.
     #[error("the image is {width}×{height}: one row alone exceeds the adapter's storage limit")]
-    ImageTooWide { width: u32, height: u32 },
+    ImageTooWide {
+        /// Image width, pixels.
+        width: u32,
+        /// Image height, pixels.
+        height: u32,
+    },
 }
 
-pub struct GpuContext {
-    pub device: wgpu::Device,
-    pub queue: wgpu::Queue,
-    pub adapter: wgpu::AdapterInfo,
-    pub limits: wgpu::Limits,
+/// The adapter and device in use, and the limits every buffer is checked against.
+pub(crate) struct GpuContext {
+    pub(crate) device: wgpu::Device,
+    pub(crate) queue: wgpu::Queue,
+    pub(crate) adapter: wgpu::AdapterInfo,
+    pub(crate) limits: wgpu::Limits,
 }
 
 impl GpuContext {
     /// Opens the adapter chosen by `WGPU_BACKEND` / `WGPU_ADAPTER_NAME` / `WGPU_POWER_PREF`
     /// when set, else the best Vulkan, Metal or DX12 adapter. OpenGL is used only when asked
     /// for (`WGPU_BACKEND=gl`), so a missing Vulkan driver is reported, not papered over.
-    pub fn new() -> Result<Self, GpuError> {
+    pub(crate) fn new() -> Result<Self, GpuError> {
         Self::open(false)
     }
 
     /// As [`GpuContext::new`], but refuses a software adapter (llvmpipe, lavapipe, WARP: wgpu's
     /// `DeviceType::Cpu`): the `auto` backend's choice. wgpu ranks hardware adapters first, so
     /// a software one means there is no other.
-    pub fn new_hardware() -> Result<Self, GpuError> {
+    pub(crate) fn new_hardware() -> Result<Self, GpuError> {
         Self::open(true)
     }
 
@@ -88,19 +111,19 @@ impl GpuContext {
     }
 
     /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
-    pub fn is_software(&self) -> bool {
+    pub(crate) fn is_software(&self) -> bool {
         self.adapter.device_type == wgpu::DeviceType::Cpu
     }
 
     /// The largest storage buffer the adapter binds, bytes.
-    pub fn storage_limit(&self) -> u64 {
+    pub(crate) fn storage_limit(&self) -> u64 {
         self.limits
             .max_storage_buffer_binding_size
             .min(self.limits.max_buffer_size)
     }
 
     /// "name (backend, device type)", for messages and benchmark records.
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         format!(
             "{} ({:?}, {:?})",
             self.adapter.name, self.adapter.backend, self.adapter.device_type

@@ -1,72 +1,72 @@
 //! Host twins of the WGSL structs in `shaders/common.wgsl`, laid out by WGSL's rules.
-//! Keep in sync: `tests/tests/shaders.rs` compares every size and offset with naga's layout.
+//! Keep in sync: `gpu/tests.rs` compares every size and offset with naga's layout.
 
 use bytemuck::{Pod, Zeroable};
 
 /// WGSL twin: `CameraParams`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct CameraParams {
+pub(crate) struct CameraParams {
     /// mat3x3<f32>: three columns, each padded to 16 bytes.
-    pub world_from_body: [[f32; 4]; 3],
-    pub origin: [f32; 3],
-    pub kind: u32,
-    pub width: u32,
-    pub height: u32,
-    pub row_offset: u32,
-    pub band_rows: u32,
-    pub focal: [f32; 2],
-    pub principal: [f32; 2],
-    pub lens_origin: [f32; 3],
-    pub mirror_min_z: f32,
+    pub(crate) world_from_body: [[f32; 4]; 3],
+    pub(crate) origin: [f32; 3],
+    pub(crate) kind: u32,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) row_offset: u32,
+    pub(crate) band_rows: u32,
+    pub(crate) focal: [f32; 2],
+    pub(crate) principal: [f32; 2],
+    pub(crate) lens_origin: [f32; 3],
+    pub(crate) mirror_min_z: f32,
     /// mat3x3<f32>: three columns, each padded to 16 bytes.
-    pub camera_tilt: [[f32; 4]; 3],
-    pub mirror_diag: [f32; 3],
-    pub mirror_constant: f32,
-    pub mirror_linear: [f32; 3],
-    pub mount_sign: f32,
-    pub camera_offset: [f32; 3],
-    pub rim_sq: f32,
-    pub hidden_centre_sq: f32,
-    pub orthographic: u32,
-    pub central: u32,
-    pub shortcut: u32,
-    pub samples_per_axis: u32,
+    pub(crate) camera_tilt: [[f32; 4]; 3],
+    pub(crate) mirror_diag: [f32; 3],
+    pub(crate) mirror_constant: f32,
+    pub(crate) mirror_linear: [f32; 3],
+    pub(crate) mount_sign: f32,
+    pub(crate) camera_offset: [f32; 3],
+    pub(crate) rim_sq: f32,
+    pub(crate) hidden_centre_sq: f32,
+    pub(crate) orthographic: u32,
+    pub(crate) central: u32,
+    pub(crate) shortcut: u32,
+    pub(crate) samples_per_axis: u32,
     /// WGSL rounds the struct up to its 16-byte alignment.
-    pub _pad: [u32; 3],
+    pub(crate) _pad: [u32; 3],
 }
 
 /// WGSL twin: `Triangle`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct Triangle {
-    pub v0: [f32; 3],
-    pub face: u32,
-    pub e1: [f32; 3],
-    pub _pad1: u32,
-    pub e2: [f32; 3],
-    pub _pad2: u32,
+pub(crate) struct Triangle {
+    pub(crate) v0: [f32; 3],
+    pub(crate) face: u32,
+    pub(crate) e1: [f32; 3],
+    pub(crate) _pad1: u32,
+    pub(crate) e2: [f32; 3],
+    pub(crate) _pad2: u32,
 }
 
 /// WGSL twin: `PixelHit`, the hit planes of one pixel.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct PixelHit {
+pub(crate) struct PixelHit {
     /// Hit point relative to the scene offset.
-    pub point: [f32; 3],
-    pub range: f32,
+    pub(crate) point: [f32; 3],
+    pub(crate) range: f32,
     /// Unit face normal turned towards the ray origin.
-    pub normal: [f32; 3],
-    pub face: u32,
+    pub(crate) normal: [f32; 3],
+    pub(crate) face: u32,
 }
 
 /// WGSL twin: `ShadedPixel`, the shading stage's output for one pixel.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct ShadedPixel {
-    pub linear: [f32; 3],
+pub(crate) struct ShadedPixel {
+    pub(crate) linear: [f32; 3],
     /// 8-bit sRGB packed as `pack4x8unorm` (r in the low byte).
-    pub colour: u32,
+    pub(crate) colour: u32,
 }
 
 /// WGSL twin: `GpuLight`. Point lights: `vector` = position relative to the scene offset and
@@ -74,33 +74,36 @@ pub struct ShadedPixel {
 /// `strength` = linear colour × lux.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct GpuLight {
-    pub vector: [f32; 3],
-    pub kind: u32,
-    pub strength: [f32; 3],
-    pub _pad: u32,
+pub(crate) struct GpuLight {
+    pub(crate) vector: [f32; 3],
+    pub(crate) kind: u32,
+    pub(crate) strength: [f32; 3],
+    pub(crate) _pad: u32,
 }
 
 /// WGSL twin: `ShadingParams`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct ShadingParams {
-    pub ambient: f32,
+pub(crate) struct ShadingParams {
+    pub(crate) ambient: f32,
     /// 1 / white (lux⁻¹): the exposure.
-    pub inverse_white: f32,
-    pub light_count: u32,
+    pub(crate) inverse_white: f32,
+    pub(crate) light_count: u32,
     /// 0: flat face colours; 1: lit.
-    pub lit: u32,
+    pub(crate) lit: u32,
 }
 
+#[cfg(test)]
 /// WGSL twin: `BvhNode` is obvhs's `Bvh2Node` with the `small_bvh2_node` feature.
-pub type BvhNode = obvhs::bvh2::node::Bvh2Node;
+pub(crate) type BvhNode = obvhs::bvh2::node::Bvh2Node;
 
 /// A host struct's name, size and (field, offset) list.
-pub type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
+#[cfg(test)]
+pub(crate) type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
 
 /// The layout of every host twin, for the layout test.
-pub fn host_layouts() -> Vec<StructLayout> {
+#[cfg(test)]
+pub(crate) fn host_layouts() -> Vec<StructLayout> {
     use std::mem::{offset_of, size_of};
     vec![
         (

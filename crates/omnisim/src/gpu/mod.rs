@@ -2,11 +2,14 @@
 //! traversal) into hit planes and shade them, on any adapter wgpu finds (lavapipe in CI).
 
 mod context;
-pub mod layout;
+mod layout;
 mod scene;
-pub mod shader;
+mod shader;
+#[cfg(test)]
+mod tests;
 mod tracer;
 
-pub use context::{GpuContext, GpuError};
-pub use scene::GpuScene;
+pub(crate) use context::GpuContext;
+pub use context::GpuError;
+pub(crate) use scene::GpuScene;
 pub use tracer::GpuRenderer;

@@ -27,7 +27,7 @@ pub(super) struct BandBuffers {
 }
 
 /// Buffers of one prepared scene.
-pub struct GpuScene {
+pub(crate) struct GpuScene {
     pub(super) offset: DVec3,
     pub(super) nodes: wgpu::Buffer,
     pub(super) triangles: wgpu::Buffer,

@@ -1,7 +1,7 @@
 //! The WGSL program, assembled from one file per concern (WGSL has no `#include`).
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
-pub const FILES: [(&str, &str); 9] = [
+pub(crate) const FILES: [(&str, &str); 9] = [
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     (
         "camera_pinhole.wgsl",
@@ -26,26 +26,26 @@ pub const FILES: [(&str, &str); 9] = [
 ];
 
 /// Entry point of the trace pass.
-pub const ENTRY_POINT: &str = "trace_pixels";
+pub(crate) const ENTRY_POINT: &str = "trace_pixels";
 
 /// Entry point of the shading pass.
-pub const SHADE_ENTRY_POINT: &str = "shade_pixels";
+pub(crate) const SHADE_ENTRY_POINT: &str = "shade_pixels";
 
 /// Entry point of the edge supersampling pass.
-pub const REFINE_ENTRY_POINT: &str = "refine_edges";
+pub(crate) const REFINE_ENTRY_POINT: &str = "refine_edges";
 
 /// Workgroup size of `refine_edges`.
-pub const REFINE_WORKGROUP_SIZE: u32 = 64;
+pub(crate) const REFINE_WORKGROUP_SIZE: u32 = 64;
 
 /// Workgroup size of `trace_pixels` in x (columns) and y (rows); the shaders test checks it
 /// against the WGSL attribute.
-pub const WORKGROUP_SIZE: [u32; 2] = [8, 8];
+pub(crate) const WORKGROUP_SIZE: [u32; 2] = [8, 8];
 
 /// Traversal stack depth of `bvh.wgsl`; deeper BVHs are refused before dispatch.
-pub const STACK_SIZE: usize = 64;
+pub(crate) const STACK_SIZE: usize = 64;
 
 /// The whole program as one WGSL source.
-pub fn source() -> String {
+pub(crate) fn source() -> String {
     FILES
         .iter()
         .map(|(name, text)| format!("// ---- {name} ----\n{text}\n"))

@@ -37,7 +37,7 @@ enum HitSource<'a> {
 
 impl GpuRenderer {
     /// Compiles the WGSL program and its pipelines on `context`'s device.
-    pub fn new(context: GpuContext) -> Self {
+    pub(crate) fn new(context: GpuContext) -> Self {
         let device = &context.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("omnisim"),
@@ -75,7 +75,12 @@ impl GpuRenderer {
     }
 
     /// The device in use.
-    pub fn context(&self) -> &GpuContext {
+    /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
+    pub fn is_software(&self) -> bool {
+        self.context.is_software()
+    }
+
+    pub(crate) fn context(&self) -> &GpuContext {
         &self.context
     }
 

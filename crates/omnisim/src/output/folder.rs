@@ -17,29 +17,50 @@ const MANIFEST_HEADER: &str = "# omnisim run manifest: the run that wrote this f
 # omnisim render refuses to write another run into this folder; --overwrite removes exactly the\n\
 # files listed here first. A run ends with the line 'complete'.\n";
 
+/// Why an output folder cannot take this run.
 #[derive(Debug, thiserror::Error)]
 pub enum FolderError {
+    /// The system refused (permissions, full disk).
     #[error("cannot use output folder {}: {source}", dir.display())]
-    Io { dir: PathBuf, source: std::io::Error },
+    Io {
+        /// The folder.
+        dir: PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
+    /// The folder holds another run's files.
     #[error(
         "{} holds the {count} files of another run ({previous}); this run's files would mix with them. \
          Choose another output folder, or add --overwrite to remove that run's files first (nothing else is touched)",
         dir.display()
     )]
     AnotherRun {
+        /// The folder.
         dir: PathBuf,
+        /// The other run's command.
         previous: String,
+        /// How many files it wrote.
         count: usize,
     },
+    /// The folder holds files no run recorded.
     #[error(
         "{} already holds files that no omnisim run recorded (no {MANIFEST_NAME}), e.g. '{example}'. Choose an empty \
          or new output folder, or add --overwrite to write into it anyway (files with the same names are replaced, \
          nothing else is touched)",
         dir.display()
     )]
-    Unrecorded { dir: PathBuf, example: String },
+    Unrecorded {
+        /// The folder.
+        dir: PathBuf,
+        /// One of the files found.
+        example: String,
+    },
+    /// A file name that would leave the folder.
     #[error("'{name}' is not a plain file name: outputs stay inside the output folder")]
-    BadName { name: String },
+    BadName {
+        /// The name refused.
+        name: String,
+    },
 }
 
 /// An output folder opened for one run.
@@ -122,6 +143,11 @@ impl RunFolder {
             claimed: carried.into_iter().collect(),
             notes,
         })
+    }
+
+    /// The output folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
     }
 
     /// Records `name` as this run's file, before it is written, and returns its path in the

@@ -10,11 +10,13 @@
 pub mod atomic;
 pub mod folder;
 mod planes;
+mod set;
 
 pub use planes::{
     LINEAR_CONVENTION, MAX_SEGMENT_ID, NORMAL_CONVENTION, SegmentObject, SegmentationLegend, face_ids, write_id_png,
     write_linear_exr, write_normal_exr,
 };
+pub use set::{FrameTarget, OutputSet};
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -44,10 +46,13 @@ pub fn range_convention(camera: &Camera) -> &'static str {
     }
 }
 
+/// A file that could not be written, and why; nothing is left at `path`.
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write {}: {message}", path.display())]
 pub struct OutputError {
+    /// The file.
     pub path: PathBuf,
+    /// What went wrong.
     pub message: String,
 }
 

@@ -7,6 +7,7 @@ use std::path::Path;
 use super::{Scene, SceneError};
 use crate::output::atomic::write_atomically;
 
+/// File formats `Scene::export` writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ExportFormat {
     /// Binary little-endian PLY: float x y z, uchar red green blue per vertex; int face lists.
@@ -16,6 +17,7 @@ pub enum ExportFormat {
 }
 
 impl ExportFormat {
+    /// The format a file name asks for by its extension (`.ply`, `.obj`), if any.
     pub fn from_path(path: &Path) -> Option<Self> {
         match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
             "ply" => Some(Self::Ply),

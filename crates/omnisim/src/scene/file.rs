@@ -14,20 +14,26 @@ pub type Rgb = (u8, u8, u8);
 /// How the angles of this file are written.
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
 pub enum AngleUnit {
+    /// Angles in degrees (the default).
     #[default]
     Degrees,
+    /// Angles in radians.
     Radians,
 }
 
+/// A whole scene file: `Scene(name: ..., objects: [...])`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Scene")]
 pub struct SceneFile {
+    /// Scene name; names output files.
     pub name: String,
+    /// Free text.
     #[serde(default)]
     pub description: String,
     /// Unit of every `rotation` in the file.
     #[serde(default)]
     pub angles: AngleUnit,
+    /// The objects, each from the library.
     pub objects: Vec<ObjectFile>,
     /// Light points and exposure; without it faces are drawn in their flat colours.
     #[serde(default)]
@@ -44,6 +50,7 @@ pub struct LightingFile {
     /// Exposure: the illuminance, lux, at which a white face reaches full scale.
     #[serde(default = "default_white")]
     pub white: f64,
+    /// Light points and directional lights.
     #[serde(default)]
     pub lights: Vec<LightFile>,
 }
@@ -61,9 +68,11 @@ pub enum LightFile {
     Directional(DirectionalLightFile),
 }
 
+/// `Point(...)`: a light point.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PointLightFile {
+    /// Name, unique in the scene; data-set specs switch lights by name.
     pub name: String,
     /// World position, metres.
     pub position: (f64, f64, f64),
@@ -77,16 +86,20 @@ pub struct PointLightFile {
     pub on: bool,
 }
 
+/// `Directional(...)`: a light at infinity.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DirectionalLightFile {
+    /// Name, unique in the scene.
     pub name: String,
     /// Direction the light travels in (towards the scene), world frame; need not be unit.
     pub direction: (f64, f64, f64),
     /// Illuminance on a surface facing the light, lux.
     pub illuminance: f64,
+    /// sRGB tint; white by default.
     #[serde(default = "white_light")]
     pub colour: Rgb,
+    /// Whether the light is switched on.
     #[serde(default = "yes")]
     pub on: bool,
 }
@@ -100,6 +113,7 @@ fn yes() -> bool {
 }
 
 impl LightFile {
+    /// The light's name.
     pub fn name(&self) -> &str {
         match self {
             LightFile::Point(l) => &l.name,
@@ -123,9 +137,11 @@ pub enum ObjectFile {
     Mesh(MeshFile),
 }
 
+/// `Box(...)`: a box, each face its own colour if asked.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoxFile {
+    /// Name, unique in the scene.
     pub name: String,
     /// (l1, l2, l3): lengths along the box's own x, y, z axes, metres.
     pub size: (f64, f64, f64),
@@ -135,6 +151,7 @@ pub struct BoxFile {
     /// (θx, θy, θz), world_from_object = Rx·Ry·Rz, in the file's angle unit.
     #[serde(default)]
     pub rotation: (f64, f64, f64),
+    /// sRGB colour of every face not named in `faces`.
     pub colour: Rgb,
     /// Per-face colours overriding `colour`: keys front (+x), back (−x), left (+y),
     /// right (−y), top (+z), bottom (−z).
@@ -142,9 +159,11 @@ pub struct BoxFile {
     pub faces: BTreeMap<String, Rgb>,
 }
 
+/// `Wall(...)`: a vertical rectangle.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WallFile {
+    /// Name, unique in the scene.
     pub name: String,
     /// Floor-plan start point (x, y), metres.
     pub from: (f64, f64),
@@ -153,33 +172,44 @@ pub struct WallFile {
     /// Height of the bottom edge, metres.
     #[serde(default)]
     pub bottom: f64,
+    /// Height above `bottom`, metres.
     pub height: f64,
+    /// sRGB colour.
     pub colour: Rgb,
 }
 
+/// `Floor(...)`: a horizontal polygon.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FloorFile {
+    /// Name, unique in the scene.
     pub name: String,
     /// Floor-plan corners (x, y) in order around the boundary, metres.
     pub corners: Vec<(f64, f64)>,
+    /// Height, metres.
     #[serde(default)]
     pub z: f64,
+    /// sRGB colour.
     pub colour: Rgb,
 }
 
+/// `Polygon(...)`: any planar polygon.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PolygonFile {
+    /// Name, unique in the scene.
     pub name: String,
     /// Vertices (x, y, z) in order around the boundary, metres.
     pub vertices: Vec<(f64, f64, f64)>,
+    /// sRGB colour.
     pub colour: Rgb,
 }
 
+/// `Mesh(...)`: triangles from a PLY or OBJ file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshFile {
+    /// Name, unique in the scene.
     pub name: String,
     /// PLY or OBJ file, relative to the scene file's folder.
     pub path: String,
@@ -188,6 +218,7 @@ pub struct MeshFile {
     /// Uniform scale applied first (e.g. 0.001 for a mesh in millimetres).
     #[serde(default = "one")]
     pub scale: f64,
+    /// (θx, θy, θz), Rx·Ry·Rz, in the file's angle unit; applied after `scale`.
     #[serde(default)]
     pub rotation: (f64, f64, f64),
     /// Translation applied last, metres.
@@ -200,6 +231,7 @@ fn one() -> f64 {
 }
 
 impl ObjectFile {
+    /// The object's name.
     pub fn name(&self) -> &str {
         match self {
             ObjectFile::Box(o) => &o.name,
@@ -210,6 +242,7 @@ impl ObjectFile {
         }
     }
 
+    /// The library kind, as written in the file (Box, Wall, ...).
     pub fn kind(&self) -> &'static str {
         match self {
             ObjectFile::Box(_) => "Box",

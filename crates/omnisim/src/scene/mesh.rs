@@ -17,7 +17,7 @@ pub(super) struct MeshTriangle {
 
 /// Most triangles one mesh may have (about 15 GB of memory at 300 bytes each): a lying or
 /// enormous header fails at once instead of exhausting memory.
-pub const MAX_MESH_TRIANGLES: usize = 50_000_000;
+pub(crate) const MAX_MESH_TRIANGLES: usize = 50_000_000;
 
 /// Reads a mesh file. `path` must be a regular file of at most [`crate::input::MESH_LIMIT`]
 /// bytes; errors name the file and a position, never the bytes found there.

@@ -38,6 +38,7 @@ pub struct Face {
 /// A named object of the scene file, kept so faces can be traced back to what the user wrote.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SceneObject {
+    /// Name from the scene file, unique in the scene.
     pub name: String,
     /// Library kind: Box, Wall, Floor, Polygon or Mesh.
     pub kind: &'static str,
@@ -46,11 +47,15 @@ pub struct SceneObject {
 /// A validated scene.
 #[derive(Debug, Clone, Default)]
 pub struct Scene {
+    /// Name from the scene file; names output files.
     pub name: String,
+    /// Free text from the scene file.
     pub description: String,
     /// Where it was loaded from, if from a file.
     pub source: Option<PathBuf>,
+    /// Objects in file order; `Face::object` indexes this list.
     pub objects: Vec<SceneObject>,
+    /// Every face of every object, in object order.
     pub faces: Vec<Face>,
     /// Light points and exposure; `None` draws every face in its flat colour.
     pub lighting: Option<crate::lighting::Lighting>,

@@ -9,15 +9,19 @@ use super::validate::{flatten, newell_normal};
 /// `face[i]` of the scene.
 #[derive(Debug, Clone, Default)]
 pub struct Triangles {
+    /// Corners of each triangle, world metres.
     pub corners: Vec<[DVec3; 3]>,
+    /// Scene face of each triangle.
     pub face: Vec<u32>,
 }
 
 impl Triangles {
+    /// Number of triangles.
     pub fn len(&self) -> usize {
         self.corners.len()
     }
 
+    /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.corners.is_empty()
     }

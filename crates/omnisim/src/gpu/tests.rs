@@ -1,8 +1,8 @@
 //! The WGSL program is valid, and every host struct uploaded to the GPU has exactly the size
 //! and field offsets naga computes for its WGSL twin.
 
-use omnisim::gpu::layout::host_layouts;
-use omnisim::gpu::shader;
+use super::layout::host_layouts;
+use super::shader;
 
 fn module() -> naga::Module {
     naga::front::wgsl::parse_str(&shader::source())
@@ -32,7 +32,7 @@ fn every_shader_file_is_valid_wgsl() {
     assert_eq!(refine.workgroup_size, [shader::REFINE_WORKGROUP_SIZE, 1, 1]);
     assert_eq!(
         shader::FILES.len(),
-        std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../shaders"))
+        std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shaders"))
             .unwrap()
             .count()
     );

@@ -1,0 +1,284 @@
+//! Which files a render writes, and writing them: per view of every frame (colour, range,
+//! depth, point cloud, segmentation, normals, linear colour), per frame of a stereo rig
+//! (disparity), and once per run (calibration, ray maps, poses, segmentation legend,
+//! `render.json`). Files are named `<scene>-<index>` + the view's suffix + the kind's suffix.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::atomic::write_atomically;
+use super::folder::RunFolder;
+use super::{OutputError, failed};
+use crate::calibration;
+use crate::camera::Camera;
+use crate::frame::{Frame, Plane, Planes};
+use crate::metadata::{FrameMetadata, RenderMetadata};
+use crate::pose::Pose;
+use crate::rig::{Rig, View};
+use crate::scene::Scene;
+
+/// Which files a render writes. [`OutputSet::default`] is what `omnisim render` writes without
+/// options: colour, range, depth, point cloud and disparity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct OutputSet {
+    /// `<stem>.png`: 8-bit sRGB colour.
+    pub colour: bool,
+    /// `<stem>-range.exr`: metres from each ray's origin.
+    pub range: bool,
+    /// Pinhole views: `<stem>-depth.png` (TUM, z × 5000) and `<stem>-depth.exr` (z, metres).
+    pub depth: bool,
+    /// `<stem>.ply`: coloured point cloud of every hit pixel.
+    pub point_cloud: bool,
+    /// `<stem>-object.png`, `<stem>-face.png` (16-bit ids) and, once, `segmentation.json`.
+    pub segmentation: bool,
+    /// `<stem>-normal.exr`: world-frame unit normals.
+    pub normals: bool,
+    /// `<stem>-linear.exr`: linear colour before sRGB encoding.
+    pub linear: bool,
+    /// Stereo rigs: `<stem>-disparity.exr` of the left image.
+    pub disparity: bool,
+}
+
+impl Default for OutputSet {
+    fn default() -> Self {
+        Self {
+            colour: true,
+            range: true,
+            depth: true,
+            point_cloud: true,
+            segmentation: false,
+            normals: false,
+            linear: false,
+            disparity: true,
+        }
+    }
+}
+
+/// What one frame's files show, for their names and comments.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameTarget<'a> {
+    /// The scene's file stem (`Scene::file_stem`): the first part of every file name.
+    pub scene: &'a str,
+    /// Position of the pose in the run, from 0.
+    pub index: usize,
+    /// The pose the frame was rendered from.
+    pub pose: &'a Pose,
+}
+
+impl FrameTarget<'_> {
+    /// `<scene>-<index>`, the part of the file names shared by every file of the frame.
+    pub fn stem(&self) -> String {
+        format!("{}-{:04}", self.scene, self.index)
+    }
+
+    /// The frame's file with `suffix`, claimed in the run folder (so a killed run's files are
+    /// known before they exist).
+    fn path(&self, folder: &mut RunFolder, suffix: &str) -> Result<PathBuf, OutputError> {
+        claim(folder, format!("{}{suffix}", self.stem()))
+    }
+}
+
+/// `name` claimed in `folder`: the path to write it to.
+fn claim(folder: &mut RunFolder, name: String) -> Result<PathBuf, OutputError> {
+    folder.claim(name.clone()).map_err(|e| OutputError {
+        path: PathBuf::from(name),
+        message: e.to_string(),
+    })
+}
+
+impl OutputSet {
+    /// The planes a frame needs for these files (always colour: the point cloud is coloured).
+    pub fn planes(&self) -> Planes {
+        let mut planes = Planes::COLOUR;
+        if self.linear {
+            planes = planes.with(Plane::LinearColour);
+        }
+        if self.segmentation {
+            planes = planes.with(Plane::Object);
+        }
+        planes
+    }
+
+    /// Writes the files of one view of a frame; returns their paths.
+    pub fn write_view(
+        &self,
+        folder: &mut RunFolder,
+        target: &FrameTarget,
+        view: &View,
+        frame: &Frame,
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let suffix = view.suffix;
+        let camera = &view.camera;
+        let size = (frame.width, frame.height);
+        let mut written = Vec::new();
+        if self.colour {
+            let png = target.path(folder, &format!("{suffix}.png"))?;
+            super::write_png(&png, frame)?;
+            written.push(png);
+        }
+        if self.range {
+            let exr = target.path(folder, &format!("{suffix}-range.exr"))?;
+            super::write_range_exr(&exr, frame, camera)?;
+            written.push(exr);
+        }
+        if let (true, Camera::Pinhole(pinhole)) = (self.depth, camera) {
+            let depth = pinhole.axial_depth(frame, target.pose);
+            let depth_png = target.path(folder, &format!("{suffix}-depth.png"))?;
+            super::write_tum_depth_png(&depth_png, size, &depth)?;
+            let depth_exr = target.path(folder, &format!("{suffix}-depth.exr"))?;
+            super::write_axial_depth_exr(&depth_exr, size, depth)?;
+            written.extend([depth_png, depth_exr]);
+        }
+        if self.segmentation {
+            let object_png = target.path(folder, &format!("{suffix}-object.png"))?;
+            let objects = frame.object().ok_or_else(|| OutputError {
+                path: object_png.clone(),
+                message: "the frame has no object plane (render it with Plane::Object)".into(),
+            })?;
+            super::write_id_png(&object_png, size, objects)?;
+            let face_png = target.path(folder, &format!("{suffix}-face.png"))?;
+            super::write_id_png(&face_png, size, &super::face_ids(frame))?;
+            written.extend([object_png, face_png]);
+        }
+        if self.normals {
+            let normal_exr = target.path(folder, &format!("{suffix}-normal.exr"))?;
+            super::write_normal_exr(&normal_exr, frame)?;
+            written.push(normal_exr);
+        }
+        if self.linear {
+            let linear_exr = target.path(folder, &format!("{suffix}-linear.exr"))?;
+            super::write_linear_exr(&linear_exr, frame)?;
+            written.push(linear_exr);
+        }
+        if self.point_cloud {
+            let ply = target.path(folder, &format!("{suffix}.ply"))?;
+            let comment = format!(
+                "scene {} camera {}{suffix} pose {}",
+                target.scene,
+                camera.model_name(),
+                describe_pose(target.pose)
+            );
+            super::write_point_cloud_ply(&ply, frame, &comment)?;
+            written.push(ply);
+        }
+        Ok(written)
+    }
+
+    /// Writes every file of a frame: each view's (`frames` in the order of `rig.views()`)
+    /// and the rig's own (stereo disparity). Returns the frame's entry for `render.json`,
+    /// listing the files relative to the output folder.
+    pub fn write_frame(
+        &self,
+        folder: &mut RunFolder,
+        target: &FrameTarget,
+        rig: &Rig,
+        frames: &[Frame],
+    ) -> Result<FrameMetadata, OutputError> {
+        let views = rig.views();
+        assert_eq!(frames.len(), views.len(), "one frame per view of the rig");
+        let mut written = Vec::new();
+        for (view, frame) in views.iter().zip(frames) {
+            written.extend(self.write_view(folder, target, view, frame)?);
+        }
+        if let (true, Rig::Stereo(stereo)) = (self.disparity, rig) {
+            let disparity = stereo.disparity(&frames[0], target.pose);
+            let path = target.path(folder, "-disparity.exr")?;
+            super::write_disparity_exr(&path, (frames[0].width, frames[0].height), disparity)?;
+            written.push(path);
+        }
+        let files = written
+            .into_iter()
+            .map(|path| path.strip_prefix(folder.dir()).map(Path::to_path_buf).unwrap_or(path))
+            .collect();
+        Ok(FrameMetadata::new(target.index, target.stem(), target.pose, files))
+    }
+
+    /// Writes the files of a run that are not per frame, claimed in `folder`: calibration in the
+    /// formats robotics tools read, a ray map per view, the segmentation legend (if asked for),
+    /// `poses.txt` (TUM) and `render.json`. Returns their paths.
+    pub fn write_run_files(
+        &self,
+        folder: &mut RunFolder,
+        scene: &Scene,
+        rig: &Rig,
+        metadata: &RenderMetadata,
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let mut written = Vec::new();
+        for (name, text) in calibration_files(rig) {
+            let path = claim(folder, name.to_string())?;
+            write_atomically(&path, |file| file.write_all(text.as_bytes())).map_err(failed(&path))?;
+            written.push(path);
+        }
+        for view in rig.views() {
+            let path = claim(folder, format!("raymap{}.exr", view.suffix))?;
+            super::write_ray_map_exr(&path, &view.camera)?;
+            written.push(path);
+        }
+        if self.segmentation {
+            let legend_path = claim(folder, "segmentation.json".into())?;
+            write_json(&legend_path, &super::SegmentationLegend::of(scene))?;
+            written.push(legend_path);
+        }
+        let poses_path = claim(folder, "poses.txt".into())?;
+        write_atomically(&poses_path, |out| {
+            writeln!(
+                out,
+                "# omnisim poses, TUM format: index tx ty tz qx qy qz qw (world_from_body; metres)"
+            )?;
+            for frame in &metadata.frames {
+                let [x, y, z] = frame.position;
+                let [qx, qy, qz, qw] = frame.quaternion_xyzw;
+                writeln!(out, "{} {x} {y} {z} {qx} {qy} {qz} {qw}", frame.index)?;
+            }
+            Ok(())
+        })
+        .map_err(failed(&poses_path))?;
+        written.push(poses_path);
+        let metadata_path = claim(folder, "render.json".into())?;
+        write_json(&metadata_path, metadata)?;
+        written.push(metadata_path);
+        Ok(written)
+    }
+}
+
+/// Calibration files of `rig` where its model has a standard form: (file name, contents).
+fn calibration_files(rig: &Rig) -> Vec<(&'static str, String)> {
+    match rig {
+        Rig::Single(Camera::Pinhole(pinhole)) => vec![
+            ("calibration-opencv.yaml", calibration::opencv_pinhole(pinhole)),
+            ("calibration-kalibr.yaml", calibration::kalibr_pinhole(pinhole)),
+        ],
+        Rig::Stereo(stereo) => vec![
+            ("calibration-opencv-stereo.yaml", calibration::opencv_stereo(stereo)),
+            ("calibration-kalibr.yaml", calibration::kalibr_stereo(stereo)),
+        ],
+        Rig::Single(Camera::Catadioptric(mirror)) => {
+            match (calibration::opencv_omnidir(mirror), calibration::kalibr_omni(mirror)) {
+                (Some(omnidir), Some(kalibr)) => vec![
+                    ("calibration-opencv-omnidir.yaml", omnidir),
+                    ("calibration-kalibr.yaml", kalibr),
+                ],
+                _ => Vec::new(),
+            }
+        }
+        Rig::Single(Camera::Equirectangular(_) | Camera::Cylindrical(_)) => Vec::new(),
+    }
+}
+
+/// Pretty-printed JSON of `value`, written atomically.
+fn write_json(path: &Path, value: &impl Serialize) -> Result<(), OutputError> {
+    write_atomically(path, |out| {
+        serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)
+    })
+    .map_err(failed(path))
+}
+
+fn describe_pose(pose: &Pose) -> String {
+    let (t, a) = (pose.position, pose.angles_degrees());
+    format!(
+        "x={} y={} z={} m, theta_x={} theta_y={} theta_z={} deg",
+        t.x, t.y, t.z, a.x, a.y, a.z
+    )
+}
