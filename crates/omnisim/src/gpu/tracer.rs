@@ -139,9 +139,7 @@ impl GpuRenderer {
             *cache = None;
         }
         let buffers = &*cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
-        let bind_group =
-            |pipeline: &wgpu::ComputePipeline, bindings: &[(u32, &wgpu::Buffer)]| self.bind_group(pipeline, bindings);
-        let trace_group = bind_group(
+        let trace_group = self.bind_group(
             &self.trace,
             &[
                 (0, &buffers.camera),
@@ -150,7 +148,7 @@ impl GpuRenderer {
                 (4, &buffers.hits),
             ],
         );
-        let shade_group = bind_group(
+        let shade_group = self.bind_group(
             &self.shade,
             &[
                 (0, &buffers.camera),
