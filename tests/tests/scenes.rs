@@ -167,3 +167,17 @@ fn readme_scene_example_loads() {
         "the statue (millimetres scaled to metres) stands {top} m tall"
     );
 }
+
+/// Memory limits scene size (docs/benchmarks.md: ≤ 300 bytes per triangle at 5 M triangles):
+/// a mesh triangle holds its three corners inline, with no heap allocation of its own.
+#[test]
+fn mesh_triangles_hold_their_vertices_inline() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).unwrap();
+    let start = readme.find("```ron\n").expect("README has a RON example") + "```ron\n".len();
+    let example = &readme[start..start + readme[start..].find("```").unwrap()];
+    let scene = Scene::from_ron(example, &common::scene_path("readme-example.ron")).unwrap();
+    let statue = scene.objects.iter().position(|o| o.name == "statue").unwrap() as u32;
+    let mesh: Vec<_> = scene.faces.iter().filter(|f| f.object == statue).collect();
+    assert!(mesh.iter().all(|f| f.vertices.len() == 3 && !f.vertices.spilled()));
+    assert!(std::mem::size_of::<omnisim::scene::Face>() <= 88);
+}

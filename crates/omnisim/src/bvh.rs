@@ -12,7 +12,8 @@ use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 
-use crate::scene::{Scene, Triangles};
+use crate::scene::Scene;
+use crate::scene::triangulate::TriangleIndex;
 
 /// A scene's triangles in a BVH, around a local origin: what both tracers traverse. Built once
 /// per geometry ([`crate::Renderer::prepare`]); colours and lights live elsewhere.
@@ -41,23 +42,14 @@ impl SceneBvh {
 
     /// Builds the BVH with the local origin at `offset` (world metres). `build` picks the
     /// scene's centre; other offsets exist to measure what that choice buys (docs/accuracy.md).
+    ///
+    /// Peak memory is what limits scene size, so the order matters: triangles are held by
+    /// reference (16 bytes each) while obvhs builds, and their f64 corners (72 bytes) and the
+    /// face normals are made only once the builder's working set is freed.
     pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
-        let triangles = scene.triangulate();
-        let face_normals = (0..scene.faces.len()).map(|face| scene.face_normal(face)).collect();
-        Self::from_triangles(triangles, offset, face_normals)
-    }
-
-    /// Consumes the triangles and reorders them in place: each triangle is held once (72 bytes
-    /// of corners), not three times, so peak memory stays near the final structure's size.
-    fn from_triangles(triangles: Triangles, offset: DVec3, face_normals: Vec<DVec3>) -> Self {
-        let Triangles {
-            corners: mut local,
-            face: mut faces,
-        } = triangles;
-        for corners in &mut local {
-            *corners = corners.map(|p| p - offset);
-        }
-        let boxes: Vec<Aabb> = local.iter().map(padded_aabb).collect();
+        let triangles = scene.triangle_indices();
+        let local = |t: &TriangleIndex| t.corners(scene).map(|p| p - offset);
+        let boxes: Vec<Aabb> = triangles.iter().map(|t| padded_aabb(&local(t))).collect();
         let start = Instant::now();
         let mut core_time = Duration::ZERO;
         let bvh = if boxes.is_empty() {
@@ -67,20 +59,17 @@ impl SceneBvh {
         };
         let build_time = start.elapsed();
         drop(boxes);
-        if bvh.primitive_indices.len() == local.len() {
-            permute(&mut local, &mut faces, &bvh.primitive_indices);
-        } else {
-            // Not a permutation (obvhs may split primitives): copy in leaf order.
-            let order = &bvh.primitive_indices;
-            local = order.iter().map(|&i| local[i as usize]).collect();
-            faces = order.iter().map(|&i| faces[i as usize]).collect();
-        }
+        // Leaf order (obvhs may list a primitive more than once if it splits primitives).
+        let order = &bvh.primitive_indices;
+        let corners = order.iter().map(|&i| local(&triangles[i as usize])).collect();
+        let face = order.iter().map(|&i| triangles[i as usize].face).collect();
+        drop(triangles);
         Self {
             offset,
-            triangles: local,
-            face: faces,
+            triangles: corners,
+            face,
+            face_normals: (0..scene.faces.len()).map(|face| scene.face_normal(face)).collect(),
             bvh,
-            face_normals,
             build_time,
         }
     }
@@ -125,29 +114,6 @@ impl SceneBvh {
     }
 }
 
-/// Puts `a[order[k]]` at `a[k]` (and the same for `b`) in place, cycle by cycle, with one bit
-/// per element to mark what is done.
-fn permute<A: Copy, B: Copy>(a: &mut [A], b: &mut [B], order: &[u32]) {
-    let mut done = vec![0u64; order.len().div_ceil(64)];
-    for start in 0..order.len() {
-        if done[start / 64] >> (start % 64) & 1 == 1 {
-            continue;
-        }
-        let (first_a, first_b) = (a[start], b[start]);
-        let mut k = start;
-        loop {
-            done[k / 64] |= 1 << (k % 64);
-            let next = order[k] as usize;
-            if next == start {
-                (a[k], b[k]) = (first_a, first_b);
-                break;
-            }
-            (a[k], b[k]) = (a[next], b[next]);
-            k = next;
-        }
-    }
-}
-
 /// A triangle's f32 box, grown so that f32 box tests never reject a ray the f64 triangle test
 /// would accept (rounding of the box, the ray origin and the inverse direction).
 fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
@@ -155,16 +121,4 @@ fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
     let hi = corners[0].max(corners[1]).max(corners[2]);
     let pad = 1e-5 * (1.0 + lo.abs().max(hi.abs()).max_element());
     Aabb::new(Vec3A::from((lo - pad).as_vec3()), Vec3A::from((hi + pad).as_vec3()))
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn permutes_in_place_like_a_copy() {
-        let order = [3u32, 0, 4, 1, 2, 6, 5];
-        let (mut a, mut b): (Vec<u32>, Vec<char>) = ((10..17).collect(), "abcdefg".chars().collect());
-        super::permute(&mut a, &mut b, &order);
-        assert_eq!(a, order.iter().map(|&i| 10 + i).collect::<Vec<_>>());
-        assert_eq!(b.iter().collect::<String>(), "daebcgf");
-    }
 }

@@ -170,9 +170,9 @@ fn add_height_field(scene: &mut Scene, count: usize) -> anyhow::Result<()> {
         for j in 0..cells {
             let colour = [(40 + i * 200 / cells) as u8, (40 + j * 200 / cells) as u8, 120];
             let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1));
-            for vertices in [vec![a, b, c], vec![a, c, d]] {
+            for vertices in [[a, b, c], [a, c, d]] {
                 scene.faces.push(Face {
-                    vertices,
+                    vertices: vertices.into(),
                     colour,
                     object,
                 });

@@ -8,7 +8,7 @@ use glam::{DVec3, dvec3};
 use super::file::{
     AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile,
 };
-use super::{Face, Scene, SceneError, SceneObject, locate, mesh, names, validate};
+use super::{Face, Scene, SceneError, SceneObject, Vertices, locate, mesh, names, validate};
 use crate::lighting::{Light, LightKind, Lighting, linear_rgb};
 use crate::pose::rotation_xyz;
 
@@ -65,6 +65,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         .map_err(&invalid)?;
         let is_mesh = matches!(object, ObjectFile::Mesh(_));
         let mut dropped = 0usize;
+        scene.faces.reserve(faces.len());
         for (vertices, colour) in faces {
             validate::check_coordinates(&vertices).map_err(&invalid)?;
             if let Err(problem) = validate::check_face(&vertices) {
@@ -203,7 +204,7 @@ fn build_lighting(
     })
 }
 
-type RawFace = (Vec<DVec3>, (u8, u8, u8));
+type RawFace = (Vertices, (u8, u8, u8));
 
 fn positive(what: &str, value: f64) -> Result<(), String> {
     if value.is_finite() && value > 0.0 {
@@ -300,7 +301,7 @@ fn wall_face(w: &WallFile) -> Result<Vec<RawFace>, String> {
     let (a, b) = (w.from, w.to);
     let top = w.bottom + w.height;
     Ok(vec![(
-        vec![
+        smallvec::smallvec![
             dvec3(a.0, a.1, w.bottom),
             dvec3(b.0, b.1, w.bottom),
             dvec3(b.0, b.1, top),

@@ -29,11 +29,37 @@ impl Triangles {
 
 pub(super) fn triangulate(scene: &Scene) -> Triangles {
     let mut out = Triangles::default();
-    for (face_id, face) in scene.faces.iter().enumerate() {
-        for [a, b, c] in polygon_triangles(&face.vertices) {
-            out.corners.push([face.vertices[a], face.vertices[b], face.vertices[c]]);
-            out.face.push(face_id as u32);
-        }
+    for triangle in triangle_indices(scene) {
+        out.corners.push(triangle.corners(scene));
+        out.face.push(triangle.face);
+    }
+    out
+}
+
+/// A triangle of a scene by reference: its face and three vertex indices into that face.
+/// 16 bytes instead of 76, for the BVH build, which holds every triangle at once.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TriangleIndex {
+    pub(crate) face: u32,
+    corners: [u32; 3],
+}
+
+impl TriangleIndex {
+    /// The triangle's corners, world metres.
+    pub(crate) fn corners(&self, scene: &Scene) -> [DVec3; 3] {
+        let vertices = &scene.faces[self.face as usize].vertices;
+        self.corners.map(|i| vertices[i as usize])
+    }
+}
+
+/// Every face's triangles, by reference, in face order.
+pub(crate) fn triangle_indices(scene: &Scene) -> Vec<TriangleIndex> {
+    let mut out = Vec::new();
+    for (face, polygon) in scene.faces.iter().enumerate() {
+        out.extend(polygon_triangles(&polygon.vertices).into_iter().map(|t| TriangleIndex {
+            face: face as u32,
+            corners: t.map(|i| i as u32),
+        }));
     }
     out
 }
