@@ -12,6 +12,7 @@ pub mod bvh;
 pub mod calibration;
 pub mod camera;
 pub mod cpu;
+pub mod dataset;
 pub mod frame;
 pub mod gpu;
 pub mod input;
