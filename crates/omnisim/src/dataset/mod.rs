@@ -15,6 +15,8 @@ pub mod rng;
 mod run;
 mod seam;
 pub mod spec;
+#[cfg(test)]
+mod tests;
 
 use std::path::{Path, PathBuf};
 
@@ -437,7 +439,7 @@ fn poses(spec: &Spec, set: &SetSpec, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_s
                     poses.remove(poses.len() - 2);
                 }
             }
-            if let Heading::Fixed(angles) = heading {
+            if let Heading::Fixed { angles } = heading {
                 for pose in &mut poses {
                     pose.angles = degrees(*angles);
                 }

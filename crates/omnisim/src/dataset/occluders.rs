@@ -137,7 +137,7 @@ pub struct NoFreePlace {
 /// The footprint (centred at the origin, unturned) and height of a shape.
 fn outline(shape: OccluderShape) -> (&'static str, Vec<DVec2>, f64) {
     match shape {
-        OccluderShape::Box((l, w, h)) => (
+        OccluderShape::Box { size: (l, w, h) } => (
             "box",
             vec![
                 dvec2(-l / 2.0, -w / 2.0),
@@ -266,7 +266,7 @@ mod tests {
 
     #[test]
     fn separating_axes_find_crossings_and_gaps() {
-        let (_, footprint, _) = outline(OccluderShape::Box((2.0, 2.0, 2.0)));
+        let (_, footprint, _) = outline(OccluderShape::Box { size: (2.0, 2.0, 2.0) });
         let cube = Occluder {
             name: "c".into(),
             shape: "box",
@@ -302,7 +302,7 @@ mod tests {
                 colour: None,
             },
             OccluderSpec {
-                shape: OccluderShape::Box((0.6, 0.4, 0.9)),
+                shape: OccluderShape::Box { size: (0.6, 0.4, 0.9) },
                 count: 2,
                 per_frame: true,
                 region: None,

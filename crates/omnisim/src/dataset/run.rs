@@ -60,6 +60,13 @@ impl std::str::FromStr for Shard {
     }
 }
 
+impl Shard {
+    /// Whether frame `n` (counted over every set in spec order) is this slice's.
+    pub fn takes(&self, n: usize) -> bool {
+        n % self.count == self.index
+    }
+}
+
 /// How to run.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RunOptions {
@@ -340,7 +347,7 @@ impl Dataset {
             .enumerate()
             .flat_map(|(s, set)| (0..set.poses.len()).map(move |i| (s, i)))
             .enumerate()
-            .filter(|(n, _)| options.shard.is_none_or(|shard| n % shard.count == shard.index))
+            .filter(|(n, _)| options.shard.is_none_or(|shard| shard.takes(*n)))
             .map(|(_, frame)| frame)
             .collect();
         let mut current: Option<SetScene> = None;
@@ -612,7 +619,8 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
             Some(ours) => ours,
             None => {
                 prepare_dir(dest)?;
-                write_file(&dest.join(STAMP), &to_json(&theirs))?;
+                let bytes = std::fs::read(source.join(STAMP)).map_err(io(source))?;
+                write_file(&dest.join(STAMP), &bytes)?;
                 stamp.insert(theirs.clone())
             }
         };
@@ -672,6 +680,7 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
         for layout in &set.layouts {
             for (name, text) in layout::index_files(layout, &rig, &frames) {
                 let path = set_dir.join(&name);
+                prepare_dir(path.parent().unwrap_or(&set_dir))?;
                 write_file(&path, text.as_bytes())?;
                 own.files.push(FileEntry {
                     path: format!("{}/{name}", set.name),

@@ -35,6 +35,7 @@ pub struct Spec {
 /// The camera or stereo rig, with the options of `omnisim render` as typed fields (angles in
 /// degrees, lengths in metres, sizes in pixels).
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
 pub enum RigSpec {
     /// Perspective camera looking along body +x.
     Pinhole(PinholeSpec),
@@ -123,6 +124,7 @@ pub struct OmniSpec {
 
 /// The mirror of an omnidirectional camera, metres.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
 pub enum MirrorSpec {
     /// (x²+y²)/a² − z²/b² = −1.
     Hyperbolic {
@@ -233,6 +235,7 @@ pub struct SetSpec {
 
 /// Where the poses of a set come from. Positions in metres, angles in degrees.
 #[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum PoseSource {
     /// Poses along the polyline through `through`, every `spacing` metres or `count` poses.
     Trajectory {
@@ -281,12 +284,16 @@ pub enum PoseSource {
 
 /// Which way a trajectory's camera faces.
 #[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Heading {
     /// θz along the direction of travel.
     #[default]
     AlongPath,
-    /// The same (θx, θy, θz) at every pose, degrees.
-    Fixed((f64, f64, f64)),
+    /// The same angles at every pose.
+    Fixed {
+        /// (θx, θy, θz), degrees.
+        angles: (f64, f64, f64),
+    },
 }
 
 /// What to do with a pose inside a closed object or outside the scene.
@@ -301,6 +308,7 @@ pub enum MisplacedPolicy {
 
 /// A change to a named light of the scene (or to the ambient term).
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
 pub enum LightChange {
     /// Switch a light on or off.
     Switch {
@@ -347,6 +355,7 @@ pub enum LightChange {
 
 /// A change of object colours.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
 pub enum ColourChange {
     /// Paint every face of the named object.
     Paint {
@@ -396,9 +405,13 @@ pub struct OccluderSpec {
 
 /// The shape of an occluder; it stands upright, turned by a random angle about z.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
 pub enum OccluderShape {
-    /// A box (length, width, height), metres.
-    Box((f64, f64, f64)),
+    /// A box, metres.
+    Box {
+        /// (length, width, height).
+        size: (f64, f64, f64),
+    },
     /// A person-sized octagonal prism: 0.5 × 0.3 m, 1.75 m high.
     Person,
 }
@@ -420,6 +433,7 @@ pub struct NoiseSpec {
 
 /// One colour noise model; values in linear light, 1.0 = full scale.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
 pub enum ColourNoise {
     /// Additive white Gaussian noise of standard deviation `sigma`.
     Gaussian {
@@ -468,6 +482,7 @@ pub struct DisparityNoise {
 
 /// A layout SLAM tools read.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
 pub enum LayoutSpec {
     /// TUM RGB-D: `tum/rgb/`, `tum/depth/`, `rgb.txt`, `depth.txt`, `groundtruth.txt`.
     Tum {
@@ -671,7 +686,7 @@ fn check_poses(source: &PoseSource) -> Result<(), (String, String)> {
             }
             let flat: Vec<f64> = through.iter().flat_map(|p| [p.0, p.1, p.2]).collect();
             finite("through", &flat)?;
-            if let Heading::Fixed(a) = heading {
+            if let Heading::Fixed { angles: a } = heading {
                 finite("heading", &[a.0, a.1, a.2])?;
             }
             let length: f64 = through
@@ -765,7 +780,7 @@ fn check_set(spec: &Spec, set: &SetSpec) -> Checked {
     }
     for (i, occluders) in set.occluders.iter().enumerate() {
         let field = format!("occluders[{i}]");
-        if let OccluderShape::Box((l, w, h)) = occluders.shape {
+        if let OccluderShape::Box { size: (l, w, h) } = occluders.shape {
             for v in [l, w, h] {
                 positive(&format!("{field}.shape"), v)?;
             }
