@@ -490,7 +490,7 @@ fn evo_reads(tum: &Path, euroc: &Path) {
 #[test]
 fn shards_are_disjoint_and_cover_every_frame() {
     for count in 1..6 {
-        let mut seen = vec![0; 17];
+        let mut seen = [0; 17];
         for index in 0..count {
             let shard: Shard = format!("{index}/{count}").parse().unwrap();
             for (n, slot) in seen.iter_mut().enumerate() {
