@@ -308,6 +308,21 @@ fn bad_specs_get_located_errors() {
     );
 }
 
+/// README's spec example parses, and the shipped example loads with its scene.
+#[test]
+fn readme_and_shipped_specs_are_valid() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
+    let start = readme.find("```ron\nDataset(").expect("README has a spec example") + "```ron\n".len();
+    let example = &readme[start..start + readme[start..].find("```").unwrap()];
+    spec::parse(example, Path::new("README.md")).unwrap_or_else(|e| panic!("README's spec: {e}"));
+    let shipped = Dataset::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/env1-dataset.ron"
+    )))
+    .unwrap();
+    assert_eq!(shipped.sets.len(), 4);
+}
+
 #[test]
 fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
     let (_dir, spec) = project(SPEC);
