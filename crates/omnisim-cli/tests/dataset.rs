@@ -3,12 +3,11 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
 const SPEC: &str = r#"Dataset(
     scene: "env1.ron",
     seed: 5,
-    rig: Pinhole(size: (48, 36)),
+    rig: Pinhole(size: (160, 120)),
     outputs: (segmentation: true),
     sets: [
         Set(name: "map", poses: Trajectory(through: [(-2.0, -0.9, 0.4), (2.0, -0.9, 0.4)], count: 12),
@@ -56,19 +55,22 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
     let spec = dir.path().join("spec.ron");
     std::fs::write(&spec, SPEC).unwrap();
     let whole = dir.path().join("whole");
+    let started = std::time::Instant::now();
     let output = dataset(&spec, &whole).output().unwrap();
+    let uninterrupted = started.elapsed();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let reference = snapshot(&whole);
 
     let killed = dir.path().join("killed");
-    // Delays from a fixed linear congruential sequence: random moments, the same every run.
+    // Kills at random moments within the uninterrupted run's time (fractions from a fixed
+    // linear congruential sequence): the same moments, relative to this machine's speed.
     let mut state = 12345u64;
     let mut kills = 0;
     for _ in 0..30 {
         state = state
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
-        let delay = Duration::from_millis(20 + (state >> 33) % 400);
+        let delay = uninterrupted.mul_f64(0.1 + 0.6 * ((state >> 11) as f64 / (1u64 << 53) as f64));
         let mut child = dataset(&spec, &killed).spawn().unwrap();
         std::thread::sleep(delay);
         match child.try_wait().unwrap() {
