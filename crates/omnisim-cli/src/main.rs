@@ -42,6 +42,7 @@ enum Command {
     #[command(subcommand)]
     Poses(commands::poses::PosesCommand),
     Bench(commands::bench::BenchArgs),
+    Dataset(commands::dataset::DatasetArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -52,6 +53,7 @@ fn main() -> std::process::ExitCode {
         Command::Scene(command) => commands::scene::run(command),
         Command::Poses(command) => commands::poses::run(command),
         Command::Bench(args) => commands::bench::run(args),
+        Command::Dataset(args) => commands::dataset::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

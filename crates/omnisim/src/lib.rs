@@ -31,6 +31,7 @@ pub mod bvh;
 pub mod calibration;
 pub mod camera;
 pub mod cpu;
+pub mod dataset;
 pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;

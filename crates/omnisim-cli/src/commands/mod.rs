@@ -1,6 +1,7 @@
 //! The subcommands, and what they share.
 
 pub mod bench;
+pub mod dataset;
 pub mod poses;
 pub mod render;
 pub mod scene;

@@ -1,9 +1,9 @@
-//! Finding objects in a scene file's text, so that errors can say where: serde and RON give
-//! positions but not which object of the list they fall in. Written by hand because it needs
+//! Finding objects in a RON file's text (scene objects, data-set sets), so that errors can say
+//! where: serde and RON give positions but not which element of a list they fall in. Written by hand because it needs
 //! only a bracket-depth scan (strings and comments skipped), not a second parser.
 
 /// The 1-based (line, column) of the `occurrence`-th (from 0) `name` field naming `name`.
-pub(super) fn name_field(text: &str, name: &str, occurrence: usize) -> Option<(usize, usize)> {
+pub(crate) fn name_field(text: &str, name: &str, occurrence: usize) -> Option<(usize, usize)> {
     let quoted = format!("\"{name}\"");
     text.lines()
         .enumerate()
@@ -55,7 +55,7 @@ fn code(text: &str, from: usize) -> impl Iterator<Item = (usize, char)> + '_ {
 }
 
 /// The 1-based (line, column) of the scene's own `field` (outside `objects`), e.g. `name`.
-pub(super) fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
+pub(crate) fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
     let mut depth = 0usize;
     let mut previous_is_word = false;
     for (i, c) in code(text, 0) {
@@ -76,18 +76,18 @@ pub(super) fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
     None
 }
 
-/// The name of the object of the `objects: [...]` list whose text contains the 1-based
-/// (line, column), if it has a `name: "…"` field.
-pub(super) fn object_at(text: &str, line: usize, column: usize) -> Option<String> {
+/// The name of the element of the `list: [...]` list (`objects`, `sets`) whose text contains
+/// the 1-based (line, column), if it has a `name: "…"` field.
+pub(crate) fn element_at(text: &str, list: &str, line: usize, column: usize) -> Option<String> {
     let target = offset_of(text, line, column)?;
-    let list = text.find("objects")?;
+    let list = text.find(list)?;
     let mut depth = 0usize;
     let mut start = None;
     for (i, c) in code(text, list) {
         match c {
             '(' | '[' | '{' => {
                 depth += 1;
-                // Depth 1 is inside `objects: [`; an object opens at depth 2.
+                // Depth 1 is inside `list: [`; an element opens at depth 2.
                 if depth == 2 {
                     start = Some(i);
                 }
@@ -168,9 +168,9 @@ mod tests {
     #[test]
     fn finds_the_object_around_a_position() {
         let text = "Scene(name: \"s\", objects: [\n  // a comment (with a bracket\n  Wall(name: \"a (\\\"x\", height: 1.0),\n  Box(name: \"b\",\n      colour: (300, 1, 1)),\n])";
-        assert_eq!(object_at(text, 3, 10).as_deref(), Some("a (\\\"x"));
-        assert_eq!(object_at(text, 5, 16).as_deref(), Some("b"));
-        assert_eq!(object_at(text, 1, 3), None);
+        assert_eq!(element_at(text, "objects", 3, 10).as_deref(), Some("a (\\\"x"));
+        assert_eq!(element_at(text, "objects", 5, 16).as_deref(), Some("b"));
+        assert_eq!(element_at(text, "objects", 1, 3), None);
     }
 
     #[test]

@@ -8,7 +8,7 @@ mod error;
 mod export;
 pub mod file;
 mod library;
-mod locate;
+pub(crate) mod locate;
 mod mesh;
 mod names;
 pub(crate) mod triangulate;
@@ -86,7 +86,7 @@ impl Scene {
         );
         let parsed: file::SceneFile = options.from_str(text).map_err(|e| {
             let (line, column) = (e.span.start.line, e.span.start.col);
-            let message = match locate::object_at(text, line, column) {
+            let message = match locate::element_at(text, "objects", line, column) {
                 Some(object) => format!("object '{object}': {}", e.code),
                 None => e.code.to_string(),
             };

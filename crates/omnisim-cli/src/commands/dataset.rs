@@ -1,0 +1,168 @@
+//! `omnisim dataset`: render a data set from a spec, resumably and in shards; `merge` checks
+//! the frames and writes the index files and manifest.
+
+use std::io::IsTerminal;
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use clap::{Args, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use omnisim::Renderer;
+use omnisim::dataset::{self, Dataset, RunOptions, Shard};
+
+use super::render::BackendArg;
+
+/// Render a data set: map and test sets of one scene from one spec file (README, "Data sets").
+///
+/// Each set gets its own folder under --out, with ground-truth files per frame, noisy copies
+/// (*-noisy.*) where the set has noise, TUM (tum/) and EuRoC (mav0/) layouts as asked, and
+/// manifest.json with every file's SHA-256. A killed run resumes with the same command; --shard
+/// K/N renders every N-th frame from the K-th (0 ≤ K < N); `omnisim dataset merge` then checks
+/// the shards and writes the index files and the manifest.
+#[derive(Debug, Clone, Args)]
+#[command(
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true,
+    after_help = "Examples:\n  omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
+omnisim dataset scenes/env1-dataset.ron --out data/env1 --shard 0/4\n  omnisim dataset merge data/env1"
+)]
+pub struct DatasetArgs {
+    #[command(subcommand)]
+    pub command: Option<DatasetCommand>,
+    /// Data-set spec (RON), e.g. scenes/env1-dataset.ron.
+    #[arg(required = true)]
+    pub spec: Option<PathBuf>,
+    /// Output folder (created if missing); holds one spec's data set.
+    #[arg(long, required = true)]
+    pub out: Option<PathBuf>,
+    /// Render only slice K of N (0 ≤ K < N): $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT, $JOB_COMPLETION_INDEX/N.
+    #[arg(long)]
+    pub shard: Option<Shard>,
+    /// Remove another spec's data set from --out first (only the files it recorded).
+    #[arg(long)]
+    pub overwrite: bool,
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: BackendArg,
+}
+
+#[derive(Debug, Clone, Subcommand)]
+pub enum DatasetCommand {
+    /// Check a data set's frames (every file's size and SHA-256, every frame present) and write
+    /// the layouts' index files and manifest.json. With more than one folder, the frames of the
+    /// others (shards rendered apart) are checked and copied into the first.
+    Merge {
+        /// The data-set folder, then any shard folders to merge into it.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+    },
+}
+
+pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
+    if let Some(DatasetCommand::Merge { dirs }) = args.command {
+        let started = Instant::now();
+        let (dest, sources) = dirs.split_first().context("merge needs a data-set folder")?;
+        let summary = dataset::merge(dest, sources).with_context(|| format!("cannot merge into {}", dest.display()))?;
+        eprintln!(
+            "merged {} frames: {} files, {:.1} MB checked, in {:.1} s; wrote {}",
+            summary.frames,
+            summary.files,
+            summary.bytes as f64 / 1e6,
+            started.elapsed().as_secs_f64(),
+            dest.join("manifest.json").display()
+        );
+        return Ok(());
+    }
+    let (Some(spec), Some(out)) = (args.spec, args.out) else {
+        anyhow::bail!("give a spec file and --out DIR, or `merge DIR...`");
+    };
+    let started = Instant::now();
+    let dataset = Dataset::load(&spec)?;
+    for warning in &dataset.warnings {
+        eprintln!("warning: {warning}");
+    }
+    let renderer = Renderer::new(args.backend.into())?;
+    eprintln!(
+        "backend: {} on {} — {}",
+        renderer.backend_name(),
+        renderer.device_name(),
+        renderer.reason()
+    );
+    let options = RunOptions {
+        shard: args.shard,
+        overwrite: args.overwrite,
+    };
+    let mut progress = Progress::new();
+    let summary = dataset
+        .run(&renderer, &out, &options, &mut |frame| {
+            progress.frame(frame);
+            ControlFlow::Continue(())
+        })
+        .with_context(|| format!("data set {} into {}", spec.display(), out.display()))?;
+    progress.finish();
+    for note in &summary.notes {
+        eprintln!("note: {note}");
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    eprintln!(
+        "{} frame(s) rendered ({} already done), {:.1} MB written in {seconds:.1} s ({:.2} frames/s) on {}",
+        summary.rendered,
+        summary.resumed,
+        summary.bytes as f64 / 1e6,
+        summary.rendered as f64 / seconds.max(1e-9),
+        renderer.backend_name()
+    );
+    match args.shard {
+        Some(shard) => eprintln!(
+            "shard {}/{} done; when every shard is, run: omnisim dataset merge {}",
+            shard.index,
+            shard.count,
+            out.display()
+        ),
+        None => eprintln!("wrote {}", out.join("manifest.json").display()),
+    }
+    Ok(())
+}
+
+/// A bar with frames/s and ETA on a terminal, else a plain line every 10 seconds.
+struct Progress {
+    bar: Option<ProgressBar>,
+    last: Instant,
+}
+
+impl Progress {
+    fn new() -> Self {
+        Self {
+            bar: None,
+            last: Instant::now(),
+        }
+    }
+
+    fn frame(&mut self, frame: &dataset::FrameDone) {
+        if !std::io::stderr().is_terminal() {
+            if self.last.elapsed() >= Duration::from_secs(10) || frame.done == frame.total {
+                eprintln!(
+                    "{}/{} frames (set '{}', frame {})",
+                    frame.done, frame.total, frame.set, frame.index
+                );
+                self.last = Instant::now();
+            }
+            return;
+        }
+        let bar = self.bar.get_or_insert_with(|| {
+            ProgressBar::new(frame.total as u64).with_style(
+                ProgressStyle::with_template("{bar:40} {pos}/{len} frames, {per_sec}, ETA {eta} {msg}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            )
+        });
+        bar.set_message(format!("({})", frame.set));
+        bar.set_position(frame.done as u64);
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}

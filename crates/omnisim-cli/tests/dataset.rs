@@ -1,0 +1,100 @@
+//! `omnisim dataset` killed at random moments resumes to the bytes of an uninterrupted run.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+const SPEC: &str = r#"Dataset(
+    scene: "env1.ron",
+    seed: 5,
+    rig: Pinhole(size: (160, 120)),
+    outputs: (segmentation: true),
+    sets: [
+        Set(name: "map", poses: Trajectory(through: [(-2.0, -0.9, 0.4), (2.0, -0.9, 0.4)], count: 12),
+            layouts: [Tum(rate: 30.0)], noise: (colour: [Gaussian(sigma: 0.01)], depth: (c2: 0.002))),
+        Set(name: "test", poses: Random(count: 8, low: (-2.5, -1.5, 0.0), high: (2.5, 1.5, 1.0), tilt: 10.0),
+            occluders: [Occluders(shape: Person, count: 1)]),
+    ],
+)"#;
+
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut files = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(folder) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                files.insert(
+                    path.strip_prefix(dir).unwrap().to_path_buf(),
+                    std::fs::read(&path).unwrap(),
+                );
+            }
+        }
+    }
+    files
+}
+
+fn dataset(spec: &Path, out: &Path) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_omnisim"));
+    command
+        .args(["dataset", "--backend", "cpu", "--out"])
+        .arg(out)
+        .arg(spec)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    command
+}
+
+#[test]
+fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    let spec = dir.path().join("spec.ron");
+    std::fs::write(&spec, SPEC).unwrap();
+    let whole = dir.path().join("whole");
+    let started = std::time::Instant::now();
+    let output = dataset(&spec, &whole).output().unwrap();
+    let uninterrupted = started.elapsed();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let reference = snapshot(&whole);
+
+    let killed = dir.path().join("killed");
+    // Kills at random moments within the uninterrupted run's time (fractions from a fixed
+    // linear congruential sequence): the same moments, relative to this machine's speed.
+    let mut state = 12345u64;
+    let mut kills = 0;
+    for _ in 0..30 {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let delay = uninterrupted.mul_f64(0.1 + 0.6 * ((state >> 11) as f64 / (1u64 << 53) as f64));
+        let mut child = dataset(&spec, &killed).spawn().unwrap();
+        std::thread::sleep(delay);
+        match child.try_wait().unwrap() {
+            Some(status) => {
+                assert!(status.success());
+                break;
+            }
+            None => {
+                child.kill().unwrap();
+                child.wait().unwrap();
+                kills += 1;
+            }
+        }
+    }
+    let output = dataset(&spec, &killed).output().unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(kills >= 2, "the run was killed only {kills} times: make it longer");
+    let resumed = snapshot(&killed);
+    assert_eq!(resumed.keys().collect::<Vec<_>>(), reference.keys().collect::<Vec<_>>());
+    for (name, bytes) in &reference {
+        assert!(
+            &resumed[name] == bytes,
+            "{} differs after {kills} kills",
+            name.display()
+        );
+    }
+}

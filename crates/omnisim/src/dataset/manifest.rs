@@ -1,0 +1,280 @@
+//! `manifest.json` and the per-frame entries it is assembled from, as typed `Serialize` types.
+//!
+//! A frame is done when its entry (`<set>/.frames/<index>.json`) exists: it is written
+//! atomically after every file it lists, with each file's size and SHA-256. The manifest is
+//! assembled from the entries by `merge` (also the last step of an unsharded run), so a
+//! resumed, a sharded and an uninterrupted run end with the same bytes.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use super::DatasetError;
+use super::SkippedPose;
+use super::spec::{LayoutSpec, NoiseSpec, Outputs, RigSpec};
+
+/// What a file is, for readers that must not confuse noisy data with ground truth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FileKind {
+    /// Noise-free, exact.
+    GroundTruth,
+    /// With the set's sensor noise (`*-noisy.*`).
+    Noisy,
+    /// What a SLAM layout's sensor sees (noisy where the set has noise); under `tum/` or `mav0/`.
+    Layout,
+    /// Per-set calibration and legends.
+    Set,
+    /// Index files of a layout (rgb.txt, data.csv, ...).
+    Index,
+}
+
+/// One file, relative to the data-set folder with `/` separators.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FileEntry {
+    /// Path inside the data-set folder.
+    pub path: String,
+    /// What it is.
+    pub kind: FileKind,
+    /// Size in bytes.
+    pub bytes: u64,
+    /// SHA-256 of its bytes, lowercase hex.
+    pub sha256: String,
+}
+
+/// A pose in every form a reader may want.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PoseEntry {
+    /// Viewpoint, world metres.
+    pub position: [f64; 3],
+    /// (θx, θy, θz) degrees, world_from_body = Rx·Ry·Rz.
+    pub angles_deg: [f64; 3],
+    /// world_from_body as a unit quaternion (x, y, z, w), w ≥ 0.
+    pub quaternion_xyzw: [f64; 4],
+}
+
+impl PoseEntry {
+    /// The entry of `pose`.
+    pub fn of(pose: &crate::Pose) -> Self {
+        Self {
+            position: pose.position.to_array(),
+            angles_deg: pose.angles_degrees().to_array(),
+            quaternion_xyzw: pose.quaternion_xyzw(),
+        }
+    }
+
+    /// The pose back, exactly (angles from the radians the entry was made from are not kept,
+    /// so layouts use the quaternion and position).
+    pub fn rotation(&self) -> glam::DMat3 {
+        let [x, y, z, w] = self.quaternion_xyzw;
+        glam::DMat3::from_quat(glam::DQuat::from_xyzw(x, y, z, w))
+    }
+}
+
+/// One frame's manifest entry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameEntry {
+    /// Position in its set, from 0.
+    pub index: usize,
+    /// Shared start of its files' names.
+    pub stem: String,
+    /// Pose of the rig.
+    pub pose: PoseEntry,
+    /// Lights, colour shifts and occluders of the frame.
+    pub perturbations: serde_json::Value,
+    /// Every file of the frame.
+    pub files: Vec<FileEntry>,
+}
+
+/// What a set is: its frames and files.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SetEntry {
+    /// Folder name.
+    pub name: String,
+    /// Frames in the set.
+    pub frames: usize,
+    /// Poses the set left out, and why.
+    pub skipped: Vec<SkippedPose>,
+    /// Sensor noise of the set's `*-noisy.*` files.
+    pub noise: NoiseSpec,
+    /// Layouts written.
+    pub layouts: Vec<LayoutSpec>,
+    /// Calibration, ray maps, legends; then, after merge, layout index files.
+    pub files: Vec<FileEntry>,
+}
+
+/// What a data-set folder holds, written before any frame (`.omnisim-dataset.json`): a run
+/// or a merge refuses a folder whose identity differs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Stamp {
+    /// SHA-256 over the spec's and the scene's hashes.
+    pub identity: String,
+    /// Spec file name (without folder) and its text.
+    pub spec_file: String,
+    /// The spec text.
+    pub spec_text: String,
+    /// SHA-256 of the spec text.
+    pub spec_sha256: String,
+    /// Scene file name and the SHA-256 of its text.
+    pub scene_file: String,
+    /// SHA-256 of the scene text.
+    pub scene_sha256: String,
+    /// The sets, with their frame counts and skipped poses (layouts and noise from the spec).
+    pub sets: Vec<SetEntry>,
+}
+
+/// `manifest.json`: everything a reader needs to trust and use the data set.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Manifest {
+    /// "omnisim".
+    pub tool: &'static str,
+    /// omnisim's version.
+    pub version: &'static str,
+    /// Spec file name.
+    pub spec_file: String,
+    /// The spec, verbatim.
+    pub spec: String,
+    /// SHA-256 of the spec text.
+    pub spec_sha256: String,
+    /// Scene file name.
+    pub scene_file: String,
+    /// SHA-256 of the scene text.
+    pub scene_sha256: String,
+    /// The top-level seed.
+    pub seed: u64,
+    /// The camera or rig of every set, as the spec gives it (calibration files per set).
+    pub rig: RigSpec,
+    /// Ground-truth files per frame.
+    pub outputs: Outputs,
+    /// The sets with their files and frames.
+    pub sets: Vec<ManifestSet>,
+}
+
+/// One set of the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ManifestSet {
+    /// The set.
+    #[serde(flatten)]
+    pub set: SetEntry,
+    /// Every frame.
+    pub frame_entries: Vec<FrameEntry>,
+}
+
+/// Lowercase hex SHA-256 of `bytes`.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    hex(&Sha256::digest(bytes))
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Size and SHA-256 of the file at `path`, read in blocks.
+pub fn hash_file(path: &Path) -> Result<(u64, String), DatasetError> {
+    let io = |source| DatasetError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut hash = Sha256::new();
+    let mut buffer = vec![0u8; 1 << 16];
+    let mut bytes = 0u64;
+    loop {
+        let n = file.read(&mut buffer).map_err(io)?;
+        if n == 0 {
+            break;
+        }
+        hash.update(&buffer[..n]);
+        bytes += n as u64;
+    }
+    Ok((bytes, hex(&hash.finalize())))
+}
+
+/// The entry of a written file: `path` under `root`.
+pub(crate) fn file_entry(root: &Path, path: &Path, kind: FileKind) -> Result<FileEntry, DatasetError> {
+    let (bytes, sha256) = hash_file(path)?;
+    Ok(FileEntry {
+        path: relative(root, path),
+        kind,
+        bytes,
+        sha256,
+    })
+}
+
+/// `path` relative to `root`, `/`-separated.
+pub(crate) fn relative(root: &Path, path: &Path) -> String {
+    let inside = path.strip_prefix(root).unwrap_or(path);
+    inside
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy())
+        .collect::<Vec<_>>()
+        .join("/")
+}
+
+/// The path of a manifest file path inside `root`, refusing any that could leave it (entries
+/// may have been edited by hand).
+pub(crate) fn inside(root: &Path, relative: &str) -> Option<PathBuf> {
+    let ok = !relative.is_empty()
+        && relative
+            .split('/')
+            .all(|part| !part.is_empty() && part != "." && part != ".." && !part.contains('\\'))
+        && !relative.starts_with('/');
+    ok.then(|| root.join(relative))
+}
+
+/// Checks that a listed file still has its recorded size and hash.
+pub(crate) fn verify(root: &Path, file: &FileEntry, entry: &Path) -> Result<(), DatasetError> {
+    let corrupt = |path: PathBuf, problem: String| DatasetError::Corrupt {
+        path,
+        entry: entry.to_path_buf(),
+        problem,
+    };
+    let path = inside(root, &file.path)
+        .ok_or_else(|| corrupt(root.join(&file.path), "not a path inside the folder".into()))?;
+    let (bytes, sha256) = match hash_file(&path) {
+        Ok(found) => found,
+        Err(DatasetError::Io { source, .. }) => return Err(corrupt(path, source.to_string())),
+        Err(e) => return Err(e),
+    };
+    if bytes != file.bytes || sha256 != file.sha256 {
+        return Err(corrupt(
+            path,
+            format!(
+                "{bytes} bytes with SHA-256 {sha256}, but its entry records {} bytes, {}",
+                file.bytes, file.sha256
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Pretty JSON with a final newline.
+pub(crate) fn to_json(value: &impl Serialize) -> Vec<u8> {
+    let mut bytes = serde_json::to_vec_pretty(value).unwrap_or_default();
+    bytes.push(b'\n');
+    bytes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hashes_and_paths() {
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+        let root = Path::new("/data");
+        assert_eq!(inside(root, "map/a.png"), Some(PathBuf::from("/data/map/a.png")));
+        for bad in ["../x", "/etc/passwd", "map/../../x", "", "a//b", "a\\b"] {
+            assert_eq!(inside(root, bad), None, "{bad}");
+        }
+        assert_eq!(
+            relative(root, Path::new("/data/map/tum/rgb/0.000000.png")),
+            "map/tum/rgb/0.000000.png"
+        );
+    }
+}

@@ -1,0 +1,522 @@
+//! Data sets: map and test sets of one scene from one spec file, with light, colour, occluder
+//! and noise perturbations, in folders SLAM tools read, resumable and sharded.
+//!
+//! [`Dataset::load`] reads a spec (`spec.rs`), its scene, and plans every set's poses;
+//! [`Dataset::run`] renders the frames of a shard into a folder (`run.rs`), each frame done
+//! once its entry is written; [`merge`] checks a folder's frames and writes the index files
+//! and `manifest.json`. Every random draw comes from (seed, set, frame) alone (`rng.rs`).
+
+mod appearance;
+mod layout;
+pub mod manifest;
+pub mod noise;
+pub mod occluders;
+pub mod rng;
+mod run;
+mod seam;
+pub mod spec;
+#[cfg(test)]
+mod tests;
+
+use std::path::{Path, PathBuf};
+
+use glam::{DVec3, dvec3};
+
+pub use run::{FrameDone, RunOptions, RunSummary, Shard, merge};
+
+use crate::bvh::SceneBvh;
+use crate::camera::{Catadioptric, Cylindrical, Equirectangular, MirrorShape, Misalignment, Mount, Pinhole};
+use crate::pose::Pose;
+use crate::pose_sets::{self, Misplaced, RandomPoses};
+use crate::scene::Scene;
+use crate::{Camera, StereoRig};
+use occluders::Occluder;
+use spec::{Heading, MisplacedPolicy, PoseSource, RigSpec, SetSpec, Spec};
+
+/// Why a data set could not be planned, rendered or merged.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// The spec or its scene file could not be read.
+    #[error(transparent)]
+    Input(#[from] crate::input::InputError),
+    /// A problem in the spec, located.
+    #[error("{}{}: {}{}{message}", path.display(),
+        location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default(),
+        set.as_ref().map(|s| format!("set '{s}': ")).unwrap_or_default(),
+        if field.is_empty() { String::new() } else { format!("{field}: ") })]
+    Spec {
+        /// The spec file.
+        path: PathBuf,
+        /// (line, column), 1-based.
+        location: Option<(usize, usize)>,
+        /// The set the problem is in.
+        set: Option<String>,
+        /// The field inside the set (or the spec), e.g. `poses.spacing`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The scene the spec names.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    /// Rendering failed.
+    #[error(transparent)]
+    Render(#[from] crate::renderer::RenderError),
+    /// Writing an output failed.
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    /// A file or folder could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// The folder holds another spec's data set.
+    #[error(
+        "{} holds a data set of another spec (or scene): {previous}. Choose another folder, or add --overwrite to \
+         remove that data set's files first (nothing else is touched)",
+        dir.display()
+    )]
+    AnotherSpec {
+        /// The folder.
+        dir: PathBuf,
+        /// What it holds.
+        previous: String,
+    },
+    /// The folder holds files no data set recorded.
+    #[error(
+        "{} already holds files that no omnisim data set recorded, e.g. '{example}'; choose an empty or new folder, \
+         or add --overwrite",
+        dir.display()
+    )]
+    Unrecorded {
+        /// The folder.
+        dir: PathBuf,
+        /// One such file.
+        example: String,
+    },
+    /// A merge found frames missing.
+    #[error(
+        "set '{set}' is incomplete: {missing} of {total} frames missing (first: frame {first}); render the missing shards, then merge again"
+    )]
+    Incomplete {
+        /// The set.
+        set: String,
+        /// Frames missing.
+        missing: usize,
+        /// Frames the set has.
+        total: usize,
+        /// The first missing frame.
+        first: usize,
+    },
+    /// A file differs from what its frame entry recorded.
+    #[error("{}: {problem}; render its frame again (delete {}) or restore the file", path.display(), entry.display())]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// The frame entry that lists it.
+        entry: PathBuf,
+        /// Size or hash mismatch, or missing.
+        problem: String,
+    },
+    /// Occluders found no free place.
+    #[error("set '{set}', frame {frame}: {source}")]
+    Occluders {
+        /// The set.
+        set: String,
+        /// The frame, or `set` for per-set occluders.
+        frame: String,
+        /// Why.
+        source: occluders::NoFreePlace,
+    },
+    /// A random pose set could not be drawn.
+    #[error("set '{set}': {source}")]
+    Poses {
+        /// The set.
+        set: String,
+        /// Why.
+        source: pose_sets::TooFewClear,
+    },
+}
+
+/// The rig of a data set: one camera or a stereo pair.
+///
+/// MERGE SEAM: `crate::rig::Rig` (the lead's typed rig) replaces this type at merge; `views`
+/// has the same meaning there.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DatasetRig {
+    /// One image per pose.
+    Single(Camera),
+    /// Left and right images per pose.
+    Stereo(StereoRig),
+}
+
+impl DatasetRig {
+    /// (file-name suffix, camera) of each image of a pose, as `omnisim render` names them.
+    pub fn views(&self) -> Vec<(&'static str, Camera)> {
+        match self {
+            DatasetRig::Single(camera) => vec![("", camera.clone())],
+            DatasetRig::Stereo(stereo) => {
+                let [left, right] = stereo.cameras();
+                vec![("-left", Camera::Pinhole(left)), ("-right", Camera::Pinhole(right))]
+            }
+        }
+    }
+
+    /// World positions of the rig's optical centres at `pose` (what occluders keep away from).
+    fn centres(&self, pose: &Pose) -> Vec<DVec3> {
+        match self {
+            DatasetRig::Single(_) => vec![pose.position],
+            DatasetRig::Stereo(stereo) => stereo
+                .cameras()
+                .iter()
+                .map(|c| pose.position + pose.world_from_body_rotation() * c.position)
+                .collect(),
+        }
+    }
+}
+
+/// A pose a set leaves out, and why.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SkippedPose {
+    /// Position in the pose source's list, from 0.
+    pub source_index: usize,
+    /// Position, metres.
+    pub position: [f64; 3],
+    /// Why: outside the scene, or inside which object.
+    pub reason: String,
+}
+
+/// A set made ready: its spec, its poses and its per-set occluders.
+#[derive(Debug, Clone)]
+pub struct SetPlan {
+    /// The set as written.
+    pub spec: SetSpec,
+    /// Frame i is rendered from `poses[i]`.
+    pub poses: Vec<Pose>,
+    /// Poses left out (inside objects, outside the scene).
+    pub skipped: Vec<SkippedPose>,
+    /// Occluders shared by every frame of the set.
+    pub occluders: Vec<Occluder>,
+}
+
+/// A loaded spec: scene, rig and planned sets.
+pub struct Dataset {
+    /// The spec as parsed.
+    pub spec: Spec,
+    /// The spec file.
+    pub spec_path: PathBuf,
+    spec_text: String,
+    /// The scene it names.
+    pub scene: Scene,
+    scene_path: PathBuf,
+    scene_sha256: String,
+    /// The vision system.
+    pub rig: DatasetRig,
+    /// The sets, in spec order.
+    pub sets: Vec<SetPlan>,
+    /// What the user should hear (skipped poses).
+    pub warnings: Vec<String>,
+    bvh: SceneBvh,
+}
+
+impl Dataset {
+    /// Reads and checks the spec at `path` and its scene, and plans every set's poses and
+    /// per-set occluders.
+    pub fn load(path: &Path) -> Result<Self, DatasetError> {
+        let text = crate::input::read_text(path, crate::input::SCENE_LIMIT)?;
+        Self::from_text(text, path)
+    }
+
+    /// As [`Dataset::load`], with the spec's text given (`path` locates the scene and errors).
+    pub fn from_text(text: String, path: &Path) -> Result<Self, DatasetError> {
+        let spec = spec::parse(&text, path)?;
+        let at = spec::SpecText { text: &text, path };
+        let top = |field: &str, message: String| {
+            at.error(
+                spec::Place {
+                    set: None,
+                    field: field.into(),
+                },
+                message,
+            )
+        };
+        let rig = build_rig(&spec.rig).map_err(|m| top("rig", m))?;
+        let scene_path = spec::scene_path(&spec, path).map_err(|m| top("scene", m))?;
+        let scene_text = crate::input::read_text(&scene_path, crate::input::SCENE_LIMIT)?;
+        let mut scene = Scene::from_ron(&scene_text, &scene_path)?;
+        scene.source = Some(scene_path.clone());
+        let bvh = SceneBvh::build(&scene);
+        let mut warnings = scene.warnings.clone();
+        let mut sets = Vec::with_capacity(spec.sets.len());
+        for set in &spec.sets {
+            let fail = |field: &str, message: String| {
+                at.error(
+                    spec::Place {
+                        set: Some(&set.name),
+                        field: field.into(),
+                    },
+                    message,
+                )
+            };
+            appearance::check(&scene, set).map_err(|(field, m)| fail(&field, m))?;
+            let all = poses(&spec, set, &bvh).map_err(|source| DatasetError::Poses {
+                set: set.name.clone(),
+                source,
+            })?;
+            let (poses, skipped) = sort_misplaced(&scene, &bvh, all);
+            if !skipped.is_empty() {
+                let summary = describe_skipped(&skipped);
+                if set.misplaced == MisplacedPolicy::Refuse {
+                    return Err(fail("poses", format!("{summary} (misplaced: Refuse)")));
+                }
+                warnings.push(format!("set '{}': skipped {summary}", set.name));
+            }
+            if poses.is_empty() {
+                return Err(fail("poses", "no pose is left to render".into()));
+            }
+            let shared: Vec<_> = set.occluders.iter().filter(|o| !o.per_frame).collect();
+            let occluders = if shared.is_empty() {
+                Vec::new()
+            } else {
+                let cameras: Vec<DVec3> = poses.iter().flat_map(|p| rig.centres(p)).collect();
+                let mut rng = rng::stream(spec.seed, &set.name, None, rng::Purpose::Occluders);
+                occluders::place(&scene, &bvh, &shared, &cameras, &[], &mut rng).map_err(|source| {
+                    DatasetError::Occluders {
+                        set: set.name.clone(),
+                        frame: "set".into(),
+                        source,
+                    }
+                })?
+            };
+            sets.push(SetPlan {
+                spec: set.clone(),
+                poses,
+                skipped,
+                occluders,
+            });
+        }
+        Ok(Self {
+            scene_sha256: manifest::sha256_hex(scene_text.as_bytes()),
+            spec,
+            spec_path: path.to_path_buf(),
+            spec_text: text,
+            scene,
+            scene_path,
+            rig,
+            sets,
+            warnings,
+            bvh,
+        })
+    }
+
+    /// Number of frames over every set.
+    pub fn frame_count(&self) -> usize {
+        self.sets.iter().map(|s| s.poses.len()).sum()
+    }
+}
+
+/// The camera or rig a spec describes, checked by the library (`validate`).
+fn build_rig(rig: &RigSpec) -> Result<DatasetRig, String> {
+    let between = |name: &str, degrees: f64| {
+        if degrees > 0.0 && degrees < 180.0 {
+            Ok(degrees.to_radians())
+        } else {
+            Err(format!(
+                "{name} must be between 0 and 180 degrees (exclusive), not {degrees}"
+            ))
+        }
+    };
+    let pinhole = |(w, h): (u32, u32), hfov: f64, focal: Option<f64>| -> Result<Pinhole, String> {
+        let mut camera = Pinhole::with_horizontal_fov(w, h, between("hfov", hfov)?);
+        if let Some(f) = focal {
+            (camera.fx, camera.fy) = (f, f);
+        }
+        Ok(camera)
+    };
+    let built =
+        match rig {
+            RigSpec::Pinhole(p) => DatasetRig::Single(Camera::Pinhole(pinhole(p.size, p.hfov, p.focal)?)),
+            RigSpec::Stereo(s) => DatasetRig::Stereo(StereoRig {
+                camera: pinhole(s.size, s.hfov, s.focal)?,
+                baseline: s.baseline,
+            }),
+            RigSpec::Equirect { size } => DatasetRig::Single(Camera::Equirectangular(Equirectangular {
+                width: size.0,
+                height: size.1,
+            })),
+            RigSpec::Cylindrical { size, vfov } => DatasetRig::Single(Camera::Cylindrical(
+                Cylindrical::with_vertical_fov(size.0, size.1, between("vfov", *vfov)?),
+            )),
+            RigSpec::Omni(o) => DatasetRig::Single(Camera::Catadioptric(omni(o)?)),
+        };
+    match &built {
+        DatasetRig::Single(camera) => camera.validate(),
+        DatasetRig::Stereo(stereo) => stereo.validate(),
+    }
+    .map_err(|e| format!("the camera cannot make an image: {e}"))?;
+    Ok(built)
+}
+
+fn omni(o: &spec::OmniSpec) -> Result<Catadioptric, String> {
+    let (w, h) = o.size;
+    let elevation = if o.rim.is_some() {
+        None
+    } else {
+        o.max_elevation.map(f64::to_radians)
+    };
+    let mut camera = match o.mirror {
+        spec::MirrorSpec::Hyperbolic { a, b } => {
+            let camera = Catadioptric::hyperbolic(w, h, a, b, elevation);
+            if let Some(e) = elevation
+                && e >= camera.asymptote_elevation()
+            {
+                return Err(format!(
+                    "max_elevation {:.2}° is beyond what this mirror can see: at most {:.2}°",
+                    e.to_degrees(),
+                    camera.asymptote_elevation().to_degrees()
+                ));
+            }
+            camera
+        }
+        spec::MirrorSpec::Parabolic { a, b, h: height } => {
+            let elevation = match (elevation, o.rim) {
+                (Some(e), _) => e,
+                (None, Some(_)) => 0.0,
+                (None, None) => return Err("a paraboloid has no asymptote: give max_elevation or rim".into()),
+            };
+            let mut camera = Catadioptric::parabolic(w, h, a, height, elevation);
+            camera.mirror = MirrorShape::Parabolic {
+                a,
+                b: b.unwrap_or(a),
+                h: height,
+            };
+            camera
+        }
+        spec::MirrorSpec::Spherical {
+            radius,
+            camera_distance,
+        } => Catadioptric::spherical(w, h, radius, camera_distance),
+    };
+    if o.rim.is_some() {
+        camera.rim_radius = o.rim;
+    }
+    if let Some(f) = o.focal {
+        camera.focal = f;
+    }
+    camera.mount = match o.mount {
+        spec::MountSpec::Up => Mount::Up,
+        spec::MountSpec::Down => Mount::Down,
+    };
+    camera.hidden_centre_px = o.hidden_centre;
+    camera.misalignment = Misalignment {
+        offset: o.misalign_offset.into(),
+        tilt: DVec3::from(o.misalign_tilt) * (std::f64::consts::PI / 180.0),
+    };
+    camera.check_rays().map_err(|e| e.to_string())?;
+    Ok(camera)
+}
+
+/// Every pose a set's source gives, before misplaced ones are left out.
+fn poses(spec: &Spec, set: &SetSpec, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_sets::TooFewClear> {
+    let degrees = |(x, y, z): (f64, f64, f64)| dvec3(x, y, z) * (std::f64::consts::PI / 180.0);
+    Ok(match &set.poses {
+        PoseSource::Trajectory {
+            through,
+            spacing,
+            count,
+            heading,
+        } => {
+            let waypoints: Vec<DVec3> = through.iter().map(|&p| p.into()).collect();
+            let length: f64 = waypoints.windows(2).map(|w| w[0].distance(w[1])).sum();
+            let step = spacing.unwrap_or_else(|| length / (count.unwrap_or(2) - 1) as f64);
+            let mut poses = pose_sets::trajectory(&waypoints, step);
+            if let Some(n) = count {
+                // Rounding may add a pose a hair before the end: keep the last one, the end.
+                while poses.len() > *n {
+                    poses.remove(poses.len() - 2);
+                }
+            }
+            if let Heading::Fixed { angles } = heading {
+                for pose in &mut poses {
+                    pose.angles = degrees(*angles);
+                }
+            }
+            poses
+        }
+        PoseSource::Grid { x, y, z, headings } => headings
+            .iter()
+            .flat_map(|&heading| {
+                pose_sets::grid(
+                    &pose_sets::steps(x.0, x.1, x.2),
+                    &pose_sets::steps(y.0, y.1, y.2),
+                    z,
+                    dvec3(0.0, 0.0, heading.to_radians()),
+                )
+            })
+            .collect(),
+        PoseSource::Random {
+            count,
+            low,
+            high,
+            tilt,
+            clearance,
+        } => pose_sets::random(
+            bvh,
+            &RandomPoses {
+                count: *count,
+                seed: rng::seed_u64(spec.seed, &set.name, rng::Purpose::Poses),
+                low: (*low).into(),
+                high: (*high).into(),
+                max_tilt: tilt.to_radians(),
+                clearance: *clearance,
+            },
+        )?,
+        PoseSource::List(list) => list
+            .iter()
+            .map(|&(x, y, z, ax, ay, az)| Pose::from_degrees(dvec3(x, y, z), dvec3(ax, ay, az)))
+            .collect(),
+    })
+}
+
+/// Splits poses into those to render and those inside a closed object or outside the scene.
+fn sort_misplaced(scene: &Scene, bvh: &SceneBvh, all: Vec<Pose>) -> (Vec<Pose>, Vec<SkippedPose>) {
+    let mut kept = Vec::with_capacity(all.len());
+    let mut skipped = Vec::new();
+    for (source_index, pose) in all.into_iter().enumerate() {
+        match pose_sets::misplaced(scene, bvh, pose.position) {
+            None => kept.push(pose),
+            Some(place) => skipped.push(SkippedPose {
+                source_index,
+                position: pose.position.to_array(),
+                reason: match place {
+                    Misplaced::OutsideBounds => "outside the scene".into(),
+                    Misplaced::Inside(object) => format!("inside '{object}'"),
+                },
+            }),
+        }
+    }
+    (kept, skipped)
+}
+
+/// "3 poses: 2 inside 'table' (#4, #17), 1 outside the scene (#50)".
+fn describe_skipped(skipped: &[SkippedPose]) -> String {
+    let mut reasons: Vec<(&str, Vec<usize>)> = Vec::new();
+    for s in skipped {
+        match reasons.iter_mut().find(|(r, _)| *r == s.reason) {
+            Some((_, list)) => list.push(s.source_index),
+            None => reasons.push((&s.reason, vec![s.source_index])),
+        }
+    }
+    let parts: Vec<String> = reasons
+        .iter()
+        .map(|(reason, list)| {
+            let shown: Vec<String> = list.iter().take(5).map(|i| format!("#{i}")).collect();
+            let more = if list.len() > 5 { ", ..." } else { "" };
+            format!("{} {reason} ({}{more})", list.len(), shown.join(", "))
+        })
+        .collect();
+    format!("{} pose(s): {}", skipped.len(), parts.join(", "))
+}

@@ -1,0 +1,765 @@
+//! Rendering a data set into a folder, resuming, sharding and merging.
+//!
+//! Folder: `.omnisim-dataset.json` (the stamp: which spec and scene, how many frames per
+//! set), then per set `<set>/` with the frame files, the set files (calibration), the layouts
+//! (`tum/`, `mav0/`) and `.frames/` (one entry per done frame, and `set.json`). Every file
+//! is written atomically; a frame is done when its entry exists, so a killed run re-renders
+//! at most the frames it was writing, with the same bytes. `merge` checks every file's hash
+//! and writes the layouts' index files and `manifest.json`.
+
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::appearance::{AppearanceRecord, frame_appearance};
+use super::layout::{self, Image};
+use super::manifest::{
+    FileEntry, FileKind, FrameEntry, Manifest, ManifestSet, PoseEntry, SetEntry, Stamp, file_entry, inside, sha256_hex,
+    to_json, verify,
+};
+use super::occluders::{self, Occluder};
+use super::rng::{Purpose, stream};
+use super::{Dataset, DatasetError, DatasetRig, SetPlan, noise, seam};
+use crate::camera::Camera;
+use crate::frame::{Frame, Plane, Planes};
+use crate::output::{self, atomic};
+use crate::renderer::{PreparedScene, Renderer};
+
+/// The stamp's file name in a data-set folder.
+pub(crate) const STAMP: &str = ".omnisim-dataset.json";
+/// The manifest's file name.
+pub(crate) const MANIFEST: &str = "manifest.json";
+/// Folder of a set's frame entries.
+const ENTRIES: &str = ".frames";
+/// A set's own entry, in `ENTRIES`.
+const SET_ENTRY: &str = "set.json";
+
+/// Slice `index` (from 0) of `count` disjoint slices: frame n of the data set (counted over
+/// every set in spec order) belongs to slice n mod count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// This slice, 0 ≤ index < count.
+    pub index: usize,
+    /// Number of slices.
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// `K/N`, 0 ≤ K < N (Slurm array and Kubernetes indexed-job numbering).
+    fn from_str(text: &str) -> Result<Self, String> {
+        let parsed = text
+            .split_once('/')
+            .and_then(|(k, n)| Some((k.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)));
+        match parsed {
+            Some((index, count)) if index < count => Ok(Shard { index, count }),
+            _ => Err(format!("'{text}' is not a shard K/N with 0 ≤ K < N, e.g. 0/4")),
+        }
+    }
+}
+
+impl Shard {
+    /// Whether frame `n` (counted over every set in spec order) is this slice's.
+    pub fn takes(&self, n: usize) -> bool {
+        n % self.count == self.index
+    }
+}
+
+/// How to run.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RunOptions {
+    /// Render only this slice (and leave the merge to `merge`).
+    pub shard: Option<Shard>,
+    /// Remove another spec's data set from the folder first (only the files it recorded).
+    pub overwrite: bool,
+}
+
+/// A frame finished (or found done), for progress reports.
+#[derive(Debug, Clone)]
+pub struct FrameDone<'a> {
+    /// Its set.
+    pub set: &'a str,
+    /// Its index in the set.
+    pub index: usize,
+    /// Rendered now (false: done by an earlier run).
+    pub rendered: bool,
+    /// Bytes of its files.
+    pub bytes: u64,
+    /// Frames of this run done so far, this one included.
+    pub done: usize,
+    /// Frames of this run (this shard).
+    pub total: usize,
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunSummary {
+    /// Frames rendered now.
+    pub rendered: usize,
+    /// Frames an earlier run had done.
+    pub resumed: usize,
+    /// Bytes written now.
+    pub bytes: u64,
+    /// The callback stopped the run early.
+    pub stopped: bool,
+    /// Index files and manifest written (an unsharded, complete run).
+    pub merged: bool,
+    /// What the user should hear (cleaned-up temporaries, removed data sets).
+    pub notes: Vec<String>,
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> DatasetError + '_ {
+    move |source| DatasetError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
+    atomic::write_atomically(path, |out| std::io::Write::write_all(out, bytes)).map_err(io(path))
+}
+
+/// Creates `dir` and removes the temporaries a killed run left there.
+fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    atomic::remove_stale_temporaries(dir).map_err(io(dir))?;
+    Ok(())
+}
+
+fn read_stamp(dir: &Path) -> Result<Option<Stamp>, DatasetError> {
+    let path = dir.join(STAMP);
+    match std::fs::read(&path) {
+        Ok(bytes) => serde_json::from_slice(&bytes)
+            .map(Some)
+            .map_err(|e| DatasetError::Corrupt {
+                path: path.clone(),
+                entry: path.clone(),
+                problem: format!("not a data-set stamp: {e}"),
+            }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(io(&path)(e)),
+    }
+}
+
+fn describe(stamp: &Stamp) -> String {
+    format!(
+        "spec {} (SHA-256 {}…), scene {} ({}…)",
+        stamp.spec_file,
+        &stamp.spec_sha256[..12],
+        stamp.scene_file,
+        &stamp.scene_sha256[..12]
+    )
+}
+
+/// The files of a layout's index, for every layout (to remove a previous data set's).
+fn index_names(set: &SetEntry) -> Vec<String> {
+    let mut names = Vec::new();
+    for layout in &set.layouts {
+        match layout {
+            super::spec::LayoutSpec::Tum { .. } => names.extend(
+                ["rgb.txt", "depth.txt", "groundtruth.txt", "groundtruth-body.txt"].map(|n| format!("tum/{n}")),
+            ),
+            super::spec::LayoutSpec::Euroc { .. } => {
+                for k in 0..2 {
+                    names.extend(["data.csv", "sensor.yaml"].map(|n| format!("mav0/cam{k}/{n}")));
+                }
+                names.push("mav0/state_groundtruth_estimate0/data.csv".into());
+            }
+        }
+    }
+    names
+}
+
+/// Removes exactly the files a previous data set recorded (entries, set files, index files,
+/// manifest, stamp); returns how many.
+fn remove_previous(dir: &Path, previous: &Stamp) -> Result<usize, DatasetError> {
+    let mut removed = 0;
+    let mut remove = |path: &Path| -> Result<(), DatasetError> {
+        match std::fs::symlink_metadata(path) {
+            Ok(m) if !m.is_dir() => {
+                std::fs::remove_file(path).map_err(io(path))?;
+                removed += 1;
+                Ok(())
+            }
+            Ok(_) => Ok(()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+            Err(e) => Err(io(path)(e)),
+        }
+    };
+    for set in &previous.sets {
+        let Some(set_dir) = inside(dir, &set.name) else {
+            continue;
+        };
+        let entries = set_dir.join(ENTRIES);
+        for entry in read_entry_paths(&entries)? {
+            if let Ok(frame) = serde_json::from_slice::<FrameEntry>(&std::fs::read(&entry).unwrap_or_default()) {
+                for file in frame.files.iter().filter_map(|f| inside(dir, &f.path)) {
+                    remove(&file)?;
+                }
+            }
+            remove(&entry)?;
+        }
+        if let Ok(own) = serde_json::from_slice::<SetEntry>(&std::fs::read(entries.join(SET_ENTRY)).unwrap_or_default())
+        {
+            for file in own.files.iter().filter_map(|f| inside(dir, &f.path)) {
+                remove(&file)?;
+            }
+        }
+        remove(&entries.join(SET_ENTRY))?;
+        for name in index_names(set) {
+            remove(&set_dir.join(name))?;
+        }
+    }
+    remove(&dir.join(MANIFEST))?;
+    remove(&dir.join(STAMP))?;
+    Ok(removed)
+}
+
+/// Frame entry files of a set (`NNNNNN.json`), sorted; none if the folder is missing.
+fn read_entry_paths(entries: &Path) -> Result<Vec<PathBuf>, DatasetError> {
+    let listing = match std::fs::read_dir(entries) {
+        Ok(listing) => listing,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io(entries)(e)),
+    };
+    let mut paths = Vec::new();
+    for item in listing {
+        let path = item.map_err(io(entries))?.path();
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+        if name.strip_suffix(".json").is_some_and(|n| n.parse::<usize>().is_ok()) {
+            paths.push(path);
+        }
+    }
+    paths.sort();
+    Ok(paths)
+}
+
+fn entry_path(set_dir: &Path, index: usize) -> PathBuf {
+    set_dir.join(ENTRIES).join(format!("{index:06}.json"))
+}
+
+/// Opens `dir` for the data set `stamp`: refuses another spec's data set (or files no data
+/// set recorded) unless `overwrite`, and writes the stamp. Returns notes.
+fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>, DatasetError> {
+    prepare_dir(dir)?;
+    let mut notes = Vec::new();
+    match read_stamp(dir)? {
+        Some(previous) if previous.identity == stamp.identity => {}
+        Some(previous) if !overwrite => {
+            return Err(DatasetError::AnotherSpec {
+                dir: dir.to_path_buf(),
+                previous: describe(&previous),
+            });
+        }
+        Some(previous) => {
+            let removed = remove_previous(dir, &previous)?;
+            notes.push(format!(
+                "--overwrite: removed {removed} file(s) of the previous data set ({})",
+                describe(&previous)
+            ));
+        }
+        None => {
+            let listing = std::fs::read_dir(dir).map_err(io(dir))?;
+            let example = listing
+                .filter_map(Result::ok)
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .find(|name| !name.starts_with('.'));
+            if let (Some(example), false) = (example, overwrite) {
+                return Err(DatasetError::Unrecorded {
+                    dir: dir.to_path_buf(),
+                    example,
+                });
+            }
+        }
+    }
+    write_file(&dir.join(STAMP), &to_json(stamp))?;
+    Ok(notes)
+}
+
+/// Whether frame `index` of a set is done: its entry parses and its files have their sizes.
+fn is_done(root: &Path, set_dir: &Path, index: usize) -> Option<u64> {
+    let entry: FrameEntry = serde_json::from_slice(&std::fs::read(entry_path(set_dir, index)).ok()?).ok()?;
+    let sizes_match = entry.files.iter().all(|f| {
+        inside(root, &f.path)
+            .and_then(|p| std::fs::metadata(p).ok())
+            .is_some_and(|m| m.len() == f.bytes)
+    });
+    sizes_match.then(|| entry.files.iter().map(|f| f.bytes).sum())
+}
+
+/// A set's prepared scene, with its per-set occluders, kept while its frames render.
+struct SetScene {
+    set: usize,
+    scene: crate::Scene,
+    prepared: PreparedScene,
+}
+
+#[derive(Serialize)]
+struct Perturbations<'a> {
+    #[serde(flatten)]
+    appearance: AppearanceRecord,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    occluders: Vec<&'a Occluder>,
+}
+
+impl Dataset {
+    /// The stamp of this data set.
+    fn stamp(&self) -> Stamp {
+        let spec_sha256 = sha256_hex(self.spec_text.as_bytes());
+        let name = |p: &Path| {
+            p.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        };
+        Stamp {
+            identity: sha256_hex(format!("{spec_sha256} {}", self.scene_sha256).as_bytes()),
+            spec_file: name(&self.spec_path),
+            spec_text: self.spec_text.clone(),
+            spec_sha256,
+            scene_file: name(&self.scene_path),
+            scene_sha256: self.scene_sha256.clone(),
+            sets: self.sets.iter().map(|set| set_entry(set, Vec::new())).collect(),
+        }
+    }
+
+    /// Renders the frames of `options.shard` (all frames without one) into `out`, skipping
+    /// those an earlier run finished, then, without a shard, merges. `on_frame` hears of every
+    /// frame and may stop the run (a later run resumes it).
+    pub fn run(
+        &self,
+        renderer: &Renderer,
+        out: &Path,
+        options: &RunOptions,
+        on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+    ) -> Result<RunSummary, DatasetError> {
+        let mut summary = RunSummary {
+            notes: open_folder(out, &self.stamp(), options.overwrite)?,
+            ..RunSummary::default()
+        };
+        for set in &self.sets {
+            self.prepare_set(out, set)?;
+        }
+        let frames: Vec<(usize, usize)> = self
+            .sets
+            .iter()
+            .enumerate()
+            .flat_map(|(s, set)| (0..set.poses.len()).map(move |i| (s, i)))
+            .enumerate()
+            .filter(|(n, _)| options.shard.is_none_or(|shard| shard.takes(*n)))
+            .map(|(_, frame)| frame)
+            .collect();
+        let mut current: Option<SetScene> = None;
+        for (done, &(s, index)) in frames.iter().enumerate() {
+            let set_dir = out.join(&self.sets[s].spec.name);
+            let (rendered, bytes) = match is_done(out, &set_dir, index) {
+                Some(bytes) => {
+                    summary.resumed += 1;
+                    (false, bytes)
+                }
+                None => {
+                    let mut scene = match current.take() {
+                        Some(scene) if scene.set == s => scene,
+                        _ => self.set_scene(renderer, s)?,
+                    };
+                    let bytes = self.render_frame(renderer, out, &mut scene, index)?;
+                    current = Some(scene);
+                    summary.rendered += 1;
+                    summary.bytes += bytes;
+                    (true, bytes)
+                }
+            };
+            let report = FrameDone {
+                set: &self.sets[s].spec.name,
+                index,
+                rendered,
+                bytes,
+                done: done + 1,
+                total: frames.len(),
+            };
+            if on_frame(&report).is_break() {
+                summary.stopped = done + 1 < frames.len();
+                break;
+            }
+        }
+        if options.shard.is_none() && !summary.stopped {
+            merge(out, &[])?;
+            summary.merged = true;
+        }
+        Ok(summary)
+    }
+
+    /// Creates a set's folders and writes its set files and `set.json`.
+    fn prepare_set(&self, out: &Path, set: &SetPlan) -> Result<(), DatasetError> {
+        let set_dir = out.join(&set.spec.name);
+        let views = self.rig.views().len();
+        prepare_dir(&set_dir)?;
+        prepare_dir(&set_dir.join(ENTRIES))?;
+        for layout in &set.spec.layouts {
+            for (_, path) in layout::frame_files(layout, &set_dir, 0, views) {
+                prepare_dir(path.parent().unwrap_or(&set_dir))?;
+            }
+        }
+        let scene = occluders::with_occluders(&self.scene, &set.occluders);
+        let files = seam::write_set_files(&set_dir, &self.spec.outputs, &self.rig, &scene)?
+            .iter()
+            .map(|path| file_entry(out, path, FileKind::Set))
+            .collect::<Result<_, _>>()?;
+        write_file(&set_dir.join(ENTRIES).join(SET_ENTRY), &to_json(&set_entry(set, files)))
+    }
+
+    /// The scene of set `s` with its per-set occluders, prepared.
+    fn set_scene(&self, renderer: &Renderer, s: usize) -> Result<SetScene, DatasetError> {
+        let set = &self.sets[s];
+        let (scene, prepared) = if set.occluders.is_empty() {
+            (
+                self.scene.clone(),
+                renderer.prepare_with(&self.scene, self.bvh.clone())?,
+            )
+        } else {
+            let scene = occluders::with_occluders(&self.scene, &set.occluders);
+            let prepared = renderer.prepare(&scene)?;
+            (scene, prepared)
+        };
+        Ok(SetScene {
+            set: s,
+            scene,
+            prepared,
+        })
+    }
+
+    /// Renders and writes frame `index` of the set of `scene`, then its entry; returns the
+    /// bytes written.
+    fn render_frame(
+        &self,
+        renderer: &Renderer,
+        out: &Path,
+        base: &mut SetScene,
+        index: usize,
+    ) -> Result<u64, DatasetError> {
+        let plan = &self.sets[base.set];
+        let set = &plan.spec;
+        let set_dir = out.join(&set.name);
+        let pose = &plan.poses[index];
+        let seed = self.spec.seed;
+        let shared: Vec<_> = set.occluders.iter().filter(|o| o.per_frame).collect();
+        let mut placed = Vec::new();
+        let mut own = None;
+        if !shared.is_empty() {
+            let mut rng = stream(seed, &set.name, Some(index), Purpose::Occluders);
+            placed = occluders::place(
+                &self.scene,
+                &self.bvh,
+                &shared,
+                &self.rig.centres(pose),
+                &plan.occluders,
+                &mut rng,
+            )
+            .map_err(|source| DatasetError::Occluders {
+                set: set.name.clone(),
+                frame: index.to_string(),
+                source,
+            })?;
+            let scene = occluders::with_occluders(&base.scene, &placed);
+            own = Some((renderer.prepare(&scene)?, scene));
+        }
+        let (prepared, scene) = match own.as_mut() {
+            Some((prepared, scene)) => (prepared, &*scene),
+            None => (&mut base.prepared, &base.scene),
+        };
+        let (appearance, record) = frame_appearance(scene, self.scene.objects.len(), set, seed, index);
+        renderer.set_appearance(prepared, appearance)?;
+        let noisy_colour = !set.noise.colour.is_empty();
+        let mut planes = seam::planes(&self.spec.outputs);
+        if noisy_colour {
+            planes = planes.with(Plane::LinearColour);
+        }
+        let views = self.rig.views();
+        let frames = views
+            .iter()
+            .map(|(_, camera)| renderer.render(prepared, camera, pose, planes))
+            .collect::<Result<Vec<Frame>, _>>()?;
+        let stem = format!("{}-{index:04}", self.scene.file_stem());
+        let mut files = Vec::new();
+        for path in seam::write_frame(&set_dir, &stem, &self.spec.outputs, &self.rig, pose, &frames)? {
+            files.push(file_entry(out, &path, FileKind::GroundTruth)?);
+        }
+        // Noisy copies, each view's colour then depth, then disparity: one stream, fixed order.
+        let mut rng = stream(seed, &set.name, Some(index), Purpose::Noise);
+        let mut sensor_colour = Vec::with_capacity(views.len());
+        let mut sensor_depth = None;
+        let mut noisy = Vec::new();
+        for ((suffix, camera), frame) in views.iter().zip(&frames) {
+            let size = (frame.width, frame.height);
+            let colour = match (noisy_colour, frame.linear_colour()) {
+                (true, Some(linear)) => {
+                    let colour = noise::colour(linear, &set.noise.colour, &mut rng);
+                    let path = set_dir.join(format!("{stem}{suffix}-noisy.png"));
+                    output::write_png(&path, &colour_frame(size, colour.clone()))?;
+                    noisy.push(path);
+                    colour
+                }
+                _ => frame.colour().map(<[_]>::to_vec).unwrap_or_default(),
+            };
+            sensor_colour.push(colour);
+            let depth = match camera {
+                Camera::Pinhole(pinhole) => Some(pinhole.axial_depth(frame, pose)),
+                _ => None,
+            };
+            if let Some(model) = &set.noise.depth {
+                match &depth {
+                    Some(depth) => {
+                        let values = noise::depth(depth, model, &mut rng);
+                        let png = set_dir.join(format!("{stem}{suffix}-depth-noisy.png"));
+                        output::write_tum_depth_png(&png, size, &values)?;
+                        let exr = set_dir.join(format!("{stem}{suffix}-depth-noisy.exr"));
+                        output::write_axial_depth_exr(&exr, size, values.clone())?;
+                        noisy.extend([png, exr]);
+                        sensor_depth.get_or_insert(values);
+                    }
+                    None => {
+                        let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
+                        let values = noise::depth(&ranges, model, &mut rng);
+                        let hits = frame
+                            .pixels()
+                            .iter()
+                            .zip(values)
+                            .map(|(p, range)| crate::Pixel { range, ..*p })
+                            .collect();
+                        let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
+                        output::write_range_exr(&exr, &Frame::from_hits(size.0, size.1, hits), camera)?;
+                        noisy.push(exr);
+                    }
+                }
+            }
+            if sensor_depth.is_none() {
+                sensor_depth = depth;
+            }
+        }
+        if let (Some(model), DatasetRig::Stereo(stereo)) = (&set.noise.disparity, &self.rig) {
+            let values = noise::disparity(&stereo.disparity(&frames[0], pose), model, &mut rng);
+            let path = set_dir.join(format!("{stem}-disparity-noisy.exr"));
+            output::write_disparity_exr(&path, (frames[0].width, frames[0].height), values)?;
+            noisy.push(path);
+        }
+        for path in noisy {
+            files.push(file_entry(out, &path, FileKind::Noisy)?);
+        }
+        let size = (frames[0].width, frames[0].height);
+        for layout in &set.layouts {
+            for (image, path) in layout::frame_files(layout, &set_dir, index, views.len()) {
+                match image {
+                    Image::Colour(k) => output::write_png(&path, &colour_frame(size, sensor_colour[k].clone()))?,
+                    Image::Depth => {
+                        output::write_tum_depth_png(&path, size, sensor_depth.as_deref().unwrap_or_default())?
+                    }
+                }
+                files.push(file_entry(out, &path, FileKind::Layout)?);
+            }
+        }
+        let perturbations = Perturbations {
+            appearance: record,
+            occluders: plan.occluders.iter().chain(&placed).collect(),
+        };
+        let entry = FrameEntry {
+            index,
+            stem,
+            pose: PoseEntry::of(pose),
+            perturbations: serde_json::to_value(&perturbations).unwrap_or_default(),
+            files,
+        };
+        write_file(&entry_path(&set_dir, index), &to_json(&entry))?;
+        Ok(entry.files.iter().map(|f| f.bytes).sum())
+    }
+}
+
+fn set_entry(set: &SetPlan, files: Vec<FileEntry>) -> SetEntry {
+    SetEntry {
+        name: set.spec.name.clone(),
+        frames: set.poses.len(),
+        skipped: set.skipped.clone(),
+        noise: set.spec.noise.clone(),
+        layouts: set.spec.layouts.clone(),
+        files,
+    }
+}
+
+/// A frame holding only a colour plane, for the PNG writer.
+fn colour_frame(size: (u32, u32), colour: Vec<[u8; 3]>) -> Frame {
+    let mut frame = Frame::empty(size.0, size.1);
+    frame.set_shading(Planes::COLOUR, Vec::new(), colour);
+    frame
+}
+
+/// What `merge` found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MergeSummary {
+    /// Frames over every set.
+    pub frames: usize,
+    /// Files listed in the manifest.
+    pub files: usize,
+    /// Their bytes.
+    pub bytes: u64,
+}
+
+/// Copies the frames of `sources` (shard folders of the same spec, checked by hash) into
+/// `dest`, checks that every frame of every set is there with the size and hash its entry
+/// records, and writes the layouts' index files and `manifest.json`. With no `sources`, shards
+/// wrote into `dest` itself (a shared file system).
+pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetError> {
+    let mut stamp = read_stamp(dest)?;
+    for source in sources {
+        let theirs = read_stamp(source)?.ok_or_else(|| DatasetError::Corrupt {
+            path: source.clone(),
+            entry: source.join(STAMP),
+            problem: "not a data-set folder (no stamp)".into(),
+        })?;
+        let ours = match &stamp {
+            Some(ours) => ours,
+            None => {
+                prepare_dir(dest)?;
+                let bytes = std::fs::read(source.join(STAMP)).map_err(io(source))?;
+                write_file(&dest.join(STAMP), &bytes)?;
+                stamp.insert(theirs.clone())
+            }
+        };
+        if ours.identity != theirs.identity {
+            return Err(DatasetError::AnotherSpec {
+                dir: source.clone(),
+                previous: describe(&theirs),
+            });
+        }
+        copy_frames(source, dest, ours)?;
+    }
+    let stamp = stamp.ok_or_else(|| DatasetError::Corrupt {
+        path: dest.to_path_buf(),
+        entry: dest.join(STAMP),
+        problem: "not a data-set folder (no stamp)".into(),
+    })?;
+    let spec_path = dest.join(&stamp.spec_file);
+    let spec = super::spec::parse(&stamp.spec_text, &spec_path)?;
+    let rig = super::build_rig(&spec.rig).map_err(|message| DatasetError::Spec {
+        path: spec_path.clone(),
+        location: None,
+        set: None,
+        field: "rig".into(),
+        message,
+    })?;
+    let mut summary = MergeSummary::default();
+    let mut sets = Vec::new();
+    for set in &stamp.sets {
+        let set_dir = inside(dest, &set.name).unwrap_or_else(|| dest.join("invalid"));
+        let own_path = set_dir.join(ENTRIES).join(SET_ENTRY);
+        let mut own: SetEntry = read_json(&own_path)?;
+        let mut frames = Vec::with_capacity(set.frames);
+        let mut missing = Vec::new();
+        for index in 0..set.frames {
+            let path = entry_path(&set_dir, index);
+            if !path.exists() {
+                missing.push(index);
+                continue;
+            }
+            let entry: FrameEntry = read_json(&path)?;
+            for file in &entry.files {
+                verify(dest, file, &path)?;
+            }
+            frames.push(entry);
+        }
+        if let Some(&first) = missing.first() {
+            return Err(DatasetError::Incomplete {
+                set: set.name.clone(),
+                missing: missing.len(),
+                total: set.frames,
+                first,
+            });
+        }
+        for file in &own.files {
+            verify(dest, file, &own_path)?;
+        }
+        for layout in &set.layouts {
+            for (name, text) in layout::index_files(layout, &rig, &frames) {
+                let path = set_dir.join(&name);
+                prepare_dir(path.parent().unwrap_or(&set_dir))?;
+                write_file(&path, text.as_bytes())?;
+                own.files.push(FileEntry {
+                    path: format!("{}/{name}", set.name),
+                    kind: FileKind::Index,
+                    bytes: text.len() as u64,
+                    sha256: sha256_hex(text.as_bytes()),
+                });
+            }
+        }
+        let counted = own.files.iter().chain(frames.iter().flat_map(|f| &f.files));
+        for file in counted {
+            summary.files += 1;
+            summary.bytes += file.bytes;
+        }
+        summary.frames += frames.len();
+        sets.push(ManifestSet {
+            set: own,
+            frame_entries: frames,
+        });
+    }
+    let manifest = Manifest {
+        tool: "omnisim",
+        version: env!("CARGO_PKG_VERSION"),
+        spec_file: stamp.spec_file.clone(),
+        spec: stamp.spec_text.clone(),
+        spec_sha256: stamp.spec_sha256.clone(),
+        scene_file: stamp.scene_file.clone(),
+        scene_sha256: stamp.scene_sha256.clone(),
+        seed: spec.seed,
+        rig: spec.rig.clone(),
+        outputs: spec.outputs,
+        sets,
+    };
+    write_file(&dest.join(MANIFEST), &to_json(&manifest))?;
+    Ok(summary)
+}
+
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, DatasetError> {
+    let bytes = std::fs::read(path).map_err(io(path))?;
+    serde_json::from_slice(&bytes).map_err(|e| DatasetError::Corrupt {
+        path: path.to_path_buf(),
+        entry: path.to_path_buf(),
+        problem: format!("unreadable entry: {e}"),
+    })
+}
+
+/// Copies every done frame (and the set files) of `source` into `dest`, each file checked
+/// against its entry first; entries last, so a copy killed half-way leaves no false "done".
+fn copy_frames(source: &Path, dest: &Path, stamp: &Stamp) -> Result<(), DatasetError> {
+    for set in &stamp.sets {
+        let (Some(from), Some(to)) = (inside(source, &set.name), inside(dest, &set.name)) else {
+            continue;
+        };
+        prepare_dir(&to.join(ENTRIES))?;
+        let mut entries = read_entry_paths(&from.join(ENTRIES))?;
+        entries.push(from.join(ENTRIES).join(SET_ENTRY));
+        for entry in entries {
+            if !entry.exists() {
+                continue;
+            }
+            let files: Vec<FileEntry> = if entry.ends_with(SET_ENTRY) {
+                read_json::<SetEntry>(&entry)?.files
+            } else {
+                read_json::<FrameEntry>(&entry)?.files
+            };
+            for file in &files {
+                verify(source, file, &entry)?;
+                let (from_file, to_file) = (source.join(&file.path), dest.join(&file.path));
+                if let Some(parent) = to_file.parent() {
+                    prepare_dir(parent)?;
+                }
+                write_file(&to_file, &std::fs::read(&from_file).map_err(io(&from_file))?)?;
+            }
+            let name = entry.file_name().map(PathBuf::from).unwrap_or_default();
+            write_file(
+                &to.join(ENTRIES).join(name),
+                &std::fs::read(&entry).map_err(io(&entry))?,
+            )?;
+        }
+    }
+    Ok(())
+}

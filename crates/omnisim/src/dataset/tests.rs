@@ -1,0 +1,520 @@
+//! End-to-end tests of data sets on a small lit room, on the CPU backend (f64, deterministic).
+
+use std::collections::BTreeMap;
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DQuat, DVec2, dvec3};
+
+use super::*;
+use crate::{BackendChoice, Planes, Renderer};
+
+const ROOM: &str = r#"Scene(name: "room", objects: [
+    Floor(name: "floor", corners: [(-2.0, -1.5), (2.0, -1.5), (2.0, 1.5), (-2.0, 1.5)], colour: (150, 140, 120)),
+    Floor(name: "ceiling", corners: [(-2.0, -1.5), (2.0, -1.5), (2.0, 1.5), (-2.0, 1.5)], z: 2.5, colour: (235, 235, 230)),
+    Wall(name: "south", from: (-2.0, -1.5), to: (2.0, -1.5), height: 2.5, colour: (200, 190, 160)),
+    Wall(name: "east", from: (2.0, -1.5), to: (2.0, 1.5), height: 2.5, colour: (90, 160, 200)),
+    Wall(name: "north", from: (2.0, 1.5), to: (-2.0, 1.5), height: 2.5, colour: (200, 120, 90)),
+    Wall(name: "west", from: (-2.0, 1.5), to: (-2.0, -1.5), height: 2.5, colour: (185, 210, 170)),
+    Box(name: "table", size: (0.8, 0.6, 0.7), position: (1.2, 0.8, 0.0), colour: (150, 60, 40)),
+], lighting: (ambient: 10.0, white: 60.0, lights: [
+    Point(name: "lamp", position: (0.0, 0.0, 2.2), intensity: 150.0),
+    Point(name: "desk", position: (1.2, 0.8, 1.2), intensity: 20.0, colour: (255, 220, 180)),
+]))"#;
+
+const SPEC: &str = r#"Dataset(
+    scene: "room.ron",
+    seed: 11,
+    rig: Pinhole(size: (32, 24), hfov: 70.0),
+    outputs: (point_cloud: false, segmentation: true),
+    sets: [
+        Set(
+            name: "map",
+            poses: Trajectory(through: [(-1.2, -0.8, 1.0), (1.2, -0.8, 1.0), (1.2, 0.0, 1.0)], count: 4),
+            noise: (colour: [PoissonGaussian(a: 0.002, b: 0.0001), SaltPepper(probability: 0.01)], depth: (c2: 0.003)),
+            layouts: [Tum(rate: 10.0), Euroc(rate: 10.0)],
+        ),
+        Set(
+            name: "test",
+            poses: Random(count: 3, low: (-1.5, -1.0, 0.5), high: (1.5, 1.0, 1.5), tilt: 10.0, clearance: 0.3),
+            lights: [Flicker(light: "lamp", off: 0.3, jitter: 0.2)],
+            colours: [Shift(range: 20, per_frame: true)],
+            occluders: [Occluders(shape: Person, count: 1, clearance: 0.3)],
+        ),
+        Set(
+            name: "night",
+            poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 45.0), (2.5, 0.0, 1.0, 0.0, 0.0, 0.0), (1.2, 0.8, 0.3, 0.0, 0.0, 0.0)]),
+            lights: [Switch(light: "lamp", on: false)],
+            occluders: [Occluders(shape: Box(size: (0.3, 0.3, 0.5)), count: 1, per_frame: false)],
+        ),
+    ],
+)"#;
+
+/// A folder with the room and `spec`.
+fn project(spec: &str) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("room.ron"), ROOM).unwrap();
+    let path = dir.path().join("spec.ron");
+    std::fs::write(&path, spec).unwrap();
+    (dir, path)
+}
+
+fn cpu() -> Renderer {
+    Renderer::new(BackendChoice::Cpu).unwrap()
+}
+
+/// Every file under `dir` (hidden ones included) with its bytes.
+fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut files = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(folder) = stack.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                files.insert(manifest::relative(dir, &path), std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    files
+}
+
+fn run(dataset: &Dataset, out: &Path, options: RunOptions, stop_after: Option<usize>) -> RunSummary {
+    let mut rendered = 0;
+    dataset
+        .run(&cpu(), out, &options, &mut |frame| {
+            rendered += frame.rendered as usize;
+            match stop_after {
+                Some(k) if rendered >= k => ControlFlow::Break(()),
+                _ => ControlFlow::Continue(()),
+            }
+        })
+        .unwrap()
+}
+
+fn assert_same(a: &BTreeMap<String, Vec<u8>>, b: &BTreeMap<String, Vec<u8>>) {
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (name, bytes) in a {
+        assert!(bytes == &b[name], "{name} differs");
+    }
+}
+
+#[test]
+fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
+    let (dir, spec) = project(SPEC);
+    let dataset = Dataset::load(&spec).unwrap();
+    // "night" pose 1 is outside the room, pose 2 inside the table.
+    assert_eq!(dataset.sets[2].poses.len(), 1);
+    assert!(
+        dataset.warnings.iter().any(|w| w.contains("set 'night'")
+            && w.contains("2 pose(s)")
+            && w.contains("outside the scene (#1)")
+            && w.contains("inside 'table' (#2)")),
+        "{:?}",
+        dataset.warnings
+    );
+    let whole = dir.path().join("whole");
+    let summary = run(&dataset, &whole, RunOptions::default(), None);
+    assert_eq!((summary.rendered, summary.merged), (8, true));
+    let reference = snapshot(&whole);
+    assert!(reference.contains_key("manifest.json") && reference.contains_key("map/tum/groundtruth.txt"));
+    assert!(reference.contains_key("map/room-0002-noisy.png") && reference.contains_key("map/room-0002.png"));
+
+    // The same spec again, from scratch: the same bytes.
+    let again = dir.path().join("again");
+    run(&dataset, &again, RunOptions::default(), None);
+    assert_same(&reference, &snapshot(&again));
+
+    // Stopped after k frames (any k), then resumed: the same bytes; a run over a complete
+    // folder renders nothing.
+    for k in [1, 5] {
+        let resumed = dir.path().join(format!("resumed-{k}"));
+        let first = run(&dataset, &resumed, RunOptions::default(), Some(k));
+        assert!(first.stopped && !first.merged);
+        assert!(!resumed.join("manifest.json").exists());
+        let second = run(&dataset, &resumed, RunOptions::default(), None);
+        assert_eq!((second.resumed, second.rendered), (k, 8 - k));
+        assert_same(&reference, &snapshot(&resumed));
+    }
+    assert_eq!(run(&dataset, &whole, RunOptions::default(), None).rendered, 0);
+
+    // Three shards into one folder, then merge: the same bytes.
+    let shared = dir.path().join("shared");
+    for index in 0..3 {
+        let summary = run(
+            &dataset,
+            &shared,
+            RunOptions {
+                shard: Some(Shard { index, count: 3 }),
+                overwrite: false,
+            },
+            None,
+        );
+        assert!(!summary.merged && summary.rendered >= 2);
+    }
+    merge(&shared, &[]).unwrap();
+    assert_same(&reference, &snapshot(&shared));
+
+    // Three shards in their own folders, merged into a fourth; an incomplete merge is refused.
+    let parts: Vec<PathBuf> = (0..3).map(|k| dir.path().join(format!("part-{k}"))).collect();
+    for (index, part) in parts.iter().enumerate() {
+        run(
+            &dataset,
+            part,
+            RunOptions {
+                shard: Some(Shard { index, count: 3 }),
+                overwrite: false,
+            },
+            None,
+        );
+    }
+    let merged = dir.path().join("merged");
+    let refusal = merge(&merged, &parts[..2]).unwrap_err();
+    assert!(
+        matches!(
+            refusal,
+            DatasetError::Incomplete {
+                missing: 1,
+                total: 4,
+                first: 2,
+                ..
+            }
+        ),
+        "{refusal}"
+    );
+    merge(&merged, &parts[2..]).unwrap();
+    assert_same(&reference, &snapshot(&merged));
+
+    // A damaged file is found by its hash.
+    let victim = merged.join("map/room-0001.png");
+    let mut bytes = std::fs::read(&victim).unwrap();
+    bytes[40] ^= 1;
+    std::fs::write(&victim, bytes).unwrap();
+    let damaged = merge(&merged, &[]).unwrap_err();
+    assert!(
+        matches!(damaged, DatasetError::Corrupt { .. }) && damaged.to_string().contains("room-0001.png"),
+        "{damaged}"
+    );
+}
+
+#[test]
+fn another_spec_is_refused_unless_overwrite_removes_its_files() {
+    let (dir, spec) = project(SPEC);
+    let out = dir.path().join("out");
+    let small = SPEC
+        .replace("count: 4", "count: 2")
+        .replace("count: 3, low", "count: 1, low");
+    let (_small_dir, small_spec) = project(&small);
+    let first = Dataset::load(&small_spec).unwrap();
+    run(&first, &out, RunOptions::default(), None);
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let dataset = Dataset::load(&spec).unwrap();
+    let refused = dataset.run(&cpu(), &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()));
+    assert!(
+        matches!(refused, Err(DatasetError::AnotherSpec { .. })),
+        "{:?}",
+        refused.err()
+    );
+    let summary = run(
+        &dataset,
+        &out,
+        RunOptions {
+            shard: None,
+            overwrite: true,
+        },
+        None,
+    );
+    assert!(summary.notes[0].contains("removed"), "{:?}", summary.notes);
+    assert!(out.join("notes.txt").exists(), "a file no data set wrote stays");
+    let mut files = snapshot(&out);
+    files.remove("notes.txt");
+    let fresh = dir.path().join("fresh");
+    run(&dataset, &fresh, RunOptions::default(), None);
+    assert_same(&snapshot(&fresh), &files);
+    // A folder with someone's files is refused.
+    let theirs = dir.path().join("theirs");
+    std::fs::create_dir(&theirs).unwrap();
+    std::fs::write(theirs.join("thesis.tex"), "x").unwrap();
+    let refused = dataset.run(&cpu(), &theirs, &RunOptions::default(), &mut |_| {
+        ControlFlow::Continue(())
+    });
+    assert!(matches!(refused, Err(DatasetError::Unrecorded { .. })));
+}
+
+#[test]
+fn bad_specs_get_located_errors() {
+    let cases = [
+        (
+            SPEC.replace("count: 4)", "count: 4, speed: 2.0)"),
+            "spec.ron:9:",
+            "set 'map'",
+            "speed",
+        ),
+        (
+            SPEC.replace(r#"light: "lamp", off"#, r#"light: "lampe", off"#),
+            "spec.ron:14:",
+            "set 'test': lights[0]",
+            "no light 'lampe'",
+        ),
+        (
+            SPEC.replace("tilt: 10.0", "tilt: 100.0"),
+            "spec.ron:14:",
+            "set 'test': poses.tilt",
+            "0 to 90",
+        ),
+        (
+            SPEC.replace(r#"name: "night""#, r#"name: "map""#),
+            "spec.ron:8:",
+            "set 'map': name",
+            "another set",
+        ),
+        (
+            SPEC.replace("hfov: 70.0", "hfov: 200.0"),
+            "spec.ron:4:",
+            "rig",
+            "between 0 and 180",
+        ),
+        (
+            SPEC.replace("room.ron", "../room.ron"),
+            "spec.ron:2:",
+            "scene",
+            "stay inside",
+        ),
+        (
+            SPEC.replace("Tum(rate: 10.0)", "Tum(rate: -1.0)"),
+            "spec.ron:8:",
+            "layouts[0].rate",
+            "positive",
+        ),
+    ];
+    for (text, at, place, what) in cases {
+        let (_dir, spec) = project(&text);
+        let message = match Dataset::load(&spec) {
+            Ok(_) => panic!("accepted: {what}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            message.contains(at) && message.contains(place) && message.contains(what),
+            "{message}"
+        );
+    }
+    let refuse = SPEC.replace("lights: [Switch", "misplaced: Refuse, lights: [Switch");
+    let (_dir, spec) = project(&refuse);
+    let message = Dataset::load(&spec).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("set 'night': poses") && message.contains("Refuse"),
+        "{message}"
+    );
+}
+
+/// README's spec example parses, and the shipped example loads with its scene.
+#[test]
+fn readme_and_shipped_specs_are_valid() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../README.md")).unwrap();
+    let start = readme.find("```ron\nDataset(").expect("README has a spec example") + "```ron\n".len();
+    let example = &readme[start..start + readme[start..].find("```").unwrap()];
+    spec::parse(example, Path::new("README.md")).unwrap_or_else(|e| panic!("README's spec: {e}"));
+    let shipped = Dataset::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/env1-dataset.ron"
+    )))
+    .unwrap();
+    assert_eq!(shipped.sets.len(), 4);
+}
+
+#[test]
+fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
+    let (_dir, spec) = project(SPEC);
+    let dataset = Dataset::load(&spec).unwrap();
+    let renderer = cpu();
+    let mut prepared = renderer.prepare(&dataset.scene).unwrap();
+    let camera = crate::Camera::Pinhole(crate::Pinhole::with_horizontal_fov(64, 48, 1.5));
+    let pose = crate::Pose::from_degrees(dvec3(-1.0, -0.5, 1.2), dvec3(0.0, 20.0, 30.0));
+    let on = renderer
+        .render(
+            &prepared,
+            &camera,
+            &pose,
+            Planes::COLOUR.with(crate::Plane::LinearColour),
+        )
+        .unwrap();
+    let night = &dataset.sets[2].spec;
+    let (appearance, _) = appearance::frame_appearance(&dataset.scene, dataset.scene.objects.len(), night, 0, 0);
+    renderer.set_appearance(&mut prepared, appearance).unwrap();
+    let off = renderer
+        .render(
+            &prepared,
+            &camera,
+            &pose,
+            Planes::COLOUR.with(crate::Plane::LinearColour),
+        )
+        .unwrap();
+    let bvh = prepared.geometry();
+    let lamp = dvec3(0.0, 0.0, 2.2);
+    let (mut lit, mut dark) = (0, 0);
+    for (i, hit) in on.pixels().iter().enumerate() {
+        let changed = on.linear_colour().unwrap()[i] != off.linear_colour().unwrap()[i];
+        let lamp_lights_it = hit.is_hit() && {
+            let towards = (lamp - hit.point).normalize();
+            let facing = hit.normal.as_dvec3().dot(towards) > 0.0;
+            let origin = hit.point - bvh.offset + hit.normal.as_dvec3() * 1e-7;
+            facing && !crate::cpu::occluded(bvh, origin, towards, (lamp - hit.point).length(), hit.face)
+        };
+        assert_eq!(changed, lamp_lights_it, "pixel {i}");
+        if changed {
+            lit += 1;
+            assert!(off.linear_colour().unwrap()[i][0] < on.linear_colour().unwrap()[i][0]);
+        } else {
+            dark += hit.is_hit() as usize;
+        }
+    }
+    assert!(lit > 1000 && dark > 0, "lit {lit}, unlit by the lamp {dark}");
+}
+
+/// Rotation of a TUM/EuRoC quaternion.
+fn rotation(q: [f64; 4]) -> DMat3 {
+    DMat3::from_quat(DQuat::from_xyzw(q[0], q[1], q[2], q[3]))
+}
+
+#[test]
+fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
+    let (dir, spec) = project(SPEC);
+    let dataset = Dataset::load(&spec).unwrap();
+    let out = dir.path().join("out");
+    run(&dataset, &out, RunOptions::default(), None);
+    let tum = out.join("map/tum");
+    let lines = |path: &Path| -> Vec<Vec<String>> {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| {
+                l.split([' ', ','])
+                    .filter(|s| !s.is_empty())
+                    .map(str::to_string)
+                    .collect()
+            })
+            .collect()
+    };
+    let rgb = lines(&tum.join("rgb.txt"));
+    let truth = lines(&tum.join("groundtruth.txt"));
+    assert_eq!((rgb.len(), lines(&tum.join("depth.txt")).len(), truth.len()), (4, 4, 4));
+    assert_eq!(rgb[1], ["0.100000", "rgb/0.100000.png"]);
+    let Camera::Pinhole(pinhole) = &dataset.rig.views()[0].1 else {
+        panic!("pinhole")
+    };
+    let renderer = cpu();
+    let prepared = renderer.prepare(&dataset.scene).unwrap();
+    for (index, row) in truth.iter().enumerate() {
+        assert!(tum.join(&rgb[index][1]).exists());
+        let v: Vec<f64> = row.iter().map(|s| s.parse().unwrap()).collect();
+        let (t, r) = (dvec3(v[1], v[2], v[3]), rotation([v[4], v[5], v[6], v[7]]));
+        // A hit seen at pixel (u, v) projects back there through the optical-frame pose and K.
+        let frame = renderer
+            .render(
+                &prepared,
+                &dataset.rig.views()[0].1,
+                &dataset.sets[0].poses[index],
+                Planes::HITS,
+            )
+            .unwrap();
+        for (u, w) in [(3u32, 4u32), (16, 12), (30, 20)] {
+            let p = r.transpose() * (frame.pixel(u, w).point - t);
+            let pixel = DVec2::new(pinhole.fx * p.x / p.z + pinhole.cx, pinhole.fy * p.y / p.z + pinhole.cy);
+            assert!(
+                pixel.distance(DVec2::new(u as f64, w as f64)) < 1e-6,
+                "frame {index}: {pixel} for ({u}, {w})"
+            );
+        }
+    }
+    let euroc = out.join("map/mav0");
+    let csv = lines(&euroc.join("cam0/data.csv"));
+    assert_eq!(csv[2], ["200000000", "200000000.png"]);
+    assert!(euroc.join("cam0/data/200000000.png").exists());
+    let state = lines(&euroc.join("state_groundtruth_estimate0/data.csv"));
+    assert_eq!(state.len(), 4);
+    assert_eq!(state[0].len(), 17);
+    let body: Vec<f64> = state[3].iter().map(|s| s.parse().unwrap()).collect();
+    let pose = &dataset.sets[0].poses[3];
+    assert!(dvec3(body[1], body[2], body[3]).distance(pose.position) < 1e-12);
+    let r = rotation([body[5], body[6], body[7], body[4]]);
+    assert!(
+        (r - pose.world_from_body_rotation())
+            .to_cols_array()
+            .iter()
+            .all(|e| e.abs() < 1e-12)
+    );
+    // sensor.yaml: T_BS rows take optical-frame vectors into the body frame.
+    let yaml = std::fs::read_to_string(euroc.join("cam0/sensor.yaml")).unwrap();
+    assert!(
+        yaml.contains("data: [0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]"),
+        "{yaml}"
+    );
+    assert!(yaml.contains("rate_hz: 10") && yaml.contains("camera_model: pinhole"));
+    evo_reads(
+        &tum.join("groundtruth.txt"),
+        &euroc.join("state_groundtruth_estimate0/data.csv"),
+    );
+    // The manifest lists every file with its hash; noisy and exact files are told apart.
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["spec_sha256"], manifest::sha256_hex(SPEC.as_bytes()));
+    let files = &manifest["sets"][0]["frame_entries"][2]["files"];
+    let kind = |name: &str| {
+        files
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| f["path"] == name)
+            .map(|f| f["kind"].clone())
+    };
+    assert_eq!(kind("map/room-0002-noisy.png"), Some("noisy".into()));
+    assert_eq!(kind("map/room-0002.png"), Some("ground-truth".into()));
+    assert_eq!(kind("map/tum/rgb/0.200000.png"), Some("layout".into()));
+    let occluded = &manifest["sets"][1]["frame_entries"][0]["perturbations"];
+    assert_eq!(occluded["occluders"][0]["shape"], "person");
+    assert!(occluded["colour_shifts"]["table"].is_array());
+}
+
+/// evo reads both trajectories, where `OMNISIM_PYTHON` names a Python with evo (CI).
+fn evo_reads(tum: &Path, euroc: &Path) {
+    let Some(python) = std::env::var_os("OMNISIM_PYTHON") else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must set OMNISIM_PYTHON for the evo check"
+        );
+        eprintln!("SKIPPED: evo check of TUM and EuRoC files (set OMNISIM_PYTHON to a Python with evo)");
+        return;
+    };
+    let evo_traj = Path::new(&python).with_file_name("evo_traj");
+    for (format, file) in [("tum", tum), ("euroc", euroc)] {
+        let output = std::process::Command::new(&evo_traj)
+            .arg(format)
+            .arg(file)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&output.stdout).to_string() + &String::from_utf8_lossy(&output.stderr);
+        assert!(
+            output.status.success() && text.contains("4 poses"),
+            "evo_traj {format}: {text}"
+        );
+    }
+}
+
+#[test]
+fn shards_are_disjoint_and_cover_every_frame() {
+    for count in 1..6 {
+        let mut seen = [0; 17];
+        for index in 0..count {
+            let shard: Shard = format!("{index}/{count}").parse().unwrap();
+            for (n, slot) in seen.iter_mut().enumerate() {
+                *slot += shard.takes(n) as usize;
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1));
+    }
+    for bad in ["3/3", "1", "a/2", "-1/2", "0/0"] {
+        assert!(bad.parse::<Shard>().is_err(), "{bad}");
+    }
+}
