@@ -9,7 +9,7 @@
 use rustfft::FftDirection;
 
 use crate::fft::{self, C64};
-use crate::{Raster, VisionError, require};
+use crate::{Raster, Rotation, VisionError, require};
 
 /// How many coefficients per row to keep. The default, 16, is within the range those papers
 /// find a good compromise (they test k = 4 … 64 on 128 × 512 panoramas).
@@ -33,16 +33,6 @@ pub struct FourierSignature {
     pub width: usize,
     /// Row-major, `rows × coefficients`: A[n][k] = Σ_m a[n][m]·e^{−j2πmk/W}.
     pub values: Vec<C64>,
-}
-
-/// A rotation about the vertical axis between two panoramas.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Rotation {
-    /// Columns (0..width) by which the second panorama is the first shifted right.
-    pub columns: usize,
-    /// The same as an angle, 2π·columns/width: the body's turn about +z (counter-clockwise
-    /// from above) from the first image to the second, for omnisim's panoramas.
-    pub radians: f64,
 }
 
 impl FourierSignature {
@@ -78,7 +68,9 @@ impl FourierSignature {
         self.values.iter().map(|v| v.arg() as f32).collect()
     }
 
-    /// The rotation that best takes this panorama to `other`, by the phases: the shift q that
+    /// The rotation that best takes this panorama to `other` (`steps` = columns by which
+    /// `other` is this panorama shifted right; `radians` = the body's turn about +z,
+    /// counter-clockwise from above, for omnisim's panoramas), by the phases: the shift q that
     /// maximises the correlation Σ_n Σ_k w_k·Re(conj(A[n][k])·B[n][k]·e^{j2πqk/W}) of the kept
     /// coefficients (w_0 = 1, w_k = 2 for the conjugate bins a real row also has). For a pure
     /// shift B = A·e^{−j2πqk/W} every term peaks at the true q; resolution 2π/W.
@@ -105,10 +97,7 @@ impl FourierSignature {
         let columns = (0..self.width)
             .max_by(|&i, &j| spectrum[i].re.total_cmp(&spectrum[j].re))
             .expect("width ≥ 1");
-        Ok(Rotation {
-            columns,
-            radians: std::f64::consts::TAU * columns as f64 / self.width as f64,
-        })
+        Ok(Rotation::from_steps(columns, self.width))
     }
 }
 
@@ -138,7 +127,7 @@ mod tests {
                 assert!((a - b).abs() <= 1e-4 * a.max(1.0), "shift {shift}: {a} vs {b}");
             }
             let rotation = reference.rotation_to(&shifted).unwrap();
-            assert_eq!(rotation.columns as i64, shift);
+            assert_eq!(rotation.steps as i64, shift);
             assert!((rotation.radians - std::f64::consts::TAU * shift as f64 / 128.0).abs() < 1e-12);
         }
     }

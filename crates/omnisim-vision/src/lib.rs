@@ -15,11 +15,28 @@ pub mod fourier;
 // pub mod hog;
 // pub mod pca;
 pub mod projection;
-// pub mod radon;
+pub mod radon;
 pub mod raster;
 
 pub use projection::{PlaneView, Remap, View};
 pub use raster::{Interpolation, Raster};
+
+/// A circular shift between two descriptors of a rotation-periodic signal: `steps` samples
+/// out of `period` (0..period), and the angle 2π·steps/period it stands for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rotation {
+    pub steps: usize,
+    pub radians: f64,
+}
+
+impl Rotation {
+    pub(crate) fn from_steps(steps: usize, period: usize) -> Self {
+        Self {
+            steps,
+            radians: std::f64::consts::TAU * steps as f64 / period as f64,
+        }
+    }
+}
 
 /// Why a projection or descriptor cannot be made.
 #[derive(Debug, thiserror::Error)]
