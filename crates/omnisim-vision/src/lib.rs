@@ -11,8 +11,8 @@
 
 pub mod fft;
 pub mod fourier;
-// pub mod gist;
-// pub mod hog;
+pub mod gist;
+pub mod hog;
 // pub mod pca;
 pub mod projection;
 pub mod radon;
@@ -20,6 +20,13 @@ pub mod raster;
 
 pub use projection::{PlaneView, Remap, View};
 pub use raster::{Interpolation, Raster};
+
+/// A descriptor and its shape (row-major, last axis fastest).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Descriptor {
+    pub shape: Vec<usize>,
+    pub values: Vec<f32>,
+}
 
 /// A circular shift between two descriptors of a rotation-periodic signal: `steps` samples
 /// out of `period` (0..period), and the angle 2π·steps/period it stands for.
