@@ -1,6 +1,6 @@
 //! Fourier signature of a panoramic image (Menegatti et al. 2004, as used by Payá et al. 2010,
-//! Sensors 10(12), and 2014, Sensors 14(2), §3.1): the 1-D DFT of every row, of which the
-//! first k coefficients are kept.
+//! Sensors 10(12), and 2014, Sensors 14(2); Amorós et al. 2021, Sensors 21(10), §2.1 and
+//! §3.1): the 1-D DFT of every row, of which the first k coefficients are kept.
 //!
 //! Turning the camera about the vertical axis shifts a 360° panorama by q columns, and by the
 //! DFT shift theorem multiplies coefficient k of every row by e^{−j2πqk/W}: the magnitudes are

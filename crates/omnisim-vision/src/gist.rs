@@ -1,6 +1,6 @@
 //! gist: mean Gabor energy over blocks of the image (Oliva & Torralba 2001; the filter bank
 //! of Torralba's reference `LMgist` code), standard (an n × n grid) and panoramic (k horizontal
-//! blocks spanning the full width: rotation invariant, Payá et al. 2014, Sensors 14(2), §3.4;
+//! blocks spanning the full width: rotation invariant, Payá et al. 2014, Sensors 14(2);
 //! Amorós et al. 2021, Sensors 21(10), §2.3).
 //!
 //! Filter (scale s = 0.., orientation o of n_o), in the frequency domain:

@@ -2,8 +2,8 @@
 //!
 //! - [`block_hog`]: Dalal & Triggs 2005 (CVPR), the standard descriptor: cells of c × c pixels,
 //!   blocks of b × b cells moved by a stride, each block's histograms L2-Hys normalised.
-//! - [`panoramic_hog`]: the rotation-invariant variant of Payá et al. 2014 (Sensors 14(2),
-//!   §3.3, after Hofmeister et al. 2009) and Amorós et al. 2021 (Sensors 21(10), §2.2): the
+//! - [`panoramic_hog`]: the rotation-invariant variant of Payá et al. 2014 (Sensors 14(2))
+//!   and Amorós et al. 2021 (Sensors 21(10), §2.2): the
 //!   panorama is cut into k horizontal cells that span its full width; a turn of the camera
 //!   shifts the panorama's columns and leaves each cell's pixels, so the histograms, unchanged.
 //!

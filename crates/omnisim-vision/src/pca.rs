@@ -1,5 +1,5 @@
 //! Principal components analysis of a map set of images or descriptors (Payá et al. 2010,
-//! Sensors 10(12), §3: PCA of the map's panoramas; Payá et al. 2014, Sensors 14(2), §3.2).
+//! Sensors 10(12): PCA of the map's panoramas; Payá et al. 2014, Sensors 14(2)).
 //!
 //! With N samples of dimension D ≫ N (images), the principal axes come from the N × N Gram
 //! matrix of the centred samples (Turk & Pentland 1991, as those papers do): if

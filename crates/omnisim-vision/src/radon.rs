@@ -1,7 +1,6 @@
 //! Radon transform of an omnidirectional image and the rotation between two images by
-//! phase-only correlation (Berenguer et al. 2015, Sensors 15(10), §3 "Radon transform" and
-//! §4 "phase-only correlation"; compared with the other descriptors in Amorós et al. 2021,
-//! Sensors 21(10), §2.6 and §3.6.2).
+//! phase-only correlation (Berenguer et al. 2015, Sensors 15(10); compared with the other
+//! descriptors in Amorós et al. 2021, Sensors 21(10), §2.6 and §3.6.2 "Radon–POC method").
 //!
 //! R(φ, p) = ∫∫ f(x, y)·δ(x·cos φ + y·sin φ − p) dx dy (Radon 1917), with x = u − cx,
 //! y = v − cy about the image centre (the mirror axis), φ from +u towards +v over a full turn
