@@ -1,0 +1,212 @@
+//! gist: mean Gabor energy over blocks of the image (Oliva & Torralba 2001; the filter bank
+//! of Torralba's reference `LMgist` code), standard (an n × n grid) and panoramic (k horizontal
+//! blocks spanning the full width: rotation invariant, Payá et al. 2014, Sensors 14(2);
+//! Amorós et al. 2021, Sensors 21(10), §2.3).
+//!
+//! Filter (scale s = 0.., orientation o of n_o), in the frequency domain:
+//! G(f, θ) = exp(−10·0.35·(|f|/f_s − 1)² − 2π·(16·n_o²/32²)·wrap(θ + π·o/n_o)²), with
+//! f_s = 0.3/1.85^s cycles per pixel, |f| and θ the radial frequency and its angle. LMgist
+//! measures both frequency axes in bins of the image width; here fx is in cycles per pixel
+//! along x and fy along y, the same for square images and right for panoramas.
+//!
+//! Differences from LMgist, chosen so the panoramic variant is exactly invariant to column
+//! shifts: no resize to 256², no symmetric padding (the transform is circular, which is what a
+//! 360° panorama is across its seam), and no whitening prefilter. Energy is the mean amplitude
+//! |image ∗ g| per block, as LMgist.
+
+use rustfft::FftDirection;
+
+use crate::fft::{self, C64};
+use crate::{Descriptor, Raster, VisionError, require};
+
+/// Scales, orientations and blocks; the default is the standard gist, 4 scales × 8
+/// orientations on a 4 × 4 grid (512 values).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GistParams {
+    pub scales: usize,
+    pub orientations: usize,
+    pub blocks: Blocks,
+}
+
+/// How the filtered images are averaged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Blocks {
+    /// n × n blocks.
+    Grid(usize),
+    /// k horizontal blocks, each the full width (panoramas; 16 by default as Payá et al.).
+    Horizontal(usize),
+}
+
+impl Default for GistParams {
+    fn default() -> Self {
+        Self {
+            scales: 4,
+            orientations: 8,
+            blocks: Blocks::Grid(4),
+        }
+    }
+}
+
+impl GistParams {
+    /// The panoramic variant: 4 scales × 8 orientations over 16 horizontal blocks.
+    pub fn panoramic() -> Self {
+        Self {
+            blocks: Blocks::Horizontal(16),
+            ..Default::default()
+        }
+    }
+}
+
+/// Transfer function of filter (scale, orientation) at frequency (fx, fy), cycles per pixel.
+fn gabor(scale: usize, orientation: usize, orientations: usize, fx: f64, fy: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    let centre = 0.3 / 1.85f64.powi(scale as i32);
+    let width = 16.0 * (orientations * orientations) as f64 / (32.0 * 32.0);
+    let angle = (fy.atan2(fx) + PI * orientation as f64 / orientations as f64 + PI).rem_euclid(TAU) - PI;
+    let radial = fx.hypot(fy) / centre - 1.0;
+    (-10.0 * 0.35 * radial * radial - 2.0 * width * PI * angle * angle).exp()
+}
+
+/// Frequency of DFT bin k of n, cycles per sample, in [−½, ½).
+fn frequency(k: usize, n: usize) -> f64 {
+    let k = if 2 * k >= n { k as f64 - n as f64 } else { k as f64 };
+    k / n as f64
+}
+
+/// Means of a one-channel `width × height` buffer over `nx × ny` blocks, block i spanning
+/// ⌊i·n/count⌋ .. ⌊(i+1)·n/count⌋; row-major [ny, nx].
+fn block_means(values: &[f64], width: usize, height: usize, nx: usize, ny: usize) -> Vec<f32> {
+    let mut sums = vec![0.0f64; nx * ny];
+    let mut counts = vec![0usize; nx * ny];
+    for (i, v) in values.iter().enumerate() {
+        let block = (i / width * ny / height) * nx + (i % width * nx / width);
+        sums[block] += v;
+        counts[block] += 1;
+    }
+    sums.iter().zip(&counts).map(|(s, &c)| (s / c as f64) as f32).collect()
+}
+
+/// gist of a one-channel image: shape [scales, orientations, blocks_y, blocks_x] (blocks_x =
+/// 1 for horizontal blocks), row-major.
+pub fn gist(image: &Raster, params: GistParams) -> Result<Descriptor, VisionError> {
+    require(image.channels == 1, "channels", || {
+        format!("gist reads one channel, got {}", image.channels)
+    })?;
+    require(params.scales >= 1 && params.orientations >= 1, "filters", || {
+        "needs at least one scale and one orientation".to_string()
+    })?;
+    let (nx, ny) = match params.blocks {
+        Blocks::Grid(n) => (n, n),
+        Blocks::Horizontal(k) => (1, k),
+    };
+    require(
+        nx >= 1 && ny >= 1 && nx <= image.width && ny <= image.height,
+        "blocks",
+        || format!("{nx}×{ny} blocks do not fit a {}×{} image", image.width, image.height),
+    )?;
+    let (w, h) = (image.width, image.height);
+    let mut spectrum = fft::complex(&image.data);
+    fft::fft2(&mut spectrum, w, h, FftDirection::Forward);
+    let mut values = Vec::with_capacity(params.scales * params.orientations * nx * ny);
+    let mut filtered = vec![C64::default(); w * h];
+    for scale in 0..params.scales {
+        for orientation in 0..params.orientations {
+            for (i, (out, &input)) in filtered.iter_mut().zip(&spectrum).enumerate() {
+                let g = gabor(
+                    scale,
+                    orientation,
+                    params.orientations,
+                    frequency(i % w, w),
+                    frequency(i / w, h),
+                );
+                *out = input * g;
+            }
+            fft::fft2(&mut filtered, w, h, FftDirection::Inverse);
+            let amplitude: Vec<f64> = filtered.iter().map(|c| c.norm()).collect();
+            values.extend(block_means(&amplitude, w, h, nx, ny));
+        }
+    }
+    Ok(Descriptor {
+        shape: vec![params.scales, params.orientations, ny, nx],
+        values,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(width: usize, height: usize, f: impl Fn(f64, f64) -> f64) -> Raster {
+        let data = (0..width * height)
+            .map(|i| f((i % width) as f64, (i / width) as f64) as f32)
+            .collect();
+        Raster::from_vec(width, height, 1, data).unwrap()
+    }
+
+    /// Every filter peaks at 1 at its own centre frequency and angle.
+    #[test]
+    fn filters_peak_at_one() {
+        for (s, o) in [(0usize, 0usize), (1, 3), (3, 7)] {
+            let f = 0.3 / 1.85f64.powi(s as i32);
+            let angle = -std::f64::consts::PI * o as f64 / 8.0;
+            assert!((gabor(s, o, 8, f * angle.cos(), f * angle.sin()) - 1.0).abs() < 1e-12);
+            assert!(gabor(s, o, 8, 1.3 * f * angle.cos(), 1.3 * f * angle.sin()) < 0.9);
+        }
+    }
+
+    /// A grating at scale 1's frequency and orientation 3's angle: the standard gist is
+    /// 4 × 8 × 4 × 4 = 512 values, the largest in filter (1, 3), and its amplitude is half
+    /// the grating's (the one-sided filter keeps one of cos's two exponentials) times the
+    /// filter's gain at the grating's bin.
+    #[test]
+    fn grating_excites_its_own_filter() {
+        let n = 128;
+        let angle = -3.0 * std::f64::consts::PI / 8.0;
+        let f = 0.3 / 1.85;
+        // The nearest whole-cycle frequency, so the grating is periodic in the image.
+        let (kx, ky) = (
+            (f * angle.cos() * n as f64).round(),
+            (f * angle.sin() * n as f64).round(),
+        );
+        let grating = image(n, n, |x, y| {
+            (std::f64::consts::TAU * (kx * x + ky * y) / n as f64).cos()
+        });
+        let Descriptor { shape, values } = gist(&grating, GistParams::default()).unwrap();
+        assert_eq!(shape, vec![4, 8, 4, 4]);
+        assert_eq!(values.len(), 512);
+        let best = (0..32)
+            .max_by(|&a, &b| values[a * 16].total_cmp(&values[b * 16]))
+            .unwrap();
+        assert_eq!((best / 8, best % 8), (1, 3));
+        let gain = gabor(1, 3, 8, kx / n as f64, ky / n as f64);
+        for v in &values[best * 16..best * 16 + 16] {
+            assert!((*v as f64 - 0.5 * gain).abs() < 1e-4, "{v} vs {}", 0.5 * gain);
+        }
+    }
+
+    /// The panoramic variant is unchanged by whole-column shifts; shape scales × orientations
+    /// × 16 × 1.
+    #[test]
+    fn panoramic_gist_is_invariant_to_column_shifts() {
+        let panorama = image(128, 32, |x, y| {
+            ((0.3 * x).sin() * (0.2 * y).cos() + 0.01 * x * y).fract()
+        });
+        let Descriptor {
+            shape,
+            values: reference,
+        } = gist(&panorama, GistParams::panoramic()).unwrap();
+        assert_eq!(shape, vec![4, 8, 16, 1]);
+        for shift in [1, 40, 127] {
+            let shifted = gist(&panorama.shift_columns(shift), GistParams::panoramic())
+                .unwrap()
+                .values;
+            for (a, b) in reference.iter().zip(&shifted) {
+                assert!((a - b).abs() <= 1e-5 * a.abs().max(1.0), "shift {shift}: {a} vs {b}");
+            }
+        }
+        let standard = gist(&panorama, GistParams::default()).unwrap().values;
+        let standard_shifted = gist(&panorama.shift_columns(40), GistParams::default()).unwrap().values;
+        let change: f32 = standard.iter().zip(&standard_shifted).map(|(a, b)| (a - b).abs()).sum();
+        assert!(change > 1e-2, "the grid variant should see the shift");
+    }
+}

@@ -1,0 +1,79 @@
+//! omnisim-vision: what the users of omnidirectional data sets do with the images.
+//!
+//! - [`projection`]: panoramic (cylindrical), equirectangular, perspective and bird's-eye
+//!   views resampled from a central catadioptric image through its exact camera model.
+//! - Global-appearance descriptors of the papers the reference paper cites (see
+//!   `docs/vision.md` for each paper and equation): [`fourier`] signature, [`radon`] transform
+//!   with phase-only correlation, [`hog`], [`gist`], and [`pca`].
+//!
+//! It depends on omnisim's cameras, not on its renderer: any image with a calibration works,
+//! rendered or real.
+
+pub mod fft;
+pub mod fourier;
+pub mod gist;
+pub mod hog;
+pub mod npy;
+pub mod pca;
+pub mod projection;
+pub mod radon;
+pub mod raster;
+
+pub use projection::{PlaneView, Remap, View};
+pub use raster::{Interpolation, Raster};
+
+/// A descriptor and its shape (row-major, last axis fastest).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Descriptor {
+    pub shape: Vec<usize>,
+    pub values: Vec<f32>,
+}
+
+/// A circular shift between two descriptors of a rotation-periodic signal: `steps` samples
+/// out of `period` (0..period), and the angle 2π·steps/period it stands for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rotation {
+    pub steps: usize,
+    pub radians: f64,
+}
+
+impl Rotation {
+    pub(crate) fn from_steps(steps: usize, period: usize) -> Self {
+        Self {
+            steps,
+            radians: std::f64::consts::TAU * steps as f64 / period as f64,
+        }
+    }
+}
+
+/// Why a projection or descriptor cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum VisionError {
+    #[error(
+        "the camera is not central (spherical or elliptic mirror, or misaligned): it has no closed-form projection to resample through"
+    )]
+    NonCentral,
+    #[error("the image is {got:?} pixels but {expected:?} are needed")]
+    SizeMismatch {
+        got: (usize, usize),
+        expected: (usize, usize),
+    },
+    #[error("{name}: {reason}")]
+    Parameter { name: &'static str, reason: String },
+    #[error("{path}: {source}")]
+    Io {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {reason}")]
+    Format { path: std::path::PathBuf, reason: String },
+}
+
+/// `Err(Parameter)` unless `ok`: the check every descriptor makes of its settings.
+pub(crate) fn require(ok: bool, name: &'static str, reason: impl FnOnce() -> String) -> Result<(), VisionError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(VisionError::Parameter { name, reason: reason() })
+    }
+}

@@ -1,0 +1,52 @@
+//! f32 arrays as NumPy `.npy` files (npyz), readable with `numpy.load`.
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter};
+use std::path::Path;
+
+use npyz::WriterBuilder;
+
+use crate::VisionError;
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> VisionError + '_ {
+    move |source| VisionError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Writes `values` (row-major, C order) with `shape` as little-endian f32 (`<f4`).
+pub fn write(path: &Path, shape: &[usize], values: &[f32]) -> Result<(), VisionError> {
+    let expected: usize = shape.iter().product();
+    if expected != values.len() {
+        return Err(VisionError::Parameter {
+            name: "shape",
+            reason: format!("{shape:?} holds {expected} values, got {}", values.len()),
+        });
+    }
+    let file = File::create(path).map_err(io_error(path))?;
+    let shape: Vec<u64> = shape.iter().map(|&n| n as u64).collect();
+    let mut writer = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(&shape)
+        .writer(BufWriter::new(file))
+        .begin_nd()
+        .map_err(io_error(path))?;
+    writer.extend(values.iter().copied()).map_err(io_error(path))?;
+    writer.finish().map_err(io_error(path))
+}
+
+/// Reads an f32 `.npy` file: (shape, row-major values).
+pub fn read(path: &Path) -> Result<(Vec<usize>, Vec<f32>), VisionError> {
+    let file = File::open(path).map_err(io_error(path))?;
+    let npy = npyz::NpyFile::new(BufReader::new(file)).map_err(io_error(path))?;
+    if npy.order() != npyz::Order::C {
+        return Err(VisionError::Format {
+            path: path.to_path_buf(),
+            reason: "Fortran-ordered arrays are not read".to_string(),
+        });
+    }
+    let shape = npy.shape().iter().map(|&n| n as usize).collect();
+    let values = npy.into_vec::<f32>().map_err(io_error(path))?;
+    Ok((shape, values))
+}

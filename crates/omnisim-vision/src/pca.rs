@@ -1,0 +1,220 @@
+//! Principal components analysis of a map set of images or descriptors (Payá et al. 2010,
+//! Sensors 10(12): PCA of the map's panoramas; Payá et al. 2014, Sensors 14(2)).
+//!
+//! With N samples of dimension D ≫ N (images), the principal axes come from the N × N Gram
+//! matrix of the centred samples (Turk & Pentland 1991, as those papers do): if
+//! X·Xᵀ·v = λ·v then Xᵀ·v/√λ is a unit principal axis with variance λ/(N − 1). At most
+//! N − 1 axes exist (the centred samples span N − 1 dimensions). Eigen-decomposition:
+//! nalgebra's `SymmetricEigen`.
+//!
+//! A test set is projected with the map's basis: fit once, [`Pca::save`], [`Pca::load`].
+
+use std::path::Path;
+
+use nalgebra::{DMatrix, SymmetricEigen};
+
+use crate::{VisionError, npy, require};
+
+/// Mean, principal axes and their variances.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pca {
+    /// Mean sample, D values.
+    pub mean: Vec<f32>,
+    /// Unit principal axes, row-major [components, D], largest variance first.
+    pub axes: Vec<f32>,
+    /// Variance of the map set along each axis.
+    pub variances: Vec<f64>,
+    /// Total variance of the map set (the sum over all N − 1 axes), for the explained ratios.
+    pub total_variance: f64,
+}
+
+impl Pca {
+    /// Fits `components` axes (at most N − 1, fewer if the samples span fewer dimensions) to
+    /// `samples`, each of the same length.
+    pub fn fit(samples: &[Vec<f32>], components: usize) -> Result<Pca, VisionError> {
+        let n = samples.len();
+        require(n >= 2, "samples", || format!("PCA needs at least 2 samples, got {n}"))?;
+        let dim = samples[0].len();
+        require(samples.iter().all(|s| s.len() == dim) && dim > 0, "samples", || {
+            "every sample must have the same, non-zero length".to_string()
+        })?;
+        let mean: Vec<f64> = (0..dim)
+            .map(|j| samples.iter().map(|s| s[j] as f64).sum::<f64>() / n as f64)
+            .collect();
+        let centred = DMatrix::from_fn(n, dim, |i, j| samples[i][j] as f64 - mean[j]);
+        let eigen = SymmetricEigen::new(&centred * centred.transpose());
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| eigen.eigenvalues[b].total_cmp(&eigen.eigenvalues[a]));
+        let total: f64 = eigen.eigenvalues.iter().map(|l| l.max(0.0)).sum();
+        // Eigenvalues at rounding level belong to the null space, not to axes.
+        let floor = total * 1e-10;
+        let kept: Vec<usize> = order
+            .into_iter()
+            .filter(|&i| eigen.eigenvalues[i] > floor)
+            .take(components)
+            .collect();
+        let mut axes = Vec::with_capacity(kept.len() * dim);
+        for &i in &kept {
+            let axis = centred.transpose() * eigen.eigenvectors.column(i) / eigen.eigenvalues[i].sqrt();
+            axes.extend(axis.iter().map(|&v| v as f32));
+        }
+        let variance = |lambda: f64| lambda / (n - 1) as f64;
+        Ok(Pca {
+            mean: mean.iter().map(|&m| m as f32).collect(),
+            axes,
+            variances: kept.iter().map(|&i| variance(eigen.eigenvalues[i])).collect(),
+            total_variance: variance(total),
+        })
+    }
+
+    pub fn components(&self) -> usize {
+        self.variances.len()
+    }
+
+    /// Fraction of the map set's variance along each axis.
+    pub fn explained_variance_ratio(&self) -> Vec<f64> {
+        self.variances.iter().map(|v| v / self.total_variance).collect()
+    }
+
+    /// Coordinates of `sample` on the first `components` axes.
+    pub fn project(&self, sample: &[f32], components: usize) -> Result<Vec<f32>, VisionError> {
+        require(sample.len() == self.mean.len(), "sample", || {
+            format!("{} values, the basis has {}", sample.len(), self.mean.len())
+        })?;
+        Ok(self
+            .axes
+            .chunks(self.mean.len())
+            .take(components)
+            .map(|axis| {
+                axis.iter()
+                    .zip(sample.iter().zip(&self.mean))
+                    .map(|(a, (x, m))| *a as f64 * (*x as f64 - *m as f64))
+                    .sum::<f64>() as f32
+            })
+            .collect())
+    }
+
+    /// The sample that `coordinates` (on the first axes) stand for.
+    pub fn reconstruct(&self, coordinates: &[f32]) -> Vec<f32> {
+        let mut sample: Vec<f64> = self.mean.iter().map(|&m| m as f64).collect();
+        for (axis, &c) in self.axes.chunks(self.mean.len()).zip(coordinates) {
+            for (s, a) in sample.iter_mut().zip(axis) {
+                *s += c as f64 * *a as f64;
+            }
+        }
+        sample.iter().map(|&s| s as f32).collect()
+    }
+
+    /// Writes `mean.npy` [D], `axes.npy` [components, D], `variances.npy` [components + 1]
+    /// (the last value is the total variance) into `folder`, which must exist.
+    pub fn save(&self, folder: &Path) -> Result<(), VisionError> {
+        npy::write(&folder.join("mean.npy"), &[self.mean.len()], &self.mean)?;
+        npy::write(
+            &folder.join("axes.npy"),
+            &[self.components(), self.mean.len()],
+            &self.axes,
+        )?;
+        let variances: Vec<f32> = self
+            .variances
+            .iter()
+            .chain([&self.total_variance])
+            .map(|&v| v as f32)
+            .collect();
+        npy::write(&folder.join("variances.npy"), &[variances.len()], &variances)
+    }
+
+    /// Reads what [`Pca::save`] wrote.
+    pub fn load(folder: &Path) -> Result<Pca, VisionError> {
+        let (_, mean) = npy::read(&folder.join("mean.npy"))?;
+        let (axes_shape, axes) = npy::read(&folder.join("axes.npy"))?;
+        let (_, mut variances) = npy::read(&folder.join("variances.npy"))?;
+        let total_variance = variances.pop().unwrap_or(0.0) as f64;
+        if axes_shape != [variances.len(), mean.len()] {
+            return Err(VisionError::Format {
+                path: folder.join("axes.npy"),
+                reason: format!(
+                    "shape {axes_shape:?} does not match {} axes of {} values",
+                    variances.len(),
+                    mean.len()
+                ),
+            });
+        }
+        Ok(Pca {
+            mean,
+            axes,
+            variances: variances.iter().map(|&v| v as f64).collect(),
+            total_variance,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 12 samples of 60 values spanning 11 dimensions (a seeded pseudo-random mix).
+    fn samples() -> Vec<Vec<f32>> {
+        (0..12)
+            .map(|i| {
+                (0..60)
+                    .map(|j| {
+                        let x = ((i * 7919 + j * 104_729) % 1000) as f32 / 1000.0;
+                        x + 0.3 * ((i as f32 * 0.7).sin() * (j as f32 * 0.3).cos())
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    fn squared_error(a: &[f32], b: &[f32]) -> f64 {
+        a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum()
+    }
+
+    /// The map set's reconstruction error falls with every added axis and is ~0 with all
+    /// N − 1 = 11; the explained ratios fall and add up to 1.
+    #[test]
+    fn reconstruction_error_falls_to_zero_at_full_rank() {
+        let samples = samples();
+        let pca = Pca::fit(&samples, 100).unwrap();
+        assert_eq!(pca.components(), 11);
+        let error = |k: usize| -> f64 {
+            samples
+                .iter()
+                .map(|s| squared_error(s, &pca.reconstruct(&pca.project(s, k).unwrap())))
+                .sum()
+        };
+        let errors: Vec<f64> = (0..=11).map(error).collect();
+        for k in 1..=11 {
+            assert!(errors[k] < errors[k - 1], "{errors:?}");
+        }
+        assert!(errors[11] < 1e-8 * errors[0], "{errors:?}");
+        // The error left by k axes is (N − 1) × the variance of the axes not kept.
+        for k in 0..11 {
+            let left: f64 = pca.variances[k..].iter().sum::<f64>() * 11.0;
+            assert!(
+                (errors[k] - left).abs() < 1e-4 * errors[0],
+                "k {k}: {} vs {left}",
+                errors[k]
+            );
+        }
+        let ratios = pca.explained_variance_ratio();
+        assert!(ratios.windows(2).all(|w| w[0] >= w[1]));
+        assert!((ratios.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+    }
+
+    /// A saved basis projects a test sample as the fitted one does.
+    #[test]
+    fn basis_saves_and_loads() {
+        let samples = samples();
+        let pca = Pca::fit(&samples[..10], 5).unwrap();
+        let folder = tempfile::tempdir().unwrap();
+        pca.save(folder.path()).unwrap();
+        let loaded = Pca::load(folder.path()).unwrap();
+        assert_eq!(loaded.components(), 5);
+        assert_eq!(loaded.mean, pca.mean);
+        assert_eq!(loaded.axes, pca.axes);
+        let test = &samples[11];
+        assert_eq!(loaded.project(test, 5).unwrap(), pca.project(test, 5).unwrap());
+        assert!((loaded.total_variance - pca.total_variance).abs() < 1e-6 * pca.total_variance);
+    }
+}

@@ -1,0 +1,217 @@
+//! Views resampled from a central catadioptric image: panoramic (cylindrical), equirectangular
+//! (unit sphere), perspective in any direction, and an orthographic bird's-eye view of a
+//! horizontal plane.
+//!
+//! Each output pixel is turned into a body-frame point or direction by the view's own model
+//! (omnisim's `Cylindrical`, `Equirectangular` and `Pinhole` cameras, so a resampled view can
+//! be compared pixel for pixel with the same view traced exactly), and that point is projected
+//! into the omnidirectional image by the mirror's closed-form projection
+//! ([`Catadioptric::project`], Mei's unified model). The table of source coordinates
+//! ([`Remap`]) is made once per (camera, view) and applied to any number of images, as
+//! OpenCV's `remap`.
+
+use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
+use omnisim::camera::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole};
+use rayon::prelude::*;
+
+use crate::{Interpolation, Raster, VisionError, require};
+
+/// Orthographic view of the horizontal plane z = `plane_z` of the body frame (metres below the
+/// viewpoint are negative: the floor seen from a camera 0.7 m above it is `plane_z = -0.7`).
+/// Image up is body +x (forward), image right is body −y, as a map seen from above.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlaneView {
+    pub width: u32,
+    pub height: u32,
+    pub metres_per_pixel: f64,
+    pub plane_z: f64,
+    /// Body (x, y) at the image centre ((W−1)/2, (H−1)/2).
+    pub centre: DVec2,
+}
+
+impl PlaneView {
+    fn image_centre(&self) -> DVec2 {
+        dvec2(self.width as f64 - 1.0, self.height as f64 - 1.0) / 2.0
+    }
+
+    fn point(&self, pixel: DVec2) -> DVec3 {
+        let offset = (self.image_centre() - pixel) * self.metres_per_pixel;
+        (self.centre + dvec2(offset.y, offset.x)).extend(self.plane_z)
+    }
+
+    fn project(&self, point: DVec3) -> DVec2 {
+        let offset = point.truncate() - self.centre;
+        self.image_centre() - dvec2(offset.y, offset.x) / self.metres_per_pixel
+    }
+}
+
+/// What an output image shows, from the omnidirectional camera's viewpoint.
+#[derive(Debug, Clone, PartialEq)]
+pub enum View {
+    /// A central camera of omnisim (cylindrical, equirectangular, pinhole) at the viewpoint,
+    /// turned by `body_from_view` (its body frame into the omni camera's body frame).
+    Camera { camera: Camera, body_from_view: DMat3 },
+    /// Orthographic bird's-eye view of a horizontal plane.
+    Plane(PlaneView),
+}
+
+impl View {
+    /// 360° cylindrical panorama whose rows span the elevations `lowest..highest` (radians,
+    /// rows uniform in tan(elevation), as omnisim's `Cylindrical` camera; top row = highest).
+    pub fn panorama(width: u32, height: u32, lowest: f64, highest: f64) -> Result<View, VisionError> {
+        let limit = 89f64.to_radians();
+        require(
+            -limit <= lowest && lowest < highest && highest <= limit,
+            "elevation band",
+            || format!("needs −89° ≤ lowest < highest ≤ 89°, got {lowest} .. {highest} rad"),
+        )?;
+        // Row v sees tan(elevation) = (cy − v)/fy; the top edge (v = −½) sees `highest` and the
+        // bottom edge (v = H − ½) `lowest`.
+        let fy = height as f64 / (highest.tan() - lowest.tan());
+        let camera = Cylindrical {
+            width,
+            height,
+            fy,
+            cy: fy * highest.tan() - 0.5,
+        };
+        Ok(View::Camera {
+            camera: Camera::Cylindrical(camera),
+            body_from_view: DMat3::IDENTITY,
+        })
+    }
+
+    /// Full-sphere equirectangular (unit-sphere) view; what the mirror does not see is empty.
+    pub fn equirectangular(width: u32, height: u32) -> View {
+        View::Camera {
+            camera: Camera::Equirectangular(Equirectangular { width, height }),
+            body_from_view: DMat3::IDENTITY,
+        }
+    }
+
+    /// Perspective view `hfov` radians wide looking at azimuth `yaw` (from body +x towards +y)
+    /// and elevation `pitch` (up positive), image rows level.
+    pub fn perspective(width: u32, height: u32, hfov: f64, yaw: f64, pitch: f64) -> Result<View, VisionError> {
+        require(hfov > 0.0 && hfov < 179f64.to_radians(), "hfov", || {
+            format!("needs 0 < hfov < 179°, got {hfov} rad")
+        })?;
+        Ok(View::Camera {
+            camera: Camera::Pinhole(Pinhole::with_horizontal_fov(width, height, hfov)),
+            // The pinhole looks along its body +x; pitch turns +x towards +z (a negative turn
+            // about y), then yaw about z.
+            body_from_view: DMat3::from_rotation_z(yaw) * DMat3::from_rotation_y(-pitch),
+        })
+    }
+
+    /// Orthographic view of the plane z = `plane_z` (body frame), centred under the viewpoint.
+    pub fn birds_eye(width: u32, height: u32, metres_per_pixel: f64, plane_z: f64) -> Result<View, VisionError> {
+        require(metres_per_pixel > 0.0, "metres per pixel", || {
+            format!("must be positive, got {metres_per_pixel}")
+        })?;
+        require(plane_z != 0.0, "plane height", || {
+            "a plane through the viewpoint is seen edge-on".to_string()
+        })?;
+        Ok(View::Plane(PlaneView {
+            width,
+            height,
+            metres_per_pixel,
+            plane_z,
+            centre: DVec2::ZERO,
+        }))
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        match self {
+            View::Camera { camera, .. } => camera.size(),
+            View::Plane(plane) => (plane.width, plane.height),
+        }
+    }
+
+    /// A body-frame point (or, for central camera views, a direction) that output pixel
+    /// `pixel` sees.
+    pub fn point(&self, pixel: DVec2) -> Option<DVec3> {
+        match self {
+            View::Camera { camera, body_from_view } => camera.ray(pixel).map(|ray| *body_from_view * ray.direction),
+            View::Plane(plane) => Some(plane.point(pixel)),
+        }
+    }
+
+    /// Where a body-frame point appears in this view (the view's own model).
+    pub fn project(&self, point: DVec3) -> Option<DVec2> {
+        match self {
+            View::Camera { camera, body_from_view } => camera.project(body_from_view.transpose() * point),
+            View::Plane(plane) => {
+                // Only the plane's own points are in an orthographic view of it.
+                ((point.z - plane.plane_z).abs() <= 1e-9 * plane.plane_z.abs()).then(|| plane.project(point))
+            }
+        }
+    }
+}
+
+/// For every pixel of a view, where it comes from in the omnidirectional image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Remap {
+    pub width: usize,
+    pub height: usize,
+    /// Size of the omnidirectional image the table reads.
+    pub source_size: (usize, usize),
+    /// Source pixel coordinates per output pixel (row-major); `None` where the mirror does not
+    /// see the view's ray (beyond the rim, behind the camera body, outside the image).
+    pub source: Vec<Option<DVec2>>,
+}
+
+impl Remap {
+    /// The table for `view` of the central catadioptric camera `omni`.
+    pub fn new(omni: &Catadioptric, view: &View) -> Result<Remap, VisionError> {
+        if !omni.is_central() {
+            return Err(VisionError::NonCentral);
+        }
+        let (width, height) = view.size();
+        let (source_w, source_h) = (omni.width as f64, omni.height as f64);
+        let inside = |p: &DVec2| p.x >= -0.5 && p.y >= -0.5 && p.x <= source_w - 0.5 && p.y <= source_h - 0.5;
+        let source = (0..width as usize * height as usize)
+            .into_par_iter()
+            .map(|i| {
+                let pixel = dvec2((i % width as usize) as f64, (i / width as usize) as f64);
+                view.point(pixel).and_then(|point| omni.project(point)).filter(inside)
+            })
+            .collect();
+        Ok(Remap {
+            width: width as usize,
+            height: height as usize,
+            source_size: (omni.width as usize, omni.height as usize),
+            source,
+        })
+    }
+
+    /// Whether each output pixel has a source (row-major).
+    pub fn valid(&self) -> impl Iterator<Item = bool> + '_ {
+        self.source.iter().map(Option::is_some)
+    }
+
+    /// The view of `image` (the omnidirectional image, any channel count); pixels without a
+    /// source are 0.
+    pub fn apply(&self, image: &Raster, interpolation: Interpolation) -> Result<Raster, VisionError> {
+        if (image.width, image.height) != self.source_size {
+            return Err(VisionError::SizeMismatch {
+                got: (image.width, image.height),
+                expected: self.source_size,
+            });
+        }
+        let mut out = Raster::new(self.width, self.height, image.channels);
+        out.data
+            .par_chunks_mut(image.channels)
+            .zip(&self.source)
+            .for_each(|(pixel, source)| {
+                if let Some(p) = source {
+                    image.sample(p.x, p.y, interpolation, pixel);
+                }
+            });
+        Ok(out)
+    }
+}
+
+/// The unit vector at azimuth `azimuth` (from +x towards +y) and elevation `elevation`.
+pub fn direction(azimuth: f64, elevation: f64) -> DVec3 {
+    let (sin_e, cos_e) = elevation.sin_cos();
+    dvec3(cos_e * azimuth.cos(), cos_e * azimuth.sin(), sin_e)
+}
