@@ -10,11 +10,11 @@ use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::DatasetRig;
 use super::manifest::FrameEntry;
 use super::spec::LayoutSpec;
 use crate::camera::Camera;
 use crate::camera::pinhole::BODY_FROM_OPTICAL;
+use crate::rig::Rig;
 
 /// Which sensor image a layout file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,22 +65,22 @@ fn pose_text(rotation: DMat3, position: DVec3) -> String {
 }
 
 /// body_from_optical (rotation, translation) of view `k`, for pinhole views.
-fn body_from_optical(rig: &DatasetRig, k: usize) -> Option<(DMat3, DVec3)> {
-    match &rig.views().get(k)?.1 {
+fn body_from_optical(rig: &Rig, k: usize) -> Option<(DMat3, DVec3)> {
+    match &rig.views().get(k)?.camera {
         Camera::Pinhole(pinhole) => Some((BODY_FROM_OPTICAL, pinhole.position)),
         _ => None,
     }
 }
 
 /// The index files of `layout` for a complete set: (path under the set folder, text).
-pub(crate) fn index_files(layout: &LayoutSpec, rig: &DatasetRig, frames: &[FrameEntry]) -> Vec<(String, String)> {
+pub(crate) fn index_files(layout: &LayoutSpec, rig: &Rig, frames: &[FrameEntry]) -> Vec<(String, String)> {
     match *layout {
         LayoutSpec::Tum { rate } => tum_index(rig, frames, rate),
         LayoutSpec::Euroc { rate } => euroc_index(rig, frames, rate),
     }
 }
 
-fn tum_index(rig: &DatasetRig, frames: &[FrameEntry], rate: f64) -> Vec<(String, String)> {
+fn tum_index(rig: &Rig, frames: &[FrameEntry], rate: f64) -> Vec<(String, String)> {
     let header = |what: &str, columns: &str| format!("# {what}\n# file: 'omnisim'\n# {columns}\n");
     let mut rgb = header("color images", "timestamp filename");
     let mut depth = header(
@@ -113,9 +113,9 @@ fn tum_index(rig: &DatasetRig, frames: &[FrameEntry], rate: f64) -> Vec<(String,
     ]
 }
 
-fn euroc_index(rig: &DatasetRig, frames: &[FrameEntry], rate: f64) -> Vec<(String, String)> {
+fn euroc_index(rig: &Rig, frames: &[FrameEntry], rate: f64) -> Vec<(String, String)> {
     let mut files = Vec::new();
-    for (k, (_, camera)) in rig.views().iter().enumerate() {
+    for (k, camera) in rig.views().iter().map(|view| &view.camera).enumerate() {
         let mut csv = String::from("#timestamp [ns],filename\n");
         for frame in frames {
             let t = euroc_time(frame.index, rate);
@@ -157,7 +157,7 @@ fn euroc_index(rig: &DatasetRig, frames: &[FrameEntry], rate: f64) -> Vec<(Strin
     files
 }
 
-fn sensor_yaml(rig: &DatasetRig, k: usize, camera: &Camera, rate: f64) -> String {
+fn sensor_yaml(rig: &Rig, k: usize, camera: &Camera, rate: f64) -> String {
     let (w, h) = camera.size();
     let mut out = format!(
         "# omnisim camera {k}. T_BS: body_from_sensor (body x forward, y left, z up; metres).\n\

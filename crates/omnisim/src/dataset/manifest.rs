@@ -13,7 +13,8 @@ use sha2::{Digest, Sha256};
 
 use super::DatasetError;
 use super::SkippedPose;
-use super::spec::{LayoutSpec, NoiseSpec, Outputs, RigSpec};
+use super::spec::{LayoutSpec, NoiseSpec, RigSpec};
+use crate::output::OutputSet;
 
 /// What a file is, for readers that must not confuse noisy data with ground truth.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -147,7 +148,7 @@ pub struct Manifest {
     /// The camera or rig of every set, as the spec gives it (calibration files per set).
     pub rig: RigSpec,
     /// Ground-truth files per frame.
-    pub outputs: Outputs,
+    pub outputs: OutputSet,
     /// The sets with their files and frames.
     pub sets: Vec<ManifestSet>,
 }

@@ -13,7 +13,6 @@ pub mod noise;
 pub mod occluders;
 pub mod rng;
 mod run;
-mod seam;
 pub mod spec;
 #[cfg(test)]
 mod tests;
@@ -29,7 +28,7 @@ use crate::camera::{Catadioptric, Cylindrical, Equirectangular, MirrorShape, Mis
 use crate::pose::Pose;
 use crate::pose_sets::{self, Misplaced, RandomPoses};
 use crate::scene::Scene;
-use crate::{Camera, StereoRig};
+use crate::{Camera, Rig, StereoRig};
 use occluders::Occluder;
 use spec::{Heading, MisplacedPolicy, PoseSource, RigSpec, SetSpec, Spec};
 
@@ -141,40 +140,15 @@ pub enum DatasetError {
     },
 }
 
-/// The rig of a data set: one camera or a stereo pair.
-///
-/// MERGE SEAM: `crate::rig::Rig` (the lead's typed rig) replaces this type at merge; `views`
-/// has the same meaning there.
-#[derive(Debug, Clone, PartialEq)]
-pub enum DatasetRig {
-    /// One image per pose.
-    Single(Camera),
-    /// Left and right images per pose.
-    Stereo(StereoRig),
-}
-
-impl DatasetRig {
-    /// (file-name suffix, camera) of each image of a pose, as `omnisim render` names them.
-    pub fn views(&self) -> Vec<(&'static str, Camera)> {
-        match self {
-            DatasetRig::Single(camera) => vec![("", camera.clone())],
-            DatasetRig::Stereo(stereo) => {
-                let [left, right] = stereo.cameras();
-                vec![("-left", Camera::Pinhole(left)), ("-right", Camera::Pinhole(right))]
-            }
-        }
-    }
-
-    /// World positions of the rig's optical centres at `pose` (what occluders keep away from).
-    fn centres(&self, pose: &Pose) -> Vec<DVec3> {
-        match self {
-            DatasetRig::Single(_) => vec![pose.position],
-            DatasetRig::Stereo(stereo) => stereo
-                .cameras()
-                .iter()
-                .map(|c| pose.position + pose.world_from_body_rotation() * c.position)
-                .collect(),
-        }
+/// World positions of `rig`'s optical centres at `pose` (what occluders keep away from).
+fn centres(rig: &Rig, pose: &Pose) -> Vec<DVec3> {
+    match rig {
+        Rig::Single(_) => vec![pose.position],
+        Rig::Stereo(stereo) => stereo
+            .cameras()
+            .iter()
+            .map(|c| pose.position + pose.world_from_body_rotation() * c.position)
+            .collect(),
     }
 }
 
@@ -214,7 +188,7 @@ pub struct Dataset {
     scene_path: PathBuf,
     scene_sha256: String,
     /// The vision system.
-    pub rig: DatasetRig,
+    pub rig: Rig,
     /// The sets, in spec order.
     pub sets: Vec<SetPlan>,
     /// What the user should hear (skipped poses).
@@ -281,7 +255,7 @@ impl Dataset {
             let occluders = if shared.is_empty() {
                 Vec::new()
             } else {
-                let cameras: Vec<DVec3> = poses.iter().flat_map(|p| rig.centres(p)).collect();
+                let cameras: Vec<DVec3> = poses.iter().flat_map(|p| centres(&rig, p)).collect();
                 let mut rng = rng::stream(spec.seed, &set.name, None, rng::Purpose::Occluders);
                 occluders::place(&scene, &bvh, &shared, &cameras, &[], &mut rng).map_err(|source| {
                     DatasetError::Occluders {
@@ -319,7 +293,7 @@ impl Dataset {
 }
 
 /// The camera or rig a spec describes, checked by the library (`validate`).
-fn build_rig(rig: &RigSpec) -> Result<DatasetRig, String> {
+fn build_rig(rig: &RigSpec) -> Result<Rig, String> {
     let between = |name: &str, degrees: f64| {
         if degrees > 0.0 && degrees < 180.0 {
             Ok(degrees.to_radians())
@@ -336,25 +310,26 @@ fn build_rig(rig: &RigSpec) -> Result<DatasetRig, String> {
         }
         Ok(camera)
     };
-    let built =
-        match rig {
-            RigSpec::Pinhole(p) => DatasetRig::Single(Camera::Pinhole(pinhole(p.size, p.hfov, p.focal)?)),
-            RigSpec::Stereo(s) => DatasetRig::Stereo(StereoRig {
-                camera: pinhole(s.size, s.hfov, s.focal)?,
-                baseline: s.baseline,
-            }),
-            RigSpec::Equirect { size } => DatasetRig::Single(Camera::Equirectangular(Equirectangular {
-                width: size.0,
-                height: size.1,
-            })),
-            RigSpec::Cylindrical { size, vfov } => DatasetRig::Single(Camera::Cylindrical(
-                Cylindrical::with_vertical_fov(size.0, size.1, between("vfov", *vfov)?),
-            )),
-            RigSpec::Omni(o) => DatasetRig::Single(Camera::Catadioptric(omni(o)?)),
-        };
+    let built = match rig {
+        RigSpec::Pinhole(p) => Rig::Single(Camera::Pinhole(pinhole(p.size, p.hfov, p.focal)?)),
+        RigSpec::Stereo(s) => Rig::Stereo(StereoRig {
+            camera: pinhole(s.size, s.hfov, s.focal)?,
+            baseline: s.baseline,
+        }),
+        RigSpec::Equirect { size } => Rig::Single(Camera::Equirectangular(Equirectangular {
+            width: size.0,
+            height: size.1,
+        })),
+        RigSpec::Cylindrical { size, vfov } => Rig::Single(Camera::Cylindrical(Cylindrical::with_vertical_fov(
+            size.0,
+            size.1,
+            between("vfov", *vfov)?,
+        ))),
+        RigSpec::Omni(o) => Rig::Single(Camera::Catadioptric(omni(o)?)),
+    };
     match &built {
-        DatasetRig::Single(camera) => camera.validate(),
-        DatasetRig::Stereo(stereo) => stereo.validate(),
+        Rig::Single(camera) => camera.validate(),
+        Rig::Stereo(stereo) => stereo.validate(),
     }
     .map_err(|e| format!("the camera cannot make an image: {e}"))?;
     Ok(built)

@@ -20,11 +20,12 @@ use super::manifest::{
 };
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
-use super::{Dataset, DatasetError, DatasetRig, SetPlan, noise, seam};
+use super::{Dataset, DatasetError, SetPlan, noise};
 use crate::camera::Camera;
 use crate::frame::{Frame, Plane, Planes};
-use crate::output::{self, atomic};
+use crate::output::{self, FrameTarget, PlainFolder, atomic};
 use crate::renderer::{PreparedScene, Renderer};
+use crate::rig::Rig;
 
 /// The stamp's file name in a data-set folder.
 pub(crate) const STAMP: &str = ".omnisim-dataset.json";
@@ -402,7 +403,8 @@ impl Dataset {
             }
         }
         let scene = occluders::with_occluders(&self.scene, &set.occluders);
-        let files = seam::write_set_files(&set_dir, &self.spec.outputs, &self.rig, &scene)?
+        let files = (self.spec.outputs)
+            .write_set_files(&mut PlainFolder(set_dir.clone()), &scene, &self.rig)?
             .iter()
             .map(|path| file_entry(out, path, FileKind::Set))
             .collect::<Result<_, _>>()?;
@@ -452,7 +454,7 @@ impl Dataset {
                 &self.scene,
                 &self.bvh,
                 &shared,
-                &self.rig.centres(pose),
+                &super::centres(&self.rig, pose),
                 &plan.occluders,
                 &mut rng,
             )
@@ -471,18 +473,26 @@ impl Dataset {
         let (appearance, record) = frame_appearance(scene, self.scene.objects.len(), set, seed, index);
         renderer.set_appearance(prepared, appearance)?;
         let noisy_colour = !set.noise.colour.is_empty();
-        let mut planes = seam::planes(&self.spec.outputs);
+        let mut planes = self.spec.outputs.planes();
         if noisy_colour {
             planes = planes.with(Plane::LinearColour);
         }
         let views = self.rig.views();
         let frames = views
             .iter()
-            .map(|(_, camera)| renderer.render(prepared, camera, pose, planes))
+            .map(|view| renderer.render(prepared, &view.camera, pose, planes))
             .collect::<Result<Vec<Frame>, _>>()?;
-        let stem = format!("{}-{index:04}", self.scene.file_stem());
+        let scene_stem = self.scene.file_stem();
+        let target = FrameTarget {
+            scene: &scene_stem,
+            index,
+            pose,
+        };
+        let stem = target.stem();
         let mut files = Vec::new();
-        for path in seam::write_frame(&set_dir, &stem, &self.spec.outputs, &self.rig, pose, &frames)? {
+        let written =
+            (self.spec.outputs).write_frame_files(&mut PlainFolder(set_dir.clone()), &target, &self.rig, &frames)?;
+        for path in written {
             files.push(file_entry(out, &path, FileKind::GroundTruth)?);
         }
         // Noisy copies, each view's colour then depth, then disparity: one stream, fixed order.
@@ -490,7 +500,8 @@ impl Dataset {
         let mut sensor_colour = Vec::with_capacity(views.len());
         let mut sensor_depth = None;
         let mut noisy = Vec::new();
-        for ((suffix, camera), frame) in views.iter().zip(&frames) {
+        for (view, frame) in views.iter().zip(&frames) {
+            let (suffix, camera) = (view.suffix, &view.camera);
             let size = (frame.width, frame.height);
             let colour = match (noisy_colour, frame.linear_colour()) {
                 (true, Some(linear)) => {
@@ -537,7 +548,7 @@ impl Dataset {
                 sensor_depth = depth;
             }
         }
-        if let (Some(model), DatasetRig::Stereo(stereo)) = (&set.noise.disparity, &self.rig) {
+        if let (Some(model), Rig::Stereo(stereo)) = (&set.noise.disparity, &self.rig) {
             let values = noise::disparity(&stereo.disparity(&frames[0], pose), model, &mut rng);
             let path = set_dir.join(format!("{stem}-disparity-noisy.exr"));
             output::write_disparity_exr(&path, (frames[0].width, frames[0].height), values)?;

@@ -6,6 +6,7 @@
 
 use std::path::{Component, Path, PathBuf};
 
+use crate::output::OutputSet;
 use serde::{Deserialize, Serialize};
 
 use super::DatasetError;
@@ -27,7 +28,7 @@ pub struct Spec {
     pub rig: RigSpec,
     /// Which ground-truth files each frame gets.
     #[serde(default)]
-    pub outputs: Outputs,
+    pub outputs: OutputSet,
     /// The sets; each gets its own folder named after it.
     pub sets: Vec<SetSpec>,
 }
@@ -166,43 +167,6 @@ pub enum MountSpec {
     Up,
     /// Mirror axis along body −z.
     Down,
-}
-
-/// Which ground-truth files each frame gets; the names and defaults of `omnisim render`'s.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Outputs {
-    /// `<stem>.png`, 8-bit sRGB.
-    pub colour: bool,
-    /// `<stem>-range.exr`.
-    pub range: bool,
-    /// Pinhole views: `<stem>-depth.png` (TUM) and `<stem>-depth.exr`.
-    pub depth: bool,
-    /// `<stem>.ply`.
-    pub point_cloud: bool,
-    /// `<stem>-object.png`, `<stem>-face.png`.
-    pub segmentation: bool,
-    /// `<stem>-normal.exr`.
-    pub normals: bool,
-    /// `<stem>-linear.exr`.
-    pub linear: bool,
-    /// Stereo: `<stem>-disparity.exr`.
-    pub disparity: bool,
-}
-
-impl Default for Outputs {
-    fn default() -> Self {
-        Self {
-            colour: true,
-            range: true,
-            depth: true,
-            point_cloud: true,
-            segmentation: false,
-            normals: false,
-            linear: false,
-            disparity: true,
-        }
-    }
 }
 
 /// One set: its poses, its perturbations, its layouts.

@@ -401,7 +401,7 @@ fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
     let truth = lines(&tum.join("groundtruth.txt"));
     assert_eq!((rgb.len(), lines(&tum.join("depth.txt")).len(), truth.len()), (4, 4, 4));
     assert_eq!(rgb[1], ["0.100000", "rgb/0.100000.png"]);
-    let Camera::Pinhole(pinhole) = &dataset.rig.views()[0].1 else {
+    let Camera::Pinhole(pinhole) = &dataset.rig.views()[0].camera else {
         panic!("pinhole")
     };
     let renderer = cpu();
@@ -414,7 +414,7 @@ fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
         let frame = renderer
             .render(
                 &prepared,
-                &dataset.rig.views()[0].1,
+                &dataset.rig.views()[0].camera,
                 &dataset.sets[0].poses[index],
                 Planes::HITS,
             )

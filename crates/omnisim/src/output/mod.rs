@@ -16,7 +16,7 @@ pub use planes::{
     LINEAR_CONVENTION, MAX_SEGMENT_ID, NORMAL_CONVENTION, SegmentObject, SegmentationLegend, face_ids, write_id_png,
     write_linear_exr, write_normal_exr,
 };
-pub use set::{FrameTarget, OutputSet};
+pub use set::{Destination, FrameTarget, OutputSet, PlainFolder};
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

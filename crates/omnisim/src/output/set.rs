@@ -6,7 +6,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::atomic::write_atomically;
 use super::folder::RunFolder;
@@ -21,7 +21,8 @@ use crate::scene::Scene;
 
 /// Which files a render writes. [`OutputSet::default`] is what `omnisim render` writes without
 /// options: colour, range, depth, point cloud and disparity.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct OutputSet {
     /// `<stem>.png`: 8-bit sRGB colour.
     pub colour: bool,
@@ -73,19 +74,46 @@ impl FrameTarget<'_> {
         format!("{}-{:04}", self.scene, self.index)
     }
 
-    /// The frame's file with `suffix`, claimed in the run folder (so a killed run's files are
-    /// known before they exist).
-    fn path(&self, folder: &mut RunFolder, suffix: &str) -> Result<PathBuf, OutputError> {
-        claim(folder, format!("{}{suffix}", self.stem()))
+    /// The frame's file with `suffix`, claimed in `folder`.
+    fn path(&self, folder: &mut impl Destination, suffix: &str) -> Result<PathBuf, OutputError> {
+        folder.claim(format!("{}{suffix}", self.stem()))
     }
 }
 
-/// `name` claimed in `folder`: the path to write it to.
-fn claim(folder: &mut RunFolder, name: String) -> Result<PathBuf, OutputError> {
-    folder.claim(name.clone()).map_err(|e| OutputError {
-        path: PathBuf::from(name),
-        message: e.to_string(),
-    })
+/// Where an output set writes: a render's [`RunFolder`], which records each file before it is
+/// written, or a [`PlainFolder`] whose owner keeps its own records (data sets).
+pub trait Destination {
+    /// The folder the files go to.
+    fn dir(&self) -> &Path;
+    /// The path to write the file `name` to.
+    fn claim(&mut self, name: String) -> Result<PathBuf, OutputError>;
+}
+
+impl Destination for RunFolder {
+    fn dir(&self) -> &Path {
+        RunFolder::dir(self)
+    }
+
+    fn claim(&mut self, name: String) -> Result<PathBuf, OutputError> {
+        RunFolder::claim(self, name.clone()).map_err(|e| OutputError {
+            path: PathBuf::from(name),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// A folder files are written into as they are named.
+#[derive(Debug, Clone)]
+pub struct PlainFolder(pub PathBuf);
+
+impl Destination for PlainFolder {
+    fn dir(&self) -> &Path {
+        &self.0
+    }
+
+    fn claim(&mut self, name: String) -> Result<PathBuf, OutputError> {
+        Ok(self.0.join(name))
+    }
 }
 
 impl OutputSet {
@@ -104,7 +132,7 @@ impl OutputSet {
     /// Writes the files of one view of a frame; returns their paths.
     pub fn write_view(
         &self,
-        folder: &mut RunFolder,
+        folder: &mut impl Destination,
         target: &FrameTarget,
         view: &View,
         frame: &Frame,
@@ -167,15 +195,14 @@ impl OutputSet {
     }
 
     /// Writes every file of a frame: each view's (`frames` in the order of `rig.views()`)
-    /// and the rig's own (stereo disparity). Returns the frame's entry for `render.json`,
-    /// listing the files relative to the output folder.
-    pub fn write_frame(
+    /// and the rig's own (stereo disparity). Returns their paths.
+    pub fn write_frame_files(
         &self,
-        folder: &mut RunFolder,
+        folder: &mut impl Destination,
         target: &FrameTarget,
         rig: &Rig,
         frames: &[Frame],
-    ) -> Result<FrameMetadata, OutputError> {
+    ) -> Result<Vec<PathBuf>, OutputError> {
         let views = rig.views();
         assert_eq!(frames.len(), views.len(), "one frame per view of the rig");
         let mut written = Vec::new();
@@ -188,6 +215,19 @@ impl OutputSet {
             super::write_disparity_exr(&path, (frames[0].width, frames[0].height), disparity)?;
             written.push(path);
         }
+        Ok(written)
+    }
+
+    /// [`OutputSet::write_frame_files`], returning the frame's entry for `render.json` with
+    /// the files relative to the output folder.
+    pub fn write_frame(
+        &self,
+        folder: &mut impl Destination,
+        target: &FrameTarget,
+        rig: &Rig,
+        frames: &[Frame],
+    ) -> Result<FrameMetadata, OutputError> {
+        let written = self.write_frame_files(folder, target, rig, frames)?;
         let files = written
             .into_iter()
             .map(|path| path.strip_prefix(folder.dir()).map(Path::to_path_buf).unwrap_or(path))
@@ -195,9 +235,36 @@ impl OutputSet {
         Ok(FrameMetadata::new(target.index, target.stem(), target.pose, files))
     }
 
-    /// Writes the files of a run that are not per frame, claimed in `folder`: calibration in the
-    /// formats robotics tools read, a ray map per view, the segmentation legend (if asked for),
-    /// `poses.txt` (TUM) and `render.json`. Returns their paths.
+    /// Writes the files of a set of frames that are not per frame, claimed in `folder`:
+    /// calibration in the formats robotics tools read, a ray map per view and the segmentation
+    /// legend (if asked for). Returns their paths.
+    pub fn write_set_files(
+        &self,
+        folder: &mut impl Destination,
+        scene: &Scene,
+        rig: &Rig,
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let mut written = Vec::new();
+        for (name, text) in calibration_files(rig) {
+            let path = folder.claim(name.to_string())?;
+            write_atomically(&path, |file| file.write_all(text.as_bytes())).map_err(failed(&path))?;
+            written.push(path);
+        }
+        for view in rig.views() {
+            let path = folder.claim(format!("raymap{}.exr", view.suffix))?;
+            super::write_ray_map_exr(&path, &view.camera)?;
+            written.push(path);
+        }
+        if self.segmentation {
+            let legend_path = folder.claim("segmentation.json".into())?;
+            write_json(&legend_path, &super::SegmentationLegend::of(scene))?;
+            written.push(legend_path);
+        }
+        Ok(written)
+    }
+
+    /// Writes the files of a render run that are not per frame: those of
+    /// [`OutputSet::write_set_files`], `poses.txt` (TUM) and `render.json`. Returns their paths.
     pub fn write_run_files(
         &self,
         folder: &mut RunFolder,
@@ -205,23 +272,8 @@ impl OutputSet {
         rig: &Rig,
         metadata: &RenderMetadata,
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let mut written = Vec::new();
-        for (name, text) in calibration_files(rig) {
-            let path = claim(folder, name.to_string())?;
-            write_atomically(&path, |file| file.write_all(text.as_bytes())).map_err(failed(&path))?;
-            written.push(path);
-        }
-        for view in rig.views() {
-            let path = claim(folder, format!("raymap{}.exr", view.suffix))?;
-            super::write_ray_map_exr(&path, &view.camera)?;
-            written.push(path);
-        }
-        if self.segmentation {
-            let legend_path = claim(folder, "segmentation.json".into())?;
-            write_json(&legend_path, &super::SegmentationLegend::of(scene))?;
-            written.push(legend_path);
-        }
-        let poses_path = claim(folder, "poses.txt".into())?;
+        let mut written = self.write_set_files(folder, scene, rig)?;
+        let poses_path = Destination::claim(folder, "poses.txt".into())?;
         write_atomically(&poses_path, |out| {
             writeln!(
                 out,
@@ -236,7 +288,7 @@ impl OutputSet {
         })
         .map_err(failed(&poses_path))?;
         written.push(poses_path);
-        let metadata_path = claim(folder, "render.json".into())?;
+        let metadata_path = Destination::claim(folder, "render.json".into())?;
         write_json(&metadata_path, metadata)?;
         written.push(metadata_path);
         Ok(written)
