@@ -1,17 +1,17 @@
 //! The f64 reference tracer: the accuracy yardstick for the GPU path and the fallback backend.
 //!
-//! BVH traversal uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull conservatively);
-//! every triangle test and every returned distance is f64. Tracing yields hit planes only;
-//! `shading.rs` turns them into colour.
+//! BVH traversal (`traversal.rs`) uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull
+//! conservatively); every triangle test and every returned distance is f64. Tracing yields hit
+//! planes only; `shading.rs` turns them into colour.
 
-use glam::{DMat3, DVec2, DVec3, Vec3A};
-use obvhs::ray::{Ray, RayHit};
+use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
 use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
+use crate::traversal::{BoxRay, Counter, TraversalCounts, Visit, traverse};
 
 /// Barycentric slack that closes the gaps f64 rounding leaves along shared edges.
 const EDGE_TOLERANCE: f64 = 1e-10;
@@ -46,41 +46,29 @@ fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f6
     Some(e2.dot(q) * inv)
 }
 
-/// obvhs's f32 ray for the box tests, with the unused fourth SIMD lane of its origin and
-/// inverse direction set to 1.
-///
-/// With `small_bvh2_node`, obvhs reads a node's box as two 4-lane vectors whose fourth lanes
-/// are the node's `prim_count` and `first_index` bits: small integers, that is subnormal f32.
-/// glam's `Vec3A::new` copies z into the fourth lane, so for an origin with z exactly 0 (a
-/// camera at the height of the scene's centre, the local origin) every box test computed
-/// `(subnormal − 0) × inv_z`, a multiplication of a subnormal, which x86 CPUs finish in a slow
-/// microcode path: the whole trace ran 1.5–2× slower (issue 10). `(subnormal − 1) × 1` is
-/// −1, a normal number; the lane never reaches the result (obvhs reduces x, y, z only).
-fn box_test_ray(origin: DVec3, direction: DVec3, t_max: f32) -> Ray {
-    let mut ray = Ray::new(
-        Vec3A::from(origin.as_vec3()),
-        Vec3A::from(direction.as_vec3()),
-        0.0,
-        t_max,
-    );
-    ray.origin = Vec3A::from_vec4(ray.origin.extend(1.0));
-    ray.inv_direction = Vec3A::from_vec4(ray.inv_direction.extend(1.0));
-    ray
-}
-
 /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`.
 pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) -> Option<Hit> {
-    let ray = box_test_ray(origin, direction, f32::INFINITY);
+    closest_hit_counted(bvh, origin, direction, t_min, &mut ())
+}
+
+/// [`closest_hit`], counting its box and triangle tests.
+fn closest_hit_counted<C: Counter>(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_min: f64,
+    counter: &mut C,
+) -> Option<Hit> {
     let mut best: Option<Hit> = None;
-    let mut record = RayHit::none();
-    bvh.bvh.ray_traverse(ray, &mut record, |_, triangle| {
+    let ray = BoxRay::new(origin, direction);
+    traverse(&bvh.bvh, &ray, f32::INFINITY, counter, |triangle| {
         match intersect(&bvh.triangles[triangle], origin, direction) {
             Some(t) if t > t_min && best.is_none_or(|b| t < b.t) => {
                 best = Some(Hit { t, triangle });
                 // Rounded up so the f32 culling never discards a nearer candidate.
-                (t * (1.0 + 1e-6)) as f32
+                Visit::Closer((t * (1.0 + 1e-6)) as f32)
             }
-            _ => f32::INFINITY,
+            _ => Visit::Miss,
         }
     });
     best
@@ -95,16 +83,20 @@ pub fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, ski
     } else {
         f32::INFINITY
     };
-    let ray = box_test_ray(origin, direction, bound);
-    !bvh.bvh.ray_traverse_miss(ray, |_, triangle| {
+    let mut blocked = false;
+    traverse(&bvh.bvh, &BoxRay::new(origin, direction), bound, &mut (), |triangle| {
         if bvh.face[triangle] == skip_face {
-            return f32::INFINITY;
+            return Visit::Miss;
         }
         match intersect(&bvh.triangles[triangle], origin, direction) {
-            Some(t) if t > 0.0 && t < t_max => 0.0,
-            _ => f32::INFINITY,
+            Some(t) if t > 0.0 && t < t_max => {
+                blocked = true;
+                Visit::Stop
+            }
+            _ => Visit::Miss,
         }
-    })
+    });
+    blocked
 }
 
 /// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
@@ -125,12 +117,23 @@ impl LocalPose {
 /// Traces the camera ray through `pixel` (sub-pixel positions allowed): the hit planes of
 /// that ray, [`Pixel::MISS`] where the pixel has no ray or the ray hits nothing.
 pub(crate) fn trace_pixel(bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Pixel {
+    trace_pixel_counted(bvh, camera, pose, pixel, &mut ())
+}
+
+/// [`trace_pixel`], counting the box and triangle tests of its ray.
+fn trace_pixel_counted<C: Counter>(
+    bvh: &SceneBvh,
+    camera: &Camera,
+    pose: &LocalPose,
+    pixel: DVec2,
+    counter: &mut C,
+) -> Pixel {
     let Some(ray) = camera.ray(pixel) else {
         return Pixel::MISS;
     };
     let origin = pose.origin + pose.world_from_body * ray.origin;
     let direction = pose.world_from_body * ray.direction;
-    let Some(hit) = closest_hit(bvh, origin, direction, ray.t_min) else {
+    let Some(hit) = closest_hit_counted(bvh, origin, direction, ray.t_min, counter) else {
         return Pixel::MISS;
     };
     let face = bvh.face[hit.triangle];
@@ -158,50 +161,27 @@ pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
     Frame::from_hits(width, height, hits)
 }
 
+/// Box and triangle tests of one frame's primary rays, summed: what [`trace`] does, counted
+/// (for `omnisim bench`; `trace` itself counts nothing).
+pub fn count_tests(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> TraversalCounts {
+    let (width, height) = camera.size();
+    let local = LocalPose::new(bvh, pose);
+    (0..height)
+        .into_par_iter()
+        .map(|row| {
+            let mut counts = TraversalCounts::default();
+            for column in 0..width {
+                let pixel = DVec2::new(column as f64, row as f64);
+                trace_pixel_counted(bvh, camera, &local, pixel, &mut counts);
+            }
+            counts
+        })
+        .reduce(TraversalCounts::default, |a, b| a + b)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Lanes of `(corner − origin)` and of its product with the inverse direction, for both
-    /// corners of every node box, that are subnormal: what obvhs's box test computes.
-    fn subnormal_box_lanes(bvh: &SceneBvh, ray: &Ray) -> usize {
-        let lanes = |v: Vec3A| bytemuck::cast::<Vec3A, [f32; 4]>(v);
-        bvh.bvh
-            .nodes
-            .iter()
-            .flat_map(|node| [node.aabb().min, node.aabb().max])
-            .flat_map(|corner| {
-                let offset = corner - ray.origin;
-                lanes(offset).into_iter().chain(lanes(offset * ray.inv_direction))
-            })
-            .filter(|lane| lane.is_subnormal())
-            .count()
-    }
-
-    #[test]
-    fn box_tests_multiply_no_subnormal_for_a_camera_at_the_scene_centre() {
-        let scene = crate::scene::Scene::load(std::path::Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../scenes/env1.ron"
-        )))
-        .unwrap();
-        let bvh = SceneBvh::build(&scene);
-        let centre = DVec3::ZERO; // the local origin: every coordinate equals the centre's
-        let directions = [
-            DVec3::new(0.3, -0.5, 0.8),
-            DVec3::new(-1.0, 0.0, 0.0),
-            DVec3::new(0.0, 0.6, -0.8),
-        ];
-        for direction in directions {
-            let ray = box_test_ray(centre, direction.normalize(), f32::INFINITY);
-            assert_eq!(subnormal_box_lanes(&bvh, &ray), 0, "{direction}");
-        }
-        // The hazard the fix removes: obvhs's own ray has z in its fourth lane, and the node
-        // layout puts integer bits (subnormal floats) there. Should obvhs change its layout,
-        // this fails and `box_test_ray` can go.
-        let plain = Ray::new(Vec3A::ZERO, Vec3A::new(0.3, -0.5, 0.8).normalize(), 0.0, f32::INFINITY);
-        assert!(subnormal_box_lanes(&bvh, &plain) > 0);
-    }
 
     #[test]
     fn axis_rays_with_negative_zero_components_hit_the_walls() {

@@ -22,6 +22,7 @@ pub mod pose_sets;
 pub mod renderer;
 pub mod scene;
 pub mod shading;
+pub mod traversal;
 
 pub use camera::{Camera, CameraError, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
 pub use frame::{Frame, Pixel, Plane, Planes};
