@@ -57,6 +57,10 @@ pub struct BenchArgs {
     /// to this SVG file; one JSON object per method on stdout.
     #[arg(long)]
     pub chart: Option<PathBuf>,
+    /// Time tracing to hit planes only (face, range, point, normal), without shading: what
+    /// Open3D's `RaycastingScene.cast_rays` computes, for side-by-side figures.
+    #[arg(long)]
+    pub hits_only: bool,
     /// Add a wavy height-field mesh of about this many triangles over the floor, to measure a
     /// heavy scene.
     #[arg(long)]
@@ -97,7 +101,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             }
             opened => opened?,
         };
-        let render = || renderer.render(&prepared, &camera, &args.pose, Planes::COLOUR);
+        let planes = if args.hits_only { Planes::HITS } else { Planes::COLOUR };
+        let render = || renderer.render(&prepared, &camera, &args.pose, planes);
         for _ in 0..args.warmup {
             render()?;
         }
@@ -127,6 +132,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "lit": scene.lighting.is_some(),
             "lights_on": lights_on,
             "reshade_median_ms": median(&mut reshade_times) * 1e3,
+            "planes": if args.hits_only { "hits" } else { "colour" },
             "camera": camera.model_name(),
             "width": width,
             "height": height,
