@@ -1,5 +1,6 @@
 //! `cargo bench -p omnisim-benches`: BVH build time and whole-image render time for each
-//! camera model on env1, on the f64 CPU tracer and (when an adapter opens) the GPU.
+//! camera model on env1, on the f64 CPU tracer and (when an adapter opens) the GPU, and the
+//! CPU tracer with the camera at the scene's centre and 1 cm off it.
 //! `omnisim bench` reports the same quantities as JSON for scripts and notes.
 
 use std::path::Path;
@@ -56,6 +57,25 @@ fn benchmarks(c: &mut Criterion) {
                 b.iter(|| gpu.render(prepared, &camera, &pose, Planes::COLOUR).expect("render"))
             });
         }
+    }
+    group.finish();
+
+    // Issue 10: a camera coordinate equal to the scene's centre (the BVH's local origin) once
+    // made every box test multiply subnormals; the two poses must cost the same.
+    let (lo, hi) = scene.bounds().expect("env1 has faces");
+    let centre = (lo + hi) / 2.0;
+    let camera = Camera::Equirectangular(Equirectangular {
+        width: 512,
+        height: 512,
+    });
+    let mut group = c.benchmark_group("camera at the scene centre");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(512 * 512));
+    for (name, position) in [("centre", centre), ("centre + 1 cm", centre + 0.01)] {
+        let pose = Pose::from_degrees(position, dvec3(0.0, 0.0, 0.0));
+        group.bench_function(format!("cpu f64 equirect 512x512 {name}"), |b| {
+            b.iter(|| cpu.render(&cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
+        });
     }
     group.finish();
 }

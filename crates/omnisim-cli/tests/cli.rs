@@ -766,3 +766,25 @@ fn readme_pose_examples_stay_out_of_the_furniture() {
         );
     }
 }
+
+#[test]
+fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
+    let measured =
+        omnisim("bench env1 --camera equirect --size 32x16 --pose 0,0,0.4 --backend cpu --runs 1 --warmup 0");
+    assert!(measured.status.success(), "{}", text(&measured.stderr));
+    let record: serde_json::Value = serde_json::from_slice(&measured.stdout).unwrap();
+    assert_eq!(record["scene"], "env1");
+    // At least the root and its two children per ray; every ray hits a wall of the room.
+    assert!(record["node_tests_per_ray"].as_f64().unwrap() >= 3.0, "{record}");
+    assert!(record["triangle_tests_per_ray"].as_f64().unwrap() >= 1.0, "{record}");
+    if cfg!(target_os = "linux") {
+        assert!(record["peak_rss_mb"].as_f64().unwrap() > 0.0, "{record}");
+    }
+    let unknown = omnisim("bench no-such-anchor --backend cpu --runs 1");
+    assert_eq!(unknown.status.code(), Some(1));
+    assert!(
+        text(&unknown.stderr).contains("compare.sh"),
+        "{}",
+        text(&unknown.stderr)
+    );
+}

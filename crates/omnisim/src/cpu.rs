@@ -1,17 +1,17 @@
 //! The f64 reference tracer: the accuracy yardstick for the GPU path and the fallback backend.
 //!
-//! BVH traversal uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull conservatively);
-//! every triangle test and every returned distance is f64. Tracing yields hit planes only;
-//! `shading.rs` turns them into colour.
+//! BVH traversal (`traversal.rs`) uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull
+//! conservatively); every triangle test and every returned distance is f64. Tracing yields hit
+//! planes only; `shading.rs` turns them into colour.
 
-use glam::{DMat3, DVec2, DVec3, Vec3A};
-use obvhs::ray::{Ray, RayHit};
+use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
 use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
+use crate::traversal::{BoxRay, Counter, TraversalCounts, Visit, traverse};
 
 /// Barycentric slack that closes the gaps f64 rounding leaves along shared edges.
 const EDGE_TOLERANCE: f64 = 1e-10;
@@ -50,22 +50,27 @@ fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f6
 
 /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`.
 pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) -> Option<Hit> {
-    let ray = Ray::new(
-        Vec3A::from(origin.as_vec3()),
-        Vec3A::from(direction.as_vec3()),
-        0.0,
-        f32::INFINITY,
-    );
+    closest_hit_counted(bvh, origin, direction, t_min, &mut ())
+}
+
+/// [`closest_hit`], counting its box and triangle tests.
+fn closest_hit_counted<C: Counter>(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_min: f64,
+    counter: &mut C,
+) -> Option<Hit> {
     let mut best: Option<Hit> = None;
-    let mut record = RayHit::none();
-    bvh.bvh.ray_traverse(ray, &mut record, |_, triangle| {
+    let ray = BoxRay::new(origin, direction);
+    traverse(&bvh.bvh, &ray, f32::INFINITY, counter, |triangle| {
         match intersect(&bvh.triangles[triangle], origin, direction) {
             Some(t) if t > t_min && best.is_none_or(|b| t < b.t) => {
                 best = Some(Hit { t, triangle });
                 // Rounded up so the f32 culling never discards a nearer candidate.
-                (t * (1.0 + 1e-6)) as f32
+                Visit::Closer((t * (1.0 + 1e-6)) as f32)
             }
-            _ => f32::INFINITY,
+            _ => Visit::Miss,
         }
     });
     best
@@ -80,21 +85,20 @@ pub fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, ski
     } else {
         f32::INFINITY
     };
-    let ray = Ray::new(
-        Vec3A::from(origin.as_vec3()),
-        Vec3A::from(direction.as_vec3()),
-        0.0,
-        bound,
-    );
-    !bvh.bvh.ray_traverse_miss(ray, |_, triangle| {
+    let mut blocked = false;
+    traverse(&bvh.bvh, &BoxRay::new(origin, direction), bound, &mut (), |triangle| {
         if bvh.face[triangle] == skip_face {
-            return f32::INFINITY;
+            return Visit::Miss;
         }
         match intersect(&bvh.triangles[triangle], origin, direction) {
-            Some(t) if t > 0.0 && t < t_max => 0.0,
-            _ => f32::INFINITY,
+            Some(t) if t > 0.0 && t < t_max => {
+                blocked = true;
+                Visit::Stop
+            }
+            _ => Visit::Miss,
         }
-    })
+    });
+    blocked
 }
 
 /// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
@@ -115,12 +119,23 @@ impl LocalPose {
 /// Traces the camera ray through `pixel` (sub-pixel positions allowed): the hit planes of
 /// that ray, [`Pixel::MISS`] where the pixel has no ray or the ray hits nothing.
 pub(crate) fn trace_pixel(bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Pixel {
+    trace_pixel_counted(bvh, camera, pose, pixel, &mut ())
+}
+
+/// [`trace_pixel`], counting the box and triangle tests of its ray.
+fn trace_pixel_counted<C: Counter>(
+    bvh: &SceneBvh,
+    camera: &Camera,
+    pose: &LocalPose,
+    pixel: DVec2,
+    counter: &mut C,
+) -> Pixel {
     let Some(ray) = camera.ray(pixel) else {
         return Pixel::MISS;
     };
     let origin = pose.origin + pose.world_from_body * ray.origin;
     let direction = pose.world_from_body * ray.direction;
-    let Some(hit) = closest_hit(bvh, origin, direction, ray.t_min) else {
+    let Some(hit) = closest_hit_counted(bvh, origin, direction, ray.t_min, counter) else {
         return Pixel::MISS;
     };
     let face = bvh.face[hit.triangle];
@@ -146,6 +161,24 @@ pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
             }
         });
     Frame::from_hits(width, height, hits)
+}
+
+/// Box and triangle tests of one frame's primary rays, summed: what [`trace`] does, counted
+/// (for `omnisim bench`; `trace` itself counts nothing).
+pub fn count_tests(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> TraversalCounts {
+    let (width, height) = camera.size();
+    let local = LocalPose::new(bvh, pose);
+    (0..height)
+        .into_par_iter()
+        .map(|row| {
+            let mut counts = TraversalCounts::default();
+            for column in 0..width {
+                let pixel = DVec2::new(column as f64, row as f64);
+                trace_pixel_counted(bvh, camera, &local, pixel, &mut counts);
+            }
+            counts
+        })
+        .reduce(TraversalCounts::default, |a, b| a + b)
 }
 
 #[cfg(test)]

@@ -45,6 +45,7 @@ pub mod renderer;
 pub mod rig;
 pub mod scene;
 pub mod shading;
+pub mod traversal;
 
 /// The vector and matrix types of the API (positions, angles, rotations).
 pub use glam;

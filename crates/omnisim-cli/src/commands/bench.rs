@@ -1,6 +1,7 @@
-//! `omnisim bench`: rays per second and BVH build time, one JSON object per backend.
+//! `omnisim bench`: rays per second, BVH build time, peak memory and tests per ray, one JSON
+//! object per backend.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::bail;
@@ -24,13 +25,18 @@ pub enum BenchBackend {
 /// Measure tracing speed: median time per image over --runs after --warmup renders.
 ///
 /// Prints one JSON object per backend on stdout: Mrays/s (primary rays, one per pixel, from
-/// the median), median/min/max ms per image, BVH build ms, triangle count, backend, adapter.
+/// the median), median/min/max ms per image, BVH build ms, triangle count, backend, adapter,
+/// the process's peak resident memory and, for the CPU, box and triangle tests per ray
+/// (counted in one extra, untimed pass).
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --backend both\n  \
+omnisim bench room --camera equirect --size 1024x1024 --pose 3,2,1.5 --backend cpu\n  \
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --synthetic-triangles 200000")]
 pub struct BenchArgs {
-    /// Scene file (RON).
+    /// Scene file (RON), or the name of a scene: `env1`, `env2` (in ./scenes) or an anchor
+    /// scene of ../shared/bench (`room`, `clutter`; compare.sh writes them to
+    /// $BENCH_CACHE, default ~/.cache/omnisim-bench).
     #[arg(default_value = "scenes/env1.ron")]
     pub scene: PathBuf,
     #[command(flatten)]
@@ -51,6 +57,10 @@ pub struct BenchArgs {
     /// to this SVG file; one JSON object per method on stdout.
     #[arg(long)]
     pub chart: Option<PathBuf>,
+    /// Time tracing to hit planes only (face, range, point, normal), without shading: what
+    /// Open3D's `RaycastingScene.cast_rays` computes, for side-by-side figures.
+    #[arg(long)]
+    pub hits_only: bool,
     /// Add a wavy height-field mesh of about this many triangles over the floor, to measure a
     /// heavy scene.
     #[arg(long)]
@@ -62,7 +72,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         bail!("--runs must be at least 1");
     }
     let camera = args.camera.build()?.first_camera();
-    let mut scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load(resolve_scene(&args.scene)?)?;
     if let Some(count) = args.synthetic_triangles {
         add_height_field(&mut scene, count)?;
     }
@@ -88,7 +98,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             }
             opened => opened?,
         };
-        let render = || renderer.render(&prepared, &camera, &args.pose, Planes::COLOUR);
+        let planes = if args.hits_only { Planes::HITS } else { Planes::COLOUR };
+        let render = || renderer.render(&prepared, &camera, &args.pose, planes);
         for _ in 0..args.warmup {
             render()?;
         }
@@ -105,6 +116,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             reshade_times.push(start.elapsed().as_secs_f64());
         }
         let median_seconds = median(&mut times);
+        let rays = width as f64 * height as f64;
+        let tests = (choice == BackendChoice::Cpu).then(|| {
+            let counts = omnisim::cpu::count_tests(prepared.geometry(), &camera, &args.pose);
+            (counts.node_tests as f64 / rays, counts.primitive_tests as f64 / rays)
+        });
         let lights_on = scene.lighting.as_ref().map_or(0, |l| l.lights_on().count());
         let record = json!({
             "scene": scene.name,
@@ -113,6 +129,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "lit": scene.lighting.is_some(),
             "lights_on": lights_on,
             "reshade_median_ms": median(&mut reshade_times) * 1e3,
+            "planes": if args.hits_only { "hits" } else { "colour" },
             "camera": camera.model_name(),
             "width": width,
             "height": height,
@@ -125,7 +142,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "median_ms": median_seconds * 1e3,
             "min_ms": times[0] * 1e3,
             "max_ms": times[times.len() - 1] * 1e3,
-            "mrays_per_s": (width as f64 * height as f64) / median_seconds / 1e6,
+            "mrays_per_s": rays / median_seconds / 1e6,
+            "node_tests_per_ray": tests.map(|t| t.0),
+            "triangle_tests_per_ray": tests.map(|t| t.1),
+            "peak_rss_mb": peak_rss_bytes().map(|b| b as f64 / 1e6),
         });
         crate::stdout::line(record)?;
     }
@@ -136,6 +156,45 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
 fn median(times: &mut [f64]) -> f64 {
     times.sort_by(f64::total_cmp);
     times[times.len() / 2]
+}
+
+/// The scene file `scene` names: itself if it is a file, else a scene name looked up in
+/// ./scenes and in the anchor cache of ../shared/bench/compare.sh.
+fn resolve_scene(scene: &Path) -> anyhow::Result<PathBuf> {
+    let is_name = scene.components().count() == 1 && scene.extension().is_none();
+    if scene.is_file() || !is_name {
+        return Ok(scene.to_path_buf());
+    }
+    let cache = std::env::var_os("BENCH_CACHE")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|home| Path::new(&home).join(".cache/omnisim-bench")));
+    let file = scene.with_extension("ron");
+    let candidates: Vec<PathBuf> = [Some(PathBuf::from("scenes")), cache]
+        .into_iter()
+        .flatten()
+        .map(|folder| folder.join(&file))
+        .collect();
+    match candidates.iter().find(|path| path.is_file()) {
+        Some(path) => Ok(path.clone()),
+        None => bail!(
+            "no scene file {} and no scene named {} in {} (../shared/bench/compare.sh writes the anchor scenes room and clutter)",
+            scene.display(),
+            scene.display(),
+            candidates
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// This process's peak resident memory (Linux: VmHWM); `None` where the system does not say.
+fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|line| line.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 fn rayon_threads() -> usize {
