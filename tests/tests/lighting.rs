@@ -258,12 +258,15 @@ fn wall_with_lamps() -> Scene {
     )
 }
 
+/// The 8-bit and linear colour planes of one frame.
+type ShadedPlanes = (Vec<[u8; 3]>, Vec<[f32; 3]>);
+
 /// Renders `views` with each appearance in turn; the shaded planes of each view and appearance.
 fn shaded_planes(
     tracer: &mut Tracer,
     views: &[(&str, Camera, Pose)],
     appearances: &[Appearance],
-) -> Vec<Vec<(Vec<[u8; 3]>, Vec<[f32; 3]>)>> {
+) -> Vec<Vec<ShadedPlanes>> {
     appearances
         .iter()
         .map(|appearance| {
