@@ -46,12 +46,7 @@ pub fn shade(geometry: &SceneBvh, appearance: &Appearance, hit: &Pixel) -> DVec3
         return DVec3::ZERO;
     }
     let albedo = linear_rgb(appearance.face_colours[hit.face as usize]);
-    shade_albedo(geometry, appearance.lighting.as_ref(), albedo, hit)
-}
-
-/// Linear colour of a hit on a face of linear colour `albedo`.
-fn shade_albedo(geometry: &SceneBvh, lighting: Option<&Lighting>, albedo: DVec3, hit: &Pixel) -> DVec3 {
-    match lighting {
+    match &appearance.lighting {
         None => albedo,
         Some(lighting) => albedo * illuminance(geometry, lighting, hit) / lighting.white,
     }
@@ -89,12 +84,10 @@ fn illuminance(geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
 }
 
 /// Shades every pixel of `frame` on all CPU threads, filling the planes `planes` asks for.
-/// Face colours are decoded once per frame; without lighting a pixel's 8-bit colour is its
+/// Without lighting a pixel's 8-bit colour is its
 /// face's colour, which is what encoding the decoded colour gives (`lighting.rs` tests every
 /// byte), without the cost of encoding.
 pub(crate) fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &mut Frame, planes: Planes) {
-    let albedo: Vec<DVec3> = appearance.face_colours.iter().map(|&c| linear_rgb(c)).collect();
-    let lighting = appearance.lighting.as_ref();
     let (linear, colour) = frame
         .pixels()
         .par_iter()
@@ -102,10 +95,9 @@ pub(crate) fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &
             if !hit.is_hit() {
                 return ([0.0; 3], BACKGROUND);
             }
-            let face = hit.face as usize;
-            let linear = shade_albedo(geometry, lighting, albedo[face], hit);
-            let colour = match lighting {
-                None => appearance.face_colours[face],
+            let linear = shade(geometry, appearance, hit);
+            let colour = match appearance.lighting {
+                None => appearance.face_colours[hit.face as usize],
                 Some(_) => encode(linear),
             };
             (linear.as_vec3().to_array(), colour)
