@@ -5,6 +5,8 @@
 //! - Global-appearance descriptors of the papers the reference paper cites (see
 //!   `docs/vision.md` for each paper and equation): [`fourier`] signature, [`radon`] transform
 //!   with phase-only correlation, [`hog`], [`gist`], and [`pca`].
+//! - Local features: [`sift`] (Lowe 2004) and [`surf`] (Bay et al. 2006), their
+//!   [`keypoints`] and ratio-test matching.
 //!
 //! It depends on omnisim's cameras, not on its renderer: any image with a calibration works,
 //! rendered or real.
@@ -13,11 +15,13 @@ pub mod fft;
 pub mod fourier;
 pub mod gist;
 pub mod hog;
+pub mod keypoints;
 pub mod npy;
 pub mod pca;
 pub mod projection;
 pub mod radon;
 pub mod raster;
+pub mod sift;
 
 pub use projection::{PlaneView, Remap, View};
 pub use raster::{Interpolation, Raster};

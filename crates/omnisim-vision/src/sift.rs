@@ -1,0 +1,532 @@
+//! SIFT keypoints and descriptors (Lowe 2004, IJCV 60(2)), with OpenCV's choices where the
+//! paper leaves one open, so that the features agree with `cv2.SIFT_create()`.
+//!
+//! - Scale space (§3): the image, optionally doubled by bilinear interpolation (§3.3), is
+//!   blurred to σ = 1.6 assuming the input carries σ = 0.5; each octave holds s + 3 Gaussian
+//!   images spaced by k = 2^(1/s) and s + 2 differences of Gaussians (DoG); the next octave
+//!   starts from the image of blur 2σ taken every second pixel. Gaussian kernels reach
+//!   ±⌊(8σ + 1)/2⌋ pixels with mirrored borders (OpenCV's `GaussianBlur`).
+//! - Extrema (§4): samples above 0.5·c/s that are strict maxima or minima of their 26
+//!   neighbours, moved by the quadratic fit (eq. 3) up to 5 times until the offset is below
+//!   ½ sample; kept if |D(x̂)|·s ≥ c (c = 0.04: OpenCV divides the contrast threshold by the
+//!   scales per octave) and if tr(H)²/det(H) < (r + 1)²/r, r = 10 (eq. 4).
+//! - Orientation (§5): 36-bin histogram of gradient directions in a Gaussian window of
+//!   1.5·σ (radius 3·1.5·σ), smoothed with [1 4 6 4 1]/16; every peak within 80 % of the
+//!   highest gives a keypoint, its angle refined by a parabola through three bins.
+//! - Descriptor (§6): 4 × 4 cells of 3σ pixels, 8 orientation bins, samples in a Gaussian
+//!   window of half the descriptor's width, trilinear votes; unit length, values clamped at
+//!   0.2, unit length again. OpenCV then scales by 512 and rounds to bytes; these stay f32.
+//!
+//! Written here: the one SIFT crate (`sift-features` 0.1, one release in 2024) is
+//! unmaintained and brings imageproc 0.25 with ndarray and a second nalgebra; imageproc and
+//! kornia have no SIFT.
+
+use rayon::prelude::*;
+
+use crate::keypoints::{Features, Keypoint, QuadraticFit, is_extremum, neighbourhood, normalise};
+use crate::{Interpolation, Raster, VisionError, require};
+
+/// SIFT's parameters; `Default` gives Lowe's (and OpenCV's) values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SiftParams {
+    /// σ of the first image of each octave (1.6).
+    pub sigma: f32,
+    /// Blur the input image is assumed to carry already (0.5: a sampled image).
+    pub input_sigma: f32,
+    /// Scales s per octave at which extrema are sought (3).
+    pub scales_per_octave: usize,
+    /// Contrast threshold c on the 0..1 intensity scale, divided by s as OpenCV does (0.04).
+    pub contrast_threshold: f32,
+    /// Largest ratio r of principal curvatures (10).
+    pub edge_ratio: f32,
+    /// Bins of the orientation histogram (36).
+    pub orientation_bins: usize,
+    /// Peaks within this fraction of the highest also give keypoints (0.8).
+    pub peak_ratio: f32,
+    /// Cells per side of the descriptor (4).
+    pub descriptor_width: usize,
+    /// Orientation bins per cell (8).
+    pub descriptor_bins: usize,
+    /// Descriptor values are clamped here after the first normalisation (0.2).
+    pub magnitude_clamp: f32,
+    /// Double the image first (§3.3; OpenCV does by default).
+    pub upsample: bool,
+    /// Keypoints closer than this to an octave's border are dropped (5 pixels of the octave).
+    pub border: usize,
+}
+
+impl Default for SiftParams {
+    fn default() -> Self {
+        Self {
+            sigma: 1.6,
+            input_sigma: 0.5,
+            scales_per_octave: 3,
+            contrast_threshold: 0.04,
+            edge_ratio: 10.0,
+            orientation_bins: 36,
+            peak_ratio: 0.8,
+            descriptor_width: 4,
+            descriptor_bins: 8,
+            magnitude_clamp: 0.2,
+            upsample: true,
+            border: 5,
+        }
+    }
+}
+
+impl SiftParams {
+    fn validate(&self) -> Result<(), VisionError> {
+        let positive = |v: f32| v.is_finite() && v > 0.0;
+        require(positive(self.sigma), "sigma", || format!("{} must be positive", self.sigma))?;
+        require(self.input_sigma.is_finite() && self.input_sigma >= 0.0, "input_sigma", || {
+            format!("{} must be 0 or more", self.input_sigma)
+        })?;
+        require((1..=16).contains(&self.scales_per_octave), "scales_per_octave", || {
+            format!("{} must be 1 to 16", self.scales_per_octave)
+        })?;
+        require(self.contrast_threshold.is_finite() && self.contrast_threshold >= 0.0, "contrast_threshold", || {
+            format!("{} must be 0 or more", self.contrast_threshold)
+        })?;
+        require(self.edge_ratio.is_finite() && self.edge_ratio >= 1.0, "edge_ratio", || {
+            format!("{} must be 1 or more", self.edge_ratio)
+        })?;
+        require((4..=360).contains(&self.orientation_bins), "orientation_bins", || {
+            format!("{} must be 4 to 360", self.orientation_bins)
+        })?;
+        require(positive(self.peak_ratio) && self.peak_ratio <= 1.0, "peak_ratio", || {
+            format!("{} must be in (0, 1]", self.peak_ratio)
+        })?;
+        require((1..=16).contains(&self.descriptor_width), "descriptor_width", || {
+            format!("{} must be 1 to 16", self.descriptor_width)
+        })?;
+        require((1..=64).contains(&self.descriptor_bins), "descriptor_bins", || {
+            format!("{} must be 1 to 64", self.descriptor_bins)
+        })?;
+        require(positive(self.magnitude_clamp), "magnitude_clamp", || {
+            format!("{} must be positive", self.magnitude_clamp)
+        })?;
+        require(self.border >= 1, "border", || "must be at least 1 pixel".to_string())
+    }
+}
+
+/// SIFT keypoints and descriptors of an image (colour is converted to grey; values 0..1).
+/// An image too small for one octave gives no features.
+pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError> {
+    params.validate()?;
+    let grey = image.to_grey();
+    let s = params.scales_per_octave;
+    let first_octave = if params.upsample { -1 } else { 0 };
+    let (base, input_sigma) = if params.upsample {
+        (upsample(&grey), 2.0 * params.input_sigma)
+    } else {
+        (grey, params.input_sigma)
+    };
+    let base = gaussian_blur(&base, (params.sigma.powi(2) - input_sigma.powi(2)).max(0.01).sqrt());
+    let shortest = base.width.min(base.height);
+    let smallest_octave = 2 * params.border + 3;
+    if shortest < smallest_octave {
+        return Ok(Features { keypoints: Vec::new(), length: descriptor_length(params), descriptors: Vec::new() });
+    }
+    // OpenCV's count (log2 of the side − 2), then only octaves that leave room inside the border.
+    let octaves = ((shortest as f32).log2() - 2.0).round().max(1.0) as usize;
+    let octaves = (0..octaves).take_while(|o| shortest >> o >= smallest_octave).count();
+
+    let increments = blur_increments(params.sigma, s);
+    let mut gaussians: Vec<Vec<Raster>> = Vec::with_capacity(octaves);
+    for o in 0..octaves {
+        let mut layers = Vec::with_capacity(s + 3);
+        layers.push(if o == 0 { base.clone() } else { decimate(&gaussians[o - 1][s]) });
+        for &increment in &increments {
+            let next = gaussian_blur(layers.last().expect("first layer pushed"), increment);
+            layers.push(next);
+        }
+        gaussians.push(layers);
+    }
+    let dogs: Vec<Vec<Raster>> = gaussians
+        .iter()
+        .map(|layers| layers.windows(2).map(|pair| difference(&pair[1], &pair[0])).collect())
+        .collect();
+
+    let candidates: Vec<(usize, usize)> = (0..octaves).flat_map(|o| (1..=s).map(move |layer| (o, layer))).collect();
+    let mut keypoints: Vec<(Keypoint, usize, usize)> = candidates
+        .par_iter()
+        .flat_map_iter(|&(o, layer)| {
+            let located = extrema(&dogs[o], layer, params);
+            let scale = 2f32.powi(o as i32 + first_octave);
+            // Doubling samples the input at (u + ½)/2 − ½: doubled pixel u sits at u/2 − ¼.
+            let shift = if params.upsample { -0.25 } else { 0.0 };
+            located
+                .into_iter()
+                .flat_map(|e| {
+                    let octave_sigma = params.sigma * 2f32.powf(e.scale / s as f32);
+                    let angles = orientations(&gaussians[o][e.layer], e.x, e.y, octave_sigma, params);
+                    angles.into_iter().map(move |angle| {
+                        let keypoint = Keypoint {
+                            x: e.x * scale + shift,
+                            y: e.y * scale + shift,
+                            sigma: octave_sigma * scale,
+                            angle,
+                            response: e.contrast.abs(),
+                            octave: o as i32 + first_octave,
+                        };
+                        (keypoint, o, e.layer)
+                    })
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    // Two extrema can converge on the same point (OpenCV's removeDuplicatedSorted).
+    keypoints.sort_by(|a, b| {
+        let key = |k: &Keypoint| [k.x, k.y, k.sigma, k.angle];
+        key(&a.0).partial_cmp(&key(&b.0)).expect("finite keypoints")
+    });
+    keypoints.dedup_by(|a, b| a.0 == b.0);
+
+    let length = descriptor_length(params);
+    let descriptors = keypoints
+        .par_iter()
+        .flat_map_iter(|(k, o, layer)| {
+            let scale = 2f32.powi(*o as i32 + first_octave);
+            let shift = if params.upsample { -0.25 } else { 0.0 };
+            let (x, y) = ((k.x - shift) / scale, (k.y - shift) / scale);
+            descriptor(&gaussians[*o][*layer], x, y, k.angle, k.sigma / scale, params)
+        })
+        .collect();
+    Ok(Features { keypoints: keypoints.into_iter().map(|(k, _, _)| k).collect(), length, descriptors })
+}
+
+fn descriptor_length(params: &SiftParams) -> usize {
+    params.descriptor_width * params.descriptor_width * params.descriptor_bins
+}
+
+/// The σ that takes each Gaussian image of an octave to the next: σ_i = √(σ_{i}² − σ_{i−1}²)
+/// with σ_i = k^i·σ.
+fn blur_increments(sigma: f32, s: usize) -> Vec<f32> {
+    let k = 2f32.powf(1.0 / s as f32);
+    (1..s + 3)
+        .map(|i| {
+            let previous = k.powi(i as i32 - 1) * sigma;
+            let total = previous * k;
+            (total * total - previous * previous).sqrt()
+        })
+        .collect()
+}
+
+/// A scale-space extremum after refinement, in its octave's pixels and scale steps.
+struct Extremum {
+    x: f32,
+    y: f32,
+    /// Layer index plus the fitted offset (0..s+1).
+    scale: f32,
+    /// The Gaussian layer it was found at (for orientation and descriptor).
+    layer: usize,
+    contrast: f32,
+}
+
+/// Refined extrema of DoG layer `layer` of one octave.
+fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams) -> Vec<Extremum> {
+    let s = params.scales_per_octave;
+    let (w, h) = (dogs[layer].width, dogs[layer].height);
+    let b = params.border;
+    let threshold = 0.5 * params.contrast_threshold / s as f32;
+    let mut found = Vec::new();
+    for y in b..h - b {
+        for x in b..w - b {
+            let value = dogs[layer].at(x, y);
+            if value.abs() <= threshold {
+                continue;
+            }
+            let layers = [&dogs[layer - 1].data[..], &dogs[layer].data[..], &dogs[layer + 1].data[..]];
+            let Some(n) = neighbourhood(layers, w, x, y) else { continue };
+            if is_extremum(&n, value > 0.0) {
+                found.extend(refine(dogs, x, y, layer, params));
+            }
+        }
+    }
+    found
+}
+
+/// Lowe 2004 §4: moves the sample to the fitted extremum (at most 5 times), then applies the
+/// contrast and edge tests.
+fn refine(dogs: &[Raster], mut x: usize, mut y: usize, mut layer: usize, params: &SiftParams) -> Option<Extremum> {
+    let s = params.scales_per_octave;
+    let (w, h) = (dogs[0].width, dogs[0].height);
+    let b = params.border;
+    for _ in 0..5 {
+        let layers = [&dogs[layer - 1].data[..], &dogs[layer].data[..], &dogs[layer + 1].data[..]];
+        let n = neighbourhood(layers, w, x, y)?;
+        let fit = QuadraticFit::new(&n);
+        let offset = fit.offset()?;
+        if offset.iter().all(|c| c.abs() < 0.5) {
+            let contrast = n[1][1][1] + fit.gain(&offset);
+            if contrast.abs() * (s as f32) < params.contrast_threshold {
+                return None;
+            }
+            let (dxx, dyy, dxy) = (fit.hessian[(0, 0)], fit.hessian[(1, 1)], fit.hessian[(0, 1)]);
+            let (trace, det) = (dxx + dyy, dxx * dyy - dxy * dxy);
+            let r = params.edge_ratio;
+            if det <= 0.0 || trace * trace * r >= (r + 1.0).powi(2) * det {
+                return None;
+            }
+            return Some(Extremum {
+                x: x as f32 + offset.x,
+                y: y as f32 + offset.y,
+                scale: layer as f32 + offset.z,
+                layer,
+                contrast,
+            });
+        }
+        if offset.iter().any(|c| c.abs() > 1e6) {
+            return None;
+        }
+        let step = |v: usize, d: f32| (v as f32 + d.round()) as i64;
+        let (nx, ny, nl) = (step(x, offset.x), step(y, offset.y), step(layer, offset.z));
+        if nl < 1 || nl > s as i64 || nx < b as i64 || nx >= (w - b) as i64 || ny < b as i64 || ny >= (h - b) as i64 {
+            return None;
+        }
+        (x, y, layer) = (nx as usize, ny as usize, nl as usize);
+    }
+    None
+}
+
+/// Gradient (dx, dy) by central differences at an interior pixel, y pointing down the image.
+fn gradient(image: &Raster, x: usize, y: usize) -> (f32, f32) {
+    (image.at(x + 1, y) - image.at(x - 1, y), image.at(x, y + 1) - image.at(x, y - 1))
+}
+
+/// Lowe 2004 §5: the angles (degrees, +x towards +y) of the orientation histogram's peaks.
+fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &SiftParams) -> Vec<f32> {
+    let n = params.orientation_bins;
+    let window = 1.5 * octave_sigma;
+    let radius = (3.0 * window).round() as i64;
+    let (px, py) = (x.round() as i64, y.round() as i64);
+    let mut raw = vec![0.0f32; n];
+    for i in -radius..=radius {
+        let yy = py + i;
+        if yy <= 0 || yy >= image.height as i64 - 1 {
+            continue;
+        }
+        for j in -radius..=radius {
+            let xx = px + j;
+            if xx <= 0 || xx >= image.width as i64 - 1 {
+                continue;
+            }
+            let (dx, dy) = gradient(image, xx as usize, yy as usize);
+            let weight = (-((i * i + j * j) as f32) / (2.0 * window * window)).exp();
+            let angle = dy.atan2(dx).to_degrees().rem_euclid(360.0);
+            let bin = ((angle * n as f32 / 360.0).round() as usize) % n;
+            raw[bin] += weight * (dx * dx + dy * dy).sqrt();
+        }
+    }
+    let at = |h: &[f32], i: i64| h[i.rem_euclid(n as i64) as usize];
+    let hist: Vec<f32> = (0..n as i64)
+        .map(|i| {
+            (at(&raw, i - 2) + at(&raw, i + 2)) / 16.0 + (at(&raw, i - 1) + at(&raw, i + 1)) * 4.0 / 16.0 + at(&raw, i) * 6.0 / 16.0
+        })
+        .collect();
+    let highest = hist.iter().copied().fold(0.0f32, f32::max);
+    (0..n as i64)
+        .filter_map(|i| {
+            let (left, centre, right) = (at(&hist, i - 1), at(&hist, i), at(&hist, i + 1));
+            if centre > left && centre > right && centre >= params.peak_ratio * highest {
+                let bin = i as f32 + 0.5 * (left - right) / (left - 2.0 * centre + right);
+                Some((bin * 360.0 / n as f32).rem_euclid(360.0))
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// Lowe 2004 §6 (OpenCV's `calcSIFTDescriptor`): the descriptor of the keypoint at (x, y) of
+/// `image` (octave pixels), turned by `angle` degrees, of scale `octave_sigma`.
+fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, params: &SiftParams) -> Vec<f32> {
+    let d = params.descriptor_width;
+    let n = params.descriptor_bins;
+    let (px, py) = (x.round() as i64, y.round() as i64);
+    let (sin, cos) = angle.to_radians().sin_cos();
+    let cell = 3.0 * octave_sigma;
+    let radius = (cell * std::f32::consts::SQRT_2 * (d as f32 + 1.0) * 0.5).round() as i64;
+    let radius = radius.min(((image.width.pow(2) + image.height.pow(2)) as f32).sqrt() as i64);
+    let window = -1.0 / (d as f32 * d as f32 * 0.5);
+    // Cells with a margin of one on each side and two extra orientation bins, folded back below.
+    let stride = n + 2;
+    let mut hist = vec![0.0f32; (d + 2) * (d + 2) * stride];
+    for i in -radius..=radius {
+        for j in -radius..=radius {
+            // The sample's place in the keypoint's frame, in cells.
+            let c_rot = (j as f32 * cos + i as f32 * sin) / cell;
+            let r_rot = (-j as f32 * sin + i as f32 * cos) / cell;
+            let rbin = r_rot + d as f32 / 2.0 - 0.5;
+            let cbin = c_rot + d as f32 / 2.0 - 0.5;
+            let (r, c) = (py + i, px + j);
+            if rbin <= -1.0
+                || rbin >= d as f32
+                || cbin <= -1.0
+                || cbin >= d as f32
+                || r <= 0
+                || r >= image.height as i64 - 1
+                || c <= 0
+                || c >= image.width as i64 - 1
+            {
+                continue;
+            }
+            let (dx, dy) = gradient(image, c as usize, r as usize);
+            let magnitude = (dx * dx + dy * dy).sqrt() * ((c_rot * c_rot + r_rot * r_rot) * window).exp();
+            // Bins run clockwise on screen from the keypoint's angle (counter-clockwise with y
+            // up, as in OpenCV), so the descriptors are comparable with OpenCV's.
+            let obin = (angle - dy.atan2(dx).to_degrees()).rem_euclid(360.0) * n as f32 / 360.0;
+            let (r0, c0, o0) = (rbin.floor(), cbin.floor(), obin.floor());
+            let (fr, fc, fo) = (rbin - r0, cbin - c0, obin - o0);
+            let o0 = (o0 as usize) % n;
+            let base = ((r0 as i64 + 1) as usize * (d + 2) + (c0 as i64 + 1) as usize) * stride + o0;
+            for (dr, wr) in [(0, 1.0 - fr), (1, fr)] {
+                for (dc, wc) in [(0, 1.0 - fc), (1, fc)] {
+                    for (dor, wo) in [(0, 1.0 - fo), (1, fo)] {
+                        hist[base + (dr * (d + 2) + dc) * stride + dor] += magnitude * wr * wc * wo;
+                    }
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(d * d * n);
+    for i in 0..d {
+        for j in 0..d {
+            let cell = &mut hist[((i + 1) * (d + 2) + j + 1) * stride..][..stride];
+            cell[0] += cell[n];
+            cell[1] += cell[n + 1];
+            out.extend_from_slice(&cell[..n]);
+        }
+    }
+    normalise(&mut out);
+    out.iter_mut().for_each(|v| *v = v.min(params.magnitude_clamp));
+    normalise(&mut out);
+    out
+}
+
+/// The image doubled by bilinear interpolation, pixel u of the result at (u + ½)/2 − ½
+/// (OpenCV's `resize` with `INTER_LINEAR`).
+fn upsample(image: &Raster) -> Raster {
+    let (w, h) = (image.width * 2, image.height * 2);
+    let mut out = Raster::new(w, h, 1);
+    let mut value = [0.0];
+    for y in 0..h {
+        for x in 0..w {
+            image.sample((x as f64 + 0.5) / 2.0 - 0.5, (y as f64 + 0.5) / 2.0 - 0.5, Interpolation::Bilinear, &mut value);
+            out.data[y * w + x] = value[0];
+        }
+    }
+    out
+}
+
+/// Every second pixel of every second row.
+fn decimate(image: &Raster) -> Raster {
+    let (w, h) = (image.width / 2, image.height / 2);
+    let data = (0..h).flat_map(|y| (0..w).map(move |x| image.at(2 * x, 2 * y))).collect();
+    Raster { width: w, height: h, channels: 1, data }
+}
+
+fn difference(a: &Raster, b: &Raster) -> Raster {
+    let data = a.data.iter().zip(&b.data).map(|(x, y)| x - y).collect();
+    Raster { width: a.width, height: a.height, channels: 1, data }
+}
+
+/// Separable Gaussian blur of a one-channel image, kernel radius ⌊(⌊8σ + 1⌉ | 1)/2⌋ and
+/// mirrored borders without repeating the edge pixel (OpenCV's `GaussianBlur` for f32 images,
+/// `BORDER_REFLECT_101`). Written here: `image::imageops::blur` is u8/f32 RGBA-oriented with
+/// its own kernel extent and border, which would move keypoints away from OpenCV's.
+pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
+    let radius = (((8.0 * sigma + 1.0).round() as usize) | 1) / 2;
+    let mut kernel: Vec<f32> = (0..=2 * radius)
+        .map(|i| {
+            let t = i as f32 - radius as f32;
+            (-t * t / (2.0 * sigma * sigma)).exp()
+        })
+        .collect();
+    let total: f32 = kernel.iter().sum();
+    kernel.iter_mut().for_each(|k| *k /= total);
+    let (w, h) = (image.width, image.height);
+    let reflect = |i: i64, n: usize| -> usize {
+        let n = n as i64;
+        if n == 1 {
+            return 0;
+        }
+        let period = 2 * (n - 1);
+        let m = i.rem_euclid(period);
+        (if m < n { m } else { period - m }) as usize
+    };
+    let convolve = |source: &[f32], len: usize, out: &mut [f32]| {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = kernel
+                .iter()
+                .enumerate()
+                .map(|(k, weight)| weight * source[reflect(i as i64 + k as i64 - radius as i64, len)])
+                .sum();
+        }
+    };
+    let mut rows = vec![0.0f32; w * h];
+    rows.par_chunks_mut(w).zip(image.data.par_chunks(w)).for_each(|(out, row)| convolve(row, w, out));
+    // Columns: transpose, blur rows, transpose back.
+    let transposed: Vec<f32> = (0..w).flat_map(|x| (0..h).map(move |y| (x, y))).map(|(x, y)| rows[y * w + x]).collect();
+    let mut blurred = vec![0.0f32; w * h];
+    blurred.par_chunks_mut(h).zip(transposed.par_chunks(h)).for_each(|(out, column)| convolve(column, h, out));
+    let data = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| blurred[x * h + y]).collect();
+    Raster { width: w, height: h, channels: 1, data }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The blur keeps a constant image, and blurring an impulse gives the normalised Gaussian
+    /// of the asked σ (its second moment is σ²).
+    #[test]
+    fn gaussian_blur_of_an_impulse() {
+        let mut impulse = Raster::new(41, 41, 1);
+        impulse.data[20 * 41 + 20] = 1.0;
+        let sigma = 2.5f32;
+        let blurred = gaussian_blur(&impulse, sigma);
+        let total: f32 = blurred.data.iter().sum();
+        let variance: f32 = (0..41).map(|x| blurred.at(x, 20) / blurred.row(20).iter().sum::<f32>() * (x as f32 - 20.0).powi(2)).sum();
+        assert!((total - 1.0).abs() < 1e-5, "{total}");
+        assert!((variance - sigma * sigma).abs() < 0.01 * sigma * sigma, "{variance}");
+        let flat = gaussian_blur(&Raster::from_vec(7, 5, 1, vec![0.3; 35]).unwrap(), 1.6);
+        assert!(flat.data.iter().all(|v| (v - 0.3).abs() < 1e-6));
+    }
+
+    /// A Gaussian blob of σ₀ on a flat ground: the scale-normalised Laplacian of the scale
+    /// space peaks at σ = σ₀ at its centre (Lindeberg 1998), so SIFT's strongest keypoint is
+    /// there, within 0.1 px and 15 % of σ₀ (the DoG approximates the Laplacian between σ and
+    /// kσ). Descriptors have unit length and no negative value.
+    #[test]
+    fn a_blob_is_one_keypoint_at_its_centre_and_scale() {
+        let (size, cx, cy, sigma0) = (96usize, 47.3f32, 44.6f32, 4.0f32);
+        let data = (0..size * size)
+            .map(|i| {
+                let (x, y) = ((i % size) as f32, (i / size) as f32);
+                0.2 + 0.6 * (-((x - cx).powi(2) + (y - cy).powi(2)) / (2.0 * sigma0 * sigma0)).exp()
+            })
+            .collect();
+        let image = Raster::from_vec(size, size, 1, data).unwrap();
+        let features = sift(&image, &SiftParams::default()).unwrap();
+        let near: Vec<&Keypoint> = features.keypoints.iter().filter(|k| (k.x - cx).hypot(k.y - cy) < 2.0).collect();
+        assert!(!near.is_empty(), "{:?}", features.keypoints);
+        let best = near.iter().max_by(|a, b| a.response.total_cmp(&b.response)).unwrap();
+        assert!((best.x - cx).hypot(best.y - cy) < 0.1, "{best:?}");
+        assert!((best.sigma / sigma0 - 1.0).abs() < 0.15, "{best:?}");
+        assert_eq!(features.descriptors.len(), features.keypoints.len() * 128);
+        for i in 0..features.keypoints.len() {
+            let norm: f32 = features.descriptor(i).iter().map(|v| v * v).sum::<f32>().sqrt();
+            assert!((norm - 1.0).abs() < 1e-4);
+            assert!(features.descriptor(i).iter().all(|&v| v >= 0.0));
+        }
+    }
+
+    #[test]
+    fn bad_parameters_are_refused() {
+        let image = Raster::new(64, 64, 1);
+        let bad = SiftParams { scales_per_octave: 0, ..SiftParams::default() };
+        assert!(matches!(sift(&image, &bad), Err(VisionError::Parameter { name: "scales_per_octave", .. })));
+        assert!(sift(&Raster::new(8, 8, 1), &SiftParams { upsample: false, ..SiftParams::default() }).unwrap().keypoints.is_empty());
+    }
+}
