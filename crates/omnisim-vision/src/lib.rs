@@ -22,6 +22,7 @@ pub mod projection;
 pub mod radon;
 pub mod raster;
 pub mod sift;
+pub mod surf;
 
 pub use projection::{PlaneView, Remap, View};
 pub use raster::{Interpolation, Raster};
