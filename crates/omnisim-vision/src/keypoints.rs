@@ -74,15 +74,12 @@ pub(crate) type Neighbourhood = [[[f32; 3]; 3]; 3];
 /// columns, or `None` if one value is not finite (a sample where the filter did not fit).
 pub(crate) fn neighbourhood(layers: [&[f32]; 3], width: usize, x: usize, y: usize) -> Option<Neighbourhood> {
     let mut n = [[[0.0; 3]; 3]; 3];
-    for (s, layer) in layers.iter().enumerate() {
-        for dy in 0..3 {
-            let row = (y + dy - 1) * width;
-            for dx in 0..3 {
-                let v = layer[row + x + dx - 1];
-                if !v.is_finite() {
-                    return None;
-                }
-                n[s][dy][dx] = v;
+    for (plane, layer) in n.iter_mut().zip(layers) {
+        for (dy, row) in plane.iter_mut().enumerate() {
+            let start = (y + dy - 1) * width + x - 1;
+            row.copy_from_slice(&layer[start..start + 3]);
+            if !row.iter().all(|v| v.is_finite()) {
+                return None;
             }
         }
     }

@@ -198,7 +198,8 @@ fn octave_keypoints(integral: &Integral, o: usize, params: &SurfParams) -> Vec<K
         for gy in 1..gh - 1 {
             for gx in 1..gw - 1 {
                 let value = layers[i][gy * gw + gx];
-                if !(value > params.hessian_threshold) {
+                // NaN (no filter here) fails this test too.
+                if value.is_nan() || value <= params.hessian_threshold {
                     continue;
                 }
                 let Some(n) = neighbourhood(three, gw, gx, gy) else { continue };
