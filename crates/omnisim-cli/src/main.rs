@@ -43,6 +43,8 @@ enum Command {
     Poses(commands::poses::PosesCommand),
     Bench(commands::bench::BenchArgs),
     Dataset(commands::dataset::DatasetArgs),
+    Describe(commands::describe::DescribeArgs),
+    Project(commands::project::ProjectArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -54,6 +56,8 @@ fn main() -> std::process::ExitCode {
         Command::Poses(command) => commands::poses::run(command),
         Command::Bench(args) => commands::bench::run(args),
         Command::Dataset(args) => commands::dataset::run(args),
+        Command::Describe(args) => commands::describe::run(args),
+        Command::Project(args) => commands::project::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -2,10 +2,13 @@
 
 pub mod bench;
 pub mod dataset;
+pub mod describe;
 pub mod poses;
+pub mod project;
 pub mod render;
 pub mod scene;
 pub mod speed_accuracy;
+pub mod vision_input;
 
 /// Creates the folder of a file the user named and checks it is writable before any long work;
 /// prints what it cleaned up.

@@ -1,0 +1,524 @@
+//! `omnisim describe`: global and local descriptors of a data set's images or a folder of
+//! images, one `.npy` per descriptor per set with a JSON sidecar; optional PCA.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use omnisim::Camera;
+use omnisim_vision::fourier::{FourierParams, FourierSignature};
+use omnisim_vision::gist::{Blocks, GistParams, gist};
+use omnisim_vision::hog::{BlockHogParams, Orientations, PanoramicHogParams, block_hog, panoramic_hog};
+use omnisim_vision::keypoints::Features;
+use omnisim_vision::pca::Pca;
+use omnisim_vision::radon::{Radon, RadonParams};
+use omnisim_vision::sift::{SiftParams, sift};
+use omnisim_vision::surf::{SurfParams, surf};
+use omnisim_vision::{Interpolation, Raster, Remap, View, npy};
+use serde_json::{Value, json};
+
+use super::project::{InterpolationArg, parse_degrees_range, parse_size};
+use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
+
+/// Describe images with the reference paper's descriptors (docs/vision.md gives each one's
+/// paper and equations).
+///
+/// Each --descriptor NAME[:KEY=VALUE,...] writes OUT/<set>/NAME.npy (float32, one row per
+/// image in the set's frame order) and OUT/<set>/NAME.json (parameters, shape, frame order,
+/// seconds per image). SIFT and SURF write NAME-keypoints.npy (rows: image index, x, y,
+/// σ, angle in degrees, response) and NAME-descriptors.npy (one row per keypoint).
+///
+/// Descriptors and their settings [defaults]:
+///   fourier    Fourier signature of the panorama, magnitudes (NAME-phases.npy: phases) [k=16]
+///   hog        panoramic HOG, horizontal cells of the full width [cells=16, bins=8, signed=false]
+///   block-hog  Dalal & Triggs HOG [cell=8, block=2, stride=1, bins=9, signed=false, clip=0.2, on=image]
+///   gist       panoramic gist, horizontal blocks [scales=4, orientations=8, blocks=16]
+///   grid-gist  gist on a grid [scales=4, orientations=8, grid=4, on=image]
+///   radon      Radon transform of the omnidirectional image about its centre [angles=360, step=1, line-step=0.5]
+///   sift       Lowe 2004 [sigma=1.6, scales=3, contrast=0.04, edge=10, bins=36, peak=0.8, upsample=true, on=image]
+///   surf       Bay et al. 2006 [threshold=100, octaves=4, intervals=4, step=1, upright=false, on=image]
+/// `on=panorama` describes the panorama instead of the image. Panoramas are resampled from
+/// omnidirectional images through the camera's model (--panorama, --elevation); images of a
+/// cylindrical or equirectangular camera are used as they are.
+#[derive(Debug, Clone, Args)]
+#[command(after_help = "Examples:\n  \
+omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
+omnisim describe data/env1 --set map -d fourier:k=32 -d hog -d sift --out desc/map\n  \
+omnisim describe data/env1 -d gist -d radon:angles=180 --pca-fit 20 --map map --out desc/all\n  \
+omnisim describe data/env1 --set test-day -d gist --pca-basis desc/all --out desc/test\n  \
+omnisim describe out/ --camera omni --mirror-a 0.04 --mirror-b 0.16 -d surf:upright=true --out desc/images")]
+pub struct DescribeArgs {
+    #[command(flatten)]
+    pub input: InputArgs,
+    /// A descriptor and its settings, NAME[:KEY=VALUE,...] (list above); repeat for several.
+    #[arg(long = "descriptor", short = 'd', required = true, value_parser = NamedSettings::parse)]
+    pub descriptors: Vec<NamedSettings>,
+    /// Output folder (created if missing); one sub-folder per set.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Size of the panorama resampled from omnidirectional images, WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x128", value_parser = parse_size)]
+    pub panorama: (u32, u32),
+    /// Elevations the panorama spans, degrees, LOW:HIGH.
+    #[arg(long, default_value = "-45:15", value_parser = parse_degrees_range, allow_hyphen_values = true)]
+    pub elevation: (f64, f64),
+    #[arg(long, value_enum, default_value = "bicubic")]
+    pub interpolation: InterpolationArg,
+    /// Fit a PCA of K components to each global descriptor of the map set (--map) and project
+    /// every set with it (NAME-pca.npy); the basis goes to OUT/pca/NAME/ (mean, axes, variances).
+    #[arg(long, value_name = "K", conflicts_with = "pca_basis")]
+    pub pca_fit: Option<usize>,
+    /// The set the PCA is fitted to [default: the first set].
+    #[arg(long, requires = "pca_fit")]
+    pub map: Option<String>,
+    /// Project every set with the bases an earlier --pca-fit run saved (its --out folder).
+    #[arg(long, value_name = "DIR")]
+    pub pca_basis: Option<PathBuf>,
+}
+
+/// Which image a descriptor reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Reads {
+    Image,
+    Panorama,
+}
+
+impl Reads {
+    fn name(self) -> &'static str {
+        match self {
+            Reads::Image => "image",
+            Reads::Panorama => "panorama",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Method {
+    Fourier(FourierParams),
+    Hog(PanoramicHogParams),
+    BlockHog(BlockHogParams),
+    Gist(GistParams),
+    Radon(RadonParams),
+    Sift(SiftParams),
+    Surf(SurfParams),
+}
+
+/// One descriptor as chosen: what it computes, what it reads, and its settings for the sidecar.
+#[derive(Debug, Clone)]
+struct Choice {
+    name: String,
+    method: Method,
+    reads: Reads,
+    parameters: Value,
+}
+
+fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
+    let on = |default: Reads| -> anyhow::Result<Reads> {
+        match spec.settings.get("on").map(String::as_str) {
+            None => Ok(default),
+            Some("image") => Ok(Reads::Image),
+            Some("panorama") => Ok(Reads::Panorama),
+            Some(other) => bail!("{}: on={other}: give on=image or on=panorama", spec.name),
+        }
+    };
+    let orientations = |bins: usize| -> anyhow::Result<Orientations> {
+        Ok(Orientations { bins: spec.get("bins", bins)?, signed: spec.get("signed", false)? })
+    };
+    let (method, reads, parameters) = match spec.name.as_str() {
+        "fourier" => {
+            spec.check_keys(&["k"])?;
+            let p = FourierParams { coefficients: spec.get("k", 16)? };
+            (Method::Fourier(p), Reads::Panorama, json!({ "k": p.coefficients }))
+        }
+        "hog" => {
+            spec.check_keys(&["cells", "bins", "signed"])?;
+            let p = PanoramicHogParams { orientations: orientations(8)?, cells: spec.get("cells", 16)?, normalise: true };
+            let parameters = json!({ "cells": p.cells, "bins": p.orientations.bins, "signed": p.orientations.signed, "cell_normalisation": "L2" });
+            (Method::Hog(p), Reads::Panorama, parameters)
+        }
+        "block-hog" => {
+            spec.check_keys(&["cell", "block", "stride", "bins", "signed", "clip", "on"])?;
+            let p = BlockHogParams {
+                orientations: orientations(9)?,
+                cell: spec.get("cell", 8)?,
+                block: spec.get("block", 2)?,
+                stride: spec.get("stride", 1)?,
+                clip: spec.get("clip", 0.2)?,
+            };
+            let parameters = json!({
+                "cell": p.cell, "block": p.block, "stride": p.stride, "bins": p.orientations.bins,
+                "signed": p.orientations.signed, "clip": decimal(p.clip), "block_normalisation": "L2-Hys"
+            });
+            (Method::BlockHog(p), on(Reads::Image)?, parameters)
+        }
+        "gist" => {
+            spec.check_keys(&["scales", "orientations", "blocks"])?;
+            let blocks = spec.get("blocks", 16)?;
+            let p = GistParams { scales: spec.get("scales", 4)?, orientations: spec.get("orientations", 8)?, blocks: Blocks::Horizontal(blocks) };
+            let parameters = json!({ "scales": p.scales, "orientations": p.orientations, "horizontal_blocks": blocks });
+            (Method::Gist(p), Reads::Panorama, parameters)
+        }
+        "grid-gist" => {
+            spec.check_keys(&["scales", "orientations", "grid", "on"])?;
+            let grid = spec.get("grid", 4)?;
+            let p = GistParams { scales: spec.get("scales", 4)?, orientations: spec.get("orientations", 8)?, blocks: Blocks::Grid(grid) };
+            let parameters = json!({ "scales": p.scales, "orientations": p.orientations, "grid": grid });
+            (Method::Gist(p), on(Reads::Image)?, parameters)
+        }
+        "radon" => {
+            spec.check_keys(&["angles", "step", "line-step"])?;
+            let p = RadonParams {
+                angles: spec.get("angles", 360)?,
+                radial_samples: None,
+                radial_step: spec.get("step", 1.0)?,
+                line_step: spec.get("line-step", 0.5)?,
+            };
+            let parameters = json!({ "angles": p.angles, "radial_step_px": p.radial_step, "line_step_px": p.line_step, "centre": "image centre" });
+            (Method::Radon(p), Reads::Image, parameters)
+        }
+        "sift" => {
+            spec.check_keys(&["sigma", "scales", "contrast", "edge", "bins", "peak", "upsample", "on"])?;
+            let d = SiftParams::default();
+            let p = SiftParams {
+                sigma: spec.get("sigma", d.sigma)?,
+                scales_per_octave: spec.get("scales", d.scales_per_octave)?,
+                contrast_threshold: spec.get("contrast", d.contrast_threshold)?,
+                edge_ratio: spec.get("edge", d.edge_ratio)?,
+                orientation_bins: spec.get("bins", d.orientation_bins)?,
+                peak_ratio: spec.get("peak", d.peak_ratio)?,
+                upsample: spec.get("upsample", d.upsample)?,
+                ..d
+            };
+            let parameters = json!({
+                "sigma": decimal(p.sigma), "scales_per_octave": p.scales_per_octave, "contrast_threshold": decimal(p.contrast_threshold),
+                "edge_ratio": decimal(p.edge_ratio), "orientation_bins": p.orientation_bins, "peak_ratio": decimal(p.peak_ratio),
+                "upsample": p.upsample, "descriptor": [p.descriptor_width, p.descriptor_width, p.descriptor_bins],
+                "magnitude_clamp": decimal(p.magnitude_clamp), "input_sigma": decimal(p.input_sigma), "border": p.border
+            });
+            (Method::Sift(p), on(Reads::Image)?, parameters)
+        }
+        "surf" => {
+            spec.check_keys(&["threshold", "octaves", "intervals", "step", "upright", "on"])?;
+            let d = SurfParams::default();
+            let p = SurfParams {
+                hessian_threshold: spec.get("threshold", d.hessian_threshold)?,
+                octaves: spec.get("octaves", d.octaves)?,
+                intervals: spec.get("intervals", d.intervals)?,
+                initial_step: spec.get("step", d.initial_step)?,
+                upright: spec.get("upright", d.upright)?,
+                ..d
+            };
+            let parameters = json!({
+                "hessian_threshold": decimal(p.hessian_threshold), "octaves": p.octaves, "intervals": p.intervals,
+                "initial_step": p.initial_step, "upright": p.upright, "hessian_weight": decimal(p.hessian_weight),
+                "orientation_window_deg": decimal(p.orientation_window), "orientation_step_deg": decimal(p.orientation_step)
+            });
+            (Method::Surf(p), on(Reads::Image)?, parameters)
+        }
+        other => bail!("unknown descriptor '{other}': give fourier, hog, block-hog, gist, grid-gist, radon, sift or surf"),
+    };
+    Ok(Choice { name: spec.name.clone(), method, reads, parameters })
+}
+
+/// An f32 setting as the decimal it was typed as (0.04, not 0.03999999910593033).
+fn decimal(value: f32) -> f64 {
+    value.to_string().parse().unwrap_or(value as f64)
+}
+
+/// What one descriptor gives for one image.
+enum Described {
+    /// A fixed-shape array (and, for the Fourier signature, the phases beside it).
+    Values { shape: Vec<usize>, values: Vec<f32>, phases: Option<Vec<f32>> },
+    Features(Features),
+}
+
+impl Choice {
+    fn describe(&self, grey: &Raster) -> anyhow::Result<Described> {
+        let values = |d: omnisim_vision::Descriptor| Described::Values { shape: d.shape, values: d.values, phases: None };
+        Ok(match &self.method {
+            Method::Fourier(p) => {
+                let signature = FourierSignature::new(grey, *p)?;
+                Described::Values {
+                    shape: vec![signature.rows, signature.coefficients],
+                    values: signature.magnitudes(),
+                    phases: Some(signature.phases()),
+                }
+            }
+            Method::Hog(p) => values(panoramic_hog(grey, *p)?),
+            Method::BlockHog(p) => values(block_hog(grey, *p)?),
+            Method::Gist(p) => values(gist(grey, *p)?),
+            Method::Radon(p) => {
+                let radon = Radon::new(grey, *p)?;
+                Described::Values { shape: vec![radon.values.height, radon.values.width], values: radon.values.data, phases: None }
+            }
+            Method::Sift(p) => Described::Features(sift(grey, p)?),
+            Method::Surf(p) => Described::Features(surf(grey, p)?),
+        })
+    }
+
+    fn is_global(&self) -> bool {
+        !matches!(self.method, Method::Sift(_) | Method::Surf(_))
+    }
+}
+
+/// Every image of a set described by one descriptor.
+struct SetResult {
+    per_image: Vec<Described>,
+    seconds: Vec<f64>,
+    /// Seconds the panorama of each image took, for descriptors that read it.
+    panorama_seconds: Vec<f64>,
+}
+
+pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
+    let mut choices: Vec<Choice> = args.descriptors.iter().map(choose).collect::<anyhow::Result<_>>()?;
+    for (i, choice) in choices.iter().enumerate() {
+        if choices[..i].iter().any(|c| c.name == choice.name) {
+            bail!("--descriptor {} is given twice: describe once per run, or use two --out folders", choice.name);
+        }
+    }
+    if args.pca_fit == Some(0) {
+        bail!("--pca-fit needs at least 1 component");
+    }
+    let input = args.input.read()?;
+    let map = match (&args.map, args.pca_fit) {
+        (Some(map), _) => Some(input.sets.iter().position(|s| &s.name == map).with_context(|| format!("--map {map} is not a described set"))?),
+        (None, Some(_)) => Some(0),
+        _ => None,
+    };
+    let panorama = Panorama::new(&input, &args, choices.iter().any(|c| c.reads == Reads::Panorama))?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    let started = Instant::now();
+    let mut results: Vec<Vec<SetResult>> = Vec::new();
+    for set in &input.sets {
+        eprintln!("set '{}': {} image(s)", set.name, set.frames.len());
+        let mut per_choice: Vec<SetResult> = choices
+            .iter()
+            .map(|_| SetResult { per_image: Vec::new(), seconds: Vec::new(), panorama_seconds: Vec::new() })
+            .collect();
+        let mut size = None;
+        for frame in &set.frames {
+            let image = read_image(&frame.path, size)?;
+            size = Some((image.width, image.height));
+            let grey = image.to_grey();
+            let pano = panorama.as_ref().map(|p| p.of(&grey)).transpose()?;
+            for (choice, result) in choices.iter().zip(&mut per_choice) {
+                let source = match (choice.reads, &pano) {
+                    (Reads::Panorama, Some((panorama, seconds))) => {
+                        result.panorama_seconds.push(*seconds);
+                        panorama
+                    }
+                    _ => &grey,
+                };
+                let clock = Instant::now();
+                let described = choice
+                    .describe(source)
+                    .with_context(|| format!("{} of {}", choice.name, frame.path.display()))?;
+                result.seconds.push(clock.elapsed().as_secs_f64());
+                result.per_image.push(described);
+            }
+        }
+        results.push(per_choice);
+    }
+    let pcas = fit_or_load_pca(&args, &mut choices, &results, map, &input)?;
+    for (set, per_choice) in input.sets.iter().zip(&results) {
+        let folder = args.out.join(&set.name);
+        std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+        for ((choice, result), pca) in choices.iter().zip(per_choice).zip(&pcas) {
+            write_set(&folder, &input, set, choice, result, pca.as_ref(), panorama.as_ref(), &args)?;
+        }
+        eprintln!("wrote {}", folder.display());
+    }
+    eprintln!("{} set(s) described in {:.1} s", input.sets.len(), started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The panorama every image is resampled to, when a descriptor reads one.
+struct Panorama {
+    /// `None`: the images are panoramas already.
+    remap: Option<Remap>,
+    interpolation: Interpolation,
+    sidecar: Value,
+}
+
+impl Panorama {
+    fn new(input: &Input, args: &DescribeArgs, needed: bool) -> anyhow::Result<Option<Self>> {
+        if !needed {
+            return Ok(None);
+        }
+        let (width, height) = args.panorama;
+        let (low, high) = args.elevation;
+        match &input.camera {
+            Camera::Catadioptric(omni) => {
+                let view = View::panorama(width, height, low.to_radians(), high.to_radians())?;
+                let remap = Remap::new(omni, &view).context("the panorama")?;
+                let sidecar = json!({
+                    "resampled_from": "omnidirectional image", "width": width, "height": height,
+                    "elevation_deg": [low, high], "interpolation": args.interpolation.name(),
+                    "model": "cylindrical: column u at azimuth π − 2π(u + ½)/W, rows uniform in tan(elevation)"
+                });
+                Ok(Some(Self { remap: Some(remap), interpolation: args.interpolation.into(), sidecar }))
+            }
+            Camera::Cylindrical(_) | Camera::Equirectangular(_) => {
+                let sidecar = json!({ "resampled_from": null, "note": "the images are panoramas" });
+                Ok(Some(Self { remap: None, interpolation: args.interpolation.into(), sidecar }))
+            }
+            _ => bail!("a descriptor reads a panorama, but the images are from a pinhole camera: use on=image or other descriptors"),
+        }
+    }
+
+    /// The panorama of a grey image and the seconds its resampling took.
+    fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
+        let clock = Instant::now();
+        let Some(remap) = &self.remap else { return Ok((grey.clone(), 0.0)) };
+        let panorama = remap.apply(grey, self.interpolation)?;
+        Ok((panorama, clock.elapsed().as_secs_f64()))
+    }
+}
+
+/// The PCA of each global descriptor: fitted on the map set, or loaded; `None` elsewhere.
+fn fit_or_load_pca(
+    args: &DescribeArgs,
+    choices: &mut [Choice],
+    results: &[Vec<SetResult>],
+    map: Option<usize>,
+    input: &Input,
+) -> anyhow::Result<Vec<Option<(Pca, Value)>>> {
+    let mut pcas = Vec::new();
+    for (c, choice) in choices.iter().enumerate() {
+        if !choice.is_global() || (args.pca_fit.is_none() && args.pca_basis.is_none()) {
+            pcas.push(None);
+            continue;
+        }
+        let pca = if let (Some(k), Some(map)) = (args.pca_fit, map) {
+            let samples: Vec<Vec<f32>> = results[map][c]
+                .per_image
+                .iter()
+                .filter_map(|d| match d {
+                    Described::Values { values, .. } => Some(values.clone()),
+                    Described::Features(_) => None,
+                })
+                .collect();
+            let pca = Pca::fit(&samples, k).with_context(|| format!("PCA of {} on set '{}'", choice.name, input.sets[map].name))?;
+            let folder = args.out.join("pca").join(&choice.name);
+            std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+            pca.save(&folder)?;
+            let sidecar = json!({
+                "fitted_on": input.sets[map].name, "components": pca.components(),
+                "explained_variance_ratio": pca.explained_variance_ratio(), "basis": format!("pca/{}", choice.name)
+            });
+            (pca, sidecar)
+        } else {
+            let folder = args.pca_basis.as_ref().map(|b| b.join("pca").join(&choice.name)).unwrap_or_default();
+            let pca = Pca::load(&folder).with_context(|| format!("the PCA basis of {} (from an earlier --pca-fit run)", choice.name))?;
+            let sidecar = json!({
+                "loaded_from": folder, "components": pca.components(),
+                "explained_variance_ratio": pca.explained_variance_ratio()
+            });
+            (pca, sidecar)
+        };
+        pcas.push(Some(pca));
+    }
+    Ok(pcas)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn write_set(
+    folder: &Path,
+    input: &Input,
+    set: &super::vision_input::InputSet,
+    choice: &Choice,
+    result: &SetResult,
+    pca: Option<&(Pca, Value)>,
+    panorama: Option<&Panorama>,
+    args: &DescribeArgs,
+) -> anyhow::Result<()> {
+    let name = &choice.name;
+    let frames: Vec<Value> = set
+        .frames
+        .iter()
+        .zip(&result.seconds)
+        .map(|(f, s)| json!({ "index": f.index, "stem": f.stem, "file": f.path, "seconds": s }))
+        .collect();
+    let mean_seconds = result.seconds.iter().sum::<f64>() / result.seconds.len().max(1) as f64;
+    let mut sidecar = json!({
+        "descriptor": name,
+        "parameters": choice.parameters,
+        "reads": choice.reads.name(),
+        "panorama": if choice.reads == Reads::Panorama { panorama.map(|p| p.sidecar.clone()) } else { None },
+        "input": { "kind": input.kind, "folder": args.input.input, "set": set.name, "noisy": args.input.noisy },
+        "dtype": "<f4",
+        "frames": frames,
+        "seconds_per_image": mean_seconds,
+    });
+    if !result.panorama_seconds.is_empty() {
+        let mean = result.panorama_seconds.iter().sum::<f64>() / result.panorama_seconds.len() as f64;
+        sidecar["panorama_seconds_per_image"] = json!(mean);
+    }
+    let n = result.per_image.len();
+    let write = |file: &str, shape: &[usize], values: &[f32]| -> anyhow::Result<()> {
+        npy::write(&folder.join(file), shape, values).map_err(anyhow::Error::from)
+    };
+    let mut rows: Vec<Vec<f32>> = Vec::new();
+    match result.per_image.first() {
+        Some(Described::Values { shape, phases, .. }) => {
+            let mut values = Vec::new();
+            let mut all_phases = Vec::new();
+            for d in &result.per_image {
+                if let Described::Values { shape: s, values: v, phases: p } = d {
+                    if s != shape {
+                        bail!("{name}: images of set '{}' gave descriptors of different shapes", set.name);
+                    }
+                    values.extend_from_slice(v);
+                    rows.push(v.clone());
+                    all_phases.extend(p.iter().flatten());
+                }
+            }
+            let full: Vec<usize> = std::iter::once(n).chain(shape.iter().copied()).collect();
+            write(&format!("{name}.npy"), &full, &values)?;
+            sidecar["shape"] = json!(full);
+            sidecar["files"] = json!({ "values": format!("{name}.npy") });
+            if phases.is_some() {
+                write(&format!("{name}-phases.npy"), &full, &all_phases)?;
+                sidecar["files"]["phases"] = json!(format!("{name}-phases.npy"));
+            }
+        }
+        Some(Described::Features(first)) => {
+            let length = first.length;
+            let (mut keypoints, mut descriptors, mut counts) = (Vec::new(), Vec::new(), Vec::new());
+            for (image, d) in result.per_image.iter().enumerate() {
+                if let Described::Features(f) = d {
+                    for k in &f.keypoints {
+                        keypoints.extend([image as f32, k.x, k.y, k.sigma, k.angle, k.response]);
+                    }
+                    descriptors.extend_from_slice(&f.descriptors);
+                    counts.push(f.keypoints.len());
+                }
+            }
+            let total = keypoints.len() / 6;
+            write(&format!("{name}-keypoints.npy"), &[total, 6], &keypoints)?;
+            write(&format!("{name}-descriptors.npy"), &[total, length], &descriptors)?;
+            sidecar["files"] = json!({ "keypoints": format!("{name}-keypoints.npy"), "descriptors": format!("{name}-descriptors.npy") });
+            sidecar["keypoint_columns"] = json!(["image", "x", "y", "sigma_px", "angle_deg", "response"]);
+            sidecar["shape"] = json!({ "keypoints": [total, 6], "descriptors": [total, length] });
+            sidecar["keypoints_per_image"] = json!(counts);
+            sidecar["conventions"] = json!("pixel centres at integer (x, y), (0,0) top-left; angle from +x towards +y (down), degrees; descriptors unit length");
+        }
+        None => {}
+    }
+    if let Some((pca, pca_sidecar)) = pca {
+        let projected: Vec<f32> = rows
+            .iter()
+            .map(|row| pca.project(row, pca.components()))
+            .collect::<Result<Vec<_>, _>>()
+            .with_context(|| format!("{name}: projecting with the PCA basis"))?
+            .concat();
+        write(&format!("{name}-pca.npy"), &[n, pca.components()], &projected)?;
+        sidecar["pca"] = pca_sidecar.clone();
+        sidecar["files"]["pca"] = json!(format!("{name}-pca.npy"));
+    }
+    let path = folder.join(format!("{name}.json"));
+    let mut text = serde_json::to_vec_pretty(&sidecar)?;
+    text.push(b'\n');
+    std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+}

@@ -1,0 +1,344 @@
+//! What `describe` and `project` read: a data set written by `omnisim dataset` (its
+//! manifest.json gives the sets, the frame order and the camera) or a folder of images (the
+//! camera from `render`'s options), and their `NAME:KEY=VALUE,...` option values.
+
+use std::collections::BTreeMap;
+use std::path::{Component, Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, Parser};
+use omnisim::dataset::manifest::{FileKind, FrameEntry};
+use omnisim::dataset::spec::{MirrorSpec, MountSpec, RigSpec};
+use omnisim::{Camera, Rig};
+use omnisim_vision::Raster;
+use serde::Deserialize;
+
+use crate::camera_args::{CameraArgs, CameraKind, MaxElevation, MirrorKind, MountArg};
+
+/// The input folder and how to read it.
+#[derive(Debug, Clone, Args)]
+pub struct InputArgs {
+    /// A data-set folder written by `omnisim dataset` (with manifest.json), or a folder of
+    /// PNG images (read in name order; camera from the options below).
+    pub input: PathBuf,
+    /// Data sets: only this set (repeat for several) [default: every set].
+    #[arg(long = "set")]
+    pub sets: Vec<String>,
+    /// Data sets: read the noisy copies (*-noisy.png) instead of the ground truth.
+    #[arg(long)]
+    pub noisy: bool,
+    /// Image folders: the camera that took the images, as `omnisim render` gives it
+    /// (`--size` defaults to the images' size). Data sets take it from their manifest.
+    #[command(flatten)]
+    pub camera: CameraArgs,
+}
+
+/// One image of a set.
+#[derive(Debug, Clone)]
+pub struct InputFrame {
+    /// Position in the set, from 0.
+    pub index: usize,
+    /// Name without extension (the data set's frame stem).
+    pub stem: String,
+    /// The image file.
+    pub path: PathBuf,
+}
+
+/// Images described together: a data set's set, or the image folder.
+#[derive(Debug, Clone)]
+pub struct InputSet {
+    pub name: String,
+    pub frames: Vec<InputFrame>,
+}
+
+/// The sets to read and the camera that took them.
+#[derive(Debug, Clone)]
+pub struct Input {
+    /// "dataset" or "images", for the sidecars.
+    pub kind: &'static str,
+    pub sets: Vec<InputSet>,
+    /// For stereo data sets, the left camera.
+    pub camera: Camera,
+}
+
+/// The part of manifest.json read here (the library's `Manifest` is write-only; its frame
+/// entries and rig are the library's own types).
+#[derive(Deserialize)]
+struct ManifestView {
+    rig: RigSpec,
+    sets: Vec<ManifestSetView>,
+}
+
+#[derive(Deserialize)]
+struct ManifestSetView {
+    name: String,
+    frame_entries: Vec<FrameEntry>,
+}
+
+const MANIFEST_LIMIT: u64 = 1 << 30;
+
+impl InputArgs {
+    pub fn read(&self) -> anyhow::Result<Input> {
+        let manifest = self.input.join("manifest.json");
+        if manifest.is_file() {
+            if self.camera_given() {
+                bail!("{} is a data set: its manifest gives the camera, so camera options are refused", self.input.display());
+            }
+            self.read_dataset(&manifest)
+        } else if self.input.is_dir() {
+            if !self.sets.is_empty() || self.noisy {
+                bail!("--set and --noisy apply to data sets; {} has no manifest.json", self.input.display());
+            }
+            self.read_folder()
+        } else {
+            bail!("{} is neither a data-set folder (with manifest.json) nor a folder of images", self.input.display())
+        }
+    }
+
+    /// Whether any camera option differs from its default.
+    fn camera_given(&self) -> bool {
+        format!("{:?}", default_camera_args()) != format!("{:?}", self.camera)
+    }
+
+    fn read_dataset(&self, manifest: &Path) -> anyhow::Result<Input> {
+        let text = omnisim::input::read_text(manifest, MANIFEST_LIMIT)?;
+        let view: ManifestView =
+            serde_json::from_str(&text).with_context(|| format!("{} is not an omnisim data-set manifest", manifest.display()))?;
+        for wanted in &self.sets {
+            if !view.sets.iter().any(|s| &s.name == wanted) {
+                let names: Vec<&str> = view.sets.iter().map(|s| s.name.as_str()).collect();
+                bail!("the data set has no set '{wanted}'; it has {names:?}");
+            }
+        }
+        let camera = match camera_args_of(&view.rig).build().context("the manifest's camera")? {
+            Rig::Single(camera) => camera,
+            Rig::Stereo(stereo) => Camera::Pinhole(stereo.camera),
+        };
+        let suffixes: &[&str] = if self.noisy { &["-noisy", "-left-noisy"] } else { &["", "-left"] };
+        let kind = if self.noisy { FileKind::Noisy } else { FileKind::GroundTruth };
+        let mut sets = Vec::new();
+        for set in view.sets.into_iter().filter(|s| self.sets.is_empty() || self.sets.contains(&s.name)) {
+            plain_name(&set.name).with_context(|| format!("set name '{}' in the manifest", set.name))?;
+            let frames = set
+                .frame_entries
+                .iter()
+                .map(|frame| {
+                    let wanted: Vec<String> = suffixes.iter().map(|s| format!("{}/{}{s}.png", set.name, frame.stem)).collect();
+                    let file = frame
+                        .files
+                        .iter()
+                        .find(|f| f.kind == kind && wanted.contains(&f.path))
+                        .with_context(|| format!("set '{}' frame {} has no colour image {}", set.name, frame.index, wanted[0]))?;
+                    Ok(InputFrame { index: frame.index, stem: frame.stem.clone(), path: inside(&self.input, &file.path)? })
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            sets.push(InputSet { name: set.name, frames });
+        }
+        Ok(Input { kind: "dataset", sets, camera })
+    }
+
+    fn read_folder(&self) -> anyhow::Result<Input> {
+        let mut paths = Vec::new();
+        for entry in std::fs::read_dir(&self.input).with_context(|| format!("cannot list {}", self.input.display()))? {
+            let path = entry?.path();
+            let image = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+            if image && path.is_file() {
+                paths.push(path);
+            }
+        }
+        paths.sort();
+        let Some(first) = paths.first() else {
+            bail!("{} holds no PNG image", self.input.display());
+        };
+        let mut camera_args = self.camera.clone();
+        if camera_args.size.is_none() {
+            let (w, h) = image::image_dimensions(first).with_context(|| format!("cannot read {}", first.display()))?;
+            camera_args.size = Some((w, h));
+        }
+        let camera = match camera_args.build()? {
+            Rig::Single(camera) => camera,
+            Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
+        };
+        let name = plain_name(&self.input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
+            .map(str::to_string)
+            .unwrap_or_else(|_| "images".to_string());
+        let frames = paths
+            .into_iter()
+            .enumerate()
+            .map(|(index, path)| InputFrame {
+                index,
+                stem: path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+                path,
+            })
+            .collect();
+        Ok(Input { kind: "images", sets: vec![InputSet { name, frames }], camera })
+    }
+}
+
+/// `name` if it is one plain folder name (no separator, not `.` or `..`), as set folders must be.
+pub fn plain_name(name: &str) -> anyhow::Result<&str> {
+    let mut parts = Path::new(name).components();
+    match (parts.next(), parts.next()) {
+        (Some(Component::Normal(_)), None) if !name.contains(['/', '\\']) => Ok(name),
+        _ => bail!("'{name}' is not a plain folder name"),
+    }
+}
+
+/// A manifest path (`/`-separated, relative) inside `root`, refusing any that could leave it.
+fn inside(root: &Path, relative: &str) -> anyhow::Result<PathBuf> {
+    let parts: Vec<&str> = relative.split('/').collect();
+    for part in &parts {
+        plain_name(part).with_context(|| format!("manifest path '{relative}'"))?;
+    }
+    Ok(parts.iter().fold(root.to_path_buf(), |path, part| path.join(part)))
+}
+
+/// The `render` options that build the camera a data set's spec describes, so that both go
+/// through the same checks.
+fn camera_args_of(rig: &RigSpec) -> CameraArgs {
+    let mut args = default_camera_args();
+    match rig {
+        RigSpec::Pinhole(p) => {
+            (args.camera, args.size, args.hfov, args.focal) = (CameraKind::Pinhole, Some(p.size), Some(p.hfov), p.focal);
+        }
+        RigSpec::Stereo(s) => {
+            (args.camera, args.size, args.hfov, args.focal) = (CameraKind::Pinhole, Some(s.size), Some(s.hfov), s.focal);
+        }
+        RigSpec::Equirect { size } => (args.camera, args.size) = (CameraKind::Equirect, Some(*size)),
+        RigSpec::Cylindrical { size, vfov } => {
+            (args.camera, args.size, args.vfov) = (CameraKind::Cylindrical, Some(*size), Some(*vfov));
+        }
+        RigSpec::Omni(o) => {
+            args.camera = CameraKind::Omni;
+            args.size = Some(o.size);
+            match o.mirror {
+                MirrorSpec::Hyperbolic { a, b } => {
+                    (args.mirror, args.mirror_a, args.mirror_b) = (Some(MirrorKind::Hyperbolic), Some(a), Some(b));
+                }
+                MirrorSpec::Parabolic { a, b, h } => {
+                    (args.mirror, args.mirror_a, args.mirror_b, args.mirror_h) = (Some(MirrorKind::Parabolic), Some(a), b, Some(h));
+                }
+                MirrorSpec::Spherical { radius, camera_distance } => {
+                    (args.mirror, args.sphere_radius, args.camera_distance) =
+                        (Some(MirrorKind::Spherical), Some(radius), Some(camera_distance));
+                }
+            }
+            if o.rim.is_some() {
+                args.rim = o.rim;
+            } else if !matches!(o.mirror, MirrorSpec::Spherical { .. }) {
+                args.max_elevation = Some(MaxElevation(o.max_elevation));
+            }
+            args.focal = o.focal;
+            args.mount = Some(match o.mount {
+                MountSpec::Up => MountArg::Up,
+                MountSpec::Down => MountArg::Down,
+            });
+            args.hidden_centre = (o.hidden_centre != 0.0).then_some(o.hidden_centre);
+            let vector = |(x, y, z): (f64, f64, f64)| (x, y, z) != (0.0, 0.0, 0.0);
+            args.misalign_offset = vector(o.misalign_offset).then(|| o.misalign_offset.into());
+            args.misalign_tilt = vector(o.misalign_tilt).then(|| o.misalign_tilt.into());
+        }
+    }
+    args
+}
+
+/// `render`'s camera options as they are when none is given.
+fn default_camera_args() -> CameraArgs {
+    #[derive(Parser)]
+    struct Defaults {
+        #[command(flatten)]
+        camera: CameraArgs,
+    }
+    Defaults::parse_from(["omnisim"]).camera
+}
+
+/// An image file as RGB 0..1, checked to be `size` (all images of a set are).
+pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
+    let image = image::open(path).with_context(|| format!("cannot read image {}", path.display()))?;
+    let raster = Raster::from_image(&image);
+    if let Some(size) = size
+        && size != (raster.width, raster.height)
+    {
+        bail!(
+            "{} is {}×{} pixels, but the set's first image is {}×{}",
+            path.display(),
+            raster.width,
+            raster.height,
+            size.0,
+            size.1
+        );
+    }
+    Ok(raster)
+}
+
+/// A `NAME[:KEY=VALUE,...]` option value: the name and its settings, each key checked against
+/// the ones the name accepts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedSettings {
+    pub name: String,
+    pub settings: BTreeMap<String, String>,
+}
+
+impl NamedSettings {
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let (name, rest) = text.split_once(':').unwrap_or((text, ""));
+        let mut settings = BTreeMap::new();
+        for pair in rest.split(',').filter(|p| !p.is_empty()) {
+            let (key, value) = pair
+                .split_once('=')
+                .ok_or_else(|| format!("'{pair}' in '{text}' is not KEY=VALUE"))?;
+            if settings.insert(key.trim().to_string(), value.trim().to_string()).is_some() {
+                return Err(format!("'{key}' is given twice in '{text}'"));
+            }
+        }
+        Ok(Self { name: name.trim().to_string(), settings })
+    }
+
+    /// Refuses keys other than `accepted`.
+    pub fn check_keys(&self, accepted: &[&str]) -> anyhow::Result<()> {
+        for key in self.settings.keys() {
+            if !accepted.contains(&key.as_str()) {
+                bail!("{}: unknown setting '{key}'; it takes {}", self.name, accepted.join(", "));
+            }
+        }
+        Ok(())
+    }
+
+    /// The setting `key` parsed as `T`, or `default`.
+    pub fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> anyhow::Result<T> {
+        match self.settings.get(key) {
+            None => Ok(default),
+            Some(text) => text
+                .parse()
+                .map_err(|_| anyhow::anyhow!("{}: {key}={text} is not a valid {}", self.name, std::any::type_name::<T>())),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn named_settings_parse_and_check() {
+        let s = NamedSettings::parse("fourier:k=32, on=panorama").unwrap();
+        assert_eq!(s.name, "fourier");
+        assert_eq!(s.get("k", 16usize).unwrap(), 32);
+        assert_eq!(s.get("missing", 2.5f64).unwrap(), 2.5);
+        assert!(s.check_keys(&["k"]).is_err());
+        assert!(s.get::<usize>("on", 0).is_err());
+        assert!(NamedSettings::parse("hog:cells").is_err());
+        assert!(NamedSettings::parse("hog:k=1,k=2").is_err());
+    }
+
+    #[test]
+    fn manifest_paths_stay_inside() {
+        assert!(inside(Path::new("d"), "map/a.png").is_ok());
+        for bad in ["../a.png", "map/../../a", "/etc/passwd", "map//a", ".", "a\\b"] {
+            assert!(inside(Path::new("d"), bad).is_err(), "{bad}");
+        }
+    }
+}
