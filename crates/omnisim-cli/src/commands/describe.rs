@@ -42,7 +42,7 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 /// omnidirectional images through the camera's model (--panorama, --elevation); images of a
 /// cylindrical or equirectangular camera are used as they are.
 #[derive(Debug, Clone, Args)]
-#[command(after_help = "Examples:\n  \
+#[command(verbatim_doc_comment, after_help = "Examples:\n  \
 omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
 omnisim describe data/env1 --set map -d fourier:k=32 -d hog -d sift --out desc/map\n  \
 omnisim describe data/env1 -d gist -d radon:angles=180 --pca-fit 20 --map map --out desc/all\n  \

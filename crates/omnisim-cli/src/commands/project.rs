@@ -27,7 +27,7 @@ use super::vision_input::{InputArgs, NamedSettings, read_image};
 /// Only central mirrors (hyperbolic, parabolic with a = b, aligned) have the closed-form
 /// projection this needs.
 #[derive(Debug, Clone, Args)]
-#[command(after_help = "Examples:\n  \
+#[command(verbatim_doc_comment, after_help = "Examples:\n  \
 omnisim render scenes/env1.ron --camera omni --size 500x500 --pose 0.5,0.2,0.4 --out out/omni\n  \
 omnisim project out/omni --size 500x500 --view panorama --view birds-eye:scale=0.02 --out out/views\n  \
 omnisim project data/env1 --set map --view perspective:yaw=90,hfov=70 --interpolation bilinear --out out/map-views")]
