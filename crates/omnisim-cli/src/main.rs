@@ -4,7 +4,6 @@
 //! library.
 
 mod camera_args;
-mod chart_svg;
 mod commands;
 mod poses;
 mod run_folder;

@@ -5,12 +5,15 @@
 //! - Global-appearance descriptors of the papers the reference paper cites (see
 //!   `docs/vision.md` for each paper and equation): [`fourier`] signature, [`radon`] transform
 //!   with phase-only correlation, [`hog`], [`gist`], and [`pca`].
+//! - [`accuracy`] of resampled views against exact renders, and [`chart`]s of it.
 //! - Local features: [`sift`] (Lowe 2004) and [`surf`] (Bay et al. 2006), their
 //!   [`keypoints`] and ratio-test matching.
 //!
 //! It depends on omnisim's cameras, not on its renderer: any image with a calibration works,
 //! rendered or real.
 
+pub mod accuracy;
+pub mod chart;
 pub mod fft;
 pub mod fourier;
 pub mod gist;

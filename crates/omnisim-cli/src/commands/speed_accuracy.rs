@@ -11,7 +11,7 @@ use omnisim::output::atomic::write_atomically;
 use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, Renderer, Scene};
 use serde_json::json;
 
-use crate::chart_svg::{Point, scatter};
+use omnisim_vision::chart::{Point, scatter};
 
 /// Mean absolute colour difference per channel (0–255) and the share of pixels that differ.
 fn colour_error(frame: &Frame, truth: &Frame) -> (f64, f64) {
