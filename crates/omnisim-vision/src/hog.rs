@@ -17,7 +17,7 @@
 
 use std::f32::consts::{PI, TAU};
 
-use crate::{Descriptor, Raster, VisionError, require};
+use crate::{Descriptor, Raster, Rotation, VisionError, require};
 
 /// Orientation binning shared by both variants.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -199,6 +199,84 @@ pub fn panoramic_hog(panorama: &Raster, params: PanoramicHogParams) -> Result<De
     })
 }
 
+/// Overlapping vertical cells of a panorama for orientation (Payá et al. 2014; Amorós et al.
+/// 2021 §2.2): cell i spans the full height and columns i·step .. i·step + width (circular),
+/// each histogram L2-normalised. A turn of the camera by a multiple of `step` columns shifts
+/// the cells circularly, so comparing shifted cells recovers the turn (resolution
+/// 2π·step/W). Defaults: 8 unsigned bins, cells 32 columns wide every column.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VerticalHogParams {
+    /// Orientation binning.
+    pub orientations: Orientations,
+    /// Columns per cell.
+    pub width: usize,
+    /// Columns between the starts of consecutive cells.
+    pub step: usize,
+}
+
+impl Default for VerticalHogParams {
+    fn default() -> Self {
+        Self {
+            orientations: Orientations { bins: 8, signed: false },
+            width: 32,
+            step: 1,
+        }
+    }
+}
+
+/// The vertical-cell HOG of a one-channel 360° panorama: shape [W / step, bins] (the width
+/// must be a multiple of the step). Each column's histogram is made once and the cells sum
+/// `width` of them.
+pub fn vertical_hog(panorama: &Raster, params: VerticalHogParams) -> Result<Descriptor, VisionError> {
+    require(panorama.channels == 1, "channels", || {
+        format!("HOG reads one channel, got {}", panorama.channels)
+    })?;
+    params.orientations.check()?;
+    let w = panorama.width;
+    require(params.step >= 1 && w % params.step == 0, "step", || {
+        format!("must divide the panorama's width {w}, got {}", params.step)
+    })?;
+    require(params.width >= 1 && params.width <= w, "width", || {
+        format!("needs 1 ≤ width ≤ {w} columns, got {}", params.width)
+    })?;
+    let bins = params.orientations.bins;
+    let mut columns = vec![0.0f32; w * bins];
+    for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {
+        let x = i % w;
+        params.orientations.vote(angle, magnitude, &mut columns[x * bins..(x + 1) * bins]);
+    }
+    let cells = w / params.step;
+    let mut values = vec![0.0f32; cells * bins];
+    for (cell, histogram) in values.chunks_mut(bins).enumerate() {
+        for offset in 0..params.width {
+            let x = (cell * params.step + offset) % w;
+            histogram.iter_mut().zip(&columns[x * bins..(x + 1) * bins]).for_each(|(h, c)| *h += c);
+        }
+        l2_normalise(histogram);
+    }
+    Ok(Descriptor { shape: vec![cells, bins], values })
+}
+
+/// The turn that takes panorama `a` to panorama `b` (`b` is `a` with its columns moved right
+/// by `steps`), from their vertical-cell HOGs made with the same `params` on panoramas `width`
+/// columns wide: the circular shift of the cells with the least sum of squared differences.
+pub fn vertical_hog_rotation(a: &Descriptor, b: &Descriptor, params: VerticalHogParams, width: usize) -> Result<Rotation, VisionError> {
+    require(a.shape == b.shape && a.shape.len() == 2 && a.shape[0] * params.step == width, "descriptors", || {
+        format!("shapes {:?} and {:?} are not both vertical-cell HOGs of {width} columns", a.shape, b.shape)
+    })?;
+    let (cells, bins) = (a.shape[0], a.shape[1]);
+    let distance = |shift: usize| -> f32 {
+        (0..cells)
+            .map(|i| {
+                let (x, y) = (&a.values[i * bins..(i + 1) * bins], &b.values[(i + shift) % cells * bins..][..bins]);
+                x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum::<f32>()
+            })
+            .sum()
+    };
+    let best = (0..cells).min_by(|&p, &q| distance(p).total_cmp(&distance(q))).unwrap_or(0);
+    Ok(Rotation::from_steps(best * params.step, width))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -277,5 +355,24 @@ mod tests {
             .map(|(a, b)| (a - b).abs())
             .sum();
         assert!(difference > 1.0);
+    }
+
+    /// A panorama's columns moved right by 37 give the same cells shifted by 37 (exactly), and
+    /// the search finds 37 columns; with step 4 a move of 36 is found as 36. The panoramic
+    /// (horizontal-cell) variant is unchanged by the same move, so it cannot tell the turn.
+    #[test]
+    fn vertical_cells_recover_a_turn() {
+        let pano = image(128, 32, |x, y| ((x * 0.7).sin() * (y * 0.3).cos() + (x * 0.13 + y * 0.21).sin() * 0.5 + (x * x * 0.001).cos()) * 0.3 + 0.5);
+        for (step, moved) in [(1usize, 37i64), (4, 36)] {
+            let params = VerticalHogParams { step, ..VerticalHogParams::default() };
+            let a = vertical_hog(&pano, params).unwrap();
+            let b = vertical_hog(&pano.shift_columns(moved), params).unwrap();
+            assert_eq!(a.shape, vec![128 / step, 8]);
+            let rotation = vertical_hog_rotation(&a, &b, params, 128).unwrap();
+            assert_eq!(rotation.steps as i64, moved, "step {step}");
+            assert!((rotation.radians - std::f64::consts::TAU * moved as f64 / 128.0).abs() < 1e-12);
+        }
+        let bad = VerticalHogParams { step: 3, ..VerticalHogParams::default() };
+        assert!(vertical_hog(&pano, bad).is_err());
     }
 }

@@ -7,7 +7,7 @@ use glam::dvec3;
 use omnisim::{BackendChoice, Camera, Catadioptric, Cylindrical, Planes, Pose, PreparedScene, Renderer, Scene};
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::gist::{GistParams, gist};
-use omnisim_vision::hog::{PanoramicHogParams, panoramic_hog};
+use omnisim_vision::hog::{PanoramicHogParams, VerticalHogParams, panoramic_hog, vertical_hog, vertical_hog_rotation};
 use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::{Descriptor, Raster};
 
@@ -81,6 +81,21 @@ fn panoramic_descriptors_under_yaw() {
             (rotation.steps as f64 - columns).abs() <= 0.5,
             "{columns} columns: phases say {}",
             rotation.steps
+        );
+        // HOG's overlapping vertical cells tell the turn too (Payá et al. 2014).
+        let vertical = VerticalHogParams::default();
+        let hog_turn = vertical_hog_rotation(
+            &vertical_hog(&reference, vertical).unwrap(),
+            &vertical_hog(&turned, vertical).unwrap(),
+            vertical,
+            WIDTH as usize,
+        )
+        .unwrap();
+        eprintln!("{columns} columns: vertical-cell HOG says {}", hog_turn.steps);
+        assert!(
+            (hog_turn.steps as f64 - columns).abs() <= 0.5,
+            "{columns} columns: vertical-cell HOG says {}",
+            hog_turn.steps
         );
         for (name, a, b, bound) in [
             (

@@ -9,7 +9,9 @@ use clap::Args;
 use omnisim::Camera;
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::gist::{Blocks, GistParams, gist};
-use omnisim_vision::hog::{BlockHogParams, Orientations, PanoramicHogParams, block_hog, panoramic_hog};
+use omnisim_vision::hog::{
+    BlockHogParams, Orientations, PanoramicHogParams, VerticalHogParams, block_hog, panoramic_hog, vertical_hog,
+};
 use omnisim_vision::keypoints::Features;
 use omnisim_vision::pca::Pca;
 use omnisim_vision::radon::{Radon, RadonParams};
@@ -32,6 +34,7 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 /// Descriptors and their settings [defaults]:
 ///   fourier    Fourier signature of the panorama, magnitudes (NAME-phases.npy: phases) [k=16]
 ///   hog        panoramic HOG, horizontal cells of the full width [cells=16, bins=8, signed=false]
+///   vertical-hog  HOG of overlapping vertical cells of the panorama, for orientation [width=32, step=1, bins=8, signed=false]
 ///   block-hog  Dalal & Triggs HOG [cell=8, block=2, stride=1, bins=9, signed=false, clip=0.2, on=image]
 ///   gist       panoramic gist, horizontal blocks [scales=4, orientations=8, blocks=16]
 ///   grid-gist  gist on a grid [scales=4, orientations=8, grid=4, on=image]
@@ -97,6 +100,7 @@ impl Reads {
 enum Method {
     Fourier(FourierParams),
     Hog(PanoramicHogParams),
+    VerticalHog(VerticalHogParams),
     BlockHog(BlockHogParams),
     Gist(GistParams),
     Radon(RadonParams),
@@ -136,6 +140,12 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             let p = PanoramicHogParams { orientations: orientations(8)?, cells: spec.get("cells", 16)?, normalise: true };
             let parameters = json!({ "cells": p.cells, "bins": p.orientations.bins, "signed": p.orientations.signed, "cell_normalisation": "L2" });
             (Method::Hog(p), Reads::Panorama, parameters)
+        }
+        "vertical-hog" => {
+            spec.check_keys(&["width", "step", "bins", "signed"])?;
+            let p = VerticalHogParams { orientations: orientations(8)?, width: spec.get("width", 32)?, step: spec.get("step", 1)? };
+            let parameters = json!({ "cell_width": p.width, "step": p.step, "bins": p.orientations.bins, "signed": p.orientations.signed, "cell_normalisation": "L2" });
+            (Method::VerticalHog(p), Reads::Panorama, parameters)
         }
         "block-hog" => {
             spec.check_keys(&["cell", "block", "stride", "bins", "signed", "clip", "on"])?;
@@ -216,7 +226,7 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             });
             (Method::Surf(p), on(Reads::Image)?, parameters)
         }
-        other => bail!("unknown descriptor '{other}': give fourier, hog, block-hog, gist, grid-gist, radon, sift or surf"),
+        other => bail!("unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, radon, sift or surf"),
     };
     Ok(Choice { name: spec.name.clone(), method, reads, parameters })
 }
@@ -246,6 +256,7 @@ impl Choice {
                 }
             }
             Method::Hog(p) => values(panoramic_hog(grey, *p)?),
+            Method::VerticalHog(p) => values(vertical_hog(grey, *p)?),
             Method::BlockHog(p) => values(block_hog(grey, *p)?),
             Method::Gist(p) => values(gist(grey, *p)?),
             Method::Radon(p) => {
