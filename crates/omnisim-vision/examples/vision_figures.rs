@@ -1,5 +1,5 @@
-//! The figures of docs/vision.md: resampling error of the panorama against the exact render
-//! as the omnidirectional image grows, and time per image of each descriptor.
+//! The timing figures of docs/vision.md: time per image of each descriptor on a 250² omni
+//! image of env1 and its 512 × 128 panorama (the resampling error is `resampling_error`).
 //!
 //! cargo run --release -p omnisim-vision --example vision_figures
 
@@ -10,7 +10,9 @@ use glam::dvec3;
 use omnisim::{BackendChoice, Camera, Catadioptric, Planes, Pose, Renderer, Scene};
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::gist::{GistParams, gist};
-use omnisim_vision::hog::{BlockHogParams, PanoramicHogParams, block_hog, panoramic_hog};
+use omnisim_vision::hog::{BlockHogParams, PanoramicHogParams, VerticalHogParams, block_hog, panoramic_hog, vertical_hog};
+use omnisim_vision::sift::{SiftParams, sift};
+use omnisim_vision::surf::{SurfParams, surf};
 use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 
@@ -24,44 +26,8 @@ fn main() {
         let (w, h) = camera.size();
         Raster::from_rgb8(w as usize, h as usize, frame.colour().unwrap()).unwrap()
     };
-    let view = View::panorama(512, 128, (-45f64).to_radians(), 15f64.to_radians()).unwrap();
-    let View::Camera {
-        camera: panorama_camera,
-        ..
-    } = &view
-    else {
-        unreachable!()
-    };
-    let exact = render(panorama_camera);
-    println!("| omni image | interpolation | mean abs colour error (0-255) | pixels > 32 off |");
-    println!("|---|---|---|---|");
-    let mut omni_250 = None;
-    for size in [250u32, 500, 1000, 2000] {
-        let omni = Catadioptric::hyperbolic(size, size, 0.04, 0.16, Some(20f64.to_radians()));
-        let image = render(&Camera::Catadioptric(omni.clone()));
-        let remap = Remap::new(&omni, &view).unwrap();
-        for interpolation in [Interpolation::Bilinear, Interpolation::Bicubic] {
-            let resampled = remap.apply(&image, interpolation).unwrap();
-            let (mut sum, mut far, mut count) = (0.0, 0, 0);
-            for ((a, b), valid) in resampled.data.chunks(3).zip(exact.data.chunks(3)).zip(remap.valid()) {
-                if valid {
-                    let d = a.iter().zip(b).map(|(x, y)| (x - y).abs() as f64 * 255.0).sum::<f64>() / 3.0;
-                    sum += d;
-                    far += usize::from(d > 32.0);
-                    count += 1;
-                }
-            }
-            println!(
-                "| {size}² | {interpolation:?} | {:.2} | {:.2} % |",
-                sum / count as f64,
-                100.0 * far as f64 / count as f64
-            );
-        }
-        if size == 250 {
-            omni_250 = Some((omni, image));
-        }
-    }
-    let (omni, omni_image) = omni_250.unwrap();
+    let omni = Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()));
+    let omni_image = render(&Camera::Catadioptric(omni.clone()));
     let time = |name: &str, f: &mut dyn FnMut()| {
         f();
         let runs = 20;
@@ -100,7 +66,36 @@ fn main() {
     time("block HOG, 8 px cells, 2 × 2 blocks", &mut || {
         block_hog(&panorama, BlockHogParams::default()).unwrap();
     });
+    time("vertical-cell HOG, 32-column cells every column × 8 bins", &mut || {
+        vertical_hog(&panorama, VerticalHogParams::default()).unwrap();
+    });
     time("gist, 4 × 8 filters, 16 horizontal blocks", &mut || {
         gist(&panorama, GistParams::panoramic()).unwrap();
+    });
+    time("gist, 4 × 8 filters, 4 × 4 grid, of the omni image", &mut || {
+        gist(&grey_omni, GistParams::default()).unwrap();
+    });
+    let count = |f: &omnisim_vision::keypoints::Features| f.keypoints.len();
+    println!(
+        "(keypoints: SIFT {} omni / {} panorama, SURF {} / {})",
+        count(&sift(&grey_omni, &SiftParams::default()).unwrap()),
+        count(&sift(&panorama, &SiftParams::default()).unwrap()),
+        count(&surf(&grey_omni, &SurfParams::default()).unwrap()),
+        count(&surf(&panorama, &SurfParams::default()).unwrap())
+    );
+    time("SIFT (doubled image), of the omni image", &mut || {
+        sift(&grey_omni, &SiftParams::default()).unwrap();
+    });
+    time("SIFT (doubled image), of the panorama", &mut || {
+        sift(&panorama, &SiftParams::default()).unwrap();
+    });
+    time("SURF, threshold 100, of the omni image", &mut || {
+        surf(&grey_omni, &SurfParams::default()).unwrap();
+    });
+    time("SURF, threshold 100, of the panorama", &mut || {
+        surf(&panorama, &SurfParams::default()).unwrap();
+    });
+    time("U-SURF, of the panorama", &mut || {
+        surf(&panorama, &SurfParams { upright: true, ..SurfParams::default() }).unwrap();
     });
 }

@@ -455,13 +455,11 @@ pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
         let m = i.rem_euclid(period);
         (if m < n { m } else { period - m }) as usize
     };
+    // Each line is copied once with its mirrored margins, then convolved without index checks.
     let convolve = |source: &[f32], len: usize, out: &mut [f32]| {
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = kernel
-                .iter()
-                .enumerate()
-                .map(|(k, weight)| weight * source[reflect(i as i64 + k as i64 - radius as i64, len)])
-                .sum();
+        let padded: Vec<f32> = (0..len + 2 * radius).map(|i| source[reflect(i as i64 - radius as i64, len)]).collect();
+        for (o, window) in out.iter_mut().zip(padded.windows(kernel.len())) {
+            *o = window.iter().zip(&kernel).map(|(v, k)| v * k).sum();
         }
     };
     let mut rows = vec![0.0f32; w * h];
