@@ -95,7 +95,7 @@ pub(crate) fn is_extremum(n: &Neighbourhood, maximum: bool) -> bool {
 }
 
 /// The second-order Taylor expansion of a neighbourhood about its centre, by central
-/// differences (Lowe 2004 eqs. 2–3).
+/// differences (Lowe 2004 §4).
 pub(crate) struct QuadraticFit {
     /// ∂/∂x, ∂/∂y, ∂/∂scale.
     pub(crate) gradient: Vector3<f32>,
@@ -126,7 +126,7 @@ impl QuadraticFit {
         self.hessian.lu().solve(&self.gradient).map(|v| -v).filter(|v| v.iter().all(|c| c.is_finite()))
     }
 
-    /// The change of value at `offset`: ½·∇ᵀx̂ (Lowe 2004 eq. 3).
+    /// The change of value at `offset`: ½·∇ᵀx̂ (Lowe 2004 §4).
     pub(crate) fn gain(&self, offset: &Vector3<f32>) -> f32 {
         0.5 * self.gradient.dot(offset)
     }

@@ -7,9 +7,9 @@
 //!   starts from the image of blur 2σ taken every second pixel. Gaussian kernels reach
 //!   ±⌊(8σ + 1)/2⌋ pixels with mirrored borders (OpenCV's `GaussianBlur`).
 //! - Extrema (§4): samples above 0.5·c/s that are strict maxima or minima of their 26
-//!   neighbours, moved by the quadratic fit (eq. 3) up to 5 times until the offset is below
+//!   neighbours, moved by the quadratic fit (§4) up to 5 times until the offset is below
 //!   ½ sample; kept if |D(x̂)|·s ≥ c (c = 0.04: OpenCV divides the contrast threshold by the
-//!   scales per octave) and if tr(H)²/det(H) < (r + 1)²/r, r = 10 (eq. 4).
+//!   scales per octave) and if tr(H)²/det(H) < (r + 1)²/r, r = 10 (§4.1).
 //! - Orientation (§5): 36-bin histogram of gradient directions in a Gaussian window of
 //!   1.5·σ (radius 3·1.5·σ), smoothed with [1 4 6 4 1]/16; every peak within 80 % of the
 //!   highest gives a keypoint, its angle refined by a parabola through three bins.
