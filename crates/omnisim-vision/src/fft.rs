@@ -7,6 +7,7 @@
 use rustfft::num_complex::Complex;
 use rustfft::{FftDirection, FftPlanner};
 
+/// A complex sample in f64.
 pub type C64 = Complex<f64>;
 
 /// Transforms every row of the row-major `width`-wide `data` in place.

@@ -15,6 +15,7 @@ use crate::{Raster, Rotation, VisionError, require};
 /// find a good compromise (they test k = 4 … 64 on 128 × 512 panoramas).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FourierParams {
+    /// Coefficients k kept per row (0..k).
     pub coefficients: usize,
 }
 
@@ -27,7 +28,9 @@ impl Default for FourierParams {
 /// The first k DFT coefficients of every row of a one-channel panorama.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FourierSignature {
+    /// Rows of the panorama.
     pub rows: usize,
+    /// Coefficients kept per row.
     pub coefficients: usize,
     /// Width of the panorama (the DFT length), which sets the angular resolution 2π/width.
     pub width: usize,
@@ -36,6 +39,7 @@ pub struct FourierSignature {
 }
 
 impl FourierSignature {
+    /// The signature of a one-channel panorama.
     pub fn new(panorama: &Raster, params: FourierParams) -> Result<Self, VisionError> {
         require(panorama.channels == 1, "channels", || {
             format!("the Fourier signature reads one channel, got {}", panorama.channels)

@@ -23,8 +23,11 @@ use crate::{Descriptor, Raster, VisionError, require};
 /// orientations on a 4 × 4 grid (512 values).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GistParams {
+    /// Gabor scales (peak frequency 0.3/1.85^s cycles per pixel).
     pub scales: usize,
+    /// Orientations per scale.
     pub orientations: usize,
+    /// How the filtered images are averaged.
     pub blocks: Blocks,
 }
 

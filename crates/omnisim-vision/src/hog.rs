@@ -22,6 +22,7 @@ use crate::{Descriptor, Raster, Rotation, VisionError, require};
 /// Orientation binning shared by both variants.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Orientations {
+    /// Histogram bins.
     pub bins: usize,
     /// Angles over 2π (gradient direction) rather than π (edge orientation).
     pub signed: bool,
@@ -31,10 +32,15 @@ pub struct Orientations {
 /// 1 cell, L2-Hys clipping at 0.2.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BlockHogParams {
+    /// Orientation binning.
     pub orientations: Orientations,
+    /// Cell side, pixels.
     pub cell: usize,
+    /// Block side, cells.
     pub block: usize,
+    /// Block step, cells.
     pub stride: usize,
+    /// L2-Hys clipping of each normalised block value.
     pub clip: f32,
 }
 
@@ -54,8 +60,11 @@ impl Default for BlockHogParams {
 /// L2-normalised (values within the ranges Payá et al. 2014 test).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PanoramicHogParams {
+    /// Orientation binning.
     pub orientations: Orientations,
+    /// Horizontal cells k.
     pub cells: usize,
+    /// L2-normalise each cell's histogram.
     pub normalise: bool,
 }
 
@@ -233,7 +242,7 @@ pub fn vertical_hog(panorama: &Raster, params: VerticalHogParams) -> Result<Desc
     })?;
     params.orientations.check()?;
     let w = panorama.width;
-    require(params.step >= 1 && w % params.step == 0, "step", || {
+    require(params.step >= 1 && w.is_multiple_of(params.step), "step", || {
         format!("must divide the panorama's width {w}, got {}", params.step)
     })?;
     require(params.width >= 1 && params.width <= w, "width", || {

@@ -33,7 +33,9 @@ pub use raster::{Interpolation, Raster};
 /// A descriptor and its shape (row-major, last axis fastest).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Descriptor {
+    /// Size of each axis.
     pub shape: Vec<usize>,
+    /// The values, row-major.
     pub values: Vec<f32>,
 }
 
@@ -41,7 +43,9 @@ pub struct Descriptor {
 /// out of `period` (0..period), and the angle 2π·steps/period it stands for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rotation {
+    /// Samples of the shift, 0..period.
     pub steps: usize,
+    /// 2π·steps/period.
     pub radians: f64,
 }
 
@@ -60,21 +64,40 @@ pub enum VisionError {
     #[error(
         "the camera is not central (spherical or elliptic mirror, or misaligned): it has no closed-form projection to resample through"
     )]
+    /// A camera without a closed-form projection.
     NonCentral,
     #[error("the image is {got:?} pixels but {expected:?} are needed")]
+    /// An image of the wrong size.
     SizeMismatch {
+        /// Its size.
         got: (usize, usize),
+        /// The size needed.
         expected: (usize, usize),
     },
     #[error("{name}: {reason}")]
-    Parameter { name: &'static str, reason: String },
+    /// A setting out of its range.
+    Parameter {
+        /// The setting.
+        name: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
     #[error("{path}: {source}")]
+    /// A file that cannot be read or written.
     Io {
+        /// The file.
         path: std::path::PathBuf,
+        /// The OS error.
         source: std::io::Error,
     },
     #[error("{path}: {reason}")]
-    Format { path: std::path::PathBuf, reason: String },
+    /// A file that is not what was expected.
+    Format {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong with it.
+        reason: String,
+    },
 }
 
 /// `Err(Parameter)` unless `ok`: the check every descriptor makes of its settings.

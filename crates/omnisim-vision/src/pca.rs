@@ -67,6 +67,7 @@ impl Pca {
         })
     }
 
+    /// Axes kept.
     pub fn components(&self) -> usize {
         self.variances.len()
     }

@@ -21,9 +21,13 @@ use crate::{Interpolation, Raster, VisionError, require};
 /// Image up is body +x (forward), image right is body −y, as a map seen from above.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlaneView {
+    /// Output width.
     pub width: u32,
+    /// Output height.
     pub height: u32,
+    /// Ground sampling distance.
     pub metres_per_pixel: f64,
+    /// Height of the plane in the body frame, metres.
     pub plane_z: f64,
     /// Body (x, y) at the image centre ((W−1)/2, (H−1)/2).
     pub centre: DVec2,
@@ -50,7 +54,12 @@ impl PlaneView {
 pub enum View {
     /// A central camera of omnisim (cylindrical, equirectangular, pinhole) at the viewpoint,
     /// turned by `body_from_view` (its body frame into the omni camera's body frame).
-    Camera { camera: Camera, body_from_view: DMat3 },
+    Camera {
+        /// The view's camera model.
+        camera: Camera,
+        /// Its body frame in the omni camera's body frame.
+        body_from_view: DMat3,
+    },
     /// Orthographic bird's-eye view of a horizontal plane.
     Plane(PlaneView),
 }
@@ -119,6 +128,7 @@ impl View {
         }))
     }
 
+    /// Output size in pixels (width, height).
     pub fn size(&self) -> (u32, u32) {
         match self {
             View::Camera { camera, .. } => camera.size(),
@@ -150,7 +160,9 @@ impl View {
 /// For every pixel of a view, where it comes from in the omnidirectional image.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Remap {
+    /// Output width.
     pub width: usize,
+    /// Output height.
     pub height: usize,
     /// Size of the omnidirectional image the table reads.
     pub source_size: (usize, usize),

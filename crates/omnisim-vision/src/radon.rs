@@ -44,7 +44,9 @@ impl Default for RadonParams {
 /// The transform: row i is angle φ_i = 2π·i/angles, column j is [`Radon::p`]`(j)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Radon {
+    /// One channel: rows are angles, columns radial samples.
     pub values: Raster,
+    /// Pixels between radial samples.
     pub radial_step: f64,
 }
 

@@ -9,9 +9,13 @@ use crate::VisionError;
 /// A row-major image of `channels` interleaved f32 values per pixel.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Raster {
+    /// Columns.
     pub width: usize,
+    /// Rows.
     pub height: usize,
+    /// Values per pixel.
     pub channels: usize,
+    /// `width × height × channels` values, row-major, channels interleaved.
     pub data: Vec<f32>,
 }
 
@@ -48,6 +52,7 @@ impl Interpolation {
 }
 
 impl Raster {
+    /// A black (all-zero) image.
     pub fn new(width: usize, height: usize, channels: usize) -> Self {
         Self {
             width,
