@@ -95,8 +95,10 @@ pub fn gist(image: &Raster, params: GistParams) -> Result<Descriptor, VisionErro
     require(image.channels == 1, "channels", || {
         format!("gist reads one channel, got {}", image.channels)
     })?;
-    require(params.scales >= 1 && params.orientations >= 1, "filters", || {
-        "needs at least one scale and one orientation".to_string()
+    // Beyond 16 scales the peak frequency is below 1e-4 cycles per pixel; each filter costs a
+    // full-image transform, so the bank is bounded.
+    require((1..=16).contains(&params.scales) && (1..=64).contains(&params.orientations), "filters", || {
+        format!("needs 1–16 scales and 1–64 orientations, got {} and {}", params.scales, params.orientations)
     })?;
     let (nx, ny) = match params.blocks {
         Blocks::Grid(n) => (n, n),

@@ -102,8 +102,8 @@ fn gradients(image: &Raster, wrap: bool) -> Vec<(f32, f32)> {
 
 impl Orientations {
     fn check(&self) -> Result<(), VisionError> {
-        require(self.bins >= 2, "bins", || {
-            format!("needs at least 2, got {}", self.bins)
+        require((2..=360).contains(&self.bins), "bins", || {
+            format!("needs 2 to 360, got {}", self.bins)
         })
     }
 

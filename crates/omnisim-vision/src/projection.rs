@@ -178,6 +178,10 @@ impl Remap {
             return Err(VisionError::NonCentral);
         }
         let (width, height) = view.size();
+        // omnisim's cameras' own limit (`Camera::validate`); the table holds 24 bytes a pixel.
+        require(width >= 1 && height >= 1 && width as u64 * height as u64 <= 100_000_000, "view size", || {
+            format!("{width}×{height} pixels: a view has 1 to 100 megapixels")
+        })?;
         let (source_w, source_h) = (omni.width as f64, omni.height as f64);
         let inside = |p: &DVec2| p.x >= -0.5 && p.y >= -0.5 && p.x <= source_w - 0.5 && p.y <= source_h - 0.5;
         let source = (0..width as usize * height as usize)

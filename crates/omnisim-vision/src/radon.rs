@@ -73,6 +73,12 @@ impl Radon {
         require(radial >= 2, "radial samples", || {
             format!("needs at least 2, got {radial}")
         })?;
+        // Bounded so that a mistyped step cannot ask for days of work (the default is 6.3e7
+        // samples for a 250² image).
+        let samples = params.angles as f64 * radial as f64 * image.width.max(image.height) as f64 / params.line_step;
+        require(samples <= 1e10, "sampling", || {
+            format!("{samples:.1e} line samples asked (angles × radial samples × line length / line step); at most 1e10")
+        })?;
         let p = |j: usize| radial_position(j, radial, params.radial_step);
         let (cx, cy) = ((image.width as f64 - 1.0) / 2.0, (image.height as f64 - 1.0) / 2.0);
         let (max_x, max_y) = ((image.width - 1) as f64, (image.height - 1) as f64);
