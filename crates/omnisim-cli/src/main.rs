@@ -43,6 +43,7 @@ enum Command {
     Poses(commands::poses::PosesCommand),
     Bench(commands::bench::BenchArgs),
     Dataset(commands::dataset::DatasetArgs),
+    Preview(commands::preview::PreviewArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -54,6 +55,7 @@ fn main() -> std::process::ExitCode {
         Command::Poses(command) => commands::poses::run(command),
         Command::Bench(args) => commands::bench::run(args),
         Command::Dataset(args) => commands::dataset::run(args),
+        Command::Preview(args) => commands::preview::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod dataset;
 pub mod poses;
+pub mod preview;
 pub mod render;
 pub mod scene;
 pub mod speed_accuracy;

@@ -11,6 +11,7 @@ mod layout;
 pub mod manifest;
 pub mod noise;
 pub mod occluders;
+pub mod preview;
 pub mod rng;
 mod run;
 pub mod spec;
@@ -130,6 +131,9 @@ pub enum DatasetError {
         /// Why.
         source: occluders::NoFreePlace,
     },
+    /// The preview picture could not be rasterised.
+    #[error("cannot draw the preview picture: {0}")]
+    Picture(String),
     /// A random pose set could not be drawn.
     #[error("set '{set}': {source}")]
     Poses {

@@ -118,7 +118,7 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> DatasetError + '_ {
     }
 }
 
-fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
+pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
     atomic::write_atomically(path, |out| std::io::Write::write_all(out, bytes)).map_err(io(path))
 }
 
@@ -431,6 +431,30 @@ impl Dataset {
         })
     }
 
+    /// The per-frame occluders of frame `index` of set `s` (none if the set has no per-frame
+    /// occluders), drawn from the frame's own stream.
+    pub(crate) fn frame_occluders(&self, s: usize, index: usize) -> Result<Vec<Occluder>, DatasetError> {
+        let plan = &self.sets[s];
+        let per_frame: Vec<_> = plan.spec.occluders.iter().filter(|o| o.per_frame).collect();
+        if per_frame.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut rng = stream(self.spec.seed, &plan.spec.name, Some(index), Purpose::Occluders);
+        occluders::place(
+            &self.scene,
+            &self.bvh,
+            &per_frame,
+            &super::centres(&self.rig, &plan.poses[index]),
+            &plan.occluders,
+            &mut rng,
+        )
+        .map_err(|source| DatasetError::Occluders {
+            set: plan.spec.name.clone(),
+            frame: index.to_string(),
+            source,
+        })
+    }
+
     /// Renders and writes frame `index` of the set of `scene`, then its entry; returns the
     /// bytes written.
     fn render_frame(
@@ -445,24 +469,9 @@ impl Dataset {
         let set_dir = out.join(&set.name);
         let pose = &plan.poses[index];
         let seed = self.spec.seed;
-        let shared: Vec<_> = set.occluders.iter().filter(|o| o.per_frame).collect();
-        let mut placed = Vec::new();
+        let placed = self.frame_occluders(base.set, index)?;
         let mut own = None;
-        if !shared.is_empty() {
-            let mut rng = stream(seed, &set.name, Some(index), Purpose::Occluders);
-            placed = occluders::place(
-                &self.scene,
-                &self.bvh,
-                &shared,
-                &super::centres(&self.rig, pose),
-                &plan.occluders,
-                &mut rng,
-            )
-            .map_err(|source| DatasetError::Occluders {
-                set: set.name.clone(),
-                frame: index.to_string(),
-                source,
-            })?;
+        if !placed.is_empty() {
             let scene = occluders::with_occluders(&base.scene, &placed);
             own = Some((renderer.prepare(&scene)?, scene));
         }

@@ -518,3 +518,64 @@ fn shards_are_disjoint_and_cover_every_frame() {
         assert!(bad.parse::<Shard>().is_err(), "{bad}");
     }
 }
+
+#[test]
+fn the_preview_marks_every_pose_and_skipped_pose_where_the_plan_view_puts_it() {
+    let (_dir, path) = project(SPEC);
+    let dataset = Dataset::load(&path).unwrap();
+    let picture = preview::draw(&dataset).unwrap();
+    let svg = roxmltree::Document::parse(&picture.svg).expect("the preview is well-formed XML");
+    let with_class = |class: &str| {
+        svg.descendants()
+            .filter(|n| n.attribute("class") == Some(class))
+            .collect::<Vec<_>>()
+    };
+    let markers = with_class("pose-marker");
+    assert_eq!(markers.len(), dataset.frame_count());
+    assert_eq!(picture.poses, dataset.frame_count());
+    for set in &dataset.sets {
+        let groups: Vec<_> = with_class("pose")
+            .into_iter()
+            .filter(|g| g.attribute("data-set") == Some(set.spec.name.as_str()))
+            .collect();
+        assert_eq!(groups.len(), set.poses.len(), "set {}", set.spec.name);
+        for (i, (group, pose)) in groups.iter().zip(&set.poses).enumerate() {
+            assert_eq!(group.attribute("data-frame"), Some(i.to_string().as_str()));
+            let circle = group.children().find(|c| c.has_tag_name("circle")).unwrap();
+            let at = picture.view.to_picture(pose.position.truncate());
+            let centre = |name| circle.attribute(name).unwrap().parse::<f64>().unwrap();
+            assert!((centre("cx") - at.x).abs() < 0.01 && (centre("cy") - at.y).abs() < 0.01);
+        }
+    }
+    // The night set's two misplaced poses: one outside the room, one inside the table.
+    let crosses = with_class("skipped");
+    assert_eq!(dataset.sets[2].skipped.len(), 2);
+    assert_eq!((crosses.len(), picture.skipped), (2, 2));
+    let indices: Vec<_> = crosses.iter().map(|c| c.attribute("data-source-index").unwrap()).collect();
+    assert_eq!(indices, ["1", "2"]);
+    // The test set's per-frame person (one per frame) and the night set's per-set box.
+    assert_eq!(with_class("occluder per-frame").len(), dataset.sets[1].poses.len());
+    assert_eq!(with_class("occluder").len(), 1);
+    let lights: Vec<_> = with_class("light").iter().map(|l| l.attribute("data-light").unwrap()).collect();
+    assert_eq!(lights, ["lamp", "desk"]);
+
+    let png = image::load_from_memory(&picture.png().unwrap()).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), picture.view.size);
+    let pixel = |world: DVec2| {
+        let p = picture.view.to_picture(world);
+        png.get_pixel(p.x as u32, p.y as u32).0
+    };
+    let near = |a: [u8; 3], b: [u8; 3]| a.iter().zip(b).all(|(&x, y)| x.abs_diff(y) <= 12);
+    let map_colour = [31, 119, 180];
+    for pose in &dataset.sets[0].poses {
+        let centre = pose.position.truncate();
+        assert!(near(pixel(centre), map_colour), "{:?} at {centre}", pixel(centre));
+        // 10 cm behind the camera (the arrow points ahead) lies the floor, not the marker.
+        let behind = centre - (pose.world_from_body_rotation() * glam::DVec3::X).truncate() * 0.1;
+        assert!(!near(pixel(behind), map_colour), "{:?} behind {centre}", pixel(behind));
+    }
+    for skipped in &dataset.sets[2].skipped {
+        let at = DVec2::new(skipped.position[0], skipped.position[1]);
+        assert!(near(pixel(at), [230, 0, 0]), "{:?} at the cross {at}", pixel(at));
+    }
+}
