@@ -60,6 +60,9 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
     let uninterrupted = started.elapsed();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let reference = snapshot(&whole);
+    for set in ["map", "test"] {
+        assert!(reference.contains_key(&Path::new(set).join("contact-sheet.png")), "{set} has no contact sheet");
+    }
 
     let killed = dir.path().join("killed");
     // Kills at random moments within the uninterrupted run's time (fractions from a fixed
@@ -97,4 +100,39 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
             name.display()
         );
     }
+}
+
+#[test]
+fn preview_writes_the_svg_and_png_it_names_and_locates_spec_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    let spec = dir.path().join("spec.ron");
+    std::fs::write(&spec, SPEC).unwrap();
+    let prefix = dir.path().join("pictures/plan");
+    let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(["preview", "--out"])
+        .arg(&prefix)
+        .arg(&spec)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let printed = String::from_utf8(output.stdout).unwrap();
+    let svg = dir.path().join("pictures/plan.svg");
+    let png = dir.path().join("pictures/plan.png");
+    assert_eq!(printed, format!("{}\n{}\n", svg.display(), png.display()));
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg "));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("20 pose(s) of 2 set(s)"));
+
+    std::fs::write(&spec, SPEC.replace("count: 12", "count: 1")).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(["preview", "--out"])
+        .arg(&prefix)
+        .arg(&spec)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(stderr.contains("spec.ron:") && stderr.contains("set 'map': poses.count"), "{stderr}");
 }

@@ -7,6 +7,7 @@
 //! and `manifest.json`. Every random draw comes from (seed, set, frame) alone (`rng.rs`).
 
 mod appearance;
+mod contact_sheet;
 mod layout;
 pub mod manifest;
 pub mod noise;

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::appearance::{AppearanceRecord, frame_appearance};
+use super::contact_sheet::{self, CONTACT_SHEET};
 use super::layout::{self, Image};
 use super::manifest::{
     FileEntry, FileKind, FrameEntry, Manifest, ManifestSet, PoseEntry, SetEntry, Stamp, file_entry, inside, sha256_hex,
@@ -209,6 +210,7 @@ fn remove_previous(dir: &Path, previous: &Stamp) -> Result<usize, DatasetError> 
             }
         }
         remove(&entries.join(SET_ENTRY))?;
+        remove(&set_dir.join(CONTACT_SHEET))?;
         for name in index_names(set) {
             remove(&set_dir.join(name))?;
         }
@@ -710,6 +712,17 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
                 });
             }
         }
+        if spec.outputs.colour {
+            let sheet = set_dir.join(CONTACT_SHEET);
+            let bytes = set_contact_sheet(&set_dir, &rig, &frames)?;
+            write_file(&sheet, &bytes)?;
+            own.files.push(FileEntry {
+                path: format!("{}/{CONTACT_SHEET}", set.name),
+                kind: FileKind::Overview,
+                bytes: bytes.len() as u64,
+                sha256: sha256_hex(&bytes),
+            });
+        }
         let counted = own.files.iter().chain(frames.iter().flat_map(|f| &f.files));
         for file in counted {
             summary.files += 1;
@@ -736,6 +749,17 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
     };
     write_file(&dest.join(MANIFEST), &to_json(&manifest))?;
     Ok(summary)
+}
+
+/// The contact sheet of a set's frames (the first view's ground-truth colour).
+fn set_contact_sheet(set_dir: &Path, rig: &Rig, frames: &[FrameEntry]) -> Result<Vec<u8>, DatasetError> {
+    let suffix = rig.views().first().map(|v| v.suffix).unwrap_or_default();
+    let paths: Vec<(usize, PathBuf)> = contact_sheet::chosen(frames.len())
+        .into_iter()
+        .map(|i| (frames[i].index, set_dir.join(format!("{}{suffix}.png", frames[i].stem))))
+        .collect();
+    let shown: Vec<(usize, &Path)> = paths.iter().map(|(i, p)| (*i, p.as_path())).collect();
+    contact_sheet::contact_sheet(&shown)
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, DatasetError> {

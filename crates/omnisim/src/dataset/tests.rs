@@ -100,6 +100,27 @@ fn assert_same(a: &BTreeMap<String, Vec<u8>>, b: &BTreeMap<String, Vec<u8>>) {
     }
 }
 
+/// The set's contact sheet is a grid of its `frames` colour frames, each the frame shrunk.
+fn assert_contact_sheet_shows_the_frames(out: &Path, set: &str, frames: u32) {
+    let sheet = image::open(out.join(set).join("contact-sheet.png")).unwrap().to_rgb8();
+    // 32×24 frames become 128×96 thumbnails in 134×150 cells (6 px gaps, 16 px labels).
+    assert_eq!(sheet.dimensions(), (6 + frames * 134, 6 + 150));
+    let colour_frames: Vec<PathBuf> = std::fs::read_dir(out.join(set))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_str().unwrap().len() == "room-0000.png".len())
+        .collect();
+    assert_eq!(colour_frames.len() as u32, frames);
+    for k in 0..frames {
+        let frame = image::open(out.join(set).join(format!("room-{k:04}.png"))).unwrap().to_rgb8();
+        let thumbnail = image::imageops::resize(&frame, 128, 96, image::imageops::FilterType::Triangle);
+        let (x, y) = (6 + k * 134, 6 + 16);
+        for (u, v, pixel) in thumbnail.enumerate_pixels() {
+            assert_eq!(sheet.get_pixel(x + u, y + v), pixel, "{set} frame {k} at ({u}, {v})");
+        }
+    }
+}
+
 #[test]
 fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
     let (dir, spec) = project(SPEC);
@@ -120,6 +141,10 @@ fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
     let reference = snapshot(&whole);
     assert!(reference.contains_key("manifest.json") && reference.contains_key("map/tum/groundtruth.txt"));
     assert!(reference.contains_key("map/room-0002-noisy.png") && reference.contains_key("map/room-0002.png"));
+    assert_contact_sheet_shows_the_frames(&whole, "map", 4);
+    assert_contact_sheet_shows_the_frames(&whole, "night", 1);
+    let manifest = String::from_utf8_lossy(&reference["manifest.json"]).into_owned();
+    assert!(manifest.contains("\"map/contact-sheet.png\"") && manifest.contains("\"overview\""));
 
     // The same spec again, from scratch: the same bytes.
     let again = dir.path().join("again");
