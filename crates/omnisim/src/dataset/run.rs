@@ -9,6 +9,8 @@
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, mpsc};
 
 use serde::Serialize;
 
@@ -292,6 +294,85 @@ fn is_done(root: &Path, set_dir: &Path, index: usize) -> Option<u64> {
     sizes_match.then(|| entry.files.iter().map(|f| f.bytes).sum())
 }
 
+/// Writer threads: enough to keep up with the renderer, few enough to leave it the cores.
+fn writer_threads() -> usize {
+    std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 4)
+}
+
+/// How a frame of a run came to be done.
+enum Outcome {
+    /// An earlier run wrote it: its bytes.
+    Resumed(u64),
+    /// Written now: its bytes.
+    Written(u64),
+}
+
+/// The run's tally of done frames, and whether the run goes on.
+struct Heard<'a, 'b> {
+    names: Vec<&'a str>,
+    summary: &'b mut RunSummary,
+    on_frame: &'b mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+    done: usize,
+    total: usize,
+    /// The first error; the run stops rendering and lets the frames in flight finish.
+    failure: Option<DatasetError>,
+    /// Set on an error or when `on_frame` asks to stop.
+    stopped: bool,
+    /// Tells the writers to drop the frames still queued (they are not done; a later run
+    /// renders them again).
+    stop: &'b AtomicBool,
+}
+
+impl Heard<'_, '_> {
+    /// Counts frame `index` of set `s` and tells `on_frame`.
+    fn frame(&mut self, s: usize, index: usize, outcome: Result<Outcome, DatasetError>) {
+        let (rendered, bytes) = match outcome {
+            Ok(Outcome::Resumed(bytes)) => {
+                self.summary.resumed += 1;
+                (false, bytes)
+            }
+            Ok(Outcome::Written(bytes)) => {
+                self.summary.rendered += 1;
+                self.summary.bytes += bytes;
+                (true, bytes)
+            }
+            Err(error) => {
+                self.failure.get_or_insert(error);
+                self.stop();
+                return;
+            }
+        };
+        self.done += 1;
+        let report = FrameDone {
+            set: self.names[s],
+            index,
+            rendered,
+            bytes,
+            done: self.done,
+            total: self.total,
+        };
+        if (self.on_frame)(&report).is_break() {
+            self.stop();
+        }
+    }
+
+    fn stop(&mut self) {
+        self.stopped = true;
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+/// A frame rendered and not yet written.
+struct RenderedFrame {
+    set: usize,
+    index: usize,
+    /// One per view of the rig.
+    frames: Vec<Frame>,
+    /// Its per-frame occluders.
+    placed: Vec<Occluder>,
+    record: AppearanceRecord,
+}
+
 /// A set's prepared scene, with its per-set occluders, kept while its frames render.
 struct SetScene {
     set: usize,
@@ -353,39 +434,80 @@ impl Dataset {
             .filter(|(n, _)| options.shard.is_none_or(|shard| shard.takes(*n)))
             .map(|(_, frame)| frame)
             .collect();
-        let mut current: Option<SetScene> = None;
-        for (done, &(s, index)) in frames.iter().enumerate() {
-            let set_dir = out.join(&self.sets[s].spec.name);
-            let (rendered, bytes) = match is_done(out, &set_dir, index) {
-                Some(bytes) => {
-                    summary.resumed += 1;
-                    (false, bytes)
-                }
-                None => {
-                    let mut scene = match current.take() {
-                        Some(scene) if scene.set == s => scene,
-                        _ => self.set_scene(renderer, s)?,
-                    };
-                    let bytes = self.render_frame(renderer, out, &mut scene, index)?;
-                    current = Some(scene);
-                    summary.rendered += 1;
-                    summary.bytes += bytes;
-                    (true, bytes)
-                }
-            };
-            let report = FrameDone {
-                set: &self.sets[s].spec.name,
-                index,
-                rendered,
-                bytes,
-                done: done + 1,
-                total: frames.len(),
-            };
-            if on_frame(&report).is_break() {
-                summary.stopped = done + 1 < frames.len();
-                break;
+        let stop = AtomicBool::new(false);
+        let mut heard = Heard {
+            names: self.sets.iter().map(|s| s.spec.name.as_str()).collect(),
+            summary: &mut summary,
+            on_frame,
+            done: 0,
+            total: frames.len(),
+            failure: None,
+            stopped: false,
+            stop: &stop,
+        };
+        // Frames render here, one after another (the renderer is not shared), while writer
+        // threads encode and write the frames before them; a bounded queue keeps at most a
+        // few rendered frames in memory. Each frame's entry is its last file, so whatever
+        // moment a run is killed at, a frame is done exactly when its entry exists.
+        let writers = writer_threads();
+        let (to_write, queue) = mpsc::sync_channel::<RenderedFrame>(writers);
+        let queue = Mutex::new(queue);
+        let (report, written) = mpsc::channel();
+        std::thread::scope(|scope| {
+            for _ in 0..writers {
+                let (queue, report, stop) = (&queue, report.clone(), &stop);
+                scope.spawn(move || {
+                    while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
+                        if stop.load(Ordering::Relaxed) {
+                            continue;
+                        }
+                        let (set, index) = (frame.set, frame.index);
+                        if report.send((set, index, self.write_frame(out, frame))).is_err() {
+                            break;
+                        }
+                    }
+                });
             }
+            drop(report);
+            let mut current: Option<SetScene> = None;
+            for &(s, index) in &frames {
+                while let Ok((set, i, result)) = written.try_recv() {
+                    heard.frame(set, i, result.map(Outcome::Written));
+                }
+                if heard.stopped {
+                    break;
+                }
+                let outcome = match is_done(out, &out.join(&self.sets[s].spec.name), index) {
+                    Some(bytes) => Ok(Outcome::Resumed(bytes)),
+                    None => {
+                        let scene = match current.take() {
+                            Some(scene) if scene.set == s => Ok(scene),
+                            _ => self.set_scene(renderer, s),
+                        };
+                        let rendered = scene.and_then(|mut scene| {
+                            let frame = self.render_frame(renderer, &mut scene, index);
+                            current = Some(scene);
+                            frame
+                        });
+                        match rendered.map(|frame| to_write.send(frame)) {
+                            Ok(Ok(())) => continue,
+                            Ok(Err(_)) => break, // every writer has stopped: its error is queued
+                            Err(e) => Err(e),
+                        }
+                    }
+                };
+                heard.frame(s, index, outcome);
+            }
+            drop(to_write);
+            for (set, i, result) in written {
+                heard.frame(set, i, result.map(Outcome::Written));
+            }
+        });
+        let (failure, done) = (heard.failure, heard.done);
+        if let Some(failure) = failure {
+            return Err(failure);
         }
+        summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
             merge(out, &[])?;
             summary.merged = true;
@@ -457,20 +579,16 @@ impl Dataset {
         })
     }
 
-    /// Renders and writes frame `index` of the set of `scene`, then its entry; returns the
-    /// bytes written.
+    /// Renders frame `index` of the set of `base` (its per-frame occluders, lights and
+    /// colours applied): what `write_frame` then writes.
     fn render_frame(
         &self,
         renderer: &Renderer,
-        out: &Path,
         base: &mut SetScene,
         index: usize,
-    ) -> Result<u64, DatasetError> {
-        let plan = &self.sets[base.set];
-        let set = &plan.spec;
-        let set_dir = out.join(&set.name);
-        let pose = &plan.poses[index];
-        let seed = self.spec.seed;
+    ) -> Result<RenderedFrame, DatasetError> {
+        let set = &self.sets[base.set].spec;
+        let pose = &self.sets[base.set].poses[index];
         let placed = self.frame_occluders(base.set, index)?;
         let mut own = None;
         if !placed.is_empty() {
@@ -481,18 +599,44 @@ impl Dataset {
             Some((prepared, scene)) => (prepared, &*scene),
             None => (&mut base.prepared, &base.scene),
         };
-        let (appearance, record) = frame_appearance(scene, self.scene.objects.len(), set, seed, index);
+        let (appearance, record) = frame_appearance(scene, self.scene.objects.len(), set, self.spec.seed, index);
         renderer.set_appearance(prepared, appearance)?;
-        let noisy_colour = !set.noise.colour.is_empty();
         let mut planes = self.spec.outputs.planes();
-        if noisy_colour {
+        if !set.noise.colour.is_empty() {
             planes = planes.with(Plane::LinearColour);
         }
-        let views = self.rig.views();
-        let frames = views
+        let frames = self
+            .rig
+            .views()
             .iter()
             .map(|view| renderer.render(prepared, &view.camera, pose, planes))
             .collect::<Result<Vec<Frame>, _>>()?;
+        Ok(RenderedFrame {
+            set: base.set,
+            index,
+            frames,
+            placed,
+            record,
+        })
+    }
+
+    /// Writes a rendered frame's files (ground truth, noisy copies, layouts), then its entry;
+    /// returns the bytes written. Runs on a writer thread while later frames render.
+    fn write_frame(&self, out: &Path, rendered: RenderedFrame) -> Result<u64, DatasetError> {
+        let RenderedFrame {
+            set: s,
+            index,
+            frames,
+            placed,
+            record,
+        } = rendered;
+        let plan = &self.sets[s];
+        let set = &plan.spec;
+        let set_dir = out.join(&set.name);
+        let pose = &plan.poses[index];
+        let seed = self.spec.seed;
+        let noisy_colour = !set.noise.colour.is_empty();
+        let views = self.rig.views();
         let scene_stem = self.scene.file_stem();
         let target = FrameTarget {
             scene: &scene_stem,
