@@ -94,6 +94,7 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         overwrite: args.overwrite,
     };
     let mut progress = Progress::new();
+    let run_started = Instant::now();
     let summary = dataset
         .run(&renderer, &out, &options, &mut |frame| {
             progress.frame(frame);
@@ -104,14 +105,21 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     for note in &summary.notes {
         eprintln!("note: {note}");
     }
-    let seconds = started.elapsed().as_secs_f64();
+    // Frames: from the start of the run to the last frame written; then the checks and index
+    // files (manifest, layouts, contact sheets).
+    let frames_done = progress.last_frame.unwrap_or(run_started);
+    let seconds = (frames_done - run_started).as_secs_f64();
     eprintln!(
-        "{} frame(s) rendered ({} already done), {:.1} MB written in {seconds:.1} s ({:.2} frames/s) on {}",
+        "{} frame(s) rendered ({} already done), {:.1} MB written in {seconds:.2} s ({:.2} frames/s) on {}; \
+         {:.2} s in all ({:.2} s after the last frame: {})",
         summary.rendered,
         summary.resumed,
         summary.bytes as f64 / 1e6,
         summary.rendered as f64 / seconds.max(1e-9),
-        renderer.backend_name()
+        renderer.backend_name(),
+        started.elapsed().as_secs_f64(),
+        frames_done.elapsed().as_secs_f64(),
+        if summary.merged { "checks, index files, manifest" } else { "nothing to merge yet" }
     );
     match args.shard {
         Some(shard) => eprintln!(
@@ -129,6 +137,8 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
 struct Progress {
     bar: Option<ProgressBar>,
     last: Instant,
+    /// When the last frame was heard of.
+    last_frame: Option<Instant>,
 }
 
 impl Progress {
@@ -136,10 +146,12 @@ impl Progress {
         Self {
             bar: None,
             last: Instant::now(),
+            last_frame: None,
         }
     }
 
     fn frame(&mut self, frame: &dataset::FrameDone) {
+        self.last_frame = Some(Instant::now());
         if !std::io::stderr().is_terminal() {
             if self.last.elapsed() >= Duration::from_secs(10) || frame.done == frame.total {
                 eprintln!(

@@ -606,3 +606,95 @@ fn the_preview_marks_every_pose_and_skipped_pose_where_the_plan_view_puts_it() {
         assert!(near(pixel(at), [230, 0, 0]), "{:?} at the cross {at}", pixel(at));
     }
 }
+
+/// A spec whose pinhole looks at the east wall (x = 2 m) from x = 0, 0.5 and 1 m at the
+/// height of the room's middle: every pixel of the image's upper half sees that wall, at
+/// depth z = 2, 1.5 and 1 m exactly.
+const WALL: &str = r#"Dataset(
+    scene: "room.ron",
+    rig: Pinhole(size: (32, 24), hfov: 70.0),
+    sets: [Set(name: "wall", poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (0.5, 0.0, 1.0, 0.0, 0.0, 0.0),
+        (1.0, 0.0, 1.0, 0.0, 0.0, 0.0)]), layouts: [Tum(rate: 30.0)])],
+)"#;
+
+/// `OMNISIM_PYTHON`, or `None` after saying loudly what is skipped (outside CI only).
+fn python_for(check: &str) -> Option<PathBuf> {
+    match std::env::var_os("OMNISIM_PYTHON") {
+        Some(python) => Some(PathBuf::from(python)),
+        None => {
+            assert!(std::env::var_os("CI").is_none(), "CI must set OMNISIM_PYTHON for the {check}");
+            eprintln!(
+                "**** SKIPPED: {check} (set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt)"
+            );
+            None
+        }
+    }
+}
+
+#[test]
+fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
+    let Some(python) = python_for("Open3D and evo_ape check of the TUM layout") else {
+        return;
+    };
+    let (dir, spec) = project(WALL);
+    let out = dir.path().join("out");
+    run(&Dataset::load(&spec).unwrap(), &out, RunOptions::default(), None);
+    let tum = out.join("wall/tum");
+    let readers = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/readers");
+    let output = std::process::Command::new(&python)
+        .arg(readers.join("check_tum_open3d.py"))
+        .arg(&tum)
+        .args((0..3).map(|k| out.join(format!("wall/room-{k:04}-depth.exr"))))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}{}", String::from_utf8_lossy(&output.stderr));
+    let pairs: Vec<serde_json::Value> = stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(pairs.len(), 3);
+    for (k, (pair, wall)) in pairs.iter().zip([2.0, 1.5, 1.0]).enumerate() {
+        let number = |v: &serde_json::Value| v.as_f64().unwrap();
+        assert_eq!(pair["size"], serde_json::json!([32, 24]));
+        assert_eq!(pair["colour_size"], serde_json::json!([24, 32, 3]));
+        // Timestamps are written to the microsecond.
+        assert!((number(&pair["timestamps"][0]) - k as f64 / 30.0).abs() < 1e-6, "{pair}");
+        // 16-bit z × 5000: within half a step (0.1 mm) of the exact depth and of the EXR.
+        for end in [0, 1] {
+            let depth = number(&pair["upper_half_depth"][end]);
+            assert!((depth - wall).abs() <= 1e-4 + 1e-9, "pair {k}: {depth} m, wall at {wall} m");
+        }
+        assert!(number(&pair["max_error_vs_exr"]) <= 1e-4 + 1e-7, "pair {k}: {pair}");
+        assert_eq!(pair["zero_where_no_depth"], true);
+    }
+    // evo_ape reads groundtruth.txt against a copy moved 1 cm along x: APE RMSE 0.01 m.
+    let truth = tum.join("groundtruth.txt");
+    let moved: String = std::fs::read_to_string(&truth)
+        .unwrap()
+        .lines()
+        .map(|line| match line.starts_with('#') {
+            true => format!("{line}\n"),
+            false => {
+                let mut fields: Vec<String> = line.split(' ').map(str::to_string).collect();
+                fields[1] = format!("{:.6}", fields[1].parse::<f64>().unwrap() + 0.01);
+                fields.join(" ") + "\n"
+            }
+        })
+        .collect();
+    let estimate = dir.path().join("moved.txt");
+    std::fs::write(&estimate, moved).unwrap();
+    let output = std::process::Command::new(&python)
+        .arg(python.with_file_name("evo_ape"))
+        .arg("tum")
+        .args([&truth, &estimate])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{text}{}", String::from_utf8_lossy(&output.stderr));
+    let rmse: f64 = text
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("rmse"))
+        .unwrap_or_else(|| panic!("no rmse in {text}"))
+        .trim()
+        .parse()
+        .unwrap();
+    assert!((rmse - 0.01).abs() < 1e-6, "APE RMSE {rmse}");
+}
