@@ -136,3 +136,52 @@ fn preview_writes_the_svg_and_png_it_names_and_locates_spec_errors() {
     assert!(!output.status.success());
     assert!(stderr.contains("spec.ron:") && stderr.contains("set 'map': poses.count"), "{stderr}");
 }
+
+/// Write failures that stop even root (CI runs as root, so permissions do not): a file-size
+/// limit (`ulimit -f`, SIGXFSZ ignored so writes fail with EFBIG, as on a full disk) that a
+/// frame's point cloud exceeds, and an output path through a regular file.
+#[test]
+fn write_failures_end_with_a_clear_message_and_resume_to_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    let spec = dir.path().join("spec.ron");
+    std::fs::write(&spec, SPEC).unwrap();
+    let whole = dir.path().join("whole");
+    assert!(dataset(&spec, &whole).status().unwrap().success());
+
+    // 250 KiB: the set files (ray map 222 kB) fit, each frame's 288 kB PLY does not.
+    let limited = dir.path().join("limited");
+    let script = format!(
+        "trap '' XFSZ; ulimit -f 250; exec \"$0\" dataset --backend cpu --out '{}' '{}'",
+        limited.display(),
+        spec.display()
+    );
+    let output = Command::new("bash")
+        .args(["-c", &script, env!("CARGO_BIN_EXE_omnisim")])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        stderr.contains("-0000.ply: File too large") && stderr.contains("run the same command again to resume"),
+        "{stderr}"
+    );
+    let partial = snapshot(&limited);
+    assert!(partial.keys().any(|p| p.ends_with("env1-0000.png")), "frame 0 was under way");
+    assert!(
+        !partial.keys().any(|p| p.to_string_lossy().contains("omnisim-tmp") || p.ends_with("env1-0000.ply")),
+        "half-written files left: {:?}",
+        partial.keys().collect::<Vec<_>>()
+    );
+    assert!(!partial.contains_key(Path::new("map/.frames/000000.json")), "frame 0 counted as done");
+    let output = dataset(&spec, &limited).output().unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(snapshot(&limited) == snapshot(&whole), "the resumed run differs from an uninterrupted one");
+
+    let through_file = spec.join("out");
+    let output = dataset(&spec, &through_file).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(stderr.contains("a part of this path is a file, not a folder"), "{stderr}");
+}

@@ -100,7 +100,14 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
             progress.frame(frame);
             ControlFlow::Continue(())
         })
-        .with_context(|| format!("data set {} into {}", spec.display(), out.display()))?;
+        .with_context(|| {
+            format!(
+                "data set {} into {} stopped; frames already finished are kept: remove the cause and run the same \
+                 command again to resume",
+                spec.display(),
+                out.display()
+            )
+        })?;
     progress.finish();
     for note in &summary.notes {
         eprintln!("note: {note}");

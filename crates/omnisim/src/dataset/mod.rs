@@ -67,7 +67,7 @@ pub enum DatasetError {
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),
     /// A file or folder could not be read or written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {source}{}", path.display(), io_hint(source))]
     Io {
         /// The file or folder.
         path: PathBuf,
@@ -143,6 +143,20 @@ pub enum DatasetError {
         /// Why.
         source: pose_sets::TooFewClear,
     },
+}
+
+/// What to do about the system errors a user can fix.
+fn io_hint(error: &std::io::Error) -> &'static str {
+    use std::io::ErrorKind;
+    match error.kind() {
+        ErrorKind::NotADirectory => " (a part of this path is a file, not a folder: choose another path)",
+        ErrorKind::StorageFull => " (the disk is full: free space, then run the same command again to resume)",
+        ErrorKind::FileTooLarge => " (beyond the file-size limit, see `ulimit -f`)",
+        ErrorKind::PermissionDenied | ErrorKind::ReadOnlyFilesystem => {
+            " (no permission to write there: choose another folder)"
+        }
+        _ => "",
+    }
 }
 
 /// World positions of `rig`'s optical centres at `pose` (what occluders keep away from).
