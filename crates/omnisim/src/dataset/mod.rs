@@ -457,22 +457,39 @@ fn poses(spec: &Spec, set: &SetSpec, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_s
             high,
             tilt,
             clearance,
-        } => pose_sets::random(
-            bvh,
-            &RandomPoses {
-                count: *count,
-                seed: rng::seed_u64(spec.seed, &set.name, rng::Purpose::Poses),
-                low: (*low).into(),
-                high: (*high).into(),
-                max_tilt: tilt.to_radians(),
-                clearance: *clearance,
-            },
-        )?,
+            angles,
+        } => {
+            let mut poses = pose_sets::random(
+                bvh,
+                &RandomPoses {
+                    count: *count,
+                    seed: rng::seed_u64(spec.seed, &set.name, rng::Purpose::Poses),
+                    low: (*low).into(),
+                    high: (*high).into(),
+                    max_tilt: tilt.to_radians(),
+                    clearance: *clearance,
+                },
+            )?;
+            if let Some(ranges) = angles {
+                // Positions as drawn above; angles from a stream of their own.
+                let mut rng = rng::stream(spec.seed, &set.name, None, rng::Purpose::Angles);
+                for pose in &mut poses {
+                    *pose = Pose::new(pose.position, degrees(draw_angles(ranges, &mut rng)));
+                }
+            }
+            poses
+        }
         PoseSource::List(list) => list
             .iter()
             .map(|&(x, y, z, ax, ay, az)| Pose::from_degrees(dvec3(x, y, z), dvec3(ax, ay, az)))
             .collect(),
     })
+}
+
+/// θx, θy, θz (degrees), each uniform in its (min, max).
+fn draw_angles(ranges: &spec::AngleRanges, rng: &mut impl rand::Rng) -> (f64, f64, f64) {
+    let mut draw = |(low, high): (f64, f64)| low + (high - low) * rng.random::<f64>();
+    (draw(ranges.0), draw(ranges.1), draw(ranges.2))
 }
 
 /// Splits poses into those to render and those inside a closed object or outside the scene.

@@ -698,3 +698,33 @@ fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
         .unwrap();
     assert!((rmse - 0.01).abs() < 1e-6, "APE RMSE {rmse}");
 }
+
+#[test]
+fn random_poses_draw_each_angle_in_its_own_range() {
+    let spec = |angles: &str| {
+        format!(
+            r#"Dataset(scene: "room.ron", rig: Pinhole(size: (8, 6)), sets: [Set(name: "test",
+                poses: Random(count: 200, low: (-1.5, -1.0, 0.5), high: (1.5, 1.0, 1.5), {angles}))])"#
+        )
+    };
+    let (_dir, path) = project(&spec("angles: ((-5.0, 5.0), (10.0, 20.0), (90.0, 90.0))"));
+    let dataset = Dataset::load(&path).unwrap();
+    let angles: Vec<_> = dataset.sets[0].poses.iter().map(|p| p.angles_degrees()).collect();
+    assert_eq!(angles.len(), 200);
+    let spread = |axis: fn(&glam::DVec3) -> f64| {
+        let values: Vec<f64> = angles.iter().map(axis).collect();
+        (values.iter().copied().fold(f64::MAX, f64::min), values.iter().copied().fold(f64::MIN, f64::max))
+    };
+    let (x, y, z) = (spread(|a| a.x), spread(|a| a.y), spread(|a| a.z));
+    // Inside each range, and spread over it (200 uniform draws leave gaps of ~1/200).
+    assert!(x.0 >= -5.0 - 1e-9 && x.1 <= 5.0 + 1e-9 && x.0 < -4.5 && x.1 > 4.5, "{x:?}");
+    assert!(y.0 >= 10.0 - 1e-9 && y.1 <= 20.0 + 1e-9 && y.0 < 10.5 && y.1 > 19.5, "{y:?}");
+    assert!((z.0 - 90.0).abs() < 1e-9 && (z.1 - 90.0).abs() < 1e-9, "{z:?}");
+
+    let (_dir, path) = project(&spec("tilt: 5.0, angles: ((0.0, 1.0), (0.0, 1.0), (0.0, 1.0))"));
+    let message = Dataset::load(&path).err().unwrap().to_string();
+    assert!(message.contains("set 'test': poses.angles: give tilt or per-axis angles, not both"), "{message}");
+    let (_dir, path) = project(&spec("angles: ((0.0, 1.0), (3.0, 2.0), (0.0, 1.0))"));
+    let message = Dataset::load(&path).err().unwrap().to_string();
+    assert!(message.contains("spec.ron:") && message.contains("θy: (3, 2)"), "{message}");
+}
