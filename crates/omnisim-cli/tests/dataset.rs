@@ -47,13 +47,19 @@ fn dataset(spec: &Path, out: &Path) -> Command {
     command
 }
 
-#[test]
-fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
+/// A folder with env1.ron and `SPEC`; returns it and the spec's path.
+fn project() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
     let spec = dir.path().join("spec.ron");
     std::fs::write(&spec, SPEC).unwrap();
+    (dir, spec)
+}
+
+#[test]
+fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
+    let (dir, spec) = project();
     let whole = dir.path().join("whole");
     let started = std::time::Instant::now();
     let output = dataset(&spec, &whole).output().unwrap();
@@ -104,18 +110,17 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
 
 #[test]
 fn preview_writes_the_svg_and_png_it_names_and_locates_spec_errors() {
-    let dir = tempfile::tempdir().unwrap();
-    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
-    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
-    let spec = dir.path().join("spec.ron");
-    std::fs::write(&spec, SPEC).unwrap();
+    let (dir, spec) = project();
     let prefix = dir.path().join("pictures/plan");
-    let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
-        .args(["preview", "--out"])
-        .arg(&prefix)
-        .arg(&spec)
-        .output()
-        .unwrap();
+    let preview = || {
+        Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(["preview", "--out"])
+            .arg(&prefix)
+            .arg(&spec)
+            .output()
+            .unwrap()
+    };
+    let output = preview();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let printed = String::from_utf8(output.stdout).unwrap();
     let svg = dir.path().join("pictures/plan.svg");
@@ -126,12 +131,7 @@ fn preview_writes_the_svg_and_png_it_names_and_locates_spec_errors() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("20 pose(s) of 2 set(s)"));
 
     std::fs::write(&spec, SPEC.replace("count: 12", "count: 1")).unwrap();
-    let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
-        .args(["preview", "--out"])
-        .arg(&prefix)
-        .arg(&spec)
-        .output()
-        .unwrap();
+    let output = preview();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
     assert!(stderr.contains("spec.ron:") && stderr.contains("set 'map': poses.count"), "{stderr}");
@@ -142,11 +142,7 @@ fn preview_writes_the_svg_and_png_it_names_and_locates_spec_errors() {
 /// frame's point cloud exceeds, and an output path through a regular file.
 #[test]
 fn write_failures_end_with_a_clear_message_and_resume_to_the_same_bytes() {
-    let dir = tempfile::tempdir().unwrap();
-    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
-    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
-    let spec = dir.path().join("spec.ron");
-    std::fs::write(&spec, SPEC).unwrap();
+    let (dir, spec) = project();
     let whole = dir.path().join("whole");
     assert!(dataset(&spec, &whole).status().unwrap().success());
 

@@ -489,9 +489,11 @@ impl Dataset {
                             current = Some(scene);
                             frame
                         });
-                        match rendered.map(|frame| to_write.send(frame)) {
-                            Ok(Ok(())) => continue,
-                            Ok(Err(_)) => break, // every writer has stopped: its error is queued
+                        match rendered {
+                            Ok(frame) => match to_write.send(frame) {
+                                Ok(()) => continue,
+                                Err(_) => break, // every writer has stopped: its error is queued
+                            },
                             Err(e) => Err(e),
                         }
                     }
