@@ -818,7 +818,9 @@ fn check_set(spec: &Spec, set: &SetSpec) -> Checked {
         if matches!(layout, LayoutSpec::Tum { .. }) && !matches!(spec.rig, RigSpec::Pinhole(_) | RigSpec::Stereo(_)) {
             return Err((
                 format!("layouts[{i}]"),
-                "TUM RGB-D needs depth along an optical axis: a Pinhole or Stereo rig".into(),
+                "TUM RGB-D pairs every colour image with a depth image along an optical axis, which only a Pinhole \
+                 or Stereo rig has; for this rig use Euroc (images and poses), with the range EXRs as depth"
+                    .into(),
             ));
         }
     }

@@ -314,6 +314,12 @@ fn bad_specs_get_located_errors() {
             "layouts[0].rate",
             "positive",
         ),
+        (
+            SPEC.replace("Pinhole(size: (32, 24), hfov: 70.0)", "Omni(size: (32, 32))"),
+            "spec.ron:8:",
+            "set 'map': layouts[0]",
+            "for this rig use Euroc",
+        ),
     ];
     for (text, at, place, what) in cases {
         let (_dir, spec) = project(&text);
