@@ -44,12 +44,7 @@ const TEXT: Rgb<u8> = Rgb([235, 235, 235]);
 
 /// Which of `frames` frames the sheet shows: all, or `MAX_THUMBNAILS` evenly spread.
 pub(crate) fn chosen(frames: usize) -> Vec<usize> {
-    if frames <= MAX_THUMBNAILS {
-        return (0..frames).collect();
-    }
-    (0..MAX_THUMBNAILS)
-        .map(|k| k * (frames - 1) / (MAX_THUMBNAILS - 1))
-        .collect()
+    super::evenly_spread(frames, MAX_THUMBNAILS)
 }
 
 /// The PNG bytes of a sheet of `frames`: (frame number, colour PNG path), in order.

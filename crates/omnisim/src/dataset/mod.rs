@@ -145,6 +145,15 @@ pub enum DatasetError {
     },
 }
 
+/// `most` indices from 0 to `total` − 1 (all of them if there are no more), evenly spread,
+/// the first and the last included: the frames a picture shows of a large set.
+pub(crate) fn evenly_spread(total: usize, most: usize) -> Vec<usize> {
+    if total <= most {
+        return (0..total).collect();
+    }
+    (0..most).map(|k| k * (total - 1) / (most - 1).max(1)).collect()
+}
+
 /// What to do about the system errors a user can fix.
 fn io_hint(error: &std::io::Error) -> &'static str {
     use std::io::ErrorKind;

@@ -41,6 +41,8 @@ const MARGIN: Margin = Margin {
     right: 330.0,
     bottom: 90.0,
 };
+/// Poses drawn per set at most; larger sets show this many, evenly spread.
+const MAX_DRAWN: usize = 5000;
 /// Length of a heading arrow, metres.
 const ARROW_LENGTH: f64 = 0.18;
 /// Radius of a pose's disc, pixels.
@@ -96,7 +98,7 @@ pub struct Preview {
     pub svg: String,
     /// World to picture.
     pub view: PlanView,
-    /// Poses drawn (every set's).
+    /// Poses drawn (every set's; at most 5000 per set, evenly spread, for larger sets).
     pub poses: usize,
     /// Skipped poses marked.
     pub skipped: usize,
@@ -123,9 +125,17 @@ pub fn draw(dataset: &Dataset) -> Result<Preview, DatasetError> {
     svg.faces(dataset, high.z);
     svg.dimensions(low.truncate(), high.truncate(), plan_low);
     let mut legend = Vec::new();
+    // The frames drawn: all, or an even spread of a large set's (the picture stays readable
+    // and its size bounded).
+    let drawn: Vec<Vec<usize>> = dataset
+        .sets
+        .iter()
+        .map(|set| super::evenly_spread(set.poses.len(), MAX_DRAWN))
+        .collect();
     for (s, set) in dataset.sets.iter().enumerate() {
-        let per_frame: Vec<Vec<Occluder>> = (0..set.poses.len())
-            .map(|i| dataset.frame_occluders(s, i))
+        let per_frame: Vec<Vec<Occluder>> = drawn[s]
+            .iter()
+            .map(|&i| dataset.frame_occluders(s, i))
             .collect::<Result<_, _>>()?;
         let colour = set_colour(s);
         svg.occluders(&set.spec.name, &colour, per_frame.iter().flatten(), true);
@@ -134,7 +144,8 @@ pub fn draw(dataset: &Dataset) -> Result<Preview, DatasetError> {
     }
     for (s, set) in dataset.sets.iter().enumerate() {
         let colour = set_colour(s);
-        for (i, pose) in set.poses.iter().enumerate() {
+        for &i in &drawn[s] {
+            let pose = &set.poses[i];
             let heading = pose.world_from_body_rotation() * DVec3::X;
             svg.pose(&set.spec.name, i, pose.position.truncate(), heading.truncate(), &colour);
         }
@@ -146,7 +157,7 @@ pub fn draw(dataset: &Dataset) -> Result<Preview, DatasetError> {
             svg.skipped(&set.spec.name, skip);
         }
     }
-    let poses = dataset.sets.iter().map(|s| s.poses.len()).sum();
+    let poses = drawn.iter().map(Vec::len).sum();
     let skipped = dataset.sets.iter().map(|s| s.skipped.len()).sum();
     svg.legend(dataset, &legend, skipped);
     Ok(Preview {
@@ -436,6 +447,11 @@ impl Svg {
                 (0, true) => ", occluders".into(),
                 (k, false) => format!(", {k} skipped"),
                 (k, true) => format!(", {k} skipped, occluders"),
+            };
+            let extra = if set.poses.len() > MAX_DRAWN {
+                format!("{extra} ({MAX_DRAWN} drawn)")
+            } else {
+                extra
             };
             let _ = writeln!(
                 self.text,

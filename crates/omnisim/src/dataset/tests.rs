@@ -734,3 +734,25 @@ fn random_poses_draw_each_angle_in_its_own_range() {
     let message = Dataset::load(&path).err().unwrap().to_string();
     assert!(message.contains("spec.ron:") && message.contains("θy: (3, 2)"), "{message}");
 }
+
+#[test]
+fn the_preview_of_a_large_set_draws_an_even_spread_of_its_poses() {
+    // 100 × 60 = 6000 poses over the room, none inside the table (z = 1.0 is above it).
+    let (_dir, path) = project(
+        r#"Dataset(scene: "room.ron", rig: Pinhole(size: (8, 6)), sets: [Set(name: "grid",
+            poses: Grid(x: (-1.98, 1.98, 0.04), y: (-1.475, 1.475, 0.05), z: [1.0]))])"#,
+    );
+    let dataset = Dataset::load(&path).unwrap();
+    assert_eq!(dataset.sets[0].poses.len(), 6000);
+    let picture = preview::draw(&dataset).unwrap();
+    let svg = roxmltree::Document::parse(&picture.svg).unwrap();
+    let frames: Vec<usize> = svg
+        .descendants()
+        .filter(|n| n.attribute("class") == Some("pose"))
+        .map(|n| n.attribute("data-frame").unwrap().parse().unwrap())
+        .collect();
+    assert_eq!((frames.len(), picture.poses), (5000, 5000));
+    assert_eq!((frames[0], frames[4999]), (0, 5999));
+    assert!(frames.windows(2).all(|w| (1..=2).contains(&(w[1] - w[0]))));
+    assert!(picture.svg.contains("grid: 6000 poses (5000 drawn)"));
+}
