@@ -80,7 +80,8 @@ pub struct RunOptions {
     pub overwrite: bool,
 }
 
-/// A frame finished (or found done), for progress reports.
+/// A frame finished (or found done), for progress reports. Frames are written on several
+/// threads, so they are reported as they finish, not always in frame order.
 #[derive(Debug, Clone)]
 pub struct FrameDone<'a> {
     /// Its set.
@@ -409,8 +410,9 @@ impl Dataset {
     }
 
     /// Renders the frames of `options.shard` (all frames without one) into `out`, skipping
-    /// those an earlier run finished, then, without a shard, merges. `on_frame` hears of every
-    /// frame and may stop the run (a later run resumes it).
+    /// those an earlier run finished, then, without a shard, merges. Frames render on this
+    /// thread while writer threads write the ones before them. `on_frame` hears of every
+    /// frame and may stop the run (frames being written finish; a later run resumes the rest).
     pub fn run(
         &self,
         renderer: &Renderer,
