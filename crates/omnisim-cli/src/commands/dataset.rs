@@ -17,15 +17,16 @@ use super::render::BackendArg;
 /// Render a data set: map and test sets of one scene from one spec file (README, "Data sets").
 ///
 /// Each set gets its own folder under --out, with ground-truth files per frame, noisy copies
-/// (*-noisy.*) where the set has noise, TUM (tum/) and EuRoC (mav0/) layouts as asked, and
-/// manifest.json with every file's SHA-256. A killed run resumes with the same command; --shard
+/// (*-noisy.*) where the set has noise, TUM (tum/) and EuRoC (mav0/) layouts as asked, and a
+/// contact sheet (contact-sheet.png); manifest.json lists every file with its SHA-256. A killed run resumes with the same command; --shard
 /// K/N renders every N-th frame from the K-th (0 ≤ K < N); `omnisim dataset merge` then checks
 /// the shards and writes the index files and the manifest.
 #[derive(Debug, Clone, Args)]
 #[command(
     args_conflicts_with_subcommands = true,
     subcommand_negates_reqs = true,
-    after_help = "Examples:\n  omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
+    after_help = "Examples:\n  omnisim preview scenes/env1-dataset.ron --out env1-plan   (check the poses first)\n  \
+omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
 omnisim dataset scenes/env1-dataset.ron --out data/env1 --shard 0/4\n  omnisim dataset merge data/env1"
 )]
 pub struct DatasetArgs {
