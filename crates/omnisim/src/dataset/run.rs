@@ -10,7 +10,7 @@
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Mutex, mpsc};
+use std::sync::{Arc, Mutex, mpsc};
 
 use serde::Serialize;
 
@@ -453,11 +453,13 @@ impl Dataset {
         // moment a run is killed at, a frame is done exactly when its entry exists.
         let writers = writer_threads();
         let (to_write, queue) = mpsc::sync_channel::<RenderedFrame>(writers);
-        let queue = Mutex::new(queue);
+        // Shared by the writers alone: if every writer ends (a panic), the queue closes and
+        // the renderer's next send fails instead of waiting for ever.
+        let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
         std::thread::scope(|scope| {
             for _ in 0..writers {
-                let (queue, report, stop) = (&queue, report.clone(), &stop);
+                let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
                 scope.spawn(move || {
                     while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
                         if stop.load(Ordering::Relaxed) {
@@ -470,7 +472,7 @@ impl Dataset {
                     }
                 });
             }
-            drop(report);
+            drop((report, queue));
             let mut current: Option<SetScene> = None;
             for &(s, index) in &frames {
                 while let Ok((set, i, result)) = written.try_recv() {
@@ -494,7 +496,7 @@ impl Dataset {
                         match rendered {
                             Ok(frame) => match to_write.send(frame) {
                                 Ok(()) => continue,
-                                Err(_) => break, // every writer has stopped: its error is queued
+                                Err(_) => break, // every writer has ended: the scope reports why
                             },
                             Err(e) => Err(e),
                         }
