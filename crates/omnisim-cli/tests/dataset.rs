@@ -160,7 +160,8 @@ fn write_failures_end_with_a_clear_message_and_resume_to_the_same_bytes() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
     assert!(
-        stderr.contains("-0000.ply: File too large") && stderr.contains("run the same command again to resume"),
+        // Writers race: the first PLY to fail may be frame 0's or a later one's.
+        stderr.contains(".ply: File too large") && stderr.contains("run the same command again to resume"),
         "{stderr}"
     );
     let partial = snapshot(&limited);

@@ -93,6 +93,7 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     let options = RunOptions {
         shard: args.shard,
         overwrite: args.overwrite,
+        ..RunOptions::default()
     };
     let mut progress = Progress::new();
     let run_started = Instant::now();

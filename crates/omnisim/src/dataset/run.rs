@@ -78,6 +78,9 @@ pub struct RunOptions {
     pub shard: Option<Shard>,
     /// Remove another spec's data set from the folder first (only the files it recorded).
     pub overwrite: bool,
+    /// Threads that write frames while the next ones render (at least 1); `None`: from the
+    /// machine's cores, 2 to 4.
+    pub writers: Option<usize>,
 }
 
 /// A frame finished (or found done), for progress reports. Frames are written on several
@@ -295,9 +298,13 @@ fn is_done(root: &Path, set_dir: &Path, index: usize) -> Option<u64> {
     sizes_match.then(|| entry.files.iter().map(|f| f.bytes).sum())
 }
 
-/// Writer threads: enough to keep up with the renderer, few enough to leave it the cores.
-fn writer_threads() -> usize {
-    std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 4)
+/// Writer threads: as asked, else enough to keep up with the renderer and few enough to
+/// leave it the cores.
+fn writer_threads(asked: Option<usize>) -> usize {
+    match asked {
+        Some(writers) => writers.max(1),
+        None => std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 4),
+    }
 }
 
 /// How a frame of a run came to be done.
@@ -451,7 +458,7 @@ impl Dataset {
         // threads encode and write the frames before them; a bounded queue keeps at most a
         // few rendered frames in memory. Each frame's entry is its last file, so whatever
         // moment a run is killed at, a frame is done exactly when its entry exists.
-        let writers = writer_threads();
+        let writers = writer_threads(options.writers);
         let (to_write, queue) = mpsc::sync_channel::<RenderedFrame>(writers);
         // Shared by the writers alone: if every writer ends (a panic), the queue closes and
         // the renderer's next send fails instead of waiting for ever.
