@@ -44,6 +44,7 @@ enum Command {
     Dataset(commands::dataset::DatasetArgs),
     Describe(commands::describe::DescribeArgs),
     Project(commands::project::ProjectArgs),
+    Preview(commands::preview::PreviewArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -57,6 +58,7 @@ fn main() -> std::process::ExitCode {
         Command::Dataset(args) => commands::dataset::run(args),
         Command::Describe(args) => commands::describe::run(args),
         Command::Project(args) => commands::project::run(args),
+        Command::Preview(args) => commands::preview::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

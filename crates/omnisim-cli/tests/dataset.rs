@@ -47,19 +47,28 @@ fn dataset(spec: &Path, out: &Path) -> Command {
     command
 }
 
-#[test]
-fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
+/// A folder with env1.ron and `SPEC`; returns it and the spec's path.
+fn project() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
     let spec = dir.path().join("spec.ron");
     std::fs::write(&spec, SPEC).unwrap();
+    (dir, spec)
+}
+
+#[test]
+fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
+    let (dir, spec) = project();
     let whole = dir.path().join("whole");
     let started = std::time::Instant::now();
     let output = dataset(&spec, &whole).output().unwrap();
     let uninterrupted = started.elapsed();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let reference = snapshot(&whole);
+    for set in ["map", "test"] {
+        assert!(reference.contains_key(&Path::new(set).join("contact-sheet.png")), "{set} has no contact sheet");
+    }
 
     let killed = dir.path().join("killed");
     // Kills at random moments within the uninterrupted run's time (fractions from a fixed
@@ -97,4 +106,79 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
             name.display()
         );
     }
+}
+
+#[test]
+fn preview_writes_the_svg_and_png_it_names_and_locates_spec_errors() {
+    let (dir, spec) = project();
+    let prefix = dir.path().join("pictures/plan");
+    let preview = || {
+        Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(["preview", "--out"])
+            .arg(&prefix)
+            .arg(&spec)
+            .output()
+            .unwrap()
+    };
+    let output = preview();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let printed = String::from_utf8(output.stdout).unwrap();
+    let svg = dir.path().join("pictures/plan.svg");
+    let png = dir.path().join("pictures/plan.png");
+    assert_eq!(printed, format!("{}\n{}\n", svg.display(), png.display()));
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg "));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("20 pose(s) of 2 set(s)"));
+
+    std::fs::write(&spec, SPEC.replace("count: 12", "count: 1")).unwrap();
+    let output = preview();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(stderr.contains("spec.ron:") && stderr.contains("set 'map': poses.count"), "{stderr}");
+}
+
+/// Write failures that stop even root (CI runs as root, so permissions do not): a file-size
+/// limit (`ulimit -f`, SIGXFSZ ignored so writes fail with EFBIG, as on a full disk) that a
+/// frame's point cloud exceeds, and an output path through a regular file.
+#[test]
+fn write_failures_end_with_a_clear_message_and_resume_to_the_same_bytes() {
+    let (dir, spec) = project();
+    let whole = dir.path().join("whole");
+    assert!(dataset(&spec, &whole).status().unwrap().success());
+
+    // 250 KiB: the set files (ray map 222 kB) fit, each frame's 288 kB PLY does not.
+    let limited = dir.path().join("limited");
+    let script = format!(
+        "trap '' XFSZ; ulimit -f 250; exec \"$0\" dataset --backend cpu --out '{}' '{}'",
+        limited.display(),
+        spec.display()
+    );
+    let output = Command::new("bash")
+        .args(["-c", &script, env!("CARGO_BIN_EXE_omnisim")])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        // Writers race: the first PLY to fail may be frame 0's or a later one's.
+        stderr.contains(".ply: File too large") && stderr.contains("run the same command again to resume"),
+        "{stderr}"
+    );
+    let partial = snapshot(&limited);
+    assert!(partial.keys().any(|p| p.ends_with("env1-0000.png")), "frame 0 was under way");
+    assert!(
+        !partial.keys().any(|p| p.to_string_lossy().contains("omnisim-tmp") || p.ends_with("env1-0000.ply")),
+        "half-written files left: {:?}",
+        partial.keys().collect::<Vec<_>>()
+    );
+    assert!(!partial.contains_key(Path::new("map/.frames/000000.json")), "frame 0 counted as done");
+    let output = dataset(&spec, &limited).output().unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(snapshot(&limited) == snapshot(&whole), "the resumed run differs from an uninterrupted one");
+
+    let through_file = spec.join("out");
+    let output = dataset(&spec, &through_file).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(stderr.contains("a part of this path is a file, not a folder"), "{stderr}");
 }

@@ -17,15 +17,16 @@ use super::render::BackendArg;
 /// Render a data set: map and test sets of one scene from one spec file (README, "Data sets").
 ///
 /// Each set gets its own folder under --out, with ground-truth files per frame, noisy copies
-/// (*-noisy.*) where the set has noise, TUM (tum/) and EuRoC (mav0/) layouts as asked, and
-/// manifest.json with every file's SHA-256. A killed run resumes with the same command; --shard
+/// (*-noisy.*) where the set has noise, TUM (tum/) and EuRoC (mav0/) layouts as asked, and a
+/// contact sheet (contact-sheet.png); manifest.json lists every file with its SHA-256. A killed run resumes with the same command; --shard
 /// K/N renders every N-th frame from the K-th (0 ≤ K < N); `omnisim dataset merge` then checks
 /// the shards and writes the index files and the manifest.
 #[derive(Debug, Clone, Args)]
 #[command(
     args_conflicts_with_subcommands = true,
     subcommand_negates_reqs = true,
-    after_help = "Examples:\n  omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
+    after_help = "Examples:\n  omnisim preview scenes/env1-dataset.ron --out env1-plan   (check the poses first)\n  \
+omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
 omnisim dataset scenes/env1-dataset.ron --out data/env1 --shard 0/4\n  omnisim dataset merge data/env1"
 )]
 pub struct DatasetArgs {
@@ -92,26 +93,42 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     let options = RunOptions {
         shard: args.shard,
         overwrite: args.overwrite,
+        ..RunOptions::default()
     };
     let mut progress = Progress::new();
+    let run_started = Instant::now();
     let summary = dataset
         .run(&renderer, &out, &options, &mut |frame| {
             progress.frame(frame);
             ControlFlow::Continue(())
         })
-        .with_context(|| format!("data set {} into {}", spec.display(), out.display()))?;
+        .with_context(|| {
+            format!(
+                "data set {} into {} stopped; frames already finished are kept: remove the cause and run the same \
+                 command again to resume",
+                spec.display(),
+                out.display()
+            )
+        })?;
     progress.finish();
     for note in &summary.notes {
         eprintln!("note: {note}");
     }
-    let seconds = started.elapsed().as_secs_f64();
+    // Frames: from the start of the run to the last frame written; then the checks and index
+    // files (manifest, layouts, contact sheets).
+    let frames_done = progress.last_frame.unwrap_or(run_started);
+    let seconds = (frames_done - run_started).as_secs_f64();
     eprintln!(
-        "{} frame(s) rendered ({} already done), {:.1} MB written in {seconds:.1} s ({:.2} frames/s) on {}",
+        "{} frame(s) rendered ({} already done), {:.1} MB written in {seconds:.2} s ({:.2} frames/s) on {}; \
+         {:.2} s in all ({:.2} s after the last frame: {})",
         summary.rendered,
         summary.resumed,
         summary.bytes as f64 / 1e6,
         summary.rendered as f64 / seconds.max(1e-9),
-        renderer.backend_name()
+        renderer.backend_name(),
+        started.elapsed().as_secs_f64(),
+        frames_done.elapsed().as_secs_f64(),
+        if summary.merged { "checks, index files, manifest" } else { "nothing to merge yet" }
     );
     match args.shard {
         Some(shard) => eprintln!(
@@ -129,6 +146,8 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
 struct Progress {
     bar: Option<ProgressBar>,
     last: Instant,
+    /// When the last frame was heard of.
+    last_frame: Option<Instant>,
 }
 
 impl Progress {
@@ -136,10 +155,12 @@ impl Progress {
         Self {
             bar: None,
             last: Instant::now(),
+            last_frame: None,
         }
     }
 
     fn frame(&mut self, frame: &dataset::FrameDone) {
+        self.last_frame = Some(Instant::now());
         if !std::io::stderr().is_terminal() {
             if self.last.elapsed() >= Duration::from_secs(10) || frame.done == frame.total {
                 eprintln!(

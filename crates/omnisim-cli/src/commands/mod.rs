@@ -4,6 +4,7 @@ pub mod bench;
 pub mod dataset;
 pub mod describe;
 pub mod poses;
+pub mod preview;
 pub mod project;
 pub mod render;
 pub mod scene;

@@ -30,6 +30,8 @@ pub enum FileKind {
     Set,
     /// Index files of a layout (rgb.txt, data.csv, ...).
     Index,
+    /// Pictures of the set for people to look at (`contact-sheet.png`).
+    Overview,
 }
 
 /// One file, relative to the data-set folder with `/` separators.

@@ -7,10 +7,12 @@
 //! and `manifest.json`. Every random draw comes from (seed, set, frame) alone (`rng.rs`).
 
 mod appearance;
+mod contact_sheet;
 mod layout;
 pub mod manifest;
 pub mod noise;
 pub mod occluders;
+pub mod preview;
 pub mod rng;
 mod run;
 pub mod spec;
@@ -65,7 +67,7 @@ pub enum DatasetError {
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),
     /// A file or folder could not be read or written.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {source}{}", path.display(), io_hint(source))]
     Io {
         /// The file or folder.
         path: PathBuf,
@@ -130,6 +132,9 @@ pub enum DatasetError {
         /// Why.
         source: occluders::NoFreePlace,
     },
+    /// The preview picture could not be rasterised.
+    #[error("cannot draw the preview picture: {0}")]
+    Picture(String),
     /// A random pose set could not be drawn.
     #[error("set '{set}': {source}")]
     Poses {
@@ -138,6 +143,29 @@ pub enum DatasetError {
         /// Why.
         source: pose_sets::TooFewClear,
     },
+}
+
+/// `most` indices from 0 to `total` − 1 (all of them if there are no more), evenly spread,
+/// the first and the last included: the frames a picture shows of a large set.
+pub(crate) fn evenly_spread(total: usize, most: usize) -> Vec<usize> {
+    if total <= most {
+        return (0..total).collect();
+    }
+    (0..most).map(|k| k * (total - 1) / (most - 1).max(1)).collect()
+}
+
+/// What to do about the system errors a user can fix.
+fn io_hint(error: &std::io::Error) -> &'static str {
+    use std::io::ErrorKind;
+    match error.kind() {
+        ErrorKind::NotADirectory => " (a part of this path is a file, not a folder: choose another path)",
+        ErrorKind::StorageFull => " (the disk is full: free space, then run the same command again to resume)",
+        ErrorKind::FileTooLarge => " (beyond the file-size limit, see `ulimit -f`)",
+        ErrorKind::PermissionDenied | ErrorKind::ReadOnlyFilesystem => {
+            " (no permission to write there: choose another folder)"
+        }
+        _ => "",
+    }
 }
 
 /// World positions of `rig`'s optical centres at `pose` (what occluders keep away from).
@@ -438,22 +466,39 @@ fn poses(spec: &Spec, set: &SetSpec, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_s
             high,
             tilt,
             clearance,
-        } => pose_sets::random(
-            bvh,
-            &RandomPoses {
-                count: *count,
-                seed: rng::seed_u64(spec.seed, &set.name, rng::Purpose::Poses),
-                low: (*low).into(),
-                high: (*high).into(),
-                max_tilt: tilt.to_radians(),
-                clearance: *clearance,
-            },
-        )?,
+            angles,
+        } => {
+            let mut poses = pose_sets::random(
+                bvh,
+                &RandomPoses {
+                    count: *count,
+                    seed: rng::seed_u64(spec.seed, &set.name, rng::Purpose::Poses),
+                    low: (*low).into(),
+                    high: (*high).into(),
+                    max_tilt: tilt.to_radians(),
+                    clearance: *clearance,
+                },
+            )?;
+            if let Some(ranges) = angles {
+                // Positions as drawn above; angles from a stream of their own.
+                let mut rng = rng::stream(spec.seed, &set.name, None, rng::Purpose::Angles);
+                for pose in &mut poses {
+                    *pose = Pose::new(pose.position, degrees(draw_angles(ranges, &mut rng)));
+                }
+            }
+            poses
+        }
         PoseSource::List(list) => list
             .iter()
             .map(|&(x, y, z, ax, ay, az)| Pose::from_degrees(dvec3(x, y, z), dvec3(ax, ay, az)))
             .collect(),
     })
+}
+
+/// θx, θy, θz (degrees), each uniform in its (min, max).
+fn draw_angles(ranges: &spec::AngleRanges, rng: &mut impl rand::Rng) -> (f64, f64, f64) {
+    let mut draw = |(low, high): (f64, f64)| low + (high - low) * rng.random::<f64>();
+    (draw(ranges.0), draw(ranges.1), draw(ranges.2))
 }
 
 /// Splits poses into those to render and those inside a closed object or outside the scene.

@@ -20,6 +20,8 @@ pub enum Purpose {
     Occluders,
     /// Image, depth and disparity noise.
     Noise,
+    /// Per-axis random angles of a set's random poses.
+    Angles,
 }
 
 /// The generator of one (seed, set, frame, purpose); `frame` is `None` for draws made once

@@ -9,10 +9,13 @@
 
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
 
 use serde::Serialize;
 
 use super::appearance::{AppearanceRecord, frame_appearance};
+use super::contact_sheet::{self, CONTACT_SHEET};
 use super::layout::{self, Image};
 use super::manifest::{
     FileEntry, FileKind, FrameEntry, Manifest, ManifestSet, PoseEntry, SetEntry, Stamp, file_entry, inside, sha256_hex,
@@ -75,9 +78,13 @@ pub struct RunOptions {
     pub shard: Option<Shard>,
     /// Remove another spec's data set from the folder first (only the files it recorded).
     pub overwrite: bool,
+    /// Threads that write frames while the next ones render (at least 1); `None`: from the
+    /// machine's cores, 2 to 4.
+    pub writers: Option<usize>,
 }
 
-/// A frame finished (or found done), for progress reports.
+/// A frame finished (or found done), for progress reports. Frames are written on several
+/// threads, so they are reported as they finish, not always in frame order.
 #[derive(Debug, Clone)]
 pub struct FrameDone<'a> {
     /// Its set.
@@ -118,7 +125,7 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> DatasetError + '_ {
     }
 }
 
-fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
+pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
     atomic::write_atomically(path, |out| std::io::Write::write_all(out, bytes)).map_err(io(path))
 }
 
@@ -209,6 +216,7 @@ fn remove_previous(dir: &Path, previous: &Stamp) -> Result<usize, DatasetError> 
             }
         }
         remove(&entries.join(SET_ENTRY))?;
+        remove(&set_dir.join(CONTACT_SHEET))?;
         for name in index_names(set) {
             remove(&set_dir.join(name))?;
         }
@@ -290,6 +298,89 @@ fn is_done(root: &Path, set_dir: &Path, index: usize) -> Option<u64> {
     sizes_match.then(|| entry.files.iter().map(|f| f.bytes).sum())
 }
 
+/// Writer threads: as asked, else enough to keep up with the renderer and few enough to
+/// leave it the cores.
+fn writer_threads(asked: Option<usize>) -> usize {
+    match asked {
+        Some(writers) => writers.max(1),
+        None => std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 4),
+    }
+}
+
+/// How a frame of a run came to be done.
+enum Outcome {
+    /// An earlier run wrote it: its bytes.
+    Resumed(u64),
+    /// Written now: its bytes.
+    Written(u64),
+}
+
+/// The run's tally of done frames, and whether the run goes on.
+struct Heard<'a, 'b> {
+    names: Vec<&'a str>,
+    summary: &'b mut RunSummary,
+    on_frame: &'b mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+    done: usize,
+    total: usize,
+    /// The first error; the run stops rendering and lets the frames in flight finish.
+    failure: Option<DatasetError>,
+    /// Set on an error or when `on_frame` asks to stop.
+    stopped: bool,
+    /// Tells the writers to drop the frames still queued (they are not done; a later run
+    /// renders them again).
+    stop: &'b AtomicBool,
+}
+
+impl Heard<'_, '_> {
+    /// Counts frame `index` of set `s` and tells `on_frame`.
+    fn frame(&mut self, s: usize, index: usize, outcome: Result<Outcome, DatasetError>) {
+        let (rendered, bytes) = match outcome {
+            Ok(Outcome::Resumed(bytes)) => {
+                self.summary.resumed += 1;
+                (false, bytes)
+            }
+            Ok(Outcome::Written(bytes)) => {
+                self.summary.rendered += 1;
+                self.summary.bytes += bytes;
+                (true, bytes)
+            }
+            Err(error) => {
+                self.failure.get_or_insert(error);
+                self.stop();
+                return;
+            }
+        };
+        self.done += 1;
+        let report = FrameDone {
+            set: self.names[s],
+            index,
+            rendered,
+            bytes,
+            done: self.done,
+            total: self.total,
+        };
+        if (self.on_frame)(&report).is_break() {
+            self.stop();
+        }
+    }
+
+    fn stop(&mut self) {
+        self.stopped = true;
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+/// A frame rendered and not yet written.
+struct RenderedFrame {
+    set: usize,
+    index: usize,
+    /// One per view of the rig.
+    frames: Vec<Frame>,
+    /// Its per-frame occluders.
+    placed: Vec<Occluder>,
+    record: AppearanceRecord,
+}
+
 /// A set's prepared scene, with its per-set occluders, kept while its frames render.
 struct SetScene {
     set: usize,
@@ -326,8 +417,9 @@ impl Dataset {
     }
 
     /// Renders the frames of `options.shard` (all frames without one) into `out`, skipping
-    /// those an earlier run finished, then, without a shard, merges. `on_frame` hears of every
-    /// frame and may stop the run (a later run resumes it).
+    /// those an earlier run finished, then, without a shard, merges. Frames render on this
+    /// thread while writer threads write the ones before them. `on_frame` hears of every
+    /// frame and may stop the run (frames being written finish; a later run resumes the rest).
     pub fn run(
         &self,
         renderer: &Renderer,
@@ -351,39 +443,84 @@ impl Dataset {
             .filter(|(n, _)| options.shard.is_none_or(|shard| shard.takes(*n)))
             .map(|(_, frame)| frame)
             .collect();
-        let mut current: Option<SetScene> = None;
-        for (done, &(s, index)) in frames.iter().enumerate() {
-            let set_dir = out.join(&self.sets[s].spec.name);
-            let (rendered, bytes) = match is_done(out, &set_dir, index) {
-                Some(bytes) => {
-                    summary.resumed += 1;
-                    (false, bytes)
-                }
-                None => {
-                    let mut scene = match current.take() {
-                        Some(scene) if scene.set == s => scene,
-                        _ => self.set_scene(renderer, s)?,
-                    };
-                    let bytes = self.render_frame(renderer, out, &mut scene, index)?;
-                    current = Some(scene);
-                    summary.rendered += 1;
-                    summary.bytes += bytes;
-                    (true, bytes)
-                }
-            };
-            let report = FrameDone {
-                set: &self.sets[s].spec.name,
-                index,
-                rendered,
-                bytes,
-                done: done + 1,
-                total: frames.len(),
-            };
-            if on_frame(&report).is_break() {
-                summary.stopped = done + 1 < frames.len();
-                break;
+        let stop = AtomicBool::new(false);
+        let mut heard = Heard {
+            names: self.sets.iter().map(|s| s.spec.name.as_str()).collect(),
+            summary: &mut summary,
+            on_frame,
+            done: 0,
+            total: frames.len(),
+            failure: None,
+            stopped: false,
+            stop: &stop,
+        };
+        // Frames render here, one after another (the renderer is not shared), while writer
+        // threads encode and write the frames before them; a bounded queue keeps at most a
+        // few rendered frames in memory. Each frame's entry is its last file, so whatever
+        // moment a run is killed at, a frame is done exactly when its entry exists.
+        let writers = writer_threads(options.writers);
+        let (to_write, queue) = mpsc::sync_channel::<RenderedFrame>(writers);
+        // Shared by the writers alone: if every writer ends (a panic), the queue closes and
+        // the renderer's next send fails instead of waiting for ever.
+        let queue = Arc::new(Mutex::new(queue));
+        let (report, written) = mpsc::channel();
+        std::thread::scope(|scope| {
+            for _ in 0..writers {
+                let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
+                scope.spawn(move || {
+                    while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
+                        if stop.load(Ordering::Relaxed) {
+                            continue;
+                        }
+                        let (set, index) = (frame.set, frame.index);
+                        if report.send((set, index, self.write_frame(out, frame))).is_err() {
+                            break;
+                        }
+                    }
+                });
             }
+            drop((report, queue));
+            let mut current: Option<SetScene> = None;
+            for &(s, index) in &frames {
+                while let Ok((set, i, result)) = written.try_recv() {
+                    heard.frame(set, i, result.map(Outcome::Written));
+                }
+                if heard.stopped {
+                    break;
+                }
+                let outcome = match is_done(out, &out.join(&self.sets[s].spec.name), index) {
+                    Some(bytes) => Ok(Outcome::Resumed(bytes)),
+                    None => {
+                        let scene = match current.take() {
+                            Some(scene) if scene.set == s => Ok(scene),
+                            _ => self.set_scene(renderer, s),
+                        };
+                        let rendered = scene.and_then(|mut scene| {
+                            let frame = self.render_frame(renderer, &mut scene, index);
+                            current = Some(scene);
+                            frame
+                        });
+                        match rendered {
+                            Ok(frame) => match to_write.send(frame) {
+                                Ok(()) => continue,
+                                Err(_) => break, // every writer has ended: the scope reports why
+                            },
+                            Err(e) => Err(e),
+                        }
+                    }
+                };
+                heard.frame(s, index, outcome);
+            }
+            drop(to_write);
+            for (set, i, result) in written {
+                heard.frame(set, i, result.map(Outcome::Written));
+            }
+        });
+        let (failure, done) = (heard.failure, heard.done);
+        if let Some(failure) = failure {
+            return Err(failure);
         }
+        summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
             merge(out, &[])?;
             summary.merged = true;
@@ -431,38 +568,43 @@ impl Dataset {
         })
     }
 
-    /// Renders and writes frame `index` of the set of `scene`, then its entry; returns the
-    /// bytes written.
+    /// The per-frame occluders of frame `index` of set `s` (none if the set has no per-frame
+    /// occluders), drawn from the frame's own stream.
+    pub(crate) fn frame_occluders(&self, s: usize, index: usize) -> Result<Vec<Occluder>, DatasetError> {
+        let plan = &self.sets[s];
+        let per_frame: Vec<_> = plan.spec.occluders.iter().filter(|o| o.per_frame).collect();
+        if per_frame.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut rng = stream(self.spec.seed, &plan.spec.name, Some(index), Purpose::Occluders);
+        occluders::place(
+            &self.scene,
+            &self.bvh,
+            &per_frame,
+            &super::centres(&self.rig, &plan.poses[index]),
+            &plan.occluders,
+            &mut rng,
+        )
+        .map_err(|source| DatasetError::Occluders {
+            set: plan.spec.name.clone(),
+            frame: index.to_string(),
+            source,
+        })
+    }
+
+    /// Renders frame `index` of the set of `base` (its per-frame occluders, lights and
+    /// colours applied): what `write_frame` then writes.
     fn render_frame(
         &self,
         renderer: &Renderer,
-        out: &Path,
         base: &mut SetScene,
         index: usize,
-    ) -> Result<u64, DatasetError> {
-        let plan = &self.sets[base.set];
-        let set = &plan.spec;
-        let set_dir = out.join(&set.name);
-        let pose = &plan.poses[index];
-        let seed = self.spec.seed;
-        let shared: Vec<_> = set.occluders.iter().filter(|o| o.per_frame).collect();
-        let mut placed = Vec::new();
+    ) -> Result<RenderedFrame, DatasetError> {
+        let set = &self.sets[base.set].spec;
+        let pose = &self.sets[base.set].poses[index];
+        let placed = self.frame_occluders(base.set, index)?;
         let mut own = None;
-        if !shared.is_empty() {
-            let mut rng = stream(seed, &set.name, Some(index), Purpose::Occluders);
-            placed = occluders::place(
-                &self.scene,
-                &self.bvh,
-                &shared,
-                &super::centres(&self.rig, pose),
-                &plan.occluders,
-                &mut rng,
-            )
-            .map_err(|source| DatasetError::Occluders {
-                set: set.name.clone(),
-                frame: index.to_string(),
-                source,
-            })?;
+        if !placed.is_empty() {
             let scene = occluders::with_occluders(&base.scene, &placed);
             own = Some((renderer.prepare(&scene)?, scene));
         }
@@ -470,18 +612,44 @@ impl Dataset {
             Some((prepared, scene)) => (prepared, &*scene),
             None => (&mut base.prepared, &base.scene),
         };
-        let (appearance, record) = frame_appearance(scene, self.scene.objects.len(), set, seed, index);
+        let (appearance, record) = frame_appearance(scene, self.scene.objects.len(), set, self.spec.seed, index);
         renderer.set_appearance(prepared, appearance)?;
-        let noisy_colour = !set.noise.colour.is_empty();
         let mut planes = self.spec.outputs.planes();
-        if noisy_colour {
+        if !set.noise.colour.is_empty() {
             planes = planes.with(Plane::LinearColour);
         }
-        let views = self.rig.views();
-        let frames = views
+        let frames = self
+            .rig
+            .views()
             .iter()
             .map(|view| renderer.render(prepared, &view.camera, pose, planes))
             .collect::<Result<Vec<Frame>, _>>()?;
+        Ok(RenderedFrame {
+            set: base.set,
+            index,
+            frames,
+            placed,
+            record,
+        })
+    }
+
+    /// Writes a rendered frame's files (ground truth, noisy copies, layouts), then its entry;
+    /// returns the bytes written. Runs on a writer thread while later frames render.
+    fn write_frame(&self, out: &Path, rendered: RenderedFrame) -> Result<u64, DatasetError> {
+        let RenderedFrame {
+            set: s,
+            index,
+            frames,
+            placed,
+            record,
+        } = rendered;
+        let plan = &self.sets[s];
+        let set = &plan.spec;
+        let set_dir = out.join(&set.name);
+        let pose = &plan.poses[index];
+        let seed = self.spec.seed;
+        let noisy_colour = !set.noise.colour.is_empty();
+        let views = self.rig.views();
         let scene_stem = self.scene.file_stem();
         let target = FrameTarget {
             scene: &scene_stem,
@@ -701,6 +869,17 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
                 });
             }
         }
+        if spec.outputs.colour {
+            let sheet = set_dir.join(CONTACT_SHEET);
+            let bytes = set_contact_sheet(&set_dir, &rig, &frames)?;
+            write_file(&sheet, &bytes)?;
+            own.files.push(FileEntry {
+                path: format!("{}/{CONTACT_SHEET}", set.name),
+                kind: FileKind::Overview,
+                bytes: bytes.len() as u64,
+                sha256: sha256_hex(&bytes),
+            });
+        }
         let counted = own.files.iter().chain(frames.iter().flat_map(|f| &f.files));
         for file in counted {
             summary.files += 1;
@@ -727,6 +906,17 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
     };
     write_file(&dest.join(MANIFEST), &to_json(&manifest))?;
     Ok(summary)
+}
+
+/// The contact sheet of a set's frames (the first view's ground-truth colour).
+fn set_contact_sheet(set_dir: &Path, rig: &Rig, frames: &[FrameEntry]) -> Result<Vec<u8>, DatasetError> {
+    let suffix = rig.views().first().map(|v| v.suffix).unwrap_or_default();
+    let paths: Vec<(usize, PathBuf)> = contact_sheet::chosen(frames.len())
+        .into_iter()
+        .map(|i| (frames[i].index, set_dir.join(format!("{}{suffix}.png", frames[i].stem))))
+        .collect();
+    let shown: Vec<(usize, &Path)> = paths.iter().map(|(i, p)| (*i, p.as_path())).collect();
+    contact_sheet::contact_sheet(&shown)
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, DatasetError> {

@@ -241,10 +241,17 @@ pub enum PoseSource {
         /// Free distance from every surface along ±x, ±y, ±z, metres.
         #[serde(default = "default_clearance")]
         clearance: f64,
+        /// Per-axis ranges ((θx min, max), (θy min, max), (θz min, max)), degrees, each drawn
+        /// uniformly and independently; instead of `tilt` and the full turn of θz.
+        #[serde(default)]
+        angles: Option<AngleRanges>,
     },
     /// Poses given one by one: (x, y, z, θx, θy, θz).
     List(Vec<(f64, f64, f64, f64, f64, f64)>),
 }
+
+/// (min, max) of θx, θy and θz, degrees.
+pub type AngleRanges = ((f64, f64), (f64, f64), (f64, f64));
 
 /// Which way a trajectory's camera faces.
 #[derive(Debug, Clone, Copy, Default, Deserialize)]
@@ -697,7 +704,21 @@ fn check_poses(source: &PoseSource) -> Result<(), (String, String)> {
             high,
             tilt,
             clearance,
+            angles,
         } => {
+            if let Some(((x0, x1), (y0, y1), (z0, z1))) = *angles {
+                for (axis, low, high) in [("θx", x0, x1), ("θy", y0, y1), ("θz", z0, z1)] {
+                    if !(low.is_finite() && high.is_finite() && low <= high && high - low <= 360.0) {
+                        return err(
+                            "angles",
+                            format!("{axis}: ({low}, {high}) must be finite degrees, min ≤ max, at most 360 apart"),
+                        );
+                    }
+                }
+                if *tilt != 0.0 {
+                    return err("angles", "give tilt or per-axis angles, not both".into());
+                }
+            }
             if !(1..=MAX_POSES).contains(count) {
                 return err("count", format!("must be from 1 to {MAX_POSES}, not {count}"));
             }
@@ -797,7 +818,9 @@ fn check_set(spec: &Spec, set: &SetSpec) -> Checked {
         if matches!(layout, LayoutSpec::Tum { .. }) && !matches!(spec.rig, RigSpec::Pinhole(_) | RigSpec::Stereo(_)) {
             return Err((
                 format!("layouts[{i}]"),
-                "TUM RGB-D needs depth along an optical axis: a Pinhole or Stereo rig".into(),
+                "TUM RGB-D pairs every colour image with a depth image along an optical axis, which only a Pinhole \
+                 or Stereo rig has; for this rig use Euroc (images and poses), with the range EXRs as depth"
+                    .into(),
             ));
         }
     }

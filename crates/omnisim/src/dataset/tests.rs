@@ -100,6 +100,27 @@ fn assert_same(a: &BTreeMap<String, Vec<u8>>, b: &BTreeMap<String, Vec<u8>>) {
     }
 }
 
+/// The set's contact sheet is a grid of its `frames` colour frames, each the frame shrunk.
+fn assert_contact_sheet_shows_the_frames(out: &Path, set: &str, frames: u32) {
+    let sheet = image::open(out.join(set).join("contact-sheet.png")).unwrap().to_rgb8();
+    // 32×24 frames become 128×96 thumbnails in 134×150 cells (6 px gaps, 16 px labels).
+    assert_eq!(sheet.dimensions(), (6 + frames * 134, 6 + 150));
+    let colour_frames: Vec<PathBuf> = std::fs::read_dir(out.join(set))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_str().unwrap().len() == "room-0000.png".len())
+        .collect();
+    assert_eq!(colour_frames.len() as u32, frames);
+    for k in 0..frames {
+        let frame = image::open(out.join(set).join(format!("room-{k:04}.png"))).unwrap().to_rgb8();
+        let thumbnail = image::imageops::resize(&frame, 128, 96, image::imageops::FilterType::Triangle);
+        let (x, y) = (6 + k * 134, 6 + 16);
+        for (u, v, pixel) in thumbnail.enumerate_pixels() {
+            assert_eq!(sheet.get_pixel(x + u, y + v), pixel, "{set} frame {k} at ({u}, {v})");
+        }
+    }
+}
+
 #[test]
 fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
     let (dir, spec) = project(SPEC);
@@ -120,21 +141,36 @@ fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
     let reference = snapshot(&whole);
     assert!(reference.contains_key("manifest.json") && reference.contains_key("map/tum/groundtruth.txt"));
     assert!(reference.contains_key("map/room-0002-noisy.png") && reference.contains_key("map/room-0002.png"));
+    assert_contact_sheet_shows_the_frames(&whole, "map", 4);
+    assert_contact_sheet_shows_the_frames(&whole, "night", 1);
+    let manifest = String::from_utf8_lossy(&reference["manifest.json"]).into_owned();
+    assert!(manifest.contains("\"map/contact-sheet.png\"") && manifest.contains("\"overview\""));
 
-    // The same spec again, from scratch: the same bytes.
+    // The same spec again, from scratch, with one writer thread instead of 2-4: the same bytes.
     let again = dir.path().join("again");
-    run(&dataset, &again, RunOptions::default(), None);
+    let one_writer = RunOptions {
+        writers: Some(1),
+        ..RunOptions::default()
+    };
+    run(&dataset, &again, one_writer, None);
     assert_same(&reference, &snapshot(&again));
 
     // Stopped after k frames (any k), then resumed: the same bytes; a run over a complete
-    // folder renders nothing.
-    for k in [1, 5] {
+    // folder renders nothing. With two writers, at most three frames beyond the k-th are done
+    // when the run stops (one written, not yet heard of, and one being written, per writer);
+    // frames still queued are dropped.
+    for k in [1, 3] {
         let resumed = dir.path().join(format!("resumed-{k}"));
-        let first = run(&dataset, &resumed, RunOptions::default(), Some(k));
+        let two_writers = RunOptions {
+            writers: Some(2),
+            ..RunOptions::default()
+        };
+        let first = run(&dataset, &resumed, two_writers, Some(k));
         assert!(first.stopped && !first.merged);
+        assert!((k..=k + 3).contains(&first.rendered), "{} frames written", first.rendered);
         assert!(!resumed.join("manifest.json").exists());
         let second = run(&dataset, &resumed, RunOptions::default(), None);
-        assert_eq!((second.resumed, second.rendered), (k, 8 - k));
+        assert_eq!((second.resumed, second.rendered), (first.rendered, 8 - first.rendered));
         assert_same(&reference, &snapshot(&resumed));
     }
     assert_eq!(run(&dataset, &whole, RunOptions::default(), None).rendered, 0);
@@ -147,7 +183,7 @@ fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
             &shared,
             RunOptions {
                 shard: Some(Shard { index, count: 3 }),
-                overwrite: false,
+                ..RunOptions::default()
             },
             None,
         );
@@ -164,7 +200,7 @@ fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
             part,
             RunOptions {
                 shard: Some(Shard { index, count: 3 }),
-                overwrite: false,
+                ..RunOptions::default()
             },
             None,
         );
@@ -220,8 +256,8 @@ fn another_spec_is_refused_unless_overwrite_removes_its_files() {
         &dataset,
         &out,
         RunOptions {
-            shard: None,
             overwrite: true,
+            ..RunOptions::default()
         },
         None,
     );
@@ -286,6 +322,12 @@ fn bad_specs_get_located_errors() {
             "spec.ron:8:",
             "layouts[0].rate",
             "positive",
+        ),
+        (
+            SPEC.replace("Pinhole(size: (32, 24), hfov: 70.0)", "Omni(size: (32, 32))"),
+            "spec.ron:8:",
+            "set 'map': layouts[0]",
+            "for this rig use Euroc",
         ),
     ];
     for (text, at, place, what) in cases {
@@ -517,4 +559,209 @@ fn shards_are_disjoint_and_cover_every_frame() {
     for bad in ["3/3", "1", "a/2", "-1/2", "0/0"] {
         assert!(bad.parse::<Shard>().is_err(), "{bad}");
     }
+}
+
+#[test]
+fn the_preview_marks_every_pose_and_skipped_pose_where_the_plan_view_puts_it() {
+    let (_dir, path) = project(SPEC);
+    let dataset = Dataset::load(&path).unwrap();
+    let picture = preview::draw(&dataset).unwrap();
+    let svg = roxmltree::Document::parse(&picture.svg).expect("the preview is well-formed XML");
+    let with_class = |class: &str| {
+        svg.descendants()
+            .filter(|n| n.attribute("class") == Some(class))
+            .collect::<Vec<_>>()
+    };
+    let markers = with_class("pose-marker");
+    assert_eq!(markers.len(), dataset.frame_count());
+    assert_eq!(picture.poses, dataset.frame_count());
+    for set in &dataset.sets {
+        let groups: Vec<_> = with_class("pose")
+            .into_iter()
+            .filter(|g| g.attribute("data-set") == Some(set.spec.name.as_str()))
+            .collect();
+        assert_eq!(groups.len(), set.poses.len(), "set {}", set.spec.name);
+        for (i, (group, pose)) in groups.iter().zip(&set.poses).enumerate() {
+            assert_eq!(group.attribute("data-frame"), Some(i.to_string().as_str()));
+            let circle = group.children().find(|c| c.has_tag_name("circle")).unwrap();
+            let at = picture.view.to_picture(pose.position.truncate());
+            let centre = |name| circle.attribute(name).unwrap().parse::<f64>().unwrap();
+            assert!((centre("cx") - at.x).abs() < 0.01 && (centre("cy") - at.y).abs() < 0.01);
+        }
+    }
+    // The night set's two misplaced poses: one outside the room, one inside the table.
+    let crosses = with_class("skipped");
+    assert_eq!(dataset.sets[2].skipped.len(), 2);
+    assert_eq!((crosses.len(), picture.skipped), (2, 2));
+    let indices: Vec<_> = crosses.iter().map(|c| c.attribute("data-source-index").unwrap()).collect();
+    assert_eq!(indices, ["1", "2"]);
+    // The test set's per-frame person (one per frame) and the night set's per-set box.
+    assert_eq!(with_class("occluder per-frame").len(), dataset.sets[1].poses.len());
+    assert_eq!(with_class("occluder").len(), 1);
+    let lights: Vec<_> = with_class("light").iter().map(|l| l.attribute("data-light").unwrap()).collect();
+    assert_eq!(lights, ["lamp", "desk"]);
+
+    let png = image::load_from_memory(&picture.png().unwrap()).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), picture.view.size);
+    let pixel = |world: DVec2| {
+        let p = picture.view.to_picture(world);
+        png.get_pixel(p.x as u32, p.y as u32).0
+    };
+    let near = |a: [u8; 3], b: [u8; 3]| a.iter().zip(b).all(|(&x, y)| x.abs_diff(y) <= 12);
+    let map_colour = [31, 119, 180];
+    for pose in &dataset.sets[0].poses {
+        let centre = pose.position.truncate();
+        assert!(near(pixel(centre), map_colour), "{:?} at {centre}", pixel(centre));
+        // 10 cm behind the camera (the arrow points ahead) lies the floor, not the marker.
+        let behind = centre - (pose.world_from_body_rotation() * glam::DVec3::X).truncate() * 0.1;
+        assert!(!near(pixel(behind), map_colour), "{:?} behind {centre}", pixel(behind));
+    }
+    for skipped in &dataset.sets[2].skipped {
+        let at = DVec2::new(skipped.position[0], skipped.position[1]);
+        assert!(near(pixel(at), [230, 0, 0]), "{:?} at the cross {at}", pixel(at));
+    }
+}
+
+/// A spec whose pinhole looks at the east wall (x = 2 m) from x = 0, 0.5 and 1 m at the
+/// height of the room's middle: every pixel of the image's upper half sees that wall, at
+/// depth z = 2, 1.5 and 1 m exactly.
+const WALL: &str = r#"Dataset(
+    scene: "room.ron",
+    rig: Pinhole(size: (32, 24), hfov: 70.0),
+    sets: [Set(name: "wall", poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (0.5, 0.0, 1.0, 0.0, 0.0, 0.0),
+        (1.0, 0.0, 1.0, 0.0, 0.0, 0.0)]), layouts: [Tum(rate: 30.0)])],
+)"#;
+
+/// `OMNISIM_PYTHON`, or `None` after saying loudly what is skipped (outside CI only).
+fn python_for(check: &str) -> Option<PathBuf> {
+    match std::env::var_os("OMNISIM_PYTHON") {
+        Some(python) => Some(PathBuf::from(python)),
+        None => {
+            assert!(std::env::var_os("CI").is_none(), "CI must set OMNISIM_PYTHON for the {check}");
+            eprintln!(
+                "**** SKIPPED: {check} (set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt)"
+            );
+            None
+        }
+    }
+}
+
+#[test]
+fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
+    let Some(python) = python_for("Open3D and evo_ape check of the TUM layout") else {
+        return;
+    };
+    let (dir, spec) = project(WALL);
+    let out = dir.path().join("out");
+    run(&Dataset::load(&spec).unwrap(), &out, RunOptions::default(), None);
+    let tum = out.join("wall/tum");
+    let readers = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/readers");
+    let output = std::process::Command::new(&python)
+        .arg(readers.join("check_tum_open3d.py"))
+        .arg(&tum)
+        .args((0..3).map(|k| out.join(format!("wall/room-{k:04}-depth.exr"))))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}{}", String::from_utf8_lossy(&output.stderr));
+    let pairs: Vec<serde_json::Value> = stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(pairs.len(), 3);
+    for (k, (pair, wall)) in pairs.iter().zip([2.0, 1.5, 1.0]).enumerate() {
+        let number = |v: &serde_json::Value| v.as_f64().unwrap();
+        assert_eq!(pair["size"], serde_json::json!([32, 24]));
+        assert_eq!(pair["colour_size"], serde_json::json!([24, 32, 3]));
+        // Timestamps are written to the microsecond.
+        assert!((number(&pair["timestamps"][0]) - k as f64 / 30.0).abs() < 1e-6, "{pair}");
+        // 16-bit z × 5000: within half a step (0.1 mm) of the exact depth and of the EXR.
+        for end in [0, 1] {
+            let depth = number(&pair["upper_half_depth"][end]);
+            assert!((depth - wall).abs() <= 1e-4 + 1e-9, "pair {k}: {depth} m, wall at {wall} m");
+        }
+        assert!(number(&pair["max_error_vs_exr"]) <= 1e-4 + 1e-7, "pair {k}: {pair}");
+        assert_eq!(pair["zero_where_no_depth"], true);
+    }
+    // evo_ape reads groundtruth.txt against a copy moved 1 cm along x: APE RMSE 0.01 m.
+    let truth = tum.join("groundtruth.txt");
+    let moved: String = std::fs::read_to_string(&truth)
+        .unwrap()
+        .lines()
+        .map(|line| match line.starts_with('#') {
+            true => format!("{line}\n"),
+            false => {
+                let mut fields: Vec<String> = line.split(' ').map(str::to_string).collect();
+                fields[1] = format!("{:.6}", fields[1].parse::<f64>().unwrap() + 0.01);
+                fields.join(" ") + "\n"
+            }
+        })
+        .collect();
+    let estimate = dir.path().join("moved.txt");
+    std::fs::write(&estimate, moved).unwrap();
+    let output = std::process::Command::new(&python)
+        .arg(python.with_file_name("evo_ape"))
+        .arg("tum")
+        .args([&truth, &estimate])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{text}{}", String::from_utf8_lossy(&output.stderr));
+    let rmse: f64 = text
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("rmse"))
+        .unwrap_or_else(|| panic!("no rmse in {text}"))
+        .trim()
+        .parse()
+        .unwrap();
+    assert!((rmse - 0.01).abs() < 1e-6, "APE RMSE {rmse}");
+}
+
+#[test]
+fn random_poses_draw_each_angle_in_its_own_range() {
+    let spec = |angles: &str| {
+        format!(
+            r#"Dataset(scene: "room.ron", rig: Pinhole(size: (8, 6)), sets: [Set(name: "test",
+                poses: Random(count: 200, low: (-1.5, -1.0, 0.5), high: (1.5, 1.0, 1.5), {angles}))])"#
+        )
+    };
+    let (_dir, path) = project(&spec("angles: ((-5.0, 5.0), (10.0, 20.0), (90.0, 90.0))"));
+    let dataset = Dataset::load(&path).unwrap();
+    let angles: Vec<_> = dataset.sets[0].poses.iter().map(|p| p.angles_degrees()).collect();
+    assert_eq!(angles.len(), 200);
+    let spread = |axis: fn(&glam::DVec3) -> f64| {
+        let values: Vec<f64> = angles.iter().map(axis).collect();
+        (values.iter().copied().fold(f64::MAX, f64::min), values.iter().copied().fold(f64::MIN, f64::max))
+    };
+    let (x, y, z) = (spread(|a| a.x), spread(|a| a.y), spread(|a| a.z));
+    // Inside each range, and spread over it (200 uniform draws leave gaps of ~1/200).
+    assert!(x.0 >= -5.0 - 1e-9 && x.1 <= 5.0 + 1e-9 && x.0 < -4.5 && x.1 > 4.5, "{x:?}");
+    assert!(y.0 >= 10.0 - 1e-9 && y.1 <= 20.0 + 1e-9 && y.0 < 10.5 && y.1 > 19.5, "{y:?}");
+    assert!((z.0 - 90.0).abs() < 1e-9 && (z.1 - 90.0).abs() < 1e-9, "{z:?}");
+
+    let (_dir, path) = project(&spec("tilt: 5.0, angles: ((0.0, 1.0), (0.0, 1.0), (0.0, 1.0))"));
+    let message = Dataset::load(&path).err().unwrap().to_string();
+    assert!(message.contains("set 'test': poses.angles: give tilt or per-axis angles, not both"), "{message}");
+    let (_dir, path) = project(&spec("angles: ((0.0, 1.0), (3.0, 2.0), (0.0, 1.0))"));
+    let message = Dataset::load(&path).err().unwrap().to_string();
+    assert!(message.contains("spec.ron:") && message.contains("θy: (3, 2)"), "{message}");
+}
+
+#[test]
+fn the_preview_of_a_large_set_draws_an_even_spread_of_its_poses() {
+    // 100 × 60 = 6000 poses over the room, none inside the table (z = 1.0 is above it).
+    let (_dir, path) = project(
+        r#"Dataset(scene: "room.ron", rig: Pinhole(size: (8, 6)), sets: [Set(name: "grid",
+            poses: Grid(x: (-1.98, 1.98, 0.04), y: (-1.475, 1.475, 0.05), z: [1.0]))])"#,
+    );
+    let dataset = Dataset::load(&path).unwrap();
+    assert_eq!(dataset.sets[0].poses.len(), 6000);
+    let picture = preview::draw(&dataset).unwrap();
+    let svg = roxmltree::Document::parse(&picture.svg).unwrap();
+    let frames: Vec<usize> = svg
+        .descendants()
+        .filter(|n| n.attribute("class") == Some("pose"))
+        .map(|n| n.attribute("data-frame").unwrap().parse().unwrap())
+        .collect();
+    assert_eq!((frames.len(), picture.poses), (5000, 5000));
+    assert_eq!((frames[0], frames[4999]), (0, 5999));
+    assert!(frames.windows(2).all(|w| (1..=2).contains(&(w[1] - w[0]))));
+    assert!(picture.svg.contains("grid: 6000 poses (5000 drawn)"));
 }

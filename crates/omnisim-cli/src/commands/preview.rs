@@ -1,0 +1,48 @@
+//! `omnisim preview`: the bird's-eye picture of a data-set spec, as SVG and PNG.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use omnisim::dataset::{Dataset, preview};
+
+/// Draw a data set seen from above: the scene's faces in their colours with the room's extent
+/// and a scale bar, every set's poses (one colour per set) with heading arrows, occluders,
+/// point lights, and red crosses at poses skipped for lying inside an object or outside the
+/// scene (the reference paper's Fig. 7). Nothing is rendered: it takes seconds.
+#[derive(Debug, Clone, Args)]
+#[command(after_help = "Examples:\n  omnisim preview scenes/env1-dataset.ron --out env1-dataset\n    \
+(writes env1-dataset.svg and env1-dataset.png)\n  omnisim preview scenes/env1-dataset.ron --out pictures/plan")]
+pub struct PreviewArgs {
+    /// Data-set spec (RON), e.g. scenes/env1-dataset.ron.
+    pub spec: PathBuf,
+    /// Output prefix: writes PREFIX.svg and PREFIX.png (their folder is created).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn run(args: PreviewArgs) -> anyhow::Result<()> {
+    let dataset = Dataset::load(&args.spec)?;
+    for warning in &dataset.warnings {
+        eprintln!("warning: {warning}");
+    }
+    let picture = preview::draw(&dataset)?;
+    let mut svg = args.out.clone().into_os_string();
+    svg.push(".svg");
+    super::prepare_file(&PathBuf::from(svg))?;
+    let written = picture
+        .write(&args.out)
+        .with_context(|| format!("cannot write the preview {}.svg/.png", args.out.display()))?;
+    eprintln!(
+        "{} pose(s) of {} set(s), {} skipped; {}×{} px",
+        picture.poses,
+        dataset.sets.len(),
+        picture.skipped,
+        picture.view.size.0,
+        picture.view.size.1
+    );
+    for path in written {
+        println!("{}", path.display());
+    }
+    Ok(())
+}

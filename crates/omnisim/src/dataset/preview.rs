@@ -1,0 +1,531 @@
+//! A bird's-eye picture of a data set (the reference paper's Fig. 7): the scene's faces seen
+//! from above in their colours, its extent and a scale bar, every set's poses and headings,
+//! the occluders, the point lights, and the poses left out, as SVG and as PNG.
+//!
+//! The SVG is written by hand: it is a few dozen kinds of element with fixed attributes, and
+//! the elements carry `class` and `data-*` attributes that tests and users can select on,
+//! which a drawing crate would hide. The PNG is that same SVG rasterised by `resvg`, with the
+//! system's fonts for the labels (shapes do not depend on fonts).
+
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+use glam::{DVec2, DVec3};
+
+use super::occluders::Occluder;
+use super::{Dataset, DatasetError};
+use crate::lighting::LightKind;
+
+/// One colour per set, in spec order (matplotlib's "tab10", distinct for colour-blind eyes
+/// too); sets beyond ten reuse them.
+const SET_COLOURS: [[u8; 3]; 10] = [
+    [31, 119, 180],
+    [255, 127, 14],
+    [44, 160, 44],
+    [214, 39, 40],
+    [148, 103, 189],
+    [140, 86, 75],
+    [227, 119, 194],
+    [127, 127, 127],
+    [188, 189, 34],
+    [23, 190, 207],
+];
+/// Colour of the crosses at skipped poses.
+const SKIPPED_COLOUR: &str = "rgb(230,0,0)";
+/// Largest size of the floor plan in the picture, pixels.
+const PLAN_SIZE: (f64, f64) = (900.0, 640.0);
+/// Room left around the plan: title above, dimensions and scale bar below, legend right.
+const MARGIN: Margin = Margin {
+    left: 70.0,
+    top: 60.0,
+    right: 330.0,
+    bottom: 90.0,
+};
+/// Poses drawn per set at most; larger sets show this many, evenly spread.
+const MAX_DRAWN: usize = 5000;
+/// Length of a heading arrow, metres.
+const ARROW_LENGTH: f64 = 0.18;
+/// Radius of a pose's disc, pixels.
+const POSE_RADIUS: f64 = 3.5;
+
+struct Margin {
+    left: f64,
+    top: f64,
+    right: f64,
+    bottom: f64,
+}
+
+/// Where a world point (x, y) falls in the picture: x to the right, y up, metres to pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanView {
+    /// World (x, y) of the plan's top-left corner, metres.
+    pub corner: DVec2,
+    /// Pixels per metre.
+    pub scale: f64,
+    /// Picture size, pixels.
+    pub size: (u32, u32),
+}
+
+impl PlanView {
+    /// Fits the floor-plan rectangle `low`–`high` (metres) into the picture.
+    fn fit(low: DVec2, high: DVec2) -> Self {
+        let extent = (high - low).max(DVec2::splat(1e-3));
+        let scale = (PLAN_SIZE.0 / extent.x).min(PLAN_SIZE.1 / extent.y);
+        let size = (
+            (MARGIN.left + extent.x * scale + MARGIN.right).ceil() as u32,
+            (MARGIN.top + extent.y * scale + MARGIN.bottom).ceil().max(420.0) as u32,
+        );
+        Self {
+            corner: DVec2::new(low.x, high.y),
+            scale,
+            size,
+        }
+    }
+
+    /// Picture position (pixels, y down) of the world point (x, y).
+    pub fn to_picture(&self, world: DVec2) -> DVec2 {
+        DVec2::new(
+            MARGIN.left + (world.x - self.corner.x) * self.scale,
+            MARGIN.top + (self.corner.y - world.y) * self.scale,
+        )
+    }
+}
+
+/// The drawing, as SVG text, with the transform that placed it.
+#[derive(Debug, Clone)]
+pub struct Preview {
+    /// The SVG document.
+    pub svg: String,
+    /// World to picture.
+    pub view: PlanView,
+    /// Poses drawn (every set's; at most 5000 per set, evenly spread, for larger sets).
+    pub poses: usize,
+    /// Skipped poses marked.
+    pub skipped: usize,
+}
+
+/// Draws the bird's-eye picture of `dataset`. Per-frame occluders are placed as the run
+/// places them (the same streams), so the picture shows the occluders the frames will have.
+pub fn draw(dataset: &Dataset) -> Result<Preview, DatasetError> {
+    let scene = &dataset.scene;
+    let (low, high) = scene.bounds().unwrap_or((DVec3::splat(-1.0), DVec3::splat(1.0)));
+    let mut plan_low = low.truncate();
+    let mut plan_high = high.truncate();
+    for set in &dataset.sets {
+        let positions = set.poses.iter().map(|p| p.position);
+        let skipped = set.skipped.iter().map(|s| DVec3::from(s.position));
+        for p in positions.chain(skipped) {
+            plan_low = plan_low.min(p.truncate());
+            plan_high = plan_high.max(p.truncate());
+        }
+    }
+    let view = PlanView::fit(plan_low, plan_high);
+    let mut svg = Svg::new(view);
+    svg.title(dataset);
+    svg.faces(dataset, high.z);
+    svg.dimensions(low.truncate(), high.truncate(), plan_low);
+    let mut legend = Vec::new();
+    // The frames drawn: all, or an even spread of a large set's (the picture stays readable
+    // and its size bounded).
+    let drawn: Vec<Vec<usize>> = dataset
+        .sets
+        .iter()
+        .map(|set| super::evenly_spread(set.poses.len(), MAX_DRAWN))
+        .collect();
+    for (s, set) in dataset.sets.iter().enumerate() {
+        let per_frame: Vec<Vec<Occluder>> = drawn[s]
+            .iter()
+            .map(|&i| dataset.frame_occluders(s, i))
+            .collect::<Result<_, _>>()?;
+        let colour = set_colour(s);
+        svg.occluders(&set.spec.name, &colour, per_frame.iter().flatten(), true);
+        svg.occluders(&set.spec.name, &colour, &set.occluders, false);
+        legend.push(per_frame.iter().any(|o| !o.is_empty()) || !set.occluders.is_empty());
+    }
+    for (s, set) in dataset.sets.iter().enumerate() {
+        let colour = set_colour(s);
+        for &i in &drawn[s] {
+            let pose = &set.poses[i];
+            let heading = pose.world_from_body_rotation() * DVec3::X;
+            svg.pose(&set.spec.name, i, pose.position.truncate(), heading.truncate(), &colour);
+        }
+    }
+    svg.lights(dataset);
+    // Crosses last: a skipped pose is what the user must not miss.
+    for set in &dataset.sets {
+        for skip in &set.skipped {
+            svg.skipped(&set.spec.name, skip);
+        }
+    }
+    let poses = drawn.iter().map(Vec::len).sum();
+    let skipped = dataset.sets.iter().map(|s| s.skipped.len()).sum();
+    svg.legend(dataset, &legend, skipped);
+    Ok(Preview {
+        svg: svg.finish(),
+        view,
+        poses,
+        skipped,
+    })
+}
+
+impl Preview {
+    /// The picture rasterised at one pixel per SVG unit, as PNG bytes.
+    pub fn png(&self) -> Result<Vec<u8>, DatasetError> {
+        let mut options = resvg::usvg::Options::default();
+        options.fontdb_mut().load_system_fonts();
+        let picture = |e: String| DatasetError::Picture(e);
+        let tree = resvg::usvg::Tree::from_str(&self.svg, &options).map_err(|e| picture(e.to_string()))?;
+        let (width, height) = self.view.size;
+        let mut pixmap = resvg::tiny_skia::Pixmap::new(width, height)
+            .ok_or_else(|| picture(format!("{width}×{height} is not a picture size")))?;
+        resvg::render(&tree, resvg::tiny_skia::Transform::identity(), &mut pixmap.as_mut());
+        pixmap.encode_png().map_err(|e| picture(e.to_string()))
+    }
+
+    /// Writes `PREFIX.svg` and `PREFIX.png` (each atomically); returns their paths.
+    pub fn write(&self, prefix: &Path) -> Result<[PathBuf; 2], DatasetError> {
+        let with = |extension: &str| {
+            let mut name = prefix.as_os_str().to_owned();
+            name.push(format!(".{extension}"));
+            PathBuf::from(name)
+        };
+        let (svg, png) = (with("svg"), with("png"));
+        super::run::write_file(&svg, self.svg.as_bytes())?;
+        super::run::write_file(&png, &self.png()?)?;
+        Ok([svg, png])
+    }
+}
+
+fn set_colour(set: usize) -> String {
+    let [r, g, b] = SET_COLOURS[set % SET_COLOURS.len()];
+    format!("rgb({r},{g},{b})")
+}
+
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// The SVG document being built, in drawing order (later elements on top).
+struct Svg {
+    text: String,
+    view: PlanView,
+}
+
+impl Svg {
+    fn new(view: PlanView) -> Self {
+        let (w, h) = view.size;
+        let mut text = String::new();
+        let _ = writeln!(
+            text,
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="DejaVu Sans, sans-serif" font-size="13">"#
+        );
+        let _ = writeln!(text, r#"<rect width="100%" height="100%" fill="white"/>"#);
+        Self { text, view }
+    }
+
+    fn at(&self, world: DVec2) -> DVec2 {
+        self.view.to_picture(world)
+    }
+
+    fn title(&mut self, dataset: &Dataset) {
+        let spec = dataset.spec_path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
+        let _ = writeln!(
+            self.text,
+            r#"<text x="{}" y="30" font-size="17">{} — scene '{}', seen from above</text>"#,
+            MARGIN.left,
+            escape(&spec),
+            escape(&dataset.scene.name)
+        );
+    }
+
+    /// Faces from above in order of their highest point, so that higher faces cover lower
+    /// ones; the horizontal faces at the scene's top (the ceiling) are left out. Vertical
+    /// faces (walls, sides) are seen edge-on: drawn as thick lines, darker.
+    fn faces(&mut self, dataset: &Dataset, top: f64) {
+        let scene = &dataset.scene;
+        let mut order: Vec<usize> = (0..scene.faces.len()).collect();
+        let highest = |f: usize| scene.faces[f].vertices.iter().map(|v| v.z).fold(f64::MIN, f64::max);
+        order.sort_by(|&a, &b| highest(a).total_cmp(&highest(b)).then(a.cmp(&b)));
+        let _ = writeln!(self.text, r#"<g class="faces" stroke-linejoin="round">"#);
+        for f in order {
+            let face = &scene.faces[f];
+            let normal = scene.face_normal(f);
+            let [r, g, b] = face.colour;
+            let points: Vec<DVec2> = face.vertices.iter().map(|v| self.at(v.truncate())).collect();
+            let object = escape(&scene.objects[face.object as usize].name);
+            if normal.z.abs() < 1e-6 {
+                let (first, last) = farthest_pair(&points);
+                let dark = |c: u8| (f64::from(c) * 0.6) as u8;
+                let _ = writeln!(
+                    self.text,
+                    r#"<line class="face" data-object="{object}" x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke="rgb({},{},{})" stroke-width="3" stroke-linecap="round"/>"#,
+                    first.x,
+                    first.y,
+                    last.x,
+                    last.y,
+                    dark(r),
+                    dark(g),
+                    dark(b)
+                );
+                continue;
+            }
+            let lowest = face.vertices.iter().map(|v| v.z).fold(f64::MAX, f64::min);
+            if lowest >= top - 1e-6 {
+                continue;
+            }
+            let _ = writeln!(
+                self.text,
+                r#"<polygon class="face" data-object="{object}" points="{}" fill="rgb({r},{g},{b})" stroke="rgb(90,90,90)" stroke-width="0.6"/>"#,
+                polygon_points(&points)
+            );
+        }
+        let _ = writeln!(self.text, "</g>");
+    }
+
+    /// Dimension lines under and left of the room, with its extent in metres, and a scale bar.
+    fn dimensions(&mut self, low: DVec2, high: DVec2, plan_low: DVec2) {
+        let (a, b) = (self.at(DVec2::new(low.x, plan_low.y)), self.at(DVec2::new(high.x, plan_low.y)));
+        let y = a.y + 22.0;
+        let _ = writeln!(
+            self.text,
+            r#"<g class="dimensions" stroke="black" fill="black"><line x1="{:.2}" y1="{y:.2}" x2="{:.2}" y2="{y:.2}"/><line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}"/><line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}"/><text stroke="none" x="{:.2}" y="{:.2}" text-anchor="middle">{:.2} m</text>"#,
+            a.x,
+            b.x,
+            a.x,
+            y - 5.0,
+            a.x,
+            y + 5.0,
+            b.x,
+            y - 5.0,
+            b.x,
+            y + 5.0,
+            (a.x + b.x) / 2.0,
+            y + 17.0,
+            high.x - low.x
+        );
+        let (c, d) = (self.at(DVec2::new(low.x, low.y)), self.at(DVec2::new(low.x, high.y)));
+        let x = MARGIN.left - 22.0;
+        let _ = writeln!(
+            self.text,
+            r#"<line x1="{x:.2}" y1="{:.2}" x2="{x:.2}" y2="{:.2}"/><line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}"/><line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}"/><text stroke="none" transform="translate({:.2} {:.2}) rotate(-90)" text-anchor="middle">{:.2} m</text>"#,
+            c.y,
+            d.y,
+            x - 5.0,
+            c.y,
+            x + 5.0,
+            c.y,
+            x - 5.0,
+            d.y,
+            x + 5.0,
+            d.y,
+            x - 8.0,
+            (c.y + d.y) / 2.0,
+            high.y - low.y
+        );
+        // A round length near a fifth of the room, with its ends marked.
+        let metres = scale_bar_length((high.x - low.x) / 5.0);
+        let start = DVec2::new(MARGIN.left, y + 45.0);
+        let end = start.x + metres * self.view.scale;
+        let _ = writeln!(
+            self.text,
+            r#"<g class="scale-bar"><rect x="{:.2}" y="{:.2}" width="{:.2}" height="6" fill="black"/><text stroke="none" x="{:.2}" y="{:.2}">{} m</text></g></g>"#,
+            start.x,
+            start.y,
+            end - start.x,
+            end + 8.0,
+            start.y + 7.0,
+            metres
+        );
+    }
+
+    /// Occluders' footprints: per-set ones filled in their colour, per-frame ones (a few per
+    /// frame, many per set) as light outlines in the set's colour.
+    fn occluders<'a>(&mut self, set: &str, colour: &str, occluders: impl IntoIterator<Item = &'a Occluder>, per_frame: bool) {
+        for occluder in occluders {
+            let points = polygon_points(&occluder.footprint.iter().map(|&p| self.at(p)).collect::<Vec<_>>());
+            let [r, g, b] = occluder.colour;
+            let _ = if per_frame {
+                writeln!(
+                    self.text,
+                    r#"<polygon class="occluder per-frame" data-set="{set}" points="{points}" fill="none" stroke="{colour}" stroke-opacity="0.45" stroke-width="0.8"/>"#
+                )
+            } else {
+                writeln!(
+                    self.text,
+                    r#"<polygon class="occluder" data-set="{set}" points="{points}" fill="rgb({r},{g},{b})" fill-opacity="0.8" stroke="black" stroke-width="0.8"/>"#
+                )
+            };
+        }
+    }
+
+    /// A disc at the position and an arrow along the body's x axis seen from above.
+    fn pose(&mut self, set: &str, frame: usize, position: DVec2, heading: DVec2, colour: &str) {
+        let centre = self.at(position);
+        let tip = self.at(position + heading * ARROW_LENGTH);
+        let _ = write!(
+            self.text,
+            r#"<g class="pose" data-set="{set}" data-frame="{frame}" fill="{colour}" stroke="{colour}">"#
+        );
+        if heading.length() > 1e-3 {
+            let along = (tip - centre).normalize_or_zero();
+            let side = along.perp() * 3.0;
+            let base = tip - along * 6.0;
+            let _ = write!(
+                self.text,
+                r#"<line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke-width="1.2"/><polygon points="{}" stroke="none"/>"#,
+                centre.x,
+                centre.y,
+                base.x,
+                base.y,
+                polygon_points(&[tip, base + side, base - side])
+            );
+        }
+        let _ = writeln!(
+            self.text,
+            r#"<circle class="pose-marker" cx="{:.2}" cy="{:.2}" r="{POSE_RADIUS}" stroke="none"/></g>"#,
+            centre.x, centre.y
+        );
+    }
+
+    fn skipped(&mut self, set: &str, skip: &super::SkippedPose) {
+        let p = self.at(DVec2::new(skip.position[0], skip.position[1]));
+        let r = 4.5;
+        let _ = writeln!(
+            self.text,
+            r#"<path class="skipped" data-set="{set}" data-source-index="{}" d="M{:.2} {:.2}L{:.2} {:.2}M{:.2} {:.2}L{:.2} {:.2}" stroke="{SKIPPED_COLOUR}" stroke-width="2"><title>{}</title></path>"#,
+            skip.source_index,
+            p.x - r,
+            p.y - r,
+            p.x + r,
+            p.y + r,
+            p.x - r,
+            p.y + r,
+            p.x + r,
+            p.y - r,
+            escape(&skip.reason)
+        );
+    }
+
+    /// Point lights: a yellow sun symbol with the light's name (grey when switched off).
+    fn lights(&mut self, dataset: &Dataset) {
+        let Some(lighting) = &dataset.scene.lighting else {
+            return;
+        };
+        for light in &lighting.lights {
+            let LightKind::Point { position, .. } = light.kind else {
+                continue;
+            };
+            let p = self.at(position.truncate());
+            let fill = if light.on { "rgb(255,215,0)" } else { "rgb(190,190,190)" };
+            let _ = writeln!(
+                self.text,
+                r#"<g class="light" data-light="{name}"><path d="M{:.2} {:.2}h20M{:.2} {:.2}v20" stroke="black" stroke-width="1.2"/><circle cx="{:.2}" cy="{:.2}" r="6" fill="{fill}" stroke="black"/><text x="{:.2}" y="{:.2}" font-size="12">{name} ({:.2} m)</text></g>"#,
+                p.x - 10.0,
+                p.y,
+                p.x,
+                p.y - 10.0,
+                p.x,
+                p.y,
+                p.x + 9.0,
+                p.y - 8.0,
+                position.z,
+                name = escape(&light.name)
+            );
+        }
+    }
+
+    fn legend(&mut self, dataset: &Dataset, occluded: &[bool], skipped: usize) {
+        let x = self.view.size.0 as f64 - MARGIN.right + 30.0;
+        let mut y = MARGIN.top + 10.0;
+        let _ = writeln!(self.text, r#"<g class="legend">"#);
+        for (s, set) in dataset.sets.iter().enumerate() {
+            let extra = match (set.skipped.len(), occluded[s]) {
+                (0, false) => String::new(),
+                (0, true) => ", occluders".into(),
+                (k, false) => format!(", {k} skipped"),
+                (k, true) => format!(", {k} skipped, occluders"),
+            };
+            let extra = if set.poses.len() > MAX_DRAWN {
+                format!("{extra} ({MAX_DRAWN} drawn)")
+            } else {
+                extra
+            };
+            let _ = writeln!(
+                self.text,
+                r#"<circle cx="{x}" cy="{:.1}" r="5" fill="{}"/><text x="{}" y="{:.1}">{}: {} poses{extra}</text>"#,
+                y - 4.0,
+                set_colour(s),
+                x + 12.0,
+                y,
+                escape(&set.spec.name),
+                set.poses.len()
+            );
+            y += 20.0;
+        }
+        y += 8.0;
+        let _ = writeln!(
+            self.text,
+            r#"<path d="M{:.1} {:.1}l9 9m0 -9l-9 9" stroke="{SKIPPED_COLOUR}" stroke-width="2"/><text x="{}" y="{y:.1}">skipped (inside an object or outside): {skipped}</text>"#,
+            x - 4.5,
+            y - 9.0,
+            x + 12.0
+        );
+        y += 20.0;
+        let entries = [
+            ("rgb(255,215,0)", "point light (height), grey = off"),
+            ("rgb(120,120,120)", "occluders: filled per set, outlined per frame"),
+        ];
+        for (fill, label) in entries {
+            let _ = writeln!(
+                self.text,
+                r#"<rect x="{:.1}" y="{:.1}" width="10" height="10" fill="{fill}" stroke="black"/><text x="{}" y="{y:.1}">{label}</text>"#,
+                x - 5.0,
+                y - 9.0,
+                x + 12.0
+            );
+            y += 20.0;
+        }
+        let _ = writeln!(
+            self.text,
+            r#"<text x="{}" y="{:.1}" fill="rgb(80,80,80)">arrows: camera heading (body x), {ARROW_LENGTH} m</text></g>"#,
+            x - 5.0,
+            y + 4.0
+        );
+    }
+
+    fn finish(mut self) -> String {
+        self.text.push_str("</svg>\n");
+        self.text
+    }
+}
+
+/// The two points of a face seen edge-on that are farthest apart (its ends).
+fn farthest_pair(points: &[DVec2]) -> (DVec2, DVec2) {
+    let mut best = (points[0], points[0]);
+    for (i, &a) in points.iter().enumerate() {
+        for &b in &points[i + 1..] {
+            if a.distance_squared(b) > best.0.distance_squared(best.1) {
+                best = (a, b);
+            }
+        }
+    }
+    best
+}
+
+fn polygon_points(points: &[DVec2]) -> String {
+    let coordinates: Vec<String> = points.iter().map(|p| format!("{:.2},{:.2}", p.x, p.y)).collect();
+    coordinates.join(" ")
+}
+
+/// 1, 2 or 5 × a power of ten, the largest not above `length` (at least 1 cm).
+fn scale_bar_length(length: f64) -> f64 {
+    let power = 10f64.powf(length.max(0.01).log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|&l| l <= length)
+        .unwrap_or(power)
+}
