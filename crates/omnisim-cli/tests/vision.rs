@@ -147,11 +147,17 @@ fn project_writes_the_librarys_views() {
     }
 }
 
-/// Mistakes give a clear message and no output.
+/// Mistakes give a clear message and write nothing: not even the --out folder.
 #[test]
 fn describe_refuses_bad_requests() {
     let dir = tempfile::tempdir().unwrap();
-    dataset(dir.path());
+    let ds = dataset(dir.path());
+    // A folder of images named like the PCA bases' folder.
+    std::fs::create_dir(dir.path().join("pca")).unwrap();
+    for stem in ["env1-0000", "env1-0001"] {
+        std::fs::copy(ds.join(format!("map/{stem}.png")), dir.path().join(format!("pca/{stem}.png"))).unwrap();
+    }
+    let omni = ["--camera", "omni", "--mirror-a", "0.04", "--mirror-b", "0.16"];
     for (args, message) in [
         (vec!["describe", "ds", "-d", "sift:sigmaa=2", "--out", "x"], "unknown setting 'sigmaa'"),
         (vec!["describe", "ds", "-d", "orb", "--out", "x"], "unknown descriptor 'orb'"),
@@ -159,11 +165,24 @@ fn describe_refuses_bad_requests() {
         (vec!["describe", "ds", "-d", "sift", "--mirror-a", "0.05", "--out", "x"], "camera options are refused"),
         (vec!["describe", "ds", "-d", "sift:scales=0", "--out", "x"], "scales_per_octave"),
         (vec!["describe", "nowhere", "-d", "sift", "--out", "x"], "neither a data-set folder"),
-        (vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"], "elevation band"),
+        (vec!["describe", "ds", "-d", "radon:radial-step=1e-20", "--out", "x"], "radial samples"),
+        (vec!["describe", "ds", "-d", "radon:radial-step=nan", "--out", "x"], "radial-step=nan is not a finite number"),
+        (vec!["describe", "ds", "-d", "radon:step=1", "--out", "x"], "unknown setting 'step'"),
+        (vec!["describe", "ds", "-d", "hog", "-d", "block-hog:clip=0", "--out", "x"], "clip"),
+        (vec!["describe", "ds", "-d", "sift:clamp=inf", "--out", "x"], "not a finite number"),
+        (vec!["describe", "ds", "-d", "surf:window=0", "--out", "x"], "orientation_window"),
+        (vec!["describe", "ds", "-d", "gist:blocks=0", "--out", "x"], "blocks"),
+        // Limits set by the image's size are met on the first image, before anything is written.
+        (vec!["describe", "ds", "-d", "hog", "-d", "fourier:k=1000", "--out", "x"], "coefficients"),
+        (vec!["describe", "ds", "-d", "hog", "--pca-fit", "9", "--map", "nope", "--out", "x"], "--map nope"),
+        ([&["describe", "pca"][..], &omni, &["-d", "hog", "--pca-fit", "1", "--out", "x"]].concat(), "share OUT/pca"),
+        (vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"], "got 20° .. 10°"),
+        (vec!["project", "ds", "--view", "perspective:hfov=200", "--out", "x"], "got 200°"),
+        (vec!["project", "ds", "--view", "perspective:yaw=inf", "--out", "x"], "not a finite number"),
     ] {
         let output = omnisim(&args, dir.path());
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(!output.status.success() && stderr.contains(message), "{args:?}: {stderr}");
+        assert!(!dir.path().join("x").exists(), "{args:?} created --out");
     }
-    assert!(!dir.path().join("x").join("map").exists());
 }

@@ -40,6 +40,16 @@ pub enum Blocks {
     Horizontal(usize),
 }
 
+impl Blocks {
+    /// Blocks across and down.
+    fn counts(self) -> (usize, usize) {
+        match self {
+            Blocks::Grid(n) => (n, n),
+            Blocks::Horizontal(k) => (1, k),
+        }
+    }
+}
+
 impl Default for GistParams {
     fn default() -> Self {
         Self {
@@ -51,6 +61,18 @@ impl Default for GistParams {
 }
 
 impl GistParams {
+    /// Checks the settings that do not depend on the image: 1–16 scales, 1–64 orientations,
+    /// at least one block.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        // Beyond 16 scales the peak frequency is below 1e-4 cycles per pixel; each filter costs a
+        // full-image transform, so the bank is bounded.
+        require((1..=16).contains(&self.scales) && (1..=64).contains(&self.orientations), "filters", || {
+            format!("needs 1–16 scales and 1–64 orientations, got {} and {}", self.scales, self.orientations)
+        })?;
+        let (nx, ny) = self.blocks.counts();
+        require(nx >= 1 && ny >= 1, "blocks", || "needs at least one block".to_string())
+    }
+
     /// The panoramic variant: 4 scales × 8 orientations over 16 horizontal blocks.
     pub fn panoramic() -> Self {
         Self {
@@ -95,17 +117,10 @@ pub fn gist(image: &Raster, params: GistParams) -> Result<Descriptor, VisionErro
     require(image.channels == 1, "channels", || {
         format!("gist reads one channel, got {}", image.channels)
     })?;
-    // Beyond 16 scales the peak frequency is below 1e-4 cycles per pixel; each filter costs a
-    // full-image transform, so the bank is bounded.
-    require((1..=16).contains(&params.scales) && (1..=64).contains(&params.orientations), "filters", || {
-        format!("needs 1–16 scales and 1–64 orientations, got {} and {}", params.scales, params.orientations)
-    })?;
-    let (nx, ny) = match params.blocks {
-        Blocks::Grid(n) => (n, n),
-        Blocks::Horizontal(k) => (1, k),
-    };
+    params.validate()?;
+    let (nx, ny) = params.blocks.counts();
     require(
-        nx >= 1 && ny >= 1 && nx <= image.width && ny <= image.height,
+        nx <= image.width && ny <= image.height,
         "blocks",
         || format!("{nx}×{ny} blocks do not fit a {}×{} image", image.width, image.height),
     )?;

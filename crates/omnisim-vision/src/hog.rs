@@ -119,6 +119,41 @@ impl Orientations {
     }
 }
 
+impl BlockHogParams {
+    /// Checks the settings that do not depend on the image: bins 2–360, cell, block and
+    /// stride at least 1, `clip` finite and positive.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        self.orientations.check()?;
+        require(
+            self.cell >= 1 && self.block >= 1 && self.stride >= 1,
+            "cells",
+            || "cell, block and stride must be at least 1".to_string(),
+        )?;
+        require(self.clip.is_finite() && self.clip > 0.0, "clip", || {
+            format!("must be finite and positive, got {}", self.clip)
+        })
+    }
+}
+
+impl PanoramicHogParams {
+    /// Checks the settings that do not depend on the image: bins 2–360, at least 1 cell.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        self.orientations.check()?;
+        require(self.cells >= 1, "cells", || "needs at least 1 cell".to_string())
+    }
+}
+
+impl VerticalHogParams {
+    /// Checks the settings that do not depend on the image: bins 2–360, cell width and
+    /// column step at least 1.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        self.orientations.check()?;
+        require(self.width >= 1 && self.step >= 1, "cells", || {
+            "cell width and column step must be at least 1".to_string()
+        })
+    }
+}
+
 fn l2_normalise(values: &mut [f32]) {
     let norm = values.iter().map(|v| v * v).sum::<f32>().sqrt();
     if norm > 0.0 {
@@ -132,12 +167,7 @@ pub fn block_hog(image: &Raster, params: BlockHogParams) -> Result<Descriptor, V
     require(image.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", image.channels)
     })?;
-    params.orientations.check()?;
-    require(
-        params.cell >= 1 && params.block >= 1 && params.stride >= 1,
-        "cells",
-        || "cell, block and stride must be at least 1".to_string(),
-    )?;
+    params.validate()?;
     let bins = params.orientations.bins;
     let (cells_x, cells_y) = (image.width / params.cell, image.height / params.cell);
     require(cells_x >= params.block && cells_y >= params.block, "block", || {
@@ -187,8 +217,8 @@ pub fn panoramic_hog(panorama: &Raster, params: PanoramicHogParams) -> Result<De
     require(panorama.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", panorama.channels)
     })?;
-    params.orientations.check()?;
-    require(params.cells >= 1 && params.cells <= panorama.height, "cells", || {
+    params.validate()?;
+    require(params.cells <= panorama.height, "cells", || {
         format!("needs 1 ≤ cells ≤ height = {}, got {}", panorama.height, params.cells)
     })?;
     let bins = params.orientations.bins;
@@ -240,12 +270,12 @@ pub fn vertical_hog(panorama: &Raster, params: VerticalHogParams) -> Result<Desc
     require(panorama.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", panorama.channels)
     })?;
-    params.orientations.check()?;
+    params.validate()?;
     let w = panorama.width;
-    require(params.step >= 1 && w.is_multiple_of(params.step), "step", || {
+    require(w.is_multiple_of(params.step), "step", || {
         format!("must divide the panorama's width {w}, got {}", params.step)
     })?;
-    require(params.width >= 1 && params.width <= w, "width", || {
+    require(params.width <= w, "width", || {
         format!("needs 1 ≤ width ≤ {w} columns, got {}", params.width)
     })?;
     let bins = params.orientations.bins;

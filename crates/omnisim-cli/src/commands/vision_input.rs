@@ -97,7 +97,7 @@ impl InputArgs {
 
     /// Whether any camera option differs from its default.
     fn camera_given(&self) -> bool {
-        format!("{:?}", default_camera_args()) != format!("{:?}", self.camera)
+        self.camera != default_camera_args()
     }
 
     fn read_dataset(&self, manifest: &Path) -> anyhow::Result<Input> {
@@ -307,13 +307,18 @@ impl NamedSettings {
         Ok(())
     }
 
-    /// The setting `key` parsed as `T`, or `default`.
+    /// The setting `key` parsed as `T`, or `default`. Numbers must be finite: `nan`, `inf`
+    /// and values that overflow to infinity (`1e999`) are refused for every setting.
     pub fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> anyhow::Result<T> {
         match self.settings.get(key) {
             None => Ok(default),
-            Some(text) => text
-                .parse()
-                .map_err(|_| anyhow::anyhow!("{}: {key}={text} is not a valid {}", self.name, std::any::type_name::<T>())),
+            Some(text) => {
+                if text.parse::<f64>().is_ok_and(|v| !v.is_finite()) {
+                    bail!("{}: {key}={text} is not a finite number", self.name);
+                }
+                text.parse()
+                    .map_err(|_| anyhow::anyhow!("{}: {key}={text} is not a valid {}", self.name, std::any::type_name::<T>()))
+            }
         }
     }
 }
@@ -330,6 +335,12 @@ mod tests {
         assert_eq!(s.get("missing", 2.5f64).unwrap(), 2.5);
         assert!(s.check_keys(&["k"]).is_err());
         assert!(s.get::<usize>("on", 0).is_err());
+        for text in ["nan", "NaN", "inf", "-inf", "infinity", "1e999"] {
+            let s = NamedSettings::parse(&format!("radon:radial-step={text}")).unwrap();
+            let error = s.get("radial-step", 1.0f64).unwrap_err().to_string();
+            assert!(error.contains("not a finite number"), "{text}: {error}");
+            assert!(s.get("radial-step", 1.0f32).is_err(), "{text}");
+        }
         assert!(NamedSettings::parse("hog:cells").is_err());
         assert!(NamedSettings::parse("hog:k=1,k=2").is_err());
     }
