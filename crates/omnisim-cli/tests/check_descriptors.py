@@ -33,7 +33,9 @@ for sidecar_path in sorted(root.glob("*/*.json")):
         array = np.load(folder / file)
         check(array.dtype == np.dtype("<f4"), f"{file}: dtype {array.dtype}")
         check(np.isfinite(array).all(), f"{file}: values that are not finite")
-        entry[file] = {"shape": list(array.shape), "first": array[0].ravel()[:256].astype(float).tolist()}
+        # An image set can give no keypoints at all: an empty array has no first row.
+        first = array[0].ravel()[:256].astype(float).tolist() if len(array) else []
+        entry[file] = {"shape": list(array.shape), "first": first}
         if role == "pca":
             check(array.shape == (frames, sidecar["pca"]["components"]), f"{file}: shape {array.shape}")
         elif role in ("keypoints", "descriptors"):

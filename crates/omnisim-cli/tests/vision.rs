@@ -94,7 +94,7 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     let Some(python) = python() else { return };
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/check_descriptors.py");
     let report_path = dir.path().join("report.json");
-    let status = Command::new(python).arg(&script).arg(&out).arg(&report_path).status().unwrap();
+    let status = Command::new(&python).arg(&script).arg(&out).arg(&report_path).status().unwrap();
     assert!(status.success(), "numpy's check of the .npy files failed");
     let report: Value = serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
     let first = |set: &str, file: &str| -> Vec<f64> {
@@ -118,6 +118,14 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_close("sift keypoint", &first("test", "sift-keypoints.npy"), &row);
     assert_close("sift descriptor", &first("test", "sift-descriptors.npy"), features.descriptor(0));
     assert_eq!(report["test"]["sift-descriptors.npy"]["rows_of_first_image"], features.keypoints.len());
+
+    // A threshold no keypoint reaches: empty arrays that numpy reads as [0, 6] and [0, 64].
+    succeed(&["describe", "ds", "--set", "map", "-d", "surf:threshold=1e12", "--out", "empty"], dir.path());
+    let status = Command::new(&python).arg(&script).arg(dir.path().join("empty")).arg(&report_path).status().unwrap();
+    assert!(status.success(), "numpy's check of empty keypoint files failed");
+    let report: Value = serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
+    assert_eq!(report["map"]["surf-keypoints.npy"]["shape"], serde_json::json!([0, 6]));
+    assert_eq!(report["map"]["surf-descriptors.npy"]["shape"], serde_json::json!([0, 64]));
 }
 
 #[test]

@@ -226,7 +226,11 @@ mod tests {
         }
         let standard = gist(&panorama, GistParams::default()).unwrap().values;
         let standard_shifted = gist(&panorama.shift_columns(40), GistParams::default()).unwrap().values;
-        let change: f32 = standard.iter().zip(&standard_shifted).map(|(a, b)| (a - b).abs()).sum();
-        assert!(change > 1e-2, "the grid variant should see the shift");
+        // Largest change of one value relative to the largest value: the panoramic variant's is
+        // below 1e-5; the grid's blocks see other columns.
+        let largest = standard.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        let change = standard.iter().zip(&standard_shifted).fold(0.0f32, |m, (a, b)| m.max((a - b).abs())) / largest;
+        eprintln!("grid gist, 40-column shift: largest relative change {change:.3}");
+        assert!(change > 0.25, "the grid variant should see the shift: {change}");
     }
 }
