@@ -65,9 +65,9 @@ fn largest_relative_change(a: &[f32], b: &[f32]) -> f32 {
 /// signature's magnitudes, the panoramic HOG and the panoramic gist stay (measured: 0 to
 /// 1.2e-7 relative), and the phases give the turn back exactly. Half a column off, the edges
 /// alias differently: measured changes 0.7 % (Fourier), 13 % (HOG, gradients of aliased
-/// edges), 0.7 % (gist), and the turn is still found to the nearest column. Control: moving
+/// edges), 2.2 % (gist), and the turn is still found to the nearest column. Control: moving
 /// the pose 0.2 m (same yaw) changes each descriptor by more than its half-column bound, so
-/// the bounds tell a turn from a different place (measured: 2.3 % Fourier, 48 % HOG, 3.6 %
+/// the bounds tell a turn from a different place (measured: 2.3 % Fourier, 48 % HOG, 8.5 %
 /// gist).
 #[test]
 fn panoramic_descriptors_under_yaw() {
@@ -79,8 +79,8 @@ fn panoramic_descriptors_under_yaw() {
     let hog = panoramic_hog(&reference, PanoramicHogParams::default()).unwrap();
     let gist_of = |image: &Raster| gist(image, GistParams::panoramic()).unwrap();
     let reference_gist = gist_of(&reference);
-    // 1.7 × (Fourier, gist) and 1.9 × (HOG) the measured half-column changes.
-    let half_column_bounds = [0.012, 0.25, 0.012];
+    // 1.7 × (Fourier), 1.9 × (HOG) and 1.8 × (gist) the measured half-column changes.
+    let half_column_bounds = [0.012, 0.25, 0.04];
     let moved = room.panorama_at(POSITION + dvec3(0.2, 0.0, 0.0), 0.0);
     for (name, change, bound) in [
         (
