@@ -58,6 +58,10 @@ for pca_folder in sorted((root / "pca").glob("*")):
     mean = np.load(pca_folder / "mean.npy")
     check(axes.shape[1] == mean.shape[0], f"{pca_folder}: axes {axes.shape} vs mean {mean.shape}")
     check(np.allclose(axes @ axes.T, np.eye(axes.shape[0]), atol=1e-4), f"{pca_folder}: axes not orthonormal")
+    variances = np.load(pca_folder / "variances.npy")
+    total = json.loads((pca_folder / "pca.json").read_text())["total_variance"]
+    check(variances.shape == (axes.shape[0],), f"{pca_folder}: {variances.shape} variances for {axes.shape[0]} axes")
+    check(variances.sum() <= total * (1 + 1e-5), f"{pca_folder}: variances add up to more than the total {total}")
 
 (Path(sys.argv[2])).write_text(json.dumps(report))
 if failures:

@@ -72,7 +72,8 @@ pub struct DescribeArgs {
     #[arg(long, value_enum, default_value = "bicubic")]
     pub interpolation: InterpolationArg,
     /// Fit a PCA of K components to each global descriptor of the map set (--map) and project
-    /// every set with it (NAME-pca.npy); the basis goes to OUT/pca/NAME/ (mean, axes, variances).
+    /// every set with it (NAME-pca.npy); the basis goes to OUT/pca/NAME/ (mean.npy, axes.npy,
+    /// variances.npy, and pca.json with the total variance).
     #[arg(long, value_name = "K", conflicts_with = "pca_basis")]
     pub pca_fit: Option<usize>,
     /// The set the PCA is fitted to [default: the first set].
