@@ -8,9 +8,11 @@
 //!   shifts the panorama's columns and leaves each cell's pixels, so the histograms, unchanged.
 //!
 //! Gradients are the centred differences [−1, 0, 1] of Dalal & Triggs; each pixel votes its
-//! magnitude into the two orientation bins nearest its angle, linearly (bin b is centred at
-//! b·range/bins, range π unsigned or 2π signed). No spatial (trilinear) interpolation nor
-//! Gaussian block window: like scikit-image's `hog`.
+//! magnitude into the two orientation bins nearest its angle, linearly (Dalal & Triggs'
+//! orientation interpolation; bin b spans [b, b + 1)·range/bins and is centred at
+//! (b + ½)·range/bins, range π unsigned or 2π signed, the bins of scikit-image's `hog`, which
+//! votes into one bin only). No spatial (trilinear) interpolation nor Gaussian block window
+//! (scikit-image has neither).
 //!
 //! Written here: imageproc's HOG is the block variant only and imageproc would bring
 //! nalgebra 0.35 (Rust 1.89, above this workspace's 1.87).
@@ -107,13 +109,15 @@ impl Orientations {
         })
     }
 
-    /// Adds `magnitude` at `angle` to `histogram`, split between the two nearest bins.
+    /// Adds `magnitude` at `angle` to `histogram`, split linearly between the two bins whose
+    /// centres (b + ½)·range/bins are nearest (circularly).
     fn vote(&self, angle: f32, magnitude: f32, histogram: &mut [f32]) {
         let range = if self.signed { TAU } else { PI };
-        let position = angle.rem_euclid(range) / range * self.bins as f32;
+        // In bins from bin 0's centre: −½ … bins − ½.
+        let position = angle.rem_euclid(range) / range * self.bins as f32 - 0.5;
         let lower = position.floor();
         let fraction = position - lower;
-        let lower = lower as usize % self.bins;
+        let lower = (lower as isize).rem_euclid(self.bins as isize) as usize;
         histogram[lower] += magnitude * (1.0 - fraction);
         histogram[(lower + 1) % self.bins] += magnitude * fraction;
     }
@@ -345,16 +349,20 @@ mod tests {
     }
 
     /// Brightness varying along x only: every gradient is horizontal (angle 0 or π, both
-    /// orientation 0 unsigned), so all the mass is in bin 0; along the 45° diagonal it splits
-    /// 3 : 1 between bins 2 and 3 (45° / 20° = 2.25) in a block clear of the border.
+    /// orientation 0 unsigned), half-way between the centres of bins 0 (10°) and 8 (170°), so
+    /// the mass splits evenly between them; along the 45° diagonal it splits 3 : 1 between
+    /// bins 2 (centre 50°) and 1 (30°) in a block clear of the border.
     #[test]
     fn gradient_directions_land_in_their_bins() {
         let stripes = image(32, 32, |x, _| (0.5 * x).sin());
         let hog = block_hog(&stripes, BlockHogParams::default()).unwrap();
         for (i, v) in hog.values.iter().enumerate() {
-            if i % 9 != 0 {
+            if i % 9 != 0 && i % 9 != 8 {
                 assert!(v.abs() < 1e-6, "bin {} has {v}", i % 9);
             }
+        }
+        for cell in hog.values.chunks(9) {
+            assert!((cell[0] - cell[8]).abs() < 1e-6 && cell[0] > 0.1, "bins 0 and 8: {} {}", cell[0], cell[8]);
         }
         let diagonal = image(32, 32, |x, y| 0.05 * (x + y));
         let params = BlockHogParams {
@@ -362,9 +370,9 @@ mod tests {
             ..Default::default()
         };
         let hog = block_hog(&diagonal, params).unwrap();
-        // Block (1, 1) of the 3 × 3, its first cell's bins 2 and 3.
-        let (bin2, bin3) = (hog.values[4 * 36 + 2], hog.values[4 * 36 + 3]);
-        assert!((bin2 / bin3 - 3.0).abs() < 1e-3, "{bin2} / {bin3}");
+        // Block (1, 1) of the 3 × 3, its first cell's bins 1 and 2.
+        let (bin1, bin2) = (hog.values[4 * 36 + 1], hog.values[4 * 36 + 2]);
+        assert!((bin2 / bin1 - 3.0).abs() < 1e-3, "{bin2} / {bin1}");
     }
 
     /// Whole-column shifts of a panorama leave the panoramic HOG unchanged; a different
@@ -413,5 +421,15 @@ mod tests {
         }
         let bad = VerticalHogParams { step: 3, ..VerticalHogParams::default() };
         assert!(vertical_hog(&pano, bad).is_err());
+    }
+
+    /// L2-Hys needs a finite, positive clip: 0 would zero every block, NaN poison it.
+    #[test]
+    fn clip_is_validated() {
+        let texture = image(32, 32, |x, y| (0.3 * x + 0.2 * y).sin());
+        for clip in [0.0, -0.2, f32::NAN, f32::INFINITY] {
+            let params = BlockHogParams { clip, ..Default::default() };
+            assert!(matches!(block_hog(&texture, params), Err(VisionError::Parameter { name: "clip", .. })), "{clip}");
+        }
     }
 }
