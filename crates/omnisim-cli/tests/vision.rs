@@ -166,6 +166,10 @@ fn describe_refuses_bad_requests() {
         std::fs::copy(ds.join(format!("map/{stem}.png")), dir.path().join(format!("pca/{stem}.png"))).unwrap();
     }
     let omni = ["--camera", "omni", "--mirror-a", "0.04", "--mirror-b", "0.16"];
+    // A folder whose second image is not the camera's size.
+    std::fs::create_dir(dir.path().join("mixed")).unwrap();
+    std::fs::copy(ds.join("map/env1-0000.png"), dir.path().join("mixed/a.png")).unwrap();
+    image::RgbImage::new(60, 60).save(dir.path().join("mixed/b.png")).unwrap();
     for (args, message) in [
         (vec!["describe", "ds", "-d", "sift:sigmaa=2", "--out", "x"], "unknown setting 'sigmaa'"),
         (vec!["describe", "ds", "-d", "orb", "--out", "x"], "unknown descriptor 'orb'"),
@@ -187,6 +191,7 @@ fn describe_refuses_bad_requests() {
         (vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"], "got 20° .. 10°"),
         (vec!["project", "ds", "--view", "perspective:hfov=200", "--out", "x"], "got 200°"),
         (vec!["project", "ds", "--view", "perspective:yaw=inf", "--out", "x"], "not a finite number"),
+        ([&["project", "mixed"][..], &omni, &["--view", "panorama", "--out", "x"]].concat(), "is 60×60 pixels, but the camera's image is 120×120"),
     ] {
         let output = omnisim(&args, dir.path());
         let stderr = String::from_utf8_lossy(&output.stderr);

@@ -259,19 +259,27 @@ fn default_camera_args() -> CameraArgs {
 pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
     let image = image::open(path).with_context(|| format!("cannot read image {}", path.display()))?;
     let raster = Raster::from_image(&image);
-    if let Some(size) = size
-        && size != (raster.width, raster.height)
-    {
-        bail!(
-            "{} is {}×{} pixels, but the set's first image is {}×{}",
-            path.display(),
-            raster.width,
-            raster.height,
-            size.0,
-            size.1
-        );
+    if let Some(size) = size {
+        same_size(path, (raster.width, raster.height), size, "the set's first image")?;
     }
     Ok(raster)
+}
+
+/// Checks from the files' headers alone that every image of `sets` is `size` (the camera's),
+/// so that a command can refuse a bad set before it writes anything.
+pub fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Result<()> {
+    for frame in sets.iter().flat_map(|s| &s.frames) {
+        let (w, h) = image::image_dimensions(&frame.path).with_context(|| format!("cannot read image {}", frame.path.display()))?;
+        same_size(&frame.path, (w as usize, h as usize), size, "the camera's image")?;
+    }
+    Ok(())
+}
+
+fn same_size(path: &Path, got: (usize, usize), expected: (usize, usize), whose: &str) -> anyhow::Result<()> {
+    if got != expected {
+        bail!("{} is {}×{} pixels, but {whose} is {}×{}", path.display(), got.0, got.1, expected.0, expected.1);
+    }
+    Ok(())
 }
 
 /// A `NAME[:KEY=VALUE,...]` option value: the name and its settings, each key checked against
