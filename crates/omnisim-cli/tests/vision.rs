@@ -184,8 +184,10 @@ fn describe_refuses_bad_requests() {
         (vec!["describe", "ds", "-d", "sift:clamp=inf", "--out", "x"], "not a finite number"),
         (vec!["describe", "ds", "-d", "surf:window=0", "--out", "x"], "orientation_window"),
         (vec!["describe", "ds", "-d", "gist:blocks=0", "--out", "x"], "blocks"),
-        // Limits set by the image's size are met on the first image, before anything is written.
-        (vec!["describe", "ds", "-d", "hog", "-d", "fourier:k=1000", "--out", "x"], "coefficients"),
+        // Limits set by the image's size, checked from the camera's before any image is read.
+        (vec!["describe", "ds", "-d", "hog", "-d", "fourier:k=1000", "--out", "x"], "fourier on the 512×128 panorama: coefficients"),
+        (vec!["describe", "ds", "-d", "block-hog:cell=100", "--out", "x"], "block-hog on the 120×120 image: block"),
+        (vec!["describe", "ds", "-d", "radon:radial-samples=2000000", "--out", "x"], "radial samples"),
         (vec!["describe", "ds", "-d", "hog", "--pca-fit", "9", "--map", "nope", "--out", "x"], "--map nope"),
         ([&["describe", "pca"][..], &omni, &["-d", "hog", "--pca-fit", "1", "--out", "x"]].concat(), "share OUT/pca"),
         (vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"], "got 20° .. 10°"),

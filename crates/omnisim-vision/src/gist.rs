@@ -77,6 +77,15 @@ impl GistParams {
         require(nx >= 1 && ny >= 1, "blocks", || "needs at least one block".to_string())
     }
 
+    /// Checks everything, for a `width × height` image: also that the blocks fit it.
+    pub fn fits(&self, width: usize, height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        let (nx, ny) = self.blocks.counts();
+        require(nx <= width && ny <= height, "blocks", || {
+            format!("{nx}×{ny} blocks do not fit a {width}×{height} image")
+        })
+    }
+
     /// The panoramic variant: 4 scales × 8 orientations over 16 horizontal blocks.
     pub fn panoramic() -> Self {
         Self {
@@ -131,13 +140,8 @@ pub fn gist(image: &Raster, params: GistParams) -> Result<Descriptor, VisionErro
     require(image.channels == 1, "channels", || {
         format!("gist reads one channel, got {}", image.channels)
     })?;
-    params.validate()?;
+    params.fits(image.width, image.height)?;
     let (nx, ny) = params.blocks.counts();
-    require(
-        nx <= image.width && ny <= image.height,
-        "blocks",
-        || format!("{nx}×{ny} blocks do not fit a {}×{} image", image.width, image.height),
-    )?;
     let (w, h) = (image.width, image.height);
     // Padded in y only (module docs): `padded` rows, the image's at PADDING..PADDING + h.
     let padded = h + 2 * PADDING;

@@ -137,6 +137,15 @@ impl BlockHogParams {
             format!("must be finite and positive, got {}", self.clip)
         })
     }
+
+    /// Checks everything, for a `width × height` image: also that one block fits.
+    pub fn fits(&self, width: usize, height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        let (cells_x, cells_y) = (width / self.cell, height / self.cell);
+        require(cells_x >= self.block && cells_y >= self.block, "block", || {
+            format!("a {cells_x}×{cells_y}-cell image holds no {0}×{0}-cell block", self.block)
+        })
+    }
 }
 
 impl PanoramicHogParams {
@@ -144,6 +153,14 @@ impl PanoramicHogParams {
     pub fn validate(&self) -> Result<(), VisionError> {
         self.orientations.check()?;
         require(self.cells >= 1, "cells", || "needs at least 1 cell".to_string())
+    }
+
+    /// Checks everything, for a `width × height` panorama: also cells ≤ height.
+    pub fn fits(&self, _width: usize, height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        require(self.cells <= height, "cells", || {
+            format!("needs 1 ≤ cells ≤ height = {height}, got {}", self.cells)
+        })
     }
 }
 
@@ -154,6 +171,18 @@ impl VerticalHogParams {
         self.orientations.check()?;
         require(self.width >= 1 && self.step >= 1, "cells", || {
             "cell width and column step must be at least 1".to_string()
+        })
+    }
+
+    /// Checks everything, for a `width × height` panorama: also that the step divides the
+    /// width and a cell fits in it.
+    pub fn fits(&self, width: usize, _height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        require(width.is_multiple_of(self.step), "step", || {
+            format!("must divide the panorama's width {width}, got {}", self.step)
+        })?;
+        require(self.width <= width, "width", || {
+            format!("needs 1 ≤ width ≤ {width} columns, got {}", self.width)
         })
     }
 }
@@ -171,15 +200,9 @@ pub fn block_hog(image: &Raster, params: BlockHogParams) -> Result<Descriptor, V
     require(image.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", image.channels)
     })?;
-    params.validate()?;
+    params.fits(image.width, image.height)?;
     let bins = params.orientations.bins;
     let (cells_x, cells_y) = (image.width / params.cell, image.height / params.cell);
-    require(cells_x >= params.block && cells_y >= params.block, "block", || {
-        format!(
-            "a {cells_x}×{cells_y}-cell image holds no {0}×{0}-cell block",
-            params.block
-        )
-    })?;
     let mut cells = vec![0.0f32; cells_x * cells_y * bins];
     for (i, &(magnitude, angle)) in gradients(image, false).iter().enumerate() {
         let (cx, cy) = (i % image.width / params.cell, i / image.width / params.cell);
@@ -221,10 +244,7 @@ pub fn panoramic_hog(panorama: &Raster, params: PanoramicHogParams) -> Result<De
     require(panorama.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", panorama.channels)
     })?;
-    params.validate()?;
-    require(params.cells <= panorama.height, "cells", || {
-        format!("needs 1 ≤ cells ≤ height = {}, got {}", panorama.height, params.cells)
-    })?;
+    params.fits(panorama.width, panorama.height)?;
     let bins = params.orientations.bins;
     let mut values = vec![0.0f32; params.cells * bins];
     for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {
@@ -274,14 +294,8 @@ pub fn vertical_hog(panorama: &Raster, params: VerticalHogParams) -> Result<Desc
     require(panorama.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", panorama.channels)
     })?;
-    params.validate()?;
+    params.fits(panorama.width, panorama.height)?;
     let w = panorama.width;
-    require(w.is_multiple_of(params.step), "step", || {
-        format!("must divide the panorama's width {w}, got {}", params.step)
-    })?;
-    require(params.width <= w, "width", || {
-        format!("needs 1 ≤ width ≤ {w} columns, got {}", params.width)
-    })?;
     let bins = params.orientations.bins;
     let mut columns = vec![0.0f32; w * bins];
     for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {

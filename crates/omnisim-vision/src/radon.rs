@@ -85,6 +85,51 @@ pub struct Radon {
     pub radial_step: f64,
 }
 
+/// Where a transform of a given image size samples: its centre and radial sample count.
+struct Layout {
+    centre: (f64, f64),
+    radial: usize,
+}
+
+impl RadonParams {
+    /// Checks everything, for a `width × height` image: also the centre inside it and the
+    /// sample counts it implies within their bounds.
+    pub fn fits(&self, width: usize, height: usize) -> Result<(), VisionError> {
+        self.layout(width, height).map(|_| ())
+    }
+
+    fn layout(&self, width: usize, height: usize) -> Result<Layout, VisionError> {
+        self.validate()?;
+        require(width >= 1 && height >= 1, "image", || "the image is empty".to_string())?;
+        let (cx, cy) = self.centre.unwrap_or(((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0));
+        let (max_x, max_y) = ((width - 1) as f64, (height - 1) as f64);
+        require((0.0..=max_x).contains(&cx) && (0.0..=max_y).contains(&cy), "centre", || {
+            format!("({cx}, {cy}) is outside the {width}×{height} image")
+        })?;
+        // From the centre to the nearest image edge ((min(W, H) − 1)/2 for the image centre).
+        let reach = cx.min(max_x - cx).min(cy).min(max_y - cy);
+        // In f64 first: a tiny step would overflow the count as an integer.
+        let radial = match self.radial_samples {
+            Some(n) => n as f64,
+            None => 2.0 * (reach / self.radial_step).floor() + 1.0,
+        };
+        require((2.0..=MAX_SAMPLES).contains(&radial), "radial samples", || {
+            format!("{radial:.0} (2 × reach / radial step + 1); needs 2 to {MAX_SAMPLES:.0e}")
+        })?;
+        let values = radial * self.angles as f64;
+        require(values <= MAX_VALUES, "sampling", || {
+            format!("{values:.1e} values asked (angles × radial samples); at most {MAX_VALUES:.0e}")
+        })?;
+        // Bounded so that a mistyped step cannot ask for days of work (the default is 6.3e7
+        // samples for a 250² image).
+        let samples = values * width.max(height) as f64 / self.line_step;
+        require(samples <= 1e10, "sampling", || {
+            format!("{samples:.1e} line samples asked (angles × radial samples × line length / line step); at most 1e10")
+        })?;
+        Ok(Layout { centre: (cx, cy), radial: radial as usize })
+    }
+}
+
 impl Radon {
     /// Transform of a one-channel image about [`RadonParams::centre`] (the mirror axis; by
     /// default the image centre ((W−1)/2, (H−1)/2)).
@@ -92,34 +137,8 @@ impl Radon {
         require(image.channels == 1, "channels", || {
             format!("the Radon transform reads one channel, got {}", image.channels)
         })?;
-        params.validate()?;
-        let (cx, cy) = params
-            .centre
-            .unwrap_or(((image.width as f64 - 1.0) / 2.0, (image.height as f64 - 1.0) / 2.0));
+        let Layout { centre: (cx, cy), radial } = params.layout(image.width, image.height)?;
         let (max_x, max_y) = ((image.width - 1) as f64, (image.height - 1) as f64);
-        require((0.0..=max_x).contains(&cx) && (0.0..=max_y).contains(&cy), "centre", || {
-            format!("({cx}, {cy}) is outside the {}×{} image", image.width, image.height)
-        })?;
-        // From the centre to the nearest image edge ((min(W, H) − 1)/2 for the image centre).
-        let reach = cx.min(max_x - cx).min(cy).min(max_y - cy);
-        // In f64 first: a tiny step would overflow the count as an integer.
-        let radial = match params.radial_samples {
-            Some(n) => n as f64,
-            None => 2.0 * (reach / params.radial_step).floor() + 1.0,
-        };
-        require((2.0..=MAX_SAMPLES).contains(&radial), "radial samples", || {
-            format!("{radial:.0} (2 × reach / radial step + 1); needs 2 to {MAX_SAMPLES:.0e}")
-        })?;
-        require(radial * params.angles as f64 <= MAX_VALUES, "sampling", || {
-            format!("{:.1e} values asked (angles × radial samples); at most {MAX_VALUES:.0e}", radial * params.angles as f64)
-        })?;
-        let radial = radial as usize;
-        // Bounded so that a mistyped step cannot ask for days of work (the default is 6.3e7
-        // samples for a 250² image).
-        let samples = params.angles as f64 * radial as f64 * image.width.max(image.height) as f64 / params.line_step;
-        require(samples <= 1e10, "sampling", || {
-            format!("{samples:.1e} line samples asked (angles × radial samples × line length / line step); at most 1e10")
-        })?;
         let p = |j: usize| radial_position(j, radial, params.radial_step);
         // The farthest image corner from the centre: every line leaves the image within ±this
         // of its foot.

@@ -115,6 +115,35 @@ enum Method {
     Surf(SurfParams),
 }
 
+impl Method {
+    /// Checks the settings; with `size`, also for an image of that size (width, height).
+    fn fits(&self, size: Option<(usize, usize)>) -> Result<(), omnisim_vision::VisionError> {
+        let Some((w, h)) = size else {
+            return match self {
+                Method::Fourier(p) => p.validate(),
+                Method::Hog(p) => p.validate(),
+                Method::VerticalHog(p) => p.validate(),
+                Method::BlockHog(p) => p.validate(),
+                Method::Gist(p) => p.validate(),
+                Method::Radon(p) => p.validate(),
+                Method::Sift(p) => p.validate(),
+                Method::Surf(p) => p.validate(),
+            };
+        };
+        match self {
+            Method::Fourier(p) => p.fits(w, h),
+            Method::Hog(p) => p.fits(w, h),
+            Method::VerticalHog(p) => p.fits(w, h),
+            Method::BlockHog(p) => p.fits(w, h),
+            Method::Gist(p) => p.fits(w, h),
+            Method::Radon(p) => p.fits(w, h),
+            // Any size: an image too small gives no keypoints.
+            Method::Sift(p) => p.validate(),
+            Method::Surf(p) => p.validate(),
+        }
+    }
+}
+
 /// One descriptor as chosen: what it computes, what it reads, and its settings for the sidecar.
 #[derive(Debug, Clone)]
 struct Choice {
@@ -251,20 +280,10 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
         }
         other => bail!("unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, radon, sift or surf"),
     };
-    // Every setting that does not depend on the images is checked here, before any image is
-    // read or anything written; limits set by an image's size are met on the first image,
-    // still before anything is written.
-    match &method {
-        Method::Fourier(p) => p.validate(),
-        Method::Hog(p) => p.validate(),
-        Method::VerticalHog(p) => p.validate(),
-        Method::BlockHog(p) => p.validate(),
-        Method::Gist(p) => p.validate(),
-        Method::Radon(p) => p.validate(),
-        Method::Sift(p) => p.validate(),
-        Method::Surf(p) => p.validate(),
-    }
-    .with_context(|| format!("--descriptor {}", spec.name))?;
+    // Every setting that does not depend on the images is checked here; the limits the
+    // images' size sets are checked in `run` once the camera is known, before any image is
+    // read. Nothing is written before every image is described.
+    method.fits(None).with_context(|| format!("--descriptor {}", spec.name))?;
     Ok(Choice { name: spec.name.clone(), method, reads, parameters })
 }
 
@@ -356,6 +375,18 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         _ => None,
     };
     let panorama = Panorama::new(&input, &args, choices.iter().any(|c| c.reads == Reads::Panorama))?;
+    // The limits the images' size sets, from the camera's size, before any image is read.
+    let (w, h) = input.camera.size();
+    let image_size = (w as usize, h as usize);
+    for choice in &choices {
+        let size = match (choice.reads, &panorama) {
+            (Reads::Panorama, Some(p)) => p.size(image_size),
+            _ => image_size,
+        };
+        choice.method.fits(Some(size)).with_context(|| {
+            format!("--descriptor {} on the {}×{} {}", choice.name, size.0, size.1, choice.reads.name())
+        })?;
+    }
     let started = Instant::now();
     let mut results: Vec<Vec<SetResult>> = Vec::new();
     for set in &input.sets {
@@ -445,6 +476,11 @@ impl Panorama {
             }
             _ => bail!("a descriptor reads a panorama, but the images are from a pinhole camera: use on=image or other descriptors"),
         }
+    }
+
+    /// Size of the panorama of an image of `image_size`.
+    fn size(&self, image_size: (usize, usize)) -> (usize, usize) {
+        self.remap.as_ref().map_or(image_size, |r| (r.width, r.height))
     }
 
     /// The panorama of a grey image and the seconds its resampling took.
