@@ -8,6 +8,7 @@ use std::process::{Command, Output};
 use omnisim::Catadioptric;
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::hog::{PanoramicHogParams, panoramic_hog};
+use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 use serde_json::Value;
@@ -72,7 +73,7 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     let ds = dataset(dir.path());
     succeed(
         &[
-            "describe", "ds", "-d", "fourier:k=8", "-d", "hog", "-d", "radon:angles=90", "-d", "sift", "-d",
+            "describe", "ds", "-d", "fourier:k=8", "-d", "hog", "-d", "radon:angles=90,radial-step=2", "-d", "sift", "-d",
             "surf:threshold=50,upright=true", "--panorama", "256x64", "--pca-fit", "2", "--out", "desc",
         ],
         dir.path(),
@@ -84,6 +85,10 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_eq!(sidecar["frames"][2]["stem"], "env1-0002");
     assert_eq!(sidecar["pca"]["fitted_on"], "map");
     assert!(sidecar["seconds_per_image"].as_f64().unwrap() > 0.0);
+    let radon_sidecar: Value = serde_json::from_slice(&std::fs::read(out.join("map/radon.json")).unwrap()).unwrap();
+    assert_eq!(radon_sidecar["parameters"]["radial_step_px"], 2.0);
+    assert_eq!(radon_sidecar["parameters"]["centre_px"]["u"], camera().cx);
+    assert_eq!(radon_sidecar["parameters"]["centre_px"]["v"], camera().cy);
 
     // Later sets projected with the map's saved basis give the same numbers.
     succeed(&["describe", "ds", "--set", "test", "-d", "hog", "--panorama", "256x64", "--pca-basis", "desc", "--out", "again"], dir.path());
@@ -111,6 +116,9 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_close("fourier phases", &first("test", "fourier-phases.npy"), &signature.phases());
     let hog = panoramic_hog(&panorama, PanoramicHogParams::default()).unwrap();
     assert_close("hog", &first("test", "hog.npy"), &hog.values);
+    // The Radon transform about the calibration's principal point.
+    let params = RadonParams { angles: 90, radial_step: 2.0, centre: Some((camera().cx, camera().cy)), ..Default::default() };
+    assert_close("radon", &first("test", "radon.npy"), &Radon::new(&image, params).unwrap().values.data);
     let features = sift(&image, &SiftParams::default()).unwrap();
     assert!(!features.keypoints.is_empty(), "the test image gives SIFT keypoints");
     let k = &features.keypoints[0];
@@ -182,6 +190,8 @@ fn describe_refuses_bad_requests() {
         (vec!["describe", "ds", "-d", "radon:step=1", "--out", "x"], "unknown setting 'step'"),
         (vec!["describe", "ds", "-d", "hog", "-d", "block-hog:clip=0", "--out", "x"], "clip"),
         (vec!["describe", "ds", "-d", "sift:clamp=inf", "--out", "x"], "not a finite number"),
+        (vec!["describe", "ds", "-d", "sift:descriptor-width=0", "--out", "x"], "descriptor_width"),
+        (vec!["describe", "ds", "-d", "vertical-hog:column-step=0", "--out", "x"], "column step"),
         (vec!["describe", "ds", "-d", "surf:window=0", "--out", "x"], "orientation_window"),
         (vec!["describe", "ds", "-d", "gist:blocks=0", "--out", "x"], "blocks"),
         // Limits set by the image's size, checked from the camera's before any image is read.

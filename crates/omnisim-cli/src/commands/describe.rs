@@ -41,7 +41,7 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 ///   radon      Radon transform of the image about the camera's principal point (omni) or the image centre
 ///              [angles=360, radial-samples=0 (0: up to the nearest image edge), radial-step=1, line-step=0.5 (pixels)]
 ///   sift       Lowe 2004 [sigma=1.6, input-sigma=0.5, scales=3, contrast=0.04, edge=10, bins=36, peak=0.8,
-///              width=4 (descriptor cells per side), descriptor-bins=8, clamp=0.2, border=5, upsample=true, on=image]
+///              descriptor-width=4 (cells per side), descriptor-bins=8, clamp=0.2, border=5, upsample=true, on=image]
 ///   surf       Bay et al. 2006 [threshold=100, octaves=4, intervals=4, sample-step=1, hessian-weight=0.9,
 ///              window=60, window-step=5 (orientation window, degrees), upright=false, on=image]
 /// `on=panorama` describes the panorama instead of the image. Panoramas are resampled from
@@ -230,7 +230,7 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
         }
         "sift" => {
             spec.check_keys(&[
-                "sigma", "input-sigma", "scales", "contrast", "edge", "bins", "peak", "width", "descriptor-bins", "clamp", "border",
+                "sigma", "input-sigma", "scales", "contrast", "edge", "bins", "peak", "descriptor-width", "descriptor-bins", "clamp", "border",
                 "upsample", "on",
             ])?;
             let d = SiftParams::default();
@@ -243,7 +243,7 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
                 peak_ratio: spec.get("peak", d.peak_ratio)?,
                 upsample: spec.get("upsample", d.upsample)?,
                 input_sigma: spec.get("input-sigma", d.input_sigma)?,
-                descriptor_width: spec.get("width", d.descriptor_width)?,
+                descriptor_width: spec.get("descriptor-width", d.descriptor_width)?,
                 descriptor_bins: spec.get("descriptor-bins", d.descriptor_bins)?,
                 magnitude_clamp: spec.get("clamp", d.magnitude_clamp)?,
                 border: spec.get("border", d.border)?,
