@@ -46,7 +46,7 @@ pub enum MirrorRaysArg {
     Shortcut,
 }
 
-#[derive(Debug, Clone, Args)]
+#[derive(Debug, Clone, PartialEq, Args)]
 pub struct CameraArgs {
     /// Vision system to simulate. Options that do not apply to it are refused, and so is a
     /// camera that cannot make an image (the message gives the valid range).

@@ -33,7 +33,9 @@ for sidecar_path in sorted(root.glob("*/*.json")):
         array = np.load(folder / file)
         check(array.dtype == np.dtype("<f4"), f"{file}: dtype {array.dtype}")
         check(np.isfinite(array).all(), f"{file}: values that are not finite")
-        entry[file] = {"shape": list(array.shape), "first": array[0].ravel()[:256].astype(float).tolist()}
+        # An image set can give no keypoints at all: an empty array has no first row.
+        first = array[0].ravel()[:256].astype(float).tolist() if len(array) else []
+        entry[file] = {"shape": list(array.shape), "first": first}
         if role == "pca":
             check(array.shape == (frames, sidecar["pca"]["components"]), f"{file}: shape {array.shape}")
         elif role in ("keypoints", "descriptors"):
@@ -56,6 +58,10 @@ for pca_folder in sorted((root / "pca").glob("*")):
     mean = np.load(pca_folder / "mean.npy")
     check(axes.shape[1] == mean.shape[0], f"{pca_folder}: axes {axes.shape} vs mean {mean.shape}")
     check(np.allclose(axes @ axes.T, np.eye(axes.shape[0]), atol=1e-4), f"{pca_folder}: axes not orthonormal")
+    variances = np.load(pca_folder / "variances.npy")
+    total = json.loads((pca_folder / "pca.json").read_text())["total_variance"]
+    check(variances.shape == (axes.shape[0],), f"{pca_folder}: {variances.shape} variances for {axes.shape[0]} axes")
+    check(variances.sum() <= total * (1 + 1e-5), f"{pca_folder}: variances add up to more than the total {total}")
 
 (Path(sys.argv[2])).write_text(json.dumps(report))
 if failures:

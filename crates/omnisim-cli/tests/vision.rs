@@ -8,6 +8,7 @@ use std::process::{Command, Output};
 use omnisim::Catadioptric;
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::hog::{PanoramicHogParams, panoramic_hog};
+use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 use serde_json::Value;
@@ -72,7 +73,7 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     let ds = dataset(dir.path());
     succeed(
         &[
-            "describe", "ds", "-d", "fourier:k=8", "-d", "hog", "-d", "radon:angles=90", "-d", "sift", "-d",
+            "describe", "ds", "-d", "fourier:k=8", "-d", "hog", "-d", "radon:angles=90,radial-step=2", "-d", "sift", "-d",
             "surf:threshold=50,upright=true", "--panorama", "256x64", "--pca-fit", "2", "--out", "desc",
         ],
         dir.path(),
@@ -84,6 +85,10 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_eq!(sidecar["frames"][2]["stem"], "env1-0002");
     assert_eq!(sidecar["pca"]["fitted_on"], "map");
     assert!(sidecar["seconds_per_image"].as_f64().unwrap() > 0.0);
+    let radon_sidecar: Value = serde_json::from_slice(&std::fs::read(out.join("map/radon.json")).unwrap()).unwrap();
+    assert_eq!(radon_sidecar["parameters"]["radial_step_px"], 2.0);
+    assert_eq!(radon_sidecar["parameters"]["centre_px"]["u"], camera().cx);
+    assert_eq!(radon_sidecar["parameters"]["centre_px"]["v"], camera().cy);
 
     // Later sets projected with the map's saved basis give the same numbers.
     succeed(&["describe", "ds", "--set", "test", "-d", "hog", "--panorama", "256x64", "--pca-basis", "desc", "--out", "again"], dir.path());
@@ -94,7 +99,7 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     let Some(python) = python() else { return };
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/check_descriptors.py");
     let report_path = dir.path().join("report.json");
-    let status = Command::new(python).arg(&script).arg(&out).arg(&report_path).status().unwrap();
+    let status = Command::new(&python).arg(&script).arg(&out).arg(&report_path).status().unwrap();
     assert!(status.success(), "numpy's check of the .npy files failed");
     let report: Value = serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
     let first = |set: &str, file: &str| -> Vec<f64> {
@@ -111,6 +116,9 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_close("fourier phases", &first("test", "fourier-phases.npy"), &signature.phases());
     let hog = panoramic_hog(&panorama, PanoramicHogParams::default()).unwrap();
     assert_close("hog", &first("test", "hog.npy"), &hog.values);
+    // The Radon transform about the calibration's principal point.
+    let params = RadonParams { angles: 90, radial_step: 2.0, centre: Some((camera().cx, camera().cy)), ..Default::default() };
+    assert_close("radon", &first("test", "radon.npy"), &Radon::new(&image, params).unwrap().values.data);
     let features = sift(&image, &SiftParams::default()).unwrap();
     assert!(!features.keypoints.is_empty(), "the test image gives SIFT keypoints");
     let k = &features.keypoints[0];
@@ -118,6 +126,14 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_close("sift keypoint", &first("test", "sift-keypoints.npy"), &row);
     assert_close("sift descriptor", &first("test", "sift-descriptors.npy"), features.descriptor(0));
     assert_eq!(report["test"]["sift-descriptors.npy"]["rows_of_first_image"], features.keypoints.len());
+
+    // A threshold no keypoint reaches: empty arrays that numpy reads as [0, 6] and [0, 64].
+    succeed(&["describe", "ds", "--set", "map", "-d", "surf:threshold=1e12", "--out", "empty"], dir.path());
+    let status = Command::new(&python).arg(&script).arg(dir.path().join("empty")).arg(&report_path).status().unwrap();
+    assert!(status.success(), "numpy's check of empty keypoint files failed");
+    let report: Value = serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
+    assert_eq!(report["map"]["surf-keypoints.npy"]["shape"], serde_json::json!([0, 6]));
+    assert_eq!(report["map"]["surf-descriptors.npy"]["shape"], serde_json::json!([0, 64]));
 }
 
 #[test]
@@ -147,11 +163,21 @@ fn project_writes_the_librarys_views() {
     }
 }
 
-/// Mistakes give a clear message and no output.
+/// Mistakes give a clear message and write nothing: not even the --out folder.
 #[test]
 fn describe_refuses_bad_requests() {
     let dir = tempfile::tempdir().unwrap();
-    dataset(dir.path());
+    let ds = dataset(dir.path());
+    // A folder of images named like the PCA bases' folder.
+    std::fs::create_dir(dir.path().join("pca")).unwrap();
+    for stem in ["env1-0000", "env1-0001"] {
+        std::fs::copy(ds.join(format!("map/{stem}.png")), dir.path().join(format!("pca/{stem}.png"))).unwrap();
+    }
+    let omni = ["--camera", "omni", "--mirror-a", "0.04", "--mirror-b", "0.16"];
+    // A folder whose second image is not the camera's size.
+    std::fs::create_dir(dir.path().join("mixed")).unwrap();
+    std::fs::copy(ds.join("map/env1-0000.png"), dir.path().join("mixed/a.png")).unwrap();
+    image::RgbImage::new(60, 60).save(dir.path().join("mixed/b.png")).unwrap();
     for (args, message) in [
         (vec!["describe", "ds", "-d", "sift:sigmaa=2", "--out", "x"], "unknown setting 'sigmaa'"),
         (vec!["describe", "ds", "-d", "orb", "--out", "x"], "unknown descriptor 'orb'"),
@@ -159,11 +185,29 @@ fn describe_refuses_bad_requests() {
         (vec!["describe", "ds", "-d", "sift", "--mirror-a", "0.05", "--out", "x"], "camera options are refused"),
         (vec!["describe", "ds", "-d", "sift:scales=0", "--out", "x"], "scales_per_octave"),
         (vec!["describe", "nowhere", "-d", "sift", "--out", "x"], "neither a data-set folder"),
-        (vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"], "elevation band"),
+        (vec!["describe", "ds", "-d", "radon:radial-step=1e-20", "--out", "x"], "radial samples"),
+        (vec!["describe", "ds", "-d", "radon:radial-step=nan", "--out", "x"], "radial-step=nan is not a finite number"),
+        (vec!["describe", "ds", "-d", "radon:step=1", "--out", "x"], "unknown setting 'step'"),
+        (vec!["describe", "ds", "-d", "hog", "-d", "block-hog:clip=0", "--out", "x"], "clip"),
+        (vec!["describe", "ds", "-d", "sift:clamp=inf", "--out", "x"], "not a finite number"),
+        (vec!["describe", "ds", "-d", "sift:descriptor-width=0", "--out", "x"], "descriptor_width"),
+        (vec!["describe", "ds", "-d", "vertical-hog:column-step=0", "--out", "x"], "column step"),
+        (vec!["describe", "ds", "-d", "surf:window=0", "--out", "x"], "orientation_window"),
+        (vec!["describe", "ds", "-d", "gist:blocks=0", "--out", "x"], "blocks"),
+        // Limits set by the image's size, checked from the camera's before any image is read.
+        (vec!["describe", "ds", "-d", "hog", "-d", "fourier:k=1000", "--out", "x"], "fourier on the 512×128 panorama: coefficients"),
+        (vec!["describe", "ds", "-d", "block-hog:cell=100", "--out", "x"], "block-hog on the 120×120 image: block"),
+        (vec!["describe", "ds", "-d", "radon:radial-samples=2000000", "--out", "x"], "radial samples"),
+        (vec!["describe", "ds", "-d", "hog", "--pca-fit", "9", "--map", "nope", "--out", "x"], "--map nope"),
+        ([&["describe", "pca"][..], &omni, &["-d", "hog", "--pca-fit", "1", "--out", "x"]].concat(), "share OUT/pca"),
+        (vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"], "got 20° .. 10°"),
+        (vec!["project", "ds", "--view", "perspective:hfov=200", "--out", "x"], "got 200°"),
+        (vec!["project", "ds", "--view", "perspective:yaw=inf", "--out", "x"], "not a finite number"),
+        ([&["project", "mixed"][..], &omni, &["--view", "panorama", "--out", "x"]].concat(), "is 60×60 pixels, but the camera's image is 120×120"),
     ] {
         let output = omnisim(&args, dir.path());
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(!output.status.success() && stderr.contains(message), "{args:?}: {stderr}");
+        assert!(!dir.path().join("x").exists(), "{args:?} created --out");
     }
-    assert!(!dir.path().join("x").join("map").exists());
 }

@@ -46,7 +46,8 @@ fn main() {
             let remap = Remap::new(&omni, view).unwrap();
             let points = sample_points(view);
             for (i, &interpolation) in interpolations.iter().enumerate() {
-                let error = colour_error(&remap.apply(&image, interpolation).unwrap(), &exact[v], &remap);
+                let error = colour_error(&remap.apply(&image, interpolation).unwrap(), &exact[v], &remap)
+                    .expect("the resampled and exact views share pixels");
                 let moved = point_displacements(&omni, view, &remap, &points, interpolation);
                 let mean = moved.iter().sum::<f64>() / moved.len() as f64;
                 let max = moved.iter().copied().fold(0.0, f64::max);

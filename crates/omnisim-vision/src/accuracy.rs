@@ -88,8 +88,9 @@ pub struct ColourError {
     pub pixels: usize,
 }
 
-/// [`ColourError`] of `resampled` (RGB 0..1) against `exact` (8-bit RGB, black = no hit).
-pub fn colour_error(resampled: &Raster, exact: &[[u8; 3]], remap: &Remap) -> ColourError {
+/// [`ColourError`] of `resampled` (RGB 0..1) against `exact` (8-bit RGB, black = no hit);
+/// `None` when no pixel is in both (an error over nothing is not 0).
+pub fn colour_error(resampled: &Raster, exact: &[[u8; 3]], remap: &Remap) -> Option<ColourError> {
     let (mut sum, mut far, mut pixels) = (0.0, 0usize, 0usize);
     for ((pixel, exact), valid) in resampled.data.chunks(3).zip(exact).zip(remap.valid()) {
         if valid && exact != &[0, 0, 0] {
@@ -104,8 +105,8 @@ pub fn colour_error(resampled: &Raster, exact: &[[u8; 3]], remap: &Remap) -> Col
             pixels += 1;
         }
     }
-    let n = pixels.max(1) as f64;
-    ColourError { mean: sum / n, far: far as f64 / n, pixels }
+    let n = pixels as f64;
+    (pixels > 0).then(|| ColourError { mean: sum / n, far: far as f64 / n, pixels })
 }
 
 /// Geometric error: for each body-frame point (a direction for camera views; a point of the

@@ -4,16 +4,29 @@
 //! the row transform again (what FFTW's and numpy's `fft2` compute, unnormalised forward,
 //! 1/(W·H) inverse).
 
+use std::cell::RefCell;
+use std::sync::Arc;
+
 use rustfft::num_complex::Complex;
-use rustfft::{FftDirection, FftPlanner};
+use rustfft::{Fft, FftDirection, FftPlanner};
 
 /// A complex sample in f64.
 pub type C64 = Complex<f64>;
 
+thread_local! {
+    /// One planner per thread: rustfft's planner keeps every plan it made, so each size and
+    /// direction is planned once per thread (gist makes 2 × 32 transforms of one size per image).
+    static PLANNER: RefCell<FftPlanner<f64>> = RefCell::new(FftPlanner::new());
+}
+
+/// The plan for `len` samples in `direction`, from this thread's planner.
+fn plan(len: usize, direction: FftDirection) -> Arc<dyn Fft<f64>> {
+    PLANNER.with(|planner| planner.borrow_mut().plan_fft(len, direction))
+}
+
 /// Transforms every row of the row-major `width`-wide `data` in place.
 pub fn rows(data: &mut [C64], width: usize, direction: FftDirection) {
-    let fft = FftPlanner::new().plan_fft(width, direction);
-    fft.process(data);
+    plan(width, direction).process(data);
 }
 
 /// 2-D transform of a row-major `width × height` buffer, in place; the inverse divides by
@@ -75,5 +88,13 @@ mod tests {
         for (a, b) in data.iter().zip(&input) {
             assert!((a - b).norm() < 1e-12);
         }
+    }
+
+    /// The same size asked twice gets the same cached plan.
+    #[test]
+    fn plans_are_cached() {
+        let (a, b) = (plan(48, FftDirection::Forward), plan(48, FftDirection::Forward));
+        assert!(Arc::ptr_eq(&a, &b));
+        assert!(!Arc::ptr_eq(&a, &plan(48, FftDirection::Inverse)));
     }
 }

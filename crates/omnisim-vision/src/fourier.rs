@@ -25,6 +25,22 @@ impl Default for FourierParams {
     }
 }
 
+impl FourierParams {
+    /// Checks the setting that does not depend on the panorama: k at least 1.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        require(self.coefficients >= 1, "coefficients", || "needs k ≥ 1, got 0".to_string())
+    }
+
+    /// Checks everything, for a `width × height` panorama: also k ≤ width/2 + 1.
+    pub fn fits(&self, width: usize, _height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        let k = self.coefficients;
+        require(k <= width / 2 + 1, "coefficients", || {
+            format!("needs 1 ≤ k ≤ width/2 + 1 = {}, got {k}", width / 2 + 1)
+        })
+    }
+}
+
 /// The first k DFT coefficients of every row of a one-channel panorama.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FourierSignature {
@@ -44,10 +60,8 @@ impl FourierSignature {
         require(panorama.channels == 1, "channels", || {
             format!("the Fourier signature reads one channel, got {}", panorama.channels)
         })?;
+        params.fits(panorama.width, panorama.height)?;
         let k = params.coefficients;
-        require(k >= 1 && k <= panorama.width / 2 + 1, "coefficients", || {
-            format!("needs 1 ≤ k ≤ width/2 + 1 = {}, got {k}", panorama.width / 2 + 1)
-        })?;
         let mut spectrum = fft::complex(&panorama.data);
         fft::rows(&mut spectrum, panorama.width, FftDirection::Forward);
         let values = spectrum

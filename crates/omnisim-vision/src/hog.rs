@@ -8,9 +8,11 @@
 //!   shifts the panorama's columns and leaves each cell's pixels, so the histograms, unchanged.
 //!
 //! Gradients are the centred differences [−1, 0, 1] of Dalal & Triggs; each pixel votes its
-//! magnitude into the two orientation bins nearest its angle, linearly (bin b is centred at
-//! b·range/bins, range π unsigned or 2π signed). No spatial (trilinear) interpolation nor
-//! Gaussian block window: like scikit-image's `hog`.
+//! magnitude into the two orientation bins nearest its angle, linearly (Dalal & Triggs'
+//! orientation interpolation; bin b spans [b, b + 1)·range/bins and is centred at
+//! (b + ½)·range/bins, range π unsigned or 2π signed, the bins of scikit-image's `hog`, which
+//! votes into one bin only). No spatial (trilinear) interpolation nor Gaussian block window
+//! (scikit-image has neither).
 //!
 //! Written here: imageproc's HOG is the block variant only and imageproc would bring
 //! nalgebra 0.35 (Rust 1.89, above this workspace's 1.87).
@@ -107,15 +109,81 @@ impl Orientations {
         })
     }
 
-    /// Adds `magnitude` at `angle` to `histogram`, split between the two nearest bins.
+    /// Adds `magnitude` at `angle` to `histogram`, split linearly between the two bins whose
+    /// centres (b + ½)·range/bins are nearest (circularly).
     fn vote(&self, angle: f32, magnitude: f32, histogram: &mut [f32]) {
         let range = if self.signed { TAU } else { PI };
-        let position = angle.rem_euclid(range) / range * self.bins as f32;
+        // In bins from bin 0's centre: −½ … bins − ½.
+        let position = angle.rem_euclid(range) / range * self.bins as f32 - 0.5;
         let lower = position.floor();
         let fraction = position - lower;
-        let lower = lower as usize % self.bins;
+        let lower = (lower as isize).rem_euclid(self.bins as isize) as usize;
         histogram[lower] += magnitude * (1.0 - fraction);
         histogram[(lower + 1) % self.bins] += magnitude * fraction;
+    }
+}
+
+impl BlockHogParams {
+    /// Checks the settings that do not depend on the image: bins 2–360, cell, block and
+    /// stride at least 1, `clip` finite and positive.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        self.orientations.check()?;
+        require(
+            self.cell >= 1 && self.block >= 1 && self.stride >= 1,
+            "cells",
+            || "cell, block and stride must be at least 1".to_string(),
+        )?;
+        require(self.clip.is_finite() && self.clip > 0.0, "clip", || {
+            format!("must be finite and positive, got {}", self.clip)
+        })
+    }
+
+    /// Checks everything, for a `width × height` image: also that one block fits.
+    pub fn fits(&self, width: usize, height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        let (cells_x, cells_y) = (width / self.cell, height / self.cell);
+        require(cells_x >= self.block && cells_y >= self.block, "block", || {
+            format!("a {cells_x}×{cells_y}-cell image holds no {0}×{0}-cell block", self.block)
+        })
+    }
+}
+
+impl PanoramicHogParams {
+    /// Checks the settings that do not depend on the image: bins 2–360, at least 1 cell.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        self.orientations.check()?;
+        require(self.cells >= 1, "cells", || "needs at least 1 cell".to_string())
+    }
+
+    /// Checks everything, for a `width × height` panorama: also cells ≤ height.
+    pub fn fits(&self, _width: usize, height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        require(self.cells <= height, "cells", || {
+            format!("needs 1 ≤ cells ≤ height = {height}, got {}", self.cells)
+        })
+    }
+}
+
+impl VerticalHogParams {
+    /// Checks the settings that do not depend on the image: bins 2–360, cell width and
+    /// column step at least 1.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        self.orientations.check()?;
+        require(self.width >= 1 && self.step >= 1, "cells", || {
+            "cell width and column step must be at least 1".to_string()
+        })
+    }
+
+    /// Checks everything, for a `width × height` panorama: also that the step divides the
+    /// width and a cell fits in it.
+    pub fn fits(&self, width: usize, _height: usize) -> Result<(), VisionError> {
+        self.validate()?;
+        require(width.is_multiple_of(self.step), "step", || {
+            format!("must divide the panorama's width {width}, got {}", self.step)
+        })?;
+        require(self.width <= width, "width", || {
+            format!("needs 1 ≤ width ≤ {width} columns, got {}", self.width)
+        })
     }
 }
 
@@ -132,20 +200,9 @@ pub fn block_hog(image: &Raster, params: BlockHogParams) -> Result<Descriptor, V
     require(image.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", image.channels)
     })?;
-    params.orientations.check()?;
-    require(
-        params.cell >= 1 && params.block >= 1 && params.stride >= 1,
-        "cells",
-        || "cell, block and stride must be at least 1".to_string(),
-    )?;
+    params.fits(image.width, image.height)?;
     let bins = params.orientations.bins;
     let (cells_x, cells_y) = (image.width / params.cell, image.height / params.cell);
-    require(cells_x >= params.block && cells_y >= params.block, "block", || {
-        format!(
-            "a {cells_x}×{cells_y}-cell image holds no {0}×{0}-cell block",
-            params.block
-        )
-    })?;
     let mut cells = vec![0.0f32; cells_x * cells_y * bins];
     for (i, &(magnitude, angle)) in gradients(image, false).iter().enumerate() {
         let (cx, cy) = (i % image.width / params.cell, i / image.width / params.cell);
@@ -187,10 +244,7 @@ pub fn panoramic_hog(panorama: &Raster, params: PanoramicHogParams) -> Result<De
     require(panorama.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", panorama.channels)
     })?;
-    params.orientations.check()?;
-    require(params.cells >= 1 && params.cells <= panorama.height, "cells", || {
-        format!("needs 1 ≤ cells ≤ height = {}, got {}", panorama.height, params.cells)
-    })?;
+    params.fits(panorama.width, panorama.height)?;
     let bins = params.orientations.bins;
     let mut values = vec![0.0f32; params.cells * bins];
     for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {
@@ -240,14 +294,8 @@ pub fn vertical_hog(panorama: &Raster, params: VerticalHogParams) -> Result<Desc
     require(panorama.channels == 1, "channels", || {
         format!("HOG reads one channel, got {}", panorama.channels)
     })?;
-    params.orientations.check()?;
+    params.fits(panorama.width, panorama.height)?;
     let w = panorama.width;
-    require(params.step >= 1 && w.is_multiple_of(params.step), "step", || {
-        format!("must divide the panorama's width {w}, got {}", params.step)
-    })?;
-    require(params.width >= 1 && params.width <= w, "width", || {
-        format!("needs 1 ≤ width ≤ {w} columns, got {}", params.width)
-    })?;
     let bins = params.orientations.bins;
     let mut columns = vec![0.0f32; w * bins];
     for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {
@@ -315,16 +363,20 @@ mod tests {
     }
 
     /// Brightness varying along x only: every gradient is horizontal (angle 0 or π, both
-    /// orientation 0 unsigned), so all the mass is in bin 0; along the 45° diagonal it splits
-    /// 3 : 1 between bins 2 and 3 (45° / 20° = 2.25) in a block clear of the border.
+    /// orientation 0 unsigned), half-way between the centres of bins 0 (10°) and 8 (170°), so
+    /// the mass splits evenly between them; along the 45° diagonal it splits 3 : 1 between
+    /// bins 2 (centre 50°) and 1 (30°) in a block clear of the border.
     #[test]
     fn gradient_directions_land_in_their_bins() {
         let stripes = image(32, 32, |x, _| (0.5 * x).sin());
         let hog = block_hog(&stripes, BlockHogParams::default()).unwrap();
         for (i, v) in hog.values.iter().enumerate() {
-            if i % 9 != 0 {
+            if i % 9 != 0 && i % 9 != 8 {
                 assert!(v.abs() < 1e-6, "bin {} has {v}", i % 9);
             }
+        }
+        for cell in hog.values.chunks(9) {
+            assert!((cell[0] - cell[8]).abs() < 1e-6 && cell[0] > 0.1, "bins 0 and 8: {} {}", cell[0], cell[8]);
         }
         let diagonal = image(32, 32, |x, y| 0.05 * (x + y));
         let params = BlockHogParams {
@@ -332,9 +384,9 @@ mod tests {
             ..Default::default()
         };
         let hog = block_hog(&diagonal, params).unwrap();
-        // Block (1, 1) of the 3 × 3, its first cell's bins 2 and 3.
-        let (bin2, bin3) = (hog.values[4 * 36 + 2], hog.values[4 * 36 + 3]);
-        assert!((bin2 / bin3 - 3.0).abs() < 1e-3, "{bin2} / {bin3}");
+        // Block (1, 1) of the 3 × 3, its first cell's bins 1 and 2.
+        let (bin1, bin2) = (hog.values[4 * 36 + 1], hog.values[4 * 36 + 2]);
+        assert!((bin2 / bin1 - 3.0).abs() < 1e-3, "{bin2} / {bin1}");
     }
 
     /// Whole-column shifts of a panorama leave the panoramic HOG unchanged; a different
@@ -383,5 +435,15 @@ mod tests {
         }
         let bad = VerticalHogParams { step: 3, ..VerticalHogParams::default() };
         assert!(vertical_hog(&pano, bad).is_err());
+    }
+
+    /// L2-Hys needs a finite, positive clip: 0 would zero every block, NaN poison it.
+    #[test]
+    fn clip_is_validated() {
+        let texture = image(32, 32, |x, y| (0.3 * x + 0.2 * y).sin());
+        for clip in [0.0, -0.2, f32::NAN, f32::INFINITY] {
+            let params = BlockHogParams { clip, ..Default::default() };
+            assert!(matches!(block_hog(&texture, params), Err(VisionError::Parameter { name: "clip", .. })), "{clip}");
+        }
     }
 }

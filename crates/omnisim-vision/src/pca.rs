@@ -1,11 +1,13 @@
 //! Principal components analysis of a map set of images or descriptors (Payá et al. 2010,
 //! Sensors 10(12): PCA of the map's panoramas; Payá et al. 2014, Sensors 14(2)).
 //!
-//! With N samples of dimension D ≫ N (images), the principal axes come from the N × N Gram
-//! matrix of the centred samples (Turk & Pentland 1991, as those papers do): if
-//! X·Xᵀ·v = λ·v then Xᵀ·v/√λ is a unit principal axis with variance λ/(N − 1). At most
-//! N − 1 axes exist (the centred samples span N − 1 dimensions). Eigen-decomposition:
-//! nalgebra's `SymmetricEigen`.
+//! X is the N × D matrix of centred samples. With N samples of dimension D ≥ N (images), the
+//! principal axes come from the N × N Gram matrix (Turk & Pentland 1991, as those papers do):
+//! if X·Xᵀ·v = λ·v then Xᵀ·v/√λ is a unit principal axis with variance λ/(N − 1). With
+//! D < N (short descriptors of a large map) the D × D scatter matrix is smaller: Xᵀ·X·a = λ·a
+//! gives the unit axis a directly, with the same λ. Both have the same non-zero eigenvalues, so
+//! both give the same axes (up to sign) and variances. At most min(N − 1, D) axes exist.
+//! Eigen-decomposition: nalgebra's `SymmetricEigen`.
 //!
 //! A test set is projected with the map's basis: fit once, [`Pca::save`], [`Pca::load`].
 
@@ -14,6 +16,9 @@ use std::path::Path;
 use nalgebra::{DMatrix, SymmetricEigen};
 
 use crate::{VisionError, npy, require};
+
+/// The JSON sidecar [`Pca::save`] writes beside the arrays.
+const SIDECAR: &str = "pca.json";
 
 /// Mean, principal axes and their variances.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,8 +35,15 @@ pub struct Pca {
 
 impl Pca {
     /// Fits `components` axes (at most N − 1, fewer if the samples span fewer dimensions) to
-    /// `samples`, each of the same length.
+    /// `samples`, each of the same length: through the smaller of the N × N Gram and the D × D
+    /// scatter matrix.
     pub fn fit(samples: &[Vec<f32>], components: usize) -> Result<Pca, VisionError> {
+        let gram = samples.first().is_none_or(|s| s.len() >= samples.len());
+        Self::fit_by(samples, components, gram)
+    }
+
+    /// [`Pca::fit`] through the Gram matrix (`gram`) or the scatter matrix.
+    fn fit_by(samples: &[Vec<f32>], components: usize, gram: bool) -> Result<Pca, VisionError> {
         let n = samples.len();
         require(n >= 2, "samples", || format!("PCA needs at least 2 samples, got {n}"))?;
         let dim = samples[0].len();
@@ -42,8 +54,12 @@ impl Pca {
             .map(|j| samples.iter().map(|s| s[j] as f64).sum::<f64>() / n as f64)
             .collect();
         let centred = DMatrix::from_fn(n, dim, |i, j| samples[i][j] as f64 - mean[j]);
-        let eigen = SymmetricEigen::new(&centred * centred.transpose());
-        let mut order: Vec<usize> = (0..n).collect();
+        let eigen = if gram {
+            SymmetricEigen::new(&centred * centred.transpose())
+        } else {
+            SymmetricEigen::new(centred.transpose() * &centred)
+        };
+        let mut order: Vec<usize> = (0..eigen.eigenvalues.len()).collect();
         order.sort_by(|&a, &b| eigen.eigenvalues[b].total_cmp(&eigen.eigenvalues[a]));
         let total: f64 = eigen.eigenvalues.iter().map(|l| l.max(0.0)).sum();
         // Eigenvalues at rounding level belong to the null space, not to axes.
@@ -55,8 +71,12 @@ impl Pca {
             .collect();
         let mut axes = Vec::with_capacity(kept.len() * dim);
         for &i in &kept {
-            let axis = centred.transpose() * eigen.eigenvectors.column(i) / eigen.eigenvalues[i].sqrt();
-            axes.extend(axis.iter().map(|&v| v as f32));
+            if gram {
+                let axis = centred.transpose() * eigen.eigenvectors.column(i) / eigen.eigenvalues[i].sqrt();
+                axes.extend(axis.iter().map(|&v| v as f32));
+            } else {
+                axes.extend(eigen.eigenvectors.column(i).iter().map(|&v| v as f32));
+            }
         }
         let variance = |lambda: f64| lambda / (n - 1) as f64;
         Ok(Pca {
@@ -106,8 +126,9 @@ impl Pca {
         sample.iter().map(|&s| s as f32).collect()
     }
 
-    /// Writes `mean.npy` [D], `axes.npy` [components, D], `variances.npy` [components + 1]
-    /// (the last value is the total variance) into `folder`, which must exist.
+    /// Writes `mean.npy` [D], `axes.npy` [components, D], `variances.npy` [components] and
+    /// `pca.json` (the total variance, which the explained ratios divide by, and the shapes)
+    /// into `folder`, which must exist.
     pub fn save(&self, folder: &Path) -> Result<(), VisionError> {
         npy::write(&folder.join("mean.npy"), &[self.mean.len()], &self.mean)?;
         npy::write(
@@ -115,21 +136,32 @@ impl Pca {
             &[self.components(), self.mean.len()],
             &self.axes,
         )?;
-        let variances: Vec<f32> = self
-            .variances
-            .iter()
-            .chain([&self.total_variance])
-            .map(|&v| v as f32)
-            .collect();
-        npy::write(&folder.join("variances.npy"), &[variances.len()], &variances)
+        let variances: Vec<f32> = self.variances.iter().map(|&v| v as f32).collect();
+        npy::write(&folder.join("variances.npy"), &[variances.len()], &variances)?;
+        let sidecar = serde_json::json!({
+            "total_variance": self.total_variance,
+            "components": self.components(),
+            "dimension": self.mean.len(),
+            "explained_variance_ratio": self.explained_variance_ratio(),
+            "files": { "mean": "mean.npy", "axes": "axes.npy", "variances": "variances.npy" },
+        });
+        let path = folder.join(SIDECAR);
+        let text = serde_json::to_string_pretty(&sidecar).expect("a JSON value serialises") + "\n";
+        std::fs::write(&path, text).map_err(|source| VisionError::Io { path, source })
     }
 
     /// Reads what [`Pca::save`] wrote.
     pub fn load(folder: &Path) -> Result<Pca, VisionError> {
         let (_, mean) = npy::read(&folder.join("mean.npy"))?;
         let (axes_shape, axes) = npy::read(&folder.join("axes.npy"))?;
-        let (_, mut variances) = npy::read(&folder.join("variances.npy"))?;
-        let total_variance = variances.pop().unwrap_or(0.0) as f64;
+        let (_, variances) = npy::read(&folder.join("variances.npy"))?;
+        let path = folder.join(SIDECAR);
+        let text = std::fs::read_to_string(&path).map_err(|source| VisionError::Io { path: path.clone(), source })?;
+        let total_variance = serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| v["total_variance"].as_f64())
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .ok_or_else(|| VisionError::Format { path, reason: "no total_variance (a finite number ≥ 0)".to_string() })?;
         if axes_shape != [variances.len(), mean.len()] {
             return Err(VisionError::Format {
                 path: folder.join("axes.npy"),
@@ -212,10 +244,41 @@ mod tests {
         pca.save(folder.path()).unwrap();
         let loaded = Pca::load(folder.path()).unwrap();
         assert_eq!(loaded.components(), 5);
+        // variances.npy holds the axes' variances only; the total is in pca.json.
+        assert_eq!(npy::read(&folder.path().join("variances.npy")).unwrap().0, vec![5]);
+        std::fs::remove_file(folder.path().join(SIDECAR)).unwrap();
+        assert!(Pca::load(folder.path()).is_err());
+        pca.save(folder.path()).unwrap();
         assert_eq!(loaded.mean, pca.mean);
         assert_eq!(loaded.axes, pca.axes);
         let test = &samples[11];
         assert_eq!(loaded.project(test, 5).unwrap(), pca.project(test, 5).unwrap());
         assert!((loaded.total_variance - pca.total_variance).abs() < 1e-6 * pca.total_variance);
+    }
+
+    /// Short samples (D = 5 < N = 12) go through the 5 × 5 scatter matrix; the 12 × 12 Gram
+    /// matrix gives the same variances, the same axes up to sign and the same reconstructions.
+    #[test]
+    fn gram_and_scatter_matrices_agree() {
+        let samples: Vec<Vec<f32>> = samples().iter().map(|s| s[..5].to_vec()).collect();
+        let scatter = Pca::fit(&samples, 10).unwrap();
+        let gram = Pca::fit_by(&samples, 10, true).unwrap();
+        assert_eq!(scatter, Pca::fit_by(&samples, 10, false).unwrap());
+        assert_eq!((scatter.components(), gram.components()), (5, 5));
+        assert!((scatter.total_variance - gram.total_variance).abs() < 1e-9 * gram.total_variance);
+        for (a, b) in scatter.variances.iter().zip(&gram.variances) {
+            assert!((a - b).abs() < 1e-9 * gram.total_variance, "variances {a} vs {b}");
+        }
+        for (a, b) in scatter.axes.chunks(5).zip(gram.axes.chunks(5)) {
+            let dot: f32 = a.iter().zip(b).map(|(x, y)| x * y).sum();
+            assert!((dot.abs() - 1.0).abs() < 1e-5, "axes differ: |cos| {}", dot.abs());
+        }
+        for (k, sample) in (1..=5).zip(&samples) {
+            let (a, b) = (
+                scatter.reconstruct(&scatter.project(sample, k).unwrap()),
+                gram.reconstruct(&gram.project(sample, k).unwrap()),
+            );
+            assert!(squared_error(&a, &b) < 1e-10, "{k} axes: {a:?} vs {b:?}");
+        }
     }
 }

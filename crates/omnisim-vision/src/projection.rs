@@ -72,7 +72,7 @@ impl View {
         require(
             -limit <= lowest && lowest < highest && highest <= limit,
             "elevation band",
-            || format!("needs −89° ≤ lowest < highest ≤ 89°, got {lowest} .. {highest} rad"),
+            || format!("needs −89° ≤ lowest < highest ≤ 89°, got {}° .. {}°", degrees(lowest), degrees(highest)),
         )?;
         // Row v sees tan(elevation) = (cy − v)/fy; the top edge (v = −½) sees `highest` and the
         // bottom edge (v = H − ½) `lowest`.
@@ -101,7 +101,10 @@ impl View {
     /// and elevation `pitch` (up positive), image rows level.
     pub fn perspective(width: u32, height: u32, hfov: f64, yaw: f64, pitch: f64) -> Result<View, VisionError> {
         require(hfov > 0.0 && hfov < 179f64.to_radians(), "hfov", || {
-            format!("needs 0 < hfov < 179°, got {hfov} rad")
+            format!("needs 0 < hfov < 179°, got {}°", degrees(hfov))
+        })?;
+        require(yaw.is_finite() && pitch.is_finite(), "direction", || {
+            format!("yaw and pitch must be finite, got {}° and {}°", degrees(yaw), degrees(pitch))
         })?;
         Ok(View::Camera {
             camera: Camera::Pinhole(Pinhole::with_horizontal_fov(width, height, hfov)),
@@ -113,9 +116,10 @@ impl View {
 
     /// Orthographic view of the plane z = `plane_z` (body frame), centred under the viewpoint.
     pub fn birds_eye(width: u32, height: u32, metres_per_pixel: f64, plane_z: f64) -> Result<View, VisionError> {
-        require(metres_per_pixel > 0.0, "metres per pixel", || {
-            format!("must be positive, got {metres_per_pixel}")
+        require(metres_per_pixel.is_finite() && metres_per_pixel > 0.0, "metres per pixel", || {
+            format!("must be finite and positive, got {metres_per_pixel}")
         })?;
+        require(plane_z.is_finite(), "plane height", || format!("must be finite, got {plane_z}"))?;
         require(plane_z != 0.0, "plane height", || {
             "a plane through the viewpoint is seen edge-on".to_string()
         })?;
@@ -230,4 +234,10 @@ impl Remap {
 pub fn direction(azimuth: f64, elevation: f64) -> DVec3 {
     let (sin_e, cos_e) = elevation.sin_cos();
     dvec3(cos_e * azimuth.cos(), cos_e * azimuth.sin(), sin_e)
+}
+
+/// Radians as degrees for messages, rounded to 1e-9° so that a value typed in degrees reads back
+/// as typed (45, not 45.00000000000001).
+fn degrees(radians: f64) -> f64 {
+    (radians.to_degrees() * 1e9).round() / 1e9
 }

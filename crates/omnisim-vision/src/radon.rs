@@ -22,12 +22,17 @@ pub struct RadonParams {
     /// Angles over the full turn, step 2π/angles. Default 360 (1°), as Berenguer et al.
     pub angles: usize,
     /// Radial samples p_j = (j − (n−1)/2)·radial_step, j = 0..n; `None`: as many as reach
-    /// the shorter image side's half, 2·⌊(min(W, H) − 1)/(2·step)⌋ + 1.
+    /// the image edge nearest the centre, 2·⌊reach/step⌋ + 1 (reach = (min(W, H) − 1)/2 for
+    /// the image centre).
     pub radial_samples: Option<usize>,
     /// Pixels between radial samples. Default 1.
     pub radial_step: f64,
     /// Step along each line, pixels.
     pub line_step: f64,
+    /// The point (u, v) the lines' distances p are measured from, pixels: the mirror axis,
+    /// i.e. the calibration's principal point (cx, cy). `None`: the image centre
+    /// ((W−1)/2, (H−1)/2).
+    pub centre: Option<(f64, f64)>,
 }
 
 impl Default for RadonParams {
@@ -37,7 +42,37 @@ impl Default for RadonParams {
             radial_samples: None,
             radial_step: 1.0,
             line_step: 0.5,
+            centre: None,
         }
+    }
+}
+
+/// Most radial samples and angles (each), and most values in a transform: a mistyped step
+/// cannot ask for more memory than a machine has.
+const MAX_SAMPLES: f64 = 1e6;
+const MAX_VALUES: f64 = 1e8;
+
+impl RadonParams {
+    /// Checks the settings that do not depend on the image: 2 to 10⁶ angles, finite positive
+    /// steps, 2 to 10⁶ radial samples if given, a finite centre if given.
+    pub fn validate(&self) -> Result<(), VisionError> {
+        require(self.angles >= 2 && self.angles as f64 <= MAX_SAMPLES, "angles", || {
+            format!("needs 2 to {MAX_SAMPLES:.0e}, got {}", self.angles)
+        })?;
+        require(self.line_step.is_finite() && self.line_step > 0.0, "line step", || {
+            format!("must be finite and positive, got {}", self.line_step)
+        })?;
+        require(self.radial_step.is_finite() && self.radial_step > 0.0, "radial step", || {
+            format!("must be finite and positive, got {}", self.radial_step)
+        })?;
+        if let Some(n) = self.radial_samples {
+            require(n >= 2 && n as f64 <= MAX_SAMPLES, "radial samples", || {
+                format!("needs 2 to {MAX_SAMPLES:.0e}, got {n}")
+            })?;
+        }
+        require(self.centre.is_none_or(|(x, y)| x.is_finite() && y.is_finite()), "centre", || {
+            format!("must be finite, got {:?}", self.centre)
+        })
     }
 }
 
@@ -50,40 +85,64 @@ pub struct Radon {
     pub radial_step: f64,
 }
 
+/// Where a transform of a given image size samples: its centre and radial sample count.
+struct Layout {
+    centre: (f64, f64),
+    radial: usize,
+}
+
+impl RadonParams {
+    /// Checks everything, for a `width × height` image: also the centre inside it and the
+    /// sample counts it implies within their bounds.
+    pub fn fits(&self, width: usize, height: usize) -> Result<(), VisionError> {
+        self.layout(width, height).map(|_| ())
+    }
+
+    fn layout(&self, width: usize, height: usize) -> Result<Layout, VisionError> {
+        self.validate()?;
+        require(width >= 1 && height >= 1, "image", || "the image is empty".to_string())?;
+        let (cx, cy) = self.centre.unwrap_or(((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0));
+        let (max_x, max_y) = ((width - 1) as f64, (height - 1) as f64);
+        require((0.0..=max_x).contains(&cx) && (0.0..=max_y).contains(&cy), "centre", || {
+            format!("({cx}, {cy}) is outside the {width}×{height} image")
+        })?;
+        // From the centre to the nearest image edge ((min(W, H) − 1)/2 for the image centre).
+        let reach = cx.min(max_x - cx).min(cy).min(max_y - cy);
+        // In f64 first: a tiny step would overflow the count as an integer.
+        let radial = match self.radial_samples {
+            Some(n) => n as f64,
+            None => 2.0 * (reach / self.radial_step).floor() + 1.0,
+        };
+        require((2.0..=MAX_SAMPLES).contains(&radial), "radial samples", || {
+            format!("{radial:.0} (2 × reach / radial step + 1); needs 2 to {MAX_SAMPLES:.0e}")
+        })?;
+        let values = radial * self.angles as f64;
+        require(values <= MAX_VALUES, "sampling", || {
+            format!("{values:.1e} values asked (angles × radial samples); at most {MAX_VALUES:.0e}")
+        })?;
+        // Bounded so that a mistyped step cannot ask for days of work (the default is 6.3e7
+        // samples for a 250² image).
+        let samples = values * width.max(height) as f64 / self.line_step;
+        require(samples <= 1e10, "sampling", || {
+            format!("{samples:.1e} line samples asked (angles × radial samples × line length / line step); at most 1e10")
+        })?;
+        Ok(Layout { centre: (cx, cy), radial: radial as usize })
+    }
+}
+
 impl Radon {
-    /// Transform of a one-channel image about its centre ((W−1)/2, (H−1)/2): the mirror axis
-    /// of omnisim's catadioptric images.
+    /// Transform of a one-channel image about [`RadonParams::centre`] (the mirror axis; by
+    /// default the image centre ((W−1)/2, (H−1)/2)).
     pub fn new(image: &Raster, params: RadonParams) -> Result<Self, VisionError> {
         require(image.channels == 1, "channels", || {
             format!("the Radon transform reads one channel, got {}", image.channels)
         })?;
-        require(params.angles >= 2, "angles", || {
-            format!("needs at least 2, got {}", params.angles)
-        })?;
-        require(params.line_step > 0.0, "line step", || {
-            format!("must be positive, got {}", params.line_step)
-        })?;
-        require(params.radial_step > 0.0, "radial step", || {
-            format!("must be positive, got {}", params.radial_step)
-        })?;
-        let reach = (image.width.min(image.height) as f64 - 1.0) / 2.0;
-        let radial = params
-            .radial_samples
-            .unwrap_or(2 * (reach / params.radial_step).floor() as usize + 1);
-        require(radial >= 2, "radial samples", || {
-            format!("needs at least 2, got {radial}")
-        })?;
-        // Bounded so that a mistyped step cannot ask for days of work (the default is 6.3e7
-        // samples for a 250² image).
-        let samples = params.angles as f64 * radial as f64 * image.width.max(image.height) as f64 / params.line_step;
-        require(samples <= 1e10, "sampling", || {
-            format!("{samples:.1e} line samples asked (angles × radial samples × line length / line step); at most 1e10")
-        })?;
-        let p = |j: usize| radial_position(j, radial, params.radial_step);
-        let (cx, cy) = ((image.width as f64 - 1.0) / 2.0, (image.height as f64 - 1.0) / 2.0);
+        let Layout { centre: (cx, cy), radial } = params.layout(image.width, image.height)?;
         let (max_x, max_y) = ((image.width - 1) as f64, (image.height - 1) as f64);
-        // Half the image diagonal: every line leaves the image within ±this of its foot.
-        let half_length = cx.hypot(cy) + 1.0;
+        let p = |j: usize| radial_position(j, radial, params.radial_step);
+        // The farthest image corner from the centre: every line leaves the image within ±this
+        // of its foot.
+        let half_length = cx.abs().max((max_x - cx).abs()).hypot(cy.abs().max((max_y - cy).abs())) + 1.0;
         let steps = (half_length / params.line_step).ceil() as i64;
         let mut values = Raster::new(radial, params.angles, 1);
         values.data.par_chunks_mut(radial).enumerate().for_each(|(i, row)| {
@@ -255,5 +314,55 @@ mod tests {
         assert!(peak > 0.8, "peak {peak}");
         let (back, _) = b.rotation_to(&a).unwrap();
         assert_eq!(back.steps, 270);
+    }
+
+    /// A disc off the image centre, transformed about its own centre (`centre`), gives the
+    /// chords of a centred disc; about the image centre it does not.
+    #[test]
+    fn centre_is_a_parameter() {
+        let (radius, (dx, dy)) = (25.0, (12.0, -9.0));
+        let image = coverage(101, |x, y| (x - dx).powi(2) + (y - dy).powi(2) <= radius * radius);
+        let params = RadonParams {
+            angles: 36,
+            centre: Some((50.0 + dx, 50.0 + dy)),
+            ..Default::default()
+        };
+        let radon = Radon::new(&image, params).unwrap();
+        // The nearest edge is 50 − 12 = 38 px away: 2·38 + 1 samples.
+        assert_eq!(radon.values.width, 77);
+        let chord_error = |radon: &Radon| {
+            let mut worst: f64 = 0.0;
+            for i in 0..36 {
+                for j in 0..radon.values.width {
+                    let p = radon.p(j);
+                    if p.abs() <= radius - 5.0 {
+                        let chord = 2.0 * (radius * radius - p * p).sqrt();
+                        worst = worst.max((radon.values.at(j, i) as f64 - chord).abs());
+                    }
+                }
+            }
+            worst
+        };
+        assert!(chord_error(&radon) < 0.4, "{}", chord_error(&radon));
+        let about_image_centre = Radon::new(&image, RadonParams { centre: None, ..params }).unwrap();
+        assert!(chord_error(&about_image_centre) > 10.0);
+    }
+
+    /// Settings a user can type are refused with an error, never a panic: a step so small
+    /// that the sample count overflows, non-finite steps, a centre outside the image.
+    #[test]
+    fn bad_settings_are_refused() {
+        let image = Raster::new(20, 20, 1);
+        for params in [
+            RadonParams { radial_step: 1e-20, ..Default::default() },
+            RadonParams { radial_step: f64::NAN, ..Default::default() },
+            RadonParams { line_step: f64::INFINITY, ..Default::default() },
+            RadonParams { radial_samples: Some(usize::MAX), ..Default::default() },
+            RadonParams { angles: usize::MAX, ..Default::default() },
+            RadonParams { centre: Some((25.0, 3.0)), ..Default::default() },
+            RadonParams { centre: Some((f64::NAN, 3.0)), ..Default::default() },
+        ] {
+            assert!(matches!(Radon::new(&image, params), Err(VisionError::Parameter { .. })), "{params:?}");
+        }
     }
 }

@@ -75,7 +75,8 @@ impl Default for SiftParams {
 }
 
 impl SiftParams {
-    fn validate(&self) -> Result<(), VisionError> {
+    /// Checks every setting (ranges in the messages).
+    pub fn validate(&self) -> Result<(), VisionError> {
         let positive = |v: f32| v.is_finite() && v > 0.0;
         // A σ of 50 already blurs with a 401-tap kernel; beyond it an octave holds no feature.
         require(positive(self.sigma) && self.sigma <= 50.0, "sigma", || format!("{} must be in (0, 50]", self.sigma))?;

@@ -63,7 +63,8 @@ impl Default for SurfParams {
 }
 
 impl SurfParams {
-    fn validate(&self) -> Result<(), VisionError> {
+    /// Checks every setting (ranges in the messages).
+    pub fn validate(&self) -> Result<(), VisionError> {
         require(self.hessian_threshold.is_finite() && self.hessian_threshold >= 0.0, "hessian_threshold", || {
             format!("{} must be 0 or more", self.hessian_threshold)
         })?;

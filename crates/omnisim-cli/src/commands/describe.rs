@@ -34,13 +34,16 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 /// Descriptors and their settings [defaults]:
 ///   fourier    Fourier signature of the panorama, magnitudes (NAME-phases.npy: phases) [k=16]
 ///   hog        panoramic HOG, horizontal cells of the full width [cells=16, bins=8, signed=false]
-///   vertical-hog  HOG of overlapping vertical cells of the panorama, for orientation [width=32, step=1, bins=8, signed=false]
+///   vertical-hog  HOG of overlapping vertical cells of the panorama, for orientation [width=32, column-step=1, bins=8, signed=false]
 ///   block-hog  Dalal & Triggs HOG [cell=8, block=2, stride=1, bins=9, signed=false, clip=0.2, on=image]
 ///   gist       panoramic gist, horizontal blocks [scales=4, orientations=8, blocks=16]
 ///   grid-gist  gist on a grid [scales=4, orientations=8, grid=4, on=image]
-///   radon      Radon transform of the omnidirectional image about its centre [angles=360, step=1, line-step=0.5]
-///   sift       Lowe 2004 [sigma=1.6, scales=3, contrast=0.04, edge=10, bins=36, peak=0.8, upsample=true, on=image]
-///   surf       Bay et al. 2006 [threshold=100, octaves=4, intervals=4, step=1, upright=false, on=image]
+///   radon      Radon transform of the image about the camera's principal point (omni) or the image centre
+///              [angles=360, radial-samples=0 (0: up to the nearest image edge), radial-step=1, line-step=0.5 (pixels)]
+///   sift       Lowe 2004 [sigma=1.6, input-sigma=0.5, scales=3, contrast=0.04, edge=10, bins=36, peak=0.8,
+///              descriptor-width=4 (cells per side), descriptor-bins=8, clamp=0.2, border=5, upsample=true, on=image]
+///   surf       Bay et al. 2006 [threshold=100, octaves=4, intervals=4, sample-step=1, hessian-weight=0.9,
+///              window=60, window-step=5 (orientation window, degrees), upright=false, on=image]
 /// `on=panorama` describes the panorama instead of the image. Panoramas are resampled from
 /// omnidirectional images through the camera's model (--panorama, --elevation); images of a
 /// cylindrical or equirectangular camera are used as they are.
@@ -69,7 +72,8 @@ pub struct DescribeArgs {
     #[arg(long, value_enum, default_value = "bicubic")]
     pub interpolation: InterpolationArg,
     /// Fit a PCA of K components to each global descriptor of the map set (--map) and project
-    /// every set with it (NAME-pca.npy); the basis goes to OUT/pca/NAME/ (mean, axes, variances).
+    /// every set with it (NAME-pca.npy); the basis goes to OUT/pca/NAME/ (mean.npy, axes.npy,
+    /// variances.npy, and pca.json with the total variance).
     #[arg(long, value_name = "K", conflicts_with = "pca_basis")]
     pub pca_fit: Option<usize>,
     /// The set the PCA is fitted to [default: the first set].
@@ -79,6 +83,9 @@ pub struct DescribeArgs {
     #[arg(long, value_name = "DIR")]
     pub pca_basis: Option<PathBuf>,
 }
+
+/// The folder of OUT that holds the PCA bases (a set of that name is refused with --pca-fit).
+const PCA_FOLDER: &str = "pca";
 
 /// Which image a descriptor reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -106,6 +113,35 @@ enum Method {
     Radon(RadonParams),
     Sift(SiftParams),
     Surf(SurfParams),
+}
+
+impl Method {
+    /// Checks the settings; with `size`, also for an image of that size (width, height).
+    fn fits(&self, size: Option<(usize, usize)>) -> Result<(), omnisim_vision::VisionError> {
+        let Some((w, h)) = size else {
+            return match self {
+                Method::Fourier(p) => p.validate(),
+                Method::Hog(p) => p.validate(),
+                Method::VerticalHog(p) => p.validate(),
+                Method::BlockHog(p) => p.validate(),
+                Method::Gist(p) => p.validate(),
+                Method::Radon(p) => p.validate(),
+                Method::Sift(p) => p.validate(),
+                Method::Surf(p) => p.validate(),
+            };
+        };
+        match self {
+            Method::Fourier(p) => p.fits(w, h),
+            Method::Hog(p) => p.fits(w, h),
+            Method::VerticalHog(p) => p.fits(w, h),
+            Method::BlockHog(p) => p.fits(w, h),
+            Method::Gist(p) => p.fits(w, h),
+            Method::Radon(p) => p.fits(w, h),
+            // Any size: an image too small gives no keypoints.
+            Method::Sift(p) => p.validate(),
+            Method::Surf(p) => p.validate(),
+        }
+    }
 }
 
 /// One descriptor as chosen: what it computes, what it reads, and its settings for the sidecar.
@@ -142,9 +178,9 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             (Method::Hog(p), Reads::Panorama, parameters)
         }
         "vertical-hog" => {
-            spec.check_keys(&["width", "step", "bins", "signed"])?;
-            let p = VerticalHogParams { orientations: orientations(8)?, width: spec.get("width", 32)?, step: spec.get("step", 1)? };
-            let parameters = json!({ "cell_width": p.width, "step": p.step, "bins": p.orientations.bins, "signed": p.orientations.signed, "cell_normalisation": "L2" });
+            spec.check_keys(&["width", "column-step", "bins", "signed"])?;
+            let p = VerticalHogParams { orientations: orientations(8)?, width: spec.get("width", 32)?, step: spec.get("column-step", 1)? };
+            let parameters = json!({ "cell_width": p.width, "column_step": p.step, "bins": p.orientations.bins, "signed": p.orientations.signed, "cell_normalisation": "L2" });
             (Method::VerticalHog(p), Reads::Panorama, parameters)
         }
         "block-hog" => {
@@ -177,18 +213,26 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             (Method::Gist(p), on(Reads::Image)?, parameters)
         }
         "radon" => {
-            spec.check_keys(&["angles", "step", "line-step"])?;
+            spec.check_keys(&["angles", "radial-samples", "radial-step", "line-step"])?;
+            let d = RadonParams::default();
             let p = RadonParams {
-                angles: spec.get("angles", 360)?,
-                radial_samples: None,
-                radial_step: spec.get("step", 1.0)?,
-                line_step: spec.get("line-step", 0.5)?,
+                angles: spec.get("angles", d.angles)?,
+                radial_samples: spec.get("radial-samples", 0usize).map(|n| (n != 0).then_some(n))?,
+                radial_step: spec.get("radial-step", d.radial_step)?,
+                line_step: spec.get("line-step", d.line_step)?,
+                centre: None,
             };
-            let parameters = json!({ "angles": p.angles, "radial_step_px": p.radial_step, "line_step_px": p.line_step, "centre": "image centre" });
+            // The centre is the camera's principal point, set once the input is read.
+            let parameters = json!({
+                "angles": p.angles, "radial_samples": p.radial_samples, "radial_step_px": p.radial_step, "line_step_px": p.line_step
+            });
             (Method::Radon(p), Reads::Image, parameters)
         }
         "sift" => {
-            spec.check_keys(&["sigma", "scales", "contrast", "edge", "bins", "peak", "upsample", "on"])?;
+            spec.check_keys(&[
+                "sigma", "input-sigma", "scales", "contrast", "edge", "bins", "peak", "descriptor-width", "descriptor-bins", "clamp", "border",
+                "upsample", "on",
+            ])?;
             let d = SiftParams::default();
             let p = SiftParams {
                 sigma: spec.get("sigma", d.sigma)?,
@@ -198,7 +242,11 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
                 orientation_bins: spec.get("bins", d.orientation_bins)?,
                 peak_ratio: spec.get("peak", d.peak_ratio)?,
                 upsample: spec.get("upsample", d.upsample)?,
-                ..d
+                input_sigma: spec.get("input-sigma", d.input_sigma)?,
+                descriptor_width: spec.get("descriptor-width", d.descriptor_width)?,
+                descriptor_bins: spec.get("descriptor-bins", d.descriptor_bins)?,
+                magnitude_clamp: spec.get("clamp", d.magnitude_clamp)?,
+                border: spec.get("border", d.border)?,
             };
             let parameters = json!({
                 "sigma": decimal(p.sigma), "scales_per_octave": p.scales_per_octave, "contrast_threshold": decimal(p.contrast_threshold),
@@ -209,15 +257,19 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             (Method::Sift(p), on(Reads::Image)?, parameters)
         }
         "surf" => {
-            spec.check_keys(&["threshold", "octaves", "intervals", "step", "upright", "on"])?;
+            spec.check_keys(&[
+                "threshold", "octaves", "intervals", "sample-step", "hessian-weight", "window", "window-step", "upright", "on",
+            ])?;
             let d = SurfParams::default();
             let p = SurfParams {
                 hessian_threshold: spec.get("threshold", d.hessian_threshold)?,
                 octaves: spec.get("octaves", d.octaves)?,
                 intervals: spec.get("intervals", d.intervals)?,
-                initial_step: spec.get("step", d.initial_step)?,
+                initial_step: spec.get("sample-step", d.initial_step)?,
+                hessian_weight: spec.get("hessian-weight", d.hessian_weight)?,
                 upright: spec.get("upright", d.upright)?,
-                ..d
+                orientation_window: spec.get("window", d.orientation_window)?,
+                orientation_step: spec.get("window-step", d.orientation_step)?,
             };
             let parameters = json!({
                 "hessian_threshold": decimal(p.hessian_threshold), "octaves": p.octaves, "intervals": p.intervals,
@@ -228,6 +280,10 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
         }
         other => bail!("unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, radon, sift or surf"),
     };
+    // Every setting that does not depend on the images is checked here; the limits the
+    // images' size sets are checked in `run` once the camera is known, before any image is
+    // read. Nothing is written before every image is described.
+    method.fits(None).with_context(|| format!("--descriptor {}", spec.name))?;
     Ok(Choice { name: spec.name.clone(), method, reads, parameters })
 }
 
@@ -292,13 +348,45 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         bail!("--pca-fit needs at least 1 component");
     }
     let input = args.input.read()?;
+    if args.pca_fit.is_some() && input.sets.iter().any(|s| s.name == PCA_FOLDER) {
+        bail!(
+            "a set named '{PCA_FOLDER}' would share OUT/{PCA_FOLDER} with the PCA bases: leave it out (--set) or describe it without --pca-fit"
+        );
+    }
+    if let Camera::Catadioptric(omni) = &input.camera {
+        for choice in &mut choices {
+            if let Method::Radon(p) = &mut choice.method {
+                // The mirror axis: the calibration's principal point.
+                p.centre = Some((omni.cx, omni.cy));
+            }
+        }
+    }
+    for choice in &mut choices {
+        if let Method::Radon(p) = &choice.method {
+            choice.parameters["centre_px"] = match p.centre {
+                Some((x, y)) => json!({ "u": x, "v": y, "from": "the calibration's principal point (cx, cy)" }),
+                None => json!({ "from": "the image centre ((W − 1)/2, (H − 1)/2)" }),
+            };
+        }
+    }
     let map = match (&args.map, args.pca_fit) {
         (Some(map), _) => Some(input.sets.iter().position(|s| &s.name == map).with_context(|| format!("--map {map} is not a described set"))?),
         (None, Some(_)) => Some(0),
         _ => None,
     };
     let panorama = Panorama::new(&input, &args, choices.iter().any(|c| c.reads == Reads::Panorama))?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    // The limits the images' size sets, from the camera's size, before any image is read.
+    let (w, h) = input.camera.size();
+    let image_size = (w as usize, h as usize);
+    for choice in &choices {
+        let size = match (choice.reads, &panorama) {
+            (Reads::Panorama, Some(p)) => p.size(image_size),
+            _ => image_size,
+        };
+        choice.method.fits(Some(size)).with_context(|| {
+            format!("--descriptor {} on the {}×{} {}", choice.name, size.0, size.1, choice.reads.name())
+        })?;
+    }
     let started = Instant::now();
     let mut results: Vec<Vec<SetResult>> = Vec::new();
     for set in &input.sets {
@@ -331,7 +419,19 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         }
         results.push(per_choice);
     }
-    let pcas = fit_or_load_pca(&args, &mut choices, &results, map, &input)?;
+    let pcas = fit_or_load_pca(&args, &choices, &results, map, &input)?;
+    // Nothing is written until every image is described and every PCA fitted or loaded, so a
+    // request that fails writes nothing.
+    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    if args.pca_fit.is_some() {
+        for (choice, pca) in choices.iter().zip(&pcas) {
+            if let Some((pca, _)) = pca {
+                let folder = args.out.join(PCA_FOLDER).join(&choice.name);
+                std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+                pca.save(&folder)?;
+            }
+        }
+    }
     for (set, per_choice) in input.sets.iter().zip(&results) {
         let folder = args.out.join(&set.name);
         std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
@@ -378,6 +478,11 @@ impl Panorama {
         }
     }
 
+    /// Size of the panorama of an image of `image_size`.
+    fn size(&self, image_size: (usize, usize)) -> (usize, usize) {
+        self.remap.as_ref().map_or(image_size, |r| (r.width, r.height))
+    }
+
     /// The panorama of a grey image and the seconds its resampling took.
     fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
         let clock = Instant::now();
@@ -390,7 +495,7 @@ impl Panorama {
 /// The PCA of each global descriptor: fitted on the map set, or loaded; `None` elsewhere.
 fn fit_or_load_pca(
     args: &DescribeArgs,
-    choices: &mut [Choice],
+    choices: &[Choice],
     results: &[Vec<SetResult>],
     map: Option<usize>,
     input: &Input,
@@ -411,16 +516,13 @@ fn fit_or_load_pca(
                 })
                 .collect();
             let pca = Pca::fit(&samples, k).with_context(|| format!("PCA of {} on set '{}'", choice.name, input.sets[map].name))?;
-            let folder = args.out.join("pca").join(&choice.name);
-            std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
-            pca.save(&folder)?;
             let sidecar = json!({
                 "fitted_on": input.sets[map].name, "components": pca.components(),
-                "explained_variance_ratio": pca.explained_variance_ratio(), "basis": format!("pca/{}", choice.name)
+                "explained_variance_ratio": pca.explained_variance_ratio(), "basis": format!("{PCA_FOLDER}/{}", choice.name)
             });
             (pca, sidecar)
         } else {
-            let folder = args.pca_basis.as_ref().map(|b| b.join("pca").join(&choice.name)).unwrap_or_default();
+            let folder = args.pca_basis.as_ref().map(|b| b.join(PCA_FOLDER).join(&choice.name)).unwrap_or_default();
             let pca = Pca::load(&folder).with_context(|| format!("the PCA basis of {} (from an earlier --pca-fit run)", choice.name))?;
             let sidecar = json!({
                 "loaded_from": folder, "components": pca.components(),

@@ -12,7 +12,7 @@ use serde_json::{Value, json};
 
 pub use crate::camera_args::parse_size;
 
-use super::vision_input::{InputArgs, NamedSettings, read_image};
+use super::vision_input::{InputArgs, NamedSettings, check_image_sizes, read_image};
 
 /// Resample omnidirectional images into other views (docs/vision.md, "Projections").
 ///
@@ -143,6 +143,8 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
         .map(|(name, view, _)| Remap::new(omni, view).with_context(|| format!("view {name}")))
         .collect::<anyhow::Result<_>>()?;
     let interpolation = Interpolation::from(args.interpolation);
+    // Every image's size is checked (headers only) before anything is written.
+    check_image_sizes(&input.sets, remap_source(&remaps))?;
     for set in &input.sets {
         let folder = args.out.join(&set.name);
         std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;

@@ -97,7 +97,7 @@ impl InputArgs {
 
     /// Whether any camera option differs from its default.
     fn camera_given(&self) -> bool {
-        format!("{:?}", default_camera_args()) != format!("{:?}", self.camera)
+        self.camera != default_camera_args()
     }
 
     fn read_dataset(&self, manifest: &Path) -> anyhow::Result<Input> {
@@ -259,19 +259,27 @@ fn default_camera_args() -> CameraArgs {
 pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
     let image = image::open(path).with_context(|| format!("cannot read image {}", path.display()))?;
     let raster = Raster::from_image(&image);
-    if let Some(size) = size
-        && size != (raster.width, raster.height)
-    {
-        bail!(
-            "{} is {}×{} pixels, but the set's first image is {}×{}",
-            path.display(),
-            raster.width,
-            raster.height,
-            size.0,
-            size.1
-        );
+    if let Some(size) = size {
+        same_size(path, (raster.width, raster.height), size, "the set's first image")?;
     }
     Ok(raster)
+}
+
+/// Checks from the files' headers alone that every image of `sets` is `size` (the camera's),
+/// so that a command can refuse a bad set before it writes anything.
+pub fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Result<()> {
+    for frame in sets.iter().flat_map(|s| &s.frames) {
+        let (w, h) = image::image_dimensions(&frame.path).with_context(|| format!("cannot read image {}", frame.path.display()))?;
+        same_size(&frame.path, (w as usize, h as usize), size, "the camera's image")?;
+    }
+    Ok(())
+}
+
+fn same_size(path: &Path, got: (usize, usize), expected: (usize, usize), whose: &str) -> anyhow::Result<()> {
+    if got != expected {
+        bail!("{} is {}×{} pixels, but {whose} is {}×{}", path.display(), got.0, got.1, expected.0, expected.1);
+    }
+    Ok(())
 }
 
 /// A `NAME[:KEY=VALUE,...]` option value: the name and its settings, each key checked against
@@ -307,13 +315,18 @@ impl NamedSettings {
         Ok(())
     }
 
-    /// The setting `key` parsed as `T`, or `default`.
+    /// The setting `key` parsed as `T`, or `default`. Numbers must be finite: `nan`, `inf`
+    /// and values that overflow to infinity (`1e999`) are refused for every setting.
     pub fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> anyhow::Result<T> {
         match self.settings.get(key) {
             None => Ok(default),
-            Some(text) => text
-                .parse()
-                .map_err(|_| anyhow::anyhow!("{}: {key}={text} is not a valid {}", self.name, std::any::type_name::<T>())),
+            Some(text) => {
+                if text.parse::<f64>().is_ok_and(|v| !v.is_finite()) {
+                    bail!("{}: {key}={text} is not a finite number", self.name);
+                }
+                text.parse()
+                    .map_err(|_| anyhow::anyhow!("{}: {key}={text} is not a valid {}", self.name, std::any::type_name::<T>()))
+            }
         }
     }
 }
@@ -330,6 +343,12 @@ mod tests {
         assert_eq!(s.get("missing", 2.5f64).unwrap(), 2.5);
         assert!(s.check_keys(&["k"]).is_err());
         assert!(s.get::<usize>("on", 0).is_err());
+        for text in ["nan", "NaN", "inf", "-inf", "infinity", "1e999"] {
+            let s = NamedSettings::parse(&format!("radon:radial-step={text}")).unwrap();
+            let error = s.get("radial-step", 1.0f64).unwrap_err().to_string();
+            assert!(error.contains("not a finite number"), "{text}: {error}");
+            assert!(s.get("radial-step", 1.0f32).is_err(), "{text}");
+        }
         assert!(NamedSettings::parse("hog:cells").is_err());
         assert!(NamedSettings::parse("hog:k=1,k=2").is_err());
     }
