@@ -32,6 +32,7 @@ pub mod calibration;
 pub mod camera;
 pub mod cpu;
 pub mod dataset;
+mod fast;
 pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
@@ -50,6 +51,7 @@ pub mod traversal;
 /// The vector and matrix types of the API (positions, angles, rotations).
 pub use glam;
 
+pub use cpu::CpuTracer;
 pub use camera::{Camera, CameraError, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
 pub use frame::{Frame, Pixel, Plane, Planes};
 pub use lighting::{Light, LightKind, Lighting};

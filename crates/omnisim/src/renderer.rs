@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use crate::antialias;
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
-use crate::cpu;
+use crate::cpu::CpuTracer;
 use crate::frame::{Frame, NO_FACE, Planes};
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
@@ -27,7 +27,7 @@ pub enum BackendChoice {
     Auto,
     /// The wgpu backend; fails if no adapter opens.
     Gpu,
-    /// The f64 reference tracer on all cores.
+    /// The CPU tracer ([`Renderer::set_cpu_tracer`]) on all cores.
     Cpu,
 }
 
@@ -67,6 +67,8 @@ pub struct Renderer {
     choice: BackendChoice,
     /// Why this backend was chosen, for the user.
     reason: String,
+    /// Which tracer the CPU backend (and `auto`'s CPU fallback) uses.
+    cpu_tracer: CpuTracer,
     geometry_builds: AtomicUsize,
 }
 
@@ -103,8 +105,20 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             choice,
             reason,
+            cpu_tracer: CpuTracer::default(),
             geometry_builds: AtomicUsize::new(0),
         })
+    }
+
+    /// Chooses the tracer of the CPU backend (default [`CpuTracer::Fast`]); scenes the GPU
+    /// traces are not affected.
+    pub fn set_cpu_tracer(&mut self, tracer: CpuTracer) {
+        self.cpu_tracer = tracer;
+    }
+
+    /// The tracer the CPU backend uses.
+    pub fn cpu_tracer(&self) -> CpuTracer {
+        self.cpu_tracer
     }
 
     /// The GPU backend; `hardware_only` refuses a software adapter (what `auto` wants).
@@ -194,9 +208,10 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
-                let mut frame = cpu::trace(&prepared.geometry, camera, pose);
+                let mut frame = self.cpu_tracer.trace(&prepared.geometry, camera, pose);
                 if planes.needs_shading() {
-                    shading::shade_frame(&prepared.geometry, &prepared.appearance, &mut frame, planes);
+                    let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
+                    shading::shade_frame(self.cpu_tracer, geometry, appearance, &mut frame, planes);
                 }
                 frame
             }
@@ -237,6 +252,7 @@ impl Renderer {
                 }
                 None => {
                     antialias::supersample_edges(
+                        self.cpu_tracer,
                         &prepared.geometry,
                         &prepared.appearance,
                         camera,
@@ -264,7 +280,7 @@ impl Renderer {
         match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
-            None => shading::shade_frame(&prepared.geometry, &prepared.appearance, frame, planes),
+            None => shading::shade_frame(self.cpu_tracer, &prepared.geometry, &prepared.appearance, frame, planes),
         }
         Ok(())
     }
@@ -299,7 +315,7 @@ impl Renderer {
         match &self.backend {
             #[cfg(feature = "gpu")]
             Backend::Gpu(renderer) => renderer.context().describe(),
-            Backend::Cpu => format!("f64 CPU tracer on {} threads", rayon::current_num_threads()),
+            Backend::Cpu => format!("{} on {} threads", self.cpu_tracer.describe(), rayon::current_num_threads()),
         }
     }
 
