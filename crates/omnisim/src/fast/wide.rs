@@ -8,8 +8,6 @@
 use glam::{DVec3, Vec4};
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::node::Bvh2Node;
-use obvhs::fast_stack;
-use obvhs::faststack::FastStack;
 
 use super::groups::{LaneRay, TriangleGroup};
 use crate::traversal::{Counter, Visit};
@@ -88,63 +86,83 @@ impl WideBvh {
         &self,
         ray: &LaneRay,
         t_lo: f32,
-        mut t_hi: f32,
+        t_hi: f32,
         counter: &mut C,
-        mut visit: impl FnMut(usize) -> Visit,
+        visit: impl FnMut(usize) -> Visit,
     ) {
         if self.nodes.is_empty() {
             return;
         }
-        // Every node visit pushes at most four children and pops one.
-        fast_stack!((u32, f32), (96, 192), 3 * self.depth + 4, stack, {
-            stack.push((0, f32::NEG_INFINITY));
-            while let Some((entry, t_enter)) = stack.pop() {
-                if t_enter > t_hi {
-                    continue;
-                }
-                if entry & LEAF != 0 {
-                    let first = (entry & GROUP_INDEX) as usize;
-                    let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                    for group in &self.groups[first..first + count] {
-                        for _ in 0..group.lanes.count_ones() {
-                            counter.primitive_test();
-                        }
-                        let mut candidates = group.candidates(ray, t_lo, t_hi);
-                        while candidates != 0 {
-                            let lane = candidates.trailing_zeros() as usize;
-                            candidates &= candidates - 1;
-                            counter.exact_test();
-                            match visit(group.triangle[lane] as usize) {
-                                Visit::Miss => {}
-                                Visit::Closer(t) => t_hi = t_hi.min(t),
-                                Visit::Stop => return,
-                            }
+        // Every node visit pops one entry and pushes at most four: 3 per level, plus the root.
+        // A stack on the stack for the usual depths (zeroing it is part of every ray's cost).
+        match 3 * self.depth + 4 {
+            n if n <= 32 => self.walk(&mut [(0, 0.0); 32], ray, t_lo, t_hi, counter, visit),
+            n if n <= 64 => self.walk(&mut [(0, 0.0); 64], ray, t_lo, t_hi, counter, visit),
+            n => self.walk(&mut vec![(0, 0.0); n], ray, t_lo, t_hi, counter, visit),
+        }
+    }
+
+    #[inline(always)]
+    fn walk<C: Counter>(
+        &self,
+        stack: &mut [(u32, f32)],
+        ray: &LaneRay,
+        t_lo: f32,
+        mut t_hi: f32,
+        counter: &mut C,
+        mut visit: impl FnMut(usize) -> Visit,
+    ) {
+        stack[0] = (0, f32::NEG_INFINITY);
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let (entry, t_enter) = stack[len];
+            if t_enter > t_hi {
+                continue;
+            }
+            if entry & LEAF != 0 {
+                let first = (entry & GROUP_INDEX) as usize;
+                let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+                for group in &self.groups[first..first + count] {
+                    for _ in 0..group.lanes.count_ones() {
+                        counter.primitive_test();
+                    }
+                    let mut candidates = group.candidates(ray, t_lo, t_hi);
+                    while candidates != 0 {
+                        let lane = candidates.trailing_zeros() as usize;
+                        candidates &= candidates - 1;
+                        counter.exact_test();
+                        match visit(group.triangle[lane] as usize) {
+                            Visit::Miss => {}
+                            Visit::Closer(t) => t_hi = t_hi.min(t),
+                            Visit::Stop => return,
                         }
                     }
-                    continue;
                 }
-                let node = &self.nodes[entry as usize];
-                for _ in 0..node.lanes.count_ones() {
-                    counter.node_test();
-                }
-                let (mut hits, near) = enter(node, ray, t_hi);
-                let near = near.to_array();
-                // Children entered, pushed farthest first so the nearest is visited next.
-                let mut entered = [(0u32, 0.0f32); 4];
-                let mut count = 0;
-                while hits != 0 {
-                    let lane = hits.trailing_zeros() as usize;
-                    hits &= hits - 1;
-                    entered[count] = (node.child[lane], near[lane]);
-                    count += 1;
-                }
-                let entered = &mut entered[..count];
-                entered.sort_unstable_by(|a, b| b.1.total_cmp(&a.1));
-                for &child in entered.iter() {
-                    stack.push(child);
-                }
+                continue;
             }
-        })
+            let node = &self.nodes[entry as usize];
+            for _ in 0..node.lanes.count_ones() {
+                counter.node_test();
+            }
+            let (mut hits, near) = enter(node, ray, t_hi);
+            let near = near.to_array();
+            // Children entered, pushed farthest first (an insertion sort of at most four) so
+            // that the nearest is visited next.
+            let base = len;
+            while hits != 0 {
+                let lane = hits.trailing_zeros() as usize;
+                hits &= hits - 1;
+                let child = (node.child[lane], near[lane]);
+                let mut at = len;
+                while at > base && stack[at - 1].1 < child.1 {
+                    stack[at] = stack[at - 1];
+                    at -= 1;
+                }
+                stack[at] = child;
+                len += 1;
+            }
+        }
     }
 }
 
