@@ -25,6 +25,16 @@ const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::medium_build()
 };
 
+/// Scenes with more triangles than this get `LARGE_BUILD_PARAMS`.
+const LARGE_SCENE: usize = 100_000;
+
+/// obvhs's fast build (narrower PLOC search, less reinsertion), leaves of at most two
+/// triangles, for large scenes where build time counts (docs/benchmarks.md, "BVH build").
+const LARGE_BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
+    max_prims_per_leaf: 2,
+    ..BvhBuildParams::fast_build()
+};
+
 /// A scene's triangles in a BVH, around a local origin: what both tracers traverse. Built once
 /// per geometry ([`crate::Renderer::prepare`]); colours and lights live elsewhere.
 #[derive(Clone)]
@@ -67,7 +77,8 @@ impl SceneBvh {
         let bvh = if boxes.is_empty() {
             Bvh2::default()
         } else {
-            obvhs::bvh2::builder::build_bvh2(&boxes, BUILD_PARAMS, &mut core_time)
+            let params = if boxes.len() > LARGE_SCENE { LARGE_BUILD_PARAMS } else { BUILD_PARAMS };
+            obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut core_time)
         };
         let mut build_time = start.elapsed();
         drop(boxes);
