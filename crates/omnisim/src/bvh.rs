@@ -77,7 +77,11 @@ impl SceneBvh {
         let bvh = if boxes.is_empty() {
             Bvh2::default()
         } else {
-            let params = if boxes.len() > LARGE_SCENE { LARGE_BUILD_PARAMS } else { BUILD_PARAMS };
+            let params = if boxes.len() > LARGE_SCENE {
+                LARGE_BUILD_PARAMS
+            } else {
+                BUILD_PARAMS
+            };
             obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut core_time)
         };
         let mut build_time = start.elapsed();

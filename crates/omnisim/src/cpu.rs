@@ -10,7 +10,7 @@ use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraRay};
 use crate::fast;
 use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
@@ -67,17 +67,29 @@ impl CpuTracer {
 
     /// Traces one frame's hit planes on all CPU threads.
     pub fn trace(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
-        let (width, height) = camera.size();
+        let width = camera.size().0.max(1) as usize;
+        self.trace_rays(bvh, camera.size(), pose, |index| {
+            camera.ray(DVec2::new((index % width) as f64, (index / width) as f64))
+        })
+    }
+
+    /// Traces a `size` frame whose pixel `index` (row by row) has the body-frame ray
+    /// `ray(index)`, on all CPU threads.
+    pub(crate) fn trace_rays(
+        self,
+        bvh: &SceneBvh,
+        (width, height): (u32, u32),
+        pose: &Pose,
+        ray: impl Fn(usize) -> Option<CameraRay> + Sync,
+    ) -> Frame {
         let local = LocalPose::new(bvh, pose);
         let mut hits = vec![Pixel::MISS; width as usize * height as usize];
-        hits.par_chunks_mut(width.max(1) as usize)
-            .enumerate()
-            .for_each(|(row, pixels)| {
-                for (column, pixel) in pixels.iter_mut().enumerate() {
-                    let position = DVec2::new(column as f64, row as f64);
-                    *pixel = self.trace_pixel(bvh, camera, &local, position);
-                }
-            });
+        let row_length = width.max(1) as usize;
+        hits.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
+            for (column, pixel) in pixels.iter_mut().enumerate() {
+                *pixel = self.trace_ray(bvh, &local, ray(row * row_length + column), &mut ());
+            }
+        });
         Frame::from_hits(width, height, hits)
     }
 
@@ -91,8 +103,8 @@ impl CpuTracer {
             .map(|row| {
                 let mut counts = TraversalCounts::default();
                 for column in 0..width {
-                    let pixel = DVec2::new(column as f64, row as f64);
-                    self.trace_pixel_counted(bvh, camera, &local, pixel, &mut counts);
+                    let ray = camera.ray(DVec2::new(column as f64, row as f64));
+                    self.trace_ray(bvh, &local, ray, &mut counts);
                 }
                 counts
             })
@@ -102,18 +114,12 @@ impl CpuTracer {
     /// Traces the camera ray through `pixel` (sub-pixel positions allowed): the hit planes of
     /// that ray, [`Pixel::MISS`] where the pixel has no ray or the ray hits nothing.
     pub(crate) fn trace_pixel(self, bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Pixel {
-        self.trace_pixel_counted(bvh, camera, pose, pixel, &mut ())
+        self.trace_ray(bvh, pose, camera.ray(pixel), &mut ())
     }
 
-    fn trace_pixel_counted<C: Counter>(
-        self,
-        bvh: &SceneBvh,
-        camera: &Camera,
-        pose: &LocalPose,
-        pixel: DVec2,
-        counter: &mut C,
-    ) -> Pixel {
-        let Some(ray) = camera.ray(pixel) else {
+    /// The hit planes of a body-frame camera ray ([`Pixel::MISS`] for none), counted.
+    fn trace_ray<C: Counter>(self, bvh: &SceneBvh, pose: &LocalPose, ray: Option<CameraRay>, counter: &mut C) -> Pixel {
+        let Some(ray) = ray else {
             return Pixel::MISS;
         };
         let origin = pose.origin + pose.world_from_body * ray.origin;

@@ -42,6 +42,7 @@ pub mod metadata;
 pub mod output;
 pub mod pose;
 pub mod pose_sets;
+mod ray_table;
 pub mod renderer;
 pub mod rig;
 pub mod scene;
@@ -51,8 +52,8 @@ pub mod traversal;
 /// The vector and matrix types of the API (positions, angles, rotations).
 pub use glam;
 
-pub use cpu::CpuTracer;
 pub use camera::{Camera, CameraError, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
+pub use cpu::CpuTracer;
 pub use frame::{Frame, Pixel, Plane, Planes};
 pub use lighting::{Light, LightKind, Lighting};
 pub use metadata::RenderMetadata;

@@ -15,6 +15,7 @@ use crate::frame::{Frame, NO_FACE, Planes};
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
+use crate::ray_table::RayCache;
 use crate::scene::Scene;
 use crate::shading::{self, Appearance};
 
@@ -69,6 +70,8 @@ pub struct Renderer {
     reason: String,
     /// Which tracer the CPU backend (and `auto`'s CPU fallback) uses.
     cpu_tracer: CpuTracer,
+    /// Camera rays of the last cameras traced on the CPU, reused across poses.
+    rays: RayCache,
     geometry_builds: AtomicUsize,
 }
 
@@ -106,6 +109,7 @@ impl Renderer {
             choice,
             reason,
             cpu_tracer: CpuTracer::default(),
+            rays: RayCache::default(),
             geometry_builds: AtomicUsize::new(0),
         })
     }
@@ -208,7 +212,7 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
-                let mut frame = self.cpu_tracer.trace(&prepared.geometry, camera, pose);
+                let mut frame = self.rays.trace(self.cpu_tracer, &prepared.geometry, camera, pose);
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
                     shading::shade_frame(self.cpu_tracer, geometry, appearance, &mut frame, planes);
@@ -315,7 +319,11 @@ impl Renderer {
         match &self.backend {
             #[cfg(feature = "gpu")]
             Backend::Gpu(renderer) => renderer.context().describe(),
-            Backend::Cpu => format!("{} on {} threads", self.cpu_tracer.describe(), rayon::current_num_threads()),
+            Backend::Cpu => format!(
+                "{} on {} threads",
+                self.cpu_tracer.describe(),
+                rayon::current_num_threads()
+            ),
         }
     }
 

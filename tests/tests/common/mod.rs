@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use glam::dvec3;
+use glam::{DMat3, DVec3, dvec3};
 use omnisim::bvh::SceneBvh;
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
 use omnisim::{
@@ -24,6 +24,25 @@ pub const ROOMS: [&str; 2] = ["env1.ron", "env2.ron"];
 /// The paper's hyperbolic omni camera with the default 20° rim.
 pub fn paper_omni() -> Catadioptric {
     Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))
+}
+
+/// The six faces (corners in order around each) of the box `centre ± world_from_box · half`;
+/// neighbouring faces share their corner vertices exactly.
+pub fn box_faces(centre: DVec3, half: DVec3, world_from_box: DMat3) -> Vec<Vec<DVec3>> {
+    let corner = |signs: [f64; 3]| centre + world_from_box * (half * DVec3::from_array(signs));
+    let mut faces = Vec::new();
+    for axis in 0..3 {
+        let (j, k) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [-1.0, 1.0] {
+            let face = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(sj, sk)| {
+                let mut signs = [0.0; 3];
+                (signs[axis], signs[j], signs[k]) = (side, sj, sk);
+                corner(signs)
+            });
+            faces.push(face.to_vec());
+        }
+    }
+    faces
 }
 
 /// One camera of each model and option, at test-friendly sizes.

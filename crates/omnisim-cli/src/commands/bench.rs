@@ -124,9 +124,15 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let median_seconds = median(&mut times);
         let rays = width as f64 * height as f64;
         let tests = (choice == BackendChoice::Cpu).then(|| {
-            let counts = renderer.cpu_tracer().count_tests(prepared.geometry(), &camera, &args.pose);
+            let counts = renderer
+                .cpu_tracer()
+                .count_tests(prepared.geometry(), &camera, &args.pose);
             let per_ray = |count: u64| count as f64 / rays;
-            (per_ray(counts.node_tests), per_ray(counts.primitive_tests), per_ray(counts.exact_tests))
+            (
+                per_ray(counts.node_tests),
+                per_ray(counts.primitive_tests),
+                per_ray(counts.exact_tests),
+            )
         });
         let lights_on = scene.lighting.as_ref().map_or(0, |l| l.lights_on().count());
         let record = json!({

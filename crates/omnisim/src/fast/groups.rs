@@ -119,7 +119,8 @@ impl TriangleGroup {
         let t_error = ray.position_error * edge * edge;
         let decided = det.cmpgt(det_error * 2.0);
         let outside: BVec4A = u.cmplt(-uv_error) | v.cmplt(-uv_error) | (u + v).cmpgt(det + uv_error * 2.0 + det_error);
-        let beyond = t.cmpgt(det * t_hi + t_error + det_error * t_hi) | t.cmplt(det * t_lo - t_error - det_error * t_lo);
+        let beyond =
+            t.cmpgt(det * t_hi + t_error + det_error * t_hi) | t.cmplt(det * t_lo - t_error - det_error * t_lo);
         !(decided & (outside | beyond)).bitmask() & self.lanes
     }
 }

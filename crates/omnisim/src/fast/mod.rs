@@ -43,8 +43,9 @@ pub(crate) fn closest_hit<C: Counter>(
 pub(crate) fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
     let ray = LaneRay::new(origin, direction, bvh.wide.extent);
     let mut blocked = false;
-    bvh.wide.traverse(&ray, 0.0, cpu::shadow_bound(t_max), &mut (), |triangle| {
-        cpu::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
-    });
+    bvh.wide
+        .traverse(&ray, 0.0, cpu::shadow_bound(t_max), &mut (), |triangle| {
+            cpu::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
+        });
     blocked
 }
