@@ -112,56 +112,65 @@ impl WideBvh {
         counter: &mut C,
         mut visit: impl FnMut(usize) -> Visit,
     ) {
-        stack[0] = (0, f32::NEG_INFINITY);
-        let mut len = 1;
-        while len > 0 {
-            len -= 1;
-            let (entry, t_enter) = stack[len];
-            if t_enter > t_hi {
-                continue;
-            }
-            if entry & LEAF != 0 {
-                let first = (entry & GROUP_INDEX) as usize;
-                let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                for group in &self.groups[first..first + count] {
-                    for _ in 0..group.lanes.count_ones() {
-                        counter.primitive_test();
-                    }
-                    let mut candidates = group.candidates(ray, t_lo, t_hi);
-                    while candidates != 0 {
-                        let lane = candidates.trailing_zeros() as usize;
-                        candidates &= candidates - 1;
-                        counter.exact_test();
-                        match visit(group.triangle[lane] as usize) {
-                            Visit::Miss => {}
-                            Visit::Closer(t) => t_hi = t_hi.min(t),
-                            Visit::Stop => return,
+        // The entry visited next (the nearest child entered) stays out of the stack.
+        let mut current = (0u32, f32::NEG_INFINITY);
+        let mut len = 0;
+        loop {
+            let (entry, t_enter) = current;
+            if t_enter <= t_hi {
+                if entry & LEAF != 0 {
+                    let first = (entry & GROUP_INDEX) as usize;
+                    let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+                    for group in &self.groups[first..first + count] {
+                        for _ in 0..group.lanes.count_ones() {
+                            counter.primitive_test();
+                        }
+                        let mut candidates = group.candidates(ray, t_lo, t_hi);
+                        while candidates != 0 {
+                            let lane = candidates.trailing_zeros() as usize;
+                            candidates &= candidates - 1;
+                            counter.exact_test();
+                            match visit(group.triangle[lane] as usize) {
+                                Visit::Miss => {}
+                                Visit::Closer(t) => t_hi = t_hi.min(t),
+                                Visit::Stop => return,
+                            }
                         }
                     }
+                } else {
+                    let node = &self.nodes[entry as usize];
+                    for _ in 0..node.lanes.count_ones() {
+                        counter.node_test();
+                    }
+                    let (mut hits, near) = enter(node, ray, t_hi);
+                    if hits != 0 {
+                        let near = near.to_array();
+                        // Children entered, pushed farthest first (an insertion sort of at
+                        // most four); the nearest is visited next without a push.
+                        let base = len;
+                        while hits != 0 {
+                            let lane = hits.trailing_zeros() as usize;
+                            hits &= hits - 1;
+                            let child = (node.child[lane], near[lane]);
+                            let mut at = len;
+                            while at > base && stack[at - 1].1 < child.1 {
+                                stack[at] = stack[at - 1];
+                                at -= 1;
+                            }
+                            stack[at] = child;
+                            len += 1;
+                        }
+                        len -= 1;
+                        current = stack[len];
+                        continue;
+                    }
                 }
-                continue;
             }
-            let node = &self.nodes[entry as usize];
-            for _ in 0..node.lanes.count_ones() {
-                counter.node_test();
+            if len == 0 {
+                return;
             }
-            let (mut hits, near) = enter(node, ray, t_hi);
-            let near = near.to_array();
-            // Children entered, pushed farthest first (an insertion sort of at most four) so
-            // that the nearest is visited next.
-            let base = len;
-            while hits != 0 {
-                let lane = hits.trailing_zeros() as usize;
-                hits &= hits - 1;
-                let child = (node.child[lane], near[lane]);
-                let mut at = len;
-                while at > base && stack[at - 1].1 < child.1 {
-                    stack[at] = stack[at - 1];
-                    at -= 1;
-                }
-                stack[at] = child;
-                len += 1;
-            }
+            len -= 1;
+            current = stack[len];
         }
     }
 }
