@@ -49,7 +49,7 @@ pub struct SceneBvh {
     /// Unit normal of each scene face (f64, orientation as the face's vertex order), so that
     /// shading works with exact normals whatever precision the hit came in.
     pub(crate) face_normals: Vec<DVec3>,
-    /// The fast CPU tracer's 4-wide BVH over the same boxes and triangles.
+    /// The fast CPU tracer's 8-wide BVH over the same boxes and triangles.
     pub(crate) wide: WideBvh,
     /// Time spent in obvhs's builder and in collapsing its BVH2 into the wide BVH.
     pub(crate) build_time: Duration,

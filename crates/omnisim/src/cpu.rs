@@ -21,7 +21,7 @@ use crate::traversal::{BoxRay, Counter, TraversalCounts, Visit, traverse};
 /// name different faces (`tests/tests/fast_tracer.rs` counts them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CpuTracer {
-    /// A 4-wide BVH with f32 box and triangle filters; the f64 test decides every hit (`fast/`).
+    /// An 8-wide BVH with f32 box and triangle filters; the f64 test decides every hit (`fast/`).
     #[default]
     Fast,
     /// The BVH2 with the f64 test of every triangle reached: the yardstick.

@@ -1,4 +1,4 @@
-//! The fast CPU tracer: f32 traversal of a 4-wide BVH and a conservative f32 triangle filter,
+//! The fast CPU tracer: f32 traversal of an 8-wide BVH and a conservative f32 triangle filter,
 //! with every hit decided and measured by the reference's f64 triangle test.
 //!
 //! The f32 stages only discard work: boxes are padded (`bvh.rs`) and the four-lane triangle

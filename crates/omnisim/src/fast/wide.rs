@@ -1,7 +1,7 @@
-//! A 4-wide BVH collapsed from the BVH2, traversed with four box tests at a time.
+//! An 8-wide BVH collapsed from the BVH2, traversed with four box tests at a time.
 //!
-//! Each node holds the boxes of up to four children as `Vec4` lanes (one lane per child), so a
-//! node visit is one SIMD slab test. A child is an inner node or a leaf of one or more
+//! Each node holds the boxes of up to eight children as two `Vec4`s per coordinate (one lane per
+//! child), so a node visit is two four-lane slab tests. A child is an inner node or a leaf of one or more
 //! [`TriangleGroup`]s. The boxes are the BVH2's, padded as `bvh.rs` pads them, so culling is
 //! as conservative as the reference tracer's.
 
@@ -22,16 +22,22 @@ const GROUP_COUNT_SHIFT: u32 = 28;
 /// Groups a leaf may span (BVH2 leaves of up to 28 triangles; `bvh.rs` makes at most two).
 const MAX_LEAF_GROUPS: usize = 8;
 
+/// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
+/// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
+/// the clock in three interleaved rounds (docs/benchmarks.md).
+const HALVES: usize = 2;
+const WIDTH: usize = 4 * HALVES;
+
 /// Subtrees of at most this many triangles become one leaf (one group of four lanes).
 const LEAF_TRIANGLES: u32 = 4;
 
 /// Four children's boxes, lane i = child i.
 #[derive(Debug, Clone, Copy)]
 struct WideNode {
-    min: [Vec4; 3],
-    max: [Vec4; 3],
+    min: [[Vec4; HALVES]; 3],
+    max: [[Vec4; HALVES]; 3],
     /// Node index, or `LEAF` | (group count − 1) << `GROUP_COUNT_SHIFT` | first group.
-    child: [u32; 4],
+    child: [u32; WIDTH],
     /// Bit i set where child i exists.
     lanes: u32,
 }
@@ -48,7 +54,7 @@ pub(crate) struct WideBvh {
 }
 
 impl WideBvh {
-    /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into four-wide nodes.
+    /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
     pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
         let extent = triangles
             .iter()
@@ -93,11 +99,11 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return;
         }
-        // Every node visit pops one entry and pushes at most four: 3 per level, plus the root.
+        // Every node visit pops one entry and pushes at most `WIDTH`: `WIDTH − 1` per level.
         // A stack on the stack for the usual depths (zeroing it is part of every ray's cost).
-        match 3 * self.depth + 4 {
+        match (WIDTH - 1) * self.depth + WIDTH {
             n if n <= 32 => self.walk(&mut [(0, 0.0); 32], ray, t_lo, t_hi, counter, visit),
-            n if n <= 64 => self.walk(&mut [(0, 0.0); 64], ray, t_lo, t_hi, counter, visit),
+            n if n <= 96 => self.walk(&mut [(0, 0.0); 96], ray, t_lo, t_hi, counter, visit),
             n => self.walk(&mut vec![(0, 0.0); n], ray, t_lo, t_hi, counter, visit),
         }
     }
@@ -144,7 +150,7 @@ impl WideBvh {
                     }
                     let (mut hits, near) = enter(node, ray, t_hi);
                     if hits != 0 {
-                        let near = near.to_array();
+                        let near: [f32; WIDTH] = std::array::from_fn(|lane| near[lane / 4][lane % 4]);
                         // Children entered, pushed farthest first (an insertion sort of at
                         // most four); the nearest is visited next without a push.
                         let base = len;
@@ -177,23 +183,27 @@ impl WideBvh {
 
 /// Slab test of a node's four boxes: the lanes entered between 0 and `t_hi`, and where.
 #[inline(always)]
-fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, Vec4) {
-    let mut near = Vec4::ZERO;
-    let mut far = Vec4::splat(t_hi);
-    for axis in 0..3 {
-        let t1 = (node.min[axis] - ray.origin[axis]) * ray.inv_direction[axis];
-        let t2 = (node.max[axis] - ray.origin[axis]) * ray.inv_direction[axis];
-        near = near.max(t1.min(t2));
-        far = far.min(t1.max(t2));
+fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [Vec4; HALVES]) {
+    let mut near = [Vec4::ZERO; HALVES];
+    let mut mask = 0;
+    for (half, near) in near.iter_mut().enumerate() {
+        let mut far = Vec4::splat(t_hi);
+        for axis in 0..3 {
+            let t1 = (node.min[axis][half] - ray.origin[axis]) * ray.inv_direction[axis];
+            let t2 = (node.max[axis][half] - ray.origin[axis]) * ray.inv_direction[axis];
+            *near = near.max(t1.min(t2));
+            far = far.min(t1.max(t2));
+        }
+        mask |= near.cmple(far).bitmask() << (4 * half);
     }
-    (near.cmple(far).bitmask() & node.lanes, near)
+    (mask & node.lanes, near)
 }
 
 fn empty_node() -> WideNode {
     WideNode {
-        min: [Vec4::ZERO; 3],
-        max: [Vec4::ZERO; 3],
-        child: [0; 4],
+        min: [[Vec4::ZERO; HALVES]; 3],
+        max: [[Vec4::ZERO; HALVES]; 3],
+        child: [0; WIDTH],
         lanes: 0,
     }
 }
@@ -236,7 +246,7 @@ struct Builder<'a> {
 }
 
 impl Builder<'_> {
-    /// Fills wide node `slot` with the BVH2 nodes `children` (at most four), opening each
+    /// Fills wide node `slot` with the BVH2 nodes `children` (at most `WIDTH`), opening each
     /// child that needs a node of its own; `depth` is the slot's depth.
     fn fill(&self, wide: &mut WideBvh, slot: usize, children: &[usize], depth: usize) {
         wide.depth = wide.depth.max(depth);
@@ -244,8 +254,8 @@ impl Builder<'_> {
         for (lane, &index) in children.iter().enumerate() {
             let source = &self.nodes[index];
             for axis in 0..3 {
-                node.min[axis][lane] = source.min[axis];
-                node.max[axis][lane] = source.max[axis];
+                node.min[axis][lane / 4][lane % 4] = source.min[axis];
+                node.max[axis][lane / 4][lane % 4] = source.max[axis];
             }
             node.lanes |= 1 << lane;
             if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
@@ -274,12 +284,12 @@ impl Builder<'_> {
         }
     }
 
-    /// The up to four BVH2 nodes that replace inner node `index`: its two children, then
+    /// The up to `WIDTH` BVH2 nodes that replace inner node `index`: its two children, then
     /// repeatedly the two children of the largest inner one among them.
     fn open(&self, index: usize) -> Vec<usize> {
         let first = self.nodes[index].first_index as usize;
         let mut children = vec![first, first + 1];
-        while children.len() < 4 {
+        while children.len() < WIDTH {
             let openable = children
                 .iter()
                 .enumerate()
