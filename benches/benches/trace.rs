@@ -40,15 +40,16 @@ fn cameras() -> Vec<(&'static str, Camera)> {
 fn benchmarks(c: &mut Criterion) {
     let scene = env1();
     c.bench_function("bvh build env1", |b| b.iter(|| SceneBvh::build(&scene)));
-    let cpu_tracers: Vec<(&str, Renderer, PreparedScene)> = [("cpu fast", CpuTracer::Fast), ("cpu f64", CpuTracer::Reference)]
-        .into_iter()
-        .map(|(name, tracer)| {
-            let mut renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
-            renderer.set_cpu_tracer(tracer);
-            let prepared = renderer.prepare(&scene).expect("scene");
-            (name, renderer, prepared)
-        })
-        .collect();
+    let cpu_tracers: Vec<(&str, Renderer, PreparedScene)> =
+        [("cpu fast", CpuTracer::Fast), ("cpu f64", CpuTracer::Reference)]
+            .into_iter()
+            .map(|(name, tracer)| {
+                let mut renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+                renderer.set_cpu_tracer(tracer);
+                let prepared = renderer.prepare(&scene).expect("scene");
+                (name, renderer, prepared)
+            })
+            .collect();
     let gpu = Renderer::new(BackendChoice::Gpu).ok().map(|gpu| {
         let prepared = gpu.prepare(&scene).expect("GPU scene");
         (gpu, prepared)

@@ -124,3 +124,82 @@ impl TriangleGroup {
         !(decided & (outside | beyond)).bitmask() & self.lanes
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpu::intersect;
+    use rand::{Rng, SeedableRng, rngs::StdRng};
+
+    /// The filter's one promise: it never rejects a triangle the f64 test hits in range. Rays
+    /// aimed within 1e-7 (barycentric) of an edge or corner, near-grazing ones included, at
+    /// triangles from 1 mm to 10 m across placed up to 10 km from the origin, from origins up to
+    /// 10 km away.
+    #[test]
+    fn the_f32_filter_keeps_every_triangle_the_f64_test_hits() {
+        let mut rng = StdRng::seed_from_u64(5);
+        let unit =
+            |rng: &mut StdRng| DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0))).normalize();
+        let (mut hits, mut clear_misses, mut kept_clear_misses) = (0, 0, 0);
+        for _ in 0..200_000 {
+            let size = 10f64.powf(rng.random_range(-3.0..1.0));
+            let place = unit(&mut rng) * 10f64.powf(rng.random_range(-2.0..4.0));
+            let corners = [place, place + unit(&mut rng) * size, place + unit(&mut rng) * size];
+            // A target on or next to the boundary: barycentrics snapped to an edge, nudged.
+            let (mut u, mut v) = (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
+            match rng.random_range(0..4) {
+                0 => u = 0.0,
+                1 => v = 0.0,
+                2 => v = 1.0 - u,
+                _ => (u, v) = ([0.0, 1.0][rng.random_range(0..2)], 0.0),
+            }
+            let nudge = |rng: &mut StdRng| rng.random_range(-1e-7..1e-7);
+            let (mut u, v) = (u + nudge(&mut rng), v + nudge(&mut rng));
+            // One ray in eight aims clearly outside, where the filter should reject.
+            let clearly_outside = rng.random_range(0..8) == 0;
+            if clearly_outside {
+                u = -rng.random_range(0.01..0.5);
+            }
+            let target = corners[0] + u * (corners[1] - corners[0]) + v * (corners[2] - corners[0]);
+            let distance = 10f64.powf(rng.random_range(-3.0..4.0));
+            let grazing = rng.random_range(0..4) == 0;
+            let direction = if grazing {
+                // Nearly in the triangle's plane.
+                let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize();
+                (unit(&mut rng).reject_from(normal).normalize() + normal * rng.random_range(-1e-4..1e-4)).normalize()
+            } else {
+                unit(&mut rng)
+            };
+            let origin = target - direction * distance;
+            let extent = corners.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
+            let group = TriangleGroup::new(&[corners], &[0]);
+            let ray = LaneRay::new(origin, direction, extent);
+            let kept = group.candidates(&ray, 0.0, f32::INFINITY) & 1 == 1;
+            match intersect(&corners, origin, direction) {
+                Some(t) if t > 0.0 => {
+                    hits += 1;
+                    assert!(
+                        kept,
+                        "dropped a hit at t = {t}: {corners:?}, from {origin} along {direction}"
+                    );
+                }
+                // Counted where f32 can tell: a triangle large against the rounding of the
+                // coordinates, a ray not close to its plane.
+                _ if clearly_outside && !grazing && size > 1e-4 * (1.0 + place.length() + distance) => {
+                    clear_misses += 1;
+                    kept_clear_misses += kept as usize;
+                }
+                _ => {}
+            }
+        }
+        // The test must exercise hits, and the filter must still reject what is clearly off.
+        assert!(
+            hits > 50_000 && clear_misses > 5_000,
+            "{hits} hits, {clear_misses} clear misses"
+        );
+        assert!(
+            kept_clear_misses * 10 < clear_misses,
+            "{kept_clear_misses} of {clear_misses} clear misses kept"
+        );
+    }
+}
