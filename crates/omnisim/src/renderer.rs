@@ -99,7 +99,7 @@ impl Renderer {
                 Ok(gpu) => (gpu, "auto: a GPU adapter was found".to_string()),
                 Err(e) => (
                     Backend::Cpu,
-                    format!("auto: GPU unavailable ({e}); using the f64 CPU tracer"),
+                    format!("auto: GPU unavailable ({e}); using the CPU tracer"),
                 ),
             },
         };
@@ -162,7 +162,7 @@ impl Renderer {
                 Err(e) if self.choice == BackendChoice::Auto => (
                     None,
                     Some(format!(
-                        "auto: the GPU cannot hold this scene ({e}); using the f64 CPU tracer"
+                        "auto: the GPU cannot hold this scene ({e}); using the CPU tracer"
                     )),
                 ),
                 Err(e) => return Err(e.into()),

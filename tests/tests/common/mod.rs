@@ -7,8 +7,8 @@ use glam::{DMat3, DVec3, dvec3};
 use omnisim::bvh::SceneBvh;
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
 use omnisim::{
-    BackendChoice, Camera, Catadioptric, Cylindrical, Equirectangular, Frame, Pinhole, Planes, Pose, PreparedScene,
-    RenderError, Renderer, Scene, StereoRig,
+    BackendChoice, Camera, Catadioptric, CpuTracer, Cylindrical, Equirectangular, Frame, Pinhole, Planes, Pose,
+    PreparedScene, RenderError, Renderer, Scene, StereoRig,
 };
 
 pub fn scene_path(name: &str) -> PathBuf {
@@ -118,9 +118,10 @@ impl Tracer {
     }
 }
 
-/// `scene` prepared (with the BVH `bvh`) on the f64 CPU tracer.
+/// `scene` prepared (with the BVH `bvh`) on the f64 reference CPU tracer.
 pub fn cpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Tracer {
-    let renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+    let mut renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+    renderer.set_cpu_tracer(CpuTracer::Reference);
     let scene = renderer.prepare_with(scene, bvh.clone()).expect("CPU scene");
     Tracer { renderer, scene }
 }
