@@ -1,6 +1,6 @@
 //! `cargo bench -p omnisim-benches`: BVH build time and whole-image render time for each
-//! camera model on env1, on the f64 CPU tracer and (when an adapter opens) the GPU, and the
-//! CPU tracer with the camera at the scene's centre and 1 cm off it.
+//! camera model on env1, on both CPU tracers (fast and f64 reference) and (when an adapter
+//! opens) the GPU, and the CPU tracers with the camera at the scene's centre and 1 cm off it.
 //! `omnisim bench` reports the same quantities as JSON for scripts and notes.
 
 use std::path::Path;
@@ -8,7 +8,10 @@ use std::path::Path;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::dvec3;
 use omnisim::bvh::SceneBvh;
-use omnisim::{BackendChoice, Camera, Catadioptric, Equirectangular, Pinhole, Planes, Pose, Renderer, Scene};
+use omnisim::{
+    BackendChoice, Camera, Catadioptric, CpuTracer, Equirectangular, Pinhole, Planes, Pose, PreparedScene, Renderer,
+    Scene,
+};
 
 fn env1() -> Scene {
     Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/env1.ron")).expect("env1 loads")
@@ -37,8 +40,16 @@ fn cameras() -> Vec<(&'static str, Camera)> {
 fn benchmarks(c: &mut Criterion) {
     let scene = env1();
     c.bench_function("bvh build env1", |b| b.iter(|| SceneBvh::build(&scene)));
-    let cpu = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
-    let cpu_scene = cpu.prepare(&scene).expect("scene");
+    let cpu_tracers: Vec<(&str, Renderer, PreparedScene)> =
+        [("cpu fast", CpuTracer::Fast), ("cpu f64", CpuTracer::Reference)]
+            .into_iter()
+            .map(|(name, tracer)| {
+                let mut renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+                renderer.set_cpu_tracer(tracer);
+                let prepared = renderer.prepare(&scene).expect("scene");
+                (name, renderer, prepared)
+            })
+            .collect();
     let gpu = Renderer::new(BackendChoice::Gpu).ok().map(|gpu| {
         let prepared = gpu.prepare(&scene).expect("GPU scene");
         (gpu, prepared)
@@ -49,9 +60,11 @@ fn benchmarks(c: &mut Criterion) {
     for (name, camera) in cameras() {
         let (w, h) = camera.size();
         group.throughput(Throughput::Elements(w as u64 * h as u64));
-        group.bench_function(format!("cpu f64 {name}"), |b| {
-            b.iter(|| cpu.render(&cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
-        });
+        for (tracer, cpu, cpu_scene) in &cpu_tracers {
+            group.bench_function(format!("{tracer} {name}"), |b| {
+                b.iter(|| cpu.render(cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
+            });
+        }
         if let Some((gpu, prepared)) = &gpu {
             group.bench_function(format!("gpu f32 {name}"), |b| {
                 b.iter(|| gpu.render(prepared, &camera, &pose, Planes::COLOUR).expect("render"))
@@ -73,9 +86,11 @@ fn benchmarks(c: &mut Criterion) {
     group.throughput(Throughput::Elements(512 * 512));
     for (name, position) in [("centre", centre), ("centre + 1 cm", centre + 0.01)] {
         let pose = Pose::from_degrees(position, dvec3(0.0, 0.0, 0.0));
-        group.bench_function(format!("cpu f64 equirect 512x512 {name}"), |b| {
-            b.iter(|| cpu.render(&cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
-        });
+        for (tracer, cpu, cpu_scene) in &cpu_tracers {
+            group.bench_function(format!("{tracer} equirect 512x512 {name}"), |b| {
+                b.iter(|| cpu.render(cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
+            });
+        }
     }
     group.finish();
 }

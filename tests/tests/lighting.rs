@@ -11,7 +11,9 @@ use common::Tracer;
 use glam::{DMat3, DVec3, Vec3, dvec3};
 use omnisim::bvh::SceneBvh;
 use omnisim::lighting::linear_rgb;
-use omnisim::{Appearance, Camera, Equirectangular, Frame, Pinhole, Pixel, Plane, Planes, Pose, Scene, cpu, shading};
+use omnisim::{
+    Appearance, Camera, CpuTracer, Equirectangular, Frame, Pinhole, Pixel, Plane, Planes, Pose, Scene, cpu, shading,
+};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// 8-bit and linear colour.
@@ -66,7 +68,12 @@ fn tolerance(backend: &str) -> f64 {
 /// frame plane is rounded to f32), the frame plane for the GPU.
 fn shaded_value(backend: &str, tracer: &Tracer, hit: &Pixel, plane: [f32; 3]) -> DVec3 {
     if backend == "cpu" {
-        shading::shade(tracer.scene.geometry(), tracer.scene.appearance(), hit)
+        shading::shade(
+            tracer.renderer.cpu_tracer(),
+            tracer.scene.geometry(),
+            tracer.scene.appearance(),
+            hit,
+        )
     } else {
         Vec3::from_array(plane).as_dvec3()
     }
@@ -418,7 +425,7 @@ fn no_light_leaks_through_the_edges_and_corners_of_a_closed_box() {
             point,
             normal: Vec3::Z,
         };
-        if shading::shade(&bvh, &appearance, &hit) != ambient_only {
+        if shading::shade(CpuTracer::Fast, &bvh, &appearance, &hit) != ambient_only {
             floor_leaks.push(point);
         }
     }

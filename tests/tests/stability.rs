@@ -357,23 +357,11 @@ fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
 /// A closed room: the six square faces of a unit cube centred at `centre`, turned by
 /// `world_from_cube`. Neighbouring faces share their corner vertices exactly.
 fn cube_room(centre: DVec3, world_from_cube: DMat3) -> Scene {
-    let corner = |signs: [f64; 3]| centre + world_from_cube * (0.5 * DVec3::from_array(signs));
-    let mut faces = Vec::new();
-    for axis in 0..3 {
-        let (j, k) = ((axis + 1) % 3, (axis + 2) % 3);
-        for side in [-1.0, 1.0] {
-            let vertices: Vec<DVec3> = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-                .into_iter()
-                .map(|(sj, sk)| {
-                    let mut signs = [0.0; 3];
-                    (signs[axis], signs[j], signs[k]) = (side, sj, sk);
-                    corner(signs)
-                })
-                .collect();
-            let name = format!("face {axis}{side}");
-            faces.push(polygon(&name, &vertices, (200, 200, 200)));
-        }
-    }
+    let faces: Vec<String> = common::box_faces(centre, DVec3::splat(0.5), world_from_cube)
+        .iter()
+        .enumerate()
+        .map(|(index, vertices)| polygon(&format!("face {index}"), vertices, (200, 200, 200)))
+        .collect();
     scene_from_objects("cube room", &faces)
 }
 

@@ -1,5 +1,5 @@
 //! Inside a closed room no ray escapes: at 200 random poses per room every direction of a
-//! full panorama hits a face (CPU f64), and at 20 poses per room on the GPU too.
+//! full panorama hits a face (both CPU tracers), and at 20 poses per room on the GPU too.
 
 mod common;
 
@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 
 use glam::dvec3;
 use omnisim::bvh::SceneBvh;
-use omnisim::{Camera, Equirectangular, Pose, cpu};
+use omnisim::{Camera, CpuTracer, Equirectangular, Pose};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 fn random_poses(scene: &omnisim::Scene, count: usize, seed: u64) -> Vec<Pose> {
@@ -38,8 +38,14 @@ fn no_ray_escapes_a_closed_room() {
         let scene = common::load(room);
         let bvh = SceneBvh::build(&scene);
         for pose in random_poses(&scene, 200, seed as u64) {
-            let frame = cpu::trace(&bvh, &camera, &pose);
-            assert_eq!(frame.hit_count(), 96 * 48, "{room}: rays escaped at {pose:?}");
+            for tracer in [CpuTracer::Reference, CpuTracer::Fast] {
+                let frame = tracer.trace(&bvh, &camera, &pose);
+                assert_eq!(
+                    frame.hit_count(),
+                    96 * 48,
+                    "{room}: {tracer:?} rays escaped at {pose:?}"
+                );
+            }
         }
         let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
             continue;

@@ -1,5 +1,5 @@
 //! Edge supersampling: pixels where the face changes are traced again at n×n stratified
-//! sub-pixel positions (f64 CPU tracer), each sample shaded by the shading stage, and given
+//! sub-pixel positions (a CPU tracer), each sample shaded by the shading stage, and given
 //! the mean. The 8-bit colour is the mean of the samples' 8-bit colours (a box filter on what
 //! a viewer sees, as before lights existed); the linear plane is the mean in linear light.
 //! Range, face id, normal and hit point stay those of the pixel centre, so the geometric
@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
-use crate::cpu;
+use crate::cpu::{self, CpuTracer};
 use crate::frame::{BACKGROUND, Frame};
 use crate::pose::Pose;
 use crate::shading::{self, Appearance};
@@ -42,6 +42,7 @@ pub(crate) fn sample_offsets(samples_per_axis: u32) -> impl Iterator<Item = DVec
 /// Replaces the shaded planes of every edge pixel by the mean of `samples_per_axis²`
 /// stratified samples. Returns how many pixels were refined.
 pub(crate) fn supersample_edges(
+    tracer: CpuTracer,
     bvh: &SceneBvh,
     appearance: &Appearance,
     camera: &Camera,
@@ -63,8 +64,8 @@ pub(crate) fn supersample_edges(
             let mut encoded = [0u32; 3];
             let mut linear = DVec3::ZERO;
             for offset in sample_offsets(samples_per_axis) {
-                let hit = cpu::trace_pixel(bvh, camera, &local, centre + offset);
-                let sample = shading::shade(bvh, appearance, &hit);
+                let hit = tracer.trace_pixel(bvh, camera, &local, centre + offset);
+                let sample = shading::shade(tracer, bvh, appearance, &hit);
                 let colour = if hit.is_hit() {
                     shading::encode(sample)
                 } else {
@@ -128,10 +129,11 @@ mod tests {
         let (scene, bvh, camera, pose) = half_and_half();
         let appearance = Appearance::of(&scene);
         let mut frame = cpu::trace(&bvh, &camera, &pose);
-        crate::shading::shade_frame(&bvh, &appearance, &mut frame, crate::frame::Planes::COLOUR);
+        let tracer = CpuTracer::Reference;
+        crate::shading::shade_frame(tracer, &bvh, &appearance, &mut frame, crate::frame::Planes::COLOUR);
         let edges = edge_pixels(&frame);
         assert!(!edges.is_empty() && edges.iter().all(|&i| (3..=5).contains(&(i % 9))));
-        let refined = supersample_edges(&bvh, &appearance, &camera, &pose, &mut frame, 4);
+        let refined = supersample_edges(tracer, &bvh, &appearance, &camera, &pose, &mut frame, 4);
         assert_eq!(refined, edges.len());
         let colour = |u, v| frame.colour().unwrap()[frame.index(u, v)];
         // The middle column is half red, half blue: 16 samples split 8/8.

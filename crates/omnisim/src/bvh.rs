@@ -12,6 +12,7 @@ use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 
+use crate::fast::WideBvh;
 use crate::scene::Scene;
 use crate::scene::triangulate::TriangleIndex;
 
@@ -22,6 +23,16 @@ use crate::scene::triangulate::TriangleIndex;
 const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     max_prims_per_leaf: 2,
     ..BvhBuildParams::medium_build()
+};
+
+/// Scenes with more triangles than this get `LARGE_BUILD_PARAMS`.
+const LARGE_SCENE: usize = 100_000;
+
+/// obvhs's fast build (narrower PLOC search, less reinsertion), leaves of at most two
+/// triangles, for large scenes where build time counts (docs/benchmarks.md, "BVH build").
+const LARGE_BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
+    max_prims_per_leaf: 2,
+    ..BvhBuildParams::fast_build()
 };
 
 /// A scene's triangles in a BVH, around a local origin: what both tracers traverse. Built once
@@ -38,7 +49,9 @@ pub struct SceneBvh {
     /// Unit normal of each scene face (f64, orientation as the face's vertex order), so that
     /// shading works with exact normals whatever precision the hit came in.
     pub(crate) face_normals: Vec<DVec3>,
-    /// Time spent in obvhs's builder.
+    /// The fast CPU tracer's 8-wide BVH over the same boxes and triangles.
+    pub(crate) wide: WideBvh,
+    /// Time spent in obvhs's builder and in collapsing its BVH2 into the wide BVH.
     pub(crate) build_time: Duration,
 }
 
@@ -64,21 +77,30 @@ impl SceneBvh {
         let bvh = if boxes.is_empty() {
             Bvh2::default()
         } else {
-            obvhs::bvh2::builder::build_bvh2(&boxes, BUILD_PARAMS, &mut core_time)
+            let params = if boxes.len() > LARGE_SCENE {
+                LARGE_BUILD_PARAMS
+            } else {
+                BUILD_PARAMS
+            };
+            obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut core_time)
         };
-        let build_time = start.elapsed();
+        let mut build_time = start.elapsed();
         drop(boxes);
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         let order = &bvh.primitive_indices;
-        let corners = order.iter().map(|&i| local(&triangles[i as usize])).collect();
+        let corners: Vec<[DVec3; 3]> = order.iter().map(|&i| local(&triangles[i as usize])).collect();
         let face = order.iter().map(|&i| triangles[i as usize].face).collect();
         drop(triangles);
+        let start = Instant::now();
+        let wide = WideBvh::build(&bvh, &corners);
+        build_time += start.elapsed();
         Self {
             offset,
             triangles: corners,
             face,
             face_normals: (0..scene.faces.len()).map(|face| scene.face_normal(face)).collect(),
             bvh,
+            wide,
             build_time,
         }
     }
@@ -93,7 +115,7 @@ impl SceneBvh {
         &self.triangles
     }
 
-    /// Time the BVH builder took.
+    /// Time the BVH builders took (obvhs's BVH2, then the wide BVH collapsed from it).
     pub fn build_time(&self) -> Duration {
         self.build_time
     }

@@ -1,17 +1,142 @@
-//! The f64 reference tracer: the accuracy yardstick for the GPU path and the fallback backend.
+//! The CPU tracers: the f64 reference (the accuracy yardstick for the GPU path and the fast
+//! tracer) and the choice between it and the fast tracer (`fast/`).
 //!
-//! BVH traversal (`traversal.rs`) uses obvhs's f32 boxes (padded in `bvh.rs`, so they cull
-//! conservatively); every triangle test and every returned distance is f64. Tracing yields hit
-//! planes only; `shading.rs` turns them into colour.
+//! The reference's BVH traversal (`traversal.rs`) uses obvhs's f32 boxes (padded in `bvh.rs`,
+//! so they cull conservatively); every triangle test and every returned distance is f64. The
+//! fast tracer culls more in f32 but decides every hit with the same f64 test. Tracing yields
+//! hit planes only; `shading.rs` turns them into colour.
 
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraRay};
+use crate::fast;
 use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
 use crate::traversal::{BoxRay, Counter, TraversalCounts, Visit, traverse};
+
+/// Which CPU tracer traces. Both return the same faces and the same f64 ranges and points;
+/// only at exact ties (two faces at the same f64 distance, a ray along a shared edge) may they
+/// name different faces (`tests/tests/fast_tracer.rs` counts them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CpuTracer {
+    /// An 8-wide BVH with f32 box and triangle filters; the f64 test decides every hit (`fast/`).
+    #[default]
+    Fast,
+    /// The BVH2 with the f64 test of every triangle reached: the yardstick.
+    Reference,
+}
+
+impl CpuTracer {
+    /// What the tracer is, for the user.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Fast => "fast CPU tracer (f32 wide BVH, f64 hits)",
+            Self::Reference => "f64 reference CPU tracer",
+        }
+    }
+
+    /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`.
+    pub fn closest_hit(self, bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) -> Option<Hit> {
+        self.closest_hit_counted(bvh, origin, direction, t_min, &mut ())
+    }
+
+    fn closest_hit_counted<C: Counter>(
+        self,
+        bvh: &SceneBvh,
+        origin: DVec3,
+        direction: DVec3,
+        t_min: f64,
+        counter: &mut C,
+    ) -> Option<Hit> {
+        match self {
+            Self::Fast => fast::closest_hit(bvh, origin, direction, t_min, counter),
+            Self::Reference => closest_hit_counted(bvh, origin, direction, t_min, counter),
+        }
+    }
+
+    /// Whether anything but face `skip_face` lies on the ray strictly between t = 0 and
+    /// `t_max` (see [`occluded`]).
+    pub fn occluded(self, bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
+        match self {
+            Self::Fast => fast::occluded(bvh, origin, direction, t_max, skip_face),
+            Self::Reference => occluded(bvh, origin, direction, t_max, skip_face),
+        }
+    }
+
+    /// Traces one frame's hit planes on all CPU threads.
+    pub fn trace(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
+        let width = camera.size().0.max(1) as usize;
+        self.trace_rays(bvh, camera.size(), pose, |index| {
+            camera.ray(DVec2::new((index % width) as f64, (index / width) as f64))
+        })
+    }
+
+    /// Traces a `size` frame whose pixel `index` (row by row) has the body-frame ray
+    /// `ray(index)`, on all CPU threads.
+    pub(crate) fn trace_rays(
+        self,
+        bvh: &SceneBvh,
+        (width, height): (u32, u32),
+        pose: &Pose,
+        ray: impl Fn(usize) -> Option<CameraRay> + Sync,
+    ) -> Frame {
+        let local = LocalPose::new(bvh, pose);
+        let mut hits = vec![Pixel::MISS; width as usize * height as usize];
+        let row_length = width.max(1) as usize;
+        hits.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
+            for (column, pixel) in pixels.iter_mut().enumerate() {
+                *pixel = self.trace_ray(bvh, &local, ray(row * row_length + column), &mut ());
+            }
+        });
+        Frame::from_hits(width, height, hits)
+    }
+
+    /// Box and triangle tests of one frame's primary rays, summed: what [`CpuTracer::trace`]
+    /// does, counted (for `omnisim bench`; `trace` itself counts nothing).
+    pub fn count_tests(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> TraversalCounts {
+        let (width, height) = camera.size();
+        let local = LocalPose::new(bvh, pose);
+        (0..height)
+            .into_par_iter()
+            .map(|row| {
+                let mut counts = TraversalCounts::default();
+                for column in 0..width {
+                    let ray = camera.ray(DVec2::new(column as f64, row as f64));
+                    self.trace_ray(bvh, &local, ray, &mut counts);
+                }
+                counts
+            })
+            .reduce(TraversalCounts::default, |a, b| a + b)
+    }
+
+    /// Traces the camera ray through `pixel` (sub-pixel positions allowed): the hit planes of
+    /// that ray, [`Pixel::MISS`] where the pixel has no ray or the ray hits nothing.
+    pub(crate) fn trace_pixel(self, bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Pixel {
+        self.trace_ray(bvh, pose, camera.ray(pixel), &mut ())
+    }
+
+    /// The hit planes of a body-frame camera ray ([`Pixel::MISS`] for none), counted.
+    fn trace_ray<C: Counter>(self, bvh: &SceneBvh, pose: &LocalPose, ray: Option<CameraRay>, counter: &mut C) -> Pixel {
+        let Some(ray) = ray else {
+            return Pixel::MISS;
+        };
+        let origin = pose.origin + pose.world_from_body * ray.origin;
+        let direction = pose.world_from_body * ray.direction;
+        let Some(hit) = self.closest_hit_counted(bvh, origin, direction, ray.t_min, counter) else {
+            return Pixel::MISS;
+        };
+        let face = bvh.face[hit.triangle];
+        let normal = bvh.face_normals[face as usize];
+        Pixel {
+            face,
+            range: hit.t as f32,
+            point: bvh.offset + origin + hit.t * direction,
+            normal: if normal.dot(direction) > 0.0 { -normal } else { normal }.as_vec3(),
+        }
+    }
+}
 
 /// Barycentric slack that closes the gaps f64 rounding leaves along shared edges.
 const EDGE_TOLERANCE: f64 = 1e-10;
@@ -26,7 +151,7 @@ pub struct Hit {
 }
 
 /// Möller–Trumbore in f64; returns t where the ray meets the triangle.
-fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f64> {
+pub(crate) fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f64> {
     let e1 = corners[1] - corners[0];
     let e2 = corners[2] - corners[0];
     let p = direction.cross(e2);
@@ -48,7 +173,8 @@ fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f6
     Some(e2.dot(q) * inv)
 }
 
-/// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`.
+/// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`, by the reference
+/// tracer.
 pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) -> Option<Hit> {
     closest_hit_counted(bvh, origin, direction, t_min, &mut ())
 }
@@ -64,41 +190,76 @@ fn closest_hit_counted<C: Counter>(
     let mut best: Option<Hit> = None;
     let ray = BoxRay::new(origin, direction);
     traverse(&bvh.bvh, &ray, f32::INFINITY, counter, |triangle| {
-        match intersect(&bvh.triangles[triangle], origin, direction) {
-            Some(t) if t > t_min && best.is_none_or(|b| t < b.t) => {
-                best = Some(Hit { t, triangle });
-                // Rounded up so the f32 culling never discards a nearer candidate.
-                Visit::Closer((t * (1.0 + 1e-6)) as f32)
-            }
-            _ => Visit::Miss,
-        }
+        nearer(bvh, origin, direction, t_min, &mut best, triangle)
     });
     best
 }
 
+/// The closest-hit step of both tracers: the f64 test of `triangle`, kept in `best` if it is
+/// the nearest hit beyond `t_min` so far.
+#[inline(always)]
+pub(crate) fn nearer(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_min: f64,
+    best: &mut Option<Hit>,
+    triangle: usize,
+) -> Visit {
+    match intersect(&bvh.triangles[triangle], origin, direction) {
+        Some(t) if t > t_min && best.is_none_or(|b| t < b.t) => {
+            *best = Some(Hit { t, triangle });
+            // Rounded up so the f32 culling never discards a nearer candidate.
+            Visit::Closer((t * (1.0 + 1e-6)) as f32)
+        }
+        _ => Visit::Miss,
+    }
+}
+
 /// Whether anything but face `skip_face` lies on the ray (scene-local origin, unit
-/// direction) strictly between t = 0 and `t_max`: the shadow test. Any hit ends the search.
+/// direction) strictly between t = 0 and `t_max`: the shadow test, by the reference tracer.
+/// Any hit ends the search.
 pub fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
-    // The f32 bound is rounded up, so culling never drops an occluder the f64 test accepts.
-    let bound = if t_max.is_finite() {
+    let mut blocked = false;
+    let ray = BoxRay::new(origin, direction);
+    traverse(&bvh.bvh, &ray, shadow_bound(t_max), &mut (), |triangle| {
+        blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
+    });
+    blocked
+}
+
+/// `t_max` as an f32 culling bound, rounded up so that culling never drops an occluder the
+/// f64 test accepts.
+pub(crate) fn shadow_bound(t_max: f64) -> f32 {
+    if t_max.is_finite() {
         (t_max * (1.0 + 1e-6) + 1e-6) as f32
     } else {
         f32::INFINITY
-    };
-    let mut blocked = false;
-    traverse(&bvh.bvh, &BoxRay::new(origin, direction), bound, &mut (), |triangle| {
-        if bvh.face[triangle] == skip_face {
-            return Visit::Miss;
+    }
+}
+
+/// The any-hit step of both tracers: whether `triangle` (not of face `skip_face`) lies on the
+/// ray strictly between 0 and `t_max` by the f64 test; sets `blocked` and stops if so.
+#[inline(always)]
+pub(crate) fn blocks(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_max: f64,
+    skip_face: u32,
+    blocked: &mut bool,
+    triangle: usize,
+) -> Visit {
+    if bvh.face[triangle] == skip_face {
+        return Visit::Miss;
+    }
+    match intersect(&bvh.triangles[triangle], origin, direction) {
+        Some(t) if t > 0.0 && t < t_max => {
+            *blocked = true;
+            Visit::Stop
         }
-        match intersect(&bvh.triangles[triangle], origin, direction) {
-            Some(t) if t > 0.0 && t < t_max => {
-                blocked = true;
-                Visit::Stop
-            }
-            _ => Visit::Miss,
-        }
-    });
-    blocked
+        _ => Visit::Miss,
+    }
 }
 
 /// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
@@ -116,69 +277,9 @@ impl LocalPose {
     }
 }
 
-/// Traces the camera ray through `pixel` (sub-pixel positions allowed): the hit planes of
-/// that ray, [`Pixel::MISS`] where the pixel has no ray or the ray hits nothing.
-pub(crate) fn trace_pixel(bvh: &SceneBvh, camera: &Camera, pose: &LocalPose, pixel: DVec2) -> Pixel {
-    trace_pixel_counted(bvh, camera, pose, pixel, &mut ())
-}
-
-/// [`trace_pixel`], counting the box and triangle tests of its ray.
-fn trace_pixel_counted<C: Counter>(
-    bvh: &SceneBvh,
-    camera: &Camera,
-    pose: &LocalPose,
-    pixel: DVec2,
-    counter: &mut C,
-) -> Pixel {
-    let Some(ray) = camera.ray(pixel) else {
-        return Pixel::MISS;
-    };
-    let origin = pose.origin + pose.world_from_body * ray.origin;
-    let direction = pose.world_from_body * ray.direction;
-    let Some(hit) = closest_hit_counted(bvh, origin, direction, ray.t_min, counter) else {
-        return Pixel::MISS;
-    };
-    let face = bvh.face[hit.triangle];
-    let normal = bvh.face_normals[face as usize];
-    Pixel {
-        face,
-        range: hit.t as f32,
-        point: bvh.offset + origin + hit.t * direction,
-        normal: if normal.dot(direction) > 0.0 { -normal } else { normal }.as_vec3(),
-    }
-}
-
-/// Traces one frame's hit planes on all CPU threads.
+/// Traces one frame's hit planes with the reference tracer, on all CPU threads.
 pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
-    let (width, height) = camera.size();
-    let local = LocalPose::new(bvh, pose);
-    let mut hits = vec![Pixel::MISS; width as usize * height as usize];
-    hits.par_chunks_mut(width.max(1) as usize)
-        .enumerate()
-        .for_each(|(row, pixels)| {
-            for (column, pixel) in pixels.iter_mut().enumerate() {
-                *pixel = trace_pixel(bvh, camera, &local, DVec2::new(column as f64, row as f64));
-            }
-        });
-    Frame::from_hits(width, height, hits)
-}
-
-/// Box and triangle tests of one frame's primary rays, summed: what [`trace`] does, counted
-/// (for `omnisim bench`; `trace` itself counts nothing).
-pub fn count_tests(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> TraversalCounts {
-    let (width, height) = camera.size();
-    let local = LocalPose::new(bvh, pose);
-    (0..height)
-        .into_par_iter()
-        .map(|row| {
-            let mut counts = TraversalCounts::default();
-            for column in 0..width {
-                let pixel = DVec2::new(column as f64, row as f64);
-                trace_pixel_counted(bvh, camera, &local, pixel, &mut counts);
-            }
-            counts
-        })
-        .reduce(TraversalCounts::default, |a, b| a + b)
+    CpuTracer::Reference.trace(bvh, camera, pose)
 }
 
 #[cfg(test)]

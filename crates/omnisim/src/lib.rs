@@ -32,6 +32,7 @@ pub mod calibration;
 pub mod camera;
 pub mod cpu;
 pub mod dataset;
+mod fast;
 pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
@@ -41,6 +42,7 @@ pub mod metadata;
 pub mod output;
 pub mod pose;
 pub mod pose_sets;
+mod ray_table;
 pub mod renderer;
 pub mod rig;
 pub mod scene;
@@ -51,6 +53,7 @@ pub mod traversal;
 pub use glam;
 
 pub use camera::{Camera, CameraError, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
+pub use cpu::CpuTracer;
 pub use frame::{Frame, Pixel, Plane, Planes};
 pub use lighting::{Light, LightKind, Lighting};
 pub use metadata::RenderMetadata;

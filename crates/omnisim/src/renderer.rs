@@ -10,11 +10,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use crate::antialias;
 use crate::bvh::SceneBvh;
 use crate::camera::Camera;
-use crate::cpu;
+use crate::cpu::CpuTracer;
 use crate::frame::{Frame, NO_FACE, Planes};
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
+use crate::ray_table::RayCache;
 use crate::scene::Scene;
 use crate::shading::{self, Appearance};
 
@@ -27,7 +28,7 @@ pub enum BackendChoice {
     Auto,
     /// The wgpu backend; fails if no adapter opens.
     Gpu,
-    /// The f64 reference tracer on all cores.
+    /// The CPU tracer ([`Renderer::set_cpu_tracer`]) on all cores.
     Cpu,
 }
 
@@ -67,6 +68,10 @@ pub struct Renderer {
     choice: BackendChoice,
     /// Why this backend was chosen, for the user.
     reason: String,
+    /// Which tracer the CPU backend (and `auto`'s CPU fallback) uses.
+    cpu_tracer: CpuTracer,
+    /// Camera rays of the last cameras traced on the CPU, reused across poses.
+    rays: RayCache,
     geometry_builds: AtomicUsize,
 }
 
@@ -94,7 +99,7 @@ impl Renderer {
                 Ok(gpu) => (gpu, "auto: a GPU adapter was found".to_string()),
                 Err(e) => (
                     Backend::Cpu,
-                    format!("auto: GPU unavailable ({e}); using the f64 CPU tracer"),
+                    format!("auto: GPU unavailable ({e}); using the CPU tracer"),
                 ),
             },
         };
@@ -103,8 +108,21 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             choice,
             reason,
+            cpu_tracer: CpuTracer::default(),
+            rays: RayCache::default(),
             geometry_builds: AtomicUsize::new(0),
         })
+    }
+
+    /// Chooses the tracer of the CPU backend (default [`CpuTracer::Fast`]); scenes the GPU
+    /// traces are not affected.
+    pub fn set_cpu_tracer(&mut self, tracer: CpuTracer) {
+        self.cpu_tracer = tracer;
+    }
+
+    /// The tracer the CPU backend uses.
+    pub fn cpu_tracer(&self) -> CpuTracer {
+        self.cpu_tracer
     }
 
     /// The GPU backend; `hardware_only` refuses a software adapter (what `auto` wants).
@@ -144,7 +162,7 @@ impl Renderer {
                 Err(e) if self.choice == BackendChoice::Auto => (
                     None,
                     Some(format!(
-                        "auto: the GPU cannot hold this scene ({e}); using the f64 CPU tracer"
+                        "auto: the GPU cannot hold this scene ({e}); using the CPU tracer"
                     )),
                 ),
                 Err(e) => return Err(e.into()),
@@ -194,9 +212,10 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
-                let mut frame = cpu::trace(&prepared.geometry, camera, pose);
+                let mut frame = self.rays.trace(self.cpu_tracer, &prepared.geometry, camera, pose);
                 if planes.needs_shading() {
-                    shading::shade_frame(&prepared.geometry, &prepared.appearance, &mut frame, planes);
+                    let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
+                    shading::shade_frame(self.cpu_tracer, geometry, appearance, &mut frame, planes);
                 }
                 frame
             }
@@ -237,6 +256,7 @@ impl Renderer {
                 }
                 None => {
                     antialias::supersample_edges(
+                        self.cpu_tracer,
                         &prepared.geometry,
                         &prepared.appearance,
                         camera,
@@ -264,7 +284,7 @@ impl Renderer {
         match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
-            None => shading::shade_frame(&prepared.geometry, &prepared.appearance, frame, planes),
+            None => shading::shade_frame(self.cpu_tracer, &prepared.geometry, &prepared.appearance, frame, planes),
         }
         Ok(())
     }
@@ -299,7 +319,11 @@ impl Renderer {
         match &self.backend {
             #[cfg(feature = "gpu")]
             Backend::Gpu(renderer) => renderer.context().describe(),
-            Backend::Cpu => format!("f64 CPU tracer on {} threads", rayon::current_num_threads()),
+            Backend::Cpu => format!(
+                "{} on {} threads",
+                self.cpu_tracer.describe(),
+                rayon::current_num_threads()
+            ),
         }
     }
 

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::bvh::SceneBvh;
-use crate::cpu;
+use crate::cpu::CpuTracer;
 use crate::frame::{BACKGROUND, Frame, Pixel, Planes};
 use crate::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
 use crate::scene::Scene;
@@ -40,20 +40,21 @@ impl Appearance {
     }
 }
 
-/// Linear colour of one hit (1.0 = full scale); black where nothing is hit.
-pub fn shade(geometry: &SceneBvh, appearance: &Appearance, hit: &Pixel) -> DVec3 {
+/// Linear colour of one hit (1.0 = full scale); black where nothing is hit. `tracer` traces
+/// the shadow rays (both tracers give the same answer).
+pub fn shade(tracer: CpuTracer, geometry: &SceneBvh, appearance: &Appearance, hit: &Pixel) -> DVec3 {
     if !hit.is_hit() {
         return DVec3::ZERO;
     }
     let albedo = linear_rgb(appearance.face_colours[hit.face as usize]);
     match &appearance.lighting {
         None => albedo,
-        Some(lighting) => albedo * illuminance(geometry, lighting, hit) / lighting.white,
+        Some(lighting) => albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white,
     }
 }
 
 /// Illuminance (lux, per colour channel) reaching a hit from the side its ray came from.
-fn illuminance(geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
+fn illuminance(tracer: CpuTracer, geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
     let face_normal = geometry.face_normals[hit.face as usize];
     // The exact f64 normal, turned to the side the camera sees (the hit's normal says which).
     let normal = if face_normal.dot(hit.normal.as_dvec3()) < 0.0 {
@@ -75,7 +76,7 @@ fn illuminance(geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
             LightKind::Directional { direction, illuminance } => (-direction, f64::INFINITY, illuminance),
         };
         let cosine = normal.dot(towards);
-        if cosine.is_nan() || cosine <= 0.0 || cpu::occluded(geometry, origin, towards, distance, hit.face) {
+        if cosine.is_nan() || cosine <= 0.0 || tracer.occluded(geometry, origin, towards, distance, hit.face) {
             continue;
         }
         total += light.colour * (strength * cosine);
@@ -87,7 +88,13 @@ fn illuminance(geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
 /// Without lighting a pixel's 8-bit colour is its
 /// face's colour, which is what encoding the decoded colour gives (`lighting.rs` tests every
 /// byte), without the cost of encoding.
-pub(crate) fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &mut Frame, planes: Planes) {
+pub(crate) fn shade_frame(
+    tracer: CpuTracer,
+    geometry: &SceneBvh,
+    appearance: &Appearance,
+    frame: &mut Frame,
+    planes: Planes,
+) {
     let (linear, colour) = frame
         .pixels()
         .par_iter()
@@ -95,7 +102,7 @@ pub(crate) fn shade_frame(geometry: &SceneBvh, appearance: &Appearance, frame: &
             if !hit.is_hit() {
                 return ([0.0; 3], BACKGROUND);
             }
-            let linear = shade(geometry, appearance, hit);
+            let linear = shade(tracer, geometry, appearance, hit);
             let colour = match appearance.lighting {
                 None => appearance.face_colours[hit.face as usize],
                 Some(_) => encode(linear),

@@ -22,6 +22,8 @@ pub trait Counter {
     fn node_test(&mut self);
     /// One ray–primitive test.
     fn primitive_test(&mut self);
+    /// One f64 triangle test after an f32 filter let the triangle through (fast tracer).
+    fn exact_test(&mut self) {}
 }
 
 impl Counter for () {
@@ -34,10 +36,12 @@ impl Counter for () {
 /// Box and primitive tests, summed over any number of rays.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TraversalCounts {
-    /// f32 box tests (two per inner node visited).
+    /// f32 box tests (two per inner node visited in the BVH2, one per child of a wide node).
     pub node_tests: u64,
-    /// f64 triangle tests.
+    /// Triangle tests: f64 in the reference tracer, f32 (one per lane) in the fast tracer.
     pub primitive_tests: u64,
+    /// f64 triangle tests of the fast tracer (triangles its f32 filter let through).
+    pub exact_tests: u64,
 }
 
 impl Counter for TraversalCounts {
@@ -49,6 +53,10 @@ impl Counter for TraversalCounts {
     fn primitive_test(&mut self) {
         self.primitive_tests += 1;
     }
+    #[inline(always)]
+    fn exact_test(&mut self) {
+        self.exact_tests += 1;
+    }
 }
 
 impl std::ops::Add for TraversalCounts {
@@ -57,6 +65,7 @@ impl std::ops::Add for TraversalCounts {
         Self {
             node_tests: self.node_tests + other.node_tests,
             primitive_tests: self.primitive_tests + other.primitive_tests,
+            exact_tests: self.exact_tests + other.exact_tests,
         }
     }
 }

@@ -3,12 +3,12 @@
 
 use std::path::PathBuf;
 
-use glam::dvec3;
+use glam::{DMat3, DVec3, dvec3};
 use omnisim::bvh::SceneBvh;
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
 use omnisim::{
-    BackendChoice, Camera, Catadioptric, Cylindrical, Equirectangular, Frame, Pinhole, Planes, Pose, PreparedScene,
-    RenderError, Renderer, Scene, StereoRig,
+    BackendChoice, Camera, Catadioptric, CpuTracer, Cylindrical, Equirectangular, Frame, Pinhole, Planes, Pose,
+    PreparedScene, RenderError, Renderer, Scene, StereoRig,
 };
 
 pub fn scene_path(name: &str) -> PathBuf {
@@ -24,6 +24,25 @@ pub const ROOMS: [&str; 2] = ["env1.ron", "env2.ron"];
 /// The paper's hyperbolic omni camera with the default 20° rim.
 pub fn paper_omni() -> Catadioptric {
     Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))
+}
+
+/// The six faces (corners in order around each) of the box `centre ± world_from_box · half`;
+/// neighbouring faces share their corner vertices exactly.
+pub fn box_faces(centre: DVec3, half: DVec3, world_from_box: DMat3) -> Vec<Vec<DVec3>> {
+    let corner = |signs: [f64; 3]| centre + world_from_box * (half * DVec3::from_array(signs));
+    let mut faces = Vec::new();
+    for axis in 0..3 {
+        let (j, k) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in [-1.0, 1.0] {
+            let face = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)].map(|(sj, sk)| {
+                let mut signs = [0.0; 3];
+                (signs[axis], signs[j], signs[k]) = (side, sj, sk);
+                corner(signs)
+            });
+            faces.push(face.to_vec());
+        }
+    }
+    faces
 }
 
 /// One camera of each model and option, at test-friendly sizes.
@@ -99,9 +118,10 @@ impl Tracer {
     }
 }
 
-/// `scene` prepared (with the BVH `bvh`) on the f64 CPU tracer.
+/// `scene` prepared (with the BVH `bvh`) on the f64 reference CPU tracer.
 pub fn cpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Tracer {
-    let renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+    let mut renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
+    renderer.set_cpu_tracer(CpuTracer::Reference);
     let scene = renderer.prepare_with(scene, bvh.clone()).expect("CPU scene");
     Tracer { renderer, scene }
 }

@@ -11,6 +11,7 @@ use omnisim::scene::{Face, SceneObject};
 use omnisim::{BackendChoice, Planes, Pose, Renderer, Scene};
 use serde_json::json;
 
+use super::render::TracerArg;
 use crate::camera_args::CameraArgs;
 use crate::poses::parse_pose;
 
@@ -27,7 +28,8 @@ pub enum BenchBackend {
 /// Prints one JSON object per backend on stdout: Mrays/s (primary rays, one per pixel, from
 /// the median), median/min/max ms per image, BVH build ms, triangle count, backend, adapter,
 /// the process's peak resident memory and, for the CPU, box and triangle tests per ray
-/// (counted in one extra, untimed pass).
+/// (counted in one extra, untimed pass; the fast tracer's triangle tests are f32 lanes, and
+/// its f64 tests are counted apart).
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --backend both\n  \
@@ -46,6 +48,9 @@ pub struct BenchArgs {
     pub pose: Pose,
     #[arg(long, value_enum, default_value = "both")]
     pub backend: BenchBackend,
+    /// Which tracer the CPU backend uses.
+    #[arg(long, value_enum, default_value = "fast")]
+    pub tracer: TracerArg,
     /// Timed renders per backend (the median is reported).
     #[arg(long, default_value_t = 7)]
     pub runs: usize,
@@ -87,7 +92,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     };
     let (width, height) = camera.size();
     for choice in choices {
-        let opened = Renderer::new(choice).and_then(|renderer| {
+        let opened = Renderer::new(choice).and_then(|mut renderer| {
+            renderer.set_cpu_tracer(args.tracer.into());
             let prepared = renderer.prepare(&scene)?;
             Ok((renderer, prepared))
         });
@@ -118,8 +124,15 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let median_seconds = median(&mut times);
         let rays = width as f64 * height as f64;
         let tests = (choice == BackendChoice::Cpu).then(|| {
-            let counts = omnisim::cpu::count_tests(prepared.geometry(), &camera, &args.pose);
-            (counts.node_tests as f64 / rays, counts.primitive_tests as f64 / rays)
+            let counts = renderer
+                .cpu_tracer()
+                .count_tests(prepared.geometry(), &camera, &args.pose);
+            let per_ray = |count: u64| count as f64 / rays;
+            (
+                per_ray(counts.node_tests),
+                per_ray(counts.primitive_tests),
+                per_ray(counts.exact_tests),
+            )
         });
         let lights_on = scene.lighting.as_ref().map_or(0, |l| l.lights_on().count());
         let record = json!({
@@ -143,8 +156,13 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "min_ms": times[0] * 1e3,
             "max_ms": times[times.len() - 1] * 1e3,
             "mrays_per_s": rays / median_seconds / 1e6,
+            "tracer": (choice == BackendChoice::Cpu).then_some(match args.tracer {
+                TracerArg::Fast => "fast",
+                TracerArg::Reference => "reference",
+            }),
             "node_tests_per_ray": tests.map(|t| t.0),
             "triangle_tests_per_ray": tests.map(|t| t.1),
+            "f64_triangle_tests_per_ray": tests.map(|t| t.2),
             "peak_rss_mb": peak_rss_bytes().map(|b| b as f64 / 1e6),
         });
         crate::stdout::line(record)?;

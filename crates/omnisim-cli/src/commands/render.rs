@@ -7,20 +7,38 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use omnisim::metadata::BackendMetadata;
-use omnisim::{BackendChoice, FrameTarget, OutputSet, Pose, RenderMetadata, Renderer, Scene};
+use omnisim::{BackendChoice, CpuTracer, FrameTarget, OutputSet, Pose, RenderMetadata, Renderer, Scene};
 
 use crate::camera_args::CameraArgs;
 use crate::poses::{parse_pose, read_pose_file};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum BackendArg {
-    /// A hardware GPU if one opens, else the f64 CPU tracer, which also beats software Vulkan
+    /// A hardware GPU if one opens, else the CPU tracer, which also beats software Vulkan
     /// (llvmpipe) on the same cores; the reason is printed.
     Auto,
     /// wgpu compute shaders (f32); fails if no adapter.
     Gpu,
-    /// f64 reference tracer on all cores.
+    /// The CPU tracer (--tracer) on all cores.
     Cpu,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TracerArg {
+    /// f32 wide BVH and triangle filters, every hit decided and measured in f64: the
+    /// reference's faces and ranges, faster.
+    Fast,
+    /// The f64 reference tracer (BVH2, f64 test of every triangle reached).
+    Reference,
+}
+
+impl From<TracerArg> for CpuTracer {
+    fn from(t: TracerArg) -> Self {
+        match t {
+            TracerArg::Fast => CpuTracer::Fast,
+            TracerArg::Reference => CpuTracer::Reference,
+        }
+    }
 }
 
 impl From<BackendArg> for BackendChoice {
@@ -71,6 +89,9 @@ pub struct RenderArgs {
     pub overwrite: bool,
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: BackendArg,
+    /// Which tracer the CPU backend uses.
+    #[arg(long, value_enum, default_value = "fast")]
+    pub tracer: TracerArg,
     /// Anti-aliased colour: pixels on face edges are traced again with this many stratified
     /// samples (a square: 1, 4, 16, 64) on the same backend; range and points are unchanged.
     #[arg(long, default_value_t = 1, value_parser = parse_square)]
@@ -108,7 +129,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for warning in &scene.warnings {
         eprintln!("warning: {warning}");
     }
-    let renderer = Renderer::new(args.backend.into())?;
+    let mut renderer = Renderer::new(args.backend.into())?;
+    renderer.set_cpu_tracer(args.tracer.into());
     let prepared = renderer.prepare(&scene)?;
     eprintln!(
         "scene '{}': {} faces, {} triangles (BVH built in {:.1} ms)",

@@ -8,7 +8,7 @@ use anyhow::Context;
 use glam::dvec3;
 use omnisim::camera::MirrorRays;
 use omnisim::output::atomic::write_atomically;
-use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, Renderer, Scene};
+use omnisim::{BackendChoice, Camera, CpuTracer, Frame, Planes, Pose, PreparedScene, Renderer, Scene};
 use serde_json::json;
 
 use omnisim_vision::chart::{Point, scatter};
@@ -41,13 +41,15 @@ fn timed(runs: usize, mut render: impl FnMut() -> anyhow::Result<Frame>) -> anyh
 }
 
 pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Path) -> anyhow::Result<()> {
-    let open = |choice| -> anyhow::Result<(Renderer, PreparedScene)> {
-        let renderer = Renderer::new(choice)?;
+    let open = |choice, tracer| -> anyhow::Result<(Renderer, PreparedScene)> {
+        let mut renderer = Renderer::new(choice)?;
+        renderer.set_cpu_tracer(tracer);
         let prepared = renderer.prepare(scene)?;
         Ok((renderer, prepared))
     };
-    let cpu = open(BackendChoice::Cpu)?;
-    let gpu = open(BackendChoice::Gpu).ok();
+    let cpu = open(BackendChoice::Cpu, CpuTracer::Reference)?;
+    let cpu_fast = open(BackendChoice::Cpu, CpuTracer::Fast)?;
+    let gpu = open(BackendChoice::Gpu, CpuTracer::Reference).ok();
     if gpu.is_none() {
         eprintln!("note: no GPU adapter; the chart has CPU methods only");
     }
@@ -69,7 +71,11 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
         });
         anyhow::Ok(())
     };
-    for (name, renderer) in [("CPU f64", Some(&cpu)), ("GPU f32", gpu.as_ref())] {
+    for (name, renderer) in [
+        ("CPU f64", Some(&cpu)),
+        ("CPU fast", Some(&cpu_fast)),
+        ("GPU f32", gpu.as_ref()),
+    ] {
         let Some(renderer) = renderer else { continue };
         for samples in [1u32, 2, 4] {
             let (seconds, frame) = timed(runs, || Ok(render(renderer, camera, samples)?))?;

@@ -1,0 +1,205 @@
+//! Triangles four at a time for the fast tracer: a conservative f32 test that only rejects.
+//!
+//! Möller–Trumbore on four triangles in the lanes of `Vec4`s (SSE2 on x86_64, NEON on
+//! aarch64, scalar elsewhere; glam picks). A lane is rejected only when the f32 result is
+//! wrong by more than a bound on its rounding error; every lane kept goes to the f64 test,
+//! which alone decides hits and distances. So the fast tracer finds exactly the triangles the
+//! f64 reference finds.
+
+use glam::{BVec4A, DVec3, Vec4};
+
+/// Rounding-error budget in units of f32's unit roundoff (2⁻²⁴). The dot and cross products
+/// of the test accumulate about 25 such errors of the largest operand (worked out in
+/// docs/architecture.md, "The fast CPU tracer"); 64 leaves a margin.
+const ERROR_ULPS: f32 = 64.0 * f32::EPSILON / 2.0;
+
+/// Barycentric slack of the f64 test (`cpu::EDGE_TOLERANCE`), rounded up: what the f32 test
+/// must let through on top of its own error.
+const EDGE: f32 = 1e-9;
+
+/// A ray broadcast to four lanes, with the error bound of its f32 coordinates.
+pub(crate) struct LaneRay {
+    pub(crate) origin: [Vec4; 3],
+    pub(crate) direction: [Vec4; 3],
+    pub(crate) inv_direction: [Vec4; 3],
+    /// Absolute error bound of positions along this ray (metres): `ERROR_ULPS` × the largest
+    /// coordinate of the ray origin or of the scene.
+    position_error: Vec4,
+}
+
+impl LaneRay {
+    /// `scene_extent` is the largest absolute coordinate of any triangle (scene-local).
+    pub(crate) fn new(origin: DVec3, direction: DVec3, scene_extent: f32) -> Self {
+        let o = origin.as_vec3();
+        let d = direction.as_vec3();
+        let inverse = |x: f32| obvhs::ray::safe_inverse(x);
+        let largest = o.abs().max_element().max(scene_extent);
+        Self {
+            origin: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            direction: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
+            inv_direction: [
+                Vec4::splat(inverse(d.x)),
+                Vec4::splat(inverse(d.y)),
+                Vec4::splat(inverse(d.z)),
+            ],
+            position_error: Vec4::splat(ERROR_ULPS * (1.0 + largest)),
+        }
+    }
+}
+
+/// Up to four triangles, structure of arrays: corner 0 and the two edges from it (f32,
+/// rounded from the f64 corners), the longer edge's length, and each lane's triangle index
+/// in leaf order.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TriangleGroup {
+    corner: [Vec4; 3],
+    edge1: [Vec4; 3],
+    edge2: [Vec4; 3],
+    longest_edge: Vec4,
+    /// Triangle index (leaf order) of each lane.
+    pub(crate) triangle: [u32; 4],
+    /// Bit i set where lane i holds a triangle.
+    pub(crate) lanes: u32,
+}
+
+impl TriangleGroup {
+    /// The group of `indices` (at most four, leaf order) among `triangles`.
+    pub(crate) fn new(triangles: &[[DVec3; 3]], indices: &[u32]) -> Self {
+        debug_assert!(!indices.is_empty() && indices.len() <= 4);
+        let mut lanes = [[0.0f32; 10]; 4];
+        let mut triangle = [0u32; 4];
+        for (lane, &index) in indices.iter().enumerate() {
+            let [a, b, c] = triangles[index as usize];
+            let (e1, e2) = (b - a, c - a);
+            let longest = e1.length().max(e2.length()) as f32;
+            let [a, e1, e2] = [a, e1, e2].map(|v| v.as_vec3());
+            lanes[lane] = [a.x, a.y, a.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, longest];
+            triangle[lane] = index;
+        }
+        let column = |k: usize| Vec4::new(lanes[0][k], lanes[1][k], lanes[2][k], lanes[3][k]);
+        Self {
+            corner: [column(0), column(1), column(2)],
+            edge1: [column(3), column(4), column(5)],
+            edge2: [column(6), column(7), column(8)],
+            longest_edge: column(9),
+            triangle,
+            lanes: (1u32 << indices.len()) - 1,
+        }
+    }
+
+    /// Lanes whose triangle the f64 test might hit at a distance in (`t_lo`, `t_hi`): every
+    /// lane but those the f32 test rejects with a margin above its rounding error.
+    #[inline(always)]
+    pub(crate) fn candidates(&self, ray: &LaneRay, t_lo: f32, t_hi: f32) -> u32 {
+        let [dx, dy, dz] = ray.direction;
+        let [e1x, e1y, e1z] = self.edge1;
+        let [e2x, e2y, e2z] = self.edge2;
+        let px = dy * e2z - dz * e2y;
+        let py = dz * e2x - dx * e2z;
+        let pz = dx * e2y - dy * e2x;
+        let det = e1x * px + e1y * py + e1z * pz;
+        let sx = ray.origin[0] - self.corner[0];
+        let sy = ray.origin[1] - self.corner[1];
+        let sz = ray.origin[2] - self.corner[2];
+        let u = sx * px + sy * py + sz * pz;
+        let qx = sy * e1z - sz * e1y;
+        let qy = sz * e1x - sx * e1z;
+        let qz = sx * e1y - sy * e1x;
+        let v = dx * qx + dy * qy + dz * qz;
+        let t = e2x * qx + e2y * qy + e2z * qz;
+        // Unnormalised barycentrics and distance, turned so that det ≥ 0.
+        let sign = det.signum();
+        let (det, u, v, t) = (det * sign, u * sign, v * sign, t * sign);
+        // Error bounds: positions carry `position_error`, so u and v (position × edge) carry
+        // that times the edge length, det (edge × edge) the relative error times its square,
+        // and t (position × edge × edge) the position error times the square.
+        let edge = self.longest_edge;
+        let uv_error = ray.position_error * edge + det * EDGE;
+        let det_error = Vec4::splat(ERROR_ULPS) * edge * edge;
+        let t_error = ray.position_error * edge * edge;
+        let decided = det.cmpgt(det_error * 2.0);
+        let outside: BVec4A = u.cmplt(-uv_error) | v.cmplt(-uv_error) | (u + v).cmpgt(det + uv_error * 2.0 + det_error);
+        let beyond =
+            t.cmpgt(det * t_hi + t_error + det_error * t_hi) | t.cmplt(det * t_lo - t_error - det_error * t_lo);
+        !(decided & (outside | beyond)).bitmask() & self.lanes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpu::intersect;
+    use rand::{Rng, SeedableRng, rngs::StdRng};
+
+    /// The filter's one promise: it never rejects a triangle the f64 test hits in range. Rays
+    /// aimed within 1e-7 (barycentric) of an edge or corner, near-grazing ones included, at
+    /// triangles from 1 mm to 10 m across placed up to 10 km from the origin, from origins up to
+    /// 10 km away.
+    #[test]
+    fn the_f32_filter_keeps_every_triangle_the_f64_test_hits() {
+        let mut rng = StdRng::seed_from_u64(5);
+        let unit =
+            |rng: &mut StdRng| DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0))).normalize();
+        let (mut hits, mut clear_misses, mut kept_clear_misses) = (0, 0, 0);
+        for _ in 0..200_000 {
+            let size = 10f64.powf(rng.random_range(-3.0..1.0));
+            let place = unit(&mut rng) * 10f64.powf(rng.random_range(-2.0..4.0));
+            let corners = [place, place + unit(&mut rng) * size, place + unit(&mut rng) * size];
+            // A target on or next to the boundary: barycentrics snapped to an edge, nudged.
+            let (mut u, mut v) = (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
+            match rng.random_range(0..4) {
+                0 => u = 0.0,
+                1 => v = 0.0,
+                2 => v = 1.0 - u,
+                _ => (u, v) = ([0.0, 1.0][rng.random_range(0..2)], 0.0),
+            }
+            let nudge = |rng: &mut StdRng| rng.random_range(-1e-7..1e-7);
+            let (mut u, v) = (u + nudge(&mut rng), v + nudge(&mut rng));
+            // One ray in eight aims clearly outside, where the filter should reject.
+            let clearly_outside = rng.random_range(0..8) == 0;
+            if clearly_outside {
+                u = -rng.random_range(0.01..0.5);
+            }
+            let target = corners[0] + u * (corners[1] - corners[0]) + v * (corners[2] - corners[0]);
+            let distance = 10f64.powf(rng.random_range(-3.0..4.0));
+            let grazing = rng.random_range(0..4) == 0;
+            let direction = if grazing {
+                // Nearly in the triangle's plane.
+                let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize();
+                (unit(&mut rng).reject_from(normal).normalize() + normal * rng.random_range(-1e-4..1e-4)).normalize()
+            } else {
+                unit(&mut rng)
+            };
+            let origin = target - direction * distance;
+            let extent = corners.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
+            let group = TriangleGroup::new(&[corners], &[0]);
+            let ray = LaneRay::new(origin, direction, extent);
+            let kept = group.candidates(&ray, 0.0, f32::INFINITY) & 1 == 1;
+            match intersect(&corners, origin, direction) {
+                Some(t) if t > 0.0 => {
+                    hits += 1;
+                    assert!(
+                        kept,
+                        "dropped a hit at t = {t}: {corners:?}, from {origin} along {direction}"
+                    );
+                }
+                // Counted where f32 can tell: a triangle large against the rounding of the
+                // coordinates, a ray not close to its plane.
+                _ if clearly_outside && !grazing && size > 1e-4 * (1.0 + place.length() + distance) => {
+                    clear_misses += 1;
+                    kept_clear_misses += kept as usize;
+                }
+                _ => {}
+            }
+        }
+        // The test must exercise hits, and the filter must still reject what is clearly off.
+        assert!(
+            hits > 50_000 && clear_misses > 5_000,
+            "{hits} hits, {clear_misses} clear misses"
+        );
+        assert!(
+            kept_clear_misses * 10 < clear_misses,
+            "{kept_clear_misses} of {clear_misses} clear misses kept"
+        );
+    }
+}

@@ -1,0 +1,51 @@
+//! The fast CPU tracer: f32 traversal of an 8-wide BVH and a conservative f32 triangle filter,
+//! with every hit decided and measured by the reference's f64 triangle test.
+//!
+//! The f32 stages only discard work: boxes are padded (`bvh.rs`) and the four-lane triangle
+//! test (`groups.rs`) rejects a triangle only with a margin above its rounding error, so the
+//! f64 test sees every triangle the reference tracer would accept. Faces, ranges and points
+//! therefore equal the reference's; where two triangles lie at exactly the same f64 distance
+//! (a ray along a shared edge) the traversal order, which differs, picks one of them.
+
+mod groups;
+mod wide;
+
+use glam::DVec3;
+
+pub(crate) use wide::WideBvh;
+
+use crate::bvh::SceneBvh;
+use crate::cpu::{self, Hit};
+use crate::traversal::Counter;
+use groups::LaneRay;
+
+/// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`: the same hit as
+/// [`cpu::closest_hit`], found faster.
+pub(crate) fn closest_hit<C: Counter>(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_min: f64,
+    counter: &mut C,
+) -> Option<Hit> {
+    let ray = LaneRay::new(origin, direction, bvh.wide.extent);
+    let mut best = None;
+    // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
+    let t_lo = (t_min * (1.0 - 1e-6)) as f32;
+    bvh.wide.traverse(&ray, t_lo, f32::INFINITY, counter, |triangle| {
+        cpu::nearer(bvh, origin, direction, t_min, &mut best, triangle)
+    });
+    best
+}
+
+/// Whether anything but face `skip_face` lies on the ray strictly between 0 and `t_max`:
+/// [`cpu::occluded`]'s answer, found faster.
+pub(crate) fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
+    let ray = LaneRay::new(origin, direction, bvh.wide.extent);
+    let mut blocked = false;
+    bvh.wide
+        .traverse(&ray, 0.0, cpu::shadow_bound(t_max), &mut (), |triangle| {
+            cpu::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
+        });
+    blocked
+}

@@ -1,0 +1,318 @@
+//! An 8-wide BVH collapsed from the BVH2, traversed with four box tests at a time.
+//!
+//! Each node holds the boxes of up to eight children as two `Vec4`s per coordinate (one lane per
+//! child), so a node visit is two four-lane slab tests. A child is an inner node or a leaf of one or more
+//! [`TriangleGroup`]s. The boxes are the BVH2's, padded as `bvh.rs` pads them, so culling is
+//! as conservative as the reference tracer's.
+
+use glam::{DVec3, Vec4};
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::node::Bvh2Node;
+
+use super::groups::{LaneRay, TriangleGroup};
+use crate::traversal::{Counter, Visit};
+
+/// Marks a child index as a leaf (the rest is its first triangle group).
+const LEAF: u32 = 1 << 31;
+
+/// A leaf's first group, below its group count.
+const GROUP_INDEX: u32 = (1 << 28) - 1;
+/// A leaf's group count minus one sits in bits 28–30.
+const GROUP_COUNT_SHIFT: u32 = 28;
+/// Groups a leaf may span (BVH2 leaves of up to 28 triangles; `bvh.rs` makes at most two).
+const MAX_LEAF_GROUPS: usize = 8;
+
+/// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
+/// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
+/// the clock in three interleaved rounds (docs/benchmarks.md).
+const HALVES: usize = 2;
+const WIDTH: usize = 4 * HALVES;
+
+/// Subtrees of at most this many triangles become one leaf (one group of four lanes).
+const LEAF_TRIANGLES: u32 = 4;
+
+/// Four children's boxes, lane i = child i.
+#[derive(Debug, Clone, Copy)]
+struct WideNode {
+    min: [[Vec4; HALVES]; 3],
+    max: [[Vec4; HALVES]; 3],
+    /// Node index, or `LEAF` | (group count − 1) << `GROUP_COUNT_SHIFT` | first group.
+    child: [u32; WIDTH],
+    /// Bit i set where child i exists.
+    lanes: u32,
+}
+
+/// The wide BVH and its triangles, four to a group.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct WideBvh {
+    nodes: Vec<WideNode>,
+    groups: Vec<TriangleGroup>,
+    /// Deepest level below the root, which sizes the traversal stack.
+    depth: usize,
+    /// Largest absolute coordinate of any triangle (scene-local), for the f32 error bound.
+    pub(crate) extent: f32,
+}
+
+impl WideBvh {
+    /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
+    pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
+        let extent = triangles
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
+        let mut wide = Self {
+            extent,
+            ..Self::default()
+        };
+        if bvh.nodes.is_empty() {
+            return wide;
+        }
+        let counts = subtree_triangles(&bvh.nodes);
+        let builder = Builder {
+            nodes: &bvh.nodes,
+            counts: &counts,
+            triangles,
+        };
+        // A root that is (or fits) one leaf is the single child of a node of its own.
+        let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
+            vec![0]
+        } else {
+            builder.open(0)
+        };
+        wide.nodes.push(empty_node());
+        builder.fill(&mut wide, 0, &root, 0);
+        wide
+    }
+
+    /// Walks the BVH along `ray`, nearest child first, calling `visit` for every triangle
+    /// (leaf order) the f32 test cannot reject between `t_lo` and the current bound (`t_hi`
+    /// at first, then what `visit` returns).
+    #[inline(always)]
+    pub(crate) fn traverse<C: Counter>(
+        &self,
+        ray: &LaneRay,
+        t_lo: f32,
+        t_hi: f32,
+        counter: &mut C,
+        visit: impl FnMut(usize) -> Visit,
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        // Every node visit pops one entry and pushes at most `WIDTH`: `WIDTH − 1` per level.
+        // A stack on the stack for the usual depths (zeroing it is part of every ray's cost).
+        match (WIDTH - 1) * self.depth + WIDTH {
+            n if n <= 32 => self.walk(&mut [(0, 0.0); 32], ray, t_lo, t_hi, counter, visit),
+            n if n <= 96 => self.walk(&mut [(0, 0.0); 96], ray, t_lo, t_hi, counter, visit),
+            n => self.walk(&mut vec![(0, 0.0); n], ray, t_lo, t_hi, counter, visit),
+        }
+    }
+
+    #[inline(always)]
+    fn walk<C: Counter>(
+        &self,
+        stack: &mut [(u32, f32)],
+        ray: &LaneRay,
+        t_lo: f32,
+        mut t_hi: f32,
+        counter: &mut C,
+        mut visit: impl FnMut(usize) -> Visit,
+    ) {
+        // The entry visited next (the nearest child entered) stays out of the stack.
+        let mut current = (0u32, f32::NEG_INFINITY);
+        let mut len = 0;
+        loop {
+            let (entry, t_enter) = current;
+            if t_enter <= t_hi {
+                if entry & LEAF != 0 {
+                    let first = (entry & GROUP_INDEX) as usize;
+                    let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+                    for group in &self.groups[first..first + count] {
+                        for _ in 0..group.lanes.count_ones() {
+                            counter.primitive_test();
+                        }
+                        let mut candidates = group.candidates(ray, t_lo, t_hi);
+                        while candidates != 0 {
+                            let lane = candidates.trailing_zeros() as usize;
+                            candidates &= candidates - 1;
+                            counter.exact_test();
+                            match visit(group.triangle[lane] as usize) {
+                                Visit::Miss => {}
+                                Visit::Closer(t) => t_hi = t_hi.min(t),
+                                Visit::Stop => return,
+                            }
+                        }
+                    }
+                } else {
+                    let node = &self.nodes[entry as usize];
+                    for _ in 0..node.lanes.count_ones() {
+                        counter.node_test();
+                    }
+                    let (mut hits, near) = enter(node, ray, t_hi);
+                    if hits != 0 {
+                        let near: [f32; WIDTH] = std::array::from_fn(|lane| near[lane / 4][lane % 4]);
+                        // Children entered, pushed farthest first (an insertion sort of at
+                        // most four); the nearest is visited next without a push.
+                        let base = len;
+                        while hits != 0 {
+                            let lane = hits.trailing_zeros() as usize;
+                            hits &= hits - 1;
+                            let child = (node.child[lane], near[lane]);
+                            let mut at = len;
+                            while at > base && stack[at - 1].1 < child.1 {
+                                stack[at] = stack[at - 1];
+                                at -= 1;
+                            }
+                            stack[at] = child;
+                            len += 1;
+                        }
+                        len -= 1;
+                        current = stack[len];
+                        continue;
+                    }
+                }
+            }
+            if len == 0 {
+                return;
+            }
+            len -= 1;
+            current = stack[len];
+        }
+    }
+}
+
+/// Slab test of a node's four boxes: the lanes entered between 0 and `t_hi`, and where.
+#[inline(always)]
+fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [Vec4; HALVES]) {
+    let mut near = [Vec4::ZERO; HALVES];
+    let mut mask = 0;
+    for (half, near) in near.iter_mut().enumerate() {
+        let mut far = Vec4::splat(t_hi);
+        for axis in 0..3 {
+            let t1 = (node.min[axis][half] - ray.origin[axis]) * ray.inv_direction[axis];
+            let t2 = (node.max[axis][half] - ray.origin[axis]) * ray.inv_direction[axis];
+            *near = near.max(t1.min(t2));
+            far = far.min(t1.max(t2));
+        }
+        mask |= near.cmple(far).bitmask() << (4 * half);
+    }
+    (mask & node.lanes, near)
+}
+
+fn empty_node() -> WideNode {
+    WideNode {
+        min: [[Vec4::ZERO; HALVES]; 3],
+        max: [[Vec4::ZERO; HALVES]; 3],
+        child: [0; WIDTH],
+        lanes: 0,
+    }
+}
+
+/// Triangles below each BVH2 node.
+fn subtree_triangles(nodes: &[Bvh2Node]) -> Vec<u32> {
+    let mut counts = vec![0u32; nodes.len()];
+    // Children before parents: a reverse pre-order walk.
+    let mut order = Vec::with_capacity(nodes.len());
+    let mut pending = vec![0usize];
+    while let Some(index) = pending.pop() {
+        order.push(index);
+        let node = &nodes[index];
+        if !node.is_leaf() {
+            pending.push(node.first_index as usize);
+            pending.push(node.first_index as usize + 1);
+        }
+    }
+    for &index in order.iter().rev() {
+        let node = &nodes[index];
+        counts[index] = if node.is_leaf() {
+            node.prim_count
+        } else {
+            counts[node.first_index as usize] + counts[node.first_index as usize + 1]
+        };
+    }
+    counts
+}
+
+/// Half the surface area of a BVH2 node's box: which child to open first.
+fn half_area(node: &Bvh2Node) -> f32 {
+    let size = node.max - node.min;
+    size.x * size.y + size.y * size.z + size.z * size.x
+}
+
+struct Builder<'a> {
+    nodes: &'a [Bvh2Node],
+    counts: &'a [u32],
+    triangles: &'a [[DVec3; 3]],
+}
+
+impl Builder<'_> {
+    /// Fills wide node `slot` with the BVH2 nodes `children` (at most `WIDTH`), opening each
+    /// child that needs a node of its own; `depth` is the slot's depth.
+    fn fill(&self, wide: &mut WideBvh, slot: usize, children: &[usize], depth: usize) {
+        wide.depth = wide.depth.max(depth);
+        let mut node = empty_node();
+        for (lane, &index) in children.iter().enumerate() {
+            let source = &self.nodes[index];
+            for axis in 0..3 {
+                node.min[axis][lane / 4][lane % 4] = source.min[axis];
+                node.max[axis][lane / 4][lane % 4] = source.max[axis];
+            }
+            node.lanes |= 1 << lane;
+            if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
+                let mut leaf = Vec::new();
+                self.gather(index, &mut leaf);
+                let groups = leaf.len().div_ceil(4);
+                assert!(
+                    groups <= MAX_LEAF_GROUPS && wide.groups.len() < GROUP_INDEX as usize,
+                    "BVH2 leaf of {} triangles, or over 2^28 groups",
+                    leaf.len()
+                );
+                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | wide.groups.len() as u32;
+                wide.groups
+                    .extend(leaf.chunks(4).map(|chunk| TriangleGroup::new(self.triangles, chunk)));
+            } else {
+                node.child[lane] = wide.nodes.len() as u32;
+                wide.nodes.push(empty_node());
+            }
+        }
+        wide.nodes[slot] = node;
+        for (lane, &index) in children.iter().enumerate() {
+            if node.child[lane] & LEAF == 0 {
+                let grandchildren = self.open(index);
+                self.fill(wide, node.child[lane] as usize, &grandchildren, depth + 1);
+            }
+        }
+    }
+
+    /// The up to `WIDTH` BVH2 nodes that replace inner node `index`: its two children, then
+    /// repeatedly the two children of the largest inner one among them.
+    fn open(&self, index: usize) -> Vec<usize> {
+        let first = self.nodes[index].first_index as usize;
+        let mut children = vec![first, first + 1];
+        while children.len() < WIDTH {
+            let openable = children
+                .iter()
+                .enumerate()
+                .filter(|&(_, &c)| !self.nodes[c].is_leaf() && self.counts[c] > LEAF_TRIANGLES)
+                .max_by(|a, b| half_area(&self.nodes[*a.1]).total_cmp(&half_area(&self.nodes[*b.1])));
+            let Some((position, &chosen)) = openable else {
+                break;
+            };
+            let first = self.nodes[chosen].first_index as usize;
+            children[position] = first;
+            children.push(first + 1);
+        }
+        children
+    }
+
+    /// Triangle indices (leaf order) below BVH2 node `index`.
+    fn gather(&self, index: usize, into: &mut Vec<u32>) {
+        let node = &self.nodes[index];
+        if node.is_leaf() {
+            into.extend(node.first_index..node.first_index + node.prim_count);
+        } else {
+            self.gather(node.first_index as usize, into);
+            self.gather(node.first_index as usize + 1, into);
+        }
+    }
+}

@@ -1,0 +1,109 @@
+//! Camera rays computed once per camera for the CPU backend.
+//!
+//! A pixel's body-frame ray depends on the camera alone, not on the pose, and for a
+//! catadioptric camera it costs more than tracing it (the f64 mirror intersection: two thirds
+//! of an omni pixel, measured with callgrind, docs/benchmarks.md). A run of many poses through
+//! one camera (a data set, a trajectory, a benchmark) therefore reads them from a table.
+
+use std::sync::{Arc, Mutex};
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use crate::bvh::SceneBvh;
+use crate::camera::{Camera, CameraRay};
+use crate::cpu::CpuTracer;
+use crate::frame::Frame;
+use crate::pose::Pose;
+
+/// Cameras whose rays are kept: two, so a stereo rig's left and right views alternate
+/// without recomputing.
+const CAMERAS: usize = 2;
+
+/// Largest image whose rays are kept (64 bytes a pixel: 64 MB); larger ones are computed
+/// per frame.
+const MAX_PIXELS: usize = 1 << 20;
+
+/// Every pixel centre's body-frame ray of one camera, row by row.
+struct RayTable {
+    camera: Camera,
+    rays: Vec<Option<CameraRay>>,
+}
+
+/// The ray tables of the last cameras a renderer traced on the CPU.
+#[derive(Default)]
+pub(crate) struct RayCache {
+    tables: Mutex<Vec<Arc<RayTable>>>,
+}
+
+impl RayCache {
+    /// Traces one frame with `tracer`, reading `camera`'s rays from its table (made on first
+    /// use) where the image is small enough to keep one.
+    pub(crate) fn trace(&self, tracer: CpuTracer, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
+        match self.table(camera) {
+            Some(table) => tracer.trace_rays(bvh, camera.size(), pose, |index| table.rays[index]),
+            None => tracer.trace(bvh, camera, pose),
+        }
+    }
+
+    fn table(&self, camera: &Camera) -> Option<Arc<RayTable>> {
+        let (width, height) = camera.size();
+        let pixels = width as usize * height as usize;
+        if pixels > MAX_PIXELS {
+            return None;
+        }
+        // A poisoned lock only means another thread panicked while holding it: the tables
+        // are complete or absent, never half made, so they stay usable.
+        let mut tables = self.tables.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(table) = tables.iter().find(|table| table.camera == *camera) {
+            return Some(Arc::clone(table));
+        }
+        let row_length = width.max(1) as usize;
+        let rays = (0..pixels)
+            .into_par_iter()
+            .map(|index| camera.ray(DVec2::new((index % row_length) as f64, (index / row_length) as f64)))
+            .collect();
+        let table = Arc::new(RayTable {
+            camera: camera.clone(),
+            rays,
+        });
+        if tables.len() == CAMERAS {
+            tables.remove(0);
+        }
+        tables.push(Arc::clone(&table));
+        Some(table)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Equirectangular, Pinhole};
+    use glam::dvec3;
+
+    #[test]
+    fn frames_from_ray_tables_equal_frames_from_the_camera_and_tables_follow_the_camera() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"));
+        let bvh = SceneBvh::build(&crate::scene::Scene::load(path).unwrap());
+        let cache = RayCache::default();
+        let cameras = [
+            Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)),
+            Camera::Equirectangular(Equirectangular { width: 48, height: 24 }),
+            Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 0.6)),
+        ];
+        for round in 0..2 {
+            for (index, camera) in cameras.iter().enumerate() {
+                let pose = Pose::new(dvec3(1.0, 0.5 + 0.1 * round as f64, 0.4), dvec3(0.0, 0.1, index as f64));
+                let direct = CpuTracer::Fast.trace(&bvh, camera, &pose);
+                let cached = cache.trace(CpuTracer::Fast, &bvh, camera, &pose);
+                assert_eq!(direct.pixels(), cached.pixels(), "camera {index}, round {round}");
+            }
+        }
+        let tables = cache.tables.lock().unwrap();
+        assert_eq!(tables.len(), CAMERAS);
+        assert!(
+            tables.iter().all(|table| table.camera != cameras[0]),
+            "the oldest table is dropped"
+        );
+    }
+}
