@@ -88,7 +88,7 @@ pub fn write_id_png(path: &Path, size: (u32, u32), ids: &[u32]) -> Result<(), Ou
     }
     let bytes: Vec<u8> = ids.iter().flat_map(|&id| (id as u16).to_ne_bytes()).collect();
     write_atomically(path, |out| {
-        image::codecs::png::PngEncoder::new(out)
+        super::png_encoder(out)
             .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
             .map_err(std::io::Error::other)
     })
