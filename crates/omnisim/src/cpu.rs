@@ -24,6 +24,10 @@ pub enum CpuTracer {
     /// An 8-wide BVH with f32 box and triangle filters; the f64 test decides every hit (`fast/`).
     #[default]
     Fast,
+    /// [`CpuTracer::Fast`] without AVX2 even where the CPU has it: the portable box tests
+    /// (two four-lane halves) that machines without AVX2 run; same faces and ranges. For tests
+    /// and A/B measurements.
+    FastPortable,
     /// The BVH2 with the f64 test of every triangle reached: the yardstick.
     Reference,
 }
@@ -33,6 +37,7 @@ impl CpuTracer {
     pub fn describe(self) -> &'static str {
         match self {
             Self::Fast => "fast CPU tracer (f32 wide BVH, f64 hits)",
+            Self::FastPortable => "fast CPU tracer without AVX2 (f32 wide BVH, f64 hits)",
             Self::Reference => "f64 reference CPU tracer",
         }
     }
@@ -51,7 +56,8 @@ impl CpuTracer {
         counter: &mut C,
     ) -> Option<Hit> {
         match self {
-            Self::Fast => fast::closest_hit(bvh, origin, direction, t_min, counter),
+            Self::Fast => fast::closest_hit(bvh, origin, direction, t_min, counter, false),
+            Self::FastPortable => fast::closest_hit(bvh, origin, direction, t_min, counter, true),
             Self::Reference => closest_hit_counted(bvh, origin, direction, t_min, counter),
         }
     }
@@ -60,7 +66,8 @@ impl CpuTracer {
     /// `t_max` (see [`occluded`]).
     pub fn occluded(self, bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
         match self {
-            Self::Fast => fast::occluded(bvh, origin, direction, t_max, skip_face),
+            Self::Fast => fast::occluded(bvh, origin, direction, t_max, skip_face, false),
+            Self::FastPortable => fast::occluded(bvh, origin, direction, t_max, skip_face, true),
             Self::Reference => occluded(bvh, origin, direction, t_max, skip_face),
         }
     }
