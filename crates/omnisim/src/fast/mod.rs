@@ -12,7 +12,7 @@ mod wide;
 
 use glam::DVec3;
 
-pub(crate) use wide::WideBvh;
+pub(crate) use wide::{PACKET, WideBvh};
 
 use crate::bvh::SceneBvh;
 use crate::cpu::{self, Hit};
@@ -67,6 +67,48 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
     let t_lo = (t_min * (1.0 - 1e-6)) as f32;
     bvh.wide.traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, counter, |triangle| {
         cpu::nearer(bvh, origin, direction, t_min, &mut best, triangle)
+    });
+    best
+}
+
+/// A packet of up to [`PACKET`] rays (bit r of `active` where ray r exists): each ray's
+/// [`closest_hit`], found by one walk for the packet (`portable` as there).
+pub(crate) fn closest_hits(
+    bvh: &SceneBvh,
+    rays: &[(DVec3, DVec3, f64); PACKET],
+    active: u32,
+    portable: bool,
+) -> [Option<Hit>; PACKET] {
+    #[cfg(target_arch = "x86_64")]
+    if !portable && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2, checked just above.
+        return unsafe { closest_hits_avx2(bvh, rays, active) };
+    }
+    let _ = portable;
+    closest_hits_in::<false>(bvh, rays, active)
+}
+
+/// [`closest_hits_in`] compiled with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u32) -> [Option<Hit>; PACKET] {
+    closest_hits_in::<true>(bvh, rays, active)
+}
+
+#[inline(always)]
+fn closest_hits_in<const AVX: bool>(
+    bvh: &SceneBvh,
+    rays: &[(DVec3, DVec3, f64); PACKET],
+    active: u32,
+) -> [Option<Hit>; PACKET] {
+    let lanes = rays.map(|(origin, direction, _)| LaneRay::new(origin, direction, bvh.wide.extent));
+    // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
+    let t_lo = rays.map(|(_, _, t_min)| (t_min * (1.0 - 1e-6)) as f32);
+    let mut t_hi = [f32::INFINITY; PACKET];
+    let mut best = [None; PACKET];
+    bvh.wide.traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, |r, triangle| {
+        let (origin, direction, t_min) = rays[r];
+        cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
     });
     best
 }

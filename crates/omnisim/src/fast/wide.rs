@@ -186,6 +186,91 @@ impl WideBvh {
     }
 }
 
+/// Rays traced together by [`WideBvh::traverse_packet`]: a tile of 4×4 pixels.
+pub(crate) const PACKET: usize = 16;
+
+impl WideBvh {
+    /// [`WideBvh::traverse`] for up to [`PACKET`] rays at once (bit r of `active` set where
+    /// `rays[r]` takes part): a node is visited once for every ray whose box test entered it,
+    /// its children ordered by the nearest entry among those rays; `visit(r, triangle)` sees,
+    /// for each ray, every triangle the single-ray walk would show it (the order may differ).
+    #[inline(always)]
+    pub(crate) fn traverse_packet<const AVX: bool>(
+        &self,
+        rays: &[LaneRay; PACKET],
+        t_lo: &[f32; PACKET],
+        t_hi: &mut [f32; PACKET],
+        active: u32,
+        mut visit: impl FnMut(usize, usize) -> Visit,
+    ) {
+        if self.nodes.is_empty() || active == 0 {
+            return;
+        }
+        let mut stack = vec![(0u32, 0u32); (WIDTH - 1) * self.depth + WIDTH];
+        let mut len = 1;
+        stack[0] = (0, active);
+        while len > 0 {
+            len -= 1;
+            let (entry, mut mask) = stack[len];
+            if entry & LEAF != 0 {
+                let first = (entry & GROUP_INDEX) as usize;
+                let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+                while mask != 0 {
+                    let r = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    for group in &self.groups[first..first + count] {
+                        let mut candidates = group.candidates(&rays[r], t_lo[r], t_hi[r]);
+                        while candidates != 0 {
+                            let lane = candidates.trailing_zeros() as usize;
+                            candidates &= candidates - 1;
+                            if let Visit::Closer(t) = visit(r, group.triangle[lane] as usize) {
+                                t_hi[r] = t_hi[r].min(t);
+                            }
+                        }
+                    }
+                }
+                continue;
+            }
+            let node = &self.nodes[entry as usize];
+            let mut child_rays = [0u32; WIDTH];
+            let mut nearest = [f32::INFINITY; WIDTH];
+            let mut entered = 0u32;
+            while mask != 0 {
+                let r = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let (mut hits, near) = if AVX {
+                    enter_avx(node, &rays[r], t_hi[r])
+                } else {
+                    enter(node, &rays[r], t_hi[r])
+                };
+                entered |= hits;
+                while hits != 0 {
+                    let lane = hits.trailing_zeros() as usize;
+                    hits &= hits - 1;
+                    child_rays[lane] |= 1 << r;
+                    nearest[lane] = nearest[lane].min(near[lane]);
+                }
+            }
+            // Farthest first onto the stack, so the nearest is popped next.
+            let base = len;
+            while entered != 0 {
+                let lane = entered.trailing_zeros() as usize;
+                entered &= entered - 1;
+                let mut at = len;
+                while at > base && nearest[stack[at - 1].0 as usize & 7] < nearest[lane] {
+                    stack[at] = stack[at - 1];
+                    at -= 1;
+                }
+                stack[at] = (lane as u32, child_rays[lane]);
+                len += 1;
+            }
+            for slot in &mut stack[base..len] {
+                slot.0 = node.child[slot.0 as usize];
+            }
+        }
+    }
+}
+
 /// Slab test of a node's eight boxes, two `Vec4` halves (SSE on x86_64): the lanes entered
 /// between 0 and `t_hi`, and where.
 #[inline(always)]
