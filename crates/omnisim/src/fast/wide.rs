@@ -206,12 +206,21 @@ impl WideBvh {
         if self.nodes.is_empty() || active == 0 {
             return;
         }
-        let mut stack = vec![(0u32, 0u32); (WIDTH - 1) * self.depth + WIDTH];
+        let mut stack = vec![(0u32, 0u32, 0.0f32); (WIDTH - 1) * self.depth + WIDTH];
         let mut len = 1;
-        stack[0] = (0, active);
+        stack[0] = (0, active, 0.0);
         while len > 0 {
             len -= 1;
-            let (entry, mut mask) = stack[len];
+            let (entry, mut mask, t_enter) = stack[len];
+            // Rays whose bound shrank below the nearest entry since the push cannot enter.
+            let mut rest = mask;
+            while rest != 0 {
+                let r = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if t_enter > t_hi[r] {
+                    mask &= !(1 << r);
+                }
+            }
             if entry & LEAF != 0 {
                 let first = (entry & GROUP_INDEX) as usize;
                 let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
@@ -261,7 +270,7 @@ impl WideBvh {
                     stack[at] = stack[at - 1];
                     at -= 1;
                 }
-                stack[at] = (lane as u32, child_rays[lane]);
+                stack[at] = (lane as u32, child_rays[lane], nearest[lane]);
                 len += 1;
             }
             for slot in &mut stack[base..len] {
