@@ -61,7 +61,7 @@ struct Agreement {
 }
 
 impl Agreement {
-    /// Compares the fast tracer's frame (traced in 4×4 packets; the 250×250 omni images end
+    /// Compares the fast tracer's frame (traced in 8×8 packets; the 250×250 omni images end
     /// in partial tiles and have rayless pixels) with the reference's; panics on any difference that
     /// is not a tie. The fast tracer's AVX2 path (where the CPU has it) and its portable path
     /// must agree exactly: the same box tests in other instructions.

@@ -93,15 +93,15 @@ impl CpuTracer {
         let mut hits = vec![Pixel::MISS; width as usize * height as usize];
         let row_length = width.max(1) as usize;
         if let Self::Fast | Self::FastPortable = self {
-            // Tiles of 4×4 pixels traced as one packet each (`fast::closest_hits`).
-            hits.par_chunks_mut(row_length * 4).enumerate().for_each(|(band, pixels)| {
+            // Tiles of 8×8 pixels traced as one packet each (`fast::closest_hits`).
+            hits.par_chunks_mut(row_length * 8).enumerate().for_each(|(band, pixels)| {
                 let rows = pixels.len() / row_length;
-                for column in (0..row_length).step_by(4) {
-                    let columns = (row_length - column).min(4);
+                for column in (0..row_length).step_by(8) {
+                    let columns = (row_length - column).min(8);
                     let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
-                    let mut active = 0u32;
+                    let mut active = 0u64;
                     for (r, slot) in rays.iter_mut().enumerate().take(rows * columns) {
-                        let index = (band * 4 + r / columns) * row_length + column + r % columns;
+                        let index = (band * 8 + r / columns) * row_length + column + r % columns;
                         if let Some(ray) = ray(index) {
                             *slot = (
                                 local.origin + local.world_from_body * ray.origin,

@@ -76,7 +76,7 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
 pub(crate) fn closest_hits(
     bvh: &SceneBvh,
     rays: &[(DVec3, DVec3, f64); PACKET],
-    active: u32,
+    active: u64,
     portable: bool,
 ) -> [Option<Hit>; PACKET] {
     #[cfg(target_arch = "x86_64")]
@@ -91,7 +91,7 @@ pub(crate) fn closest_hits(
 /// [`closest_hits_in`] compiled with AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u32) -> [Option<Hit>; PACKET] {
+fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [Option<Hit>; PACKET] {
     closest_hits_in::<true>(bvh, rays, active)
 }
 
@@ -99,7 +99,7 @@ fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], activ
 fn closest_hits_in<const AVX: bool>(
     bvh: &SceneBvh,
     rays: &[(DVec3, DVec3, f64); PACKET],
-    active: u32,
+    active: u64,
 ) -> [Option<Hit>; PACKET] {
     let lanes = rays.map(|(origin, direction, _)| LaneRay::new(origin, direction, bvh.wide.extent));
     // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
