@@ -24,6 +24,10 @@ pub enum CpuTracer {
     /// An 8-wide BVH with f32 box and triangle filters; the f64 test decides every hit (`fast/`).
     #[default]
     Fast,
+    /// [`CpuTracer::Fast`] without AVX2 even where the CPU has it: the portable box tests
+    /// (two four-lane halves) that machines without AVX2 run; same faces and ranges. For tests
+    /// and A/B measurements.
+    FastPortable,
     /// The BVH2 with the f64 test of every triangle reached: the yardstick.
     Reference,
 }
@@ -33,6 +37,7 @@ impl CpuTracer {
     pub fn describe(self) -> &'static str {
         match self {
             Self::Fast => "fast CPU tracer (f32 wide BVH, f64 hits)",
+            Self::FastPortable => "fast CPU tracer without AVX2 (f32 wide BVH, f64 hits)",
             Self::Reference => "f64 reference CPU tracer",
         }
     }
@@ -51,7 +56,8 @@ impl CpuTracer {
         counter: &mut C,
     ) -> Option<Hit> {
         match self {
-            Self::Fast => fast::closest_hit(bvh, origin, direction, t_min, counter),
+            Self::Fast => fast::closest_hit(bvh, origin, direction, t_min, counter, false),
+            Self::FastPortable => fast::closest_hit(bvh, origin, direction, t_min, counter, true),
             Self::Reference => closest_hit_counted(bvh, origin, direction, t_min, counter),
         }
     }
@@ -60,7 +66,8 @@ impl CpuTracer {
     /// `t_max` (see [`occluded`]).
     pub fn occluded(self, bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
         match self {
-            Self::Fast => fast::occluded(bvh, origin, direction, t_max, skip_face),
+            Self::Fast => fast::occluded(bvh, origin, direction, t_max, skip_face, false),
+            Self::FastPortable => fast::occluded(bvh, origin, direction, t_max, skip_face, true),
             Self::Reference => occluded(bvh, origin, direction, t_max, skip_face),
         }
     }
@@ -85,6 +92,37 @@ impl CpuTracer {
         let local = LocalPose::new(bvh, pose);
         let mut hits = vec![Pixel::MISS; width as usize * height as usize];
         let row_length = width.max(1) as usize;
+        if let Self::Fast | Self::FastPortable = self {
+            // Tiles of 8×8 pixels traced as one packet each (`fast::closest_hits`).
+            hits.par_chunks_mut(row_length * 8).enumerate().for_each(|(band, pixels)| {
+                let rows = pixels.len() / row_length;
+                for column in (0..row_length).step_by(8) {
+                    let columns = (row_length - column).min(8);
+                    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
+                    let mut active = 0u64;
+                    for (r, slot) in rays.iter_mut().enumerate().take(rows * columns) {
+                        let index = (band * 8 + r / columns) * row_length + column + r % columns;
+                        if let Some(ray) = ray(index) {
+                            *slot = (
+                                local.origin + local.world_from_body * ray.origin,
+                                local.world_from_body * ray.direction,
+                                ray.t_min,
+                            );
+                            active |= 1 << r;
+                        }
+                    }
+                    let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
+                    for r in 0..rows * columns {
+                        if let Some(hit) = found[r] {
+                            let (origin, direction, _) = rays[r];
+                            pixels[(r / columns) * row_length + column + r % columns] =
+                                pixel(bvh, origin, direction, hit);
+                        }
+                    }
+                }
+            });
+            return Frame::from_hits(width, height, hits);
+        }
         hits.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
             for (column, pixel) in pixels.iter_mut().enumerate() {
                 *pixel = self.trace_ray(bvh, &local, ray(row * row_length + column), &mut ());
@@ -127,14 +165,19 @@ impl CpuTracer {
         let Some(hit) = self.closest_hit_counted(bvh, origin, direction, ray.t_min, counter) else {
             return Pixel::MISS;
         };
-        let face = bvh.face[hit.triangle];
-        let normal = bvh.face_normals[face as usize];
-        Pixel {
-            face,
-            range: hit.t as f32,
-            point: bvh.offset + origin + hit.t * direction,
-            normal: if normal.dot(direction) > 0.0 { -normal } else { normal }.as_vec3(),
-        }
+        pixel(bvh, origin, direction, hit)
+    }
+}
+
+/// The hit planes of `hit` on the ray from `origin` (scene-local) along `direction`.
+fn pixel(bvh: &SceneBvh, origin: DVec3, direction: DVec3, hit: Hit) -> Pixel {
+    let face = bvh.face[hit.triangle];
+    let normal = bvh.face_normals[face as usize];
+    Pixel {
+        face,
+        range: hit.t as f32,
+        point: bvh.offset + origin + hit.t * direction,
+        normal: if normal.dot(direction) > 0.0 { -normal } else { normal }.as_vec3(),
     }
 }
 

@@ -158,6 +158,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "mrays_per_s": rays / median_seconds / 1e6,
             "tracer": (choice == BackendChoice::Cpu).then_some(match args.tracer {
                 TracerArg::Fast => "fast",
+                TracerArg::FastPortable => "fast-portable",
                 TracerArg::Reference => "reference",
             }),
             "node_tests_per_ray": tests.map(|t| t.0),

@@ -28,6 +28,8 @@ pub enum TracerArg {
     /// f32 wide BVH and triangle filters, every hit decided and measured in f64: the
     /// reference's faces and ranges, faster.
     Fast,
+    /// The fast tracer without AVX2 (portable box tests), for A/B where the CPU has AVX2.
+    FastPortable,
     /// The f64 reference tracer (BVH2, f64 test of every triangle reached).
     Reference,
 }
@@ -36,6 +38,7 @@ impl From<TracerArg> for CpuTracer {
     fn from(t: TracerArg) -> Self {
         match t {
             TracerArg::Fast => CpuTracer::Fast,
+            TracerArg::FastPortable => CpuTracer::FastPortable,
             TracerArg::Reference => CpuTracer::Reference,
         }
     }

@@ -12,7 +12,7 @@ mod wide;
 
 use glam::DVec3;
 
-pub(crate) use wide::WideBvh;
+pub(crate) use wide::{PACKET, WideBvh};
 
 use crate::bvh::SceneBvh;
 use crate::cpu::{self, Hit};
@@ -20,8 +20,41 @@ use crate::traversal::Counter;
 use groups::LaneRay;
 
 /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`: the same hit as
-/// [`cpu::closest_hit`], found faster.
+/// [`cpu::closest_hit`], found faster. `portable` keeps to the portable box test even where
+/// the CPU has AVX2 (the path of other machines, which tests exercise).
 pub(crate) fn closest_hit<C: Counter>(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_min: f64,
+    counter: &mut C,
+    portable: bool,
+) -> Option<Hit> {
+    #[cfg(target_arch = "x86_64")]
+    if !portable && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2, checked just above.
+        return unsafe { closest_hit_avx2(bvh, origin, direction, t_min, counter) };
+    }
+    let _ = portable;
+    closest_hit_in::<false, C>(bvh, origin, direction, t_min, counter)
+}
+
+/// [`closest_hit_in`] compiled with AVX2 (its box tests eight lanes wide, the rest in VEX
+/// encoding). Callgrind, closest-hit search: see docs/benchmarks.md.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn closest_hit_avx2<C: Counter>(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_min: f64,
+    counter: &mut C,
+) -> Option<Hit> {
+    closest_hit_in::<true, C>(bvh, origin, direction, t_min, counter)
+}
+
+#[inline(always)]
+fn closest_hit_in<const AVX: bool, C: Counter>(
     bvh: &SceneBvh,
     origin: DVec3,
     direction: DVec3,
@@ -32,19 +65,86 @@ pub(crate) fn closest_hit<C: Counter>(
     let mut best = None;
     // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
     let t_lo = (t_min * (1.0 - 1e-6)) as f32;
-    bvh.wide.traverse(&ray, t_lo, f32::INFINITY, counter, |triangle| {
+    bvh.wide.traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, counter, |triangle| {
         cpu::nearer(bvh, origin, direction, t_min, &mut best, triangle)
     });
     best
 }
 
+/// A packet of up to [`PACKET`] rays (bit r of `active` where ray r exists): each ray's
+/// [`closest_hit`], found by one walk for the packet (`portable` as there).
+pub(crate) fn closest_hits(
+    bvh: &SceneBvh,
+    rays: &[(DVec3, DVec3, f64); PACKET],
+    active: u64,
+    portable: bool,
+) -> [Option<Hit>; PACKET] {
+    #[cfg(target_arch = "x86_64")]
+    if !portable && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2, checked just above.
+        return unsafe { closest_hits_avx2(bvh, rays, active) };
+    }
+    let _ = portable;
+    closest_hits_in::<false>(bvh, rays, active)
+}
+
+/// [`closest_hits_in`] compiled with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [Option<Hit>; PACKET] {
+    closest_hits_in::<true>(bvh, rays, active)
+}
+
+#[inline(always)]
+fn closest_hits_in<const AVX: bool>(
+    bvh: &SceneBvh,
+    rays: &[(DVec3, DVec3, f64); PACKET],
+    active: u64,
+) -> [Option<Hit>; PACKET] {
+    let lanes = rays.map(|(origin, direction, _)| LaneRay::new(origin, direction, bvh.wide.extent));
+    // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
+    let t_lo = rays.map(|(_, _, t_min)| (t_min * (1.0 - 1e-6)) as f32);
+    let mut t_hi = [f32::INFINITY; PACKET];
+    let mut best = [None; PACKET];
+    bvh.wide.traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, |r, triangle| {
+        let (origin, direction, t_min) = rays[r];
+        cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
+    });
+    best
+}
+
 /// Whether anything but face `skip_face` lies on the ray strictly between 0 and `t_max`:
-/// [`cpu::occluded`]'s answer, found faster.
-pub(crate) fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
+/// [`cpu::occluded`]'s answer, found faster (`portable` as for [`closest_hit`]).
+pub(crate) fn occluded(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_max: f64,
+    skip_face: u32,
+    portable: bool,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if !portable && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2, checked just above.
+        return unsafe { occluded_avx2(bvh, origin, direction, t_max, skip_face) };
+    }
+    let _ = portable;
+    occluded_in::<false>(bvh, origin, direction, t_max, skip_face)
+}
+
+/// [`occluded_in`] compiled with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn occluded_avx2(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
+    occluded_in::<true>(bvh, origin, direction, t_max, skip_face)
+}
+
+#[inline(always)]
+fn occluded_in<const AVX: bool>(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
     let ray = LaneRay::new(origin, direction, bvh.wide.extent);
     let mut blocked = false;
     bvh.wide
-        .traverse(&ray, 0.0, cpu::shadow_bound(t_max), &mut (), |triangle| {
+        .traverse::<AVX, ()>(&ray, 0.0, cpu::shadow_bound(t_max), &mut (), |triangle| {
             cpu::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
         });
     blocked
