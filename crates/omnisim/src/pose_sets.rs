@@ -152,7 +152,8 @@ pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Result<Vec<Pose>, TooFewCle
 }
 
 /// Where a pose's position lies that a renderer would silently accept but a user would not
-/// mean: outside the scene's bounds, or inside a closed object (a `Box`).
+/// mean: outside the scene's bounds, or inside a closed object (a `Box`, or a `Mesh` whose
+/// every edge is shared by exactly two of its faces).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Misplaced {
     /// Outside the axis-aligned bounds of every face.
@@ -161,9 +162,10 @@ pub enum Misplaced {
     Inside(String),
 }
 
-/// Whether `position` is outside the scene or inside one of its boxes. Inside is decided by
-/// the parity of a box's crossings along three generic rays (two must agree), so it costs a
-/// few dozen ray casts.
+/// Whether `position` is outside the scene or inside one of its closed objects. Inside is
+/// decided by the parity of an object's crossings along three generic rays (two must agree),
+/// so it costs a few dozen ray casts; an object that spans the whole scene (a room modelled
+/// as one box or one closed mesh) is the enclosure, not something to be inside of.
 pub fn misplaced(scene: &Scene, bvh: &SceneBvh, position: DVec3) -> Option<Misplaced> {
     let (lo, hi) = scene.bounds()?;
     if position.cmplt(lo).any() || position.cmpgt(hi).any() {
@@ -185,7 +187,7 @@ pub fn misplaced(scene: &Scene, bvh: &SceneBvh, position: DVec3) -> Option<Mispl
                 break;
             };
             let object = scene.faces[bvh.face[hit.triangle] as usize].object;
-            if scene.objects[object as usize].kind == "Box" {
+            if matches!(scene.objects[object as usize].kind, "Box" | "Mesh") {
                 *crossings.entry(object).or_default() += 1;
             }
             t_min = hit.t * (1.0 + 1e-12) + 1e-12;
@@ -196,11 +198,51 @@ pub fn misplaced(scene: &Scene, bvh: &SceneBvh, position: DVec3) -> Option<Mispl
             }
         }
     }
-    votes
+    let scene_bounds = (lo, hi);
+    let mut inside: Vec<u32> = votes
         .into_iter()
         .filter(|&(_, v)| v >= 2)
-        .min()
-        .map(|(object, _)| Misplaced::Inside(scene.objects[object as usize].name.clone()))
+        .map(|(object, _)| object)
+        .collect();
+    inside.sort_unstable();
+    // Checked only for the few objects the rays say contain the point: a closed-mesh test
+    // walks every face of the object.
+    inside
+        .into_iter()
+        .find(|&object| encloses_a_volume(scene, object) && object_bounds(scene, object) != Some(scene_bounds))
+        .map(|object| Misplaced::Inside(scene.objects[object as usize].name.clone()))
+}
+
+/// Whether an object bounds a volume: boxes always; meshes when every edge of their faces is
+/// shared by exactly two faces (vertices compared exactly: a closed mesh file shares them).
+fn encloses_a_volume(scene: &Scene, object: u32) -> bool {
+    match scene.objects[object as usize].kind {
+        "Box" => true,
+        "Mesh" => {
+            let key = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+            let mut edges: HashMap<([u64; 3], [u64; 3]), u32> = HashMap::new();
+            for face in scene.faces.iter().filter(|f| f.object == object) {
+                let n = face.vertices.len();
+                for i in 0..n {
+                    let (a, b) = (key(face.vertices[i]), key(face.vertices[(i + 1) % n]));
+                    *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+                }
+            }
+            !edges.is_empty() && edges.values().all(|&count| count == 2)
+        }
+        _ => false,
+    }
+}
+
+/// Axis-aligned bounds of one object's faces.
+fn object_bounds(scene: &Scene, object: u32) -> Option<(DVec3, DVec3)> {
+    let mut points = scene
+        .faces
+        .iter()
+        .filter(|f| f.object == object)
+        .flat_map(|f| f.vertices.iter().copied());
+    let first = points.next()?;
+    Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
 }
 
 #[cfg(test)]
@@ -290,6 +332,44 @@ mod tests {
             misplaced(&scene, &bvh, dvec3(0.0, 0.0, 3.0)),
             Some(Misplaced::OutsideBounds)
         );
+    }
+
+    /// A tetrahedron as a mesh file, closed or with one face left out.
+    fn tetrahedron_ply(dir: &std::path::Path, faces: usize) -> std::path::PathBuf {
+        let all = ["3 0 2 1", "3 0 1 3", "3 1 2 3", "3 2 0 3"];
+        let text = format!(
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+             element face {faces}\nproperty list uchar int vertex_indices\nend_header\n\
+             0 0 0\n1 0 0\n0 1 0\n0 0 1\n{}\n",
+            all[..faces].join("\n")
+        );
+        let path = dir.join(format!("tetra{faces}.ply"));
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    #[test]
+    fn poses_inside_closed_meshes_are_found_and_open_meshes_and_the_room_are_not() {
+        let dir = tempfile::tempdir().unwrap();
+        tetrahedron_ply(dir.path(), 4);
+        tetrahedron_ply(dir.path(), 3);
+        let text = r#"Scene(name: "room", objects: [
+            Box(name: "room", size: (6.0, 4.0, 3.0), position: (0.0, 0.0, -1.0), colour: (1, 1, 1)),
+            Mesh(name: "closed", path: "tetra4.ply", position: (1.0, 0.0, 0.0), colour: (9, 9, 9)),
+            Mesh(name: "open", path: "tetra3.ply", position: (-2.0, 0.0, 0.0), colour: (9, 9, 9)),
+        ])"#;
+        let path = dir.path().join("room.ron");
+        std::fs::write(&path, text).unwrap();
+        let scene = crate::scene::Scene::load(&path).unwrap();
+        let bvh = SceneBvh::build(&scene);
+        // Inside the tetrahedron x, y, z > 0, x + y + z < 1 (moved by +1 in x).
+        assert_eq!(
+            misplaced(&scene, &bvh, dvec3(1.2, 0.2, 0.2)),
+            Some(Misplaced::Inside("closed".into()))
+        );
+        // The same place in the open one, and free space in the room that encloses everything.
+        assert_eq!(misplaced(&scene, &bvh, dvec3(-1.8, 0.2, 0.2)), None);
+        assert_eq!(misplaced(&scene, &bvh, dvec3(0.0, 1.0, 1.0)), None);
     }
 
     #[test]
