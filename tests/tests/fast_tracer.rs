@@ -225,7 +225,10 @@ fn a_cluttered_room_and_its_shadow_rays_match_the_reference() {
         let reference = cpu::occluded(&bvh, origin, offset / distance, distance, skip);
         let fast = CpuTracer::Fast.occluded(&bvh, origin, offset / distance, distance, skip);
         let portable = CpuTracer::FastPortable.occluded(&bvh, origin, offset / distance, distance, skip);
-        assert_eq!(fast, portable, "shadow ray from {a} to {b}: fast and portable paths differ");
+        assert_eq!(
+            fast, portable,
+            "shadow ray from {a} to {b}: fast and portable paths differ"
+        );
         assert_eq!(reference, fast, "shadow ray from {a} to {b}");
         blocked += reference as usize;
     }

@@ -67,7 +67,10 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let reference = snapshot(&whole);
     for set in ["map", "test"] {
-        assert!(reference.contains_key(&Path::new(set).join("contact-sheet.png")), "{set} has no contact sheet");
+        assert!(
+            reference.contains_key(&Path::new(set).join("contact-sheet.png")),
+            "{set} has no contact sheet"
+        );
     }
 
     let killed = dir.path().join("killed");
@@ -134,7 +137,10 @@ fn preview_writes_the_svg_and_png_it_names_and_locates_spec_errors() {
     let output = preview();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
-    assert!(stderr.contains("spec.ron:") && stderr.contains("set 'map': poses.count"), "{stderr}");
+    assert!(
+        stderr.contains("spec.ron:") && stderr.contains("set 'map': poses.count"),
+        "{stderr}"
+    );
 }
 
 /// Write failures that stop even root (CI runs as root, so permissions do not): a file-size
@@ -165,20 +171,34 @@ fn write_failures_end_with_a_clear_message_and_resume_to_the_same_bytes() {
         "{stderr}"
     );
     let partial = snapshot(&limited);
-    assert!(partial.keys().any(|p| p.ends_with("env1-0000.png")), "frame 0 was under way");
     assert!(
-        !partial.keys().any(|p| p.to_string_lossy().contains("omnisim-tmp") || p.ends_with("env1-0000.ply")),
+        partial.keys().any(|p| p.ends_with("env1-0000.png")),
+        "frame 0 was under way"
+    );
+    assert!(
+        !partial
+            .keys()
+            .any(|p| p.to_string_lossy().contains("omnisim-tmp") || p.ends_with("env1-0000.ply")),
         "half-written files left: {:?}",
         partial.keys().collect::<Vec<_>>()
     );
-    assert!(!partial.contains_key(Path::new("map/.frames/000000.json")), "frame 0 counted as done");
+    assert!(
+        !partial.contains_key(Path::new("map/.frames/000000.json")),
+        "frame 0 counted as done"
+    );
     let output = dataset(&spec, &limited).output().unwrap();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    assert!(snapshot(&limited) == snapshot(&whole), "the resumed run differs from an uninterrupted one");
+    assert!(
+        snapshot(&limited) == snapshot(&whole),
+        "the resumed run differs from an uninterrupted one"
+    );
 
     let through_file = spec.join("out");
     let output = dataset(&spec, &through_file).output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
-    assert!(stderr.contains("a part of this path is a file, not a folder"), "{stderr}");
+    assert!(
+        stderr.contains("a part of this path is a file, not a folder"),
+        "{stderr}"
+    );
 }

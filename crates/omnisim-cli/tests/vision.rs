@@ -25,12 +25,20 @@ const SPEC: &str = r#"Dataset(
 )"#;
 
 fn omnisim(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_omnisim")).args(args).current_dir(dir).output().unwrap()
+    Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
 }
 
 fn succeed(args: &[&str], dir: &Path) {
     let output = omnisim(args, dir);
-    assert!(output.status.success(), "omnisim {args:?}: {}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "omnisim {args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
 }
 
 /// A data set of 4 + 3 omnidirectional images of 120² pixels in `dir/ds`.
@@ -54,8 +62,13 @@ fn grey(path: &Path) -> Raster {
 fn python() -> Option<std::ffi::OsString> {
     let python = std::env::var_os("OMNISIM_PYTHON");
     if python.is_none() {
-        assert!(std::env::var_os("CI").is_none(), "CI is set but OMNISIM_PYTHON (made by .ci/run) is not");
-        eprintln!("\n**** SKIPPED numpy read-back of `omnisim describe`: set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt ****\n");
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set but OMNISIM_PYTHON (made by .ci/run) is not"
+        );
+        eprintln!(
+            "\n**** SKIPPED numpy read-back of `omnisim describe`: set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt ****\n"
+        );
     }
     python
 }
@@ -63,7 +76,10 @@ fn python() -> Option<std::ffi::OsString> {
 fn assert_close(name: &str, got: &[f64], expected: &[f32]) {
     assert_eq!(got.len(), expected.len().min(256), "{name}: length");
     for (i, (g, e)) in got.iter().zip(expected).enumerate() {
-        assert!((g - *e as f64).abs() <= 1e-6 * (1.0 + e.abs() as f64), "{name}[{i}]: numpy read {g}, library {e}");
+        assert!(
+            (g - *e as f64).abs() <= 1e-6 * (1.0 + e.abs() as f64),
+            "{name}[{i}]: numpy read {g}, library {e}"
+        );
     }
 }
 
@@ -73,8 +89,24 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     let ds = dataset(dir.path());
     succeed(
         &[
-            "describe", "ds", "-d", "fourier:k=8", "-d", "hog", "-d", "radon:angles=90,radial-step=2", "-d", "sift", "-d",
-            "surf:threshold=50,upright=true", "--panorama", "256x64", "--pca-fit", "2", "--out", "desc",
+            "describe",
+            "ds",
+            "-d",
+            "fourier:k=8",
+            "-d",
+            "hog",
+            "-d",
+            "radon:angles=90,radial-step=2",
+            "-d",
+            "sift",
+            "-d",
+            "surf:threshold=50,upright=true",
+            "--panorama",
+            "256x64",
+            "--pca-fit",
+            "2",
+            "--out",
+            "desc",
         ],
         dir.path(),
     );
@@ -91,7 +123,23 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_eq!(radon_sidecar["parameters"]["centre_px"]["v"], camera().cy);
 
     // Later sets projected with the map's saved basis give the same numbers.
-    succeed(&["describe", "ds", "--set", "test", "-d", "hog", "--panorama", "256x64", "--pca-basis", "desc", "--out", "again"], dir.path());
+    succeed(
+        &[
+            "describe",
+            "ds",
+            "--set",
+            "test",
+            "-d",
+            "hog",
+            "--panorama",
+            "256x64",
+            "--pca-basis",
+            "desc",
+            "--out",
+            "again",
+        ],
+        dir.path(),
+    );
     let (_, fitted) = omnisim_vision::npy::read(&out.join("test/hog-pca.npy")).unwrap();
     let (_, loaded) = omnisim_vision::npy::read(&dir.path().join("again/test/hog-pca.npy")).unwrap();
     assert_eq!(fitted, loaded);
@@ -99,41 +147,94 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     let Some(python) = python() else { return };
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/check_descriptors.py");
     let report_path = dir.path().join("report.json");
-    let status = Command::new(&python).arg(&script).arg(&out).arg(&report_path).status().unwrap();
+    let status = Command::new(&python)
+        .arg(&script)
+        .arg(&out)
+        .arg(&report_path)
+        .status()
+        .unwrap();
     assert!(status.success(), "numpy's check of the .npy files failed");
     let report: Value = serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
     let first = |set: &str, file: &str| -> Vec<f64> {
-        report[set][file]["first"].as_array().unwrap_or_else(|| panic!("{set}/{file} not read")).iter().map(|v| v.as_f64().unwrap()).collect()
+        report[set][file]["first"]
+            .as_array()
+            .unwrap_or_else(|| panic!("{set}/{file} not read"))
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
     };
 
     // The library on the test set's first image, as describe read it.
     let image = grey(&ds.join("test/env1-0000.png"));
     let view = View::panorama(256, 64, (-45f64).to_radians(), 15f64.to_radians()).unwrap();
-    let panorama = Remap::new(&camera(), &view).unwrap().apply(&image, Interpolation::Bicubic).unwrap();
+    let panorama = Remap::new(&camera(), &view)
+        .unwrap()
+        .apply(&image, Interpolation::Bicubic)
+        .unwrap();
     let signature = FourierSignature::new(&panorama, FourierParams { coefficients: 8 }).unwrap();
     assert_eq!(report["test"]["fourier.npy"]["shape"], serde_json::json!([3, 64, 8]));
     assert_close("fourier", &first("test", "fourier.npy"), &signature.magnitudes());
-    assert_close("fourier phases", &first("test", "fourier-phases.npy"), &signature.phases());
+    assert_close(
+        "fourier phases",
+        &first("test", "fourier-phases.npy"),
+        &signature.phases(),
+    );
     let hog = panoramic_hog(&panorama, PanoramicHogParams::default()).unwrap();
     assert_close("hog", &first("test", "hog.npy"), &hog.values);
     // The Radon transform about the calibration's principal point.
-    let params = RadonParams { angles: 90, radial_step: 2.0, centre: Some((camera().cx, camera().cy)), ..Default::default() };
-    assert_close("radon", &first("test", "radon.npy"), &Radon::new(&image, params).unwrap().values.data);
+    let params = RadonParams {
+        angles: 90,
+        radial_step: 2.0,
+        centre: Some((camera().cx, camera().cy)),
+        ..Default::default()
+    };
+    assert_close(
+        "radon",
+        &first("test", "radon.npy"),
+        &Radon::new(&image, params).unwrap().values.data,
+    );
     let features = sift(&image, &SiftParams::default()).unwrap();
     assert!(!features.keypoints.is_empty(), "the test image gives SIFT keypoints");
     let k = &features.keypoints[0];
     let row = [0.0, k.x, k.y, k.sigma, k.angle, k.response];
     assert_close("sift keypoint", &first("test", "sift-keypoints.npy"), &row);
-    assert_close("sift descriptor", &first("test", "sift-descriptors.npy"), features.descriptor(0));
-    assert_eq!(report["test"]["sift-descriptors.npy"]["rows_of_first_image"], features.keypoints.len());
+    assert_close(
+        "sift descriptor",
+        &first("test", "sift-descriptors.npy"),
+        features.descriptor(0),
+    );
+    assert_eq!(
+        report["test"]["sift-descriptors.npy"]["rows_of_first_image"],
+        features.keypoints.len()
+    );
 
     // A threshold no keypoint reaches: empty arrays that numpy reads as [0, 6] and [0, 64].
-    succeed(&["describe", "ds", "--set", "map", "-d", "surf:threshold=1e12", "--out", "empty"], dir.path());
-    let status = Command::new(&python).arg(&script).arg(dir.path().join("empty")).arg(&report_path).status().unwrap();
+    succeed(
+        &[
+            "describe",
+            "ds",
+            "--set",
+            "map",
+            "-d",
+            "surf:threshold=1e12",
+            "--out",
+            "empty",
+        ],
+        dir.path(),
+    );
+    let status = Command::new(&python)
+        .arg(&script)
+        .arg(dir.path().join("empty"))
+        .arg(&report_path)
+        .status()
+        .unwrap();
     assert!(status.success(), "numpy's check of empty keypoint files failed");
     let report: Value = serde_json::from_slice(&std::fs::read(&report_path).unwrap()).unwrap();
     assert_eq!(report["map"]["surf-keypoints.npy"]["shape"], serde_json::json!([0, 6]));
-    assert_eq!(report["map"]["surf-descriptors.npy"]["shape"], serde_json::json!([0, 64]));
+    assert_eq!(
+        report["map"]["surf-descriptors.npy"]["shape"],
+        serde_json::json!([0, 64])
+    );
 }
 
 #[test]
@@ -141,7 +242,18 @@ fn project_writes_the_librarys_views() {
     let dir = tempfile::tempdir().unwrap();
     let ds = dataset(dir.path());
     succeed(
-        &["project", "ds", "--set", "map", "--view", "panorama:width=200,height=50", "--view", "birds-eye:width=60,height=40,scale=0.05", "--out", "views"],
+        &[
+            "project",
+            "ds",
+            "--set",
+            "map",
+            "--view",
+            "panorama:width=200,height=50",
+            "--view",
+            "birds-eye:width=60,height=40,scale=0.05",
+            "--out",
+            "views",
+        ],
         dir.path(),
     );
     let folder = dir.path().join("views/map");
@@ -150,15 +262,31 @@ fn project_writes_the_librarys_views() {
     assert_eq!(sidecar["views"][1]["settings"]["metres_per_pixel"], 0.05);
     let omni = Raster::from_image(&image::open(ds.join("map/env1-0001.png")).unwrap());
     for (name, view) in [
-        ("panorama", View::panorama(200, 50, (-45f64).to_radians(), 15f64.to_radians()).unwrap()),
+        (
+            "panorama",
+            View::panorama(200, 50, (-45f64).to_radians(), 15f64.to_radians()).unwrap(),
+        ),
         ("birds-eye", View::birds_eye(60, 40, 0.05, -0.7).unwrap()),
     ] {
-        let expected = Remap::new(&camera(), &view).unwrap().apply(&omni, Interpolation::Bicubic).unwrap();
+        let expected = Remap::new(&camera(), &view)
+            .unwrap()
+            .apply(&omni, Interpolation::Bicubic)
+            .unwrap();
         let written = Raster::from_image(&image::open(folder.join(format!("env1-0001-{name}.png"))).unwrap());
         assert_eq!((written.width, written.height), (expected.width, expected.height));
-        let worst = written.data.iter().zip(&expected.data).map(|(a, b)| (a - b.clamp(0.0, 1.0)).abs()).fold(0.0, f32::max);
-        assert!(worst <= 0.5 / 255.0 + 1e-6, "{name}: differs from the library by {worst}");
-        let valid = image::open(folder.join(format!("{name}-valid.png"))).unwrap().to_luma8();
+        let worst = written
+            .data
+            .iter()
+            .zip(&expected.data)
+            .map(|(a, b)| (a - b.clamp(0.0, 1.0)).abs())
+            .fold(0.0, f32::max);
+        assert!(
+            worst <= 0.5 / 255.0 + 1e-6,
+            "{name}: differs from the library by {worst}"
+        );
+        let valid = image::open(folder.join(format!("{name}-valid.png")))
+            .unwrap()
+            .to_luma8();
         assert!(valid.pixels().any(|p| p.0[0] == 255), "{name}: nothing valid");
     }
 }
@@ -171,43 +299,137 @@ fn describe_refuses_bad_requests() {
     // A folder of images named like the PCA bases' folder.
     std::fs::create_dir(dir.path().join("pca")).unwrap();
     for stem in ["env1-0000", "env1-0001"] {
-        std::fs::copy(ds.join(format!("map/{stem}.png")), dir.path().join(format!("pca/{stem}.png"))).unwrap();
+        std::fs::copy(
+            ds.join(format!("map/{stem}.png")),
+            dir.path().join(format!("pca/{stem}.png")),
+        )
+        .unwrap();
     }
     let omni = ["--camera", "omni", "--mirror-a", "0.04", "--mirror-b", "0.16"];
     // A folder whose second image is not the camera's size.
     std::fs::create_dir(dir.path().join("mixed")).unwrap();
     std::fs::copy(ds.join("map/env1-0000.png"), dir.path().join("mixed/a.png")).unwrap();
-    image::RgbImage::new(60, 60).save(dir.path().join("mixed/b.png")).unwrap();
+    image::RgbImage::new(60, 60)
+        .save(dir.path().join("mixed/b.png"))
+        .unwrap();
     for (args, message) in [
-        (vec!["describe", "ds", "-d", "sift:sigmaa=2", "--out", "x"], "unknown setting 'sigmaa'"),
-        (vec!["describe", "ds", "-d", "orb", "--out", "x"], "unknown descriptor 'orb'"),
-        (vec!["describe", "ds", "-d", "sift", "--set", "nope", "--out", "x"], "no set 'nope'"),
-        (vec!["describe", "ds", "-d", "sift", "--mirror-a", "0.05", "--out", "x"], "camera options are refused"),
-        (vec!["describe", "ds", "-d", "sift:scales=0", "--out", "x"], "scales_per_octave"),
-        (vec!["describe", "nowhere", "-d", "sift", "--out", "x"], "neither a data-set folder"),
-        (vec!["describe", "ds", "-d", "radon:radial-step=1e-20", "--out", "x"], "radial samples"),
-        (vec!["describe", "ds", "-d", "radon:radial-step=nan", "--out", "x"], "radial-step=nan is not a finite number"),
-        (vec!["describe", "ds", "-d", "radon:step=1", "--out", "x"], "unknown setting 'step'"),
-        (vec!["describe", "ds", "-d", "hog", "-d", "block-hog:clip=0", "--out", "x"], "clip"),
-        (vec!["describe", "ds", "-d", "sift:clamp=inf", "--out", "x"], "not a finite number"),
-        (vec!["describe", "ds", "-d", "sift:descriptor-width=0", "--out", "x"], "descriptor_width"),
-        (vec!["describe", "ds", "-d", "vertical-hog:column-step=0", "--out", "x"], "column step"),
-        (vec!["describe", "ds", "-d", "surf:window=0", "--out", "x"], "orientation_window"),
+        (
+            vec!["describe", "ds", "-d", "sift:sigmaa=2", "--out", "x"],
+            "unknown setting 'sigmaa'",
+        ),
+        (
+            vec!["describe", "ds", "-d", "orb", "--out", "x"],
+            "unknown descriptor 'orb'",
+        ),
+        (
+            vec!["describe", "ds", "-d", "sift", "--set", "nope", "--out", "x"],
+            "no set 'nope'",
+        ),
+        (
+            vec!["describe", "ds", "-d", "sift", "--mirror-a", "0.05", "--out", "x"],
+            "camera options are refused",
+        ),
+        (
+            vec!["describe", "ds", "-d", "sift:scales=0", "--out", "x"],
+            "scales_per_octave",
+        ),
+        (
+            vec!["describe", "nowhere", "-d", "sift", "--out", "x"],
+            "neither a data-set folder",
+        ),
+        (
+            vec!["describe", "ds", "-d", "radon:radial-step=1e-20", "--out", "x"],
+            "radial samples",
+        ),
+        (
+            vec!["describe", "ds", "-d", "radon:radial-step=nan", "--out", "x"],
+            "radial-step=nan is not a finite number",
+        ),
+        (
+            vec!["describe", "ds", "-d", "radon:step=1", "--out", "x"],
+            "unknown setting 'step'",
+        ),
+        (
+            vec!["describe", "ds", "-d", "hog", "-d", "block-hog:clip=0", "--out", "x"],
+            "clip",
+        ),
+        (
+            vec!["describe", "ds", "-d", "sift:clamp=inf", "--out", "x"],
+            "not a finite number",
+        ),
+        (
+            vec!["describe", "ds", "-d", "sift:descriptor-width=0", "--out", "x"],
+            "descriptor_width",
+        ),
+        (
+            vec!["describe", "ds", "-d", "vertical-hog:column-step=0", "--out", "x"],
+            "column step",
+        ),
+        (
+            vec!["describe", "ds", "-d", "surf:window=0", "--out", "x"],
+            "orientation_window",
+        ),
         (vec!["describe", "ds", "-d", "gist:blocks=0", "--out", "x"], "blocks"),
         // Limits set by the image's size, checked from the camera's before any image is read.
-        (vec!["describe", "ds", "-d", "hog", "-d", "fourier:k=1000", "--out", "x"], "fourier on the 512×128 panorama: coefficients"),
-        (vec!["describe", "ds", "-d", "block-hog:cell=100", "--out", "x"], "block-hog on the 120×120 image: block"),
-        (vec!["describe", "ds", "-d", "radon:radial-samples=2000000", "--out", "x"], "radial samples"),
-        (vec!["describe", "ds", "-d", "hog", "--pca-fit", "9", "--map", "nope", "--out", "x"], "--map nope"),
-        ([&["describe", "pca"][..], &omni, &["-d", "hog", "--pca-fit", "1", "--out", "x"]].concat(), "share OUT/pca"),
-        (vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"], "got 20° .. 10°"),
-        (vec!["project", "ds", "--view", "perspective:hfov=200", "--out", "x"], "got 200°"),
-        (vec!["project", "ds", "--view", "perspective:yaw=inf", "--out", "x"], "not a finite number"),
-        ([&["project", "mixed"][..], &omni, &["--view", "panorama", "--out", "x"]].concat(), "is 60×60 pixels, but the camera's image is 120×120"),
+        (
+            vec!["describe", "ds", "-d", "hog", "-d", "fourier:k=1000", "--out", "x"],
+            "fourier on the 512×128 panorama: coefficients",
+        ),
+        (
+            vec!["describe", "ds", "-d", "block-hog:cell=100", "--out", "x"],
+            "block-hog on the 120×120 image: block",
+        ),
+        (
+            vec!["describe", "ds", "-d", "radon:radial-samples=2000000", "--out", "x"],
+            "radial samples",
+        ),
+        (
+            vec![
+                "describe",
+                "ds",
+                "-d",
+                "hog",
+                "--pca-fit",
+                "9",
+                "--map",
+                "nope",
+                "--out",
+                "x",
+            ],
+            "--map nope",
+        ),
+        (
+            [
+                &["describe", "pca"][..],
+                &omni,
+                &["-d", "hog", "--pca-fit", "1", "--out", "x"],
+            ]
+            .concat(),
+            "share OUT/pca",
+        ),
+        (
+            vec!["project", "ds", "--view", "panorama:low=20,high=10", "--out", "x"],
+            "got 20° .. 10°",
+        ),
+        (
+            vec!["project", "ds", "--view", "perspective:hfov=200", "--out", "x"],
+            "got 200°",
+        ),
+        (
+            vec!["project", "ds", "--view", "perspective:yaw=inf", "--out", "x"],
+            "not a finite number",
+        ),
+        (
+            [&["project", "mixed"][..], &omni, &["--view", "panorama", "--out", "x"]].concat(),
+            "is 60×60 pixels, but the camera's image is 120×120",
+        ),
     ] {
         let output = omnisim(&args, dir.path());
         let stderr = String::from_utf8_lossy(&output.stderr);
-        assert!(!output.status.success() && stderr.contains(message), "{args:?}: {stderr}");
+        assert!(
+            !output.status.success() && stderr.contains(message),
+            "{args:?}: {stderr}"
+        );
         assert!(!dir.path().join("x").exists(), "{args:?} created --out");
     }
 }

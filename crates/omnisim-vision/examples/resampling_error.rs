@@ -37,11 +37,18 @@ fn main() {
     // (view, interpolation) → per size: (mean colour error, mean and largest displacement).
     let mut colour = vec![vec![Vec::new(); interpolations.len()]; views.len()];
     let mut geometry = vec![vec![Vec::new(); interpolations.len()]; views.len()];
-    println!("| omni image | view | interpolation | mean abs colour error (0–255) | pixels > 32 off | point displacement mean / max (px) |");
+    println!(
+        "| omni image | view | interpolation | mean abs colour error (0–255) | pixels > 32 off | point displacement mean / max (px) |"
+    );
     println!("|---|---|---|---|---|---|");
     for size in SIZES {
         let omni = Catadioptric::hyperbolic(size, size, 0.04, 0.16, Some(20f64.to_radians()));
-        let image = Raster::from_rgb8(size as usize, size as usize, &render(&Camera::Catadioptric(omni.clone()), &pose)).unwrap();
+        let image = Raster::from_rgb8(
+            size as usize,
+            size as usize,
+            &render(&Camera::Catadioptric(omni.clone()), &pose),
+        )
+        .unwrap();
         for (v, (name, view)) in views.iter().enumerate() {
             let remap = Remap::new(&omni, view).unwrap();
             let points = sample_points(view);

@@ -10,10 +10,12 @@ use glam::dvec3;
 use omnisim::{BackendChoice, Camera, Catadioptric, Planes, Pose, Renderer, Scene};
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::gist::{GistParams, gist};
-use omnisim_vision::hog::{BlockHogParams, PanoramicHogParams, VerticalHogParams, block_hog, panoramic_hog, vertical_hog};
+use omnisim_vision::hog::{
+    BlockHogParams, PanoramicHogParams, VerticalHogParams, block_hog, panoramic_hog, vertical_hog,
+};
+use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
 use omnisim_vision::surf::{SurfParams, surf};
-use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 
 fn main() {
@@ -96,6 +98,13 @@ fn main() {
         surf(&panorama, &SurfParams::default()).unwrap();
     });
     time("U-SURF, of the panorama", &mut || {
-        surf(&panorama, &SurfParams { upright: true, ..SurfParams::default() }).unwrap();
+        surf(
+            &panorama,
+            &SurfParams {
+                upright: true,
+                ..SurfParams::default()
+            },
+        )
+        .unwrap();
     });
 }

@@ -19,15 +19,28 @@ impl View {
     pub fn exact_camera(&self) -> Option<(Camera, DMat3)> {
         match self {
             View::Camera { camera, body_from_view } => Some((camera.clone(), *body_from_view)),
-            View::Plane(PlaneView { width, height, metres_per_pixel, plane_z, centre }) => {
+            View::Plane(PlaneView {
+                width,
+                height,
+                metres_per_pixel,
+                plane_z,
+                centre,
+            }) => {
                 if *plane_z >= 0.0 || *centre != DVec2::ZERO {
                     return None;
                 }
                 let f = -plane_z / metres_per_pixel;
-                let pinhole = Pinhole { fx: f, fy: f, ..Pinhole::with_horizontal_fov(*width, *height, 1.0) };
+                let pinhole = Pinhole {
+                    fx: f,
+                    fy: f,
+                    ..Pinhole::with_horizontal_fov(*width, *height, 1.0)
+                };
                 // The pinhole looks along its body +x: turned to body −z, its image right stays
                 // body −y and its image up becomes body +x, as the bird's-eye view's.
-                Some((Camera::Pinhole(pinhole), DMat3::from_rotation_y(std::f64::consts::FRAC_PI_2)))
+                Some((
+                    Camera::Pinhole(pinhole),
+                    DMat3::from_rotation_y(std::f64::consts::FRAC_PI_2),
+                ))
             }
         }
     }
@@ -48,7 +61,10 @@ pub fn chart_views() -> Vec<(&'static str, View)> {
     vec![
         ("panorama 512×128", panorama.expect("a valid band")),
         ("perspective 400×300, 90°", perspective.expect("a valid field of view")),
-        ("bird's-eye 400², 1 cm/px", View::birds_eye(400, 400, 0.01, -0.7).expect("a valid plane")),
+        (
+            "bird's-eye 400², 1 cm/px",
+            View::birds_eye(400, 400, 0.01, -0.7).expect("a valid plane"),
+        ),
     ]
 }
 
@@ -106,7 +122,11 @@ pub fn colour_error(resampled: &Raster, exact: &[[u8; 3]], remap: &Remap) -> Opt
         }
     }
     let n = pixels as f64;
-    (pixels > 0).then(|| ColourError { mean: sum / n, far: far as f64 / n, pixels })
+    (pixels > 0).then(|| ColourError {
+        mean: sum / n,
+        far: far as f64 / n,
+        pixels,
+    })
 }
 
 /// Geometric error: for each body-frame point (a direction for camera views; a point of the
@@ -132,7 +152,9 @@ pub fn point_displacements(
                 && expected.x <= w as f64 - 1.0 - margin
                 && expected.y <= h as f64 - 1.0 - margin;
             let source = omni.project(point).filter(|_| inside)?;
-            let image = remap.apply(&spot(omni.width, omni.height, source), interpolation).ok()?;
+            let image = remap
+                .apply(&spot(omni.width, omni.height, source), interpolation)
+                .ok()?;
             Some(centroid(&image, expected, 9.0).distance(expected))
         })
         .collect()
@@ -142,8 +164,14 @@ pub fn point_displacements(
 fn spot(width: u32, height: u32, centre: DVec2) -> Raster {
     let mut image = Raster::new(width as usize, height as usize, 1);
     let reach = 8.0;
-    let (x0, x1) = ((centre.x - reach).max(0.0) as usize, ((centre.x + reach) as usize).min(width as usize - 1));
-    let (y0, y1) = ((centre.y - reach).max(0.0) as usize, ((centre.y + reach) as usize).min(height as usize - 1));
+    let (x0, x1) = (
+        (centre.x - reach).max(0.0) as usize,
+        ((centre.x + reach) as usize).min(width as usize - 1),
+    );
+    let (y0, y1) = (
+        (centre.y - reach).max(0.0) as usize,
+        ((centre.y + reach) as usize).min(height as usize - 1),
+    );
     for y in y0..=y1 {
         for x in x0..=x1 {
             let d2 = (dvec2(x as f64, y as f64) - centre).length_squared();
@@ -164,5 +192,9 @@ fn centroid(image: &Raster, around: DVec2, radius: f64) -> DVec2 {
             weight += value;
         }
     }
-    if weight > 0.0 { sum / weight } else { DVec2::splat(f64::INFINITY) }
+    if weight > 0.0 {
+        sum / weight
+    } else {
+        DVec2::splat(f64::INFINITY)
+    }
 }

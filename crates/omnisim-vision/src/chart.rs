@@ -46,7 +46,12 @@ impl Axes {
     fn new(title: &str, x_label: &str, y_label: &str, xs: &[f64], ys: &[f64], floor: f64) -> Self {
         let x_decades = decades(xs.iter().copied());
         let y_decades = decades(ys.iter().map(|y| y.max(floor)));
-        let mut axes = Self { svg: String::new(), x_decades, y_decades, floor };
+        let mut axes = Self {
+            svg: String::new(),
+            x_decades,
+            y_decades,
+            floor,
+        };
         let (plot_w, plot_h) = (WIDTH - LEFT - RIGHT, HEIGHT - TOP - BOTTOM);
         let _ = write!(
             axes.svg,
@@ -159,7 +164,11 @@ pub fn lines(title: &str, x_label: &str, y_label: &str, series: &[Series], floor
     let ys: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
     let mut axes = Axes::new(title, x_label, y_label, &xs, &ys, floor);
     for (i, s) in series.iter().enumerate() {
-        let path: Vec<String> = s.points.iter().map(|&(x, y)| format!("{:.1},{:.1}", axes.x(x), axes.y(y))).collect();
+        let path: Vec<String> = s
+            .points
+            .iter()
+            .map(|&(x, y)| format!("{:.1},{:.1}", axes.x(x), axes.y(y)))
+            .collect();
         let _ = writeln!(
             axes.svg,
             r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="2" stroke-dasharray="{}"/>"#,
@@ -168,7 +177,13 @@ pub fn lines(title: &str, x_label: &str, y_label: &str, series: &[Series], floor
             s.dash
         );
         for &(x, y) in &s.points {
-            let _ = writeln!(axes.svg, r#"<circle cx="{:.1}" cy="{:.1}" r="3.5" fill="{}"/>"#, axes.x(x), axes.y(y), s.colour);
+            let _ = writeln!(
+                axes.svg,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="3.5" fill="{}"/>"#,
+                axes.x(x),
+                axes.y(y),
+                s.colour
+            );
         }
         axes.legend(i, &s.colour, &s.label);
     }
@@ -222,11 +237,22 @@ mod tests {
     /// charts are offset by one chart height each.
     #[test]
     fn lines_and_stacks() {
-        let series = vec![Series { label: "s".into(), colour: "red".into(), dash: String::new(), points: vec![(1.0, 0.1), (10.0, 1.0)] }];
+        let series = vec![Series {
+            label: "s".into(),
+            colour: "red".into(),
+            dash: String::new(),
+            points: vec![(1.0, 0.1), (10.0, 1.0)],
+        }];
         let svg = lines("t", "x", "y", &series, 1e-3);
         assert_eq!(svg.matches("<polyline").count(), 1);
         assert_eq!(svg.matches("<circle").count(), 2);
-        assert!(svg.contains(&format!("{:.1},{:.1} {:.1},{:.1}", LEFT, HEIGHT - BOTTOM, WIDTH - RIGHT, TOP)));
+        assert!(svg.contains(&format!(
+            "{:.1},{:.1} {:.1},{:.1}",
+            LEFT,
+            HEIGHT - BOTTOM,
+            WIDTH - RIGHT,
+            TOP
+        )));
         let both = stack(&[svg.clone(), svg]);
         assert!(both.contains(&format!("<svg y=\"{HEIGHT}\" ")) && both.contains("<svg y=\"0\" "));
         assert!(both.contains(&format!("height=\"{}\"", 2.0 * HEIGHT)));

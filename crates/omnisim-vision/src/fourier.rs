@@ -28,7 +28,9 @@ impl Default for FourierParams {
 impl FourierParams {
     /// Checks the setting that does not depend on the panorama: k at least 1.
     pub fn validate(&self) -> Result<(), VisionError> {
-        require(self.coefficients >= 1, "coefficients", || "needs k ≥ 1, got 0".to_string())
+        require(self.coefficients >= 1, "coefficients", || {
+            "needs k ≥ 1, got 0".to_string()
+        })
     }
 
     /// Checks everything, for a `width × height` panorama: also k ≤ width/2 + 1.

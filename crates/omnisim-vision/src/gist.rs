@@ -70,9 +70,16 @@ impl GistParams {
     pub fn validate(&self) -> Result<(), VisionError> {
         // Beyond 16 scales the peak frequency is below 1e-4 cycles per pixel; each filter costs a
         // full-image transform, so the bank is bounded.
-        require((1..=16).contains(&self.scales) && (1..=64).contains(&self.orientations), "filters", || {
-            format!("needs 1–16 scales and 1–64 orientations, got {} and {}", self.scales, self.orientations)
-        })?;
+        require(
+            (1..=16).contains(&self.scales) && (1..=64).contains(&self.orientations),
+            "filters",
+            || {
+                format!(
+                    "needs 1–16 scales and 1–64 orientations, got {} and {}",
+                    self.scales, self.orientations
+                )
+            },
+        )?;
         let (nx, ny) = self.blocks.counts();
         require(nx >= 1 && ny >= 1, "blocks", || "needs at least one block".to_string())
     }
@@ -165,7 +172,10 @@ pub fn gist(image: &Raster, params: GistParams) -> Result<Descriptor, VisionErro
                 *out = input * g;
             }
             fft::fft2(&mut filtered, w, padded, FftDirection::Inverse);
-            let amplitude: Vec<f64> = filtered[PADDING * w..(PADDING + h) * w].iter().map(|c| c.norm()).collect();
+            let amplitude: Vec<f64> = filtered[PADDING * w..(PADDING + h) * w]
+                .iter()
+                .map(|c| c.norm())
+                .collect();
             values.extend(block_means(&amplitude, w, h, nx, ny));
         }
     }
@@ -253,7 +263,11 @@ mod tests {
         // Largest change of one value relative to the largest value: the panoramic variant's is
         // below 1e-5; the grid's blocks see other columns.
         let largest = standard.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-        let change = standard.iter().zip(&standard_shifted).fold(0.0f32, |m, (a, b)| m.max((a - b).abs())) / largest;
+        let change = standard
+            .iter()
+            .zip(&standard_shifted)
+            .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()))
+            / largest;
         eprintln!("grid gist, 40-column shift: largest relative change {change:.3}");
         assert!(change > 0.25, "the grid variant should see the shift: {change}");
     }

@@ -128,11 +128,9 @@ impl BlockHogParams {
     /// stride at least 1, `clip` finite and positive.
     pub fn validate(&self) -> Result<(), VisionError> {
         self.orientations.check()?;
-        require(
-            self.cell >= 1 && self.block >= 1 && self.stride >= 1,
-            "cells",
-            || "cell, block and stride must be at least 1".to_string(),
-        )?;
+        require(self.cell >= 1 && self.block >= 1 && self.stride >= 1, "cells", || {
+            "cell, block and stride must be at least 1".to_string()
+        })?;
         require(self.clip.is_finite() && self.clip > 0.0, "clip", || {
             format!("must be finite and positive, got {}", self.clip)
         })
@@ -143,7 +141,10 @@ impl BlockHogParams {
         self.validate()?;
         let (cells_x, cells_y) = (width / self.cell, height / self.cell);
         require(cells_x >= self.block && cells_y >= self.block, "block", || {
-            format!("a {cells_x}×{cells_y}-cell image holds no {0}×{0}-cell block", self.block)
+            format!(
+                "a {cells_x}×{cells_y}-cell image holds no {0}×{0}-cell block",
+                self.block
+            )
         })
     }
 }
@@ -300,37 +301,62 @@ pub fn vertical_hog(panorama: &Raster, params: VerticalHogParams) -> Result<Desc
     let mut columns = vec![0.0f32; w * bins];
     for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {
         let x = i % w;
-        params.orientations.vote(angle, magnitude, &mut columns[x * bins..(x + 1) * bins]);
+        params
+            .orientations
+            .vote(angle, magnitude, &mut columns[x * bins..(x + 1) * bins]);
     }
     let cells = w / params.step;
     let mut values = vec![0.0f32; cells * bins];
     for (cell, histogram) in values.chunks_mut(bins).enumerate() {
         for offset in 0..params.width {
             let x = (cell * params.step + offset) % w;
-            histogram.iter_mut().zip(&columns[x * bins..(x + 1) * bins]).for_each(|(h, c)| *h += c);
+            histogram
+                .iter_mut()
+                .zip(&columns[x * bins..(x + 1) * bins])
+                .for_each(|(h, c)| *h += c);
         }
         l2_normalise(histogram);
     }
-    Ok(Descriptor { shape: vec![cells, bins], values })
+    Ok(Descriptor {
+        shape: vec![cells, bins],
+        values,
+    })
 }
 
 /// The turn that takes panorama `a` to panorama `b` (`b` is `a` with its columns moved right
 /// by `steps`), from their vertical-cell HOGs made with the same `params` on panoramas `width`
 /// columns wide: the circular shift of the cells with the least sum of squared differences.
-pub fn vertical_hog_rotation(a: &Descriptor, b: &Descriptor, params: VerticalHogParams, width: usize) -> Result<Rotation, VisionError> {
-    require(a.shape == b.shape && a.shape.len() == 2 && a.shape[0] * params.step == width, "descriptors", || {
-        format!("shapes {:?} and {:?} are not both vertical-cell HOGs of {width} columns", a.shape, b.shape)
-    })?;
+pub fn vertical_hog_rotation(
+    a: &Descriptor,
+    b: &Descriptor,
+    params: VerticalHogParams,
+    width: usize,
+) -> Result<Rotation, VisionError> {
+    require(
+        a.shape == b.shape && a.shape.len() == 2 && a.shape[0] * params.step == width,
+        "descriptors",
+        || {
+            format!(
+                "shapes {:?} and {:?} are not both vertical-cell HOGs of {width} columns",
+                a.shape, b.shape
+            )
+        },
+    )?;
     let (cells, bins) = (a.shape[0], a.shape[1]);
     let distance = |shift: usize| -> f32 {
         (0..cells)
             .map(|i| {
-                let (x, y) = (&a.values[i * bins..(i + 1) * bins], &b.values[(i + shift) % cells * bins..][..bins]);
+                let (x, y) = (
+                    &a.values[i * bins..(i + 1) * bins],
+                    &b.values[(i + shift) % cells * bins..][..bins],
+                );
                 x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum::<f32>()
             })
             .sum()
     };
-    let best = (0..cells).min_by(|&p, &q| distance(p).total_cmp(&distance(q))).unwrap_or(0);
+    let best = (0..cells)
+        .min_by(|&p, &q| distance(p).total_cmp(&distance(q)))
+        .unwrap_or(0);
     Ok(Rotation::from_steps(best * params.step, width))
 }
 
@@ -376,7 +402,12 @@ mod tests {
             }
         }
         for cell in hog.values.chunks(9) {
-            assert!((cell[0] - cell[8]).abs() < 1e-6 && cell[0] > 0.1, "bins 0 and 8: {} {}", cell[0], cell[8]);
+            assert!(
+                (cell[0] - cell[8]).abs() < 1e-6 && cell[0] > 0.1,
+                "bins 0 and 8: {} {}",
+                cell[0],
+                cell[8]
+            );
         }
         let diagonal = image(32, 32, |x, y| 0.05 * (x + y));
         let params = BlockHogParams {
@@ -423,9 +454,14 @@ mod tests {
     /// (horizontal-cell) variant is unchanged by the same move, so it cannot tell the turn.
     #[test]
     fn vertical_cells_recover_a_turn() {
-        let pano = image(128, 32, |x, y| ((x * 0.7).sin() * (y * 0.3).cos() + (x * 0.13 + y * 0.21).sin() * 0.5 + (x * x * 0.001).cos()) * 0.3 + 0.5);
+        let pano = image(128, 32, |x, y| {
+            ((x * 0.7).sin() * (y * 0.3).cos() + (x * 0.13 + y * 0.21).sin() * 0.5 + (x * x * 0.001).cos()) * 0.3 + 0.5
+        });
         for (step, moved) in [(1usize, 37i64), (4, 36)] {
-            let params = VerticalHogParams { step, ..VerticalHogParams::default() };
+            let params = VerticalHogParams {
+                step,
+                ..VerticalHogParams::default()
+            };
             let a = vertical_hog(&pano, params).unwrap();
             let b = vertical_hog(&pano.shift_columns(moved), params).unwrap();
             assert_eq!(a.shape, vec![128 / step, 8]);
@@ -433,7 +469,10 @@ mod tests {
             assert_eq!(rotation.steps as i64, moved, "step {step}");
             assert!((rotation.radians - std::f64::consts::TAU * moved as f64 / 128.0).abs() < 1e-12);
         }
-        let bad = VerticalHogParams { step: 3, ..VerticalHogParams::default() };
+        let bad = VerticalHogParams {
+            step: 3,
+            ..VerticalHogParams::default()
+        };
         assert!(vertical_hog(&pano, bad).is_err());
     }
 
@@ -442,8 +481,17 @@ mod tests {
     fn clip_is_validated() {
         let texture = image(32, 32, |x, y| (0.3 * x + 0.2 * y).sin());
         for clip in [0.0, -0.2, f32::NAN, f32::INFINITY] {
-            let params = BlockHogParams { clip, ..Default::default() };
-            assert!(matches!(block_hog(&texture, params), Err(VisionError::Parameter { name: "clip", .. })), "{clip}");
+            let params = BlockHogParams {
+                clip,
+                ..Default::default()
+            };
+            assert!(
+                matches!(
+                    block_hog(&texture, params),
+                    Err(VisionError::Parameter { name: "clip", .. })
+                ),
+                "{clip}"
+            );
         }
     }
 }

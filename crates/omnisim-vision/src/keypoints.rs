@@ -89,9 +89,11 @@ pub(crate) fn neighbourhood(layers: [&[f32]; 3], width: usize, x: usize, y: usiz
 /// Whether the centre is strictly above (`maximum`) or below all 26 neighbours.
 pub(crate) fn is_extremum(n: &Neighbourhood, maximum: bool) -> bool {
     let centre = n[1][1][1];
-    n.iter().flatten().flatten().enumerate().all(|(i, &v)| {
-        i == 13 || if maximum { centre > v } else { centre < v }
-    })
+    n.iter()
+        .flatten()
+        .flatten()
+        .enumerate()
+        .all(|(i, &v)| i == 13 || if maximum { centre > v } else { centre < v })
 }
 
 /// The second-order Taylor expansion of a neighbourhood about its centre, by central
@@ -123,7 +125,11 @@ impl QuadraticFit {
 
     /// The extremum's offset x̂ = −H⁻¹·∇ (x, y, scale), or `None` if H is singular.
     pub(crate) fn offset(&self) -> Option<Vector3<f32>> {
-        self.hessian.lu().solve(&self.gradient).map(|v| -v).filter(|v| v.iter().all(|c| c.is_finite()))
+        self.hessian
+            .lu()
+            .solve(&self.gradient)
+            .map(|v| -v)
+            .filter(|v| v.iter().all(|c| c.is_finite()))
     }
 
     /// The change of value at `offset`: ½·∇ᵀx̂ (Lowe 2004 §4).
@@ -149,7 +155,9 @@ mod tests {
     #[test]
     fn quadratic_fit_finds_a_bowls_minimum() {
         let (x0, y0, s0) = (0.3f32, -0.2f32, 0.4f32);
-        let f = |x: f32, y: f32, s: f32| 2.0 * (x - x0).powi(2) + (y - y0).powi(2) + 0.5 * (s - s0).powi(2) + 0.3 * (x - x0) * (y - y0) - 1.0;
+        let f = |x: f32, y: f32, s: f32| {
+            2.0 * (x - x0).powi(2) + (y - y0).powi(2) + 0.5 * (s - s0).powi(2) + 0.3 * (x - x0) * (y - y0) - 1.0
+        };
         let mut n = [[[0.0; 3]; 3]; 3];
         for (s, plane) in n.iter_mut().enumerate() {
             for (y, row) in plane.iter_mut().enumerate() {
@@ -170,8 +178,19 @@ mod tests {
     /// The ratio test keeps a distinctive match and drops an ambiguous one.
     #[test]
     fn ratio_test() {
-        let kp = Keypoint { x: 0.0, y: 0.0, sigma: 1.0, angle: 0.0, response: 1.0, octave: 0 };
-        let a = Features { keypoints: vec![kp; 2], length: 2, descriptors: vec![1.0, 0.0, 0.0, 1.0] };
+        let kp = Keypoint {
+            x: 0.0,
+            y: 0.0,
+            sigma: 1.0,
+            angle: 0.0,
+            response: 1.0,
+            octave: 0,
+        };
+        let a = Features {
+            keypoints: vec![kp; 2],
+            length: 2,
+            descriptors: vec![1.0, 0.0, 0.0, 1.0],
+        };
         let b = Features {
             keypoints: vec![kp; 3],
             length: 2,

@@ -156,12 +156,18 @@ impl Pca {
         let (axes_shape, axes) = npy::read(&folder.join("axes.npy"))?;
         let (_, variances) = npy::read(&folder.join("variances.npy"))?;
         let path = folder.join(SIDECAR);
-        let text = std::fs::read_to_string(&path).map_err(|source| VisionError::Io { path: path.clone(), source })?;
+        let text = std::fs::read_to_string(&path).map_err(|source| VisionError::Io {
+            path: path.clone(),
+            source,
+        })?;
         let total_variance = serde_json::from_str::<serde_json::Value>(&text)
             .ok()
             .and_then(|v| v["total_variance"].as_f64())
             .filter(|v| v.is_finite() && *v >= 0.0)
-            .ok_or_else(|| VisionError::Format { path, reason: "no total_variance (a finite number ≥ 0)".to_string() })?;
+            .ok_or_else(|| VisionError::Format {
+                path,
+                reason: "no total_variance (a finite number ≥ 0)".to_string(),
+            })?;
         if axes_shape != [variances.len(), mean.len()] {
             return Err(VisionError::Format {
                 path: folder.join("axes.npy"),

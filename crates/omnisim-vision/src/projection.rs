@@ -72,7 +72,13 @@ impl View {
         require(
             -limit <= lowest && lowest < highest && highest <= limit,
             "elevation band",
-            || format!("needs −89° ≤ lowest < highest ≤ 89°, got {}° .. {}°", degrees(lowest), degrees(highest)),
+            || {
+                format!(
+                    "needs −89° ≤ lowest < highest ≤ 89°, got {}° .. {}°",
+                    degrees(lowest),
+                    degrees(highest)
+                )
+            },
         )?;
         // Row v sees tan(elevation) = (cy − v)/fy; the top edge (v = −½) sees `highest` and the
         // bottom edge (v = H − ½) `lowest`.
@@ -104,7 +110,11 @@ impl View {
             format!("needs 0 < hfov < 179°, got {}°", degrees(hfov))
         })?;
         require(yaw.is_finite() && pitch.is_finite(), "direction", || {
-            format!("yaw and pitch must be finite, got {}° and {}°", degrees(yaw), degrees(pitch))
+            format!(
+                "yaw and pitch must be finite, got {}° and {}°",
+                degrees(yaw),
+                degrees(pitch)
+            )
         })?;
         Ok(View::Camera {
             camera: Camera::Pinhole(Pinhole::with_horizontal_fov(width, height, hfov)),
@@ -116,10 +126,14 @@ impl View {
 
     /// Orthographic view of the plane z = `plane_z` (body frame), centred under the viewpoint.
     pub fn birds_eye(width: u32, height: u32, metres_per_pixel: f64, plane_z: f64) -> Result<View, VisionError> {
-        require(metres_per_pixel.is_finite() && metres_per_pixel > 0.0, "metres per pixel", || {
-            format!("must be finite and positive, got {metres_per_pixel}")
+        require(
+            metres_per_pixel.is_finite() && metres_per_pixel > 0.0,
+            "metres per pixel",
+            || format!("must be finite and positive, got {metres_per_pixel}"),
+        )?;
+        require(plane_z.is_finite(), "plane height", || {
+            format!("must be finite, got {plane_z}")
         })?;
-        require(plane_z.is_finite(), "plane height", || format!("must be finite, got {plane_z}"))?;
         require(plane_z != 0.0, "plane height", || {
             "a plane through the viewpoint is seen edge-on".to_string()
         })?;
@@ -183,9 +197,11 @@ impl Remap {
         }
         let (width, height) = view.size();
         // omnisim's cameras' own limit (`Camera::validate`); the table holds 24 bytes a pixel.
-        require(width >= 1 && height >= 1 && width as u64 * height as u64 <= 100_000_000, "view size", || {
-            format!("{width}×{height} pixels: a view has 1 to 100 megapixels")
-        })?;
+        require(
+            width >= 1 && height >= 1 && width as u64 * height as u64 <= 100_000_000,
+            "view size",
+            || format!("{width}×{height} pixels: a view has 1 to 100 megapixels"),
+        )?;
         let (source_w, source_h) = (omni.width as f64, omni.height as f64);
         let inside = |p: &DVec2| p.x >= -0.5 && p.y >= -0.5 && p.x <= source_w - 0.5 && p.y <= source_h - 0.5;
         let source = (0..width as usize * height as usize)

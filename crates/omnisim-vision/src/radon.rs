@@ -62,17 +62,21 @@ impl RadonParams {
         require(self.line_step.is_finite() && self.line_step > 0.0, "line step", || {
             format!("must be finite and positive, got {}", self.line_step)
         })?;
-        require(self.radial_step.is_finite() && self.radial_step > 0.0, "radial step", || {
-            format!("must be finite and positive, got {}", self.radial_step)
-        })?;
+        require(
+            self.radial_step.is_finite() && self.radial_step > 0.0,
+            "radial step",
+            || format!("must be finite and positive, got {}", self.radial_step),
+        )?;
         if let Some(n) = self.radial_samples {
             require(n >= 2 && n as f64 <= MAX_SAMPLES, "radial samples", || {
                 format!("needs 2 to {MAX_SAMPLES:.0e}, got {n}")
             })?;
         }
-        require(self.centre.is_none_or(|(x, y)| x.is_finite() && y.is_finite()), "centre", || {
-            format!("must be finite, got {:?}", self.centre)
-        })
+        require(
+            self.centre.is_none_or(|(x, y)| x.is_finite() && y.is_finite()),
+            "centre",
+            || format!("must be finite, got {:?}", self.centre),
+        )
     }
 }
 
@@ -101,11 +105,15 @@ impl RadonParams {
     fn layout(&self, width: usize, height: usize) -> Result<Layout, VisionError> {
         self.validate()?;
         require(width >= 1 && height >= 1, "image", || "the image is empty".to_string())?;
-        let (cx, cy) = self.centre.unwrap_or(((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0));
+        let (cx, cy) = self
+            .centre
+            .unwrap_or(((width as f64 - 1.0) / 2.0, (height as f64 - 1.0) / 2.0));
         let (max_x, max_y) = ((width - 1) as f64, (height - 1) as f64);
-        require((0.0..=max_x).contains(&cx) && (0.0..=max_y).contains(&cy), "centre", || {
-            format!("({cx}, {cy}) is outside the {width}×{height} image")
-        })?;
+        require(
+            (0.0..=max_x).contains(&cx) && (0.0..=max_y).contains(&cy),
+            "centre",
+            || format!("({cx}, {cy}) is outside the {width}×{height} image"),
+        )?;
         // From the centre to the nearest image edge ((min(W, H) − 1)/2 for the image centre).
         let reach = cx.min(max_x - cx).min(cy).min(max_y - cy);
         // In f64 first: a tiny step would overflow the count as an integer.
@@ -124,9 +132,14 @@ impl RadonParams {
         // samples for a 250² image).
         let samples = values * width.max(height) as f64 / self.line_step;
         require(samples <= 1e10, "sampling", || {
-            format!("{samples:.1e} line samples asked (angles × radial samples × line length / line step); at most 1e10")
+            format!(
+                "{samples:.1e} line samples asked (angles × radial samples × line length / line step); at most 1e10"
+            )
         })?;
-        Ok(Layout { centre: (cx, cy), radial: radial as usize })
+        Ok(Layout {
+            centre: (cx, cy),
+            radial: radial as usize,
+        })
     }
 }
 
@@ -137,7 +150,10 @@ impl Radon {
         require(image.channels == 1, "channels", || {
             format!("the Radon transform reads one channel, got {}", image.channels)
         })?;
-        let Layout { centre: (cx, cy), radial } = params.layout(image.width, image.height)?;
+        let Layout {
+            centre: (cx, cy),
+            radial,
+        } = params.layout(image.width, image.height)?;
         let (max_x, max_y) = ((image.width - 1) as f64, (image.height - 1) as f64);
         let p = |j: usize| radial_position(j, radial, params.radial_step);
         // The farthest image corner from the centre: every line leaves the image within ±this
@@ -354,15 +370,39 @@ mod tests {
     fn bad_settings_are_refused() {
         let image = Raster::new(20, 20, 1);
         for params in [
-            RadonParams { radial_step: 1e-20, ..Default::default() },
-            RadonParams { radial_step: f64::NAN, ..Default::default() },
-            RadonParams { line_step: f64::INFINITY, ..Default::default() },
-            RadonParams { radial_samples: Some(usize::MAX), ..Default::default() },
-            RadonParams { angles: usize::MAX, ..Default::default() },
-            RadonParams { centre: Some((25.0, 3.0)), ..Default::default() },
-            RadonParams { centre: Some((f64::NAN, 3.0)), ..Default::default() },
+            RadonParams {
+                radial_step: 1e-20,
+                ..Default::default()
+            },
+            RadonParams {
+                radial_step: f64::NAN,
+                ..Default::default()
+            },
+            RadonParams {
+                line_step: f64::INFINITY,
+                ..Default::default()
+            },
+            RadonParams {
+                radial_samples: Some(usize::MAX),
+                ..Default::default()
+            },
+            RadonParams {
+                angles: usize::MAX,
+                ..Default::default()
+            },
+            RadonParams {
+                centre: Some((25.0, 3.0)),
+                ..Default::default()
+            },
+            RadonParams {
+                centre: Some((f64::NAN, 3.0)),
+                ..Default::default()
+            },
         ] {
-            assert!(matches!(Radon::new(&image, params), Err(VisionError::Parameter { .. })), "{params:?}");
+            assert!(
+                matches!(Radon::new(&image, params), Err(VisionError::Parameter { .. })),
+                "{params:?}"
+            );
         }
     }
 }

@@ -79,25 +79,35 @@ impl SiftParams {
     pub fn validate(&self) -> Result<(), VisionError> {
         let positive = |v: f32| v.is_finite() && v > 0.0;
         // A σ of 50 already blurs with a 401-tap kernel; beyond it an octave holds no feature.
-        require(positive(self.sigma) && self.sigma <= 50.0, "sigma", || format!("{} must be in (0, 50]", self.sigma))?;
-        require(self.input_sigma.is_finite() && self.input_sigma >= 0.0, "input_sigma", || {
-            format!("{} must be 0 or more", self.input_sigma)
+        require(positive(self.sigma) && self.sigma <= 50.0, "sigma", || {
+            format!("{} must be in (0, 50]", self.sigma)
         })?;
+        require(
+            self.input_sigma.is_finite() && self.input_sigma >= 0.0,
+            "input_sigma",
+            || format!("{} must be 0 or more", self.input_sigma),
+        )?;
         require((1..=16).contains(&self.scales_per_octave), "scales_per_octave", || {
             format!("{} must be 1 to 16", self.scales_per_octave)
         })?;
-        require(self.contrast_threshold.is_finite() && self.contrast_threshold >= 0.0, "contrast_threshold", || {
-            format!("{} must be 0 or more", self.contrast_threshold)
-        })?;
-        require(self.edge_ratio.is_finite() && self.edge_ratio >= 1.0, "edge_ratio", || {
-            format!("{} must be 1 or more", self.edge_ratio)
-        })?;
+        require(
+            self.contrast_threshold.is_finite() && self.contrast_threshold >= 0.0,
+            "contrast_threshold",
+            || format!("{} must be 0 or more", self.contrast_threshold),
+        )?;
+        require(
+            self.edge_ratio.is_finite() && self.edge_ratio >= 1.0,
+            "edge_ratio",
+            || format!("{} must be 1 or more", self.edge_ratio),
+        )?;
         require((4..=360).contains(&self.orientation_bins), "orientation_bins", || {
             format!("{} must be 4 to 360", self.orientation_bins)
         })?;
-        require(positive(self.peak_ratio) && self.peak_ratio <= 1.0, "peak_ratio", || {
-            format!("{} must be in (0, 1]", self.peak_ratio)
-        })?;
+        require(
+            positive(self.peak_ratio) && self.peak_ratio <= 1.0,
+            "peak_ratio",
+            || format!("{} must be in (0, 1]", self.peak_ratio),
+        )?;
         require((1..=16).contains(&self.descriptor_width), "descriptor_width", || {
             format!("{} must be 1 to 16", self.descriptor_width)
         })?;
@@ -127,7 +137,11 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
     let shortest = base.width.min(base.height);
     let smallest_octave = 2 * params.border + 3;
     if shortest < smallest_octave {
-        return Ok(Features { keypoints: Vec::new(), length: descriptor_length(params), descriptors: Vec::new() });
+        return Ok(Features {
+            keypoints: Vec::new(),
+            length: descriptor_length(params),
+            descriptors: Vec::new(),
+        });
     }
     // OpenCV's count (log2 of the side − 2), then only octaves that leave room inside the border.
     let octaves = ((shortest as f32).log2() - 2.0).round().max(1.0) as usize;
@@ -137,7 +151,11 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
     let mut gaussians: Vec<Vec<Raster>> = Vec::with_capacity(octaves);
     for o in 0..octaves {
         let mut layers = Vec::with_capacity(s + 3);
-        layers.push(if o == 0 { base.clone() } else { decimate(&gaussians[o - 1][s]) });
+        layers.push(if o == 0 {
+            base.clone()
+        } else {
+            decimate(&gaussians[o - 1][s])
+        });
         for &increment in &increments {
             let next = gaussian_blur(layers.last().expect("first layer pushed"), increment);
             layers.push(next);
@@ -149,7 +167,9 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
         .map(|layers| layers.windows(2).map(|pair| difference(&pair[1], &pair[0])).collect())
         .collect();
 
-    let candidates: Vec<(usize, usize)> = (0..octaves).flat_map(|o| (1..=s).map(move |layer| (o, layer))).collect();
+    let candidates: Vec<(usize, usize)> = (0..octaves)
+        .flat_map(|o| (1..=s).map(move |layer| (o, layer)))
+        .collect();
     let mut keypoints: Vec<(Keypoint, usize, usize)> = candidates
         .par_iter()
         .flat_map_iter(|&(o, layer)| {
@@ -194,7 +214,11 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
             descriptor(&gaussians[*o][*layer], x, y, k.angle, k.sigma / scale, params)
         })
         .collect();
-    Ok(Features { keypoints: keypoints.into_iter().map(|(k, _, _)| k).collect(), length, descriptors })
+    Ok(Features {
+        keypoints: keypoints.into_iter().map(|(k, _, _)| k).collect(),
+        length,
+        descriptors,
+    })
 }
 
 fn descriptor_length(params: &SiftParams) -> usize {
@@ -238,8 +262,14 @@ fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams) -> Vec<Extremum> 
             if value.abs() <= threshold {
                 continue;
             }
-            let layers = [&dogs[layer - 1].data[..], &dogs[layer].data[..], &dogs[layer + 1].data[..]];
-            let Some(n) = neighbourhood(layers, w, x, y) else { continue };
+            let layers = [
+                &dogs[layer - 1].data[..],
+                &dogs[layer].data[..],
+                &dogs[layer + 1].data[..],
+            ];
+            let Some(n) = neighbourhood(layers, w, x, y) else {
+                continue;
+            };
             if is_extremum(&n, value > 0.0) {
                 found.extend(refine(dogs, x, y, layer, params));
             }
@@ -255,7 +285,11 @@ fn refine(dogs: &[Raster], mut x: usize, mut y: usize, mut layer: usize, params:
     let (w, h) = (dogs[0].width, dogs[0].height);
     let b = params.border;
     for _ in 0..5 {
-        let layers = [&dogs[layer - 1].data[..], &dogs[layer].data[..], &dogs[layer + 1].data[..]];
+        let layers = [
+            &dogs[layer - 1].data[..],
+            &dogs[layer].data[..],
+            &dogs[layer + 1].data[..],
+        ];
         let n = neighbourhood(layers, w, x, y)?;
         let fit = QuadraticFit::new(&n);
         let offset = fit.offset()?;
@@ -293,7 +327,10 @@ fn refine(dogs: &[Raster], mut x: usize, mut y: usize, mut layer: usize, params:
 
 /// Gradient (dx, dy) by central differences at an interior pixel, y pointing down the image.
 fn gradient(image: &Raster, x: usize, y: usize) -> (f32, f32) {
-    (image.at(x + 1, y) - image.at(x - 1, y), image.at(x, y + 1) - image.at(x, y - 1))
+    (
+        image.at(x + 1, y) - image.at(x - 1, y),
+        image.at(x, y + 1) - image.at(x, y - 1),
+    )
 }
 
 /// Lowe 2004 §5: the angles (degrees, +x towards +y) of the orientation histogram's peaks.
@@ -323,7 +360,9 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
     let at = |h: &[f32], i: i64| h[i.rem_euclid(n as i64) as usize];
     let hist: Vec<f32> = (0..n as i64)
         .map(|i| {
-            (at(&raw, i - 2) + at(&raw, i + 2)) / 16.0 + (at(&raw, i - 1) + at(&raw, i + 1)) * 4.0 / 16.0 + at(&raw, i) * 6.0 / 16.0
+            (at(&raw, i - 2) + at(&raw, i + 2)) / 16.0
+                + (at(&raw, i - 1) + at(&raw, i + 1)) * 4.0 / 16.0
+                + at(&raw, i) * 6.0 / 16.0
         })
         .collect();
     let highest = hist.iter().copied().fold(0.0f32, f32::max);
@@ -414,7 +453,12 @@ fn upsample(image: &Raster) -> Raster {
     let mut value = [0.0];
     for y in 0..h {
         for x in 0..w {
-            image.sample((x as f64 + 0.5) / 2.0 - 0.5, (y as f64 + 0.5) / 2.0 - 0.5, Interpolation::Bilinear, &mut value);
+            image.sample(
+                (x as f64 + 0.5) / 2.0 - 0.5,
+                (y as f64 + 0.5) / 2.0 - 0.5,
+                Interpolation::Bilinear,
+                &mut value,
+            );
             out.data[y * w + x] = value[0];
         }
     }
@@ -424,13 +468,25 @@ fn upsample(image: &Raster) -> Raster {
 /// Every second pixel of every second row.
 fn decimate(image: &Raster) -> Raster {
     let (w, h) = (image.width / 2, image.height / 2);
-    let data = (0..h).flat_map(|y| (0..w).map(move |x| image.at(2 * x, 2 * y))).collect();
-    Raster { width: w, height: h, channels: 1, data }
+    let data = (0..h)
+        .flat_map(|y| (0..w).map(move |x| image.at(2 * x, 2 * y)))
+        .collect();
+    Raster {
+        width: w,
+        height: h,
+        channels: 1,
+        data,
+    }
 }
 
 fn difference(a: &Raster, b: &Raster) -> Raster {
     let data = a.data.iter().zip(&b.data).map(|(x, y)| x - y).collect();
-    Raster { width: a.width, height: a.height, channels: 1, data }
+    Raster {
+        width: a.width,
+        height: a.height,
+        channels: 1,
+        data,
+    }
 }
 
 /// Separable Gaussian blur of a one-channel image, kernel radius ⌊(⌊8σ + 1⌉ | 1)/2⌋ and
@@ -459,19 +515,37 @@ pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
     };
     // Each line is copied once with its mirrored margins, then convolved without index checks.
     let convolve = |source: &[f32], len: usize, out: &mut [f32]| {
-        let padded: Vec<f32> = (0..len + 2 * radius).map(|i| source[reflect(i as i64 - radius as i64, len)]).collect();
+        let padded: Vec<f32> = (0..len + 2 * radius)
+            .map(|i| source[reflect(i as i64 - radius as i64, len)])
+            .collect();
         for (o, window) in out.iter_mut().zip(padded.windows(kernel.len())) {
             *o = window.iter().zip(&kernel).map(|(v, k)| v * k).sum();
         }
     };
     let mut rows = vec![0.0f32; w * h];
-    rows.par_chunks_mut(w).zip(image.data.par_chunks(w)).for_each(|(out, row)| convolve(row, w, out));
+    rows.par_chunks_mut(w)
+        .zip(image.data.par_chunks(w))
+        .for_each(|(out, row)| convolve(row, w, out));
     // Columns: transpose, blur rows, transpose back.
-    let transposed: Vec<f32> = (0..w).flat_map(|x| (0..h).map(move |y| (x, y))).map(|(x, y)| rows[y * w + x]).collect();
+    let transposed: Vec<f32> = (0..w)
+        .flat_map(|x| (0..h).map(move |y| (x, y)))
+        .map(|(x, y)| rows[y * w + x])
+        .collect();
     let mut blurred = vec![0.0f32; w * h];
-    blurred.par_chunks_mut(h).zip(transposed.par_chunks(h)).for_each(|(out, column)| convolve(column, h, out));
-    let data = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| blurred[x * h + y]).collect();
-    Raster { width: w, height: h, channels: 1, data }
+    blurred
+        .par_chunks_mut(h)
+        .zip(transposed.par_chunks(h))
+        .for_each(|(out, column)| convolve(column, h, out));
+    let data = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| blurred[x * h + y])
+        .collect();
+    Raster {
+        width: w,
+        height: h,
+        channels: 1,
+        data,
+    }
 }
 
 #[cfg(test)]
@@ -487,7 +561,9 @@ mod tests {
         let sigma = 2.5f32;
         let blurred = gaussian_blur(&impulse, sigma);
         let total: f32 = blurred.data.iter().sum();
-        let variance: f32 = (0..41).map(|x| blurred.at(x, 20) / blurred.row(20).iter().sum::<f32>() * (x as f32 - 20.0).powi(2)).sum();
+        let variance: f32 = (0..41)
+            .map(|x| blurred.at(x, 20) / blurred.row(20).iter().sum::<f32>() * (x as f32 - 20.0).powi(2))
+            .sum();
         assert!((total - 1.0).abs() < 1e-5, "{total}");
         assert!((variance - sigma * sigma).abs() < 0.01 * sigma * sigma, "{variance}");
         let flat = gaussian_blur(&Raster::from_vec(7, 5, 1, vec![0.3; 35]).unwrap(), 1.6);
@@ -509,7 +585,11 @@ mod tests {
             .collect();
         let image = Raster::from_vec(size, size, 1, data).unwrap();
         let features = sift(&image, &SiftParams::default()).unwrap();
-        let near: Vec<&Keypoint> = features.keypoints.iter().filter(|k| (k.x - cx).hypot(k.y - cy) < 2.0).collect();
+        let near: Vec<&Keypoint> = features
+            .keypoints
+            .iter()
+            .filter(|k| (k.x - cx).hypot(k.y - cy) < 2.0)
+            .collect();
         assert!(!near.is_empty(), "{:?}", features.keypoints);
         let best = near.iter().max_by(|a, b| a.response.total_cmp(&b.response)).unwrap();
         assert!((best.x - cx).hypot(best.y - cy) < 0.1, "{best:?}");
@@ -525,8 +605,28 @@ mod tests {
     #[test]
     fn bad_parameters_are_refused() {
         let image = Raster::new(64, 64, 1);
-        let bad = SiftParams { scales_per_octave: 0, ..SiftParams::default() };
-        assert!(matches!(sift(&image, &bad), Err(VisionError::Parameter { name: "scales_per_octave", .. })));
-        assert!(sift(&Raster::new(8, 8, 1), &SiftParams { upsample: false, ..SiftParams::default() }).unwrap().keypoints.is_empty());
+        let bad = SiftParams {
+            scales_per_octave: 0,
+            ..SiftParams::default()
+        };
+        assert!(matches!(
+            sift(&image, &bad),
+            Err(VisionError::Parameter {
+                name: "scales_per_octave",
+                ..
+            })
+        ));
+        assert!(
+            sift(
+                &Raster::new(8, 8, 1),
+                &SiftParams {
+                    upsample: false,
+                    ..SiftParams::default()
+                }
+            )
+            .unwrap()
+            .keypoints
+            .is_empty()
+        );
     }
 }

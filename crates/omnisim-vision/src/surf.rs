@@ -65,23 +65,35 @@ impl Default for SurfParams {
 impl SurfParams {
     /// Checks every setting (ranges in the messages).
     pub fn validate(&self) -> Result<(), VisionError> {
-        require(self.hessian_threshold.is_finite() && self.hessian_threshold >= 0.0, "hessian_threshold", || {
-            format!("{} must be 0 or more", self.hessian_threshold)
+        require(
+            self.hessian_threshold.is_finite() && self.hessian_threshold >= 0.0,
+            "hessian_threshold",
+            || format!("{} must be 0 or more", self.hessian_threshold),
+        )?;
+        require((1..=8).contains(&self.octaves), "octaves", || {
+            format!("{} must be 1 to 8", self.octaves)
         })?;
-        require((1..=8).contains(&self.octaves), "octaves", || format!("{} must be 1 to 8", self.octaves))?;
-        require((3..=8).contains(&self.intervals), "intervals", || format!("{} must be 3 to 8", self.intervals))?;
+        require((3..=8).contains(&self.intervals), "intervals", || {
+            format!("{} must be 3 to 8", self.intervals)
+        })?;
         require((1..=8).contains(&self.initial_step), "initial_step", || {
             format!("{} must be 1 to 8", self.initial_step)
         })?;
-        require(self.hessian_weight.is_finite() && self.hessian_weight >= 0.0, "hessian_weight", || {
-            format!("{} must be 0 or more", self.hessian_weight)
-        })?;
-        require(self.orientation_window > 0.0 && self.orientation_window <= 360.0, "orientation_window", || {
-            format!("{} must be in (0, 360]", self.orientation_window)
-        })?;
-        require(self.orientation_step > 0.0 && self.orientation_step <= 360.0, "orientation_step", || {
-            format!("{} must be in (0, 360]", self.orientation_step)
-        })
+        require(
+            self.hessian_weight.is_finite() && self.hessian_weight >= 0.0,
+            "hessian_weight",
+            || format!("{} must be 0 or more", self.hessian_weight),
+        )?;
+        require(
+            self.orientation_window > 0.0 && self.orientation_window <= 360.0,
+            "orientation_window",
+            || format!("{} must be in (0, 360]", self.orientation_window),
+        )?;
+        require(
+            self.orientation_step > 0.0 && self.orientation_step <= 360.0,
+            "orientation_step",
+            || format!("{} must be in (0, 360]", self.orientation_step),
+        )
     }
 }
 
@@ -97,10 +109,19 @@ pub fn surf(image: &Raster, params: &SurfParams) -> Result<Features, VisionError
         .flat_map_iter(|o| octave_keypoints(&integral, o, params))
         .collect();
     if !params.upright {
-        keypoints.par_iter_mut().for_each(|k| k.angle = orientation(&integral, k, params));
+        keypoints
+            .par_iter_mut()
+            .for_each(|k| k.angle = orientation(&integral, k, params));
     }
-    let descriptors = keypoints.par_iter().flat_map_iter(|k| descriptor(&integral, k)).collect();
-    Ok(Features { keypoints, length: DESCRIPTOR_LENGTH, descriptors })
+    let descriptors = keypoints
+        .par_iter()
+        .flat_map_iter(|k| descriptor(&integral, k))
+        .collect();
+    Ok(Features {
+        keypoints,
+        length: DESCRIPTOR_LENGTH,
+        descriptors,
+    })
 }
 
 /// Side of the box filter of octave `o`, interval `i` (Bay et al. 2006 Fig. 3).
@@ -126,7 +147,11 @@ impl Integral {
                 sums[(y + 1) * (w + 1) + x + 1] = sums[y * (w + 1) + x + 1] + row;
             }
         }
-        Self { width: w, height: h, sums }
+        Self {
+            width: w,
+            height: h,
+            sums,
+        }
     }
 
     /// Sum over columns x0..=x1 and rows y0..=y1, clipped to the image.
@@ -154,8 +179,10 @@ impl Integral {
         let lobe = (side / 3) as i64;
         let half = (side as i64 - 1) / 2;
         let centre = (lobe - 1) / 2;
-        let dxx = self.sum(x - half, y - lobe + 1, x + half, y + lobe - 1) - 3.0 * self.sum(x - centre, y - lobe + 1, x + centre, y + lobe - 1);
-        let dyy = self.sum(x - lobe + 1, y - half, x + lobe - 1, y + half) - 3.0 * self.sum(x - lobe + 1, y - centre, x + lobe - 1, y + centre);
+        let dxx = self.sum(x - half, y - lobe + 1, x + half, y + lobe - 1)
+            - 3.0 * self.sum(x - centre, y - lobe + 1, x + centre, y + lobe - 1);
+        let dyy = self.sum(x - lobe + 1, y - half, x + lobe - 1, y + half)
+            - 3.0 * self.sum(x - lobe + 1, y - centre, x + lobe - 1, y + centre);
         let dxy = self.sum(x - lobe, y - lobe, x - 1, y - 1) + self.sum(x + 1, y + 1, x + lobe, y + lobe)
             - self.sum(x + 1, y - lobe, x + lobe, y - 1)
             - self.sum(x - lobe, y + 1, x - 1, y + lobe);
@@ -203,7 +230,9 @@ fn octave_keypoints(integral: &Integral, o: usize, params: &SurfParams) -> Vec<K
                 if value.is_nan() || value <= params.hessian_threshold {
                     continue;
                 }
-                let Some(n) = neighbourhood(three, gw, gx, gy) else { continue };
+                let Some(n) = neighbourhood(three, gw, gx, gy) else {
+                    continue;
+                };
                 if !is_extremum(&n, true) {
                     continue;
                 }
@@ -305,7 +334,10 @@ mod tests {
         let data: Vec<f32> = (0..w * h).map(|i| ((i * 37) % 11) as f32 / 10.0).collect();
         let image = Raster::from_vec(w, h, 1, data.clone()).unwrap();
         let integral = Integral::new(&image);
-        let direct: f64 = (2..=7).flat_map(|y| (3..=9).map(move |x| (x, y))).map(|(x, y)| 255.0 * data[y * w + x] as f64).sum();
+        let direct: f64 = (2..=7)
+            .flat_map(|y| (3..=9).map(move |x| (x, y)))
+            .map(|(x, y)| 255.0 * data[y * w + x] as f64)
+            .sum();
         assert!((integral.sum(3, 2, 9, 7) - direct).abs() < 1e-6);
         assert_eq!([0, 1, 2, 3].map(|i| filter_side(1, i)), [15, 27, 39, 51]);
         assert_eq!(filter_side(3, 3), 195);
@@ -332,7 +364,11 @@ mod tests {
                     })
                     .collect();
                 let features = surf(&Raster::from_vec(size, size, 1, data).unwrap(), &SurfParams::default()).unwrap();
-                let best = features.keypoints.iter().max_by(|a, b| a.response.total_cmp(&b.response)).unwrap();
+                let best = features
+                    .keypoints
+                    .iter()
+                    .max_by(|a, b| a.response.total_cmp(&b.response))
+                    .unwrap();
                 assert!((best.x - cx).hypot(best.y - cy) < 1.0, "{best:?}");
                 assert!((0.65..0.85).contains(&(best.sigma / sigma0)), "{best:?} vs σ₀ {sigma0}");
                 let norm: f32 = features.descriptor(0).iter().map(|v| v * v).sum::<f32>().sqrt();
@@ -345,8 +381,19 @@ mod tests {
 
     #[test]
     fn bad_parameters_are_refused() {
-        let bad = SurfParams { intervals: 2, ..SurfParams::default() };
-        assert!(matches!(surf(&Raster::new(32, 32, 1), &bad), Err(VisionError::Parameter { name: "intervals", .. })));
-        assert!(surf(&Raster::new(4, 4, 1), &SurfParams::default()).unwrap().keypoints.is_empty());
+        let bad = SurfParams {
+            intervals: 2,
+            ..SurfParams::default()
+        };
+        assert!(matches!(
+            surf(&Raster::new(32, 32, 1), &bad),
+            Err(VisionError::Parameter { name: "intervals", .. })
+        ));
+        assert!(
+            surf(&Raster::new(4, 4, 1), &SurfParams::default())
+                .unwrap()
+                .keypoints
+                .is_empty()
+        );
     }
 }

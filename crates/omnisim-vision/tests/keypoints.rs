@@ -48,7 +48,8 @@ impl Pattern {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         // The pattern covers the reference image and a margin, so that turned and scaled
         // views are filled too.
-        let place = |rng: &mut rand_chacha::ChaCha8Rng| (rng.random_range(-60.0..316.0), rng.random_range(-60.0..316.0));
+        let place =
+            |rng: &mut rand_chacha::ChaCha8Rng| (rng.random_range(-60.0..316.0), rng.random_range(-60.0..316.0));
         let sign = |rng: &mut rand_chacha::ChaCha8Rng| if rng.random_bool(0.5) { 1.0 } else { -1.0 };
         let blobs = (0..260)
             .map(|_| Blob {
@@ -65,12 +66,16 @@ impl Pattern {
                 let turn: f64 = rng.random_range(0.0..std::f64::consts::TAU);
                 let edges = (0..corners)
                     .map(|i| {
-                        let a = turn + std::f64::consts::TAU * (i as f64 + rng.random_range(-0.2..0.2)) / corners as f64;
+                        let a =
+                            turn + std::f64::consts::TAU * (i as f64 + rng.random_range(-0.2..0.2)) / corners as f64;
                         let n = (a.cos(), a.sin());
                         (n, n.0 * centre.0 + n.1 * centre.1 + radius * rng.random_range(0.6..1.0))
                     })
                     .collect();
-                Polygon { edges, amplitude: sign(&mut rng) * rng.random_range(0.15..0.35) }
+                Polygon {
+                    edges,
+                    amplitude: sign(&mut rng) * rng.random_range(0.15..0.35),
+                }
             })
             .collect();
         let waves = (0..24)
@@ -119,7 +124,11 @@ struct Similarity {
 
 impl Similarity {
     fn new(degrees: f64, scale: f64) -> Self {
-        Self { degrees, scale, side: (SIDE as f64 * scale).round() as usize }
+        Self {
+            degrees,
+            scale,
+            side: (SIDE as f64 * scale).round() as usize,
+        }
     }
 
     fn apply(&self, x: f64, y: f64) -> (f64, f64) {
@@ -127,7 +136,10 @@ impl Similarity {
         let c_out = (self.side as f64 - 1.0) / 2.0;
         let (sin, cos) = self.degrees.to_radians().sin_cos();
         let (dx, dy) = (x - c_in, y - c_in);
-        (c_out + self.scale * (cos * dx - sin * dy), c_out + self.scale * (sin * dx + cos * dy))
+        (
+            c_out + self.scale * (cos * dx - sin * dy),
+            c_out + self.scale * (sin * dx + cos * dy),
+        )
     }
 
     fn invert(&self, u: f64, v: f64) -> (f64, f64) {
@@ -172,7 +184,12 @@ struct Agreement {
 }
 
 fn compare(reference: &Features, transformed: &Features, t: Similarity) -> Agreement {
-    let mut agreement = Agreement { visible: 0, repeated: 0, matches: 0, correct: 0 };
+    let mut agreement = Agreement {
+        visible: 0,
+        repeated: 0,
+        matches: 0,
+        correct: 0,
+    };
     let inside = |(x, y): (f64, f64)| {
         let margin = 8.0;
         x >= margin && y >= margin && x <= t.side as f64 - 1.0 - margin && y <= t.side as f64 - 1.0 - margin
@@ -185,7 +202,8 @@ fn compare(reference: &Features, transformed: &Features, t: Similarity) -> Agree
         agreement.visible += 1;
         let expected_sigma = k.sigma as f64 * t.scale;
         if transformed.keypoints.iter().any(|q| {
-            (q.x as f64 - p.0).hypot(q.y as f64 - p.1) < 2.0 && (q.sigma as f64 / expected_sigma).ln().abs() < 1.5f64.ln()
+            (q.x as f64 - p.0).hypot(q.y as f64 - p.1) < 2.0
+                && (q.sigma as f64 / expected_sigma).ln().abs() < 1.5f64.ln()
         }) {
             agreement.repeated += 1;
         }
@@ -206,7 +224,11 @@ fn compare(reference: &Features, transformed: &Features, t: Similarity) -> Agree
 fn check_invariance(name: &str, detect: impl Fn(&Raster) -> Features, cases: &[(Similarity, f64, f64)]) {
     let pattern = Pattern::new(7);
     let reference = detect(&Similarity::new(0.0, 1.0).draw(&pattern));
-    assert!(reference.keypoints.len() > 150, "{name}: only {} keypoints on the pattern", reference.keypoints.len());
+    assert!(
+        reference.keypoints.len() > 150,
+        "{name}: only {} keypoints on the pattern",
+        reference.keypoints.len()
+    );
     let mut failures = Vec::new();
     for &(t, repeat_bound, match_bound) in cases {
         let transformed = detect(&t.draw(&pattern));
@@ -259,7 +281,16 @@ fn sift_is_repeatable_under_rotation_and_scale() {
 fn surf_is_repeatable_under_rotation_and_scale() {
     check_invariance(
         "SURF",
-        |image| surf(image, &SurfParams { hessian_threshold: 30.0, ..SurfParams::default() }).unwrap(),
+        |image| {
+            surf(
+                image,
+                &SurfParams {
+                    hessian_threshold: 30.0,
+                    ..SurfParams::default()
+                },
+            )
+            .unwrap()
+        },
         &[
             (Similarity::new(30.0, 1.0), 0.65, 0.9),
             (Similarity::new(90.0, 1.0), 0.9, 0.95),
@@ -269,8 +300,21 @@ fn surf_is_repeatable_under_rotation_and_scale() {
     );
     check_invariance(
         "U-SURF",
-        |image| surf(image, &SurfParams { hessian_threshold: 30.0, upright: true, ..SurfParams::default() }).unwrap(),
-        &[(Similarity::new(0.0, 0.7), 0.5, 0.9), (Similarity::new(0.0, 1.5), 0.75, 0.9)],
+        |image| {
+            surf(
+                image,
+                &SurfParams {
+                    hessian_threshold: 30.0,
+                    upright: true,
+                    ..SurfParams::default()
+                },
+            )
+            .unwrap()
+        },
+        &[
+            (Similarity::new(0.0, 0.7), 0.5, 0.9),
+            (Similarity::new(0.0, 1.5), 0.75, 0.9),
+        ],
     );
 }
 
@@ -280,7 +324,10 @@ fn python() -> Option<std::ffi::OsString> {
     match std::env::var_os("OMNISIM_PYTHON") {
         Some(python) => Some(python),
         None => {
-            assert!(std::env::var_os("CI").is_none(), "CI is set but OMNISIM_PYTHON (made by .ci/run) is not");
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI is set but OMNISIM_PYTHON (made by .ci/run) is not"
+            );
             eprintln!(
                 "\n**** SKIPPED OpenCV SIFT comparison: set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt ****\n"
             );
@@ -305,7 +352,12 @@ fn sift_agrees_with_opencv() {
     let png = folder.path().join("pattern.png");
     image.to_image().unwrap().save(&png).unwrap();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/opencv_sift.py");
-    let status = Command::new(&python).arg(&script).arg(&png).arg(folder.path()).status().unwrap();
+    let status = Command::new(&python)
+        .arg(&script)
+        .arg(&png)
+        .arg(folder.path())
+        .status()
+        .unwrap();
     assert!(status.success(), "{script:?} failed");
     let (shape, rows) = omnisim_vision::npy::read(&folder.path().join("keypoints.npy")).unwrap();
     let (dshape, opencv_descriptors) = omnisim_vision::npy::read(&folder.path().join("descriptors.npy")).unwrap();
@@ -324,14 +376,24 @@ fn sift_agrees_with_opencv() {
             })
             .collect();
         let angle_gap = |a: f32| ((a - angle).rem_euclid(360.0)).min((angle - a).rem_euclid(360.0));
-        let Some(&best) = candidates.iter().min_by(|&&a, &&b| angle_gap(ours.keypoints[a].angle).total_cmp(&angle_gap(ours.keypoints[b].angle))) else {
+        let Some(&best) = candidates
+            .iter()
+            .min_by(|&&a, &&b| angle_gap(ours.keypoints[a].angle).total_cmp(&angle_gap(ours.keypoints[b].angle)))
+        else {
             continue;
         };
         found += 1;
         angle_errors.push(angle_gap(ours.keypoints[best].angle));
         let theirs = &opencv_descriptors[i * 128..(i + 1) * 128];
         let norm = theirs.iter().map(|v| v * v).sum::<f32>().sqrt();
-        cosines.push(theirs.iter().zip(ours.descriptor(best)).map(|(a, b)| a * b).sum::<f32>() / norm);
+        cosines.push(
+            theirs
+                .iter()
+                .zip(ours.descriptor(best))
+                .map(|(a, b)| a * b)
+                .sum::<f32>()
+                / norm,
+        );
     }
     let opencv_count = shape[0];
     let share = found as f64 / opencv_count as f64;
@@ -365,7 +427,14 @@ fn sift_agrees_with_opencv() {
         "omnisim finds {} keypoints, OpenCV {opencv_count}",
         ours.keypoints.len()
     );
-    assert!(reverse_share >= 0.9, "only {:.1} % of omnisim's keypoints are OpenCV's", 100.0 * reverse_share);
-    assert!(median(&cosines) >= 0.99 && close >= 0.9, "descriptors differ from OpenCV's");
+    assert!(
+        reverse_share >= 0.9,
+        "only {:.1} % of omnisim's keypoints are OpenCV's",
+        100.0 * reverse_share
+    );
+    assert!(
+        median(&cosines) >= 0.99 && close >= 0.9,
+        "descriptors differ from OpenCV's"
+    );
     assert!(median(&angle_errors) < 1.0);
 }

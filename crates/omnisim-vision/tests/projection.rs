@@ -55,10 +55,17 @@ fn points_land_where_each_view_puts_them() {
             let remap = Remap::new(&omni, &view).unwrap();
             for interpolation in [Interpolation::Bilinear, Interpolation::Bicubic] {
                 let moved = point_displacements(&omni, &view, &remap, &sample_points(&view), interpolation);
-                assert!(moved.len() >= 4, "{mirror_name} {view_name}: only {} points inside the view", moved.len());
+                assert!(
+                    moved.len() >= 4,
+                    "{mirror_name} {view_name}: only {} points inside the view",
+                    moved.len()
+                );
                 let largest = moved.iter().copied().fold(0.0, f64::max);
                 worst = worst.max(largest);
-                assert!(largest < 0.5, "{mirror_name} {view_name} {interpolation:?}: a point moved {largest:.3} px");
+                assert!(
+                    largest < 0.5,
+                    "{mirror_name} {view_name} {interpolation:?}: a point moved {largest:.3} px"
+                );
             }
         }
     }
@@ -80,18 +87,40 @@ fn resampled_views_match_exact_renders() {
     let prepared = renderer.prepare(&scene()).unwrap();
     let omni_pose = Pose::from_degrees(dvec3(0.5, 0.2, 0.4), dvec3(0.0, 0.0, 30.0));
     for (mirror_name, omni) in mirrors(800) {
-        let frame = renderer.render(&prepared, &Camera::Catadioptric(omni.clone()), &omni_pose, Planes::COLOUR).unwrap();
+        let frame = renderer
+            .render(
+                &prepared,
+                &Camera::Catadioptric(omni.clone()),
+                &omni_pose,
+                Planes::COLOUR,
+            )
+            .unwrap();
         let omni_image = Raster::from_rgb8(800, 800, frame.colour().unwrap()).unwrap();
         for (view_name, view) in views() {
             let (camera, view_pose) = view.exact_render(&omni_pose).unwrap();
             let exact = renderer.render(&prepared, &camera, &view_pose, Planes::COLOUR).unwrap();
             let remap = Remap::new(&omni, &view).unwrap();
             for (interpolation, bound) in [(Interpolation::Bilinear, 0.4), (Interpolation::Bicubic, 0.45)] {
-                let error = colour_error(&remap.apply(&omni_image, interpolation).unwrap(), exact.colour().unwrap(), &remap)
-                    .expect("pixels in both views");
-                eprintln!("{mirror_name} {view_name} {interpolation:?}: mean |Δ| {:.3} / 255 over {} px", error.mean, error.pixels);
-                assert!(error.pixels > 10_000, "{mirror_name} {view_name}: only {} pixels compared", error.pixels);
-                assert!(error.mean < bound, "{mirror_name} {view_name} {interpolation:?}: mean |Δ| {:.3}", error.mean);
+                let error = colour_error(
+                    &remap.apply(&omni_image, interpolation).unwrap(),
+                    exact.colour().unwrap(),
+                    &remap,
+                )
+                .expect("pixels in both views");
+                eprintln!(
+                    "{mirror_name} {view_name} {interpolation:?}: mean |Δ| {:.3} / 255 over {} px",
+                    error.mean, error.pixels
+                );
+                assert!(
+                    error.pixels > 10_000,
+                    "{mirror_name} {view_name}: only {} pixels compared",
+                    error.pixels
+                );
+                assert!(
+                    error.mean < bound,
+                    "{mirror_name} {view_name} {interpolation:?}: mean |Δ| {:.3}",
+                    error.mean
+                );
             }
         }
     }
@@ -109,15 +138,24 @@ fn resampled_views_stay_within_the_chart() {
     let prepared = renderer.prepare(&scene()).unwrap();
     let pose = chart_pose();
     let omni = Catadioptric::hyperbolic(500, 500, 0.04, 0.16, Some(20f64.to_radians()));
-    let frame = renderer.render(&prepared, &Camera::Catadioptric(omni.clone()), &pose, Planes::COLOUR).unwrap();
+    let frame = renderer
+        .render(&prepared, &Camera::Catadioptric(omni.clone()), &pose, Planes::COLOUR)
+        .unwrap();
     let omni_image = Raster::from_rgb8(500, 500, frame.colour().unwrap()).unwrap();
     for ((view_name, view), figures) in chart_views().into_iter().zip(documented) {
         let (camera, view_pose) = view.exact_render(&pose).unwrap();
         let exact = renderer.render(&prepared, &camera, &view_pose, Planes::COLOUR).unwrap();
         let remap = Remap::new(&omni, &view).unwrap();
-        for (interpolation, (colour, moved)) in [Interpolation::Bilinear, Interpolation::Bicubic].into_iter().zip(figures) {
-            let error = colour_error(&remap.apply(&omni_image, interpolation).unwrap(), exact.colour().unwrap(), &remap)
-                .expect("pixels in both views");
+        for (interpolation, (colour, moved)) in [Interpolation::Bilinear, Interpolation::Bicubic]
+            .into_iter()
+            .zip(figures)
+        {
+            let error = colour_error(
+                &remap.apply(&omni_image, interpolation).unwrap(),
+                exact.colour().unwrap(),
+                &remap,
+            )
+            .expect("pixels in both views");
             let displacements = point_displacements(&omni, &view, &remap, &sample_points(&view), interpolation);
             let mean = displacements.iter().sum::<f64>() / displacements.len() as f64;
             eprintln!(
@@ -130,9 +168,20 @@ fn resampled_views_stay_within_the_chart() {
             // Every pixel of these views is seen by both (measured): an error over a few
             // pixels would say nothing about the chart.
             let compared = error.pixels as f64 / (remap.width * remap.height) as f64;
-            assert!(compared >= 0.9, "{view_name}: only {:.1} % of the view compared", 100.0 * compared);
-            assert!(error.mean < 1.25 * colour, "{view_name} {interpolation:?}: colour error {:.3}, chart {colour}", error.mean);
-            assert!(mean < moved + 0.05, "{view_name} {interpolation:?}: points moved {mean:.4} px, chart {moved}");
+            assert!(
+                compared >= 0.9,
+                "{view_name}: only {:.1} % of the view compared",
+                100.0 * compared
+            );
+            assert!(
+                error.mean < 1.25 * colour,
+                "{view_name} {interpolation:?}: colour error {:.3}, chart {colour}",
+                error.mean
+            );
+            assert!(
+                mean < moved + 0.05,
+                "{view_name} {interpolation:?}: points moved {mean:.4} px, chart {moved}"
+            );
         }
     }
 }

@@ -85,18 +85,31 @@ fn panoramic_descriptors_under_yaw() {
     for (name, change, bound) in [
         (
             "Fourier magnitudes",
-            largest_relative_change(&signature.magnitudes(), &FourierSignature::new(&moved, params).unwrap().magnitudes()),
+            largest_relative_change(
+                &signature.magnitudes(),
+                &FourierSignature::new(&moved, params).unwrap().magnitudes(),
+            ),
             half_column_bounds[0],
         ),
         (
             "panoramic HOG",
-            largest_relative_change(&hog.values, &panoramic_hog(&moved, PanoramicHogParams::default()).unwrap().values),
+            largest_relative_change(
+                &hog.values,
+                &panoramic_hog(&moved, PanoramicHogParams::default()).unwrap().values,
+            ),
             half_column_bounds[1],
         ),
-        ("panoramic gist", largest_relative_change(&reference_gist.values, &gist_of(&moved).values), half_column_bounds[2]),
+        (
+            "panoramic gist",
+            largest_relative_change(&reference_gist.values, &gist_of(&moved).values),
+            half_column_bounds[2],
+        ),
     ] {
         eprintln!("moved 0.2 m: {name} changes {change:.3}");
-        assert!(change > bound, "moved 0.2 m: {name} changes by {change}, within the turn's bound {bound}");
+        assert!(
+            change > bound,
+            "moved 0.2 m: {name} changes by {change}, within the turn's bound {bound}"
+        );
     }
     for (columns, [fourier_bound, hog_bound, gist_bound]) in
         [(1.0, [1e-5; 3]), (37.0, [1e-5; 3]), (100.5, half_column_bounds)]

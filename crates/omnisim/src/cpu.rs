@@ -94,33 +94,35 @@ impl CpuTracer {
         let row_length = width.max(1) as usize;
         if let Self::Fast | Self::FastPortable = self {
             // Tiles of 8×8 pixels traced as one packet each (`fast::closest_hits`).
-            hits.par_chunks_mut(row_length * 8).enumerate().for_each(|(band, pixels)| {
-                let rows = pixels.len() / row_length;
-                for column in (0..row_length).step_by(8) {
-                    let columns = (row_length - column).min(8);
-                    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
-                    let mut active = 0u64;
-                    for (r, slot) in rays.iter_mut().enumerate().take(rows * columns) {
-                        let index = (band * 8 + r / columns) * row_length + column + r % columns;
-                        if let Some(ray) = ray(index) {
-                            *slot = (
-                                local.origin + local.world_from_body * ray.origin,
-                                local.world_from_body * ray.direction,
-                                ray.t_min,
-                            );
-                            active |= 1 << r;
+            hits.par_chunks_mut(row_length * 8)
+                .enumerate()
+                .for_each(|(band, pixels)| {
+                    let rows = pixels.len() / row_length;
+                    for column in (0..row_length).step_by(8) {
+                        let columns = (row_length - column).min(8);
+                        let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
+                        let mut active = 0u64;
+                        for (r, slot) in rays.iter_mut().enumerate().take(rows * columns) {
+                            let index = (band * 8 + r / columns) * row_length + column + r % columns;
+                            if let Some(ray) = ray(index) {
+                                *slot = (
+                                    local.origin + local.world_from_body * ray.origin,
+                                    local.world_from_body * ray.direction,
+                                    ray.t_min,
+                                );
+                                active |= 1 << r;
+                            }
+                        }
+                        let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
+                        for r in 0..rows * columns {
+                            if let Some(hit) = found[r] {
+                                let (origin, direction, _) = rays[r];
+                                pixels[(r / columns) * row_length + column + r % columns] =
+                                    pixel(bvh, origin, direction, hit);
+                            }
                         }
                     }
-                    let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
-                    for r in 0..rows * columns {
-                        if let Some(hit) = found[r] {
-                            let (origin, direction, _) = rays[r];
-                            pixels[(r / columns) * row_length + column + r % columns] =
-                                pixel(bvh, origin, direction, hit);
-                        }
-                    }
-                }
-            });
+                });
             return Frame::from_hits(width, height, hits);
         }
         hits.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {

@@ -128,7 +128,11 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         renderer.backend_name(),
         started.elapsed().as_secs_f64(),
         frames_done.elapsed().as_secs_f64(),
-        if summary.merged { "checks, index files, manifest" } else { "nothing to merge yet" }
+        if summary.merged {
+            "checks, index files, manifest"
+        } else {
+            "nothing to merge yet"
+        }
     );
     match args.shard {
         Some(shard) => eprintln!(

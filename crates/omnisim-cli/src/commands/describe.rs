@@ -48,12 +48,15 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 /// omnidirectional images through the camera's model (--panorama, --elevation); images of a
 /// cylindrical or equirectangular camera are used as they are.
 #[derive(Debug, Clone, Args)]
-#[command(verbatim_doc_comment, after_help = "Examples:\n  \
+#[command(
+    verbatim_doc_comment,
+    after_help = "Examples:\n  \
 omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
 omnisim describe data/env1 --set map -d fourier:k=32 -d hog -d sift --out desc/map\n  \
 omnisim describe data/env1 -d gist -d radon:angles=180 --pca-fit 20 --map map --out desc/all\n  \
 omnisim describe data/env1 --set test-day -d gist --pca-basis desc/all --out desc/test\n  \
-omnisim describe out/ --camera omni --mirror-a 0.04 --mirror-b 0.16 -d surf:upright=true --out desc/images")]
+omnisim describe out/ --camera omni --mirror-a 0.04 --mirror-b 0.16 -d surf:upright=true --out desc/images"
+)]
 pub struct DescribeArgs {
     #[command(flatten)]
     pub input: InputArgs,
@@ -163,23 +166,36 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
         }
     };
     let orientations = |bins: usize| -> anyhow::Result<Orientations> {
-        Ok(Orientations { bins: spec.get("bins", bins)?, signed: spec.get("signed", false)? })
+        Ok(Orientations {
+            bins: spec.get("bins", bins)?,
+            signed: spec.get("signed", false)?,
+        })
     };
     let (method, reads, parameters) = match spec.name.as_str() {
         "fourier" => {
             spec.check_keys(&["k"])?;
-            let p = FourierParams { coefficients: spec.get("k", 16)? };
+            let p = FourierParams {
+                coefficients: spec.get("k", 16)?,
+            };
             (Method::Fourier(p), Reads::Panorama, json!({ "k": p.coefficients }))
         }
         "hog" => {
             spec.check_keys(&["cells", "bins", "signed"])?;
-            let p = PanoramicHogParams { orientations: orientations(8)?, cells: spec.get("cells", 16)?, normalise: true };
+            let p = PanoramicHogParams {
+                orientations: orientations(8)?,
+                cells: spec.get("cells", 16)?,
+                normalise: true,
+            };
             let parameters = json!({ "cells": p.cells, "bins": p.orientations.bins, "signed": p.orientations.signed, "cell_normalisation": "L2" });
             (Method::Hog(p), Reads::Panorama, parameters)
         }
         "vertical-hog" => {
             spec.check_keys(&["width", "column-step", "bins", "signed"])?;
-            let p = VerticalHogParams { orientations: orientations(8)?, width: spec.get("width", 32)?, step: spec.get("column-step", 1)? };
+            let p = VerticalHogParams {
+                orientations: orientations(8)?,
+                width: spec.get("width", 32)?,
+                step: spec.get("column-step", 1)?,
+            };
             let parameters = json!({ "cell_width": p.width, "column_step": p.step, "bins": p.orientations.bins, "signed": p.orientations.signed, "cell_normalisation": "L2" });
             (Method::VerticalHog(p), Reads::Panorama, parameters)
         }
@@ -201,14 +217,22 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
         "gist" => {
             spec.check_keys(&["scales", "orientations", "blocks"])?;
             let blocks = spec.get("blocks", 16)?;
-            let p = GistParams { scales: spec.get("scales", 4)?, orientations: spec.get("orientations", 8)?, blocks: Blocks::Horizontal(blocks) };
+            let p = GistParams {
+                scales: spec.get("scales", 4)?,
+                orientations: spec.get("orientations", 8)?,
+                blocks: Blocks::Horizontal(blocks),
+            };
             let parameters = json!({ "scales": p.scales, "orientations": p.orientations, "horizontal_blocks": blocks });
             (Method::Gist(p), Reads::Panorama, parameters)
         }
         "grid-gist" => {
             spec.check_keys(&["scales", "orientations", "grid", "on"])?;
             let grid = spec.get("grid", 4)?;
-            let p = GistParams { scales: spec.get("scales", 4)?, orientations: spec.get("orientations", 8)?, blocks: Blocks::Grid(grid) };
+            let p = GistParams {
+                scales: spec.get("scales", 4)?,
+                orientations: spec.get("orientations", 8)?,
+                blocks: Blocks::Grid(grid),
+            };
             let parameters = json!({ "scales": p.scales, "orientations": p.orientations, "grid": grid });
             (Method::Gist(p), on(Reads::Image)?, parameters)
         }
@@ -230,8 +254,19 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
         }
         "sift" => {
             spec.check_keys(&[
-                "sigma", "input-sigma", "scales", "contrast", "edge", "bins", "peak", "descriptor-width", "descriptor-bins", "clamp", "border",
-                "upsample", "on",
+                "sigma",
+                "input-sigma",
+                "scales",
+                "contrast",
+                "edge",
+                "bins",
+                "peak",
+                "descriptor-width",
+                "descriptor-bins",
+                "clamp",
+                "border",
+                "upsample",
+                "on",
             ])?;
             let d = SiftParams::default();
             let p = SiftParams {
@@ -258,7 +293,15 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
         }
         "surf" => {
             spec.check_keys(&[
-                "threshold", "octaves", "intervals", "sample-step", "hessian-weight", "window", "window-step", "upright", "on",
+                "threshold",
+                "octaves",
+                "intervals",
+                "sample-step",
+                "hessian-weight",
+                "window",
+                "window-step",
+                "upright",
+                "on",
             ])?;
             let d = SurfParams::default();
             let p = SurfParams {
@@ -278,13 +321,22 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             });
             (Method::Surf(p), on(Reads::Image)?, parameters)
         }
-        other => bail!("unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, radon, sift or surf"),
+        other => bail!(
+            "unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, radon, sift or surf"
+        ),
     };
     // Every setting that does not depend on the images is checked here; the limits the
     // images' size sets are checked in `run` once the camera is known, before any image is
     // read. Nothing is written before every image is described.
-    method.fits(None).with_context(|| format!("--descriptor {}", spec.name))?;
-    Ok(Choice { name: spec.name.clone(), method, reads, parameters })
+    method
+        .fits(None)
+        .with_context(|| format!("--descriptor {}", spec.name))?;
+    Ok(Choice {
+        name: spec.name.clone(),
+        method,
+        reads,
+        parameters,
+    })
 }
 
 /// An f32 setting as the decimal it was typed as (0.04, not 0.03999999910593033).
@@ -295,13 +347,21 @@ fn decimal(value: f32) -> f64 {
 /// What one descriptor gives for one image.
 enum Described {
     /// A fixed-shape array (and, for the Fourier signature, the phases beside it).
-    Values { shape: Vec<usize>, values: Vec<f32>, phases: Option<Vec<f32>> },
+    Values {
+        shape: Vec<usize>,
+        values: Vec<f32>,
+        phases: Option<Vec<f32>>,
+    },
     Features(Features),
 }
 
 impl Choice {
     fn describe(&self, grey: &Raster) -> anyhow::Result<Described> {
-        let values = |d: omnisim_vision::Descriptor| Described::Values { shape: d.shape, values: d.values, phases: None };
+        let values = |d: omnisim_vision::Descriptor| Described::Values {
+            shape: d.shape,
+            values: d.values,
+            phases: None,
+        };
         Ok(match &self.method {
             Method::Fourier(p) => {
                 let signature = FourierSignature::new(grey, *p)?;
@@ -317,7 +377,11 @@ impl Choice {
             Method::Gist(p) => values(gist(grey, *p)?),
             Method::Radon(p) => {
                 let radon = Radon::new(grey, *p)?;
-                Described::Values { shape: vec![radon.values.height, radon.values.width], values: radon.values.data, phases: None }
+                Described::Values {
+                    shape: vec![radon.values.height, radon.values.width],
+                    values: radon.values.data,
+                    phases: None,
+                }
             }
             Method::Sift(p) => Described::Features(sift(grey, p)?),
             Method::Surf(p) => Described::Features(surf(grey, p)?),
@@ -341,7 +405,10 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
     let mut choices: Vec<Choice> = args.descriptors.iter().map(choose).collect::<anyhow::Result<_>>()?;
     for (i, choice) in choices.iter().enumerate() {
         if choices[..i].iter().any(|c| c.name == choice.name) {
-            bail!("--descriptor {} is given twice: describe once per run, or use two --out folders", choice.name);
+            bail!(
+                "--descriptor {} is given twice: describe once per run, or use two --out folders",
+                choice.name
+            );
         }
     }
     if args.pca_fit == Some(0) {
@@ -370,7 +437,13 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         }
     }
     let map = match (&args.map, args.pca_fit) {
-        (Some(map), _) => Some(input.sets.iter().position(|s| &s.name == map).with_context(|| format!("--map {map} is not a described set"))?),
+        (Some(map), _) => Some(
+            input
+                .sets
+                .iter()
+                .position(|s| &s.name == map)
+                .with_context(|| format!("--map {map} is not a described set"))?,
+        ),
         (None, Some(_)) => Some(0),
         _ => None,
     };
@@ -384,7 +457,13 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
             _ => image_size,
         };
         choice.method.fits(Some(size)).with_context(|| {
-            format!("--descriptor {} on the {}×{} {}", choice.name, size.0, size.1, choice.reads.name())
+            format!(
+                "--descriptor {} on the {}×{} {}",
+                choice.name,
+                size.0,
+                size.1,
+                choice.reads.name()
+            )
         })?;
     }
     let started = Instant::now();
@@ -393,7 +472,11 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         eprintln!("set '{}': {} image(s)", set.name, set.frames.len());
         let mut per_choice: Vec<SetResult> = choices
             .iter()
-            .map(|_| SetResult { per_image: Vec::new(), seconds: Vec::new(), panorama_seconds: Vec::new() })
+            .map(|_| SetResult {
+                per_image: Vec::new(),
+                seconds: Vec::new(),
+                panorama_seconds: Vec::new(),
+            })
             .collect();
         let mut size = None;
         for frame in &set.frames {
@@ -436,11 +519,24 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         let folder = args.out.join(&set.name);
         std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
         for ((choice, result), pca) in choices.iter().zip(per_choice).zip(&pcas) {
-            write_set(&folder, &input, set, choice, result, pca.as_ref(), panorama.as_ref(), &args)?;
+            write_set(
+                &folder,
+                &input,
+                set,
+                choice,
+                result,
+                pca.as_ref(),
+                panorama.as_ref(),
+                &args,
+            )?;
         }
         eprintln!("wrote {}", folder.display());
     }
-    eprintln!("{} set(s) described in {:.1} s", input.sets.len(), started.elapsed().as_secs_f64());
+    eprintln!(
+        "{} set(s) described in {:.1} s",
+        input.sets.len(),
+        started.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 
@@ -468,13 +564,23 @@ impl Panorama {
                     "elevation_deg": [low, high], "interpolation": args.interpolation.name(),
                     "model": "cylindrical: column u at azimuth π − 2π(u + ½)/W, rows uniform in tan(elevation)"
                 });
-                Ok(Some(Self { remap: Some(remap), interpolation: args.interpolation.into(), sidecar }))
+                Ok(Some(Self {
+                    remap: Some(remap),
+                    interpolation: args.interpolation.into(),
+                    sidecar,
+                }))
             }
             Camera::Cylindrical(_) | Camera::Equirectangular(_) => {
                 let sidecar = json!({ "resampled_from": null, "note": "the images are panoramas" });
-                Ok(Some(Self { remap: None, interpolation: args.interpolation.into(), sidecar }))
+                Ok(Some(Self {
+                    remap: None,
+                    interpolation: args.interpolation.into(),
+                    sidecar,
+                }))
             }
-            _ => bail!("a descriptor reads a panorama, but the images are from a pinhole camera: use on=image or other descriptors"),
+            _ => bail!(
+                "a descriptor reads a panorama, but the images are from a pinhole camera: use on=image or other descriptors"
+            ),
         }
     }
 
@@ -486,7 +592,9 @@ impl Panorama {
     /// The panorama of a grey image and the seconds its resampling took.
     fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
         let clock = Instant::now();
-        let Some(remap) = &self.remap else { return Ok((grey.clone(), 0.0)) };
+        let Some(remap) = &self.remap else {
+            return Ok((grey.clone(), 0.0));
+        };
         let panorama = remap.apply(grey, self.interpolation)?;
         Ok((panorama, clock.elapsed().as_secs_f64()))
     }
@@ -515,15 +623,21 @@ fn fit_or_load_pca(
                     Described::Features(_) => None,
                 })
                 .collect();
-            let pca = Pca::fit(&samples, k).with_context(|| format!("PCA of {} on set '{}'", choice.name, input.sets[map].name))?;
+            let pca = Pca::fit(&samples, k)
+                .with_context(|| format!("PCA of {} on set '{}'", choice.name, input.sets[map].name))?;
             let sidecar = json!({
                 "fitted_on": input.sets[map].name, "components": pca.components(),
                 "explained_variance_ratio": pca.explained_variance_ratio(), "basis": format!("{PCA_FOLDER}/{}", choice.name)
             });
             (pca, sidecar)
         } else {
-            let folder = args.pca_basis.as_ref().map(|b| b.join(PCA_FOLDER).join(&choice.name)).unwrap_or_default();
-            let pca = Pca::load(&folder).with_context(|| format!("the PCA basis of {} (from an earlier --pca-fit run)", choice.name))?;
+            let folder = args
+                .pca_basis
+                .as_ref()
+                .map(|b| b.join(PCA_FOLDER).join(&choice.name))
+                .unwrap_or_default();
+            let pca = Pca::load(&folder)
+                .with_context(|| format!("the PCA basis of {} (from an earlier --pca-fit run)", choice.name))?;
             let sidecar = json!({
                 "loaded_from": folder, "components": pca.components(),
                 "explained_variance_ratio": pca.explained_variance_ratio()
@@ -578,9 +692,17 @@ fn write_set(
             let mut values = Vec::new();
             let mut all_phases = Vec::new();
             for d in &result.per_image {
-                if let Described::Values { shape: s, values: v, phases: p } = d {
+                if let Described::Values {
+                    shape: s,
+                    values: v,
+                    phases: p,
+                } = d
+                {
                     if s != shape {
-                        bail!("{name}: images of set '{}' gave descriptors of different shapes", set.name);
+                        bail!(
+                            "{name}: images of set '{}' gave descriptors of different shapes",
+                            set.name
+                        );
                     }
                     values.extend_from_slice(v);
                     rows.push(v.clone());
@@ -615,7 +737,9 @@ fn write_set(
             sidecar["keypoint_columns"] = json!(["image", "x", "y", "sigma_px", "angle_deg", "response"]);
             sidecar["shape"] = json!({ "keypoints": [total, 6], "descriptors": [total, length] });
             sidecar["keypoints_per_image"] = json!(counts);
-            sidecar["conventions"] = json!("pixel centres at integer (x, y), (0,0) top-left; angle from +x towards +y (down), degrees; descriptors unit length");
+            sidecar["conventions"] = json!(
+                "pixel centres at integer (x, y), (0,0) top-left; angle from +x towards +y (down), degrees; descriptors unit length"
+            );
         }
         None => {}
     }

@@ -11,8 +11,10 @@ use omnisim::dataset::{Dataset, preview};
 /// point lights, and red crosses at poses skipped for lying inside an object or outside the
 /// scene (the reference paper's Fig. 7). Nothing is rendered: it takes seconds.
 #[derive(Debug, Clone, Args)]
-#[command(after_help = "Examples:\n  omnisim preview scenes/env1-dataset.ron --out env1-dataset\n    \
-(writes env1-dataset.svg and env1-dataset.png)\n  omnisim preview scenes/env1-dataset.ron --out pictures/plan")]
+#[command(
+    after_help = "Examples:\n  omnisim preview scenes/env1-dataset.ron --out env1-dataset\n    \
+(writes env1-dataset.svg and env1-dataset.png)\n  omnisim preview scenes/env1-dataset.ron --out pictures/plan"
+)]
 pub struct PreviewArgs {
     /// Data-set spec (RON), e.g. scenes/env1-dataset.ron.
     pub spec: PathBuf,

@@ -27,10 +27,13 @@ use super::vision_input::{InputArgs, NamedSettings, check_image_sizes, read_imag
 /// Only central mirrors (hyperbolic, parabolic with a = b, aligned) have the closed-form
 /// projection this needs.
 #[derive(Debug, Clone, Args)]
-#[command(verbatim_doc_comment, after_help = "Examples:\n  \
+#[command(
+    verbatim_doc_comment,
+    after_help = "Examples:\n  \
 omnisim render scenes/env1.ron --camera omni --size 500x500 --pose 0.5,0.2,0.4 --out out/omni\n  \
 omnisim project out/omni --size 500x500 --view panorama --view birds-eye:scale=0.02 --out out/views\n  \
-omnisim project data/env1 --set map --view perspective:yaw=90,hfov=70 --interpolation bilinear --out out/map-views")]
+omnisim project data/env1 --set map --view perspective:yaw=90,hfov=70 --interpolation bilinear --out out/map-views"
+)]
 pub struct ProjectArgs {
     #[command(flatten)]
     pub input: InputArgs,
@@ -77,7 +80,9 @@ pub fn parse_degrees_range(text: &str) -> Result<(f64, f64), String> {
     let parse = |s: &str| s.trim().parse::<f64>().ok().filter(|v| v.is_finite());
     match text.split_once(':').map(|(a, b)| (parse(a), parse(b))) {
         Some((Some(low), Some(high))) if low < high => Ok((low, high)),
-        _ => Err(format!("'{text}' is not LOW:HIGH in degrees with LOW < HIGH, e.g. -45:15")),
+        _ => Err(format!(
+            "'{text}' is not LOW:HIGH in degrees with LOW < HIGH, e.g. -45:15"
+        )),
     }
 }
 
@@ -97,21 +102,34 @@ fn view_of(spec: &NamedSettings) -> anyhow::Result<(View, Value)> {
             let (low, high) = (spec.get("low", -45.0f64)?, spec.get("high", 15.0f64)?);
             let view = View::panorama(w, h, low.to_radians(), high.to_radians())?;
             let model = "cylindrical: column u at azimuth π − 2π(u + ½)/W (from body +x towards +y), rows uniform in tan(elevation)";
-            (view, json!({ "width": w, "height": h, "elevation_deg": [low, high], "model": model }))
+            (
+                view,
+                json!({ "width": w, "height": h, "elevation_deg": [low, high], "model": model }),
+            )
         }
         "equirect" => {
             spec.check_keys(&["width", "height"])?;
             let (w, h) = size(1024, 512)?;
             let model = "equirectangular: column u at azimuth π − 2π(u + ½)/W, row v at elevation π/2 − π(v + ½)/H";
-            (View::equirectangular(w, h), json!({ "width": w, "height": h, "model": model }))
+            (
+                View::equirectangular(w, h),
+                json!({ "width": w, "height": h, "model": model }),
+            )
         }
         "perspective" => {
             spec.check_keys(&["width", "height", "hfov", "yaw", "pitch"])?;
             let (w, h) = size(640, 480)?;
-            let (hfov, yaw, pitch) = (spec.get("hfov", 90.0f64)?, spec.get("yaw", 0.0f64)?, spec.get("pitch", 0.0f64)?);
+            let (hfov, yaw, pitch) = (
+                spec.get("hfov", 90.0f64)?,
+                spec.get("yaw", 0.0f64)?,
+                spec.get("pitch", 0.0f64)?,
+            );
             let view = View::perspective(w, h, hfov.to_radians(), yaw.to_radians(), pitch.to_radians())?;
             let model = "pinhole, OpenCV optical frame, principal point at the centre, looking at azimuth yaw (from body +x towards +y) and elevation pitch";
-            (view, json!({ "width": w, "height": h, "hfov_deg": hfov, "yaw_deg": yaw, "pitch_deg": pitch, "model": model }))
+            (
+                view,
+                json!({ "width": w, "height": h, "hfov_deg": hfov, "yaw_deg": yaw, "pitch_deg": pitch, "model": model }),
+            )
         }
         "birds-eye" => {
             spec.check_keys(&["width", "height", "scale", "plane"])?;
@@ -119,7 +137,10 @@ fn view_of(spec: &NamedSettings) -> anyhow::Result<(View, Value)> {
             let (scale, plane) = (spec.get("scale", 0.01f64)?, spec.get("plane", -0.7f64)?);
             let view = View::birds_eye(w, h, scale, plane)?;
             let model = "orthographic view of the plane z = plane_z (body frame), centred under the viewpoint; image up = body +x, right = body −y";
-            (view, json!({ "width": w, "height": h, "metres_per_pixel": scale, "plane_z_m": plane, "model": model }))
+            (
+                view,
+                json!({ "width": w, "height": h, "metres_per_pixel": scale, "plane_z_m": plane, "model": model }),
+            )
         }
         other => bail!("unknown view '{other}': give panorama, equirect, perspective or birds-eye"),
     })
@@ -150,7 +171,10 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
         std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
         for ((name, _, _), remap) in views.iter().zip(&remaps) {
             let mask = remap.valid().map(|v| if v { 1.0 } else { 0.0 }).collect();
-            save(&Raster::from_vec(remap.width, remap.height, 1, mask)?, &folder.join(format!("{name}-valid.png")))?;
+            save(
+                &Raster::from_vec(remap.width, remap.height, 1, mask)?,
+                &folder.join(format!("{name}-valid.png")),
+            )?;
         }
         let mut frames = Vec::new();
         for frame in &set.frames {
@@ -178,7 +202,13 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
         let mut text = serde_json::to_vec_pretty(&sidecar)?;
         text.push(b'\n');
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
-        eprintln!("set '{}': {} image(s) × {} view(s) written to {}", set.name, set.frames.len(), views.len(), folder.display());
+        eprintln!(
+            "set '{}': {} image(s) × {} view(s) written to {}",
+            set.name,
+            set.frames.len(),
+            views.len(),
+            folder.display()
+        );
     }
     Ok(())
 }

@@ -82,16 +82,25 @@ impl InputArgs {
         let manifest = self.input.join("manifest.json");
         if manifest.is_file() {
             if self.camera_given() {
-                bail!("{} is a data set: its manifest gives the camera, so camera options are refused", self.input.display());
+                bail!(
+                    "{} is a data set: its manifest gives the camera, so camera options are refused",
+                    self.input.display()
+                );
             }
             self.read_dataset(&manifest)
         } else if self.input.is_dir() {
             if !self.sets.is_empty() || self.noisy {
-                bail!("--set and --noisy apply to data sets; {} has no manifest.json", self.input.display());
+                bail!(
+                    "--set and --noisy apply to data sets; {} has no manifest.json",
+                    self.input.display()
+                );
             }
             self.read_folder()
         } else {
-            bail!("{} is neither a data-set folder (with manifest.json) nor a folder of images", self.input.display())
+            bail!(
+                "{} is neither a data-set folder (with manifest.json) nor a folder of images",
+                self.input.display()
+            )
         }
     }
 
@@ -102,8 +111,8 @@ impl InputArgs {
 
     fn read_dataset(&self, manifest: &Path) -> anyhow::Result<Input> {
         let text = omnisim::input::read_text(manifest, MANIFEST_LIMIT)?;
-        let view: ManifestView =
-            serde_json::from_str(&text).with_context(|| format!("{} is not an omnisim data-set manifest", manifest.display()))?;
+        let view: ManifestView = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not an omnisim data-set manifest", manifest.display()))?;
         for wanted in &self.sets {
             if !view.sets.iter().any(|s| &s.name == wanted) {
                 let names: Vec<&str> = view.sets.iter().map(|s| s.name.as_str()).collect();
@@ -114,27 +123,55 @@ impl InputArgs {
             Rig::Single(camera) => camera,
             Rig::Stereo(stereo) => Camera::Pinhole(stereo.camera),
         };
-        let suffixes: &[&str] = if self.noisy { &["-noisy", "-left-noisy"] } else { &["", "-left"] };
-        let kind = if self.noisy { FileKind::Noisy } else { FileKind::GroundTruth };
+        let suffixes: &[&str] = if self.noisy {
+            &["-noisy", "-left-noisy"]
+        } else {
+            &["", "-left"]
+        };
+        let kind = if self.noisy {
+            FileKind::Noisy
+        } else {
+            FileKind::GroundTruth
+        };
         let mut sets = Vec::new();
-        for set in view.sets.into_iter().filter(|s| self.sets.is_empty() || self.sets.contains(&s.name)) {
+        for set in view
+            .sets
+            .into_iter()
+            .filter(|s| self.sets.is_empty() || self.sets.contains(&s.name))
+        {
             plain_name(&set.name).with_context(|| format!("set name '{}' in the manifest", set.name))?;
             let frames = set
                 .frame_entries
                 .iter()
                 .map(|frame| {
-                    let wanted: Vec<String> = suffixes.iter().map(|s| format!("{}/{}{s}.png", set.name, frame.stem)).collect();
+                    let wanted: Vec<String> = suffixes
+                        .iter()
+                        .map(|s| format!("{}/{}{s}.png", set.name, frame.stem))
+                        .collect();
                     let file = frame
                         .files
                         .iter()
                         .find(|f| f.kind == kind && wanted.contains(&f.path))
-                        .with_context(|| format!("set '{}' frame {} has no colour image {}", set.name, frame.index, wanted[0]))?;
-                    Ok(InputFrame { index: frame.index, stem: frame.stem.clone(), path: inside(&self.input, &file.path)? })
+                        .with_context(|| {
+                            format!(
+                                "set '{}' frame {} has no colour image {}",
+                                set.name, frame.index, wanted[0]
+                            )
+                        })?;
+                    Ok(InputFrame {
+                        index: frame.index,
+                        stem: frame.stem.clone(),
+                        path: inside(&self.input, &file.path)?,
+                    })
                 })
                 .collect::<anyhow::Result<Vec<_>>>()?;
             sets.push(InputSet { name: set.name, frames });
         }
-        Ok(Input { kind: "dataset", sets, camera })
+        Ok(Input {
+            kind: "dataset",
+            sets,
+            camera,
+        })
     }
 
     fn read_folder(&self) -> anyhow::Result<Input> {
@@ -162,19 +199,32 @@ impl InputArgs {
             Rig::Single(camera) => camera,
             Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
         };
-        let name = plain_name(&self.input.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
-            .map(str::to_string)
-            .unwrap_or_else(|_| "images".to_string());
+        let name = plain_name(
+            &self
+                .input
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+        )
+        .map(str::to_string)
+        .unwrap_or_else(|_| "images".to_string());
         let frames = paths
             .into_iter()
             .enumerate()
             .map(|(index, path)| InputFrame {
                 index,
-                stem: path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+                stem: path
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
                 path,
             })
             .collect();
-        Ok(Input { kind: "images", sets: vec![InputSet { name, frames }], camera })
+        Ok(Input {
+            kind: "images",
+            sets: vec![InputSet { name, frames }],
+            camera,
+        })
     }
 }
 
@@ -202,10 +252,12 @@ fn camera_args_of(rig: &RigSpec) -> CameraArgs {
     let mut args = default_camera_args();
     match rig {
         RigSpec::Pinhole(p) => {
-            (args.camera, args.size, args.hfov, args.focal) = (CameraKind::Pinhole, Some(p.size), Some(p.hfov), p.focal);
+            (args.camera, args.size, args.hfov, args.focal) =
+                (CameraKind::Pinhole, Some(p.size), Some(p.hfov), p.focal);
         }
         RigSpec::Stereo(s) => {
-            (args.camera, args.size, args.hfov, args.focal) = (CameraKind::Pinhole, Some(s.size), Some(s.hfov), s.focal);
+            (args.camera, args.size, args.hfov, args.focal) =
+                (CameraKind::Pinhole, Some(s.size), Some(s.hfov), s.focal);
         }
         RigSpec::Equirect { size } => (args.camera, args.size) = (CameraKind::Equirect, Some(*size)),
         RigSpec::Cylindrical { size, vfov } => {
@@ -219,9 +271,13 @@ fn camera_args_of(rig: &RigSpec) -> CameraArgs {
                     (args.mirror, args.mirror_a, args.mirror_b) = (Some(MirrorKind::Hyperbolic), Some(a), Some(b));
                 }
                 MirrorSpec::Parabolic { a, b, h } => {
-                    (args.mirror, args.mirror_a, args.mirror_b, args.mirror_h) = (Some(MirrorKind::Parabolic), Some(a), b, Some(h));
+                    (args.mirror, args.mirror_a, args.mirror_b, args.mirror_h) =
+                        (Some(MirrorKind::Parabolic), Some(a), b, Some(h));
                 }
-                MirrorSpec::Spherical { radius, camera_distance } => {
+                MirrorSpec::Spherical {
+                    radius,
+                    camera_distance,
+                } => {
                     (args.mirror, args.sphere_radius, args.camera_distance) =
                         (Some(MirrorKind::Spherical), Some(radius), Some(camera_distance));
                 }
@@ -269,7 +325,8 @@ pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<R
 /// so that a command can refuse a bad set before it writes anything.
 pub fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Result<()> {
     for frame in sets.iter().flat_map(|s| &s.frames) {
-        let (w, h) = image::image_dimensions(&frame.path).with_context(|| format!("cannot read image {}", frame.path.display()))?;
+        let (w, h) = image::image_dimensions(&frame.path)
+            .with_context(|| format!("cannot read image {}", frame.path.display()))?;
         same_size(&frame.path, (w as usize, h as usize), size, "the camera's image")?;
     }
     Ok(())
@@ -277,7 +334,14 @@ pub fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Res
 
 fn same_size(path: &Path, got: (usize, usize), expected: (usize, usize), whose: &str) -> anyhow::Result<()> {
     if got != expected {
-        bail!("{} is {}×{} pixels, but {whose} is {}×{}", path.display(), got.0, got.1, expected.0, expected.1);
+        bail!(
+            "{} is {}×{} pixels, but {whose} is {}×{}",
+            path.display(),
+            got.0,
+            got.1,
+            expected.0,
+            expected.1
+        );
     }
     Ok(())
 }
@@ -298,18 +362,28 @@ impl NamedSettings {
             let (key, value) = pair
                 .split_once('=')
                 .ok_or_else(|| format!("'{pair}' in '{text}' is not KEY=VALUE"))?;
-            if settings.insert(key.trim().to_string(), value.trim().to_string()).is_some() {
+            if settings
+                .insert(key.trim().to_string(), value.trim().to_string())
+                .is_some()
+            {
                 return Err(format!("'{key}' is given twice in '{text}'"));
             }
         }
-        Ok(Self { name: name.trim().to_string(), settings })
+        Ok(Self {
+            name: name.trim().to_string(),
+            settings,
+        })
     }
 
     /// Refuses keys other than `accepted`.
     pub fn check_keys(&self, accepted: &[&str]) -> anyhow::Result<()> {
         for key in self.settings.keys() {
             if !accepted.contains(&key.as_str()) {
-                bail!("{}: unknown setting '{key}'; it takes {}", self.name, accepted.join(", "));
+                bail!(
+                    "{}: unknown setting '{key}'; it takes {}",
+                    self.name,
+                    accepted.join(", ")
+                );
             }
         }
         Ok(())
@@ -324,8 +398,13 @@ impl NamedSettings {
                 if text.parse::<f64>().is_ok_and(|v| !v.is_finite()) {
                     bail!("{}: {key}={text} is not a finite number", self.name);
                 }
-                text.parse()
-                    .map_err(|_| anyhow::anyhow!("{}: {key}={text} is not a valid {}", self.name, std::any::type_name::<T>()))
+                text.parse().map_err(|_| {
+                    anyhow::anyhow!(
+                        "{}: {key}={text} is not a valid {}",
+                        self.name,
+                        std::any::type_name::<T>()
+                    )
+                })
             }
         }
     }

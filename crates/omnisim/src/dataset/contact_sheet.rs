@@ -57,7 +57,10 @@ pub(crate) fn contact_sheet(frames: &[(usize, &Path)]) -> Result<Vec<u8>, Datase
         let (w, h) = picture.dimensions();
         let shrink = f64::from(THUMBNAIL) / f64::from(w.max(h));
         let size = |v: u32| ((f64::from(v) * shrink).round() as u32).max(1);
-        thumbnails.push((number, imageops::resize(&picture, size(w), size(h), FilterType::Triangle)));
+        thumbnails.push((
+            number,
+            imageops::resize(&picture, size(w), size(h), FilterType::Triangle),
+        ));
     }
     let columns = frames.len().clamp(1, COLUMNS) as u32;
     let rows = frames.len().div_ceil(COLUMNS).max(1) as u32;
@@ -76,7 +79,12 @@ pub(crate) fn contact_sheet(frames: &[(usize, &Path)]) -> Result<Vec<u8>, Datase
     }
     let mut bytes = Vec::new();
     image::codecs::png::PngEncoder::new(&mut bytes)
-        .write_image(sheet.as_raw(), sheet.width(), sheet.height(), image::ExtendedColorType::Rgb8)
+        .write_image(
+            sheet.as_raw(),
+            sheet.width(),
+            sheet.height(),
+            image::ExtendedColorType::Rgb8,
+        )
         .map_err(|e| DatasetError::Picture(e.to_string()))?;
     Ok(bytes)
 }

@@ -231,7 +231,11 @@ impl Svg {
     }
 
     fn title(&mut self, dataset: &Dataset) {
-        let spec = dataset.spec_path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
+        let spec = dataset
+            .spec_path
+            .file_name()
+            .map(|n| n.to_string_lossy())
+            .unwrap_or_default();
         let _ = writeln!(
             self.text,
             r#"<text x="{}" y="30" font-size="17">{} — scene '{}', seen from above</text>"#,
@@ -287,7 +291,10 @@ impl Svg {
 
     /// Dimension lines under and left of the room, with its extent in metres, and a scale bar.
     fn dimensions(&mut self, low: DVec2, high: DVec2, plan_low: DVec2) {
-        let (a, b) = (self.at(DVec2::new(low.x, plan_low.y)), self.at(DVec2::new(high.x, plan_low.y)));
+        let (a, b) = (
+            self.at(DVec2::new(low.x, plan_low.y)),
+            self.at(DVec2::new(high.x, plan_low.y)),
+        );
         let y = a.y + 22.0;
         let _ = writeln!(
             self.text,
@@ -343,7 +350,13 @@ impl Svg {
 
     /// Occluders' footprints: per-set ones filled in their colour, per-frame ones (a few per
     /// frame, many per set) as light outlines in the set's colour.
-    fn occluders<'a>(&mut self, set: &str, colour: &str, occluders: impl IntoIterator<Item = &'a Occluder>, per_frame: bool) {
+    fn occluders<'a>(
+        &mut self,
+        set: &str,
+        colour: &str,
+        occluders: impl IntoIterator<Item = &'a Occluder>,
+        per_frame: bool,
+    ) {
         for occluder in occluders {
             let points = polygon_points(&occluder.footprint.iter().map(|&p| self.at(p)).collect::<Vec<_>>());
             let [r, g, b] = occluder.colour;

@@ -112,7 +112,9 @@ fn assert_contact_sheet_shows_the_frames(out: &Path, set: &str, frames: u32) {
         .collect();
     assert_eq!(colour_frames.len() as u32, frames);
     for k in 0..frames {
-        let frame = image::open(out.join(set).join(format!("room-{k:04}.png"))).unwrap().to_rgb8();
+        let frame = image::open(out.join(set).join(format!("room-{k:04}.png")))
+            .unwrap()
+            .to_rgb8();
         let thumbnail = image::imageops::resize(&frame, 128, 96, image::imageops::FilterType::Triangle);
         let (x, y) = (6 + k * 134, 6 + 16);
         for (u, v, pixel) in thumbnail.enumerate_pixels() {
@@ -167,7 +169,11 @@ fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
         };
         let first = run(&dataset, &resumed, two_writers, Some(k));
         assert!(first.stopped && !first.merged);
-        assert!((k..=k + 3).contains(&first.rendered), "{} frames written", first.rendered);
+        assert!(
+            (k..=k + 3).contains(&first.rendered),
+            "{} frames written",
+            first.rendered
+        );
         assert!(!resumed.join("manifest.json").exists());
         let second = run(&dataset, &resumed, RunOptions::default(), None);
         assert_eq!((second.resumed, second.rendered), (first.rendered, 8 - first.rendered));
@@ -593,12 +599,18 @@ fn the_preview_marks_every_pose_and_skipped_pose_where_the_plan_view_puts_it() {
     let crosses = with_class("skipped");
     assert_eq!(dataset.sets[2].skipped.len(), 2);
     assert_eq!((crosses.len(), picture.skipped), (2, 2));
-    let indices: Vec<_> = crosses.iter().map(|c| c.attribute("data-source-index").unwrap()).collect();
+    let indices: Vec<_> = crosses
+        .iter()
+        .map(|c| c.attribute("data-source-index").unwrap())
+        .collect();
     assert_eq!(indices, ["1", "2"]);
     // The test set's per-frame person (one per frame) and the night set's per-set box.
     assert_eq!(with_class("occluder per-frame").len(), dataset.sets[1].poses.len());
     assert_eq!(with_class("occluder").len(), 1);
-    let lights: Vec<_> = with_class("light").iter().map(|l| l.attribute("data-light").unwrap()).collect();
+    let lights: Vec<_> = with_class("light")
+        .iter()
+        .map(|l| l.attribute("data-light").unwrap())
+        .collect();
     assert_eq!(lights, ["lamp", "desk"]);
 
     let png = image::load_from_memory(&picture.png().unwrap()).unwrap().to_rgb8();
@@ -637,10 +649,11 @@ fn python_for(check: &str) -> Option<PathBuf> {
     match std::env::var_os("OMNISIM_PYTHON") {
         Some(python) => Some(PathBuf::from(python)),
         None => {
-            assert!(std::env::var_os("CI").is_none(), "CI must set OMNISIM_PYTHON for the {check}");
-            eprintln!(
-                "**** SKIPPED: {check} (set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt)"
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "CI must set OMNISIM_PYTHON for the {check}"
             );
+            eprintln!("**** SKIPPED: {check} (set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt)");
             None
         }
     }
@@ -663,7 +676,11 @@ fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{stdout}{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let pairs: Vec<serde_json::Value> = stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
     assert_eq!(pairs.len(), 3);
     for (k, (pair, wall)) in pairs.iter().zip([2.0, 1.5, 1.0]).enumerate() {
@@ -671,11 +688,17 @@ fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
         assert_eq!(pair["size"], serde_json::json!([32, 24]));
         assert_eq!(pair["colour_size"], serde_json::json!([24, 32, 3]));
         // Timestamps are written to the microsecond.
-        assert!((number(&pair["timestamps"][0]) - k as f64 / 30.0).abs() < 1e-6, "{pair}");
+        assert!(
+            (number(&pair["timestamps"][0]) - k as f64 / 30.0).abs() < 1e-6,
+            "{pair}"
+        );
         // 16-bit z × 5000: within half a step (0.1 mm) of the exact depth and of the EXR.
         for end in [0, 1] {
             let depth = number(&pair["upper_half_depth"][end]);
-            assert!((depth - wall).abs() <= 1e-4 + 1e-9, "pair {k}: {depth} m, wall at {wall} m");
+            assert!(
+                (depth - wall).abs() <= 1e-4 + 1e-9,
+                "pair {k}: {depth} m, wall at {wall} m"
+            );
         }
         assert!(number(&pair["max_error_vs_exr"]) <= 1e-4 + 1e-7, "pair {k}: {pair}");
         assert_eq!(pair["zero_where_no_depth"], true);
@@ -703,7 +726,11 @@ fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{text}{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let rmse: f64 = text
         .lines()
         .find_map(|l| l.trim().strip_prefix("rmse"))
@@ -728,20 +755,35 @@ fn random_poses_draw_each_angle_in_its_own_range() {
     assert_eq!(angles.len(), 200);
     let spread = |axis: fn(&glam::DVec3) -> f64| {
         let values: Vec<f64> = angles.iter().map(axis).collect();
-        (values.iter().copied().fold(f64::MAX, f64::min), values.iter().copied().fold(f64::MIN, f64::max))
+        (
+            values.iter().copied().fold(f64::MAX, f64::min),
+            values.iter().copied().fold(f64::MIN, f64::max),
+        )
     };
     let (x, y, z) = (spread(|a| a.x), spread(|a| a.y), spread(|a| a.z));
     // Inside each range, and spread over it (200 uniform draws leave gaps of ~1/200).
-    assert!(x.0 >= -5.0 - 1e-9 && x.1 <= 5.0 + 1e-9 && x.0 < -4.5 && x.1 > 4.5, "{x:?}");
-    assert!(y.0 >= 10.0 - 1e-9 && y.1 <= 20.0 + 1e-9 && y.0 < 10.5 && y.1 > 19.5, "{y:?}");
+    assert!(
+        x.0 >= -5.0 - 1e-9 && x.1 <= 5.0 + 1e-9 && x.0 < -4.5 && x.1 > 4.5,
+        "{x:?}"
+    );
+    assert!(
+        y.0 >= 10.0 - 1e-9 && y.1 <= 20.0 + 1e-9 && y.0 < 10.5 && y.1 > 19.5,
+        "{y:?}"
+    );
     assert!((z.0 - 90.0).abs() < 1e-9 && (z.1 - 90.0).abs() < 1e-9, "{z:?}");
 
     let (_dir, path) = project(&spec("tilt: 5.0, angles: ((0.0, 1.0), (0.0, 1.0), (0.0, 1.0))"));
     let message = Dataset::load(&path).err().unwrap().to_string();
-    assert!(message.contains("set 'test': poses.angles: give tilt or per-axis angles, not both"), "{message}");
+    assert!(
+        message.contains("set 'test': poses.angles: give tilt or per-axis angles, not both"),
+        "{message}"
+    );
     let (_dir, path) = project(&spec("angles: ((0.0, 1.0), (3.0, 2.0), (0.0, 1.0))"));
     let message = Dataset::load(&path).err().unwrap().to_string();
-    assert!(message.contains("spec.ron:") && message.contains("θy: (3, 2)"), "{message}");
+    assert!(
+        message.contains("spec.ron:") && message.contains("θy: (3, 2)"),
+        "{message}"
+    );
 }
 
 #[test]

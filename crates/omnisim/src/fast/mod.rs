@@ -65,9 +65,10 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
     let mut best = None;
     // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
     let t_lo = (t_min * (1.0 - 1e-6)) as f32;
-    bvh.wide.traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, counter, |triangle| {
-        cpu::nearer(bvh, origin, direction, t_min, &mut best, triangle)
-    });
+    bvh.wide
+        .traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, counter, |triangle| {
+            cpu::nearer(bvh, origin, direction, t_min, &mut best, triangle)
+        });
     best
 }
 
@@ -106,10 +107,11 @@ fn closest_hits_in<const AVX: bool>(
     let t_lo = rays.map(|(_, _, t_min)| (t_min * (1.0 - 1e-6)) as f32);
     let mut t_hi = [f32::INFINITY; PACKET];
     let mut best = [None; PACKET];
-    bvh.wide.traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, |r, triangle| {
-        let (origin, direction, t_min) = rays[r];
-        cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
-    });
+    bvh.wide
+        .traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, |r, triangle| {
+            let (origin, direction, t_min) = rays[r];
+            cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
+        });
     best
 }
 
