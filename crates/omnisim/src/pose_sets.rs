@@ -209,7 +209,7 @@ pub fn misplaced(scene: &Scene, bvh: &SceneBvh, position: DVec3) -> Option<Mispl
     // walks every face of the object.
     inside
         .into_iter()
-        .find(|&object| encloses_a_volume(scene, object) && object_bounds(scene, object) != Some(scene_bounds))
+        .find(|&object| encloses_a_volume(scene, object) && scene.object_bounds(object) != Some(scene_bounds))
         .map(|object| Misplaced::Inside(scene.objects[object as usize].name.clone()))
 }
 
@@ -232,17 +232,6 @@ fn encloses_a_volume(scene: &Scene, object: u32) -> bool {
         }
         _ => false,
     }
-}
-
-/// Axis-aligned bounds of one object's faces.
-fn object_bounds(scene: &Scene, object: u32) -> Option<(DVec3, DVec3)> {
-    let mut points = scene
-        .faces
-        .iter()
-        .filter(|f| f.object == object)
-        .flat_map(|f| f.vertices.iter().copied());
-    let first = points.next()?;
-    Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
 }
 
 #[cfg(test)]

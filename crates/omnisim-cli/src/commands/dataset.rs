@@ -149,6 +149,8 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
 /// A bar with frames/s and ETA on a terminal, else a plain line every 10 seconds.
 struct Progress {
     bar: Option<ProgressBar>,
+    /// Whether stderr is a terminal (bar) or not (plain lines); asked once.
+    terminal: bool,
     last: Instant,
     /// When the last frame was heard of.
     last_frame: Option<Instant>,
@@ -158,6 +160,7 @@ impl Progress {
     fn new() -> Self {
         Self {
             bar: None,
+            terminal: std::io::stderr().is_terminal(),
             last: Instant::now(),
             last_frame: None,
         }
@@ -165,7 +168,7 @@ impl Progress {
 
     fn frame(&mut self, frame: &dataset::FrameDone) {
         self.last_frame = Some(Instant::now());
-        if !std::io::stderr().is_terminal() {
+        if !self.terminal {
             if self.last.elapsed() >= Duration::from_secs(10) || frame.done == frame.total {
                 eprintln!(
                     "{}/{} frames (set '{}', frame {})",

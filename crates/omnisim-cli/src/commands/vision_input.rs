@@ -237,13 +237,11 @@ pub fn plain_name(name: &str) -> anyhow::Result<&str> {
     }
 }
 
-/// A manifest path (`/`-separated, relative) inside `root`, refusing any that could leave it.
+/// A manifest path (`/`-separated, relative) inside `root`, refusing any that could leave it
+/// (the data-set library's own check).
 fn inside(root: &Path, relative: &str) -> anyhow::Result<PathBuf> {
-    let parts: Vec<&str> = relative.split('/').collect();
-    for part in &parts {
-        plain_name(part).with_context(|| format!("manifest path '{relative}'"))?;
-    }
-    Ok(parts.iter().fold(root.to_path_buf(), |path, part| path.join(part)))
+    omnisim::dataset::manifest::inside(root, relative)
+        .with_context(|| format!("manifest path '{relative}' is not a path inside the data-set folder"))
 }
 
 /// The `render` options that build the camera a data set's spec describes, so that both go

@@ -218,7 +218,7 @@ pub(crate) fn relative(root: &Path, path: &Path) -> String {
 
 /// The path of a manifest file path inside `root`, refusing any that could leave it (entries
 /// may have been edited by hand).
-pub(crate) fn inside(root: &Path, relative: &str) -> Option<PathBuf> {
+pub fn inside(root: &Path, relative: &str) -> Option<PathBuf> {
     let ok = !relative.is_empty()
         && relative
             .split('/')

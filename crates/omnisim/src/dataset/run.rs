@@ -155,10 +155,15 @@ fn describe(stamp: &Stamp) -> String {
     format!(
         "spec {} (SHA-256 {}…), scene {} ({}…)",
         stamp.spec_file,
-        &stamp.spec_sha256[..12],
+        short_hash(&stamp.spec_sha256),
         stamp.scene_file,
-        &stamp.scene_sha256[..12]
+        short_hash(&stamp.scene_sha256)
     )
+}
+
+/// The first 12 characters of a hash read from a stamp file, which may have been edited.
+fn short_hash(hash: &str) -> &str {
+    hash.get(..12).unwrap_or(hash)
 }
 
 /// The files of a layout's index, for every layout (to remove a previous data set's).
@@ -831,7 +836,8 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
         let set_dir = inside(dest, &set.name).unwrap_or_else(|| dest.join("invalid"));
         let own_path = set_dir.join(ENTRIES).join(SET_ENTRY);
         let mut own: SetEntry = read_json(&own_path)?;
-        let mut frames = Vec::with_capacity(set.frames);
+        // Not `with_capacity(set.frames)`: the count comes from a file that may have been edited.
+        let mut frames = Vec::new();
         let mut missing = Vec::new();
         for index in 0..set.frames {
             let path = entry_path(&set_dir, index);

@@ -31,12 +31,20 @@ pub(crate) fn closest_hit<C: Counter>(
     portable: bool,
 ) -> Option<Hit> {
     #[cfg(target_arch = "x86_64")]
-    if !portable && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2, checked just above.
+    if use_avx2(portable) {
+        // SAFETY: `use_avx2` is true only where the CPU has AVX2.
         return unsafe { closest_hit_avx2(bvh, origin, direction, t_min, counter) };
     }
-    let _ = portable;
+    let _ = portable; // read only where an AVX2 build exists (x86_64)
     closest_hit_in::<false, C>(bvh, origin, direction, t_min, counter)
+}
+
+/// Whether to run the AVX2 build of a walk: the CPU has AVX2 and the portable path was not
+/// asked for (`CpuTracer::FastPortable`).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn use_avx2(portable: bool) -> bool {
+    !portable && std::arch::is_x86_feature_detected!("avx2")
 }
 
 /// [`closest_hit_in`] compiled with AVX2 (its box tests eight lanes wide, the rest in VEX
@@ -81,11 +89,11 @@ pub(crate) fn closest_hits(
     portable: bool,
 ) -> [Option<Hit>; PACKET] {
     #[cfg(target_arch = "x86_64")]
-    if !portable && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2, checked just above.
+    if use_avx2(portable) {
+        // SAFETY: `use_avx2` is true only where the CPU has AVX2.
         return unsafe { closest_hits_avx2(bvh, rays, active) };
     }
-    let _ = portable;
+    let _ = portable; // read only where an AVX2 build exists (x86_64)
     closest_hits_in::<false>(bvh, rays, active)
 }
 
@@ -126,11 +134,11 @@ pub(crate) fn occluded(
     portable: bool,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
-    if !portable && std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2, checked just above.
+    if use_avx2(portable) {
+        // SAFETY: `use_avx2` is true only where the CPU has AVX2.
         return unsafe { occluded_avx2(bvh, origin, direction, t_max, skip_face) };
     }
-    let _ = portable;
+    let _ = portable; // read only where an AVX2 build exists (x86_64)
     occluded_in::<false>(bvh, origin, direction, t_max, skip_face)
 }
 

@@ -123,9 +123,12 @@ impl Scene {
 
     /// Axis-aligned bounds of all vertices, or `None` for an empty scene.
     pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
-        let mut points = self.faces.iter().flat_map(|f| f.vertices.iter().copied());
-        let first = points.next()?;
-        Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
+        bounds_of(self.faces.iter())
+    }
+
+    /// Axis-aligned bounds of one object's faces; `None` for an object without faces.
+    pub fn object_bounds(&self, object: u32) -> Option<(DVec3, DVec3)> {
+        bounds_of(self.faces.iter().filter(|f| f.object == object))
     }
 
     /// Writes the triangulated scene with face colours, for other tools to load exactly the
@@ -133,4 +136,11 @@ impl Scene {
     pub fn export(&self, path: &Path, format: ExportFormat) -> Result<(), SceneError> {
         export::export(self, path, format)
     }
+}
+
+/// Axis-aligned bounds of the vertices of `faces`.
+fn bounds_of<'a>(faces: impl Iterator<Item = &'a Face>) -> Option<(DVec3, DVec3)> {
+    let mut points = faces.flat_map(|f| f.vertices.iter().copied());
+    let first = points.next()?;
+    Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
 }
