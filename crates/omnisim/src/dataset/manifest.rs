@@ -229,6 +229,33 @@ pub fn inside(root: &Path, relative: &str) -> Option<PathBuf> {
 
 /// Checks that a listed file still has its recorded size and hash.
 pub(crate) fn verify(root: &Path, file: &FileEntry, entry: &Path) -> Result<(), DatasetError> {
+    // Hashed as it is read, nothing kept.
+    verified(root, file, entry, |path| {
+        hash_file(path).map(|(bytes, sha256)| (bytes, sha256, Vec::new()))
+    })
+    .map(drop)
+}
+
+/// The bytes of a listed file, checked against its recorded size and hash in the same read
+/// (merge copies what it checks).
+pub(crate) fn read_verified(root: &Path, file: &FileEntry, entry: &Path) -> Result<Vec<u8>, DatasetError> {
+    verified(root, file, entry, |path| {
+        let bytes = std::fs::read(path).map_err(|e| DatasetError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        Ok((bytes.len() as u64, sha256_hex(&bytes), bytes))
+    })
+}
+
+/// Finds a listed file inside `root`, measures it with `measure` (size, SHA-256, and the
+/// bytes where it keeps them) and refuses it where size or hash differ from the entry's.
+fn verified(
+    root: &Path,
+    file: &FileEntry,
+    entry: &Path,
+    measure: impl FnOnce(&Path) -> Result<(u64, String, Vec<u8>), DatasetError>,
+) -> Result<Vec<u8>, DatasetError> {
     let corrupt = |path: PathBuf, problem: String| DatasetError::Corrupt {
         path,
         entry: entry.to_path_buf(),
@@ -236,7 +263,7 @@ pub(crate) fn verify(root: &Path, file: &FileEntry, entry: &Path) -> Result<(), 
     };
     let path = inside(root, &file.path)
         .ok_or_else(|| corrupt(root.join(&file.path), "not a path inside the folder".into()))?;
-    let (bytes, sha256) = match hash_file(&path) {
+    let (bytes, sha256, content) = match measure(&path) {
         Ok(found) => found,
         Err(DatasetError::Io { source, .. }) => return Err(corrupt(path, source.to_string())),
         Err(e) => return Err(e),
@@ -250,7 +277,7 @@ pub(crate) fn verify(root: &Path, file: &FileEntry, entry: &Path) -> Result<(), 
             ),
         ));
     }
-    Ok(())
+    Ok(content)
 }
 
 /// Pretty JSON with a final newline.

@@ -18,8 +18,8 @@ use super::appearance::{AppearanceRecord, frame_appearance};
 use super::contact_sheet::{self, CONTACT_SHEET};
 use super::layout::{self, Image};
 use super::manifest::{
-    FileEntry, FileKind, FrameEntry, Manifest, ManifestSet, PoseEntry, SetEntry, Stamp, file_entry, inside, sha256_hex,
-    to_json, verify,
+    FileEntry, FileKind, FrameEntry, Manifest, ManifestSet, PoseEntry, SetEntry, Stamp, file_entry, inside,
+    read_verified, sha256_hex, to_json, verify,
 };
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
@@ -954,12 +954,12 @@ fn copy_frames(source: &Path, dest: &Path, stamp: &Stamp) -> Result<(), DatasetE
                 read_json::<FrameEntry>(&entry)?.files
             };
             for file in &files {
-                verify(source, file, &entry)?;
-                let (from_file, to_file) = (source.join(&file.path), dest.join(&file.path));
+                let bytes = read_verified(source, file, &entry)?;
+                let to_file = dest.join(&file.path);
                 if let Some(parent) = to_file.parent() {
                     prepare_dir(parent)?;
                 }
-                write_file(&to_file, &std::fs::read(&from_file).map_err(io(&from_file))?)?;
+                write_file(&to_file, &bytes)?;
             }
             let name = entry.file_name().map(PathBuf::from).unwrap_or_default();
             write_file(
