@@ -74,10 +74,7 @@ impl CpuTracer {
 
     /// Traces one frame's hit planes on all CPU threads.
     pub fn trace(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
-        let width = camera.size().0.max(1) as usize;
-        self.trace_rays(bvh, camera.size(), pose, |index| {
-            camera.ray(DVec2::new((index % width) as f64, (index / width) as f64))
-        })
+        self.trace_rays(bvh, camera.size(), pose, |index| camera.pixel_ray(index))
     }
 
     /// Traces a `size` frame whose pixel `index` (row by row) has the body-frame ray
@@ -105,11 +102,8 @@ impl CpuTracer {
                         for (r, slot) in rays.iter_mut().enumerate().take(rows * columns) {
                             let index = (band * 8 + r / columns) * row_length + column + r % columns;
                             if let Some(ray) = ray(index) {
-                                *slot = (
-                                    local.origin + local.world_from_body * ray.origin,
-                                    local.world_from_body * ray.direction,
-                                    ray.t_min,
-                                );
+                                let (origin, direction) = local.ray(&ray);
+                                *slot = (origin, direction, ray.t_min);
                                 active |= 1 << r;
                             }
                         }
@@ -162,8 +156,7 @@ impl CpuTracer {
         let Some(ray) = ray else {
             return Pixel::MISS;
         };
-        let origin = pose.origin + pose.world_from_body * ray.origin;
-        let direction = pose.world_from_body * ray.direction;
+        let (origin, direction) = pose.ray(&ray);
         let Some(hit) = self.closest_hit_counted(bvh, origin, direction, ray.t_min, counter) else {
             return Pixel::MISS;
         };
@@ -319,6 +312,14 @@ impl LocalPose {
             world_from_body: pose.world_from_body_rotation(),
             origin: pose.position - bvh.offset,
         }
+    }
+
+    /// A body-frame camera ray as (origin, direction) in the scene-local frame the BVH uses.
+    fn ray(&self, ray: &CameraRay) -> (DVec3, DVec3) {
+        (
+            self.origin + self.world_from_body * ray.origin,
+            self.world_from_body * ray.direction,
+        )
     }
 }
 

@@ -7,7 +7,6 @@
 
 use std::sync::{Arc, Mutex};
 
-use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::bvh::SceneBvh;
@@ -58,10 +57,9 @@ impl RayCache {
         if let Some(table) = tables.iter().find(|table| table.camera == *camera) {
             return Some(Arc::clone(table));
         }
-        let row_length = width.max(1) as usize;
         let rays = (0..pixels)
             .into_par_iter()
-            .map(|index| camera.ray(DVec2::new((index % row_length) as f64, (index / row_length) as f64)))
+            .map(|index| camera.pixel_ray(index))
             .collect();
         let table = Arc::new(RayTable {
             camera: camera.clone(),

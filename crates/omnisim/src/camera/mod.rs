@@ -57,6 +57,13 @@ impl Camera {
         }
     }
 
+    /// The ray through the centre of pixel `index`, counted row by row from the top left:
+    /// how whole frames and ray tables enumerate an image.
+    pub fn pixel_ray(&self, index: usize) -> Option<CameraRay> {
+        let row_length = self.size().0.max(1) as usize;
+        self.ray(DVec2::new((index % row_length) as f64, (index / row_length) as f64))
+    }
+
     /// The ray seen at pixel (u, v), or `None` where the pixel sees nothing of the scene
     /// (outside the mirror, the camera body).
     pub fn ray(&self, pixel: DVec2) -> Option<CameraRay> {
