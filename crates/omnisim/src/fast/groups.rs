@@ -6,7 +6,9 @@
 //! which alone decides hits and distances. So the fast tracer finds exactly the triangles the
 //! f64 reference finds.
 
-use glam::{BVec4A, DVec3, Vec4};
+use glam::{DVec3, Vec4};
+
+use super::lanes::{Lanes, Lanes8};
 
 /// Rounding-error budget in units of f32's unit roundoff (2⁻²⁴). The dot and cross products
 /// of the test accumulate about 25 such errors of the largest operand (worked out in
@@ -17,45 +19,36 @@ const ERROR_ULPS: f32 = 64.0 * f32::EPSILON / 2.0;
 /// must let through on top of its own error.
 const EDGE: f32 = 1e-9;
 
-/// A ray broadcast to four lanes, with the error bound of its f32 coordinates.
-pub(crate) struct LaneRay {
-    pub(crate) origin: [Vec4; 3],
-    pub(crate) direction: [Vec4; 3],
-    pub(crate) inv_direction: [Vec4; 3],
-    /// Absolute error bound of positions along this ray (metres): `ERROR_ULPS` × the largest
-    /// coordinate of the ray origin or of the scene.
-    position_error: Vec4,
+/// A ray's quantities as the filter reads them, one ray per lane or one ray in every lane.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RayLanes<L> {
+    pub(crate) origin: [L; 3],
+    pub(crate) direction: [L; 3],
+    /// Absolute error bound of positions along the ray (metres): `ERROR_ULPS` × the largest
+    /// coordinate of the ray origin or of the scene ([`position_error`]).
+    pub(crate) position_error: L,
 }
 
-impl LaneRay {
-    /// `scene_extent` is the largest absolute coordinate of any triangle (scene-local).
-    pub(crate) fn new(origin: DVec3, direction: DVec3, scene_extent: f32) -> Self {
-        let o = origin.as_vec3();
-        let d = direction.as_vec3();
-        let inverse = |x: f32| obvhs::ray::safe_inverse(x);
-        let largest = o.abs().max_element().max(scene_extent);
-        Self {
-            origin: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
-            direction: [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)],
-            inv_direction: [
-                Vec4::splat(inverse(d.x)),
-                Vec4::splat(inverse(d.y)),
-                Vec4::splat(inverse(d.z)),
-            ],
-            position_error: Vec4::splat(ERROR_ULPS * (1.0 + largest)),
-        }
-    }
+/// The error bound of positions along a ray from `origin` (f32, scene-local) in a scene whose
+/// largest absolute coordinate is `scene_extent`.
+pub(crate) fn position_error(origin: glam::Vec3, scene_extent: f32) -> f32 {
+    ERROR_ULPS * (1.0 + origin.abs().max_element().max(scene_extent))
 }
 
-/// Up to four triangles, structure of arrays: corner 0 and the two edges from it (f32,
-/// rounded from the f64 corners), the longer edge's length, and each lane's triangle index
-/// in leaf order.
+/// Triangles as the filter reads them: corner 0 and the two edges from it (f32, rounded from
+/// the f64 corners) and the longer edge's length.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TriangleLanes<L> {
+    corner: [L; 3],
+    edge1: [L; 3],
+    edge2: [L; 3],
+    longest_edge: L,
+}
+
+/// Up to four triangles, one per lane, with each lane's triangle index in leaf order.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct TriangleGroup {
-    corner: [Vec4; 3],
-    edge1: [Vec4; 3],
-    edge2: [Vec4; 3],
-    longest_edge: Vec4,
+    lanes4: TriangleLanes<Vec4>,
     /// Triangle index (leaf order) of each lane.
     pub(crate) triangle: [u32; 4],
     /// Bit i set where lane i holds a triangle.
@@ -78,57 +71,81 @@ impl TriangleGroup {
         }
         let column = |k: usize| Vec4::new(lanes[0][k], lanes[1][k], lanes[2][k], lanes[3][k]);
         Self {
-            corner: [column(0), column(1), column(2)],
-            edge1: [column(3), column(4), column(5)],
-            edge2: [column(6), column(7), column(8)],
-            longest_edge: column(9),
+            lanes4: TriangleLanes {
+                corner: [column(0), column(1), column(2)],
+                edge1: [column(3), column(4), column(5)],
+                edge2: [column(6), column(7), column(8)],
+                longest_edge: column(9),
+            },
             triangle,
             lanes: (1u32 << indices.len()) - 1,
         }
     }
 
-    /// Lanes whose triangle the f64 test might hit at a distance in (`t_lo`, `t_hi`): every
-    /// lane but those the f32 test rejects with a margin above its rounding error.
+    /// Lanes whose triangle the f64 test might hit at a distance in (`t_lo`, `t_hi`) along
+    /// `ray` (broadcast to four lanes): [`filter`] for four triangles.
     #[inline(always)]
-    pub(crate) fn candidates(&self, ray: &LaneRay, t_lo: f32, t_hi: f32) -> u32 {
-        let [dx, dy, dz] = ray.direction;
-        let [e1x, e1y, e1z] = self.edge1;
-        let [e2x, e2y, e2z] = self.edge2;
-        let px = dy * e2z - dz * e2y;
-        let py = dz * e2x - dx * e2z;
-        let pz = dx * e2y - dy * e2x;
-        let det = e1x * px + e1y * py + e1z * pz;
-        let sx = ray.origin[0] - self.corner[0];
-        let sy = ray.origin[1] - self.corner[1];
-        let sz = ray.origin[2] - self.corner[2];
-        let u = sx * px + sy * py + sz * pz;
-        let qx = sy * e1z - sz * e1y;
-        let qy = sz * e1x - sx * e1z;
-        let qz = sx * e1y - sy * e1x;
-        let v = dx * qx + dy * qy + dz * qz;
-        let t = e2x * qx + e2y * qy + e2z * qz;
-        // Unnormalised barycentrics and distance, turned so that det ≥ 0.
-        let sign = det.signum();
-        let (det, u, v, t) = (det * sign, u * sign, v * sign, t * sign);
-        // Error bounds: positions carry `position_error`, so u and v (position × edge) carry
-        // that times the edge length, det (edge × edge) the relative error times its square,
-        // and t (position × edge × edge) the position error times the square.
-        let edge = self.longest_edge;
-        let uv_error = ray.position_error * edge + det * EDGE;
-        let det_error = Vec4::splat(ERROR_ULPS) * edge * edge;
-        let t_error = ray.position_error * edge * edge;
-        let decided = det.cmpgt(det_error * 2.0);
-        let outside: BVec4A = u.cmplt(-uv_error) | v.cmplt(-uv_error) | (u + v).cmpgt(det + uv_error * 2.0 + det_error);
-        let beyond =
-            t.cmpgt(det * t_hi + t_error + det_error * t_hi) | t.cmplt(det * t_lo - t_error - det_error * t_lo);
-        !(decided & (outside | beyond)).bitmask() & self.lanes
+    pub(crate) fn candidates(&self, ray: &RayLanes<Vec4>, t_lo: f32, t_hi: f32) -> u32 {
+        filter(ray, &self.lanes4, Vec4::splat(t_lo), Vec4::splat(t_hi)) & self.lanes
     }
+
+    /// The triangle of `lane` in all eight lanes, to filter eight rays against it.
+    #[inline(always)]
+    pub(crate) fn broadcast(&self, lane: usize) -> TriangleLanes<Lanes8> {
+        let splat = |v: Vec4| Lanes8::splat(v[lane]);
+        let t = &self.lanes4;
+        TriangleLanes {
+            corner: t.corner.map(splat),
+            edge1: t.edge1.map(splat),
+            edge2: t.edge2.map(splat),
+            longest_edge: splat(t.longest_edge),
+        }
+    }
+}
+
+/// Lanes whose (ray, triangle) pair the f64 test might hit at a distance in (`t_lo`, `t_hi`):
+/// every lane but those the f32 test rejects with a margin above its rounding error.
+/// Möller–Trumbore; the same operations in every lane whatever `L` is.
+#[inline(always)]
+pub(crate) fn filter<L: Lanes>(ray: &RayLanes<L>, triangle: &TriangleLanes<L>, t_lo: L, t_hi: L) -> u32 {
+    let [dx, dy, dz] = ray.direction;
+    let [e1x, e1y, e1z] = triangle.edge1;
+    let [e2x, e2y, e2z] = triangle.edge2;
+    let px = dy * e2z - dz * e2y;
+    let py = dz * e2x - dx * e2z;
+    let pz = dx * e2y - dy * e2x;
+    let det = e1x * px + e1y * py + e1z * pz;
+    let sx = ray.origin[0] - triangle.corner[0];
+    let sy = ray.origin[1] - triangle.corner[1];
+    let sz = ray.origin[2] - triangle.corner[2];
+    let u = sx * px + sy * py + sz * pz;
+    let qx = sy * e1z - sz * e1y;
+    let qy = sz * e1x - sx * e1z;
+    let qz = sx * e1y - sy * e1x;
+    let v = dx * qx + dy * qy + dz * qz;
+    let t = e2x * qx + e2y * qy + e2z * qz;
+    // Unnormalised barycentrics and distance, turned so that det ≥ 0.
+    let sign = det.signum();
+    let (det, u, v, t) = (det * sign, u * sign, v * sign, t * sign);
+    // Error bounds: positions carry `position_error`, so u and v (position × edge) carry
+    // that times the edge length, det (edge × edge) the relative error times its square,
+    // and t (position × edge × edge) the position error times the square.
+    let edge = triangle.longest_edge;
+    let two = L::splat(2.0);
+    let uv_error = ray.position_error * edge + det * L::splat(EDGE);
+    let det_error = L::splat(ERROR_ULPS) * edge * edge;
+    let t_error = ray.position_error * edge * edge;
+    let decided = det.greater(det_error * two);
+    let outside = u.less(-uv_error) | v.less(-uv_error) | (u + v).greater(det + uv_error * two + det_error);
+    let beyond = t.greater(det * t_hi + t_error + det_error * t_hi) | t.less(det * t_lo - t_error - det_error * t_lo);
+    !(decided & (outside | beyond))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::cpu::intersect;
+    use crate::fast::rays::LaneRay;
     use rand::{Rng, SeedableRng, rngs::StdRng};
 
     /// The filter's one promise: it never rejects a triangle the f64 test hits in range. Rays
@@ -174,7 +191,7 @@ mod tests {
             let extent = corners.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
             let group = TriangleGroup::new(&[corners], &[0]);
             let ray = LaneRay::new(origin, direction, extent);
-            let kept = group.candidates(&ray, 0.0, f32::INFINITY) & 1 == 1;
+            let kept = group.candidates(&ray.lanes, 0.0, f32::INFINITY) & 1 == 1;
             match intersect(&corners, origin, direction) {
                 Some(t) if t > 0.0 => {
                     hits += 1;

@@ -8,6 +8,8 @@
 //! (a ray along a shared edge) the traversal order, which differs, picks one of them.
 
 mod groups;
+mod lanes;
+mod rays;
 mod wide;
 
 use glam::DVec3;
@@ -17,7 +19,7 @@ pub(crate) use wide::{PACKET, WideBvh};
 use crate::bvh::SceneBvh;
 use crate::cpu::{self, Hit};
 use crate::traversal::Counter;
-use groups::LaneRay;
+use rays::{LaneRay, PacketRays};
 
 /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`: the same hit as
 /// [`cpu::closest_hit`], found faster. `portable` keeps to the portable box test even where
@@ -110,16 +112,21 @@ fn closest_hits_in<const AVX: bool>(
     rays: &[(DVec3, DVec3, f64); PACKET],
     active: u64,
 ) -> [Option<Hit>; PACKET] {
-    let lanes = rays.map(|(origin, direction, _)| LaneRay::new(origin, direction, bvh.wide.extent));
-    // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
-    let t_lo = rays.map(|(_, _, t_min)| (t_min * (1.0 - 1e-6)) as f32);
     let mut t_hi = [f32::INFINITY; PACKET];
     let mut best = [None; PACKET];
-    bvh.wide
-        .traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, |r, triangle| {
-            let (origin, direction, t_min) = rays[r];
-            cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
-        });
+    let visit = |r: usize, triangle| {
+        let (origin, direction, t_min) = rays[r];
+        cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
+    };
+    let packet = PacketRays::new(rays, active, bvh.wide.extent);
+    if packet.bounds.same_signs() {
+        bvh.wide.traverse_interval(&packet, &mut t_hi, active, visit);
+    } else {
+        let lanes = rays.map(|(origin, direction, _)| LaneRay::new(origin, direction, bvh.wide.extent));
+        // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
+        let t_lo = rays.map(|(_, _, t_min)| (t_min * (1.0 - 1e-6)) as f32);
+        bvh.wide.traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, visit);
+    }
     best
 }
 

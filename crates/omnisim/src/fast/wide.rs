@@ -9,7 +9,9 @@ use glam::{DVec3, Vec4};
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::node::Bvh2Node;
 
-use super::groups::{LaneRay, TriangleGroup};
+use super::groups::{TriangleGroup, filter};
+use super::lanes::{Lanes, Lanes8};
+use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
 use crate::traversal::{Counter, Visit};
 
 /// Marks a child index as a leaf (the rest is its first triangle group).
@@ -133,7 +135,7 @@ impl WideBvh {
                         for _ in 0..group.lanes.count_ones() {
                             counter.primitive_test();
                         }
-                        let mut candidates = group.candidates(ray, t_lo, t_hi);
+                        let mut candidates = group.candidates(&ray.lanes, t_lo, t_hi);
                         while candidates != 0 {
                             let lane = candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
@@ -228,7 +230,7 @@ impl WideBvh {
                     let r = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     for group in &self.groups[first..first + count] {
-                        let mut candidates = group.candidates(&rays[r], t_lo[r], t_hi[r]);
+                        let mut candidates = group.candidates(&rays[r].lanes, t_lo[r], t_hi[r]);
                         while candidates != 0 {
                             let lane = candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
@@ -280,6 +282,139 @@ impl WideBvh {
     }
 }
 
+impl WideBvh {
+    /// [`WideBvh::traverse_packet`] by interval arithmetic: a node's eight boxes are tested
+    /// once for the whole packet against the bounds of its origins and inverse directions
+    /// (admitting every box some ray enters, maybe more), and each leaf triangle is filtered
+    /// against eight rays at a time. `visit(r, triangle)` sees, for each ray, every triangle
+    /// the per-ray walks would show it, and perhaps a few more the f64 test then rejects.
+    /// Tight only where `rays.bounds.same_signs()`. Entries of `t_hi` outside `active` are
+    /// set to −∞.
+    #[inline(always)]
+    pub(crate) fn traverse_interval(
+        &self,
+        rays: &PacketRays,
+        t_hi: &mut [f32; PACKET],
+        active: u64,
+        mut visit: impl FnMut(usize, usize) -> Visit,
+    ) {
+        if self.nodes.is_empty() || active == 0 {
+            return;
+        }
+        for (r, t) in t_hi.iter_mut().enumerate() {
+            if active & (1 << r) == 0 {
+                *t = f32::NEG_INFINITY;
+            }
+        }
+        // The packet's bound: the farthest any of its rays may still find a closer hit.
+        let farthest = |t_hi: &[f32; PACKET]| t_hi.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
+        let mut far = farthest(t_hi);
+        let mut stack = vec![(0u32, 0.0f32); (WIDTH - 1) * self.depth + WIDTH];
+        let mut len = 1;
+        stack[0] = (0, f32::NEG_INFINITY);
+        while len > 0 {
+            len -= 1;
+            let (entry, t_enter) = stack[len];
+            if t_enter > far {
+                continue;
+            }
+            if entry & LEAF == 0 {
+                let node = &self.nodes[entry as usize];
+                let (mut hits, near) = enter_interval(node, &rays.bounds, far);
+                // Farthest first onto the stack, so the nearest is popped next.
+                let base = len;
+                while hits != 0 {
+                    let lane = hits.trailing_zeros() as usize;
+                    hits &= hits - 1;
+                    let child = (node.child[lane], near[lane]);
+                    let mut at = len;
+                    while at > base && stack[at - 1].1 < child.1 {
+                        stack[at] = stack[at - 1];
+                        at -= 1;
+                    }
+                    stack[at] = child;
+                    len += 1;
+                }
+                continue;
+            }
+            // Batches with a ray whose bound still reaches the leaf.
+            let entering = Lanes8::splat(t_enter);
+            let batches: [u32; BATCHES] = std::array::from_fn(|b| {
+                let lanes = (active >> (8 * b)) as u32 & 0xff;
+                if lanes == 0 {
+                    0
+                } else {
+                    lanes & !entering.greater(Lanes8::load(&t_hi[8 * b..]))
+                }
+            });
+            let first = (entry & GROUP_INDEX) as usize;
+            let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+            for group in &self.groups[first..first + count] {
+                let mut lanes = group.lanes;
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    let triangle = group.broadcast(lane);
+                    for (b, &rays_in) in batches.iter().enumerate() {
+                        if rays_in == 0 {
+                            continue;
+                        }
+                        let bound = Lanes8::load(&t_hi[8 * b..]);
+                        let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
+                        while candidates != 0 {
+                            let r = 8 * b + candidates.trailing_zeros() as usize;
+                            candidates &= candidates - 1;
+                            if let Visit::Closer(t) = visit(r, group.triangle[lane] as usize) {
+                                t_hi[r] = t_hi[r].min(t);
+                            }
+                        }
+                    }
+                }
+            }
+            far = farthest(t_hi);
+        }
+    }
+}
+
+/// Interval slab test of a node's eight boxes against a packet: the lanes some ray with
+/// origin and inverse direction within `bounds` might enter between 0 and `far`, and a lower
+/// bound of where. Conservative because f32 subtraction and multiplication round
+/// monotonically: each ray's slab distances (as [`enter`] computes them) lie between the
+/// products of the bounds' corners, so its entry is at least, and its exit at most, what is
+/// computed here.
+#[inline(always)]
+fn enter_interval(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, [f32; WIDTH]) {
+    let mut near = [Vec4::ZERO; HALVES];
+    let mut mask = 0;
+    for (half, near) in near.iter_mut().enumerate() {
+        let mut exit = Vec4::splat(far);
+        for axis in 0..3 {
+            let (origin_min, origin_max) = (
+                Vec4::splat(bounds.origin_min[axis]),
+                Vec4::splat(bounds.origin_max[axis]),
+            );
+            let (inverse_min, inverse_max) = (
+                Vec4::splat(bounds.inverse_min[axis]),
+                Vec4::splat(bounds.inverse_max[axis]),
+            );
+            // The range of (plane − origin) × inverse over the packet.
+            let span = |plane: Vec4| {
+                let (a, b) = (plane - origin_max, plane - origin_min);
+                let products = [a * inverse_min, a * inverse_max, b * inverse_min, b * inverse_max];
+                let low = products[0].min(products[1]).min(products[2].min(products[3]));
+                let high = products[0].max(products[1]).max(products[2].max(products[3]));
+                (low, high)
+            };
+            let (low_min, low_max) = span(node.min[axis][half]);
+            let (high_min, high_max) = span(node.max[axis][half]);
+            *near = near.max(low_min.min(high_min));
+            exit = exit.min(low_max.max(high_max));
+        }
+        mask |= near.cmple(exit).bitmask() << (4 * half);
+    }
+    (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
+}
+
 /// Slab test of a node's eight boxes, two `Vec4` halves (SSE on x86_64): the lanes entered
 /// between 0 and `t_hi`, and where.
 #[inline(always)]
@@ -289,8 +424,8 @@ fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
     for (half, near) in near.iter_mut().enumerate() {
         let mut far = Vec4::splat(t_hi);
         for axis in 0..3 {
-            let t1 = (node.min[axis][half] - ray.origin[axis]) * ray.inv_direction[axis];
-            let t2 = (node.max[axis][half] - ray.origin[axis]) * ray.inv_direction[axis];
+            let t1 = (node.min[axis][half] - ray.lanes.origin[axis]) * ray.inv_direction[axis];
+            let t2 = (node.max[axis][half] - ray.lanes.origin[axis]) * ray.inv_direction[axis];
             *near = near.max(t1.min(t2));
             far = far.min(t1.max(t2));
         }
@@ -321,7 +456,7 @@ fn enter_avx(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
             let mut near = _mm256_setzero_ps();
             let mut far = _mm256_set1_ps(t_hi);
             for axis in 0..3 {
-                let origin = _mm256_set1_ps(ray.origin[axis].x);
+                let origin = _mm256_set1_ps(ray.lanes.origin[axis].x);
                 let inverse = _mm256_set1_ps(ray.inv_direction[axis].x);
                 let low = _mm256_loadu_ps(node.min[axis].as_ptr().cast::<f32>());
                 let high = _mm256_loadu_ps(node.max[axis].as_ptr().cast::<f32>());
