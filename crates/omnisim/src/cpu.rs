@@ -87,7 +87,11 @@ impl CpuTracer {
         ray: impl Fn(usize) -> Option<CameraRay> + Sync,
     ) -> Frame {
         let local = LocalPose::new(bvh, pose);
-        let mut hits = vec![Pixel::MISS; width as usize * height as usize];
+        // Filled on all threads: the first touch of a large buffer's pages (fresh from the
+        // kernel for every frame) costs about as much as tracing a simple scene, and the
+        // threads share it (docs/benchmarks.md, "Frame buffers").
+        let mut hits = Vec::new();
+        hits.par_extend(rayon::iter::repeat_n(Pixel::MISS, width as usize * height as usize));
         let row_length = width.max(1) as usize;
         if let Self::Fast | Self::FastPortable = self {
             // Tiles of 8×8 pixels traced as one packet each (`fast::closest_hits`).
