@@ -5,6 +5,7 @@ mod common;
 
 use glam::dvec3;
 use omnisim::bvh::SceneBvh;
+use omnisim::output::ExrCompression;
 use omnisim::scene::ExportFormat;
 use omnisim::{Pose, cpu, output};
 use ply_rs_bw::parser::Parser;
@@ -60,9 +61,26 @@ fn png_reads_back_pixel_for_pixel() {
 fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
     let frame = rendered();
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("range.exr");
-    output::write_range_exr(&path, &frame, &omnisim::Camera::Catadioptric(common::paper_omni())).unwrap();
-    let image = common::read_exr(&path);
+    for (compression, stored) in [
+        (ExrCompression::Zip, exr::prelude::Compression::ZIP16),
+        (ExrCompression::Rle, exr::prelude::Compression::RLE),
+        (ExrCompression::None, exr::prelude::Compression::Uncompressed),
+    ] {
+        let path = dir.path().join(format!("range-{compression:?}.exr"));
+        output::write_range_exr(
+            &path,
+            &frame,
+            &omnisim::Camera::Catadioptric(common::paper_omni()),
+            compression,
+        )
+        .unwrap();
+        check_range_exr(&path, &frame, stored);
+    }
+}
+
+/// The range EXR at `path` holds `frame`'s ranges bit for bit, compressed as `compression`.
+fn check_range_exr(path: &std::path::Path, frame: &omnisim::Frame, compression: exr::prelude::Compression) {
+    let image = common::read_exr(path);
     let layer = &image.layer_data[0];
     assert_eq!(layer.size.0, frame.width as usize);
     let comments = layer
@@ -80,7 +98,7 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
         matches!(quantity, Some(exr::prelude::AttributeValue::Text(t)) if t.eq("range")),
         "{quantity:?}"
     );
-    assert_eq!(layer.encoding.compression, exr::prelude::Compression::ZIP16);
+    assert_eq!(layer.encoding.compression, compression);
     // Blocks in a fixed order: the bytes depend on the values only.
     assert_eq!(layer.encoding.line_order, exr::prelude::LineOrder::Increasing);
     let channel = &layer.channel_data.list[0];
@@ -283,7 +301,7 @@ fn normals_are_unit_face_the_camera_and_read_back_from_exr() {
     }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("normal.exr");
-    output::write_normal_exr(&path, &frame).unwrap();
+    output::write_normal_exr(&path, &frame, ExrCompression::Zip).unwrap();
     let image = common::read_exr(&path);
     let channels = &image.layer_data[0].channel_data.list;
     for (axis, name) in ["normal.X", "normal.Y", "normal.Z"].iter().enumerate() {
@@ -304,7 +322,7 @@ fn linear_colour_exr_reads_back_and_encodes_to_the_png_colour() {
     let (_, frame) = rendered_with_every_plane(&pose);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("linear.exr");
-    output::write_linear_exr(&path, &frame).unwrap();
+    output::write_linear_exr(&path, &frame, ExrCompression::Zip).unwrap();
     let image = common::read_exr(&path);
     let channels = &image.layer_data[0].channel_data.list;
     let linear = frame.linear_colour().unwrap();
@@ -330,9 +348,9 @@ fn every_file_is_byte_reproducible() {
         let depth: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
         let size = (frame.width, frame.height);
         output::write_png(&path("c.png"), &frame).unwrap();
-        output::write_range_exr(&path("r.exr"), &frame, &camera).unwrap();
-        output::write_axial_depth_exr(&path("z.exr"), size, depth.clone()).unwrap();
-        output::write_disparity_exr(&path("d.exr"), size, depth.clone()).unwrap();
+        output::write_range_exr(&path("r.exr"), &frame, &camera, ExrCompression::Zip).unwrap();
+        output::write_axial_depth_exr(&path("z.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
+        output::write_disparity_exr(&path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_tum_depth_png(&path("z.png"), size, &depth).unwrap();
         output::write_ray_map_exr(&path("rays.exr"), &camera).unwrap();
         output::write_point_cloud_ply(&path("p.ply"), &frame, "test").unwrap();

@@ -698,7 +698,7 @@ impl Dataset {
                         let png = set_dir.join(format!("{stem}{suffix}-depth-noisy.png"));
                         output::write_tum_depth_png(&png, size, &values)?;
                         let exr = set_dir.join(format!("{stem}{suffix}-depth-noisy.exr"));
-                        output::write_axial_depth_exr(&exr, size, values.clone())?;
+                        output::write_axial_depth_exr(&exr, size, values.clone(), self.spec.outputs.exr_compression)?;
                         noisy.extend([png, exr]);
                         sensor_depth.get_or_insert(values);
                     }
@@ -712,7 +712,12 @@ impl Dataset {
                             .map(|(p, range)| crate::Pixel { range, ..*p })
                             .collect();
                         let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
-                        output::write_range_exr(&exr, &Frame::from_hits(size.0, size.1, hits), camera)?;
+                        output::write_range_exr(
+                            &exr,
+                            &Frame::from_hits(size.0, size.1, hits),
+                            camera,
+                            self.spec.outputs.exr_compression,
+                        )?;
                         noisy.push(exr);
                     }
                 }
@@ -724,7 +729,12 @@ impl Dataset {
         if let (Some(model), Rig::Stereo(stereo)) = (&set.noise.disparity, &self.rig) {
             let values = noise::disparity(&stereo.disparity(&frames[0], pose), model, &mut rng);
             let path = set_dir.join(format!("{stem}-disparity-noisy.exr"));
-            output::write_disparity_exr(&path, (frames[0].width, frames[0].height), values)?;
+            output::write_disparity_exr(
+                &path,
+                (frames[0].width, frames[0].height),
+                values,
+                self.spec.outputs.exr_compression,
+            )?;
             noisy.push(path);
         }
         for path in noisy {

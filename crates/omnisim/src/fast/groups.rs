@@ -219,4 +219,52 @@ mod tests {
             "{kept_clear_misses} of {clear_misses} clear misses kept"
         );
     }
+
+    /// One triangle against eight rays gives, pair by pair, the answer of four triangles
+    /// against one ray: the two batchings run the same f32 operations.
+    #[test]
+    fn eight_rays_at_a_time_filter_as_one_ray_at_a_time() {
+        use crate::fast::PACKET;
+        use crate::fast::rays::PacketRays;
+        let mut rng = StdRng::seed_from_u64(7);
+        let unit =
+            |rng: &mut StdRng| DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0))).normalize();
+        let mut kept = 0;
+        for _ in 0..300 {
+            let place = unit(&mut rng) * rng.random_range(0.0..5.0);
+            let triangles: Vec<[DVec3; 3]> = (0..4)
+                .map(|_| {
+                    let a = place + unit(&mut rng) * rng.random_range(0.0..2.0);
+                    [a, a + unit(&mut rng), a + unit(&mut rng) * 0.3]
+                })
+                .collect();
+            let group = TriangleGroup::new(&triangles, &[0, 1, 2, 3]);
+            let origin = unit(&mut rng) * rng.random_range(0.0..3.0);
+            let rays: [(DVec3, DVec3, f64); PACKET] = std::array::from_fn(|_| {
+                let towards = place + unit(&mut rng) * rng.random_range(0.0..2.0);
+                (origin, (towards - origin).normalize(), rng.random_range(0.0..0.5))
+            });
+            let t_hi: Vec<f32> = (0..PACKET).map(|_| rng.random_range(0.5..20.0)).collect();
+            let packet = PacketRays::new(&rays, u64::MAX, 10.0);
+            for lane in 0..4 {
+                let triangle = group.broadcast(lane);
+                for r in 0..PACKET {
+                    let single = LaneRay::new(rays[r].0, rays[r].1, 10.0);
+                    let t_lo = (rays[r].2 * (1.0 - 1e-6)) as f32;
+                    let one = group.candidates(&single.lanes, t_lo, t_hi[r]) >> lane & 1;
+                    let (b, k) = (r / 8, r % 8);
+                    let eight = filter(
+                        &packet.batches[b],
+                        &triangle,
+                        packet.t_lo[b],
+                        Lanes8::load(&t_hi[8 * b..]),
+                    ) >> k
+                        & 1;
+                    assert_eq!(one, eight, "ray {r}, triangle {lane}");
+                    kept += one;
+                }
+            }
+        }
+        assert!(kept > 500 && kept < 300 * 4 * 64 - 1_000, "{kept} pairs kept");
+    }
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 use image::ImageEncoder;
 use serde::Serialize;
 
-use super::{OutputError, failed, write_exr};
+use super::{ExrCompression, OutputError, failed, write_exr};
 use crate::frame::{Frame, NO_FACE};
 use crate::output::atomic::write_atomically;
 use crate::scene::Scene;
@@ -105,7 +105,7 @@ pub fn face_ids(frame: &Frame) -> Vec<u32> {
 }
 
 /// Three-channel f32 EXR of world-frame unit normals, NaN where nothing is hit.
-pub fn write_normal_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
+pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
     let mut channels: [Vec<f32>; 3] = Default::default();
     for p in frame.pixels() {
         let normal = if p.is_hit() { p.normal.to_array() } else { [f32::NAN; 3] };
@@ -120,11 +120,12 @@ pub fn write_normal_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
         "normal",
         NORMAL_CONVENTION,
         vec![("normal.X", x), ("normal.Y", y), ("normal.Z", z)],
+        compression,
     )
 }
 
 /// Three-channel f32 EXR (R, G, B) of the frame's linear colour plane.
-pub fn write_linear_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
+pub fn write_linear_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
     let linear = frame.linear_colour().ok_or_else(|| OutputError {
         path: path.to_path_buf(),
         message: "the frame has no linear colour plane (render it with Plane::LinearColour)".into(),
@@ -136,5 +137,6 @@ pub fn write_linear_exr(path: &Path, frame: &Frame) -> Result<(), OutputError> {
         "linear colour",
         LINEAR_CONVENTION,
         vec![("R", channel(0)), ("G", channel(1)), ("B", channel(2))],
+        compression,
     )
 }

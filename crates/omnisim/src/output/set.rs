@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::atomic::write_atomically;
 use super::folder::RunFolder;
-use super::{OutputError, failed};
+use super::{ExrCompression, OutputError, failed};
 use crate::calibration;
 use crate::camera::Camera;
 use crate::frame::{Frame, Plane, Planes};
@@ -40,6 +40,9 @@ pub struct OutputSet {
     pub linear: bool,
     /// Stereo rigs: `<stem>-disparity.exr` of the left image.
     pub disparity: bool,
+    /// How every per-frame EXR is compressed (all lossless): `Zip` (default, smallest),
+    /// `Rle` or `None` (faster to write).
+    pub exr_compression: ExrCompression,
 }
 
 impl Default for OutputSet {
@@ -53,6 +56,7 @@ impl Default for OutputSet {
             normals: false,
             linear: false,
             disparity: true,
+            exr_compression: ExrCompression::Zip,
         }
     }
 }
@@ -148,7 +152,7 @@ impl OutputSet {
         }
         if self.range {
             let exr = target.path(folder, &format!("{suffix}-range.exr"))?;
-            super::write_range_exr(&exr, frame, camera)?;
+            super::write_range_exr(&exr, frame, camera, self.exr_compression)?;
             written.push(exr);
         }
         if let (true, Camera::Pinhole(pinhole)) = (self.depth, camera) {
@@ -156,7 +160,7 @@ impl OutputSet {
             let depth_png = target.path(folder, &format!("{suffix}-depth.png"))?;
             super::write_tum_depth_png(&depth_png, size, &depth)?;
             let depth_exr = target.path(folder, &format!("{suffix}-depth.exr"))?;
-            super::write_axial_depth_exr(&depth_exr, size, depth)?;
+            super::write_axial_depth_exr(&depth_exr, size, depth, self.exr_compression)?;
             written.extend([depth_png, depth_exr]);
         }
         if self.segmentation {
@@ -172,12 +176,12 @@ impl OutputSet {
         }
         if self.normals {
             let normal_exr = target.path(folder, &format!("{suffix}-normal.exr"))?;
-            super::write_normal_exr(&normal_exr, frame)?;
+            super::write_normal_exr(&normal_exr, frame, self.exr_compression)?;
             written.push(normal_exr);
         }
         if self.linear {
             let linear_exr = target.path(folder, &format!("{suffix}-linear.exr"))?;
-            super::write_linear_exr(&linear_exr, frame)?;
+            super::write_linear_exr(&linear_exr, frame, self.exr_compression)?;
             written.push(linear_exr);
         }
         if self.point_cloud {
@@ -212,7 +216,12 @@ impl OutputSet {
         if let (true, Rig::Stereo(stereo)) = (self.disparity, rig) {
             let disparity = stereo.disparity(&frames[0], target.pose);
             let path = target.path(folder, "-disparity.exr")?;
-            super::write_disparity_exr(&path, (frames[0].width, frames[0].height), disparity)?;
+            super::write_disparity_exr(
+                &path,
+                (frames[0].width, frames[0].height),
+                disparity,
+                self.exr_compression,
+            )?;
             written.push(path);
         }
         Ok(written)
