@@ -236,6 +236,19 @@ pub(crate) fn verify(root: &Path, file: &FileEntry, entry: &Path) -> Result<(), 
     .map(drop)
 }
 
+/// Checks that a listed file still has its recorded size (its hash is taken as recorded: for
+/// files the caller itself just wrote and hashed).
+pub(crate) fn verify_size(root: &Path, file: &FileEntry, entry: &Path) -> Result<(), DatasetError> {
+    verified(root, file, entry, |path| {
+        let metadata = std::fs::metadata(path).map_err(|e| DatasetError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        Ok((metadata.len(), file.sha256.clone(), Vec::new()))
+    })
+    .map(drop)
+}
+
 /// The bytes of a listed file, checked against its recorded size and hash in the same read
 /// (merge copies what it checks).
 pub(crate) fn read_verified(root: &Path, file: &FileEntry, entry: &Path) -> Result<Vec<u8>, DatasetError> {

@@ -7,6 +7,7 @@
 //! at most the frames it was writing, with the same bytes. `merge` checks every file's hash
 //! and writes the layouts' index files and `manifest.json`.
 
+use std::collections::HashSet;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -19,7 +20,7 @@ use super::contact_sheet::{self, CONTACT_SHEET};
 use super::layout::{self, Image};
 use super::manifest::{
     FileEntry, FileKind, FrameEntry, Manifest, ManifestSet, PoseEntry, SetEntry, Stamp, file_entry, inside,
-    read_verified, sha256_hex, to_json, verify,
+    read_verified, sha256_hex, to_json, verify, verify_size,
 };
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
@@ -334,6 +335,9 @@ struct Heard<'a, 'b> {
     /// Tells the writers to drop the frames still queued (they are not done; a later run
     /// renders them again).
     stop: &'b AtomicBool,
+    /// (set name, frame) of every frame this run wrote: their entries hold hashes of the files
+    /// as written, which the final merge need not compute again.
+    written: HashSet<(&'a str, usize)>,
 }
 
 impl Heard<'_, '_> {
@@ -345,6 +349,7 @@ impl Heard<'_, '_> {
                 (false, bytes)
             }
             Ok(Outcome::Written(bytes)) => {
+                self.written.insert((self.names[s], index));
                 self.summary.rendered += 1;
                 self.summary.bytes += bytes;
                 (true, bytes)
@@ -458,6 +463,7 @@ impl Dataset {
             failure: None,
             stopped: false,
             stop: &stop,
+            written: HashSet::new(),
         };
         // Frames render here, one after another (the renderer is not shared), while writer
         // threads encode and write the frames before them; a bounded queue keeps at most a
@@ -521,13 +527,13 @@ impl Dataset {
                 heard.frame(set, i, result.map(Outcome::Written));
             }
         });
-        let (failure, done) = (heard.failure, heard.done);
+        let (failure, done, written) = (heard.failure, heard.done, heard.written);
         if let Some(failure) = failure {
             return Err(failure);
         }
         summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
-            merge(out, &[])?;
+            assemble(out, &[], &written)?;
             summary.merged = true;
         }
         Ok(summary)
@@ -802,6 +808,12 @@ pub struct MergeSummary {
 /// records, and writes the layouts' index files and `manifest.json`. With no `sources`, shards
 /// wrote into `dest` itself (a shared file system).
 pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetError> {
+    assemble(dest, sources, &HashSet::new())
+}
+
+/// [`merge`], checking only the sizes of the files of the frames in `written` ((set name,
+/// frame) written by the calling run, which hashed them as it wrote them).
+fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) -> Result<MergeSummary, DatasetError> {
     let mut stamp = read_stamp(dest)?;
     for source in sources {
         let theirs = read_stamp(source)?.ok_or_else(|| DatasetError::Corrupt {
@@ -856,8 +868,13 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
                 continue;
             }
             let entry: FrameEntry = read_json(&path)?;
+            let fresh = written.contains(&(set.name.as_str(), index));
             for file in &entry.files {
-                verify(dest, file, &path)?;
+                if fresh {
+                    verify_size(dest, file, &path)?;
+                } else {
+                    verify(dest, file, &path)?;
+                }
             }
             frames.push(entry);
         }

@@ -181,6 +181,24 @@ fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
     }
     assert_eq!(run(&dataset, &whole, RunOptions::default(), None).rendered, 0);
 
+    // The final check trusts the hashes of frames a run wrote itself, not those of frames an
+    // earlier run left: one damaged while the run was stopped is found when it resumes.
+    let damaged_run = dir.path().join("damaged-run");
+    run(&dataset, &damaged_run, RunOptions::default(), Some(1));
+    let victim = damaged_run.join("map/room-0000.png");
+    let mut bytes = std::fs::read(&victim).unwrap();
+    bytes[40] ^= 1;
+    std::fs::write(&victim, bytes).unwrap();
+    let found = dataset
+        .run(&cpu(), &damaged_run, &RunOptions::default(), &mut |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap_err();
+    assert!(
+        matches!(found, DatasetError::Corrupt { .. }) && found.to_string().contains("room-0000.png"),
+        "{found}"
+    );
+
     // Three shards into one folder, then merge: the same bytes.
     let shared = dir.path().join("shared");
     for index in 0..3 {
