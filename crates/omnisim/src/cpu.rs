@@ -103,20 +103,20 @@ impl CpuTracer {
                         let columns = (row_length - column).min(8);
                         let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
                         let mut active = 0u64;
-                        for (r, slot) in rays.iter_mut().enumerate().take(rows * columns) {
-                            let index = (band * 8 + r / columns) * row_length + column + r % columns;
-                            if let Some(ray) = ray(index) {
+                        // Ray r of the packet is pixel (column + r % columns, row r / columns).
+                        let tile = (0..rows).flat_map(|row| (0..columns).map(move |c| row * row_length + column + c));
+                        for (r, offset) in tile.clone().enumerate() {
+                            if let Some(ray) = ray(band * 8 * row_length + offset) {
                                 let (origin, direction) = local.ray(&ray);
-                                *slot = (origin, direction, ray.t_min);
+                                rays[r] = (origin, direction, ray.t_min);
                                 active |= 1 << r;
                             }
                         }
                         let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
-                        for r in 0..rows * columns {
+                        for (r, offset) in tile.enumerate() {
                             if let Some(hit) = found[r] {
                                 let (origin, direction, _) = rays[r];
-                                pixels[(r / columns) * row_length + column + r % columns] =
-                                    pixel(bvh, origin, direction, hit);
+                                pixels[offset] = pixel(bvh, origin, direction, hit);
                             }
                         }
                     }
@@ -193,6 +193,7 @@ pub struct Hit {
 }
 
 /// Möller–Trumbore in f64; returns t where the ray meets the triangle.
+#[inline(always)]
 pub(crate) fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f64> {
     let e1 = corners[1] - corners[0];
     let e2 = corners[2] - corners[0];

@@ -80,12 +80,10 @@ impl PacketRays {
         let mut direction = [[0.0f32; PACKET]; 3];
         let mut error = [0.0f32; PACKET];
         let mut t_lo = [0.0f32; PACKET];
-        let mut bounds = PacketBounds {
-            origin_min: Vec3::INFINITY,
-            origin_max: Vec3::NEG_INFINITY,
-            inverse_min: Vec3::INFINITY,
-            inverse_max: Vec3::NEG_INFINITY,
-        };
+        let (mut origin_min, mut origin_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        let (mut direction_min, mut direction_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        // Per axis, whether some direction has its sign bit set, and whether some has it clear.
+        let (mut negative, mut positive) = ([false; 3], [false; 3]);
         let mut rest = active;
         while rest != 0 {
             let r = rest.trailing_zeros() as usize;
@@ -98,11 +96,25 @@ impl PacketRays {
             }
             error[r] = position_error(o, scene_extent);
             t_lo[r] = (t_min * (1.0 - 1e-6)) as f32;
-            let inv = inverse(d);
-            bounds.origin_min = bounds.origin_min.min(o);
-            bounds.origin_max = bounds.origin_max.max(o);
-            bounds.inverse_min = bounds.inverse_min.min(inv);
-            bounds.inverse_max = bounds.inverse_max.max(inv);
+            origin_min = origin_min.min(o);
+            origin_max = origin_max.max(o);
+            direction_min = direction_min.min(d);
+            direction_max = direction_max.max(d);
+            for axis in 0..3 {
+                negative[axis] |= d[axis].is_sign_negative();
+                positive[axis] |= !d[axis].is_sign_negative();
+            }
+        }
+        // `safe_inverse` does not increase over either sign's directions (±0 included), so on
+        // an axis where all share a sign the extreme directions give the extreme inverses
+        // without a division per ray; with both signs, every inverse obvhs can return.
+        let largest = 1.0 / f32::EPSILON;
+        let (mut inverse_min, mut inverse_max) = (Vec3::splat(-largest), Vec3::splat(largest));
+        for axis in 0..3 {
+            if !(negative[axis] && positive[axis]) {
+                inverse_min[axis] = safe_inverse(direction_max[axis]);
+                inverse_max[axis] = safe_inverse(direction_min[axis]);
+            }
         }
         let batch = |values: &[f32; PACKET], b: usize| Lanes8::load(&values[8 * b..]);
         Self {
@@ -112,7 +124,12 @@ impl PacketRays {
                 position_error: batch(&error, b),
             }),
             t_lo: std::array::from_fn(|b| batch(&t_lo, b)),
-            bounds,
+            bounds: PacketBounds {
+                origin_min,
+                origin_max,
+                inverse_min,
+                inverse_max,
+            },
         }
     }
 }
