@@ -75,8 +75,10 @@ fn main() -> std::process::ExitCode {
 /// kernel. By default every block over 32 MiB is its own mapping, unmapped when freed, so each
 /// frame's hit planes (48 bytes a pixel: 48 MiB at 1024²) came back as fresh pages, faulted and
 /// zeroed again: 7–20 ms of a 1024² fast CPU render that takes 28 ms without it
-/// (docs/benchmarks.md, "Frame buffers"). Resident memory stays at its peak instead of
-/// shrinking between frames. glibc only; other C libraries keep their own policy.
+/// (docs/benchmarks.md, "Interval packets and frame buffers"). The cost: resident memory stays
+/// at the peak of every allocator arena for the whole run instead of shrinking between
+/// frames, and zeroed allocations are zeroed by hand instead of arriving as fresh zero pages.
+/// glibc only; other C libraries keep their own policy.
 fn keep_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: mallopt only sets allocator parameters; called before any other thread exists.

@@ -88,8 +88,9 @@ impl CpuTracer {
     ) -> Frame {
         let local = LocalPose::new(bvh, pose);
         // Filled on all threads: the first touch of a large buffer's pages (fresh from the
-        // kernel for every frame) costs about as much as tracing a simple scene, and the
-        // threads share it (docs/benchmarks.md, "Frame buffers").
+        // kernel for every frame, unless the allocator keeps freed memory as the `omnisim`
+        // binary asks glibc to) costs about as much as tracing a simple scene, and the threads
+        // share it (docs/benchmarks.md, "Interval packets and frame buffers").
         let mut hits = Vec::new();
         hits.par_extend(rayon::iter::repeat_n(Pixel::MISS, width as usize * height as usize));
         let row_length = width.max(1) as usize;

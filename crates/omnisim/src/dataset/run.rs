@@ -5,7 +5,10 @@
 //! (`tum/`, `mav0/`) and `.frames/` (one entry per done frame, and `set.json`). Every file
 //! is written atomically; a frame is done when its entry exists, so a killed run re-renders
 //! at most the frames it was writing, with the same bytes. `merge` checks every file's hash
-//! and writes the layouts' index files and `manifest.json`.
+//! and writes the layouts' index files and `manifest.json`; the merge that ends an unsharded
+//! run checks only the sizes of the frames that run wrote itself (it hashed them as it wrote
+//! them, so a file changed during the run without changing size goes unnoticed until the
+//! next `omnisim dataset merge`) and hashes the frames earlier runs left.
 
 use std::collections::HashSet;
 use std::ops::ControlFlow;

@@ -105,7 +105,8 @@ impl TriangleGroup {
 
 /// Lanes whose (ray, triangle) pair the f64 test might hit at a distance in (`t_lo`, `t_hi`):
 /// every lane but those the f32 test rejects with a margin above its rounding error.
-/// Möller–Trumbore; the same operations in every lane whatever `L` is.
+/// Möller–Trumbore; the same operations in every lane whatever `L` is. Bits above the lane
+/// count are set: callers mask with the lanes they hold.
 #[inline(always)]
 pub(crate) fn filter<L: Lanes>(ray: &RayLanes<L>, triangle: &TriangleLanes<L>, t_lo: L, t_hi: L) -> u32 {
     let [dx, dy, dz] = ray.direction;

@@ -73,8 +73,7 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
 ) -> Option<Hit> {
     let ray = LaneRay::new(origin, direction, bvh.wide.extent);
     let mut best = None;
-    // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
-    let t_lo = (t_min * (1.0 - 1e-6)) as f32;
+    let t_lo = rays::t_lo(t_min);
     bvh.wide
         .traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, counter, |triangle| {
             cpu::nearer(bvh, origin, direction, t_min, &mut best, triangle)
@@ -123,8 +122,7 @@ fn closest_hits_in<const AVX: bool>(
         bvh.wide.traverse_interval(&packet, &mut t_hi, active, visit);
     } else {
         let lanes = rays.map(|(origin, direction, _)| LaneRay::new(origin, direction, bvh.wide.extent));
-        // Rounded down, so the f32 filter never drops a triangle just beyond t_min.
-        let t_lo = rays.map(|(_, _, t_min)| (t_min * (1.0 - 1e-6)) as f32);
+        let t_lo = rays.map(|(_, _, t_min)| rays::t_lo(t_min));
         bvh.wide.traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, visit);
     }
     best

@@ -32,6 +32,12 @@ impl LaneRay {
     }
 }
 
+/// A ray's `t_min` as the f32 filter's lower bound, rounded down so that the filter never
+/// drops a triangle just beyond it.
+pub(crate) fn t_lo(t_min: f64) -> f32 {
+    (t_min * (1.0 - 1e-6)) as f32
+}
+
 /// The f32 inverse of a direction, finite everywhere (obvhs's `safe_inverse`: ±2²³ for ±0).
 fn inverse(direction: Vec3) -> Vec3 {
     Vec3::new(
@@ -47,15 +53,15 @@ pub(crate) const BATCHES: usize = PACKET / 8;
 /// A packet of rays, rays 8b to 8b + 7 in batch b, with its interval bounds.
 pub(crate) struct PacketRays {
     pub(crate) batches: [RayLanes<Lanes8>; BATCHES],
-    /// Each ray's `t_min`, rounded down to f32 so that the filter never drops a triangle just
-    /// beyond it.
+    /// Each ray's [`t_lo`].
     pub(crate) t_lo: [Lanes8; BATCHES],
     pub(crate) bounds: PacketBounds,
 }
 
-/// Per axis, the smallest and largest f32 origin coordinate and inverse direction among a
-/// packet's rays: what the interval box test (`wide.rs`) needs to admit a box any of them
-/// enters.
+/// Per axis, bounds of the f32 origin coordinates and inverse directions of a packet's rays:
+/// what the interval box test (`wide.rs`) needs to admit a box any of them enters. The origin
+/// bounds are the extremes; the inverse bounds are too where the directions share a sign on
+/// that axis, and ±2²³ (every inverse obvhs returns) where they do not.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PacketBounds {
     pub(crate) origin_min: Vec3,
@@ -95,7 +101,7 @@ impl PacketRays {
                 direction[axis][r] = d[axis];
             }
             error[r] = position_error(o, scene_extent);
-            t_lo[r] = (t_min * (1.0 - 1e-6)) as f32;
+            t_lo[r] = self::t_lo(t_min);
             origin_min = origin_min.min(o);
             origin_max = origin_max.max(o);
             direction_min = direction_min.min(d);

@@ -33,7 +33,7 @@ const WIDTH: usize = 4 * HALVES;
 /// Subtrees of at most this many triangles become one leaf (one group of four lanes).
 const LEAF_TRIANGLES: u32 = 4;
 
-/// Four children's boxes, lane i = child i.
+/// Eight children's boxes, lane i = child i.
 #[derive(Debug, Clone, Copy)]
 struct WideNode {
     min: [[Vec4; HALVES]; 3],
@@ -159,7 +159,7 @@ impl WideBvh {
                     };
                     if hits != 0 {
                         // Children entered, pushed farthest first (an insertion sort of at
-                        // most four); the nearest is visited next without a push.
+                        // most eight); the nearest is visited next without a push.
                         let base = len;
                         while hits != 0 {
                             let lane = hits.trailing_zeros() as usize;
