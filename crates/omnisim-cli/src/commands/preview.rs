@@ -8,8 +8,9 @@ use omnisim::dataset::{Dataset, preview};
 
 /// Draw a data set seen from above: the scene's faces in their colours with the room's extent
 /// and a scale bar, every set's poses (one colour per set) with heading arrows, occluders,
-/// point lights, and red crosses at poses skipped for lying inside an object or outside the
-/// scene (the reference paper's Fig. 7). Nothing is rendered: it takes seconds.
+/// lights (point lights where they are and where a set moves them, directional ones as arrows)
+/// with each set's light changes, and red crosses at poses skipped for lying inside an object
+/// or outside the scene (the reference paper's Fig. 7). Nothing is rendered: it takes seconds.
 #[derive(Debug, Clone, Args)]
 #[command(
     after_help = "Examples:\n  omnisim preview scenes/env1-dataset.ron --out env1-dataset\n    \

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec2, DVec3};
 
 use super::occluders::Occluder;
+use super::spec::LightChange;
 use super::{Dataset, DatasetError};
 use crate::lighting::LightKind;
 
@@ -114,7 +115,11 @@ pub fn draw(dataset: &Dataset) -> Result<Preview, DatasetError> {
     for set in &dataset.sets {
         let positions = set.poses.iter().map(|p| p.position);
         let skipped = set.skipped.iter().map(|s| DVec3::from(s.position));
-        for p in positions.chain(skipped) {
+        let moved = set.spec.lights.iter().filter_map(|change| match change {
+            LightChange::Move { position, .. } => Some(DVec3::from(*position)),
+            _ => None,
+        });
+        for p in positions.chain(skipped).chain(moved) {
             plan_low = plan_low.min(p.truncate());
             plan_high = plan_high.max(p.truncate());
         }
@@ -151,6 +156,9 @@ pub fn draw(dataset: &Dataset) -> Result<Preview, DatasetError> {
         }
     }
     svg.lights(dataset);
+    for (s, set) in dataset.sets.iter().enumerate() {
+        svg.moved_lights(dataset, &set.spec.name, &set_colour(s), &set.spec.lights);
+    }
     // Crosses last: a skipped pose is what the user must not miss.
     for set in &dataset.sets {
         for skip in &set.skipped {
@@ -423,30 +431,117 @@ impl Svg {
     }
 
     /// Point lights: a yellow sun symbol with the light's name (grey when switched off).
+    /// Directional lights: an arrow in the top left corner along the light's travel seen from
+    /// above, with its elevation.
     fn lights(&mut self, dataset: &Dataset) {
         let Some(lighting) = &dataset.scene.lighting else {
             return;
         };
+        let mut suns = 0;
         for light in &lighting.lights {
-            let LightKind::Point { position, .. } = light.kind else {
+            let fill = if light.on { "rgb(255,215,0)" } else { "rgb(190,190,190)" };
+            match light.kind {
+                LightKind::Point { position, .. } => {
+                    let p = self.at(position.truncate());
+                    self.sun_symbol(
+                        &format!(r#"class="light" data-light="{}""#, escape(&light.name)),
+                        p,
+                        fill,
+                        "black",
+                    );
+                    self.label(p, &format!("{} ({:.2} m)", light.name, position.z));
+                }
+                LightKind::Directional { direction, .. } => {
+                    self.directional(light, direction, fill, suns);
+                    suns += 1;
+                }
+            }
+        }
+    }
+
+    /// A sun symbol (cross and disc) at `p`, with `attributes` on its group.
+    fn sun_symbol(&mut self, attributes: &str, p: DVec2, fill: &str, stroke: &str) {
+        let _ = writeln!(
+            self.text,
+            r#"<g {attributes}><path d="M{:.2} {:.2}h20M{:.2} {:.2}v20" stroke="{stroke}" stroke-width="1.2"/><circle cx="{:.2}" cy="{:.2}" r="6" fill="{fill}" stroke="{stroke}" stroke-width="1.5"/></g>"#,
+            p.x - 10.0,
+            p.y,
+            p.x,
+            p.y - 10.0,
+            p.x,
+            p.y,
+        );
+    }
+
+    fn label(&mut self, p: DVec2, text: &str) {
+        let _ = writeln!(
+            self.text,
+            r#"<text x="{:.2}" y="{:.2}" font-size="12">{}</text>"#,
+            p.x + 9.0,
+            p.y - 8.0,
+            escape(text)
+        );
+    }
+
+    /// Directional light number `k`: an arrow along the horizontal part of its direction of
+    /// travel (a disc where it falls straight down), its name and elevation above the horizon.
+    fn directional(&mut self, light: &crate::lighting::Light, direction: DVec3, fill: &str, k: usize) {
+        let origin = DVec2::new(MARGIN.left + 30.0, MARGIN.top + 30.0 + 40.0 * k as f64);
+        let across = direction.truncate();
+        let elevation = (-direction.z).atan2(across.length()).to_degrees();
+        // Picture y grows downwards: world +y is up on the plan.
+        let along = DVec2::new(across.x, -across.y).normalize_or_zero() * 22.0;
+        let (tail, tip) = (origin - along, origin + along);
+        let side = along.normalize_or_zero().perp() * 4.0;
+        let base = tip - along.normalize_or_zero() * 8.0;
+        let _ = writeln!(
+            self.text,
+            r#"<g class="light directional" data-light="{name}"><line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke="black" stroke-width="2"/><polygon points="{}"/><circle cx="{:.2}" cy="{:.2}" r="5" fill="{fill}" stroke="black"/><text x="{:.2}" y="{:.2}" font-size="12">{name} (directional, {elevation:.0}° up)</text></g>"#,
+            tail.x,
+            tail.y,
+            base.x,
+            base.y,
+            polygon_points(&[tip, base + side, base - side]),
+            tail.x,
+            tail.y,
+            origin.x + 28.0,
+            origin.y + 4.0,
+            name = escape(&light.name)
+        );
+    }
+
+    /// The point lights a set moves: a sun symbol outlined in the set's colour at the new
+    /// position, dashed from where the scene has it.
+    fn moved_lights(&mut self, dataset: &Dataset, set: &str, colour: &str, changes: &[LightChange]) {
+        let lights = dataset
+            .scene
+            .lighting
+            .as_ref()
+            .map(|l| l.lights.as_slice())
+            .unwrap_or_default();
+        for change in changes {
+            let LightChange::Move { light, position } = change else {
                 continue;
             };
-            let p = self.at(position.truncate());
-            let fill = if light.on { "rgb(255,215,0)" } else { "rgb(190,190,190)" };
-            let _ = writeln!(
-                self.text,
-                r#"<g class="light" data-light="{name}"><path d="M{:.2} {:.2}h20M{:.2} {:.2}v20" stroke="black" stroke-width="1.2"/><circle cx="{:.2}" cy="{:.2}" r="6" fill="{fill}" stroke="black"/><text x="{:.2}" y="{:.2}" font-size="12">{name} ({:.2} m)</text></g>"#,
-                p.x - 10.0,
-                p.y,
-                p.x,
-                p.y - 10.0,
-                p.x,
-                p.y,
-                p.x + 9.0,
-                p.y - 8.0,
-                position.z,
-                name = escape(&light.name)
+            let to = DVec3::from(*position);
+            let p = self.at(to.truncate());
+            if let Some(LightKind::Point { position: from, .. }) =
+                lights.iter().find(|l| &l.name == light).map(|l| l.kind)
+            {
+                let q = self.at(from.truncate());
+                let _ = writeln!(
+                    self.text,
+                    r#"<line x1="{:.2}" y1="{:.2}" x2="{:.2}" y2="{:.2}" stroke="{colour}" stroke-width="1.2" stroke-dasharray="4 3"/>"#,
+                    q.x, q.y, p.x, p.y
+                );
+            }
+            let attributes = format!(
+                r#"class="light moved" data-light="{}" data-set="{}""#,
+                escape(light),
+                escape(set)
             );
+            self.sun_symbol(&attributes, p, "rgb(255,215,0)", colour);
+            self.label(p, &format!("{light} in {set} ({:.2} m)", to.z));
         }
     }
 
@@ -477,6 +572,19 @@ impl Svg {
                 set.poses.len()
             );
             y += 20.0;
+            if !set.spec.lights.is_empty() {
+                for line in wrap(&light_changes(&set.spec.lights), LEGEND_LINE) {
+                    let _ = writeln!(
+                        self.text,
+                        r#"<text class="light-changes" data-set="{}" x="{}" y="{:.1}" font-size="11" fill="rgb(80,80,80)">{}</text>"#,
+                        escape(&set.spec.name),
+                        x + 12.0,
+                        y - 4.0,
+                        escape(&line)
+                    );
+                    y += 15.0;
+                }
+            }
         }
         y += 8.0;
         let _ = writeln!(
@@ -513,6 +621,43 @@ impl Svg {
         self.text.push_str("</svg>\n");
         self.text
     }
+}
+
+/// Characters of small legend text that fit beside the plan.
+const LEGEND_LINE: usize = 44;
+
+/// `text` in lines of at most `width` characters, broken after commas (a longer piece keeps
+/// its own line).
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for piece in text.split_inclusive(", ") {
+        match lines.last_mut() {
+            Some(line) if line.chars().count() + piece.trim_end().chars().count() <= width => line.push_str(piece),
+            _ => lines.push(piece.to_string()),
+        }
+    }
+    lines.iter().map(|line| line.trim_end().to_string()).collect()
+}
+
+/// A set's light changes in a few words: "lamp off, desk moved".
+fn light_changes(changes: &[LightChange]) -> String {
+    const SHOWN: usize = 4;
+    let mut words: Vec<String> = changes
+        .iter()
+        .take(SHOWN)
+        .map(|change| match change {
+            LightChange::Switch { light, on } => format!("{light} {}", if *on { "on" } else { "off" }),
+            LightChange::Move { light, .. } => format!("{light} moved"),
+            LightChange::Intensity { light, value } => format!("{light} at {value}"),
+            LightChange::Colour { light, .. } => format!("{light} tinted"),
+            LightChange::Flicker { light, .. } => format!("{light} flickers"),
+            LightChange::Ambient(lux) => format!("ambient {lux} lx"),
+        })
+        .collect();
+    if changes.len() > SHOWN {
+        words.push(format!("{} more", changes.len() - SHOWN));
+    }
+    format!("lights: {}", words.join(", "))
 }
 
 /// The two points of a face seen edge-on that are farthest apart (its ends).

@@ -585,17 +585,23 @@ fn shards_are_disjoint_and_cover_every_frame() {
     }
 }
 
+/// The elements of a preview's SVG whose `class` attribute is exactly `class`.
+fn elements_of_class<'a, 'input>(
+    svg: &'a roxmltree::Document<'input>,
+    class: &str,
+) -> Vec<roxmltree::Node<'a, 'input>> {
+    svg.descendants()
+        .filter(|n| n.attribute("class") == Some(class))
+        .collect()
+}
+
 #[test]
 fn the_preview_marks_every_pose_and_skipped_pose_where_the_plan_view_puts_it() {
     let (_dir, path) = project(SPEC);
     let dataset = Dataset::load(&path).unwrap();
     let picture = preview::draw(&dataset).unwrap();
     let svg = roxmltree::Document::parse(&picture.svg).expect("the preview is well-formed XML");
-    let with_class = |class: &str| {
-        svg.descendants()
-            .filter(|n| n.attribute("class") == Some(class))
-            .collect::<Vec<_>>()
-    };
+    let with_class = |class: &str| elements_of_class(&svg, class);
     let markers = with_class("pose-marker");
     assert_eq!(markers.len(), dataset.frame_count());
     assert_eq!(picture.poses, dataset.frame_count());
@@ -650,6 +656,79 @@ fn the_preview_marks_every_pose_and_skipped_pose_where_the_plan_view_puts_it() {
         let at = DVec2::new(skipped.position[0], skipped.position[1]);
         assert!(near(pixel(at), [230, 0, 0]), "{:?} at the cross {at}", pixel(at));
     }
+}
+
+/// Lights in the preview: a point light a set moves is drawn at its new place in the set's
+/// colour and joined to the old one, a directional light by an arrow along its travel, and each
+/// set's light changes are listed in the legend.
+#[test]
+fn the_preview_shows_moved_and_directional_lights_and_each_sets_light_changes() {
+    let (dir, path) = project(
+        r#"Dataset(scene: "room.ron", rig: Pinhole(size: (32, 24), hfov: 70.0), sets: [
+            Set(name: "day", poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)])),
+            Set(name: "evening", poses: List([(0.5, 0.0, 1.0, 0.0, 0.0, 90.0)]),
+                lights: [Switch(light: "lamp", on: false), Move(light: "desk", position: (-1.0, -1.0, 1.5))]),
+        ])"#,
+    );
+    let with_sun = ROOM.replace(
+        "lights: [",
+        r#"lights: [Directional(name: "sun", direction: (1.0, 0.5, -2.0), illuminance: 20000.0), "#,
+    );
+    std::fs::write(dir.path().join("room.ron"), with_sun).unwrap();
+    let dataset = Dataset::load(&path).unwrap();
+    let picture = preview::draw(&dataset).unwrap();
+    let svg = roxmltree::Document::parse(&picture.svg).expect("the preview is well-formed XML");
+    let with_class = |class: &str| elements_of_class(&svg, class);
+    let number = |node: roxmltree::Node, name: &str| node.attribute(name).unwrap().parse::<f64>().unwrap();
+
+    let moved = with_class("light moved");
+    assert_eq!(moved.len(), 1);
+    assert_eq!(
+        (moved[0].attribute("data-light"), moved[0].attribute("data-set")),
+        (Some("desk"), Some("evening"))
+    );
+    let disc = moved[0].children().find(|c| c.has_tag_name("circle")).unwrap();
+    let at = picture.view.to_picture(DVec2::new(-1.0, -1.0));
+    assert!((number(disc, "cx") - at.x).abs() < 0.01 && (number(disc, "cy") - at.y).abs() < 0.01);
+    assert_eq!(
+        disc.attribute("stroke"),
+        Some("rgb(255,127,14)"),
+        "outlined in the second set's colour"
+    );
+
+    let sun = with_class("light directional");
+    assert_eq!(sun.len(), 1);
+    assert_eq!(sun[0].attribute("data-light"), Some("sun"));
+    let line = sun[0].children().find(|c| c.has_tag_name("line")).unwrap();
+    let travel = DVec2::new(
+        number(line, "x2") - number(line, "x1"),
+        number(line, "y1") - number(line, "y2"),
+    );
+    assert!(
+        travel.normalize().distance(DVec2::new(1.0, 0.5).normalize()) < 1e-3,
+        "{travel}"
+    );
+    let label = sun[0]
+        .children()
+        .find(|c| c.has_tag_name("text"))
+        .unwrap()
+        .text()
+        .unwrap();
+    // Travelling along (1, 0.5, −2): atan(2 / √1.25) = 60.8° above the horizon.
+    assert!(label.contains("sun (directional, 61° up)"), "{label}");
+
+    let changes = with_class("light-changes");
+    assert_eq!(changes.len(), 1, "only the set that changes lights lists them");
+    assert_eq!(changes[0].attribute("data-set"), Some("evening"));
+    assert_eq!(changes[0].text(), Some("lights: lamp off, desk moved"));
+
+    let png = image::load_from_memory(&picture.png().unwrap()).unwrap().to_rgb8();
+    let p = picture.view.to_picture(DVec2::new(-1.0, -1.0));
+    let pixel = png.get_pixel(p.x as u32, p.y as u32).0;
+    assert!(
+        pixel.iter().zip([255u8, 215, 0]).all(|(&a, b)| a.abs_diff(b) <= 12),
+        "{pixel:?} at the moved desk lamp"
+    );
 }
 
 /// A spec whose pinhole looks at the east wall (x = 2 m) from x = 0, 0.5 and 1 m at the
