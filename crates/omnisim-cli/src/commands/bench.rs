@@ -23,6 +23,9 @@ pub enum BenchBackend {
     Both,
 }
 
+/// Shortest warm-up of a timed backend (unless `--warmup 0`).
+const WARM_UP_TIME: std::time::Duration = std::time::Duration::from_millis(500);
+
 /// Measure tracing speed: median time per image over --runs after --warmup renders.
 ///
 /// Prints one JSON object per backend on stdout: Mrays/s (primary rays, one per pixel, from
@@ -54,7 +57,9 @@ pub struct BenchArgs {
     /// Timed renders per backend (the median is reported).
     #[arg(long, default_value_t = 7)]
     pub runs: usize,
-    /// Untimed renders first (shader compilation, caches).
+    /// Untimed renders first (shader compilation, caches, ray tables), and for at least half
+    /// a second unless 0: on a shared machine the first tens of milliseconds of a small
+    /// image's renders ran up to 2× slower than the rest.
     #[arg(long, default_value_t = 2)]
     pub warmup: usize,
     /// Instead of rays per second, measure time per image against error for every method
@@ -106,8 +111,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         };
         let planes = if args.hits_only { Planes::HITS } else { Planes::COLOUR };
         let render = || renderer.render(&prepared, &camera, &args.pose, planes);
-        for _ in 0..args.warmup {
+        let warming = Instant::now();
+        let mut warmed = 0;
+        while warmed < args.warmup || (args.warmup > 0 && warming.elapsed() < WARM_UP_TIME) {
             render()?;
+            warmed += 1;
         }
         let mut times = Vec::with_capacity(args.runs);
         let mut reshade_times = Vec::with_capacity(args.runs);
@@ -150,7 +158,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "backend": renderer.backend_name(),
             "device": renderer.device_name(),
             "threads": rayon_threads(),
-            "warmup": args.warmup,
+            "warmup": warmed,
             "runs": args.runs,
             "median_ms": median_seconds * 1e3,
             "min_ms": times[0] * 1e3,
