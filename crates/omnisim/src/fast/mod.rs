@@ -82,7 +82,7 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
 }
 
 /// A packet of up to [`PACKET`] rays (bit r of `active` where ray r exists): each ray's
-/// [`closest_hit`], found by one walk for the packet (`portable` as there).
+/// [`closest_hit`], found by interval walks of the packet (`portable` as there).
 pub(crate) fn closest_hits(
     bvh: &SceneBvh,
     rays: &[(DVec3, DVec3, f64); PACKET],
@@ -95,37 +95,50 @@ pub(crate) fn closest_hits(
         return unsafe { closest_hits_avx2(bvh, rays, active) };
     }
     let _ = portable; // read only where an AVX2 build exists (x86_64)
-    closest_hits_in::<false>(bvh, rays, active)
+    closest_hits_in(bvh, rays, active)
 }
 
-/// [`closest_hits_in`] compiled with AVX2.
+/// [`closest_hits_in`] compiled with AVX2 (VEX encoding for its four-lane operations).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [Option<Hit>; PACKET] {
-    closest_hits_in::<true>(bvh, rays, active)
+    closest_hits_in(bvh, rays, active)
 }
 
 #[inline(always)]
-fn closest_hits_in<const AVX: bool>(
-    bvh: &SceneBvh,
-    rays: &[(DVec3, DVec3, f64); PACKET],
-    active: u64,
-) -> [Option<Hit>; PACKET] {
+fn closest_hits_in(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [Option<Hit>; PACKET] {
     let mut t_hi = [f32::INFINITY; PACKET];
     let mut best = [None; PACKET];
-    let visit = |r: usize, triangle| {
+    let mut visit = |r: usize, triangle| {
         let (origin, direction, t_min) = rays[r];
         cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
     };
-    let packet = PacketRays::new(rays, active, bvh.wide.extent);
-    if packet.bounds.same_signs() {
-        bvh.wide.traverse_interval(&packet, &mut t_hi, active, visit);
-    } else {
-        let lanes = rays.map(|(origin, direction, _)| LaneRay::new(origin, direction, bvh.wide.extent));
-        let t_lo = rays.map(|(_, _, t_min)| rays::t_lo(t_min));
-        bvh.wide.traverse_packet::<AVX>(&lanes, &t_lo, &mut t_hi, active, visit);
+    // The interval walk is tight only for rays whose directions share their signs, so a
+    // packet that straddles an axis plane is walked once per octant it spans (callgrind, omni
+    // images: 13 % fewer instructions than walking such packets ray by ray; docs/benchmarks.md).
+    for rays_in in octants(rays, active).into_iter().filter(|&rays_in| rays_in != 0) {
+        let packet = PacketRays::new(rays, rays_in, bvh.wide.extent);
+        debug_assert!(packet.bounds.same_signs());
+        bvh.wide.traverse_interval(&packet, &mut t_hi, rays_in, &mut visit);
     }
     best
+}
+
+/// The rays of `active` by the octant of their f32 direction (sign bits, −0 negative, as
+/// `PacketRays` reads them): bit r of entry k where ray r's x, y, z signs are k's bits 0, 1, 2.
+fn octants(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [u64; 8] {
+    let mut octants = [0u64; 8];
+    let mut rest = active;
+    while rest != 0 {
+        let r = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let d = rays[r].1.as_vec3();
+        let octant = usize::from(d.x.is_sign_negative())
+            | usize::from(d.y.is_sign_negative()) << 1
+            | usize::from(d.z.is_sign_negative()) << 2;
+        octants[octant] |= 1 << r;
+    }
+    octants
 }
 
 /// Whether anything but face `skip_face` lies on the ray strictly between 0 and `t_max`:

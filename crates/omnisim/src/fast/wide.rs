@@ -1,9 +1,11 @@
-//! An 8-wide BVH collapsed from the BVH2, traversed with four box tests at a time.
+//! An 8-wide BVH collapsed from the BVH2, and its two walks: one ray at a time
+//! ([`WideBvh::traverse`]) and a packet of rays by interval arithmetic
+//! ([`WideBvh::traverse_interval`]).
 //!
 //! Each node holds the boxes of up to eight children as two `Vec4`s per coordinate (one lane per
-//! child), so a node visit is two four-lane slab tests. A child is an inner node or a leaf of one or more
-//! [`TriangleGroup`]s. The boxes are the BVH2's, padded as `bvh.rs` pads them, so culling is
-//! as conservative as the reference tracer's.
+//! child), so a node visit is two four-lane slab tests (one eight-lane test with AVX). A child
+//! is an inner node or a leaf of one or more [`TriangleGroup`]s. The boxes are the BVH2's,
+//! padded as `bvh.rs` pads them, so culling is as conservative as the reference tracer's.
 
 use glam::{DVec3, Vec4};
 use obvhs::bvh2::Bvh2;
@@ -188,124 +190,38 @@ impl WideBvh {
     }
 }
 
-/// Rays traced together by [`WideBvh::traverse_packet`]: a tile of 8×8 pixels (faster than 4×4 on the clock: docs/benchmarks.md).
+/// Rays traced together by [`WideBvh::traverse_interval`]: a tile of 8×8 pixels (faster than 4×4 on the clock: docs/benchmarks.md).
 pub(crate) const PACKET: usize = 64;
 
 impl WideBvh {
     /// [`WideBvh::traverse`] for up to [`PACKET`] rays at once (bit r of `active` set where
-    /// `rays[r]` takes part): a node is visited once for every ray whose box test entered it,
-    /// its children ordered by the nearest entry among those rays; `visit(r, triangle)` sees,
-    /// for each ray, every triangle the single-ray walk would show it (the order may differ).
-    #[inline(always)]
-    pub(crate) fn traverse_packet<const AVX: bool>(
-        &self,
-        rays: &[LaneRay; PACKET],
-        t_lo: &[f32; PACKET],
-        t_hi: &mut [f32; PACKET],
-        active: u64,
-        mut visit: impl FnMut(usize, usize) -> Visit,
-    ) {
-        if self.nodes.is_empty() || active == 0 {
-            return;
-        }
-        let mut stack = vec![(0u32, 0u64, 0.0f32); (WIDTH - 1) * self.depth + WIDTH];
-        let mut len = 1;
-        stack[0] = (0, active, 0.0);
-        while len > 0 {
-            len -= 1;
-            let (entry, mut mask, t_enter) = stack[len];
-            // Rays whose bound shrank below the nearest entry since the push cannot enter.
-            let mut rest = mask;
-            while rest != 0 {
-                let r = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                if t_enter > t_hi[r] {
-                    mask &= !(1 << r);
-                }
-            }
-            if entry & LEAF != 0 {
-                let first = (entry & GROUP_INDEX) as usize;
-                let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                while mask != 0 {
-                    let r = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    for group in &self.groups[first..first + count] {
-                        let mut candidates = group.candidates(&rays[r].lanes, t_lo[r], t_hi[r]);
-                        while candidates != 0 {
-                            let lane = candidates.trailing_zeros() as usize;
-                            candidates &= candidates - 1;
-                            if let Visit::Closer(t) = visit(r, group.triangle[lane] as usize) {
-                                t_hi[r] = t_hi[r].min(t);
-                            }
-                        }
-                    }
-                }
-                continue;
-            }
-            let node = &self.nodes[entry as usize];
-            let mut child_rays = [0u64; WIDTH];
-            let mut nearest = [f32::INFINITY; WIDTH];
-            let mut entered = 0u32;
-            while mask != 0 {
-                let r = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let (mut hits, near) = if AVX {
-                    enter_avx(node, &rays[r], t_hi[r])
-                } else {
-                    enter(node, &rays[r], t_hi[r])
-                };
-                entered |= hits;
-                while hits != 0 {
-                    let lane = hits.trailing_zeros() as usize;
-                    hits &= hits - 1;
-                    child_rays[lane] |= 1 << r;
-                    nearest[lane] = nearest[lane].min(near[lane]);
-                }
-            }
-            // Farthest first onto the stack, so the nearest is popped next.
-            let base = len;
-            while entered != 0 {
-                let lane = entered.trailing_zeros() as usize;
-                entered &= entered - 1;
-                let mut at = len;
-                while at > base && nearest[stack[at - 1].0 as usize & 7] < nearest[lane] {
-                    stack[at] = stack[at - 1];
-                    at -= 1;
-                }
-                stack[at] = (lane as u32, child_rays[lane], nearest[lane]);
-                len += 1;
-            }
-            for slot in &mut stack[base..len] {
-                slot.0 = node.child[slot.0 as usize];
-            }
-        }
-    }
-}
-
-impl WideBvh {
-    /// [`WideBvh::traverse_packet`] by interval arithmetic: a node's eight boxes are tested
-    /// once for the whole packet against the bounds of its origins and inverse directions
-    /// (admitting every box some ray enters, maybe more), and each leaf triangle is filtered
-    /// against eight rays at a time. `visit(r, triangle)` sees, for each ray, every triangle
-    /// the per-ray walks would show it, and perhaps a few more the f64 test then rejects.
-    /// Tight only where `rays.bounds.same_signs()`. Entries of `t_hi` outside `active` are
-    /// set to −∞.
+    /// ray r takes part), by interval arithmetic: a node's eight boxes are tested once for
+    /// the whole packet against the bounds of its origins and inverse directions (admitting
+    /// every box some ray enters, maybe more), and each leaf triangle is filtered against
+    /// eight rays at a time. `visit(r, triangle)` sees, for each ray, every triangle the
+    /// single-ray walk would show it, and perhaps a few more the f64 test then rejects.
+    /// Tight only where `rays.bounds.same_signs()`; entries of `bounds` outside `active` are
+    /// left alone.
     #[inline(always)]
     pub(crate) fn traverse_interval(
         &self,
         rays: &PacketRays,
-        t_hi: &mut [f32; PACKET],
+        bounds: &mut [f32; PACKET],
         active: u64,
         mut visit: impl FnMut(usize, usize) -> Visit,
     ) {
         if self.nodes.is_empty() || active == 0 {
             return;
         }
-        for (r, t) in t_hi.iter_mut().enumerate() {
-            if active & (1 << r) == 0 {
-                *t = f32::NEG_INFINITY;
+        // The rays' bounds, −∞ for rays outside the packet (so they count in no maximum).
+        let mut t_hi: [f32; PACKET] = std::array::from_fn(|r| {
+            if active & (1 << r) != 0 {
+                bounds[r]
+            } else {
+                f32::NEG_INFINITY
             }
-        }
+        });
+        let t_hi = &mut t_hi;
         // The packet's bound: the farthest any of its rays may still find a closer hit.
         let farthest = |t_hi: &[f32; PACKET]| t_hi.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
         let mut far = farthest(t_hi);
@@ -372,6 +288,11 @@ impl WideBvh {
                 }
             }
             far = farthest(t_hi);
+        }
+        for (r, bound) in bounds.iter_mut().enumerate() {
+            if active & (1 << r) != 0 {
+                *bound = t_hi[r];
+            }
         }
     }
 }
