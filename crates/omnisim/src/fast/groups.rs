@@ -8,7 +8,7 @@
 
 use glam::{DVec3, Vec4};
 
-use super::lanes::{Lanes, Lanes8};
+use super::lanes::{Lanes, Wide};
 
 /// Rounding-error budget in units of f32's unit roundoff (2⁻²⁴). The dot and cross products
 /// of the test accumulate about 25 such errors of the largest operand (worked out in
@@ -27,6 +27,18 @@ pub(crate) struct RayLanes<L> {
     /// Absolute error bound of positions along the ray (metres): `ERROR_ULPS` × the largest
     /// coordinate of the ray origin or of the scene ([`position_error`]).
     pub(crate) position_error: L,
+}
+
+impl<L: Copy> RayLanes<L> {
+    /// The same values in another lane type.
+    #[inline(always)]
+    pub(crate) fn map<M>(&self, f: impl Fn(L) -> M) -> RayLanes<M> {
+        RayLanes {
+            origin: self.origin.map(&f),
+            direction: self.direction.map(&f),
+            position_error: f(self.position_error),
+        }
+    }
 }
 
 /// The error bound of positions along a ray from `origin` (f32, scene-local) in a scene whose
@@ -91,8 +103,8 @@ impl TriangleGroup {
 
     /// The triangle of `lane` in all eight lanes, to filter eight rays against it.
     #[inline(always)]
-    pub(crate) fn broadcast(&self, lane: usize) -> TriangleLanes<Lanes8> {
-        let splat = |v: Vec4| Lanes8::splat(v[lane]);
+    pub(crate) fn broadcast<W: Wide>(&self, lane: usize) -> TriangleLanes<W> {
+        let splat = |v: Vec4| W::splat(v[lane]);
         let t = &self.lanes4;
         TriangleLanes {
             corner: t.corner.map(splat),
@@ -221,11 +233,32 @@ mod tests {
         );
     }
 
+    /// [`filter`] on eight lanes in one AVX register, as the AVX2 packet walk runs it.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn filter_avx(
+        rays: &RayLanes<crate::fast::lanes::Lanes8>,
+        group: &TriangleGroup,
+        lane: usize,
+        t_lo: crate::fast::lanes::Lanes8,
+        t_hi: &[f32],
+    ) -> u32 {
+        use crate::fast::lanes::{Avx8, Wide};
+        filter(
+            &rays.map(Avx8::from_lanes8),
+            &group.broadcast::<Avx8>(lane),
+            Avx8::from_lanes8(t_lo),
+            Avx8::load(t_hi),
+        )
+    }
+
     /// One triangle against eight rays gives, pair by pair, the answer of four triangles
-    /// against one ray: the two batchings run the same f32 operations.
+    /// against one ray: the batchings (and the AVX lanes, where the CPU has AVX2) run the same
+    /// f32 operations.
     #[test]
     fn eight_rays_at_a_time_filter_as_one_ray_at_a_time() {
         use crate::fast::PACKET;
+        use crate::fast::lanes::Lanes8;
         use crate::fast::rays::PacketRays;
         let mut rng = StdRng::seed_from_u64(7);
         let unit =
@@ -248,7 +281,7 @@ mod tests {
             let t_hi: Vec<f32> = (0..PACKET).map(|_| rng.random_range(0.5..20.0)).collect();
             let packet = PacketRays::new(&rays, u64::MAX, 10.0);
             for lane in 0..4 {
-                let triangle = group.broadcast(lane);
+                let triangle = group.broadcast::<Lanes8>(lane);
                 for r in 0..PACKET {
                     let single = LaneRay::new(rays[r].0, rays[r].1, 10.0);
                     let t_lo = (rays[r].2 * (1.0 - 1e-6)) as f32;
@@ -262,6 +295,13 @@ mod tests {
                     ) >> k
                         & 1;
                     assert_eq!(one, eight, "ray {r}, triangle {lane}");
+                    #[cfg(target_arch = "x86_64")]
+                    if std::arch::is_x86_feature_detected!("avx2") {
+                        // SAFETY: the CPU has AVX2.
+                        let avx =
+                            unsafe { filter_avx(&packet.batches[b], &group, lane, packet.t_lo[b], &t_hi[8 * b..]) };
+                        assert_eq!(one, avx >> k & 1, "ray {r}, triangle {lane}, AVX");
+                    }
                     kept += one;
                 }
             }

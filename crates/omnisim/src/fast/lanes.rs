@@ -109,3 +109,117 @@ impl Lanes for Lanes8 {
         self.0[0].less(other.0[0]) | self.0[1].less(other.0[1]) << 4
     }
 }
+
+/// Eight-lane types the packet walk runs on: [`Lanes8`] everywhere, [`Avx8`] where the CPU
+/// has AVX2.
+pub(crate) trait Wide: Lanes {
+    /// The first eight values of `values`.
+    fn load(values: &[f32]) -> Self;
+
+    /// The same eight values.
+    #[inline(always)]
+    fn from_lanes8(lanes: Lanes8) -> Self {
+        let [low, high] = lanes.0;
+        let mut values = [0.0; 8];
+        values[..4].copy_from_slice(&low.to_array());
+        values[4..].copy_from_slice(&high.to_array());
+        Self::load(&values)
+    }
+}
+
+impl Wide for Lanes8 {
+    #[inline(always)]
+    fn load(values: &[f32]) -> Self {
+        Lanes8::load(values)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx::Avx8;
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    //! SAFETY, for every `unsafe` block here: `Avx8` values are made and used only inside
+    //! the fast tracer's functions compiled with `#[target_feature(enable = "avx2")]`, which
+    //! run after `is_x86_feature_detected!("avx2")` (`fast/mod.rs`); every method is
+    //! `#[inline(always)]`, so its intrinsics are compiled into such a function. Loads read
+    //! exactly eight f32s from slices checked to hold them.
+
+    use std::arch::x86_64::{
+        __m256, _CMP_GT_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps, _mm256_cmp_ps,
+        _mm256_loadu_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_ps, _mm256_sub_ps, _mm256_xor_ps,
+    };
+    use std::ops::{Add, Mul, Neg, Sub};
+
+    use super::{Lanes, Wide};
+
+    /// Eight f32 lanes in one 256-bit register: [`super::Lanes8`]'s operations, one AVX
+    /// instruction each instead of two SSE ones, with the same IEEE results (signum and
+    /// negation as glam computes them).
+    #[derive(Debug, Clone, Copy)]
+    pub(crate) struct Avx8(__m256);
+
+    impl Add for Avx8 {
+        type Output = Self;
+        #[inline(always)]
+        fn add(self, other: Self) -> Self {
+            Self(unsafe { _mm256_add_ps(self.0, other.0) })
+        }
+    }
+
+    impl Sub for Avx8 {
+        type Output = Self;
+        #[inline(always)]
+        fn sub(self, other: Self) -> Self {
+            Self(unsafe { _mm256_sub_ps(self.0, other.0) })
+        }
+    }
+
+    impl Mul for Avx8 {
+        type Output = Self;
+        #[inline(always)]
+        fn mul(self, other: Self) -> Self {
+            Self(unsafe { _mm256_mul_ps(self.0, other.0) })
+        }
+    }
+
+    impl Neg for Avx8 {
+        type Output = Self;
+        #[inline(always)]
+        fn neg(self) -> Self {
+            Self(unsafe { _mm256_xor_ps(_mm256_set1_ps(-0.0), self.0) })
+        }
+    }
+
+    impl Lanes for Avx8 {
+        #[inline(always)]
+        fn splat(value: f32) -> Self {
+            Self(unsafe { _mm256_set1_ps(value) })
+        }
+        #[inline(always)]
+        fn signum(self) -> Self {
+            // glam's: the sign bit of x on 1.0, and NaN where x is NaN.
+            unsafe {
+                let one = _mm256_or_ps(_mm256_and_ps(self.0, _mm256_set1_ps(-1.0)), _mm256_set1_ps(1.0));
+                let nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(self.0, self.0);
+                Self(_mm256_blendv_ps(one, self.0, nan))
+            }
+        }
+        #[inline(always)]
+        fn greater(self, other: Self) -> u32 {
+            unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(self.0, other.0)) as u32 }
+        }
+        #[inline(always)]
+        fn less(self, other: Self) -> u32 {
+            unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, other.0)) as u32 }
+        }
+    }
+
+    impl Wide for Avx8 {
+        #[inline(always)]
+        fn load(values: &[f32]) -> Self {
+            let values = &values[..8];
+            Self(unsafe { _mm256_loadu_ps(values.as_ptr()) })
+        }
+    }
+}

@@ -19,6 +19,7 @@ pub(crate) use wide::{PACKET, WideBvh};
 use crate::bvh::SceneBvh;
 use crate::cpu::{self, Hit};
 use crate::traversal::Counter;
+use lanes::{Lanes8, Wide};
 use rays::{LaneRay, PacketRays};
 
 /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`: the same hit as
@@ -95,18 +96,22 @@ pub(crate) fn closest_hits(
         return unsafe { closest_hits_avx2(bvh, rays, active) };
     }
     let _ = portable; // read only where an AVX2 build exists (x86_64)
-    closest_hits_in(bvh, rays, active)
+    closest_hits_in::<Lanes8>(bvh, rays, active)
 }
 
-/// [`closest_hits_in`] compiled with AVX2 (VEX encoding for its four-lane operations).
+/// [`closest_hits_in`] compiled with AVX2, its leaf filter eight lanes in one register.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [Option<Hit>; PACKET] {
-    closest_hits_in(bvh, rays, active)
+    closest_hits_in::<lanes::Avx8>(bvh, rays, active)
 }
 
 #[inline(always)]
-fn closest_hits_in(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [Option<Hit>; PACKET] {
+fn closest_hits_in<W: Wide>(
+    bvh: &SceneBvh,
+    rays: &[(DVec3, DVec3, f64); PACKET],
+    active: u64,
+) -> [Option<Hit>; PACKET] {
     let mut t_hi = [f32::INFINITY; PACKET];
     let mut best = [None; PACKET];
     let mut visit = |r: usize, triangle| {
@@ -119,7 +124,7 @@ fn closest_hits_in(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active:
     for rays_in in octants(rays, active).into_iter().filter(|&rays_in| rays_in != 0) {
         let packet = PacketRays::new(rays, rays_in, bvh.wide.extent);
         debug_assert!(packet.bounds.same_signs());
-        bvh.wide.traverse_interval(&packet, &mut t_hi, rays_in, &mut visit);
+        bvh.wide.traverse_interval::<W>(&packet, &mut t_hi, rays_in, &mut visit);
     }
     best
 }

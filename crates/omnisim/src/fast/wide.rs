@@ -12,7 +12,7 @@ use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::node::Bvh2Node;
 
 use super::groups::{TriangleGroup, filter};
-use super::lanes::{Lanes, Lanes8};
+use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
 use crate::traversal::{Counter, Visit};
 
@@ -202,8 +202,9 @@ impl WideBvh {
     /// single-ray walk would show it, and perhaps a few more the f64 test then rejects.
     /// Tight only where `rays.bounds.same_signs()`; entries of `bounds` outside `active` are
     /// left alone.
+    /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever).
     #[inline(always)]
-    pub(crate) fn traverse_interval(
+    pub(crate) fn traverse_interval<W: Wide>(
         &self,
         rays: &PacketRays,
         bounds: &mut [f32; PACKET],
@@ -222,6 +223,8 @@ impl WideBvh {
             }
         });
         let t_hi = &mut t_hi;
+        let batches: [_; BATCHES] = std::array::from_fn(|b| rays.batches[b].map(W::from_lanes8));
+        let t_lo: [W; BATCHES] = std::array::from_fn(|b| W::from_lanes8(rays.t_lo[b]));
         // The packet's bound: the farthest any of its rays may still find a closer hit.
         let farthest = |t_hi: &[f32; PACKET]| t_hi.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
         let mut far = farthest(t_hi);
@@ -254,13 +257,13 @@ impl WideBvh {
                 continue;
             }
             // Batches with a ray whose bound still reaches the leaf.
-            let entering = Lanes8::splat(t_enter);
-            let batches: [u32; BATCHES] = std::array::from_fn(|b| {
+            let entering = W::splat(t_enter);
+            let reaching: [u32; BATCHES] = std::array::from_fn(|b| {
                 let lanes = (active >> (8 * b)) as u32 & 0xff;
                 if lanes == 0 {
                     0
                 } else {
-                    lanes & !entering.greater(Lanes8::load(&t_hi[8 * b..]))
+                    lanes & !entering.greater(W::load(&t_hi[8 * b..]))
                 }
             });
             let first = (entry & GROUP_INDEX) as usize;
@@ -270,13 +273,13 @@ impl WideBvh {
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
-                    let triangle = group.broadcast(lane);
-                    for (b, &rays_in) in batches.iter().enumerate() {
+                    let triangle = group.broadcast::<W>(lane);
+                    for (b, &rays_in) in reaching.iter().enumerate() {
                         if rays_in == 0 {
                             continue;
                         }
-                        let bound = Lanes8::load(&t_hi[8 * b..]);
-                        let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
+                        let bound = W::load(&t_hi[8 * b..]);
+                        let mut candidates = filter(&batches[b], &triangle, t_lo[b], bound) & rays_in;
                         while candidates != 0 {
                             let r = 8 * b + candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
