@@ -772,3 +772,28 @@ fn lit_rooms_are_the_reference_rooms_with_lamps_in_free_space() {
         }
     }
 }
+
+/// The 8-bit colour plane is the same whether or not the linear plane is asked for (the CPU
+/// shades colour alone without storing linear colour), lit and unlit, on every backend.
+#[test]
+fn colour_alone_equals_colour_beside_linear_colour() {
+    for name in ["env1.ron", "env1-lit.ron"] {
+        let scene = if name.contains("-lit") {
+            lit_room(name)
+        } else {
+            common::load(name)
+        };
+        let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
+        for (backend, tracer) in tracers(&scene) {
+            let alone = render(&tracer, &omni(), &pose, Planes::COLOUR);
+            let beside = render(&tracer, &omni(), &pose, SHADED);
+            assert!(alone.linear_colour().is_none() && beside.linear_colour().is_some());
+            assert!(
+                alone.colour().unwrap() == beside.colour().unwrap(),
+                "{name} on {backend}: colour differs"
+            );
+            let lit_pixels = beside.colour().unwrap().iter().filter(|c| **c != [0, 0, 0]).count();
+            assert!(lit_pixels > 10_000, "{name} on {backend}: {lit_pixels} coloured pixels");
+        }
+    }
+}

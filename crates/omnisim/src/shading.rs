@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::bvh::SceneBvh;
 use crate::cpu::CpuTracer;
-use crate::frame::{BACKGROUND, Frame, Pixel, Planes};
+use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
 use crate::scene::Scene;
 
@@ -95,6 +95,26 @@ pub(crate) fn shade_frame(
     frame: &mut Frame,
     planes: Planes,
 ) {
+    // The 8-bit colour of a hit pixel whose linear colour is `linear` (computed on demand:
+    // unlit pixels take their face's colour without it).
+    let colour = |hit: &Pixel, linear: &dyn Fn() -> DVec3| match appearance.lighting {
+        None => appearance.face_colours[hit.face as usize],
+        Some(_) => encode(linear()),
+    };
+    if !planes.contains(Plane::LinearColour) {
+        // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
+        // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
+        let colour = frame
+            .pixels()
+            .par_iter()
+            .map(|hit| match hit.is_hit() {
+                false => BACKGROUND,
+                true => colour(hit, &|| shade(tracer, geometry, appearance, hit)),
+            })
+            .collect();
+        frame.set_shading(planes, Vec::new(), colour);
+        return;
+    }
     let (linear, colour) = frame
         .pixels()
         .par_iter()
@@ -103,11 +123,7 @@ pub(crate) fn shade_frame(
                 return ([0.0; 3], BACKGROUND);
             }
             let linear = shade(tracer, geometry, appearance, hit);
-            let colour = match appearance.lighting {
-                None => appearance.face_colours[hit.face as usize],
-                Some(_) => encode(linear),
-            };
-            (linear.as_vec3().to_array(), colour)
+            (linear.as_vec3().to_array(), colour(hit, &|| linear))
         })
         .unzip();
     frame.set_shading(planes, linear, colour);
