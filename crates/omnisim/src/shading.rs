@@ -95,12 +95,6 @@ pub(crate) fn shade_frame(
     frame: &mut Frame,
     planes: Planes,
 ) {
-    // The 8-bit colour of a hit pixel whose linear colour is `linear` (computed on demand:
-    // unlit pixels take their face's colour without it).
-    let colour = |hit: &Pixel, linear: &dyn Fn() -> DVec3| match appearance.lighting {
-        None => appearance.face_colours[hit.face as usize],
-        Some(_) => encode(linear()),
-    };
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
@@ -109,7 +103,7 @@ pub(crate) fn shade_frame(
             .par_iter()
             .map(|hit| match hit.is_hit() {
                 false => BACKGROUND,
-                true => colour(hit, &|| shade(tracer, geometry, appearance, hit)),
+                true => eight_bit(appearance, hit, || shade(tracer, geometry, appearance, hit)),
             })
             .collect();
         frame.set_shading(planes, Vec::new(), colour);
@@ -123,10 +117,20 @@ pub(crate) fn shade_frame(
                 return ([0.0; 3], BACKGROUND);
             }
             let linear = shade(tracer, geometry, appearance, hit);
-            (linear.as_vec3().to_array(), colour(hit, &|| linear))
+            (linear.as_vec3().to_array(), eight_bit(appearance, hit, || linear))
         })
         .unzip();
     frame.set_shading(planes, linear, colour);
+}
+
+/// The 8-bit colour of hit pixel `hit` whose linear colour `linear` gives: its face's colour
+/// without lighting (`linear` is then not called), else `linear()` encoded.
+#[inline(always)]
+fn eight_bit(appearance: &Appearance, hit: &Pixel, linear: impl FnOnce() -> DVec3) -> [u8; 3] {
+    match appearance.lighting {
+        None => appearance.face_colours[hit.face as usize],
+        Some(_) => encode(linear()),
+    }
 }
 
 /// 8-bit sRGB of a linear colour.

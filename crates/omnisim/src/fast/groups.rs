@@ -29,18 +29,6 @@ pub(crate) struct RayLanes<L> {
     pub(crate) position_error: L,
 }
 
-impl<L: Copy> RayLanes<L> {
-    /// The same values in another lane type.
-    #[inline(always)]
-    pub(crate) fn map<M>(&self, f: impl Fn(L) -> M) -> RayLanes<M> {
-        RayLanes {
-            origin: self.origin.map(&f),
-            direction: self.direction.map(&f),
-            position_error: f(self.position_error),
-        }
-    }
-}
-
 /// The error bound of positions along a ray from `origin` (f32, scene-local) in a scene whose
 /// largest absolute coordinate is `scene_extent`.
 pub(crate) fn position_error(origin: glam::Vec3, scene_extent: f32) -> f32 {
@@ -233,23 +221,27 @@ mod tests {
         );
     }
 
-    /// [`filter`] on eight lanes in one AVX register, as the AVX2 packet walk runs it.
+    /// [`filter`] of every batch of `rays` against the triangle of `lane`, on eight lanes in
+    /// one AVX register as the AVX2 packet walk runs it.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn filter_avx(
-        rays: &RayLanes<crate::fast::lanes::Lanes8>,
+        rays: &[(DVec3, DVec3, f64); crate::fast::PACKET],
         group: &TriangleGroup,
         lane: usize,
-        t_lo: crate::fast::lanes::Lanes8,
         t_hi: &[f32],
-    ) -> u32 {
+    ) -> [u32; crate::fast::rays::BATCHES] {
         use crate::fast::lanes::{Avx8, Wide};
-        filter(
-            &rays.map(Avx8::from_lanes8),
-            &group.broadcast::<Avx8>(lane),
-            Avx8::from_lanes8(t_lo),
-            Avx8::load(t_hi),
-        )
+        let packet = crate::fast::rays::PacketRays::<Avx8>::new(rays, u64::MAX, 10.0);
+        let triangle = group.broadcast::<Avx8>(lane);
+        std::array::from_fn(|b| {
+            filter(
+                &packet.batches[b],
+                &triangle,
+                packet.t_lo[b],
+                Avx8::load(&t_hi[8 * b..]),
+            )
+        })
     }
 
     /// One triangle against eight rays gives, pair by pair, the answer of four triangles
@@ -279,12 +271,16 @@ mod tests {
                 (origin, (towards - origin).normalize(), rng.random_range(0.0..0.5))
             });
             let t_hi: Vec<f32> = (0..PACKET).map(|_| rng.random_range(0.5..20.0)).collect();
-            let packet = PacketRays::new(&rays, u64::MAX, 10.0);
+            let packet = PacketRays::<Lanes8>::new(&rays, u64::MAX, 10.0);
             for lane in 0..4 {
                 let triangle = group.broadcast::<Lanes8>(lane);
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: called only where the CPU has AVX2.
+                let avx = std::arch::is_x86_feature_detected!("avx2")
+                    .then(|| unsafe { filter_avx(&rays, &group, lane, &t_hi) });
                 for r in 0..PACKET {
                     let single = LaneRay::new(rays[r].0, rays[r].1, 10.0);
-                    let t_lo = (rays[r].2 * (1.0 - 1e-6)) as f32;
+                    let t_lo = crate::fast::rays::t_lo(rays[r].2);
                     let one = group.candidates(&single.lanes, t_lo, t_hi[r]) >> lane & 1;
                     let (b, k) = (r / 8, r % 8);
                     let eight = filter(
@@ -296,11 +292,8 @@ mod tests {
                         & 1;
                     assert_eq!(one, eight, "ray {r}, triangle {lane}");
                     #[cfg(target_arch = "x86_64")]
-                    if std::arch::is_x86_feature_detected!("avx2") {
-                        // SAFETY: the CPU has AVX2.
-                        let avx =
-                            unsafe { filter_avx(&packet.batches[b], &group, lane, packet.t_lo[b], &t_hi[8 * b..]) };
-                        assert_eq!(one, avx >> k & 1, "ray {r}, triangle {lane}, AVX");
+                    if let Some(avx) = avx {
+                        assert_eq!(one, avx[b] >> k & 1, "ray {r}, triangle {lane}, AVX");
                     }
                     kept += one;
                 }

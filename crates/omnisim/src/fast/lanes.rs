@@ -115,16 +115,6 @@ impl Lanes for Lanes8 {
 pub(crate) trait Wide: Lanes {
     /// The first eight values of `values`.
     fn load(values: &[f32]) -> Self;
-
-    /// The same eight values.
-    #[inline(always)]
-    fn from_lanes8(lanes: Lanes8) -> Self {
-        let [low, high] = lanes.0;
-        let mut values = [0.0; 8];
-        values[..4].copy_from_slice(&low.to_array());
-        values[4..].copy_from_slice(&high.to_array());
-        Self::load(&values)
-    }
 }
 
 impl Wide for Lanes8 {

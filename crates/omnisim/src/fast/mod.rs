@@ -122,7 +122,7 @@ fn closest_hits_in<W: Wide>(
     // packet that straddles an axis plane is walked once per octant it spans (callgrind, omni
     // images: 13 % fewer instructions than walking such packets ray by ray; docs/benchmarks.md).
     for rays_in in octants(rays, active).into_iter().filter(|&rays_in| rays_in != 0) {
-        let packet = PacketRays::new(rays, rays_in, bvh.wide.extent);
+        let packet = PacketRays::<W>::new(rays, rays_in, bvh.wide.extent);
         debug_assert!(packet.bounds.same_signs());
         bvh.wide.traverse_interval::<W>(&packet, &mut t_hi, rays_in, &mut visit);
     }

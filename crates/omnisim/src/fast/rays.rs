@@ -7,7 +7,7 @@ use obvhs::ray::safe_inverse;
 
 use super::PACKET;
 use super::groups::{RayLanes, position_error};
-use super::lanes::Lanes8;
+use super::lanes::Wide;
 
 /// A ray broadcast to four lanes, for the single-ray walk.
 pub(crate) struct LaneRay {
@@ -50,11 +50,12 @@ fn inverse(direction: Vec3) -> Vec3 {
 /// Batches of eight rays in a packet.
 pub(crate) const BATCHES: usize = PACKET / 8;
 
-/// A packet of rays, rays 8b to 8b + 7 in batch b, with its interval bounds.
-pub(crate) struct PacketRays {
-    pub(crate) batches: [RayLanes<Lanes8>; BATCHES],
+/// A packet of rays, rays 8b to 8b + 7 in batch b of eight `W` lanes, with its interval
+/// bounds.
+pub(crate) struct PacketRays<W> {
+    pub(crate) batches: [RayLanes<W>; BATCHES],
     /// Each ray's [`t_lo`].
-    pub(crate) t_lo: [Lanes8; BATCHES],
+    pub(crate) t_lo: [W; BATCHES],
     pub(crate) bounds: PacketBounds,
 }
 
@@ -78,7 +79,7 @@ impl PacketBounds {
     }
 }
 
-impl PacketRays {
+impl<W: Wide> PacketRays<W> {
     /// The rays (scene-local origin, unit direction, t_min) whose bit is set in `active`
     /// (the others are zero and must stay masked); `scene_extent` as for [`LaneRay::new`].
     pub(crate) fn new(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, scene_extent: f32) -> Self {
@@ -122,7 +123,7 @@ impl PacketRays {
                 inverse_max[axis] = safe_inverse(direction_min[axis]);
             }
         }
-        let batch = |values: &[f32; PACKET], b: usize| Lanes8::load(&values[8 * b..]);
+        let batch = |values: &[f32; PACKET], b: usize| W::load(&values[8 * b..]);
         Self {
             batches: std::array::from_fn(|b| RayLanes {
                 origin: std::array::from_fn(|axis| batch(&origin[axis], b)),

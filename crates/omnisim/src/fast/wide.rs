@@ -131,9 +131,7 @@ impl WideBvh {
             let (entry, t_enter) = current;
             if t_enter <= t_hi {
                 if entry & LEAF != 0 {
-                    let first = (entry & GROUP_INDEX) as usize;
-                    let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                    for group in &self.groups[first..first + count] {
+                    for group in self.leaf_groups(entry) {
                         for _ in 0..group.lanes.count_ones() {
                             counter.primitive_test();
                         }
@@ -154,28 +152,14 @@ impl WideBvh {
                     for _ in 0..node.lanes.count_ones() {
                         counter.node_test();
                     }
-                    let (mut hits, near) = if AVX {
+                    let (hits, near) = if AVX {
                         enter_avx(node, ray, t_hi)
                     } else {
                         enter(node, ray, t_hi)
                     };
                     if hits != 0 {
-                        // Children entered, pushed farthest first (an insertion sort of at
-                        // most eight); the nearest is visited next without a push.
-                        let base = len;
-                        while hits != 0 {
-                            let lane = hits.trailing_zeros() as usize;
-                            hits &= hits - 1;
-                            let child = (node.child[lane], near[lane]);
-                            let mut at = len;
-                            while at > base && stack[at - 1].1 < child.1 {
-                                stack[at] = stack[at - 1];
-                                at -= 1;
-                            }
-                            stack[at] = child;
-                            len += 1;
-                        }
-                        len -= 1;
+                        // The nearest child entered is visited next without a push.
+                        len = push_children(stack, len, node, hits, &near) - 1;
                         current = stack[len];
                         continue;
                     }
@@ -206,7 +190,7 @@ impl WideBvh {
     #[inline(always)]
     pub(crate) fn traverse_interval<W: Wide>(
         &self,
-        rays: &PacketRays,
+        rays: &PacketRays<W>,
         bounds: &mut [f32; PACKET],
         active: u64,
         mut visit: impl FnMut(usize, usize) -> Visit,
@@ -223,8 +207,6 @@ impl WideBvh {
             }
         });
         let t_hi = &mut t_hi;
-        let batches: [_; BATCHES] = std::array::from_fn(|b| rays.batches[b].map(W::from_lanes8));
-        let t_lo: [W; BATCHES] = std::array::from_fn(|b| W::from_lanes8(rays.t_lo[b]));
         // The packet's bound: the farthest any of its rays may still find a closer hit.
         let farthest = |t_hi: &[f32; PACKET]| t_hi.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
         let mut far = farthest(t_hi);
@@ -239,21 +221,8 @@ impl WideBvh {
             }
             if entry & LEAF == 0 {
                 let node = &self.nodes[entry as usize];
-                let (mut hits, near) = enter_interval(node, &rays.bounds, far);
-                // Farthest first onto the stack, so the nearest is popped next.
-                let base = len;
-                while hits != 0 {
-                    let lane = hits.trailing_zeros() as usize;
-                    hits &= hits - 1;
-                    let child = (node.child[lane], near[lane]);
-                    let mut at = len;
-                    while at > base && stack[at - 1].1 < child.1 {
-                        stack[at] = stack[at - 1];
-                        at -= 1;
-                    }
-                    stack[at] = child;
-                    len += 1;
-                }
+                let (hits, near) = enter_interval(node, &rays.bounds, far);
+                len = push_children(&mut stack, len, node, hits, &near);
                 continue;
             }
             // Batches with a ray whose bound still reaches the leaf.
@@ -266,9 +235,7 @@ impl WideBvh {
                     lanes & !entering.greater(W::load(&t_hi[8 * b..]))
                 }
             });
-            let first = (entry & GROUP_INDEX) as usize;
-            let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-            for group in &self.groups[first..first + count] {
+            for group in self.leaf_groups(entry) {
                 let mut lanes = group.lanes;
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
@@ -279,7 +246,7 @@ impl WideBvh {
                             continue;
                         }
                         let bound = W::load(&t_hi[8 * b..]);
-                        let mut candidates = filter(&batches[b], &triangle, t_lo[b], bound) & rays_in;
+                        let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
                         while candidates != 0 {
                             let r = 8 * b + candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
@@ -298,6 +265,43 @@ impl WideBvh {
             }
         }
     }
+}
+
+impl WideBvh {
+    /// The triangle groups of leaf child `entry`.
+    #[inline(always)]
+    fn leaf_groups(&self, entry: u32) -> &[TriangleGroup] {
+        let first = (entry & GROUP_INDEX) as usize;
+        let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+        &self.groups[first..first + count]
+    }
+}
+
+/// Pushes the children of `node` in `hits` onto `stack` (whose first `len` entries are taken)
+/// farthest first, by their entry distances `near` (an insertion sort of at most eight), so
+/// the nearest is popped next; returns the new length.
+#[inline(always)]
+fn push_children(
+    stack: &mut [(u32, f32)],
+    mut len: usize,
+    node: &WideNode,
+    mut hits: u32,
+    near: &[f32; WIDTH],
+) -> usize {
+    let base = len;
+    while hits != 0 {
+        let lane = hits.trailing_zeros() as usize;
+        hits &= hits - 1;
+        let child = (node.child[lane], near[lane]);
+        let mut at = len;
+        while at > base && stack[at - 1].1 < child.1 {
+            stack[at] = stack[at - 1];
+            at -= 1;
+        }
+        stack[at] = child;
+        len += 1;
+    }
+    len
 }
 
 /// Interval slab test of a node's eight boxes against a packet: the lanes some ray with
@@ -585,7 +589,7 @@ mod tests {
             } else {
                 rng.random::<u64>() | 1
             };
-            let bounds = PacketRays::new(&packet, active, 30.0).bounds;
+            let bounds = PacketRays::<crate::fast::lanes::Lanes8>::new(&packet, active, 30.0).bounds;
             let t_hi: Vec<f32> = (0..PACKET)
                 .map(|_| {
                     if rng.random_bool(0.3) {
