@@ -425,8 +425,9 @@ fn temporaries_left_by_a_killed_run_are_cleaned_by_the_next() {
         out.display()
     );
     assert!(succeeds(&render));
-    // u32::MAX is no process's id: its writer is gone.
-    let stale = out.join(".omnisim-tmp-4294967295-abcdef");
+    // u32::MAX is no process's id: its writer on this host is gone.
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    let stale = out.join(format!(".omnisim-tmp-4294967295@{}@abcdef", host.trim()));
     std::fs::write(&stale, vec![0u8; 1000]).unwrap();
     let again = omnisim(&render);
     assert!(again.status.success());

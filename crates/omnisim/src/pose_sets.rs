@@ -5,7 +5,8 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 
 use glam::{DVec3, dvec3};
-use rand::{Rng, SeedableRng, rngs::StdRng};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha12Rng;
 
 use crate::bvh::SceneBvh;
 use crate::cpu;
@@ -100,18 +101,21 @@ const TRIAL_DRAWS: usize = 10_000;
 const DRAWS_PER_POSE: usize = 1000;
 
 /// Uniformly drawn poses whose position is at least `clearance` from every surface along the
-/// six axis directions and enclosed (every axis ray hits the scene). Reproducible for a seed;
+/// six axis directions, enclosed (every axis ray hits the scene) and not inside a closed object
+/// ([`misplaced`]). Reproducible for a seed (ChaCha12, a named algorithm: the same poses
+/// whatever `rand`'s `StdRng` becomes);
 /// positions to the micrometre. Fails fast: after `TRIAL_DRAWS` draws (and every
 /// `TRIAL_DRAWS` more) the acceptance rate so far must promise `count` poses within
 /// `DRAWS_PER_POSE × count` draws.
-pub fn random(bvh: &SceneBvh, spec: &RandomPoses) -> Result<Vec<Pose>, TooFewClear> {
-    let mut rng = StdRng::seed_from_u64(spec.seed);
+pub fn random(scene: &Scene, bvh: &SceneBvh, spec: &RandomPoses) -> Result<Vec<Pose>, TooFewClear> {
+    let mut rng = ChaCha12Rng::seed_from_u64(spec.seed);
     let axes = [DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z];
     let free = |p: DVec3| {
         axes.iter()
             .all(|&d| cpu::closest_hit(bvh, p - bvh.offset, d, 0.0).is_some_and(|hit| hit.t >= spec.clearance))
+            && misplaced(scene, bvh, p).is_none()
     };
-    let draw = |rng: &mut StdRng, lo: f64, hi: f64| if hi > lo { rng.random_range(lo..=hi) } else { lo };
+    let draw = |rng: &mut ChaCha12Rng, lo: f64, hi: f64| if hi > lo { rng.random_range(lo..=hi) } else { lo };
     let budget = spec.count.saturating_mul(DRAWS_PER_POSE).max(TRIAL_DRAWS);
     let mut poses = Vec::with_capacity(spec.count.min(1 << 20));
     let mut drawn = 0usize;
@@ -266,7 +270,7 @@ mod tests {
             max_tilt: 0.1,
             clearance: 0.3,
         };
-        let poses = random(&bvh, &spec).unwrap();
+        let poses = random(&scene, &bvh, &spec).unwrap();
         for pose in &poses {
             let p = pose.position;
             assert!(
@@ -275,9 +279,10 @@ mod tests {
             );
             assert!(pose.angles.x.abs() <= 0.1 && pose.angles.y.abs() <= 0.1);
         }
-        assert_eq!(random(&bvh, &spec).unwrap(), poses);
+        assert_eq!(random(&scene, &bvh, &spec).unwrap(), poses);
         assert!(
             random(
+                &scene,
                 &bvh,
                 &RandomPoses {
                     clearance: 1.1,
@@ -290,6 +295,7 @@ mod tests {
         // Ten million poses nowhere to be found: refused after the first trial, not 47 minutes.
         let started = std::time::Instant::now();
         let refusal = random(
+            &scene,
             &bvh,
             &RandomPoses {
                 clearance: 1.1,

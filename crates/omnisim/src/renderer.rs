@@ -327,6 +327,16 @@ impl Renderer {
         }
     }
 
+    /// What decides this renderer's bytes: the GPU adapter, or the CPU tracer (not its thread
+    /// count, which changes none). Data sets record it so that shards and resumes match.
+    pub fn renders_with(&self) -> String {
+        match &self.backend {
+            #[cfg(feature = "gpu")]
+            Backend::Gpu(renderer) => format!("gpu: {}", renderer.context().describe()),
+            Backend::Cpu => format!("cpu: {}", self.cpu_tracer.describe()),
+        }
+    }
+
     /// Why this backend was chosen.
     pub fn reason(&self) -> &str {
         &self.reason

@@ -97,19 +97,22 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     };
     let mut progress = Progress::new();
     let run_started = Instant::now();
-    let summary = dataset
-        .run(&renderer, &out, &options, &mut |frame| {
-            progress.frame(frame);
-            ControlFlow::Continue(())
-        })
-        .with_context(|| {
-            format!(
+    let summary = match dataset.run(&renderer, &out, &options, &mut |frame| {
+        progress.frame(frame);
+        ControlFlow::Continue(())
+    }) {
+        Ok(summary) => summary,
+        // The folder was refused before any frame: nothing to resume.
+        Err(refused) if refused.is_refusal() => return Err(refused.into()),
+        Err(stopped) => {
+            return Err(anyhow::Error::new(stopped).context(format!(
                 "data set {} into {} stopped; frames already finished are kept: remove the cause and run the same \
                  command again to resume",
                 spec.display(),
                 out.display()
-            )
-        })?;
+            )));
+        }
+    };
     progress.finish();
     for note in &summary.notes {
         eprintln!("note: {note}");
@@ -146,7 +149,8 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A bar with frames/s and ETA on a terminal, else a plain line every 10 seconds.
+/// A bar with frames/s and ETA on a terminal, else a plain line every 10 seconds. Frames an
+/// earlier run finished leave the bar (they take no time), so its rate and ETA are this run's.
 struct Progress {
     bar: Option<ProgressBar>,
     /// Whether stderr is a terminal (bar) or not (plain lines); asked once.
@@ -154,6 +158,8 @@ struct Progress {
     last: Instant,
     /// When the last frame was heard of.
     last_frame: Option<Instant>,
+    /// Frames an earlier run finished.
+    resumed: usize,
 }
 
 impl Progress {
@@ -163,6 +169,7 @@ impl Progress {
             terminal: std::io::stderr().is_terminal(),
             last: Instant::now(),
             last_frame: None,
+            resumed: 0,
         }
     }
 
@@ -184,8 +191,16 @@ impl Progress {
                     .unwrap_or_else(|_| ProgressStyle::default_bar()),
             )
         });
-        bar.set_message(format!("({})", frame.set));
-        bar.set_position(frame.done as u64);
+        if frame.rendered {
+            bar.inc(1);
+        } else {
+            self.resumed += 1;
+            bar.set_length(bar.length().unwrap_or(0).saturating_sub(1));
+        }
+        match self.resumed {
+            0 => bar.set_message(format!("({})", frame.set)),
+            resumed => bar.set_message(format!("({}; {resumed} done by an earlier run)", frame.set)),
+        }
     }
 
     fn finish(&self) {

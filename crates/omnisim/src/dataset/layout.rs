@@ -184,8 +184,14 @@ fn sensor_yaml(rig: &Rig, k: usize, camera: &Camera, rate: f64) -> String {
             );
         }
         _ => {
-            out += "# Not a pinhole: T_BS is the body frame itself; the model is in calibration-kalibr.yaml\n\
-                    # (central mirrors) and every pixel's ray in raymap.exr of the set folder.\n";
+            out +=
+                "# Not a pinhole: T_BS is the body frame itself; every pixel's ray is in raymap.exr of the set folder";
+            out += match camera {
+                Camera::Catadioptric(mirror) if crate::calibration::kalibr_omni(mirror).is_some() => {
+                    ",\n# the unified model in its calibration-kalibr.yaml.\n"
+                }
+                _ => ".\n",
+            };
             let _ = writeln!(out, "camera_model: omnisim-{}", camera.model_name());
         }
     }

@@ -112,8 +112,18 @@ pub struct SetEntry {
 /// or a merge refuses a folder whose identity differs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Stamp {
-    /// SHA-256 over the spec's and the scene's hashes.
+    /// SHA-256 over the spec's, the scene's and the geometry's hashes.
     pub identity: String,
+    /// omnisim's version that renders the frames (absent in stamps of versions before it).
+    #[serde(default)]
+    pub version: String,
+    /// What renders the frames ([`crate::Renderer::renders_with`]); other renderers' bytes
+    /// differ, so a resume, a shard or a merge must use this one.
+    #[serde(default)]
+    pub renderer: String,
+    /// SHA-256 of the scene as loaded ([`geometry_sha256`]): covers the mesh files it reads.
+    #[serde(default)]
+    pub geometry_sha256: String,
     /// Spec file name (without folder) and its text.
     pub spec_file: String,
     /// The spec text.
@@ -128,13 +138,14 @@ pub struct Stamp {
     pub sets: Vec<SetEntry>,
 }
 
-/// `manifest.json`: everything a reader needs to trust and use the data set.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// `manifest.json`: everything a reader needs to trust and use the data set; [`Manifest::read`]
+/// reads it back.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {
     /// "omnisim".
-    pub tool: &'static str,
+    pub tool: String,
     /// omnisim's version.
-    pub version: &'static str,
+    pub version: String,
     /// Spec file name.
     pub spec_file: String,
     /// The spec, verbatim.
@@ -145,6 +156,10 @@ pub struct Manifest {
     pub scene_file: String,
     /// SHA-256 of the scene text.
     pub scene_sha256: String,
+    /// SHA-256 of the scene as loaded: every face, object and light, so mesh files too.
+    pub geometry_sha256: String,
+    /// What rendered the frames: the CPU tracer, or the GPU adapter.
+    pub renderer: String,
     /// The top-level seed.
     pub seed: u64,
     /// The camera or rig of every set, as the spec gives it (calibration files per set).
@@ -155,8 +170,30 @@ pub struct Manifest {
     pub sets: Vec<ManifestSet>,
 }
 
+impl Manifest {
+    /// Reads a data set's `manifest.json`. README's example, compiled here:
+    ///
+    /// ```no_run
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// use omnisim::dataset::manifest::Manifest;
+    /// let m = Manifest::read("data/env1/manifest.json".as_ref())?;
+    /// for frame in &m.sets[0].frame_entries {
+    ///     let stem = format!("data/env1/map/{}", frame.stem);
+    ///     let rgb = image::open(format!("{stem}.png"))?.into_rgb8(); // sRGB
+    ///     let range = exr::prelude::read_first_flat_layer_from_file(format!("{stem}-range.exr"))?; // metres
+    ///     let [qx, qy, qz, qw] = frame.pose.quaternion_xyzw; // world_from_body
+    /// #   let _ = (rgb, range, qx, qy, qz, qw);
+    /// }
+    /// # Ok(())
+    /// # }
+    /// ```
+    pub fn read(path: &Path) -> Result<Self, DatasetError> {
+        super::run::read_json(path)
+    }
+}
+
 /// One set of the manifest.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ManifestSet {
     /// The set.
     #[serde(flatten)]
@@ -168,6 +205,27 @@ pub struct ManifestSet {
 /// Lowercase hex SHA-256 of `bytes`.
 pub fn sha256_hex(bytes: &[u8]) -> String {
     hex(&Sha256::digest(bytes))
+}
+
+/// Lowercase hex SHA-256 of `scene` as loaded: its objects, faces (every vertex and colour)
+/// and lighting, hashed through their `Debug` text (Rust prints every f64 exactly). The scene
+/// file's hash misses the mesh files it names; this one sees them.
+pub fn geometry_sha256(scene: &crate::scene::Scene) -> String {
+    /// Feeds formatted text into the hash without building the string.
+    struct Hashing(Sha256);
+    impl std::fmt::Write for Hashing {
+        fn write_str(&mut self, text: &str) -> std::fmt::Result {
+            self.0.update(text.as_bytes());
+            Ok(())
+        }
+    }
+    let mut hashing = Hashing(Sha256::new());
+    // Writing into a hash cannot fail.
+    let _ = std::fmt::Write::write_fmt(
+        &mut hashing,
+        format_args!("{:?}\n{:?}\n{:?}", scene.objects, scene.faces, scene.lighting),
+    );
+    hex(&hashing.0.finalize())
 }
 
 fn hex(bytes: &[u8]) -> String {

@@ -86,6 +86,36 @@ pub enum DatasetError {
         /// What it holds.
         previous: String,
     },
+    /// The folder's frames come from another omnisim version or renderer: their bytes would
+    /// differ from this run's.
+    #[error(
+        "{} holds frames rendered by {recorded}; this run renders with {current}, whose bytes differ. Finish it \
+         with that version and backend (e.g. --backend cpu on every machine) or render into another folder \
+         (`omnisim dataset --overwrite` starts this one afresh)",
+        dir.display()
+    )]
+    OtherRenderer {
+        /// The folder.
+        dir: PathBuf,
+        /// What rendered its frames.
+        recorded: String,
+        /// What renders now.
+        current: String,
+    },
+    /// A merge was given a shard of another spec.
+    #[error(
+        "{} holds frames of another spec (or scene) than {}: {theirs}. Merge only the shards of one spec",
+        dir.display(),
+        dest.display()
+    )]
+    ShardOfAnotherSpec {
+        /// The shard's folder.
+        dir: PathBuf,
+        /// The merge's destination.
+        dest: PathBuf,
+        /// What the shard holds.
+        theirs: String,
+    },
     /// The folder holds files no data set recorded.
     #[error(
         "{} already holds files that no omnisim data set recorded, e.g. '{example}'; choose an empty or new folder, \
@@ -143,6 +173,20 @@ pub enum DatasetError {
         /// Why.
         source: pose_sets::TooFewClear,
     },
+}
+
+impl DatasetError {
+    /// Whether the folder was refused before any frame (another spec's or renderer's frames,
+    /// unrecorded files): running the same command again cannot help.
+    pub fn is_refusal(&self) -> bool {
+        matches!(
+            self,
+            Self::AnotherSpec { .. }
+                | Self::OtherRenderer { .. }
+                | Self::ShardOfAnotherSpec { .. }
+                | Self::Unrecorded { .. }
+        )
+    }
 }
 
 /// `most` indices from 0 to `total` − 1 (all of them if there are no more), evenly spread,
@@ -215,6 +259,7 @@ pub struct Dataset {
     pub scene: Scene,
     scene_path: PathBuf,
     scene_sha256: String,
+    geometry_sha256: String,
     /// The vision system.
     pub rig: Rig,
     /// The sets, in spec order.
@@ -264,7 +309,7 @@ impl Dataset {
                 )
             };
             appearance::check(&scene, set).map_err(|(field, m)| fail(&field, m))?;
-            let all = poses(&spec, set, &bvh).map_err(|source| DatasetError::Poses {
+            let all = poses(&spec, set, &scene, &bvh).map_err(|source| DatasetError::Poses {
                 set: set.name.clone(),
                 source,
             })?;
@@ -302,6 +347,7 @@ impl Dataset {
         }
         Ok(Self {
             scene_sha256: manifest::sha256_hex(scene_text.as_bytes()),
+            geometry_sha256: manifest::geometry_sha256(&scene),
             spec,
             spec_path: path.to_path_buf(),
             spec_text: text,
@@ -423,7 +469,7 @@ fn omni(o: &spec::OmniSpec) -> Result<Catadioptric, String> {
 }
 
 /// Every pose a set's source gives, before misplaced ones are left out.
-fn poses(spec: &Spec, set: &SetSpec, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_sets::TooFewClear> {
+fn poses(spec: &Spec, set: &SetSpec, scene: &Scene, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_sets::TooFewClear> {
     let degrees = |(x, y, z): (f64, f64, f64)| dvec3(x, y, z) * (std::f64::consts::PI / 180.0);
     Ok(match &set.poses {
         PoseSource::Trajectory {
@@ -467,12 +513,19 @@ fn poses(spec: &Spec, set: &SetSpec, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_s
             tilt,
             clearance,
             angles,
+            seed,
         } => {
+            // A set's own seed stands for the spec's and the set's name ("" names no set).
+            let (seed, key) = match seed {
+                Some(seed) => (*seed, ""),
+                None => (spec.seed, set.name.as_str()),
+            };
             let mut poses = pose_sets::random(
+                scene,
                 bvh,
                 &RandomPoses {
                     count: *count,
-                    seed: rng::seed_u64(spec.seed, &set.name, rng::Purpose::Poses),
+                    seed: rng::seed_u64(seed, key, rng::Purpose::Poses),
                     low: (*low).into(),
                     high: (*high).into(),
                     max_tilt: tilt.to_radians(),
@@ -481,7 +534,7 @@ fn poses(spec: &Spec, set: &SetSpec, bvh: &SceneBvh) -> Result<Vec<Pose>, pose_s
             )?;
             if let Some(ranges) = angles {
                 // Positions as drawn above; angles from a stream of their own.
-                let mut rng = rng::stream(spec.seed, &set.name, None, rng::Purpose::Angles);
+                let mut rng = rng::stream(seed, key, None, rng::Purpose::Angles);
                 for pose in &mut poses {
                     *pose = Pose::new(pose.position, degrees(draw_angles(ranges, &mut rng)));
                 }

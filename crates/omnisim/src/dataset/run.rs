@@ -30,7 +30,7 @@ use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan, noise};
 use crate::camera::Camera;
 use crate::frame::{Frame, Plane, Planes};
-use crate::output::{self, FrameTarget, PlainFolder, atomic};
+use crate::output::{self, FrameTarget, PlainFolder, SegmentObject, SegmentationLegend, atomic};
 use crate::renderer::{PreparedScene, Renderer};
 use crate::rig::Rig;
 
@@ -264,7 +264,8 @@ fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>
     prepare_dir(dir)?;
     let mut notes = Vec::new();
     match read_stamp(dir)? {
-        Some(previous) if previous.identity == stamp.identity => {}
+        Some(previous) if previous.identity == stamp.identity && !overwrite => same_renderer(dir, &previous, stamp)?,
+        Some(previous) if previous.identity == stamp.identity && same_renderer(dir, &previous, stamp).is_ok() => {}
         Some(previous) if !overwrite => {
             return Err(DatasetError::AnotherSpec {
                 dir: dir.to_path_buf(),
@@ -294,6 +295,24 @@ fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>
     }
     write_file(&dir.join(STAMP), &to_json(stamp))?;
     Ok(notes)
+}
+
+/// Refuses frames of `theirs`'s version or renderer beside those of `ours` (same spec).
+fn same_renderer(dir: &Path, theirs: &Stamp, ours: &Stamp) -> Result<(), DatasetError> {
+    let made_by = |stamp: &Stamp| match (stamp.version.as_str(), stamp.renderer.as_str()) {
+        ("", _) | (_, "") => "an omnisim version that did not record its renderer".to_string(),
+        (version, renderer) => format!("omnisim {version} ({renderer})"),
+    };
+    let (recorded, current) = (made_by(theirs), made_by(ours));
+    if recorded == current {
+        Ok(())
+    } else {
+        Err(DatasetError::OtherRenderer {
+            dir: dir.to_path_buf(),
+            recorded,
+            current,
+        })
+    }
 }
 
 /// Whether frame `index` of a set is done: its entry parses and its files have their sizes.
@@ -389,8 +408,8 @@ struct RenderedFrame {
     index: usize,
     /// One per view of the rig.
     frames: Vec<Frame>,
-    /// Its per-frame occluders.
-    placed: Vec<Occluder>,
+    /// Its per-frame occluders, each with its ids in this frame's segmentation images.
+    placed: Vec<(Occluder, SegmentObject)>,
     record: AppearanceRecord,
 }
 
@@ -406,20 +425,35 @@ struct Perturbations<'a> {
     #[serde(flatten)]
     appearance: AppearanceRecord,
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    occluders: Vec<&'a Occluder>,
+    occluders: Vec<OccluderRecord<'a>>,
+}
+
+/// An occluder in a frame's entry.
+#[derive(Serialize)]
+struct OccluderRecord<'a> {
+    #[serde(flatten)]
+    occluder: &'a Occluder,
+    /// A per-frame occluder's object and face ids in this frame's segmentation images (the
+    /// set's `segmentation.json` lists the scene's objects and the set-wide occluders).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    segment: Option<&'a SegmentObject>,
 }
 
 impl Dataset {
-    /// The stamp of this data set.
-    fn stamp(&self) -> Stamp {
+    /// The stamp of this data set, rendered by `renderer`.
+    fn stamp(&self, renderer: &Renderer) -> Stamp {
         let spec_sha256 = sha256_hex(self.spec_text.as_bytes());
         let name = |p: &Path| {
             p.file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default()
         };
+        let identity = format!("{spec_sha256} {} {}", self.scene_sha256, self.geometry_sha256);
         Stamp {
-            identity: sha256_hex(format!("{spec_sha256} {}", self.scene_sha256).as_bytes()),
+            identity: sha256_hex(identity.as_bytes()),
+            version: env!("CARGO_PKG_VERSION").into(),
+            renderer: renderer.renders_with(),
+            geometry_sha256: self.geometry_sha256.clone(),
             spec_file: name(&self.spec_path),
             spec_text: self.spec_text.clone(),
             spec_sha256,
@@ -441,7 +475,7 @@ impl Dataset {
         on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
     ) -> Result<RunSummary, DatasetError> {
         let mut summary = RunSummary {
-            notes: open_folder(out, &self.stamp(), options.overwrite)?,
+            notes: open_folder(out, &self.stamp(renderer), options.overwrite)?,
             ..RunSummary::default()
         };
         for set in &self.sets {
@@ -618,8 +652,12 @@ impl Dataset {
         let pose = &self.sets[base.set].poses[index];
         let placed = self.frame_occluders(base.set, index)?;
         let mut own = None;
+        let mut segments = Vec::new();
         if !placed.is_empty() {
             let scene = occluders::with_occluders(&base.scene, &placed);
+            // The placed occluders are the frame scene's last objects.
+            let legend = SegmentationLegend::of(&scene);
+            segments = legend.objects[legend.objects.len() - placed.len()..].to_vec();
             own = Some((renderer.prepare(&scene)?, scene));
         }
         let (prepared, scene) = match own.as_mut() {
@@ -642,7 +680,7 @@ impl Dataset {
             set: base.set,
             index,
             frames,
-            placed,
+            placed: placed.into_iter().zip(segments).collect(),
             record,
         })
     }
@@ -763,7 +801,15 @@ impl Dataset {
         }
         let perturbations = Perturbations {
             appearance: record,
-            occluders: plan.occluders.iter().chain(&placed).collect(),
+            occluders: (plan.occluders.iter().map(|occluder| OccluderRecord {
+                occluder,
+                segment: None,
+            }))
+            .chain(placed.iter().map(|(occluder, segment)| OccluderRecord {
+                occluder,
+                segment: Some(segment),
+            }))
+            .collect(),
         };
         let entry = FrameEntry {
             index,
@@ -834,11 +880,13 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
             }
         };
         if ours.identity != theirs.identity {
-            return Err(DatasetError::AnotherSpec {
+            return Err(DatasetError::ShardOfAnotherSpec {
                 dir: source.clone(),
-                previous: describe(&theirs),
+                dest: dest.to_path_buf(),
+                theirs: describe(&theirs),
             });
         }
+        same_renderer(source, &theirs, ours)?;
         copy_frames(source, dest, ours)?;
     }
     let stamp = stamp.ok_or_else(|| DatasetError::Corrupt {
@@ -928,13 +976,15 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
         });
     }
     let manifest = Manifest {
-        tool: "omnisim",
-        version: env!("CARGO_PKG_VERSION"),
+        tool: "omnisim".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
         spec_file: stamp.spec_file.clone(),
         spec: stamp.spec_text.clone(),
         spec_sha256: stamp.spec_sha256.clone(),
         scene_file: stamp.scene_file.clone(),
         scene_sha256: stamp.scene_sha256.clone(),
+        geometry_sha256: stamp.geometry_sha256.clone(),
+        renderer: stamp.renderer.clone(),
         seed: spec.seed,
         rig: spec.rig.clone(),
         outputs: spec.outputs,
@@ -955,12 +1005,12 @@ fn set_contact_sheet(set_dir: &Path, rig: &Rig, frames: &[FrameEntry]) -> Result
     contact_sheet::contact_sheet(&shown)
 }
 
-fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, DatasetError> {
+pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, DatasetError> {
     let bytes = std::fs::read(path).map_err(io(path))?;
     serde_json::from_slice(&bytes).map_err(|e| DatasetError::Corrupt {
         path: path.to_path_buf(),
         entry: path.to_path_buf(),
-        problem: format!("unreadable entry: {e}"),
+        problem: format!("unreadable: {e}"),
     })
 }
 

@@ -245,6 +245,11 @@ pub enum PoseSource {
         /// uniformly and independently; instead of `tilt` and the full turn of θz.
         #[serde(default)]
         angles: Option<AngleRanges>,
+        /// Seed of these poses; without it they derive from the spec's seed and the set's
+        /// name. Sets with the same `Random` and `seed` get the same poses (one place seen by
+        /// day and by night).
+        #[serde(default)]
+        seed: Option<u64>,
     },
     /// Poses given one by one: (x, y, z, θx, θy, θz).
     List(Vec<(f64, f64, f64, f64, f64, f64)>),
@@ -514,10 +519,12 @@ pub(crate) struct SpecText<'a> {
 }
 
 impl SpecText<'_> {
-    /// A located error: at the set's `name` field, or at the top-level field.
+    /// A located error: at the field inside its set (at the set's `name` where the field is
+    /// not written after it), or at the top-level field.
     pub(crate) fn error(&self, place: Place, message: impl Into<String>) -> DatasetError {
         let location = match place.set {
-            Some(set) => locate::name_field(self.text, set, 0),
+            Some(set) => locate::name_field(self.text, set, 0)
+                .map(|name| locate::field_of_element(self.text, name, &place.field).unwrap_or(name)),
             None => {
                 let top = place.field.split(['.', '[']).next().unwrap_or_default();
                 locate::scene_field(self.text, top)
@@ -544,7 +551,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Spec, DatasetError> {
             path: path.to_path_buf(),
             location: Some((line, column)),
             set: locate::element_at(text, "sets", line, column),
-            field: String::new(),
+            field: locate::key_before(text, line, column).unwrap_or_default(),
             message: e.code.to_string(),
         }
     })?;
@@ -582,6 +589,15 @@ fn check(spec: &Spec, at: &SpecText) -> Result<(), DatasetError> {
             return Err(fail(
                 "name",
                 "a set name is its folder's name: 1-64 letters, digits, '-', '_' or '.', not starting with '.'".into(),
+            ));
+        }
+        if set.name.eq_ignore_ascii_case(super::run::MANIFEST) {
+            return Err(fail(
+                "name",
+                format!(
+                    "'{}' is the data set's manifest file; name the set otherwise",
+                    super::run::MANIFEST
+                ),
             ));
         }
         if !names.insert(set.name.as_str()) {
@@ -705,6 +721,7 @@ fn check_poses(source: &PoseSource) -> Result<(), (String, String)> {
             tilt,
             clearance,
             angles,
+            seed: _,
         } => {
             if let Some(((x0, x1), (y0, y1), (z0, z1))) = *angles {
                 for (axis, low, high) in [("θx", x0, x1), ("θy", y0, y1), ("θz", z0, z1)] {

@@ -302,6 +302,102 @@ fn another_spec_is_refused_unless_overwrite_removes_its_files() {
     assert!(matches!(refused, Err(DatasetError::Unrecorded { .. })));
 }
 
+/// An ASCII PLY tetrahedron of edge `size` metres, standing at the origin.
+fn tetrahedron(size: f64) -> String {
+    format!(
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 4\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0\n{size} 0 0\n0 {size} 0\n0 0 {size}\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+    )
+}
+
+#[test]
+fn a_changed_mesh_file_or_another_renderer_is_refused() {
+    let spec_text = SPEC
+        .replace("count: 4", "count: 2")
+        .replace("count: 3, low", "count: 1, low");
+    let (dir, spec) = project(&spec_text);
+    let mesh = dir.path().join("tetra.ply");
+    std::fs::write(&mesh, tetrahedron(0.3)).unwrap();
+    let with_mesh = ROOM.replace(
+        "], lighting:",
+        r#"    Mesh(name: "tetra", path: "tetra.ply", colour: (90, 90, 200), position: (-1.0, 0.5, 0.0)),
+], lighting:"#,
+    );
+    std::fs::write(dir.path().join("room.ron"), with_mesh).unwrap();
+    let out = dir.path().join("out");
+    let first = Dataset::load(&spec).unwrap();
+    run(&first, &out, RunOptions::default(), None);
+    // Same spec and scene text, another mesh: another data set.
+    std::fs::write(&mesh, tetrahedron(0.4)).unwrap();
+    let changed = Dataset::load(&spec).unwrap();
+    let refused = changed.run(&cpu(), &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()));
+    assert!(
+        matches!(refused, Err(DatasetError::AnotherSpec { .. })),
+        "{:?}",
+        refused.err()
+    );
+    // Same data set, frames of another renderer: a resume and a merge refuse them.
+    let stamp_path = out.join(run::STAMP);
+    let mut stamp: serde_json::Value = serde_json::from_slice(&std::fs::read(&stamp_path).unwrap()).unwrap();
+    assert_eq!(stamp["renderer"], cpu().renders_with());
+    stamp["renderer"] = "gpu: some adapter".into();
+    std::fs::write(&stamp_path, serde_json::to_vec(&stamp).unwrap()).unwrap();
+    let refused = first.run(&cpu(), &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()));
+    let message = refused.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("gpu: some adapter") && message.contains("--backend"),
+        "{message}"
+    );
+    let ours = dir.path().join("ours");
+    run(
+        &first,
+        &ours,
+        RunOptions {
+            shard: Some(Shard { index: 0, count: 2 }),
+            ..RunOptions::default()
+        },
+        None,
+    );
+    let merged = merge(&ours, std::slice::from_ref(&out));
+    assert!(
+        matches!(merged, Err(DatasetError::OtherRenderer { .. })),
+        "{:?}",
+        merged.err()
+    );
+    // --overwrite starts the folder afresh with this renderer.
+    run(
+        &first,
+        &out,
+        RunOptions {
+            overwrite: true,
+            ..RunOptions::default()
+        },
+        None,
+    );
+    assert!(out.join("manifest.json").exists());
+}
+
+#[test]
+fn sets_with_one_random_seed_share_their_poses_and_none_is_drawn_inside_furniture() {
+    // Low enough to draw positions inside the table (0.8 × 0.6 × 0.7 m): 4.5 % of the region.
+    let random = "Random(count: 60, low: (-1.9, -1.4, 0.05), high: (1.9, 1.4, 0.65), clearance: 0.02";
+    let text = format!(
+        r#"Dataset(scene: "room.ron", seed: 3, rig: Pinhole(size: (8, 6), hfov: 60.0), sets: [
+        Set(name: "day", poses: {random}, seed: 9)),
+        Set(name: "night", poses: {random}, seed: 9)),
+        Set(name: "other", poses: {random})),
+    ])"#
+    );
+    let (_dir, spec) = project(&text);
+    let dataset = Dataset::load(&spec).unwrap();
+    assert_eq!(dataset.sets[0].poses, dataset.sets[1].poses);
+    assert_ne!(dataset.sets[0].poses, dataset.sets[2].poses);
+    for set in &dataset.sets {
+        assert_eq!((set.poses.len(), set.skipped.len()), (60, 0), "{:?}", set.skipped);
+    }
+}
+
 #[test]
 fn bad_specs_get_located_errors() {
     let cases = [
@@ -313,13 +409,13 @@ fn bad_specs_get_located_errors() {
         ),
         (
             SPEC.replace(r#"light: "lamp", off"#, r#"light: "lampe", off"#),
-            "spec.ron:14:",
+            "spec.ron:16:",
             "set 'test': lights[0]",
             "no light 'lampe'",
         ),
         (
             SPEC.replace("tilt: 10.0", "tilt: 100.0"),
-            "spec.ron:14:",
+            "spec.ron:15:",
             "set 'test': poses.tilt",
             "0 to 90",
         ),
@@ -328,6 +424,18 @@ fn bad_specs_get_located_errors() {
             "spec.ron:8:",
             "set 'map': name",
             "another set",
+        ),
+        (
+            SPEC.replace(r#"name: "night""#, r#"name: "Manifest.json""#),
+            "spec.ron:21:",
+            "set 'Manifest.json': name",
+            "manifest file",
+        ),
+        (
+            SPEC.replace("range: 20", "range: 300"),
+            "spec.ron:17:",
+            "set 'test': range",
+            "",
         ),
         (
             SPEC.replace("hfov: 70.0", "hfov: 200.0"),
@@ -343,13 +451,13 @@ fn bad_specs_get_located_errors() {
         ),
         (
             SPEC.replace("Tum(rate: 10.0)", "Tum(rate: -1.0)"),
-            "spec.ron:8:",
+            "spec.ron:11:",
             "layouts[0].rate",
             "positive",
         ),
         (
             SPEC.replace("Pinhole(size: (32, 24), hfov: 70.0)", "Omni(size: (32, 32))"),
-            "spec.ron:8:",
+            "spec.ron:11:",
             "set 'map': layouts[0]",
             "for this rig use Euroc",
         ),
@@ -526,6 +634,10 @@ fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
     let manifest: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
     assert_eq!(manifest["spec_sha256"], manifest::sha256_hex(SPEC.as_bytes()));
+    // Rust readers get it back typed, nothing lost.
+    let typed = manifest::Manifest::read(&out.join("manifest.json")).unwrap();
+    assert_eq!(serde_json::to_value(&typed).unwrap(), manifest);
+    assert_eq!(typed.renderer, cpu().renders_with());
     let files = &manifest["sets"][0]["frame_entries"][2]["files"];
     let kind = |name: &str| {
         files
@@ -541,6 +653,24 @@ fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
     let occluded = &manifest["sets"][1]["frame_entries"][0]["perturbations"];
     assert_eq!(occluded["occluders"][0]["shape"], "person");
     assert!(occluded["colour_shifts"]["table"].is_array());
+    // Per-frame occluders are not in the set's legend: each frame's entry gives their ids,
+    // and the frames' object images hold no other id.
+    let legend: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("test/segmentation.json")).unwrap()).unwrap();
+    let listed = legend["objects"].as_array().unwrap().len() as u64;
+    let mut seen = 0;
+    for entry in manifest["sets"][1]["frame_entries"].as_array().unwrap() {
+        let segment = &entry["perturbations"]["occluders"][0]["segment"];
+        assert_eq!(segment["id"], listed + 1, "{entry}");
+        assert_eq!(segment["name"], entry["perturbations"]["occluders"][0]["name"]);
+        let stem = entry["stem"].as_str().unwrap();
+        let ids = image::open(out.join(format!("test/{stem}-object.png")))
+            .unwrap()
+            .into_luma16();
+        assert!(ids.pixels().all(|p| u64::from(p.0[0]) <= listed + 1));
+        seen += ids.pixels().filter(|p| u64::from(p.0[0]) == listed + 1).count();
+    }
+    assert!(seen > 0, "no frame of the test set sees its occluder");
 }
 
 /// evo reads both trajectories, where `OMNISIM_PYTHON` names a Python with evo (CI).

@@ -3,9 +3,10 @@
 //!
 //! Temporaries are created exclusively (`O_EXCL`) under an unpredictable name, so a link planted
 //! in the folder is never followed; the rename replaces whatever sits at the destination (a
-//! link included) with the new regular file. Their names start with [`TEMPORARY_PREFIX`] and
-//! the writer's process id, so the next run into the folder can remove those a killed run
-//! left ([`remove_stale_temporaries`]).
+//! link included) with the new regular file. Their names start with [`TEMPORARY_PREFIX`], the
+//! writer's process id and host name ([`temporary_prefix`]), so the next run into the folder
+//! can remove those a killed run left ([`remove_stale_temporaries`]) without touching those
+//! that shards on other machines, sharing the folder, are writing.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -28,7 +29,7 @@ pub fn write_atomically(
         Some(parent) if !parent.as_os_str().is_empty() => parent,
         _ => Path::new("."),
     };
-    let prefix = format!("{TEMPORARY_PREFIX}{}-", std::process::id());
+    let prefix = temporary_prefix();
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix);
     // tempfile creates 0600 files; outputs get the usual umask-filtered 0666.
@@ -43,9 +44,36 @@ pub fn write_atomically(
     temporary.persist(path).map_err(|e| e.error)
 }
 
-/// Removes the temporaries that interrupted runs left in `dir`: those whose process is gone, or
-/// untouched for an hour. Returns how many were removed; a missing `dir` has none.
+/// How this process's temporaries are named: [`TEMPORARY_PREFIX`], the process id, `@`, the host
+/// name, `@`, then a random part. A shared folder (shards on a cluster file system) holds
+/// other machines' temporaries too, whose process ids mean nothing here.
+pub fn temporary_prefix() -> String {
+    format!("{TEMPORARY_PREFIX}{}@{}@", std::process::id(), host_name())
+}
+
+/// This machine's name where the system says (`/proc`), in file-name-safe characters; empty
+/// elsewhere, and then no temporary is judged by its process.
+fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .unwrap_or_default()
+        .trim()
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '.' | '_'))
+        .collect()
+}
+
+/// The process id and host name in a temporary's name (after [`TEMPORARY_PREFIX`]).
+fn writer_of(rest: &str) -> Option<(u32, &str)> {
+    let (pid, rest) = rest.split_once('@')?;
+    let (host, _) = rest.split_once('@')?;
+    Some((pid.parse().ok()?, host))
+}
+
+/// Removes the temporaries that interrupted runs left in `dir`: this machine's whose process
+/// is gone, and any untouched for an hour (another machine's, or a reused process id). Returns
+/// how many were removed; a missing `dir` has none.
 pub fn remove_stale_temporaries(dir: &Path) -> std::io::Result<usize> {
+    let (own_pid, own_host) = (std::process::id(), host_name());
     let entries = match std::fs::read_dir(dir) {
         Ok(entries) => entries,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
@@ -62,17 +90,20 @@ pub fn remove_stale_temporaries(dir: &Path) -> std::io::Result<usize> {
         if metadata.is_dir() {
             continue;
         }
-        let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
         let untouched = metadata
             .modified()
             .ok()
             .and_then(|m| SystemTime::now().duration_since(m).ok())
             .is_some_and(|age| age > STALE_AFTER);
-        let stale = match pid.map(process_alive) {
-            Some(Some(false)) | None => true,
-            Some(Some(true) | None) => untouched,
+        let (stale, mine) = match writer_of(rest) {
+            Some((pid, host)) if !host.is_empty() && host == own_host => {
+                (untouched || process_alive(pid) == Some(false), pid == own_pid)
+            }
+            Some(_) => (untouched, false),
+            // Not a name this module makes: nothing is writing it.
+            None => (true, false),
         };
-        if stale && pid != Some(std::process::id()) {
+        if stale && !mine {
             match std::fs::remove_file(entry.path()) {
                 Ok(()) => removed += 1,
                 // Another run cleaned it first.
@@ -96,25 +127,39 @@ mod tests {
     use super::*;
 
     #[test]
-    fn temporaries_of_dead_processes_are_removed_and_live_ones_kept() {
+    fn temporaries_of_dead_processes_here_are_removed_and_others_kept() {
         let dir = tempfile::tempdir().unwrap();
+        let here = host_name();
+        let named = |pid: u32, host: &str| dir.path().join(format!("{TEMPORARY_PREFIX}{pid}@{host}@abc"));
         // u32::MAX is above every pid limit; pid 1 always runs.
-        let dead = dir.path().join(format!("{TEMPORARY_PREFIX}{}-abc", u32::MAX));
-        let live = dir.path().join(format!("{TEMPORARY_PREFIX}1-abc"));
+        let dead = named(u32::MAX, &here);
+        let live = named(1, &here);
+        let mine = named(std::process::id(), &here);
+        // A shard on another machine writes into the same folder: its pid means nothing here.
+        let elsewhere = named(u32::MAX, &format!("{here}-other"));
         let unnamed = dir.path().join(format!("{TEMPORARY_PREFIX}xyz"));
-        let mine = dir.path().join(format!("{TEMPORARY_PREFIX}{}-abc", std::process::id()));
         let other = dir.path().join("notes.txt");
-        for path in [&dead, &live, &unnamed, &mine, &other] {
+        for path in [&dead, &live, &mine, &elsewhere, &unnamed, &other] {
             std::fs::write(path, b"x").unwrap();
         }
         let removed = remove_stale_temporaries(dir.path()).unwrap();
-        if process_alive(1).is_some() {
+        if process_alive(1).is_some() && !here.is_empty() {
             assert_eq!(removed, 2);
             assert!(!dead.exists() && !unnamed.exists());
         } else {
             assert_eq!(removed, 1, "without /proc only the unnamed one is known to be stale");
         }
-        assert!(live.exists() && mine.exists() && other.exists());
+        assert!(live.exists() && mine.exists() && elsewhere.exists() && other.exists());
         assert_eq!(remove_stale_temporaries(&dir.path().join("missing")).unwrap(), 0);
+    }
+
+    #[test]
+    fn this_processs_temporaries_name_it_and_its_host() {
+        let prefix = temporary_prefix();
+        let rest = prefix.strip_prefix(TEMPORARY_PREFIX).unwrap();
+        assert_eq!(
+            writer_of(&format!("{rest}x1y2")),
+            Some((std::process::id(), host_name().as_str()))
+        );
     }
 }

@@ -8,7 +8,7 @@ use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::atomic::{TEMPORARY_PREFIX, remove_stale_temporaries, write_atomically};
+use super::atomic::{remove_stale_temporaries, temporary_prefix, write_atomically};
 
 /// The manifest's file name in every run folder.
 pub const MANIFEST_NAME: &str = "omnisim-run.txt";
@@ -193,7 +193,7 @@ pub fn prepare_file(path: &Path) -> Result<Vec<String>, FolderError> {
     std::fs::create_dir_all(dir).map_err(io)?;
     let stale = remove_stale_temporaries(dir).map_err(io)?;
     tempfile::Builder::new()
-        .prefix(&format!("{TEMPORARY_PREFIX}{}-", std::process::id()))
+        .prefix(&temporary_prefix())
         .tempfile_in(dir)
         .map_err(io)?;
     Ok(if stale > 0 {

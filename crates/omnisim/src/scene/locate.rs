@@ -80,7 +80,13 @@ pub(crate) fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
 /// the 1-based (line, column), if it has a `name: "…"` field.
 pub(crate) fn element_at(text: &str, list: &str, line: usize, column: usize) -> Option<String> {
     let target = offset_of(text, line, column)?;
-    let list = text.find(list)?;
+    // The `list:` key itself, not the word in a comment or a string.
+    let mut previous_is_word = false;
+    let list = code(text, 0).find_map(|(i, c)| {
+        let found = !previous_is_word && is_key_at(text, i, list);
+        previous_is_word = c.is_alphanumeric() || c == '_';
+        found.then_some(i)
+    })?;
     let mut depth = 0usize;
     let mut start = None;
     for (i, c) in code(text, list) {
@@ -109,6 +115,67 @@ pub(crate) fn element_at(text: &str, list: &str, line: usize, column: usize) -> 
     }
     // The list never closed (a syntax error): the last object opened before the position.
     start.filter(|&s| s <= target).and_then(|s| object_name(&text[s..]))
+}
+
+/// The 1-based (line, column) of the field `path` (`poses.tilt`, `layouts[0].rate`) of the
+/// element whose `name` field is at (line, column): each key of the path is sought after the
+/// one before, inside that element. `None` if the first key is not after the name.
+pub(crate) fn field_of_element(text: &str, (line, column): (usize, usize), path: &str) -> Option<(usize, usize)> {
+    let from = offset_of(text, line, column)?;
+    let mut keys = path
+        .split('.')
+        .map(|key| key.split('[').next().unwrap_or(key))
+        .peekable();
+    let mut found = None;
+    let mut depth = 0usize;
+    let mut previous_is_word = false;
+    for (i, c) in code(text, from) {
+        match c {
+            '(' | '[' | '{' => depth += 1,
+            // The element closes: the rest of the path is not in it.
+            ')' | ']' | '}' if depth == 0 => break,
+            ')' | ']' | '}' => depth -= 1,
+            _ if !previous_is_word && keys.peek().is_some_and(|key| is_key_at(text, i, key)) => {
+                found = Some(line_column(text, i));
+                keys.next();
+                if keys.peek().is_none() {
+                    break;
+                }
+            }
+            _ => {}
+        }
+        previous_is_word = c.is_alphanumeric() || c == '_';
+    }
+    found
+}
+
+/// The last `key:` of RON text starting at or before the 1-based (line, column): the field a
+/// parse error at that place is in (or names, for an unknown field).
+pub(crate) fn key_before(text: &str, line: usize, column: usize) -> Option<String> {
+    let end = offset_of(text, line, column)?;
+    let mut key = None;
+    let mut word_start = None;
+    for (i, c) in code(text, 0) {
+        if c.is_alphanumeric() || c == '_' {
+            if word_start.is_none() && i > end {
+                break;
+            }
+            word_start.get_or_insert(i);
+        } else if let Some(start) = word_start.take()
+            && text[i..].trim_start().starts_with(':')
+        {
+            key = Some(text[start..i].to_string());
+        }
+    }
+    key
+}
+
+/// Whether `key` starts at byte `i` of `text` as a whole word followed by `:`.
+fn is_key_at(text: &str, i: usize, key: &str) -> bool {
+    let Some(rest) = text[i..].strip_prefix(key) else {
+        return false;
+    };
+    !rest.starts_with(|n: char| n.is_alphanumeric() || n == '_') && rest.trim_start().starts_with(':')
 }
 
 /// 1-based (line, column in characters) of a byte offset.
@@ -171,6 +238,31 @@ mod tests {
         assert_eq!(element_at(text, "objects", 3, 10).as_deref(), Some("a (\\\"x"));
         assert_eq!(element_at(text, "objects", 5, 16).as_deref(), Some("b"));
         assert_eq!(element_at(text, "objects", 1, 3), None);
+    }
+
+    #[test]
+    fn a_list_named_in_a_comment_before_it_is_not_the_list() {
+        let text = "// three test sets\nDataset(rig: Omni(size: (1, 1)), sets: [\n  Set(name: \"a\"),\n  Set(name: \"b\", x: (300)),\n])";
+        assert_eq!(element_at(text, "sets", 4, 22).as_deref(), Some("b"));
+    }
+
+    #[test]
+    fn fields_are_found_inside_their_element_after_its_name() {
+        let text = "sets: [\n  Set(name: \"a\",\n    poses: Random(count: 3, tilt: 100.0),\n    layouts: [Tum(rate: -1.0)]),\n  Set(name: \"b\", tilt: 1.0),\n]";
+        let a = name_field(text, "a", 0).unwrap();
+        assert_eq!(field_of_element(text, a, "poses.tilt"), Some((3, 29)));
+        assert_eq!(field_of_element(text, a, "layouts[0].rate"), Some((4, 19)));
+        assert_eq!(
+            field_of_element(text, a, "lights[0]"),
+            None,
+            "not in set a, nor taken from set b"
+        );
+        assert_eq!(key_before(text, 3, 35).as_deref(), Some("tilt"));
+        assert_eq!(
+            key_before(text, 3, 29).as_deref(),
+            Some("tilt"),
+            "an error at the key names it"
+        );
     }
 
     #[test]
