@@ -104,7 +104,10 @@ pub(crate) fn frame_appearance(
             let Some(target) = lighting.light_mut(light) else {
                 continue;
             };
+            let applies = change.applies_to(index);
             match change {
+                // Flicker draws below whether it applies or not.
+                _ if !applies && !matches!(change, LightChange::Flicker { .. }) => {}
                 LightChange::Switch { on, .. } => target.on = *on,
                 LightChange::Move { position, .. } => {
                     if let LightKind::Point { position: p, .. } = &mut target.kind {
@@ -116,8 +119,10 @@ pub(crate) fn frame_appearance(
                 LightChange::Flicker { off, jitter, .. } => {
                     // Both draws always happen, so one light's settings never move another's draws.
                     let (dark, scale) = (flicker.random_bool(*off), flicker.random_range(-1.0..=1.0));
-                    target.on &= !dark;
-                    set_strength(&mut target.kind, |s| s * (1.0 + jitter * scale));
+                    if applies {
+                        target.on &= !dark;
+                        set_strength(&mut target.kind, |s| s * (1.0 + jitter * scale));
+                    }
                 }
                 LightChange::Ambient(_) => {}
             }

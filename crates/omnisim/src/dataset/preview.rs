@@ -520,7 +520,7 @@ impl Svg {
             .map(|l| l.lights.as_slice())
             .unwrap_or_default();
         for change in changes {
-            let LightChange::Move { light, position } = change else {
+            let LightChange::Move { light, position, .. } = change else {
                 continue;
             };
             let to = DVec3::from(*position);
@@ -645,13 +645,19 @@ fn light_changes(changes: &[LightChange]) -> String {
     let mut words: Vec<String> = changes
         .iter()
         .take(SHOWN)
-        .map(|change| match change {
-            LightChange::Switch { light, on } => format!("{light} {}", if *on { "on" } else { "off" }),
-            LightChange::Move { light, .. } => format!("{light} moved"),
-            LightChange::Intensity { light, value } => format!("{light} at {value}"),
-            LightChange::Colour { light, .. } => format!("{light} tinted"),
-            LightChange::Flicker { light, .. } => format!("{light} flickers"),
-            LightChange::Ambient(lux) => format!("ambient {lux} lx"),
+        .map(|change| {
+            let what = match change {
+                LightChange::Switch { light, on, .. } => format!("{light} {}", if *on { "on" } else { "off" }),
+                LightChange::Move { light, .. } => format!("{light} moved"),
+                LightChange::Intensity { light, value, .. } => format!("{light} at {value}"),
+                LightChange::Colour { light, .. } => format!("{light} tinted"),
+                LightChange::Flicker { light, .. } => format!("{light} flickers"),
+                LightChange::Ambient(lux) => format!("ambient {lux} lx"),
+            };
+            match change.frames() {
+                Some((start, end)) => format!("{what} (frames {start}–{})", end - 1),
+                None => what,
+            }
         })
         .collect();
     if changes.len() > SHOWN {

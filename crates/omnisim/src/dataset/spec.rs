@@ -292,6 +292,9 @@ pub enum LightChange {
         light: String,
         /// On or off.
         on: bool,
+        /// Only frames `start ≤ index < end` of the set (a schedule); every frame without it.
+        #[serde(default)]
+        frames: Option<(usize, usize)>,
     },
     /// Move a point light, metres.
     Move {
@@ -299,6 +302,9 @@ pub enum LightChange {
         light: String,
         /// New position.
         position: (f64, f64, f64),
+        /// Only frames `start ≤ index < end` of the set (a schedule); every frame without it.
+        #[serde(default)]
+        frames: Option<(usize, usize)>,
     },
     /// Set a light's intensity (candela) or illuminance (lux, directional).
     Intensity {
@@ -306,6 +312,9 @@ pub enum LightChange {
         light: String,
         /// New value.
         value: f64,
+        /// Only frames `start ≤ index < end` of the set (a schedule); every frame without it.
+        #[serde(default)]
+        frames: Option<(usize, usize)>,
     },
     /// Set a light's sRGB tint.
     Colour {
@@ -313,6 +322,9 @@ pub enum LightChange {
         light: String,
         /// New tint.
         colour: Rgb,
+        /// Only frames `start ≤ index < end` of the set (a schedule); every frame without it.
+        #[serde(default)]
+        frames: Option<(usize, usize)>,
     },
     /// Per frame: off with probability `off`, else intensity × (1 + uniform(−jitter, jitter)).
     Flicker {
@@ -324,9 +336,31 @@ pub enum LightChange {
         /// Relative intensity variation.
         #[serde(default)]
         jitter: f64,
+        /// Only frames `start ≤ index < end` of the set (a schedule); every frame without it.
+        #[serde(default)]
+        frames: Option<(usize, usize)>,
     },
-    /// Set the ambient illuminance, lux.
+    /// Set the ambient illuminance, lux (every frame of the set).
     Ambient(f64),
+}
+
+impl LightChange {
+    /// The frames it is limited to, if any: (start, end), end excluded.
+    pub fn frames(&self) -> Option<(usize, usize)> {
+        match self {
+            Self::Switch { frames, .. }
+            | Self::Move { frames, .. }
+            | Self::Intensity { frames, .. }
+            | Self::Colour { frames, .. }
+            | Self::Flicker { frames, .. } => *frames,
+            Self::Ambient(_) => None,
+        }
+    }
+
+    /// Whether it changes frame `index` of its set.
+    pub fn applies_to(&self, index: usize) -> bool {
+        self.frames().is_none_or(|(start, end)| (start..end).contains(&index))
+    }
 }
 
 /// A change of object colours.
@@ -765,6 +799,17 @@ fn check_poses(source: &PoseSource) -> Result<(), (String, String)> {
 fn check_set(spec: &Spec, set: &SetSpec) -> Checked {
     for (i, change) in set.lights.iter().enumerate() {
         let field = format!("lights[{i}]");
+        if let Some((start, end)) = change.frames()
+            && start >= end
+        {
+            return Err((
+                format!("{field}.frames"),
+                format!(
+                    "({start}, {end}) holds no frame: give (first, one past the last), e.g. ({start}, {})",
+                    start + 1
+                ),
+            ));
+        }
         match change {
             LightChange::Move { position, .. } => finite(&field, &[position.0, position.1, position.2])?,
             LightChange::Intensity { value, .. } if !(value.is_finite() && *value >= 0.0) => {

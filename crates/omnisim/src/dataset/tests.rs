@@ -498,6 +498,50 @@ fn readme_and_shipped_specs_are_valid() {
 }
 
 #[test]
+fn scheduled_light_changes_apply_to_their_frames_only_and_keep_the_flicker_draws() {
+    let lit = |lights: &str| {
+        let text = SPEC.replace(r#"lights: [Flicker(light: "lamp", off: 0.3, jitter: 0.2)]"#, lights);
+        let (_dir, spec) = project(&text);
+        let dataset = Dataset::load(&spec).unwrap();
+        let set = &dataset.sets[1].spec;
+        (0..3)
+            .map(|index| {
+                let (_, record) =
+                    appearance::frame_appearance(&dataset.scene, dataset.scene.objects.len(), set, 11, index);
+                let lighting = record.lighting.unwrap();
+                let state = |name: &str| {
+                    let light = lighting.lights.iter().find(|l| l.name == name).unwrap();
+                    let crate::lighting::LightKind::Point { intensity, .. } = light.kind else {
+                        panic!("point light")
+                    };
+                    (light.on, intensity)
+                };
+                (state("lamp"), state("desk"))
+            })
+            .collect::<Vec<_>>()
+    };
+    let always = lit(r#"lights: [Flicker(light: "desk", off: 0.5, jitter: 0.5)]"#);
+    let scheduled = lit(
+        r#"lights: [Switch(light: "lamp", on: false, frames: (1, 2)), Flicker(light: "desk", off: 0.5, jitter: 0.5, frames: (2, 3))]"#,
+    );
+    let lamp: Vec<bool> = scheduled.iter().map(|(lamp, _)| lamp.0).collect();
+    assert_eq!(lamp, [true, false, true]);
+    // The desk lamp flickers in frame 2 only, exactly as it does there without a schedule.
+    let desk = (20.0, true);
+    assert_eq!((scheduled[0].1.1, scheduled[0].1.0), desk);
+    assert_eq!((scheduled[1].1.1, scheduled[1].1.0), desk);
+    assert_eq!(scheduled[2].1, always[2].1);
+    assert_ne!(always[2].1.1, 20.0, "the flicker draw changes the intensity");
+    // A schedule that holds no frame is a located error.
+    let (_dir, spec) = project(&SPEC.replace("jitter: 0.2)]", "jitter: 0.2, frames: (3, 3))]"));
+    let message = Dataset::load(&spec).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("set 'test': lights[0].frames") && message.contains("holds no frame"),
+        "{message}"
+    );
+}
+
+#[test]
 fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
     let (_dir, spec) = project(SPEC);
     let dataset = Dataset::load(&spec).unwrap();
