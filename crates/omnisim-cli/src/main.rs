@@ -49,6 +49,7 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     keep_freed_memory();
+    report_file_size_limits();
     let _runtime_dir = quiet_wayland_probe();
     let cli = Cli::parse();
     let result = match cli.command {
@@ -85,6 +86,17 @@ fn keep_freed_memory() {
     unsafe {
         libc::mallopt(libc::M_MMAP_MAX, 0);
         libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX);
+    }
+}
+
+/// A write past the process's file-size limit (`ulimit -f`) raises SIGXFSZ, which kills the
+/// process silently and leaves its temporaries; ignored, the write fails with EFBIG instead,
+/// and the command says which file and stops as after any write error (resumable).
+fn report_file_size_limits() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to ignore; called before any other thread exists.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
 }
 

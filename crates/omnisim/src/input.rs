@@ -127,6 +127,26 @@ pub fn read_text(path: &Path, limit: u64) -> Result<String, InputError> {
     })
 }
 
+/// How every RON input (scenes, data-set specs) is parsed: newtype variants unwrapped and
+/// `Some` implied, so files say `Move(light: "lamp", position: (1, 2, 3))` and `frames: (0, 5)`.
+pub(crate) fn ron_options() -> ron::Options {
+    ron::Options::default().with_default_extension(
+        ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES | ron::extensions::Extensions::IMPLICIT_SOME,
+    )
+}
+
+/// `text` without the UTF-8 byte-order mark some Windows editors put first, which RON would
+/// read as a stray character.
+pub(crate) fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
+/// User text as an error message shows it: escaped (no control characters reach the
+/// terminal) and at most `max` characters.
+pub fn shown(text: &str, max: usize) -> String {
+    excerpt(&text.escape_debug().to_string(), max)
+}
+
 /// At most `max` characters of `text` for an error message, with how much was left out: a
 /// 10 MB line must not be echoed whole.
 pub fn excerpt(text: &str, max: usize) -> String {

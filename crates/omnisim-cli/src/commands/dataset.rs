@@ -102,8 +102,8 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         ControlFlow::Continue(())
     }) {
         Ok(summary) => summary,
-        // The folder was refused before any frame: nothing to resume.
-        Err(refused) if refused.is_refusal() => return Err(refused.into()),
+        // The folder or the spec must change: resuming would fail the same way.
+        Err(final_error) if final_error.needs_a_change() => return Err(final_error.into()),
         Err(stopped) => {
             return Err(anyhow::Error::new(stopped).context(format!(
                 "data set {} into {} stopped; frames already finished are kept: remove the cause and run the same \

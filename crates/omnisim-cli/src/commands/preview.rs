@@ -19,12 +19,22 @@ use omnisim::dataset::{Dataset, preview};
 pub struct PreviewArgs {
     /// Data-set spec (RON), e.g. scenes/env1-dataset.ron.
     pub spec: PathBuf,
-    /// Output prefix: writes PREFIX.svg and PREFIX.png (their folder is created).
+    /// Output prefix: writes PREFIX.svg and PREFIX.png (their folder is created); a folder
+    /// (an existing one, or a path ending in '/') gets FOLDER/preview.svg and .png.
     #[arg(long)]
     pub out: PathBuf,
 }
 
-pub fn run(args: PreviewArgs) -> anyhow::Result<()> {
+pub fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
+    let names_a_folder = args
+        .out
+        .as_os_str()
+        .to_string_lossy()
+        .ends_with(std::path::MAIN_SEPARATOR)
+        || args.out.is_dir();
+    if names_a_folder {
+        args.out.push("preview");
+    }
     let dataset = Dataset::load(&args.spec)?;
     for warning in &dataset.warnings {
         eprintln!("warning: {warning}");

@@ -47,18 +47,28 @@ pub(crate) fn check(scene: &Scene, set: &SetSpec) -> Result<(), (String, String)
             .and_then(|l| l.lights.iter().find(|l| &l.name == name));
         match (light, change) {
             (None, _) => {
-                let known: Vec<&str> = scene
+                let known: Vec<String> = scene
                     .lighting
                     .iter()
-                    .flat_map(|l| l.lights.iter().map(|l| l.name.as_str()))
+                    .flat_map(|l| l.lights.iter().map(|l| crate::input::shown(&l.name, 40)))
                     .collect();
                 return Err((
                     field,
-                    format!("the scene has no light '{name}' (it has: {})", known.join(", ")),
+                    format!(
+                        "the scene has no light '{}' (it has: {})",
+                        crate::input::shown(name, 40),
+                        crate::input::excerpt(&known.join(", "), 400)
+                    ),
                 ));
             }
             (Some(l), LightChange::Move { .. }) if !matches!(l.kind, LightKind::Point { .. }) => {
-                return Err((field, format!("'{name}' is directional: only point lights move")));
+                return Err((
+                    field,
+                    format!(
+                        "'{}' is directional: only point lights move",
+                        crate::input::shown(name, 40)
+                    ),
+                ));
             }
             _ => {}
         }
@@ -69,7 +79,10 @@ pub(crate) fn check(scene: &Scene, set: &SetSpec) -> Result<(), (String, String)
             ColourChange::Shift { objects, .. } => objects.as_slice(),
         };
         if let Some(missing) = names.iter().find(|n| !scene.objects.iter().any(|o| &o.name == *n)) {
-            return Err((format!("colours[{i}]"), format!("the scene has no object '{missing}'")));
+            return Err((
+                format!("colours[{i}]"),
+                format!("the scene has no object '{}'", crate::input::shown(missing, 40)),
+            ));
         }
     }
     Ok(())

@@ -282,7 +282,15 @@ pub fn inside(root: &Path, relative: &str) -> Option<PathBuf> {
             .split('/')
             .all(|part| !part.is_empty() && part != "." && part != ".." && !part.contains('\\'))
         && !relative.starts_with('/');
-    ok.then(|| root.join(relative))
+    // Nor through a link planted in the folder: it could lead anywhere.
+    let mut path = root.to_path_buf();
+    for part in relative.split('/').filter(|_| ok) {
+        path.push(part);
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_symlink()) {
+            return None;
+        }
+    }
+    ok.then_some(path)
 }
 
 /// Checks that a listed file still has its recorded size and hash.
@@ -377,5 +385,19 @@ mod tests {
             relative(root, Path::new("/data/map/tum/rgb/0.000000.png")),
             "map/tum/rgb/0.000000.png"
         );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn no_path_inside_leads_through_a_link() {
+        let dir = tempfile::tempdir().unwrap();
+        let (root, elsewhere) = (dir.path().join("data"), dir.path().join("elsewhere"));
+        std::fs::create_dir_all(root.join("map")).unwrap();
+        std::fs::create_dir_all(&elsewhere).unwrap();
+        std::os::unix::fs::symlink(&elsewhere, root.join("map/link")).unwrap();
+        std::os::unix::fs::symlink(elsewhere.join("f"), root.join("map/file-link")).unwrap();
+        assert_eq!(inside(&root, "map/a.png"), Some(root.join("map/a.png")));
+        assert_eq!(inside(&root, "map/link/keep.txt"), None);
+        assert_eq!(inside(&root, "map/file-link"), None);
     }
 }

@@ -102,6 +102,28 @@ pub enum DatasetError {
         /// What renders now.
         current: String,
     },
+    /// A data-set folder's stamp is unreadable or disagrees with the spec it holds.
+    #[error(
+        "{}: {problem}; restore it (a shard folder holds the same), or render the data set into a new folder",
+        path.display()
+    )]
+    BadStamp {
+        /// The stamp file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A merge was given a folder no data-set run wrote.
+    #[error(
+        "{} holds no data set (no {} stamp): give the folder `omnisim dataset` rendered into, then any shard \
+         folders rendered apart",
+        dir.display(),
+        run::STAMP
+    )]
+    NotADataSet {
+        /// The folder.
+        dir: PathBuf,
+    },
     /// A merge was given a shard of another spec.
     #[error(
         "{} holds frames of another spec (or scene) than {}: {theirs}. Merge only the shards of one spec",
@@ -118,9 +140,10 @@ pub enum DatasetError {
     },
     /// The folder holds files no data set recorded.
     #[error(
-        "{} already holds files that no omnisim data set recorded, e.g. '{example}'; choose an empty or new folder, \
-         or add --overwrite",
-        dir.display()
+        "{} already holds files that no omnisim data set recorded, e.g. '{}'; choose an empty or new folder \
+         (`omnisim dataset --overwrite` renders into it anyway, leaving those files)",
+        dir.display(),
+        crate::input::shown(example, 64)
     )]
     Unrecorded {
         /// The folder.
@@ -153,7 +176,7 @@ pub enum DatasetError {
         problem: String,
     },
     /// Occluders found no free place.
-    #[error("set '{set}', frame {frame}: {source}")]
+    #[error("set '{set}', frame {frame}: {source}; lower their count or clearance, or widen their region")]
     Occluders {
         /// The set.
         set: String,
@@ -165,26 +188,22 @@ pub enum DatasetError {
     /// The preview picture could not be rasterised.
     #[error("cannot draw the preview picture: {0}")]
     Picture(String),
-    /// A random pose set could not be drawn.
-    #[error("set '{set}': {source}")]
-    Poses {
-        /// The set.
-        set: String,
-        /// Why.
-        source: pose_sets::TooFewClear,
-    },
 }
 
 impl DatasetError {
-    /// Whether the folder was refused before any frame (another spec's or renderer's frames,
-    /// unrecorded files): running the same command again cannot help.
-    pub fn is_refusal(&self) -> bool {
+    /// Whether the same command would fail the same way: the folder was refused (another
+    /// spec's or renderer's frames, unrecorded files) or the spec asks what cannot be (occluders
+    /// with no free place). Other errors (a full disk, a killed writer) leave a resumable run.
+    pub fn needs_a_change(&self) -> bool {
         matches!(
             self,
             Self::AnotherSpec { .. }
                 | Self::OtherRenderer { .. }
                 | Self::ShardOfAnotherSpec { .. }
                 | Self::Unrecorded { .. }
+                | Self::NotADataSet { .. }
+                | Self::BadStamp { .. }
+                | Self::Occluders { .. }
         )
     }
 }
@@ -298,6 +317,7 @@ impl Dataset {
         let bvh = SceneBvh::build(&scene);
         let mut warnings = scene.warnings.clone();
         let mut sets = Vec::with_capacity(spec.sets.len());
+        let mut total_poses = 0;
         for set in &spec.sets {
             let fail = |field: &str, message: String| {
                 at.error(
@@ -309,10 +329,32 @@ impl Dataset {
                 )
             };
             appearance::check(&scene, set).map_err(|(field, m)| fail(&field, m))?;
-            let all = poses(&spec, set, &scene, &bvh).map_err(|source| DatasetError::Poses {
-                set: set.name.clone(),
-                source,
+            let all = poses(&spec, set, &scene, &bvh).map_err(|too_few| {
+                fail(
+                    "poses",
+                    format!("{too_few}; lower clearance, widen low/high or ask for fewer poses"),
+                )
             })?;
+            // A guard behind the spec's bounds: manifests cannot hold a non-finite number.
+            if let Some(n) = all
+                .iter()
+                .position(|p| !(p.position.is_finite() && p.angles.is_finite()))
+            {
+                return Err(fail(
+                    "poses",
+                    format!("pose #{n} is not finite; keep coordinates and angles within ±1e9"),
+                ));
+            }
+            total_poses += all.len();
+            if total_poses > spec::MAX_POSES {
+                return Err(fail(
+                    "poses",
+                    format!(
+                        "the sets so far hold {total_poses} poses, more than {} in all",
+                        spec::MAX_POSES
+                    ),
+                ));
+            }
             let (poses, skipped) = sort_misplaced(&scene, &bvh, all);
             if !skipped.is_empty() {
                 let summary = describe_skipped(&skipped);

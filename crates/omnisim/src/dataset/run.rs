@@ -140,14 +140,49 @@ fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
     Ok(())
 }
 
+/// [`prepare_dir`] for a folder inside the data-set folder `root`, refusing one reached
+/// through a link (a set folder linked elsewhere would have the run write there).
+fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let below = dir.strip_prefix(root).unwrap_or(dir);
+    let mut path = root.to_path_buf();
+    for part in below.components() {
+        path.push(part);
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_symlink()) {
+            return Err(DatasetError::Io {
+                path,
+                source: std::io::Error::other(
+                    "is a link: a data set writes only into real folders under its folder; remove the link",
+                ),
+            });
+        }
+    }
+    prepare_dir(dir)
+}
+
+/// Refuses a folder without a stamp that holds visible files: someone else's.
+fn refuse_unrecorded(dir: &Path) -> Result<(), DatasetError> {
+    let listing = std::fs::read_dir(dir).map_err(io(dir))?;
+    let example = listing
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .find(|name| !name.starts_with('.'));
+    match example {
+        Some(example) => Err(DatasetError::Unrecorded {
+            dir: dir.to_path_buf(),
+            example,
+        }),
+        None => Ok(()),
+    }
+}
+
 fn read_stamp(dir: &Path) -> Result<Option<Stamp>, DatasetError> {
     let path = dir.join(STAMP);
     match std::fs::read(&path) {
         Ok(bytes) => serde_json::from_slice(&bytes)
             .map(Some)
-            .map_err(|e| DatasetError::Corrupt {
+            .map_err(|e| DatasetError::BadStamp {
                 path: path.clone(),
-                entry: path.clone(),
                 problem: format!("not a data-set stamp: {e}"),
             }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
@@ -263,7 +298,17 @@ fn entry_path(set_dir: &Path, index: usize) -> PathBuf {
 fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>, DatasetError> {
     prepare_dir(dir)?;
     let mut notes = Vec::new();
-    match read_stamp(dir)? {
+    let previous = match read_stamp(dir) {
+        // Nothing tells which files were its own: they stay, and new ones replace them.
+        Err(DatasetError::BadStamp { problem, .. }) if overwrite => {
+            notes.push(format!(
+                "--overwrite: the previous stamp is unreadable ({problem}); its files stay"
+            ));
+            None
+        }
+        previous => previous?,
+    };
+    match previous {
         Some(previous) if previous.identity == stamp.identity && !overwrite => same_renderer(dir, &previous, stamp)?,
         Some(previous) if previous.identity == stamp.identity && same_renderer(dir, &previous, stamp).is_ok() => {}
         Some(previous) if !overwrite => {
@@ -279,19 +324,8 @@ fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>
                 describe(&previous)
             ));
         }
-        None => {
-            let listing = std::fs::read_dir(dir).map_err(io(dir))?;
-            let example = listing
-                .filter_map(Result::ok)
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .find(|name| !name.starts_with('.'));
-            if let (Some(example), false) = (example, overwrite) {
-                return Err(DatasetError::Unrecorded {
-                    dir: dir.to_path_buf(),
-                    example,
-                });
-            }
-        }
+        None if overwrite => {}
+        None => refuse_unrecorded(dir)?,
     }
     write_file(&dir.join(STAMP), &to_json(stamp))?;
     Ok(notes)
@@ -580,11 +614,11 @@ impl Dataset {
     fn prepare_set(&self, out: &Path, set: &SetPlan) -> Result<(), DatasetError> {
         let set_dir = out.join(&set.spec.name);
         let views = self.rig.views().len();
-        prepare_dir(&set_dir)?;
-        prepare_dir(&set_dir.join(ENTRIES))?;
+        prepare_subdir(out, &set_dir)?;
+        prepare_subdir(out, &set_dir.join(ENTRIES))?;
         for layout in &set.spec.layouts {
             for (_, path) in layout::frame_files(layout, &set_dir, 0, views) {
-                prepare_dir(path.parent().unwrap_or(&set_dir))?;
+                prepare_subdir(out, path.parent().unwrap_or(&set_dir))?;
             }
         }
         let scene = occluders::with_occluders(&self.scene, &set.occluders);
@@ -865,15 +899,12 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
 fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) -> Result<MergeSummary, DatasetError> {
     let mut stamp = read_stamp(dest)?;
     for source in sources {
-        let theirs = read_stamp(source)?.ok_or_else(|| DatasetError::Corrupt {
-            path: source.clone(),
-            entry: source.join(STAMP),
-            problem: "not a data-set folder (no stamp)".into(),
-        })?;
+        let theirs = read_stamp(source)?.ok_or_else(|| DatasetError::NotADataSet { dir: source.clone() })?;
         let ours = match &stamp {
             Some(ours) => ours,
             None => {
                 prepare_dir(dest)?;
+                refuse_unrecorded(dest)?;
                 let bytes = std::fs::read(source.join(STAMP)).map_err(io(source))?;
                 write_file(&dest.join(STAMP), &bytes)?;
                 stamp.insert(theirs.clone())
@@ -889,13 +920,12 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
         same_renderer(source, &theirs, ours)?;
         copy_frames(source, dest, ours)?;
     }
-    let stamp = stamp.ok_or_else(|| DatasetError::Corrupt {
-        path: dest.to_path_buf(),
-        entry: dest.join(STAMP),
-        problem: "not a data-set folder (no stamp)".into(),
+    let stamp = stamp.ok_or_else(|| DatasetError::NotADataSet {
+        dir: dest.to_path_buf(),
     })?;
     let spec_path = dest.join(&stamp.spec_file);
     let spec = super::spec::parse(&stamp.spec_text, &spec_path)?;
+    check_stamp(dest, &stamp, &spec)?;
     let rig = super::build_rig(&spec.rig).map_err(|message| DatasetError::Spec {
         path: spec_path.clone(),
         location: None,
@@ -919,6 +949,18 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
                 continue;
             }
             let entry: FrameEntry = read_json(&path)?;
+            // The stem names files (the contact sheet reads them): a plain name, as written.
+            if entry.index != index
+                || entry.stem.is_empty()
+                || entry.stem.starts_with('.')
+                || entry.stem.contains(['/', '\\'])
+            {
+                return Err(DatasetError::Corrupt {
+                    path: path.clone(),
+                    entry: path,
+                    problem: "its index or stem is not the one this frame was written with".into(),
+                });
+            }
             let fresh = written.contains(&(set.name.as_str(), index));
             for file in &entry.files {
                 if fresh {
@@ -943,7 +985,7 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
         for layout in &set.layouts {
             for (name, text) in layout::index_files(layout, &rig, &frames) {
                 let path = set_dir.join(&name);
-                prepare_dir(path.parent().unwrap_or(&set_dir))?;
+                prepare_subdir(dest, path.parent().unwrap_or(&set_dir))?;
                 write_file(&path, text.as_bytes())?;
                 own.files.push(FileEntry {
                     path: format!("{}/{name}", set.name),
@@ -994,6 +1036,36 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
     Ok(summary)
 }
 
+/// Refuses a stamp whose sets are not its own spec's (same names in order, layouts and
+/// noise; a possible frame count): merges trust it for what to check and write.
+fn check_stamp(dest: &Path, stamp: &Stamp, spec: &super::spec::Spec) -> Result<(), DatasetError> {
+    let problem = if stamp.sets.len() != spec.sets.len() {
+        Some(format!(
+            "it lists {} sets; its spec has {}",
+            stamp.sets.len(),
+            spec.sets.len()
+        ))
+    } else {
+        stamp.sets.iter().zip(&spec.sets).find_map(|(ours, theirs)| {
+            let same = ours.name == theirs.name && ours.layouts == theirs.layouts && ours.noise == theirs.noise;
+            let possible = (1..=super::spec::MAX_POSES).contains(&ours.frames);
+            (!(same && possible)).then(|| {
+                format!(
+                    "set '{}' is not its spec's set, or has an impossible frame count",
+                    crate::input::shown(&ours.name, 64)
+                )
+            })
+        })
+    };
+    match problem {
+        Some(problem) => Err(DatasetError::BadStamp {
+            path: dest.join(STAMP),
+            problem,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// The contact sheet of a set's frames (the first view's ground-truth colour).
 fn set_contact_sheet(set_dir: &Path, rig: &Rig, frames: &[FrameEntry]) -> Result<Vec<u8>, DatasetError> {
     let suffix = rig.views().first().map(|v| v.suffix).unwrap_or_default();
@@ -1021,7 +1093,7 @@ fn copy_frames(source: &Path, dest: &Path, stamp: &Stamp) -> Result<(), DatasetE
         let (Some(from), Some(to)) = (inside(source, &set.name), inside(dest, &set.name)) else {
             continue;
         };
-        prepare_dir(&to.join(ENTRIES))?;
+        prepare_subdir(dest, &to.join(ENTRIES))?;
         let mut entries = read_entry_paths(&from.join(ENTRIES))?;
         entries.push(from.join(ENTRIES).join(SET_ENTRY));
         for entry in entries {
@@ -1035,9 +1107,10 @@ fn copy_frames(source: &Path, dest: &Path, stamp: &Stamp) -> Result<(), DatasetE
             };
             for file in &files {
                 let bytes = read_verified(source, file, &entry)?;
+                // Checked by read_verified: the path stays inside.
                 let to_file = dest.join(&file.path);
                 if let Some(parent) = to_file.parent() {
-                    prepare_dir(parent)?;
+                    prepare_subdir(dest, parent)?;
                 }
                 write_file(&to_file, &bytes)?;
             }

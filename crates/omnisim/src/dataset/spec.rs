@@ -506,6 +506,11 @@ pub enum LayoutSpec {
     },
 }
 
+/// Slowest layout rate: 10 M frames at 0.01 frames/s end at 1e9 s, in 64-bit nanoseconds.
+const MIN_RATE: f64 = 0.01;
+/// Fastest layout rate: TUM's microsecond timestamps still differ from frame to frame.
+const MAX_RATE: f64 = 1e6;
+
 impl LayoutSpec {
     /// Frames per second.
     pub fn rate(&self) -> f64 {
@@ -567,7 +572,7 @@ impl SpecText<'_> {
         DatasetError::Spec {
             path: self.path.to_path_buf(),
             location,
-            set: place.set.map(str::to_string),
+            set: place.set.map(|set| crate::input::shown(set, 64)),
             field: place.field,
             message: message.into(),
         }
@@ -576,16 +581,20 @@ impl SpecText<'_> {
 
 /// Parses spec text; syntax and schema errors are located at the set they fall in.
 pub fn parse(text: &str, path: &Path) -> Result<Spec, DatasetError> {
-    let options = ron::Options::default().with_default_extension(
-        ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES | ron::extensions::Extensions::IMPLICIT_SOME,
-    );
-    let spec: Spec = options.from_str(text).map_err(|e| {
+    let text = crate::input::without_bom(text);
+    let spec: Spec = crate::input::ron_options().from_str(text).map_err(|e| {
         let (line, column) = (e.span.start.line, e.span.start.col);
+        // A missing field is reported where its struct ends, after other fields: its message
+        // names it, and the key before is not it.
+        let field = match e.code {
+            ron::Error::MissingStructField { .. } | ron::Error::TrailingCharacters => None,
+            _ => locate::key_before(text, line, column),
+        };
         DatasetError::Spec {
             path: path.to_path_buf(),
             location: Some((line, column)),
             set: locate::element_at(text, "sets", line, column),
-            field: locate::key_before(text, line, column).unwrap_or_default(),
+            field: field.unwrap_or_default(),
             message: e.code.to_string(),
         }
     })?;
@@ -653,7 +662,7 @@ pub fn scene_path(spec: &Spec, spec_path: &Path) -> Result<PathBuf, String> {
     {
         return Err(format!(
             "'{}' must be relative to the spec's folder and stay inside it (no '..', no absolute path)",
-            crate::input::excerpt(&spec.scene.escape_debug().to_string(), 80)
+            crate::input::shown(&spec.scene, 80)
         ));
     }
     Ok(spec_path.parent().unwrap_or(Path::new(".")).join(relative))
@@ -667,10 +676,29 @@ fn is_folder_name(name: &str) -> bool {
 
 type Checked = Result<(), (String, String)>;
 
+/// Largest coordinate (metres) or angle (degrees) a spec may give: far beyond any scene, and
+/// small enough that sums, differences and rounding to 1e-9 stay finite.
+const MAX_MAGNITUDE: f64 = 1e9;
+
 fn finite(field: &str, values: &[f64]) -> Checked {
-    match values.iter().find(|v| !v.is_finite()) {
-        Some(v) => Err((field.into(), format!("must be a finite number, not {v}"))),
+    match values.iter().find(|v| !(v.is_finite() && v.abs() <= MAX_MAGNITUDE)) {
+        Some(&v) => Err((
+            field.into(),
+            format!(
+                "must be a finite number within ±{MAX_MAGNITUDE:e} (metres or degrees), not {}",
+                number(v)
+            ),
+        )),
         None => Ok(()),
+    }
+}
+
+/// `value` as a message shows it: 1e300, not its 301 digits.
+fn number(value: f64) -> String {
+    if value != 0.0 && !(1e-4..1e9).contains(&value.abs()) {
+        format!("{value:e}")
+    } else {
+        value.to_string()
     }
 }
 
@@ -758,6 +786,7 @@ fn check_poses(source: &PoseSource) -> Result<(), (String, String)> {
             seed: _,
         } => {
             if let Some(((x0, x1), (y0, y1), (z0, z1))) = *angles {
+                finite("angles", &[x0, x1, y0, y1, z0, z1])?;
                 for (axis, low, high) in [("θx", x0, x1), ("θy", y0, y1), ("θz", z0, z1)] {
                     if !(low.is_finite() && high.is_finite() && low <= high && high - low <= 360.0) {
                         return err(
@@ -876,7 +905,29 @@ fn check_set(spec: &Spec, set: &SetSpec) -> Checked {
         }
     }
     for (i, layout) in set.layouts.iter().enumerate() {
-        positive(&format!("layouts[{i}].rate"), layout.rate())?;
+        let rate = layout.rate();
+        // TUM writes timestamps to the microsecond, EuRoC to the nanosecond in 64 bits: frames
+        // must get distinct stamps, and the last one must fit.
+        if !(MIN_RATE..=MAX_RATE).contains(&rate) {
+            return Err((
+                format!("layouts[{i}].rate"),
+                format!(
+                    "must be from {MIN_RATE} to {MAX_RATE} frames per second, not {}",
+                    number(rate)
+                ),
+            ));
+        }
+        if set.layouts[..i]
+            .iter()
+            .any(|other| std::mem::discriminant(other) == std::mem::discriminant(layout))
+        {
+            return Err((
+                format!("layouts[{i}]"),
+                "a set has one layout of each kind (both would write the same files); make another set for \
+                 another rate"
+                    .into(),
+            ));
+        }
         if matches!(layout, LayoutSpec::Tum { .. }) && !matches!(spec.rig, RigSpec::Pinhole(_) | RigSpec::Stereo(_)) {
             return Err((
                 format!("layouts[{i}]"),

@@ -376,6 +376,53 @@ fn a_changed_mesh_file_or_another_renderer_is_refused() {
         None,
     );
     assert!(out.join("manifest.json").exists());
+    // A stamp edited to an impossible frame count is refused by a merge, not trusted.
+    let mut stamp: serde_json::Value = serde_json::from_slice(&std::fs::read(&stamp_path).unwrap()).unwrap();
+    stamp["sets"][0]["frames"] = 1_000_000_000_000_000u64.into();
+    std::fs::write(&stamp_path, serde_json::to_vec(&stamp).unwrap()).unwrap();
+    let merged = merge(&out, &[]);
+    assert!(
+        matches!(merged, Err(DatasetError::BadStamp { .. })),
+        "{:?}",
+        merged.err()
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn links_and_strangers_files_in_the_folder_are_never_written_through() {
+    let spec_text = SPEC
+        .replace("count: 4", "count: 2")
+        .replace("count: 3, low", "count: 1, low");
+    let (dir, spec) = project(&spec_text);
+    let dataset = Dataset::load(&spec).unwrap();
+    let elsewhere = dir.path().join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    std::fs::write(elsewhere.join("contact-sheet.png"), "mine").unwrap();
+    // A set folder that is a link: refused, nothing written there.
+    let out = dir.path().join("out");
+    run(&dataset, &out, RunOptions::default(), None);
+    std::fs::remove_dir_all(out.join("map")).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, out.join("map")).unwrap();
+    let refused = dataset.run(&cpu(), &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()));
+    assert!(refused.err().is_some_and(|e| e.to_string().contains("is a link")));
+    assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 1);
+    assert_eq!(std::fs::read(elsewhere.join("contact-sheet.png")).unwrap(), b"mine");
+    // A merge into a folder of someone else's files: refused.
+    let (shard, theirs) = (dir.path().join("shard"), dir.path().join("theirs"));
+    let one_shard = RunOptions {
+        shard: Some(Shard { index: 0, count: 1 }),
+        ..RunOptions::default()
+    };
+    run(&dataset, &shard, one_shard, None);
+    std::fs::create_dir(&theirs).unwrap();
+    std::fs::write(theirs.join("notes.txt"), "mine").unwrap();
+    let merged = merge(&theirs, std::slice::from_ref(&shard));
+    assert!(
+        matches!(merged, Err(DatasetError::Unrecorded { .. })),
+        "{:?}",
+        merged.err()
+    );
 }
 
 #[test]
@@ -438,6 +485,24 @@ fn bad_specs_get_located_errors() {
             "",
         ),
         (
+            SPEC.replace("(1.2, 0.8, 0.3, 0.0, 0.0, 0.0)", "(1.2, 0.8, 0.3, 0.0, 0.0, 1e300)"),
+            "spec.ron:22:",
+            "set 'night': poses.List",
+            "within ±1e9",
+        ),
+        (
+            SPEC.replace("Euroc(rate: 10.0)", "Euroc(rate: 10.0), Euroc(rate: 20.0)"),
+            "spec.ron:11:",
+            "set 'map': layouts[2]",
+            "one layout of each kind",
+        ),
+        (
+            SPEC.replace("Euroc(rate: 10.0)", "Euroc(rate: 1e300)"),
+            "spec.ron:11:",
+            "set 'map': layouts[1].rate",
+            "not 1e300",
+        ),
+        (
             SPEC.replace("hfov: 70.0", "hfov: 200.0"),
             "spec.ron:4:",
             "rig",
@@ -453,7 +518,7 @@ fn bad_specs_get_located_errors() {
             SPEC.replace("Tum(rate: 10.0)", "Tum(rate: -1.0)"),
             "spec.ron:11:",
             "layouts[0].rate",
-            "positive",
+            "from 0.01 to 1000000 frames per second, not -1",
         ),
         (
             SPEC.replace("Pinhole(size: (32, 24), hfov: 70.0)", "Omni(size: (32, 32))"),

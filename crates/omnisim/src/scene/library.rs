@@ -333,7 +333,7 @@ fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path) -> Result<Vec<RawF
         return Err(format!(
             "mesh path '{}' must be relative to the scene file's folder and stay inside it (no '..', no absolute \
              path); put the mesh beside the scene or in a folder below it",
-            crate::input::excerpt(&m.path.escape_debug().to_string(), 80)
+            crate::input::shown(&m.path, 80)
         ));
     }
     let mesh_path = scene_path.parent().unwrap_or(Path::new(".")).join(relative);

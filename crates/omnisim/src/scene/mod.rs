@@ -81,10 +81,8 @@ impl Scene {
 
     /// Parses scene text; `path` names the file in errors and anchors mesh paths.
     pub fn from_ron(text: &str, path: &Path) -> Result<Scene, SceneError> {
-        let options = ron::Options::default().with_default_extension(
-            ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES | ron::extensions::Extensions::IMPLICIT_SOME,
-        );
-        let parsed: file::SceneFile = options.from_str(text).map_err(|e| {
+        let text = crate::input::without_bom(text);
+        let parsed: file::SceneFile = crate::input::ron_options().from_str(text).map_err(|e| {
             let (line, column) = (e.span.start.line, e.span.start.col);
             let message = match locate::element_at(text, "objects", line, column) {
                 Some(object) => format!("object '{object}': {}", e.code),

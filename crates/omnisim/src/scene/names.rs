@@ -11,7 +11,7 @@ fn allowed(c: char) -> bool {
 
 /// Why `name` cannot name output files, if it cannot.
 pub(super) fn check_scene_name(name: &str) -> Result<(), String> {
-    let shown: String = crate::input::excerpt(&name.escape_debug().to_string(), 40);
+    let shown: String = crate::input::shown(name, 40);
     let problem = if name.is_empty() {
         "is empty".to_string()
     } else if name.len() > MAX_NAME_BYTES {
