@@ -16,6 +16,10 @@ use std::time::{Duration, SystemTime};
 /// How every temporary file's name starts.
 pub const TEMPORARY_PREFIX: &str = ".omnisim-tmp-";
 
+/// Bytes handed to the kernel per write: a 250 × 250 frame's PLY (0.74 MB) in three calls
+/// instead of ninety with the default 8 KiB.
+const WRITE_BUFFER: usize = 256 * 1024;
+
 /// A temporary untouched this long is stale even if a process with its id runs (ids are reused).
 const STALE_AFTER: Duration = Duration::from_secs(3600);
 
@@ -37,7 +41,7 @@ pub fn write_atomically(
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
     // Dropping `temporary` on an early return removes the file.
     let (file, temporary) = builder.tempfile_in(dir)?.into_parts();
-    let mut out = BufWriter::new(file);
+    let mut out = BufWriter::with_capacity(WRITE_BUFFER, file);
     fill(&mut out)?;
     out.flush()?;
     out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
