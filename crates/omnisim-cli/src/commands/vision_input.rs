@@ -8,12 +8,12 @@ use std::path::{Component, Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::{Args, Parser};
 use omnisim::dataset::manifest::{FileKind, FrameEntry};
-use omnisim::dataset::spec::{MirrorSpec, MountSpec, RigSpec};
+use omnisim::dataset::spec::{MirrorRaysSpec, MirrorSpec, MountSpec, RigSpec};
 use omnisim::{Camera, Rig};
 use omnisim_vision::Raster;
 use serde::Deserialize;
 
-use crate::camera_args::{CameraArgs, CameraKind, MaxElevation, MirrorKind, MountArg};
+use crate::camera_args::{CameraArgs, CameraKind, MaxElevation, MirrorKind, MirrorRaysArg, MountArg};
 
 /// The input folder and how to read it.
 #[derive(Debug, Clone, Args)]
@@ -294,6 +294,7 @@ fn camera_args_of(rig: &RigSpec) -> CameraArgs {
             let vector = |(x, y, z): (f64, f64, f64)| (x, y, z) != (0.0, 0.0, 0.0);
             args.misalign_offset = vector(o.misalign_offset).then(|| o.misalign_offset.into());
             args.misalign_tilt = vector(o.misalign_tilt).then(|| o.misalign_tilt.into());
+            args.mirror_rays = (o.mirror_rays == MirrorRaysSpec::Shortcut).then_some(MirrorRaysArg::Shortcut);
         }
     }
     args

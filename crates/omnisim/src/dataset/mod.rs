@@ -26,7 +26,9 @@ use glam::{DVec3, dvec3};
 pub use run::{FrameDone, RunOptions, RunSummary, Shard, merge};
 
 use crate::bvh::SceneBvh;
-use crate::camera::{Catadioptric, Cylindrical, Equirectangular, MirrorShape, Misalignment, Mount, Pinhole};
+use crate::camera::{
+    Catadioptric, Cylindrical, Equirectangular, MirrorRays, MirrorShape, Misalignment, Mount, Pinhole,
+};
 use crate::pose::Pose;
 use crate::pose_sets::{self, Misplaced, RandomPoses};
 use crate::scene::Scene;
@@ -505,6 +507,10 @@ fn omni(o: &spec::OmniSpec) -> Result<Catadioptric, String> {
     camera.misalignment = Misalignment {
         offset: o.misalign_offset.into(),
         tilt: DVec3::from(o.misalign_tilt) * (std::f64::consts::PI / 180.0),
+    };
+    camera.rays = match o.mirror_rays {
+        spec::MirrorRaysSpec::Reflect => MirrorRays::Reflect,
+        spec::MirrorRaysSpec::Shortcut => MirrorRays::Shortcut,
     };
     camera.check_rays().map_err(|e| e.to_string())?;
     Ok(camera)

@@ -708,7 +708,9 @@ impl Dataset {
             .rig
             .views()
             .iter()
-            .map(|view| renderer.render(prepared, &view.camera, pose, planes))
+            .map(|view| {
+                renderer.render_antialiased(prepared, &view.camera, pose, planes, self.spec.edge_samples.isqrt())
+            })
             .collect::<Result<Vec<Frame>, _>>()?;
         Ok(RenderedFrame {
             set: base.set,

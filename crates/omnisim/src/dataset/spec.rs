@@ -29,8 +29,17 @@ pub struct Spec {
     /// Which ground-truth files each frame gets.
     #[serde(default)]
     pub outputs: OutputSet,
+    /// Anti-aliased colour, as `render --edge-samples`: pixels on face edges traced again
+    /// with this many stratified samples (a square: 1, 4, 16, 64, ... up to 1024); range,
+    /// points and the other planes are unchanged.
+    #[serde(default = "one")]
+    pub edge_samples: u32,
     /// The sets; each gets its own folder named after it.
     pub sets: Vec<SetSpec>,
+}
+
+fn one() -> u32 {
+    1
 }
 
 /// The camera or stereo rig, with the options of `omnisim render` as typed fields (angles in
@@ -121,6 +130,21 @@ pub struct OmniSpec {
     /// Camera axes tilted, degrees (R = Rx·Ry·Rz).
     #[serde(default)]
     pub misalign_tilt: (f64, f64, f64),
+    /// How mirror rays are found, as `render --mirror-rays`.
+    #[serde(default)]
+    pub mirror_rays: MirrorRaysSpec,
+}
+
+/// How an omnidirectional camera's mirror rays are found.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum MirrorRaysSpec {
+    /// The law of reflection at the mirror: exact for every mirror and misalignment.
+    #[default]
+    Reflect,
+    /// The reference paper's rays from the viewpoint F' through the mirror point (aligned
+    /// central mirrors only).
+    Shortcut,
 }
 
 /// The mirror of an omnidirectional camera, metres.
@@ -614,6 +638,19 @@ fn check(spec: &Spec, at: &SpecText) -> Result<(), DatasetError> {
         )
     };
     scene_path(spec, at.path).map_err(|m| top("scene", m))?;
+    let n = spec.edge_samples;
+    if !((1..=1024).contains(&n) && n.isqrt() * n.isqrt() == n) {
+        return Err(top(
+            "edge_samples",
+            format!("must be a square from 1 to 1024 (1, 4, 16, 64, ...), not {n}"),
+        ));
+    }
+    if spec.edge_samples > 1 && !spec.outputs.colour {
+        return Err(top(
+            "edge_samples",
+            "anti-aliases the colour images, which outputs leaves out (colour: false)".into(),
+        ));
+    }
     if spec.sets.is_empty() {
         return Err(top("sets", "a data set needs at least one set".into()));
     }

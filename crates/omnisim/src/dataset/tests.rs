@@ -446,6 +446,54 @@ fn sets_with_one_random_seed_share_their_poses_and_none_is_drawn_inside_furnitur
 }
 
 #[test]
+fn edge_samples_smooth_the_colour_edges_alone_and_the_mirror_rays_are_the_specs() {
+    let small = SPEC
+        .replace("count: 4", "count: 2")
+        .replace("count: 3, low", "count: 1, low");
+    let rendered = |text: &str| {
+        let (dir, spec) = project(text);
+        let out = dir.path().join("out");
+        run(&Dataset::load(&spec).unwrap(), &out, RunOptions::default(), None);
+        let read = |name: &str| std::fs::read(out.join("map").join(name)).unwrap();
+        (read("room-0000.png"), read("room-0000-range.exr"))
+    };
+    let (sharp, sharp_range) = rendered(&small);
+    let (smooth, smooth_range) = rendered(&small.replace("seed: 11,", "seed: 11, edge_samples: 16,"));
+    assert_eq!(sharp_range, smooth_range, "range is not anti-aliased");
+    let (a, b) = (
+        image::load_from_memory(&sharp).unwrap().into_rgb8(),
+        image::load_from_memory(&smooth).unwrap().into_rgb8(),
+    );
+    let changed = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+    assert!(
+        changed > 0 && changed < a.pixels().len() / 2,
+        "{changed} of {} pixels",
+        a.pixels().len()
+    );
+    // Not a square: a located error.
+    let (_dir, spec) = project(&small.replace("seed: 11,", "seed: 11, edge_samples: 3,"));
+    let message = Dataset::load(&spec).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("spec.ron:3:") && message.contains("edge_samples: must be a square"),
+        "{message}"
+    );
+    // The reference paper's mirror rays, as `render --mirror-rays shortcut`.
+    let omni = small
+        .replace(
+            "Pinhole(size: (32, 24), hfov: 70.0)",
+            "Omni(size: (32, 32), mirror_rays: Shortcut)",
+        )
+        .replace(", Euroc(rate: 10.0)]", "]")
+        .replace("[Tum(rate: 10.0)]", "[Euroc(rate: 10.0)]");
+    let (_dir, spec) = project(&omni);
+    let dataset = Dataset::load(&spec).unwrap();
+    let Camera::Catadioptric(camera) = &dataset.rig.views()[0].camera else {
+        panic!("omni")
+    };
+    assert_eq!(camera.rays, crate::camera::MirrorRays::Shortcut);
+}
+
+#[test]
 fn bad_specs_get_located_errors() {
     let cases = [
         (
