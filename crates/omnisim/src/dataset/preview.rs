@@ -561,6 +561,11 @@ impl Svg {
             } else {
                 extra
             };
+            // A later set's markers cover an earlier set's at the same poses: say so.
+            let extra = match dataset.sets[s + 1..].iter().find(|later| later.poses == set.poses) {
+                Some(later) => format!("{extra}, under {}'s", escape(&later.spec.name)),
+                None => extra,
+            };
             let _ = writeln!(
                 self.text,
                 r#"<circle cx="{x}" cy="{:.1}" r="5" fill="{}"/><text x="{}" y="{:.1}">{}: {} poses{extra}</text>"#,

@@ -443,6 +443,10 @@ fn sets_with_one_random_seed_share_their_poses_and_none_is_drawn_inside_furnitur
     for set in &dataset.sets {
         assert_eq!((set.poses.len(), set.skipped.len()), (60, 0), "{:?}", set.skipped);
     }
+    // The preview's legend says where the day set's markers went.
+    let svg = preview::draw(&dataset).unwrap().svg;
+    assert!(svg.contains("day: 60 poses, under night's<"), "{svg}");
+    assert!(svg.contains("other: 60 poses<"));
 }
 
 #[test]
