@@ -425,9 +425,15 @@ fn temporaries_left_by_a_killed_run_are_cleaned_by_the_next() {
         out.display()
     );
     assert!(succeeds(&render));
-    // u32::MAX is no process's id: its writer on this host is gone.
+    // u32::MAX is no process's id: its writer on this host (and process-id namespace) is gone.
     let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
-    let stale = out.join(format!(".omnisim-tmp-4294967295@{}@abcdef", host.trim()));
+    let namespace = std::fs::read_link("/proc/self/ns/pid").unwrap_or_default();
+    let namespace: String = namespace
+        .to_string_lossy()
+        .chars()
+        .filter(char::is_ascii_alphanumeric)
+        .collect();
+    let stale = out.join(format!(".omnisim-tmp-4294967295@{}.{namespace}@abcdef", host.trim()));
     std::fs::write(&stale, vec![0u8; 1000]).unwrap();
     let again = omnisim(&render);
     assert!(again.status.success());

@@ -240,8 +240,9 @@ pub fn plain_name(name: &str) -> anyhow::Result<&str> {
 /// A manifest path (`/`-separated, relative) inside `root`, refusing any that could leave it
 /// (the data-set library's own check).
 fn inside(root: &Path, relative: &str) -> anyhow::Result<PathBuf> {
-    omnisim::dataset::manifest::inside(root, relative)
-        .with_context(|| format!("manifest path '{relative}' is not a path inside the data-set folder"))
+    omnisim::dataset::manifest::inside(root, relative).with_context(|| {
+        format!("manifest path '{relative}' is not a path inside the data-set folder (or it goes through a link)")
+    })
 }
 
 /// The `render` options that build the camera a data set's spec describes, so that both go

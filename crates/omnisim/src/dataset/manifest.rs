@@ -156,9 +156,13 @@ pub struct Manifest {
     pub scene_file: String,
     /// SHA-256 of the scene text.
     pub scene_sha256: String,
-    /// SHA-256 of the scene as loaded: every face, object and light, so mesh files too.
+    /// SHA-256 of the scene as loaded: every face, object and light, so mesh files too
+    /// (empty in manifests of versions before it).
+    #[serde(default)]
     pub geometry_sha256: String,
-    /// What rendered the frames: the CPU tracer, or the GPU adapter.
+    /// What rendered the frames: the CPU tracer, or the GPU adapter (empty before it was
+    /// recorded).
+    #[serde(default)]
     pub renderer: String,
     /// The top-level seed.
     pub seed: u64,
@@ -207,25 +211,29 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     hex(&Sha256::digest(bytes))
 }
 
-/// Lowercase hex SHA-256 of `scene` as loaded: its objects, faces (every vertex and colour)
-/// and lighting, hashed through their `Debug` text (Rust prints every f64 exactly). The scene
-/// file's hash misses the mesh files it names; this one sees them.
+/// Lowercase hex SHA-256 of `scene` as loaded: its objects (names, kinds), faces (every
+/// vertex's f64 bits, colour, object) and lighting (as JSON, whose numbers round-trip
+/// exactly). The scene file's hash misses the mesh files it names; this one sees them.
 pub fn geometry_sha256(scene: &crate::scene::Scene) -> String {
-    /// Feeds formatted text into the hash without building the string.
-    struct Hashing(Sha256);
-    impl std::fmt::Write for Hashing {
-        fn write_str(&mut self, text: &str) -> std::fmt::Result {
-            self.0.update(text.as_bytes());
-            Ok(())
+    let mut hash = Sha256::new();
+    for object in &scene.objects {
+        for text in [object.name.as_str(), object.kind] {
+            hash.update((text.len() as u64).to_le_bytes());
+            hash.update(text.as_bytes());
         }
     }
-    let mut hashing = Hashing(Sha256::new());
-    // Writing into a hash cannot fail.
-    let _ = std::fmt::Write::write_fmt(
-        &mut hashing,
-        format_args!("{:?}\n{:?}\n{:?}", scene.objects, scene.faces, scene.lighting),
-    );
-    hex(&hashing.0.finalize())
+    for face in &scene.faces {
+        hash.update((face.vertices.len() as u64).to_le_bytes());
+        for vertex in face.vertices.iter() {
+            for v in vertex.to_array() {
+                hash.update(v.to_le_bytes());
+            }
+        }
+        hash.update(face.colour);
+        hash.update(face.object.to_le_bytes());
+    }
+    hash.update(serde_json::to_vec(&scene.lighting).unwrap_or_default());
+    hex(&hash.finalize())
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -340,8 +348,12 @@ fn verified(
         entry: entry.to_path_buf(),
         problem,
     };
-    let path = inside(root, &file.path)
-        .ok_or_else(|| corrupt(root.join(&file.path), "not a path inside the folder".into()))?;
+    let path = inside(root, &file.path).ok_or_else(|| {
+        corrupt(
+            root.join(&file.path),
+            "not a path inside the folder, or one through a link".into(),
+        )
+    })?;
     let (bytes, sha256, content) = match measure(&path) {
         Ok(found) => found,
         Err(DatasetError::Io { source, .. }) => return Err(corrupt(path, source.to_string())),
@@ -376,13 +388,17 @@ mod tests {
             sha256_hex(b"abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
         );
-        let root = Path::new("/data");
-        assert_eq!(inside(root, "map/a.png"), Some(PathBuf::from("/data/map/a.png")));
+        // A folder that does not exist: `inside` looks for links on the way.
+        let root = Path::new("/nonexistent-omnisim-data");
+        assert_eq!(
+            inside(root, "map/a.png"),
+            Some(PathBuf::from("/nonexistent-omnisim-data/map/a.png"))
+        );
         for bad in ["../x", "/etc/passwd", "map/../../x", "", "a//b", "a\\b"] {
             assert_eq!(inside(root, bad), None, "{bad}");
         }
         assert_eq!(
-            relative(root, Path::new("/data/map/tum/rgb/0.000000.png")),
+            relative(root, Path::new("/nonexistent-omnisim-data/map/tum/rgb/0.000000.png")),
             "map/tum/rgb/0.000000.png"
         );
     }

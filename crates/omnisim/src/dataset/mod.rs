@@ -115,6 +115,16 @@ pub enum DatasetError {
         /// What is wrong.
         problem: String,
     },
+    /// A folder of the data set is a link.
+    #[error(
+        "{} is a link: a data set writes only into real folders under its folder; remove the link (or put the whole \
+         --out folder where the link pointed)",
+        path.display()
+    )]
+    Link {
+        /// The link.
+        path: PathBuf,
+    },
     /// A merge was given a folder no data-set run wrote.
     #[error(
         "{} holds no data set (no {} stamp): give the folder `omnisim dataset` rendered into, then any shard \
@@ -205,6 +215,7 @@ impl DatasetError {
                 | Self::Unrecorded { .. }
                 | Self::NotADataSet { .. }
                 | Self::BadStamp { .. }
+                | Self::Link { .. }
                 | Self::Occluders { .. }
         )
     }

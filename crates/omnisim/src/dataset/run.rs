@@ -140,21 +140,27 @@ fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
     Ok(())
 }
 
-/// [`prepare_dir`] for a folder inside the data-set folder `root`, refusing one reached
-/// through a link (a set folder linked elsewhere would have the run write there).
+/// [`prepare_dir`] for a folder inside the data-set folder `root`, made one level at a time
+/// and refused where a level is a link (a set folder linked elsewhere would have the run write
+/// there). Checked when a set is prepared: a link swapped in during a run is not seen.
 fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError> {
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
-    let below = dir.strip_prefix(root).unwrap_or(dir);
+    let below = dir.strip_prefix(root).map_err(|_| DatasetError::Io {
+        path: dir.to_path_buf(),
+        source: std::io::Error::other(format!("is not inside {}", root.display())),
+    })?;
     let mut path = root.to_path_buf();
     for part in below.components() {
         path.push(part);
-        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_symlink()) {
-            return Err(DatasetError::Io {
-                path,
-                source: std::io::Error::other(
-                    "is a link: a data set writes only into real folders under its folder; remove the link",
-                ),
-            });
+        match std::fs::symlink_metadata(&path) {
+            Ok(metadata) if metadata.file_type().is_symlink() => return Err(DatasetError::Link { path }),
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => match std::fs::create_dir(&path) {
+                Ok(()) => {}
+                // Another writer (a shard) made it first.
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+                Err(e) => return Err(io(&path)(e)),
+            },
+            Err(e) => return Err(io(&path)(e)),
         }
     }
     prepare_dir(dir)
@@ -241,28 +247,30 @@ fn remove_previous(dir: &Path, previous: &Stamp) -> Result<usize, DatasetError> 
         }
     };
     for set in &previous.sets {
-        let Some(set_dir) = inside(dir, &set.name) else {
-            continue;
-        };
-        let entries = set_dir.join(ENTRIES);
-        for entry in read_entry_paths(&entries)? {
-            if let Ok(frame) = serde_json::from_slice::<FrameEntry>(&std::fs::read(&entry).unwrap_or_default()) {
-                for file in frame.files.iter().filter_map(|f| inside(dir, &f.path)) {
+        // Every path through `inside`: a link anywhere below `dir` is not followed.
+        let within = |name: &str| inside(dir, &format!("{}/{name}", set.name));
+        if let Some(entries) = within(ENTRIES) {
+            for entry in read_entry_paths(&entries)? {
+                if let Ok(frame) = serde_json::from_slice::<FrameEntry>(&std::fs::read(&entry).unwrap_or_default()) {
+                    for file in frame.files.iter().filter_map(|f| inside(dir, &f.path)) {
+                        remove(&file)?;
+                    }
+                }
+                remove(&entry)?;
+            }
+        }
+        if let Some(own_path) = within(&format!("{ENTRIES}/{SET_ENTRY}")) {
+            if let Ok(own) = serde_json::from_slice::<SetEntry>(&std::fs::read(&own_path).unwrap_or_default()) {
+                for file in own.files.iter().filter_map(|f| inside(dir, &f.path)) {
                     remove(&file)?;
                 }
             }
-            remove(&entry)?;
+            remove(&own_path)?;
         }
-        if let Ok(own) = serde_json::from_slice::<SetEntry>(&std::fs::read(entries.join(SET_ENTRY)).unwrap_or_default())
-        {
-            for file in own.files.iter().filter_map(|f| inside(dir, &f.path)) {
-                remove(&file)?;
+        for name in index_names(set).into_iter().chain([CONTACT_SHEET.to_string()]) {
+            if let Some(path) = within(&name) {
+                remove(&path)?;
             }
-        }
-        remove(&entries.join(SET_ENTRY))?;
-        remove(&set_dir.join(CONTACT_SHEET))?;
-        for name in index_names(set) {
-            remove(&set_dir.join(name))?;
         }
     }
     remove(&dir.join(MANIFEST))?;
@@ -311,6 +319,9 @@ fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>
     match previous {
         Some(previous) if previous.identity == stamp.identity && !overwrite => same_renderer(dir, &previous, stamp)?,
         Some(previous) if previous.identity == stamp.identity && same_renderer(dir, &previous, stamp).is_ok() => {}
+        // An earlier omnisim's stamp has no geometry hash: its identity cannot match, and
+        // saying so beats calling it another spec.
+        Some(previous) if !overwrite && previous.version.is_empty() => same_renderer(dir, &previous, stamp)?,
         Some(previous) if !overwrite => {
             return Err(DatasetError::AnotherSpec {
                 dir: dir.to_path_buf(),
@@ -442,8 +453,9 @@ struct RenderedFrame {
     index: usize,
     /// One per view of the rig.
     frames: Vec<Frame>,
-    /// Its per-frame occluders, each with its ids in this frame's segmentation images.
-    placed: Vec<(Occluder, SegmentObject)>,
+    /// Its per-frame occluders, each with its ids in this frame's segmentation images (where
+    /// the data set writes them).
+    placed: Vec<(Occluder, Option<SegmentObject>)>,
     record: AppearanceRecord,
 }
 
@@ -689,9 +701,11 @@ impl Dataset {
         let mut segments = Vec::new();
         if !placed.is_empty() {
             let scene = occluders::with_occluders(&base.scene, &placed);
-            // The placed occluders are the frame scene's last objects.
-            let legend = SegmentationLegend::of(&scene);
-            segments = legend.objects[legend.objects.len() - placed.len()..].to_vec();
+            if self.spec.outputs.segmentation {
+                // The placed occluders are the frame scene's last objects.
+                let legend = SegmentationLegend::of(&scene);
+                segments = legend.objects[legend.objects.len() - placed.len()..].to_vec();
+            }
             own = Some((renderer.prepare(&scene)?, scene));
         }
         let (prepared, scene) = match own.as_mut() {
@@ -716,7 +730,10 @@ impl Dataset {
             set: base.set,
             index,
             frames,
-            placed: placed.into_iter().zip(segments).collect(),
+            placed: placed
+                .into_iter()
+                .zip(segments.into_iter().map(Some).chain(std::iter::repeat(None)))
+                .collect(),
             record,
         })
     }
@@ -843,7 +860,7 @@ impl Dataset {
             }))
             .chain(placed.iter().map(|(occluder, segment)| OccluderRecord {
                 occluder,
-                segment: Some(segment),
+                segment: segment.as_ref(),
             }))
             .collect(),
         };
@@ -900,8 +917,12 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
 /// frame) written by the calling run, which hashed them as it wrote them).
 fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) -> Result<MergeSummary, DatasetError> {
     let mut stamp = read_stamp(dest)?;
+    if let Some(ours) = &stamp {
+        checked_spec(dest, ours)?;
+    }
     for source in sources {
         let theirs = read_stamp(source)?.ok_or_else(|| DatasetError::NotADataSet { dir: source.clone() })?;
+        checked_spec(source, &theirs)?;
         let ours = match &stamp {
             Some(ours) => ours,
             None => {
@@ -925,9 +946,14 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
     let stamp = stamp.ok_or_else(|| DatasetError::NotADataSet {
         dir: dest.to_path_buf(),
     })?;
+    // The index files and contact sheets are this binary's: they must be the renderer's.
+    let merging = Stamp {
+        version: env!("CARGO_PKG_VERSION").into(),
+        ..stamp.clone()
+    };
+    same_renderer(dest, &stamp, &merging)?;
     let spec_path = dest.join(&stamp.spec_file);
-    let spec = super::spec::parse(&stamp.spec_text, &spec_path)?;
-    check_stamp(dest, &stamp, &spec)?;
+    let spec = checked_spec(dest, &stamp)?;
     let rig = super::build_rig(&spec.rig).map_err(|message| DatasetError::Spec {
         path: spec_path.clone(),
         location: None,
@@ -938,7 +964,9 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
     let mut summary = MergeSummary::default();
     let mut sets = Vec::new();
     for set in &stamp.sets {
-        let set_dir = inside(dest, &set.name).unwrap_or_else(|| dest.join("invalid"));
+        let set_dir = inside(dest, &set.name).ok_or_else(|| DatasetError::Link {
+            path: dest.join(&set.name),
+        })?;
         let own_path = set_dir.join(ENTRIES).join(SET_ENTRY);
         let mut own: SetEntry = read_json(&own_path)?;
         // Not `with_capacity(set.frames)`: the count comes from a file that may have been edited.
@@ -1038,10 +1066,14 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
     Ok(summary)
 }
 
-/// Refuses a stamp whose sets are not its own spec's (same names in order, layouts and
-/// noise; a possible frame count): merges trust it for what to check and write.
-fn check_stamp(dest: &Path, stamp: &Stamp, spec: &super::spec::Spec) -> Result<(), DatasetError> {
-    let problem = if stamp.sets.len() != spec.sets.len() {
+/// The spec a stamp carries, refusing a stamp that is not its own spec's (the text's hash,
+/// the sets' names in order, layouts and noise, a possible frame count): merges trust it for
+/// what to check and write.
+fn checked_spec(dir: &Path, stamp: &Stamp) -> Result<super::spec::Spec, DatasetError> {
+    let spec = super::spec::parse(&stamp.spec_text, &dir.join(&stamp.spec_file))?;
+    let problem = if sha256_hex(stamp.spec_text.as_bytes()) != stamp.spec_sha256 {
+        Some("its spec text does not have its recorded hash".to_string())
+    } else if stamp.sets.len() != spec.sets.len() {
         Some(format!(
             "it lists {} sets; its spec has {}",
             stamp.sets.len(),
@@ -1061,10 +1093,10 @@ fn check_stamp(dest: &Path, stamp: &Stamp, spec: &super::spec::Spec) -> Result<(
     };
     match problem {
         Some(problem) => Err(DatasetError::BadStamp {
-            path: dest.join(STAMP),
+            path: dir.join(STAMP),
             problem,
         }),
-        None => Ok(()),
+        None => Ok(spec),
     }
 }
 
@@ -1092,9 +1124,12 @@ pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T
 /// against its entry first; entries last, so a copy killed half-way leaves no false "done".
 fn copy_frames(source: &Path, dest: &Path, stamp: &Stamp) -> Result<(), DatasetError> {
     for set in &stamp.sets {
-        let (Some(from), Some(to)) = (inside(source, &set.name), inside(dest, &set.name)) else {
-            continue;
-        };
+        let from = inside(source, &set.name).ok_or_else(|| DatasetError::Link {
+            path: source.join(&set.name),
+        })?;
+        let to = inside(dest, &set.name).ok_or_else(|| DatasetError::Link {
+            path: dest.join(&set.name),
+        })?;
         prepare_subdir(dest, &to.join(ENTRIES))?;
         let mut entries = read_entry_paths(&from.join(ENTRIES))?;
         entries.push(from.join(ENTRIES).join(SET_ENTRY));

@@ -51,6 +51,12 @@ const SPEC: &str = r#"Dataset(
 )"#;
 
 /// A folder with the room and `spec`.
+/// [`SPEC`] with two map frames and one test frame: for tests about folders, not images.
+fn small_spec() -> String {
+    SPEC.replace("count: 4", "count: 2")
+        .replace("count: 3, low", "count: 1, low")
+}
+
 fn project(spec: &str) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("room.ron"), ROOM).unwrap();
@@ -262,11 +268,8 @@ fn reruns_resumes_and_merged_shards_give_the_same_bytes() {
 fn another_spec_is_refused_unless_overwrite_removes_its_files() {
     let (dir, spec) = project(SPEC);
     let out = dir.path().join("out");
-    let small = SPEC
-        .replace("count: 4", "count: 2")
-        .replace("count: 3, low", "count: 1, low");
-    let (_small_dir, small_spec) = project(&small);
-    let first = Dataset::load(&small_spec).unwrap();
+    let (_small_dir, small_path) = project(&small_spec());
+    let first = Dataset::load(&small_path).unwrap();
     run(&first, &out, RunOptions::default(), None);
     std::fs::write(out.join("notes.txt"), "mine").unwrap();
     let dataset = Dataset::load(&spec).unwrap();
@@ -313,9 +316,7 @@ fn tetrahedron(size: f64) -> String {
 
 #[test]
 fn a_changed_mesh_file_or_another_renderer_is_refused() {
-    let spec_text = SPEC
-        .replace("count: 4", "count: 2")
-        .replace("count: 3, low", "count: 1, low");
+    let spec_text = small_spec();
     let (dir, spec) = project(&spec_text);
     let mesh = dir.path().join("tetra.ply");
     std::fs::write(&mesh, tetrahedron(0.3)).unwrap();
@@ -388,12 +389,61 @@ fn a_changed_mesh_file_or_another_renderer_is_refused() {
     );
 }
 
+#[test]
+fn merges_and_overwrites_say_what_they_met() {
+    let small = small_spec();
+    let (dir, spec) = project(&small);
+    let dataset = Dataset::load(&spec).unwrap();
+    let (out, empty) = (dir.path().join("out"), dir.path().join("empty"));
+    std::fs::create_dir(&empty).unwrap();
+    let merged = merge(&empty, &[]);
+    assert!(
+        matches!(merged, Err(DatasetError::NotADataSet { .. })),
+        "{:?}",
+        merged.err()
+    );
+    assert!(merged.err().unwrap().needs_a_change());
+    // A shard of another spec.
+    let (_other_dir, other_spec) = project(&small.replace("seed: 11", "seed: 12"));
+    let other = dir.path().join("other");
+    run(
+        &Dataset::load(&other_spec).unwrap(),
+        &other,
+        RunOptions::default(),
+        None,
+    );
+    run(&dataset, &out, RunOptions::default(), None);
+    let merged = merge(&out, std::slice::from_ref(&other));
+    assert!(
+        matches!(merged, Err(DatasetError::ShardOfAnotherSpec { .. })),
+        "{:?}",
+        merged.err()
+    );
+    // An unreadable stamp: refused, then --overwrite renders over it.
+    std::fs::write(out.join(run::STAMP), "{").unwrap();
+    let refused = dataset.run(&cpu(), &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()));
+    assert!(
+        refused
+            .err()
+            .is_some_and(|e| matches!(e, DatasetError::BadStamp { .. }) && e.needs_a_change())
+    );
+    let overwrite = RunOptions {
+        overwrite: true,
+        ..RunOptions::default()
+    };
+    let summary = run(&dataset, &out, overwrite, None);
+    assert!(
+        summary.notes.iter().any(|n| n.contains("unreadable")),
+        "{:?}",
+        summary.notes
+    );
+    assert!(merge(&out, &[]).is_ok());
+}
+
 #[cfg(unix)]
 #[test]
 fn links_and_strangers_files_in_the_folder_are_never_written_through() {
-    let spec_text = SPEC
-        .replace("count: 4", "count: 2")
-        .replace("count: 3, low", "count: 1, low");
+    let spec_text = small_spec();
     let (dir, spec) = project(&spec_text);
     let dataset = Dataset::load(&spec).unwrap();
     let elsewhere = dir.path().join("elsewhere");
@@ -408,6 +458,26 @@ fn links_and_strangers_files_in_the_folder_are_never_written_through() {
     assert!(refused.err().is_some_and(|e| e.to_string().contains("is a link")));
     assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 1);
     assert_eq!(std::fs::read(elsewhere.join("contact-sheet.png")).unwrap(), b"mine");
+    // A layout folder that is a link: refused before anything is made in it; --overwrite
+    // removes nothing through it.
+    let (out, moved) = (dir.path().join("out2"), dir.path().join("moved-tum"));
+    run(&dataset, &out, RunOptions::default(), None);
+    std::fs::rename(out.join("map/tum"), &moved).unwrap();
+    std::os::unix::fs::symlink(&moved, out.join("map/tum")).unwrap();
+    let before = snapshot(&moved);
+    let refused = dataset.run(&cpu(), &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()));
+    assert!(matches!(refused, Err(DatasetError::Link { .. })), "{:?}", refused.err());
+    let (_other_dir, other_spec) = project(&spec_text.replace("seed: 11", "seed: 12"));
+    let other = Dataset::load(&other_spec).unwrap();
+    let overwrite = RunOptions {
+        overwrite: true,
+        ..RunOptions::default()
+    };
+    let _ = other.run(&cpu(), &out, &overwrite, &mut |_| ControlFlow::Continue(()));
+    assert!(
+        snapshot(&moved) == before,
+        "files were removed or written through the link"
+    );
     // A merge into a folder of someone else's files: refused.
     let (shard, theirs) = (dir.path().join("shard"), dir.path().join("theirs"));
     let one_shard = RunOptions {
@@ -451,9 +521,7 @@ fn sets_with_one_random_seed_share_their_poses_and_none_is_drawn_inside_furnitur
 
 #[test]
 fn edge_samples_smooth_the_colour_edges_alone_and_the_mirror_rays_are_the_specs() {
-    let small = SPEC
-        .replace("count: 4", "count: 2")
-        .replace("count: 3, low", "count: 1, low");
+    let small = small_spec();
     let rendered = |text: &str| {
         let (dir, spec) = project(text);
         let out = dir.path().join("out");
@@ -649,6 +717,18 @@ fn scheduled_light_changes_apply_to_their_frames_only_and_keep_the_flicker_draws
     assert_eq!((scheduled[1].1.1, scheduled[1].1.0), desk);
     assert_eq!(scheduled[2].1, always[2].1);
     assert_ne!(always[2].1.1, 20.0, "the flicker draw changes the intensity");
+    // A scheduled flicker draws in every frame: the flicker after it does not move.
+    let both = lit(
+        r#"lights: [Flicker(light: "lamp", off: 0.5, jitter: 0.5), Flicker(light: "desk", off: 0.5, jitter: 0.5)]"#,
+    );
+    let first_scheduled = lit(
+        r#"lights: [Flicker(light: "lamp", off: 0.5, jitter: 0.5, frames: (2, 3)), Flicker(light: "desk", off: 0.5, jitter: 0.5)]"#,
+    );
+    for index in 0..3 {
+        assert_eq!(first_scheduled[index].1, both[index].1, "desk, frame {index}");
+    }
+    assert_eq!(first_scheduled[2].0, both[2].0);
+    assert_eq!(first_scheduled[0].0, (true, 150.0), "the lamp as the scene has it");
     // A schedule that holds no frame is a located error.
     let (_dir, spec) = project(&SPEC.replace("jitter: 0.2)]", "jitter: 0.2, frames: (3, 3))]"));
     let message = Dataset::load(&spec).err().map(|e| e.to_string()).unwrap_or_default();

@@ -55,15 +55,26 @@ pub fn temporary_prefix() -> String {
     format!("{TEMPORARY_PREFIX}{}@{}@", std::process::id(), host_name())
 }
 
-/// This machine's name where the system says (`/proc`), in file-name-safe characters; empty
-/// elsewhere, and then no temporary is judged by its process.
+/// Where this process's id means something: the machine's name and its process-id namespace
+/// (containers sharing a host name, `--network host`, have namespaces of their own), as the
+/// system says (`/proc`), in file-name-safe characters; empty elsewhere, and then no
+/// temporary is judged by its process. Read once.
 fn host_name() -> String {
-    std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .unwrap_or_default()
-        .trim()
-        .chars()
-        .filter(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '.' | '_'))
-        .collect()
+    static HOST: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    HOST.get_or_init(|| {
+        let name = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+        let namespace = std::fs::read_link("/proc/self/ns/pid").unwrap_or_default();
+        let safe = |text: &str| -> String {
+            text.chars()
+                .filter(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '.' | '_'))
+                .collect()
+        };
+        match (safe(name.trim()), safe(&namespace.to_string_lossy())) {
+            (name, _) if name.is_empty() => String::new(),
+            (name, namespace) => format!("{name}.{namespace}"),
+        }
+    })
+    .clone()
 }
 
 /// The process id and host name in a temporary's name (after [`TEMPORARY_PREFIX`]).

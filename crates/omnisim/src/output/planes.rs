@@ -49,25 +49,25 @@ pub struct SegmentObject {
 impl SegmentationLegend {
     /// The legend of `scene`: objects count from 1 in file order, faces from 1 in scene order.
     pub fn of(scene: &Scene) -> Self {
+        // One pass over the faces: (first, last) face id of each object, 0 for none.
+        let mut spans = vec![(0u32, 0u32); scene.objects.len()];
+        for (index, face) in scene.faces.iter().enumerate() {
+            let id = index as u32 + 1;
+            if let Some(span) = spans.get_mut(face.object as usize) {
+                *span = (if span.0 == 0 { id } else { span.0 }, id);
+            }
+        }
         let objects = scene
             .objects
             .iter()
+            .zip(spans)
             .enumerate()
-            .map(|(index, object)| {
-                let mut faces = scene
-                    .faces
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, f)| f.object as usize == index);
-                let first = faces.next().map_or(0, |(i, _)| i as u32 + 1);
-                let last = faces.next_back().map_or(first, |(i, _)| i as u32 + 1);
-                SegmentObject {
-                    id: index as u32 + 1,
-                    name: object.name.clone(),
-                    kind: object.kind,
-                    first_face: first,
-                    last_face: last,
-                }
+            .map(|(index, (object, (first, last)))| SegmentObject {
+                id: index as u32 + 1,
+                name: object.name.clone(),
+                kind: object.kind,
+                first_face: first,
+                last_face: last,
             })
             .collect();
         Self {
