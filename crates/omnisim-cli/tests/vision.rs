@@ -433,3 +433,36 @@ fn describe_refuses_bad_requests() {
         assert!(!dir.path().join("x").exists(), "{args:?} created --out");
     }
 }
+
+/// Links planted in the output folder are replaced (a file) or refused (a set folder), never
+/// written through.
+#[cfg(unix)]
+#[test]
+fn describe_and_project_never_write_through_links() {
+    let dir = tempfile::tempdir().unwrap();
+    dataset(dir.path());
+    let victim = dir.path().join("victim.txt");
+    std::fs::write(&victim, "mine").unwrap();
+    std::fs::create_dir_all(dir.path().join("d/map")).unwrap();
+    std::os::unix::fs::symlink(&victim, dir.path().join("d/map/fourier.npy")).unwrap();
+    succeed(
+        &["describe", "ds", "--set", "map", "-d", "fourier", "--out", "d"],
+        dir.path(),
+    );
+    assert_eq!(std::fs::read(&victim).unwrap(), b"mine");
+    let written = std::fs::symlink_metadata(dir.path().join("d/map/fourier.npy")).unwrap();
+    assert!(written.is_file(), "the link was replaced by the output");
+    let elsewhere = dir.path().join("elsewhere");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    std::fs::create_dir_all(dir.path().join("v")).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, dir.path().join("v/map")).unwrap();
+    for command in [
+        &["describe", "ds", "--set", "map", "-d", "fourier", "--out", "v"][..],
+        &["project", "ds", "--set", "map", "--view", "panorama", "--out", "v"][..],
+    ] {
+        let output = omnisim(command, dir.path());
+        assert!(!output.status.success());
+        assert!(String::from_utf8_lossy(&output.stderr).contains("is a link"));
+    }
+    assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
+}

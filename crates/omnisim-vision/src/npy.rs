@@ -1,7 +1,7 @@
 //! f32 arrays as NumPy `.npy` files (npyz), readable with `numpy.load`.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter};
+use std::io::BufReader;
 use std::path::Path;
 
 use npyz::WriterBuilder;
@@ -24,16 +24,18 @@ pub fn write(path: &Path, shape: &[usize], values: &[f32]) -> Result<(), VisionE
             reason: format!("{shape:?} holds {expected} values, got {}", values.len()),
         });
     }
-    let file = File::create(path).map_err(io_error(path))?;
     let shape: Vec<u64> = shape.iter().map(|&n| n as u64).collect();
-    let mut writer = npyz::WriteOptions::new()
-        .default_dtype()
-        .shape(&shape)
-        .writer(BufWriter::new(file))
-        .begin_nd()
-        .map_err(io_error(path))?;
-    writer.extend(values.iter().copied()).map_err(io_error(path))?;
-    writer.finish().map_err(io_error(path))
+    // Atomically: never half a file, never through a link planted at `path`.
+    omnisim::output::atomic::write_atomically(path, |out| {
+        let mut writer = npyz::WriteOptions::new()
+            .default_dtype()
+            .shape(&shape)
+            .writer(out)
+            .begin_nd()?;
+        writer.extend(values.iter().copied())?;
+        writer.finish()
+    })
+    .map_err(io_error(path))
 }
 
 /// Reads an f32 `.npy` file: (shape, row-major values).

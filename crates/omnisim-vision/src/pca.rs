@@ -147,7 +147,8 @@ impl Pca {
         });
         let path = folder.join(SIDECAR);
         let text = serde_json::to_string_pretty(&sidecar).expect("a JSON value serialises") + "\n";
-        std::fs::write(&path, text).map_err(|source| VisionError::Io { path, source })
+        omnisim::output::atomic::write_atomically(&path, |out| std::io::Write::write_all(out, text.as_bytes()))
+            .map_err(|source| VisionError::Io { path, source })
     }
 
     /// Reads what [`Pca::save`] wrote.

@@ -4,9 +4,13 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use std::io::Write;
+
 use anyhow::{Context, bail};
 use clap::Args;
 use omnisim::Camera;
+use omnisim::output::atomic::write_atomically;
+use omnisim::output::folder::create_real_folder;
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::gist::{Blocks, GistParams, gist};
 use omnisim_vision::hog::{
@@ -510,14 +514,14 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         for (choice, pca) in choices.iter().zip(&pcas) {
             if let Some((pca, _)) = pca {
                 let folder = args.out.join(PCA_FOLDER).join(&choice.name);
-                std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+                create_real_folder(&args.out, &folder)?;
                 pca.save(&folder)?;
             }
         }
     }
     for (set, per_choice) in input.sets.iter().zip(&results) {
         let folder = args.out.join(&set.name);
-        std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+        create_real_folder(&args.out, &folder)?;
         for ((choice, result), pca) in choices.iter().zip(per_choice).zip(&pcas) {
             write_set(
                 &folder,
@@ -757,5 +761,5 @@ fn write_set(
     let path = folder.join(format!("{name}.json"));
     let mut text = serde_json::to_vec_pretty(&sidecar)?;
     text.push(b'\n');
-    std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+    write_atomically(&path, |out| out.write_all(&text)).with_context(|| format!("cannot write {}", path.display()))
 }

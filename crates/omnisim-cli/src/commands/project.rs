@@ -4,9 +4,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use std::io::Write;
+
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use omnisim::Camera;
+use omnisim::output::atomic::write_atomically;
+use omnisim::output::folder::create_real_folder;
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 use serde_json::{Value, json};
 
@@ -168,7 +172,7 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
     check_image_sizes(&input.sets, remap_source(&remaps))?;
     for set in &input.sets {
         let folder = args.out.join(&set.name);
-        std::fs::create_dir_all(&folder).with_context(|| format!("cannot create {}", folder.display()))?;
+        create_real_folder(&args.out, &folder)?;
         for ((name, _, _), remap) in views.iter().zip(&remaps) {
             let mask = remap.valid().map(|v| if v { 1.0 } else { 0.0 }).collect();
             save(
@@ -201,7 +205,8 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
         let path = folder.join("project.json");
         let mut text = serde_json::to_vec_pretty(&sidecar)?;
         text.push(b'\n');
-        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        write_atomically(&path, |out| out.write_all(&text))
+            .with_context(|| format!("cannot write {}", path.display()))?;
         eprintln!(
             "set '{}': {} image(s) × {} view(s) written to {}",
             set.name,
@@ -218,9 +223,13 @@ fn remap_source(remaps: &[Remap]) -> (usize, usize) {
     remaps[0].source_size
 }
 
+/// A PNG of `raster`, written atomically (never half a file, never through a link).
 fn save(raster: &Raster, path: &std::path::Path) -> anyhow::Result<()> {
-    raster
-        .to_image()?
-        .save(path)
-        .with_context(|| format!("cannot write {}", path.display()))
+    let image = raster.to_image()?;
+    write_atomically(path, |out| {
+        image
+            .write_to(out, image::ImageFormat::Png)
+            .map_err(std::io::Error::other)
+    })
+    .with_context(|| format!("cannot write {}", path.display()))
 }

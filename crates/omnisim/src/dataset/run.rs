@@ -140,29 +140,13 @@ fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
     Ok(())
 }
 
-/// [`prepare_dir`] for a folder inside the data-set folder `root`, made one level at a time
-/// and refused where a level is a link (a set folder linked elsewhere would have the run write
-/// there). Checked when a set is prepared: a link swapped in during a run is not seen.
+/// [`prepare_dir`] for a folder inside the data-set folder `root`, refused where a level is a
+/// link (a set folder linked elsewhere would have the run write there).
 fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError> {
-    let below = dir.strip_prefix(root).map_err(|_| DatasetError::Io {
-        path: dir.to_path_buf(),
-        source: std::io::Error::other(format!("is not inside {}", root.display())),
+    output::folder::create_real_folder(root, dir).map_err(|e| match e {
+        output::folder::RealFolderError::Link(path) => DatasetError::Link { path },
+        output::folder::RealFolderError::Io(path, source) => DatasetError::Io { path, source },
     })?;
-    let mut path = root.to_path_buf();
-    for part in below.components() {
-        path.push(part);
-        match std::fs::symlink_metadata(&path) {
-            Ok(metadata) if metadata.file_type().is_symlink() => return Err(DatasetError::Link { path }),
-            Ok(_) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => match std::fs::create_dir(&path) {
-                Ok(()) => {}
-                // Another writer (a shard) made it first.
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-                Err(e) => return Err(io(&path)(e)),
-            },
-            Err(e) => return Err(io(&path)(e)),
-        }
-    }
     prepare_dir(dir)
 }
 

@@ -206,6 +206,45 @@ pub fn prepare_file(path: &Path) -> Result<Vec<String>, FolderError> {
     })
 }
 
+/// Why [`create_real_folder`] stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum RealFolderError {
+    /// A level of the folder is a link: writing there would land wherever it points.
+    #[error("{} is a link: omnisim writes only into real folders under the one named; remove the link", .0.display())]
+    Link(PathBuf),
+    /// The system refused.
+    #[error("cannot create {}: {source}", .0.display(), source = .1)]
+    Io(PathBuf, std::io::Error),
+}
+
+/// Creates `dir` below `root` (which the user named, and may itself be a link) one level at a
+/// time, refusing a level that is a link: outputs written into `dir` then stay under `root`.
+/// A link swapped in afterwards is not seen.
+pub fn create_real_folder(root: &Path, dir: &Path) -> Result<(), RealFolderError> {
+    std::fs::create_dir_all(root).map_err(|e| RealFolderError::Io(root.to_path_buf(), e))?;
+    let below = dir.strip_prefix(root).map_err(|_| {
+        RealFolderError::Io(
+            dir.to_path_buf(),
+            std::io::Error::other(format!("is not inside {}", root.display())),
+        )
+    })?;
+    let mut path = root.to_path_buf();
+    for part in below.components() {
+        path.push(part);
+        match std::fs::symlink_metadata(&path) {
+            Ok(metadata) if metadata.file_type().is_symlink() => return Err(RealFolderError::Link(path)),
+            Ok(_) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => match std::fs::create_dir(&path) {
+                // Another writer (a shard) may make it first.
+                Err(e) if e.kind() != std::io::ErrorKind::AlreadyExists => return Err(RealFolderError::Io(path, e)),
+                _ => {}
+            },
+            Err(e) => return Err(RealFolderError::Io(path, e)),
+        }
+    }
+    Ok(())
+}
+
 fn one_line(text: &str) -> String {
     text.chars().map(|c| if c.is_control() { ' ' } else { c }).collect()
 }
