@@ -801,3 +801,18 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
         text(&unknown.stderr)
     );
 }
+
+/// Counts that size allocations or loops are bounded before anything runs.
+#[test]
+fn bench_refuses_counts_it_could_not_finish() {
+    for option in [
+        "--runs 18446744073709551615",
+        "--runs 0",
+        "--warmup 4294967296",
+        "--synthetic-triangles 4000000000",
+    ] {
+        let output = omnisim(&format!("bench scenes/env1.ron {option}"));
+        assert_eq!(output.status.code(), Some(2), "{option}");
+        assert!(text(&output.stderr).contains("is not a whole number from"), "{option}");
+    }
+}

@@ -54,13 +54,14 @@ pub struct BenchArgs {
     /// Which tracer the CPU backend uses.
     #[arg(long, value_enum, default_value = "fast")]
     pub tracer: TracerArg,
-    /// Timed renders per backend (the median is reported).
-    #[arg(long, default_value_t = 7)]
+    /// Timed renders per backend (the median is reported), 1 to 100000.
+    #[arg(long, default_value_t = 7, value_parser = |text: &str| count_in(text, 1, MOST_RUNS))]
     pub runs: usize,
     /// Untimed renders first (shader compilation, caches, ray tables), and for at least half
     /// a second unless 0: on a shared machine the first tens of milliseconds of a small
     /// image's renders ran up to 2× slower than the rest.
-    #[arg(long, default_value_t = 2)]
+    /// At most 100000.
+    #[arg(long, default_value_t = 2, value_parser = |text: &str| count_in(text, 0, MOST_RUNS))]
     pub warmup: usize,
     /// Instead of rays per second, measure time per image against error for every method
     /// (CPU f64, GPU f32, 1/4/16 samples on edges, the paper's shortcut) and draw the chart
@@ -72,8 +73,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub hits_only: bool,
     /// Add a wavy height-field mesh of about this many triangles over the floor, to measure a
-    /// heavy scene.
-    #[arg(long)]
+    /// heavy scene (at most 50 million, the mesh limit).
+    #[arg(long, value_parser = |text: &str| count_in(text, 1, MOST_SYNTHETIC_TRIANGLES))]
     pub synthetic_triangles: Option<usize>,
 }
 
@@ -230,6 +231,19 @@ fn rayon_threads() -> usize {
 
 /// A wavy height field of ~`count` triangles, 10 cm above the scene's floor, over the middle
 /// 60 % of its footprint; each triangle is its own face with a colour that varies across it.
+/// Most timed or warm-up renders: far beyond any median worth taking, and their times fit.
+const MOST_RUNS: usize = 100_000;
+/// Most synthetic triangles: a mesh file's limit.
+const MOST_SYNTHETIC_TRIANGLES: usize = 50_000_000;
+
+/// A whole number from `low` to `high`, for counts that size allocations.
+fn count_in(text: &str, low: usize, high: usize) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if (low..=high).contains(&n) => Ok(n),
+        _ => Err(format!("'{text}' is not a whole number from {low} to {high}")),
+    }
+}
+
 fn add_height_field(scene: &mut Scene, count: usize) -> anyhow::Result<()> {
     let Some((lo, hi)) = scene.bounds() else {
         bail!("the scene is empty")
