@@ -155,6 +155,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     for warning in &scene.warnings {
         eprintln!("warning: {warning}");
     }
+    let outputs = OutputSet {
+        point_cloud: !args.no_ply,
+        segmentation: args.segmentation,
+        normals: args.normals,
+        linear: args.linear,
+        exr_compression: args.exr_compression.into(),
+        ..OutputSet::default()
+    };
+    outputs
+        .check_scene(&scene)
+        .map_err(|message| anyhow::anyhow!("--segmentation: {message}"))?;
     let mut renderer = Renderer::new(args.backend.into())?;
     renderer.set_cpu_tracer(args.tracer.into());
     let prepared = renderer.prepare(&scene)?;
@@ -178,14 +189,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let outputs = OutputSet {
-        point_cloud: !args.no_ply,
-        segmentation: args.segmentation,
-        normals: args.normals,
-        linear: args.linear,
-        exr_compression: args.exr_compression.into(),
-        ..OutputSet::default()
-    };
     let mut metadata = RenderMetadata::new(&scene, &rig, BackendMetadata::of(&renderer, &prepared));
     let render_started = Instant::now();
     let stem = scene.file_stem();

@@ -327,6 +327,7 @@ impl Dataset {
         let scene_text = crate::input::read_text(&scene_path, crate::input::SCENE_LIMIT)?;
         let mut scene = Scene::from_ron(&scene_text, &scene_path)?;
         scene.source = Some(scene_path.clone());
+        spec.outputs.check_scene(&scene).map_err(|m| top("outputs", m))?;
         let bvh = SceneBvh::build(&scene);
         let mut warnings = scene.warnings.clone();
         let mut sets = Vec::with_capacity(spec.sets.len());

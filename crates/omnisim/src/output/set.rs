@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::atomic::write_atomically;
 use super::folder::RunFolder;
-use super::{ExrCompression, OutputError, failed};
+use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, failed};
 use crate::calibration;
 use crate::camera::Camera;
 use crate::frame::{Frame, Plane, Planes};
@@ -58,6 +58,23 @@ impl Default for OutputSet {
             disparity: true,
             exr_compression: ExrCompression::Zip,
         }
+    }
+}
+
+impl OutputSet {
+    /// Why these outputs cannot be written for `scene`, found before any frame is: segmentation
+    /// images hold object and face ids in 16 bits.
+    pub fn check_scene(&self, scene: &Scene) -> Result<(), String> {
+        let most = MAX_SEGMENT_ID as usize;
+        if self.segmentation && (scene.faces.len() > most || scene.objects.len() > most) {
+            return Err(format!(
+                "the scene has {} faces and {} objects; segmentation images hold ids up to {most} (16 bits): leave \
+                 segmentation out, or split the scene",
+                scene.faces.len(),
+                scene.objects.len()
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -342,4 +359,42 @@ fn describe_pose(pose: &Pose) -> String {
         "x={} y={} z={} m, theta_x={} theta_y={} theta_z={} deg",
         t.x, t.y, t.z, a.x, a.y, a.z
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Face, SceneObject};
+    use glam::dvec3;
+
+    #[test]
+    fn segmentation_of_more_faces_than_16_bits_hold_is_refused_before_rendering() {
+        let face = Face {
+            vertices: [dvec3(0.0, 0.0, 0.0), dvec3(1.0, 0.0, 0.0), dvec3(0.0, 1.0, 0.0)]
+                .into_iter()
+                .collect(),
+            colour: [9, 9, 9],
+            object: 0,
+        };
+        let mut scene = Scene {
+            objects: vec![SceneObject {
+                name: "mesh".into(),
+                kind: "Mesh",
+            }],
+            faces: vec![face; MAX_SEGMENT_ID as usize],
+            ..Scene::default()
+        };
+        let segmented = OutputSet {
+            segmentation: true,
+            ..OutputSet::default()
+        };
+        assert!(segmented.check_scene(&scene).is_ok());
+        scene.faces.push(scene.faces[0].clone());
+        let message = segmented.check_scene(&scene).unwrap_err();
+        assert!(
+            message.contains("65536 faces") && message.contains("leave segmentation out"),
+            "{message}"
+        );
+        assert!(OutputSet::default().check_scene(&scene).is_ok());
+    }
 }
