@@ -6,13 +6,17 @@ use std::path::Path;
 use anyhow::{Context, bail};
 use glam::dvec3;
 use omnisim::Pose;
-use omnisim::input::excerpt;
+use omnisim::input::shown;
 use omnisim::scene::MAX_COORDINATE;
+
+/// Largest angle a pose may give, degrees: beyond it, rounding to 1e-9° is no longer finite
+/// in every step, and no one means it.
+const MAX_ANGLE_DEGREES: f64 = 1e6;
 
 /// Parses `x,y,z,θx,θy,θz` (commas or spaces; angles in degrees; missing angles are 0). An
 /// empty value between commas is an error, not skipped: `1,,2,3` is not (1, 2, 3).
 pub fn parse_pose(text: &str) -> Result<Pose, String> {
-    let shown = excerpt(text, 80);
+    let shown = shown(text, 80);
     let mut fields = Vec::new();
     for part in text.split(',') {
         if part.trim().is_empty() && text.contains(',') {
@@ -21,22 +25,34 @@ pub fn parse_pose(text: &str) -> Result<Pose, String> {
         fields.extend(part.split_whitespace());
     }
     if fields.len() != 3 && fields.len() != 6 {
+        let tum = if fields.len() == 8 {
+            " (eight numbers look like a TUM line, index tx ty tz qx qy qz qw, as poses.txt holds: give the angles \
+             instead, as render.json's angles_deg lists them)"
+        } else {
+            ""
+        };
         return Err(format!(
-            "'{shown}' has {} numbers; a pose is x,y,z (metres) optionally followed by θx,θy,θz (degrees)",
+            "'{shown}' has {} numbers; a pose is x,y,z (metres) optionally followed by θx,θy,θz (degrees){tum}",
             fields.len()
         ));
     }
     let mut values = [0.0f64; 6];
     for (value, field) in values.iter_mut().zip(&fields) {
-        *value = field
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("'{}' in '{shown}' is not a finite number", excerpt(field, 40)))?;
+        *value = field.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
+            format!(
+                "'{}' in '{shown}' is not a finite number",
+                omnisim::input::shown(field, 40)
+            )
+        })?;
     }
     if let Some(v) = values[..3].iter().find(|v| v.abs() > MAX_COORDINATE) {
         return Err(format!(
             "{v:e} m in '{shown}' is beyond ±{MAX_COORDINATE:e} m, where scenes may lie"
+        ));
+    }
+    if let Some(v) = values[3..].iter().find(|v| v.abs() > MAX_ANGLE_DEGREES) {
+        return Err(format!(
+            "{v:e}° in '{shown}' is beyond ±{MAX_ANGLE_DEGREES:e}°: angles are in degrees"
         ));
     }
     Ok(Pose::from_degrees(
@@ -50,7 +66,7 @@ pub fn parse_pose(text: &str) -> Result<Pose, String> {
 pub fn read_pose_file(path: &Path) -> anyhow::Result<Vec<Pose>> {
     let text = omnisim::input::read_text(path, omnisim::input::POSE_FILE_LIMIT).context("cannot read the pose file")?;
     let mut poses = Vec::new();
-    for (number, line) in text.lines().enumerate() {
+    for (number, line) in omnisim::input::without_bom(&text).lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();
         if line.is_empty() {
             continue;
@@ -82,6 +98,16 @@ mod tests {
         assert!(parse_pose("1,,2,3").unwrap_err().contains("empty value"));
         assert!(parse_pose("1,2,3,").unwrap_err().contains("empty value"));
         assert!(parse_pose("1,2,1e7").unwrap_err().contains("beyond"));
+        assert!(
+            parse_pose("1,2,3,1e308,0,0")
+                .unwrap_err()
+                .contains("angles are in degrees")
+        );
+        assert!(parse_pose("0 1 2 3 0 0 0 1").unwrap_err().contains("TUM line"));
+        assert!(
+            parse_pose("1,2,\u{1b}[31m").unwrap_err().contains("\\u{1b}"),
+            "escapes are shown, not sent"
+        );
         let long = format!("1 2 {}", "3".repeat(10_000_000));
         assert!(parse_pose(&long).unwrap_err().len() < 300);
     }

@@ -137,7 +137,7 @@ pub(crate) fn ron_options() -> ron::Options {
 
 /// `text` without the UTF-8 byte-order mark some Windows editors put first, which RON would
 /// read as a stray character.
-pub(crate) fn without_bom(text: &str) -> &str {
+pub fn without_bom(text: &str) -> &str {
     text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
