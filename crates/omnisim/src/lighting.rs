@@ -109,6 +109,25 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_directional_light_points_the_same_way_at_any_scale() {
+        let direction = |d: &str| {
+            let text = format!(
+                r#"Scene(name: "s", objects: [Floor(name: "f", corners: [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], colour: (9, 9, 9))],
+                lighting: (lights: [Directional(name: "sun", direction: {d}, illuminance: 1000.0)]))"#
+            );
+            let scene = crate::scene::Scene::from_ron(&text, std::path::Path::new("s.ron")).unwrap();
+            match scene.lighting.unwrap().lights[0].kind {
+                LightKind::Directional { direction, .. } => direction,
+                LightKind::Point { .. } => panic!("directional"),
+            }
+        };
+        let unit = direction("(1.0, 0.0, -1.0)");
+        for scaled in ["(1e308, 0.0, -1e308)", "(1e-300, 0.0, -1e-300)"] {
+            assert!((direction(scaled) - unit).length() < 1e-15, "{scaled}");
+        }
+    }
+
+    #[test]
     fn every_byte_survives_decoding_and_encoding() {
         for value in 0..=255u8 {
             assert_eq!(linear_to_srgb(srgb_to_linear(value)), value);

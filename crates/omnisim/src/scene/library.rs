@@ -177,12 +177,15 @@ fn build_lighting(
             ),
             LightFile::Directional(d) => {
                 let direction = finite("direction", d.direction)?;
-                if direction.length() == 0.0 {
+                // Scaled by its largest component first: (1e308, 0, -1e308) and (1e-300, 0,
+                // -1e-300) are directions too, whose length overflows or underflows.
+                let largest = direction.abs().max_element();
+                if largest == 0.0 {
                     return Err(invalid("direction must not be (0, 0, 0)".into()));
                 }
                 (
                     LightKind::Directional {
-                        direction: direction.normalize(),
+                        direction: (direction / largest).normalize(),
                         illuminance: strength("illuminance", "lux", d.illuminance)?,
                     },
                     d.colour,
