@@ -38,11 +38,14 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let invalid = |message: String| SceneError::Invalid {
             path: path.to_path_buf(),
             location: locate::name_field(text, name, earlier),
-            object: name.to_string(),
+            object: crate::input::shown(name, 64),
             message: format!("{}: {message}", object.kind()),
         };
         if name.trim().is_empty() {
             return Err(invalid("the name is empty; give every object a name".into()));
+        }
+        if let Some(problem) = unprintable(name) {
+            return Err(invalid(problem));
         }
         if earlier > 0 {
             return Err(invalid("another object has this name; names must be unique".into()));
@@ -138,11 +141,14 @@ fn build_lighting(
         let invalid = |message: String| SceneError::Invalid {
             path: path.to_path_buf(),
             location: locate::name_field(text, name, earlier),
-            object: name.to_string(),
+            object: crate::input::shown(name, 64),
             message: format!("light: {message}"),
         };
         if name.trim().is_empty() {
             return Err(invalid("the name is empty; give every light a name".into()));
+        }
+        if let Some(problem) = unprintable(name) {
+            return Err(invalid(problem));
         }
         if earlier > 0 {
             return Err(invalid(
@@ -324,6 +330,25 @@ fn polygon_face(p: &PolygonFile) -> Result<Vec<RawFace>, String> {
     Ok(vec![(vertices, p.colour)])
 }
 
+/// Longest object or light name, bytes: names are listed, printed in errors and written into
+/// exports and legends.
+const MAX_OBJECT_NAME_BYTES: usize = 200;
+
+/// Why `name` cannot name an object or a light: too long, or holding control characters
+/// (a terminal would obey them, a listing would break at a newline).
+fn unprintable(name: &str) -> Option<String> {
+    if name.len() > MAX_OBJECT_NAME_BYTES {
+        Some(format!(
+            "the name is {} bytes long; at most {MAX_OBJECT_NAME_BYTES}",
+            name.len()
+        ))
+    } else {
+        name.chars()
+            .find(|c| c.is_control())
+            .map(|c| format!("the name holds the control character {:?}; use printable characters", c))
+    }
+}
+
 fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path) -> Result<Vec<RawFace>, String> {
     positive("scale", m.scale)?;
     // A scene file may come from anyone: it reads meshes from its own folder and below only.
@@ -356,4 +381,31 @@ fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path) -> Result<Vec<RawF
         })
         .collect();
     Ok(faces)
+}
+
+#[cfg(test)]
+mod name_tests {
+    use crate::scene::Scene;
+
+    #[test]
+    fn names_with_control_characters_or_megabytes_are_refused_and_shown_escaped() {
+        for (name, expected) in [
+            ("\\u{1b}[31mred", "control character"),
+            ("two\\nlines", "control character"),
+            (&"x".repeat(300), "300 bytes"),
+        ] {
+            let text = format!(
+                r#"Scene(name: "s", objects: [Floor(name: "{name}", corners: [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], colour: (9, 9, 9))])"#
+            );
+            let message = Scene::from_ron(&text, std::path::Path::new("s.ron"))
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default();
+            assert!(message.contains(expected), "{message}");
+            assert!(
+                !message.contains('\u{1b}') && !message.contains("two\nlines") && message.len() < 400,
+                "{message}"
+            );
+        }
+    }
 }
