@@ -466,3 +466,41 @@ fn describe_and_project_never_write_through_links() {
     }
     assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
 }
+
+/// A render folder's images are read through the camera its render.json records, or refused.
+#[test]
+fn a_render_folder_is_described_through_its_own_camera_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    succeed(
+        &[
+            "render",
+            "env1.ron",
+            "--camera",
+            "omni",
+            "--mirror",
+            "parabolic",
+            "--size",
+            "64x64",
+            "--pose",
+            "0,0,0.4",
+            "--backend",
+            "cpu",
+            "--out",
+            "r",
+        ],
+        dir.path(),
+    );
+    let output = omnisim(&["describe", "r", "-d", "fourier", "--out", "d"], dir.path());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success() && stderr.contains("records a parabolic-catadioptric camera"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("d").exists(), "nothing written");
+    succeed(
+        &["describe", "r", "-d", "fourier", "--mirror", "parabolic", "--out", "d"],
+        dir.path(),
+    );
+}

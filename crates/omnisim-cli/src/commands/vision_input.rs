@@ -19,7 +19,8 @@ use crate::camera_args::{CameraArgs, CameraKind, MaxElevation, MirrorKind, Mirro
 #[derive(Debug, Clone, Args)]
 pub struct InputArgs {
     /// A data-set folder written by `omnisim dataset` (with manifest.json), or a folder of
-    /// PNG images (read in name order; camera from the options below).
+    /// PNG images (read in name order; camera from the options below, which must match the
+    /// camera an `omnisim render` folder's render.json records).
     pub input: PathBuf,
     /// Data sets: only this set (repeat for several) [default: every set].
     #[arg(long = "set")]
@@ -102,6 +103,42 @@ impl InputArgs {
                 self.input.display()
             )
         }
+    }
+
+    /// Refuses a camera other than the one an `omnisim render` folder records in its
+    /// render.json: its images would be read through the wrong model, silently.
+    fn check_render_camera(&self, camera: &Camera) -> anyhow::Result<()> {
+        let path = self.input.join("render.json");
+        let Ok(text) = omnisim::input::read_text(&path, MANIFEST_LIMIT) else {
+            return Ok(());
+        };
+        let Ok(render) = serde_json::from_str::<serde_json::Value>(&text) else {
+            return Ok(());
+        };
+        let recorded = match &render["camera"] {
+            stereo if stereo["model"] == "stereo" => &stereo["left"],
+            single => single,
+        };
+        let given = serde_json::to_value(omnisim::metadata::CameraMetadata::of(camera))?;
+        let (Some(recorded), Some(given)) = (recorded.as_object(), given.as_object()) else {
+            return Ok(());
+        };
+        let differing: Vec<&str> = given
+            .iter()
+            .filter(|(key, value)| recorded.get(*key).is_some_and(|r| r != *value))
+            .map(|(key, _)| key.as_str())
+            .collect();
+        if !differing.is_empty() {
+            bail!(
+                "{} records a {} camera whose {} differ from the camera given here ({}); give the camera options it \
+                 was rendered with (its omnisim-run.txt holds the command)",
+                path.display(),
+                recorded.get("model").and_then(|m| m.as_str()).unwrap_or("different"),
+                differing.join(", "),
+                camera.model_name()
+            );
+        }
+        Ok(())
     }
 
     /// Whether any camera option differs from its default.
@@ -199,6 +236,7 @@ impl InputArgs {
             Rig::Single(camera) => camera,
             Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
         };
+        self.check_render_camera(&camera)?;
         let name = plain_name(
             &self
                 .input
