@@ -97,7 +97,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "fast")]
     pub tracer: TracerArg,
     /// Anti-aliased colour: pixels on face edges are traced again with this many stratified
-    /// samples (a square: 1, 4, 16, 64) on the same backend; range and points are unchanged.
+    /// samples (a square: 1, 4, 16, 64, ... up to 1024) on the same backend; range and points
+    /// are unchanged.
     #[arg(long, default_value_t = 1, value_parser = parse_square)]
     pub edge_samples: u32,
     /// Skip the PLY point clouds.

@@ -135,9 +135,13 @@ fn build_lighting(
         )));
     }
     let mut lights: Vec<Light> = Vec::with_capacity(file.lights.len());
+    // How many lights of each name came before (a map: 200,000 lights took 28 s with a scan).
+    let mut light_names: HashMap<&str, usize> = HashMap::new();
     for light in &file.lights {
         let name = light.name();
-        let earlier = object_names.get(name).map_or(0, |n| n + 1) + lights.iter().filter(|l| l.name == name).count();
+        let before = light_names.entry(name).or_insert(0);
+        let earlier = object_names.get(name).map_or(0, |n| n + 1) + *before;
+        *before += 1;
         let invalid = |message: String| SceneError::Invalid {
             path: path.to_path_buf(),
             location: locate::name_field(text, name, earlier),
