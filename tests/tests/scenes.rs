@@ -127,7 +127,7 @@ fn bad_scenes_are_refused_naming_file_line_and_object() {
         "Scene(name: \"t\", objects: [\n  Floor(name: \"f\", corners: [(0.0,0.0),(1.0,0.0),(1.0,1.0)], colour: (300,1,1)),\n])",
     );
     assert!(
-        colour.starts_with("test.ron:2:") && colour.contains("object 'f'"),
+        colour.starts_with("test.ron:2:") && colour.contains("object 'f': colour:"),
         "{colour}"
     );
 
