@@ -504,3 +504,23 @@ fn a_render_folder_is_described_through_its_own_camera_only() {
         dir.path(),
     );
 }
+
+/// An output folder that is the images' own folder is refused: a second run would read its
+/// outputs as images.
+#[test]
+fn outputs_never_land_among_the_input_images() {
+    let dir = tempfile::tempdir().unwrap();
+    dataset(dir.path());
+    for command in [
+        &["describe", "ds", "--set", "map", "-d", "fourier", "--out", "ds"][..],
+        &["project", "ds", "--set", "map", "--view", "panorama", "--out", "ds"][..],
+    ] {
+        let output = omnisim(command, dir.path());
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            !output.status.success() && stderr.contains("where its images are read from"),
+            "{stderr}"
+        );
+    }
+    assert!(!dir.path().join("ds/map/fourier.npy").exists());
+}

@@ -419,6 +419,7 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         bail!("--pca-fit needs at least 1 component");
     }
     let input = args.input.read()?;
+    super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;
     if args.pca_fit.is_some() && input.sets.iter().any(|s| s.name == PCA_FOLDER) {
         bail!(
             "a set named '{PCA_FOLDER}' would share OUT/{PCA_FOLDER} with the PCA bases: leave it out (--set) or describe it without --pca-fit"

@@ -160,6 +160,7 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
         views.push((spec.name.clone(), view, sidecar));
     }
     let input = args.input.read()?;
+    super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;
     let Camera::Catadioptric(omni) = &input.camera else {
         bail!("project resamples omnidirectional images: the images are not from a catadioptric camera");
     };

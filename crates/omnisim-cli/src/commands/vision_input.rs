@@ -266,6 +266,25 @@ impl InputArgs {
     }
 }
 
+/// Refuses an output folder that is one the images are read from: a second run would read
+/// its own outputs as images (and a data set would hold files it did not record).
+pub fn refuse_writing_among_inputs(out: &Path, input: &Input) -> anyhow::Result<()> {
+    for set in &input.sets {
+        let (Ok(folder), Some(first)) = (out.join(&set.name).canonicalize(), set.frames.first()) else {
+            continue;
+        };
+        if first.path.parent().and_then(|p| p.canonicalize().ok()) == Some(folder.clone()) {
+            bail!(
+                "--out {} would write set '{}' into {}, where its images are read from; choose another --out",
+                out.display(),
+                set.name,
+                folder.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// `name` if it is one plain folder name (no separator, not `.` or `..`), as set folders must be.
 pub fn plain_name(name: &str) -> anyhow::Result<&str> {
     let mut parts = Path::new(name).components();
