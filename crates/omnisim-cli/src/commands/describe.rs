@@ -630,6 +630,15 @@ fn fit_or_load_pca(
                 .collect();
             let pca = Pca::fit(&samples, k)
                 .with_context(|| format!("PCA of {} on set '{}'", choice.name, input.sets[map].name))?;
+            if pca.components() < k {
+                eprintln!(
+                    "note: {}: --pca-fit {k} gives {} component(s): {} image(s) of {}-value descriptors span no more",
+                    choice.name,
+                    pca.components(),
+                    samples.len(),
+                    samples.first().map_or(0, Vec::len)
+                );
+            }
             let sidecar = json!({
                 "fitted_on": input.sets[map].name, "components": pca.components(),
                 "explained_variance_ratio": pca.explained_variance_ratio(), "basis": format!("{PCA_FOLDER}/{}", choice.name)
