@@ -816,3 +816,22 @@ fn bench_refuses_counts_it_could_not_finish() {
         assert!(text(&output.stderr).contains("is not a whole number from"), "{option}");
     }
 }
+
+/// `poses --out` replaces its own pose files, never another file (a scene, say).
+#[test]
+fn poses_never_replace_a_file_they_did_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.ron");
+    std::fs::copy(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"), &scene).unwrap();
+    let before = std::fs::read(&scene).unwrap();
+    let output = omnisim(&format!("poses grid --x 0 --y 0 --z 0.4 --out {}", scene.display()));
+    assert!(!output.status.success() && text(&output.stderr).contains("is not a pose file omnisim wrote"));
+    assert_eq!(std::fs::read(&scene).unwrap(), before);
+    let poses = dir.path().join("poses.txt");
+    for _ in 0..2 {
+        assert!(succeeds(&format!(
+            "poses grid --x 0 --y 0 --z 0.4 --out {}",
+            poses.display()
+        )));
+    }
+}

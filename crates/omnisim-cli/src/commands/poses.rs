@@ -131,11 +131,31 @@ fn parse_triple(text: &str) -> Result<DVec3, String> {
     }
 }
 
+/// How every pose file this command writes starts.
+const HEADER: &str = "# omnisim poses";
+
+/// Refuses to replace an existing file that is not a pose file this command wrote (`--out
+/// env1.ron` would have overwritten the scene).
+fn refuse_replacing_other_files(path: &std::path::Path) -> anyhow::Result<()> {
+    let Ok(mut file) = std::fs::File::open(path) else {
+        return Ok(());
+    };
+    let mut start = [0u8; HEADER.len()];
+    let ours = std::io::Read::read_exact(&mut file, &mut start).is_ok() && start == HEADER.as_bytes();
+    if !ours {
+        anyhow::bail!(
+            "{} exists and is not a pose file omnisim wrote; choose another --out, or remove it first",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
     let fill = |w: &mut dyn Write| -> std::io::Result<()> {
         writeln!(
             w,
-            "# omnisim poses ({kind}): x y z (metres) θx θy θz (degrees, R = Rx·Ry·Rz); render --poses-file"
+            "{HEADER} ({kind}): x y z (metres) θx θy θz (degrees, R = Rx·Ry·Rz); render --poses-file"
         )?;
         for pose in poses {
             // + 0.0 turns −0 into 0.
@@ -146,6 +166,7 @@ fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
     };
     match &out.out {
         Some(path) => {
+            refuse_replacing_other_files(path)?;
             super::prepare_file(path)?;
             write_atomically(path, |file| fill(file)).with_context(|| format!("cannot write {}", path.display()))?;
             eprintln!("{} poses written to {}", poses.len(), path.display());
