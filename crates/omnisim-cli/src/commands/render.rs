@@ -167,6 +167,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     outputs
         .check_scene(&scene)
         .map_err(|message| anyhow::anyhow!("--segmentation: {message}"))?;
+    // The output folder is checked before the BVH is built: a refused folder says so at once.
+    let mut run = crate::run_folder::open(&args, &poses)?;
     let mut renderer = Renderer::new(args.backend.into())?;
     renderer.set_cpu_tracer(args.tracer.into());
     let prepared = renderer.prepare(&scene)?;
@@ -184,7 +186,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         prepared.fallback().unwrap_or(renderer.reason())
     );
     crate::warnings::misplaced_poses(&scene, prepared.geometry(), &poses);
-    let mut run = crate::run_folder::open(&args, &poses)?;
 
     let progress = ProgressBar::new(poses.len() as u64).with_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
