@@ -509,8 +509,7 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
     }
     let pcas = fit_or_load_pca(&args, &choices, &results, map, &input)?;
     // Nothing is written until every image is described and every PCA fitted or loaded, so a
-    // request that fails writes nothing.
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    // request that fails writes nothing (`create_real_folder` makes --out too).
     if args.pca_fit.is_some() {
         for (choice, pca) in choices.iter().zip(&pcas) {
             if let Some((pca, _)) = pca {

@@ -291,7 +291,6 @@ pub struct Dataset {
     pub scene: Scene,
     scene_path: PathBuf,
     scene_sha256: String,
-    geometry_sha256: String,
     /// The vision system.
     pub rig: Rig,
     /// The sets, in spec order.
@@ -356,7 +355,10 @@ impl Dataset {
             {
                 return Err(fail(
                     "poses",
-                    format!("pose #{n} is not finite; keep coordinates and angles within ±1e9"),
+                    format!(
+                        "pose #{n} is not finite; keep coordinates and angles within ±{:e}",
+                        spec::MAX_MAGNITUDE
+                    ),
                 ));
             }
             total_poses += all.len();
@@ -403,7 +405,6 @@ impl Dataset {
         }
         Ok(Self {
             scene_sha256: manifest::sha256_hex(scene_text.as_bytes()),
-            geometry_sha256: manifest::geometry_sha256(&scene),
             spec,
             spec_path: path.to_path_buf(),
             spec_text: text,

@@ -147,7 +147,8 @@ fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError> {
         output::folder::RealFolderError::Link(path) => DatasetError::Link { path },
         output::folder::RealFolderError::Io(path, source) => DatasetError::Io { path, source },
     })?;
-    prepare_dir(dir)
+    atomic::remove_stale_temporaries(dir).map_err(io(dir))?;
+    Ok(())
 }
 
 /// Refuses a folder without a stamp that holds visible files: someone else's.
@@ -301,11 +302,12 @@ fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>
         previous => previous?,
     };
     match previous {
-        Some(previous) if previous.identity == stamp.identity && !overwrite => same_renderer(dir, &previous, stamp)?,
         Some(previous) if previous.identity == stamp.identity && same_renderer(dir, &previous, stamp).is_ok() => {}
-        // An earlier omnisim's stamp has no geometry hash: its identity cannot match, and
-        // saying so beats calling it another spec.
-        Some(previous) if !overwrite && previous.version.is_empty() => same_renderer(dir, &previous, stamp)?,
+        // The same spec by another renderer; or an earlier omnisim's stamp, which has no
+        // geometry hash, so its identity cannot match: saying so beats calling it another spec.
+        Some(previous) if !overwrite && (previous.identity == stamp.identity || previous.version.is_empty()) => {
+            same_renderer(dir, &previous, stamp)?
+        }
         Some(previous) if !overwrite => {
             return Err(DatasetError::AnotherSpec {
                 dir: dir.to_path_buf(),
@@ -478,12 +480,14 @@ impl Dataset {
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default()
         };
-        let identity = format!("{spec_sha256} {} {}", self.scene_sha256, self.geometry_sha256);
+        // Hashed here, once per run, not on every load (a preview needs none).
+        let geometry_sha256 = super::manifest::geometry_sha256(&self.scene);
+        let identity = format!("{spec_sha256} {} {geometry_sha256}", self.scene_sha256);
         Stamp {
             identity: sha256_hex(identity.as_bytes()),
             version: env!("CARGO_PKG_VERSION").into(),
             renderer: renderer.renders_with(),
-            geometry_sha256: self.geometry_sha256.clone(),
+            geometry_sha256,
             spec_file: name(&self.spec_path),
             spec_text: self.spec_text.clone(),
             spec_sha256,
@@ -682,13 +686,17 @@ impl Dataset {
         let pose = &self.sets[base.set].poses[index];
         let placed = self.frame_occluders(base.set, index)?;
         let mut own = None;
-        let mut segments = Vec::new();
+        let mut segments = vec![None; placed.len()];
         if !placed.is_empty() {
             let scene = occluders::with_occluders(&base.scene, &placed);
             if self.spec.outputs.segmentation {
                 // The placed occluders are the frame scene's last objects.
                 let legend = SegmentationLegend::of(&scene);
-                segments = legend.objects[legend.objects.len() - placed.len()..].to_vec();
+                segments = legend.objects[legend.objects.len() - placed.len()..]
+                    .iter()
+                    .cloned()
+                    .map(Some)
+                    .collect();
             }
             own = Some((renderer.prepare(&scene)?, scene));
         }
@@ -714,10 +722,7 @@ impl Dataset {
             set: base.set,
             index,
             frames,
-            placed: placed
-                .into_iter()
-                .zip(segments.into_iter().map(Some).chain(std::iter::repeat(None)))
-                .collect(),
+            placed: placed.into_iter().zip(segments).collect(),
             record,
         })
     }
@@ -901,12 +906,12 @@ pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetEr
 /// frame) written by the calling run, which hashed them as it wrote them).
 fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) -> Result<MergeSummary, DatasetError> {
     let mut stamp = read_stamp(dest)?;
-    if let Some(ours) = &stamp {
-        checked_spec(dest, ours)?;
-    }
+    // Every stamp met is checked against its spec before anything is copied; shards of one
+    // identity carry the same spec text.
+    let mut spec = stamp.as_ref().map(|ours| checked_spec(dest, ours)).transpose()?;
     for source in sources {
         let theirs = read_stamp(source)?.ok_or_else(|| DatasetError::NotADataSet { dir: source.clone() })?;
-        checked_spec(source, &theirs)?;
+        let their_spec = checked_spec(source, &theirs)?;
         let ours = match &stamp {
             Some(ours) => ours,
             None => {
@@ -914,6 +919,7 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
                 refuse_unrecorded(dest)?;
                 let bytes = std::fs::read(source.join(STAMP)).map_err(io(source))?;
                 write_file(&dest.join(STAMP), &bytes)?;
+                spec = Some(their_spec);
                 stamp.insert(theirs.clone())
             }
         };
@@ -927,9 +933,11 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
         same_renderer(source, &theirs, ours)?;
         copy_frames(source, dest, ours)?;
     }
-    let stamp = stamp.ok_or_else(|| DatasetError::NotADataSet {
-        dir: dest.to_path_buf(),
-    })?;
+    let (Some(stamp), Some(spec)) = (stamp, spec) else {
+        return Err(DatasetError::NotADataSet {
+            dir: dest.to_path_buf(),
+        });
+    };
     // The index files and contact sheets are this binary's: they must be the renderer's.
     let merging = Stamp {
         version: env!("CARGO_PKG_VERSION").into(),
@@ -937,7 +945,6 @@ fn assemble(dest: &Path, sources: &[PathBuf], written: &HashSet<(&str, usize)>) 
     };
     same_renderer(dest, &stamp, &merging)?;
     let spec_path = dest.join(&stamp.spec_file);
-    let spec = checked_spec(dest, &stamp)?;
     let rig = super::build_rig(&spec.rig).map_err(|message| DatasetError::Spec {
         path: spec_path.clone(),
         location: None,

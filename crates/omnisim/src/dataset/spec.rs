@@ -608,12 +608,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Spec, DatasetError> {
     let text = crate::input::without_bom(text);
     let spec: Spec = crate::input::ron_options().from_str(text).map_err(|e| {
         let (line, column) = (e.span.start.line, e.span.start.col);
-        // A missing field is reported where its struct ends, after other fields: its message
-        // names it, and the key before is not it.
-        let field = match e.code {
-            ron::Error::MissingStructField { .. } | ron::Error::TrailingCharacters => None,
-            _ => locate::key_before(text, line, column),
-        };
+        let field = locate::field_of_error(text, &e);
         DatasetError::Spec {
             path: path.to_path_buf(),
             location: Some((line, column)),
@@ -715,7 +710,7 @@ type Checked = Result<(), (String, String)>;
 
 /// Largest coordinate (metres) or angle (degrees) a spec may give: far beyond any scene, and
 /// small enough that sums, differences and rounding to 1e-9 stay finite.
-const MAX_MAGNITUDE: f64 = 1e9;
+pub(crate) const MAX_MAGNITUDE: f64 = 1e9;
 
 fn finite(field: &str, values: &[f64]) -> Checked {
     match values.iter().find(|v| !(v.is_finite() && v.abs() <= MAX_MAGNITUDE)) {

@@ -59,29 +59,23 @@ impl Lanes8 {
     }
 }
 
-impl Add for Lanes8 {
-    type Output = Self;
-    #[inline(always)]
-    fn add(self, other: Self) -> Self {
-        self.zip(other, |a, b| a + b)
-    }
+/// `impl $op for $lanes` whose `$method(a, b)` is `$body`: the lane types' binary operators.
+macro_rules! binary_op {
+    ($lanes:ty, $op:ident, $method:ident, |$a:ident, $b:ident| $body:expr) => {
+        impl $op for $lanes {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, other: Self) -> Self {
+                let ($a, $b) = (self, other);
+                $body
+            }
+        }
+    };
 }
 
-impl Sub for Lanes8 {
-    type Output = Self;
-    #[inline(always)]
-    fn sub(self, other: Self) -> Self {
-        self.zip(other, |a, b| a - b)
-    }
-}
-
-impl Mul for Lanes8 {
-    type Output = Self;
-    #[inline(always)]
-    fn mul(self, other: Self) -> Self {
-        self.zip(other, |a, b| a * b)
-    }
-}
+binary_op!(Lanes8, Add, add, |a, b| a.zip(b, |x, y| x + y));
+binary_op!(Lanes8, Sub, sub, |a, b| a.zip(b, |x, y| x - y));
+binary_op!(Lanes8, Mul, mul, |a, b| a.zip(b, |x, y| x * y));
 
 impl Neg for Lanes8 {
     type Output = Self;
@@ -149,29 +143,9 @@ mod avx {
     #[derive(Debug, Clone, Copy)]
     pub(crate) struct Avx8(__m256);
 
-    impl Add for Avx8 {
-        type Output = Self;
-        #[inline(always)]
-        fn add(self, other: Self) -> Self {
-            Self(unsafe { _mm256_add_ps(self.0, other.0) })
-        }
-    }
-
-    impl Sub for Avx8 {
-        type Output = Self;
-        #[inline(always)]
-        fn sub(self, other: Self) -> Self {
-            Self(unsafe { _mm256_sub_ps(self.0, other.0) })
-        }
-    }
-
-    impl Mul for Avx8 {
-        type Output = Self;
-        #[inline(always)]
-        fn mul(self, other: Self) -> Self {
-            Self(unsafe { _mm256_mul_ps(self.0, other.0) })
-        }
-    }
+    binary_op!(Avx8, Add, add, |a, b| Avx8(unsafe { _mm256_add_ps(a.0, b.0) }));
+    binary_op!(Avx8, Sub, sub, |a, b| Avx8(unsafe { _mm256_sub_ps(a.0, b.0) }));
+    binary_op!(Avx8, Mul, mul, |a, b| Avx8(unsafe { _mm256_mul_ps(a.0, b.0) }));
 
     impl Neg for Avx8 {
         type Output = Self;

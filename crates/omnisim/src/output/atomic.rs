@@ -59,7 +59,7 @@ pub fn temporary_prefix() -> String {
 /// (containers sharing a host name, `--network host`, have namespaces of their own), as the
 /// system says (`/proc`), in file-name-safe characters; empty elsewhere, and then no
 /// temporary is judged by its process. Read once.
-fn host_name() -> String {
+fn host_name() -> &'static str {
     static HOST: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     HOST.get_or_init(|| {
         let name = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
@@ -74,7 +74,6 @@ fn host_name() -> String {
             (name, namespace) => format!("{name}.{namespace}"),
         }
     })
-    .clone()
 }
 
 /// The process id and host name in a temporary's name (after [`TEMPORARY_PREFIX`]).
@@ -147,9 +146,9 @@ mod tests {
         let here = host_name();
         let named = |pid: u32, host: &str| dir.path().join(format!("{TEMPORARY_PREFIX}{pid}@{host}@abc"));
         // u32::MAX is above every pid limit; pid 1 always runs.
-        let dead = named(u32::MAX, &here);
-        let live = named(1, &here);
-        let mine = named(std::process::id(), &here);
+        let dead = named(u32::MAX, here);
+        let live = named(1, here);
+        let mine = named(std::process::id(), here);
         // A shard on another machine writes into the same folder: its pid means nothing here.
         let elsewhere = named(u32::MAX, &format!("{here}-other"));
         let unnamed = dir.path().join(format!("{TEMPORARY_PREFIX}xyz"));
@@ -174,7 +173,7 @@ mod tests {
         let rest = prefix.strip_prefix(TEMPORARY_PREFIX).unwrap();
         assert_eq!(
             writer_of(&format!("{rest}x1y2")),
-            Some((std::process::id(), host_name().as_str()))
+            Some((std::process::id(), host_name()))
         );
     }
 }

@@ -149,9 +149,19 @@ pub(crate) fn field_of_element(text: &str, (line, column): (usize, usize), path:
     found
 }
 
+/// The field a RON parse error falls in: the last key at or before it, except where that key
+/// is not the cause (a missing field is reported where its struct ends and names itself;
+/// trailing characters follow everything).
+pub(crate) fn field_of_error(text: &str, error: &ron::error::SpannedError) -> Option<String> {
+    match error.code {
+        ron::Error::MissingStructField { .. } | ron::Error::TrailingCharacters => None,
+        _ => key_before(text, error.span.start.line, error.span.start.col),
+    }
+}
+
 /// The last `key:` of RON text starting at or before the 1-based (line, column): the field a
 /// parse error at that place is in (or names, for an unknown field).
-pub(crate) fn key_before(text: &str, line: usize, column: usize) -> Option<String> {
+fn key_before(text: &str, line: usize, column: usize) -> Option<String> {
     let end = offset_of(text, line, column)?;
     let mut key = None;
     let mut word_start = None;

@@ -84,13 +84,9 @@ impl Scene {
         let text = crate::input::without_bom(text);
         let parsed: file::SceneFile = crate::input::ron_options().from_str(text).map_err(|e| {
             let (line, column) = (e.span.start.line, e.span.start.col);
-            // The field the error falls in (a missing one is named by the message itself).
-            let field = match e.code {
-                ron::Error::MissingStructField { .. } | ron::Error::TrailingCharacters => None,
-                _ => locate::key_before(text, line, column),
-            }
-            .map(|field| format!("{field}: "))
-            .unwrap_or_default();
+            let field = locate::field_of_error(text, &e)
+                .map(|field| format!("{field}: "))
+                .unwrap_or_default();
             let message = match locate::element_at(text, "objects", line, column) {
                 Some(object) => format!("object '{}': {field}{}", crate::input::shown(&object, 64), e.code),
                 None => format!("{field}{}", e.code),
