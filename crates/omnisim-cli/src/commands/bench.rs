@@ -59,8 +59,7 @@ pub struct BenchArgs {
     pub runs: usize,
     /// Untimed renders first (shader compilation, caches, ray tables), and for at least half
     /// a second unless 0: on a shared machine the first tens of milliseconds of a small
-    /// image's renders ran up to 2× slower than the rest.
-    /// At most 100000.
+    /// image's renders ran up to 2× slower than the rest. 0 to 100000.
     #[arg(long, default_value_t = 2, value_parser = |text: &str| count_in(text, 0, MOST_RUNS))]
     pub warmup: usize,
     /// Instead of rays per second, measure time per image against error for every method
