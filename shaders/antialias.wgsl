@@ -1,6 +1,6 @@
 // Edge supersampling: one invocation per edge pixel traces samples_per_axis² stratified
 // sub-pixel rays, shades each, and writes the mean linear colour and the mean of the 8-bit
-// colours. CPU twin: crates/omnisim/src/antialias.rs.
+// colours. CPU twin: crates/omnisim/src/shade/antialias.rs.
 
 @group(0) @binding(5) var<storage, read> edge_pixels: array<u32>;
 @group(0) @binding(6) var<storage, read_write> edge_colours: array<ShadedPixel>;

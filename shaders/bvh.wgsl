@@ -1,6 +1,6 @@
 // Closest-hit and any-hit (shadow) traversal of obvhs's BVH2 (32-byte `small_bvh2_node`
 // nodes), following obvhs's `Bvh2::ray_traverse_dynamic` step for step.
-// CPU twin: crates/omnisim/src/cpu.rs (closest_hit, occluded).
+// CPU twin: crates/omnisim/src/trace/reference.rs (closest_hit, occluded).
 
 const STACK_SIZE: u32 = 64u;
 // Barycentric slack that closes the gaps f32 rounding leaves along shared edges.

@@ -15,7 +15,7 @@ const PI: f32 = 3.14159265358979;
 struct CameraParams {
     // world_from_body rotation of the pose.
     world_from_body: mat3x3<f32>,
-    // Viewpoint relative to the scene offset (see bvh.rs), metres.
+    // Viewpoint relative to the scene offset (see accel/mod.rs), metres.
     origin: vec3<f32>,
     kind: u32,
     width: u32,

@@ -1,5 +1,5 @@
 // The shading stage: hit planes, materials and lights in, colour out. WGSL twin of
-// crates/omnisim/src/shading.rs (the model is stated there and in README); nothing else maps a
+// crates/omnisim/src/shade/mod.rs (the model is stated there and in README); nothing else maps a
 // hit to a colour.
 
 // Shadow rays start this far off the face (relative to the point's distance from the scene

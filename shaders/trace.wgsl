@@ -1,6 +1,6 @@
 // Entry point: one invocation per pixel generates the camera ray, turns it into the world,
 // finds the closest face and writes the hit planes: point, range, face id and normal.
-// CPU twin: crates/omnisim/src/cpu.rs (trace_pixel).
+// CPU twin: crates/omnisim/src/trace/mod.rs (trace_pixel).
 
 fn camera_ray(pixel: vec2<f32>) -> CameraRay {
     switch camera.kind {

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::dvec3;
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::{
     BackendChoice, Camera, Catadioptric, CpuTracer, Equirectangular, Pinhole, Planes, Pose, PreparedScene, Renderer,
     Scene,

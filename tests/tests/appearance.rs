@@ -6,7 +6,7 @@
 mod common;
 
 use glam::dvec3;
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::gpu::GpuRenderer;
 use omnisim::{Appearance, Camera, Equirectangular, LightKind, Planes, Pose, Scene};
 

@@ -7,10 +7,10 @@ mod common;
 use std::f64::consts::PI;
 
 use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::camera::MirrorShape;
 use omnisim::pose::rotation_xyz;
-use omnisim::{Camera, Catadioptric, Equirectangular, Pinhole, Pose, cpu};
+use omnisim::{Camera, Catadioptric, Equirectangular, Pinhole, Pose, trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Eqs. (8)–(11) of the reference paper, row by row.
@@ -89,7 +89,7 @@ fn pinhole_reprojection(far: DVec3) {
             let p = k * (r * x + t);
             dvec2(p.x / p.z, p.y / p.z)
         };
-        let mut frames = vec![(cpu::trace(&bvh, &camera, &pose), 1e-6)];
+        let mut frames = vec![(trace::trace(&bvh, &camera, &pose), 1e-6)];
         if let Some(gpu) = &gpu {
             frames.push((gpu.render(&camera, &pose).unwrap(), 0.01));
         }
@@ -140,9 +140,9 @@ fn turning_a_panorama_about_z_shifts_it_by_whole_columns() {
     let width = 256u32;
     let camera = Camera::Equirectangular(Equirectangular { width, height: 128 });
     let position = dvec3(0.5, -0.3, 0.6);
-    let base = cpu::trace(&bvh, &camera, &Pose::new(position, DVec3::ZERO));
+    let base = trace::trace(&bvh, &camera, &Pose::new(position, DVec3::ZERO));
     let shift = 37u32;
-    let turned = cpu::trace(
+    let turned = trace::trace(
         &bvh,
         &camera,
         &Pose::new(position, dvec3(0.0, 0.0, 2.0 * PI * shift as f64 / width as f64)),

@@ -11,9 +11,9 @@ mod common;
 use std::f64::consts::PI;
 
 use glam::{DMat3, DVec2, DVec3, dvec3};
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::scene::{Face, SceneObject};
-use omnisim::{Camera, CpuTracer, Equirectangular, Pose, Scene, cpu};
+use omnisim::{Camera, CpuTracer, Equirectangular, Pose, Scene, trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Least share of image pixels on which the fast tracer must name the reference's face.
@@ -66,7 +66,7 @@ impl Agreement {
     /// is not a tie. The fast tracer's AVX2 path (where the CPU has it) and its portable path
     /// must agree exactly: the same box tests in other instructions.
     fn frames(&mut self, bvh: &SceneBvh, camera: &Camera, pose: &Pose, label: &str) {
-        let reference = cpu::trace(bvh, camera, pose);
+        let reference = trace::trace(bvh, camera, pose);
         let fast = CpuTracer::Fast.trace(bvh, camera, pose);
         let portable = CpuTracer::FastPortable.trace(bvh, camera, pose);
         for (index, (f, p)) in fast.pixels().iter().zip(portable.pixels()).enumerate() {
@@ -110,7 +110,7 @@ impl Agreement {
     /// Compares one ray's closest hits; panics on an escape or a difference that is no tie.
     fn ray(&mut self, bvh: &SceneBvh, origin: DVec3, direction: DVec3, label: &str) {
         self.pixels += 1;
-        let reference = cpu::closest_hit(bvh, origin, direction, 0.0);
+        let reference = trace::closest_hit(bvh, origin, direction, 0.0);
         let fast = CpuTracer::Fast.closest_hit(bvh, origin, direction, 0.0);
         let portable = CpuTracer::FastPortable.closest_hit(bvh, origin, direction, 0.0);
         assert_eq!(fast, portable, "{label}: fast and portable paths differ");
@@ -222,7 +222,7 @@ fn a_cluttered_room_and_its_shadow_rays_match_the_reference() {
         let (origin, offset) = (a - bvh.offset(), b - a);
         let distance = offset.length();
         let skip = rng.random_range(0..scene.faces.len() as u32);
-        let reference = cpu::occluded(&bvh, origin, offset / distance, distance, skip);
+        let reference = trace::occluded(&bvh, origin, offset / distance, distance, skip);
         let fast = CpuTracer::Fast.occluded(&bvh, origin, offset / distance, distance, skip);
         let portable = CpuTracer::FastPortable.occluded(&bvh, origin, offset / distance, distance, skip);
         assert_eq!(

@@ -4,10 +4,10 @@
 mod common;
 
 use glam::dvec3;
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::output::ExrCompression;
 use omnisim::scene::ExportFormat;
-use omnisim::{Pose, cpu, output};
+use omnisim::{Pose, output, trace};
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, Property};
 
@@ -199,7 +199,7 @@ fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     let bvh = SceneBvh::build(&scene);
     let pinhole = omnisim::Pinhole::with_horizontal_fov(160, 120, 90f64.to_radians());
     let pose = Pose::from_degrees(dvec3(-2.0, 0.3, 0.5), dvec3(0.0, 10.0, 20.0));
-    let frame = cpu::trace(&bvh, &omnisim::Camera::Pinhole(pinhole.clone()), &pose);
+    let frame = trace::trace(&bvh, &omnisim::Camera::Pinhole(pinhole.clone()), &pose);
     let mut depth = pinhole.axial_depth(&frame, &pose);
     depth[0] = f32::INFINITY; // a miss
     depth[1] = 20.0; // beyond what 16 bits hold at 1/5000 m
@@ -333,7 +333,7 @@ fn linear_colour_exr_reads_back_and_encodes_to_the_png_colour() {
         }
     }
     for (l, c) in linear.iter().zip(frame.colour().unwrap()) {
-        assert_eq!(omnisim::shading::encode(glam::Vec3::from_array(*l).as_dvec3()), *c);
+        assert_eq!(omnisim::shade::encode(glam::Vec3::from_array(*l).as_dvec3()), *c);
     }
 }
 

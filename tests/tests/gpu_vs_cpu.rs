@@ -7,8 +7,8 @@
 mod common;
 
 use glam::{DVec2, dvec3};
-use omnisim::bvh::SceneBvh;
-use omnisim::{Camera, Planes, Pose, cpu};
+use omnisim::accel::SceneBvh;
+use omnisim::{Camera, Planes, Pose, trace};
 
 /// Whether the camera's ray for this pixel meets the mirror within 5° of grazing.
 fn grazes_the_mirror(camera: &Camera, pixel: DVec2) -> bool {
@@ -42,7 +42,7 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
             let (mut pixels, mut same_face, mut worst_range, mut grazing) = (0usize, 0usize, 0f64, 0usize);
             let width = camera.size().0 as usize;
             for pose in poses() {
-                let reference = cpu::trace(&bvh, &camera, &pose);
+                let reference = trace::trace(&bvh, &camera, &pose);
                 let frame = gpu.render(&camera, &pose).expect("GPU render");
                 for (i, (r, g)) in reference.pixels().iter().zip(frame.pixels()).enumerate() {
                     pixels += 1;
@@ -126,9 +126,9 @@ fn gpu_edge_supersampling_matches_the_f64_reference() {
     };
     for camera in [Camera::Catadioptric(common::paper_omni()), common::cameras()[0].clone()] {
         let reference = antialiased(&cpu, &camera);
-        let refined = omnisim::antialias::edge_pixels(&reference).len();
+        let refined = omnisim::shade::antialias::edge_pixels(&reference).len();
         let frame = antialiased(&gpu, &camera);
-        assert_eq!(omnisim::antialias::edge_pixels(&frame).len(), refined);
+        assert_eq!(omnisim::shade::antialias::edge_pixels(&frame).len(), refined);
         let close = reference
             .colour()
             .unwrap()

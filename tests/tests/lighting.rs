@@ -9,10 +9,10 @@ use std::path::Path;
 
 use common::Tracer;
 use glam::{DMat3, DVec3, Vec3, dvec3};
-use omnisim::bvh::SceneBvh;
-use omnisim::lighting::linear_rgb;
+use omnisim::accel::SceneBvh;
+use omnisim::scene::lighting::linear_rgb;
 use omnisim::{
-    Appearance, Camera, CpuTracer, Equirectangular, Frame, Pinhole, Pixel, Plane, Planes, Pose, Scene, cpu, shading,
+    Appearance, Camera, CpuTracer, Equirectangular, Frame, Pinhole, Pixel, Plane, Planes, Pose, Scene, shade, trace,
 };
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
@@ -68,7 +68,7 @@ fn tolerance(backend: &str) -> f64 {
 /// frame plane is rounded to f32), the frame plane for the GPU.
 fn shaded_value(backend: &str, tracer: &Tracer, hit: &Pixel, plane: [f32; 3]) -> DVec3 {
     if backend == "cpu" {
-        shading::shade(
+        shade::shade(
             tracer.renderer.cpu_tracer(),
             tracer.scene.geometry(),
             tracer.scene.appearance(),
@@ -397,7 +397,7 @@ fn no_light_leaks_through_the_edges_and_corners_of_a_closed_box() {
         let origin = through + outward * 10f64.powf(rng.random_range(-6.0..0.5));
         let to_lamp = closed.lamp - origin;
         let distance = to_lamp.length();
-        if !cpu::occluded(&bvh, origin - bvh.offset(), to_lamp / distance, distance, 0) {
+        if !trace::occluded(&bvh, origin - bvh.offset(), to_lamp / distance, distance, 0) {
             leaks.push(through);
         }
     }
@@ -425,7 +425,7 @@ fn no_light_leaks_through_the_edges_and_corners_of_a_closed_box() {
             point,
             normal: Vec3::Z,
         };
-        if shading::shade(CpuTracer::Fast, &bvh, &appearance, &hit) != ambient_only {
+        if shade::shade(CpuTracer::Fast, &bvh, &appearance, &hit) != ambient_only {
             floor_leaks.push(point);
         }
     }
@@ -743,7 +743,7 @@ fn lit_rooms_are_the_reference_rooms_with_lamps_in_free_space() {
         assert_eq!(names, ["ceiling lamp", "desk lamp"], "{lit_name}");
         let bvh = SceneBvh::build(&lit);
         let object_hit = |origin: DVec3, direction: DVec3| {
-            cpu::closest_hit(&bvh, origin - bvh.offset(), direction, 0.0).map(|hit| {
+            trace::closest_hit(&bvh, origin - bvh.offset(), direction, 0.0).map(|hit| {
                 let face = &lit.faces[bvh.triangle_face(hit.triangle) as usize];
                 (lit.objects[face.object as usize].name.as_str(), hit.t)
             })

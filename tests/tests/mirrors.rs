@@ -10,9 +10,9 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use glam::{DVec2, DVec3, dvec2, dvec3};
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::camera::{MirrorShape, Mount};
-use omnisim::{Camera, Catadioptric, Cylindrical, Frame, Pinhole, Pose, Scene, StereoRig, calibration, cpu, output};
+use omnisim::{Camera, Catadioptric, Cylindrical, Frame, Pinhole, Pose, Scene, StereoRig, calibration, output, trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Mei's unified model, (ξ, γ) from the mirror's closed forms (DESIGN.md §3).
@@ -95,7 +95,7 @@ fn stereo_disparity_is_f_b_over_z_on_a_planar_wall() {
     let [left, right] = rig.cameras();
     // Facing the east wall (x = 3) squarely from x = 0.5: z = 2.5 m on the whole wall.
     let pose = Pose::from_degrees(dvec3(0.5, -0.4, 1.2), DVec3::ZERO);
-    let frame = cpu::trace(&bvh, &Camera::Pinhole(left.clone()), &pose);
+    let frame = trace::trace(&bvh, &Camera::Pinhole(left.clone()), &pose);
     let disparity = rig.disparity(&frame, &pose);
     let east_wall = scene.objects.iter().position(|o| o.name == "east wall").unwrap() as u32;
     let expected = rig.camera.fx * rig.baseline / 2.5;
@@ -125,7 +125,7 @@ fn spherical_mirror_rays_obey_the_law_of_reflection() {
     let camera = Catadioptric::spherical(200, 200, radius, distance);
     let traced = Camera::Catadioptric(camera.clone());
     let pose = Pose::from_degrees(dvec3(0.4, 0.3, 0.8), dvec3(10.0, -5.0, 30.0));
-    let frame = cpu::trace(&bvh, &traced, &pose);
+    let frame = trace::trace(&bvh, &traced, &pose);
     let body_from_world = pose.world_from_body_rotation().transpose();
     let pinhole = dvec3(0.0, 0.0, -distance);
     let mut checked = 0;
@@ -284,7 +284,7 @@ fn marker_centroids_land_where_the_unified_model_says() {
         Catadioptric::parabolic(1000, 1000, 0.04, 0.02, 25f64.to_radians()),
     ] {
         let traced = Camera::Catadioptric(camera.clone());
-        let mut frames = vec![("cpu", cpu::trace(&bvh, &traced, &pose))];
+        let mut frames = vec![("cpu", trace::trace(&bvh, &traced, &pose))];
         if let Some(gpu) = &gpu {
             frames.push(("gpu", gpu.render(&traced, &pose).unwrap()));
         }
@@ -476,7 +476,7 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
     let camera = Camera::Catadioptric(Catadioptric::spherical(160, 160, 0.05, 0.25));
     assert!(!camera.is_central());
     let pose = Pose::from_degrees(dvec3(-0.5, 0.2, 0.7), dvec3(0.0, 0.0, 45.0));
-    let frame = cpu::trace(&bvh, &camera, &pose);
+    let frame = trace::trace(&bvh, &camera, &pose);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("raymap.exr");
     output::write_ray_map_exr(&path, &camera).unwrap();

@@ -18,10 +18,10 @@ use std::f64::consts::TAU;
 use std::path::Path;
 
 use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::camera::MirrorRays;
 use omnisim::pose::rotation_xyz;
-use omnisim::{Camera, Catadioptric, Equirectangular, Frame, Pinhole, Pose, Scene, cpu};
+use omnisim::{Camera, Catadioptric, Equirectangular, Frame, Pinhole, Pose, Scene, trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Pixel radius of `common::paper_omni`'s rim circle: half the shorter image side.
@@ -213,10 +213,10 @@ fn far_scene_keeps_gpu_precision_with_the_scene_local_offset() {
         let pose = Pose::new(dvec3(0.3, -0.2, 0.5) + shift, DVec3::ZERO);
         let local = SceneBvh::build(&scene);
         let naive = SceneBvh::build_with_offset(&scene, DVec3::ZERO);
-        let reference = cpu::trace(&local, &camera, &pose);
+        let reference = trace::trace(&local, &camera, &pose);
         // The reference itself must not care where its local origin is (up to the f32
         // rounding of the range a frame stores).
-        let cpu_naive = Agreement::measure(&reference, &cpu::trace(&naive, &camera, &pose));
+        let cpu_naive = Agreement::measure(&reference, &trace::trace(&naive, &camera, &pose));
         let (Some(gpu_local), Some(gpu_naive)) =
             (common::gpu_tracer(&scene, &local), common::gpu_tracer(&scene, &naive))
         else {
@@ -324,7 +324,7 @@ fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
     };
     let camera = Camera::Catadioptric(mirror.clone());
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
-    let reference = cpu::trace(&bvh, &camera, &pose);
+    let reference = trace::trace(&bvh, &camera, &pose);
     let frame = gpu.render(&camera, &pose).expect("GPU render");
     let (mut near_rim, mut near_rim_differ, mut far_differ) = (0, 0, Vec::new());
     for ((pixel, r), g) in pixel_centres(mirror.width, mirror.height)
@@ -398,7 +398,7 @@ fn rays_at_shared_edges_and_corners_never_escape_a_cube_room() {
             for &target in &targets {
                 let distance = origin.distance(target);
                 let direction = (target - origin) / distance;
-                let hit = cpu::closest_hit(&bvh, origin, direction, 0.0)
+                let hit = trace::closest_hit(&bvh, origin, direction, 0.0)
                     .unwrap_or_else(|| panic!("{label} cube: ray from {origin} to edge point {target} escapes"));
                 worst = worst.max((hit.t - distance).abs() / distance);
                 rays += 1;
@@ -451,7 +451,7 @@ fn rays_in_and_parallel_to_the_plane_of_a_face_stop_at_the_edge_they_reach() {
             for (axis, side) in (0..3).flat_map(|axis| [(axis, -1.0), (axis, 1.0)]) {
                 for _ in 0..500 {
                     let (origin, direction, edge) = ray_along_face(&mut rng, axis, side, inset);
-                    let hit = cpu::closest_hit(
+                    let hit = trace::closest_hit(
                         &bvh,
                         centre_local + world_from_cube * origin,
                         world_from_cube * direction,
@@ -525,7 +525,7 @@ fn millimetre_marker_and_ten_kilometre_floor_on_cpu_and_gpu() {
         return;
     };
     let frames = [
-        ("CPU", cpu::trace(&bvh, &camera, &pose)),
+        ("CPU", trace::trace(&bvh, &camera, &pose)),
         ("GPU", gpu.render(&camera, &pose).expect("GPU render")),
     ];
     let mut marker_pixels = 0;

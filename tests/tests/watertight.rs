@@ -6,7 +6,7 @@ mod common;
 use std::f64::consts::PI;
 
 use glam::dvec3;
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::{Camera, CpuTracer, Equirectangular, Pose};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 

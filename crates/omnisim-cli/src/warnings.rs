@@ -1,7 +1,7 @@
 //! Warnings about renders that succeed but are probably not what was meant: poses outside the
 //! scene or inside furniture, and images that see nothing.
 
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::pose_sets::{Misplaced, misplaced};
 use omnisim::{Frame, Pose, Scene};
 

@@ -3,10 +3,10 @@
 //!
 //! Data flows one way: scene file → [`Scene`] → [`Renderer::prepare`] → [`PreparedScene`]
 //! (BVH, geometry buffers, appearance) → ([`Rig`] views, [`Pose`]) → rays → hit planes →
-//! [`shading`] (face colours and lights) → [`Frame`] planes → [`OutputSet`] (which files, per
+//! [`shade`] (face colours and lights) → [`Frame`] planes → [`OutputSet`] (which files, per
 //! view and per run; [`output`] writers) and [`RenderMetadata`] (`render.json`). [`Renderer`]
 //! holds the backend for the program's life and hides whether the GPU (wgpu, `shaders/`, the
-//! default `gpu` feature) or the f64 CPU reference ([`cpu`]) does the work.
+//! default `gpu` feature) or the CPU tracers ([`trace`]) do the work.
 //!
 //! The reference paper's omnidirectional camera in its first room, written as a PNG:
 //!
@@ -26,40 +26,35 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-pub mod antialias;
-pub mod bvh;
+pub mod accel;
 pub mod calibration;
 pub mod camera;
-pub mod cpu;
 pub mod dataset;
-mod fast;
 pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod input;
-pub mod lighting;
 pub mod metadata;
 pub mod output;
 pub mod pose;
 pub mod pose_sets;
-mod ray_table;
 pub mod renderer;
 pub mod rig;
 pub mod scene;
-pub mod shading;
-pub mod traversal;
+pub mod shade;
+pub mod trace;
 
 /// The vector and matrix types of the API (positions, angles, rotations).
 pub use glam;
 
 pub use camera::{Camera, CameraError, CameraRay, Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
-pub use cpu::CpuTracer;
 pub use frame::{Frame, Pixel, Plane, Planes};
-pub use lighting::{Light, LightKind, Lighting};
 pub use metadata::RenderMetadata;
 pub use output::{FrameTarget, OutputSet};
 pub use pose::Pose;
 pub use renderer::{BackendChoice, PreparedScene, RenderError, Renderer};
 pub use rig::{Rig, View};
+pub use scene::lighting::{Light, LightKind, Lighting};
 pub use scene::{Scene, SceneError};
-pub use shading::Appearance;
+pub use shade::Appearance;
+pub use trace::CpuTracer;

@@ -8,10 +8,10 @@ use glam::{DVec3, dvec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha12Rng;
 
-use crate::bvh::SceneBvh;
-use crate::cpu;
+use crate::accel::SceneBvh;
 use crate::pose::{MICROMETRES, Pose, rounded};
 use crate::scene::Scene;
+use crate::trace;
 
 /// Values start, start + step, … up to stop (inclusive, to within a millionth of a step).
 pub fn steps(start: f64, stop: f64, step: f64) -> Vec<f64> {
@@ -112,7 +112,7 @@ pub fn random(scene: &Scene, bvh: &SceneBvh, spec: &RandomPoses) -> Result<Vec<P
     let axes = [DVec3::X, -DVec3::X, DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z];
     let free = |p: DVec3| {
         axes.iter()
-            .all(|&d| cpu::closest_hit(bvh, p - bvh.offset, d, 0.0).is_some_and(|hit| hit.t >= spec.clearance))
+            .all(|&d| trace::closest_hit(bvh, p - bvh.offset, d, 0.0).is_some_and(|hit| hit.t >= spec.clearance))
             && misplaced(scene, bvh, p).is_none()
     };
     let draw = |rng: &mut ChaCha12Rng, lo: f64, hi: f64| if hi > lo { rng.random_range(lo..=hi) } else { lo };
@@ -187,7 +187,7 @@ pub fn misplaced(scene: &Scene, bvh: &SceneBvh, position: DVec3) -> Option<Mispl
         let mut t_min = 0.0;
         // A bounded walk: a ray crosses few faces in any sensible scene.
         for _ in 0..10_000 {
-            let Some(hit) = cpu::closest_hit(bvh, position - bvh.offset, direction, t_min) else {
+            let Some(hit) = trace::closest_hit(bvh, position - bvh.offset, direction, t_min) else {
                 break;
             };
             let object = scene.faces[bvh.face[hit.triangle] as usize].object;

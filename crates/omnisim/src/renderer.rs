@@ -7,17 +7,17 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::antialias;
-use crate::bvh::SceneBvh;
+use crate::accel::SceneBvh;
 use crate::camera::Camera;
-use crate::cpu::CpuTracer;
 use crate::frame::{Frame, NO_FACE, Planes};
 #[cfg(feature = "gpu")]
 use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
-use crate::ray_table::RayCache;
 use crate::scene::Scene;
-use crate::shading::{self, Appearance};
+use crate::shade::antialias;
+use crate::shade::{self, Appearance};
+use crate::trace::CpuTracer;
+use crate::trace::ray_table::RayCache;
 
 /// Which backend the user asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -215,7 +215,7 @@ impl Renderer {
                 let mut frame = self.rays.trace(self.cpu_tracer, &prepared.geometry, camera, pose);
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
-                    shading::shade_frame(self.cpu_tracer, geometry, appearance, &mut frame, planes);
+                    shade::shade_frame(self.cpu_tracer, geometry, appearance, &mut frame, planes);
                 }
                 frame
             }
@@ -284,7 +284,7 @@ impl Renderer {
         match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
-            None => shading::shade_frame(self.cpu_tracer, &prepared.geometry, &prepared.appearance, frame, planes),
+            None => shade::shade_frame(self.cpu_tracer, &prepared.geometry, &prepared.appearance, frame, planes),
         }
         Ok(())
     }

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use glam::{DMat3, DVec3, dvec3};
-use omnisim::bvh::SceneBvh;
+use omnisim::accel::SceneBvh;
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
 use omnisim::{
     BackendChoice, Camera, Catadioptric, CpuTracer, Cylindrical, Equirectangular, Frame, Pinhole, Planes, Pose,

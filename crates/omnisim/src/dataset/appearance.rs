@@ -9,16 +9,16 @@ use serde::Serialize;
 
 use super::rng::{Purpose, stream};
 use super::spec::{ColourChange, LightChange, SetSpec};
-use crate::lighting::{LightKind, linear_rgb};
 use crate::scene::Scene;
-use crate::shading::Appearance;
+use crate::scene::lighting::{LightKind, linear_rgb};
+use crate::shade::Appearance;
 
 /// What a frame's lights and colours were, for its manifest entry.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct AppearanceRecord {
     /// Every light after the set's and the frame's changes (absent in unlit scenes).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub lighting: Option<crate::lighting::Lighting>,
+    pub lighting: Option<crate::scene::lighting::Lighting>,
     /// The 8-bit shift of each shifted object, per channel.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub colour_shifts: BTreeMap<String, [i16; 3]>,

@@ -25,7 +25,7 @@ use glam::{DVec3, dvec3};
 
 pub use run::{FrameDone, RunOptions, RunSummary, Shard, merge};
 
-use crate::bvh::SceneBvh;
+use crate::accel::SceneBvh;
 use crate::camera::{
     Catadioptric, Cylindrical, Equirectangular, MirrorRays, MirrorShape, Misalignment, Mount, Pinhole,
 };

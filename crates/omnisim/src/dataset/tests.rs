@@ -696,7 +696,7 @@ fn scheduled_light_changes_apply_to_their_frames_only_and_keep_the_flicker_draws
                 let lighting = record.lighting.unwrap();
                 let state = |name: &str| {
                     let light = lighting.lights.iter().find(|l| l.name == name).unwrap();
-                    let crate::lighting::LightKind::Point { intensity, .. } = light.kind else {
+                    let crate::scene::lighting::LightKind::Point { intensity, .. } = light.kind else {
                         panic!("point light")
                     };
                     (light.on, intensity)
@@ -774,7 +774,7 @@ fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
             let towards = (lamp - hit.point).normalize();
             let facing = hit.normal.as_dvec3().dot(towards) > 0.0;
             let origin = hit.point - bvh.offset + hit.normal.as_dvec3() * 1e-7;
-            facing && !crate::cpu::occluded(bvh, origin, towards, (lamp - hit.point).length(), hit.face)
+            facing && !crate::trace::occluded(bvh, origin, towards, (lamp - hit.point).length(), hit.face)
         };
         assert_eq!(changed, lamp_lights_it, "pixel {i}");
         if changed {

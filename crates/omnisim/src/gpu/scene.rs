@@ -11,9 +11,9 @@ use wgpu::util::DeviceExt;
 use super::context::{GpuContext, GpuError};
 use super::layout::{GpuLight, ShadingParams, Triangle};
 use super::shader;
-use crate::bvh::SceneBvh;
-use crate::lighting::{LightKind, linear_rgb};
-use crate::shading::Appearance;
+use crate::accel::SceneBvh;
+use crate::scene::lighting::{LightKind, linear_rgb};
+use crate::shade::Appearance;
 
 /// Per-frame buffers for one band size, reused between frames of one size.
 pub(super) struct BandBuffers {

@@ -237,7 +237,7 @@ impl GpuRenderer {
         frame: &mut Frame,
         samples_per_axis: u32,
     ) -> Result<usize, GpuError> {
-        let edges: Vec<u32> = crate::antialias::edge_pixels(frame)
+        let edges: Vec<u32> = crate::shade::antialias::edge_pixels(frame)
             .into_iter()
             .map(|i| i as u32)
             .collect();

@@ -40,7 +40,7 @@ pub struct SceneFile {
     pub lighting: Option<LightingFile>,
 }
 
-/// The lighting of a scene (model in `lighting.rs` and README).
+/// The lighting of a scene (model in `scene/lighting.rs` and README).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LightingFile {

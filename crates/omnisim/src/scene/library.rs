@@ -9,8 +9,8 @@ use super::file::{
     AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile,
 };
 use super::{Face, Scene, SceneError, SceneObject, Vertices, locate, mesh, names, validate};
-use crate::lighting::{Light, LightKind, Lighting, linear_rgb};
 use crate::pose::rotation_xyz;
+use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb};
 
 /// Box face names, in the order their colours are listed in error messages.
 const BOX_FACES: [&str; 6] = ["front", "back", "left", "right", "top", "bottom"];

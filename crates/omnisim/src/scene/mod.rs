@@ -8,6 +8,7 @@ mod error;
 mod export;
 pub mod file;
 mod library;
+pub mod lighting;
 pub(crate) mod locate;
 mod mesh;
 mod names;
@@ -62,7 +63,7 @@ pub struct Scene {
     /// Every face of every object, in object order.
     pub faces: Vec<Face>,
     /// Light points and exposure; `None` draws every face in its flat colour.
-    pub lighting: Option<crate::lighting::Lighting>,
+    pub lighting: Option<lighting::Lighting>,
     /// Things the user may want to know that did not stop loading (e.g. dropped degenerate
     /// mesh triangles).
     pub warnings: Vec<String>,

@@ -1,4 +1,4 @@
-//! Light points, the ambient term and exposure: what the shading stage (`shading.rs` and its
+//! Light points, the ambient term and exposure: what the shading stage (`shade/mod.rs` and its
 //! WGSL twin `shaders/shade.wgsl`) turns into colour.
 //!
 //! The model is photometric and stated in README: a face's linear albedo is its sRGB colour

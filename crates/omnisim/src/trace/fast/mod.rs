@@ -1,7 +1,7 @@
 //! The fast CPU tracer: f32 traversal of an 8-wide BVH and a conservative f32 triangle filter,
 //! with every hit decided and measured by the reference's f64 triangle test.
 //!
-//! The f32 stages only discard work: boxes are padded (`bvh.rs`) and the four-lane triangle
+//! The f32 stages only discard work: boxes are padded (`accel/mod.rs`) and the four-lane triangle
 //! test (`groups.rs`) rejects a triangle only with a margin above its rounding error, so the
 //! f64 test sees every triangle the reference tracer would accept. Faces, ranges and points
 //! therefore equal the reference's; where two triangles lie at exactly the same f64 distance
@@ -14,16 +14,16 @@ mod wide;
 
 use glam::DVec3;
 
-pub(crate) use wide::{PACKET, WideBvh};
+pub(crate) use wide::PACKET;
 
-use crate::bvh::SceneBvh;
-use crate::cpu::{self, Hit};
-use crate::traversal::Counter;
+use crate::accel::SceneBvh;
+use crate::trace::counts::Counter;
+use crate::trace::triangle::{self, Hit};
 use lanes::{Lanes8, Wide};
 use rays::{LaneRay, PacketRays};
 
 /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`: the same hit as
-/// [`cpu::closest_hit`], found faster. `portable` keeps to the portable box test even where
+/// [`crate::trace::reference::closest_hit`], found faster. `portable` keeps to the portable box test even where
 /// the CPU has AVX2 (the path of other machines, which tests exercise).
 pub(crate) fn closest_hit<C: Counter>(
     bvh: &SceneBvh,
@@ -77,7 +77,7 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
     let t_lo = rays::t_lo(t_min);
     bvh.wide
         .traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, counter, |triangle| {
-            cpu::nearer(bvh, origin, direction, t_min, &mut best, triangle)
+            triangle::nearer(bvh, origin, direction, t_min, &mut best, triangle)
         });
     best
 }
@@ -116,7 +116,7 @@ fn closest_hits_in<W: Wide>(
     let mut best = [None; PACKET];
     let mut visit = |r: usize, triangle| {
         let (origin, direction, t_min) = rays[r];
-        cpu::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
+        triangle::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
     };
     // The interval walk is tight only for rays whose directions share their signs, so a
     // packet that straddles an axis plane is walked once per octant it spans (callgrind, omni
@@ -147,7 +147,7 @@ fn octants(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [u64; 8] {
 }
 
 /// Whether anything but face `skip_face` lies on the ray strictly between 0 and `t_max`:
-/// [`cpu::occluded`]'s answer, found faster (`portable` as for [`closest_hit`]).
+/// [`crate::trace::reference::occluded`]'s answer, found faster (`portable` as for [`closest_hit`]).
 pub(crate) fn occluded(
     bvh: &SceneBvh,
     origin: DVec3,
@@ -177,8 +177,8 @@ fn occluded_in<const AVX: bool>(bvh: &SceneBvh, origin: DVec3, direction: DVec3,
     let ray = LaneRay::new(origin, direction, bvh.wide.extent);
     let mut blocked = false;
     bvh.wide
-        .traverse::<AVX, ()>(&ray, 0.0, cpu::shadow_bound(t_max), &mut (), |triangle| {
-            cpu::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
+        .traverse::<AVX, ()>(&ray, 0.0, triangle::shadow_bound(t_max), &mut (), |triangle| {
+            triangle::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
         });
     blocked
 }

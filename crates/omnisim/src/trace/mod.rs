@@ -1,20 +1,29 @@
-//! The CPU tracers: the f64 reference (the accuracy yardstick for the GPU path and the fast
-//! tracer) and the choice between it and the fast tracer (`fast/`).
+//! Tracing: camera rays through the acceleration structure to hit planes, on the CPU.
 //!
-//! The reference's BVH traversal (`traversal.rs`) uses obvhs's f32 boxes (padded in `bvh.rs`,
-//! so they cull conservatively); every triangle test and every returned distance is f64. The
-//! fast tracer culls more in f32 but decides every hit with the same f64 test. Tracing yields
-//! hit planes only; `shading.rs` turns them into colour.
+//! The layers, each importing only those below it: [`triangle`] (the f64 test that decides
+//! every hit, and the closest-hit and any-hit steps), [`counts`] (what `omnisim bench`
+//! counts), the walks ([`reference`]: the BVH2, f64 end to end, the accuracy yardstick for the
+//! GPU path and the fast tracer; `fast/`: the 8-wide BVH with f32 filters and packets), and
+//! here the choice between them ([`CpuTracer`]) and the tiling of frames into rays and packets.
+//! The BVHs themselves are built in `accel/`; tracing yields hit planes only, which `shade/`
+//! turns into colour.
+
+pub mod counts;
+mod fast;
+pub(crate) mod ray_table;
+pub mod reference;
+pub mod triangle;
 
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
-use crate::bvh::SceneBvh;
+use crate::accel::SceneBvh;
 use crate::camera::{Camera, CameraRay};
-use crate::fast;
 use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
-use crate::traversal::{BoxRay, Counter, TraversalCounts, Visit, traverse};
+use counts::{Counter, TraversalCounts};
+pub use reference::{closest_hit, occluded};
+pub use triangle::Hit;
 
 /// Which CPU tracer traces. Both return the same faces and the same f64 ranges and points;
 /// only at exact ties (two faces at the same f64 distance, a ray along a shared edge) may they
@@ -58,7 +67,7 @@ impl CpuTracer {
         match self {
             Self::Fast => fast::closest_hit(bvh, origin, direction, t_min, counter, false),
             Self::FastPortable => fast::closest_hit(bvh, origin, direction, t_min, counter, true),
-            Self::Reference => closest_hit_counted(bvh, origin, direction, t_min, counter),
+            Self::Reference => reference::closest_hit_counted(bvh, origin, direction, t_min, counter),
         }
     }
 
@@ -181,131 +190,6 @@ fn pixel(bvh: &SceneBvh, origin: DVec3, direction: DVec3, hit: Hit) -> Pixel {
     }
 }
 
-/// Barycentric slack that closes the gaps f64 rounding leaves along shared edges.
-const EDGE_TOLERANCE: f64 = 1e-10;
-
-/// A closest hit: distance along the (unit) ray and triangle index in BVH order.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Hit {
-    /// Distance along the ray.
-    pub t: f64,
-    /// Triangle index in BVH leaf order.
-    pub triangle: usize,
-}
-
-/// Möller–Trumbore in f64; returns t where the ray meets the triangle.
-#[inline(always)]
-pub(crate) fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -> Option<f64> {
-    let e1 = corners[1] - corners[0];
-    let e2 = corners[2] - corners[0];
-    let p = direction.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = origin - corners[0];
-    let u = s.dot(p) * inv;
-    if !(-EDGE_TOLERANCE..=1.0 + EDGE_TOLERANCE).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = direction.dot(q) * inv;
-    if v < -EDGE_TOLERANCE || u + v > 1.0 + EDGE_TOLERANCE {
-        return None;
-    }
-    Some(e2.dot(q) * inv)
-}
-
-/// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`, by the reference
-/// tracer.
-pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) -> Option<Hit> {
-    closest_hit_counted(bvh, origin, direction, t_min, &mut ())
-}
-
-/// [`closest_hit`], counting its box and triangle tests.
-fn closest_hit_counted<C: Counter>(
-    bvh: &SceneBvh,
-    origin: DVec3,
-    direction: DVec3,
-    t_min: f64,
-    counter: &mut C,
-) -> Option<Hit> {
-    let mut best: Option<Hit> = None;
-    let ray = BoxRay::new(origin, direction);
-    traverse(&bvh.bvh, &ray, f32::INFINITY, counter, |triangle| {
-        nearer(bvh, origin, direction, t_min, &mut best, triangle)
-    });
-    best
-}
-
-/// The closest-hit step of both tracers: the f64 test of `triangle`, kept in `best` if it is
-/// the nearest hit beyond `t_min` so far.
-#[inline(always)]
-pub(crate) fn nearer(
-    bvh: &SceneBvh,
-    origin: DVec3,
-    direction: DVec3,
-    t_min: f64,
-    best: &mut Option<Hit>,
-    triangle: usize,
-) -> Visit {
-    match intersect(&bvh.triangles[triangle], origin, direction) {
-        Some(t) if t > t_min && best.is_none_or(|b| t < b.t) => {
-            *best = Some(Hit { t, triangle });
-            // Rounded up so the f32 culling never discards a nearer candidate.
-            Visit::Closer((t * (1.0 + 1e-6)) as f32)
-        }
-        _ => Visit::Miss,
-    }
-}
-
-/// Whether anything but face `skip_face` lies on the ray (scene-local origin, unit
-/// direction) strictly between t = 0 and `t_max`: the shadow test, by the reference tracer.
-/// Any hit ends the search.
-pub fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
-    let mut blocked = false;
-    let ray = BoxRay::new(origin, direction);
-    traverse(&bvh.bvh, &ray, shadow_bound(t_max), &mut (), |triangle| {
-        blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
-    });
-    blocked
-}
-
-/// `t_max` as an f32 culling bound, rounded up so that culling never drops an occluder the
-/// f64 test accepts.
-pub(crate) fn shadow_bound(t_max: f64) -> f32 {
-    if t_max.is_finite() {
-        (t_max * (1.0 + 1e-6) + 1e-6) as f32
-    } else {
-        f32::INFINITY
-    }
-}
-
-/// The any-hit step of both tracers: whether `triangle` (not of face `skip_face`) lies on the
-/// ray strictly between 0 and `t_max` by the f64 test; sets `blocked` and stops if so.
-#[inline(always)]
-pub(crate) fn blocks(
-    bvh: &SceneBvh,
-    origin: DVec3,
-    direction: DVec3,
-    t_max: f64,
-    skip_face: u32,
-    blocked: &mut bool,
-    triangle: usize,
-) -> Visit {
-    if bvh.face[triangle] == skip_face {
-        return Visit::Miss;
-    }
-    match intersect(&bvh.triangles[triangle], origin, direction) {
-        Some(t) if t > 0.0 && t < t_max => {
-            *blocked = true;
-            Visit::Stop
-        }
-        _ => Visit::Miss,
-    }
-}
-
 /// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
 pub(crate) struct LocalPose {
     world_from_body: DMat3,
@@ -332,30 +216,4 @@ impl LocalPose {
 /// Traces one frame's hit planes with the reference tracer, on all CPU threads.
 pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
     CpuTracer::Reference.trace(bvh, camera, pose)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn axis_rays_with_negative_zero_components_hit_the_walls() {
-        let text = r#"Scene(name: "cube", objects: [Box(name: "room", size: (4.0, 2.0, 2.0), colour: (9, 9, 9))])"#;
-        let scene = crate::scene::Scene::from_ron(text, std::path::Path::new("cube.ron")).unwrap();
-        let bvh = SceneBvh::build(&scene);
-        let origin = DVec3::new(0.1, 0.2, 0.9) - bvh.offset;
-        // −DVec3::X is (−1, −0, −0): signed zeros must not change what a ray hits.
-        let expected = [
-            (DVec3::X, 1.9),
-            (-DVec3::X, 2.1),
-            (DVec3::Y, 0.8),
-            (-DVec3::Y, 1.2),
-            (DVec3::Z, 1.1),
-            (-DVec3::Z, 0.9),
-        ];
-        for (direction, distance) in expected {
-            let hit = closest_hit(&bvh, origin, direction, 0.0).unwrap_or_else(|| panic!("{direction} escaped"));
-            assert!((hit.t - distance).abs() < 1e-12, "{direction}: {} vs {distance}", hit.t);
-        }
-    }
 }

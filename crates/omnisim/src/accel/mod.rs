@@ -5,6 +5,8 @@
 //! They are reordered into BVH leaf order, so a leaf's `first_index..first_index+prim_count`
 //! addresses them directly on both CPU and GPU.
 
+pub(crate) mod wide;
+
 use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec3A};
@@ -12,9 +14,9 @@ use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 
-use crate::fast::WideBvh;
 use crate::scene::Scene;
 use crate::scene::triangulate::TriangleIndex;
+use wide::WideBvh;
 
 /// obvhs's medium build with leaves of at most two triangles instead of eight. Counted by
 /// `omnisim bench` on the clutter anchor (240k triangles), equirectangular from its centre:
@@ -120,7 +122,7 @@ impl SceneBvh {
         self.build_time
     }
 
-    /// Scene face of triangle `triangle` (an index in BVH leaf order, as in [`crate::cpu::Hit`]).
+    /// Scene face of triangle `triangle` (an index in BVH leaf order, as in [`crate::trace::Hit`]).
     pub fn triangle_face(&self, triangle: usize) -> u32 {
         self.face[triangle]
     }

@@ -1,19 +1,21 @@
 //! The shading stage: hits, materials and lights in, colour out. This is the one f64
 //! implementation; `shaders/shade.wgsl` is its WGSL twin. Nothing else maps a hit to a colour.
 //!
-//! Model (README, `lighting.rs`): linear = albedo · (ambient + Σ visible E_light) / white,
+//! Model (README, `scene/lighting.rs`): linear = albedo · (ambient + Σ visible E_light) / white,
 //! E_light = I·cosθ/d² (point) or E⊥·cosθ (directional), sRGB encoding last. A scene without
 //! lighting is drawn in flat face colours (linear = albedo), exactly as the files say.
+
+pub mod antialias;
 
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::bvh::SceneBvh;
-use crate::cpu::CpuTracer;
+use crate::accel::SceneBvh;
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
-use crate::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
 use crate::scene::Scene;
+use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
+use crate::trace::CpuTracer;
 
 /// Shadow rays start this far (relative to the point's distance from the scene centre, plus
 /// one) off the face, on the lit side: far above f64 rounding, far below any real gap. The
@@ -86,7 +88,7 @@ fn illuminance(tracer: CpuTracer, geometry: &SceneBvh, lighting: &Lighting, hit:
 
 /// Shades every pixel of `frame` on all CPU threads, filling the planes `planes` asks for.
 /// Without lighting a pixel's 8-bit colour is its
-/// face's colour, which is what encoding the decoded colour gives (`lighting.rs` tests every
+/// face's colour, which is what encoding the decoded colour gives (`scene/lighting.rs` tests every
 /// byte), without the cost of encoding.
 pub(crate) fn shade_frame(
     tracer: CpuTracer,

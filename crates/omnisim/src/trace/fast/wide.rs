@@ -1,93 +1,17 @@
-//! An 8-wide BVH collapsed from the BVH2, and its two walks: one ray at a time
+//! The two walks of the 8-wide BVH (`accel/wide.rs`): one ray at a time
 //! ([`WideBvh::traverse`]) and a packet of rays by interval arithmetic
 //! ([`WideBvh::traverse_interval`]).
-//!
-//! Each node holds the boxes of up to eight children as two `Vec4`s per coordinate (one lane per
-//! child), so a node visit is two four-lane slab tests (one eight-lane test with AVX). A child
-//! is an inner node or a leaf of one or more [`TriangleGroup`]s. The boxes are the BVH2's,
-//! padded as `bvh.rs` pads them, so culling is as conservative as the reference tracer's.
 
-use glam::{DVec3, Vec4};
-use obvhs::bvh2::Bvh2;
-use obvhs::bvh2::node::Bvh2Node;
+use glam::Vec4;
 
-use super::groups::{TriangleGroup, filter};
+use super::groups::filter;
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
-use crate::traversal::{Counter, Visit};
-
-/// Marks a child index as a leaf (the rest is its first triangle group).
-const LEAF: u32 = 1 << 31;
-
-/// A leaf's first group, below its group count.
-const GROUP_INDEX: u32 = (1 << 28) - 1;
-/// A leaf's group count minus one sits in bits 28–30.
-const GROUP_COUNT_SHIFT: u32 = 28;
-/// Groups a leaf may span (BVH2 leaves of up to 28 triangles; `bvh.rs` makes at most two).
-const MAX_LEAF_GROUPS: usize = 8;
-
-/// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
-/// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
-/// the clock in three interleaved rounds (docs/benchmarks.md).
-const HALVES: usize = 2;
-const WIDTH: usize = 4 * HALVES;
-
-/// Subtrees of at most this many triangles become one leaf (one group of four lanes).
-const LEAF_TRIANGLES: u32 = 4;
-
-/// Eight children's boxes, lane i = child i.
-#[derive(Debug, Clone, Copy)]
-struct WideNode {
-    min: [[Vec4; HALVES]; 3],
-    max: [[Vec4; HALVES]; 3],
-    /// Node index, or `LEAF` | (group count − 1) << `GROUP_COUNT_SHIFT` | first group.
-    child: [u32; WIDTH],
-    /// Bit i set where child i exists.
-    lanes: u32,
-}
-
-/// The wide BVH and its triangles, four to a group.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct WideBvh {
-    nodes: Vec<WideNode>,
-    groups: Vec<TriangleGroup>,
-    /// Deepest level below the root, which sizes the traversal stack.
-    depth: usize,
-    /// Largest absolute coordinate of any triangle (scene-local), for the f32 error bound.
-    pub(crate) extent: f32,
-}
+use crate::accel::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, TriangleGroup, WIDTH, WideBvh, WideNode};
+use crate::trace::counts::Counter;
+use crate::trace::triangle::Visit;
 
 impl WideBvh {
-    /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
-    pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
-        let extent = triangles
-            .iter()
-            .flatten()
-            .fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
-        let mut wide = Self {
-            extent,
-            ..Self::default()
-        };
-        if bvh.nodes.is_empty() {
-            return wide;
-        }
-        let counts = subtree_triangles(&bvh.nodes);
-        let builder = Builder {
-            nodes: &bvh.nodes,
-            counts: &counts,
-            triangles,
-        };
-        // A root that is (or fits) one leaf is the single child of a node of its own.
-        let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
-            vec![0]
-        } else {
-            builder.open(0)
-        };
-        wide.nodes.push(empty_node());
-        builder.fill(&mut wide, 0, &root, 0);
-        wide
-    }
-
     /// Walks the BVH along `ray`, nearest child first, calling `visit` for every triangle
     /// (leaf order) the f32 test cannot reject between `t_lo` and the current bound (`t_hi`
     /// at first, then what `visit` returns). `AVX` tests a node's eight boxes with AVX
@@ -402,127 +326,11 @@ fn enter_avx(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
     enter(node, ray, t_hi)
 }
 
-fn empty_node() -> WideNode {
-    WideNode {
-        min: [[Vec4::ZERO; HALVES]; 3],
-        max: [[Vec4::ZERO; HALVES]; 3],
-        child: [0; WIDTH],
-        lanes: 0,
-    }
-}
-
-/// Triangles below each BVH2 node.
-fn subtree_triangles(nodes: &[Bvh2Node]) -> Vec<u32> {
-    let mut counts = vec![0u32; nodes.len()];
-    // Children before parents: a reverse pre-order walk.
-    let mut order = Vec::with_capacity(nodes.len());
-    let mut pending = vec![0usize];
-    while let Some(index) = pending.pop() {
-        order.push(index);
-        let node = &nodes[index];
-        if !node.is_leaf() {
-            pending.push(node.first_index as usize);
-            pending.push(node.first_index as usize + 1);
-        }
-    }
-    for &index in order.iter().rev() {
-        let node = &nodes[index];
-        counts[index] = if node.is_leaf() {
-            node.prim_count
-        } else {
-            counts[node.first_index as usize] + counts[node.first_index as usize + 1]
-        };
-    }
-    counts
-}
-
-/// Half the surface area of a BVH2 node's box: which child to open first.
-fn half_area(node: &Bvh2Node) -> f32 {
-    let size = node.max - node.min;
-    size.x * size.y + size.y * size.z + size.z * size.x
-}
-
-struct Builder<'a> {
-    nodes: &'a [Bvh2Node],
-    counts: &'a [u32],
-    triangles: &'a [[DVec3; 3]],
-}
-
-impl Builder<'_> {
-    /// Fills wide node `slot` with the BVH2 nodes `children` (at most `WIDTH`), opening each
-    /// child that needs a node of its own; `depth` is the slot's depth.
-    fn fill(&self, wide: &mut WideBvh, slot: usize, children: &[usize], depth: usize) {
-        wide.depth = wide.depth.max(depth);
-        let mut node = empty_node();
-        for (lane, &index) in children.iter().enumerate() {
-            let source = &self.nodes[index];
-            for axis in 0..3 {
-                node.min[axis][lane / 4][lane % 4] = source.min[axis];
-                node.max[axis][lane / 4][lane % 4] = source.max[axis];
-            }
-            node.lanes |= 1 << lane;
-            if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
-                let mut leaf = Vec::new();
-                self.gather(index, &mut leaf);
-                let groups = leaf.len().div_ceil(4);
-                assert!(
-                    groups <= MAX_LEAF_GROUPS && wide.groups.len() < GROUP_INDEX as usize,
-                    "BVH2 leaf of {} triangles, or over 2^28 groups",
-                    leaf.len()
-                );
-                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | wide.groups.len() as u32;
-                wide.groups
-                    .extend(leaf.chunks(4).map(|chunk| TriangleGroup::new(self.triangles, chunk)));
-            } else {
-                node.child[lane] = wide.nodes.len() as u32;
-                wide.nodes.push(empty_node());
-            }
-        }
-        wide.nodes[slot] = node;
-        for (lane, &index) in children.iter().enumerate() {
-            if node.child[lane] & LEAF == 0 {
-                let grandchildren = self.open(index);
-                self.fill(wide, node.child[lane] as usize, &grandchildren, depth + 1);
-            }
-        }
-    }
-
-    /// The up to `WIDTH` BVH2 nodes that replace inner node `index`: its two children, then
-    /// repeatedly the two children of the largest inner one among them.
-    fn open(&self, index: usize) -> Vec<usize> {
-        let first = self.nodes[index].first_index as usize;
-        let mut children = vec![first, first + 1];
-        while children.len() < WIDTH {
-            let openable = children
-                .iter()
-                .enumerate()
-                .filter(|&(_, &c)| !self.nodes[c].is_leaf() && self.counts[c] > LEAF_TRIANGLES)
-                .max_by(|a, b| half_area(&self.nodes[*a.1]).total_cmp(&half_area(&self.nodes[*b.1])));
-            let Some((position, &chosen)) = openable else {
-                break;
-            };
-            let first = self.nodes[chosen].first_index as usize;
-            children[position] = first;
-            children.push(first + 1);
-        }
-        children
-    }
-
-    /// Triangle indices (leaf order) below BVH2 node `index`.
-    fn gather(&self, index: usize, into: &mut Vec<u32>) {
-        let node = &self.nodes[index];
-        if node.is_leaf() {
-            into.extend(node.first_index..node.first_index + node.prim_count);
-        } else {
-            self.gather(node.first_index as usize, into);
-            self.gather(node.first_index as usize + 1, into);
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::wide::empty_node;
+    use glam::DVec3;
     use rand::{Rng, SeedableRng, rngs::StdRng};
 
     fn unit(rng: &mut StdRng) -> DVec3 {
@@ -589,7 +397,7 @@ mod tests {
             } else {
                 rng.random::<u64>() | 1
             };
-            let bounds = PacketRays::<crate::fast::lanes::Lanes8>::new(&packet, active, 30.0).bounds;
+            let bounds = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, active, 30.0).bounds;
             let t_hi: Vec<f32> = (0..PACKET)
                 .map(|_| {
                     if rng.random_bool(0.3) {

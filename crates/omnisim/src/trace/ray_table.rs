@@ -9,11 +9,11 @@ use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
-use crate::bvh::SceneBvh;
+use crate::accel::SceneBvh;
 use crate::camera::{Camera, CameraRay};
-use crate::cpu::CpuTracer;
 use crate::frame::Frame;
 use crate::pose::Pose;
+use crate::trace::CpuTracer;
 
 /// Cameras whose rays are kept: two, so a stereo rig's left and right views alternate
 /// without recomputing.

@@ -1,4 +1,5 @@
-//! Stack traversal of the BVH2 for the CPU tracer, generic over what it counts.
+//! The reference tracer: a stack walk of the BVH2 with the f64 test of every triangle reached,
+//! generic over what it counts.
 //!
 //! The algorithm is obvhs's `Bvh2::ray_traverse_dynamic` (and `shaders/bvh.wgsl`) step by step:
 //! test both children of a node, handle hit leaves at once, go on into the nearer hit inner
@@ -16,59 +17,9 @@ use obvhs::fast_stack;
 use obvhs::faststack::FastStack;
 use obvhs::ray::safe_inverse;
 
-/// What a traversal counts; `()` counts nothing and costs nothing.
-pub trait Counter {
-    /// One ray–box test.
-    fn node_test(&mut self);
-    /// One ray–primitive test.
-    fn primitive_test(&mut self);
-    /// One f64 triangle test after an f32 filter let the triangle through (fast tracer).
-    fn exact_test(&mut self) {}
-}
-
-impl Counter for () {
-    #[inline(always)]
-    fn node_test(&mut self) {}
-    #[inline(always)]
-    fn primitive_test(&mut self) {}
-}
-
-/// Box and primitive tests, summed over any number of rays.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct TraversalCounts {
-    /// f32 box tests (two per inner node visited in the BVH2, one per child of a wide node).
-    pub node_tests: u64,
-    /// Triangle tests: f64 in the reference tracer, f32 (one per lane) in the fast tracer.
-    pub primitive_tests: u64,
-    /// f64 triangle tests of the fast tracer (triangles its f32 filter let through).
-    pub exact_tests: u64,
-}
-
-impl Counter for TraversalCounts {
-    #[inline(always)]
-    fn node_test(&mut self) {
-        self.node_tests += 1;
-    }
-    #[inline(always)]
-    fn primitive_test(&mut self) {
-        self.primitive_tests += 1;
-    }
-    #[inline(always)]
-    fn exact_test(&mut self) {
-        self.exact_tests += 1;
-    }
-}
-
-impl std::ops::Add for TraversalCounts {
-    type Output = Self;
-    fn add(self, other: Self) -> Self {
-        Self {
-            node_tests: self.node_tests + other.node_tests,
-            primitive_tests: self.primitive_tests + other.primitive_tests,
-            exact_tests: self.exact_tests + other.exact_tests,
-        }
-    }
-}
+use super::counts::Counter;
+use super::triangle::{Hit, Visit, blocks, nearer, shadow_bound};
+use crate::accel::SceneBvh;
 
 /// A ray prepared for f32 slab tests against the (padded, conservative) node boxes.
 pub(crate) struct BoxRay {
@@ -107,16 +58,6 @@ impl BoxRay {
         let far = t1.max(t2).min_element();
         if far >= near && far >= 0.0 { near } else { f32::INFINITY }
     }
-}
-
-/// What to do with a primitive the traversal reached.
-pub(crate) enum Visit {
-    /// No hit nearer than the current bound.
-    Miss,
-    /// A hit: boxes entered beyond this f32 distance are skipped from now on.
-    Closer(f32),
-    /// Stop the traversal (an any-hit query found its answer).
-    Stop,
 }
 
 /// Walks `bvh` along `ray`, nearest child first, calling `visit` for every primitive (index
@@ -194,10 +135,44 @@ pub(crate) fn traverse<C: Counter>(
     })
 }
 
+/// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`, by the reference
+/// tracer.
+pub fn closest_hit(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_min: f64) -> Option<Hit> {
+    closest_hit_counted(bvh, origin, direction, t_min, &mut ())
+}
+
+/// [`closest_hit`], counting its box and triangle tests.
+pub(super) fn closest_hit_counted<C: Counter>(
+    bvh: &SceneBvh,
+    origin: DVec3,
+    direction: DVec3,
+    t_min: f64,
+    counter: &mut C,
+) -> Option<Hit> {
+    let mut best: Option<Hit> = None;
+    let ray = BoxRay::new(origin, direction);
+    traverse(&bvh.bvh, &ray, f32::INFINITY, counter, |triangle| {
+        nearer(bvh, origin, direction, t_min, &mut best, triangle)
+    });
+    best
+}
+
+/// Whether anything but face `skip_face` lies on the ray (scene-local origin, unit
+/// direction) strictly between t = 0 and `t_max`: the shadow test, by the reference tracer.
+/// Any hit ends the search.
+pub fn occluded(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
+    let mut blocked = false;
+    let ray = BoxRay::new(origin, direction);
+    traverse(&bvh.bvh, &ray, shadow_bound(t_max), &mut (), |triangle| {
+        blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
+    });
+    blocked
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::SceneBvh;
+    use crate::trace::counts::TraversalCounts;
 
     fn env1() -> SceneBvh {
         let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"));
@@ -251,5 +226,26 @@ mod tests {
         assert_eq!(counts.primitive_tests, visited);
         // The root, then both children of every inner node entered.
         assert!(counts.node_tests >= 3 && counts.node_tests % 2 == 1, "{counts:?}");
+    }
+
+    #[test]
+    fn axis_rays_with_negative_zero_components_hit_the_walls() {
+        let text = r#"Scene(name: "cube", objects: [Box(name: "room", size: (4.0, 2.0, 2.0), colour: (9, 9, 9))])"#;
+        let scene = crate::scene::Scene::from_ron(text, std::path::Path::new("cube.ron")).unwrap();
+        let bvh = SceneBvh::build(&scene);
+        let origin = DVec3::new(0.1, 0.2, 0.9) - bvh.offset;
+        // −DVec3::X is (−1, −0, −0): signed zeros must not change what a ray hits.
+        let expected = [
+            (DVec3::X, 1.9),
+            (-DVec3::X, 2.1),
+            (DVec3::Y, 0.8),
+            (-DVec3::Y, 1.2),
+            (DVec3::Z, 1.1),
+            (-DVec3::Z, 0.9),
+        ];
+        for (direction, distance) in expected {
+            let hit = closest_hit(&bvh, origin, direction, 0.0).unwrap_or_else(|| panic!("{direction} escaped"));
+            assert!((hit.t - distance).abs() < 1e-12, "{direction}: {} vs {distance}", hit.t);
+        }
     }
 }

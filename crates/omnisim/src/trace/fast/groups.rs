@@ -6,7 +6,9 @@
 //! which alone decides hits and distances. So the fast tracer finds exactly the triangles the
 //! f64 reference finds.
 
-use glam::{DVec3, Vec4};
+use glam::Vec4;
+
+use crate::accel::wide::{TriangleGroup, TriangleLanes};
 
 use super::lanes::{Lanes, Wide};
 
@@ -15,7 +17,7 @@ use super::lanes::{Lanes, Wide};
 /// docs/architecture.md, "The fast CPU tracer"); 64 leaves a margin.
 const ERROR_ULPS: f32 = 64.0 * f32::EPSILON / 2.0;
 
-/// Barycentric slack of the f64 test (`cpu::EDGE_TOLERANCE`), rounded up: what the f32 test
+/// Barycentric slack of the f64 test (`triangle::EDGE_TOLERANCE`), rounded up: what the f32 test
 /// must let through on top of its own error.
 const EDGE: f32 = 1e-9;
 
@@ -35,53 +37,7 @@ pub(crate) fn position_error(origin: glam::Vec3, scene_extent: f32) -> f32 {
     ERROR_ULPS * (1.0 + origin.abs().max_element().max(scene_extent))
 }
 
-/// Triangles as the filter reads them: corner 0 and the two edges from it (f32, rounded from
-/// the f64 corners) and the longer edge's length.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct TriangleLanes<L> {
-    corner: [L; 3],
-    edge1: [L; 3],
-    edge2: [L; 3],
-    longest_edge: L,
-}
-
-/// Up to four triangles, one per lane, with each lane's triangle index in leaf order.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct TriangleGroup {
-    lanes4: TriangleLanes<Vec4>,
-    /// Triangle index (leaf order) of each lane.
-    pub(crate) triangle: [u32; 4],
-    /// Bit i set where lane i holds a triangle.
-    pub(crate) lanes: u32,
-}
-
 impl TriangleGroup {
-    /// The group of `indices` (at most four, leaf order) among `triangles`.
-    pub(crate) fn new(triangles: &[[DVec3; 3]], indices: &[u32]) -> Self {
-        debug_assert!(!indices.is_empty() && indices.len() <= 4);
-        let mut lanes = [[0.0f32; 10]; 4];
-        let mut triangle = [0u32; 4];
-        for (lane, &index) in indices.iter().enumerate() {
-            let [a, b, c] = triangles[index as usize];
-            let (e1, e2) = (b - a, c - a);
-            let longest = e1.length().max(e2.length()) as f32;
-            let [a, e1, e2] = [a, e1, e2].map(|v| v.as_vec3());
-            lanes[lane] = [a.x, a.y, a.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, longest];
-            triangle[lane] = index;
-        }
-        let column = |k: usize| Vec4::new(lanes[0][k], lanes[1][k], lanes[2][k], lanes[3][k]);
-        Self {
-            lanes4: TriangleLanes {
-                corner: [column(0), column(1), column(2)],
-                edge1: [column(3), column(4), column(5)],
-                edge2: [column(6), column(7), column(8)],
-                longest_edge: column(9),
-            },
-            triangle,
-            lanes: (1u32 << indices.len()) - 1,
-        }
-    }
-
     /// Lanes whose triangle the f64 test might hit at a distance in (`t_lo`, `t_hi`) along
     /// `ray` (broadcast to four lanes): [`filter`] for four triangles.
     #[inline(always)]
@@ -145,8 +101,9 @@ pub(crate) fn filter<L: Lanes>(ray: &RayLanes<L>, triangle: &TriangleLanes<L>, t
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::intersect;
-    use crate::fast::rays::LaneRay;
+    use crate::trace::fast::rays::LaneRay;
+    use crate::trace::triangle::intersect;
+    use glam::DVec3;
     use rand::{Rng, SeedableRng, rngs::StdRng};
 
     /// The filter's one promise: it never rejects a triangle the f64 test hits in range. Rays
@@ -226,13 +183,13 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn filter_avx(
-        rays: &[(DVec3, DVec3, f64); crate::fast::PACKET],
+        rays: &[(DVec3, DVec3, f64); crate::trace::fast::PACKET],
         group: &TriangleGroup,
         lane: usize,
         t_hi: &[f32],
-    ) -> [u32; crate::fast::rays::BATCHES] {
-        use crate::fast::lanes::{Avx8, Wide};
-        let packet = crate::fast::rays::PacketRays::<Avx8>::new(rays, u64::MAX, 10.0);
+    ) -> [u32; crate::trace::fast::rays::BATCHES] {
+        use crate::trace::fast::lanes::{Avx8, Wide};
+        let packet = crate::trace::fast::rays::PacketRays::<Avx8>::new(rays, u64::MAX, 10.0);
         let triangle = group.broadcast::<Avx8>(lane);
         std::array::from_fn(|b| {
             filter(
@@ -249,9 +206,9 @@ mod tests {
     /// f32 operations.
     #[test]
     fn eight_rays_at_a_time_filter_as_one_ray_at_a_time() {
-        use crate::fast::PACKET;
-        use crate::fast::lanes::Lanes8;
-        use crate::fast::rays::PacketRays;
+        use crate::trace::fast::PACKET;
+        use crate::trace::fast::lanes::Lanes8;
+        use crate::trace::fast::rays::PacketRays;
         let mut rng = StdRng::seed_from_u64(7);
         let unit =
             |rng: &mut StdRng| DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0))).normalize();
@@ -280,7 +237,7 @@ mod tests {
                     .then(|| unsafe { filter_avx(&rays, &group, lane, &t_hi) });
                 for r in 0..PACKET {
                     let single = LaneRay::new(rays[r].0, rays[r].1, 10.0);
-                    let t_lo = crate::fast::rays::t_lo(rays[r].2);
+                    let t_lo = crate::trace::fast::rays::t_lo(rays[r].2);
                     let one = group.candidates(&single.lanes, t_lo, t_hi[r]) >> lane & 1;
                     let (b, k) = (r / 8, r % 8);
                     let eight = filter(

@@ -8,12 +8,12 @@
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-use crate::bvh::SceneBvh;
+use crate::accel::SceneBvh;
 use crate::camera::Camera;
-use crate::cpu::{self, CpuTracer};
 use crate::frame::{BACKGROUND, Frame};
 use crate::pose::Pose;
-use crate::shading::{self, Appearance};
+use crate::shade::{self, Appearance};
+use crate::trace::{self, CpuTracer};
 
 /// Pixels whose face id differs from one of their 4-neighbours.
 pub fn edge_pixels(frame: &Frame) -> Vec<usize> {
@@ -55,7 +55,7 @@ pub(crate) fn supersample_edges(
     }
     let edges = edge_pixels(frame);
     let width = frame.width as usize;
-    let local = cpu::LocalPose::new(bvh, pose);
+    let local = trace::LocalPose::new(bvh, pose);
     let count = samples_per_axis * samples_per_axis;
     let refined: Vec<([u8; 3], [f32; 3])> = edges
         .par_iter()
@@ -65,9 +65,9 @@ pub(crate) fn supersample_edges(
             let mut linear = DVec3::ZERO;
             for offset in sample_offsets(samples_per_axis) {
                 let hit = tracer.trace_pixel(bvh, camera, &local, centre + offset);
-                let sample = shading::shade(tracer, bvh, appearance, &hit);
+                let sample = shade::shade(tracer, bvh, appearance, &hit);
                 let colour = if hit.is_hit() {
-                    shading::encode(sample)
+                    shade::encode(sample)
                 } else {
                     BACKGROUND
                 };
@@ -128,9 +128,9 @@ mod tests {
     fn border_pixels_get_the_mean_of_both_faces() {
         let (scene, bvh, camera, pose) = half_and_half();
         let appearance = Appearance::of(&scene);
-        let mut frame = cpu::trace(&bvh, &camera, &pose);
+        let mut frame = trace::trace(&bvh, &camera, &pose);
         let tracer = CpuTracer::Reference;
-        crate::shading::shade_frame(tracer, &bvh, &appearance, &mut frame, crate::frame::Planes::COLOUR);
+        crate::shade::shade_frame(tracer, &bvh, &appearance, &mut frame, crate::frame::Planes::COLOUR);
         let edges = edge_pixels(&frame);
         assert!(!edges.is_empty() && edges.iter().all(|&i| (3..=5).contains(&(i % 9))));
         let refined = supersample_edges(tracer, &bvh, &appearance, &camera, &pose, &mut frame, 4);

@@ -1,0 +1,249 @@
+//! The 8-wide BVH the fast tracer walks (`trace/fast/wide.rs`), collapsed from the BVH2.
+//!
+//! Each node holds the boxes of up to eight children as two `Vec4`s per coordinate (one lane per
+//! child), so a node visit is two four-lane slab tests (one eight-lane test with AVX). A child
+//! is an inner node or a leaf of one or more [`TriangleGroup`]s. The boxes are the BVH2's,
+//! padded as `accel/mod.rs` pads them, so culling is as conservative as the reference tracer's.
+
+use glam::{DVec3, Vec4};
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::node::Bvh2Node;
+
+/// Marks a child index as a leaf (the rest is its first triangle group).
+pub(crate) const LEAF: u32 = 1 << 31;
+
+/// A leaf's first group, below its group count.
+pub(crate) const GROUP_INDEX: u32 = (1 << 28) - 1;
+/// A leaf's group count minus one sits in bits 28–30.
+pub(crate) const GROUP_COUNT_SHIFT: u32 = 28;
+/// Groups a leaf may span (BVH2 leaves of up to 28 triangles; `accel/mod.rs` makes at most two).
+const MAX_LEAF_GROUPS: usize = 8;
+
+/// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
+/// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
+/// the clock in three interleaved rounds (docs/benchmarks.md).
+pub(crate) const HALVES: usize = 2;
+pub(crate) const WIDTH: usize = 4 * HALVES;
+
+/// Subtrees of at most this many triangles become one leaf (one group of four lanes).
+const LEAF_TRIANGLES: u32 = 4;
+
+/// Eight children's boxes, lane i = child i.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct WideNode {
+    pub(crate) min: [[Vec4; HALVES]; 3],
+    pub(crate) max: [[Vec4; HALVES]; 3],
+    /// Node index, or `LEAF` | (group count − 1) << `GROUP_COUNT_SHIFT` | first group.
+    pub(crate) child: [u32; WIDTH],
+    /// Bit i set where child i exists.
+    pub(crate) lanes: u32,
+}
+
+/// The wide BVH and its triangles, four to a group.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct WideBvh {
+    pub(crate) nodes: Vec<WideNode>,
+    pub(crate) groups: Vec<TriangleGroup>,
+    /// Deepest level below the root, which sizes the traversal stack.
+    pub(crate) depth: usize,
+    /// Largest absolute coordinate of any triangle (scene-local), for the f32 error bound.
+    pub(crate) extent: f32,
+}
+
+impl WideBvh {
+    /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
+    pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
+        let extent = triangles
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
+        let mut wide = Self {
+            extent,
+            ..Self::default()
+        };
+        if bvh.nodes.is_empty() {
+            return wide;
+        }
+        let counts = subtree_triangles(&bvh.nodes);
+        let builder = Builder {
+            nodes: &bvh.nodes,
+            counts: &counts,
+            triangles,
+        };
+        // A root that is (or fits) one leaf is the single child of a node of its own.
+        let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
+            vec![0]
+        } else {
+            builder.open(0)
+        };
+        wide.nodes.push(empty_node());
+        builder.fill(&mut wide, 0, &root, 0);
+        wide
+    }
+}
+
+/// Triangles as the filter reads them: corner 0 and the two edges from it (f32, rounded from
+/// the f64 corners) and the longer edge's length.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TriangleLanes<L> {
+    pub(crate) corner: [L; 3],
+    pub(crate) edge1: [L; 3],
+    pub(crate) edge2: [L; 3],
+    pub(crate) longest_edge: L,
+}
+
+/// Up to four triangles, one per lane, with each lane's triangle index in leaf order.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TriangleGroup {
+    pub(crate) lanes4: TriangleLanes<Vec4>,
+    /// Triangle index (leaf order) of each lane.
+    pub(crate) triangle: [u32; 4],
+    /// Bit i set where lane i holds a triangle.
+    pub(crate) lanes: u32,
+}
+
+impl TriangleGroup {
+    /// The group of `indices` (at most four, leaf order) among `triangles`.
+    pub(crate) fn new(triangles: &[[DVec3; 3]], indices: &[u32]) -> Self {
+        debug_assert!(!indices.is_empty() && indices.len() <= 4);
+        let mut lanes = [[0.0f32; 10]; 4];
+        let mut triangle = [0u32; 4];
+        for (lane, &index) in indices.iter().enumerate() {
+            let [a, b, c] = triangles[index as usize];
+            let (e1, e2) = (b - a, c - a);
+            let longest = e1.length().max(e2.length()) as f32;
+            let [a, e1, e2] = [a, e1, e2].map(|v| v.as_vec3());
+            lanes[lane] = [a.x, a.y, a.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, longest];
+            triangle[lane] = index;
+        }
+        let column = |k: usize| Vec4::new(lanes[0][k], lanes[1][k], lanes[2][k], lanes[3][k]);
+        Self {
+            lanes4: TriangleLanes {
+                corner: [column(0), column(1), column(2)],
+                edge1: [column(3), column(4), column(5)],
+                edge2: [column(6), column(7), column(8)],
+                longest_edge: column(9),
+            },
+            triangle,
+            lanes: (1u32 << indices.len()) - 1,
+        }
+    }
+}
+
+pub(crate) fn empty_node() -> WideNode {
+    WideNode {
+        min: [[Vec4::ZERO; HALVES]; 3],
+        max: [[Vec4::ZERO; HALVES]; 3],
+        child: [0; WIDTH],
+        lanes: 0,
+    }
+}
+
+/// Triangles below each BVH2 node.
+fn subtree_triangles(nodes: &[Bvh2Node]) -> Vec<u32> {
+    let mut counts = vec![0u32; nodes.len()];
+    // Children before parents: a reverse pre-order walk.
+    let mut order = Vec::with_capacity(nodes.len());
+    let mut pending = vec![0usize];
+    while let Some(index) = pending.pop() {
+        order.push(index);
+        let node = &nodes[index];
+        if !node.is_leaf() {
+            pending.push(node.first_index as usize);
+            pending.push(node.first_index as usize + 1);
+        }
+    }
+    for &index in order.iter().rev() {
+        let node = &nodes[index];
+        counts[index] = if node.is_leaf() {
+            node.prim_count
+        } else {
+            counts[node.first_index as usize] + counts[node.first_index as usize + 1]
+        };
+    }
+    counts
+}
+
+/// Half the surface area of a BVH2 node's box: which child to open first.
+fn half_area(node: &Bvh2Node) -> f32 {
+    let size = node.max - node.min;
+    size.x * size.y + size.y * size.z + size.z * size.x
+}
+
+struct Builder<'a> {
+    nodes: &'a [Bvh2Node],
+    counts: &'a [u32],
+    triangles: &'a [[DVec3; 3]],
+}
+
+impl Builder<'_> {
+    /// Fills wide node `slot` with the BVH2 nodes `children` (at most `WIDTH`), opening each
+    /// child that needs a node of its own; `depth` is the slot's depth.
+    fn fill(&self, wide: &mut WideBvh, slot: usize, children: &[usize], depth: usize) {
+        wide.depth = wide.depth.max(depth);
+        let mut node = empty_node();
+        for (lane, &index) in children.iter().enumerate() {
+            let source = &self.nodes[index];
+            for axis in 0..3 {
+                node.min[axis][lane / 4][lane % 4] = source.min[axis];
+                node.max[axis][lane / 4][lane % 4] = source.max[axis];
+            }
+            node.lanes |= 1 << lane;
+            if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
+                let mut leaf = Vec::new();
+                self.gather(index, &mut leaf);
+                let groups = leaf.len().div_ceil(4);
+                assert!(
+                    groups <= MAX_LEAF_GROUPS && wide.groups.len() < GROUP_INDEX as usize,
+                    "BVH2 leaf of {} triangles, or over 2^28 groups",
+                    leaf.len()
+                );
+                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | wide.groups.len() as u32;
+                wide.groups
+                    .extend(leaf.chunks(4).map(|chunk| TriangleGroup::new(self.triangles, chunk)));
+            } else {
+                node.child[lane] = wide.nodes.len() as u32;
+                wide.nodes.push(empty_node());
+            }
+        }
+        wide.nodes[slot] = node;
+        for (lane, &index) in children.iter().enumerate() {
+            if node.child[lane] & LEAF == 0 {
+                let grandchildren = self.open(index);
+                self.fill(wide, node.child[lane] as usize, &grandchildren, depth + 1);
+            }
+        }
+    }
+
+    /// The up to `WIDTH` BVH2 nodes that replace inner node `index`: its two children, then
+    /// repeatedly the two children of the largest inner one among them.
+    fn open(&self, index: usize) -> Vec<usize> {
+        let first = self.nodes[index].first_index as usize;
+        let mut children = vec![first, first + 1];
+        while children.len() < WIDTH {
+            let openable = children
+                .iter()
+                .enumerate()
+                .filter(|&(_, &c)| !self.nodes[c].is_leaf() && self.counts[c] > LEAF_TRIANGLES)
+                .max_by(|a, b| half_area(&self.nodes[*a.1]).total_cmp(&half_area(&self.nodes[*b.1])));
+            let Some((position, &chosen)) = openable else {
+                break;
+            };
+            let first = self.nodes[chosen].first_index as usize;
+            children[position] = first;
+            children.push(first + 1);
+        }
+        children
+    }
+
+    /// Triangle indices (leaf order) below BVH2 node `index`.
+    fn gather(&self, index: usize, into: &mut Vec<u32>) {
+        let node = &self.nodes[index];
+        if node.is_leaf() {
+            into.extend(node.first_index..node.first_index + node.prim_count);
+        } else {
+            self.gather(node.first_index as usize, into);
+            self.gather(node.first_index as usize + 1, into);
+        }
+    }
+}
