@@ -195,6 +195,13 @@ impl Frame {
         planes
     }
 
+    /// A frame of colour alone (an image made elsewhere, a noisy copy), for the PNG writer.
+    pub fn from_colour(width: u32, height: u32, colour: Vec<[u8; 3]>) -> Self {
+        let mut frame = Self::empty(width, height);
+        frame.set_shading(Planes::COLOUR, Vec::new(), colour);
+        frame
+    }
+
     /// Sets the shaded planes, keeping only those `planes` asks for.
     pub(crate) fn set_shading(&mut self, planes: Planes, linear: Vec<[f32; 3]>, colour: Vec<[u8; 3]>) {
         self.colour = planes.contains(Plane::Colour).then_some(colour);

@@ -29,7 +29,6 @@
 pub mod accel;
 pub mod calibration;
 pub mod camera;
-pub mod dataset;
 pub mod frame;
 #[cfg(feature = "gpu")]
 pub mod gpu;

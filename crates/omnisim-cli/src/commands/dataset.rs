@@ -10,7 +10,7 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use omnisim::Renderer;
-use omnisim::dataset::{self, Dataset, RunOptions, Shard};
+use omnisim_dataset::{self, Dataset, RunOptions, Shard};
 
 use super::render::BackendArg;
 
@@ -64,7 +64,8 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     if let Some(DatasetCommand::Merge { dirs }) = args.command {
         let started = Instant::now();
         let (dest, sources) = dirs.split_first().context("merge needs a data-set folder")?;
-        let summary = dataset::merge(dest, sources).with_context(|| format!("cannot merge into {}", dest.display()))?;
+        let summary =
+            omnisim_dataset::merge(dest, sources).with_context(|| format!("cannot merge into {}", dest.display()))?;
         eprintln!(
             "merged {} frames: {} files, {:.1} MB checked, in {:.1} s; wrote {}",
             summary.frames,
@@ -173,7 +174,7 @@ impl Progress {
         }
     }
 
-    fn frame(&mut self, frame: &dataset::FrameDone) {
+    fn frame(&mut self, frame: &omnisim_dataset::FrameDone) {
         self.last_frame = Some(Instant::now());
         if !self.terminal {
             if self.last.elapsed() >= Duration::from_secs(10) || frame.done == frame.total {

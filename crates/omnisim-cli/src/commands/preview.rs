@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
-use omnisim::dataset::{Dataset, preview};
+use omnisim_dataset::{Dataset, preview};
 
 /// Draw a data set seen from above: the scene's faces in their colours with the room's extent
 /// and a scale bar, every set's poses (one colour per set) with heading arrows, occluders,

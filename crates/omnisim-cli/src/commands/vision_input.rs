@@ -7,9 +7,9 @@ use std::path::{Component, Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, Parser};
-use omnisim::dataset::manifest::{FileKind, FrameEntry};
-use omnisim::dataset::spec::{MirrorRaysSpec, MirrorSpec, MountSpec, RigSpec};
 use omnisim::{Camera, Rig};
+use omnisim_dataset::manifest::{FileKind, FrameEntry};
+use omnisim_dataset::spec::{MirrorRaysSpec, MirrorSpec, MountSpec, RigSpec};
 use omnisim_vision::Raster;
 use serde::Deserialize;
 
@@ -297,7 +297,7 @@ pub fn plain_name(name: &str) -> anyhow::Result<&str> {
 /// A manifest path (`/`-separated, relative) inside `root`, refusing any that could leave it
 /// (the data-set library's own check).
 fn inside(root: &Path, relative: &str) -> anyhow::Result<PathBuf> {
-    omnisim::dataset::manifest::inside(root, relative).with_context(|| {
+    omnisim_dataset::manifest::inside(root, relative).with_context(|| {
         format!("manifest path '{relative}' is not a path inside the data-set folder (or it goes through a link)")
     })
 }

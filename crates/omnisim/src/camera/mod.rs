@@ -16,7 +16,7 @@ use glam::{DVec2, DVec3};
 pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Mount, UnifiedModel};
 pub use cylindrical::Cylindrical;
 pub use equirect::Equirectangular;
-pub use pinhole::Pinhole;
+pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
 pub use stereo::StereoRig;
 pub use validate::{CameraError, MAX_PIXELS};
 

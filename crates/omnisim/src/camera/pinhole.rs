@@ -25,7 +25,7 @@ pub struct Pinhole {
 
 /// body_from_optical: optical z (forward) → body x, optical x (right) → body −y,
 /// optical y (down) → body −z.
-pub(crate) const BODY_FROM_OPTICAL: DMat3 = DMat3::from_cols(
+pub const BODY_FROM_OPTICAL: DMat3 = DMat3::from_cols(
     DVec3::new(0.0, -1.0, 0.0),
     DVec3::new(0.0, 0.0, -1.0),
     DVec3::new(1.0, 0.0, 0.0),

@@ -8,7 +8,8 @@ use glam::{DVec3, dvec3};
 use super::file::{
     AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile,
 };
-use super::{Face, Scene, SceneError, SceneObject, Vertices, locate, mesh, names, validate};
+use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};
+use crate::input::locate;
 use crate::pose::rotation_xyz;
 use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb};
 

@@ -9,13 +9,14 @@ mod export;
 pub mod file;
 mod library;
 pub mod lighting;
-pub(crate) mod locate;
 mod mesh;
 mod names;
 pub(crate) mod triangulate;
 mod validate;
 
 use std::path::{Path, PathBuf};
+
+use crate::input::locate;
 
 use glam::DVec3;
 

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat3, DQuat, DVec2, dvec3};
 
 use super::*;
-use crate::{BackendChoice, Planes, Renderer};
+use omnisim::{BackendChoice, Planes, Renderer};
 
 const ROOM: &str = r#"Scene(name: "room", objects: [
     Floor(name: "floor", corners: [(-2.0, -1.5), (2.0, -1.5), (2.0, 1.5), (-2.0, 1.5)], colour: (150, 140, 120)),
@@ -339,7 +339,7 @@ fn a_changed_mesh_file_or_another_renderer_is_refused() {
         refused.err()
     );
     // Same data set, frames of another renderer: a resume and a merge refuse them.
-    let stamp_path = out.join(run::STAMP);
+    let stamp_path = out.join(files::STAMP);
     let mut stamp: serde_json::Value = serde_json::from_slice(&std::fs::read(&stamp_path).unwrap()).unwrap();
     assert_eq!(stamp["renderer"], cpu().renders_with());
     stamp["renderer"] = "gpu: some adapter".into();
@@ -420,7 +420,7 @@ fn merges_and_overwrites_say_what_they_met() {
         merged.err()
     );
     // An unreadable stamp: refused, then --overwrite renders over it.
-    std::fs::write(out.join(run::STAMP), "{").unwrap();
+    std::fs::write(out.join(files::STAMP), "{").unwrap();
     let refused = dataset.run(&cpu(), &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()));
     assert!(
         refused
@@ -562,7 +562,7 @@ fn edge_samples_smooth_the_colour_edges_alone_and_the_mirror_rays_are_the_specs(
     let Camera::Catadioptric(camera) = &dataset.rig.views()[0].camera else {
         panic!("omni")
     };
-    assert_eq!(camera.rays, crate::camera::MirrorRays::Shortcut);
+    assert_eq!(camera.rays, omnisim::camera::MirrorRays::Shortcut);
 }
 
 #[test]
@@ -696,7 +696,7 @@ fn scheduled_light_changes_apply_to_their_frames_only_and_keep_the_flicker_draws
                 let lighting = record.lighting.unwrap();
                 let state = |name: &str| {
                     let light = lighting.lights.iter().find(|l| l.name == name).unwrap();
-                    let crate::scene::lighting::LightKind::Point { intensity, .. } = light.kind else {
+                    let omnisim::scene::lighting::LightKind::Point { intensity, .. } = light.kind else {
                         panic!("point light")
                     };
                     (light.on, intensity)
@@ -744,14 +744,14 @@ fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
     let dataset = Dataset::load(&spec).unwrap();
     let renderer = cpu();
     let mut prepared = renderer.prepare(&dataset.scene).unwrap();
-    let camera = crate::Camera::Pinhole(crate::Pinhole::with_horizontal_fov(64, 48, 1.5));
-    let pose = crate::Pose::from_degrees(dvec3(-1.0, -0.5, 1.2), dvec3(0.0, 20.0, 30.0));
+    let camera = omnisim::Camera::Pinhole(omnisim::Pinhole::with_horizontal_fov(64, 48, 1.5));
+    let pose = omnisim::Pose::from_degrees(dvec3(-1.0, -0.5, 1.2), dvec3(0.0, 20.0, 30.0));
     let on = renderer
         .render(
             &prepared,
             &camera,
             &pose,
-            Planes::COLOUR.with(crate::Plane::LinearColour),
+            Planes::COLOUR.with(omnisim::Plane::LinearColour),
         )
         .unwrap();
     let night = &dataset.sets[2].spec;
@@ -762,7 +762,7 @@ fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
             &prepared,
             &camera,
             &pose,
-            Planes::COLOUR.with(crate::Plane::LinearColour),
+            Planes::COLOUR.with(omnisim::Plane::LinearColour),
         )
         .unwrap();
     let bvh = prepared.geometry();
@@ -773,8 +773,8 @@ fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
         let lamp_lights_it = hit.is_hit() && {
             let towards = (lamp - hit.point).normalize();
             let facing = hit.normal.as_dvec3().dot(towards) > 0.0;
-            let origin = hit.point - bvh.offset + hit.normal.as_dvec3() * 1e-7;
-            facing && !crate::trace::occluded(bvh, origin, towards, (lamp - hit.point).length(), hit.face)
+            let origin = hit.point - bvh.offset() + hit.normal.as_dvec3() * 1e-7;
+            facing && !omnisim::trace::occluded(bvh, origin, towards, (lamp - hit.point).length(), hit.face)
         };
         assert_eq!(changed, lamp_lights_it, "pixel {i}");
         if changed {

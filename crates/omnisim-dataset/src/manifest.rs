@@ -14,7 +14,7 @@ use sha2::{Digest, Sha256};
 use super::DatasetError;
 use super::SkippedPose;
 use super::spec::{LayoutSpec, NoiseSpec, RigSpec};
-use crate::output::OutputSet;
+use omnisim::output::OutputSet;
 
 /// What a file is, for readers that must not confuse noisy data with ground truth.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -60,7 +60,7 @@ pub struct PoseEntry {
 
 impl PoseEntry {
     /// The entry of `pose`.
-    pub fn of(pose: &crate::Pose) -> Self {
+    pub fn of(pose: &omnisim::Pose) -> Self {
         Self {
             position: pose.position.to_array(),
             angles_deg: pose.angles_degrees().to_array(),
@@ -117,7 +117,7 @@ pub struct Stamp {
     /// omnisim's version that renders the frames (absent in stamps of versions before it).
     #[serde(default)]
     pub version: String,
-    /// What renders the frames ([`crate::Renderer::renders_with`]); other renderers' bytes
+    /// What renders the frames ([`omnisim::Renderer::renders_with`]); other renderers' bytes
     /// differ, so a resume, a shard or a merge must use this one.
     #[serde(default)]
     pub renderer: String,
@@ -179,7 +179,7 @@ impl Manifest {
     ///
     /// ```no_run
     /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
-    /// use omnisim::dataset::manifest::Manifest;
+    /// use omnisim_dataset::manifest::Manifest;
     /// let m = Manifest::read("data/env1/manifest.json".as_ref())?;
     /// for frame in &m.sets[0].frame_entries {
     ///     let stem = format!("data/env1/map/{}", frame.stem);
@@ -192,7 +192,7 @@ impl Manifest {
     /// # }
     /// ```
     pub fn read(path: &Path) -> Result<Self, DatasetError> {
-        super::run::read_json(path)
+        super::files::read_json(path)
     }
 }
 
@@ -214,7 +214,7 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// Lowercase hex SHA-256 of `scene` as loaded: its objects (names, kinds), faces (every
 /// vertex's f64 bits, colour, object) and lighting (as JSON, whose numbers round-trip
 /// exactly). The scene file's hash misses the mesh files it names; this one sees them.
-pub fn geometry_sha256(scene: &crate::scene::Scene) -> String {
+pub fn geometry_sha256(scene: &omnisim::scene::Scene) -> String {
     let mut hash = Sha256::new();
     for object in &scene.objects {
         for text in [object.name.as_str(), object.kind] {

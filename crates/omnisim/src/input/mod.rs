@@ -1,6 +1,8 @@
 //! Reading files a user names: only regular files (a FIFO would block forever, `/dev/zero`
 //! would fill memory), never more bytes than a stated limit, and error messages that name the
-//! file without quoting what is in it.
+//! file without quoting what is in it; and, for RON files, errors that say where ([`locate`]).
+
+pub mod locate;
 
 use std::fs::File;
 use std::io::{Read, Take};
@@ -129,7 +131,7 @@ pub fn read_text(path: &Path, limit: u64) -> Result<String, InputError> {
 
 /// How every RON input (scenes, data-set specs) is parsed: newtype variants unwrapped and
 /// `Some` implied, so files say `Move(light: "lamp", position: (1, 2, 3))` and `frames: (0, 5)`.
-pub(crate) fn ron_options() -> ron::Options {
+pub fn ron_options() -> ron::Options {
     ron::Options::default().with_default_extension(
         ron::extensions::Extensions::UNWRAP_VARIANT_NEWTYPES | ron::extensions::Extensions::IMPLICIT_SOME,
     )

@@ -11,9 +11,9 @@ use rand::Rng;
 use serde::Serialize;
 
 use super::spec::{OccluderShape, OccluderSpec};
-use crate::accel::SceneBvh;
-use crate::pose_sets::{Misplaced, misplaced};
-use crate::scene::{Face, Scene, SceneObject};
+use omnisim::accel::SceneBvh;
+use omnisim::pose_sets::{Misplaced, misplaced};
+use omnisim::scene::{Face, Scene, SceneObject};
 
 /// Gap left under an occluder standing on the floor, so that it does not touch (and so
 /// cross) the floor's faces. Far below a pixel at any sensible distance.
@@ -223,8 +223,8 @@ fn free<'a>(
     if others.map(Occluder::bounds).any(overlaps) {
         return false;
     }
-    let crosses = bvh.triangles.iter().any(|t| {
-        let world = t.map(|p| p + bvh.offset);
+    let crosses = bvh.triangles().iter().any(|t| {
+        let world = t.map(|p| p + bvh.offset());
         let box_of = world
             .iter()
             .fold((world[0], world[0]), |(l, h), &p| (l.min(p), h.max(p)));
@@ -262,7 +262,7 @@ pub fn with_occluders(scene: &Scene, occluders: &[Occluder]) -> Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dataset::rng::{Purpose, stream};
+    use crate::rng::{Purpose, stream};
 
     #[test]
     fn separating_axes_find_crossings_and_gaps() {
@@ -318,9 +318,9 @@ mod tests {
             let placed = place(&scene, &bvh, &specs, &cameras, &[], &mut rng).unwrap();
             assert_eq!(placed.len(), 5);
             for occluder in &placed {
-                for t in &bvh.triangles {
+                for t in bvh.triangles() {
                     assert!(
-                        !occluder.crosses_triangle(&t.map(|p| p + bvh.offset)),
+                        !occluder.crosses_triangle(&t.map(|p| p + bvh.offset())),
                         "seed {seed}: {occluder:?}"
                     );
                 }
@@ -329,7 +329,8 @@ mod tests {
                 }
                 // Inside the room: a ray up from its top meets the ceiling above.
                 let centre = occluder.footprint.iter().sum::<DVec2>() / occluder.footprint.len() as f64;
-                let above = crate::trace::closest_hit(&bvh, centre.extend(occluder.top) - bvh.offset, DVec3::Z, 0.0);
+                let above =
+                    omnisim::trace::closest_hit(&bvh, centre.extend(occluder.top) - bvh.offset(), DVec3::Z, 0.0);
                 assert!(above.is_some(), "seed {seed}: nothing above {occluder:?}");
             }
             let scene = with_occluders(&scene, &placed);

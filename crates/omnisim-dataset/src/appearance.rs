@@ -9,16 +9,16 @@ use serde::Serialize;
 
 use super::rng::{Purpose, stream};
 use super::spec::{ColourChange, LightChange, SetSpec};
-use crate::scene::Scene;
-use crate::scene::lighting::{LightKind, linear_rgb};
-use crate::shade::Appearance;
+use omnisim::scene::Scene;
+use omnisim::scene::lighting::{LightKind, linear_rgb};
+use omnisim::shade::Appearance;
 
 /// What a frame's lights and colours were, for its manifest entry.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub(crate) struct AppearanceRecord {
     /// Every light after the set's and the frame's changes (absent in unlit scenes).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub lighting: Option<crate::scene::lighting::Lighting>,
+    pub lighting: Option<omnisim::scene::lighting::Lighting>,
     /// The 8-bit shift of each shifted object, per channel.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub colour_shifts: BTreeMap<String, [i16; 3]>,
@@ -50,14 +50,14 @@ pub(crate) fn check(scene: &Scene, set: &SetSpec) -> Result<(), (String, String)
                 let known: Vec<String> = scene
                     .lighting
                     .iter()
-                    .flat_map(|l| l.lights.iter().map(|l| crate::input::shown(&l.name, 40)))
+                    .flat_map(|l| l.lights.iter().map(|l| omnisim::input::shown(&l.name, 40)))
                     .collect();
                 return Err((
                     field,
                     format!(
                         "the scene has no light '{}' (it has: {})",
-                        crate::input::shown(name, 40),
-                        crate::input::excerpt(&known.join(", "), 400)
+                        omnisim::input::shown(name, 40),
+                        omnisim::input::excerpt(&known.join(", "), 400)
                     ),
                 ));
             }
@@ -66,7 +66,7 @@ pub(crate) fn check(scene: &Scene, set: &SetSpec) -> Result<(), (String, String)
                     field,
                     format!(
                         "'{}' is directional: only point lights move",
-                        crate::input::shown(name, 40)
+                        omnisim::input::shown(name, 40)
                     ),
                 ));
             }
@@ -81,7 +81,7 @@ pub(crate) fn check(scene: &Scene, set: &SetSpec) -> Result<(), (String, String)
         if let Some(missing) = names.iter().find(|n| !scene.objects.iter().any(|o| &o.name == *n)) {
             return Err((
                 format!("colours[{i}]"),
-                format!("the scene has no object '{}'", crate::input::shown(missing, 40)),
+                format!("the scene has no object '{}'", omnisim::input::shown(missing, 40)),
             ));
         }
     }

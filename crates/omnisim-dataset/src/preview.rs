@@ -15,7 +15,7 @@ use glam::{DVec2, DVec3};
 use super::occluders::Occluder;
 use super::spec::LightChange;
 use super::{Dataset, DatasetError};
-use crate::scene::lighting::LightKind;
+use omnisim::scene::lighting::LightKind;
 
 /// One colour per set, in spec order (matplotlib's "tab10", distinct for colour-blind eyes
 /// too); sets beyond ten reuse them.
@@ -198,8 +198,8 @@ impl Preview {
             PathBuf::from(name)
         };
         let (svg, png) = (with("svg"), with("png"));
-        super::run::write_file(&svg, self.svg.as_bytes())?;
-        super::run::write_file(&png, &self.png()?)?;
+        super::files::write_file(&svg, self.svg.as_bytes())?;
+        super::files::write_file(&png, &self.png()?)?;
         Ok([svg, png])
     }
 }
@@ -485,7 +485,7 @@ impl Svg {
 
     /// Directional light number `k`: an arrow along the horizontal part of its direction of
     /// travel (a disc where it falls straight down), its name and elevation above the horizon.
-    fn directional(&mut self, light: &crate::scene::lighting::Light, direction: DVec3, fill: &str, k: usize) {
+    fn directional(&mut self, light: &omnisim::scene::lighting::Light, direction: DVec3, fill: &str, k: usize) {
         let origin = DVec2::new(MARGIN.left + 30.0, MARGIN.top + 30.0 + 40.0 * k as f64);
         let across = direction.truncate();
         let elevation = (-direction.z).atan2(across.length()).to_degrees();

@@ -8,8 +8,11 @@
 
 mod appearance;
 mod contact_sheet;
+mod files;
+mod folder;
 mod layout;
 pub mod manifest;
+mod merge;
 pub mod noise;
 pub mod occluders;
 pub mod preview;
@@ -18,22 +21,24 @@ mod run;
 pub mod spec;
 #[cfg(test)]
 mod tests;
+mod write;
 
 use std::path::{Path, PathBuf};
 
 use glam::{DVec3, dvec3};
 
-pub use run::{FrameDone, RunOptions, RunSummary, Shard, merge};
+pub use merge::{MergeSummary, merge};
+pub use run::{FrameDone, RunOptions, RunSummary, Shard};
 
-use crate::accel::SceneBvh;
-use crate::camera::{
+use occluders::Occluder;
+use omnisim::accel::SceneBvh;
+use omnisim::camera::{
     Catadioptric, Cylindrical, Equirectangular, MirrorRays, MirrorShape, Misalignment, Mount, Pinhole,
 };
-use crate::pose::Pose;
-use crate::pose_sets::{self, Misplaced, RandomPoses};
-use crate::scene::Scene;
-use crate::{Camera, Rig, StereoRig};
-use occluders::Occluder;
+use omnisim::pose::Pose;
+use omnisim::pose_sets::{self, Misplaced, RandomPoses};
+use omnisim::scene::Scene;
+use omnisim::{Camera, Rig, StereoRig};
 use spec::{Heading, MisplacedPolicy, PoseSource, RigSpec, SetSpec, Spec};
 
 /// Why a data set could not be planned, rendered or merged.
@@ -41,7 +46,7 @@ use spec::{Heading, MisplacedPolicy, PoseSource, RigSpec, SetSpec, Spec};
 pub enum DatasetError {
     /// The spec or its scene file could not be read.
     #[error(transparent)]
-    Input(#[from] crate::input::InputError),
+    Input(#[from] omnisim::input::InputError),
     /// A problem in the spec, located.
     #[error("{}{}: {}{}{message}", path.display(),
         location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default(),
@@ -61,13 +66,13 @@ pub enum DatasetError {
     },
     /// The scene the spec names.
     #[error(transparent)]
-    Scene(#[from] crate::scene::SceneError),
+    Scene(#[from] omnisim::scene::SceneError),
     /// Rendering failed.
     #[error(transparent)]
-    Render(#[from] crate::renderer::RenderError),
+    Render(#[from] omnisim::renderer::RenderError),
     /// Writing an output failed.
     #[error(transparent)]
-    Output(#[from] crate::output::OutputError),
+    Output(#[from] omnisim::output::OutputError),
     /// A file or folder could not be read or written.
     #[error("{}: {source}{}", path.display(), io_hint(source))]
     Io {
@@ -130,7 +135,7 @@ pub enum DatasetError {
         "{} holds no data set (no {} stamp): give the folder `omnisim dataset` rendered into, then any shard \
          folders rendered apart",
         dir.display(),
-        run::STAMP
+        files::STAMP
     )]
     NotADataSet {
         /// The folder.
@@ -155,7 +160,7 @@ pub enum DatasetError {
         "{} already holds files that no omnisim data set recorded, e.g. '{}'; choose an empty or new folder \
          (`omnisim dataset --overwrite` renders into it anyway, leaving those files)",
         dir.display(),
-        crate::input::shown(example, 64)
+        omnisim::input::shown(example, 64)
     )]
     Unrecorded {
         /// The folder.
@@ -304,7 +309,7 @@ impl Dataset {
     /// Reads and checks the spec at `path` and its scene, and plans every set's poses and
     /// per-set occluders.
     pub fn load(path: &Path) -> Result<Self, DatasetError> {
-        let text = crate::input::read_text(path, crate::input::SCENE_LIMIT)?;
+        let text = omnisim::input::read_text(path, omnisim::input::SCENE_LIMIT)?;
         Self::from_text(text, path)
     }
 
@@ -323,7 +328,7 @@ impl Dataset {
         };
         let rig = build_rig(&spec.rig).map_err(|m| top("rig", m))?;
         let scene_path = spec::scene_path(&spec, path).map_err(|m| top("scene", m))?;
-        let scene_text = crate::input::read_text(&scene_path, crate::input::SCENE_LIMIT)?;
+        let scene_text = omnisim::input::read_text(&scene_path, omnisim::input::SCENE_LIMIT)?;
         let mut scene = Scene::from_ron(&scene_text, &scene_path)?;
         scene.source = Some(scene_path.clone());
         spec.outputs.check_scene(&scene).map_err(|m| top("outputs", m))?;

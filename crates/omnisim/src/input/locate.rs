@@ -3,7 +3,7 @@
 //! only a bracket-depth scan (strings and comments skipped), not a second parser.
 
 /// The 1-based (line, column) of the `occurrence`-th (from 0) `name` field naming `name`.
-pub(crate) fn name_field(text: &str, name: &str, occurrence: usize) -> Option<(usize, usize)> {
+pub fn name_field(text: &str, name: &str, occurrence: usize) -> Option<(usize, usize)> {
     let quoted = format!("\"{name}\"");
     text.lines()
         .enumerate()
@@ -55,7 +55,7 @@ fn code(text: &str, from: usize) -> impl Iterator<Item = (usize, char)> + '_ {
 }
 
 /// The 1-based (line, column) of the scene's own `field` (outside `objects`), e.g. `name`.
-pub(crate) fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
+pub fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
     let mut depth = 0usize;
     let mut previous_is_word = false;
     for (i, c) in code(text, 0) {
@@ -78,7 +78,7 @@ pub(crate) fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
 
 /// The name of the element of the `list: [...]` list (`objects`, `sets`) whose text contains
 /// the 1-based (line, column), if it has a `name: "…"` field.
-pub(crate) fn element_at(text: &str, list: &str, line: usize, column: usize) -> Option<String> {
+pub fn element_at(text: &str, list: &str, line: usize, column: usize) -> Option<String> {
     let target = offset_of(text, line, column)?;
     // The `list:` key itself, not the word in a comment or a string.
     let mut previous_is_word = false;
@@ -120,7 +120,7 @@ pub(crate) fn element_at(text: &str, list: &str, line: usize, column: usize) -> 
 /// The 1-based (line, column) of the field `path` (`poses.tilt`, `layouts[0].rate`) of the
 /// element whose `name` field is at (line, column): each key of the path is sought after the
 /// one before, inside that element. `None` if the first key is not after the name.
-pub(crate) fn field_of_element(text: &str, (line, column): (usize, usize), path: &str) -> Option<(usize, usize)> {
+pub fn field_of_element(text: &str, (line, column): (usize, usize), path: &str) -> Option<(usize, usize)> {
     let from = offset_of(text, line, column)?;
     let mut keys = path
         .split('.')
@@ -152,7 +152,7 @@ pub(crate) fn field_of_element(text: &str, (line, column): (usize, usize), path:
 /// The field a RON parse error falls in: the last key at or before it, except where that key
 /// is not the cause (a missing field is reported where its struct ends and names itself;
 /// trailing characters follow everything).
-pub(crate) fn field_of_error(text: &str, error: &ron::error::SpannedError) -> Option<String> {
+pub fn field_of_error(text: &str, error: &ron::error::SpannedError) -> Option<String> {
     match error.code {
         ron::Error::MissingStructField { .. } | ron::Error::TrailingCharacters => None,
         _ => key_before(text, error.span.start.line, error.span.start.col),

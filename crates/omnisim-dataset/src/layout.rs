@@ -12,9 +12,9 @@ use glam::{DMat3, DQuat, DVec3};
 
 use super::manifest::FrameEntry;
 use super::spec::LayoutSpec;
-use crate::camera::Camera;
-use crate::camera::pinhole::BODY_FROM_OPTICAL;
-use crate::rig::Rig;
+use omnisim::camera::BODY_FROM_OPTICAL;
+use omnisim::camera::Camera;
+use omnisim::rig::Rig;
 
 /// Which sensor image a layout file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -187,7 +187,7 @@ fn sensor_yaml(rig: &Rig, k: usize, camera: &Camera, rate: f64) -> String {
             out +=
                 "# Not a pinhole: T_BS is the body frame itself; every pixel's ray is in raymap.exr of the set folder";
             out += match camera {
-                Camera::Catadioptric(mirror) if crate::calibration::kalibr_omni(mirror).is_some() => {
+                Camera::Catadioptric(mirror) if omnisim::calibration::kalibr_omni(mirror).is_some() => {
                     ",\n# the unified model in its calibration-kalibr.yaml.\n"
                 }
                 _ => ".\n",

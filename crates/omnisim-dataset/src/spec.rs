@@ -6,11 +6,11 @@
 
 use std::path::{Component, Path, PathBuf};
 
-use crate::output::OutputSet;
+use omnisim::output::OutputSet;
 use serde::{Deserialize, Serialize};
 
 use super::DatasetError;
-use crate::scene::locate;
+use omnisim::input::locate;
 
 /// An sRGB colour, 0–255 per channel.
 pub type Rgb = (u8, u8, u8);
@@ -596,7 +596,7 @@ impl SpecText<'_> {
         DatasetError::Spec {
             path: self.path.to_path_buf(),
             location,
-            set: place.set.map(|set| crate::input::shown(set, 64)),
+            set: place.set.map(|set| omnisim::input::shown(set, 64)),
             field: place.field,
             message: message.into(),
         }
@@ -605,8 +605,8 @@ impl SpecText<'_> {
 
 /// Parses spec text; syntax and schema errors are located at the set they fall in.
 pub fn parse(text: &str, path: &Path) -> Result<Spec, DatasetError> {
-    let text = crate::input::without_bom(text);
-    let spec: Spec = crate::input::ron_options().from_str(text).map_err(|e| {
+    let text = omnisim::input::without_bom(text);
+    let spec: Spec = omnisim::input::ron_options().from_str(text).map_err(|e| {
         let (line, column) = (e.span.start.line, e.span.start.col);
         let field = locate::field_of_error(text, &e);
         DatasetError::Spec {
@@ -666,12 +666,12 @@ fn check(spec: &Spec, at: &SpecText) -> Result<(), DatasetError> {
                 "a set name is its folder's name: 1-64 letters, digits, '-', '_' or '.', not starting with '.'".into(),
             ));
         }
-        if set.name.eq_ignore_ascii_case(super::run::MANIFEST) {
+        if set.name.eq_ignore_ascii_case(super::files::MANIFEST) {
             return Err(fail(
                 "name",
                 format!(
                     "'{}' is the data set's manifest file; name the set otherwise",
-                    super::run::MANIFEST
+                    super::files::MANIFEST
                 ),
             ));
         }
@@ -694,7 +694,7 @@ pub fn scene_path(spec: &Spec, spec_path: &Path) -> Result<PathBuf, String> {
     {
         return Err(format!(
             "'{}' must be relative to the spec's folder and stay inside it (no '..', no absolute path)",
-            crate::input::shown(&spec.scene, 80)
+            omnisim::input::shown(&spec.scene, 80)
         ));
     }
     Ok(spec_path.parent().unwrap_or(Path::new(".")).join(relative))

@@ -1,0 +1,425 @@
+//! Rendering a data set into a folder, resuming, sharding and merging.
+//!
+//! Folder: `.omnisim-dataset.json` (the stamp: which spec and scene, how many frames per
+//! set), then per set `<set>/` with the frame files, the set files (calibration), the layouts
+//! (`tum/`, `mav0/`) and `.frames/` (one entry per done frame, and `set.json`). Every file
+//! is written atomically; a frame is done when its entry exists, so a killed run re-renders
+//! at most the frames it was writing, with the same bytes. `merge` checks every file's hash
+//! and writes the layouts' index files and `manifest.json`; the merge that ends an unsharded
+//! run checks only the sizes of the frames that run wrote itself (it hashed them as it wrote
+//! them, so a file changed during the run without changing size goes unnoticed until the
+//! next `omnisim dataset merge`) and hashes the frames earlier runs left.
+
+use std::collections::HashSet;
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
+
+use super::appearance::frame_appearance;
+use super::layout::{self};
+use super::manifest::{FileKind, file_entry, to_json};
+use super::occluders::{self, Occluder};
+use super::rng::{Purpose, stream};
+use super::{Dataset, DatasetError, SetPlan};
+use crate::files::{ENTRIES, SET_ENTRY, write_file};
+use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
+use crate::merge::assemble;
+use crate::write::RenderedFrame;
+use omnisim::frame::{Frame, Plane};
+use omnisim::output::{PlainFolder, SegmentationLegend};
+use omnisim::renderer::{PreparedScene, Renderer};
+
+/// Slice `index` (from 0) of `count` disjoint slices: frame n of the data set (counted over
+/// every set in spec order) belongs to slice n mod count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// This slice, 0 ≤ index < count.
+    pub index: usize,
+    /// Number of slices.
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// `K/N`, 0 ≤ K < N (Slurm array and Kubernetes indexed-job numbering).
+    fn from_str(text: &str) -> Result<Self, String> {
+        let parsed = text
+            .split_once('/')
+            .and_then(|(k, n)| Some((k.trim().parse::<usize>().ok()?, n.trim().parse::<usize>().ok()?)));
+        match parsed {
+            Some((index, count)) if index < count => Ok(Shard { index, count }),
+            _ => Err(format!("'{text}' is not a shard K/N with 0 ≤ K < N, e.g. 0/4")),
+        }
+    }
+}
+
+impl Shard {
+    /// Whether frame `n` (counted over every set in spec order) is this slice's.
+    pub fn takes(&self, n: usize) -> bool {
+        n % self.count == self.index
+    }
+}
+
+/// How to run.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RunOptions {
+    /// Render only this slice (and leave the merge to `merge`).
+    pub shard: Option<Shard>,
+    /// Remove another spec's data set from the folder first (only the files it recorded).
+    pub overwrite: bool,
+    /// Threads that write frames while the next ones render (at least 1); `None`: from the
+    /// machine's cores, 2 to 4.
+    pub writers: Option<usize>,
+}
+
+/// A frame finished (or found done), for progress reports. Frames are written on several
+/// threads, so they are reported as they finish, not always in frame order.
+#[derive(Debug, Clone)]
+pub struct FrameDone<'a> {
+    /// Its set.
+    pub set: &'a str,
+    /// Its index in the set.
+    pub index: usize,
+    /// Rendered now (false: done by an earlier run).
+    pub rendered: bool,
+    /// Bytes of its files.
+    pub bytes: u64,
+    /// Frames of this run done so far, this one included.
+    pub done: usize,
+    /// Frames of this run (this shard).
+    pub total: usize,
+}
+
+/// What a run did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunSummary {
+    /// Frames rendered now.
+    pub rendered: usize,
+    /// Frames an earlier run had done.
+    pub resumed: usize,
+    /// Bytes written now.
+    pub bytes: u64,
+    /// The callback stopped the run early.
+    pub stopped: bool,
+    /// Index files and manifest written (an unsharded, complete run).
+    pub merged: bool,
+    /// What the user should hear (cleaned-up temporaries, removed data sets).
+    pub notes: Vec<String>,
+}
+
+/// Writer threads: as asked, else enough to keep up with the renderer and few enough to
+/// leave it the cores.
+fn writer_threads(asked: Option<usize>) -> usize {
+    match asked {
+        Some(writers) => writers.max(1),
+        None => std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 4),
+    }
+}
+
+/// How a frame of a run came to be done.
+enum Outcome {
+    /// An earlier run wrote it: its bytes.
+    Resumed(u64),
+    /// Written now: its bytes.
+    Written(u64),
+}
+
+/// The run's tally of done frames, and whether the run goes on.
+struct Heard<'a, 'b> {
+    names: Vec<&'a str>,
+    summary: &'b mut RunSummary,
+    on_frame: &'b mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+    done: usize,
+    total: usize,
+    /// The first error; the run stops rendering and lets the frames in flight finish.
+    failure: Option<DatasetError>,
+    /// Set on an error or when `on_frame` asks to stop.
+    stopped: bool,
+    /// Tells the writers to drop the frames still queued (they are not done; a later run
+    /// renders them again).
+    stop: &'b AtomicBool,
+    /// (set name, frame) of every frame this run wrote: their entries hold hashes of the files
+    /// as written, which the final merge need not compute again.
+    written: HashSet<(&'a str, usize)>,
+}
+
+impl Heard<'_, '_> {
+    /// Counts frame `index` of set `s` and tells `on_frame`.
+    fn frame(&mut self, s: usize, index: usize, outcome: Result<Outcome, DatasetError>) {
+        let (rendered, bytes) = match outcome {
+            Ok(Outcome::Resumed(bytes)) => {
+                self.summary.resumed += 1;
+                (false, bytes)
+            }
+            Ok(Outcome::Written(bytes)) => {
+                self.written.insert((self.names[s], index));
+                self.summary.rendered += 1;
+                self.summary.bytes += bytes;
+                (true, bytes)
+            }
+            Err(error) => {
+                self.failure.get_or_insert(error);
+                self.stop();
+                return;
+            }
+        };
+        self.done += 1;
+        let report = FrameDone {
+            set: self.names[s],
+            index,
+            rendered,
+            bytes,
+            done: self.done,
+            total: self.total,
+        };
+        if (self.on_frame)(&report).is_break() {
+            self.stop();
+        }
+    }
+
+    fn stop(&mut self) {
+        self.stopped = true;
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+/// A set's prepared scene, with its per-set occluders, kept while its frames render.
+struct SetScene {
+    set: usize,
+    scene: omnisim::Scene,
+    prepared: PreparedScene,
+}
+
+impl Dataset {
+    /// Renders the frames of `options.shard` (all frames without one) into `out`, skipping
+    /// those an earlier run finished, then, without a shard, merges. Frames render on this
+    /// thread while writer threads write the ones before them. `on_frame` hears of every
+    /// frame and may stop the run (frames being written finish; a later run resumes the rest).
+    pub fn run(
+        &self,
+        renderer: &Renderer,
+        out: &Path,
+        options: &RunOptions,
+        on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+    ) -> Result<RunSummary, DatasetError> {
+        let mut summary = RunSummary {
+            notes: open_folder(out, &self.stamp(renderer), options.overwrite)?,
+            ..RunSummary::default()
+        };
+        for set in &self.sets {
+            self.prepare_set(out, set)?;
+        }
+        let frames: Vec<(usize, usize)> = self
+            .sets
+            .iter()
+            .enumerate()
+            .flat_map(|(s, set)| (0..set.poses.len()).map(move |i| (s, i)))
+            .enumerate()
+            .filter(|(n, _)| options.shard.is_none_or(|shard| shard.takes(*n)))
+            .map(|(_, frame)| frame)
+            .collect();
+        let stop = AtomicBool::new(false);
+        let mut heard = Heard {
+            names: self.sets.iter().map(|s| s.spec.name.as_str()).collect(),
+            summary: &mut summary,
+            on_frame,
+            done: 0,
+            total: frames.len(),
+            failure: None,
+            stopped: false,
+            stop: &stop,
+            written: HashSet::new(),
+        };
+        // Frames render here, one after another (the renderer is not shared), while writer
+        // threads encode and write the frames before them; a bounded queue keeps at most a
+        // few rendered frames in memory. Each frame's entry is its last file, so whatever
+        // moment a run is killed at, a frame is done exactly when its entry exists.
+        let writers = writer_threads(options.writers);
+        let (to_write, queue) = mpsc::sync_channel::<RenderedFrame>(writers);
+        // Shared by the writers alone: if every writer ends (a panic), the queue closes and
+        // the renderer's next send fails instead of waiting for ever.
+        let queue = Arc::new(Mutex::new(queue));
+        let (report, written) = mpsc::channel();
+        std::thread::scope(|scope| {
+            for _ in 0..writers {
+                let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
+                scope.spawn(move || {
+                    while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
+                        if stop.load(Ordering::Relaxed) {
+                            continue;
+                        }
+                        let (set, index) = (frame.set, frame.index);
+                        if report.send((set, index, self.write_frame(out, frame))).is_err() {
+                            break;
+                        }
+                    }
+                });
+            }
+            drop((report, queue));
+            let mut current: Option<SetScene> = None;
+            for &(s, index) in &frames {
+                while let Ok((set, i, result)) = written.try_recv() {
+                    heard.frame(set, i, result.map(Outcome::Written));
+                }
+                if heard.stopped {
+                    break;
+                }
+                let outcome = match is_done(out, &out.join(&self.sets[s].spec.name), index) {
+                    Some(bytes) => Ok(Outcome::Resumed(bytes)),
+                    None => {
+                        let scene = match current.take() {
+                            Some(scene) if scene.set == s => Ok(scene),
+                            _ => self.set_scene(renderer, s),
+                        };
+                        let rendered = scene.and_then(|mut scene| {
+                            let frame = self.render_frame(renderer, &mut scene, index);
+                            current = Some(scene);
+                            frame
+                        });
+                        match rendered {
+                            Ok(frame) => match to_write.send(frame) {
+                                Ok(()) => continue,
+                                Err(_) => break, // every writer has ended: the scope reports why
+                            },
+                            Err(e) => Err(e),
+                        }
+                    }
+                };
+                heard.frame(s, index, outcome);
+            }
+            drop(to_write);
+            for (set, i, result) in written {
+                heard.frame(set, i, result.map(Outcome::Written));
+            }
+        });
+        let (failure, done, written) = (heard.failure, heard.done, heard.written);
+        if let Some(failure) = failure {
+            return Err(failure);
+        }
+        summary.stopped = done < frames.len();
+        if options.shard.is_none() && !summary.stopped {
+            assemble(out, &[], &written)?;
+            summary.merged = true;
+        }
+        Ok(summary)
+    }
+
+    /// Creates a set's folders and writes its set files and `set.json`.
+    fn prepare_set(&self, out: &Path, set: &SetPlan) -> Result<(), DatasetError> {
+        let set_dir = out.join(&set.spec.name);
+        let views = self.rig.views().len();
+        prepare_subdir(out, &set_dir)?;
+        prepare_subdir(out, &set_dir.join(ENTRIES))?;
+        for layout in &set.spec.layouts {
+            for (_, path) in layout::frame_files(layout, &set_dir, 0, views) {
+                prepare_subdir(out, path.parent().unwrap_or(&set_dir))?;
+            }
+        }
+        let scene = occluders::with_occluders(&self.scene, &set.occluders);
+        let files = (self.spec.outputs)
+            .write_set_files(&mut PlainFolder(set_dir.clone()), &scene, &self.rig)?
+            .iter()
+            .map(|path| file_entry(out, path, FileKind::Set))
+            .collect::<Result<_, _>>()?;
+        write_file(&set_dir.join(ENTRIES).join(SET_ENTRY), &to_json(&set_entry(set, files)))
+    }
+
+    /// The scene of set `s` with its per-set occluders, prepared.
+    fn set_scene(&self, renderer: &Renderer, s: usize) -> Result<SetScene, DatasetError> {
+        let set = &self.sets[s];
+        let (scene, prepared) = if set.occluders.is_empty() {
+            (
+                self.scene.clone(),
+                renderer.prepare_with(&self.scene, self.bvh.clone())?,
+            )
+        } else {
+            let scene = occluders::with_occluders(&self.scene, &set.occluders);
+            let prepared = renderer.prepare(&scene)?;
+            (scene, prepared)
+        };
+        Ok(SetScene {
+            set: s,
+            scene,
+            prepared,
+        })
+    }
+
+    /// The per-frame occluders of frame `index` of set `s` (none if the set has no per-frame
+    /// occluders), drawn from the frame's own stream.
+    pub(crate) fn frame_occluders(&self, s: usize, index: usize) -> Result<Vec<Occluder>, DatasetError> {
+        let plan = &self.sets[s];
+        let per_frame: Vec<_> = plan.spec.occluders.iter().filter(|o| o.per_frame).collect();
+        if per_frame.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut rng = stream(self.spec.seed, &plan.spec.name, Some(index), Purpose::Occluders);
+        occluders::place(
+            &self.scene,
+            &self.bvh,
+            &per_frame,
+            &super::centres(&self.rig, &plan.poses[index]),
+            &plan.occluders,
+            &mut rng,
+        )
+        .map_err(|source| DatasetError::Occluders {
+            set: plan.spec.name.clone(),
+            frame: index.to_string(),
+            source,
+        })
+    }
+
+    /// Renders frame `index` of the set of `base` (its per-frame occluders, lights and
+    /// colours applied): what `write_frame` then writes.
+    fn render_frame(
+        &self,
+        renderer: &Renderer,
+        base: &mut SetScene,
+        index: usize,
+    ) -> Result<RenderedFrame, DatasetError> {
+        let set = &self.sets[base.set].spec;
+        let pose = &self.sets[base.set].poses[index];
+        let placed = self.frame_occluders(base.set, index)?;
+        let mut own = None;
+        let mut segments = vec![None; placed.len()];
+        if !placed.is_empty() {
+            let scene = occluders::with_occluders(&base.scene, &placed);
+            if self.spec.outputs.segmentation {
+                // The placed occluders are the frame scene's last objects.
+                let legend = SegmentationLegend::of(&scene);
+                segments = legend.objects[legend.objects.len() - placed.len()..]
+                    .iter()
+                    .cloned()
+                    .map(Some)
+                    .collect();
+            }
+            own = Some((renderer.prepare(&scene)?, scene));
+        }
+        let (prepared, scene) = match own.as_mut() {
+            Some((prepared, scene)) => (prepared, &*scene),
+            None => (&mut base.prepared, &base.scene),
+        };
+        let (appearance, record) = frame_appearance(scene, self.scene.objects.len(), set, self.spec.seed, index);
+        renderer.set_appearance(prepared, appearance)?;
+        let mut planes = self.spec.outputs.planes();
+        if !set.noise.colour.is_empty() {
+            planes = planes.with(Plane::LinearColour);
+        }
+        let frames = self
+            .rig
+            .views()
+            .iter()
+            .map(|view| {
+                renderer.render_antialiased(prepared, &view.camera, pose, planes, self.spec.edge_samples.isqrt())
+            })
+            .collect::<Result<Vec<Frame>, _>>()?;
+        Ok(RenderedFrame {
+            set: base.set,
+            index,
+            frames,
+            placed: placed.into_iter().zip(segments).collect(),
+            record,
+        })
+    }
+}
