@@ -1,10 +1,12 @@
-//! Camera options shared by `render` and `bench`, turned into an `omnisim` camera or rig.
+//! Camera options shared by `render`, `bench` and the vision commands, mapped onto the one rig
+//! description ([`RigSpec`]) that data-set specs and `render --rig` files hold too.
 
-use anyhow::{Context, bail};
+use anyhow::bail;
 use clap::{Args, ValueEnum};
 use glam::{DVec3, dvec3};
-use omnisim::camera::{MirrorRays, MirrorShape, Misalignment, Mount};
-use omnisim::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole, Rig, StereoRig};
+use omnisim::Rig;
+use omnisim::camera::spec::defaults;
+use omnisim::camera::{MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigSpec, StereoSpec};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CameraKind {
@@ -198,118 +200,78 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn degrees_between_0_and_180(option: &str, degrees: f64) -> anyhow::Result<f64> {
-    if degrees > 0.0 && degrees < 180.0 {
-        Ok(degrees.to_radians())
-    } else {
-        bail!("{option} must be between 0 and 180 degrees (exclusive), not {degrees}")
-    }
-}
-
 impl CameraArgs {
-    fn pinhole(&self, default_size: (u32, u32)) -> anyhow::Result<Pinhole> {
-        let (w, h) = self.size.unwrap_or(default_size);
-        let hfov = degrees_between_0_and_180("--hfov", self.hfov.unwrap_or(60.0))?;
-        let mut pinhole = Pinhole::with_horizontal_fov(w, h, hfov);
-        if let Some(f) = self.focal {
-            (pinhole.fx, pinhole.fy) = (f, f);
-        }
-        Ok(pinhole)
+    /// The rig these options describe, as the one description every command shares: each
+    /// option given, the [`defaults`] for the rest.
+    pub fn spec(&self) -> anyhow::Result<RigSpec> {
+        check_applicable(self)?;
+        let pinhole = |size| PinholeSpec {
+            size: self.size.unwrap_or(size),
+            hfov: self.hfov.unwrap_or(defaults::HFOV),
+            focal: self.focal,
+        };
+        Ok(match self.camera {
+            CameraKind::Pinhole => RigSpec::Pinhole(pinhole(defaults::PINHOLE_SIZE)),
+            CameraKind::Stereo => {
+                let PinholeSpec { size, hfov, focal } = pinhole(defaults::PINHOLE_SIZE);
+                RigSpec::Stereo(StereoSpec {
+                    size,
+                    hfov,
+                    focal,
+                    baseline: self.baseline.unwrap_or(defaults::BASELINE),
+                })
+            }
+            CameraKind::Equirect => RigSpec::Equirect {
+                size: self.size.unwrap_or(defaults::EQUIRECT_SIZE),
+            },
+            CameraKind::Cylindrical => RigSpec::Cylindrical {
+                size: self.size.unwrap_or(defaults::CYLINDRICAL_SIZE),
+                vfov: self.vfov.unwrap_or(defaults::VFOV),
+            },
+            CameraKind::Omni => RigSpec::Omni(self.omni()),
+        })
     }
 
     /// The camera or rig these options describe, checked by the library (`validate`): the
     /// command line refuses exactly what a library caller would be refused.
     pub fn build(&self) -> anyhow::Result<Rig> {
-        check_applicable(self)?;
-        let rig = match self.camera {
-            CameraKind::Pinhole => Rig::Single(Camera::Pinhole(self.pinhole((640, 480))?)),
-            CameraKind::Stereo => Rig::Stereo(StereoRig {
-                camera: self.pinhole((640, 480))?,
-                baseline: self.baseline.unwrap_or(0.12),
-            }),
-            CameraKind::Equirect => {
-                let (width, height) = self.size.unwrap_or((1024, 512));
-                Rig::Single(Camera::Equirectangular(Equirectangular { width, height }))
-            }
-            CameraKind::Cylindrical => {
-                let (w, h) = self.size.unwrap_or((1024, 256));
-                let vfov = degrees_between_0_and_180("--vfov", self.vfov.unwrap_or(90.0))?;
-                Rig::Single(Camera::Cylindrical(Cylindrical::with_vertical_fov(w, h, vfov)))
-            }
-            CameraKind::Omni => Rig::Single(Camera::Catadioptric(self.catadioptric()?)),
-        };
-        match &rig {
-            Rig::Single(camera) => camera.validate(),
-            Rig::Stereo(stereo) => stereo.validate(),
-        }
-        .context("the camera cannot make an image")?;
-        Ok(rig)
+        Ok(self.spec()?.build()?)
     }
 
-    fn catadioptric(&self) -> anyhow::Result<Catadioptric> {
-        let (w, h) = self.size.unwrap_or((250, 250));
-        let requested = self.max_elevation.unwrap_or(MaxElevation(Some(20.0)));
-        let elevation = if self.rim.is_some() {
-            None
-        } else {
-            requested.0.map(f64::to_radians)
+    fn omni(&self) -> OmniSpec {
+        let mirror = match self.mirror.unwrap_or(MirrorKind::Hyperbolic) {
+            MirrorKind::Hyperbolic => MirrorSpec::Hyperbolic {
+                a: self.mirror_a.unwrap_or(defaults::HYPERBOLIC_A),
+                b: self.mirror_b.unwrap_or(defaults::HYPERBOLIC_B),
+            },
+            MirrorKind::Parabolic => MirrorSpec::Parabolic {
+                a: self.mirror_a.unwrap_or(defaults::PARABOLIC_A),
+                b: self.mirror_b,
+                h: self.mirror_h.unwrap_or(defaults::PARABOLIC_H),
+            },
+            MirrorKind::Spherical => MirrorSpec::Spherical {
+                radius: self.sphere_radius.unwrap_or(defaults::SPHERE_RADIUS),
+                camera_distance: self.camera_distance.unwrap_or(defaults::CAMERA_DISTANCE),
+            },
         };
-        let a = self.mirror_a.unwrap_or(0.04);
-        let mut camera = match self.mirror.unwrap_or(MirrorKind::Hyperbolic) {
-            MirrorKind::Hyperbolic => {
-                let b = self.mirror_b.unwrap_or(0.16);
-                let camera = Catadioptric::hyperbolic(w, h, a, b, elevation);
-                if let Some(e) = elevation
-                    && e >= camera.asymptote_elevation()
-                {
-                    bail!(
-                        "--max-elevation {:.2}° is beyond what this mirror can see: at most {:.2}° (asin(b/c)); use less, or 'none'",
-                        e.to_degrees(),
-                        camera.asymptote_elevation().to_degrees()
-                    );
-                }
-                camera
-            }
-            MirrorKind::Parabolic => {
-                let height = self.mirror_h.unwrap_or(0.02);
-                let elevation = match (elevation, self.rim) {
-                    (Some(e), _) => e,
-                    (None, Some(_)) => 0.0,
-                    (None, None) => bail!("a paraboloid has no asymptote: give --max-elevation in degrees or --rim"),
-                };
-                let mut camera = Catadioptric::parabolic(w, h, a, height, elevation);
-                if let Some(b) = self.mirror_b {
-                    camera.mirror = MirrorShape::Parabolic { a, b, h: height };
-                }
-                camera
-            }
-            MirrorKind::Spherical => Catadioptric::spherical(
-                w,
-                h,
-                self.sphere_radius.unwrap_or(0.05),
-                self.camera_distance.unwrap_or(0.25),
-            ),
-        };
-        if self.rim.is_some() {
-            camera.rim_radius = self.rim;
+        let paper = OmniSpec::default();
+        OmniSpec {
+            size: self.size.unwrap_or(paper.size),
+            mirror,
+            max_elevation: self.max_elevation.map_or(paper.max_elevation, |e| e.0),
+            rim: self.rim,
+            focal: self.focal,
+            mount: match self.mount {
+                Some(MountArg::Down) => MountSpec::Down,
+                Some(MountArg::Up) | None => MountSpec::Up,
+            },
+            hidden_centre: self.hidden_centre.unwrap_or(paper.hidden_centre),
+            misalign_offset: self.misalign_offset.map_or(paper.misalign_offset, Into::into),
+            misalign_tilt: self.misalign_tilt.map_or(paper.misalign_tilt, Into::into),
+            mirror_rays: match self.mirror_rays {
+                Some(MirrorRaysArg::Shortcut) => MirrorRaysSpec::Shortcut,
+                Some(MirrorRaysArg::Reflect) | None => MirrorRaysSpec::Reflect,
+            },
         }
-        if let Some(f) = self.focal {
-            camera.focal = f;
-        }
-        camera.mount = match self.mount.unwrap_or(MountArg::Up) {
-            MountArg::Up => Mount::Up,
-            MountArg::Down => Mount::Down,
-        };
-        camera.hidden_centre_px = self.hidden_centre.unwrap_or(0.0);
-        camera.misalignment = Misalignment {
-            offset: self.misalign_offset.unwrap_or(DVec3::ZERO),
-            tilt: self.misalign_tilt.unwrap_or(DVec3::ZERO) * (std::f64::consts::PI / 180.0),
-        };
-        camera.rays = match self.mirror_rays.unwrap_or(MirrorRaysArg::Reflect) {
-            MirrorRaysArg::Reflect => MirrorRays::Reflect,
-            MirrorRaysArg::Shortcut => MirrorRays::Shortcut,
-        };
-        camera.check_rays()?;
-        Ok(camera)
     }
 }

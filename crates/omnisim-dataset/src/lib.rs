@@ -31,15 +31,12 @@ pub use merge::{MergeSummary, merge};
 pub use run::{FrameDone, RunOptions, RunSummary, Shard};
 
 use occluders::Occluder;
+use omnisim::Rig;
 use omnisim::accel::SceneBvh;
-use omnisim::camera::{
-    Catadioptric, Cylindrical, Equirectangular, MirrorRays, MirrorShape, Misalignment, Mount, Pinhole,
-};
 use omnisim::pose::Pose;
 use omnisim::pose_sets::{self, Misplaced, RandomPoses};
 use omnisim::scene::Scene;
-use omnisim::{Camera, Rig, StereoRig};
-use spec::{Heading, MisplacedPolicy, PoseSource, RigSpec, SetSpec, Spec};
+use spec::{Heading, MisplacedPolicy, PoseSource, SetSpec, Spec};
 
 /// Why a data set could not be planned, rendered or merged.
 #[derive(Debug, thiserror::Error)]
@@ -326,7 +323,7 @@ impl Dataset {
                 message,
             )
         };
-        let rig = build_rig(&spec.rig).map_err(|m| top("rig", m))?;
+        let rig = spec.rig.build().map_err(|e| top("rig", e.to_string()))?;
         let scene_path = spec::scene_path(&spec, path).map_err(|m| top("scene", m))?;
         let scene_text = omnisim::input::read_text(&scene_path, omnisim::input::SCENE_LIMIT)?;
         let mut scene = Scene::from_ron(&scene_text, &scene_path)?;
@@ -426,112 +423,6 @@ impl Dataset {
     pub fn frame_count(&self) -> usize {
         self.sets.iter().map(|s| s.poses.len()).sum()
     }
-}
-
-/// The camera or rig a spec describes, checked by the library (`validate`).
-fn build_rig(rig: &RigSpec) -> Result<Rig, String> {
-    let between = |name: &str, degrees: f64| {
-        if degrees > 0.0 && degrees < 180.0 {
-            Ok(degrees.to_radians())
-        } else {
-            Err(format!(
-                "{name} must be between 0 and 180 degrees (exclusive), not {degrees}"
-            ))
-        }
-    };
-    let pinhole = |(w, h): (u32, u32), hfov: f64, focal: Option<f64>| -> Result<Pinhole, String> {
-        let mut camera = Pinhole::with_horizontal_fov(w, h, between("hfov", hfov)?);
-        if let Some(f) = focal {
-            (camera.fx, camera.fy) = (f, f);
-        }
-        Ok(camera)
-    };
-    let built = match rig {
-        RigSpec::Pinhole(p) => Rig::Single(Camera::Pinhole(pinhole(p.size, p.hfov, p.focal)?)),
-        RigSpec::Stereo(s) => Rig::Stereo(StereoRig {
-            camera: pinhole(s.size, s.hfov, s.focal)?,
-            baseline: s.baseline,
-        }),
-        RigSpec::Equirect { size } => Rig::Single(Camera::Equirectangular(Equirectangular {
-            width: size.0,
-            height: size.1,
-        })),
-        RigSpec::Cylindrical { size, vfov } => Rig::Single(Camera::Cylindrical(Cylindrical::with_vertical_fov(
-            size.0,
-            size.1,
-            between("vfov", *vfov)?,
-        ))),
-        RigSpec::Omni(o) => Rig::Single(Camera::Catadioptric(omni(o)?)),
-    };
-    match &built {
-        Rig::Single(camera) => camera.validate(),
-        Rig::Stereo(stereo) => stereo.validate(),
-    }
-    .map_err(|e| format!("the camera cannot make an image: {e}"))?;
-    Ok(built)
-}
-
-fn omni(o: &spec::OmniSpec) -> Result<Catadioptric, String> {
-    let (w, h) = o.size;
-    let elevation = if o.rim.is_some() {
-        None
-    } else {
-        o.max_elevation.map(f64::to_radians)
-    };
-    let mut camera = match o.mirror {
-        spec::MirrorSpec::Hyperbolic { a, b } => {
-            let camera = Catadioptric::hyperbolic(w, h, a, b, elevation);
-            if let Some(e) = elevation
-                && e >= camera.asymptote_elevation()
-            {
-                return Err(format!(
-                    "max_elevation {:.2}° is beyond what this mirror can see: at most {:.2}°",
-                    e.to_degrees(),
-                    camera.asymptote_elevation().to_degrees()
-                ));
-            }
-            camera
-        }
-        spec::MirrorSpec::Parabolic { a, b, h: height } => {
-            let elevation = match (elevation, o.rim) {
-                (Some(e), _) => e,
-                (None, Some(_)) => 0.0,
-                (None, None) => return Err("a paraboloid has no asymptote: give max_elevation or rim".into()),
-            };
-            let mut camera = Catadioptric::parabolic(w, h, a, height, elevation);
-            camera.mirror = MirrorShape::Parabolic {
-                a,
-                b: b.unwrap_or(a),
-                h: height,
-            };
-            camera
-        }
-        spec::MirrorSpec::Spherical {
-            radius,
-            camera_distance,
-        } => Catadioptric::spherical(w, h, radius, camera_distance),
-    };
-    if o.rim.is_some() {
-        camera.rim_radius = o.rim;
-    }
-    if let Some(f) = o.focal {
-        camera.focal = f;
-    }
-    camera.mount = match o.mount {
-        spec::MountSpec::Up => Mount::Up,
-        spec::MountSpec::Down => Mount::Down,
-    };
-    camera.hidden_centre_px = o.hidden_centre;
-    camera.misalignment = Misalignment {
-        offset: o.misalign_offset.into(),
-        tilt: DVec3::from(o.misalign_tilt) * (std::f64::consts::PI / 180.0),
-    };
-    camera.rays = match o.mirror_rays {
-        spec::MirrorRaysSpec::Reflect => MirrorRays::Reflect,
-        spec::MirrorRaysSpec::Shortcut => MirrorRays::Shortcut,
-    };
-    camera.check_rays().map_err(|e| e.to_string())?;
-    Ok(camera)
 }
 
 /// Every pose a set's source gives, before misplaced ones are left out.

@@ -13,7 +13,8 @@ use sha2::{Digest, Sha256};
 
 use super::DatasetError;
 use super::SkippedPose;
-use super::spec::{LayoutSpec, NoiseSpec, RigSpec};
+use super::spec::{LayoutSpec, NoiseSpec};
+use omnisim::camera::RigSpec;
 use omnisim::output::OutputSet;
 
 /// What a file is, for readers that must not confuse noisy data with ground truth.

@@ -81,12 +81,12 @@ pub(crate) fn assemble(
     };
     same_renderer(dest, &stamp, &merging)?;
     let spec_path = dest.join(&stamp.spec_file);
-    let rig = super::build_rig(&spec.rig).map_err(|message| DatasetError::Spec {
+    let rig = spec.rig.build().map_err(|e| DatasetError::Spec {
         path: spec_path.clone(),
         location: None,
         set: None,
         field: "rig".into(),
-        message,
+        message: e.to_string(),
     })?;
     let mut summary = MergeSummary::default();
     let mut sets = Vec::new();

@@ -6,6 +6,7 @@
 
 use std::path::{Component, Path, PathBuf};
 
+use omnisim::camera::RigSpec;
 use omnisim::output::OutputSet;
 use serde::{Deserialize, Serialize};
 
@@ -40,157 +41,6 @@ pub struct Spec {
 
 fn one() -> u32 {
     1
-}
-
-/// The camera or stereo rig, with the options of `omnisim render` as typed fields (angles in
-/// degrees, lengths in metres, sizes in pixels).
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub enum RigSpec {
-    /// Perspective camera looking along body +x.
-    Pinhole(PinholeSpec),
-    /// Two pinholes `baseline` apart on body y (left at +y), rectified.
-    Stereo(StereoSpec),
-    /// Full-sphere equirectangular panorama.
-    Equirect {
-        /// (width, height), pixels.
-        size: (u32, u32),
-    },
-    /// 360° cylindrical panorama.
-    Cylindrical {
-        /// (width, height), pixels.
-        size: (u32, u32),
-        /// Vertical field of view, degrees.
-        #[serde(default = "ninety")]
-        vfov: f64,
-    },
-    /// Catadioptric camera: a camera looking at a mirror.
-    Omni(OmniSpec),
-}
-
-/// A pinhole's options.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct PinholeSpec {
-    /// (width, height), pixels.
-    pub size: (u32, u32),
-    /// Horizontal field of view, degrees (square pixels, centred principal point).
-    #[serde(default = "sixty")]
-    pub hfov: f64,
-    /// Focal length in pixels; overrides `hfov`.
-    #[serde(default)]
-    pub focal: Option<f64>,
-}
-
-/// A stereo rig's options.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct StereoSpec {
-    /// (width, height) of each image, pixels.
-    pub size: (u32, u32),
-    /// Horizontal field of view, degrees.
-    #[serde(default = "sixty")]
-    pub hfov: f64,
-    /// Focal length in pixels; overrides `hfov`.
-    #[serde(default)]
-    pub focal: Option<f64>,
-    /// Distance between the optical centres, metres.
-    #[serde(default = "default_baseline")]
-    pub baseline: f64,
-}
-
-/// A catadioptric camera's options (README, "Omnidirectional options").
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct OmniSpec {
-    /// (width, height), pixels.
-    #[serde(default = "omni_size")]
-    pub size: (u32, u32),
-    /// The mirror.
-    #[serde(default)]
-    pub mirror: MirrorSpec,
-    /// Highest elevation the rim shows, degrees; `None`: a hyperbolic mirror up to its asymptote.
-    #[serde(default = "twenty")]
-    pub max_elevation: Option<f64>,
-    /// Rim radius, metres (instead of `max_elevation`).
-    #[serde(default)]
-    pub rim: Option<f64>,
-    /// Focal length, pixels (pixels per metre for the parabolic mirror); overrides the fit.
-    #[serde(default)]
-    pub focal: Option<f64>,
-    /// Mirror above (`Up`) or below (`Down`) the camera.
-    #[serde(default)]
-    pub mount: MountSpec,
-    /// Radius in pixels hidden by the camera's own body at the image centre.
-    #[serde(default)]
-    pub hidden_centre: f64,
-    /// Camera displaced from its nominal place, metres (mirror frame).
-    #[serde(default)]
-    pub misalign_offset: (f64, f64, f64),
-    /// Camera axes tilted, degrees (R = Rx·Ry·Rz).
-    #[serde(default)]
-    pub misalign_tilt: (f64, f64, f64),
-    /// How mirror rays are found, as `render --mirror-rays`.
-    #[serde(default)]
-    pub mirror_rays: MirrorRaysSpec,
-}
-
-/// How an omnidirectional camera's mirror rays are found.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub enum MirrorRaysSpec {
-    /// The law of reflection at the mirror: exact for every mirror and misalignment.
-    #[default]
-    Reflect,
-    /// The reference paper's rays from the viewpoint F' through the mirror point (aligned
-    /// central mirrors only).
-    Shortcut,
-}
-
-/// The mirror of an omnidirectional camera, metres.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub enum MirrorSpec {
-    /// (x²+y²)/a² − z²/b² = −1.
-    Hyperbolic {
-        /// a, metres.
-        a: f64,
-        /// b, metres.
-        b: f64,
-    },
-    /// z = h·(x²/a² + y²/b²); b = a unless given.
-    Parabolic {
-        /// a, metres.
-        a: f64,
-        /// b, metres (a ≠ b is non-central).
-        #[serde(default)]
-        b: Option<f64>,
-        /// h, metres.
-        h: f64,
-    },
-    /// A sphere seen from a pinhole.
-    Spherical {
-        /// Sphere radius, metres.
-        radius: f64,
-        /// Sphere centre to pinhole, metres.
-        camera_distance: f64,
-    },
-}
-
-impl Default for MirrorSpec {
-    fn default() -> Self {
-        MirrorSpec::Hyperbolic { a: 0.04, b: 0.16 }
-    }
-}
-
-/// Which way the mirror axis points.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize, Serialize)]
-pub enum MountSpec {
-    /// Mirror axis along body +z.
-    #[default]
-    Up,
-    /// Mirror axis along body −z.
-    Down,
 }
 
 /// One set: its poses, its perturbations, its layouts.
@@ -544,21 +394,6 @@ impl LayoutSpec {
     }
 }
 
-fn ninety() -> f64 {
-    90.0
-}
-fn sixty() -> f64 {
-    60.0
-}
-fn twenty() -> Option<f64> {
-    Some(20.0)
-}
-fn omni_size() -> (u32, u32) {
-    (250, 250)
-}
-fn default_baseline() -> f64 {
-    0.12
-}
 fn default_clearance() -> f64 {
     0.2
 }

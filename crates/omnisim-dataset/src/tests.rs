@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat3, DQuat, DVec2, dvec3};
 
 use super::*;
+use omnisim::Camera;
 use omnisim::{BackendChoice, Planes, Renderer};
 
 const ROOM: &str = r#"Scene(name: "room", objects: [

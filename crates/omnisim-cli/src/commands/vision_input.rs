@@ -7,13 +7,13 @@ use std::path::{Component, Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, Parser};
+use omnisim::camera::RigSpec;
 use omnisim::{Camera, Rig};
 use omnisim_dataset::manifest::{FileKind, FrameEntry};
-use omnisim_dataset::spec::{MirrorRaysSpec, MirrorSpec, MountSpec, RigSpec};
 use omnisim_vision::Raster;
 use serde::Deserialize;
 
-use crate::camera_args::{CameraArgs, CameraKind, MaxElevation, MirrorKind, MirrorRaysArg, MountArg};
+use crate::camera_args::CameraArgs;
 
 /// The input folder and how to read it.
 #[derive(Debug, Clone, Args)]
@@ -156,7 +156,7 @@ impl InputArgs {
                 bail!("the data set has no set '{wanted}'; it has {names:?}");
             }
         }
-        let camera = match camera_args_of(&view.rig).build().context("the manifest's camera")? {
+        let camera = match view.rig.build().context("the manifest's camera")? {
             Rig::Single(camera) => camera,
             Rig::Stereo(stereo) => Camera::Pinhole(stereo.camera),
         };
@@ -300,62 +300,6 @@ fn inside(root: &Path, relative: &str) -> anyhow::Result<PathBuf> {
     omnisim_dataset::manifest::inside(root, relative).with_context(|| {
         format!("manifest path '{relative}' is not a path inside the data-set folder (or it goes through a link)")
     })
-}
-
-/// The `render` options that build the camera a data set's spec describes, so that both go
-/// through the same checks.
-fn camera_args_of(rig: &RigSpec) -> CameraArgs {
-    let mut args = default_camera_args();
-    match rig {
-        RigSpec::Pinhole(p) => {
-            (args.camera, args.size, args.hfov, args.focal) =
-                (CameraKind::Pinhole, Some(p.size), Some(p.hfov), p.focal);
-        }
-        RigSpec::Stereo(s) => {
-            (args.camera, args.size, args.hfov, args.focal) =
-                (CameraKind::Pinhole, Some(s.size), Some(s.hfov), s.focal);
-        }
-        RigSpec::Equirect { size } => (args.camera, args.size) = (CameraKind::Equirect, Some(*size)),
-        RigSpec::Cylindrical { size, vfov } => {
-            (args.camera, args.size, args.vfov) = (CameraKind::Cylindrical, Some(*size), Some(*vfov));
-        }
-        RigSpec::Omni(o) => {
-            args.camera = CameraKind::Omni;
-            args.size = Some(o.size);
-            match o.mirror {
-                MirrorSpec::Hyperbolic { a, b } => {
-                    (args.mirror, args.mirror_a, args.mirror_b) = (Some(MirrorKind::Hyperbolic), Some(a), Some(b));
-                }
-                MirrorSpec::Parabolic { a, b, h } => {
-                    (args.mirror, args.mirror_a, args.mirror_b, args.mirror_h) =
-                        (Some(MirrorKind::Parabolic), Some(a), b, Some(h));
-                }
-                MirrorSpec::Spherical {
-                    radius,
-                    camera_distance,
-                } => {
-                    (args.mirror, args.sphere_radius, args.camera_distance) =
-                        (Some(MirrorKind::Spherical), Some(radius), Some(camera_distance));
-                }
-            }
-            if o.rim.is_some() {
-                args.rim = o.rim;
-            } else if !matches!(o.mirror, MirrorSpec::Spherical { .. }) {
-                args.max_elevation = Some(MaxElevation(o.max_elevation));
-            }
-            args.focal = o.focal;
-            args.mount = Some(match o.mount {
-                MountSpec::Up => MountArg::Up,
-                MountSpec::Down => MountArg::Down,
-            });
-            args.hidden_centre = (o.hidden_centre != 0.0).then_some(o.hidden_centre);
-            let vector = |(x, y, z): (f64, f64, f64)| (x, y, z) != (0.0, 0.0, 0.0);
-            args.misalign_offset = vector(o.misalign_offset).then(|| o.misalign_offset.into());
-            args.misalign_tilt = vector(o.misalign_tilt).then(|| o.misalign_tilt.into());
-            args.mirror_rays = (o.mirror_rays == MirrorRaysSpec::Shortcut).then_some(MirrorRaysArg::Shortcut);
-        }
-    }
-    args
 }
 
 /// `render`'s camera options as they are when none is given.

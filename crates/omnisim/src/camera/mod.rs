@@ -8,6 +8,7 @@ pub mod catadioptric;
 mod cylindrical;
 mod equirect;
 pub(crate) mod pinhole;
+pub mod spec;
 mod stereo;
 mod validate;
 
@@ -17,6 +18,7 @@ pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Moun
 pub use cylindrical::Cylindrical;
 pub use equirect::Equirectangular;
 pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
+pub use spec::{MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigSpec, RigSpecError, StereoSpec};
 pub use stereo::StereoRig;
 pub use validate::{CameraError, MAX_PIXELS};
 

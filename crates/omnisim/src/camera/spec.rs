@@ -1,0 +1,377 @@
+//! The one description of a vision system: a serde type with the options of `omnisim render`
+//! as typed fields, which `render --rig FILE.ron`, a data-set spec's `rig:` and the files
+//! that record a run (`render.json`, `manifest.json`) all hold verbatim, and [`RigSpec::build`],
+//! the one place that turns it into a [`Rig`]. The command-line flags map onto it; a camera
+//! model added later is added here.
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::{
+    Camera, CameraError, Catadioptric, Cylindrical, Equirectangular, MirrorRays, MirrorShape, Misalignment, Mount,
+    Pinhole, StereoRig,
+};
+use crate::rig::Rig;
+
+/// The defaults every reader of a [`RigSpec`] shares (the command line, spec files, the
+/// vision commands): angles in degrees, lengths in metres, sizes in pixels.
+pub mod defaults {
+    /// Pinhole and stereo image size.
+    pub const PINHOLE_SIZE: (u32, u32) = (640, 480);
+    /// Equirectangular panorama size.
+    pub const EQUIRECT_SIZE: (u32, u32) = (1024, 512);
+    /// Cylindrical panorama size.
+    pub const CYLINDRICAL_SIZE: (u32, u32) = (1024, 256);
+    /// Omnidirectional image size (the reference paper's).
+    pub const OMNI_SIZE: (u32, u32) = (250, 250);
+    /// Pinhole horizontal field of view.
+    pub const HFOV: f64 = 60.0;
+    /// Cylindrical vertical field of view.
+    pub const VFOV: f64 = 90.0;
+    /// Stereo baseline.
+    pub const BASELINE: f64 = 0.12;
+    /// Highest elevation an omnidirectional image shows.
+    pub const MAX_ELEVATION: f64 = 20.0;
+    /// The reference paper's hyperbolic mirror, a.
+    pub const HYPERBOLIC_A: f64 = 0.04;
+    /// The reference paper's hyperbolic mirror, b.
+    pub const HYPERBOLIC_B: f64 = 0.16;
+    /// Parabolic mirror a.
+    pub const PARABOLIC_A: f64 = 0.04;
+    /// Parabolic mirror height h.
+    pub const PARABOLIC_H: f64 = 0.02;
+    /// Spherical mirror radius.
+    pub const SPHERE_RADIUS: f64 = 0.05;
+    /// Spherical mirror: sphere centre to pinhole.
+    pub const CAMERA_DISTANCE: f64 = 0.25;
+
+    pub(super) fn hfov() -> f64 {
+        HFOV
+    }
+    pub(super) fn vfov() -> f64 {
+        VFOV
+    }
+    pub(super) fn baseline() -> f64 {
+        BASELINE
+    }
+    pub(super) fn max_elevation() -> Option<f64> {
+        Some(MAX_ELEVATION)
+    }
+    pub(super) fn omni_size() -> (u32, u32) {
+        OMNI_SIZE
+    }
+}
+
+/// The camera or stereo rig, with the options of `omnisim render` as typed fields (angles in
+/// degrees, lengths in metres, sizes in pixels).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum RigSpec {
+    /// Perspective camera looking along body +x.
+    Pinhole(PinholeSpec),
+    /// Two pinholes `baseline` apart on body y (left at +y), rectified.
+    Stereo(StereoSpec),
+    /// Full-sphere equirectangular panorama.
+    Equirect {
+        /// (width, height), pixels.
+        size: (u32, u32),
+    },
+    /// 360° cylindrical panorama.
+    Cylindrical {
+        /// (width, height), pixels.
+        size: (u32, u32),
+        /// Vertical field of view, degrees.
+        #[serde(default = "defaults::vfov")]
+        vfov: f64,
+    },
+    /// Catadioptric camera: a camera looking at a mirror.
+    Omni(OmniSpec),
+}
+
+/// A pinhole's options.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PinholeSpec {
+    /// (width, height), pixels.
+    pub size: (u32, u32),
+    /// Horizontal field of view, degrees (square pixels, centred principal point).
+    #[serde(default = "defaults::hfov")]
+    pub hfov: f64,
+    /// Focal length in pixels; overrides `hfov`.
+    #[serde(default)]
+    pub focal: Option<f64>,
+}
+
+/// A stereo rig's options.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StereoSpec {
+    /// (width, height) of each image, pixels.
+    pub size: (u32, u32),
+    /// Horizontal field of view, degrees.
+    #[serde(default = "defaults::hfov")]
+    pub hfov: f64,
+    /// Focal length in pixels; overrides `hfov`.
+    #[serde(default)]
+    pub focal: Option<f64>,
+    /// Distance between the optical centres, metres.
+    #[serde(default = "defaults::baseline")]
+    pub baseline: f64,
+}
+
+/// A catadioptric camera's options (README, "Omnidirectional options").
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OmniSpec {
+    /// (width, height), pixels.
+    #[serde(default = "defaults::omni_size")]
+    pub size: (u32, u32),
+    /// The mirror.
+    #[serde(default)]
+    pub mirror: MirrorSpec,
+    /// Highest elevation the rim shows, degrees; `None`: a hyperbolic mirror up to its asymptote.
+    #[serde(default = "defaults::max_elevation")]
+    pub max_elevation: Option<f64>,
+    /// Rim radius, metres (instead of `max_elevation`).
+    #[serde(default)]
+    pub rim: Option<f64>,
+    /// Focal length, pixels (pixels per metre for the parabolic mirror); overrides the fit.
+    #[serde(default)]
+    pub focal: Option<f64>,
+    /// Mirror above (`Up`) or below (`Down`) the camera.
+    #[serde(default)]
+    pub mount: MountSpec,
+    /// Radius in pixels hidden by the camera's own body at the image centre.
+    #[serde(default)]
+    pub hidden_centre: f64,
+    /// Camera displaced from its nominal place, metres (mirror frame).
+    #[serde(default)]
+    pub misalign_offset: (f64, f64, f64),
+    /// Camera axes tilted, degrees (R = Rx·Ry·Rz).
+    #[serde(default)]
+    pub misalign_tilt: (f64, f64, f64),
+    /// How mirror rays are found, as `render --mirror-rays`.
+    #[serde(default)]
+    pub mirror_rays: MirrorRaysSpec,
+}
+
+/// How an omnidirectional camera's mirror rays are found.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum MirrorRaysSpec {
+    /// The law of reflection at the mirror: exact for every mirror and misalignment.
+    #[default]
+    Reflect,
+    /// The reference paper's rays from the viewpoint F' through the mirror point (aligned
+    /// central mirrors only).
+    Shortcut,
+}
+
+/// The mirror of an omnidirectional camera, metres.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum MirrorSpec {
+    /// (x²+y²)/a² − z²/b² = −1.
+    Hyperbolic {
+        /// a, metres.
+        a: f64,
+        /// b, metres.
+        b: f64,
+    },
+    /// z = h·(x²/a² + y²/b²); b = a unless given.
+    Parabolic {
+        /// a, metres.
+        a: f64,
+        /// b, metres (a ≠ b is non-central).
+        #[serde(default)]
+        b: Option<f64>,
+        /// h, metres.
+        h: f64,
+    },
+    /// A sphere seen from a pinhole.
+    Spherical {
+        /// Sphere radius, metres.
+        radius: f64,
+        /// Sphere centre to pinhole, metres.
+        camera_distance: f64,
+    },
+}
+
+impl Default for MirrorSpec {
+    /// The reference paper's mirror.
+    fn default() -> Self {
+        MirrorSpec::Hyperbolic {
+            a: defaults::HYPERBOLIC_A,
+            b: defaults::HYPERBOLIC_B,
+        }
+    }
+}
+
+/// Which way the mirror axis points.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize, Serialize)]
+pub enum MountSpec {
+    /// Mirror axis along body +z.
+    #[default]
+    Up,
+    /// Mirror axis along body −z.
+    Down,
+}
+
+impl Default for OmniSpec {
+    /// The reference paper's camera: its mirror, 250 × 250, the rim at 20° above the horizon.
+    fn default() -> Self {
+        Self {
+            size: defaults::OMNI_SIZE,
+            mirror: MirrorSpec::default(),
+            max_elevation: defaults::max_elevation(),
+            rim: None,
+            focal: None,
+            mount: MountSpec::default(),
+            hidden_centre: 0.0,
+            misalign_offset: (0.0, 0.0, 0.0),
+            misalign_tilt: (0.0, 0.0, 0.0),
+            mirror_rays: MirrorRaysSpec::default(),
+        }
+    }
+}
+
+/// Why a [`RigSpec`] describes no camera; each message names the field and its valid range.
+#[derive(Debug, thiserror::Error)]
+pub enum RigSpecError {
+    /// A field of view outside (0°, 180°).
+    #[error("{field} must be between 0 and 180 degrees (exclusive), not {degrees}")]
+    FieldOfView {
+        /// `hfov` or `vfov`.
+        field: &'static str,
+        /// What was given.
+        degrees: f64,
+    },
+    /// A hyperbolic mirror's rim placed at or above its asymptote.
+    #[error(
+        "max_elevation {asked:.2}° is beyond what this mirror can see: at most {limit:.2}° (asin(b/c)); use less, or none"
+    )]
+    BeyondAsymptote {
+        /// What was asked, degrees.
+        asked: f64,
+        /// The asymptote's elevation, degrees.
+        limit: f64,
+    },
+    /// A paraboloid without `max_elevation` or `rim`.
+    #[error("a paraboloid has no asymptote: give max_elevation in degrees or rim")]
+    ParaboloidWithoutRim,
+    /// The camera the fields describe cannot make an image.
+    #[error("the camera cannot make an image: {0}")]
+    Camera(#[from] CameraError),
+}
+
+impl RigSpec {
+    /// The camera or rig this describes, checked by `validate` (what `Renderer::render`
+    /// would refuse is refused here, with the same message).
+    pub fn build(&self) -> Result<Rig, RigSpecError> {
+        let rig =
+            match self {
+                RigSpec::Pinhole(p) => Rig::Single(Camera::Pinhole(pinhole(p.size, p.hfov, p.focal)?)),
+                RigSpec::Stereo(s) => Rig::Stereo(StereoRig {
+                    camera: pinhole(s.size, s.hfov, s.focal)?,
+                    baseline: s.baseline,
+                }),
+                RigSpec::Equirect { size } => Rig::Single(Camera::Equirectangular(Equirectangular {
+                    width: size.0,
+                    height: size.1,
+                })),
+                RigSpec::Cylindrical { size, vfov } => Rig::Single(Camera::Cylindrical(
+                    Cylindrical::with_vertical_fov(size.0, size.1, field_of_view("vfov", *vfov)?),
+                )),
+                RigSpec::Omni(o) => Rig::Single(Camera::Catadioptric(o.build()?)),
+            };
+        match &rig {
+            Rig::Single(camera) => camera.validate(),
+            Rig::Stereo(stereo) => stereo.validate(),
+        }?;
+        Ok(rig)
+    }
+}
+
+/// `degrees` in radians, if strictly between 0° and 180°.
+fn field_of_view(field: &'static str, degrees: f64) -> Result<f64, RigSpecError> {
+    if degrees > 0.0 && degrees < 180.0 {
+        Ok(degrees.to_radians())
+    } else {
+        Err(RigSpecError::FieldOfView { field, degrees })
+    }
+}
+
+/// A pinhole of `size` with square pixels: `focal` pixels, or the focal that gives `hfov`.
+fn pinhole((width, height): (u32, u32), hfov: f64, focal: Option<f64>) -> Result<Pinhole, RigSpecError> {
+    let mut camera = Pinhole::with_horizontal_fov(width, height, field_of_view("hfov", hfov)?);
+    if let Some(f) = focal {
+        (camera.fx, camera.fy) = (f, f);
+    }
+    Ok(camera)
+}
+
+impl OmniSpec {
+    /// The catadioptric camera: the mirror, its rim fitted to the image (or placed by hand),
+    /// then mount, hidden centre, misalignment and ray model.
+    fn build(&self) -> Result<Catadioptric, RigSpecError> {
+        let (w, h) = self.size;
+        let elevation = if self.rim.is_some() {
+            None
+        } else {
+            self.max_elevation.map(f64::to_radians)
+        };
+        let mut camera = match self.mirror {
+            MirrorSpec::Hyperbolic { a, b } => {
+                let camera = Catadioptric::hyperbolic(w, h, a, b, elevation);
+                if let Some(e) = elevation
+                    && e >= camera.asymptote_elevation()
+                {
+                    return Err(RigSpecError::BeyondAsymptote {
+                        asked: e.to_degrees(),
+                        limit: camera.asymptote_elevation().to_degrees(),
+                    });
+                }
+                camera
+            }
+            MirrorSpec::Parabolic { a, b, h: height } => {
+                let elevation = match (elevation, self.rim) {
+                    (Some(e), _) => e,
+                    (None, Some(_)) => 0.0,
+                    (None, None) => return Err(RigSpecError::ParaboloidWithoutRim),
+                };
+                let mut camera = Catadioptric::parabolic(w, h, a, height, elevation);
+                camera.mirror = MirrorShape::Parabolic {
+                    a,
+                    b: b.unwrap_or(a),
+                    h: height,
+                };
+                camera
+            }
+            MirrorSpec::Spherical {
+                radius,
+                camera_distance,
+            } => Catadioptric::spherical(w, h, radius, camera_distance),
+        };
+        if self.rim.is_some() {
+            camera.rim_radius = self.rim;
+        }
+        if let Some(f) = self.focal {
+            camera.focal = f;
+        }
+        camera.mount = match self.mount {
+            MountSpec::Up => Mount::Up,
+            MountSpec::Down => Mount::Down,
+        };
+        camera.hidden_centre_px = self.hidden_centre;
+        camera.misalignment = Misalignment {
+            offset: self.misalign_offset.into(),
+            tilt: DVec3::from(self.misalign_tilt) * (std::f64::consts::PI / 180.0),
+        };
+        camera.rays = match self.mirror_rays {
+            MirrorRaysSpec::Reflect => MirrorRays::Reflect,
+            MirrorRaysSpec::Shortcut => MirrorRays::Shortcut,
+        };
+        camera.check_rays()?;
+        Ok(camera)
+    }
+}
