@@ -50,6 +50,32 @@ fn dataset(dir: &Path) -> PathBuf {
     dir.join("ds")
 }
 
+/// Two 64² omnidirectional images of env1 rendered (with segmentation) into `dir/r`, a
+/// render folder with the default camera.
+fn render_folder(dir: &Path) -> PathBuf {
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.join("env1.ron")).unwrap();
+    succeed(
+        &[
+            "render",
+            "env1.ron",
+            "--size",
+            "64x64",
+            "--pose",
+            "0,0,0.4",
+            "--pose",
+            "0.5,0,0.4",
+            "--segmentation",
+            "--backend",
+            "cpu",
+            "--out",
+            "r",
+        ],
+        dir,
+    );
+    dir.join("r")
+}
+
 /// The spec's camera, as the library builds it.
 fn camera() -> Catadioptric {
     Catadioptric::hyperbolic(120, 120, 0.04, 0.16, Some(20f64.to_radians()))
@@ -523,4 +549,27 @@ fn outputs_never_land_among_the_input_images() {
         );
     }
     assert!(!dir.path().join("ds/map/fourier.npy").exists());
+}
+
+/// Two images whose names differ only in the extension's case would give the same views: the
+/// second would replace the first's, silently.
+#[test]
+fn project_refuses_images_that_share_a_stem() {
+    let dir = tempfile::tempdir().unwrap();
+    let rendered = render_folder(dir.path());
+    std::fs::create_dir(dir.path().join("imgs")).unwrap();
+    std::fs::copy(rendered.join("env1-0000.png"), dir.path().join("imgs/a.png")).unwrap();
+    std::fs::copy(rendered.join("env1-0001.png"), dir.path().join("imgs/a.PNG")).unwrap();
+    let output = omnisim(
+        &["project", "imgs", "--view", "panorama:width=64,height=16", "--out", "v"],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success()
+            && stderr.contains("would both give the views a-NAME.png")
+            && stderr.contains("rename"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("v").exists(), "nothing written");
 }

@@ -16,7 +16,7 @@ use serde_json::{Value, json};
 
 pub use crate::camera_args::parse_size;
 
-use super::vision_input::{InputArgs, NamedSettings, check_image_sizes, read_image};
+use super::vision_input::{InputArgs, InputSet, NamedSettings, check_image_sizes, read_image};
 
 /// Resample omnidirectional images into other views (docs/vision.md, "Projections").
 ///
@@ -161,6 +161,9 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
     }
     let input = args.input.read()?;
     super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;
+    for set in &input.sets {
+        refuse_shared_stems(set)?;
+    }
     let Camera::Catadioptric(omni) = &input.camera else {
         bail!("project resamples omnidirectional images: the images are not from a catadioptric camera");
     };
@@ -215,6 +218,24 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
             views.len(),
             folder.display()
         );
+    }
+    Ok(())
+}
+
+/// Refuses a set in which two images have the same stem (`a.png` and `a.PNG`): their views
+/// would be written to the same files, and one image's lost.
+fn refuse_shared_stems(set: &InputSet) -> anyhow::Result<()> {
+    let mut seen = std::collections::HashMap::new();
+    for frame in &set.frames {
+        if let Some(first) = seen.insert(frame.stem.as_str(), &frame.path) {
+            bail!(
+                "{} and {} would both give the views {}-NAME.png: project names its outputs after the image's name \
+                 without its extension; rename one of them",
+                first.display(),
+                frame.path.display(),
+                frame.stem
+            );
+        }
     }
     Ok(())
 }
