@@ -573,3 +573,41 @@ fn project_refuses_images_that_share_a_stem() {
     );
     assert!(!dir.path().join("v").exists(), "nothing written");
 }
+
+/// A file or folder name that is not UTF-8 cannot be recorded in the JSON sidecars: refused
+/// with the name, never a panic.
+#[cfg(unix)]
+#[test]
+fn names_that_are_not_utf8_are_refused_not_a_panic() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let rendered = render_folder(dir.path());
+    let odd = OsStr::from_bytes(b"b\xff");
+    for folder in [OsStr::new("good"), OsStr::new("odd-image"), odd] {
+        std::fs::create_dir(dir.path().join(folder)).unwrap();
+        std::fs::copy(rendered.join("env1-0000.png"), dir.path().join(folder).join("a.png")).unwrap();
+    }
+    let image = dir.path().join("odd-image").join(odd).with_extension("png");
+    std::fs::copy(rendered.join("env1-0001.png"), image).unwrap();
+    let describe: &[&OsStr] = &["describe".as_ref(), "-d".as_ref(), "hog".as_ref()];
+    let project: &[&OsStr] = &["project".as_ref(), "--view".as_ref(), "panorama".as_ref()];
+    let basis: &[&OsStr] = &["good".as_ref(), "--pca-basis".as_ref(), odd];
+    for args in [
+        [describe, &["odd-image".as_ref()]].concat(),
+        [project, &["odd-image".as_ref()]].concat(),
+        [describe, &[odd]].concat(),
+        [project, &[odd]].concat(),
+        [describe, basis].concat(),
+    ] {
+        let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(&args)
+            .args(["--out", "x"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains("is not a UTF-8 name"), "{args:?}: {stderr}");
+    }
+}

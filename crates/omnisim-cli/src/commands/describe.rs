@@ -418,6 +418,9 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
     if args.pca_fit == Some(0) {
         bail!("--pca-fit needs at least 1 component");
     }
+    if let Some(basis) = &args.pca_basis {
+        super::vision_input::recordable(basis).context("--pca-basis")?;
+    }
     let input = args.input.read()?;
     super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;
     if args.pca_fit.is_some() && input.sets.iter().any(|s| s.name == PCA_FOLDER) {

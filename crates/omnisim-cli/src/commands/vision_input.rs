@@ -80,6 +80,7 @@ const MANIFEST_LIMIT: u64 = 1 << 30;
 
 impl InputArgs {
     pub fn read(&self) -> anyhow::Result<Input> {
+        recordable(&self.input)?;
         let manifest = self.input.join("manifest.json");
         if manifest.is_file() {
             if self.camera_given() {
@@ -220,6 +221,7 @@ impl InputArgs {
                 .and_then(|e| e.to_str())
                 .is_some_and(|e| e.eq_ignore_ascii_case("png"));
             if image && path.is_file() {
+                recordable(&path)?;
                 paths.push(path);
             }
         }
@@ -264,6 +266,19 @@ impl InputArgs {
             camera,
         })
     }
+}
+
+/// Refuses a path that is not UTF-8: the sidecars record every input path in JSON, which
+/// holds only UTF-8 (and a lossy name could give two images the same outputs).
+pub fn recordable(path: &Path) -> anyhow::Result<()> {
+    if path.to_str().is_none() {
+        bail!(
+            "{} is not a UTF-8 name: describe and project record the files they read in JSON sidecars, which hold \
+             only UTF-8; rename it",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 /// Refuses an output folder that is one the images are read from: a second run would read
