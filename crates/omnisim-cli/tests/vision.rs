@@ -611,3 +611,102 @@ fn names_that_are_not_utf8_are_refused_not_a_panic() {
         assert!(stderr.contains("is not a UTF-8 name"), "{args:?}: {stderr}");
     }
 }
+
+/// `omnisim` run in `dir`, killed (and the test failed) if it runs for more than 60 s: a read
+/// that blocks must fail the test, not hang it.
+fn omnisim_within_a_minute(args: &[&str], dir: &Path) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(args)
+        .current_dir(dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("omnisim {args:?} still ran after 60 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// A FIFO where an image or a PCA basis file is expected is refused at once: opening it would
+/// wait for a writer for ever.
+#[cfg(unix)]
+#[test]
+fn fifos_among_the_inputs_are_refused_not_waited_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let ds = dataset(dir.path());
+    succeed(
+        &[
+            "describe",
+            "ds",
+            "--set",
+            "map",
+            "-d",
+            "hog",
+            "--pca-fit",
+            "2",
+            "--out",
+            "fit",
+        ],
+        dir.path(),
+    );
+    let fifo = |path: &Path| {
+        std::fs::remove_file(path).unwrap();
+        assert!(Command::new("mkfifo").arg(path).status().unwrap().success());
+    };
+    let basis = dir.path().join("fit/pca/hog");
+    fifo(&ds.join("map/env1-0001.png"));
+    for (path, args) in [
+        (None, &["describe", "ds", "--set", "map", "-d", "hog", "--out", "x"][..]),
+        (
+            None,
+            &["project", "ds", "--set", "map", "--view", "panorama", "--out", "x"][..],
+        ),
+        (
+            Some(basis.join("pca.json")),
+            &[
+                "describe",
+                "ds",
+                "--set",
+                "test",
+                "-d",
+                "hog",
+                "--pca-basis",
+                "fit",
+                "--out",
+                "x",
+            ][..],
+        ),
+        (
+            Some(basis.join("mean.npy")),
+            &[
+                "describe",
+                "ds",
+                "--set",
+                "test",
+                "-d",
+                "hog",
+                "--pca-basis",
+                "fit",
+                "--out",
+                "x",
+            ][..],
+        ),
+    ] {
+        if let Some(path) = &path {
+            fifo(path);
+        }
+        let output = omnisim_within_a_minute(args, dir.path());
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            !output.status.success() && stderr.contains("is a FIFO (named pipe), not a regular file"),
+            "{args:?}: {stderr}"
+        );
+    }
+}

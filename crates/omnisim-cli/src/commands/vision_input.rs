@@ -3,6 +3,8 @@
 //! camera from `render`'s options), and their `NAME:KEY=VALUE,...` option values.
 
 use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufReader, Take};
 use std::path::{Component, Path, PathBuf};
 
 use anyhow::{Context, bail};
@@ -231,7 +233,7 @@ impl InputArgs {
         };
         let mut camera_args = self.camera.clone();
         if camera_args.size.is_none() {
-            let (w, h) = image::image_dimensions(first).with_context(|| format!("cannot read {}", first.display()))?;
+            let (w, h) = image_size(first)?;
             camera_args.size = Some((w, h));
         }
         let camera = match camera_args.build()? {
@@ -383,9 +385,29 @@ fn default_camera_args() -> CameraArgs {
     Defaults::parse_from(["omnisim"]).camera
 }
 
+/// Largest image file read.
+const IMAGE_LIMIT: u64 = 1 << 30;
+
+/// A reader of the image file `path`, opened only if it is a regular file (a FIFO would block).
+fn open_image(path: &Path) -> anyhow::Result<image::ImageReader<BufReader<Take<File>>>> {
+    let file = omnisim::input::open_regular(path, IMAGE_LIMIT)?;
+    image::ImageReader::new(BufReader::new(file))
+        .with_guessed_format()
+        .with_context(|| format!("cannot read image {}", path.display()))
+}
+
+/// The image file `path`'s (width, height), from its header.
+fn image_size(path: &Path) -> anyhow::Result<(u32, u32)> {
+    open_image(path)?
+        .into_dimensions()
+        .with_context(|| format!("cannot read image {}", path.display()))
+}
+
 /// An image file as RGB 0..1, checked to be `size` (all images of a set are).
 pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
-    let image = image::open(path).with_context(|| format!("cannot read image {}", path.display()))?;
+    let image = open_image(path)?
+        .decode()
+        .with_context(|| format!("cannot read image {}", path.display()))?;
     let raster = Raster::from_image(&image);
     if let Some(size) = size {
         same_size(path, (raster.width, raster.height), size, "the set's first image")?;
@@ -397,8 +419,7 @@ pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<R
 /// so that a command can refuse a bad set before it writes anything.
 pub fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Result<()> {
     for frame in sets.iter().flat_map(|s| &s.frames) {
-        let (w, h) = image::image_dimensions(&frame.path)
-            .with_context(|| format!("cannot read image {}", frame.path.display()))?;
+        let (w, h) = image_size(&frame.path)?;
         same_size(&frame.path, (w as usize, h as usize), size, "the camera's image")?;
     }
     Ok(())
