@@ -488,6 +488,65 @@ fn a_closed_or_full_standard_output_is_no_crash() {
     }
 }
 
+/// Every command ends with code 1 and no panic when standard error is full, or standard
+/// output for the commands that print files (`eprintln!` and `println!` panicked, and with
+/// standard error full the panic's message failed too: code 101, nothing said).
+#[test]
+fn a_full_standard_error_is_no_crash() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display();
+    std::fs::copy(workspace().join("scenes/env1.ron"), dir.path().join("env1.ron")).unwrap();
+    std::fs::write(
+        dir.path().join("spec.ron"),
+        r#"Dataset(scene: "env1.ron", rig: Omni(size: (32, 32)), sets: [Set(name: "map", poses: Grid(x: (0.0, 0.0, 1.0), y: (0.0, 0.0, 1.0), z: [0.4]))])"#,
+    )
+    .unwrap();
+    let images = omnisim(&format!(
+        "render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --backend cpu --out {d}/images"
+    ));
+    assert!(images.status.success(), "{}", text(&images.stderr));
+    let run = |line: &str, stdout: &str, stderr: &str| {
+        Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(line.split_whitespace())
+            .current_dir(workspace())
+            .stdout(std::fs::File::create(stdout).unwrap())
+            .stderr(std::fs::File::create(stderr).unwrap())
+            .status()
+            .unwrap()
+    };
+    for line in [
+        format!("render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --backend cpu --out {d}/r"),
+        format!("dataset {d}/spec.ron --backend cpu --out {d}/ds"),
+        format!("preview scenes/env1-dataset.ron --out {d}/preview"),
+        format!("describe {d}/images -d hog --out {d}/described"),
+        format!("project {d}/images --view panorama --out {d}/views"),
+        format!("poses grid --x 0 --y 0 --z 0.4 --out {d}/grid.txt"),
+        "render scenes/nope.ron".to_string(),
+    ] {
+        let status = run(&line, "/dev/null", "/dev/full");
+        assert_eq!(status.code(), Some(1), "{line} 2> /dev/full");
+        // The line itself is good: the same again with standard error to a file succeeds.
+        let errors = dir.path().join("errors.txt");
+        let again = run(&line, "/dev/null", errors.to_str().unwrap());
+        let expected = if line.contains("nope") { Some(1) } else { Some(0) };
+        assert_eq!(
+            again.code(),
+            expected,
+            "{line}: {}",
+            std::fs::read_to_string(&errors).unwrap()
+        );
+    }
+    let preview = format!("preview scenes/env1-dataset.ron --out {d}/preview");
+    let errors = dir.path().join("errors.txt");
+    let status = run(&preview, "/dev/full", errors.to_str().unwrap());
+    let stderr = std::fs::read_to_string(&errors).unwrap();
+    assert_eq!(status.code(), Some(1), "{preview} > /dev/full: {stderr}");
+    assert!(
+        stderr.contains("cannot write to standard output") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn single_file_outputs_create_their_folder_before_working() {
     let dir = tempfile::tempdir().unwrap();

@@ -65,14 +65,14 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         let started = Instant::now();
         let (dest, sources) = dirs.split_first().context("merge needs a data-set folder")?;
         let summary = dataset::merge(dest, sources).with_context(|| format!("cannot merge into {}", dest.display()))?;
-        eprintln!(
+        crate::streams::stderr(format_args!(
             "merged {} frames: {} files, {:.1} MB checked, in {:.1} s; wrote {}",
             summary.frames,
             summary.files,
             summary.bytes as f64 / 1e6,
             started.elapsed().as_secs_f64(),
             dest.join("manifest.json").display()
-        );
+        ))?;
         return Ok(());
     }
     let (Some(spec), Some(out)) = (args.spec, args.out) else {
@@ -81,15 +81,15 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let dataset = Dataset::load(&spec)?;
     for warning in &dataset.warnings {
-        eprintln!("warning: {warning}");
+        crate::streams::stderr(format_args!("warning: {warning}"))?;
     }
     let renderer = Renderer::new(args.backend.into())?;
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "backend: {} on {} — {}",
         renderer.backend_name(),
         renderer.device_name(),
         renderer.reason()
-    );
+    ))?;
     let options = RunOptions {
         shard: args.shard,
         overwrite: args.overwrite,
@@ -97,9 +97,14 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     };
     let mut progress = Progress::new();
     let run_started = Instant::now();
-    let summary = match dataset.run(&renderer, &out, &options, &mut |frame| {
-        progress.frame(frame);
-        ControlFlow::Continue(())
+    // A progress line that cannot be written stops the run like any failure (resumable).
+    let mut unwritten = None;
+    let summary = match dataset.run(&renderer, &out, &options, &mut |frame| match progress.frame(frame) {
+        Ok(()) => ControlFlow::Continue(()),
+        Err(error) => {
+            unwritten = Some(error);
+            ControlFlow::Break(())
+        }
     }) {
         Ok(summary) => summary,
         // The folder or the spec must change: resuming would fail the same way.
@@ -114,14 +119,17 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         }
     };
     progress.finish();
+    if let Some(error) = unwritten {
+        return Err(error);
+    }
     for note in &summary.notes {
-        eprintln!("note: {note}");
+        crate::streams::stderr(format_args!("note: {note}"))?;
     }
     // Frames: from the start of the run to the last frame written; then the checks and index
     // files (manifest, layouts, contact sheets).
     let frames_done = progress.last_frame.unwrap_or(run_started);
     let seconds = (frames_done - run_started).as_secs_f64();
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "{} frame(s) rendered ({} already done), {:.1} MB written in {seconds:.2} s ({:.2} frames/s) on {}; \
          {:.2} s in all ({:.2} s after the last frame: {})",
         summary.rendered,
@@ -136,15 +144,15 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         } else {
             "nothing to merge yet"
         }
-    );
+    ))?;
     match args.shard {
-        Some(shard) => eprintln!(
+        Some(shard) => crate::streams::stderr(format_args!(
             "shard {}/{} done; when every shard is, run: omnisim dataset merge {}",
             shard.index,
             shard.count,
             out.display()
-        ),
-        None => eprintln!("wrote {}", out.join("manifest.json").display()),
+        ))?,
+        None => crate::streams::stderr(format_args!("wrote {}", out.join("manifest.json").display()))?,
     }
     Ok(())
 }
@@ -173,17 +181,17 @@ impl Progress {
         }
     }
 
-    fn frame(&mut self, frame: &dataset::FrameDone) {
+    fn frame(&mut self, frame: &dataset::FrameDone) -> anyhow::Result<()> {
         self.last_frame = Some(Instant::now());
         if !self.terminal {
             if self.last.elapsed() >= Duration::from_secs(10) || frame.done == frame.total {
-                eprintln!(
+                crate::streams::stderr(format_args!(
                     "{}/{} frames (set '{}', frame {})",
                     frame.done, frame.total, frame.set, frame.index
-                );
+                ))?;
                 self.last = Instant::now();
             }
-            return;
+            return Ok(());
         }
         let bar = self.bar.get_or_insert_with(|| {
             ProgressBar::new(frame.total as u64).with_style(
@@ -201,6 +209,7 @@ impl Progress {
             0 => bar.set_message(format!("({})", frame.set)),
             resumed => bar.set_message(format!("({}; {resumed} done by an earlier run)", frame.set)),
         }
+        Ok(())
     }
 
     fn finish(&self) {

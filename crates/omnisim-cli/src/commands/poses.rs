@@ -169,9 +169,9 @@ fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
             refuse_replacing_other_files(path)?;
             super::prepare_file(path)?;
             write_atomically(path, |file| fill(file)).with_context(|| format!("cannot write {}", path.display()))?;
-            eprintln!("{} poses written to {}", poses.len(), path.display());
+            crate::streams::stderr(format_args!("{} poses written to {}", poses.len(), path.display()))?;
         }
-        None => fill(&mut std::io::stdout().lock()).context("cannot write to standard output")?,
+        None => fill(&mut std::io::stdout().lock()).map_err(crate::streams::stdout_error)?,
     }
     Ok(())
 }

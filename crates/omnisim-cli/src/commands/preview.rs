@@ -37,7 +37,7 @@ pub fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
     }
     let dataset = Dataset::load(&args.spec)?;
     for warning in &dataset.warnings {
-        eprintln!("warning: {warning}");
+        crate::streams::stderr(format_args!("warning: {warning}"))?;
     }
     let picture = preview::draw(&dataset)?;
     let mut svg = args.out.clone().into_os_string();
@@ -46,16 +46,16 @@ pub fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
     let written = picture
         .write(&args.out)
         .with_context(|| format!("cannot write the preview {}.svg/.png", args.out.display()))?;
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "{} pose(s) of {} set(s), {} skipped; {}×{} px",
         picture.poses,
         dataset.sets.len(),
         picture.skipped,
         picture.view.size.0,
         picture.view.size.1
-    );
+    ))?;
     for path in written {
-        println!("{}", path.display());
+        crate::streams::stdout(path.display())?;
     }
     Ok(())
 }

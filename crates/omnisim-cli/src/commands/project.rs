@@ -211,13 +211,13 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
         text.push(b'\n');
         write_atomically(&path, |out| out.write_all(&text))
             .with_context(|| format!("cannot write {}", path.display()))?;
-        eprintln!(
+        crate::streams::stderr(format_args!(
             "set '{}': {} image(s) × {} view(s) written to {}",
             set.name,
             set.frames.len(),
             views.len(),
             folder.display()
-        );
+        ))?;
     }
     Ok(())
 }
