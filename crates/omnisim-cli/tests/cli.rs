@@ -572,6 +572,68 @@ fn single_file_outputs_create_their_folder_before_working() {
     assert!(impossible.stdout.is_empty(), "measured before failing");
 }
 
+/// A single output file whose destination is a device or a FIFO is refused, and the device
+/// left as it was: the rename that puts the file in place replaced it with a regular file.
+#[cfg(unix)]
+#[test]
+fn single_file_outputs_never_replace_a_device_or_fifo() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tempfile::tempdir().unwrap();
+    // Named .ply so that `scene export` takes them.
+    let fifo = dir.path().join("fifo.ply");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let mut specials = vec![(fifo, "a FIFO (named pipe)")];
+    // A character device standing in for /dev/null, where the system lets us make one (root).
+    let device = dir.path().join("null.ply");
+    if Command::new("mknod")
+        .arg(&device)
+        .args(["c", "1", "3"])
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        specials.push((device, "a device"));
+    }
+    let fifo_png = dir.path().join("plan.png");
+    assert!(Command::new("mkfifo").arg(&fifo_png).status().unwrap().success());
+    let mut lines: Vec<(String, &Path, &str)> = vec![(
+        format!(
+            "preview scenes/env1-dataset.ron --out {}",
+            dir.path().join("plan").display()
+        ),
+        &fifo_png,
+        "a FIFO (named pipe)",
+    )];
+    for (special, kind) in &specials {
+        lines.push((
+            format!(
+                "bench scenes/env1.ron --camera omni --size 32x32 --runs 1 --warmup 0 --backend cpu --chart {}",
+                special.display()
+            ),
+            special,
+            kind,
+        ));
+        lines.push((
+            format!("scene export scenes/env1.ron {}", special.display()),
+            special,
+            kind,
+        ));
+    }
+    for (line, special, kind) in &lines {
+        let result = omnisim(line);
+        let stderr = text(&result.stderr);
+        assert!(
+            result.status.code() == Some(1) && stderr.contains(&format!("is {kind}, not a regular file")),
+            "{line}: {stderr}"
+        );
+        let file_type = std::fs::symlink_metadata(special).unwrap().file_type();
+        assert!(
+            file_type.is_fifo() || file_type.is_char_device(),
+            "{line} replaced {}",
+            special.display()
+        );
+    }
+}
+
 #[test]
 fn gpu_probes_keep_stderr_clean() {
     let dir = tempfile::tempdir().unwrap();

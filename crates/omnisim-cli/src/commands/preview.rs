@@ -40,9 +40,11 @@ pub fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
         crate::streams::stderr(format_args!("warning: {warning}"))?;
     }
     let picture = preview::draw(&dataset)?;
-    let mut svg = args.out.clone().into_os_string();
-    svg.push(".svg");
-    super::prepare_file(&PathBuf::from(svg))?;
+    for extension in [".svg", ".png"] {
+        let mut path = args.out.clone().into_os_string();
+        path.push(extension);
+        super::prepare_file(&PathBuf::from(path))?;
+    }
     let written = picture
         .write(&args.out)
         .with_context(|| format!("cannot write the preview {}.svg/.png", args.out.display()))?;
