@@ -445,6 +445,38 @@ fn describe_refuses_bad_requests() {
             vec!["project", "ds", "--view", "perspective:yaw=inf", "--out", "x"],
             "not a finite number",
         ),
+        // Out of range: the message gives the range (radians for degrees, minutes of work).
+        (
+            vec!["project", "ds", "--view", "perspective:yaw=1e308", "--out", "x"],
+            "perspective: direction: needs −360° ≤ yaw ≤ 360° and −90° ≤ pitch ≤ 90°",
+        ),
+        (
+            vec!["project", "ds", "--view", "perspective:pitch=-1000", "--out", "x"],
+            "got 0° and -1000°",
+        ),
+        (
+            vec!["project", "ds", "--view", "birds-eye:scale=1e-300", "--out", "x"],
+            "birds-eye: metres per pixel: needs 1e-6 to 1000 m, got 1e-300",
+        ),
+        (
+            vec!["project", "ds", "--view", "birds-eye:plane=1e300", "--out", "x"],
+            "birds-eye: plane height: needs 1e-6 to 1000 m",
+        ),
+        (
+            vec![
+                "project",
+                "ds",
+                "--view",
+                "birds-eye:width=10000,height=10000",
+                "--out",
+                "x",
+            ],
+            "10000×10000 pixels: a view has 1 to 16777216 pixels (4096×4096)",
+        ),
+        (
+            vec!["describe", "ds", "-d", "hog", "--panorama", "8192x4096", "--out", "x"],
+            "the panorama: view size",
+        ),
         (
             [&["project", "mixed"][..], &omni, &["--view", "panorama", "--out", "x"]].concat(),
             "is 60×60 pixels, but the camera's image is 120×120",
