@@ -742,3 +742,44 @@ fn fifos_among_the_inputs_are_refused_not_waited_on() {
         );
     }
 }
+
+/// Of a render folder, the colour images its render.json lists are read: the object and face
+/// id PNGs of `--segmentation` were read as images too (three rows per pose, black views).
+#[test]
+fn a_render_folders_id_pngs_are_not_images() {
+    let dir = tempfile::tempdir().unwrap();
+    render_folder(dir.path());
+    succeed(&["describe", "r", "-d", "hog", "--out", "d"], dir.path());
+    let sidecar: Value = serde_json::from_slice(&std::fs::read(dir.path().join("d/r/hog.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["shape"][0], 2, "one row per pose");
+    let files: Vec<&str> = sidecar["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["file"].as_str().unwrap())
+        .collect();
+    assert_eq!(files, ["r/env1-0000.png", "r/env1-0001.png"]);
+    succeed(&["project", "r", "--view", "panorama", "--out", "v"], dir.path());
+    let mut written: Vec<String> = std::fs::read_dir(dir.path().join("v/r"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        [
+            "env1-0000-panorama.png",
+            "env1-0001-panorama.png",
+            "panorama-valid.png",
+            "project.json"
+        ]
+    );
+    // A render.json that is not render's says so instead of guessing from the names.
+    std::fs::write(dir.path().join("r/render.json"), "{}").unwrap();
+    let output = omnisim(&["describe", "r", "-d", "hog", "--out", "d2"], dir.path());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success() && stderr.contains("is not the render.json of an omnisim render"),
+        "{stderr}"
+    );
+}

@@ -22,7 +22,8 @@ use crate::camera_args::{CameraArgs, CameraKind, MaxElevation, MirrorKind, Mirro
 pub struct InputArgs {
     /// A data-set folder written by `omnisim dataset` (with manifest.json), or a folder of
     /// PNG images (read in name order; camera from the options below, which must match the
-    /// camera an `omnisim render` folder's render.json records).
+    /// camera an `omnisim render` folder's render.json records). Of a render folder, the
+    /// colour images its render.json lists are read (not its depth or id PNGs).
     pub input: PathBuf,
     /// Data sets: only this set (repeat for several) [default: every set].
     #[arg(long = "set")]
@@ -110,15 +111,8 @@ impl InputArgs {
 
     /// Refuses a camera other than the one an `omnisim render` folder records in its
     /// render.json: its images would be read through the wrong model, silently.
-    fn check_render_camera(&self, camera: &Camera) -> anyhow::Result<()> {
-        let path = self.input.join("render.json");
-        let Ok(text) = omnisim::input::read_text(&path, MANIFEST_LIMIT) else {
-            return Ok(());
-        };
-        let Ok(render) = serde_json::from_str::<serde_json::Value>(&text) else {
-            return Ok(());
-        };
-        let recorded = match &render["camera"] {
+    fn check_render_camera(&self, render: &RenderView, camera: &Camera) -> anyhow::Result<()> {
+        let recorded = match &render.camera {
             stereo if stereo["model"] == "stereo" => &stereo["left"],
             single => single,
         };
@@ -135,13 +129,30 @@ impl InputArgs {
             bail!(
                 "{} records a {} camera whose {} differ from the camera given here ({}); give the camera options it \
                  was rendered with (its omnisim-run.txt holds the command)",
-                path.display(),
+                self.input.join(RENDER_RECORD).display(),
                 recorded.get("model").and_then(|m| m.as_str()).unwrap_or("different"),
                 differing.join(", "),
                 camera.model_name()
             );
         }
         Ok(())
+    }
+
+    /// An `omnisim render` folder's render.json, if the folder has one.
+    fn render_record(&self) -> anyhow::Result<Option<RenderView>> {
+        let path = self.input.join(RENDER_RECORD);
+        if std::fs::symlink_metadata(&path).is_err() {
+            return Ok(None);
+        }
+        let text = omnisim::input::read_text(&path, MANIFEST_LIMIT)?;
+        let render = serde_json::from_str(&text).with_context(|| {
+            format!(
+                "{} is not the render.json of an omnisim render, which says which files are colour images; \
+                 move it out of the folder to read every PNG as an image",
+                path.display()
+            )
+        })?;
+        Ok(Some(render))
     }
 
     /// Whether any camera option differs from its default.
@@ -215,19 +226,11 @@ impl InputArgs {
     }
 
     fn read_folder(&self) -> anyhow::Result<Input> {
-        let mut paths = Vec::new();
-        for entry in std::fs::read_dir(&self.input).with_context(|| format!("cannot list {}", self.input.display()))? {
-            let path = entry?.path();
-            let image = path
-                .extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-            if image && path.is_file() {
-                recordable(&path)?;
-                paths.push(path);
-            }
-        }
-        paths.sort();
+        let render = self.render_record()?;
+        let paths = match &render {
+            Some(render) => render.colour_images(&self.input)?,
+            None => self.list_images()?,
+        };
         let Some(first) = paths.first() else {
             bail!("{} holds no PNG image", self.input.display());
         };
@@ -240,7 +243,9 @@ impl InputArgs {
             Rig::Single(camera) => camera,
             Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
         };
-        self.check_render_camera(&camera)?;
+        if let Some(render) = &render {
+            self.check_render_camera(render, &camera)?;
+        }
         let name = plain_name(
             &self
                 .input
@@ -267,6 +272,62 @@ impl InputArgs {
             sets: vec![InputSet { name, frames }],
             camera,
         })
+    }
+
+    /// The folder's PNG files, in name order.
+    fn list_images(&self) -> anyhow::Result<Vec<PathBuf>> {
+        let mut paths = Vec::new();
+        for entry in std::fs::read_dir(&self.input).with_context(|| format!("cannot list {}", self.input.display()))? {
+            let path = entry?.path();
+            let image = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+            if image && path.is_file() {
+                recordable(&path)?;
+                paths.push(path);
+            }
+        }
+        paths.sort();
+        Ok(paths)
+    }
+}
+
+/// The file in which `omnisim render` records its camera and every frame's files.
+const RENDER_RECORD: &str = "render.json";
+
+/// The part of render.json read here.
+#[derive(Deserialize)]
+struct RenderView {
+    camera: serde_json::Value,
+    frames: Vec<RenderFrameView>,
+}
+
+#[derive(Deserialize)]
+struct RenderFrameView {
+    stem: String,
+    files: Vec<String>,
+}
+
+impl RenderView {
+    /// Each frame's colour image (a stereo rig's left one), in pose order: the render's other
+    /// PNGs (depth, object and face ids) are not images of the scene.
+    fn colour_images(&self, folder: &Path) -> anyhow::Result<Vec<PathBuf>> {
+        self.frames
+            .iter()
+            .map(|frame| {
+                let names = [format!("{}.png", frame.stem), format!("{}-left.png", frame.stem)];
+                let name = frame.files.iter().find(|f| names.contains(f)).with_context(|| {
+                    format!(
+                        "{} lists no colour image {} for frame {}",
+                        folder.join(RENDER_RECORD).display(),
+                        names[0],
+                        frame.stem
+                    )
+                })?;
+                Ok(folder.join(plain_name(name)?))
+            })
+            .collect()
     }
 }
 
