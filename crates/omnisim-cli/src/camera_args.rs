@@ -56,8 +56,8 @@ pub struct CameraArgs {
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Pinhole/stereo: horizontal field of view in degrees (square pixels, centred principal
-    /// point) [default: 60].
-    #[arg(long)]
+    /// point) [default: 60]; or give --focal.
+    #[arg(long, conflicts_with = "focal")]
     pub hfov: Option<f64>,
     /// Stereo: distance between the two optical centres, metres [default: 0.12].
     #[arg(long)]
@@ -66,7 +66,7 @@ pub struct CameraArgs {
     #[arg(long)]
     pub vfov: Option<f64>,
     /// Focal length in pixels (pinhole, stereo, hyperbolic, spherical) or pixels per metre
-    /// (parabolic); overrides --hfov and the omni fit.
+    /// (parabolic); instead of --hfov, and overrides the omni fit.
     #[arg(long)]
     pub focal: Option<f64>,
     /// Omni: mirror shape [default: hyperbolic].
@@ -221,6 +221,7 @@ impl CameraArgs {
     /// command line refuses exactly what a library caller would be refused.
     pub fn build(&self) -> anyhow::Result<Rig> {
         check_applicable(self)?;
+        self.warn_about_radians()?;
         let rig = match self.camera {
             CameraKind::Pinhole => Rig::Single(Camera::Pinhole(self.pinhole((640, 480))?)),
             CameraKind::Stereo => Rig::Stereo(StereoRig {
@@ -244,6 +245,26 @@ impl CameraArgs {
         }
         .context("the camera cannot make an image")?;
         Ok(rig)
+    }
+
+    /// Warns about an angle that looks like radians (`--hfov 1.047`): it is taken as degrees
+    /// and renders, but not the camera meant.
+    fn warn_about_radians(&self) -> anyhow::Result<()> {
+        use std::f64::consts::{FRAC_PI_2, PI};
+        let angles = [
+            ("--hfov", self.hfov, PI),
+            ("--vfov", self.vfov, PI),
+            ("--max-elevation", self.max_elevation.and_then(|e| e.0), FRAC_PI_2),
+        ];
+        for (option, value, most) in angles {
+            if let Some(value) = value.filter(|v| *v != 0.0 && v.abs() <= most) {
+                crate::streams::stderr(format_args!(
+                    "warning: {option} {value} is taken in degrees; if it is in radians, give {option} {:.2}",
+                    value.to_degrees()
+                ))?;
+            }
+        }
+        Ok(())
     }
 
     fn catadioptric(&self) -> anyhow::Result<Catadioptric> {

@@ -956,3 +956,43 @@ fn poses_never_replace_a_file_they_did_not_write() {
         )));
     }
 }
+
+/// An angle that looks like radians renders (it is a valid angle in degrees) with a hint, and
+/// --hfov beside --focal, which it cannot change, is refused.
+#[test]
+fn angles_that_look_like_radians_get_a_hint() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display();
+    for (options, hint) in [
+        (
+            "--camera pinhole --size 32x24 --hfov 1.047",
+            Some("warning: --hfov 1.047 is taken in degrees; if it is in radians, give --hfov 59.99"),
+        ),
+        (
+            "--max-elevation 0.35 --size 32x32",
+            Some("warning: --max-elevation 0.35 is taken in degrees; if it is in radians, give --max-elevation 20.05"),
+        ),
+        (
+            "--camera cylindrical --size 64x16 --vfov 1.5",
+            Some("give --vfov 85.94"),
+        ),
+        ("--camera pinhole --size 32x24 --hfov 60", None),
+        ("--max-elevation 20 --size 32x32", None),
+    ] {
+        let result = omnisim(&format!(
+            "render scenes/env1.ron {options} --pose 0,0,0.4 --backend cpu --overwrite --out {d}/r"
+        ));
+        let stderr = text(&result.stderr);
+        assert!(result.status.success(), "{options}: {stderr}");
+        match hint {
+            Some(hint) => assert!(stderr.contains(hint), "{options}: {stderr}"),
+            None => assert!(!stderr.contains("radians"), "{options}: {stderr}"),
+        }
+    }
+    let both = omnisim("render scenes/env1.ron --camera pinhole --hfov 60 --focal 500 --pose 0,0,0.4");
+    let stderr = text(&both.stderr);
+    assert!(
+        !both.status.success() && stderr.contains("'--hfov <HFOV>' cannot be used with '--focal <FOCAL>'"),
+        "{stderr}"
+    );
+}
