@@ -9,6 +9,7 @@
 mod camera_args;
 mod commands;
 mod poses;
+mod progress;
 mod run_folder;
 mod streams;
 mod warnings;

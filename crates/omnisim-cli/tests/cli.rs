@@ -996,3 +996,33 @@ fn angles_that_look_like_radians_get_a_hint() {
         "{stderr}"
     );
 }
+
+/// A render with no terminal prints plain progress lines with the rate (every 10 s; here,
+/// with OMNISIM_PROGRESS_SECONDS=0, after every pose): a long render was silent.
+#[test]
+fn a_render_without_a_terminal_reports_progress() {
+    let dir = tempfile::tempdir().unwrap();
+    let result = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(
+            "render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --pose 0.5,0,0.4 --pose 1,0,0.4 --backend cpu --no-ply"
+                .split_whitespace(),
+        )
+        .arg("--out")
+        .arg(dir.path().join("r"))
+        .env("OMNISIM_PROGRESS_SECONDS", "0")
+        .current_dir(workspace())
+        .output()
+        .unwrap();
+    let stderr = text(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    for done in 1..=3 {
+        assert!(stderr.contains(&format!("\n{done}/3 poses, ")), "{stderr}");
+    }
+    assert!(stderr.contains("/s\n"), "the rate: {stderr}");
+    // Without the variable, a render this short says nothing until its summary.
+    let quiet = omnisim(&format!(
+        "render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --backend cpu --no-ply --out {}",
+        dir.path().join("q").display()
+    ));
+    assert!(!text(&quiet.stderr).contains("poses, "), "{}", text(&quiet.stderr));
+}

@@ -5,13 +5,13 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use indicatif::{ProgressBar, ProgressStyle};
 use omnisim::metadata::BackendMetadata;
 use omnisim::output::ExrCompression;
 use omnisim::{BackendChoice, CpuTracer, FrameTarget, OutputSet, Pose, RenderMetadata, Renderer, Scene};
 
 use crate::camera_args::CameraArgs;
 use crate::poses::{parse_pose, read_pose_file};
+use crate::progress::Progress;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum BackendArg {
@@ -187,10 +187,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     ))?;
     crate::warnings::misplaced_poses(&scene, prepared.geometry(), &poses)?;
 
-    let progress = ProgressBar::new(poses.len() as u64).with_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let mut progress = Progress::new("poses");
     let mut metadata = RenderMetadata::new(&scene, &rig, BackendMetadata::of(&renderer, &prepared));
     let render_started = Instant::now();
     let stem = scene.file_stem();
@@ -220,9 +217,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         metadata
             .frames
             .push(outputs.write_frame(&mut run, &target, &rig, &frames)?);
-        progress.inc(1);
+        progress.step(index + 1, poses.len(), false, "")?;
     }
-    progress.finish_and_clear();
+    progress.finish();
     let render_seconds = render_started.elapsed().as_secs_f64();
 
     let run_files = outputs.write_run_files(&mut run, &scene, &rig, &metadata)?;
