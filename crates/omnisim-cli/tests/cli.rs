@@ -901,6 +901,56 @@ fn readme_pose_examples_stay_out_of_the_furniture() {
     }
 }
 
+/// What the README tells users to type is true: the install uses the lock file, the data-set
+/// spec example parses with every field where the spec takes it, and each `evo_traj` example
+/// reads a layout the shipped spec's set has.
+#[test]
+fn readme_install_spec_and_evo_examples_are_true() {
+    let readme = std::fs::read_to_string(workspace().join("README.md")).unwrap();
+    for line in readme.lines().filter(|l| l.contains("cargo install")) {
+        assert!(line.contains("--locked"), "{line}");
+    }
+    let start = readme.find("## Data sets: one spec, many sets").unwrap();
+    let block = readme[start..].split("```ron\n").nth(1).unwrap();
+    let block = block.split("```").next().unwrap();
+    let outputs = block.lines().find(|l| l.trim_start().starts_with("outputs:")).unwrap();
+    assert!(
+        outputs.contains("exr_compression:"),
+        "exr_compression belongs in outputs: {outputs}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(workspace().join("scenes/env1-lit.ron"), dir.path().join("env1-lit.ron")).unwrap();
+    std::fs::write(dir.path().join("spec.ron"), block).unwrap();
+    let preview = omnisim(&format!(
+        "preview {} --out {}",
+        dir.path().join("spec.ron").display(),
+        dir.path().join("plan").display()
+    ));
+    assert!(preview.status.success(), "{}", text(&preview.stderr));
+    let shipped = std::fs::read_to_string(workspace().join("scenes/env1-dataset.ron")).unwrap();
+    let mut examples = 0;
+    let flowing = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+    for example in flowing.split("evo_traj ").skip(1) {
+        let (kind, rest) = example.split_once(" DIR/").unwrap();
+        let set = rest.split('/').next().unwrap();
+        if set == "SET" {
+            continue;
+        }
+        let layout = if kind == "tum" { "Tum(" } else { "Euroc(" };
+        let of_set = shipped
+            .split(&format!("name: \"{set}\""))
+            .nth(1)
+            .expect("a set of the shipped spec");
+        let of_set = of_set.split("name: \"").next().unwrap();
+        assert!(
+            of_set.contains(layout),
+            "evo_traj {kind} DIR/{set}: the shipped set has no {layout}..)"
+        );
+        examples += 1;
+    }
+    assert!(examples > 0);
+}
+
 #[test]
 fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     let measured =
