@@ -58,8 +58,8 @@ pub struct CameraArgs {
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Pinhole/stereo: horizontal field of view in degrees (square pixels, centred principal
-    /// point) [default: 60].
-    #[arg(long)]
+    /// point) [default: 60]; or give --focal.
+    #[arg(long, conflicts_with = "focal")]
     pub hfov: Option<f64>,
     /// Stereo: distance between the two optical centres, metres [default: 0.12].
     #[arg(long)]
@@ -68,7 +68,7 @@ pub struct CameraArgs {
     #[arg(long)]
     pub vfov: Option<f64>,
     /// Focal length in pixels (pinhole, stereo, hyperbolic, spherical) or pixels per metre
-    /// (parabolic); overrides --hfov and the omni fit.
+    /// (parabolic); instead of --hfov, and overrides the omni fit.
     #[arg(long)]
     pub focal: Option<f64>,
     /// Omni: mirror shape [default: hyperbolic].
@@ -205,6 +205,7 @@ impl CameraArgs {
     /// option given, the [`defaults`] for the rest.
     pub fn spec(&self) -> anyhow::Result<RigSpec> {
         check_applicable(self)?;
+        self.warn_about_radians()?;
         let pinhole = |size| PinholeSpec {
             size: self.size.unwrap_or(size),
             hfov: self.hfov.unwrap_or(defaults::HFOV),
@@ -236,6 +237,26 @@ impl CameraArgs {
     /// command line refuses exactly what a library caller would be refused.
     pub fn build(&self) -> anyhow::Result<Rig> {
         Ok(self.spec()?.build()?)
+    }
+
+    /// Warns about an angle that looks like radians (`--hfov 1.047`): it is taken as degrees
+    /// and renders, but not the camera meant.
+    fn warn_about_radians(&self) -> anyhow::Result<()> {
+        use std::f64::consts::{FRAC_PI_2, PI};
+        let angles = [
+            ("--hfov", self.hfov, PI),
+            ("--vfov", self.vfov, PI),
+            ("--max-elevation", self.max_elevation.and_then(|e| e.0), FRAC_PI_2),
+        ];
+        for (option, value, most) in angles {
+            if let Some(value) = value.filter(|v| *v != 0.0 && v.abs() <= most) {
+                crate::streams::stderr(format_args!(
+                    "warning: {option} {value} is taken in degrees; if it is in radians, give {option} {:.2}",
+                    value.to_degrees()
+                ))?;
+            }
+        }
+        Ok(())
     }
 
     fn omni(&self) -> OmniSpec {

@@ -3,11 +3,15 @@
 //! Thin by design: argument parsing, files and progress bars; the work is in the `omnisim`
 //! library.
 
+// Every line goes through `streams`: the print macros panic on a full or closed stream.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
+
 mod camera_args;
 mod commands;
 mod poses;
+mod progress;
 mod run_folder;
-mod stdout;
+mod streams;
 mod warnings;
 
 use clap::{Parser, Subcommand};
@@ -64,9 +68,10 @@ fn main() -> std::process::ExitCode {
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(error) if stdout::is_broken_pipe(&error) => std::process::ExitCode::SUCCESS,
+        Err(error) if streams::is_broken_pipe(&error) => std::process::ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {}", describe(&error));
+            // With standard error gone or full there is no one to tell; the exit code says it.
+            let _ = streams::stderr(format_args!("error: {}", describe(&error)));
             std::process::ExitCode::FAILURE
         }
     }

@@ -33,7 +33,7 @@ pub fn open(args: &RenderArgs, poses: &[Pose]) -> anyhow::Result<RunFolder> {
     let command: Vec<String> = std::env::args_os().map(|a| a.to_string_lossy().into_owned()).collect();
     let folder = RunFolder::open(&args.out, &identity, &command.join(" "), args.overwrite)?;
     for note in &folder.notes {
-        eprintln!("note: {note}");
+        crate::streams::stderr(format_args!("note: {note}"))?;
     }
     Ok(folder)
 }

@@ -9,7 +9,7 @@ use omnisim::{Frame, Pose, Scene};
 const LISTED: usize = 5;
 
 /// Warns (on stderr) about poses outside the scene's bounds or inside one of its boxes.
-pub fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]) {
+pub fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]) -> anyhow::Result<()> {
     let found: Vec<(usize, Misplaced)> = poses
         .iter()
         .enumerate()
@@ -21,19 +21,26 @@ pub fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]) {
             Misplaced::OutsideBounds => "is outside the scene's bounds".to_string(),
             Misplaced::Inside(object) => format!("is inside '{object}'"),
         };
-        eprintln!("warning: pose {index} at ({}, {}, {}) {what}", p.x, p.y, p.z);
+        crate::streams::stderr(format_args!(
+            "warning: pose {index} at ({}, {}, {}) {what}",
+            p.x, p.y, p.z
+        ))?;
     }
     if found.len() > LISTED {
-        eprintln!(
+        crate::streams::stderr(format_args!(
             "warning: {} more poses are outside the scene or inside an object",
             found.len() - LISTED
-        );
+        ))?;
     }
+    Ok(())
 }
 
 /// Warns when a rendered image sees nothing (its point cloud would be empty).
-pub fn empty_frame(index: usize, view: &str, frame: &Frame) {
+pub fn empty_frame(index: usize, view: &str, frame: &Frame) -> anyhow::Result<()> {
     if !frame.pixels().iter().any(|p| p.is_hit()) {
-        eprintln!("warning: pose {index}{view} sees nothing: the image is black and the point cloud empty");
+        crate::streams::stderr(format_args!(
+            "warning: pose {index}{view} sees nothing: the image is black and the point cloud empty"
+        ))?;
     }
+    Ok(())
 }

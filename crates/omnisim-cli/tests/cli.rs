@@ -488,6 +488,65 @@ fn a_closed_or_full_standard_output_is_no_crash() {
     }
 }
 
+/// Every command ends with code 1 and no panic when standard error is full, or standard
+/// output for the commands that print files (`eprintln!` and `println!` panicked, and with
+/// standard error full the panic's message failed too: code 101, nothing said).
+#[test]
+fn a_full_standard_error_is_no_crash() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display();
+    std::fs::copy(workspace().join("scenes/env1.ron"), dir.path().join("env1.ron")).unwrap();
+    std::fs::write(
+        dir.path().join("spec.ron"),
+        r#"Dataset(scene: "env1.ron", rig: Omni(size: (32, 32)), sets: [Set(name: "map", poses: Grid(x: (0.0, 0.0, 1.0), y: (0.0, 0.0, 1.0), z: [0.4]))])"#,
+    )
+    .unwrap();
+    let images = omnisim(&format!(
+        "render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --backend cpu --out {d}/images"
+    ));
+    assert!(images.status.success(), "{}", text(&images.stderr));
+    let run = |line: &str, stdout: &str, stderr: &str| {
+        Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(line.split_whitespace())
+            .current_dir(workspace())
+            .stdout(std::fs::File::create(stdout).unwrap())
+            .stderr(std::fs::File::create(stderr).unwrap())
+            .status()
+            .unwrap()
+    };
+    for line in [
+        format!("render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --backend cpu --out {d}/r"),
+        format!("dataset {d}/spec.ron --backend cpu --out {d}/ds"),
+        format!("preview scenes/env1-dataset.ron --out {d}/preview"),
+        format!("describe {d}/images -d hog --out {d}/described"),
+        format!("project {d}/images --view panorama --out {d}/views"),
+        format!("poses grid --x 0 --y 0 --z 0.4 --out {d}/grid.txt"),
+        "render scenes/nope.ron".to_string(),
+    ] {
+        let status = run(&line, "/dev/null", "/dev/full");
+        assert_eq!(status.code(), Some(1), "{line} 2> /dev/full");
+        // The line itself is good: the same again with standard error to a file succeeds.
+        let errors = dir.path().join("errors.txt");
+        let again = run(&line, "/dev/null", errors.to_str().unwrap());
+        let expected = if line.contains("nope") { Some(1) } else { Some(0) };
+        assert_eq!(
+            again.code(),
+            expected,
+            "{line}: {}",
+            std::fs::read_to_string(&errors).unwrap()
+        );
+    }
+    let preview = format!("preview scenes/env1-dataset.ron --out {d}/preview");
+    let errors = dir.path().join("errors.txt");
+    let status = run(&preview, "/dev/full", errors.to_str().unwrap());
+    let stderr = std::fs::read_to_string(&errors).unwrap();
+    assert_eq!(status.code(), Some(1), "{preview} > /dev/full: {stderr}");
+    assert!(
+        stderr.contains("cannot write to standard output") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn single_file_outputs_create_their_folder_before_working() {
     let dir = tempfile::tempdir().unwrap();
@@ -511,6 +570,68 @@ fn single_file_outputs_create_their_folder_before_working() {
     ));
     assert_eq!(impossible.status.code(), Some(1));
     assert!(impossible.stdout.is_empty(), "measured before failing");
+}
+
+/// A single output file whose destination is a device or a FIFO is refused, and the device
+/// left as it was: the rename that puts the file in place replaced it with a regular file.
+#[cfg(unix)]
+#[test]
+fn single_file_outputs_never_replace_a_device_or_fifo() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tempfile::tempdir().unwrap();
+    // Named .ply so that `scene export` takes them.
+    let fifo = dir.path().join("fifo.ply");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let mut specials = vec![(fifo, "a FIFO (named pipe)")];
+    // A character device standing in for /dev/null, where the system lets us make one (root).
+    let device = dir.path().join("null.ply");
+    if Command::new("mknod")
+        .arg(&device)
+        .args(["c", "1", "3"])
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        specials.push((device, "a device"));
+    }
+    let fifo_png = dir.path().join("plan.png");
+    assert!(Command::new("mkfifo").arg(&fifo_png).status().unwrap().success());
+    let mut lines: Vec<(String, &Path, &str)> = vec![(
+        format!(
+            "preview scenes/env1-dataset.ron --out {}",
+            dir.path().join("plan").display()
+        ),
+        &fifo_png,
+        "a FIFO (named pipe)",
+    )];
+    for (special, kind) in &specials {
+        lines.push((
+            format!(
+                "bench scenes/env1.ron --camera omni --size 32x32 --runs 1 --warmup 0 --backend cpu --chart {}",
+                special.display()
+            ),
+            special,
+            kind,
+        ));
+        lines.push((
+            format!("scene export scenes/env1.ron {}", special.display()),
+            special,
+            kind,
+        ));
+    }
+    for (line, special, kind) in &lines {
+        let result = omnisim(line);
+        let stderr = text(&result.stderr);
+        assert!(
+            result.status.code() == Some(1) && stderr.contains(&format!("is {kind}, not a regular file")),
+            "{line}: {stderr}"
+        );
+        let file_type = std::fs::symlink_metadata(special).unwrap().file_type();
+        assert!(
+            file_type.is_fifo() || file_type.is_char_device(),
+            "{line} replaced {}",
+            special.display()
+        );
+    }
 }
 
 #[test]
@@ -780,6 +901,56 @@ fn readme_pose_examples_stay_out_of_the_furniture() {
     }
 }
 
+/// What the README tells users to type is true: the install uses the lock file, the data-set
+/// spec example parses with every field where the spec takes it, and each `evo_traj` example
+/// reads a layout the shipped spec's set has.
+#[test]
+fn readme_install_spec_and_evo_examples_are_true() {
+    let readme = std::fs::read_to_string(workspace().join("README.md")).unwrap();
+    for line in readme.lines().filter(|l| l.contains("cargo install")) {
+        assert!(line.contains("--locked"), "{line}");
+    }
+    let start = readme.find("## Data sets: one spec, many sets").unwrap();
+    let block = readme[start..].split("```ron\n").nth(1).unwrap();
+    let block = block.split("```").next().unwrap();
+    let outputs = block.lines().find(|l| l.trim_start().starts_with("outputs:")).unwrap();
+    assert!(
+        outputs.contains("exr_compression:"),
+        "exr_compression belongs in outputs: {outputs}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(workspace().join("scenes/env1-lit.ron"), dir.path().join("env1-lit.ron")).unwrap();
+    std::fs::write(dir.path().join("spec.ron"), block).unwrap();
+    let preview = omnisim(&format!(
+        "preview {} --out {}",
+        dir.path().join("spec.ron").display(),
+        dir.path().join("plan").display()
+    ));
+    assert!(preview.status.success(), "{}", text(&preview.stderr));
+    let shipped = std::fs::read_to_string(workspace().join("scenes/env1-dataset.ron")).unwrap();
+    let mut examples = 0;
+    let flowing = readme.split_whitespace().collect::<Vec<_>>().join(" ");
+    for example in flowing.split("evo_traj ").skip(1) {
+        let (kind, rest) = example.split_once(" DIR/").unwrap();
+        let set = rest.split('/').next().unwrap();
+        if set == "SET" {
+            continue;
+        }
+        let layout = if kind == "tum" { "Tum(" } else { "Euroc(" };
+        let of_set = shipped
+            .split(&format!("name: \"{set}\""))
+            .nth(1)
+            .expect("a set of the shipped spec");
+        let of_set = of_set.split("name: \"").next().unwrap();
+        assert!(
+            of_set.contains(layout),
+            "evo_traj {kind} DIR/{set}: the shipped set has no {layout}..)"
+        );
+        examples += 1;
+    }
+    assert!(examples > 0);
+}
+
 #[test]
 fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     let measured =
@@ -834,4 +1005,74 @@ fn poses_never_replace_a_file_they_did_not_write() {
             poses.display()
         )));
     }
+}
+
+/// An angle that looks like radians renders (it is a valid angle in degrees) with a hint, and
+/// --hfov beside --focal, which it cannot change, is refused.
+#[test]
+fn angles_that_look_like_radians_get_a_hint() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display();
+    for (options, hint) in [
+        (
+            "--camera pinhole --size 32x24 --hfov 1.047",
+            Some("warning: --hfov 1.047 is taken in degrees; if it is in radians, give --hfov 59.99"),
+        ),
+        (
+            "--max-elevation 0.35 --size 32x32",
+            Some("warning: --max-elevation 0.35 is taken in degrees; if it is in radians, give --max-elevation 20.05"),
+        ),
+        (
+            "--camera cylindrical --size 64x16 --vfov 1.5",
+            Some("give --vfov 85.94"),
+        ),
+        ("--camera pinhole --size 32x24 --hfov 60", None),
+        ("--max-elevation 20 --size 32x32", None),
+    ] {
+        let result = omnisim(&format!(
+            "render scenes/env1.ron {options} --pose 0,0,0.4 --backend cpu --overwrite --out {d}/r"
+        ));
+        let stderr = text(&result.stderr);
+        assert!(result.status.success(), "{options}: {stderr}");
+        match hint {
+            Some(hint) => assert!(stderr.contains(hint), "{options}: {stderr}"),
+            None => assert!(!stderr.contains("radians"), "{options}: {stderr}"),
+        }
+    }
+    let both = omnisim("render scenes/env1.ron --camera pinhole --hfov 60 --focal 500 --pose 0,0,0.4");
+    let stderr = text(&both.stderr);
+    assert!(
+        !both.status.success() && stderr.contains("'--hfov <HFOV>' cannot be used with '--focal <FOCAL>'"),
+        "{stderr}"
+    );
+}
+
+/// A render with no terminal prints plain progress lines with the rate (every 10 s; here,
+/// with OMNISIM_PROGRESS_SECONDS=0, after every pose): a long render was silent.
+#[test]
+fn a_render_without_a_terminal_reports_progress() {
+    let dir = tempfile::tempdir().unwrap();
+    let result = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(
+            "render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --pose 0.5,0,0.4 --pose 1,0,0.4 --backend cpu --no-ply"
+                .split_whitespace(),
+        )
+        .arg("--out")
+        .arg(dir.path().join("r"))
+        .env("OMNISIM_PROGRESS_SECONDS", "0")
+        .current_dir(workspace())
+        .output()
+        .unwrap();
+    let stderr = text(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    for done in 1..=3 {
+        assert!(stderr.contains(&format!("\n{done}/3 poses, ")), "{stderr}");
+    }
+    assert!(stderr.contains("/s\n"), "the rate: {stderr}");
+    // Without the variable, a render this short says nothing until its summary.
+    let quiet = omnisim(&format!(
+        "render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --backend cpu --no-ply --out {}",
+        dir.path().join("q").display()
+    ));
+    assert!(!text(&quiet.stderr).contains("poses, "), "{}", text(&quiet.stderr));
 }

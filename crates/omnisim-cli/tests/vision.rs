@@ -50,6 +50,32 @@ fn dataset(dir: &Path) -> PathBuf {
     dir.join("ds")
 }
 
+/// Two 64² omnidirectional images of env1 rendered (with segmentation) into `dir/r`, a
+/// render folder with the default camera.
+fn render_folder(dir: &Path) -> PathBuf {
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.join("env1.ron")).unwrap();
+    succeed(
+        &[
+            "render",
+            "env1.ron",
+            "--size",
+            "64x64",
+            "--pose",
+            "0,0,0.4",
+            "--pose",
+            "0.5,0,0.4",
+            "--segmentation",
+            "--backend",
+            "cpu",
+            "--out",
+            "r",
+        ],
+        dir,
+    );
+    dir.join("r")
+}
+
 /// The spec's camera, as the library builds it.
 fn camera() -> Catadioptric {
     Catadioptric::hyperbolic(120, 120, 0.04, 0.16, Some(20f64.to_radians()))
@@ -419,6 +445,38 @@ fn describe_refuses_bad_requests() {
             vec!["project", "ds", "--view", "perspective:yaw=inf", "--out", "x"],
             "not a finite number",
         ),
+        // Out of range: the message gives the range (radians for degrees, minutes of work).
+        (
+            vec!["project", "ds", "--view", "perspective:yaw=1e308", "--out", "x"],
+            "perspective: direction: needs −360° ≤ yaw ≤ 360° and −90° ≤ pitch ≤ 90°",
+        ),
+        (
+            vec!["project", "ds", "--view", "perspective:pitch=-1000", "--out", "x"],
+            "got 0° and -1000°",
+        ),
+        (
+            vec!["project", "ds", "--view", "birds-eye:scale=1e-300", "--out", "x"],
+            "birds-eye: metres per pixel: needs 1e-6 to 1000 m, got 1e-300",
+        ),
+        (
+            vec!["project", "ds", "--view", "birds-eye:plane=1e300", "--out", "x"],
+            "birds-eye: plane height: needs 1e-6 to 1000 m",
+        ),
+        (
+            vec![
+                "project",
+                "ds",
+                "--view",
+                "birds-eye:width=10000,height=10000",
+                "--out",
+                "x",
+            ],
+            "10000×10000 pixels: a view has 1 to 16777216 pixels (4096×4096)",
+        ),
+        (
+            vec!["describe", "ds", "-d", "hog", "--panorama", "8192x4096", "--out", "x"],
+            "the panorama: view size",
+        ),
         (
             [&["project", "mixed"][..], &omni, &["--view", "panorama", "--out", "x"]].concat(),
             "is 60×60 pixels, but the camera's image is 120×120",
@@ -523,4 +581,205 @@ fn outputs_never_land_among_the_input_images() {
         );
     }
     assert!(!dir.path().join("ds/map/fourier.npy").exists());
+}
+
+/// Two images whose names differ only in the extension's case would give the same views: the
+/// second would replace the first's, silently.
+#[test]
+fn project_refuses_images_that_share_a_stem() {
+    let dir = tempfile::tempdir().unwrap();
+    let rendered = render_folder(dir.path());
+    std::fs::create_dir(dir.path().join("imgs")).unwrap();
+    std::fs::copy(rendered.join("env1-0000.png"), dir.path().join("imgs/a.png")).unwrap();
+    std::fs::copy(rendered.join("env1-0001.png"), dir.path().join("imgs/a.PNG")).unwrap();
+    let output = omnisim(
+        &["project", "imgs", "--view", "panorama:width=64,height=16", "--out", "v"],
+        dir.path(),
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success()
+            && stderr.contains("would both give the views a-NAME.png")
+            && stderr.contains("rename"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("v").exists(), "nothing written");
+}
+
+/// A file or folder name that is not UTF-8 cannot be recorded in the JSON sidecars: refused
+/// with the name, never a panic.
+#[cfg(unix)]
+#[test]
+fn names_that_are_not_utf8_are_refused_not_a_panic() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let rendered = render_folder(dir.path());
+    let odd = OsStr::from_bytes(b"b\xff");
+    for folder in [OsStr::new("good"), OsStr::new("odd-image"), odd] {
+        std::fs::create_dir(dir.path().join(folder)).unwrap();
+        std::fs::copy(rendered.join("env1-0000.png"), dir.path().join(folder).join("a.png")).unwrap();
+    }
+    let image = dir.path().join("odd-image").join(odd).with_extension("png");
+    std::fs::copy(rendered.join("env1-0001.png"), image).unwrap();
+    let describe: &[&OsStr] = &["describe".as_ref(), "-d".as_ref(), "hog".as_ref()];
+    let project: &[&OsStr] = &["project".as_ref(), "--view".as_ref(), "panorama".as_ref()];
+    let basis: &[&OsStr] = &["good".as_ref(), "--pca-basis".as_ref(), odd];
+    for args in [
+        [describe, &["odd-image".as_ref()]].concat(),
+        [project, &["odd-image".as_ref()]].concat(),
+        [describe, &[odd]].concat(),
+        [project, &[odd]].concat(),
+        [describe, basis].concat(),
+    ] {
+        let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(&args)
+            .args(["--out", "x"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains("is not a UTF-8 name"), "{args:?}: {stderr}");
+    }
+}
+
+/// `omnisim` run in `dir`, killed (and the test failed) if it runs for more than 60 s: a read
+/// that blocks must fail the test, not hang it.
+fn omnisim_within_a_minute(args: &[&str], dir: &Path) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(args)
+        .current_dir(dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("omnisim {args:?} still ran after 60 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// A FIFO where an image or a PCA basis file is expected is refused at once: opening it would
+/// wait for a writer for ever.
+#[cfg(unix)]
+#[test]
+fn fifos_among_the_inputs_are_refused_not_waited_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let ds = dataset(dir.path());
+    succeed(
+        &[
+            "describe",
+            "ds",
+            "--set",
+            "map",
+            "-d",
+            "hog",
+            "--pca-fit",
+            "2",
+            "--out",
+            "fit",
+        ],
+        dir.path(),
+    );
+    let fifo = |path: &Path| {
+        std::fs::remove_file(path).unwrap();
+        assert!(Command::new("mkfifo").arg(path).status().unwrap().success());
+    };
+    let basis = dir.path().join("fit/pca/hog");
+    fifo(&ds.join("map/env1-0001.png"));
+    for (path, args) in [
+        (None, &["describe", "ds", "--set", "map", "-d", "hog", "--out", "x"][..]),
+        (
+            None,
+            &["project", "ds", "--set", "map", "--view", "panorama", "--out", "x"][..],
+        ),
+        (
+            Some(basis.join("pca.json")),
+            &[
+                "describe",
+                "ds",
+                "--set",
+                "test",
+                "-d",
+                "hog",
+                "--pca-basis",
+                "fit",
+                "--out",
+                "x",
+            ][..],
+        ),
+        (
+            Some(basis.join("mean.npy")),
+            &[
+                "describe",
+                "ds",
+                "--set",
+                "test",
+                "-d",
+                "hog",
+                "--pca-basis",
+                "fit",
+                "--out",
+                "x",
+            ][..],
+        ),
+    ] {
+        if let Some(path) = &path {
+            fifo(path);
+        }
+        let output = omnisim_within_a_minute(args, dir.path());
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(
+            !output.status.success() && stderr.contains("is a FIFO (named pipe), not a regular file"),
+            "{args:?}: {stderr}"
+        );
+    }
+}
+
+/// Of a render folder, the colour images its render.json lists are read: the object and face
+/// id PNGs of `--segmentation` were read as images too (three rows per pose, black views).
+#[test]
+fn a_render_folders_id_pngs_are_not_images() {
+    let dir = tempfile::tempdir().unwrap();
+    render_folder(dir.path());
+    succeed(&["describe", "r", "-d", "hog", "--out", "d"], dir.path());
+    let sidecar: Value = serde_json::from_slice(&std::fs::read(dir.path().join("d/r/hog.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["shape"][0], 2, "one row per pose");
+    let files: Vec<&str> = sidecar["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["file"].as_str().unwrap())
+        .collect();
+    assert_eq!(files, ["r/env1-0000.png", "r/env1-0001.png"]);
+    succeed(&["project", "r", "--view", "panorama", "--out", "v"], dir.path());
+    let mut written: Vec<String> = std::fs::read_dir(dir.path().join("v/r"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        [
+            "env1-0000-panorama.png",
+            "env1-0001-panorama.png",
+            "panorama-valid.png",
+            "project.json"
+        ]
+    );
+    // A render.json that is not render's says so instead of guessing from the names.
+    std::fs::write(dir.path().join("r/render.json"), "{}").unwrap();
+    let output = omnisim(&["describe", "r", "-d", "hog", "--out", "d2"], dir.path());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success() && stderr.contains("is not the render.json of an omnisim render"),
+        "{stderr}"
+    );
 }

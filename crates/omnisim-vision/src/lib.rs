@@ -90,6 +90,9 @@ pub enum VisionError {
         /// The OS error.
         source: std::io::Error,
     },
+    #[error(transparent)]
+    /// An input that is not a regular file (a FIFO would block), or too large.
+    Input(#[from] omnisim::input::InputError),
     #[error("{path}: {reason}")]
     /// A file that is not what was expected.
     Format {

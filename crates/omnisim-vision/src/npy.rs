@@ -1,6 +1,5 @@
 //! f32 arrays as NumPy `.npy` files (npyz), readable with `numpy.load`.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
@@ -38,9 +37,12 @@ pub fn write(path: &Path, shape: &[usize], values: &[f32]) -> Result<(), VisionE
     .map_err(io_error(path))
 }
 
-/// Reads an f32 `.npy` file: (shape, row-major values).
+/// Largest `.npy` file read (a PCA basis of 1000 axes of 500,000 values).
+pub const READ_LIMIT: u64 = 2 << 30;
+
+/// Reads an f32 `.npy` file: (shape, row-major values). Only a regular file is opened.
 pub fn read(path: &Path) -> Result<(Vec<usize>, Vec<f32>), VisionError> {
-    let file = File::open(path).map_err(io_error(path))?;
+    let file = omnisim::input::open_regular(path, READ_LIMIT)?;
     let npy = npyz::NpyFile::new(BufReader::new(file)).map_err(io_error(path))?;
     if npy.order() != npyz::Order::C {
         return Err(VisionError::Format {

@@ -19,6 +19,8 @@ use crate::{VisionError, npy, require};
 
 /// The JSON sidecar [`Pca::save`] writes beside the arrays.
 const SIDECAR: &str = "pca.json";
+/// Largest sidecar read (it lists one variance ratio per component).
+const SIDECAR_LIMIT: u64 = 64 << 20;
 
 /// Mean, principal axes and their variances.
 #[derive(Debug, Clone, PartialEq)]
@@ -157,10 +159,7 @@ impl Pca {
         let (axes_shape, axes) = npy::read(&folder.join("axes.npy"))?;
         let (_, variances) = npy::read(&folder.join("variances.npy"))?;
         let path = folder.join(SIDECAR);
-        let text = std::fs::read_to_string(&path).map_err(|source| VisionError::Io {
-            path: path.clone(),
-            source,
-        })?;
+        let text = omnisim::input::read_text(&path, SIDECAR_LIMIT)?;
         let total_variance = serde_json::from_str::<serde_json::Value>(&text)
             .ok()
             .and_then(|v| v["total_variance"].as_f64())

@@ -10,11 +10,23 @@
 //! ([`Remap`]) is made once per (camera, view) and applied to any number of images, as
 //! OpenCV's `remap`.
 
+use std::f64::consts::{FRAC_PI_2, PI};
+
 use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
 use omnisim::camera::{Camera, Catadioptric, Cylindrical, Equirectangular, Pinhole};
 use rayon::prelude::*;
 
 use crate::{Interpolation, Raster, VisionError, require};
+
+/// Most pixels in a view: 16 Mi (4096 × 4096) resample an omnidirectional image of a few
+/// megapixels finely already and take seconds per image; the table holds 24 bytes a pixel, so
+/// the 100 megapixels of omnisim's cameras took gigabytes and minutes without a word.
+pub const VIEW_PIXELS_MAX: u64 = 1 << 24;
+
+/// Shortest and longest lengths a view takes (ground sampling distance, plane height), metres:
+/// omnisim's bounds on mirror sizes and rims (`Camera::validate`).
+const LENGTH_MIN: f64 = 1e-6;
+const LENGTH_MAX: f64 = 1000.0;
 
 /// Orthographic view of the horizontal plane z = `plane_z` of the body frame (metres below the
 /// viewpoint are negative: the floor seen from a camera 0.7 m above it is `plane_z = -0.7`).
@@ -109,9 +121,11 @@ impl View {
         require(hfov > 0.0 && hfov < 179f64.to_radians(), "hfov", || {
             format!("needs 0 < hfov < 179°, got {}°", degrees(hfov))
         })?;
-        require(yaw.is_finite() && pitch.is_finite(), "direction", || {
+        // A turn or more of yaw names no new direction, and beyond ±90° pitch looks back over
+        // the top: such values are mistakes (or radians where degrees were meant).
+        require(yaw.abs() <= 2.0 * PI && pitch.abs() <= FRAC_PI_2, "direction", || {
             format!(
-                "yaw and pitch must be finite, got {}° and {}°",
+                "needs −360° ≤ yaw ≤ 360° and −90° ≤ pitch ≤ 90°, got {}° and {}°",
                 degrees(yaw),
                 degrees(pitch)
             )
@@ -127,16 +141,18 @@ impl View {
     /// Orthographic view of the plane z = `plane_z` (body frame), centred under the viewpoint.
     pub fn birds_eye(width: u32, height: u32, metres_per_pixel: f64, plane_z: f64) -> Result<View, VisionError> {
         require(
-            metres_per_pixel.is_finite() && metres_per_pixel > 0.0,
+            (LENGTH_MIN..=LENGTH_MAX).contains(&metres_per_pixel),
             "metres per pixel",
-            || format!("must be finite and positive, got {metres_per_pixel}"),
+            || format!("needs {LENGTH_MIN:e} to {LENGTH_MAX} m, got {metres_per_pixel:?}"),
         )?;
-        require(plane_z.is_finite(), "plane height", || {
-            format!("must be finite, got {plane_z}")
-        })?;
         require(plane_z != 0.0, "plane height", || {
             "a plane through the viewpoint is seen edge-on".to_string()
         })?;
+        require(
+            (LENGTH_MIN..=LENGTH_MAX).contains(&plane_z.abs()),
+            "plane height",
+            || format!("needs {LENGTH_MIN:e} to {LENGTH_MAX} m above or below the viewpoint, got {plane_z:?}"),
+        )?;
         Ok(View::Plane(PlaneView {
             width,
             height,
@@ -196,11 +212,10 @@ impl Remap {
             return Err(VisionError::NonCentral);
         }
         let (width, height) = view.size();
-        // omnisim's cameras' own limit (`Camera::validate`); the table holds 24 bytes a pixel.
         require(
-            width >= 1 && height >= 1 && width as u64 * height as u64 <= 100_000_000,
+            width >= 1 && height >= 1 && width as u64 * height as u64 <= VIEW_PIXELS_MAX,
             "view size",
-            || format!("{width}×{height} pixels: a view has 1 to 100 megapixels"),
+            || format!("{width}×{height} pixels: a view has 1 to {VIEW_PIXELS_MAX} pixels (4096×4096)"),
         )?;
         let (source_w, source_h) = (omni.width as f64, omni.height as f64);
         let inside = |p: &DVec2| p.x >= -0.5 && p.y >= -0.5 && p.x <= source_w - 0.5 && p.y <= source_h - 0.5;

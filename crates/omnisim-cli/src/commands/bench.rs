@@ -104,7 +104,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         });
         let (renderer, prepared) = match opened {
             Err(e) if args.backend == BenchBackend::Both => {
-                eprintln!("note: no GPU measured: {e}");
+                crate::streams::stderr(format_args!("note: no GPU measured: {e}"))?;
                 continue;
             }
             opened => opened?,
@@ -174,7 +174,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             "f64_triangle_tests_per_ray": tests.map(|t| t.2),
             "peak_rss_mb": peak_rss_bytes().map(|b| b as f64 / 1e6),
         });
-        crate::stdout::line(record)?;
+        crate::streams::stdout(record)?;
     }
     Ok(())
 }

@@ -1,18 +1,17 @@
 //! `omnisim dataset`: render a data set from a spec, resumably and in shards; `merge` checks
 //! the frames and writes the index files and manifest.
 
-use std::io::IsTerminal;
 use std::ops::ControlFlow;
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
 use omnisim::Renderer;
 use omnisim_dataset::{self, Dataset, RunOptions, Shard};
 
 use super::render::BackendArg;
+use crate::progress::Progress;
 
 /// Render a data set: map and test sets of one scene from one spec file (README, "Data sets").
 ///
@@ -66,14 +65,14 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         let (dest, sources) = dirs.split_first().context("merge needs a data-set folder")?;
         let summary =
             omnisim_dataset::merge(dest, sources).with_context(|| format!("cannot merge into {}", dest.display()))?;
-        eprintln!(
+        crate::streams::stderr(format_args!(
             "merged {} frames: {} files, {:.1} MB checked, in {:.1} s; wrote {}",
             summary.frames,
             summary.files,
             summary.bytes as f64 / 1e6,
             started.elapsed().as_secs_f64(),
             dest.join("manifest.json").display()
-        );
+        ))?;
         return Ok(());
     }
     let (Some(spec), Some(out)) = (args.spec, args.out) else {
@@ -82,25 +81,35 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let dataset = Dataset::load(&spec)?;
     for warning in &dataset.warnings {
-        eprintln!("warning: {warning}");
+        crate::streams::stderr(format_args!("warning: {warning}"))?;
     }
     let renderer = Renderer::new(args.backend.into())?;
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "backend: {} on {} — {}",
         renderer.backend_name(),
         renderer.device_name(),
         renderer.reason()
-    );
+    ))?;
     let options = RunOptions {
         shard: args.shard,
         overwrite: args.overwrite,
         ..RunOptions::default()
     };
-    let mut progress = Progress::new();
+    let mut progress = Progress::new("frames");
     let run_started = Instant::now();
-    let summary = match dataset.run(&renderer, &out, &options, &mut |frame| {
-        progress.frame(frame);
-        ControlFlow::Continue(())
+    // A progress line that cannot be written stops the run like any failure (resumable).
+    let mut unwritten = None;
+    let summary = match dataset.run(&renderer, &out, &options, &mut |frame| match progress.step(
+        frame.done,
+        frame.total,
+        !frame.rendered,
+        &format!("set '{}', frame {}", frame.set, frame.index),
+    ) {
+        Ok(()) => ControlFlow::Continue(()),
+        Err(error) => {
+            unwritten = Some(error);
+            ControlFlow::Break(())
+        }
     }) {
         Ok(summary) => summary,
         // The folder or the spec must change: resuming would fail the same way.
@@ -115,14 +124,17 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         }
     };
     progress.finish();
+    if let Some(error) = unwritten {
+        return Err(error);
+    }
     for note in &summary.notes {
-        eprintln!("note: {note}");
+        crate::streams::stderr(format_args!("note: {note}"))?;
     }
     // Frames: from the start of the run to the last frame written; then the checks and index
     // files (manifest, layouts, contact sheets).
-    let frames_done = progress.last_frame.unwrap_or(run_started);
+    let frames_done = progress.last_step().unwrap_or(run_started);
     let seconds = (frames_done - run_started).as_secs_f64();
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "{} frame(s) rendered ({} already done), {:.1} MB written in {seconds:.2} s ({:.2} frames/s) on {}; \
          {:.2} s in all ({:.2} s after the last frame: {})",
         summary.rendered,
@@ -137,76 +149,15 @@ pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
         } else {
             "nothing to merge yet"
         }
-    );
+    ))?;
     match args.shard {
-        Some(shard) => eprintln!(
+        Some(shard) => crate::streams::stderr(format_args!(
             "shard {}/{} done; when every shard is, run: omnisim dataset merge {}",
             shard.index,
             shard.count,
             out.display()
-        ),
-        None => eprintln!("wrote {}", out.join("manifest.json").display()),
+        ))?,
+        None => crate::streams::stderr(format_args!("wrote {}", out.join("manifest.json").display()))?,
     }
     Ok(())
-}
-
-/// A bar with frames/s and ETA on a terminal, else a plain line every 10 seconds. Frames an
-/// earlier run finished leave the bar (they take no time), so its rate and ETA are this run's.
-struct Progress {
-    bar: Option<ProgressBar>,
-    /// Whether stderr is a terminal (bar) or not (plain lines); asked once.
-    terminal: bool,
-    last: Instant,
-    /// When the last frame was heard of.
-    last_frame: Option<Instant>,
-    /// Frames an earlier run finished.
-    resumed: usize,
-}
-
-impl Progress {
-    fn new() -> Self {
-        Self {
-            bar: None,
-            terminal: std::io::stderr().is_terminal(),
-            last: Instant::now(),
-            last_frame: None,
-            resumed: 0,
-        }
-    }
-
-    fn frame(&mut self, frame: &omnisim_dataset::FrameDone) {
-        self.last_frame = Some(Instant::now());
-        if !self.terminal {
-            if self.last.elapsed() >= Duration::from_secs(10) || frame.done == frame.total {
-                eprintln!(
-                    "{}/{} frames (set '{}', frame {})",
-                    frame.done, frame.total, frame.set, frame.index
-                );
-                self.last = Instant::now();
-            }
-            return;
-        }
-        let bar = self.bar.get_or_insert_with(|| {
-            ProgressBar::new(frame.total as u64).with_style(
-                ProgressStyle::with_template("{bar:40} {pos}/{len} frames, {per_sec}, ETA {eta} {msg}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            )
-        });
-        if frame.rendered {
-            bar.inc(1);
-        } else {
-            self.resumed += 1;
-            bar.set_length(bar.length().unwrap_or(0).saturating_sub(1));
-        }
-        match self.resumed {
-            0 => bar.set_message(format!("({})", frame.set)),
-            resumed => bar.set_message(format!("({}; {resumed} done by an earlier run)", frame.set)),
-        }
-    }
-
-    fn finish(&self) {
-        if let Some(bar) = &self.bar {
-            bar.finish_and_clear();
-        }
-    }
 }

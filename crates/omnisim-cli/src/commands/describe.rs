@@ -418,6 +418,9 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
     if args.pca_fit == Some(0) {
         bail!("--pca-fit needs at least 1 component");
     }
+    if let Some(basis) = &args.pca_basis {
+        super::vision_input::recordable(basis).context("--pca-basis")?;
+    }
     let input = args.input.read()?;
     super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;
     if args.pca_fit.is_some() && input.sets.iter().any(|s| s.name == PCA_FOLDER) {
@@ -474,7 +477,7 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let mut results: Vec<Vec<SetResult>> = Vec::new();
     for set in &input.sets {
-        eprintln!("set '{}': {} image(s)", set.name, set.frames.len());
+        crate::streams::stderr(format_args!("set '{}': {} image(s)", set.name, set.frames.len()))?;
         let mut per_choice: Vec<SetResult> = choices
             .iter()
             .map(|_| SetResult {
@@ -534,13 +537,13 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
                 &args,
             )?;
         }
-        eprintln!("wrote {}", folder.display());
+        crate::streams::stderr(format_args!("wrote {}", folder.display()))?;
     }
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "{} set(s) described in {:.1} s",
         input.sets.len(),
         started.elapsed().as_secs_f64()
-    );
+    ))?;
     Ok(())
 }
 
@@ -630,13 +633,13 @@ fn fit_or_load_pca(
             let pca = Pca::fit(&samples, k)
                 .with_context(|| format!("PCA of {} on set '{}'", choice.name, input.sets[map].name))?;
             if pca.components() < k {
-                eprintln!(
+                crate::streams::stderr(format_args!(
                     "note: {}: --pca-fit {k} gives {} component(s): {} image(s) of {}-value descriptors span no more",
                     choice.name,
                     pca.components(),
                     samples.len(),
                     samples.first().map_or(0, Vec::len)
-                );
+                ))?;
             }
             let sidecar = json!({
                 "fitted_on": input.sets[map].name, "components": pca.components(),

@@ -17,7 +17,7 @@ pub fn prepare_file(path: &std::path::Path) -> anyhow::Result<()> {
     let notes = omnisim::output::folder::prepare_file(path)
         .map_err(|e| anyhow::anyhow!(e).context(format!("cannot write {}", path.display())))?;
     for note in notes {
-        eprintln!("note: {note}");
+        crate::streams::stderr(format_args!("note: {note}"))?;
     }
     Ok(())
 }

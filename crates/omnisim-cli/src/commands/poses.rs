@@ -137,11 +137,13 @@ const HEADER: &str = "# omnisim poses";
 /// Refuses to replace an existing file that is not a pose file this command wrote (`--out
 /// env1.ron` would have overwritten the scene).
 fn refuse_replacing_other_files(path: &std::path::Path) -> anyhow::Result<()> {
-    let Ok(mut file) = std::fs::File::open(path) else {
-        return Ok(());
-    };
+    // Only a regular file is opened: a link to a FIFO would wait for a writer.
     let mut start = [0u8; HEADER.len()];
-    let ours = std::io::Read::read_exact(&mut file, &mut start).is_ok() && start == HEADER.as_bytes();
+    let ours = match omnisim::input::open_regular(path, u64::MAX) {
+        Ok(mut file) => std::io::Read::read_exact(&mut file, &mut start).is_ok() && start == HEADER.as_bytes(),
+        Err(omnisim::input::InputError::NotAFile { .. }) => false,
+        Err(_) => return Ok(()),
+    };
     if !ours {
         anyhow::bail!(
             "{} exists and is not a pose file omnisim wrote; choose another --out, or remove it first",
@@ -166,12 +168,13 @@ fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
     };
     match &out.out {
         Some(path) => {
-            refuse_replacing_other_files(path)?;
+            // A FIFO is refused before it is opened (opening it waits for a writer).
             super::prepare_file(path)?;
+            refuse_replacing_other_files(path)?;
             write_atomically(path, |file| fill(file)).with_context(|| format!("cannot write {}", path.display()))?;
-            eprintln!("{} poses written to {}", poses.len(), path.display());
+            crate::streams::stderr(format_args!("{} poses written to {}", poses.len(), path.display()))?;
         }
-        None => fill(&mut std::io::stdout().lock()).context("cannot write to standard output")?,
+        None => fill(&mut std::io::stdout().lock()).map_err(crate::streams::stdout_error)?,
     }
     Ok(())
 }

@@ -37,25 +37,27 @@ pub fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
     }
     let dataset = Dataset::load(&args.spec)?;
     for warning in &dataset.warnings {
-        eprintln!("warning: {warning}");
+        crate::streams::stderr(format_args!("warning: {warning}"))?;
     }
     let picture = preview::draw(&dataset)?;
-    let mut svg = args.out.clone().into_os_string();
-    svg.push(".svg");
-    super::prepare_file(&PathBuf::from(svg))?;
+    for extension in [".svg", ".png"] {
+        let mut path = args.out.clone().into_os_string();
+        path.push(extension);
+        super::prepare_file(&PathBuf::from(path))?;
+    }
     let written = picture
         .write(&args.out)
         .with_context(|| format!("cannot write the preview {}.svg/.png", args.out.display()))?;
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "{} pose(s) of {} set(s), {} skipped; {}×{} px",
         picture.poses,
         dataset.sets.len(),
         picture.skipped,
         picture.view.size.0,
         picture.view.size.1
-    );
+    ))?;
     for path in written {
-        println!("{}", path.display());
+        crate::streams::stdout(path.display())?;
     }
     Ok(())
 }

@@ -16,7 +16,7 @@ use serde_json::{Value, json};
 
 pub use crate::camera_args::parse_size;
 
-use super::vision_input::{InputArgs, NamedSettings, check_image_sizes, read_image};
+use super::vision_input::{InputArgs, InputSet, NamedSettings, check_image_sizes, read_image};
 
 /// Resample omnidirectional images into other views (docs/vision.md, "Projections").
 ///
@@ -28,6 +28,8 @@ use super::vision_input::{InputArgs, NamedSettings, check_image_sizes, read_imag
 ///   equirect     unit sphere, full turn × half turn [width=1024, height=512]
 ///   perspective  pinhole looking at azimuth yaw, elevation pitch [width=640, height=480, hfov=90, yaw=0, pitch=0 (degrees)]
 ///   birds-eye    orthographic view of the plane z = plane (metres, body frame) [width=400, height=400, scale=0.01 (m/px), plane=-0.7]
+/// Ranges: a view up to 4096×4096 pixels; low and high −89 to 89, hfov 0 to 179 (exclusive),
+/// yaw −360 to 360, pitch −90 to 90 (degrees); scale and |plane| 1e-6 to 1000 m.
 /// Only central mirrors (hyperbolic, parabolic with a = b, aligned) have the closed-form
 /// projection this needs.
 #[derive(Debug, Clone, Args)]
@@ -104,7 +106,7 @@ fn view_of(spec: &NamedSettings) -> anyhow::Result<(View, Value)> {
             spec.check_keys(&["width", "height", "low", "high"])?;
             let (w, h) = size(1024, 256)?;
             let (low, high) = (spec.get("low", -45.0f64)?, spec.get("high", 15.0f64)?);
-            let view = View::panorama(w, h, low.to_radians(), high.to_radians())?;
+            let view = View::panorama(w, h, low.to_radians(), high.to_radians()).context("panorama")?;
             let model = "cylindrical: column u at azimuth π − 2π(u + ½)/W (from body +x towards +y), rows uniform in tan(elevation)";
             (
                 view,
@@ -128,7 +130,8 @@ fn view_of(spec: &NamedSettings) -> anyhow::Result<(View, Value)> {
                 spec.get("yaw", 0.0f64)?,
                 spec.get("pitch", 0.0f64)?,
             );
-            let view = View::perspective(w, h, hfov.to_radians(), yaw.to_radians(), pitch.to_radians())?;
+            let view = View::perspective(w, h, hfov.to_radians(), yaw.to_radians(), pitch.to_radians())
+                .context("perspective")?;
             let model = "pinhole, OpenCV optical frame, principal point at the centre, looking at azimuth yaw (from body +x towards +y) and elevation pitch";
             (
                 view,
@@ -139,7 +142,7 @@ fn view_of(spec: &NamedSettings) -> anyhow::Result<(View, Value)> {
             spec.check_keys(&["width", "height", "scale", "plane"])?;
             let (w, h) = size(400, 400)?;
             let (scale, plane) = (spec.get("scale", 0.01f64)?, spec.get("plane", -0.7f64)?);
-            let view = View::birds_eye(w, h, scale, plane)?;
+            let view = View::birds_eye(w, h, scale, plane).context("birds-eye")?;
             let model = "orthographic view of the plane z = plane_z (body frame), centred under the viewpoint; image up = body +x, right = body −y";
             (
                 view,
@@ -161,6 +164,9 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
     }
     let input = args.input.read()?;
     super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;
+    for set in &input.sets {
+        refuse_shared_stems(set)?;
+    }
     let Camera::Catadioptric(omni) = &input.camera else {
         bail!("project resamples omnidirectional images: the images are not from a catadioptric camera");
     };
@@ -208,13 +214,31 @@ pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
         text.push(b'\n');
         write_atomically(&path, |out| out.write_all(&text))
             .with_context(|| format!("cannot write {}", path.display()))?;
-        eprintln!(
+        crate::streams::stderr(format_args!(
             "set '{}': {} image(s) × {} view(s) written to {}",
             set.name,
             set.frames.len(),
             views.len(),
             folder.display()
-        );
+        ))?;
+    }
+    Ok(())
+}
+
+/// Refuses a set in which two images have the same stem (`a.png` and `a.PNG`): their views
+/// would be written to the same files, and one image's lost.
+fn refuse_shared_stems(set: &InputSet) -> anyhow::Result<()> {
+    let mut seen = std::collections::HashMap::new();
+    for frame in &set.frames {
+        if let Some(first) = seen.insert(frame.stem.as_str(), &frame.path) {
+            bail!(
+                "{} and {} would both give the views {}-NAME.png: project names its outputs after the image's name \
+                 without its extension; rename one of them",
+                first.display(),
+                frame.path.display(),
+                frame.stem
+            );
+        }
     }
     Ok(())
 }

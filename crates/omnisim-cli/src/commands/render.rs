@@ -5,13 +5,13 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use indicatif::{ProgressBar, ProgressStyle};
 use omnisim::metadata::BackendMetadata;
 use omnisim::output::ExrCompression;
 use omnisim::{BackendChoice, CpuTracer, FrameTarget, OutputSet, Pose, RenderMetadata, Renderer, Scene};
 
 use crate::camera_args::CameraArgs;
 use crate::poses::{parse_pose, read_pose_file};
+use crate::progress::Progress;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum BackendArg {
@@ -154,7 +154,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let scene = Scene::load(&args.scene)?;
     for warning in &scene.warnings {
-        eprintln!("warning: {warning}");
+        crate::streams::stderr(format_args!("warning: {warning}"))?;
     }
     let outputs = OutputSet {
         point_cloud: !args.no_ply,
@@ -172,25 +172,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut renderer = Renderer::new(args.backend.into())?;
     renderer.set_cpu_tracer(args.tracer.into());
     let prepared = renderer.prepare(&scene)?;
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "scene '{}': {} faces, {} triangles (BVH built in {:.1} ms)",
         scene.name,
         scene.faces.len(),
         prepared.geometry().triangles().len(),
         prepared.geometry().build_time().as_secs_f64() * 1e3
-    );
-    eprintln!(
+    ))?;
+    crate::streams::stderr(format_args!(
         "backend: {} on {} — {}",
         prepared.backend_name(),
         renderer.device_name(),
         prepared.fallback().unwrap_or(renderer.reason())
-    );
-    crate::warnings::misplaced_poses(&scene, prepared.geometry(), &poses);
+    ))?;
+    crate::warnings::misplaced_poses(&scene, prepared.geometry(), &poses)?;
 
-    let progress = ProgressBar::new(poses.len() as u64).with_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} poses, {elapsed} elapsed, ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let mut progress = Progress::new("poses");
     let mut metadata = RenderMetadata::new(&scene, &rig, BackendMetadata::of(&renderer, &prepared));
     let render_started = Instant::now();
     let stem = scene.file_stem();
@@ -210,7 +207,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
         for (view, frame) in views.iter().zip(&frames) {
-            crate::warnings::empty_frame(index, view.suffix, frame);
+            crate::warnings::empty_frame(index, view.suffix, frame)?;
         }
         let target = FrameTarget {
             scene: &stem,
@@ -220,20 +217,20 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         metadata
             .frames
             .push(outputs.write_frame(&mut run, &target, &rig, &frames)?);
-        progress.inc(1);
+        progress.step(index + 1, poses.len(), false, "")?;
     }
-    progress.finish_and_clear();
+    progress.finish();
     let render_seconds = render_started.elapsed().as_secs_f64();
 
     let run_files = outputs.write_run_files(&mut run, &scene, &rig, &metadata)?;
     run.finish()?;
     let frame_files = metadata.frames.iter().flat_map(|f| &f.files).map(|f| args.out.join(f));
     for path in frame_files.chain(run_files) {
-        crate::stdout::line(path.display())?;
+        crate::streams::stdout(path.display())?;
     }
     let camera = &views[0].camera;
     let (w, h) = camera.size();
-    eprintln!(
+    crate::streams::stderr(format_args!(
         "rendered {} pose(s) × {} {}x{} {} image(s) in {:.2} s ({:.1} ms per pose on {}); total {:.2} s",
         poses.len(),
         views.len(),
@@ -244,7 +241,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         render_seconds * 1e3 / poses.len() as f64,
         prepared.backend_name(),
         started.elapsed().as_secs_f64()
-    );
+    ))?;
     Ok(())
 }
 

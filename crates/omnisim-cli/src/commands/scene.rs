@@ -35,10 +35,10 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
         SceneCommand::Check { scene } => {
             let scene = Scene::load(&scene)?;
             for warning in &scene.warnings {
-                eprintln!("warning: {warning}");
+                crate::streams::stderr(format_args!("warning: {warning}"))?;
             }
             let (lo, hi) = scene.bounds().context("the scene is empty")?;
-            crate::stdout::line(format_args!(
+            crate::streams::stdout(format_args!(
                 "scene '{}': {} objects, {} faces, {} triangles",
                 scene.name,
                 scene.objects.len(),
@@ -47,7 +47,7 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
             ))?;
             // Bounds to the micrometre: 2.3, not 2.3000000000000003.
             let (lo, hi) = (lo.map(|v| rounded(v, MICROMETRES)), hi.map(|v| rounded(v, MICROMETRES)));
-            crate::stdout::line(format_args!(
+            crate::streams::stdout(format_args!(
                 "bounds: x [{}, {}], y [{}, {}], z [{}, {}] m",
                 lo.x, hi.x, lo.y, hi.y, lo.z, hi.z
             ))?;
@@ -56,7 +56,7 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
                 faces[face.object as usize] += 1;
             }
             for (object, faces) in scene.objects.iter().zip(faces) {
-                crate::stdout::line(format_args!("  {:<8} {:<24} {faces} faces", object.kind, object.name))?;
+                crate::streams::stdout(format_args!("  {:<8} {:<24} {faces} faces", object.kind, object.name))?;
             }
         }
         SceneCommand::Export { scene, output } => {
@@ -65,7 +65,7 @@ pub fn run(command: SceneCommand) -> anyhow::Result<()> {
             let loaded = Scene::load(&scene)?;
             crate::commands::prepare_file(&output)?;
             loaded.export(&output, format)?;
-            crate::stdout::line(output.display())?;
+            crate::streams::stdout(output.display())?;
         }
     }
     Ok(())

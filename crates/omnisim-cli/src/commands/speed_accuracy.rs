@@ -51,7 +51,7 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
     let cpu_fast = open(BackendChoice::Cpu, CpuTracer::Fast)?;
     let gpu = open(BackendChoice::Gpu, CpuTracer::Reference).ok();
     if gpu.is_none() {
-        eprintln!("note: no GPU adapter; the chart has CPU methods only");
+        crate::streams::stderr("note: no GPU adapter; the chart has CPU methods only")?;
     }
     let render = |(renderer, prepared): &(Renderer, PreparedScene), camera: &Camera, samples| {
         renderer.render_antialiased(prepared, camera, pose, Planes::COLOUR, samples)
@@ -60,7 +60,7 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
     let mut points = Vec::new();
     let mut record = |label: String, seconds: f64, frame: &Frame, truth: &Frame, device: String| {
         let (error, differing) = colour_error(frame, truth);
-        crate::stdout::line(
+        crate::streams::stdout(
             json!({ "method": label, "median_ms": seconds * 1e3, "mean_abs_colour_error": error,
                     "pixels_differing": differing, "device": device }),
         )?;
@@ -128,6 +128,6 @@ pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Pat
     );
     write_atomically(chart, |out| std::io::Write::write_all(out, svg.as_bytes()))
         .with_context(|| format!("cannot write {}", chart.display()))?;
-    eprintln!("wrote {}", chart.display());
+    crate::streams::stderr(format_args!("wrote {}", chart.display()))?;
     Ok(())
 }

@@ -3,6 +3,8 @@
 //! camera from `render`'s options), and their `NAME:KEY=VALUE,...` option values.
 
 use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::{BufReader, Take};
 use std::path::{Component, Path, PathBuf};
 
 use anyhow::{Context, bail};
@@ -20,7 +22,8 @@ use crate::camera_args::CameraArgs;
 pub struct InputArgs {
     /// A data-set folder written by `omnisim dataset` (with manifest.json), or a folder of
     /// PNG images (read in name order; camera from the options below, which must match the
-    /// camera an `omnisim render` folder's render.json records).
+    /// camera an `omnisim render` folder's render.json records). Of a render folder, the
+    /// colour images its render.json lists are read (not its depth or id PNGs).
     pub input: PathBuf,
     /// Data sets: only this set (repeat for several) [default: every set].
     #[arg(long = "set")]
@@ -80,6 +83,7 @@ const MANIFEST_LIMIT: u64 = 1 << 30;
 
 impl InputArgs {
     pub fn read(&self) -> anyhow::Result<Input> {
+        recordable(&self.input)?;
         let manifest = self.input.join("manifest.json");
         if manifest.is_file() {
             if self.camera_given() {
@@ -107,15 +111,8 @@ impl InputArgs {
 
     /// Refuses a camera other than the one an `omnisim render` folder records in its
     /// render.json: its images would be read through the wrong model, silently.
-    fn check_render_camera(&self, camera: &Camera) -> anyhow::Result<()> {
-        let path = self.input.join("render.json");
-        let Ok(text) = omnisim::input::read_text(&path, MANIFEST_LIMIT) else {
-            return Ok(());
-        };
-        let Ok(render) = serde_json::from_str::<serde_json::Value>(&text) else {
-            return Ok(());
-        };
-        let recorded = match &render["camera"] {
+    fn check_render_camera(&self, render: &RenderView, camera: &Camera) -> anyhow::Result<()> {
+        let recorded = match &render.camera {
             stereo if stereo["model"] == "stereo" => &stereo["left"],
             single => single,
         };
@@ -132,13 +129,30 @@ impl InputArgs {
             bail!(
                 "{} records a {} camera whose {} differ from the camera given here ({}); give the camera options it \
                  was rendered with (its omnisim-run.txt holds the command)",
-                path.display(),
+                self.input.join(RENDER_RECORD).display(),
                 recorded.get("model").and_then(|m| m.as_str()).unwrap_or("different"),
                 differing.join(", "),
                 camera.model_name()
             );
         }
         Ok(())
+    }
+
+    /// An `omnisim render` folder's render.json, if the folder has one.
+    fn render_record(&self) -> anyhow::Result<Option<RenderView>> {
+        let path = self.input.join(RENDER_RECORD);
+        if std::fs::symlink_metadata(&path).is_err() {
+            return Ok(None);
+        }
+        let text = omnisim::input::read_text(&path, MANIFEST_LIMIT)?;
+        let render = serde_json::from_str(&text).with_context(|| {
+            format!(
+                "{} is not the render.json of an omnisim render, which says which files are colour images; \
+                 move it out of the folder to read every PNG as an image",
+                path.display()
+            )
+        })?;
+        Ok(Some(render))
     }
 
     /// Whether any camera option differs from its default.
@@ -212,31 +226,26 @@ impl InputArgs {
     }
 
     fn read_folder(&self) -> anyhow::Result<Input> {
-        let mut paths = Vec::new();
-        for entry in std::fs::read_dir(&self.input).with_context(|| format!("cannot list {}", self.input.display()))? {
-            let path = entry?.path();
-            let image = path
-                .extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-            if image && path.is_file() {
-                paths.push(path);
-            }
-        }
-        paths.sort();
+        let render = self.render_record()?;
+        let paths = match &render {
+            Some(render) => render.colour_images(&self.input)?,
+            None => self.list_images()?,
+        };
         let Some(first) = paths.first() else {
             bail!("{} holds no PNG image", self.input.display());
         };
         let mut camera_args = self.camera.clone();
         if camera_args.size.is_none() {
-            let (w, h) = image::image_dimensions(first).with_context(|| format!("cannot read {}", first.display()))?;
+            let (w, h) = image_size(first)?;
             camera_args.size = Some((w, h));
         }
         let camera = match camera_args.build()? {
             Rig::Single(camera) => camera,
             Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
         };
-        self.check_render_camera(&camera)?;
+        if let Some(render) = &render {
+            self.check_render_camera(render, &camera)?;
+        }
         let name = plain_name(
             &self
                 .input
@@ -264,6 +273,75 @@ impl InputArgs {
             camera,
         })
     }
+
+    /// The folder's PNG files, in name order.
+    fn list_images(&self) -> anyhow::Result<Vec<PathBuf>> {
+        let mut paths = Vec::new();
+        for entry in std::fs::read_dir(&self.input).with_context(|| format!("cannot list {}", self.input.display()))? {
+            let path = entry?.path();
+            let image = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+            if image && path.is_file() {
+                recordable(&path)?;
+                paths.push(path);
+            }
+        }
+        paths.sort();
+        Ok(paths)
+    }
+}
+
+/// The file in which `omnisim render` records its camera and every frame's files.
+const RENDER_RECORD: &str = "render.json";
+
+/// The part of render.json read here.
+#[derive(Deserialize)]
+struct RenderView {
+    camera: serde_json::Value,
+    frames: Vec<RenderFrameView>,
+}
+
+#[derive(Deserialize)]
+struct RenderFrameView {
+    stem: String,
+    files: Vec<String>,
+}
+
+impl RenderView {
+    /// Each frame's colour image (a stereo rig's left one), in pose order: the render's other
+    /// PNGs (depth, object and face ids) are not images of the scene.
+    fn colour_images(&self, folder: &Path) -> anyhow::Result<Vec<PathBuf>> {
+        self.frames
+            .iter()
+            .map(|frame| {
+                let names = [format!("{}.png", frame.stem), format!("{}-left.png", frame.stem)];
+                let name = frame.files.iter().find(|f| names.contains(f)).with_context(|| {
+                    format!(
+                        "{} lists no colour image {} for frame {}",
+                        folder.join(RENDER_RECORD).display(),
+                        names[0],
+                        frame.stem
+                    )
+                })?;
+                Ok(folder.join(plain_name(name)?))
+            })
+            .collect()
+    }
+}
+
+/// Refuses a path that is not UTF-8: the sidecars record every input path in JSON, which
+/// holds only UTF-8 (and a lossy name could give two images the same outputs).
+pub fn recordable(path: &Path) -> anyhow::Result<()> {
+    if path.to_str().is_none() {
+        bail!(
+            "{} is not a UTF-8 name: describe and project record the files they read in JSON sidecars, which hold \
+             only UTF-8; rename it",
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 /// Refuses an output folder that is one the images are read from: a second run would read
@@ -312,9 +390,29 @@ fn default_camera_args() -> CameraArgs {
     Defaults::parse_from(["omnisim"]).camera
 }
 
+/// Largest image file read.
+const IMAGE_LIMIT: u64 = 1 << 30;
+
+/// A reader of the image file `path`, opened only if it is a regular file (a FIFO would block).
+fn open_image(path: &Path) -> anyhow::Result<image::ImageReader<BufReader<Take<File>>>> {
+    let file = omnisim::input::open_regular(path, IMAGE_LIMIT)?;
+    image::ImageReader::new(BufReader::new(file))
+        .with_guessed_format()
+        .with_context(|| format!("cannot read image {}", path.display()))
+}
+
+/// The image file `path`'s (width, height), from its header.
+fn image_size(path: &Path) -> anyhow::Result<(u32, u32)> {
+    open_image(path)?
+        .into_dimensions()
+        .with_context(|| format!("cannot read image {}", path.display()))
+}
+
 /// An image file as RGB 0..1, checked to be `size` (all images of a set are).
 pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
-    let image = image::open(path).with_context(|| format!("cannot read image {}", path.display()))?;
+    let image = open_image(path)?
+        .decode()
+        .with_context(|| format!("cannot read image {}", path.display()))?;
     let raster = Raster::from_image(&image);
     if let Some(size) = size {
         same_size(path, (raster.width, raster.height), size, "the set's first image")?;
@@ -326,8 +424,7 @@ pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<R
 /// so that a command can refuse a bad set before it writes anything.
 pub fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Result<()> {
     for frame in sets.iter().flat_map(|s| &s.frames) {
-        let (w, h) = image::image_dimensions(&frame.path)
-            .with_context(|| format!("cannot read image {}", frame.path.display()))?;
+        let (w, h) = image_size(&frame.path)?;
         same_size(&frame.path, (w as usize, h as usize), size, "the camera's image")?;
     }
     Ok(())

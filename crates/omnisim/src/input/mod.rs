@@ -55,7 +55,7 @@ pub enum InputError {
 }
 
 /// What a non-regular file is, in words.
-fn kind_of(file_type: std::fs::FileType) -> &'static str {
+pub(crate) fn kind_of(file_type: std::fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

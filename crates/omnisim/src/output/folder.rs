@@ -61,6 +61,18 @@ pub enum FolderError {
         /// The name refused.
         name: String,
     },
+    /// The destination is a device, FIFO, socket or folder: writing it whole means replacing it.
+    #[error(
+        "{} is {kind}, not a regular file: omnisim writes a file by replacing it whole, which would remove {kind}; \
+         name a regular file",
+        path.display()
+    )]
+    NotAFile {
+        /// The destination.
+        path: PathBuf,
+        /// What it is instead.
+        kind: &'static str,
+    },
 }
 
 /// An output folder opened for one run.
@@ -180,8 +192,19 @@ impl RunFolder {
 
 /// Prepares the destination of a single output file the user named: creates its folder,
 /// removes stale temporaries there and checks that a file can be created, so a long
-/// computation does not end in an unwritable path. Returns notes for the user.
+/// computation does not end in an unwritable path. Returns notes for the user. A destination
+/// that exists and is not a regular file (`/dev/null`, a FIFO) is refused: the rename that
+/// puts the file in place would replace it. A link is replaced, not followed.
 pub fn prepare_file(path: &Path) -> Result<Vec<String>, FolderError> {
+    if let Ok(metadata) = std::fs::symlink_metadata(path)
+        && !metadata.is_file()
+        && !metadata.file_type().is_symlink()
+    {
+        return Err(FolderError::NotAFile {
+            path: path.to_path_buf(),
+            kind: crate::input::kind_of(metadata.file_type()),
+        });
+    }
     let dir = match path.parent() {
         Some(parent) if !parent.as_os_str().is_empty() => parent,
         _ => Path::new("."),
@@ -389,5 +412,7 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path().join("a/b")).unwrap().count(), 0);
         std::fs::write(dir.path().join("file"), "x").unwrap();
         assert!(prepare_file(&dir.path().join("file/chart.svg")).is_err());
+        let error = prepare_file(&dir.path().join("a")).unwrap_err().to_string();
+        assert!(error.contains("is a folder, not a regular file"), "{error}");
     }
 }

@@ -1,0 +1,113 @@
+//! Progress of a long run on standard error, shared by `render` and `dataset`: a bar with the
+//! rate and ETA on a terminal; elsewhere (a log, CI) a plain line every 10 seconds with the
+//! rate, and a last one at the end of a run that printed any, so that a long run is never silent.
+
+use std::io::IsTerminal;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// How often a plain line is printed, unless `OMNISIM_PROGRESS_SECONDS` says otherwise (a
+/// CI log may want fewer).
+const EVERY: Duration = Duration::from_secs(10);
+
+/// The interval between plain lines.
+fn interval() -> Duration {
+    std::env::var("OMNISIM_PROGRESS_SECONDS")
+        .ok()
+        .and_then(|text| text.parse::<f64>().ok())
+        .and_then(|seconds| Duration::try_from_secs_f64(seconds).ok())
+        .unwrap_or(EVERY)
+}
+
+pub struct Progress {
+    /// What is counted, plural ("poses", "frames").
+    unit: &'static str,
+    /// Whether stderr is a terminal (bar) or not (plain lines); asked once.
+    terminal: bool,
+    /// How often a plain line is printed.
+    every: Duration,
+    bar: Option<ProgressBar>,
+    started: Instant,
+    /// When the last plain line was printed.
+    last_line: Option<Instant>,
+    /// When the last item was heard of.
+    last_step: Option<Instant>,
+    /// Items this run finished.
+    here: usize,
+    /// Items an earlier run finished: they take no time, so they leave the bar and the rate.
+    earlier: usize,
+}
+
+impl Progress {
+    pub fn new(unit: &'static str) -> Self {
+        Self {
+            unit,
+            terminal: std::io::stderr().is_terminal(),
+            every: interval(),
+            bar: None,
+            started: Instant::now(),
+            last_line: None,
+            last_step: None,
+            here: 0,
+            earlier: 0,
+        }
+    }
+
+    /// Hears that item `done` of `total` (both counting items an earlier run finished) is
+    /// finished, by an `earlier` run or this one; `note` says where the run is.
+    pub fn step(&mut self, done: usize, total: usize, earlier: bool, note: &str) -> anyhow::Result<()> {
+        let now = Instant::now();
+        self.last_step = Some(now);
+        if earlier {
+            self.earlier += 1;
+        } else {
+            self.here += 1;
+        }
+        if !self.terminal {
+            let due = self.last_line.unwrap_or(self.started) + self.every <= now;
+            if due || (done == total && self.last_line.is_some()) {
+                let rate = self.here as f64 / (now - self.started).as_secs_f64().max(1e-9);
+                let note = if note.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({note})")
+                };
+                crate::streams::stderr(format_args!("{done}/{total} {}, {rate:.1}/s{note}", self.unit))?;
+                self.last_line = Some(now);
+            }
+            return Ok(());
+        }
+        let unit = self.unit;
+        let bar = self.bar.get_or_insert_with(|| {
+            ProgressBar::new(total as u64).with_style(
+                ProgressStyle::with_template(&format!(
+                    "{{bar:40}} {{pos}}/{{len}} {unit}, {{per_sec}}, {{elapsed}} elapsed, ETA {{eta}} {{msg}}"
+                ))
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            )
+        });
+        if earlier {
+            bar.set_length(bar.length().unwrap_or(0).saturating_sub(1));
+        } else {
+            bar.inc(1);
+        }
+        match (self.earlier, note.is_empty()) {
+            (0, true) => {}
+            (0, false) => bar.set_message(format!("({note})")),
+            (n, _) => bar.set_message(format!("({note}; {n} done by an earlier run)")),
+        }
+        Ok(())
+    }
+
+    /// When the last item was heard of.
+    pub fn last_step(&self) -> Option<Instant> {
+        self.last_step
+    }
+
+    pub fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}
