@@ -59,15 +59,15 @@ fn benchmarks(c: &mut Criterion) {
     group.sample_size(20);
     for (name, camera) in cameras() {
         let (w, h) = camera.size();
-        group.throughput(Throughput::Elements(w as u64 * h as u64));
+        group.throughput(Throughput::Elements(u64::from(w) * u64::from(h)));
         for (tracer, cpu, cpu_scene) in &cpu_tracers {
             group.bench_function(format!("{tracer} {name}"), |b| {
-                b.iter(|| cpu.render(cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
+                b.iter(|| cpu.render(cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"));
             });
         }
         if let Some((gpu, prepared)) = &gpu {
             group.bench_function(format!("gpu f32 {name}"), |b| {
-                b.iter(|| gpu.render(prepared, &camera, &pose, Planes::COLOUR).expect("render"))
+                b.iter(|| gpu.render(prepared, &camera, &pose, Planes::COLOUR).expect("render"));
             });
         }
     }
@@ -88,7 +88,7 @@ fn benchmarks(c: &mut Criterion) {
         let pose = Pose::from_degrees(position, dvec3(0.0, 0.0, 0.0));
         for (tracer, cpu, cpu_scene) in &cpu_tracers {
             group.bench_function(format!("{tracer} equirect 512x512 {name}"), |b| {
-                b.iter(|| cpu.render(cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"))
+                b.iter(|| cpu.render(cpu_scene, &camera, &pose, Planes::COLOUR).expect("render"));
             });
         }
     }

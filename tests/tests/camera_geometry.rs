@@ -98,7 +98,7 @@ fn pinhole_reprojection(far: DVec3) {
                 for u in 0..frame.width {
                     let pixel = frame.pixel(u, v);
                     assert!(pixel.is_hit(), "closed room: every pinhole pixel hits");
-                    let error = (project(pixel.point) - dvec2(u as f64, v as f64)).length();
+                    let error = (project(pixel.point) - dvec2(f64::from(u), f64::from(v))).length();
                     assert!(error < tolerance, "pixel ({u},{v}) reprojects {error} px away");
                 }
             }
@@ -145,7 +145,10 @@ fn turning_a_panorama_about_z_shifts_it_by_whole_columns() {
     let turned = trace::trace(
         &bvh,
         &camera,
-        &Pose::new(position, dvec3(0.0, 0.0, 2.0 * PI * shift as f64 / width as f64)),
+        &Pose::new(
+            position,
+            dvec3(0.0, 0.0, 2.0 * PI * f64::from(shift) / f64::from(width)),
+        ),
     );
     let (mut same, mut total) = (0, 0);
     for v in 0..128 {
@@ -161,7 +164,7 @@ fn turning_a_panorama_about_z_shifts_it_by_whole_columns() {
         }
     }
     assert!(
-        same as f64 >= 0.999 * total as f64,
+        f64::from(same) >= 0.999 * f64::from(total),
         "{same} of {total} pixels unchanged"
     );
 }

@@ -81,10 +81,10 @@ impl Agreement {
             assert_eq!(r.is_hit(), f.is_hit(), "{label}: hit or miss differs at pixel {index}");
             if r.face == f.face {
                 if r.is_hit() {
-                    let error = (f.range as f64 - r.range as f64).abs() / r.range as f64;
+                    let error = (f64::from(f.range) - f64::from(r.range)).abs() / f64::from(r.range);
                     self.worst_range = self.worst_range.max(error);
                     assert!(
-                        r.point.distance(f.point) <= 1e-9 * (1.0 + r.range as f64),
+                        r.point.distance(f.point) <= 1e-9 * (1.0 + f64::from(r.range)),
                         "{label}: point at {index}"
                     );
                 }
@@ -230,7 +230,7 @@ fn a_cluttered_room_and_its_shadow_rays_match_the_reference() {
             "shadow ray from {a} to {b}: fast and portable paths differ"
         );
         assert_eq!(reference, fast, "shadow ray from {a} to {b}");
-        blocked += reference as usize;
+        blocked += usize::from(reference);
     }
     assert!(
         (100..3900).contains(&blocked),

@@ -87,7 +87,7 @@ fn check_range_exr(path: &std::path::Path, frame: &omnisim::Frame, compression: 
         .attributes
         .comments
         .as_ref()
-        .map(|t| t.to_string())
+        .map(std::string::ToString::to_string)
         .unwrap_or_default();
     assert!(comments.contains("metres") && comments.contains("+inf"), "{comments}");
     let quantity = layer
@@ -180,7 +180,7 @@ fn exported_scene_has_every_triangle_and_colour() {
     let total: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
     assert_eq!(total, triangles.len());
     let first = &models[0].mesh;
-    let colour = scene.faces[0].colour.map(|c| c as f32 / 255.0);
+    let colour = scene.faces[0].colour.map(|c| f32::from(c) / 255.0);
     assert!((first.vertex_color[0] - colour[0]).abs() < 1e-6);
 }
 
@@ -209,12 +209,12 @@ fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     let stored = read_png16(&path);
     assert_eq!(&stored[..2], &[0, 0]);
     for (value, z) in stored.iter().zip(&depth).skip(2) {
-        assert_eq!(*value as f64, (*z as f64 * 5000.0).round(), "z = {z}");
+        assert_eq!(f64::from(*value), (f64::from(*z) * 5000.0).round(), "z = {z}");
     }
     // z is the depth along the optical axis: the hit point's optical-frame z.
     let forward = pose.world_from_body_rotation() * glam::DVec3::X;
     let pixel = frame.pixel(80, 60);
-    assert!(((pixel.point - pose.position).dot(forward) - depth[60 * 160 + 80] as f64).abs() < 1e-6);
+    assert!(((pixel.point - pose.position).dot(forward) - f64::from(depth[60 * 160 + 80])).abs() < 1e-6);
 }
 
 /// Every plane of the paper's omni camera in env1, rendered on the f64 CPU tracer.
@@ -273,10 +273,10 @@ fn segmentation_ids_round_trip_through_png_and_legend() {
                 continue;
             }
             // The face id is the scene face + 1 and lies in its object's range of the legend.
-            assert_eq!(face as u32, pixel.face + 1);
+            assert_eq!(u32::from(face), pixel.face + 1);
             let entry = &legend.objects[object as usize - 1];
-            assert_eq!(entry.id, object as u32);
-            assert!((entry.first_face..=entry.last_face).contains(&(face as u32)));
+            assert_eq!(entry.id, u32::from(object));
+            assert!((entry.first_face..=entry.last_face).contains(&u32::from(face)));
             assert_eq!(
                 entry.name,
                 scene.objects[scene.faces[pixel.face as usize].object as usize].name

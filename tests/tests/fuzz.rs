@@ -1,6 +1,6 @@
 //! Seeded mutations of the shipped scenes (bytes and tokens) through loading, validation, the
 //! BVH build and a tiny CPU render: no input may panic, and every parse error names its
-//! file:line:column. Time per input is bounded by construction (the scenes are a few KB, the
+//! <file:line:column>. Time per input is bounded by construction (the scenes are a few KB, the
 //! render 16×8 rays), so a hang shows as a slow test, never an endless one.
 
 mod common;
@@ -80,7 +80,7 @@ fn mutate_tokens(text: &str, rng: &mut StdRng) -> String {
                     "name: \"",
                     ["name: \"../", "name: \"/", "name: \"\\u{0}", "name: \"\""][rng.random_range(0..4)],
                     1,
-                )
+                );
             }
         }
     }

@@ -52,7 +52,7 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
                         if r.is_hit() && !camera.is_central() && grazes_the_mirror(&camera, pixel) {
                             grazing += 1;
                         } else if r.is_hit() {
-                            let error = ((g.range as f64 - r.range as f64) / r.range as f64).abs();
+                            let error = ((f64::from(g.range) - f64::from(r.range)) / f64::from(r.range)).abs();
                             worst_range = worst_range.max(error);
                         }
                     }
@@ -100,7 +100,7 @@ fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
             let distance = (p.point - pose.position).length();
             // Central cameras: the hit lies `range` from the viewpoint.
             assert!(
-                (distance - p.range as f64).abs() <= 1e-5 * distance,
+                (distance - f64::from(p.range)).abs() <= 1e-5 * distance,
                 "{} vs {}",
                 distance,
                 p.range

@@ -82,7 +82,7 @@ fn shaded_value(backend: &str, tracer: &Tracer, hit: &Pixel, plane: [f32; 3]) ->
 /// Largest relative difference over the channels of a linear colour.
 fn relative_error(value: [f32; 3], expected: DVec3) -> f64 {
     (0..3)
-        .map(|k| ((value[k] as f64 - expected[k]) / expected[k]).abs())
+        .map(|k| ((f64::from(value[k]) - expected[k]) / expected[k]).abs())
         .fold(0.0, f64::max)
 }
 
@@ -498,7 +498,7 @@ struct Agreement {
 impl Agreement {
     /// Adds one frame; `reached` gives, per reference pixel, a bit per light that reaches it.
     fn add(&mut self, reference: &Frame, reached: &[u32], frame: &Frame) {
-        let (w, h) = (reference.width as i64, reference.height as i64);
+        let (w, h) = (i64::from(reference.width), i64::from(reference.height));
         let (want, got) = (reference.colour().unwrap(), frame.colour().unwrap());
         let face = |i: usize| reference.pixels()[i].face;
         for i in 0..want.len() {

@@ -102,13 +102,13 @@ fn stereo_disparity_is_f_b_over_z_on_a_planar_wall() {
     let mut on_wall = 0;
     for (index, (pixel, d)) in frame.pixels().iter().zip(&disparity).enumerate() {
         if pixel.is_hit() && scene.faces[pixel.face as usize].object == east_wall {
-            assert!((*d as f64 - expected).abs() < 0.01, "disparity {d} vs {expected}");
+            assert!((f64::from(*d) - expected).abs() < 0.01, "disparity {d} vs {expected}");
             on_wall += 1;
         }
         if pixel.is_hit() {
             // The right camera sees the same point at u − d on the same row.
             let (u, v) = ((index % 320) as f64, (index / 320) as f64);
-            let seen_from_right = right.ray(dvec2(u - *d as f64, v));
+            let seen_from_right = right.ray(dvec2(u - f64::from(*d), v));
             let towards_point =
                 pose.world_from_body_rotation().transpose() * (pixel.point - pose.position) - right.position;
             assert!(seen_from_right.direction.angle_between(towards_point) < 1e-6);
@@ -228,7 +228,7 @@ fn marker_scene(markers: &[DVec3]) -> Scene {
 fn predicted_centroid(camera: &Catadioptric, centre: DVec3) -> DVec2 {
     let corners = marker_corners(centre);
     let outline: Vec<DVec2> = (0..4)
-        .flat_map(|e| (0..200).map(move |k| corners[e].lerp(corners[(e + 1) % 4], k as f64 / 200.0)))
+        .flat_map(|e| (0..200).map(move |k| corners[e].lerp(corners[(e + 1) % 4], f64::from(k) / 200.0)))
         .map(|p| mei(camera, p))
         .collect();
     let (mut area, mut moment) = (0.0, DVec2::ZERO);
@@ -270,7 +270,7 @@ fn marker_centroids_land_where_the_unified_model_says() {
         .enumerate()
         .flat_map(|(row, &elevation)| {
             (0..6).map(move |k| {
-                let azimuth = (k as f64 + 0.3 * row as f64) * PI / 3.0;
+                let azimuth = (f64::from(k) + 0.3 * row as f64) * PI / 3.0;
                 direction_at(elevation, azimuth) * if k % 2 == 0 { 1.3 } else { 1.8 }
             })
         })
@@ -305,7 +305,7 @@ fn marker_centroids_land_where_the_unified_model_says() {
     }
 }
 
-/// The numbers of `data: [ … ]` under `name:` in an OpenCV YAML file.
+/// The numbers of `data: [ … ]` under `name:` in an `OpenCV` YAML file.
 fn yaml_matrix(text: &str, name: &str) -> Vec<f64> {
     let block = &text[text.find(&format!("\n{name}:")).unwrap_or_else(|| panic!("no {name}"))..];
     let data = &block[block.find('[').unwrap() + 1..block.find(']').unwrap()];
@@ -326,7 +326,7 @@ fn numbers_in_brackets(line: &str) -> Vec<f64> {
     data.split(',').map(|v| v.trim().parse().unwrap()).collect()
 }
 
-/// The first Kalibr `T_cam_imu` (camera_from_body) as a function of body points.
+/// The first Kalibr `T_cam_imu` (`camera_from_body`) as a function of body points.
 fn kalibr_camera_from_body(text: &str) -> impl Fn(DVec3) -> DVec3 {
     let start = text.find("T_cam_imu:").expect("T_cam_imu");
     let rows: Vec<Vec<f64>> = text[start..].lines().skip(1).take(3).map(numbers_in_brackets).collect();
@@ -336,7 +336,7 @@ fn kalibr_camera_from_body(text: &str) -> impl Fn(DVec3) -> DVec3 {
     }
 }
 
-/// `xi: value` of an OpenCV omnidir file.
+/// `xi: value` of an `OpenCV` omnidir file.
 fn yaml_real(text: &str, name: &str) -> f64 {
     let line = text.lines().find(|l| l.starts_with(&format!("{name}:"))).unwrap();
     line[name.len() + 1..].trim().parse().unwrap()
@@ -498,11 +498,19 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
             assert!(origin[0][i].is_nan() || camera.ray(dvec2((i % 160) as f64, (i / 160) as f64)).is_some());
             continue;
         }
-        let o = dvec3(origin[0][i] as f64, origin[1][i] as f64, origin[2][i] as f64);
-        let d = dvec3(direction[0][i] as f64, direction[1][i] as f64, direction[2][i] as f64);
-        let point = pose.position + rotation * (o + pixel.range as f64 * d);
+        let o = dvec3(
+            f64::from(origin[0][i]),
+            f64::from(origin[1][i]),
+            f64::from(origin[2][i]),
+        );
+        let d = dvec3(
+            f64::from(direction[0][i]),
+            f64::from(direction[1][i]),
+            f64::from(direction[2][i]),
+        );
+        let point = pose.position + rotation * (o + f64::from(pixel.range) * d);
         assert!(
-            point.distance(pixel.point) < 1e-5 * (1.0 + pixel.range as f64),
+            point.distance(pixel.point) < 1e-5 * (1.0 + f64::from(pixel.range)),
             "{point} vs {}",
             pixel.point
         );

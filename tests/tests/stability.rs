@@ -29,7 +29,7 @@ const RIM_RADIUS_PX: f64 = 125.0;
 
 /// Every pixel centre of a `width`×`height` image, row by row.
 fn pixel_centres(width: u32, height: u32) -> impl Iterator<Item = DVec2> {
-    (0..height).flat_map(move |v| (0..width).map(move |u| dvec2(u as f64, v as f64)))
+    (0..height).flat_map(move |v| (0..width).map(move |u| dvec2(f64::from(u), f64::from(v))))
 }
 
 /// How closely a frame matches a reference frame of the same camera and pose.
@@ -52,7 +52,7 @@ impl Agreement {
             if r.face == f.face {
                 agreement.same_face += 1;
                 if r.is_hit() {
-                    let error = (f.range as f64 - r.range as f64).abs() / r.range as f64;
+                    let error = (f64::from(f.range) - f64::from(r.range)).abs() / f64::from(r.range);
                     agreement.worst_range = agreement.worst_range.max(error);
                 }
             }
@@ -286,7 +286,7 @@ fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
     let angles = 3600;
     let mut worst_cut_off = 0f64;
     for k in 0..angles {
-        let theta = TAU * k as f64 / angles as f64;
+        let theta = TAU * f64::from(k) / f64::from(angles);
         let along = dvec2(theta.cos(), theta.sin());
         for step in RIM_STEPS_PX {
             let pixel = centre + (RIM_RADIUS_PX + step) * along;
@@ -561,10 +561,10 @@ fn millimetre_marker_and_ten_kilometre_floor_on_cpu_and_gpu() {
         floor_pixels += 1;
         let direction = world_from_body * camera.ray(pixel).unwrap().direction;
         let exact = pose.position.z / -direction.z;
-        closed_form = closed_form.max((r.range as f64 - exact).abs() / exact);
+        closed_form = closed_form.max((f64::from(r.range) - exact).abs() / exact);
         (nearest, farthest) = (nearest.min(exact), farthest.max(exact));
         if g.face == floor_face {
-            gpu_error = gpu_error.max((g.range as f64 - r.range as f64).abs() / r.range as f64);
+            gpu_error = gpu_error.max((f64::from(g.range) - f64::from(r.range)).abs() / f64::from(r.range));
         } else {
             floor_differ += 1;
         }

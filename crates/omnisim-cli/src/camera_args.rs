@@ -9,8 +9,8 @@ use omnisim::camera::spec::defaults;
 use omnisim::camera::{MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigSpec, StereoSpec};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum CameraKind {
-    /// Perspective camera looking along body +x (OpenCV optical frame).
+pub(crate) enum CameraKind {
+    /// Perspective camera looking along body +x (`OpenCV` optical frame).
     Pinhole,
     /// Two pinholes --baseline apart on body y (left at +y), with ground-truth disparity.
     Stereo,
@@ -23,7 +23,7 @@ pub enum CameraKind {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MirrorKind {
+pub(crate) enum MirrorKind {
     /// (x²+y²)/a² − z²/b² = −1, pinhole at the outer focus (central).
     Hyperbolic,
     /// z = h·(x²/a² + y²/b²), orthographic camera (central when a = b).
@@ -33,7 +33,7 @@ pub enum MirrorKind {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MountArg {
+pub(crate) enum MountArg {
     /// Mirror above the camera: mirror axis along body +z.
     Up,
     /// Mirror below the camera: mirror axis along body −z.
@@ -41,7 +41,7 @@ pub enum MountArg {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum MirrorRaysArg {
+pub(crate) enum MirrorRaysArg {
     /// Law of reflection at the mirror surface: exact for every mirror and misalignment.
     Reflect,
     /// The reference paper's rays from the viewpoint F' through the mirror point (aligned central mirrors only).
@@ -49,12 +49,12 @@ pub enum MirrorRaysArg {
 }
 
 #[derive(Debug, Clone, PartialEq, Args)]
-pub struct CameraArgs {
+pub(crate) struct CameraArgs {
     /// Vision system to simulate. Options that do not apply to it are refused, and so is a
     /// camera that cannot make an image (the message gives the valid range).
     #[arg(long, value_enum, default_value = "omni")]
     pub camera: CameraKind,
-    /// Image size WIDTHxHEIGHT in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250].
+    /// Image size `WIDTHxHEIGHT` in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250].
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Pinhole/stereo: horizontal field of view in degrees (square pixels, centred principal
@@ -118,7 +118,7 @@ pub struct CameraArgs {
 
 /// `--max-elevation`: degrees, or `None` for a mirror without rim.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MaxElevation(pub Option<f64>);
+pub(crate) struct MaxElevation(pub Option<f64>);
 
 fn parse_elevation(text: &str) -> Result<MaxElevation, String> {
     if text == "none" {
@@ -143,7 +143,7 @@ fn parse_vector(text: &str) -> Result<DVec3, String> {
     }
 }
 
-pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
+pub(crate) fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let (w, h) = text
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("'{text}' is not WIDTHxHEIGHT, e.g. 640x480"))?;
@@ -160,7 +160,7 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
 /// Options given that the chosen camera does not use: ignoring them silently would render
 /// something other than what was asked for.
 fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
-    use CameraKind::*;
+    use CameraKind::{Cylindrical, Omni, Pinhole, Stereo};
     let omni = args.camera == Omni;
     let mirror = args.mirror.unwrap_or(MirrorKind::Hyperbolic);
     let pinhole = matches!(args.camera, Pinhole | Stereo);
@@ -203,7 +203,7 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
 impl CameraArgs {
     /// The rig these options describe, as the one description every command shares: each
     /// option given, the [`defaults`] for the rest.
-    pub fn spec(&self) -> anyhow::Result<RigSpec> {
+    pub(crate) fn spec(&self) -> anyhow::Result<RigSpec> {
         check_applicable(self)?;
         self.warn_about_radians()?;
         let pinhole = |size| PinholeSpec {
@@ -235,7 +235,7 @@ impl CameraArgs {
 
     /// The camera or rig these options describe, checked by the library (`validate`): the
     /// command line refuses exactly what a library caller would be refused.
-    pub fn build(&self) -> anyhow::Result<Rig> {
+    pub(crate) fn build(&self) -> anyhow::Result<Rig> {
         Ok(self.spec()?.build()?)
     }
 

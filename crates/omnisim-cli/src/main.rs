@@ -57,13 +57,13 @@ fn main() -> std::process::ExitCode {
     let _runtime_dir = quiet_wayland_probe();
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render(args) => commands::render::run(args),
+        Command::Render(args) => commands::render::run(&args),
         Command::Scene(command) => commands::scene::run(command),
         Command::Poses(command) => commands::poses::run(command),
-        Command::Bench(args) => commands::bench::run(args),
+        Command::Bench(args) => commands::bench::run(&args),
         Command::Dataset(args) => commands::dataset::run(args),
-        Command::Describe(args) => commands::describe::run(args),
-        Command::Project(args) => commands::project::run(args),
+        Command::Describe(args) => commands::describe::run(&args),
+        Command::Project(args) => commands::project::run(&args),
         Command::Preview(args) => commands::preview::run(args),
     };
     match result {
@@ -106,7 +106,7 @@ fn report_file_size_limits() {
 }
 
 /// Mesa's Vulkan device-select layer looks for a Wayland compositor whenever adapters are
-/// listed, and without XDG_RUNTIME_DIR libwayland prints "XDG_RUNTIME_DIR is invalid or not set"
+/// listed, and without `XDG_RUNTIME_DIR` libwayland prints "`XDG_RUNTIME_DIR` is invalid or not set"
 /// twice. With no runtime dir there is no compositor to find, so an empty private one changes
 /// nothing but the noise. Returns the folder, removed when dropped.
 fn quiet_wayland_probe() -> Option<tempfile::TempDir> {

@@ -15,7 +15,7 @@ const MAX_ANGLE_DEGREES: f64 = 1e6;
 
 /// Parses `x,y,z,θx,θy,θz` (commas or spaces; angles in degrees; missing angles are 0). An
 /// empty value between commas is an error, not skipped: `1,,2,3` is not (1, 2, 3).
-pub fn parse_pose(text: &str) -> Result<Pose, String> {
+pub(crate) fn parse_pose(text: &str) -> Result<Pose, String> {
     let shown = shown(text, 80);
     let mut fields = Vec::new();
     for part in text.split(',') {
@@ -63,7 +63,7 @@ pub fn parse_pose(text: &str) -> Result<Pose, String> {
 
 /// Reads a pose file (a regular file of at most 256 MiB): one pose per line as for `--pose`;
 /// `#` starts a comment.
-pub fn read_pose_file(path: &Path) -> anyhow::Result<Vec<Pose>> {
+pub(crate) fn read_pose_file(path: &Path) -> anyhow::Result<Vec<Pose>> {
     let text = omnisim::input::read_text(path, omnisim::input::POSE_FILE_LIMIT).context("cannot read the pose file")?;
     let mut poses = Vec::new();
     for (number, line) in omnisim::input::without_bom(&text).lines().enumerate() {

@@ -20,7 +20,7 @@ fn interval() -> Duration {
         .unwrap_or(EVERY)
 }
 
-pub struct Progress {
+pub(crate) struct Progress {
     /// What is counted, plural ("poses", "frames").
     unit: &'static str,
     /// Whether stderr is a terminal (bar) or not (plain lines); asked once.
@@ -40,7 +40,7 @@ pub struct Progress {
 }
 
 impl Progress {
-    pub fn new(unit: &'static str) -> Self {
+    pub(crate) fn new(unit: &'static str) -> Self {
         Self {
             unit,
             terminal: std::io::stderr().is_terminal(),
@@ -56,7 +56,7 @@ impl Progress {
 
     /// Hears that item `done` of `total` (both counting items an earlier run finished) is
     /// finished, by an `earlier` run or this one; `note` says where the run is.
-    pub fn step(&mut self, done: usize, total: usize, earlier: bool, note: &str) -> anyhow::Result<()> {
+    pub(crate) fn step(&mut self, done: usize, total: usize, earlier: bool, note: &str) -> anyhow::Result<()> {
         let now = Instant::now();
         self.last_step = Some(now);
         if earlier {
@@ -101,11 +101,11 @@ impl Progress {
     }
 
     /// When the last item was heard of.
-    pub fn last_step(&self) -> Option<Instant> {
+    pub(crate) fn last_step(&self) -> Option<Instant> {
         self.last_step
     }
 
-    pub fn finish(&self) {
+    pub(crate) fn finish(&self) {
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }

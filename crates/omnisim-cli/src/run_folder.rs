@@ -10,7 +10,7 @@ use crate::commands::render::RenderArgs;
 
 /// Opens `args.out` for this run, printing what was cleaned up. Two runs are the same run when
 /// the scene file, camera, poses and outputs are; the backend and the output path do not count.
-pub fn open(args: &RenderArgs, poses: &[Pose]) -> anyhow::Result<RunFolder> {
+pub(crate) fn open(args: &RenderArgs, poses: &[Pose]) -> anyhow::Result<RunFolder> {
     let scene = std::fs::canonicalize(&args.scene).unwrap_or_else(|_| args.scene.clone());
     let mut digest = Fnv1a::default();
     for pose in poses {

@@ -8,7 +8,7 @@ use std::io::Write;
 /// Which standard stream a write failed on: the context of the error, so that `main` can tell
 /// a reader that stopped reading standard output from a failure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CannotWrite {
+pub(crate) enum CannotWrite {
     Stdout,
     Stderr,
 }
@@ -23,23 +23,23 @@ impl std::fmt::Display for CannotWrite {
 }
 
 /// `error`, from writing to standard output.
-pub fn stdout_error(error: std::io::Error) -> anyhow::Error {
+pub(crate) fn stdout_error(error: std::io::Error) -> anyhow::Error {
     anyhow::Error::new(error).context(CannotWrite::Stdout)
 }
 
 /// Writes one line to standard output.
-pub fn stdout(text: impl std::fmt::Display) -> anyhow::Result<()> {
+pub(crate) fn stdout(text: impl std::fmt::Display) -> anyhow::Result<()> {
     writeln!(std::io::stdout().lock(), "{text}").map_err(stdout_error)
 }
 
 /// Writes one line (a message, note or warning) to standard error.
-pub fn stderr(text: impl std::fmt::Display) -> anyhow::Result<()> {
+pub(crate) fn stderr(text: impl std::fmt::Display) -> anyhow::Result<()> {
     writeln!(std::io::stderr().lock(), "{text}").map_err(|e| anyhow::Error::new(e).context(CannotWrite::Stderr))
 }
 
 /// Whether `error` is standard output's reader having gone (`| head`): the reader chose to
 /// stop, which is not a failure. Standard error's reader going is one: what it was told is lost.
-pub fn is_broken_pipe(error: &anyhow::Error) -> bool {
+pub(crate) fn is_broken_pipe(error: &anyhow::Error) -> bool {
     error.downcast_ref::<CannotWrite>() == Some(&CannotWrite::Stdout)
         && error.chain().any(|cause| {
             cause

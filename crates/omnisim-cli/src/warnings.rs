@@ -9,7 +9,7 @@ use omnisim::{Frame, Pose, Scene};
 const LISTED: usize = 5;
 
 /// Warns (on stderr) about poses outside the scene's bounds or inside one of its boxes.
-pub fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]) -> anyhow::Result<()> {
+pub(crate) fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]) -> anyhow::Result<()> {
     let found: Vec<(usize, Misplaced)> = poses
         .iter()
         .enumerate()
@@ -36,8 +36,8 @@ pub fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]) -> an
 }
 
 /// Warns when a rendered image sees nothing (its point cloud would be empty).
-pub fn empty_frame(index: usize, view: &str, frame: &Frame) -> anyhow::Result<()> {
-    if !frame.pixels().iter().any(|p| p.is_hit()) {
+pub(crate) fn empty_frame(index: usize, view: &str, frame: &Frame) -> anyhow::Result<()> {
+    if !frame.pixels().iter().any(omnisim::Pixel::is_hit) {
         crate::streams::stderr(format_args!(
             "warning: pose {index}{view} sees nothing: the image is black and the point cloud empty"
         ))?;

@@ -658,8 +658,8 @@ fn gpu_probes_keep_stderr_clean() {
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
 }
 
-/// The outputs opened by the readers people use (OpenCV, OpenEXR, plyfile, PyYAML, evo), in
-/// the Python environment .ci/run makes; see tests/readers/check_outputs.py.
+/// The outputs opened by the readers people use (`OpenCV`, `OpenEXR`, plyfile, `PyYAML`, evo), in
+/// the Python environment .ci/run makes; see `tests/readers/check_outputs.py`.
 #[test]
 fn outputs_open_in_the_readers_people_use() {
     let Some(python) = std::env::var_os("OMNISIM_PYTHON") else {
@@ -742,9 +742,9 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();
         if path.is_dir() {
-            files.extend(walk(&path))
+            files.extend(walk(&path));
         } else {
-            files.push(path)
+            files.push(path);
         }
     }
     files
@@ -1048,7 +1048,7 @@ fn angles_that_look_like_radians_get_a_hint() {
 }
 
 /// A render with no terminal prints plain progress lines with the rate (every 10 s; here,
-/// with OMNISIM_PROGRESS_SECONDS=0, after every pose): a long render was silent.
+/// with `OMNISIM_PROGRESS_SECONDS=0`, after every pose): a long render was silent.
 #[test]
 fn a_render_without_a_terminal_reports_progress() {
     let dir = tempfile::tempdir().unwrap();

@@ -80,21 +80,18 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
     let mut kills = 0;
     for _ in 0..30 {
         state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
         let delay = uninterrupted.mul_f64(0.1 + 0.6 * ((state >> 11) as f64 / (1u64 << 53) as f64));
         let mut child = dataset(&spec, &killed).spawn().unwrap();
         std::thread::sleep(delay);
-        match child.try_wait().unwrap() {
-            Some(status) => {
-                assert!(status.success());
-                break;
-            }
-            None => {
-                child.kill().unwrap();
-                child.wait().unwrap();
-                kills += 1;
-            }
+        if let Some(status) = child.try_wait().unwrap() {
+            assert!(status.success());
+            break;
+        } else {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            kills += 1;
         }
     }
     let output = dataset(&spec, &killed).output().unwrap();

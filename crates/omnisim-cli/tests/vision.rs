@@ -103,7 +103,7 @@ fn assert_close(name: &str, got: &[f64], expected: &[f32]) {
     assert_eq!(got.len(), expected.len().min(256), "{name}: length");
     for (i, (g, e)) in got.iter().zip(expected).enumerate() {
         assert!(
-            (g - *e as f64).abs() <= 1e-6 * (1.0 + e.abs() as f64),
+            (g - f64::from(*e)).abs() <= 1e-6 * (1.0 + f64::from(e.abs())),
             "{name}[{i}]: numpy read {g}, library {e}"
         );
     }

@@ -158,7 +158,7 @@ pub(crate) fn frame_appearance(
                 per_frame,
             } => {
                 let mut rng = stream(seed, &set.name, per_frame.then_some(index), Purpose::Colours);
-                let range = *range as i16;
+                let range = i16::from(*range);
                 for (id, object) in scene.objects[..scene_objects].iter().enumerate() {
                     // Every object draws, listed or not, so the list does not move the draws.
                     let shift: [i16; 3] = std::array::from_fn(|_| rng.random_range(-range..=range));
@@ -167,7 +167,7 @@ pub(crate) fn frame_appearance(
                     }
                     for (face, c) in scene.faces.iter().zip(&mut appearance.face_colours) {
                         if face.object as usize == id {
-                            *c = std::array::from_fn(|k| (c[k] as i16 + shift[k]).clamp(0, 255) as u8);
+                            *c = std::array::from_fn(|k| (i16::from(c[k]) + shift[k]).clamp(0, 255) as u8);
                         }
                     }
                     let total = colour_shifts.entry(object.name.clone()).or_insert([0; 3]);

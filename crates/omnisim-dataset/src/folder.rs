@@ -160,7 +160,7 @@ pub(crate) fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<
         // The same spec by another renderer; or an earlier omnisim's stamp, which has no
         // geometry hash, so its identity cannot match: saying so beats calling it another spec.
         Some(previous) if !overwrite && (previous.identity == stamp.identity || previous.version.is_empty()) => {
-            same_renderer(dir, &previous, stamp)?
+            same_renderer(dir, &previous, stamp)?;
         }
         Some(previous) if !overwrite => {
             return Err(DatasetError::AnotherSpec {

@@ -2,7 +2,7 @@
 //! folder. Per frame they hold what the sensor sees (noisy where the set has noise); their
 //! index files are written from the frame entries when the set is complete.
 //!
-//! Frame i has the time i / rate seconds: TUM writes it with six decimals, EuRoC in integer
+//! Frame i has the time i / rate seconds: TUM writes it with six decimals, `EuRoC` in integer
 //! nanoseconds.
 
 use std::fmt::Write;
@@ -30,7 +30,7 @@ pub(crate) fn tum_time(index: usize, rate: f64) -> String {
     format!("{:.6}", index as f64 / rate)
 }
 
-/// EuRoC timestamp of frame `index`, nanoseconds.
+/// `EuRoC` timestamp of frame `index`, nanoseconds.
 pub(crate) fn euroc_time(index: usize, rate: f64) -> u64 {
     (index as f64 * 1e9 / rate).round() as u64
 }
@@ -64,7 +64,7 @@ fn pose_text(rotation: DMat3, position: DVec3) -> String {
     )
 }
 
-/// body_from_optical (rotation, translation) of view `k`, for pinhole views.
+/// `body_from_optical` (rotation, translation) of view `k`, for pinhole views.
 fn body_from_optical(rig: &Rig, k: usize) -> Option<(DMat3, DVec3)> {
     match &rig.views().get(k)?.camera {
         Camera::Pinhole(pinhole) => Some((BODY_FROM_OPTICAL, pinhole.position)),
@@ -174,26 +174,22 @@ fn sensor_yaml(rig: &Rig, k: usize, camera: &Camera, rate: f64) -> String {
         .collect();
     let _ = writeln!(out, "T_BS:\n  cols: 4\n  rows: 4\n  data: [{}]", data.join(", "));
     let _ = writeln!(out, "rate_hz: {rate}\nresolution: [{w}, {h}]");
-    match camera {
-        Camera::Pinhole(p) => {
-            let _ = writeln!(
-                out,
-                "camera_model: pinhole\nintrinsics: [{:?}, {:?}, {:?}, {:?}] # fu, fv, cu, cv\n\
-                 distortion_model: radial-tangential\ndistortion_coefficients: [0.0, 0.0, 0.0, 0.0]",
-                p.fx, p.fy, p.cx, p.cy
-            );
-        }
-        _ => {
-            out +=
-                "# Not a pinhole: T_BS is the body frame itself; every pixel's ray is in raymap.exr of the set folder";
-            out += match camera {
-                Camera::Catadioptric(mirror) if omnisim::calibration::kalibr_omni(mirror).is_some() => {
-                    ",\n# the unified model in its calibration-kalibr.yaml.\n"
-                }
-                _ => ".\n",
-            };
-            let _ = writeln!(out, "camera_model: omnisim-{}", camera.model_name());
-        }
+    if let Camera::Pinhole(p) = camera {
+        let _ = writeln!(
+            out,
+            "camera_model: pinhole\nintrinsics: [{:?}, {:?}, {:?}, {:?}] # fu, fv, cu, cv\n\
+             distortion_model: radial-tangential\ndistortion_coefficients: [0.0, 0.0, 0.0, 0.0]",
+            p.fx, p.fy, p.cx, p.cy
+        );
+    } else {
+        out += "# Not a pinhole: T_BS is the body frame itself; every pixel's ray is in raymap.exr of the set folder";
+        out += match camera {
+            Camera::Catadioptric(mirror) if omnisim::calibration::kalibr_omni(mirror).is_some() => {
+                ",\n# the unified model in its calibration-kalibr.yaml.\n"
+            }
+            _ => ".\n",
+        };
+        let _ = writeln!(out, "camera_model: omnisim-{}", camera.model_name());
     }
     out
 }

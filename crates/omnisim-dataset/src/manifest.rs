@@ -5,6 +5,7 @@
 //! assembled from the entries by `merge` (also the last step of an unsharded run), so a
 //! resumed, a sharded and an uninterrupted run end with the same bytes.
 
+use std::fmt::Write as _;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -53,9 +54,9 @@ pub struct FileEntry {
 pub struct PoseEntry {
     /// Viewpoint, world metres.
     pub position: [f64; 3],
-    /// (θx, θy, θz) degrees, world_from_body = Rx·Ry·Rz.
+    /// (θx, θy, θz) degrees, `world_from_body` = Rx·Ry·Rz.
     pub angles_deg: [f64; 3],
-    /// world_from_body as a unit quaternion (x, y, z, w), w ≥ 0.
+    /// `world_from_body` as a unit quaternion (x, y, z, w), w ≥ 0.
     pub quaternion_xyzw: [f64; 4],
 }
 
@@ -238,7 +239,12 @@ pub fn geometry_sha256(scene: &omnisim::scene::Scene) -> String {
 }
 
 fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
+    bytes
+        .iter()
+        .fold(String::with_capacity(2 * bytes.len()), |mut text, b| {
+            let _ = write!(text, "{b:02x}");
+            text
+        })
 }
 
 /// Size and SHA-256 of the file at `path`, read in blocks.

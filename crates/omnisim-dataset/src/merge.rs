@@ -48,16 +48,15 @@ pub(crate) fn assemble(
     for source in sources {
         let theirs = read_stamp(source)?.ok_or_else(|| DatasetError::NotADataSet { dir: source.clone() })?;
         let their_spec = checked_spec(source, &theirs)?;
-        let ours = match &stamp {
-            Some(ours) => ours,
-            None => {
-                prepare_dir(dest)?;
-                refuse_unrecorded(dest)?;
-                let bytes = std::fs::read(source.join(STAMP)).map_err(io(source))?;
-                write_file(&dest.join(STAMP), &bytes)?;
-                spec = Some(their_spec);
-                stamp.insert(theirs.clone())
-            }
+        let ours = if let Some(ours) = &stamp {
+            ours
+        } else {
+            prepare_dir(dest)?;
+            refuse_unrecorded(dest)?;
+            let bytes = std::fs::read(source.join(STAMP)).map_err(io(source))?;
+            write_file(&dest.join(STAMP), &bytes)?;
+            spec = Some(their_spec);
+            stamp.insert(theirs.clone())
         };
         if ours.identity != theirs.identity {
             return Err(DatasetError::ShardOfAnotherSpec {

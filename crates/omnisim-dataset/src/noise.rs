@@ -53,7 +53,7 @@ pub fn depth(values: &[f32], model: &DepthNoise, rng: &mut impl Rng) -> Vec<f32>
         .iter()
         .map(|&z| {
             if z.is_finite() {
-                let z = z as f64;
+                let z = f64::from(z);
                 (z + depth_sigma(model, z) * normal(rng)).max(0.0) as f32
             } else {
                 z
@@ -70,8 +70,8 @@ pub fn disparity(values: &[f32], model: &DisparityNoise, rng: &mut impl Rng) -> 
             if d.is_nan() {
                 return d;
             }
-            let noisy = d as f64 + model.sigma * normal(rng);
-            let q = model.subpixel as f64;
+            let noisy = f64::from(d) + model.sigma * normal(rng);
+            let q = f64::from(model.subpixel);
             (if q > 0.0 { (noisy * q).round() / q } else { noisy }) as f32
         })
         .collect()
@@ -119,11 +119,11 @@ mod tests {
         for y in [0.05f32, 0.5, 0.9] {
             let models = [ColourNoise::PoissonGaussian { a, b }];
             let samples: Vec<f64> = (0..N).map(|_| colour_pixel([y; 3], &models, &mut rng)[1]).collect();
-            assert_gaussian(&samples, y as f64, (a * y as f64 + b).sqrt());
+            assert_gaussian(&samples, f64::from(y), (a * f64::from(y) + b).sqrt());
         }
         let gaussian = [ColourNoise::Gaussian { sigma: 0.02 }];
         let samples: Vec<f64> = (0..N).map(|_| colour_pixel([0.3; 3], &gaussian, &mut rng)[0]).collect();
-        assert_gaussian(&samples, 0.3f32 as f64, 0.02);
+        assert_gaussian(&samples, f64::from(0.3f32), 0.02);
     }
 
     #[test]
@@ -143,7 +143,7 @@ mod tests {
         let half = white / (white + black);
         assert!((half - 0.5).abs() < 5.0 * (0.25 / (white + black)).sqrt(), "{half}");
         // Untouched pixels keep the exact ground truth.
-        let grey = linear_to_srgb(0.2f32 as f64);
+        let grey = linear_to_srgb(f64::from(0.2f32));
         assert!(pixels.iter().all(|c| *c == [grey; 3] || *c == [0; 3] || *c == [255; 3]));
     }
 
@@ -160,7 +160,7 @@ mod tests {
                 .into_iter()
                 .map(f64::from)
                 .collect();
-            assert_gaussian(&noisy, z as f64, depth_sigma(&model, z as f64));
+            assert_gaussian(&noisy, f64::from(z), depth_sigma(&model, f64::from(z)));
         }
         assert_eq!(depth(&[f32::INFINITY], &model, &mut rng), [f32::INFINITY]);
     }
@@ -174,7 +174,7 @@ mod tests {
         };
         let noisy = disparity(&vec![20.0; N], &model, &mut rng);
         assert!(noisy.iter().all(|d| (d * 16.0).fract() == 0.0));
-        let samples: Vec<f64> = noisy.iter().map(|&d| d as f64).collect();
+        let samples: Vec<f64> = noisy.iter().map(|&d| f64::from(d)).collect();
         // Rounding to 1/16 px adds a uniform error of variance (1/16)²/12.
         assert_gaussian(&samples, 20.0, (0.25f64 + (1.0 / 16.0f64).powi(2) / 12.0).sqrt());
         assert!(disparity(&[f32::NAN], &model, &mut rng)[0].is_nan());

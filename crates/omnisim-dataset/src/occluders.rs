@@ -151,7 +151,7 @@ fn outline(shape: OccluderShape) -> (&'static str, Vec<DVec2>, f64) {
             // An octagon around an ellipse of 0.5 m (shoulders) by 0.3 m (chest).
             let corners = (0..8)
                 .map(|k| {
-                    let angle = (k as f64 + 0.5) * PI / 4.0;
+                    let angle = (f64::from(k) + 0.5) * PI / 4.0;
                     dvec2(0.25 * angle.cos(), 0.15 * angle.sin()) / (PI / 8.0).cos()
                 })
                 .collect();

@@ -546,7 +546,7 @@ impl Svg {
     }
 
     fn legend(&mut self, dataset: &Dataset, occluded: &[bool], skipped: usize) {
-        let x = self.view.size.0 as f64 - MARGIN.right + 30.0;
+        let x = f64::from(self.view.size.0) - MARGIN.right + 30.0;
         let mut y = MARGIN.top + 10.0;
         let _ = writeln!(self.text, r#"<g class="legend">"#);
         for (s, set) in dataset.sets.iter().enumerate() {

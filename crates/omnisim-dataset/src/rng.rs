@@ -25,7 +25,7 @@ pub enum Purpose {
 }
 
 /// The generator of one (seed, set, frame, purpose); `frame` is `None` for draws made once
-/// per set. ChaCha12 fed by SHA-256 of the four: a named algorithm, so the bytes do not change
+/// per set. `ChaCha12` fed by SHA-256 of the four: a named algorithm, so the bytes do not change
 /// with `rand`'s choice of `StdRng`.
 pub fn stream(seed: u64, set: &str, frame: Option<usize>, purpose: Purpose) -> ChaCha12Rng {
     let mut hash = Sha256::new();

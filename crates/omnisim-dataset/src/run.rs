@@ -114,7 +114,9 @@ pub struct RunSummary {
 fn writer_threads(asked: Option<usize>) -> usize {
     match asked {
         Some(writers) => writers.max(1),
-        None => std::thread::available_parallelism().map_or(2, |n| n.get()).clamp(2, 4),
+        None => std::thread::available_parallelism()
+            .map_or(2, std::num::NonZero::get)
+            .clamp(2, 4),
     }
 }
 
@@ -266,25 +268,24 @@ impl Dataset {
                 if heard.stopped {
                     break;
                 }
-                let outcome = match is_done(out, &out.join(&self.sets[s].spec.name), index) {
-                    Some(bytes) => Ok(Outcome::Resumed(bytes)),
-                    None => {
-                        let scene = match current.take() {
-                            Some(scene) if scene.set == s => Ok(scene),
-                            _ => self.set_scene(renderer, s),
-                        };
-                        let rendered = scene.and_then(|mut scene| {
-                            let frame = self.render_frame(renderer, &mut scene, index);
-                            current = Some(scene);
-                            frame
-                        });
-                        match rendered {
-                            Ok(frame) => match to_write.send(frame) {
-                                Ok(()) => continue,
-                                Err(_) => break, // every writer has ended: the scope reports why
-                            },
-                            Err(e) => Err(e),
-                        }
+                let outcome = if let Some(bytes) = is_done(out, &out.join(&self.sets[s].spec.name), index) {
+                    Ok(Outcome::Resumed(bytes))
+                } else {
+                    let scene = match current.take() {
+                        Some(scene) if scene.set == s => Ok(scene),
+                        _ => self.set_scene(renderer, s),
+                    };
+                    let rendered = scene.and_then(|mut scene| {
+                        let frame = self.render_frame(renderer, &mut scene, index);
+                        current = Some(scene);
+                        frame
+                    });
+                    match rendered {
+                        Ok(frame) => match to_write.send(frame) {
+                            Ok(()) => continue,
+                            Err(_) => break, // every writer has ended: the scope reports why
+                        },
+                        Err(e) => Err(e),
                     }
                 };
                 heard.frame(s, index, outcome);

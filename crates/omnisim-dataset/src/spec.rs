@@ -359,7 +359,7 @@ pub struct DepthNoise {
 pub struct DisparityNoise {
     /// Standard deviation, pixels.
     pub sigma: f64,
-    /// Sub-pixel steps per pixel (e.g. 16 as OpenCV's SGBM); 0 keeps the value unquantized.
+    /// Sub-pixel steps per pixel (e.g. 16 as `OpenCV`'s SGBM); 0 keeps the value unquantized.
     #[serde(default)]
     pub subpixel: u32,
 }
@@ -420,13 +420,12 @@ impl SpecText<'_> {
     /// A located error: at the field inside its set (at the set's `name` where the field is
     /// not written after it), or at the top-level field.
     pub(crate) fn error(&self, place: Place, message: impl Into<String>) -> DatasetError {
-        let location = match place.set {
-            Some(set) => locate::name_field(self.text, set, 0)
-                .map(|name| locate::field_of_element(self.text, name, &place.field).unwrap_or(name)),
-            None => {
-                let top = place.field.split(['.', '[']).next().unwrap_or_default();
-                locate::scene_field(self.text, top)
-            }
+        let location = if let Some(set) = place.set {
+            locate::name_field(self.text, set, 0)
+                .map(|name| locate::field_of_element(self.text, name, &place.field).unwrap_or(name))
+        } else {
+            let top = place.field.split(['.', '[']).next().unwrap_or_default();
+            locate::scene_field(self.text, top)
         };
         DatasetError::Spec {
             path: self.path.to_path_buf(),

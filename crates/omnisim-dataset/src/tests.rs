@@ -91,7 +91,7 @@ fn run(dataset: &Dataset, out: &Path, options: RunOptions, stop_after: Option<us
     let mut rendered = 0;
     dataset
         .run(&cpu(), out, &options, &mut |frame| {
-            rendered += frame.rendered as usize;
+            rendered += usize::from(frame.rendered);
             match stop_after {
                 Some(k) if rendered >= k => ControlFlow::Break(()),
                 _ => ControlFlow::Continue(()),
@@ -782,7 +782,7 @@ fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
             lit += 1;
             assert!(off.linear_colour().unwrap()[i][0] < on.linear_colour().unwrap()[i][0]);
         } else {
-            dark += hit.is_hit() as usize;
+            dark += usize::from(hit.is_hit());
         }
     }
     assert!(lit > 1000 && dark > 0, "lit {lit}, unlit by the lamp {dark}");
@@ -839,7 +839,7 @@ fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
             let p = r.transpose() * (frame.pixel(u, w).point - t);
             let pixel = DVec2::new(pinhole.fx * p.x / p.z + pinhole.cx, pinhole.fy * p.y / p.z + pinhole.cy);
             assert!(
-                pixel.distance(DVec2::new(u as f64, w as f64)) < 1e-6,
+                pixel.distance(DVec2::new(f64::from(u), f64::from(w))) < 1e-6,
                 "frame {index}: {pixel} for ({u}, {w})"
             );
         }
@@ -947,7 +947,7 @@ fn shards_are_disjoint_and_cover_every_frame() {
         for index in 0..count {
             let shard: Shard = format!("{index}/{count}").parse().unwrap();
             for (n, slot) in seen.iter_mut().enumerate() {
-                *slot += shard.takes(n) as usize;
+                *slot += usize::from(shard.takes(n));
             }
         }
         assert!(seen.iter().all(|&s| s == 1));
@@ -1115,16 +1115,15 @@ const WALL: &str = r#"Dataset(
 
 /// `OMNISIM_PYTHON`, or `None` after saying loudly what is skipped (outside CI only).
 fn python_for(check: &str) -> Option<PathBuf> {
-    match std::env::var_os("OMNISIM_PYTHON") {
-        Some(python) => Some(PathBuf::from(python)),
-        None => {
-            assert!(
-                std::env::var_os("CI").is_none(),
-                "CI must set OMNISIM_PYTHON for the {check}"
-            );
-            eprintln!("**** SKIPPED: {check} (set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt)");
-            None
-        }
+    if let Some(python) = std::env::var_os("OMNISIM_PYTHON") {
+        Some(PathBuf::from(python))
+    } else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must set OMNISIM_PYTHON for the {check}"
+        );
+        eprintln!("**** SKIPPED: {check} (set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt)");
+        None
     }
 }
 
@@ -1177,9 +1176,10 @@ fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
     let moved: String = std::fs::read_to_string(&truth)
         .unwrap()
         .lines()
-        .map(|line| match line.starts_with('#') {
-            true => format!("{line}\n"),
-            false => {
+        .map(|line| {
+            if line.starts_with('#') {
+                format!("{line}\n")
+            } else {
                 let mut fields: Vec<String> = line.split(' ').map(str::to_string).collect();
                 fields[1] = format!("{:.6}", fields[1].parse::<f64>().unwrap() + 0.01);
                 fields.join(" ") + "\n"
@@ -1220,7 +1220,11 @@ fn random_poses_draw_each_angle_in_its_own_range() {
     };
     let (_dir, path) = project(&spec("angles: ((-5.0, 5.0), (10.0, 20.0), (90.0, 90.0))"));
     let dataset = Dataset::load(&path).unwrap();
-    let angles: Vec<_> = dataset.sets[0].poses.iter().map(|p| p.angles_degrees()).collect();
+    let angles: Vec<_> = dataset.sets[0]
+        .poses
+        .iter()
+        .map(omnisim::Pose::angles_degrees)
+        .collect();
     assert_eq!(angles.len(), 200);
     let spread = |axis: fn(&glam::DVec3) -> f64| {
         let values: Vec<f64> = angles.iter().map(axis).collect();

@@ -72,34 +72,31 @@ impl Dataset {
                 _ => None,
             };
             if let Some(model) = &set.noise.depth {
-                match &depth {
-                    Some(depth) => {
-                        let values = noise::depth(depth, model, &mut rng);
-                        let png = set_dir.join(format!("{stem}{suffix}-depth-noisy.png"));
-                        output::write_tum_depth_png(&png, size, &values)?;
-                        let exr = set_dir.join(format!("{stem}{suffix}-depth-noisy.exr"));
-                        output::write_axial_depth_exr(&exr, size, values.clone(), self.spec.outputs.exr_compression)?;
-                        noisy.extend([png, exr]);
-                        sensor_depth.get_or_insert(values);
-                    }
-                    None => {
-                        let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
-                        let values = noise::depth(&ranges, model, &mut rng);
-                        let hits = frame
-                            .pixels()
-                            .iter()
-                            .zip(values)
-                            .map(|(p, range)| omnisim::Pixel { range, ..*p })
-                            .collect();
-                        let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
-                        output::write_range_exr(
-                            &exr,
-                            &Frame::from_hits(size.0, size.1, hits),
-                            camera,
-                            self.spec.outputs.exr_compression,
-                        )?;
-                        noisy.push(exr);
-                    }
+                if let Some(depth) = &depth {
+                    let values = noise::depth(depth, model, &mut rng);
+                    let png = set_dir.join(format!("{stem}{suffix}-depth-noisy.png"));
+                    output::write_tum_depth_png(&png, size, &values)?;
+                    let exr = set_dir.join(format!("{stem}{suffix}-depth-noisy.exr"));
+                    output::write_axial_depth_exr(&exr, size, values.clone(), self.spec.outputs.exr_compression)?;
+                    noisy.extend([png, exr]);
+                    sensor_depth.get_or_insert(values);
+                } else {
+                    let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
+                    let values = noise::depth(&ranges, model, &mut rng);
+                    let hits = frame
+                        .pixels()
+                        .iter()
+                        .zip(values)
+                        .map(|(p, range)| omnisim::Pixel { range, ..*p })
+                        .collect();
+                    let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
+                    output::write_range_exr(
+                        &exr,
+                        &Frame::from_hits(size.0, size.1, hits),
+                        camera,
+                        self.spec.outputs.exr_compression,
+                    )?;
+                    noisy.push(exr);
                 }
             }
             if sensor_depth.is_none() {
@@ -125,10 +122,10 @@ impl Dataset {
             for (image, path) in layout::frame_files(layout, &set_dir, index, views.len()) {
                 match image {
                     Image::Colour(k) => {
-                        output::write_png(&path, &Frame::from_colour(size.0, size.1, sensor_colour[k].clone()))?
+                        output::write_png(&path, &Frame::from_colour(size.0, size.1, sensor_colour[k].clone()))?;
                     }
                     Image::Depth => {
-                        output::write_tum_depth_png(&path, size, sensor_depth.as_deref().unwrap_or_default())?
+                        output::write_tum_depth_png(&path, size, sensor_depth.as_deref().unwrap_or_default())?;
                     }
                 }
                 files.push(file_entry(out, &path, FileKind::Layout)?);

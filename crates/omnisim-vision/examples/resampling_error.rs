@@ -3,7 +3,7 @@
 //! panorama, perspective and bird's-eye views resampled from omni images of 250² to 2000²
 //! pixels, bilinear and bicubic.
 //!
-//! cargo run --release -p omnisim-vision --example resampling_error -- docs/images/resampling-error.svg
+//! cargo run --release -p omnisim-vision --example `resampling_error` -- docs/images/resampling-error.svg
 
 use std::path::PathBuf;
 
@@ -64,8 +64,8 @@ fn main() {
                     100.0 * error.far,
                     moved.len()
                 );
-                colour[v][i].push((size as f64, error.mean));
-                geometry[v][i].push((size as f64, mean));
+                colour[v][i].push((f64::from(size), error.mean));
+                geometry[v][i].push((f64::from(size), mean));
             }
         }
     }

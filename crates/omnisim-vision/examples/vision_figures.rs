@@ -1,7 +1,7 @@
 //! The timing figures of docs/vision.md: time per image of each descriptor on a 250² omni
 //! image of env1 and its 512 × 128 panorama (the resampling error is `resampling_error`).
 //!
-//! cargo run --release -p omnisim-vision --example vision_figures
+//! cargo run --release -p omnisim-vision --example `vision_figures`
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -39,7 +39,7 @@ fn main() {
         }
         println!(
             "| {name} | {:.2} ms |",
-            start.elapsed().as_secs_f64() * 1000.0 / runs as f64
+            start.elapsed().as_secs_f64() * 1000.0 / f64::from(runs)
         );
     };
     println!("\n| step (250² omni image, 128 × 512 panorama) | time per image |\n|---|---|");

@@ -13,7 +13,7 @@ use crate::{Interpolation, Raster, Remap, View};
 impl View {
     /// The omnisim camera that traces this view exactly from the same viewpoint, and its
     /// body frame in the omni camera's body frame. A bird's-eye view of a plane below the
-    /// viewpoint is a pinhole looking straight down with focal |plane_z| / metres per pixel:
+    /// viewpoint is a pinhole looking straight down with focal |`plane_z`| / metres per pixel:
     /// both are central projections from the viewpoint onto planes parallel to the floor.
     /// `None` for a plane above the viewpoint (that view is mirrored: no pinhole gives it).
     pub fn exact_camera(&self) -> Option<(Camera, DMat3)> {
@@ -79,14 +79,14 @@ pub fn chart_pose() -> Pose {
 pub fn sample_points(view: &View) -> Vec<DVec3> {
     (0..48)
         .map(|i| {
-            let azimuth = 0.37 + i as f64 * std::f64::consts::TAU / 48.0;
+            let azimuth = 0.37 + f64::from(i) * std::f64::consts::TAU / 48.0;
             match view {
                 View::Plane(plane) => {
-                    let range = 0.4 + 1.4 * (i % 5) as f64 / 4.0;
+                    let range = 0.4 + 1.4 * f64::from(i % 5) / 4.0;
                     dvec3(range * azimuth.cos(), range * azimuth.sin(), plane.plane_z)
                 }
                 View::Camera { .. } => {
-                    2.0 * crate::projection::direction(azimuth, (-40.0 + 52.0 * (i % 7) as f64 / 6.0f64).to_radians())
+                    2.0 * crate::projection::direction(azimuth, (-40.0 + 52.0 * f64::from(i % 7) / 6.0f64).to_radians())
                 }
             }
         })
@@ -113,7 +113,7 @@ pub fn colour_error(resampled: &Raster, exact: &[[u8; 3]], remap: &Remap) -> Opt
             let d = pixel
                 .iter()
                 .zip(exact)
-                .map(|(a, &b)| (a.clamp(0.0, 1.0) as f64 * 255.0 - b as f64).abs())
+                .map(|(a, &b)| (f64::from(a.clamp(0.0, 1.0)) * 255.0 - f64::from(b)).abs())
                 .sum::<f64>()
                 / 3.0;
             sum += d;
@@ -149,8 +149,8 @@ pub fn point_displacements(
             let expected = view.project(point)?;
             let inside = expected.x >= margin
                 && expected.y >= margin
-                && expected.x <= w as f64 - 1.0 - margin
-                && expected.y <= h as f64 - 1.0 - margin;
+                && expected.x <= f64::from(w) - 1.0 - margin
+                && expected.y <= f64::from(h) - 1.0 - margin;
             let source = omni.project(point).filter(|_| inside)?;
             let image = remap
                 .apply(&spot(omni.width, omni.height, source), interpolation)
@@ -187,7 +187,7 @@ fn centroid(image: &Raster, around: DVec2, radius: f64) -> DVec2 {
     let clamp = |v: f64, n: usize| v.clamp(0.0, n as f64 - 1.0) as usize;
     for y in clamp((around.y - radius).floor(), image.height)..=clamp((around.y + radius).ceil(), image.height) {
         for x in clamp((around.x - radius).floor(), image.width)..=clamp((around.x + radius).ceil(), image.width) {
-            let value = image.at(x, y) as f64;
+            let value = f64::from(image.at(x, y));
             sum += value * dvec2(x as f64, y as f64);
             weight += value;
         }

@@ -99,13 +99,13 @@ impl Axes {
 
     fn x(&self, x: f64) -> f64 {
         let (x0, x1) = self.x_decades;
-        LEFT + (x.log10() - x0 as f64) / (x1 - x0) as f64 * (WIDTH - LEFT - RIGHT)
+        LEFT + (x.log10() - f64::from(x0)) / f64::from(x1 - x0) * (WIDTH - LEFT - RIGHT)
     }
 
     fn y(&self, y: f64) -> f64 {
         let (y0, y1) = self.y_decades;
         let plot_h = HEIGHT - TOP - BOTTOM;
-        TOP + plot_h - (y.max(self.floor).log10() - y0 as f64) / (y1 - y0) as f64 * plot_h
+        TOP + plot_h - (y.max(self.floor).log10() - f64::from(y0)) / f64::from(y1 - y0) * plot_h
     }
 
     /// Legend line `row` at the right of the plot, with a swatch of `colour`.

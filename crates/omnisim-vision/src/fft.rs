@@ -54,7 +54,7 @@ fn transpose(data: &[C64], width: usize, height: usize) -> Vec<C64> {
 
 /// A real one-channel buffer as complex numbers.
 pub fn complex(values: &[f32]) -> Vec<C64> {
-    values.iter().map(|&v| C64::new(v as f64, 0.0)).collect()
+    values.iter().map(|&v| C64::new(f64::from(v), 0.0)).collect()
 }
 
 #[cfg(test)]

@@ -52,7 +52,7 @@ pub struct FourierSignature {
     pub coefficients: usize,
     /// Width of the panorama (the DFT length), which sets the angular resolution 2π/width.
     pub width: usize,
-    /// Row-major, `rows × coefficients`: A[n][k] = Σ_m a[n][m]·e^{−j2πmk/W}.
+    /// Row-major, `rows × coefficients`: A[n][k] = `Σ_m` a[n][m]·e^{−j2πmk/W}.
     pub values: Vec<C64>,
 }
 
@@ -91,8 +91,8 @@ impl FourierSignature {
     /// The rotation that best takes this panorama to `other` (`steps` = columns by which
     /// `other` is this panorama shifted right; `radians` = the body's turn about +z,
     /// counter-clockwise from above, for omnisim's panoramas), by the phases: the shift q that
-    /// maximises the correlation Σ_n Σ_k w_k·Re(conj(A[n][k])·B[n][k]·e^{j2πqk/W}) of the kept
-    /// coefficients (w_0 = 1, w_k = 2 for the conjugate bins a real row also has). For a pure
+    /// maximises the correlation `Σ_n` `Σ_k` `w_k·Re(conj(A`[n][k])·B[n][k]·e^{j2πqk/W}) of the kept
+    /// coefficients (`w_0` = 1, `w_k` = 2 for the conjugate bins a real row also has). For a pure
     /// shift B = A·e^{−j2πqk/W} every term peaks at the true q; resolution 2π/W.
     pub fn rotation_to(&self, other: &FourierSignature) -> Result<Rotation, VisionError> {
         require(
@@ -161,7 +161,7 @@ mod tests {
         let dc = FourierSignature::new(&panorama, FourierParams { coefficients: 1 }).unwrap();
         for (n, value) in dc.values.iter().enumerate() {
             let sum: f32 = panorama.row(n).iter().sum();
-            assert!((value.re - sum as f64).abs() < 1e-4 && value.im.abs() < 1e-9);
+            assert!((value.re - f64::from(sum)).abs() < 1e-4 && value.im.abs() < 1e-9);
         }
     }
 }

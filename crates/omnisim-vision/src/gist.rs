@@ -3,9 +3,9 @@
 //! blocks spanning the full width: rotation invariant, Payá et al. 2014, Sensors 14(2);
 //! Amorós et al. 2021, Sensors 21(10), §2.3).
 //!
-//! Filter (scale s = 0.., orientation o of n_o), in the frequency domain:
-//! G(f, θ) = exp(−10·0.35·(|f|/f_s − 1)² − 2π·(16·n_o²/32²)·wrap(θ + π·o/n_o)²), with
-//! f_s = 0.3/1.85^s cycles per pixel, |f| and θ the radial frequency and its angle. LMgist
+//! Filter (scale s = 0.., orientation o of `n_o`), in the frequency domain:
+//! G(f, θ) = `exp(−10·0.35·(|f|/f_s` − 1)² − `2π·(16·n_o²/32²)·wrap(θ` + `π·o/n_o)²`), with
+//! `f_s` = 0.3/1.85^s cycles per pixel, |f| and θ the radial frequency and its angle. `LMgist`
 //! measures both frequency axes in bins of the image width; here fx is in cycles per pixel
 //! along x and fy along y, the same for square images and right for panoramas.
 //!
@@ -13,10 +13,10 @@
 //! that is what a 360° panorama is across its seam, so columns stay circular (and the
 //! panoramic variant is exactly invariant to column shifts); along y the top and bottom rows
 //! of a panorama are far apart, so the image is padded above and below with
-//! [`PADDING`] mirrored rows (LMgist's `padarray(…, 'symmetric')` of 32 pixels) and the padding
-//! is cropped after filtering. Other differences from LMgist: no resize to 256², no padding in
-//! x (LMgist pads both axes), no whitening prefilter. Energy is the mean amplitude
-//! |image ∗ g| per block, as LMgist.
+//! [`PADDING`] mirrored rows (`LMgist`'s `padarray(…, 'symmetric')` of 32 pixels) and the padding
+//! is cropped after filtering. Other differences from `LMgist`: no resize to 256², no padding in
+//! x (`LMgist` pads both axes), no whitening prefilter. Energy is the mean amplitude
+//! |image ∗ g| per block, as `LMgist`.
 
 use rustfft::FftDirection;
 
@@ -112,7 +112,7 @@ fn gabor(scale: usize, orientation: usize, orientations: usize, fx: f64, fy: f64
     (-10.0 * 0.35 * radial * radial - 2.0 * width * PI * angle * angle).exp()
 }
 
-/// Rows mirrored above and below the image before filtering (LMgist's boundary extension).
+/// Rows mirrored above and below the image before filtering (`LMgist`'s boundary extension).
 pub const PADDING: usize = 32;
 
 /// Source row of padded row `r` (`PADDING` rows above the image), mirrored at the borders as
@@ -141,7 +141,7 @@ fn block_means(values: &[f64], width: usize, height: usize, nx: usize, ny: usize
     sums.iter().zip(&counts).map(|(s, &c)| (s / c as f64) as f32).collect()
 }
 
-/// gist of a one-channel image: shape [scales, orientations, blocks_y, blocks_x] (blocks_x =
+/// gist of a one-channel image: shape [scales, orientations, `blocks_y`, `blocks_x`] (`blocks_x` =
 /// 1 for horizontal blocks), row-major.
 pub fn gist(image: &Raster, params: GistParams) -> Result<Descriptor, VisionError> {
     require(image.channels == 1, "channels", || {
@@ -234,7 +234,7 @@ mod tests {
         assert_eq!((best / 8, best % 8), (1, 3));
         let gain = gabor(1, 3, 8, kx / n as f64, ky / n as f64);
         for v in &values[best * 16 + 4..best * 16 + 12] {
-            assert!((*v as f64 - 0.5 * gain).abs() < 1e-4, "{v} vs {}", 0.5 * gain);
+            assert!((f64::from(*v) - 0.5 * gain).abs() < 1e-4, "{v} vs {}", 0.5 * gain);
         }
     }
 

@@ -195,7 +195,7 @@ fn l2_normalise(values: &mut [f32]) {
     }
 }
 
-/// The standard block HOG of a one-channel image: shape [blocks_y, blocks_x, block, block,
+/// The standard block HOG of a one-channel image: shape [`blocks_y`, `blocks_x`, block, block,
 /// bins], each block's vector L2-Hys normalised (L2, clipped at `clip`, L2 again).
 pub fn block_hog(image: &Raster, params: BlockHogParams) -> Result<Descriptor, VisionError> {
     require(image.channels == 1, "channels", || {

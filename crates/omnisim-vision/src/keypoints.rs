@@ -12,13 +12,13 @@ pub struct Keypoint {
     pub x: f32,
     /// Row.
     pub y: f32,
-    /// Scale: the σ (pixels) of the Gaussian the feature was found at. OpenCV's `size` is 2σ
+    /// Scale: the σ (pixels) of the Gaussian the feature was found at. `OpenCV`'s `size` is 2σ
     /// for SIFT and 9σ/1.2 (the box filter's side) for SURF.
     pub sigma: f32,
     /// Dominant orientation in degrees, 0..360, from +x towards +y (image rows, downwards):
-    /// OpenCV's `KeyPoint::angle`.
+    /// `OpenCV`'s `KeyPoint::angle`.
     pub angle: f32,
-    /// Detector strength: |DoG| contrast (SIFT) or the Hessian's determinant (SURF).
+    /// Detector strength: |`DoG`| contrast (SIFT) or the Hessian's determinant (SURF).
     pub response: f32,
     /// Octave the feature was found in (−1 is SIFT's doubled image).
     pub octave: i32,

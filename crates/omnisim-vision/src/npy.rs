@@ -1,4 +1,4 @@
-//! f32 arrays as NumPy `.npy` files (npyz), readable with `numpy.load`.
+//! f32 arrays as `NumPy` `.npy` files (npyz), readable with `numpy.load`.
 
 use std::io::BufReader;
 use std::path::Path;

@@ -53,9 +53,9 @@ impl Pca {
             "every sample must have the same, non-zero length".to_string()
         })?;
         let mean: Vec<f64> = (0..dim)
-            .map(|j| samples.iter().map(|s| s[j] as f64).sum::<f64>() / n as f64)
+            .map(|j| samples.iter().map(|s| f64::from(s[j])).sum::<f64>() / n as f64)
             .collect();
-        let centred = DMatrix::from_fn(n, dim, |i, j| samples[i][j] as f64 - mean[j]);
+        let centred = DMatrix::from_fn(n, dim, |i, j| f64::from(samples[i][j]) - mean[j]);
         let eigen = if gram {
             SymmetricEigen::new(&centred * centred.transpose())
         } else {
@@ -111,7 +111,7 @@ impl Pca {
             .map(|axis| {
                 axis.iter()
                     .zip(sample.iter().zip(&self.mean))
-                    .map(|(a, (x, m))| *a as f64 * (*x as f64 - *m as f64))
+                    .map(|(a, (x, m))| f64::from(*a) * (f64::from(*x) - f64::from(*m)))
                     .sum::<f64>() as f32
             })
             .collect())
@@ -119,10 +119,10 @@ impl Pca {
 
     /// The sample that `coordinates` (on the first axes) stand for.
     pub fn reconstruct(&self, coordinates: &[f32]) -> Vec<f32> {
-        let mut sample: Vec<f64> = self.mean.iter().map(|&m| m as f64).collect();
+        let mut sample: Vec<f64> = self.mean.iter().map(|&m| f64::from(m)).collect();
         for (axis, &c) in self.axes.chunks(self.mean.len()).zip(coordinates) {
             for (s, a) in sample.iter_mut().zip(axis) {
-                *s += c as f64 * *a as f64;
+                *s += f64::from(c) * f64::from(*a);
             }
         }
         sample.iter().map(|&s| s as f32).collect()
@@ -181,7 +181,7 @@ impl Pca {
         Ok(Pca {
             mean,
             axes,
-            variances: variances.iter().map(|&v| v as f64).collect(),
+            variances: variances.iter().map(|&v| f64::from(v)).collect(),
             total_variance,
         })
     }
@@ -206,7 +206,7 @@ mod tests {
     }
 
     fn squared_error(a: &[f32], b: &[f32]) -> f64 {
-        a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum()
+        a.iter().zip(b).map(|(x, y)| f64::from(x - y).powi(2)).sum()
     }
 
     /// The map set's reconstruction error falls with every added axis and is ~0 with all

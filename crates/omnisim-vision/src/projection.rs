@@ -8,7 +8,7 @@
 //! into the omnidirectional image by the mirror's closed-form projection
 //! ([`Catadioptric::project`], Mei's unified model). The table of source coordinates
 //! ([`Remap`]) is made once per (camera, view) and applied to any number of images, as
-//! OpenCV's `remap`.
+//! `OpenCV`'s `remap`.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -47,7 +47,7 @@ pub struct PlaneView {
 
 impl PlaneView {
     fn image_centre(&self) -> DVec2 {
-        dvec2(self.width as f64 - 1.0, self.height as f64 - 1.0) / 2.0
+        dvec2(f64::from(self.width) - 1.0, f64::from(self.height) - 1.0) / 2.0
     }
 
     fn point(&self, pixel: DVec2) -> DVec3 {
@@ -94,7 +94,7 @@ impl View {
         )?;
         // Row v sees tan(elevation) = (cy − v)/fy; the top edge (v = −½) sees `highest` and the
         // bottom edge (v = H − ½) `lowest`.
-        let fy = height as f64 / (highest.tan() - lowest.tan());
+        let fy = f64::from(height) / (highest.tan() - lowest.tan());
         let camera = Cylindrical {
             width,
             height,
@@ -213,11 +213,11 @@ impl Remap {
         }
         let (width, height) = view.size();
         require(
-            width >= 1 && height >= 1 && width as u64 * height as u64 <= VIEW_PIXELS_MAX,
+            width >= 1 && height >= 1 && u64::from(width) * u64::from(height) <= VIEW_PIXELS_MAX,
             "view size",
             || format!("{width}×{height} pixels: a view has 1 to {VIEW_PIXELS_MAX} pixels (4096×4096)"),
         )?;
-        let (source_w, source_h) = (omni.width as f64, omni.height as f64);
+        let (source_w, source_h) = (f64::from(omni.width), f64::from(omni.height));
         let inside = |p: &DVec2| p.x >= -0.5 && p.y >= -0.5 && p.x <= source_w - 0.5 && p.y <= source_h - 0.5;
         let source = (0..width as usize * height as usize)
             .into_par_iter()

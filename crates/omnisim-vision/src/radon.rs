@@ -5,7 +5,7 @@
 //! R(φ, p) = ∫∫ f(x, y)·δ(x·cos φ + y·sin φ − p) dx dy (Radon 1917), with x = u − cx,
 //! y = v − cy about the image centre (the mirror axis), φ from +u towards +v over a full turn
 //! [0, 2π), so that turning the image about its centre by θ shifts R circularly along φ by θ:
-//! R_b(φ, p) = R_a(φ − θ, p).
+//! `R_b(φ`, p) = `R_a(φ` − θ, p).
 //!
 //! Written here: no maintained Rust crate computes a Radon transform (imageproc has none), and
 //! the line integral is a few lines over the bilinear sampler of [`crate::raster`].
@@ -21,7 +21,7 @@ use crate::{Interpolation, Raster, Rotation, VisionError, require};
 pub struct RadonParams {
     /// Angles over the full turn, step 2π/angles. Default 360 (1°), as Berenguer et al.
     pub angles: usize,
-    /// Radial samples p_j = (j − (n−1)/2)·radial_step, j = 0..n; `None`: as many as reach
+    /// Radial samples `p_j` = (j − (`n−1)/2)·radial_step`, j = 0..n; `None`: as many as reach
     /// the image edge nearest the centre, 2·⌊reach/step⌋ + 1 (reach = (min(W, H) − 1)/2 for
     /// the image centre).
     pub radial_samples: Option<usize>,
@@ -80,7 +80,7 @@ impl RadonParams {
     }
 }
 
-/// The transform: row i is angle φ_i = 2π·i/angles, column j is [`Radon::p`]`(j)`.
+/// The transform: row i is angle `φ_i` = 2π·i/angles, column j is [`Radon::p`]`(j)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Radon {
     /// One channel: rows are angles, columns radial samples.
@@ -172,7 +172,7 @@ impl Radon {
                     let (x, y) = (cx + p * cos - t * sin, cy + p * sin + t * cos);
                     if (0.0..=max_x).contains(&x) && (0.0..=max_y).contains(&y) {
                         image.sample(x, y, Interpolation::Bilinear, &mut sample);
-                        sum += sample[0] as f64;
+                        sum += f64::from(sample[0]);
                     }
                 }
                 *value = (sum * params.line_step) as f32;
@@ -190,7 +190,7 @@ impl Radon {
     }
 
     /// Phase-only correlation with `other` (Kuglin & Hines 1975): the inverse 2-D DFT of the
-    /// cross-power spectrum normalised to unit magnitude, conj(F_a)·F_b/|conj(F_a)·F_b|,
+    /// cross-power spectrum normalised to unit magnitude, `conj(F_a)·F_b/|conj(F_a)·F_b`|,
     /// whose peak sits at the shift from `self` to `other`. Returns the rotation
     /// (`steps` = angle samples by which `other` is `self` shifted, `radians` = the image's
     /// turn from +u towards +v; for omnisim's mount-up mirrors the body's yaw from a to b is
@@ -243,8 +243,8 @@ mod tests {
                 let hits = (0..256)
                     .filter(|s| {
                         inside(
-                            x + ((s % 16) as f64 + 0.5) / 16.0 - 0.5,
-                            y + ((s / 16) as f64 + 0.5) / 16.0 - 0.5,
+                            x + (f64::from(s % 16) + 0.5) / 16.0 - 0.5,
+                            y + (f64::from(s / 16) + 0.5) / 16.0 - 0.5,
                         )
                     })
                     .count();
@@ -271,7 +271,7 @@ mod tests {
             for j in 0..radon.values.width {
                 let p = radon.p(j);
                 let chord = 2.0 * (radius * radius - p * p).max(0.0).sqrt();
-                let value = radon.values.at(j, i) as f64;
+                let value = f64::from(radon.values.at(j, i));
                 if p.abs() <= radius - 5.0 {
                     worst = worst.max((value - chord).abs());
                     assert!((value - chord).abs() < 0.4, "φ {i}0°, p {p}: {value} vs chord {chord}");
@@ -292,16 +292,22 @@ mod tests {
         let image = coverage(101, |x, y| (19.5..20.5).contains(&y) && (-30.5..30.5).contains(&x));
         let radon = Radon::new(&image, RadonParams::default()).unwrap();
         let centre = (radon.values.width - 1) as f64 / 2.0;
-        let at = |angle: usize, p: f64| radon.values.at((p + centre) as usize, angle) as f64;
+        let at = |angle: usize, p: f64| f64::from(radon.values.at((p + centre) as usize, angle));
         assert!((at(90, 20.0) - 61.0).abs() < 0.1, "{}", at(90, 20.0));
         assert!((at(270, -20.0) - 61.0).abs() < 0.1, "{}", at(270, -20.0));
-        let peak = radon.values.data.iter().copied().fold(f32::MIN, f32::max) as f64;
+        let peak = f64::from(radon.values.data.iter().copied().fold(f32::MIN, f32::max));
         assert!((peak - at(90, 20.0)).abs() < 1e-3);
         for p in -28..=28 {
-            assert!((at(0, p as f64) - 1.0).abs() < 0.01, "φ 0, p {p}: {}", at(0, p as f64));
+            assert!(
+                (at(0, f64::from(p)) - 1.0).abs() < 0.01,
+                "φ 0, p {p}: {}",
+                at(0, f64::from(p))
+            );
         }
         for angle in (0..360).step_by(7) {
-            let mass: f64 = (0..radon.values.width).map(|j| radon.values.at(j, angle) as f64).sum();
+            let mass: f64 = (0..radon.values.width)
+                .map(|j| f64::from(radon.values.at(j, angle)))
+                .sum();
             assert!((mass - 61.0).abs() < 0.5, "φ {angle}°: mass {mass}");
         }
     }
@@ -353,7 +359,7 @@ mod tests {
                     let p = radon.p(j);
                     if p.abs() <= radius - 5.0 {
                         let chord = 2.0 * (radius * radius - p * p).sqrt();
-                        worst = worst.max((radon.values.at(j, i) as f64 - chord).abs());
+                        worst = worst.max((f64::from(radon.values.at(j, i)) - chord).abs());
                     }
                 }
             }

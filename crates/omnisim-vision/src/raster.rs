@@ -2,7 +2,7 @@
 //!
 //! Descriptors need f32 arithmetic on grey or colour images of any channel count, so images are
 //! held here as one interleaved f32 buffer rather than `image`'s per-pixel-type buffers. Pixel
-//! centres are at integer coordinates (OpenCV, as in omnisim's cameras).
+//! centres are at integer coordinates (`OpenCV`, as in omnisim's cameras).
 
 use crate::VisionError;
 
@@ -83,7 +83,7 @@ impl Raster {
 
     /// 8-bit RGB pixels (omnisim's `Frame::colour`, an `image::RgbImage`'s raw buffer) as 0..1.
     pub fn from_rgb8(width: usize, height: usize, pixels: &[[u8; 3]]) -> Result<Self, VisionError> {
-        let data = pixels.iter().flatten().map(|&c| c as f32 / 255.0).collect();
+        let data = pixels.iter().flatten().map(|&c| f32::from(c) / 255.0).collect();
         Self::from_vec(width, height, 3, data)
     }
 
@@ -116,7 +116,7 @@ impl Raster {
         }
     }
 
-    /// Luma Y' = 0.299 R + 0.587 G + 0.114 B (ITU-R BT.601, as OpenCV's and MATLAB's
+    /// Luma Y' = 0.299 R + 0.587 G + 0.114 B (ITU-R BT.601, as `OpenCV`'s and MATLAB's
     /// `rgb2gray`); a one-channel image is returned as it is.
     pub fn to_grey(&self) -> Raster {
         if self.channels == 1 {
@@ -207,7 +207,7 @@ mod tests {
             for &(x, y) in &[(3.25, 4.5), (5.9, 2.1), (7.0, 6.0), (2.5, 3.75)] {
                 image.sample(x, y, interp, &mut out);
                 assert!(
-                    (out[0] as f64 - f(x, y)).abs() < 1e-5,
+                    (f64::from(out[0]) - f(x, y)).abs() < 1e-5,
                     "{interp:?} at ({x}, {y}): {} vs {} (quadratic {exact_quadratic})",
                     out[0],
                     f(x, y)

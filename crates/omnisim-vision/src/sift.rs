@@ -1,21 +1,21 @@
-//! SIFT keypoints and descriptors (Lowe 2004, IJCV 60(2)), with OpenCV's choices where the
+//! SIFT keypoints and descriptors (Lowe 2004, IJCV 60(2)), with `OpenCV`'s choices where the
 //! paper leaves one open, so that the features agree with `cv2.SIFT_create()`.
 //!
 //! - Scale space (§3): the image, optionally doubled by bilinear interpolation (§3.3), is
 //!   blurred to σ = 1.6 assuming the input carries σ = 0.5; each octave holds s + 3 Gaussian
-//!   images spaced by k = 2^(1/s) and s + 2 differences of Gaussians (DoG); the next octave
+//!   images spaced by k = 2^(1/s) and s + 2 differences of Gaussians (`DoG`); the next octave
 //!   starts from the image of blur 2σ taken every second pixel. Gaussian kernels reach
-//!   ±⌊(8σ + 1)/2⌋ pixels with mirrored borders (OpenCV's `GaussianBlur`).
+//!   ±⌊(8σ + 1)/2⌋ pixels with mirrored borders (`OpenCV`'s `GaussianBlur`).
 //! - Extrema (§4): samples above 0.5·c/s that are strict maxima or minima of their 26
 //!   neighbours, moved by the quadratic fit (§4) up to 5 times until the offset is below
-//!   ½ sample; kept if |D(x̂)|·s ≥ c (c = 0.04: OpenCV divides the contrast threshold by the
+//!   ½ sample; kept if |D(x̂)|·s ≥ c (c = 0.04: `OpenCV` divides the contrast threshold by the
 //!   scales per octave) and if tr(H)²/det(H) < (r + 1)²/r, r = 10 (§4.1).
 //! - Orientation (§5): 36-bin histogram of gradient directions in a Gaussian window of
 //!   1.5·σ (radius 3·1.5·σ), smoothed with [1 4 6 4 1]/16; every peak within 80 % of the
 //!   highest gives a keypoint, its angle refined by a parabola through three bins.
 //! - Descriptor (§6): 4 × 4 cells of 3σ pixels, 8 orientation bins, samples in a Gaussian
 //!   window of half the descriptor's width, trilinear votes; unit length, values clamped at
-//!   0.2, unit length again. OpenCV then scales by 512 and rounds to bytes; these stay f32.
+//!   0.2, unit length again. `OpenCV` then scales by 512 and rounds to bytes; these stay f32.
 //!
 //! Written here: the one SIFT crate (`sift-features` 0.1, one release in 2024) is
 //! unmaintained and brings imageproc 0.25 with ndarray and a second nalgebra; imageproc and
@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use crate::keypoints::{Features, Keypoint, QuadraticFit, is_extremum, neighbourhood, normalise};
 use crate::{Interpolation, Raster, VisionError, require};
 
-/// SIFT's parameters; `Default` gives Lowe's (and OpenCV's) values.
+/// SIFT's parameters; `Default` gives Lowe's (and `OpenCV`'s) values.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SiftParams {
     /// σ of the first image of each octave (1.6).
@@ -35,7 +35,7 @@ pub struct SiftParams {
     pub input_sigma: f32,
     /// Scales s per octave at which extrema are sought (3).
     pub scales_per_octave: usize,
-    /// Contrast threshold c on the 0..1 intensity scale, divided by s as OpenCV does (0.04).
+    /// Contrast threshold c on the 0..1 intensity scale, divided by s as `OpenCV` does (0.04).
     pub contrast_threshold: f32,
     /// Largest ratio r of principal curvatures (10).
     pub edge_ratio: f32,
@@ -49,7 +49,7 @@ pub struct SiftParams {
     pub descriptor_bins: usize,
     /// Descriptor values are clamped here after the first normalisation (0.2).
     pub magnitude_clamp: f32,
-    /// Double the image first (§3.3; OpenCV does by default).
+    /// Double the image first (§3.3; `OpenCV` does by default).
     pub upsample: bool,
     /// Keypoints closer than this to an octave's border are dropped (5 pixels of the octave).
     pub border: usize,
@@ -225,8 +225,8 @@ fn descriptor_length(params: &SiftParams) -> usize {
     params.descriptor_width * params.descriptor_width * params.descriptor_bins
 }
 
-/// The σ that takes each Gaussian image of an octave to the next: σ_i = √(σ_{i}² − σ_{i−1}²)
-/// with σ_i = k^i·σ.
+/// The σ that takes each Gaussian image of an octave to the next: `σ_i` = √(σ_{i}² − σ_{i−1}²)
+/// with `σ_i` = k^i·σ.
 fn blur_increments(sigma: f32, s: usize) -> Vec<f32> {
     let k = 2f32.powf(1.0 / s as f32);
     (1..s + 3)
@@ -249,7 +249,7 @@ struct Extremum {
     contrast: f32,
 }
 
-/// Refined extrema of DoG layer `layer` of one octave.
+/// Refined extrema of `DoG` layer `layer` of one octave.
 fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams) -> Vec<Extremum> {
     let s = params.scales_per_octave;
     let (w, h) = (dogs[layer].width, dogs[layer].height);
@@ -379,7 +379,7 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
         .collect()
 }
 
-/// Lowe 2004 §6 (OpenCV's `calcSIFTDescriptor`): the descriptor of the keypoint at (x, y) of
+/// Lowe 2004 §6 (`OpenCV`'s `calcSIFTDescriptor`): the descriptor of the keypoint at (x, y) of
 /// `image` (octave pixels), turned by `angle` degrees, of scale `octave_sigma`.
 fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, params: &SiftParams) -> Vec<f32> {
     let d = params.descriptor_width;
@@ -446,7 +446,7 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
 }
 
 /// The image doubled by bilinear interpolation, pixel u of the result at (u + ½)/2 − ½
-/// (OpenCV's `resize` with `INTER_LINEAR`).
+/// (`OpenCV`'s `resize` with `INTER_LINEAR`).
 fn upsample(image: &Raster) -> Raster {
     let (w, h) = (image.width * 2, image.height * 2);
     let mut out = Raster::new(w, h, 1);
@@ -490,9 +490,9 @@ fn difference(a: &Raster, b: &Raster) -> Raster {
 }
 
 /// Separable Gaussian blur of a one-channel image, kernel radius ⌊(⌊8σ + 1⌉ | 1)/2⌋ and
-/// mirrored borders without repeating the edge pixel (OpenCV's `GaussianBlur` for f32 images,
+/// mirrored borders without repeating the edge pixel (`OpenCV`'s `GaussianBlur` for f32 images,
 /// `BORDER_REFLECT_101`). Written here: `image::imageops::blur` is u8/f32 RGBA-oriented with
-/// its own kernel extent and border, which would move keypoints away from OpenCV's.
+/// its own kernel extent and border, which would move keypoints away from `OpenCV`'s.
 pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
     let radius = (((8.0 * sigma + 1.0).round() as usize) | 1) / 2;
     let mut kernel: Vec<f32> = (0..=2 * radius)
@@ -572,7 +572,7 @@ mod tests {
 
     /// A Gaussian blob of σ₀ on a flat ground: the scale-normalised Laplacian of the scale
     /// space peaks at σ = σ₀ at its centre (Lindeberg 1998), so SIFT's strongest keypoint is
-    /// there, within 0.1 px and 15 % of σ₀ (the DoG approximates the Laplacian between σ and
+    /// there, within 0.1 px and 15 % of σ₀ (the `DoG` approximates the Laplacian between σ and
     /// kσ). Descriptors have unit length and no negative value.
     #[test]
     fn a_blob_is_one_keypoint_at_its_centre_and_scale() {

@@ -2,34 +2,34 @@
 //! Bay et al. 2008, CVIU 110(3)).
 //!
 //! - Integral image (§2): box sums in four look-ups, on the 0..255 intensity scale so that
-//!   the Hessian threshold means what OpenCV's `hessianThreshold` means.
+//!   the Hessian threshold means what `OpenCV`'s `hessianThreshold` means.
 //! - Fast-Hessian detector (§3): box-filter approximations Dxx, Dyy, Dxy of side L, each
 //!   normalised by L², and det(H) = Dxx·Dyy − (w·Dxy)², w = 0.9. Octave o (from 0) and
 //!   interval i (from 0) use L = 3·(2^(o+1)·(i + 1) + 1): 9, 15, 21, 27; 15, 27, 39, 51; …
 //!   (Fig. 3), sampled every 2^o pixels. Maxima of det above the threshold over their 26
 //!   neighbours, refined by the quadratic fit (Brown & Lowe 2002; offsets up to one sample
-//!   kept, as OpenCV). Scale σ = 1.2·L/9.
+//!   kept, as `OpenCV`). Scale σ = 1.2·L/9.
 //! - Orientation (§4.1): Haar-wavelet responses of side 4σ at samples σ apart within 6σ,
 //!   weighted by a Gaussian of 2σ; a sliding window of 60° (stepped by 5°) sums them and the
 //!   longest sum gives the angle.
 //! - Descriptor (§4.2): a 20σ square turned to that angle, 4 × 4 sub-regions of 5 × 5
 //!   samples, Haar responses of side 2σ weighted by a Gaussian of 3.3σ and turned into the
 //!   keypoint's frame; per sub-region Σdx, Σ|dx|, Σdy, Σ|dy|; unit length. The wavelets stay
-//!   axis-aligned at the turned sample points (as OpenSURF), so invariance to rotation is
+//!   axis-aligned at the turned sample points (as `OpenSURF`), so invariance to rotation is
 //!   approximate, as it is in the paper. Upright SURF (U-SURF) skips the orientation.
 //!
 //! Written here: no maintained Rust crate implements SURF (it was patented until 2020 and
-//! OpenCV keeps it in the non-free contrib module, absent from the pip wheels).
+//! `OpenCV` keeps it in the non-free contrib module, absent from the pip wheels).
 
 use rayon::prelude::*;
 
 use crate::keypoints::{Features, Keypoint, QuadraticFit, is_extremum, neighbourhood, normalise};
 use crate::{Raster, VisionError, require};
 
-/// SURF's parameters; `Default` gives the paper's values (and OpenCV's threshold).
+/// SURF's parameters; `Default` gives the paper's values (and `OpenCV`'s threshold).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfParams {
-    /// Smallest det(H) of a keypoint, intensities 0..255 (OpenCV's default, 100).
+    /// Smallest det(H) of a keypoint, intensities 0..255 (`OpenCV`'s default, 100).
     pub hessian_threshold: f32,
     /// Octaves (4).
     pub octaves: usize,
@@ -143,7 +143,7 @@ impl Integral {
         for y in 0..h {
             let mut row = 0.0;
             for x in 0..w {
-                row += 255.0 * grey.at(x, y) as f64;
+                row += 255.0 * f64::from(grey.at(x, y));
                 sums[(y + 1) * (w + 1) + x + 1] = sums[y * (w + 1) + x + 1] + row;
             }
         }
@@ -188,7 +188,7 @@ impl Integral {
             - self.sum(x - lobe, y + 1, x - 1, y + lobe);
         let area = (side * side) as f64;
         let (dxx, dyy, dxy) = (dxx / area, dyy / area, dxy / area);
-        (dxx * dyy - (weight as f64 * dxy).powi(2)) as f32
+        (dxx * dyy - (f64::from(weight) * dxy).powi(2)) as f32
     }
 }
 
@@ -274,7 +274,7 @@ fn orientation(integral: &Integral, keypoint: &Keypoint, params: &SurfParams) ->
             responses.push((dy.atan2(dx).to_degrees().rem_euclid(360.0), dx, dy));
         }
     }
-    let half = params.orientation_window as f64 / 2.0;
+    let half = f64::from(params.orientation_window) / 2.0;
     let mut best = (0.0, 0.0f64);
     let mut start = 0.0f64;
     while start < 360.0 {
@@ -290,23 +290,23 @@ fn orientation(integral: &Integral, keypoint: &Keypoint, params: &SurfParams) ->
         if length > best.1 {
             best = (sy.atan2(sx).to_degrees().rem_euclid(360.0), length);
         }
-        start += params.orientation_step as f64;
+        start += f64::from(params.orientation_step);
     }
     best.0 as f32
 }
 
 /// Bay et al. 2006 §4.2: the 64 values of one keypoint.
 fn descriptor(integral: &Integral, keypoint: &Keypoint) -> Vec<f32> {
-    let s = keypoint.sigma as f64;
-    let (sin, cos) = (keypoint.angle as f64).to_radians().sin_cos();
+    let s = f64::from(keypoint.sigma);
+    let (sin, cos) = f64::from(keypoint.angle).to_radians().sin_cos();
     let side = (2.0 * s.round()).max(2.0) as i64;
     let mut out = vec![0.0f32; DESCRIPTOR_LENGTH];
     for v in 0..20 {
         for u in 0..20 {
             // Sample centre in the keypoint's frame, in units of s.
             let (fu, fv) = (u as f64 - 9.5, v as f64 - 9.5);
-            let x = keypoint.x as f64 + s * (fu * cos - fv * sin);
-            let y = keypoint.y as f64 + s * (fu * sin + fv * cos);
+            let x = f64::from(keypoint.x) + s * (fu * cos - fv * sin);
+            let y = f64::from(keypoint.y) + s * (fu * sin + fv * cos);
             let weight = (-(fu * fu + fv * fv) / (2.0 * 3.3 * 3.3)).exp();
             let (dx, dy) = integral.haar(x.round() as i64, y.round() as i64, side);
             let along = weight * (dx * cos + dy * sin);
@@ -336,7 +336,7 @@ mod tests {
         let integral = Integral::new(&image);
         let direct: f64 = (2..=7)
             .flat_map(|y| (3..=9).map(move |x| (x, y)))
-            .map(|(x, y)| 255.0 * data[y * w + x] as f64)
+            .map(|(x, y)| 255.0 * f64::from(data[y * w + x]))
             .sum();
         assert!((integral.sum(3, 2, 9, 7) - direct).abs() < 1e-6);
         assert_eq!([0, 1, 2, 3].map(|i| filter_side(1, i)), [15, 27, 39, 51]);

@@ -1,6 +1,6 @@
 //! SIFT and SURF on a seeded synthetic texture drawn exactly under known similarity
 //! transforms (turned, scaled): repeatability of the keypoints, correctness of ratio-test
-//! matches, and SIFT's agreement with OpenCV's `cv2.SIFT_create()` on the same image.
+//! matches, and SIFT's agreement with `OpenCV`'s `cv2.SIFT_create()` on the same image.
 //!
 //! omnisim's flat-coloured rooms give few keypoints, so the pattern is made here: Gaussian
 //! blobs, soft-edged polygons (corners) and a band-limited cosine texture, evaluated as a
@@ -66,8 +66,8 @@ impl Pattern {
                 let turn: f64 = rng.random_range(0.0..std::f64::consts::TAU);
                 let edges = (0..corners)
                     .map(|i| {
-                        let a =
-                            turn + std::f64::consts::TAU * (i as f64 + rng.random_range(-0.2..0.2)) / corners as f64;
+                        let a = turn
+                            + std::f64::consts::TAU * (f64::from(i) + rng.random_range(-0.2..0.2)) / f64::from(corners);
                         let n = (a.cos(), a.sin());
                         (n, n.0 * centre.0 + n.1 * centre.1 + radius * rng.random_range(0.6..1.0))
                     })
@@ -195,15 +195,15 @@ fn compare(reference: &Features, transformed: &Features, t: Similarity) -> Agree
         x >= margin && y >= margin && x <= t.side as f64 - 1.0 - margin && y <= t.side as f64 - 1.0 - margin
     };
     for k in &reference.keypoints {
-        let p = t.apply(k.x as f64, k.y as f64);
+        let p = t.apply(f64::from(k.x), f64::from(k.y));
         if !inside(p) {
             continue;
         }
         agreement.visible += 1;
-        let expected_sigma = k.sigma as f64 * t.scale;
+        let expected_sigma = f64::from(k.sigma) * t.scale;
         if transformed.keypoints.iter().any(|q| {
-            (q.x as f64 - p.0).hypot(q.y as f64 - p.1) < 2.0
-                && (q.sigma as f64 / expected_sigma).ln().abs() < 1.5f64.ln()
+            (f64::from(q.x) - p.0).hypot(f64::from(q.y) - p.1) < 2.0
+                && (f64::from(q.sigma) / expected_sigma).ln().abs() < 1.5f64.ln()
         }) {
             agreement.repeated += 1;
         }
@@ -211,8 +211,8 @@ fn compare(reference: &Features, transformed: &Features, t: Similarity) -> Agree
     for (i, j) in reference.match_ratio(transformed, 0.8) {
         let (a, b) = (&reference.keypoints[i], &transformed.keypoints[j]);
         agreement.matches += 1;
-        let p = t.apply(a.x as f64, a.y as f64);
-        if (b.x as f64 - p.0).hypot(b.y as f64 - p.1) < 3.0 {
+        let p = t.apply(f64::from(a.x), f64::from(a.y));
+        if (f64::from(b.x) - p.0).hypot(f64::from(b.y) - p.1) < 3.0 {
             agreement.correct += 1;
         }
     }
@@ -274,7 +274,7 @@ fn sift_is_repeatable_under_rotation_and_scale() {
 }
 
 /// SURF with a threshold of 30 (the default 100 keeps only ~110 keypoints of this soft
-/// pattern). SURF is non-free in OpenCV and absent from the pip wheels, so it is tested by its
+/// pattern). SURF is non-free in `OpenCV` and absent from the pip wheels, so it is tested by its
 /// invariances alone. Measured: 77 / 97 / 60 / 85 % repeatability, 95 / 99 / 91 / 97 % correct
 /// matches; U-SURF 60 / 85 %, 96 / 97 %.
 #[test]
@@ -318,32 +318,31 @@ fn surf_is_repeatable_under_rotation_and_scale() {
     );
 }
 
-/// The Python that runs OpenCV, or `None` (with a loud message) when neither
+/// The Python that runs `OpenCV`, or `None` (with a loud message) when neither
 /// `OMNISIM_PYTHON` nor `CI` is set. Under CI a missing Python fails the test.
 fn python() -> Option<std::ffi::OsString> {
-    match std::env::var_os("OMNISIM_PYTHON") {
-        Some(python) => Some(python),
-        None => {
-            assert!(
-                std::env::var_os("CI").is_none(),
-                "CI is set but OMNISIM_PYTHON (made by .ci/run) is not"
-            );
-            eprintln!(
-                "\n**** SKIPPED OpenCV SIFT comparison: set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt ****\n"
-            );
-            None
-        }
+    if let Some(python) = std::env::var_os("OMNISIM_PYTHON") {
+        Some(python)
+    } else {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set but OMNISIM_PYTHON (made by .ci/run) is not"
+        );
+        eprintln!(
+            "\n**** SKIPPED OpenCV SIFT comparison: set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt ****\n"
+        );
+        None
     }
 }
 
-/// OpenCV's SIFT and omnisim's on the same 8-bit image: the share of OpenCV's keypoints that
+/// `OpenCV`'s SIFT and omnisim's on the same 8-bit image: the share of `OpenCV`'s keypoints that
 /// omnisim also finds (within 1.5 px and 25 % in scale), and how close the descriptors of
 /// those pairs are (cosine of unit descriptors; orientation difference). Measured with
-/// OpenCV 4.12: all 695 of OpenCV's keypoints found, omnisim finds 695 and every one has an
-/// OpenCV keypoint within 1.5 px, descriptor cosine median 1.0000, every pair above 0.95,
-/// orientation difference median 0°. Asserted: counts within 10 %, ≥ 95 % of OpenCV's found,
-/// ≥ 90 % of omnisim's OpenCV's. omnisim places keypoints ¼ px up and
-/// left of OpenCV's: OpenCV keeps the doubled image's pixel grid when it halves coordinates.
+/// `OpenCV` 4.12: all 695 of `OpenCV`'s keypoints found, omnisim finds 695 and every one has an
+/// `OpenCV` keypoint within 1.5 px, descriptor cosine median 1.0000, every pair above 0.95,
+/// orientation difference median 0°. Asserted: counts within 10 %, ≥ 95 % of `OpenCV`'s found,
+/// ≥ 90 % of omnisim's `OpenCV`'s. omnisim places keypoints ¼ px up and
+/// left of `OpenCV`'s: `OpenCV` keeps the doubled image's pixel grid when it halves coordinates.
 #[test]
 fn sift_agrees_with_opencv() {
     let Some(python) = python() else { return };
@@ -396,7 +395,7 @@ fn sift_agrees_with_opencv() {
         );
     }
     let opencv_count = shape[0];
-    let share = found as f64 / opencv_count as f64;
+    let share = f64::from(found) / opencv_count as f64;
     // The reverse direction: omnisim's keypoints that OpenCV also has (within 1.5 px), so that
     // extra keypoints of ours cannot hide behind the share above.
     let ours_found = ours

@@ -73,7 +73,7 @@ fn largest_relative_change(a: &[f32], b: &[f32]) -> f32 {
 fn panoramic_descriptors_under_yaw() {
     let room = Room::new();
     let reference = room.panorama(0.0);
-    let column = 360.0 / WIDTH as f64;
+    let column = 360.0 / f64::from(WIDTH);
     let params = FourierParams::default();
     let signature = FourierSignature::new(&reference, params).unwrap();
     let hog = panoramic_hog(&reference, PanoramicHogParams::default()).unwrap();

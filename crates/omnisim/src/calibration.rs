@@ -1,4 +1,4 @@
-//! Calibration files in the formats robotics tools read: OpenCV FileStorage YAML (pinhole,
+//! Calibration files in the formats robotics tools read: `OpenCV` `FileStorage` YAML (pinhole,
 //! stereo, omnidir) and Kalibr camchains (pinhole, omni). Every file states its conventions
 //! in comments: pixel centres at integer coordinates, metres, and for mirrors the frame flip.
 
@@ -31,7 +31,7 @@ fn opencv_body_from_camera(camera: &Pinhole) -> String {
         + &opencv_matrix("camera_position_in_body", 3, 1, &camera.position.to_array())
 }
 
-/// OpenCV YAML of one pinhole: camera_matrix, zero distortion, and body_from_camera.
+/// `OpenCV` YAML of one pinhole: `camera_matrix`, zero distortion, and `body_from_camera`.
 pub fn opencv_pinhole(camera: &Pinhole) -> String {
     let mut out = String::from(HEADER);
     out += "# omnisim pinhole camera. OpenCV conventions: pixel centres at integer coordinates, (0,0) the\n\
@@ -50,8 +50,8 @@ pub fn opencv_pinhole(camera: &Pinhole) -> String {
     out
 }
 
-/// OpenCV stereo YAML (stereoCalibrate names): M1, D1, M2, D2, R, T with
-/// X_right = R·X_left + T, metres.
+/// `OpenCV` stereo YAML (stereoCalibrate names): M1, D1, M2, D2, R, T with
+/// `X_right` = `R·X_left` + T, metres.
 pub fn opencv_stereo(rig: &StereoRig) -> String {
     let c = &rig.camera;
     let mut out = String::from(HEADER);
@@ -103,13 +103,13 @@ fn kalibr_camera(out: &mut String, index: usize, model: &str, intrinsics: &[f64]
     );
 }
 
-/// Kalibr camchain of one pinhole, with its T_cam_imu.
+/// Kalibr camchain of one pinhole, with its `T_cam_imu`.
 pub fn kalibr_pinhole(camera: &Pinhole) -> String {
     kalibr_pinholes(std::slice::from_ref(camera), None)
 }
 
-/// Kalibr camchain of a stereo rig: left and right, each with T_cam_imu, and the right's
-/// T_cn_cnm1.
+/// Kalibr camchain of a stereo rig: left and right, each with `T_cam_imu`, and the right's
+/// `T_cn_cnm1`.
 pub fn kalibr_stereo(rig: &StereoRig) -> String {
     kalibr_pinholes(&rig.cameras(), Some(rig.baseline))
 }
@@ -139,8 +139,8 @@ const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the
 # phi appears at image angle atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down.\n\
 # Pixel centres at integer coordinates. Ideal mirror and lens: no distortion.\n";
 
-/// OpenCV omnidir YAML (cv::omnidir): camera_matrix, distortion (k1 k2 p1 p2 = 0), xi as a
-/// real, as OpenCV's own omni_calibration sample writes it.
+/// `OpenCV` omnidir YAML (`cv::omnidir)`: `camera_matrix`, distortion (k1 k2 p1 p2 = 0), xi as a
+/// real, as `OpenCV`'s own `omni_calibration` sample writes it.
 /// `None` for non-central cameras, which no unified model describes (use the ray map).
 pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
     let model = camera.unified_model()?;
@@ -162,9 +162,9 @@ pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
     Some(out)
 }
 
-/// Kalibr camchain with the `omni` model (intrinsics xi fu fv pu pv) and T_cam_imu; `None` if
+/// Kalibr camchain with the `omni` model (intrinsics xi fu fv pu pv) and `T_cam_imu`; `None` if
 /// non-central. Kalibr needs a proper rotation, so its camera frame is the mirror frame turned
-/// by Rx(π) and fv is negated (the OpenCV file keeps positive focal lengths and a reflection).
+/// by Rx(π) and fv is negated (the `OpenCV` file keeps positive focal lengths and a reflection).
 pub fn kalibr_omni(camera: &Catadioptric) -> Option<String> {
     let model = camera.unified_model()?;
     let mut out = String::from("# omnisim camchain (Kalibr omni model), exact for this aligned central mirror.\n");

@@ -183,7 +183,7 @@ const AZIMUTH_OF_COLUMN: &str = "pi - 2*pi*(u + 0.5)/width, counter-clockwise fr
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum CameraParameters {
-    /// Perspective camera, OpenCV intrinsics.
+    /// Perspective camera, `OpenCV` intrinsics.
     Pinhole {
         /// Focal length in x, pixels.
         fx: f64,
@@ -417,9 +417,9 @@ pub struct FrameMetadata {
     pub position: [f64; 3],
     /// θx, θy, θz of `world_from_body = Rx·Ry·Rz`, degrees.
     pub angles_deg: [f64; 3],
-    /// world_from_body as a unit quaternion (x, y, z, w), w ≥ 0.
+    /// `world_from_body` as a unit quaternion (x, y, z, w), w ≥ 0.
     pub quaternion_xyzw: [f64; 4],
-    /// world_from_body as a 4×4 matrix, row by row.
+    /// `world_from_body` as a 4×4 matrix, row by row.
     pub world_from_body: [[f64; 4]; 4],
     /// Every file written for this frame, relative to the output folder.
     pub files: Vec<PathBuf>,

@@ -1,7 +1,7 @@
 //! Rigid poses: where a camera's viewpoint is and how it is turned.
 //!
 //! Rotations follow the reference paper: `R = Rx(θx)·Ry(θy)·Rz(θz)`, applied to body-frame
-//! vectors to give world-frame vectors (world_from_body). Body frame: x forward, y left, z up.
+//! vectors to give world-frame vectors (`world_from_body`). Body frame: x forward, y left, z up.
 
 use glam::{DMat3, DMat4, DQuat, DVec3};
 
@@ -36,12 +36,12 @@ impl Pose {
         rotation_xyz(self.angles)
     }
 
-    /// 4×4 homogeneous world_from_body transform.
+    /// 4×4 homogeneous `world_from_body` transform.
     pub fn world_from_body(&self) -> DMat4 {
         DMat4::from_mat3_translation(self.world_from_body_rotation(), self.position)
     }
 
-    /// Unit quaternion of world_from_body, (x, y, z, w) as in TUM trajectory files, w ≥ 0.
+    /// Unit quaternion of `world_from_body`, (x, y, z, w) as in TUM trajectory files, w ≥ 0.
     pub fn quaternion_xyzw(&self) -> [f64; 4] {
         let q = DQuat::from_mat3(&self.world_from_body_rotation()).normalize();
         let q = if q.w < 0.0 { -q } else { q };

@@ -102,7 +102,7 @@ const DRAWS_PER_POSE: usize = 1000;
 
 /// Uniformly drawn poses whose position is at least `clearance` from every surface along the
 /// six axis directions, enclosed (every axis ray hits the scene) and not inside a closed object
-/// ([`misplaced`]). Reproducible for a seed (ChaCha12, a named algorithm: the same poses
+/// ([`misplaced`]). Reproducible for a seed (`ChaCha12`, a named algorithm: the same poses
 /// whatever `rand`'s `StdRng` becomes);
 /// positions to the micrometre. Fails fast: after `TRIAL_DRAWS` draws (and every
 /// `TRIAL_DRAWS` more) the acceptance rate so far must promise `count` poses within

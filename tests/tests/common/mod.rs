@@ -11,24 +11,24 @@ use omnisim::{
     PreparedScene, RenderError, Renderer, Scene, StereoRig,
 };
 
-pub fn scene_path(name: &str) -> PathBuf {
+pub(crate) fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name)
 }
 
-pub fn load(name: &str) -> Scene {
+pub(crate) fn load(name: &str) -> Scene {
     Scene::load(scene_path(name)).expect("shipped scene loads")
 }
 
-pub const ROOMS: [&str; 2] = ["env1.ron", "env2.ron"];
+pub(crate) const ROOMS: [&str; 2] = ["env1.ron", "env2.ron"];
 
 /// The paper's hyperbolic omni camera with the default 20° rim.
-pub fn paper_omni() -> Catadioptric {
+pub(crate) fn paper_omni() -> Catadioptric {
     Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))
 }
 
 /// The six faces (corners in order around each) of the box `centre ± world_from_box · half`;
 /// neighbouring faces share their corner vertices exactly.
-pub fn box_faces(centre: DVec3, half: DVec3, world_from_box: DMat3) -> Vec<Vec<DVec3>> {
+pub(crate) fn box_faces(centre: DVec3, half: DVec3, world_from_box: DMat3) -> Vec<Vec<DVec3>> {
     let corner = |signs: [f64; 3]| centre + world_from_box * (half * DVec3::from_array(signs));
     let mut faces = Vec::new();
     for axis in 0..3 {
@@ -46,7 +46,7 @@ pub fn box_faces(centre: DVec3, half: DVec3, world_from_box: DMat3) -> Vec<Vec<D
 }
 
 /// One camera of each model and option, at test-friendly sizes.
-pub fn cameras() -> Vec<Camera> {
+pub(crate) fn cameras() -> Vec<Camera> {
     let pinhole = Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians());
     let stereo_right = StereoRig {
         camera: pinhole.clone(),
@@ -86,7 +86,7 @@ pub fn cameras() -> Vec<Camera> {
 }
 
 /// Human-readable name of a camera from `cameras()`, for messages.
-pub fn describe(camera: &Camera) -> String {
+pub(crate) fn describe(camera: &Camera) -> String {
     match camera {
         Camera::Pinhole(p) => format!("pinhole at {}", p.position),
         Camera::Catadioptric(c) => format!(
@@ -101,25 +101,25 @@ pub fn describe(camera: &Camera) -> String {
 }
 
 /// A renderer with one scene prepared on it.
-pub struct Tracer {
+pub(crate) struct Tracer {
     pub renderer: Renderer,
     pub scene: PreparedScene,
 }
 
 impl Tracer {
     /// Hit planes and 8-bit colour of one frame.
-    pub fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {
+    pub(crate) fn render(&self, camera: &Camera, pose: &Pose) -> Result<Frame, RenderError> {
         self.render_planes(camera, pose, Planes::COLOUR)
     }
 
     /// Hit planes and the planes `planes` asks for.
-    pub fn render_planes(&self, camera: &Camera, pose: &Pose, planes: Planes) -> Result<Frame, RenderError> {
+    pub(crate) fn render_planes(&self, camera: &Camera, pose: &Pose, planes: Planes) -> Result<Frame, RenderError> {
         self.renderer.render(&self.scene, camera, pose, planes)
     }
 }
 
 /// `scene` prepared (with the BVH `bvh`) on the f64 reference CPU tracer.
-pub fn cpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Tracer {
+pub(crate) fn cpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Tracer {
     let mut renderer = Renderer::new(BackendChoice::Cpu).expect("CPU backend");
     renderer.set_cpu_tracer(CpuTracer::Reference);
     let scene = renderer.prepare_with(scene, bvh.clone()).expect("CPU scene");
@@ -128,7 +128,7 @@ pub fn cpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Tracer {
 
 /// `scene` prepared (with the BVH `bvh`) on the GPU, or `None` after a loud message when no
 /// adapter exists and CI is not set. In CI a missing adapter fails the test.
-pub fn gpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Option<Tracer> {
+pub(crate) fn gpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Option<Tracer> {
     match Renderer::new(BackendChoice::Gpu) {
         Ok(renderer) => {
             let scene = renderer.prepare_with(scene, bvh.clone()).expect("GPU scene");
@@ -147,7 +147,7 @@ pub fn gpu_tracer(scene: &Scene, bvh: &SceneBvh) -> Option<Tracer> {
 }
 
 /// Every channel and attribute of an EXR file, read with the exr crate's reader.
-pub fn read_exr(
+pub(crate) fn read_exr(
     path: &std::path::Path,
 ) -> exr::image::Image<exr::image::Layers<exr::image::AnyChannels<exr::image::FlatSamples>>> {
     use exr::prelude::*;

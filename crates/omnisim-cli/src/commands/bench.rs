@@ -16,7 +16,7 @@ use crate::camera_args::CameraArgs;
 use crate::poses::parse_pose;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum BenchBackend {
+pub(crate) enum BenchBackend {
     Gpu,
     Cpu,
     /// The GPU (if an adapter opens, software ones included) and then the CPU.
@@ -38,10 +38,10 @@ const WARM_UP_TIME: std::time::Duration = std::time::Duration::from_millis(500);
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --backend both\n  \
 omnisim bench room --camera equirect --size 1024x1024 --pose 3,2,1.5 --backend cpu\n  \
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --synthetic-triangles 200000")]
-pub struct BenchArgs {
+pub(crate) struct BenchArgs {
     /// Scene file (RON), or the name of a scene: `env1`, `env2` (in ./scenes) or an anchor
     /// scene of ../shared/bench (`room`, `clutter`; compare.sh writes them to
-    /// $BENCH_CACHE, default ~/.cache/omnisim-bench).
+    /// $`BENCH_CACHE`, default ~/.cache/omnisim-bench).
     #[arg(default_value = "scenes/env1.ron")]
     pub scene: PathBuf,
     #[command(flatten)]
@@ -68,7 +68,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub chart: Option<PathBuf>,
     /// Time tracing to hit planes only (face, range, point, normal), without shading: what
-    /// Open3D's `RaycastingScene.cast_rays` computes, for side-by-side figures.
+    /// `Open3D`'s `RaycastingScene.cast_rays` computes, for side-by-side figures.
     #[arg(long)]
     pub hits_only: bool,
     /// Add a wavy height-field mesh of about this many triangles over the floor, to measure a
@@ -77,7 +77,7 @@ pub struct BenchArgs {
     pub synthetic_triangles: Option<usize>,
 }
 
-pub fn run(args: BenchArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
     }
@@ -130,7 +130,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             reshade_times.push(start.elapsed().as_secs_f64());
         }
         let median_seconds = median(&mut times);
-        let rays = width as f64 * height as f64;
+        let rays = f64::from(width) * f64::from(height);
         let tests = (choice == BackendChoice::Cpu).then(|| {
             let counts = renderer
                 .cpu_tracer()
@@ -216,7 +216,7 @@ fn resolve_scene(scene: &Path) -> anyhow::Result<PathBuf> {
     }
 }
 
-/// This process's peak resident memory (Linux: VmHWM); `None` where the system does not say.
+/// This process's peak resident memory (Linux: `VmHWM`); `None` where the system does not say.
 fn peak_rss_bytes() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = status.lines().find(|line| line.starts_with("VmHWM:"))?;
@@ -225,7 +225,7 @@ fn peak_rss_bytes() -> Option<u64> {
 }
 
 fn rayon_threads() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
+    std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
 }
 
 /// A wavy height field of ~`count` triangles, 10 cm above the scene's floor, over the middle

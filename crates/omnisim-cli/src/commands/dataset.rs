@@ -16,7 +16,7 @@ use crate::progress::Progress;
 /// Render a data set: map and test sets of one scene from one spec file (README, "Data sets").
 ///
 /// Each set gets its own folder under --out, with ground-truth files per frame, noisy copies
-/// (*-noisy.*) where the set has noise, TUM (tum/) and EuRoC (mav0/) layouts as asked, and a
+/// (*-noisy.*) where the set has noise, TUM (tum/) and `EuRoC` (mav0/) layouts as asked, and a
 /// contact sheet (contact-sheet.png); manifest.json lists every file with its SHA-256. A killed run resumes with the same command; --shard
 /// K/N renders every N-th frame from the K-th (0 ≤ K < N); `omnisim dataset merge` then checks
 /// the shards and writes the index files and the manifest.
@@ -28,7 +28,7 @@ use crate::progress::Progress;
 omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
 omnisim dataset scenes/env1-dataset.ron --out data/env1 --shard 0/4\n  omnisim dataset merge data/env1"
 )]
-pub struct DatasetArgs {
+pub(crate) struct DatasetArgs {
     #[command(subcommand)]
     pub command: Option<DatasetCommand>,
     /// Data-set spec (RON), e.g. scenes/env1-dataset.ron.
@@ -37,7 +37,7 @@ pub struct DatasetArgs {
     /// Output folder (created if missing); holds one spec's data set.
     #[arg(long, required = true)]
     pub out: Option<PathBuf>,
-    /// Render only slice K of N (0 ≤ K < N): $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT, $JOB_COMPLETION_INDEX/N.
+    /// Render only slice K of N (0 ≤ K < N): $`SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT`, $`JOB_COMPLETION_INDEX/N`.
     #[arg(long)]
     pub shard: Option<Shard>,
     /// Remove another spec's data set from --out first (only the files it recorded).
@@ -48,7 +48,7 @@ pub struct DatasetArgs {
 }
 
 #[derive(Debug, Clone, Subcommand)]
-pub enum DatasetCommand {
+pub(crate) enum DatasetCommand {
     /// Check a data set's frames (every file's size and SHA-256, every frame present) and write
     /// the layouts' index files and manifest.json. With more than one folder, the frames of the
     /// others (shards rendered apart) are checked and copied into the first.
@@ -59,7 +59,7 @@ pub enum DatasetCommand {
     },
 }
 
-pub fn run(args: DatasetArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: DatasetArgs) -> anyhow::Result<()> {
     if let Some(DatasetCommand::Merge { dirs }) = args.command {
         let started = Instant::now();
         let (dest, sources) = dirs.split_first().context("merge needs a data-set folder")?;

@@ -61,7 +61,7 @@ omnisim describe data/env1 -d gist -d radon:angles=180 --pca-fit 20 --map map --
 omnisim describe data/env1 --set test-day -d gist --pca-basis desc/all --out desc/test\n  \
 omnisim describe out/ --camera omni --mirror-a 0.04 --mirror-b 0.16 -d surf:upright=true --out desc/images"
 )]
-pub struct DescribeArgs {
+pub(crate) struct DescribeArgs {
     #[command(flatten)]
     pub input: InputArgs,
     /// A descriptor and its settings, NAME[:KEY=VALUE,...] (list above); repeat for several.
@@ -70,7 +70,7 @@ pub struct DescribeArgs {
     /// Output folder (created if missing); one sub-folder per set.
     #[arg(long)]
     pub out: PathBuf,
-    /// Size of the panorama resampled from omnidirectional images, WIDTHxHEIGHT.
+    /// Size of the panorama resampled from omnidirectional images, `WIDTHxHEIGHT`.
     #[arg(long, default_value = "512x128", value_parser = parse_size)]
     pub panorama: (u32, u32),
     /// Elevations the panorama spans, degrees, LOW:HIGH.
@@ -345,7 +345,7 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
 
 /// An f32 setting as the decimal it was typed as (0.04, not 0.03999999910593033).
 fn decimal(value: f32) -> f64 {
-    value.to_string().parse().unwrap_or(value as f64)
+    value.to_string().parse().unwrap_or(f64::from(value))
 }
 
 /// What one descriptor gives for one image.
@@ -405,7 +405,7 @@ struct SetResult {
     panorama_seconds: Vec<f64>,
 }
 
-pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
     let mut choices: Vec<Choice> = args.descriptors.iter().map(choose).collect::<anyhow::Result<_>>()?;
     for (i, choice) in choices.iter().enumerate() {
         if choices[..i].iter().any(|c| c.name == choice.name) {
@@ -455,7 +455,7 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         (None, Some(_)) => Some(0),
         _ => None,
     };
-    let panorama = Panorama::new(&input, &args, choices.iter().any(|c| c.reads == Reads::Panorama))?;
+    let panorama = Panorama::new(&input, args, choices.iter().any(|c| c.reads == Reads::Panorama))?;
     // The limits the images' size sets, from the camera's size, before any image is read.
     let (w, h) = input.camera.size();
     let image_size = (w as usize, h as usize);
@@ -510,7 +510,7 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
         }
         results.push(per_choice);
     }
-    let pcas = fit_or_load_pca(&args, &choices, &results, map, &input)?;
+    let pcas = fit_or_load_pca(args, &choices, &results, map, &input)?;
     // Nothing is written until every image is described and every PCA fitted or loaded, so a
     // request that fails writes nothing (`create_real_folder` makes --out too).
     if args.pca_fit.is_some() {
@@ -534,7 +534,7 @@ pub fn run(args: DescribeArgs) -> anyhow::Result<()> {
                 result,
                 pca.as_ref(),
                 panorama.as_ref(),
-                &args,
+                args,
             )?;
         }
         crate::streams::stderr(format_args!("wrote {}", folder.display()))?;
@@ -585,7 +585,7 @@ impl Panorama {
                     sidecar,
                 }))
             }
-            _ => bail!(
+            Camera::Pinhole(_) => bail!(
                 "a descriptor reads a panorama, but the images are from a pinhole camera: use on=image or other descriptors"
             ),
         }

@@ -14,7 +14,7 @@ use omnisim::{Pose, Scene};
 
 /// Write poses for a data set: one "x y z θx θy θz" per line (metres, degrees).
 #[derive(Debug, Subcommand)]
-pub enum PosesCommand {
+pub(crate) enum PosesCommand {
     /// A grid map: every combination of the x, y and z values.
     #[command(after_help = "Example:\n  omnisim poses grid --x=-2:2:0.5 --y=-1:0.5:0.5 --z 0.4 --out grid.txt")]
     Grid {
@@ -75,7 +75,7 @@ pub enum PosesCommand {
 }
 
 #[derive(Debug, Args)]
-pub struct Output {
+pub(crate) struct Output {
     /// Pose file to write [default: standard output].
     #[arg(long)]
     out: Option<PathBuf>,
@@ -94,7 +94,7 @@ const MAX_POSES: usize = 10_000_000;
 
 /// The values of one grid axis.
 #[derive(Debug, Clone)]
-pub struct Values(Vec<f64>);
+pub(crate) struct Values(Vec<f64>);
 
 fn parse_range(text: &str) -> Result<Values, String> {
     let parts: Vec<f64> = text.split(':').map(number).collect::<Result<_, _>>()?;
@@ -179,7 +179,7 @@ fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
     Ok(())
 }
 
-pub fn run(command: PosesCommand) -> anyhow::Result<()> {
+pub(crate) fn run(command: PosesCommand) -> anyhow::Result<()> {
     match command {
         PosesCommand::Grid { x, y, z, angles, out } => {
             let count = x.0.len() as f64 * y.0.len() as f64 * z.0.len() as f64;

@@ -16,7 +16,7 @@ use omnisim_dataset::{Dataset, preview};
     after_help = "Examples:\n  omnisim preview scenes/env1-dataset.ron --out env1-dataset\n    \
 (writes env1-dataset.svg and env1-dataset.png)\n  omnisim preview scenes/env1-dataset.ron --out pictures/plan"
 )]
-pub struct PreviewArgs {
+pub(crate) struct PreviewArgs {
     /// Data-set spec (RON), e.g. scenes/env1-dataset.ron.
     pub spec: PathBuf,
     /// Output prefix: writes PREFIX.svg and PREFIX.png (their folder is created); a folder
@@ -25,7 +25,7 @@ pub struct PreviewArgs {
     pub out: PathBuf,
 }
 
-pub fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
+pub(crate) fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
     let names_a_folder = args
         .out
         .as_os_str()

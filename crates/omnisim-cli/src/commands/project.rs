@@ -14,7 +14,7 @@ use omnisim::output::folder::create_real_folder;
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 use serde_json::{Value, json};
 
-pub use crate::camera_args::parse_size;
+pub(crate) use crate::camera_args::parse_size;
 
 use super::vision_input::{InputArgs, InputSet, NamedSettings, check_image_sizes, read_image};
 
@@ -40,7 +40,7 @@ omnisim render scenes/env1.ron --camera omni --size 500x500 --pose 0.5,0.2,0.4 -
 omnisim project out/omni --size 500x500 --view panorama --view birds-eye:scale=0.02 --out out/views\n  \
 omnisim project data/env1 --set map --view perspective:yaw=90,hfov=70 --interpolation bilinear --out out/map-views"
 )]
-pub struct ProjectArgs {
+pub(crate) struct ProjectArgs {
     #[command(flatten)]
     pub input: InputArgs,
     /// A view and its settings, NAME[:KEY=VALUE,...] (list above); repeat for several.
@@ -82,7 +82,7 @@ impl From<InterpolationArg> for Interpolation {
 }
 
 /// `LOW:HIGH` in degrees.
-pub fn parse_degrees_range(text: &str) -> Result<(f64, f64), String> {
+pub(crate) fn parse_degrees_range(text: &str) -> Result<(f64, f64), String> {
     let parse = |s: &str| s.trim().parse::<f64>().ok().filter(|v| v.is_finite());
     match text.split_once(':').map(|(a, b)| (parse(a), parse(b))) {
         Some((Some(low), Some(high))) if low < high => Ok((low, high)),
@@ -153,7 +153,7 @@ fn view_of(spec: &NamedSettings) -> anyhow::Result<(View, Value)> {
     })
 }
 
-pub fn run(args: ProjectArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: &ProjectArgs) -> anyhow::Result<()> {
     let mut views = Vec::new();
     for spec in &args.views {
         if views.iter().any(|(name, _, _): &(String, _, _)| name == &spec.name) {

@@ -61,9 +61,9 @@ impl From<BackendArg> for BackendChoice {
 /// ray origin, channel "Y", header quantity "range", +inf = no hit) and <scene>-N.ply (binary
 /// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16
 /// bit) and -depth.exr (z, metres); a stereo rig writes -left and -right of each and
-/// -disparity.exr. Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
+/// -disparity.exr. Once per run: calibration-*.yaml (`OpenCV` and Kalibr, where the model has a standard form),
 /// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
-/// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
+/// qw, `world_from_body`) and render.json (camera, conventions, backend, every pose).
 ///
 /// A folder holds one run: omnisim-run.txt lists the run and its files, a re-run of the same
 /// command replaces them, and another run is refused unless --overwrite.
@@ -72,7 +72,7 @@ impl From<BackendArg> for BackendChoice {
 omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
 omnisim render scenes/env2.ron --camera omni --poses-file scenes/paper-omni-poses.txt --out out/env2\n  \
 omnisim render scenes/env1.ron --camera equirect --size 2048x1024 --pose 0,0,0.4 --out out/pano")]
-pub struct RenderArgs {
+pub(crate) struct RenderArgs {
     /// Scene file (RON), e.g. scenes/env1.ron.
     pub scene: PathBuf,
     #[command(flatten)]
@@ -140,7 +140,7 @@ impl From<ExrCompressionArg> for ExrCompression {
     }
 }
 
-pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     omnisim::input::check_regular(&args.scene, omnisim::input::SCENE_LIMIT)?;
     let rig = args.camera.build()?;
@@ -168,7 +168,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .check_scene(&scene)
         .map_err(|message| anyhow::anyhow!("--segmentation: {message}"))?;
     // The output folder is checked before the BVH is built: a refused folder says so at once.
-    let mut run = crate::run_folder::open(&args, &poses)?;
+    let mut run = crate::run_folder::open(args, &poses)?;
     let mut renderer = Renderer::new(args.backend.into())?;
     renderer.set_cpu_tracer(args.tracer.into());
     let prepared = renderer.prepare(&scene)?;

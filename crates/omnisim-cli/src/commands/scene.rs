@@ -9,7 +9,7 @@ use omnisim::pose::{MICROMETRES, rounded};
 use omnisim::scene::ExportFormat;
 
 #[derive(Debug, Subcommand)]
-pub enum SceneCommand {
+pub(crate) enum SceneCommand {
     /// Load and validate a scene; print its objects, faces and bounds.
     ///
     /// The scene name must be 1-100 bytes of letters, digits, '-', '_', '.' and spaces (it names
@@ -30,7 +30,7 @@ pub enum SceneCommand {
     },
 }
 
-pub fn run(command: SceneCommand) -> anyhow::Result<()> {
+pub(crate) fn run(command: SceneCommand) -> anyhow::Result<()> {
     match command {
         SceneCommand::Check { scene } => {
             let scene = Scene::load(&scene)?;

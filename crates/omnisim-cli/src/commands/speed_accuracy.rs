@@ -19,7 +19,7 @@ fn colour_error(frame: &Frame, truth: &Frame) -> (f64, f64) {
     let mut differing = 0usize;
     let colour = |f: &'_ Frame| f.colour().map(<[_]>::to_vec).unwrap_or_default();
     for (a, b) in colour(frame).iter().zip(&colour(truth)) {
-        let d: u64 = (0..3).map(|k| a[k].abs_diff(b[k]) as u64).sum();
+        let d: u64 = (0..3).map(|k| u64::from(a[k].abs_diff(b[k]))).sum();
         sum += d;
         differing += usize::from(d > 0);
     }
@@ -40,7 +40,7 @@ fn timed(runs: usize, mut render: impl FnMut() -> anyhow::Result<Frame>) -> anyh
     Ok((times[times.len() / 2], frame))
 }
 
-pub fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Path) -> anyhow::Result<()> {
+pub(crate) fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, chart: &Path) -> anyhow::Result<()> {
     let open = |choice, tracer| -> anyhow::Result<(Renderer, PreparedScene)> {
         let mut renderer = Renderer::new(choice)?;
         renderer.set_cpu_tracer(tracer);

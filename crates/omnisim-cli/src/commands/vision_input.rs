@@ -19,7 +19,7 @@ use crate::camera_args::CameraArgs;
 
 /// The input folder and how to read it.
 #[derive(Debug, Clone, Args)]
-pub struct InputArgs {
+pub(crate) struct InputArgs {
     /// A data-set folder written by `omnisim dataset` (with manifest.json), or a folder of
     /// PNG images (read in name order; camera from the options below, which must match the
     /// camera an `omnisim render` folder's render.json records). Of a render folder, the
@@ -39,7 +39,7 @@ pub struct InputArgs {
 
 /// One image of a set.
 #[derive(Debug, Clone)]
-pub struct InputFrame {
+pub(crate) struct InputFrame {
     /// Position in the set, from 0.
     pub index: usize,
     /// Name without extension (the data set's frame stem).
@@ -50,14 +50,14 @@ pub struct InputFrame {
 
 /// Images described together: a data set's set, or the image folder.
 #[derive(Debug, Clone)]
-pub struct InputSet {
+pub(crate) struct InputSet {
     pub name: String,
     pub frames: Vec<InputFrame>,
 }
 
 /// The sets to read and the camera that took them.
 #[derive(Debug, Clone)]
-pub struct Input {
+pub(crate) struct Input {
     /// "dataset" or "images", for the sidecars.
     pub kind: &'static str,
     pub sets: Vec<InputSet>,
@@ -82,7 +82,7 @@ struct ManifestSetView {
 const MANIFEST_LIMIT: u64 = 1 << 30;
 
 impl InputArgs {
-    pub fn read(&self) -> anyhow::Result<Input> {
+    pub(crate) fn read(&self) -> anyhow::Result<Input> {
         recordable(&self.input)?;
         let manifest = self.input.join("manifest.json");
         if manifest.is_file() {
@@ -333,7 +333,7 @@ impl RenderView {
 
 /// Refuses a path that is not UTF-8: the sidecars record every input path in JSON, which
 /// holds only UTF-8 (and a lossy name could give two images the same outputs).
-pub fn recordable(path: &Path) -> anyhow::Result<()> {
+pub(crate) fn recordable(path: &Path) -> anyhow::Result<()> {
     if path.to_str().is_none() {
         bail!(
             "{} is not a UTF-8 name: describe and project record the files they read in JSON sidecars, which hold \
@@ -346,7 +346,7 @@ pub fn recordable(path: &Path) -> anyhow::Result<()> {
 
 /// Refuses an output folder that is one the images are read from: a second run would read
 /// its own outputs as images (and a data set would hold files it did not record).
-pub fn refuse_writing_among_inputs(out: &Path, input: &Input) -> anyhow::Result<()> {
+pub(crate) fn refuse_writing_among_inputs(out: &Path, input: &Input) -> anyhow::Result<()> {
     for set in &input.sets {
         let (Ok(folder), Some(first)) = (out.join(&set.name).canonicalize(), set.frames.first()) else {
             continue;
@@ -364,7 +364,7 @@ pub fn refuse_writing_among_inputs(out: &Path, input: &Input) -> anyhow::Result<
 }
 
 /// `name` if it is one plain folder name (no separator, not `.` or `..`), as set folders must be.
-pub fn plain_name(name: &str) -> anyhow::Result<&str> {
+pub(crate) fn plain_name(name: &str) -> anyhow::Result<&str> {
     let mut parts = Path::new(name).components();
     match (parts.next(), parts.next()) {
         (Some(Component::Normal(_)), None) if !name.contains(['/', '\\']) => Ok(name),
@@ -409,7 +409,7 @@ fn image_size(path: &Path) -> anyhow::Result<(u32, u32)> {
 }
 
 /// An image file as RGB 0..1, checked to be `size` (all images of a set are).
-pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
+pub(crate) fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
     let image = open_image(path)?
         .decode()
         .with_context(|| format!("cannot read image {}", path.display()))?;
@@ -422,7 +422,7 @@ pub fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<R
 
 /// Checks from the files' headers alone that every image of `sets` is `size` (the camera's),
 /// so that a command can refuse a bad set before it writes anything.
-pub fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Result<()> {
+pub(crate) fn check_image_sizes(sets: &[InputSet], size: (usize, usize)) -> anyhow::Result<()> {
     for frame in sets.iter().flat_map(|s| &s.frames) {
         let (w, h) = image_size(&frame.path)?;
         same_size(&frame.path, (w as usize, h as usize), size, "the camera's image")?;
@@ -447,13 +447,13 @@ fn same_size(path: &Path, got: (usize, usize), expected: (usize, usize), whose: 
 /// A `NAME[:KEY=VALUE,...]` option value: the name and its settings, each key checked against
 /// the ones the name accepts.
 #[derive(Debug, Clone, PartialEq)]
-pub struct NamedSettings {
+pub(crate) struct NamedSettings {
     pub name: String,
     pub settings: BTreeMap<String, String>,
 }
 
 impl NamedSettings {
-    pub fn parse(text: &str) -> Result<Self, String> {
+    pub(crate) fn parse(text: &str) -> Result<Self, String> {
         let (name, rest) = text.split_once(':').unwrap_or((text, ""));
         let mut settings = BTreeMap::new();
         for pair in rest.split(',').filter(|p| !p.is_empty()) {
@@ -474,7 +474,7 @@ impl NamedSettings {
     }
 
     /// Refuses keys other than `accepted`.
-    pub fn check_keys(&self, accepted: &[&str]) -> anyhow::Result<()> {
+    pub(crate) fn check_keys(&self, accepted: &[&str]) -> anyhow::Result<()> {
         for key in self.settings.keys() {
             if !accepted.contains(&key.as_str()) {
                 bail!(
@@ -489,7 +489,7 @@ impl NamedSettings {
 
     /// The setting `key` parsed as `T`, or `default`. Numbers must be finite: `nan`, `inf`
     /// and values that overflow to infinity (`1e999`) are refused for every setting.
-    pub fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> anyhow::Result<T> {
+    pub(crate) fn get<T: std::str::FromStr>(&self, key: &str, default: T) -> anyhow::Result<T> {
         match self.settings.get(key) {
             None => Ok(default),
             Some(text) => {

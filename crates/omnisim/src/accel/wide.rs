@@ -112,7 +112,7 @@ impl TriangleGroup {
             let [a, b, c] = triangles[index as usize];
             let (e1, e2) = (b - a, c - a);
             let longest = e1.length().max(e2.length()) as f32;
-            let [a, e1, e2] = [a, e1, e2].map(|v| v.as_vec3());
+            let [a, e1, e2] = [a, e1, e2].map(glam::DVec3::as_vec3);
             lanes[lane] = [a.x, a.y, a.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, longest];
             triangle[lane] = index;
         }

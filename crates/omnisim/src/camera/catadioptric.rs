@@ -193,8 +193,8 @@ impl Catadioptric {
             height,
             mirror,
             focal,
-            cx: (width as f64 - 1.0) / 2.0,
-            cy: (height as f64 - 1.0) / 2.0,
+            cx: (f64::from(width) - 1.0) / 2.0,
+            cy: (f64::from(height) - 1.0) / 2.0,
             rim_radius: None,
             hidden_centre_px: 0.0,
             mount: Mount::Up,
@@ -204,7 +204,7 @@ impl Catadioptric {
     }
 
     fn image_radius(width: u32, height: u32) -> f64 {
-        width.min(height) as f64 / 2.0
+        f64::from(width.min(height)) / 2.0
     }
 
     /// Hyperbolic mirror (a, b) filling the shorter image side. With `max_elevation`
@@ -325,7 +325,7 @@ impl Catadioptric {
         }
     }
 
-    /// body_from_mirror rotation: identity, or Rx(π) for a mirror mounted below.
+    /// `body_from_mirror` rotation: identity, or Rx(π) for a mirror mounted below.
     pub fn body_from_mirror(&self) -> DMat3 {
         match self.mount {
             Mount::Up => DMat3::IDENTITY,

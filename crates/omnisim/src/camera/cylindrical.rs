@@ -27,14 +27,14 @@ impl Cylindrical {
         Self {
             width,
             height,
-            fy: height as f64 / 2.0 / (vfov / 2.0).tan(),
-            cy: (height as f64 - 1.0) / 2.0,
+            fy: f64::from(height) / 2.0 / (vfov / 2.0).tan(),
+            cy: (f64::from(height) - 1.0) / 2.0,
         }
     }
 
     /// The ray of pixel (u, v), from the body origin.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
-        let azimuth = PI - TAU * (pixel.x + 0.5) / self.width as f64;
+        let azimuth = PI - TAU * (pixel.x + 0.5) / f64::from(self.width);
         let rise = (self.cy - pixel.y) / self.fy;
         CameraRay {
             origin: DVec3::ZERO,
@@ -49,7 +49,7 @@ impl Cylindrical {
         (horizontal > 0.0).then(|| {
             let azimuth = point.y.atan2(point.x);
             dvec2(
-                (PI - azimuth) / TAU * self.width as f64 - 0.5,
+                (PI - azimuth) / TAU * f64::from(self.width) - 0.5,
                 self.cy - self.fy * point.z / horizontal,
             )
         })

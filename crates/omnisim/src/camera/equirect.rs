@@ -20,8 +20,8 @@ pub struct Equirectangular {
 impl Equirectangular {
     /// The ray of pixel (u, v), from the body origin.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
-        let azimuth = PI - TAU * (pixel.x + 0.5) / self.width as f64;
-        let elevation = PI / 2.0 - PI * (pixel.y + 0.5) / self.height as f64;
+        let azimuth = PI - TAU * (pixel.x + 0.5) / f64::from(self.width);
+        let elevation = PI / 2.0 - PI * (pixel.y + 0.5) / f64::from(self.height);
         CameraRay {
             origin: DVec3::ZERO,
             direction: dvec3(
@@ -43,8 +43,8 @@ impl Equirectangular {
         let elevation = point.z.atan2(horizontal);
         // atan2 ∈ (−π, π] puts u in [−½, W − ½): the image's own column range.
         Some(dvec2(
-            (PI - azimuth) / TAU * self.width as f64 - 0.5,
-            (PI / 2.0 - elevation) / PI * self.height as f64 - 0.5,
+            (PI - azimuth) / TAU * f64::from(self.width) - 0.5,
+            (PI / 2.0 - elevation) / PI * f64::from(self.height) - 0.5,
         ))
     }
 }

@@ -2,7 +2,7 @@
 //!
 //! Each model has an f64 implementation here (the accuracy reference and the CPU backend) and a
 //! WGSL twin in `shaders/camera_*.wgsl`; `Camera::gpu_kind` ties the two together. Pixel
-//! coordinates follow OpenCV: u = column, v = row, pixel centres at integer coordinates.
+//! coordinates follow `OpenCV`: u = column, v = row, pixel centres at integer coordinates.
 
 pub mod catadioptric;
 mod cylindrical;

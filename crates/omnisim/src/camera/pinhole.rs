@@ -4,7 +4,7 @@ use super::CameraRay;
 use crate::frame::Frame;
 use crate::pose::Pose;
 
-/// An ideal perspective camera with OpenCV intrinsics, mounted looking along body +x.
+/// An ideal perspective camera with `OpenCV` intrinsics, mounted looking along body +x.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pinhole {
     /// Optical centre in the body frame (zero except for the cameras of a stereo rig).
@@ -23,7 +23,7 @@ pub struct Pinhole {
     pub cy: f64,
 }
 
-/// body_from_optical: optical z (forward) → body x, optical x (right) → body −y,
+/// `body_from_optical`: optical z (forward) → body x, optical x (right) → body −y,
 /// optical y (down) → body −z.
 pub const BODY_FROM_OPTICAL: DMat3 = DMat3::from_cols(
     DVec3::new(0.0, -1.0, 0.0),
@@ -35,15 +35,15 @@ impl Pinhole {
     /// Square pixels, principal point at the image centre ((W−1)/2, (H−1)/2), horizontal field
     /// of view `hfov` radians across the full image width.
     pub fn with_horizontal_fov(width: u32, height: u32, hfov: f64) -> Self {
-        let f = width as f64 / 2.0 / (hfov / 2.0).tan();
+        let f = f64::from(width) / 2.0 / (hfov / 2.0).tan();
         Self {
             position: DVec3::ZERO,
             width,
             height,
             fx: f,
             fy: f,
-            cx: (width as f64 - 1.0) / 2.0,
-            cy: (height as f64 - 1.0) / 2.0,
+            cx: (f64::from(width) - 1.0) / 2.0,
+            cy: (f64::from(height) - 1.0) / 2.0,
         }
     }
 

@@ -54,6 +54,7 @@ pub mod defaults {
     pub(super) fn baseline() -> f64 {
         BASELINE
     }
+    #[expect(clippy::unnecessary_wraps, reason = "serde's default of an optional field")]
     pub(super) fn max_elevation() -> Option<f64> {
         Some(MAX_ELEVATION)
     }

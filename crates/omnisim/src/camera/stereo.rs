@@ -25,7 +25,7 @@ impl StereoRig {
         [place(self.baseline / 2.0), place(-self.baseline / 2.0)]
     }
 
-    /// Ground-truth disparity of the left image: u_left − u_right = fx·B/z, with z the depth of
+    /// Ground-truth disparity of the left image: `u_left` − `u_right` = fx·B/z, with z the depth of
     /// each hit along the left camera's optical axis; NaN where nothing is hit.
     pub fn disparity(&self, left: &Frame, pose: &Pose) -> Vec<f32> {
         self.cameras()[0]
@@ -33,7 +33,7 @@ impl StereoRig {
             .into_iter()
             .map(|z| {
                 if z.is_finite() {
-                    (self.camera.fx * self.baseline / z as f64) as f32
+                    (self.camera.fx * self.baseline / f64::from(z)) as f32
                 } else {
                     f32::NAN
                 }

@@ -25,8 +25,8 @@ pub enum CameraError {
     /// Image size outside 1 pixel to [`MAX_PIXELS`].
     #[error(
         "the image is {width}x{height} = {} pixels ({} megapixels); omnisim renders images of 1 to {MAX_PIXELS} pixels (100 megapixels), each side at least 1",
-        *width as u64 * *height as u64,
-        (*width as u64 * *height as u64) as f64 / 1e6
+        u64::from(*width) * u64::from(*height),
+        (u64::from(*width) * u64::from(*height)) as f64 / 1e6
     )]
     Size {
         /// Width asked for, pixels.
@@ -79,7 +79,7 @@ fn within(name: &'static str, value: f64, range: (f64, f64), unit: &'static str)
 }
 
 fn check_size(width: u32, height: u32) -> Result<(), CameraError> {
-    if width == 0 || height == 0 || width as u64 * height as u64 > MAX_PIXELS {
+    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > MAX_PIXELS {
         return Err(CameraError::Size { width, height });
     }
     Ok(())
@@ -173,11 +173,11 @@ impl Catadioptric {
         for value in self.misalignment.tilt.to_array() {
             within("misalignment tilt", value, TURN, "rad")?;
         }
-        let step = (self.width.max(self.height) as f64 / 64.0).max(1.0);
+        let step = (f64::from(self.width.max(self.height)) / 64.0).max(1.0);
         let samples = |size: u32| {
             (0..)
-                .map(move |k| k as f64 * step)
-                .take_while(move |&p| p < size as f64)
+                .map(move |k| f64::from(k) * step)
+                .take_while(move |&p| p < f64::from(size))
         };
         let sees = samples(self.height).any(|v| {
             samples(self.width).any(|u| {

@@ -134,7 +134,7 @@ fn appearance_data(offset: DVec3, appearance: &Appearance) -> (Vec<[f32; 4]>, Ve
     let mut lights: Vec<GpuLight> = appearance
         .lighting
         .iter()
-        .flat_map(|l| l.lights_on())
+        .flat_map(super::super::scene::lighting::Lighting::lights_on)
         .map(|light| {
             let (vector, kind, strength) = match light.kind {
                 LightKind::Point { position, intensity } => (position - offset, 0, intensity),

@@ -1,5 +1,7 @@
 //! The WGSL program, assembled from one file per concern (WGSL has no `#include`).
 
+use std::fmt::Write as _;
+
 /// The shader files in the order they are concatenated: definitions first, entry point last.
 pub(crate) const FILES: [(&str, &str); 9] = [
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
@@ -46,8 +48,8 @@ pub(crate) const STACK_SIZE: usize = 64;
 
 /// The whole program as one WGSL source.
 pub(crate) fn source() -> String {
-    FILES
-        .iter()
-        .map(|(name, text)| format!("// ---- {name} ----\n{text}\n"))
-        .collect()
+    FILES.iter().fold(String::new(), |mut source, (name, text)| {
+        let _ = write!(source, "// ---- {name} ----\n{text}\n");
+        source
+    })
 }

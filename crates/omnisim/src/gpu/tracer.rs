@@ -30,6 +30,7 @@ pub struct GpuRenderer {
 }
 
 /// Where the hits of a band come from: traced now, or uploaded from a frame to re-shade.
+#[derive(Clone, Copy)]
 enum HitSource<'a> {
     Trace,
     Upload(&'a [Pixel]),
@@ -121,20 +122,20 @@ impl GpuRenderer {
         source: HitSource,
     ) -> Result<(), GpuError> {
         let (width, height) = camera.size();
-        let row_bytes = width as u64 * std::mem::size_of::<PixelHit>() as u64;
+        let row_bytes = u64::from(width) * std::mem::size_of::<PixelHit>() as u64;
         let max_rows_by_dispatch =
-            self.context.limits.max_compute_workgroups_per_dimension as u64 * shader::WORKGROUP_SIZE[1] as u64;
+            u64::from(self.context.limits.max_compute_workgroups_per_dimension) * u64::from(shader::WORKGROUP_SIZE[1]);
         let band_rows = (self.context.storage_limit() / row_bytes.max(1))
             .min(max_rows_by_dispatch)
-            .min(self.max_band_rows.unwrap_or(u32::MAX) as u64)
-            .min(height as u64) as u32;
+            .min(u64::from(self.max_band_rows.unwrap_or(u32::MAX)))
+            .min(u64::from(height)) as u32;
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
         let mut params = camera_params(camera, pose, scene.offset);
         let shade = planes.needs_shading();
         // Consecutive frames of one size (trajectories, grids) reuse their buffers.
-        let mut cache = scene.band.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let mut cache = scene.band.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if cache.as_ref().is_some_and(|b| (b.rows, b.width) != (band_rows, width)) {
             *cache = None;
         }
@@ -308,7 +309,7 @@ impl GpuRenderer {
 
     /// Hit, shaded and readback buffers for bands of `rows` × `width` pixels.
     fn band_buffers(&self, rows: u32, width: u32) -> BandBuffers {
-        let pixels = rows as u64 * width as u64;
+        let pixels = u64::from(rows) * u64::from(width);
         let output = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let readback = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
         let hit_bytes = pixels * size_of::<PixelHit>();

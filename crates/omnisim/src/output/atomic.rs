@@ -44,7 +44,9 @@ pub fn write_atomically(
     let mut out = BufWriter::with_capacity(WRITE_BUFFER, file);
     fill(&mut out)?;
     out.flush()?;
-    out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+    out.into_inner()
+        .map_err(std::io::IntoInnerError::into_error)?
+        .sync_all()?;
     temporary.persist(path).map_err(|e| e.error)
 }
 

@@ -4,7 +4,7 @@
 //!
 //! EXRs are scan lines stored in increasing order, ZIP-compressed unless the caller picks
 //! another lossless [`ExrCompression`]: the same values give the same bytes. Single-value images (range, depth, disparity) hold one channel
-//! named `Y`, the luminance channel every reader opens (OpenCV reads no other single channel);
+//! named `Y`, the luminance channel every reader opens (`OpenCV` reads no other single channel);
 //! what the values are is in the header: the string attribute `quantity` and `comments`.
 
 pub mod atomic;
@@ -110,7 +110,7 @@ pub fn write_range_exr(
     )
 }
 
-/// Single-channel f32 EXR of disparity (`quantity` = `disparity`; pixels, u_left − u_right),
+/// Single-channel f32 EXR of disparity (`quantity` = `disparity`; pixels, `u_left` − `u_right`),
 /// NaN where no hit.
 pub fn write_disparity_exr(
     path: &Path,
@@ -147,7 +147,7 @@ pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Resu
     let values: Vec<u16> = depth
         .iter()
         .map(|&z| {
-            let scaled = (z as f64 * TUM_DEPTH_SCALE).round();
+            let scaled = (f64::from(z) * TUM_DEPTH_SCALE).round();
             if scaled.is_finite() && (1.0..=65535.0).contains(&scaled) {
                 scaled as u16
             } else {
@@ -268,7 +268,7 @@ pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError
     let mut channels: [Vec<f32>; 6] = Default::default();
     for v in 0..height {
         for u in 0..width {
-            let values = match camera.ray(DVec2::new(u as f64, v as f64)) {
+            let values = match camera.ray(DVec2::new(f64::from(u), f64::from(v))) {
                 Some(ray) => [ray.origin.to_array(), ray.direction.to_array()].concat(),
                 None => vec![f64::NAN; 6],
             };
@@ -296,8 +296,8 @@ pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError
 }
 
 /// Binary little-endian PLY of every hit pixel: float x y z (world metres), uchar red green
-/// blue (the colour plane, or grey 128 where the frame has none). Readable by Open3D,
-/// CloudCompare, MeshLab and PCL.
+/// blue (the colour plane, or grey 128 where the frame has none). Readable by `Open3D`,
+/// `CloudCompare`, `MeshLab` and PCL.
 pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Result<(), OutputError> {
     let grey = vec![[128u8; 3]; frame.pixels().len()];
     let colours = frame.colour().unwrap_or(&grey);

@@ -1,4 +1,4 @@
-//! Writes the triangulated scene so other tools (Open3D, CloudCompare, MeshLab, Blender) load
+//! Writes the triangulated scene so other tools (`Open3D`, `CloudCompare`, `MeshLab`, Blender) load
 //! exactly the geometry omnisim traces, with each face's colour on its corners.
 
 use std::io::Write;
@@ -78,7 +78,7 @@ pub(super) fn export(scene: &Scene, path: &Path, format: ExportFormat) -> Result
                                 .replace(char::is_whitespace, "_")
                         )?;
                     }
-                    let [r, g, b] = face.colour.map(|c| c as f64 / 255.0);
+                    let [r, g, b] = face.colour.map(|c| f64::from(c) / 255.0);
                     for c in corners {
                         writeln!(out, "v {} {} {} {r:.6} {g:.6} {b:.6}", c.x, c.y, c.z)?;
                     }

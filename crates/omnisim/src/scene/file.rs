@@ -148,7 +148,7 @@ pub struct BoxFile {
     /// Centre of the bottom face, world metres.
     #[serde(default)]
     pub position: (f64, f64, f64),
-    /// (θx, θy, θz), world_from_object = Rx·Ry·Rz, in the file's angle unit.
+    /// (θx, θy, θz), `world_from_object` = Rx·Ry·Rz, in the file's angle unit.
     #[serde(default)]
     pub rotation: (f64, f64, f64),
     /// sRGB colour of every face not named in `faces`.

@@ -62,8 +62,8 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let faces = match object {
             ObjectFile::Box(b) => box_faces(b, angle(b.rotation)),
             ObjectFile::Wall(w) => wall_face(w),
-            ObjectFile::Floor(f) => floor_face(f),
-            ObjectFile::Polygon(p) => polygon_face(p),
+            ObjectFile::Floor(f) => Ok(floor_face(f)),
+            ObjectFile::Polygon(p) => Ok(polygon_face(p)),
             ObjectFile::Mesh(m) => mesh_faces(m, angle(m.rotation), path),
         }
         .map_err(&invalid)?;
@@ -325,14 +325,14 @@ fn wall_face(w: &WallFile) -> Result<Vec<RawFace>, String> {
     )])
 }
 
-fn floor_face(f: &FloorFile) -> Result<Vec<RawFace>, String> {
+fn floor_face(f: &FloorFile) -> Vec<RawFace> {
     let vertices = f.corners.iter().map(|c| dvec3(c.0, c.1, f.z)).collect();
-    Ok(vec![(vertices, f.colour)])
+    vec![(vertices, f.colour)]
 }
 
-fn polygon_face(p: &PolygonFile) -> Result<Vec<RawFace>, String> {
+fn polygon_face(p: &PolygonFile) -> Vec<RawFace> {
     let vertices = p.vertices.iter().map(|v| dvec3(v.0, v.1, v.2)).collect();
-    Ok(vec![(vertices, p.colour)])
+    vec![(vertices, p.colour)]
 }
 
 /// Longest object or light name, bytes: names are listed, printed in errors and written into
@@ -350,7 +350,7 @@ fn unprintable(name: &str) -> Option<String> {
     } else {
         name.chars()
             .find(|c| c.is_control())
-            .map(|c| format!("the name holds the control character {:?}; use printable characters", c))
+            .map(|c| format!("the name holds the control character {c:?}; use printable characters"))
     }
 }
 

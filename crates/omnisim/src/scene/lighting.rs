@@ -87,7 +87,7 @@ pub fn srgb_to_linear(value: u8) -> f64 {
 /// sRGB encoding of a linear value, clamped to [0, 1], rounded to 8 bits.
 pub fn linear_to_srgb(value: f64) -> u8 {
     let c = value.clamp(0.0, 1.0);
-    let encoded = if c <= 0.0031308 {
+    let encoded = if c <= 0.003_130_8 {
         12.92 * c
     } else {
         1.055 * c.powf(1.0 / 2.4) - 0.055

@@ -49,13 +49,13 @@ pub(super) fn load(path: &Path) -> Result<Vec<MeshTriangle>, String> {
 
 fn scalar(p: &Property) -> Option<f64> {
     Some(match *p {
-        Property::Char(v) => v as f64,
-        Property::UChar(v) => v as f64,
-        Property::Short(v) => v as f64,
-        Property::UShort(v) => v as f64,
-        Property::Int(v) => v as f64,
-        Property::UInt(v) => v as f64,
-        Property::Float(v) => v as f64,
+        Property::Char(v) => f64::from(v),
+        Property::UChar(v) => f64::from(v),
+        Property::Short(v) => f64::from(v),
+        Property::UShort(v) => f64::from(v),
+        Property::Int(v) => f64::from(v),
+        Property::UInt(v) => f64::from(v),
+        Property::Float(v) => f64::from(v),
         Property::Double(v) => v,
         _ => return None,
     })
@@ -196,7 +196,7 @@ fn load_ply(reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
                     vertex_parser
                         .read_payload_for_element(&mut reader, element, &header)
                         .map_err(error)?,
-                )
+                );
             }
             "face" => {
                 if element.count > MAX_MESH_TRIANGLES {
@@ -264,7 +264,7 @@ fn mean_colour(colours: impl Iterator<Item = Option<[u8; 3]>>) -> Option<[u8; 3]
     for c in colours {
         let c = c?;
         for k in 0..3 {
-            sum[k] += c[k] as u32;
+            sum[k] += u32::from(c[k]);
         }
         count += 1;
     }
@@ -288,7 +288,7 @@ fn load_obj(mut reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
             let i = i as usize * 3;
             mesh.positions
                 .get(i..i + 3)
-                .map(|p| dvec3(p[0] as f64, p[1] as f64, p[2] as f64))
+                .map(|p| dvec3(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
                 .ok_or_else(|| format!("object '{}' refers to a vertex that does not exist", model.name))
         };
         let colour = |i: u32| {

@@ -77,7 +77,7 @@ fn polygon_triangles(vertices: &[DVec3]) -> Vec<[usize; 3]> {
     }
     // Ear clipping (earcutr) works on the polygon flattened to 2-D.
     let local: Vec<DVec3> = vertices.iter().map(|v| *v - vertices[0]).collect();
-    let flat: Vec<f64> = flatten(&local, normal).iter().flat_map(|p| p.to_array()).collect();
+    let flat: Vec<f64> = flatten(&local, normal).iter().flat_map(glam::DVec2::to_array).collect();
     match earcutr::earcut(&flat, &[], 2) {
         Ok(indices) if indices.len() / 3 == n - 2 => indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
         // Validation refuses crossing outlines, so earcutr should not fail; a fan is the safety net.

@@ -33,9 +33,10 @@ pub fn edge_pixels(frame: &Frame) -> Vec<usize> {
 
 /// Sub-pixel offsets of n×n stratified samples, row by row.
 pub(crate) fn sample_offsets(samples_per_axis: u32) -> impl Iterator<Item = DVec2> {
-    let n = samples_per_axis as f64;
+    let n = f64::from(samples_per_axis);
     (0..samples_per_axis).flat_map(move |sy| {
-        (0..samples_per_axis).map(move |sx| DVec2::new((sx as f64 + 0.5) / n - 0.5, (sy as f64 + 0.5) / n - 0.5))
+        (0..samples_per_axis)
+            .map(move |sx| DVec2::new((f64::from(sx) + 0.5) / n - 0.5, (f64::from(sy) + 0.5) / n - 0.5))
     })
 }
 
@@ -72,13 +73,13 @@ pub(crate) fn supersample_edges(
                     BACKGROUND
                 };
                 for k in 0..3 {
-                    encoded[k] += colour[k] as u32;
+                    encoded[k] += u32::from(colour[k]);
                 }
                 linear += sample;
             }
             (
                 encoded.map(|s| ((s + count / 2) / count) as u8),
-                (linear / count as f64).as_vec3().to_array(),
+                (linear / f64::from(count)).as_vec3().to_array(),
             )
         })
         .collect();

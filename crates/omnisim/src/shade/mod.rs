@@ -1,8 +1,8 @@
 //! The shading stage: hits, materials and lights in, colour out. This is the one f64
 //! implementation; `shaders/shade.wgsl` is its WGSL twin. Nothing else maps a hit to a colour.
 //!
-//! Model (README, `scene/lighting.rs`): linear = albedo · (ambient + Σ visible E_light) / white,
-//! E_light = I·cosθ/d² (point) or E⊥·cosθ (directional), sRGB encoding last. A scene without
+//! Model (README, `scene/lighting.rs`): linear = albedo · (ambient + Σ visible `E_light`) / white,
+//! `E_light` = I·cosθ/d² (point) or E⊥·cosθ (directional), sRGB encoding last. A scene without
 //! lighting is drawn in flat face colours (linear = albedo), exactly as the files say.
 
 pub mod antialias;

@@ -151,7 +151,7 @@ impl CpuTracer {
             .map(|row| {
                 let mut counts = TraversalCounts::default();
                 for column in 0..width {
-                    let ray = camera.ray(DVec2::new(column as f64, row as f64));
+                    let ray = camera.ray(DVec2::new(f64::from(column), f64::from(row)));
                     self.trace_ray(bvh, &local, ray, &mut counts);
                 }
                 counts

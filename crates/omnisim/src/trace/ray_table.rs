@@ -53,7 +53,7 @@ impl RayCache {
         }
         // A poisoned lock only means another thread panicked while holding it: the tables
         // are complete or absent, never half made, so they stay usable.
-        let mut tables = self.tables.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let mut tables = self.tables.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if let Some(table) = tables.iter().find(|table| table.camera == *camera) {
             return Some(Arc::clone(table));
         }
@@ -91,7 +91,10 @@ mod tests {
         ];
         for round in 0..2 {
             for (index, camera) in cameras.iter().enumerate() {
-                let pose = Pose::new(dvec3(1.0, 0.5 + 0.1 * round as f64, 0.4), dvec3(0.0, 0.1, index as f64));
+                let pose = Pose::new(
+                    dvec3(1.0, 0.5 + 0.1 * f64::from(round), 0.4),
+                    dvec3(0.0, 0.1, index as f64),
+                );
                 let direct = CpuTracer::Fast.trace(&bvh, camera, &pose);
                 let cached = cache.trace(CpuTracer::Fast, &bvh, camera, &pose);
                 assert_eq!(direct.pixels(), cached.pixels(), "camera {index}, round {round}");

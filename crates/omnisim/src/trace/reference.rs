@@ -132,7 +132,7 @@ pub(crate) fn traverse<C: Counter>(
                 },
             };
         }
-    })
+    });
 }
 
 /// Closest hit with t > `t_min` of a ray given relative to `bvh.offset`, by the reference

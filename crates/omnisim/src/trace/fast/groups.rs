@@ -1,6 +1,6 @@
 //! Triangles four at a time for the fast tracer: a conservative f32 test that only rejects.
 //!
-//! Möller–Trumbore on four triangles in the lanes of `Vec4`s (SSE2 on x86_64, NEON on
+//! Möller–Trumbore on four triangles in the lanes of `Vec4`s (SSE2 on `x86_64`, NEON on
 //! aarch64, scalar elsewhere; glam picks). A lane is rejected only when the f32 result is
 //! wrong by more than a bound on its rounding error; every lane kept goes to the f64 test,
 //! which alone decides hits and distances. So the fast tracer finds exactly the triangles the
@@ -162,7 +162,7 @@ mod tests {
                 // coordinates, a ray not close to its plane.
                 _ if clearly_outside && !grazing && size > 1e-4 * (1.0 + place.length() + distance) => {
                     clear_misses += 1;
-                    kept_clear_misses += kept as usize;
+                    kept_clear_misses += usize::from(kept);
                 }
                 _ => {}
             }

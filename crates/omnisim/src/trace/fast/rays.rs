@@ -80,7 +80,7 @@ impl PacketBounds {
 }
 
 impl<W: Wide> PacketRays<W> {
-    /// The rays (scene-local origin, unit direction, t_min) whose bit is set in `active`
+    /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`
     /// (the others are zero and must stay masked); `scene_extent` as for [`LaneRay::new`].
     pub(crate) fn new(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, scene_extent: f32) -> Self {
         let mut origin = [[0.0f32; PACKET]; 3];

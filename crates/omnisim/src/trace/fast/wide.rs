@@ -267,7 +267,7 @@ fn enter_interval(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, [f3
     (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
 }
 
-/// Slab test of a node's eight boxes, two `Vec4` halves (SSE on x86_64): the lanes entered
+/// Slab test of a node's eight boxes, two `Vec4` halves (SSE on `x86_64)`: the lanes entered
 /// between 0 and `t_hi`, and where.
 #[inline(always)]
 fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
