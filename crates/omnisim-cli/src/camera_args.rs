@@ -1,6 +1,8 @@
 //! Camera options shared by `render`, `bench` and the vision commands, mapped onto the one rig
 //! description ([`RigSpec`]) that data-set specs and `render --rig` files hold too.
 
+use std::path::PathBuf;
+
 use anyhow::bail;
 use clap::{Args, ValueEnum};
 use glam::{DVec3, dvec3};
@@ -10,7 +12,7 @@ use omnisim::camera::{MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSp
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub(crate) enum CameraKind {
-    /// Perspective camera looking along body +x (`OpenCV` optical frame).
+    /// Perspective camera looking along body +x (OpenCV optical frame).
     Pinhole,
     /// Two pinholes --baseline apart on body y (left at +y), with ground-truth disparity.
     Stereo,
@@ -50,11 +52,20 @@ pub(crate) enum MirrorRaysArg {
 
 #[derive(Debug, Clone, PartialEq, Args)]
 pub(crate) struct CameraArgs {
+    /// The camera or stereo rig from a RON file, written as a data-set spec's rig: field
+    /// (README, "Data sets"), e.g. Omni(size: (250, 250), mirror: Hyperbolic(a: 0.04, b: 0.16)),
+    /// instead of the camera options below. render.json records the rig either way.
+    #[arg(long, value_name = "FILE.ron", conflicts_with_all = [
+        "camera", "size", "hfov", "baseline", "vfov", "focal", "mirror", "mirror_a", "mirror_b", "mirror_h",
+        "sphere_radius", "camera_distance", "rim", "max_elevation", "mount", "hidden_centre",
+        "misalign_offset", "misalign_tilt", "mirror_rays",
+    ])]
+    pub rig: Option<PathBuf>,
     /// Vision system to simulate. Options that do not apply to it are refused, and so is a
     /// camera that cannot make an image (the message gives the valid range).
     #[arg(long, value_enum, default_value = "omni")]
     pub camera: CameraKind,
-    /// Image size `WIDTHxHEIGHT` in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250].
+    /// Image size WIDTHxHEIGHT in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250].
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Pinhole/stereo: horizontal field of view in degrees (square pixels, centred principal
@@ -204,6 +215,9 @@ impl CameraArgs {
     /// The rig these options describe, as the one description every command shares: each
     /// option given, the [`defaults`] for the rest.
     pub(crate) fn spec(&self) -> anyhow::Result<RigSpec> {
+        if let Some(path) = &self.rig {
+            return Ok(RigSpec::load(path)?);
+        }
         check_applicable(self)?;
         self.warn_about_radians()?;
         let pinhole = |size| PinholeSpec {

@@ -5,6 +5,10 @@
 
 // Every line goes through `streams`: the print macros panic on a full or closed stream.
 #![deny(clippy::print_stdout, clippy::print_stderr)]
+#![allow(
+    clippy::doc_markdown,
+    reason = "doc comments here are clap's --help text, which shows backticks as they are"
+)]
 
 mod camera_args;
 mod commands;
@@ -106,7 +110,7 @@ fn report_file_size_limits() {
 }
 
 /// Mesa's Vulkan device-select layer looks for a Wayland compositor whenever adapters are
-/// listed, and without `XDG_RUNTIME_DIR` libwayland prints "`XDG_RUNTIME_DIR` is invalid or not set"
+/// listed, and without XDG_RUNTIME_DIR libwayland prints "XDG_RUNTIME_DIR is invalid or not set"
 /// twice. With no runtime dir there is no compositor to find, so an empty private one changes
 /// nothing but the noise. Returns the folder, removed when dropped.
 fn quiet_wayland_probe() -> Option<tempfile::TempDir> {

@@ -4,14 +4,18 @@
 use std::hash::Hasher;
 
 use omnisim::Pose;
+use omnisim::camera::RigSpec;
 use omnisim::output::folder::RunFolder;
 
 use crate::commands::render::RenderArgs;
 
 /// Opens `args.out` for this run, printing what was cleaned up. Two runs are the same run when
-/// the scene file, camera, poses and outputs are; the backend and the output path do not count.
-pub(crate) fn open(args: &RenderArgs, poses: &[Pose]) -> anyhow::Result<RunFolder> {
-    let scene = std::fs::canonicalize(&args.scene).unwrap_or_else(|_| args.scene.clone());
+/// the scene file (its name and bytes), rig, poses and outputs are; the backend, the folders
+/// and the options that spell the same rig do not count.
+pub(crate) fn open(args: &RenderArgs, rig: &RigSpec, poses: &[Pose]) -> anyhow::Result<RunFolder> {
+    let mut scene_digest = Fnv1a::default();
+    scene_digest.write(omnisim::input::read_text(&args.scene, omnisim::input::SCENE_LIMIT)?.as_bytes());
+    let scene_name = args.scene.file_name().unwrap_or_default().to_string_lossy();
     let mut digest = Fnv1a::default();
     for pose in poses {
         for value in pose.position.to_array().into_iter().chain(pose.angles.to_array()) {
@@ -19,9 +23,10 @@ pub(crate) fn open(args: &RenderArgs, poses: &[Pose]) -> anyhow::Result<RunFolde
         }
     }
     let identity = format!(
-        "render scene={} camera={:?} poses={}:{:016x} edge_samples={} ply={} segmentation={} normals={} linear={}",
-        scene.display(),
-        args.camera,
+        "render scene={}:{:016x} rig={} poses={}:{:016x} edge_samples={} ply={} segmentation={} normals={} linear={}",
+        scene_name,
+        scene_digest.finish(),
+        ron::to_string(rig)?,
         poses.len(),
         digest.finish(),
         args.edge_samples,
@@ -30,7 +35,19 @@ pub(crate) fn open(args: &RenderArgs, poses: &[Pose]) -> anyhow::Result<RunFolde
         args.normals,
         args.linear
     );
-    let command: Vec<String> = std::env::args_os().map(|a| a.to_string_lossy().into_owned()).collect();
+    // The program as its name, not the path it was run from.
+    let command: Vec<String> = std::env::args_os()
+        .enumerate()
+        .map(|(i, arg)| {
+            let arg = std::path::PathBuf::from(arg);
+            let shown = if i == 0 {
+                arg.file_name().unwrap_or_default().into()
+            } else {
+                arg.into_os_string()
+            };
+            shown.to_string_lossy().into_owned()
+        })
+        .collect();
     let folder = RunFolder::open(&args.out, &identity, &command.join(" "), args.overwrite)?;
     for note in &folder.notes {
         crate::streams::stderr(format_args!("note: {note}"))?;

@@ -525,7 +525,8 @@ fn describe_and_project_never_write_through_links() {
     assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
 }
 
-/// A render folder's images are read through the camera its render.json records, or refused.
+/// A render folder's images are read through the camera its render.json records: by default,
+/// and a camera given that differs from it is refused.
 #[test]
 fn a_render_folder_is_described_through_its_own_camera_only() {
     let dir = tempfile::tempdir().unwrap();
@@ -550,7 +551,10 @@ fn a_render_folder_is_described_through_its_own_camera_only() {
         ],
         dir.path(),
     );
-    let output = omnisim(&["describe", "r", "-d", "fourier", "--out", "d"], dir.path());
+    let output = omnisim(
+        &["describe", "r", "-d", "fourier", "--mirror", "hyperbolic", "--out", "d"],
+        dir.path(),
+    );
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(
         !output.status.success() && stderr.contains("records a parabolic-catadioptric camera"),
@@ -561,6 +565,12 @@ fn a_render_folder_is_described_through_its_own_camera_only() {
         &["describe", "r", "-d", "fourier", "--mirror", "parabolic", "--out", "d"],
         dir.path(),
     );
+    succeed(&["describe", "r", "-d", "fourier", "--out", "d2"], dir.path());
+    let (given, recorded) = (
+        std::fs::read(dir.path().join("d/r/fourier.npy")).unwrap(),
+        std::fs::read(dir.path().join("d2/r/fourier.npy")).unwrap(),
+    );
+    assert_eq!(given, recorded, "the recorded camera is the one the options give");
 }
 
 /// An output folder that is the images' own folder is refused: a second run would read its
@@ -782,4 +792,57 @@ fn a_render_folders_id_pngs_are_not_images() {
         !output.status.success() && stderr.contains("is not the render.json of an omnisim render"),
         "{stderr}"
     );
+}
+
+/// One rig description: `render --rig FILE.ron` takes a data-set spec's `rig:` text, records it
+/// in render.json, and `describe` rebuilds that camera from render.json with no camera option
+/// (a parabolic mirror, not the default hyperbolic one, so a default camera would differ). The
+/// same rig spelt as flags is the same run; a misspelt field is located.
+#[test]
+fn a_rig_file_renders_is_recorded_and_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    let rig = "Omni(size: (48, 48), mirror: Parabolic(a: 0.04, h: 0.02), max_elevation: Some(10.0))";
+    std::fs::write(dir.path().join("rig.ron"), rig).unwrap();
+    let pose = ["--pose", "0,0,0.4", "--backend", "cpu", "--out", "r"];
+    succeed(
+        &[&["render", "env1.ron", "--rig", "rig.ron"][..], &pose].concat(),
+        dir.path(),
+    );
+    let render: Value = serde_json::from_slice(&std::fs::read(dir.path().join("r/render.json")).unwrap()).unwrap();
+    let recorded = &render["rig"]["Omni"];
+    assert_eq!(recorded["mirror"]["Parabolic"]["h"], 0.02, "{recorded}");
+    assert_eq!(recorded["max_elevation"], 10.0);
+    assert_eq!(
+        render["camera"]["model"], "parabolic-catadioptric",
+        "{}",
+        render["camera"]
+    );
+
+    // The same rig as flags is the same run: the folder takes it without --overwrite.
+    let flags = ["--size", "48x48", "--mirror", "parabolic", "--max-elevation", "10"];
+    succeed(&[&["render", "env1.ron"][..], &flags, &pose].concat(), dir.path());
+
+    succeed(&["describe", "r", "-d", "fourier:k=4", "--out", "d"], dir.path());
+    let sidecar: Value = serde_json::from_slice(&std::fs::read(dir.path().join("d/r/fourier.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["shape"][0], 1, "{sidecar}");
+
+    std::fs::write(
+        dir.path().join("bad.ron"),
+        "Omni(\n  size: (48, 48),\n  mirorr: Parabolic(a: 0.04, h: 0.02))",
+    )
+    .unwrap();
+    let refused = omnisim(
+        &[
+            "render", "env1.ron", "--rig", "bad.ron", "--pose", "0,0,0.4", "--out", "b",
+        ],
+        dir.path(),
+    );
+    let message = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && message.contains("bad.ron:3:3") && message.contains("mirorr"),
+        "{message}"
+    );
+    assert!(!dir.path().join("b").exists(), "a refused rig wrote its folder");
 }

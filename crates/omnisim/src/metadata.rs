@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::camera::{Camera, Catadioptric, MirrorShape};
+use crate::camera::{Camera, Catadioptric, MirrorShape, RigSpec};
 use crate::output;
 use crate::pose::Pose;
 use crate::renderer::{PreparedScene, Renderer};
@@ -21,6 +21,10 @@ pub struct RenderMetadata {
     pub omnisim: &'static str,
     /// Which scene was rendered.
     pub scene: SceneMetadata,
+    /// The rig as it was described (`render --rig` RON, a data-set spec's `rig:`), where it
+    /// was: what `describe` and `project` rebuild the camera from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rig: Option<RigSpec>,
     /// The rig: one camera's parameters, or a stereo pair's.
     pub camera: RigMetadata,
     /// Which backend traced the frames, and why.
@@ -41,6 +45,7 @@ impl RenderMetadata {
                 file: scene.source.clone(),
                 faces: scene.faces.len(),
             },
+            rig: None,
             camera: RigMetadata::of(rig),
             backend,
             conventions: Conventions::of(rig),

@@ -41,7 +41,7 @@ omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --synthetic-tri
 pub(crate) struct BenchArgs {
     /// Scene file (RON), or the name of a scene: `env1`, `env2` (in ./scenes) or an anchor
     /// scene of ../shared/bench (`room`, `clutter`; compare.sh writes them to
-    /// $`BENCH_CACHE`, default ~/.cache/omnisim-bench).
+    /// $BENCH_CACHE, default ~/.cache/omnisim-bench).
     #[arg(default_value = "scenes/env1.ron")]
     pub scene: PathBuf,
     #[command(flatten)]

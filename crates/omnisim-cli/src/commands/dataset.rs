@@ -16,7 +16,7 @@ use crate::progress::Progress;
 /// Render a data set: map and test sets of one scene from one spec file (README, "Data sets").
 ///
 /// Each set gets its own folder under --out, with ground-truth files per frame, noisy copies
-/// (*-noisy.*) where the set has noise, TUM (tum/) and `EuRoC` (mav0/) layouts as asked, and a
+/// (*-noisy.*) where the set has noise, TUM (tum/) and EuRoC (mav0/) layouts as asked, and a
 /// contact sheet (contact-sheet.png); manifest.json lists every file with its SHA-256. A killed run resumes with the same command; --shard
 /// K/N renders every N-th frame from the K-th (0 ≤ K < N); `omnisim dataset merge` then checks
 /// the shards and writes the index files and the manifest.
@@ -37,7 +37,7 @@ pub(crate) struct DatasetArgs {
     /// Output folder (created if missing); holds one spec's data set.
     #[arg(long, required = true)]
     pub out: Option<PathBuf>,
-    /// Render only slice K of N (0 ≤ K < N): $`SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT`, $`JOB_COMPLETION_INDEX/N`.
+    /// Render only slice K of N (0 ≤ K < N): $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT, $JOB_COMPLETION_INDEX/N.
     #[arg(long)]
     pub shard: Option<Shard>,
     /// Remove another spec's data set from --out first (only the files it recorded).

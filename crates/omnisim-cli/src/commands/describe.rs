@@ -70,7 +70,7 @@ pub(crate) struct DescribeArgs {
     /// Output folder (created if missing); one sub-folder per set.
     #[arg(long)]
     pub out: PathBuf,
-    /// Size of the panorama resampled from omnidirectional images, `WIDTHxHEIGHT`.
+    /// Size of the panorama resampled from omnidirectional images, WIDTHxHEIGHT.
     #[arg(long, default_value = "512x128", value_parser = parse_size)]
     pub panorama: (u32, u32),
     /// Elevations the panorama spans, degrees, LOW:HIGH.

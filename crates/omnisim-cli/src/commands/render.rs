@@ -61,9 +61,9 @@ impl From<BackendArg> for BackendChoice {
 /// ray origin, channel "Y", header quantity "range", +inf = no hit) and <scene>-N.ply (binary
 /// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16
 /// bit) and -depth.exr (z, metres); a stereo rig writes -left and -right of each and
-/// -disparity.exr. Once per run: calibration-*.yaml (`OpenCV` and Kalibr, where the model has a standard form),
+/// -disparity.exr. Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
 /// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
-/// qw, `world_from_body`) and render.json (camera, conventions, backend, every pose).
+/// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
 ///
 /// A folder holds one run: omnisim-run.txt lists the run and its files, a re-run of the same
 /// command replaces them, and another run is refused unless --overwrite.
@@ -143,7 +143,8 @@ impl From<ExrCompressionArg> for ExrCompression {
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     omnisim::input::check_regular(&args.scene, omnisim::input::SCENE_LIMIT)?;
-    let rig = args.camera.build()?;
+    let rig_spec = args.camera.spec()?;
+    let rig = rig_spec.build()?;
     let views = rig.views();
     let mut poses = args.poses.clone();
     if let Some(file) = &args.poses_file {
@@ -168,7 +169,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .check_scene(&scene)
         .map_err(|message| anyhow::anyhow!("--segmentation: {message}"))?;
     // The output folder is checked before the BVH is built: a refused folder says so at once.
-    let mut run = crate::run_folder::open(args, &poses)?;
+    let mut run = crate::run_folder::open(args, &rig_spec, &poses)?;
     let mut renderer = Renderer::new(args.backend.into())?;
     renderer.set_cpu_tracer(args.tracer.into());
     let prepared = renderer.prepare(&scene)?;
@@ -189,6 +190,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     let mut progress = Progress::new("poses");
     let mut metadata = RenderMetadata::new(&scene, &rig, BackendMetadata::of(&renderer, &prepared));
+    metadata.rig = Some(rig_spec);
     let render_started = Instant::now();
     let stem = scene.file_stem();
     for (index, pose) in poses.iter().enumerate() {

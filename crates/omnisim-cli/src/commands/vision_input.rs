@@ -32,7 +32,8 @@ pub(crate) struct InputArgs {
     #[arg(long)]
     pub noisy: bool,
     /// Image folders: the camera that took the images, as `omnisim render` gives it
-    /// (`--size` defaults to the images' size). Data sets take it from their manifest.
+    /// (--size defaults to the images' size). A render folder's render.json gives it when no
+    /// camera option is given; data sets take it from their manifest.
     #[command(flatten)]
     pub camera: CameraArgs,
 }
@@ -234,14 +235,26 @@ impl InputArgs {
         let Some(first) = paths.first() else {
             bail!("{} holds no PNG image", self.input.display());
         };
-        let mut camera_args = self.camera.clone();
-        if camera_args.size.is_none() {
-            let (w, h) = image_size(first)?;
-            camera_args.size = Some((w, h));
-        }
-        let camera = match camera_args.build()? {
-            Rig::Single(camera) => camera,
-            Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
+        let recorded_rig = render
+            .as_ref()
+            .and_then(|r| r.rig.as_ref())
+            .filter(|_| !self.camera_given());
+        let camera = if let Some(rig) = recorded_rig {
+            // The rig render.json records: the camera its colour images (a pair's left) came from.
+            match rig.build().context("the camera render.json records")? {
+                Rig::Single(camera) => camera,
+                Rig::Stereo(stereo) => Camera::Pinhole(stereo.camera),
+            }
+        } else {
+            let mut camera_args = self.camera.clone();
+            if camera_args.size.is_none() {
+                let (w, h) = image_size(first)?;
+                camera_args.size = Some((w, h));
+            }
+            match camera_args.build()? {
+                Rig::Single(camera) => camera,
+                Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
+            }
         };
         if let Some(render) = &render {
             self.check_render_camera(render, &camera)?;
@@ -299,6 +312,9 @@ const RENDER_RECORD: &str = "render.json";
 /// The part of render.json read here.
 #[derive(Deserialize)]
 struct RenderView {
+    /// The rig as described, in renders since it was recorded.
+    #[serde(default)]
+    rig: Option<RigSpec>,
     camera: serde_json::Value,
     frames: Vec<RenderFrameView>,
 }

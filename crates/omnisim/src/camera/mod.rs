@@ -18,7 +18,9 @@ pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Moun
 pub use cylindrical::Cylindrical;
 pub use equirect::Equirectangular;
 pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
-pub use spec::{MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigSpec, RigSpecError, StereoSpec};
+pub use spec::{
+    MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec, RigSpecError, StereoSpec,
+};
 pub use stereo::StereoRig;
 pub use validate::{CameraError, MAX_PIXELS};
 

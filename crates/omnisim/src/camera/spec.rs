@@ -4,6 +4,8 @@
 //! the one place that turns it into a [`Rig`]. The command-line flags map onto it; a camera
 //! model added later is added here.
 
+use std::path::{Path, PathBuf};
+
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -11,6 +13,7 @@ use super::{
     Camera, CameraError, Catadioptric, Cylindrical, Equirectangular, MirrorRays, MirrorShape, Misalignment, Mount,
     Pinhole, StereoRig,
 };
+use crate::input::{InputError, locate, read_text, ron_options, without_bom};
 use crate::rig::Rig;
 
 /// The defaults every reader of a [`RigSpec`] shares (the command line, spec files, the
@@ -265,7 +268,51 @@ pub enum RigSpecError {
     Camera(#[from] CameraError),
 }
 
+/// Why a rig file (`render --rig FILE.ron`) was not read.
+#[derive(Debug, thiserror::Error)]
+pub enum RigFileError {
+    /// Not a readable regular file of at most [`RIG_FILE_LIMIT`] bytes.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// Not a rig in RON.
+    #[error(
+        "{}:{line}:{column}: {message}; the file holds one rig as a data-set spec's `rig:` does, e.g. \
+         Omni(size: (250, 250), mirror: Hyperbolic(a: 0.04, b: 0.16))",
+        path.display()
+    )]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the error.
+        line: usize,
+        /// 1-based column of the error.
+        column: usize,
+        /// What is wrong, with the field it falls in.
+        message: String,
+    },
+}
+
+/// Largest rig file read: a rig is a few lines.
+pub const RIG_FILE_LIMIT: u64 = 1 << 20;
+
 impl RigSpec {
+    /// Reads a rig written in RON, as a data-set spec's `rig:` field holds it.
+    pub fn load(path: &Path) -> Result<Self, RigFileError> {
+        let text = read_text(path, RIG_FILE_LIMIT)?;
+        let text = without_bom(&text);
+        ron_options().from_str(text).map_err(|e| {
+            let field = locate::field_of_error(text, &e)
+                .map(|field| format!("{field}: "))
+                .unwrap_or_default();
+            RigFileError::Parse {
+                path: path.to_path_buf(),
+                line: e.span.start.line,
+                column: e.span.start.col,
+                message: format!("{field}{}", e.code),
+            }
+        })
+    }
+
     /// The camera or rig this describes, checked by `validate` (what `Renderer::render`
     /// would refuse is refused here, with the same message).
     pub fn build(&self) -> Result<Rig, RigSpecError> {
