@@ -7,11 +7,10 @@ use std::path::Path;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::dvec3;
-use omnisim::accel::SceneBvh;
-use omnisim::{
-    BackendChoice, Camera, Catadioptric, CpuTracer, Equirectangular, Pinhole, Planes, Pose, PreparedScene, Renderer,
-    Scene,
-};
+use omnisim::advanced::CpuTracer;
+use omnisim::advanced::SceneBvh;
+use omnisim::camera::{Catadioptric, Equirectangular, Pinhole};
+use omnisim::{BackendChoice, Camera, Planes, Pose, PreparedScene, Renderer, Scene};
 
 fn env1() -> Scene {
     Scene::load(Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/env1.ron")).expect("env1 loads")

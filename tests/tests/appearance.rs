@@ -6,9 +6,12 @@
 mod common;
 
 use glam::dvec3;
-use omnisim::accel::SceneBvh;
-use omnisim::gpu::GpuRenderer;
-use omnisim::{Appearance, Camera, Equirectangular, LightKind, Planes, Pose, Scene};
+use omnisim::advanced::Appearance;
+use omnisim::advanced::GpuRenderer;
+use omnisim::advanced::SceneBvh;
+use omnisim::camera::Equirectangular;
+use omnisim::scene::lighting::LightKind;
+use omnisim::{Camera, Planes, Pose, Scene};
 
 /// env1-lit with the table repainted, the ceiling lamp moved and dimmed, the desk lamp off,
 /// more ambient light and another exposure.

@@ -7,10 +7,11 @@ mod common;
 use std::f64::consts::PI;
 
 use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
 use omnisim::camera::MirrorShape;
+use omnisim::camera::{Catadioptric, Equirectangular, Pinhole};
 use omnisim::pose::rotation_xyz;
-use omnisim::{Camera, Catadioptric, Equirectangular, Pinhole, Pose, trace};
+use omnisim::{Camera, Pose, advanced as trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Eqs. (8)–(11) of the reference paper, row by row.

@@ -11,9 +11,11 @@ mod common;
 use std::f64::consts::PI;
 
 use glam::{DMat3, DVec2, DVec3, dvec3};
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::CpuTracer;
+use omnisim::advanced::SceneBvh;
+use omnisim::camera::Equirectangular;
 use omnisim::scene::{Face, SceneObject};
-use omnisim::{Camera, CpuTracer, Equirectangular, Pose, Scene, trace};
+use omnisim::{Camera, Pose, Scene, advanced as trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Least share of image pixels on which the fast tracer must name the reference's face.

@@ -4,10 +4,10 @@
 mod common;
 
 use glam::dvec3;
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
 use omnisim::output::ExrCompression;
 use omnisim::scene::ExportFormat;
-use omnisim::{Pose, output, trace};
+use omnisim::{Pose, advanced as trace, output};
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, Property};
 
@@ -197,7 +197,7 @@ fn failed_write_leaves_nothing_behind() {
 fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let pinhole = omnisim::Pinhole::with_horizontal_fov(160, 120, 90f64.to_radians());
+    let pinhole = omnisim::camera::Pinhole::with_horizontal_fov(160, 120, 90f64.to_radians());
     let pose = Pose::from_degrees(dvec3(-2.0, 0.3, 0.5), dvec3(0.0, 10.0, 20.0));
     let frame = trace::trace(&bvh, &omnisim::Camera::Pinhole(pinhole.clone()), &pose);
     let mut depth = pinhole.axial_depth(&frame, &pose);
@@ -333,7 +333,7 @@ fn linear_colour_exr_reads_back_and_encodes_to_the_png_colour() {
         }
     }
     for (l, c) in linear.iter().zip(frame.colour().unwrap()) {
-        assert_eq!(omnisim::shade::encode(glam::Vec3::from_array(*l).as_dvec3()), *c);
+        assert_eq!(omnisim::advanced::encode(glam::Vec3::from_array(*l).as_dvec3()), *c);
     }
 }
 

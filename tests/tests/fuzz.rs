@@ -9,7 +9,8 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 
 use glam::DVec3;
-use omnisim::{BackendChoice, Camera, Equirectangular, Planes, Pose, Renderer, Scene, SceneError};
+use omnisim::camera::Equirectangular;
+use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene, SceneError};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

@@ -7,8 +7,8 @@
 mod common;
 
 use glam::{DVec2, dvec3};
-use omnisim::accel::SceneBvh;
-use omnisim::{Camera, Planes, Pose, trace};
+use omnisim::advanced::SceneBvh;
+use omnisim::{Camera, Planes, Pose, advanced as trace};
 
 /// Whether the camera's ray for this pixel meets the mirror within 5° of grazing.
 fn grazes_the_mirror(camera: &Camera, pixel: DVec2) -> bool {
@@ -126,9 +126,9 @@ fn gpu_edge_supersampling_matches_the_f64_reference() {
     };
     for camera in [Camera::Catadioptric(common::paper_omni()), common::cameras()[0].clone()] {
         let reference = antialiased(&cpu, &camera);
-        let refined = omnisim::shade::antialias::edge_pixels(&reference).len();
+        let refined = omnisim::advanced::edge_pixels(&reference).len();
         let frame = antialiased(&gpu, &camera);
-        assert_eq!(omnisim::shade::antialias::edge_pixels(&frame).len(), refined);
+        assert_eq!(omnisim::advanced::edge_pixels(&frame).len(), refined);
         let close = reference
             .colour()
             .unwrap()

@@ -9,11 +9,11 @@ use std::path::Path;
 
 use common::Tracer;
 use glam::{DMat3, DVec3, Vec3, dvec3};
-use omnisim::accel::SceneBvh;
-use omnisim::scene::lighting::linear_rgb;
-use omnisim::{
-    Appearance, Camera, CpuTracer, Equirectangular, Frame, Pinhole, Pixel, Plane, Planes, Pose, Scene, shade, trace,
-};
+use omnisim::advanced::SceneBvh;
+use omnisim::advanced::linear_rgb;
+use omnisim::advanced::{Appearance, CpuTracer, Pixel};
+use omnisim::camera::{Equirectangular, Pinhole};
+use omnisim::{Camera, Frame, Plane, Planes, Pose, Scene, advanced as shade, advanced as trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// 8-bit and linear colour.
@@ -750,7 +750,7 @@ fn lit_rooms_are_the_reference_rooms_with_lamps_in_free_space() {
         };
         let mut rng = StdRng::seed_from_u64(3);
         for light in &lighting.lights {
-            let omnisim::LightKind::Point { position, .. } = light.kind else {
+            let omnisim::scene::lighting::LightKind::Point { position, .. } = light.kind else {
                 panic!("{lit_name}: {} is not a point light", light.name);
             };
             // Not inside furniture: straight up is the ceiling; not on a face: every one of

@@ -10,9 +10,10 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use glam::{DVec2, DVec3, dvec2, dvec3};
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
+use omnisim::camera::{Catadioptric, Cylindrical, Pinhole, StereoRig};
 use omnisim::camera::{MirrorShape, Mount};
-use omnisim::{Camera, Catadioptric, Cylindrical, Frame, Pinhole, Pose, Scene, StereoRig, calibration, output, trace};
+use omnisim::{Camera, Frame, Pose, Scene, advanced as trace, calibration, output};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Mei's unified model, (ξ, γ) from the mirror's closed forms (DESIGN.md §3).

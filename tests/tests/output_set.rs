@@ -7,11 +7,11 @@ use std::collections::BTreeSet;
 use std::path::PathBuf;
 
 use glam::dvec3;
+use omnisim::camera::{Pinhole, StereoRig};
 use omnisim::metadata::BackendMetadata;
+use omnisim::output::FrameTarget;
 use omnisim::output::folder::{MANIFEST_NAME, RunFolder};
-use omnisim::{
-    BackendChoice, Camera, FrameTarget, OutputSet, Pinhole, Planes, Pose, RenderMetadata, Renderer, Rig, StereoRig,
-};
+use omnisim::{BackendChoice, Camera, OutputSet, Planes, Pose, RenderMetadata, Renderer, Rig};
 
 fn everything() -> OutputSet {
     OutputSet {

@@ -18,10 +18,11 @@ use std::f64::consts::TAU;
 use std::path::Path;
 
 use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
 use omnisim::camera::MirrorRays;
+use omnisim::camera::{Catadioptric, Equirectangular, Pinhole};
 use omnisim::pose::rotation_xyz;
-use omnisim::{Camera, Catadioptric, Equirectangular, Frame, Pinhole, Pose, Scene, trace};
+use omnisim::{Camera, Frame, Pose, Scene, advanced as trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 /// Pixel radius of `common::paper_omni`'s rim circle: half the shorter image side.

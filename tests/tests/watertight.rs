@@ -6,8 +6,10 @@ mod common;
 use std::f64::consts::PI;
 
 use glam::dvec3;
-use omnisim::accel::SceneBvh;
-use omnisim::{Camera, CpuTracer, Equirectangular, Pose};
+use omnisim::advanced::CpuTracer;
+use omnisim::advanced::SceneBvh;
+use omnisim::camera::Equirectangular;
+use omnisim::{Camera, Pose};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 fn random_poses(scene: &omnisim::Scene, count: usize, seed: u64) -> Vec<Pose> {

@@ -1,7 +1,7 @@
 //! Warnings about renders that succeed but are probably not what was meant: poses outside the
 //! scene or inside furniture, and images that see nothing.
 
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
 use omnisim::pose_sets::{Misplaced, misplaced};
 use omnisim::{Frame, Pose, Scene};
 
@@ -37,7 +37,7 @@ pub(crate) fn misplaced_poses(scene: &Scene, geometry: &SceneBvh, poses: &[Pose]
 
 /// Warns when a rendered image sees nothing (its point cloud would be empty).
 pub(crate) fn empty_frame(index: usize, view: &str, frame: &Frame) -> anyhow::Result<()> {
-    if !frame.pixels().iter().any(omnisim::Pixel::is_hit) {
+    if !frame.pixels().iter().any(omnisim::advanced::Pixel::is_hit) {
         crate::streams::stderr(format_args!(
             "warning: pose {index}{view} sees nothing: the image is black and the point cloud empty"
         ))?;

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use omnisim::Catadioptric;
+use omnisim::camera::Catadioptric;
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::hog::{PanoramicHogParams, panoramic_hog};
 use omnisim_vision::radon::{Radon, RadonParams};

@@ -9,9 +9,9 @@ use serde::Serialize;
 
 use super::rng::{Purpose, stream};
 use super::spec::{ColourChange, LightChange, SetSpec};
+use omnisim::advanced::Appearance;
 use omnisim::scene::Scene;
 use omnisim::scene::lighting::{LightKind, linear_rgb};
-use omnisim::shade::Appearance;
 
 /// What a frame's lights and colours were, for its manifest entry.
 #[derive(Debug, Clone, PartialEq, Serialize)]

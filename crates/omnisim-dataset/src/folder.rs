@@ -7,8 +7,8 @@ use super::contact_sheet::CONTACT_SHEET;
 use super::manifest::{FileEntry, FrameEntry, SetEntry, Stamp, inside, sha256_hex, to_json};
 use super::{Dataset, DatasetError, SetPlan};
 use crate::files::{ENTRIES, MANIFEST, SET_ENTRY, STAMP, entry_path, io, read_entry_paths, write_file};
+use omnisim::Renderer;
 use omnisim::output::{self, atomic};
-use omnisim::renderer::Renderer;
 
 /// Creates `dir` and removes the temporaries a killed run left there.
 pub(crate) fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {

@@ -12,9 +12,9 @@ use glam::{DMat3, DQuat, DVec3};
 
 use super::manifest::FrameEntry;
 use super::spec::LayoutSpec;
+use omnisim::Rig;
 use omnisim::camera::BODY_FROM_OPTICAL;
 use omnisim::camera::Camera;
-use omnisim::rig::Rig;
 
 /// Which sensor image a layout file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

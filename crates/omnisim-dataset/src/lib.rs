@@ -5,6 +5,31 @@
 //! [`Dataset::run`] renders the frames of a shard into a folder (`run.rs`), each frame done
 //! once its entry is written; [`merge`] checks a folder's frames and writes the index files
 //! and `manifest.json`. Every random draw comes from (seed, set, frame) alone (`rng.rs`).
+//!
+//! A data set written from code: a map of four omnidirectional frames along a line in the
+//! reference paper's first room, and the manifest read back.
+//!
+//! ```
+//! use std::ops::ControlFlow;
+//! use omnisim::{BackendChoice, Renderer};
+//! use omnisim_dataset::{Dataset, RunOptions, manifest::Manifest};
+//!
+//! let folder = tempfile::tempdir()?;
+//! let scenes = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes");
+//! std::fs::copy(format!("{scenes}/env1.ron"), folder.path().join("env1.ron"))?;
+//! let spec = r#"Dataset(
+//!     scene: "env1.ron",
+//!     rig: Omni(size: (64, 64), mirror: Hyperbolic(a: 0.04, b: 0.16)),
+//!     sets: [Set(name: "map", poses: Trajectory(through: [(-2.0, -0.9, 0.4), (2.0, -0.9, 0.4)], count: 4))],
+//! )"#;
+//! let dataset = Dataset::from_text(spec.to_string(), &folder.path().join("spec.ron"))?;
+//! let renderer = Renderer::new(BackendChoice::Cpu)?;
+//! let out = folder.path().join("data");
+//! dataset.run(&renderer, &out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()))?;
+//! let manifest = Manifest::read(&out.join("manifest.json"))?;
+//! assert_eq!(manifest.sets[0].frame_entries.len(), 4);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod appearance;
 mod contact_sheet;
@@ -32,7 +57,7 @@ pub use run::{FrameDone, RunOptions, RunSummary, Shard};
 
 use occluders::Occluder;
 use omnisim::Rig;
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
 use omnisim::pose::Pose;
 use omnisim::pose_sets::{self, Misplaced, RandomPoses};
 use omnisim::scene::Scene;
@@ -66,7 +91,7 @@ pub enum DatasetError {
     Scene(#[from] omnisim::scene::SceneError),
     /// Rendering failed.
     #[error(transparent)]
-    Render(#[from] omnisim::renderer::RenderError),
+    Render(#[from] omnisim::RenderError),
     /// Writing an output failed.
     #[error(transparent)]
     Output(#[from] omnisim::output::OutputError),
@@ -328,7 +353,9 @@ impl Dataset {
         let scene_text = omnisim::input::read_text(&scene_path, omnisim::input::SCENE_LIMIT)?;
         let mut scene = Scene::from_ron(&scene_text, &scene_path)?;
         scene.source = Some(scene_path.clone());
-        spec.outputs.check_scene(&scene).map_err(|m| top("outputs", m))?;
+        spec.outputs
+            .check_scene(&scene)
+            .map_err(|e| top("outputs", e.to_string()))?;
         let bvh = SceneBvh::build(&scene);
         let mut warnings = scene.warnings.clone();
         let mut sets = Vec::with_capacity(spec.sets.len());

@@ -13,7 +13,7 @@ use super::manifest::{
 };
 use crate::files::{ENTRIES, MANIFEST, SET_ENTRY, STAMP, entry_path, io, read_entry_paths, read_json, write_file};
 use crate::folder::{describe, prepare_dir, prepare_subdir, read_stamp, refuse_unrecorded, same_renderer};
-use omnisim::rig::Rig;
+use omnisim::Rig;
 
 /// What `merge` found.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -11,7 +11,7 @@ use rand::Rng;
 use serde::Serialize;
 
 use super::spec::{OccluderShape, OccluderSpec};
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
 use omnisim::pose_sets::{Misplaced, misplaced};
 use omnisim::scene::{Face, Scene, SceneObject};
 
@@ -330,7 +330,7 @@ mod tests {
                 // Inside the room: a ray up from its top meets the ceiling above.
                 let centre = occluder.footprint.iter().sum::<DVec2>() / occluder.footprint.len() as f64;
                 let above =
-                    omnisim::trace::closest_hit(&bvh, centre.extend(occluder.top) - bvh.offset(), DVec3::Z, 0.0);
+                    omnisim::advanced::closest_hit(&bvh, centre.extend(occluder.top) - bvh.offset(), DVec3::Z, 0.0);
                 assert!(above.is_some(), "seed {seed}: nothing above {occluder:?}");
             }
             let scene = with_occluders(&scene, &placed);

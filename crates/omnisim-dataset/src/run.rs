@@ -28,7 +28,7 @@ use crate::merge::assemble;
 use crate::write::RenderedFrame;
 use omnisim::frame::{Frame, Plane};
 use omnisim::output::{PlainFolder, SegmentationLegend};
-use omnisim::renderer::{PreparedScene, Renderer};
+use omnisim::{PreparedScene, Renderer};
 
 /// Slice `index` (from 0) of `count` disjoint slices: frame n of the data set (counted over
 /// every set in spec order) belongs to slice n mod count.

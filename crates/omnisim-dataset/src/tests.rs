@@ -745,7 +745,7 @@ fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
     let dataset = Dataset::load(&spec).unwrap();
     let renderer = cpu();
     let mut prepared = renderer.prepare(&dataset.scene).unwrap();
-    let camera = omnisim::Camera::Pinhole(omnisim::Pinhole::with_horizontal_fov(64, 48, 1.5));
+    let camera = omnisim::Camera::Pinhole(omnisim::camera::Pinhole::with_horizontal_fov(64, 48, 1.5));
     let pose = omnisim::Pose::from_degrees(dvec3(-1.0, -0.5, 1.2), dvec3(0.0, 20.0, 30.0));
     let on = renderer
         .render(
@@ -775,7 +775,7 @@ fn switching_a_lamp_off_changes_exactly_the_pixels_it_lit() {
             let towards = (lamp - hit.point).normalize();
             let facing = hit.normal.as_dvec3().dot(towards) > 0.0;
             let origin = hit.point - bvh.offset() + hit.normal.as_dvec3() * 1e-7;
-            facing && !omnisim::trace::occluded(bvh, origin, towards, (lamp - hit.point).length(), hit.face)
+            facing && !omnisim::advanced::occluded(bvh, origin, towards, (lamp - hit.point).length(), hit.face)
         };
         assert_eq!(changed, lamp_lights_it, "pixel {i}");
         if changed {

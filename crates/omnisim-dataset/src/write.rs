@@ -12,10 +12,10 @@ use super::occluders::Occluder;
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, noise};
 use crate::files::{entry_path, write_file};
+use omnisim::Rig;
 use omnisim::camera::Camera;
 use omnisim::frame::Frame;
 use omnisim::output::{self, FrameTarget, PlainFolder, SegmentObject};
-use omnisim::rig::Rig;
 
 impl Dataset {
     /// Writes a rendered frame's files (ground truth, noisy copies, layouts), then its entry;
@@ -87,7 +87,7 @@ impl Dataset {
                         .pixels()
                         .iter()
                         .zip(values)
-                        .map(|(p, range)| omnisim::Pixel { range, ..*p })
+                        .map(|(p, range)| omnisim::advanced::Pixel { range, ..*p })
                         .collect();
                     let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
                     output::write_range_exr(

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::dvec3;
-use omnisim::{BackendChoice, Camera, Catadioptric, Planes, Pose, Renderer, Scene};
+use omnisim::camera::Catadioptric;
+use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene};
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::gist::{GistParams, gist};
 use omnisim_vision::hog::{

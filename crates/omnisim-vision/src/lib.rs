@@ -11,6 +11,31 @@
 //!
 //! It depends on omnisim's cameras, not on its renderer: any image with a calibration works,
 //! rendered or real.
+//!
+//! A descriptor computed on a rendered image: the Fourier signature of the panorama resampled
+//! from the reference paper's omnidirectional camera.
+//!
+//! ```
+//! use omnisim::camera::Catadioptric;
+//! use omnisim::glam::dvec3;
+//! use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene};
+//! use omnisim_vision::fourier::{FourierParams, FourierSignature};
+//! use omnisim_vision::{Interpolation, Raster, Remap, View};
+//!
+//! let scene = Scene::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"))?;
+//! let renderer = Renderer::new(BackendChoice::Cpu)?;
+//! let omni = Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()));
+//! let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
+//! let frame = renderer.render(&renderer.prepare(&scene)?, &Camera::Catadioptric(omni.clone()), &pose, Planes::COLOUR)?;
+//! let (width, height) = (frame.width as usize, frame.height as usize);
+//! let image = Raster::from_rgb8(width, height, frame.colour().unwrap())?.to_grey();
+//! // A 256 × 64 cylindrical panorama from 45° below to 15° above the horizon.
+//! let view = View::panorama(256, 64, (-45f64).to_radians(), 15f64.to_radians())?;
+//! let panorama = Remap::new(&omni, &view)?.apply(&image, Interpolation::Bicubic)?;
+//! let signature = FourierSignature::new(&panorama, FourierParams { coefficients: 16 })?;
+//! assert_eq!(signature.magnitudes().len(), 64 * 16);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod accuracy;
 pub mod chart;

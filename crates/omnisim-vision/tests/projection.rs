@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use glam::dvec3;
-use omnisim::{BackendChoice, Camera, Catadioptric, Planes, Pose, Renderer, Scene};
+use omnisim::camera::Catadioptric;
+use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene};
 use omnisim_vision::accuracy::{chart_pose, chart_views, colour_error, point_displacements, sample_points};
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 

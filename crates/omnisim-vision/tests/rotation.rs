@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use glam::{DVec3, dvec3};
-use omnisim::{BackendChoice, Camera, Catadioptric, Cylindrical, Planes, Pose, PreparedScene, Renderer, Scene};
+use omnisim::camera::{Catadioptric, Cylindrical};
+use omnisim::{BackendChoice, Camera, Planes, Pose, PreparedScene, Renderer, Scene};
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::gist::{GistParams, gist};
 use omnisim_vision::hog::{PanoramicHogParams, VerticalHogParams, panoramic_hog, vertical_hog, vertical_hog_rotation};

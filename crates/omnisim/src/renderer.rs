@@ -342,7 +342,8 @@ impl Renderer {
         &self.reason
     }
 
-    /// How many BVHs this renderer has built (one per [`Renderer::prepare`]).
+    /// How many BVHs this renderer has built (one per [`Renderer::prepare`]): a test counter.
+    #[cfg(feature = "test-counters")]
     pub fn geometry_builds(&self) -> usize {
         self.geometry_builds.load(Ordering::Relaxed)
     }

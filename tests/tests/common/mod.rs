@@ -4,12 +4,11 @@
 use std::path::PathBuf;
 
 use glam::{DMat3, DVec3, dvec3};
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::CpuTracer;
+use omnisim::advanced::SceneBvh;
+use omnisim::camera::{Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
-use omnisim::{
-    BackendChoice, Camera, Catadioptric, CpuTracer, Cylindrical, Equirectangular, Frame, Pinhole, Planes, Pose,
-    PreparedScene, RenderError, Renderer, Scene, StereoRig,
-};
+use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, RenderError, Renderer, Scene};
 
 pub(crate) fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name)

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 use glam::{DVec3, dvec3};
-use omnisim::accel::SceneBvh;
+use omnisim::advanced::SceneBvh;
 use omnisim::output::atomic::write_atomically;
 use omnisim::pose_sets::{self, RandomPoses};
 use omnisim::{Pose, Scene};

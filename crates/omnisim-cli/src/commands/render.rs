@@ -5,9 +5,11 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use omnisim::advanced::CpuTracer;
 use omnisim::metadata::BackendMetadata;
 use omnisim::output::ExrCompression;
-use omnisim::{BackendChoice, CpuTracer, FrameTarget, OutputSet, Pose, RenderMetadata, Renderer, Scene};
+use omnisim::output::FrameTarget;
+use omnisim::{BackendChoice, OutputSet, Pose, RenderMetadata, Renderer, Scene};
 
 use crate::camera_args::CameraArgs;
 use crate::poses::{parse_pose, read_pose_file};

@@ -6,9 +6,10 @@ use std::time::Instant;
 
 use anyhow::Context;
 use glam::dvec3;
+use omnisim::advanced::CpuTracer;
 use omnisim::camera::MirrorRays;
 use omnisim::output::atomic::write_atomically;
-use omnisim::{BackendChoice, Camera, CpuTracer, Frame, Planes, Pose, PreparedScene, Renderer, Scene};
+use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, Renderer, Scene};
 use serde_json::json;
 
 use omnisim_vision::chart::{Point, scatter};
@@ -91,7 +92,7 @@ pub(crate) fn run(scene: &Scene, camera: &Camera, pose: &Pose, runs: usize, char
     {
         // The reference paper's shortcut, on the aligned mirror and on a camera 1 mm off the
         // focus (where it is refused by validate(), and measured here to show why).
-        let shortcut = Camera::Catadioptric(omnisim::Catadioptric {
+        let shortcut = Camera::Catadioptric(omnisim::camera::Catadioptric {
             rays: MirrorRays::Shortcut,
             ..mirror.clone()
         });

@@ -211,7 +211,7 @@ impl Catadioptric {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Equirectangular, camera::Mount};
+    use crate::camera::{Equirectangular, Mount};
     use glam::dvec3;
 
     fn paper() -> Catadioptric {

@@ -64,7 +64,9 @@ impl GpuRenderer {
         }
     }
 
-    /// Compute pipelines compiled by this process so far (every `GpuRenderer` adds three).
+    /// Compute pipelines compiled by this process so far (every `GpuRenderer` adds three): a
+    /// test counter.
+    #[cfg(feature = "test-counters")]
     pub fn pipelines_built() -> usize {
         PIPELINES_BUILT.load(Ordering::Relaxed)
     }

@@ -50,19 +50,55 @@ pub fn range_convention(camera: &Camera) -> &'static str {
 
 /// A file that could not be written, and why; nothing is left at `path`.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot write {}: {message}", path.display())]
+#[error("cannot write {}: {problem}", path.display())]
 pub struct OutputError {
     /// The file.
     pub path: PathBuf,
     /// What went wrong.
-    pub message: String,
+    #[source]
+    pub problem: OutputProblem,
+}
+
+/// Why a file could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputProblem {
+    /// The system refused, or an encoder failed.
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// The run's folder refused the name (another run's file, a link).
+    #[error(transparent)]
+    Folder(#[from] folder::FolderError),
+    /// The frame lacks the plane the file is made from.
+    #[error("the frame has no {plane} plane (render it with {request})")]
+    MissingPlane {
+        /// The plane, as the user knows it.
+        plane: &'static str,
+        /// What to ask the renderer for.
+        request: &'static str,
+    },
+    /// An object or face id beyond what a 16-bit segmentation image holds.
+    #[error(
+        "id {id} does not fit a 16-bit segmentation image (at most {})",
+        planes::MAX_SEGMENT_ID
+    )]
+    IdTooLarge {
+        /// The id.
+        id: u32,
+    },
+}
+
+impl OutputError {
+    /// `problem` at `path`.
+    pub(crate) fn at(path: &Path, problem: impl Into<OutputProblem>) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            problem: problem.into(),
+        }
+    }
 }
 
 fn failed(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {
-    move |e| OutputError {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
+    move |e| OutputError::at(path, e)
 }
 
 /// The PNG encoder of every per-frame image: fast deflate (fdeflate) with adaptive filters.
@@ -78,9 +114,14 @@ pub(crate) fn png_encoder<W: std::io::Write>(out: W) -> image::codecs::png::PngE
 
 /// 8-bit sRGB PNG of the frame's colour plane; background black.
 pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
-    let colour = frame.colour().ok_or_else(|| OutputError {
-        path: path.to_path_buf(),
-        message: "the frame has no colour plane (render it with Planes::COLOUR)".into(),
+    let colour = frame.colour().ok_or_else(|| {
+        OutputError::at(
+            path,
+            OutputProblem::MissingPlane {
+                plane: "colour",
+                request: "Planes::COLOUR",
+            },
+        )
     })?;
     let bytes: Vec<u8> = colour.iter().flatten().copied().collect();
     write_atomically(path, |out| {

@@ -6,7 +6,7 @@ use std::path::Path;
 use image::ImageEncoder;
 use serde::Serialize;
 
-use super::{ExrCompression, OutputError, failed, write_exr};
+use super::{ExrCompression, OutputError, OutputProblem, failed, write_exr};
 use crate::frame::{Frame, NO_FACE};
 use crate::output::atomic::write_atomically;
 use crate::scene::Scene;
@@ -81,10 +81,7 @@ impl SegmentationLegend {
 /// 16-bit grey PNG of ids (0 = background). Refuses ids a 16-bit image cannot hold.
 pub fn write_id_png(path: &Path, size: (u32, u32), ids: &[u32]) -> Result<(), OutputError> {
     if let Some(&id) = ids.iter().find(|&&id| id > MAX_SEGMENT_ID) {
-        return Err(OutputError {
-            path: path.to_path_buf(),
-            message: format!("id {id} does not fit a 16-bit segmentation image (at most {MAX_SEGMENT_ID})"),
-        });
+        return Err(OutputError::at(path, OutputProblem::IdTooLarge { id }));
     }
     let bytes: Vec<u8> = ids.iter().flat_map(|&id| (id as u16).to_ne_bytes()).collect();
     write_atomically(path, |out| {
@@ -126,9 +123,14 @@ pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression)
 
 /// Three-channel f32 EXR (R, G, B) of the frame's linear colour plane.
 pub fn write_linear_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
-    let linear = frame.linear_colour().ok_or_else(|| OutputError {
-        path: path.to_path_buf(),
-        message: "the frame has no linear colour plane (render it with Plane::LinearColour)".into(),
+    let linear = frame.linear_colour().ok_or_else(|| {
+        OutputError::at(
+            path,
+            OutputProblem::MissingPlane {
+                plane: "linear colour",
+                request: "Plane::LinearColour",
+            },
+        )
     })?;
     let channel = |k: usize| linear.iter().map(|c| c[k]).collect();
     write_exr(

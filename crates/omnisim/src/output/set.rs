@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::atomic::write_atomically;
 use super::folder::RunFolder;
-use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, failed};
+use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed};
 use crate::calibration;
 use crate::camera::Camera;
 use crate::frame::{Frame, Plane, Planes};
@@ -64,18 +64,29 @@ impl Default for OutputSet {
 impl OutputSet {
     /// Why these outputs cannot be written for `scene`, found before any frame is: segmentation
     /// images hold object and face ids in 16 bits.
-    pub fn check_scene(&self, scene: &Scene) -> Result<(), String> {
+    pub fn check_scene(&self, scene: &Scene) -> Result<(), TooManyIds> {
         let most = MAX_SEGMENT_ID as usize;
         if self.segmentation && (scene.faces.len() > most || scene.objects.len() > most) {
-            return Err(format!(
-                "the scene has {} faces and {} objects; segmentation images hold ids up to {most} (16 bits): leave \
-                 segmentation out, or split the scene",
-                scene.faces.len(),
-                scene.objects.len()
-            ));
+            return Err(TooManyIds {
+                faces: scene.faces.len(),
+                objects: scene.objects.len(),
+            });
         }
         Ok(())
     }
+}
+
+/// A scene with more faces or objects than a 16-bit segmentation image has ids for.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "the scene has {faces} faces and {objects} objects; segmentation images hold ids up to {MAX_SEGMENT_ID} (16 \
+     bits): leave segmentation out, or split the scene"
+)]
+pub struct TooManyIds {
+    /// Faces in the scene.
+    pub faces: usize,
+    /// Objects in the scene.
+    pub objects: usize,
 }
 
 /// What one frame's files show, for their names and comments.
@@ -116,10 +127,7 @@ impl Destination for RunFolder {
     }
 
     fn claim(&mut self, name: String) -> Result<PathBuf, OutputError> {
-        RunFolder::claim(self, name.clone()).map_err(|e| OutputError {
-            path: PathBuf::from(name),
-            message: e.to_string(),
-        })
+        RunFolder::claim(self, name.clone()).map_err(|e| OutputError::at(Path::new(&name), e))
     }
 }
 
@@ -182,9 +190,14 @@ impl OutputSet {
         }
         if self.segmentation {
             let object_png = target.path(folder, &format!("{suffix}-object.png"))?;
-            let objects = frame.object().ok_or_else(|| OutputError {
-                path: object_png.clone(),
-                message: "the frame has no object plane (render it with Plane::Object)".into(),
+            let objects = frame.object().ok_or_else(|| {
+                OutputError::at(
+                    &object_png,
+                    OutputProblem::MissingPlane {
+                        plane: "object",
+                        request: "Plane::Object",
+                    },
+                )
             })?;
             super::write_id_png(&object_png, size, objects)?;
             let face_png = target.path(folder, &format!("{suffix}-face.png"))?;
@@ -390,7 +403,7 @@ mod tests {
         };
         assert!(segmented.check_scene(&scene).is_ok());
         scene.faces.push(scene.faces[0].clone());
-        let message = segmented.check_scene(&scene).unwrap_err();
+        let message = segmented.check_scene(&scene).unwrap_err().to_string();
         assert!(
             message.contains("65536 faces") && message.contains("leave segmentation out"),
             "{message}"

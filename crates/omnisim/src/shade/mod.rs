@@ -5,7 +5,7 @@
 //! `E_light` = I·cosθ/d² (point) or E⊥·cosθ (directional), sRGB encoding last. A scene without
 //! lighting is drawn in flat face colours (linear = albedo), exactly as the files say.
 
-pub mod antialias;
+pub(crate) mod antialias;
 
 use glam::DVec3;
 use rayon::prelude::*;

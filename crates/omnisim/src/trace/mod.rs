@@ -8,11 +8,11 @@
 //! The BVHs themselves are built in `accel/`; tracing yields hit planes only, which `shade/`
 //! turns into colour.
 
-pub mod counts;
+pub(crate) mod counts;
 mod fast;
 pub(crate) mod ray_table;
-pub mod reference;
-pub mod triangle;
+pub(crate) mod reference;
+pub(crate) mod triangle;
 
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
