@@ -1,7 +1,7 @@
 //! Camera models: for every pixel, the ray the camera sees along, in the body frame.
 //!
 //! Each model has an f64 implementation here (the accuracy reference and the CPU backend) and a
-//! WGSL twin in `shaders/camera_*.wgsl`; `Camera::gpu_kind` ties the two together. Pixel
+//! WGSL twin in `shaders/camera_*.wgsl`; `gpu/bindings.rs` numbers them for the shader. Pixel
 //! coordinates follow `OpenCV`: u = column, v = row, pixel centres at integer coordinates.
 
 pub mod catadioptric;
@@ -109,17 +109,6 @@ impl Camera {
                 MirrorShape::Parabolic { .. } => "parabolic-catadioptric",
                 MirrorShape::Spherical { .. } => "spherical-catadioptric",
             },
-        }
-    }
-
-    /// Which ray generator of `shaders/` implements this model (`CAMERA_*` constants there).
-    #[cfg(feature = "gpu")]
-    pub(crate) fn gpu_kind(&self) -> u32 {
-        match self {
-            Camera::Pinhole(_) => 0,
-            Camera::Equirectangular(_) => 1,
-            Camera::Catadioptric(_) => 2,
-            Camera::Cylindrical(_) => 3,
         }
     }
 }

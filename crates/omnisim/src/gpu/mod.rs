@@ -1,6 +1,7 @@
 //! The wgpu backend: WGSL compute passes in `shaders/` trace every pixel (ray generation, BVH
 //! traversal) into hit planes and shade them, on any adapter wgpu finds (lavapipe in CI).
 
+mod bindings;
 mod context;
 mod layout;
 mod scene;

@@ -8,6 +8,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::{DMat3, DVec3, Vec3};
 use wgpu::util::DeviceExt;
 
+use super::bindings::{
+    self, Binding, CAMERA, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING, Stage, TRIANGLES,
+};
 use super::context::{GpuContext, GpuError};
 use super::layout::{CameraParams, PixelHit, ShadedPixel};
 use super::scene::{BandBuffers, GpuScene};
@@ -23,10 +26,18 @@ static PIPELINES_BUILT: AtomicUsize = AtomicUsize::new(0);
 /// The GPU backend: device, queue and the three compute pipelines.
 pub struct GpuRenderer {
     context: GpuContext,
-    trace: wgpu::ComputePipeline,
-    shade: wgpu::ComputePipeline,
-    refine: wgpu::ComputePipeline,
+    trace: Pipeline,
+    shade: Pipeline,
+    refine: Pipeline,
     max_band_rows: Option<u32>,
+}
+
+/// A compute pipeline with the explicit layout of its stage's bindings (`bindings.rs`).
+#[derive(Debug)]
+struct Pipeline {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    stage: &'static Stage,
 }
 
 /// Where the hits of a band come from: traced now, or uploaded from a frame to re-shade.
@@ -44,21 +55,35 @@ impl GpuRenderer {
             label: Some("omnisim"),
             source: wgpu::ShaderSource::Wgsl(shader::source().into()),
         });
-        let pipeline_for = |entry_point| {
+        let pipeline_for = |stage: &'static Stage| {
             PIPELINES_BUILT.fetch_add(1, Ordering::Relaxed);
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry_point),
-                layout: None,
+            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(stage.entry_point),
+                entries: &bindings::layout_entries(stage),
+            });
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(stage.entry_point),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(stage.entry_point),
+                layout: Some(&pipeline_layout),
                 module: &module,
-                entry_point: Some(entry_point),
+                entry_point: Some(stage.entry_point),
                 compilation_options: Default::default(),
                 cache: None,
-            })
+            });
+            Pipeline {
+                pipeline,
+                layout,
+                stage,
+            }
         };
         Self {
-            trace: pipeline_for(shader::ENTRY_POINT),
-            shade: pipeline_for(shader::SHADE_ENTRY_POINT),
-            refine: pipeline_for(shader::REFINE_ENTRY_POINT),
+            trace: pipeline_for(&bindings::TRACE),
+            shade: pipeline_for(&bindings::SHADE),
+            refine: pipeline_for(&bindings::REFINE),
             context,
             max_band_rows: None,
         }
@@ -145,23 +170,23 @@ impl GpuRenderer {
         let trace_group = self.bind_group(
             &self.trace,
             &[
-                (0, &buffers.camera),
-                (1, &scene.nodes),
-                (2, &scene.triangles),
-                (4, &buffers.hits),
+                (CAMERA, &buffers.camera),
+                (NODES, &scene.nodes),
+                (TRIANGLES, &scene.triangles),
+                (HITS, &buffers.hits),
             ],
         );
         let shade_group = self.bind_group(
             &self.shade,
             &[
-                (0, &buffers.camera),
-                (1, &scene.nodes),
-                (2, &scene.triangles),
-                (3, &scene.materials),
-                (4, &buffers.hits),
-                (7, &scene.lights),
-                (8, &scene.shading),
-                (9, &buffers.shaded),
+                (CAMERA, &buffers.camera),
+                (NODES, &scene.nodes),
+                (TRIANGLES, &scene.triangles),
+                (MATERIALS, &scene.materials),
+                (HITS, &buffers.hits),
+                (LIGHTS, &scene.lights),
+                (SHADING, &scene.shading),
+                (SHADED, &buffers.shaded),
             ],
         );
         let pixel_count = width as usize * height as usize;
@@ -273,14 +298,14 @@ impl GpuRenderer {
         let bind_group = self.bind_group(
             &self.refine,
             &[
-                (0, &uniform),
-                (1, &scene.nodes),
-                (2, &scene.triangles),
-                (3, &scene.materials),
-                (5, &pixels),
-                (6, &colours),
-                (7, &scene.lights),
-                (8, &scene.shading),
+                (CAMERA, &uniform),
+                (NODES, &scene.nodes),
+                (TRIANGLES, &scene.triangles),
+                (MATERIALS, &scene.materials),
+                (EDGE_PIXELS, &pixels),
+                (EDGE_COLOURS, &colours),
+                (LIGHTS, &scene.lights),
+                (SHADING, &scene.shading),
             ],
         );
         let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
@@ -340,18 +365,23 @@ impl GpuRenderer {
         })
     }
 
-    /// Binds whole buffers to the numbered bindings of group 0 of `pipeline`.
-    fn bind_group(&self, pipeline: &wgpu::ComputePipeline, bindings: &[(u32, &wgpu::Buffer)]) -> wgpu::BindGroup {
-        let entries: Vec<wgpu::BindGroupEntry> = bindings
+    /// Binds whole buffers to the bindings of group 0 of `pipeline`: exactly its stage's.
+    fn bind_group(&self, pipeline: &Pipeline, buffers: &[(Binding, &wgpu::Buffer)]) -> wgpu::BindGroup {
+        debug_assert!(
+            buffers.iter().map(|(b, _)| b).eq(pipeline.stage.bindings),
+            "bind group of {} does not follow its table",
+            pipeline.stage.entry_point
+        );
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                binding: *binding,
+                binding: binding.index,
                 resource: buffer.as_entire_binding(),
             })
             .collect();
         self.context.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &pipeline.get_bind_group_layout(0),
+            label: Some(pipeline.stage.entry_point),
+            layout: &pipeline.layout,
             entries: &entries,
         })
     }
@@ -380,14 +410,9 @@ impl GpuRenderer {
     }
 }
 
-fn dispatch(
-    encoder: &mut wgpu::CommandEncoder,
-    pipeline: &wgpu::ComputePipeline,
-    bind_group: &wgpu::BindGroup,
-    groups: [u32; 2],
-) {
+fn dispatch(encoder: &mut wgpu::CommandEncoder, pipeline: &Pipeline, bind_group: &wgpu::BindGroup, groups: [u32; 2]) {
     let mut pass = encoder.begin_compute_pass(&Default::default());
-    pass.set_pipeline(pipeline);
+    pass.set_pipeline(&pipeline.pipeline);
     pass.set_bind_group(0, bind_group, &[]);
     pass.dispatch_workgroups(groups[0], groups[1], 1);
 }
@@ -439,7 +464,7 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
     let mut params = CameraParams {
         world_from_body: columns(pose.world_from_body_rotation()),
         origin: vector(pose.position - offset),
-        kind: camera.gpu_kind(),
+        kind: bindings::camera_kind(camera),
         width,
         height,
         row_offset: 0,
