@@ -2,39 +2,37 @@
 //! manifest (see `omnisim::output::folder`).
 
 use std::hash::Hasher;
+use std::path::Path;
 
 use omnisim::Pose;
 use omnisim::camera::RigSpec;
 use omnisim::output::folder::RunFolder;
 
-use crate::commands::render::RenderArgs;
-
-/// Opens `args.out` for this run, printing what was cleaned up. Two runs are the same run when
-/// the scene file (its name and bytes), rig, poses and outputs are; the backend, the folders
-/// and the options that spell the same rig do not count.
-pub(crate) fn open(args: &RenderArgs, rig: &RigSpec, poses: &[Pose]) -> anyhow::Result<RunFolder> {
+/// What makes two renders the same run: the scene file (its name and bytes), rig, poses and
+/// `outputs` (the options that choose files); the backend, the folders and the options that
+/// spell the same rig do not count.
+pub(crate) fn identity(scene: &Path, rig: &RigSpec, poses: &[Pose], outputs: &str) -> anyhow::Result<String> {
     let mut scene_digest = Fnv1a::default();
-    scene_digest.write(omnisim::input::read_text(&args.scene, omnisim::input::SCENE_LIMIT)?.as_bytes());
-    let scene_name = args.scene.file_name().unwrap_or_default().to_string_lossy();
+    scene_digest.write(omnisim::input::read_text(scene, omnisim::input::SCENE_LIMIT)?.as_bytes());
+    let scene_name = scene.file_name().unwrap_or_default().to_string_lossy();
     let mut digest = Fnv1a::default();
     for pose in poses {
         for value in pose.position.to_array().into_iter().chain(pose.angles.to_array()) {
             digest.write_u64(value.to_bits());
         }
     }
-    let identity = format!(
-        "render scene={}:{:016x} rig={} poses={}:{:016x} edge_samples={} ply={} segmentation={} normals={} linear={}",
+    Ok(format!(
+        "render scene={}:{:016x} rig={} poses={}:{:016x} {outputs}",
         scene_name,
         scene_digest.finish(),
         ron::to_string(rig)?,
         poses.len(),
         digest.finish(),
-        args.edge_samples,
-        !args.no_ply,
-        args.segmentation,
-        args.normals,
-        args.linear
-    );
+    ))
+}
+
+/// Opens `out` for the run `identity`, printing what was cleaned up.
+pub(crate) fn open(out: &Path, identity: &str, overwrite: bool) -> anyhow::Result<RunFolder> {
     // The program as its name, not the path it was run from.
     let command: Vec<String> = std::env::args_os()
         .enumerate()
@@ -48,7 +46,7 @@ pub(crate) fn open(args: &RenderArgs, rig: &RigSpec, poses: &[Pose]) -> anyhow::
             shown.to_string_lossy().into_owned()
         })
         .collect();
-    let folder = RunFolder::open(&args.out, &identity, &command.join(" "), args.overwrite)?;
+    let folder = RunFolder::open(out, identity, &command.join(" "), overwrite)?;
     for note in &folder.notes {
         crate::streams::stderr(format_args!("note: {note}"))?;
     }

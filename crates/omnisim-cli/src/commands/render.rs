@@ -171,7 +171,12 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .check_scene(&scene)
         .map_err(|message| anyhow::anyhow!("--segmentation: {message}"))?;
     // The output folder is checked before the BVH is built: a refused folder says so at once.
-    let mut run = crate::run_folder::open(args, &rig_spec, &poses)?;
+    let chosen = format!(
+        "edge_samples={} ply={} segmentation={} normals={} linear={}",
+        args.edge_samples, !args.no_ply, args.segmentation, args.normals, args.linear
+    );
+    let identity = crate::run_folder::identity(&args.scene, &rig_spec, &poses, &chosen)?;
+    let mut run = crate::run_folder::open(&args.out, &identity, args.overwrite)?;
     let mut renderer = Renderer::new(args.backend.into())?;
     renderer.set_cpu_tracer(args.tracer.into());
     let prepared = renderer.prepare(&scene)?;
