@@ -13,8 +13,8 @@ fn refine_edges(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workg
         return;
     }
     let index = edge_pixels[slot];
-    let centre = vec2<f32>(f32(index % camera.width), f32(index / camera.width));
-    let n = camera.samples_per_axis;
+    let centre = vec2<f32>(f32(index % camera.frame.width), f32(index / camera.frame.width));
+    let n = camera.frame.samples_per_axis;
     var linear = vec3<f32>(0.0);
     var encoded = vec3<u32>(0u);
     for (var sy = 0u; sy < n; sy++) {

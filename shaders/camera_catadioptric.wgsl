@@ -5,26 +5,26 @@
 // quadric's coefficients carry no cancellation into f32.
 
 fn body_from_c(v: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(v.x, camera.mount_sign * v.y, camera.mount_sign * v.z);
+    return vec3<f32>(v.x, camera.mirror.mount_sign * v.y, camera.mirror.mount_sign * v.z);
 }
 
 fn catadioptric_ray(pixel: vec2<f32>) -> CameraRay {
-    let centred = pixel - camera.principal;
-    if dot(centred, centred) < camera.hidden_centre_sq {
+    let centred = pixel - camera.projection.principal;
+    if dot(centred, centred) < camera.mirror.hidden_centre_sq {
         return miss_ray();
     }
-    let offset = centred / camera.focal;
-    var origin = camera.camera_offset;
+    let offset = centred / camera.projection.focal;
+    var origin = camera.mirror.camera_offset;
     var d: vec3<f32>;
-    if camera.orthographic != 0u {
-        origin += camera.camera_tilt * vec3<f32>(offset, 0.0);
-        d = camera.camera_tilt * vec3<f32>(0.0, 0.0, 1.0);
+    if camera.mirror.orthographic != 0u {
+        origin += camera.mirror.camera_tilt * vec3<f32>(offset, 0.0);
+        d = camera.mirror.camera_tilt * vec3<f32>(0.0, 0.0, 1.0);
     } else {
-        d = normalize(camera.camera_tilt * vec3<f32>(offset, 1.0));
+        d = normalize(camera.mirror.camera_tilt * vec3<f32>(offset, 1.0));
     }
-    let qa = dot(camera.mirror_diag * d, d);
-    let qb = 2.0 * dot(camera.mirror_diag * origin, d) + dot(camera.mirror_linear, d);
-    let qc = dot(camera.mirror_diag * origin, origin) + dot(camera.mirror_linear, origin) + camera.mirror_constant;
+    let qa = dot(camera.mirror.mirror_diag * d, d);
+    let qb = 2.0 * dot(camera.mirror.mirror_diag * origin, d) + dot(camera.mirror.mirror_linear, d);
+    let qc = dot(camera.mirror.mirror_diag * origin, origin) + dot(camera.mirror.mirror_linear, origin) + camera.mirror.mirror_constant;
     var roots: array<f32, 2>;
     if abs(qa) <= 1e-12 * (abs(qb) + abs(qc)) {
         // Parallel to an asymptote or to a paraboloid's axis: the equation is linear.
@@ -41,7 +41,7 @@ fn catadioptric_ray(pixel: vec2<f32>) -> CameraRay {
     var t = FAR;
     for (var k = 0; k < 2; k++) {
         let root = roots[k];
-        if root > 0.0 && root < t && origin.z + root * d.z > camera.mirror_min_z {
+        if root > 0.0 && root < t && origin.z + root * d.z > camera.mirror.mirror_min_z {
             t = root;
         }
     }
@@ -49,16 +49,16 @@ fn catadioptric_ray(pixel: vec2<f32>) -> CameraRay {
         return miss_ray();
     }
     let hit = origin + t * d;
-    if camera.rim_sq >= 0.0 && dot(hit.xy, hit.xy) > camera.rim_sq {
+    if camera.mirror.rim_sq >= 0.0 && dot(hit.xy, hit.xy) > camera.mirror.rim_sq {
         return miss_ray();
     }
-    let normal = normalize(2.0 * camera.mirror_diag * hit + camera.mirror_linear);
+    let normal = normalize(2.0 * camera.mirror.mirror_diag * hit + camera.mirror.mirror_linear);
     let reflected = body_from_c(normalize(d - 2.0 * dot(d, normal) * normal));
-    let hit_body = body_from_c(hit) + camera.lens_origin;
-    if camera.shortcut != 0u {
+    let hit_body = body_from_c(hit) + camera.projection.lens_origin;
+    if camera.mirror.shortcut != 0u {
         return CameraRay(vec3<f32>(0.0), length(hit_body), normalize(hit_body), true);
     }
-    if camera.central != 0u {
+    if camera.mirror.central != 0u {
         return CameraRay(vec3<f32>(0.0), length(hit_body), reflected, true);
     }
     return CameraRay(hit_body, 0.0, reflected, true);

@@ -12,7 +12,9 @@ const NO_FACE: u32 = 0xffffffffu;
 const FAR: f32 = 3.0e38;
 const PI: f32 = 3.14159265358979;
 
-struct CameraParams {
+// The camera uniform: a block every camera has (the frame), then the projection's and the
+// mirror's blocks, which the models that have none leave at their defaults.
+struct FrameBlock {
     // world_from_body rotation of the pose.
     world_from_body: mat3x3<f32>,
     // Viewpoint relative to the scene offset (see accel/mod.rs), metres.
@@ -23,26 +25,36 @@ struct CameraParams {
     // First image row of this dispatch (large images are traced in bands).
     row_offset: u32,
     band_rows: u32,
+    // Edge supersampling (antialias.wgsl): n for n×n samples per edge pixel.
+    samples_per_axis: u32,
+}
+
+// Pinhole, cylindrical and the catadioptric camera's own lens.
+struct ProjectionBlock {
     // Pixels per unit: fx, fy (pinhole, catadioptric); fy of the cylinder (cylindrical).
     focal: vec2<f32>,
     principal: vec2<f32>,
     // Pinhole: optical centre in the body frame. Catadioptric: body position of the origin of
     // the frame C the mirror is given in (C = the mirror frame shifted to the nominal camera).
     lens_origin: vec3<f32>,
-    // Catadioptric: only mirror points with z_C above this count (hyperbola's upper sheet).
-    mirror_min_z: f32,
-    // Catadioptric: rotation of the camera's optical axes in C (misalignment tilt).
+}
+
+// Catadioptric only.
+struct MirrorBlock {
+    // Rotation of the camera's optical axes in C (misalignment tilt).
     camera_tilt: mat3x3<f32>,
-    // Catadioptric: the mirror in C, x·diag·x + linear·x + constant = 0.
+    // The mirror in C, x·diag·x + linear·x + constant = 0.
     mirror_diag: vec3<f32>,
     mirror_constant: f32,
     mirror_linear: vec3<f32>,
     // +1: mirror axis along body +z; −1: along body −z (body_from_C rotation diag(1, s, s)).
     mount_sign: f32,
-    // Catadioptric: camera centre in C (misalignment offset).
+    // Camera centre in C (misalignment offset).
     camera_offset: vec3<f32>,
     // Squared mirror rim radius; negative for none.
     rim_sq: f32,
+    // Only mirror points with z_C above this count (hyperbola's upper sheet).
+    mirror_min_z: f32,
     // Squared pixel radius hidden by the camera body.
     hidden_centre_sq: f32,
     // Booleans as u32: orthographic camera (parabolic), all rays through one viewpoint,
@@ -50,8 +62,12 @@ struct CameraParams {
     orthographic: u32,
     central: u32,
     shortcut: u32,
-    // Edge supersampling (antialias.wgsl): n for n×n samples per edge pixel.
-    samples_per_axis: u32,
+}
+
+struct CameraParams {
+    frame: FrameBlock,
+    projection: ProjectionBlock,
+    mirror: MirrorBlock,
 }
 
 struct BvhNode {

@@ -63,9 +63,9 @@ fn shade_hit(hit: PixelHit) -> ShadedPixel {
 
 @compute @workgroup_size(8, 8)
 fn shade_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= camera.width || id.y >= camera.band_rows {
+    if id.x >= camera.frame.width || id.y >= camera.frame.band_rows {
         return;
     }
-    let index = id.y * camera.width + id.x;
+    let index = id.y * camera.frame.width + id.x;
     shaded[index] = shade_hit(hits[index]);
 }

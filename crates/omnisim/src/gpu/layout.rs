@@ -3,10 +3,19 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// WGSL twin: `CameraParams`.
+/// WGSL twin: `CameraParams`, the camera uniform: the frame, then each model's block.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub(crate) struct CameraParams {
+    pub(crate) frame: FrameBlock,
+    pub(crate) projection: ProjectionBlock,
+    pub(crate) mirror: MirrorBlock,
+}
+
+/// WGSL twin: `FrameBlock`, what every camera has: pose, image, band.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct FrameBlock {
     /// mat3x3<f32>: three columns, each padded to 16 bytes.
     pub(crate) world_from_body: [[f32; 4]; 3],
     pub(crate) origin: [f32; 3],
@@ -15,10 +24,27 @@ pub(crate) struct CameraParams {
     pub(crate) height: u32,
     pub(crate) row_offset: u32,
     pub(crate) band_rows: u32,
+    pub(crate) samples_per_axis: u32,
+    /// WGSL rounds the struct up to its 16-byte alignment.
+    pub(crate) _pad: [u32; 3],
+}
+
+/// WGSL twin: `ProjectionBlock`, a pinhole-like projection (pinhole, cylindrical, the
+/// catadioptric camera's lens).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct ProjectionBlock {
     pub(crate) focal: [f32; 2],
     pub(crate) principal: [f32; 2],
     pub(crate) lens_origin: [f32; 3],
-    pub(crate) mirror_min_z: f32,
+    /// WGSL rounds the struct up to its 16-byte alignment.
+    pub(crate) _pad: f32,
+}
+
+/// WGSL twin: `MirrorBlock`, the catadioptric camera's mirror and misalignment.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct MirrorBlock {
     /// mat3x3<f32>: three columns, each padded to 16 bytes.
     pub(crate) camera_tilt: [[f32; 4]; 3],
     pub(crate) mirror_diag: [f32; 3],
@@ -27,11 +53,11 @@ pub(crate) struct CameraParams {
     pub(crate) mount_sign: f32,
     pub(crate) camera_offset: [f32; 3],
     pub(crate) rim_sq: f32,
+    pub(crate) mirror_min_z: f32,
     pub(crate) hidden_centre_sq: f32,
     pub(crate) orthographic: u32,
     pub(crate) central: u32,
     pub(crate) shortcut: u32,
-    pub(crate) samples_per_axis: u32,
     /// WGSL rounds the struct up to its 16-byte alignment.
     pub(crate) _pad: [u32; 3],
 }
@@ -110,29 +136,50 @@ pub(crate) fn host_layouts() -> Vec<StructLayout> {
             "CameraParams",
             size_of::<CameraParams>(),
             vec![
-                ("world_from_body", offset_of!(CameraParams, world_from_body)),
-                ("origin", offset_of!(CameraParams, origin)),
-                ("kind", offset_of!(CameraParams, kind)),
-                ("width", offset_of!(CameraParams, width)),
-                ("height", offset_of!(CameraParams, height)),
-                ("row_offset", offset_of!(CameraParams, row_offset)),
-                ("band_rows", offset_of!(CameraParams, band_rows)),
-                ("focal", offset_of!(CameraParams, focal)),
-                ("principal", offset_of!(CameraParams, principal)),
-                ("lens_origin", offset_of!(CameraParams, lens_origin)),
-                ("mirror_min_z", offset_of!(CameraParams, mirror_min_z)),
-                ("camera_tilt", offset_of!(CameraParams, camera_tilt)),
-                ("mirror_diag", offset_of!(CameraParams, mirror_diag)),
-                ("mirror_constant", offset_of!(CameraParams, mirror_constant)),
-                ("mirror_linear", offset_of!(CameraParams, mirror_linear)),
-                ("mount_sign", offset_of!(CameraParams, mount_sign)),
-                ("camera_offset", offset_of!(CameraParams, camera_offset)),
-                ("rim_sq", offset_of!(CameraParams, rim_sq)),
-                ("hidden_centre_sq", offset_of!(CameraParams, hidden_centre_sq)),
-                ("orthographic", offset_of!(CameraParams, orthographic)),
-                ("central", offset_of!(CameraParams, central)),
-                ("shortcut", offset_of!(CameraParams, shortcut)),
-                ("samples_per_axis", offset_of!(CameraParams, samples_per_axis)),
+                ("frame", offset_of!(CameraParams, frame)),
+                ("projection", offset_of!(CameraParams, projection)),
+                ("mirror", offset_of!(CameraParams, mirror)),
+            ],
+        ),
+        (
+            "FrameBlock",
+            size_of::<FrameBlock>(),
+            vec![
+                ("world_from_body", offset_of!(FrameBlock, world_from_body)),
+                ("origin", offset_of!(FrameBlock, origin)),
+                ("kind", offset_of!(FrameBlock, kind)),
+                ("width", offset_of!(FrameBlock, width)),
+                ("height", offset_of!(FrameBlock, height)),
+                ("row_offset", offset_of!(FrameBlock, row_offset)),
+                ("band_rows", offset_of!(FrameBlock, band_rows)),
+                ("samples_per_axis", offset_of!(FrameBlock, samples_per_axis)),
+            ],
+        ),
+        (
+            "ProjectionBlock",
+            size_of::<ProjectionBlock>(),
+            vec![
+                ("focal", offset_of!(ProjectionBlock, focal)),
+                ("principal", offset_of!(ProjectionBlock, principal)),
+                ("lens_origin", offset_of!(ProjectionBlock, lens_origin)),
+            ],
+        ),
+        (
+            "MirrorBlock",
+            size_of::<MirrorBlock>(),
+            vec![
+                ("camera_tilt", offset_of!(MirrorBlock, camera_tilt)),
+                ("mirror_diag", offset_of!(MirrorBlock, mirror_diag)),
+                ("mirror_constant", offset_of!(MirrorBlock, mirror_constant)),
+                ("mirror_linear", offset_of!(MirrorBlock, mirror_linear)),
+                ("mount_sign", offset_of!(MirrorBlock, mount_sign)),
+                ("camera_offset", offset_of!(MirrorBlock, camera_offset)),
+                ("rim_sq", offset_of!(MirrorBlock, rim_sq)),
+                ("mirror_min_z", offset_of!(MirrorBlock, mirror_min_z)),
+                ("hidden_centre_sq", offset_of!(MirrorBlock, hidden_centre_sq)),
+                ("orthographic", offset_of!(MirrorBlock, orthographic)),
+                ("central", offset_of!(MirrorBlock, central)),
+                ("shortcut", offset_of!(MirrorBlock, shortcut)),
             ],
         ),
         (

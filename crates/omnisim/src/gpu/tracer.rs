@@ -12,7 +12,7 @@ use super::bindings::{
     self, Binding, CAMERA, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING, Stage, TRIANGLES,
 };
 use super::context::{GpuContext, GpuError};
-use super::layout::{CameraParams, PixelHit, ShadedPixel};
+use super::layout::{CameraParams, FrameBlock, MirrorBlock, PixelHit, ProjectionBlock, ShadedPixel};
 use super::scene::{BandBuffers, GpuScene};
 use super::shader;
 use crate::camera::{Camera, MirrorRays, Mount};
@@ -195,8 +195,8 @@ impl GpuRenderer {
         let mut row = 0;
         while row < height {
             let rows = band_rows.min(height - row);
-            params.row_offset = row;
-            params.band_rows = rows;
+            params.frame.row_offset = row;
+            params.frame.band_rows = rows;
             let queue = &self.context.queue;
             queue.write_buffer(&buffers.camera, 0, bytemuck::bytes_of(&params));
             let range = row as usize * width as usize..(row + rows) as usize * width as usize;
@@ -274,7 +274,7 @@ impl GpuRenderer {
         }
         let device = &self.context.device;
         let mut params = camera_params(camera, pose, scene.offset);
-        params.samples_per_axis = samples_per_axis;
+        params.frame.samples_per_axis = samples_per_axis;
         let bytes = edges.len() as u64 * size_of::<ShadedPixel>();
         let init = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -462,61 +462,69 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
     let vector = |v: DVec3| v.as_vec3().to_array();
     let (width, height) = camera.size();
     let mut params = CameraParams {
-        world_from_body: columns(pose.world_from_body_rotation()),
-        origin: vector(pose.position - offset),
-        kind: bindings::camera_kind(camera),
-        width,
-        height,
-        row_offset: 0,
-        band_rows: height,
-        focal: [1.0, 1.0],
-        principal: [0.0, 0.0],
-        lens_origin: [0.0; 3],
-        mirror_min_z: 0.0,
-        camera_tilt: columns(DMat3::IDENTITY),
-        mirror_diag: [0.0; 3],
-        mirror_constant: 0.0,
-        mirror_linear: [0.0; 3],
-        mount_sign: 1.0,
-        camera_offset: [0.0; 3],
-        rim_sq: -1.0,
-        hidden_centre_sq: 0.0,
-        orthographic: 0,
-        central: 1,
-        shortcut: 0,
-        samples_per_axis: 1,
-        _pad: [0; 3],
+        frame: FrameBlock {
+            world_from_body: columns(pose.world_from_body_rotation()),
+            origin: vector(pose.position - offset),
+            kind: bindings::camera_kind(camera),
+            width,
+            height,
+            row_offset: 0,
+            band_rows: height,
+            samples_per_axis: 1,
+            _pad: [0; 3],
+        },
+        projection: ProjectionBlock {
+            focal: [1.0, 1.0],
+            principal: [0.0, 0.0],
+            lens_origin: [0.0; 3],
+            _pad: 0.0,
+        },
+        mirror: MirrorBlock {
+            camera_tilt: columns(DMat3::IDENTITY),
+            mirror_diag: [0.0; 3],
+            mirror_constant: 0.0,
+            mirror_linear: [0.0; 3],
+            mount_sign: 1.0,
+            camera_offset: [0.0; 3],
+            rim_sq: -1.0,
+            mirror_min_z: 0.0,
+            hidden_centre_sq: 0.0,
+            orthographic: 0,
+            central: 1,
+            shortcut: 0,
+            _pad: [0; 3],
+        },
     };
     match camera {
         Camera::Pinhole(c) => {
-            params.focal = [c.fx as f32, c.fy as f32];
-            params.principal = [c.cx as f32, c.cy as f32];
-            params.lens_origin = vector(c.position);
+            params.projection.focal = [c.fx as f32, c.fy as f32];
+            params.projection.principal = [c.cx as f32, c.cy as f32];
+            params.projection.lens_origin = vector(c.position);
         }
         Camera::Equirectangular(_) => {}
         Camera::Cylindrical(c) => {
-            params.focal = [1.0, c.fy as f32];
-            params.principal = [0.0, c.cy as f32];
+            params.projection.focal = [1.0, c.fy as f32];
+            params.projection.principal = [0.0, c.cy as f32];
         }
         Camera::Catadioptric(c) => {
             // Frame C: the mirror frame shifted to the nominal camera position N.
             let nominal = c.nominal_camera_in_mirror();
             let quadric = c.quadric().shifted(nominal);
-            params.focal = [c.focal as f32, c.focal as f32];
-            params.principal = [c.cx as f32, c.cy as f32];
-            params.lens_origin = vector(c.body_from_mirror() * (nominal - c.body_origin_in_mirror()));
-            params.mirror_min_z = quadric.min_z.max(-3.0e38) as f32;
-            params.camera_tilt = columns(rotation_xyz(c.misalignment.tilt));
-            params.mirror_diag = vector(quadric.diag);
-            params.mirror_constant = quadric.constant as f32;
-            params.mirror_linear = vector(quadric.linear);
-            params.mount_sign = if c.mount == Mount::Up { 1.0 } else { -1.0 };
-            params.camera_offset = vector(c.misalignment.offset);
-            params.rim_sq = c.rim_radius.map_or(-1.0, |r| (r * r) as f32);
-            params.hidden_centre_sq = (c.hidden_centre_px * c.hidden_centre_px) as f32;
-            params.orthographic = u32::from(!c.is_perspective());
-            params.central = u32::from(c.is_central());
-            params.shortcut = u32::from(c.rays == MirrorRays::Shortcut);
+            params.projection.focal = [c.focal as f32, c.focal as f32];
+            params.projection.principal = [c.cx as f32, c.cy as f32];
+            params.projection.lens_origin = vector(c.body_from_mirror() * (nominal - c.body_origin_in_mirror()));
+            params.mirror.mirror_min_z = quadric.min_z.max(-3.0e38) as f32;
+            params.mirror.camera_tilt = columns(rotation_xyz(c.misalignment.tilt));
+            params.mirror.mirror_diag = vector(quadric.diag);
+            params.mirror.mirror_constant = quadric.constant as f32;
+            params.mirror.mirror_linear = vector(quadric.linear);
+            params.mirror.mount_sign = if c.mount == Mount::Up { 1.0 } else { -1.0 };
+            params.mirror.camera_offset = vector(c.misalignment.offset);
+            params.mirror.rim_sq = c.rim_radius.map_or(-1.0, |r| (r * r) as f32);
+            params.mirror.hidden_centre_sq = (c.hidden_centre_px * c.hidden_centre_px) as f32;
+            params.mirror.orthographic = u32::from(!c.is_perspective());
+            params.mirror.central = u32::from(c.is_central());
+            params.mirror.shortcut = u32::from(c.rays == MirrorRays::Shortcut);
         }
     }
     params
