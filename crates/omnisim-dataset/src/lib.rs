@@ -90,6 +90,18 @@ pub enum DatasetError {
         /// What it holds.
         previous: String,
     },
+    /// Another run (or merge) of another data set works in the folder now.
+    #[error(
+        "{} is in use by another omnisim run (or merge) of {previous}: wait for it to end (--overwrite then \
+         replaces that data set), or choose another folder",
+        dir.display()
+    )]
+    Busy {
+        /// The folder.
+        dir: PathBuf,
+        /// The data set that run writes.
+        previous: String,
+    },
     /// The folder's frames come from another omnisim version or renderer: their bytes would
     /// differ from this run's.
     #[error(
@@ -212,6 +224,7 @@ impl DatasetError {
         matches!(
             self,
             Self::AnotherSpec { .. }
+                | Self::Busy { .. }
                 | Self::OtherRenderer { .. }
                 | Self::ShardOfAnotherSpec { .. }
                 | Self::Unrecorded { .. }

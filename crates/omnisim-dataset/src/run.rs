@@ -206,8 +206,10 @@ impl Dataset {
         options: &RunOptions,
         on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
     ) -> Result<RunSummary, DatasetError> {
+        // Held until the run returns, its final merge included.
+        let (notes, _held) = open_folder(out, &self.stamp(renderer), options.overwrite)?;
         let mut summary = RunSummary {
-            notes: open_folder(out, &self.stamp(renderer), options.overwrite)?,
+            notes,
             ..RunSummary::default()
         };
         for set in &self.sets {

@@ -306,6 +306,73 @@ fn another_spec_is_refused_unless_overwrite_removes_its_files() {
     assert!(matches!(refused, Err(DatasetError::Unrecorded { .. })));
 }
 
+/// Runs of two specs started at the same moment into one new folder: one claims it, the other
+/// is refused (each decides and writes the stamp with the folder's gate held).
+#[test]
+fn two_specs_started_at_once_into_one_folder_never_both_claim_it() {
+    let (dir, spec) = project(SPEC);
+    let (_small_dir, small_path) = project(&small_spec());
+    let stamps = [Dataset::load(&spec).unwrap(), Dataset::load(&small_path).unwrap()].map(|d| d.stamp(&cpu()));
+    for attempt in 0..100 {
+        let out = dir.path().join(format!("out{attempt}"));
+        let start = std::sync::Barrier::new(2);
+        let claims: Vec<bool> = std::thread::scope(|scope| {
+            let runs: Vec<_> = stamps
+                .iter()
+                .map(|stamp| {
+                    let (out, start) = (&out, &start);
+                    scope.spawn(move || {
+                        start.wait();
+                        folder::open_folder(out, stamp, false).is_ok()
+                    })
+                })
+                .collect();
+            runs.into_iter().map(|run| run.join().unwrap()).collect()
+        });
+        assert_eq!(
+            claims.iter().filter(|&&claimed| claimed).count(),
+            1,
+            "attempt {attempt}: {claims:?}"
+        );
+    }
+}
+
+/// `--overwrite` never removes a data set while a run (or merge) of it works in the folder;
+/// once that run ends (a killed one too: the system drops its locks), it does.
+#[test]
+fn an_overwrite_is_refused_while_another_data_set_is_being_written() {
+    let (dir, spec) = project(SPEC);
+    let (_small_dir, small_path) = project(&small_spec());
+    let [ours, theirs] = [Dataset::load(&spec).unwrap(), Dataset::load(&small_path).unwrap()].map(|d| d.stamp(&cpu()));
+    let out = dir.path().join("out");
+    let (_, running) = folder::open_folder(&out, &theirs, false).unwrap();
+    // A shard of the same data set joins it.
+    let (_, shard) = folder::open_folder(&out, &theirs, false).unwrap();
+    let message = match folder::open_folder(&out, &ours, true) {
+        Err(e @ DatasetError::Busy { .. }) => e.to_string(),
+        other => panic!("not refused as in use: {:?}", other.map(|(notes, _)| notes)),
+    };
+    assert!(
+        message.contains(&out.display().to_string()) && message.contains("wait for it to end"),
+        "{message}"
+    );
+    drop(running);
+    assert!(matches!(
+        folder::open_folder(&out, &ours, true),
+        Err(DatasetError::Busy { .. })
+    ));
+    drop(shard);
+    let (notes, _) = folder::open_folder(&out, &ours, true).unwrap();
+    assert!(notes.iter().any(|n| n.contains("removed")), "{notes:?}");
+    // A merge holds the folder too.
+    let merging = folder::hold(&out).unwrap();
+    assert!(matches!(
+        folder::open_folder(&out, &theirs, true),
+        Err(DatasetError::Busy { .. })
+    ));
+    drop(merging);
+}
+
 /// An ASCII PLY tetrahedron of edge `size` metres, standing at the origin.
 fn tetrahedron(size: f64) -> String {
     format!(
