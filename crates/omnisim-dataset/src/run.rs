@@ -366,10 +366,12 @@ impl Dataset {
             &plan.occluders,
             &mut rng,
         )
-        .map_err(|source| DatasetError::Occluders {
-            set: plan.spec.name.clone(),
-            frame: index.to_string(),
-            source,
+        .map_err(|e| {
+            let at = super::spec::SpecText {
+                text: &self.spec_text,
+                path: &self.spec_path,
+            };
+            super::crowded(&at, &plan.spec, true, Some(index), &e)
         })
     }
 

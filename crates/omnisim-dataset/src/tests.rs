@@ -735,6 +735,48 @@ fn bad_specs_get_located_errors() {
     );
 }
 
+/// Occluders that cannot all be placed are a spec error found at load, before anything
+/// renders, located at their entry like every other; per-frame ones in every frame.
+#[test]
+fn occluders_without_room_are_located_spec_errors_before_anything_renders() {
+    let cases = [
+        (
+            SPEC.replace(
+                "Person, count: 1, clearance: 0.3",
+                "Person, count: 1000, clearance: 0.3",
+            ),
+            "spec.ron:18:",
+            "set 'test': occluders[0]: frame 0: no free place for occluder",
+        ),
+        (
+            SPEC.replace("count: 1, per_frame: false", "count: 1000, per_frame: false"),
+            "spec.ron:24:",
+            "set 'night': occluders[0]: no free place for occluder",
+        ),
+        (
+            // Room for one beside the first frame's camera only: a later frame has none.
+            SPEC.replace(
+                "Person, count: 1, clearance: 0.3)",
+                "Box(size: (0.2, 0.2, 0.2)), count: 1, clearance: 1.0, region: ((-1.9, -1.4), (-1.3, -0.6)))",
+            )
+            .replace(
+                "Random(count: 3, low: (-1.5, -1.0, 0.5), high: (1.5, 1.0, 1.5), tilt: 10.0, clearance: 0.3)",
+                "List([(-0.3, -0.7, 1.0, 0.0, 0.0, 0.0), (-1.6, -1.0, 1.0, 0.0, 0.0, 0.0)])",
+            ),
+            "spec.ron:18:",
+            "set 'test': occluders[0]: frame 1: no free place",
+        ),
+    ];
+    for (text, at, what) in cases {
+        let (_dir, spec) = project(&text);
+        let message = match Dataset::load(&spec) {
+            Ok(_) => panic!("accepted: {what}"),
+            Err(e) => e.to_string(),
+        };
+        assert!(message.contains(at) && message.contains(what), "{message}");
+    }
+}
+
 /// README's spec example parses, and the shipped example loads with its scene.
 #[test]
 fn readme_and_shipped_specs_are_valid() {
