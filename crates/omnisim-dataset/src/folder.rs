@@ -18,6 +18,33 @@ pub(crate) fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
     Ok(())
 }
 
+/// Refuses a data-set folder `dir` inside a set's bookkeeping folder (`.frames`) or inside
+/// another data set's folder, where its files would mix with that data set's. Judged on the
+/// path as the system resolves the part of it that exists (a link to `.frames` counts).
+pub(crate) fn refuse_nested(dir: &Path) -> Result<(), DatasetError> {
+    let absolute = std::path::absolute(dir).map_err(io(dir))?;
+    let existing = absolute.ancestors().find(|a| a.exists()).unwrap_or(&absolute);
+    let resolved = match absolute.strip_prefix(existing) {
+        Ok(rest) => std::fs::canonicalize(existing).map_err(io(existing))?.join(rest),
+        Err(_) => absolute.clone(),
+    };
+    for ancestor in resolved.ancestors() {
+        if ancestor.file_name() == Some(ENTRIES.as_ref()) {
+            return Err(DatasetError::InBookkeeping {
+                dir: dir.to_path_buf(),
+                folder: ancestor.to_path_buf(),
+            });
+        }
+        if ancestor != resolved && ancestor.join(STAMP).is_file() {
+            return Err(DatasetError::InDataSet {
+                dir: dir.to_path_buf(),
+                outer: ancestor.to_path_buf(),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// [`prepare_dir`] for a folder inside the data-set folder `root`, refused where a level is a
 /// link (a set folder linked elsewhere would have the run write there).
 pub(crate) fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError> {
@@ -234,6 +261,7 @@ pub(crate) fn hold(dir: &Path) -> Result<Hold, DatasetError> {
 /// set recorded) unless `overwrite`, and any other data set while a run works on it, and
 /// writes the stamp. Returns notes, and the hold to keep while the run writes.
 pub(crate) fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<(Vec<String>, Hold), DatasetError> {
+    refuse_nested(dir)?;
     prepare_dir(dir)?;
     let mut notes = Vec::new();
     let gate = Gate::enter(dir, &mut notes)?;

@@ -139,6 +139,32 @@ pub enum DatasetError {
         /// The link.
         path: PathBuf,
     },
+    /// The output folder lies inside a data set's bookkeeping folder.
+    #[error(
+        "{} is or lies inside a data set's bookkeeping folder ({}, its frame entries): a data set there would be \
+         mixed with them; choose a folder outside it",
+        dir.display(),
+        folder.display()
+    )]
+    InBookkeeping {
+        /// The output folder.
+        dir: PathBuf,
+        /// The bookkeeping folder.
+        folder: PathBuf,
+    },
+    /// The output folder lies inside another data set's folder.
+    #[error(
+        "{} lies inside the data set in {} (it holds {}): a folder holds one data set; choose a folder outside it",
+        dir.display(),
+        outer.display(),
+        files::STAMP
+    )]
+    InDataSet {
+        /// The output folder.
+        dir: PathBuf,
+        /// The data set's folder.
+        outer: PathBuf,
+    },
     /// A merge was given a folder no data-set run wrote.
     #[error(
         "{} holds no data set (no {} stamp): give the folder `omnisim dataset` rendered into, then any shard \
@@ -221,6 +247,8 @@ impl DatasetError {
                 | Self::NotADataSet { .. }
                 | Self::BadStamp { .. }
                 | Self::Link { .. }
+                | Self::InBookkeeping { .. }
+                | Self::InDataSet { .. }
                 | Self::Spec { .. }
         )
     }

@@ -373,6 +373,56 @@ fn an_overwrite_is_refused_while_another_data_set_is_being_written() {
     drop(merging);
 }
 
+/// A data set is never written inside a set's bookkeeping folder, nor inside another data set.
+#[test]
+fn an_output_folder_inside_bookkeeping_or_another_data_set_is_refused() {
+    let (dir, spec) = project(&small_spec());
+    let dataset = Dataset::load(&spec).unwrap();
+    let attempt = |out: &Path| {
+        dataset
+            .run(&cpu(), out, &RunOptions::default(), &mut |_| ControlFlow::Continue(()))
+            .map(|_| ())
+    };
+    let frames = dir.path().join("data/.frames");
+    let message = match attempt(&frames) {
+        Err(e @ DatasetError::InBookkeeping { .. }) => e.to_string(),
+        other => panic!("{other:?}"),
+    };
+    assert!(
+        message.contains(&frames.display().to_string()) && message.contains("choose a folder outside it"),
+        "{message}"
+    );
+    assert!(!dir.path().join("data").exists(), "a refused run created its folder");
+    let out = dir.path().join("out");
+    run(&dataset, &out, RunOptions::default(), None);
+    let mut inside = vec![
+        (out.join("map/.frames"), true),
+        (out.join("map/.frames/more"), true),
+        (out.join("map"), false),
+        (out.join("elsewhere"), false),
+    ];
+    #[cfg(unix)]
+    {
+        let link = dir.path().join("entries");
+        std::os::unix::fs::symlink(out.join("map/.frames"), &link).unwrap();
+        inside.push((link.join("new"), true));
+    }
+    for (folder, bookkeeping) in inside {
+        match attempt(&folder) {
+            Err(DatasetError::InBookkeeping { .. }) if bookkeeping => {}
+            Err(DatasetError::InDataSet { outer, .. }) if !bookkeeping => {
+                assert_eq!(outer, out.canonicalize().unwrap());
+            }
+            other => panic!("{}: {other:?}", folder.display()),
+        }
+        assert!(matches!(
+            merge(&folder, std::slice::from_ref(&out)),
+            Err(DatasetError::InBookkeeping { .. } | DatasetError::InDataSet { .. })
+        ));
+    }
+    assert!(!out.join("elsewhere").exists());
+}
+
 /// An ASCII PLY tetrahedron of edge `size` metres, standing at the origin.
 fn tetrahedron(size: f64) -> String {
     format!(
