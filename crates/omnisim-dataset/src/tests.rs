@@ -1027,10 +1027,6 @@ fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
         "{yaml}"
     );
     assert!(yaml.contains("rate_hz: 10") && yaml.contains("camera_model: pinhole"));
-    evo_reads(
-        &tum.join("groundtruth.txt"),
-        &euroc.join("state_groundtruth_estimate0/data.csv"),
-    );
     // The manifest lists every file with its hash; noisy and exact files are told apart.
     let manifest: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
@@ -1072,31 +1068,6 @@ fn tum_and_euroc_files_parse_and_their_poses_reproduce_the_images() {
         seen += ids.pixels().filter(|p| u64::from(p.0[0]) == listed + 1).count();
     }
     assert!(seen > 0, "no frame of the test set sees its occluder");
-}
-
-/// evo reads both trajectories, where `OMNISIM_PYTHON` names a Python with evo (CI).
-fn evo_reads(tum: &Path, euroc: &Path) {
-    let Some(python) = std::env::var_os("OMNISIM_PYTHON") else {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must set OMNISIM_PYTHON for the evo check"
-        );
-        eprintln!("SKIPPED: evo check of TUM and EuRoC files (set OMNISIM_PYTHON to a Python with evo)");
-        return;
-    };
-    let evo_traj = Path::new(&python).with_file_name("evo_traj");
-    for (format, file) in [("tum", tum), ("euroc", euroc)] {
-        let output = std::process::Command::new(&evo_traj)
-            .arg(format)
-            .arg(file)
-            .output()
-            .unwrap();
-        let text = String::from_utf8_lossy(&output.stdout).to_string() + &String::from_utf8_lossy(&output.stderr);
-        assert!(
-            output.status.success() && text.contains("4 poses"),
-            "evo_traj {format}: {text}"
-        );
-    }
 }
 
 #[test]
@@ -1269,28 +1240,33 @@ const WALL: &str = r#"Dataset(
     scene: "room.ron",
     rig: Pinhole(size: (32, 24), hfov: 70.0),
     sets: [Set(name: "wall", poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 0.0), (0.5, 0.0, 1.0, 0.0, 0.0, 0.0),
-        (1.0, 0.0, 1.0, 0.0, 0.0, 0.0)]), layouts: [Tum(rate: 30.0)])],
+        (1.0, 0.0, 1.0, 0.0, 0.0, 0.0)]), layouts: [Tum(rate: 30.0), Euroc(rate: 30.0)])],
 )"#;
 
-/// `OMNISIM_PYTHON`, or `None` after saying loudly what is skipped (outside CI only).
-fn python_for(check: &str) -> Option<PathBuf> {
-    if let Some(python) = std::env::var_os("OMNISIM_PYTHON") {
-        Some(PathBuf::from(python))
-    } else {
+/// evo reads both trajectories (`frames` poses each) with the Python `python`.
+fn evo_reads(python: &Path, tum: &Path, euroc: &Path, frames: usize) {
+    let evo_traj = python.with_file_name("evo_traj");
+    for (format, file) in [("tum", tum), ("euroc", euroc)] {
+        let output = std::process::Command::new(&evo_traj)
+            .arg(format)
+            .arg(file)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&output.stdout).to_string() + &String::from_utf8_lossy(&output.stderr);
         assert!(
-            std::env::var_os("CI").is_none(),
-            "CI must set OMNISIM_PYTHON for the {check}"
+            output.status.success() && text.contains(&format!("{frames} poses")),
+            "evo_traj {format}: {text}"
         );
-        eprintln!("**** SKIPPED: {check} (set OMNISIM_PYTHON to a Python with tests/readers/requirements.txt)");
-        None
     }
 }
 
 #[test]
-fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
-    let Some(python) = python_for("Open3D and evo_ape check of the TUM layout") else {
-        return;
-    };
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn open3d_and_evo_read_the_tum_and_euroc_layouts() {
+    let python = PathBuf::from(std::env::var_os("OMNISIM_PYTHON").expect(
+        "OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (.ci/run makes one) \
+         (README, Tests)",
+    ));
     let (dir, spec) = project(WALL);
     let out = dir.path().join("out");
     run(&Dataset::load(&spec).unwrap(), &out, RunOptions::default(), None);
@@ -1367,6 +1343,12 @@ fn open3d_reads_the_tum_rgbd_pairs_and_evo_ape_the_ground_truth() {
         .parse()
         .unwrap();
     assert!((rmse - 0.01).abs() < 1e-6, "APE RMSE {rmse}");
+    evo_reads(
+        &python,
+        &truth,
+        &out.join("wall/mav0/state_groundtruth_estimate0/data.csv"),
+        3,
+    );
 }
 
 #[test]
