@@ -38,6 +38,7 @@ fn rotation_is_the_papers_rx_ry_rz() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn pinhole_hits_project_back_to_their_pixels_by_k_r_t() {
     // At the origin and 10 km from it (DESIGN.md §7: 0.01 px in f64, 0.05 px in f32 anywhere).
     for far in [DVec3::ZERO, dvec3(1e4, -1e4, 0.0)] {
@@ -90,10 +91,10 @@ fn pinhole_reprojection(far: DVec3) {
             let p = k * (r * x + t);
             dvec2(p.x / p.z, p.y / p.z)
         };
-        let mut frames = vec![(trace::trace(&bvh, &camera, &pose), 1e-6)];
-        if let Some(gpu) = &gpu {
-            frames.push((gpu.render(&camera, &pose).unwrap(), 0.01));
-        }
+        let frames = [
+            (trace::trace(&bvh, &camera, &pose), 1e-6),
+            (gpu.render(&camera, &pose).unwrap(), 0.01),
+        ];
         for (frame, tolerance) in frames {
             for v in 0..frame.height {
                 for u in 0..frame.width {

@@ -31,13 +31,12 @@ fn poses() -> Vec<Pose> {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn gpu_matches_f64_reference_for_every_camera_and_room() {
     for room in common::ROOMS {
         let scene = common::load(room);
         let bvh = SceneBvh::build(&scene);
-        let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
-            return;
-        };
+        let gpu = common::gpu_tracer(&scene, &bvh);
         for camera in common::cameras() {
             let (mut pixels, mut same_face, mut worst_range, mut grazing) = (0usize, 0usize, 0f64, 0usize);
             let width = camera.size().0 as usize;
@@ -78,12 +77,11 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
-        return;
-    };
+    let gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(0.3, -0.2, 0.9), dvec3(5.0, 10.0, 30.0));
     for camera in common::cameras() {
         let frame = gpu.render(&camera, &pose).expect("GPU render");
@@ -110,12 +108,11 @@ fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn gpu_edge_supersampling_matches_the_f64_reference() {
     let scene = common::load("env2.ron");
     let bvh = SceneBvh::build(&scene);
-    let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
-        return;
-    };
+    let gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
     let cpu = common::cpu_tracer(&scene, &bvh);
     let antialiased = |tracer: &common::Tracer, camera: &Camera| {
@@ -147,12 +144,11 @@ fn gpu_edge_supersampling_matches_the_f64_reference() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn images_traced_in_bands_equal_images_traced_at_once() {
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let Some(mut gpu) = common::gpu_tracer(&scene, &bvh) else {
-        return;
-    };
+    let mut gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
     let camera = common::cameras()[2].clone();
     let whole = gpu.render(&camera, &pose).unwrap();
@@ -164,11 +160,10 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
 /// `auto` takes a hardware adapter, never a software one (llvmpipe: the f64 CPU tracer is
 /// faster on the same cores), and says why; `gpu` takes whatever adapter there is.
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn auto_prefers_the_cpu_tracer_over_a_software_adapter() {
     let scene = common::load("env1.ron");
-    let Some(mut gpu) = common::gpu_tracer(&scene, &SceneBvh::build(&scene)) else {
-        return;
-    };
+    let mut gpu = common::gpu_tracer(&scene, &SceneBvh::build(&scene));
     let software = gpu.renderer.gpu_renderer().unwrap().is_software();
     let auto = omnisim::Renderer::new(omnisim::BackendChoice::Auto).unwrap();
     if software {

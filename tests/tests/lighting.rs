@@ -38,11 +38,11 @@ fn omni() -> Camera {
     Camera::Catadioptric(common::paper_omni())
 }
 
-/// The f64 CPU tracer and, where an adapter exists, the GPU, each with `scene` prepared.
+/// The f64 CPU tracer and the GPU, each with `scene` prepared.
 fn tracers(scene: &Scene) -> Vec<(&'static str, Tracer)> {
     let bvh = SceneBvh::build(scene);
     let mut tracers = vec![("cpu", common::cpu_tracer(scene, &bvh))];
-    tracers.extend(common::gpu_tracer(scene, &bvh).map(|gpu| ("gpu", gpu)));
+    tracers.push(("gpu", common::gpu_tracer(scene, &bvh)));
     tracers
 }
 
@@ -118,6 +118,7 @@ fn lamp_over_floor(point: DVec3, ambient: f64) -> DVec3 {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn a_point_light_over_a_large_floor_follows_the_closed_form() {
     let [r, g, b] = FLOOR_COLOUR;
     let scene = scene(&format!(
@@ -186,6 +187,7 @@ fn cube_on_floor(cube: bool) -> Scene {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn a_point_hidden_by_a_box_receives_exactly_the_ambient_term() {
     let lamp = dvec3(3.0, 0.0, 1.5);
     let ambient_only = linear_rgb(FLOOR_COLOUR) * 5.0 / WHITE;
@@ -296,6 +298,7 @@ fn shaded_planes(
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn a_light_behind_a_wall_lights_nothing_in_front_of_it() {
     let scene = wall_with_lamps();
     let views = [
@@ -448,6 +451,7 @@ fn no_light_leaks_through_the_edges_and_corners_of_a_closed_box() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn a_closed_lit_box_seen_from_outside_shows_only_the_ambient_term() {
     let closed = ClosedBox::new();
     let corner = closed.point(dvec3(1.0, -1.0, -1.0));
@@ -585,9 +589,7 @@ fn gpu_agrees_with_the_reference(
     for room in LIT_ROOMS {
         let scene = lit_room(room);
         let bvh = SceneBvh::build(&scene);
-        let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
-            return;
-        };
+        let gpu = common::gpu_tracer(&scene, &bvh);
         let mut cpu = common::cpu_tracer(&scene, &bvh);
         for camera in cameras {
             let mut agreement = Agreement::default();
@@ -623,6 +625,7 @@ fn room_poses() -> [Pose; 2] {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn gpu_shading_matches_the_f64_reference_in_the_lit_rooms() {
     gpu_agrees_with_the_reference(
         &common::cameras(),
@@ -633,6 +636,7 @@ fn gpu_shading_matches_the_f64_reference_in_the_lit_rooms() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn gpu_edge_samples_of_lit_images_match_the_f64_reference() {
     let cameras = [omni(), pinhole(160, 120, 70.0)];
     gpu_agrees_with_the_reference(
@@ -649,6 +653,7 @@ fn gpu_edge_samples_of_lit_images_match_the_f64_reference() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn without_lighting_every_pixel_shows_its_face_colour() {
     let scene = common::load("env1.ron");
     assert!(scene.lighting.is_none());
@@ -683,6 +688,7 @@ fn without_lighting_every_pixel_shows_its_face_colour() {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn switching_a_lamp_on_only_brightens() {
     let scene = common::load("env2-lit.ron");
     let lighting = scene.lighting.as_ref().unwrap();
@@ -776,6 +782,7 @@ fn lit_rooms_are_the_reference_rooms_with_lamps_in_free_space() {
 /// The 8-bit colour plane is the same whether or not the linear plane is asked for (the CPU
 /// shades colour alone without storing linear colour), lit and unlit, on every backend.
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn colour_alone_equals_colour_beside_linear_colour() {
     for name in ["env1.ron", "env1-lit.ron"] {
         let scene = if name.contains("-lit") {

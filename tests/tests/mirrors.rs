@@ -264,6 +264,7 @@ fn centroids(frame: &Frame, scene: &Scene, count: usize) -> Vec<Option<DVec2>> {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn marker_centroids_land_where_the_unified_model_says() {
     // A grid of directions far enough apart that no marker hides another.
     let markers: Vec<DVec3> = [-0.9, -0.5, -0.15, 0.2]
@@ -285,10 +286,10 @@ fn marker_centroids_land_where_the_unified_model_says() {
         Catadioptric::parabolic(1000, 1000, 0.04, 0.02, 25f64.to_radians()),
     ] {
         let traced = Camera::Catadioptric(camera.clone());
-        let mut frames = vec![("cpu", trace::trace(&bvh, &traced, &pose))];
-        if let Some(gpu) = &gpu {
-            frames.push(("gpu", gpu.render(&traced, &pose).unwrap()));
-        }
+        let frames = [
+            ("cpu", trace::trace(&bvh, &traced, &pose)),
+            ("gpu", gpu.render(&traced, &pose).unwrap()),
+        ];
         for (backend, frame) in frames {
             let mut worst: f64 = 0.0;
             let found = centroids(&frame, &scene, markers.len());

@@ -198,6 +198,7 @@ fn shortcut_error_grows_with_camera_offset_and_validate_refuses_it() {
 // 2. A room far from the world origin.
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn far_scene_keeps_gpu_precision_with_the_scene_local_offset() {
     let room = common::load("env1.ron");
     let camera = Camera::Equirectangular(Equirectangular {
@@ -218,14 +219,12 @@ fn far_scene_keeps_gpu_precision_with_the_scene_local_offset() {
         // The reference itself must not care where its local origin is (up to the f32
         // rounding of the range a frame stores).
         let cpu_naive = Agreement::measure(&reference, &trace::trace(&naive, &camera, &pose));
-        let (Some(gpu_local), Some(gpu_naive)) =
-            (common::gpu_tracer(&scene, &local), common::gpu_tracer(&scene, &naive))
-        else {
-            return;
+        let render = |bvh: &SceneBvh| {
+            let gpu = common::gpu_tracer(&scene, bvh);
+            gpu.render(&camera, &pose).expect("GPU render")
         };
-        let render = |gpu: common::Tracer| gpu.render(&camera, &pose).expect("GPU render");
-        let default = Agreement::measure(&reference, &render(gpu_local));
-        let world = Agreement::measure(&reference, &render(gpu_naive));
+        let default = Agreement::measure(&reference, &render(&local));
+        let world = Agreement::measure(&reference, &render(&naive));
         eprintln!(
             "far scene at {distance:>7} m: GPU scene-local {}; GPU world coordinates {}; CPU world coordinates {}",
             default.summary(),
@@ -281,6 +280,7 @@ fn rim_cut_off(camera: &Catadioptric, theta: f64, mut inside: f64, mut outside: 
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
     let mirror = common::paper_omni();
     let centre = dvec2(mirror.cx, mirror.cy);
@@ -320,9 +320,7 @@ fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
     // ray generator's verdict; CPU and GPU may differ only next to the rim circle.
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
-        return;
-    };
+    let gpu = common::gpu_tracer(&scene, &bvh);
     let camera = Camera::Catadioptric(mirror.clone());
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
     let reference = trace::trace(&bvh, &camera, &pose);
@@ -489,6 +487,7 @@ fn rays_in_and_parallel_to_the_plane_of_a_face_stop_at_the_edge_they_reach() {
 // 5. A 1 mm marker and a 10 km floor.
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn millimetre_marker_and_ten_kilometre_floor_on_cpu_and_gpu() {
     // A pinhole 1 m above the floor looking along +x; the 1 mm marker 2 m ahead spans
     // 4.4 px (f = 8800 px), its projection centred off the pixel grid so no pixel centre lies
@@ -522,9 +521,7 @@ fn millimetre_marker_and_ten_kilometre_floor_on_cpu_and_gpu() {
     let projected_centre = projected.iter().sum::<DVec2>() / 4.0;
 
     let bvh = SceneBvh::build(&scene);
-    let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
-        return;
-    };
+    let gpu = common::gpu_tracer(&scene, &bvh);
     let frames = [
         ("CPU", trace::trace(&bvh, &camera, &pose)),
         ("GPU", gpu.render(&camera, &pose).expect("GPU render")),

@@ -34,6 +34,7 @@ fn random_poses(scene: &omnisim::Scene, count: usize, seed: u64) -> Vec<Pose> {
 }
 
 #[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn no_ray_escapes_a_closed_room() {
     let camera = Camera::Equirectangular(Equirectangular { width: 96, height: 48 });
     for (seed, room) in common::ROOMS.iter().enumerate() {
@@ -49,9 +50,7 @@ fn no_ray_escapes_a_closed_room() {
                 );
             }
         }
-        let Some(gpu) = common::gpu_tracer(&scene, &bvh) else {
-            continue;
-        };
+        let gpu = common::gpu_tracer(&scene, &bvh);
         for pose in random_poses(&scene, 20, 100 + seed as u64) {
             let frame = gpu.render(&camera, &pose).unwrap();
             assert_eq!(frame.hit_count(), 96 * 48, "{room}: GPU rays escaped at {pose:?}");

@@ -1,4 +1,5 @@
-//! `omnisim dataset` killed at random moments resumes to the bytes of an uninterrupted run.
+//! `omnisim dataset` killed at random moments resumes to the bytes of an uninterrupted run; a run
+//! holds its folder while it writes.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -106,6 +107,38 @@ fn a_run_killed_at_random_moments_resumes_to_the_same_bytes() {
             name.display()
         );
     }
+}
+
+/// A run holds its folder against an `--overwrite` of another spec while it writes (shown
+/// with the folder and what to do); killed, it holds nothing.
+#[test]
+fn a_running_data_set_is_not_overwritten_and_a_killed_one_blocks_nothing() {
+    let (dir, spec) = project();
+    // Long enough to be running still when the second command starts.
+    std::fs::write(&spec, SPEC.replace("count: 12", "count: 400")).unwrap();
+    let other = dir.path().join("other.ron");
+    std::fs::write(&other, SPEC.replace("seed: 5", "seed: 6")).unwrap();
+    let out = dir.path().join("out");
+    let mut running = dataset(&spec, &out).spawn().unwrap();
+    while !out.join("map/.frames/000000.json").exists() {
+        assert!(running.try_wait().unwrap().is_none(), "the first run ended early");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let refused = dataset(&other, &out).arg("--overwrite").output().unwrap();
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(
+        stderr.contains(&format!("{} is in use by another omnisim run", out.display()))
+            && stderr.contains("wait for it to end"),
+        "{stderr}"
+    );
+    assert!(running.try_wait().unwrap().is_none(), "the first run ended early");
+    running.kill().unwrap();
+    running.wait().unwrap();
+    let output = dataset(&other, &out).arg("--overwrite").output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("--overwrite: removed"), "{stderr}");
 }
 
 #[test]

@@ -18,6 +18,14 @@ pub(crate) const ENTRIES: &str = ".frames";
 /// A set's own entry, in `ENTRIES`.
 pub(crate) const SET_ENTRY: &str = "set.json";
 
+/// Lock file a run holds exclusively for the moment it decides whether the folder is its own
+/// and writes the stamp: runs started together decide one after the other.
+pub(crate) const GATE: &str = ".omnisim-dataset.lock";
+
+/// Lock file every run and merge holds shared while it works in the folder (shards of one
+/// spec together): an `--overwrite` is refused while anyone holds it.
+pub(crate) const RUNNING: &str = ".omnisim-dataset.running";
+
 /// The error of an I/O failure on `path`, for `map_err`.
 pub(crate) fn io(path: &Path) -> impl Fn(std::io::Error) -> DatasetError + '_ {
     move |source| DatasetError::Io {

@@ -1,12 +1,13 @@
 //! A data-set folder's state: its stamp (which spec, scene and renderer), the temporaries a
 //! killed run left, which frames are done, and which folders a run may write into.
 
-use std::path::Path;
+use std::fs::{File, TryLockError};
+use std::path::{Path, PathBuf};
 
 use super::contact_sheet::CONTACT_SHEET;
 use super::manifest::{FileEntry, FrameEntry, SetEntry, Stamp, inside, sha256_hex, to_json};
 use super::{Dataset, DatasetError, SetPlan};
-use crate::files::{ENTRIES, MANIFEST, SET_ENTRY, STAMP, entry_path, io, read_entry_paths, write_file};
+use crate::files::{ENTRIES, GATE, MANIFEST, RUNNING, SET_ENTRY, STAMP, entry_path, io, read_entry_paths, write_file};
 use omnisim::Renderer;
 use omnisim::output::{self, atomic};
 
@@ -14,6 +15,33 @@ use omnisim::output::{self, atomic};
 pub(crate) fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     atomic::remove_stale_temporaries(dir).map_err(io(dir))?;
+    Ok(())
+}
+
+/// Refuses a data-set folder `dir` inside a set's bookkeeping folder (`.frames`) or inside
+/// another data set's folder, where its files would mix with that data set's. Judged on the
+/// path as the system resolves the part of it that exists (a link to `.frames` counts).
+pub(crate) fn refuse_nested(dir: &Path) -> Result<(), DatasetError> {
+    let absolute = std::path::absolute(dir).map_err(io(dir))?;
+    let existing = absolute.ancestors().find(|a| a.exists()).unwrap_or(&absolute);
+    let resolved = match absolute.strip_prefix(existing) {
+        Ok(rest) => std::fs::canonicalize(existing).map_err(io(existing))?.join(rest),
+        Err(_) => absolute.clone(),
+    };
+    for ancestor in resolved.ancestors() {
+        if ancestor.file_name() == Some(ENTRIES.as_ref()) {
+            return Err(DatasetError::InBookkeeping {
+                dir: dir.to_path_buf(),
+                folder: ancestor.to_path_buf(),
+            });
+        }
+        if ancestor != resolved && ancestor.join(STAMP).is_file() {
+            return Err(DatasetError::InDataSet {
+                dir: dir.to_path_buf(),
+                outer: ancestor.to_path_buf(),
+            });
+        }
+    }
     Ok(())
 }
 
@@ -140,11 +168,103 @@ fn remove_previous(dir: &Path, previous: &Stamp) -> Result<usize, DatasetError> 
     Ok(removed)
 }
 
+/// This process's hold on a data-set folder while it works there, shared with the other runs
+/// (shards) and merges of its data set. Dropping it lets go, and so does the system when the
+/// process ends, however it ends: a killed run leaves nothing that blocks the next one.
+pub(crate) struct Hold {
+    _running: Option<File>,
+}
+
+/// The folder's gate, held while a run decides whether the folder is its own and writes the
+/// stamp, so that two runs never both find it free.
+///
+/// The locks are the system's advisory file locks (`File::lock`: `flock` on Unix, `LockFileEx`
+/// on Windows; Linux NFS clients take them on the server, so shards on several hosts see each
+/// other's), not lock files created exclusively and removed at the end: a run killed on another
+/// host would leave such a file, and no process id tells from here whether that run lives. The
+/// lock files stay: removing one lets a later run lock a new file while another holds the old.
+struct Gate {
+    /// (gate, running), the gate locked; `None` where the file system cannot lock files.
+    locks: Option<(File, File)>,
+    running_path: PathBuf,
+}
+
+impl Gate {
+    /// Waits for the gate (others hold it for moments); notes a file system without locks.
+    fn enter(dir: &Path, notes: &mut Vec<String>) -> Result<Self, DatasetError> {
+        let gate = lock_file(&dir.join(GATE))?;
+        let running_path = dir.join(RUNNING);
+        let locks = match gate.lock() {
+            Ok(()) => Some((gate, lock_file(&running_path)?)),
+            Err(e) => {
+                notes.push(format!(
+                    "{} cannot lock files ({e}): a run of another spec started into it at the same moment would \
+                     not be noticed",
+                    dir.display()
+                ));
+                None
+            }
+        };
+        Ok(Self { locks, running_path })
+    }
+
+    /// Whether another run or merge works in the folder now (every one takes its hold through
+    /// the gate, so none can start before this one opens it).
+    fn others_inside(&self) -> Result<bool, DatasetError> {
+        let Some((_, running)) = &self.locks else {
+            return Ok(false);
+        };
+        match running.try_lock() {
+            Ok(()) => running.unlock().map(|()| false).map_err(io(&self.running_path)),
+            Err(TryLockError::WouldBlock) => Ok(true),
+            Err(TryLockError::Error(e)) => Err(io(&self.running_path)(e)),
+        }
+    }
+
+    /// Holds the folder, then opens the gate (in that order: no `--overwrite` finds the folder
+    /// free in between).
+    fn hold(self) -> Result<Hold, DatasetError> {
+        let Some((_gate, running)) = self.locks else {
+            return Ok(Hold { _running: None });
+        };
+        running.lock_shared().map_err(io(&self.running_path))?;
+        Ok(Hold {
+            _running: Some(running),
+        })
+    }
+}
+
+/// Opens or creates a lock file; never through a link, nor a FIFO or device under its name.
+fn lock_file(path: &Path) -> Result<File, DatasetError> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if !m.is_file() => Err(DatasetError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other("not a plain file (a link, folder or device): remove it"),
+        }),
+        Ok(_) => File::options().write(true).open(path).map_err(io(path)),
+        Err(_) => File::options()
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(io(path)),
+    }
+}
+
+/// Holds the data-set folder `dir` (which exists) as [`open_folder`] does, without touching
+/// its stamp: for a merge, which a concurrent `--overwrite` must not pull files from under.
+pub(crate) fn hold(dir: &Path) -> Result<Hold, DatasetError> {
+    Gate::enter(dir, &mut Vec::new())?.hold()
+}
+
 /// Opens `dir` for the data set `stamp`: refuses another spec's data set (or files no data
-/// set recorded) unless `overwrite`, and writes the stamp. Returns notes.
-pub(crate) fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<Vec<String>, DatasetError> {
+/// set recorded) unless `overwrite`, and any other data set while a run works on it, and
+/// writes the stamp. Returns notes, and the hold to keep while the run writes.
+pub(crate) fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<(Vec<String>, Hold), DatasetError> {
+    refuse_nested(dir)?;
     prepare_dir(dir)?;
     let mut notes = Vec::new();
+    let gate = Gate::enter(dir, &mut notes)?;
     let previous = match read_stamp(dir) {
         // Nothing tells which files were its own: they stay, and new ones replace them.
         Err(DatasetError::BadStamp { problem, .. }) if overwrite => {
@@ -161,6 +281,12 @@ pub(crate) fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<
         // geometry hash, so its identity cannot match: saying so beats calling it another spec.
         Some(previous) if !overwrite && (previous.identity == stamp.identity || previous.version.is_empty()) => {
             same_renderer(dir, &previous, stamp)?;
+        }
+        Some(previous) if gate.others_inside()? => {
+            return Err(DatasetError::Busy {
+                dir: dir.to_path_buf(),
+                previous: describe(&previous),
+            });
         }
         Some(previous) if !overwrite => {
             return Err(DatasetError::AnotherSpec {
@@ -179,7 +305,7 @@ pub(crate) fn open_folder(dir: &Path, stamp: &Stamp, overwrite: bool) -> Result<
         None => refuse_unrecorded(dir)?,
     }
     write_file(&dir.join(STAMP), &to_json(stamp))?;
-    Ok(notes)
+    Ok((notes, gate.hold()?))
 }
 
 /// Refuses frames of `theirs`'s version or renderer beside those of `ours` (same spec).

@@ -115,6 +115,18 @@ pub enum DatasetError {
         /// What it holds.
         previous: String,
     },
+    /// Another run (or merge) of another data set works in the folder now.
+    #[error(
+        "{} is in use by another omnisim run (or merge) of {previous}: wait for it to end (--overwrite then \
+         replaces that data set), or choose another folder",
+        dir.display()
+    )]
+    Busy {
+        /// The folder.
+        dir: PathBuf,
+        /// The data set that run writes.
+        previous: String,
+    },
     /// The folder's frames come from another omnisim version or renderer: their bytes would
     /// differ from this run's.
     #[error(
@@ -151,6 +163,32 @@ pub enum DatasetError {
     Link {
         /// The link.
         path: PathBuf,
+    },
+    /// The output folder lies inside a data set's bookkeeping folder.
+    #[error(
+        "{} is or lies inside a data set's bookkeeping folder ({}, its frame entries): a data set there would be \
+         mixed with them; choose a folder outside it",
+        dir.display(),
+        folder.display()
+    )]
+    InBookkeeping {
+        /// The output folder.
+        dir: PathBuf,
+        /// The bookkeeping folder.
+        folder: PathBuf,
+    },
+    /// The output folder lies inside another data set's folder.
+    #[error(
+        "{} lies inside the data set in {} (it holds {}): a folder holds one data set; choose a folder outside it",
+        dir.display(),
+        outer.display(),
+        files::STAMP
+    )]
+    InDataSet {
+        /// The output folder.
+        dir: PathBuf,
+        /// The data set's folder.
+        outer: PathBuf,
     },
     /// A merge was given a folder no data-set run wrote.
     #[error(
@@ -214,16 +252,6 @@ pub enum DatasetError {
         /// Size or hash mismatch, or missing.
         problem: String,
     },
-    /// Occluders found no free place.
-    #[error("set '{set}', frame {frame}: {source}; lower their count or clearance, or widen their region")]
-    Occluders {
-        /// The set.
-        set: String,
-        /// The frame, or `set` for per-set occluders.
-        frame: String,
-        /// Why.
-        source: occluders::NoFreePlace,
-    },
     /// The preview picture could not be rasterised.
     #[error("cannot draw the preview picture: {0}")]
     Picture(String),
@@ -231,21 +259,61 @@ pub enum DatasetError {
 
 impl DatasetError {
     /// Whether the same command would fail the same way: the folder was refused (another
-    /// spec's or renderer's frames, unrecorded files) or the spec asks what cannot be (occluders
-    /// with no free place). Other errors (a full disk, a killed writer) leave a resumable run.
+    /// spec's or renderer's frames, unrecorded files) or the spec asks what cannot be (such as
+    /// occluders with no free place). Other errors (a full disk, a killed writer) leave a resumable run.
     pub fn needs_a_change(&self) -> bool {
         matches!(
             self,
             Self::AnotherSpec { .. }
+                | Self::Busy { .. }
                 | Self::OtherRenderer { .. }
                 | Self::ShardOfAnotherSpec { .. }
                 | Self::Unrecorded { .. }
                 | Self::NotADataSet { .. }
                 | Self::BadStamp { .. }
                 | Self::Link { .. }
-                | Self::Occluders { .. }
+                | Self::InBookkeeping { .. }
+                | Self::InDataSet { .. }
+                | Self::Spec { .. }
         )
     }
+}
+
+/// Occluders of `set` with no free place (in frame `frame`, or for the whole set), as a spec
+/// error at the `Occluders` entry (per-frame or not) the unplaced one came from.
+fn crowded(
+    at: &spec::SpecText,
+    set: &SetSpec,
+    per_frame: bool,
+    frame: Option<usize>,
+    error: &occluders::NoFreePlace,
+) -> DatasetError {
+    // Per-frame occluders are numbered after the set's own.
+    let mut numbered = if per_frame {
+        set.occluders.iter().filter(|o| !o.per_frame).map(|o| o.count).sum()
+    } else {
+        0
+    };
+    let entry = set
+        .occluders
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.per_frame == per_frame)
+        .find(|(_, o)| {
+            numbered += o.count;
+            error.number <= numbered
+        })
+        .map_or(0, |(i, _)| i);
+    at.error(
+        spec::Place {
+            set: Some(&set.name),
+            field: format!("occluders[{entry}]"),
+        },
+        format!(
+            "{}{error}; lower their count or clearance, or widen their region",
+            frame.map(|i| format!("frame {i}: ")).unwrap_or_default()
+        ),
+    )
 }
 
 /// `most` indices from 0 to `total` − 1 (all of them if there are no more), evenly spread,
@@ -417,13 +485,8 @@ impl Dataset {
             } else {
                 let cameras: Vec<DVec3> = poses.iter().flat_map(|p| centres(&rig, p)).collect();
                 let mut rng = rng::stream(spec.seed, &set.name, None, rng::Purpose::Occluders);
-                occluders::place(&scene, &bvh, &shared, &cameras, &[], &mut rng).map_err(|source| {
-                    DatasetError::Occluders {
-                        set: set.name.clone(),
-                        frame: "set".into(),
-                        source,
-                    }
-                })?
+                occluders::place(&scene, &bvh, &shared, &cameras, &[], &mut rng)
+                    .map_err(|e| crowded(&at, set, false, None, &e))?
             };
             sets.push(SetPlan {
                 spec: set.clone(),
@@ -432,7 +495,7 @@ impl Dataset {
                 occluders,
             });
         }
-        Ok(Self {
+        let dataset = Self {
             scene_sha256: manifest::sha256_hex(scene_text.as_bytes()),
             spec,
             spec_path: path.to_path_buf(),
@@ -443,6 +506,36 @@ impl Dataset {
             sets,
             warnings,
             bvh,
+        };
+        for s in 0..dataset.sets.len() {
+            dataset.check_frame_occluders(s)?;
+        }
+        Ok(dataset)
+    }
+
+    /// Places every frame's per-frame occluders of set `s` (on every core; discarded: a frame
+    /// draws the same ones from its own stream as it renders), so that a spec asking for more
+    /// than fits fails at load, not after the sets before it have rendered. The error is the
+    /// first such frame's.
+    fn check_frame_occluders(&self, s: usize) -> Result<(), DatasetError> {
+        let frames = self.sets[s].poses.len();
+        if !self.sets[s].spec.occluders.iter().any(|o| o.per_frame) {
+            return Ok(());
+        }
+        let threads = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+        let chunk = frames.div_ceil(threads).max(1);
+        std::thread::scope(|scope| {
+            let checks: Vec<_> = (0..frames)
+                .step_by(chunk)
+                .map(|start| {
+                    scope.spawn(move || {
+                        (start..frames.min(start + chunk)).try_for_each(|i| self.frame_occluders(s, i).map(drop))
+                    })
+                })
+                .collect();
+            checks
+                .into_iter()
+                .try_for_each(|check| check.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)))
         })
     }
 

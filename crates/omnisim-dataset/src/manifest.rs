@@ -177,7 +177,8 @@ pub struct Manifest {
 }
 
 impl Manifest {
-    /// Reads a data set's `manifest.json`. README's example, compiled here:
+    /// Reads a data set's `manifest.json`. README's example, compiled here (the CLI's
+    /// `tests/readme.rs` checks that they are the same):
     ///
     /// ```no_run
     /// # fn main() -> Result<(), Box<dyn std::error::Error>> {

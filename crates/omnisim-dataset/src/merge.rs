@@ -12,7 +12,9 @@ use super::manifest::{
     to_json, verify, verify_size,
 };
 use crate::files::{ENTRIES, MANIFEST, SET_ENTRY, STAMP, entry_path, io, read_entry_paths, read_json, write_file};
-use crate::folder::{describe, prepare_dir, prepare_subdir, read_stamp, refuse_unrecorded, same_renderer};
+use crate::folder::{
+    describe, hold, prepare_dir, prepare_subdir, read_stamp, refuse_nested, refuse_unrecorded, same_renderer,
+};
 use omnisim::Rig;
 
 /// What `merge` found.
@@ -31,6 +33,13 @@ pub struct MergeSummary {
 /// records, and writes the layouts' index files and `manifest.json`. With no `sources`, shards
 /// wrote into `dest` itself (a shared file system).
 pub fn merge(dest: &Path, sources: &[PathBuf]) -> Result<MergeSummary, DatasetError> {
+    refuse_nested(dest)?;
+    // Held as a run holds it: an --overwrite cannot remove the data set under the merge.
+    let _held = if dest.join(STAMP).is_file() {
+        Some(hold(dest)?)
+    } else {
+        None
+    };
     assemble(dest, sources, &HashSet::new())
 }
 

@@ -206,8 +206,10 @@ impl Dataset {
         options: &RunOptions,
         on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
     ) -> Result<RunSummary, DatasetError> {
+        // Held until the run returns, its final merge included.
+        let (notes, _held) = open_folder(out, &self.stamp(renderer), options.overwrite)?;
         let mut summary = RunSummary {
-            notes: open_folder(out, &self.stamp(renderer), options.overwrite)?,
+            notes,
             ..RunSummary::default()
         };
         for set in &self.sets {
@@ -364,10 +366,12 @@ impl Dataset {
             &plan.occluders,
             &mut rng,
         )
-        .map_err(|source| DatasetError::Occluders {
-            set: plan.spec.name.clone(),
-            frame: index.to_string(),
-            source,
+        .map_err(|e| {
+            let at = super::spec::SpecText {
+                text: &self.spec_text,
+                path: &self.spec_path,
+            };
+            super::crowded(&at, &plan.spec, true, Some(index), &e)
         })
     }
 
