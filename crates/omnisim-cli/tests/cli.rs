@@ -196,8 +196,10 @@ fn stereo_writes_both_images_disparity_and_calibration() {
         "env1-0000-right-depth.exr",
         "calibration-opencv-stereo.yaml",
         "calibration-kalibr.yaml",
-        "raymap-left.exr",
-        "raymap-right.exr",
+        "raymap-left-origin.exr",
+        "raymap-left-direction.exr",
+        "raymap-right-origin.exr",
+        "raymap-right-direction.exr",
     ] {
         assert!(dir.join(name).is_file(), "{name} missing");
     }
@@ -658,8 +660,9 @@ fn gpu_probes_keep_stderr_clean() {
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
 }
 
-/// The outputs opened by the readers people use (`OpenCV`, `OpenEXR`, plyfile, `PyYAML`, evo), in
-/// the Python environment .ci/run makes; see `tests/readers/check_outputs.py`.
+/// The outputs opened by the readers people use (`OpenCV`, imageio, `OpenEXR`, plyfile, `PyYAML`,
+/// evo), in the Python environment .ci/run makes; see `tests/readers/check_outputs.py`. Every
+/// EXR, normals and ray maps included, must open in `OpenCV` and imageio.
 #[test]
 fn outputs_open_in_the_readers_people_use() {
     let Some(python) = std::env::var_os("OMNISIM_PYTHON") else {
@@ -674,7 +677,7 @@ fn outputs_open_in_the_readers_people_use() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let poses = "--pose 1.5,0,0.4,0,0,60 --pose 0.3,-0.4,0.5,5,-10,30 --backend cpu";
+    let poses = "--pose 1.5,0,0.4,0,0,60 --pose 0.3,-0.4,0.5,5,-10,30 --backend cpu --normals";
     for (name, camera) in [
         ("omni", "--camera omni"),
         ("omni-down", "--camera omni --mount down --size 200x200"),
@@ -704,7 +707,13 @@ fn outputs_open_in_the_readers_people_use() {
         .expect("the reader check's Python runs");
     eprintln!("{}", text(&check.stdout));
     assert!(check.status.success(), "{}", text(&check.stderr));
-    assert!(text(&check.stdout).contains("checks passed in 9 folders"));
+    // Two poses each: one normal map per view (7 single cameras, 2 stereo rigs), one ray map
+    // (origin and direction) per view.
+    assert!(
+        text(&check.stdout).contains("checks passed in 9 folders (22 normal maps, 11 ray maps)"),
+        "{}",
+        text(&check.stdout)
+    );
 }
 
 #[test]

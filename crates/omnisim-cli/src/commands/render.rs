@@ -62,7 +62,8 @@ impl From<BackendArg> for BackendChoice {
 /// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16
 /// bit) and -depth.exr (z, metres); a stereo rig writes -left and -right of each and
 /// -disparity.exr. Once per run: calibration-*.yaml (`OpenCV` and Kalibr, where the model has a standard form),
-/// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
+/// raymap-origin.exr and raymap-direction.exr (every pixel's ray in the body frame, R G B = x y z;
+/// stereo: raymap-left-origin.exr ...), poses.txt (TUM: index tx ty tz qx qy qz
 /// qw, `world_from_body`) and render.json (camera, conventions, backend, every pose).
 ///
 /// A folder holds one run: omnisim-run.txt lists the run and its files, a re-run of the same
@@ -109,7 +110,7 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     pub segmentation: bool,
     /// Also write <stem>-normal.exr: unit surface normals in the world frame, turned towards
-    /// the camera (channels normal.X/Y/Z, NaN where nothing is hit).
+    /// the camera (channels R, G, B = x, y, z, header quantity "normal"; NaN where nothing is hit).
     #[arg(long)]
     pub normals: bool,
     /// Also write <stem>-linear.exr: linear colour before sRGB encoding (channels R, G, B; 1.0 =

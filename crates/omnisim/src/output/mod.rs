@@ -5,7 +5,9 @@
 //! EXRs are scan lines stored in increasing order, ZIP-compressed unless the caller picks
 //! another lossless [`ExrCompression`]: the same values give the same bytes. Single-value images (range, depth, disparity) hold one channel
 //! named `Y`, the luminance channel every reader opens (`OpenCV` reads no other single channel);
-//! what the values are is in the header: the string attribute `quantity` and `comments`.
+//! three-value images (normals, ray origins and directions, linear colour) hold `R G B`, the only
+//! other layout `OpenCV` and imageio open (`OpenCV` returns them as B, G, R). What the values are
+//! is in the header: the string attribute `quantity` and `comments`.
 
 pub mod atomic;
 pub mod folder;
@@ -34,7 +36,8 @@ use atomic::write_atomically;
 /// The channel of single-value EXRs (range, depth, disparity).
 pub const VALUE_CHANNEL: &str = "Y";
 
-/// The EXR header attribute naming what an EXR holds: `range`, `z`, `disparity` or `rays`.
+/// The EXR header attribute naming what an EXR holds: `range`, `z`, `disparity`, `normal`,
+/// `linear colour`, `ray origin` or `ray direction`.
 pub const QUANTITY_ATTRIBUTE: &str = "quantity";
 
 /// What range means for `camera`, stored in the EXR header and the metadata.
@@ -44,7 +47,7 @@ pub fn range_convention(camera: &Camera) -> &'static str {
          effective viewpoint F') to the first surface hit; +inf where nothing is hit"
     } else {
         "range: Euclidean distance in metres (f32) from each pixel's own ray origin (the mirror point, or the \
-         camera's optical centre in the body frame; see raymap.exr) to the first surface hit; +inf where nothing is hit"
+         camera's optical centre in the body frame; see raymap-origin.exr) to the first surface hit; +inf where nothing is hit"
     }
 }
 
@@ -256,42 +259,77 @@ fn write_exr(
     .map_err(failed(path))
 }
 
-/// Text stored in ray-map EXR headers.
-pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x forward, y left, z up; metres): channels \
-     origin.X/Y/Z and direction.X/Y/Z (unit); a hit at range r is origin + r*direction; NaN where the pixel has no ray";
+/// What the two ray-map files of a view hold, in their headers and in `render.json`.
+pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x forward, y left, z up; metres), two \
+     files per view: raymap-origin.exr (quantity 'ray origin') and raymap-direction.exr (quantity 'ray direction', \
+     unit vectors), channels R, G, B = x, y, z; a hit at range r is origin + r*direction; NaN where the pixel has no ray";
 
-/// Six-channel f32 EXR of every pixel's ray in the body frame: `origin.{X,Y,Z}` and
-/// `direction.{X,Y,Z}`; NaN where the pixel sees nothing. Non-central cameras need it to
+/// The files holding every pixel's ray of a view whose files end in `suffix` (`""`, or a
+/// stereo view's `-left`, `-right`): origin, then direction.
+pub fn ray_map_names(suffix: &str) -> [String; 2] {
+    [
+        format!("raymap{suffix}-origin.exr"),
+        format!("raymap{suffix}-direction.exr"),
+    ]
+}
+
+/// Every pixel's ray in the body frame, as two three-channel f32 EXRs (`R G B` = x y z) that
+/// every EXR reader opens: the origins at `origin_path`, the unit directions at
+/// `direction_path`; NaN where the pixel sees nothing. Non-central cameras need them to
 /// rebuild points from range.
-pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError> {
+pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Camera) -> Result<(), OutputError> {
     let (width, height) = camera.size();
-    let mut channels: [Vec<f32>; 6] = Default::default();
+    let mut origin: [Vec<f32>; 3] = Default::default();
+    let mut direction: [Vec<f32>; 3] = Default::default();
     for v in 0..height {
         for u in 0..width {
-            let values = match camera.ray(DVec2::new(f64::from(u), f64::from(v))) {
-                Some(ray) => [ray.origin.to_array(), ray.direction.to_array()].concat(),
-                None => vec![f64::NAN; 6],
+            let (o, d) = match camera.ray(DVec2::new(f64::from(u), f64::from(v))) {
+                Some(ray) => (ray.origin.to_array(), ray.direction.to_array()),
+                None => ([f64::NAN; 3], [f64::NAN; 3]),
             };
-            for (channel, value) in channels.iter_mut().zip(values) {
-                channel.push(value as f32);
+            for k in 0..3 {
+                origin[k].push(o[k] as f32);
+                direction[k].push(d[k] as f32);
             }
         }
     }
-    let names = [
-        "origin.X",
-        "origin.Y",
-        "origin.Z",
-        "direction.X",
-        "direction.Y",
-        "direction.Z",
-    ];
+    let size = (width, height);
+    write_xyz_exr(
+        origin_path,
+        size,
+        "ray origin",
+        RAY_MAP_CONVENTION,
+        origin,
+        ExrCompression::Zip,
+    )?;
+    write_xyz_exr(
+        direction_path,
+        size,
+        "ray direction",
+        RAY_MAP_CONVENTION,
+        direction,
+        ExrCompression::Zip,
+    )
+}
+
+/// A three-value image (a vector's x y z, or a colour's R G B) as the f32 channels `R G B`:
+/// the one multi-channel layout `OpenCV`'s and imageio's EXR readers open (they refuse other
+/// channel names); `quantity` in the header says what the values are.
+pub(crate) fn write_xyz_exr(
+    path: &Path,
+    size: (u32, u32),
+    quantity: &str,
+    convention: &str,
+    [x, y, z]: [Vec<f32>; 3],
+    compression: ExrCompression,
+) -> Result<(), OutputError> {
     write_exr(
         path,
-        (width, height),
-        "rays",
-        RAY_MAP_CONVENTION,
-        names.into_iter().zip(channels).collect(),
-        ExrCompression::Zip,
+        size,
+        quantity,
+        convention,
+        vec![("R", x), ("G", y), ("B", z)],
+        compression,
     )
 }
 

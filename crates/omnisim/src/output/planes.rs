@@ -6,14 +6,14 @@ use std::path::Path;
 use image::ImageEncoder;
 use serde::Serialize;
 
-use super::{ExrCompression, OutputError, failed, write_exr};
+use super::{ExrCompression, OutputError, failed, write_xyz_exr};
 use crate::frame::{Frame, NO_FACE};
 use crate::output::atomic::write_atomically;
 use crate::scene::Scene;
 
-/// Text stored in normal-map EXR headers.
+/// Text stored in normal-map EXR headers (`quantity` = `normal`).
 pub const NORMAL_CONVENTION: &str = "unit geometric normal of the surface hit, world frame (z up), turned towards the \
-     camera: channels normal.X/Y/Z; NaN where nothing is hit";
+     camera: channels R, G, B = x, y, z; NaN where nothing is hit";
 
 /// Text stored in linear-colour EXR headers.
 pub const LINEAR_CONVENTION: &str = "linear colour after shading, before sRGB encoding and clamping: channels R, G, B; \
@@ -104,7 +104,8 @@ pub fn face_ids(frame: &Frame) -> Vec<u32> {
         .collect()
 }
 
-/// Three-channel f32 EXR of world-frame unit normals, NaN where nothing is hit.
+/// Three-channel f32 EXR of world-frame unit normals (`R G B` = x y z, `quantity` =
+/// `normal`), NaN where nothing is hit.
 pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
     let mut channels: [Vec<f32>; 3] = Default::default();
     for p in frame.pixels() {
@@ -113,13 +114,12 @@ pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression)
             channel.push(value);
         }
     }
-    let [x, y, z] = channels;
-    write_exr(
+    write_xyz_exr(
         path,
         (frame.width, frame.height),
         "normal",
         NORMAL_CONVENTION,
-        vec![("normal.X", x), ("normal.Y", y), ("normal.Z", z)],
+        channels,
         compression,
     )
 }
@@ -131,12 +131,12 @@ pub fn write_linear_exr(path: &Path, frame: &Frame, compression: ExrCompression)
         message: "the frame has no linear colour plane (render it with Plane::LinearColour)".into(),
     })?;
     let channel = |k: usize| linear.iter().map(|c| c[k]).collect();
-    write_exr(
+    write_xyz_exr(
         path,
         (frame.width, frame.height),
         "linear colour",
         LINEAR_CONVENTION,
-        vec![("R", channel(0)), ("G", channel(1)), ("B", channel(2))],
+        [channel(0), channel(1), channel(2)],
         compression,
     )
 }

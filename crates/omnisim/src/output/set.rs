@@ -262,7 +262,8 @@ impl OutputSet {
     }
 
     /// Writes the files of a set of frames that are not per frame, claimed in `folder`:
-    /// calibration in the formats robotics tools read, a ray map per view and the segmentation
+    /// calibration in the formats robotics tools read, the ray maps of each view (origin and
+    /// direction files) and the segmentation
     /// legend (if asked for). Returns their paths.
     pub fn write_set_files(
         &self,
@@ -277,9 +278,10 @@ impl OutputSet {
             written.push(path);
         }
         for view in rig.views() {
-            let path = folder.claim(format!("raymap{}.exr", view.suffix))?;
-            super::write_ray_map_exr(&path, &view.camera)?;
-            written.push(path);
+            let [origin, direction] = super::ray_map_names(view.suffix);
+            let (origin, direction) = (folder.claim(origin)?, folder.claim(direction)?);
+            super::write_ray_map_exrs(&origin, &direction, &view.camera)?;
+            written.extend([origin, direction]);
         }
         if self.segmentation {
             let legend_path = folder.claim("segmentation.json".into())?;
