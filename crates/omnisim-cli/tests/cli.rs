@@ -976,10 +976,64 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     let unknown = omnisim("bench no-such-anchor --backend cpu --runs 1");
     assert_eq!(unknown.status.code(), Some(1));
     assert!(
-        text(&unknown.stderr).contains("compare.sh"),
+        text(&unknown.stderr).contains("bench/compare.sh"),
         "{}",
         text(&unknown.stderr)
     );
+    // The script it names ships in the repository; no text names a folder beside it.
+    assert!(workspace().join("bench/compare.sh").is_file());
+    let help = omnisim("bench --help");
+    for said in [text(&unknown.stderr), text(&help.stdout)] {
+        assert!(!said.contains("../"), "{said}");
+    }
+    assert!(text(&help.stdout).contains("bench/compare.sh"));
+}
+
+/// The comparison scripts `bench --help` points to ship in bench/ and print their usage without
+/// Python; where the reader check's Python is (it has `Open3D` and `OpenEXR`), `same_rays.py` reads
+/// the rays of a render's two ray-map files, as many as the image has pixels with a ray.
+#[test]
+fn bench_scripts_print_their_usage_and_read_ray_maps() {
+    for script in ["bench/compare.sh", "bench/same_rays.sh"] {
+        let usage = Command::new("bash")
+            .args([script, "--help"])
+            .current_dir(workspace())
+            .output()
+            .unwrap();
+        assert!(usage.status.success(), "{script}: {}", text(&usage.stderr));
+        assert!(
+            text(&usage.stdout).contains(&format!("OMNISIM=target/release/omnisim {script}")),
+            "{}",
+            text(&usage.stdout)
+        );
+    }
+    let Some(python) = std::env::var_os("OMNISIM_PYTHON") else {
+        assert!(std::env::var_os("CI").is_none(), "CI is set but OMNISIM_PYTHON is not");
+        eprintln!("\n**** SKIPPED same_rays.py's ray-map reader: set OMNISIM_PYTHON ****\n");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("omni");
+    let result = omnisim(&format!(
+        "render scenes/env1.ron --camera omni --size 40x40 --pose 0,0,0.4 --backend cpu --no-ply --out {}",
+        out.display()
+    ));
+    assert!(result.status.success(), "{}", text(&result.stderr));
+    let read = Command::new(python)
+        .args([
+            "-c",
+            "import sys; sys.path.insert(0, 'bench'); import same_rays, numpy as np; \
+             o, d = same_rays.read_raymap(sys.argv[1]); \
+             assert np.allclose(np.linalg.norm(d, axis=1), 1, atol=1e-6); print(len(o))",
+        ])
+        .arg(&out)
+        .current_dir(workspace())
+        .output()
+        .unwrap();
+    assert!(read.status.success(), "{}", text(&read.stderr));
+    let rays: usize = text(&read.stdout).trim().parse().unwrap();
+    // The omni image's disc: some pixels have a ray, the corners outside the mirror none.
+    assert!(rays > 40 * 40 / 2 && rays < 40 * 40, "{rays} rays");
 }
 
 /// Counts that size allocations or loops are bounded before anything runs.

@@ -40,7 +40,7 @@ omnisim bench room --camera equirect --size 1024x1024 --pose 3,2,1.5 --backend c
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --synthetic-triangles 200000")]
 pub(crate) struct BenchArgs {
     /// Scene file (RON), or the name of a scene: `env1`, `env2` (in ./scenes) or an anchor
-    /// scene of ../shared/bench (`room`, `clutter`; compare.sh writes them to
+    /// scene of the repository's bench/compare.sh (`room`, `clutter`; it writes them to
     /// $`BENCH_CACHE`, default ~/.cache/omnisim-bench).
     #[arg(default_value = "scenes/env1.ron")]
     pub scene: PathBuf,
@@ -186,7 +186,7 @@ fn median(times: &mut [f64]) -> f64 {
 }
 
 /// The scene file `scene` names: itself if it is a file, else a scene name looked up in
-/// ./scenes and in the anchor cache of ../shared/bench/compare.sh.
+/// ./scenes and in the anchor cache of bench/compare.sh.
 fn resolve_scene(scene: &Path) -> anyhow::Result<PathBuf> {
     let is_name = scene.components().count() == 1 && scene.extension().is_none();
     if scene.is_file() || !is_name {
@@ -204,7 +204,7 @@ fn resolve_scene(scene: &Path) -> anyhow::Result<PathBuf> {
     match candidates.iter().find(|path| path.is_file()) {
         Some(path) => Ok(path.clone()),
         None => bail!(
-            "no scene file {} and no scene named {} in {} (../shared/bench/compare.sh writes the anchor scenes room and clutter)",
+            "no scene file {} and no scene named {} in {} (bench/compare.sh in omnisim's repository writes the anchor scenes room and clutter)",
             scene.display(),
             scene.display(),
             candidates
