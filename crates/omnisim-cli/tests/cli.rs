@@ -989,6 +989,26 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     assert!(text(&help.stdout).contains("bench/compare.sh"));
 }
 
+/// docs/speed-accuracy.svg is what `bench --chart --chart-from` draws from the figures beside
+/// it, so the shipped chart follows the chart code; `--chart-from` alone is refused.
+#[test]
+fn the_shipped_speed_chart_is_drawn_from_its_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("chart.svg");
+    let drawn = omnisim(&format!(
+        "bench scenes/env1.ron --camera omni --chart {} --chart-from docs/speed-accuracy.jsonl",
+        svg.display()
+    ));
+    assert!(drawn.status.success(), "{}", text(&drawn.stderr));
+    let shipped = std::fs::read_to_string(workspace().join("docs/speed-accuracy.svg")).unwrap();
+    assert!(
+        std::fs::read_to_string(&svg).unwrap() == shipped,
+        "docs/speed-accuracy.svg is out of date: redraw it with bench --chart docs/speed-accuracy.svg --chart-from docs/speed-accuracy.jsonl"
+    );
+    let alone = omnisim("bench scenes/env1.ron --chart-from docs/speed-accuracy.jsonl");
+    assert!(!alone.status.success() && text(&alone.stderr).contains("--chart"));
+}
+
 /// The comparison scripts `bench --help` points to ship in bench/ and print their usage without
 /// Python; where the reader check's Python is (it has `Open3D` and `OpenEXR`), `same_rays.py` reads
 /// the rays of a render's two ray-map files, as many as the image has pixels with a ray.

@@ -67,6 +67,10 @@ pub(crate) struct BenchArgs {
     /// to this SVG file; one JSON object per method on stdout.
     #[arg(long)]
     pub chart: Option<PathBuf>,
+    /// With --chart: draw it from the lines an earlier --chart run printed (as
+    /// docs/speed-accuracy.jsonl holds them) instead of measuring; scene and camera name it.
+    #[arg(long, requires = "chart")]
+    pub chart_from: Option<PathBuf>,
     /// Time tracing to hit planes only (face, range, point, normal), without shading: what
     /// `Open3D`'s `RaycastingScene.cast_rays` computes, for side-by-side figures.
     #[arg(long)]
@@ -88,7 +92,10 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some(chart) = &args.chart {
         super::prepare_file(chart)?;
-        return super::speed_accuracy::run(&scene, &camera, &args.pose, args.runs, chart);
+        return match &args.chart_from {
+            Some(records) => super::speed_accuracy::redraw(&scene, &camera, records, chart),
+            None => super::speed_accuracy::run(&scene, &camera, &args.pose, args.runs, chart),
+        };
     }
     let choices = match args.backend {
         BenchBackend::Gpu => vec![BackendChoice::Gpu],
