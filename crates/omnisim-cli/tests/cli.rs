@@ -338,6 +338,58 @@ fn render_writes_segmentation_normals_and_linear_colour_on_request() {
     assert_eq!(objects.len(), 17);
 }
 
+/// `omnisim render` under a shell's `ulimit -v` of `kib` KiB, from the workspace.
+#[cfg(target_os = "linux")]
+fn render_limited(kib: u64, args: &str) -> Output {
+    Command::new("bash")
+        .args(["-c", &format!("ulimit -v {kib} && exec \"$0\" render {args}")])
+        .arg(env!("CARGO_BIN_EXE_omnisim"))
+        .current_dir(workspace())
+        .output()
+        .unwrap()
+}
+
+/// README's largest image (100 megapixels) under a 4 GiB address-space limit was killed for
+/// memory part-way; it is refused before anything is written, stating what it needs and the
+/// limit, and `render --help` states the need. An ordinary render under a limit still runs.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_render_that_cannot_fit_its_memory_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("big");
+    let big = render_limited(
+        4 << 20,
+        &format!(
+            "scenes/env1.ron --camera omni --size 10000x10000 --pose 1.5,0,0.4,0,0,60 --backend cpu --out {}",
+            out.display()
+        ),
+    );
+    let stderr = text(&big.stderr);
+    assert_eq!(big.status.code(), Some(1), "{stderr}");
+    // 55 bytes a pixel (the figure OutputSet::bytes_per_pixel gives, tested in the library),
+    // 5.5 GB and a little more, against what 4 GiB leaves.
+    assert!(
+        stderr.contains("a 10000x10000 render of 1 view(s) (55 bytes a pixel: hit planes 48, colour 3, range writer 4")
+            && stderr.contains("needs about 5.")
+            && stderr.contains("of address space, more than the address space left under ulimit -v (4."),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "nothing is written");
+    let help = text(&omnisim("render --help").stdout);
+    assert!(
+        help.contains("The default outputs take 55 bytes a pixel (100 megapixels: 5.5 GB"),
+        "{help}"
+    );
+    let small = render_limited(
+        1 << 20,
+        &format!(
+            "scenes/env1.ron --camera omni --size 200x200 --pose 1.5,0,0.4,0,0,60 --backend cpu --out {}",
+            dir.path().join("small").display()
+        ),
+    );
+    assert!(small.status.success(), "{}", text(&small.stderr));
+}
+
 /// The regular files in `dir` (hidden ones too), sorted.
 fn files_in(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)

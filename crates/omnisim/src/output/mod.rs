@@ -85,10 +85,14 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
         path: path.to_path_buf(),
         message: "the frame has no colour plane (render it with Planes::COLOUR)".into(),
     })?;
-    let bytes: Vec<u8> = colour.iter().flatten().copied().collect();
     write_atomically(path, |out| {
         png_encoder(out)
-            .write_image(&bytes, frame.width, frame.height, image::ExtendedColorType::Rgb8)
+            .write_image(
+                colour.as_flattened(),
+                frame.width,
+                frame.height,
+                image::ExtendedColorType::Rgb8,
+            )
             .map_err(std::io::Error::other)
     })
     .map_err(failed(path))
@@ -147,18 +151,16 @@ pub const TUM_DEPTH_SCALE: f64 = 5000.0;
 /// 16-bit grey PNG of axial depth in the TUM RGB-D convention: value = z × 5000 rounded,
 /// 0 where nothing is hit or where z is beyond 13.1 m (65535 / 5000), which 16 bits cannot hold.
 pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Result<(), OutputError> {
-    let values: Vec<u16> = depth
-        .iter()
-        .map(|&z| {
-            let scaled = (f64::from(z) * TUM_DEPTH_SCALE).round();
-            if scaled.is_finite() && (1.0..=65535.0).contains(&scaled) {
-                scaled as u16
-            } else {
-                0
-            }
-        })
-        .collect();
-    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    let mut bytes = Vec::with_capacity(2 * depth.len());
+    for &z in depth {
+        let scaled = (f64::from(z) * TUM_DEPTH_SCALE).round();
+        let value = if scaled.is_finite() && (1.0..=65535.0).contains(&scaled) {
+            scaled as u16
+        } else {
+            0
+        };
+        bytes.extend_from_slice(&value.to_ne_bytes());
+    }
     write_atomically(path, |out| {
         png_encoder(out)
             .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
@@ -279,8 +281,9 @@ pub fn ray_map_names(suffix: &str) -> [String; 2] {
 /// rebuild points from range.
 pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Camera) -> Result<(), OutputError> {
     let (width, height) = camera.size();
-    let mut origin: [Vec<f32>; 3] = Default::default();
-    let mut direction: [Vec<f32>; 3] = Default::default();
+    let pixels = width as usize * height as usize;
+    let mut origin: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(pixels));
+    let mut direction: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(pixels));
     for v in 0..height {
         for u in 0..width {
             let (o, d) = match camera.ray(DVec2::new(f64::from(u), f64::from(v))) {
@@ -335,11 +338,17 @@ pub(crate) fn write_xyz_exr(
 
 /// Binary little-endian PLY of every hit pixel: float x y z (world metres), uchar red green
 /// blue (the colour plane, or grey 128 where the frame has none). Readable by `Open3D`,
-/// `CloudCompare`, `MeshLab` and PCL.
+/// `CloudCompare`, `MeshLab` and PCL. Streams the points from the frame: a list of the hits
+/// would cost 16 bytes a pixel (more while it grows), the largest copy any writer made.
 pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Result<(), OutputError> {
-    let grey = vec![[128u8; 3]; frame.pixels().len()];
-    let colours = frame.colour().unwrap_or(&grey);
-    let hits: Vec<_> = frame.pixels().iter().zip(colours).filter(|(p, _)| p.is_hit()).collect();
+    const GREY: [u8; 3] = [128; 3];
+    let colour = |index: usize| frame.colour().map_or(&GREY, |colours| &colours[index]);
+    let hits = frame
+        .pixels()
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_hit())
+        .map(|(index, p)| (p, colour(index)));
     write_atomically(path, |out| {
         write!(
             out,
@@ -347,7 +356,7 @@ pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Resul
              comment {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
              property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
             ascii_line(comment),
-            hits.len()
+            frame.hit_count()
         )?;
         for (p, colour) in hits {
             for v in [p.point.x, p.point.y, p.point.z] {

@@ -86,7 +86,10 @@ pub fn write_id_png(path: &Path, size: (u32, u32), ids: &[u32]) -> Result<(), Ou
             message: format!("id {id} does not fit a 16-bit segmentation image (at most {MAX_SEGMENT_ID})"),
         });
     }
-    let bytes: Vec<u8> = ids.iter().flat_map(|&id| (id as u16).to_ne_bytes()).collect();
+    let mut bytes = Vec::with_capacity(2 * ids.len());
+    for &id in ids {
+        bytes.extend_from_slice(&(id as u16).to_ne_bytes());
+    }
     write_atomically(path, |out| {
         super::png_encoder(out)
             .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
@@ -107,7 +110,9 @@ pub fn face_ids(frame: &Frame) -> Vec<u32> {
 /// Three-channel f32 EXR of world-frame unit normals (`R G B` = x y z, `quantity` =
 /// `normal`), NaN where nothing is hit.
 pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
-    let mut channels: [Vec<f32>; 3] = Default::default();
+    // Sized up front: grown by doubling, three channels of a large frame left holes that
+    // raised the peak memory of a render by a few bytes a pixel.
+    let mut channels: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(frame.pixels().len()));
     for p in frame.pixels() {
         let normal = if p.is_hit() { p.normal.to_array() } else { [f32::NAN; 3] };
         for (channel, value) in channels.iter_mut().zip(normal) {
