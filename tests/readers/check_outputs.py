@@ -2,11 +2,13 @@
 
 Usage: python3 tests/readers/check_outputs.py DIR  (every folder under DIR with a render.json)
 
-OpenCV (EXR, FileStorage, cv2.omnidir.projectPoints), OpenEXR (ray maps and headers),
-python-plyfile (point clouds), PyYAML (Kalibr camchains, as Kalibr reads them) and evo_traj
-(poses.txt). Pixels are checked against the point clouds: a PLY lists the hit pixels in row
-order, the pixels where the range EXR is finite, so every point has a known pixel centre that
-each calibration file must project it to within 0.01 px. Versions: requirements.txt.
+OpenCV (EXR, FileStorage, cv2.omnidir.projectPoints), imageio (EXR, through its opencv
+plugin), OpenEXR (headers, and every EXR again), python-plyfile (point clouds), PyYAML (Kalibr
+camchains, as Kalibr reads them) and evo_traj (poses.txt). Every EXR must read the same, bit
+for bit, in all three. Pixels are checked against the point clouds: a PLY lists the hit pixels
+in row order, the pixels where the range EXR is finite, so every point has a known pixel centre
+that each calibration file must project it to within 0.01 px, and the ray maps must rebuild it
+from range. Versions: requirements.txt.
 """
 
 import json
@@ -18,6 +20,8 @@ import sys
 os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"  # before cv2 is imported
 
 import cv2  # noqa: E402
+import imageio.v3 as iio  # noqa: E402
+from imageio import __version__ as iio_version  # noqa: E402
 import numpy as np  # noqa: E402
 import OpenEXR  # noqa: E402
 import plyfile  # noqa: E402
@@ -25,6 +29,7 @@ import yaml  # noqa: E402
 
 PIXEL_TOLERANCE = 0.01
 checks = 0
+read = {"normal maps": 0, "ray maps": 0}
 
 
 def check(condition, message):
@@ -34,25 +39,63 @@ def check(condition, message):
     checks += 1
 
 
-def read_value_exr(path, quantity):
-    """The single-channel EXR as OpenCV reads it, checked against OpenEXR's reading."""
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    check(image is not None, f"OpenCV cannot read {path}")
-    check(image.dtype == np.float32 and image.ndim == 2, f"{path}: {image.dtype} {image.shape}")
-    exr = OpenEXR.File(str(path))
+def same_bits(a, b):
+    return a.shape == b.shape and np.array_equal(a.view(np.uint32), b.view(np.uint32))
+
+
+def read_exr(path, quantity, channels):
+    """The EXR as OpenCV and imageio read it, checked bit for bit against OpenEXR's reading of
+    `channels` ("Y", or "RGB"), with its `quantity` header attribute."""
+    exr = OpenEXR.File(str(path), separate_channels=True)  # else R, G, B come as one "RGB"
     header = exr.header()
     check(header.get("quantity") == quantity, f"{path}: quantity {header.get('quantity')!r}")
+    check(sorted(exr.channels()) == sorted(channels), f"{path}: channels {sorted(exr.channels())}")
+    stored = np.stack([exr.channels()[c].pixels for c in channels], axis=-1)
+    if channels == "Y":
+        stored = stored[..., 0]
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    check(image is not None, f"OpenCV cannot read {path}")
+    if channels == "RGB":
+        image = image[..., ::-1]  # OpenCV's order is B, G, R
+    check(image.dtype == np.float32, f"{path}: OpenCV reads {image.dtype}")
+    check(same_bits(image, stored), f"{path}: OpenCV values differ from OpenEXR's")
+    # imageio's opencv plugin (its default for .exr) returns R, G, B; without these flags, 8 bits.
+    other = iio.imread(str(path), plugin="opencv", flags=cv2.IMREAD_UNCHANGED)
+    check(same_bits(other, stored), f"{path}: imageio values differ from OpenEXR's")
+    return image, header
+
+
+def read_value_exr(path, quantity):
+    """A single-channel EXR (Y), read by OpenCV, imageio and OpenEXR."""
+    image, header = read_exr(path, quantity, "Y")
     check("metres" in header.get("comments", "") or quantity == "disparity", f"{path}: comments")
-    stored = exr.channels()["Y"].pixels
-    check(np.array_equal(image.view(np.uint32), stored.view(np.uint32)), f"{path}: OpenCV values differ")
     return image
 
 
-def read_ray_map(path):
-    channels = OpenEXR.File(str(path)).channels()
-    origin = np.stack([channels[f"origin.{a}"].pixels for a in "XYZ"], axis=-1).astype(np.float64)
-    direction = np.stack([channels[f"direction.{a}"].pixels for a in "XYZ"], axis=-1).astype(np.float64)
-    return origin, direction
+def read_ray_map(folder, view):
+    """A view's ray map: origins (metres) and unit directions, body frame, NaN where no ray."""
+    origin, _ = read_exr(folder / f"raymap{view}-origin.exr", "ray origin", "RGB")
+    direction, header = read_exr(folder / f"raymap{view}-direction.exr", "ray direction", "RGB")
+    check("body frame" in header.get("comments", ""), f"{folder}: ray map comments")
+    rays = np.isfinite(direction).all(axis=-1)
+    check(rays.any() and np.array_equal(rays, np.isfinite(origin).all(axis=-1)), f"{folder}{view}: ray pixels")
+    check(np.isnan(direction[~rays]).all(), f"{folder}{view}: pixels without a ray are NaN")
+    length = np.linalg.norm(direction[rays].astype(np.float64), axis=-1)
+    check(np.abs(length - 1).max() < 1e-6, f"{folder}{view}: directions off unit by {np.abs(length - 1).max():.1e}")
+    read["ray maps"] += 1
+    return origin.astype(np.float64), direction.astype(np.float64)
+
+
+def check_normals(path, hit, points, origins):
+    """Normals: unit where a pixel hits, NaN elsewhere, facing the ray they were seen along."""
+    image, _ = read_exr(path, "normal", "RGB")
+    normals = image[hit].astype(np.float64)
+    check(np.isnan(image[~hit]).all(), f"{path}: pixels that hit nothing are NaN")
+    length = np.linalg.norm(normals, axis=-1)
+    check(np.abs(length - 1).max() < 1e-6, f"{path}: normals off unit by {np.abs(length - 1).max():.1e}")
+    facing = np.einsum("ij,ij->i", normals, points - origins)
+    check((facing < 0).all(), f"{path}: {np.count_nonzero(facing >= 0)} normals face away from the camera")
+    read["normal maps"] += 1
 
 
 def read_cloud(path):
@@ -94,6 +137,9 @@ def check_view(folder, frame, suffix, rotation, position, raymap):
     rebuilt = body @ rotation.T + position
     error = np.linalg.norm(rebuilt - points, axis=1) / (1 + rng[rows, cols])
     check(error.max() < 1e-5, f"{stem}: range and ray map miss the PLY points by {error.max():.2e}")
+    if f"{frame['stem']}{suffix}-normal.exr" in frame["files"]:
+        origins = origin[rows, cols] @ rotation.T + position
+        check_normals(f"{stem}-normal.exr", np.isfinite(rng), points, origins)
     return points, np.stack([cols, rows], axis=-1).astype(np.float64)
 
 
@@ -105,7 +151,7 @@ def check_folder(folder):
     result = subprocess.run([str(pathlib.Path(sys.executable).parent / "evo_traj"), "tum", str(folder / "poses.txt")],
                             capture_output=True, text=True)
     check(result.returncode == 0, f"evo_traj tum {folder}/poses.txt: {result.stderr}")
-    raymaps = {v: read_ray_map(folder / f"raymap{v}.exr") for v in views}
+    raymaps = {v: read_ray_map(folder, v) for v in views}
     for frame in meta["frames"]:
         world_from_body = np.array(frame["world_from_body"])
         rotation, position = world_from_body[:3, :3], world_from_body[:3, 3]
@@ -189,7 +235,8 @@ def main():
         sys.exit(f"no render.json under {root}")
     for folder in folders:
         check_folder(folder)
-    print(f"{checks} checks passed in {len(folders)} folders with OpenCV {cv2.__version__}, "
+    print(f"{checks} checks passed in {len(folders)} folders ({read['normal maps']} normal maps, "
+          f"{read['ray maps']} ray maps) with OpenCV {cv2.__version__}, imageio {iio_version}, "
           f"OpenEXR {OpenEXR.__version__}, plyfile, PyYAML, evo")
 
 

@@ -302,11 +302,11 @@ fn normals_are_unit_face_the_camera_and_read_back_from_exr() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("normal.exr");
     output::write_normal_exr(&path, &frame, ExrCompression::Zip).unwrap();
-    let image = common::read_exr(&path);
-    let channels = &image.layer_data[0].channel_data.list;
-    for (axis, name) in ["normal.X", "normal.Y", "normal.Z"].iter().enumerate() {
-        let channel = channels.iter().find(|c| c.name.to_string() == *name).unwrap();
-        for (value, p) in channel.sample_data.values_as_f32().zip(frame.pixels()) {
+    // R G B = x y z, the layout OpenCV reads; what they are is in the header.
+    let (channels, quantity) = common::read_xyz_exr(&path);
+    assert_eq!(quantity, "normal");
+    for (axis, channel) in channels.iter().enumerate() {
+        for (value, p) in channel.iter().zip(frame.pixels()) {
             if p.is_hit() {
                 assert_eq!(value.to_bits(), p.normal.to_array()[axis].to_bits());
             } else {
@@ -352,11 +352,22 @@ fn every_file_is_byte_reproducible() {
         output::write_axial_depth_exr(&path("z.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_disparity_exr(&path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_tum_depth_png(&path("z.png"), size, &depth).unwrap();
-        output::write_ray_map_exr(&path("rays.exr"), &camera).unwrap();
+        output::write_ray_map_exrs(&path("origin.exr"), &path("direction.exr"), &camera).unwrap();
+        output::write_normal_exr(&path("n.exr"), &frame, ExrCompression::Zip).unwrap();
         output::write_point_cloud_ply(&path("p.ply"), &frame, "test").unwrap();
-        ["c.png", "r.exr", "z.exr", "d.exr", "z.png", "rays.exr", "p.ply"]
-            .map(|name| std::fs::read(path(name)).unwrap())
-            .to_vec()
+        [
+            "c.png",
+            "r.exr",
+            "z.exr",
+            "d.exr",
+            "z.png",
+            "origin.exr",
+            "direction.exr",
+            "n.exr",
+            "p.ply",
+        ]
+        .map(|name| std::fs::read(path(name)).unwrap())
+        .to_vec()
     };
     let (first, second) = (write(0), write(1));
     for (a, b) in first.iter().zip(&second) {

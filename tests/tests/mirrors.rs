@@ -480,19 +480,13 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
     let pose = Pose::from_degrees(dvec3(-0.5, 0.2, 0.7), dvec3(0.0, 0.0, 45.0));
     let frame = trace::trace(&bvh, &camera, &pose);
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("raymap.exr");
-    output::write_ray_map_exr(&path, &camera).unwrap();
-    let image = common::read_exr(&path);
-    let channel = |name: &str| -> Vec<f32> {
-        let list = &image.layer_data[0].channel_data.list;
-        let c = list
-            .iter()
-            .find(|c| c.name.to_string() == name)
-            .unwrap_or_else(|| panic!("no channel {name}"));
-        c.sample_data.values_as_f32().collect()
-    };
-    let origin = [channel("origin.X"), channel("origin.Y"), channel("origin.Z")];
-    let direction = [channel("direction.X"), channel("direction.Y"), channel("direction.Z")];
+    let [origin_name, direction_name] = output::ray_map_names("");
+    let (origin_path, direction_path) = (dir.path().join(origin_name), dir.path().join(direction_name));
+    output::write_ray_map_exrs(&origin_path, &direction_path, &camera).unwrap();
+    let (origin, quantity) = common::read_xyz_exr(&origin_path);
+    assert_eq!(quantity, "ray origin");
+    let (direction, quantity) = common::read_xyz_exr(&direction_path);
+    assert_eq!(quantity, "ray direction");
     let rotation = pose.world_from_body_rotation();
     let mut rebuilt = 0;
     for (i, pixel) in frame.pixels().iter().enumerate() {
@@ -510,6 +504,7 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
             f64::from(direction[1][i]),
             f64::from(direction[2][i]),
         );
+        assert!((d.length() - 1.0).abs() < 1e-6, "direction {d} is not unit");
         let point = pose.position + rotation * (o + f64::from(pixel.range) * d);
         assert!(
             point.distance(pixel.point) < 1e-5 * (1.0 + f64::from(pixel.range)),

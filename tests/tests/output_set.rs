@@ -91,7 +91,8 @@ fn frame_entries_and_run_files_account_for_every_file_in_the_folder() {
     assert_eq!(listed, present);
     for name in [
         "calibration-opencv-stereo.yaml",
-        "raymap-right.exr",
+        "raymap-right-origin.exr",
+        "raymap-right-direction.exr",
         "segmentation.json",
         "poses.txt",
         "render.json",

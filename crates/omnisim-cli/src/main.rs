@@ -12,6 +12,7 @@
 
 mod camera_args;
 mod commands;
+mod memory;
 mod poses;
 mod progress;
 mod run_folder;

@@ -196,8 +196,10 @@ fn stereo_writes_both_images_disparity_and_calibration() {
         "env1-0000-right-depth.exr",
         "calibration-opencv-stereo.yaml",
         "calibration-kalibr.yaml",
-        "raymap-left.exr",
-        "raymap-right.exr",
+        "raymap-left-origin.exr",
+        "raymap-left-direction.exr",
+        "raymap-right-origin.exr",
+        "raymap-right-direction.exr",
     ] {
         assert!(dir.join(name).is_file(), "{name} missing");
     }
@@ -334,6 +336,58 @@ fn render_writes_segmentation_normals_and_linear_colour_on_request() {
     assert_eq!(objects[0]["name"], "floor");
     assert_eq!(objects[0]["id"], 1);
     assert_eq!(objects.len(), 17);
+}
+
+/// `omnisim render` under a shell's `ulimit -v` of `kib` KiB, from the workspace.
+#[cfg(target_os = "linux")]
+fn render_limited(kib: u64, args: &str) -> Output {
+    Command::new("bash")
+        .args(["-c", &format!("ulimit -v {kib} && exec \"$0\" render {args}")])
+        .arg(env!("CARGO_BIN_EXE_omnisim"))
+        .current_dir(workspace())
+        .output()
+        .unwrap()
+}
+
+/// README's largest image (100 megapixels) under a 4 GiB address-space limit was killed for
+/// memory part-way; it is refused before anything is written, stating what it needs and the
+/// limit, and `render --help` states the need. An ordinary render under a limit still runs.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_render_that_cannot_fit_its_memory_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("big");
+    let big = render_limited(
+        4 << 20,
+        &format!(
+            "scenes/env1.ron --camera omni --size 10000x10000 --pose 1.5,0,0.4,0,0,60 --backend cpu --out {}",
+            out.display()
+        ),
+    );
+    let stderr = text(&big.stderr);
+    assert_eq!(big.status.code(), Some(1), "{stderr}");
+    // 55 bytes a pixel (the figure OutputSet::bytes_per_pixel gives, tested in the library),
+    // 5.5 GB and a little more, against what 4 GiB leaves.
+    assert!(
+        stderr.contains("a 10000x10000 render of 1 view(s) (55 bytes a pixel: hit planes 48, colour 3, range writer 4")
+            && stderr.contains("needs about 5.")
+            && stderr.contains("of address space, more than the address space left under ulimit -v (4."),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "nothing is written");
+    let help = text(&omnisim("render --help").stdout);
+    assert!(
+        help.contains("The default outputs take 55 bytes a pixel (100 megapixels: 5.5 GB"),
+        "{help}"
+    );
+    let small = render_limited(
+        1 << 20,
+        &format!(
+            "scenes/env1.ron --camera omni --size 200x200 --pose 1.5,0,0.4,0,0,60 --backend cpu --out {}",
+            dir.path().join("small").display()
+        ),
+    );
+    assert!(small.status.success(), "{}", text(&small.stderr));
 }
 
 /// The regular files in `dir` (hidden ones too), sorted.
@@ -658,14 +712,15 @@ fn gpu_probes_keep_stderr_clean() {
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
 }
 
-/// The outputs opened by the readers people use (`OpenCV`, `OpenEXR`, plyfile, `PyYAML`, evo), in
-/// the Python environment .ci/run makes; see `tests/readers/check_outputs.py`.
+/// The outputs opened by the readers people use (`OpenCV`, imageio, `OpenEXR`, plyfile, `PyYAML`,
+/// evo), in the Python environment .ci/run makes; see `tests/readers/check_outputs.py`. Every
+/// EXR, normals and ray maps included, must open in `OpenCV` and imageio.
 #[test]
 #[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
 fn outputs_open_in_the_readers_people_use() {
     let python = std::env::var_os("OMNISIM_PYTHON").expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (.ci/run makes one) (README, Tests)");
     let dir = tempfile::tempdir().unwrap();
-    let poses = "--pose 1.5,0,0.4,0,0,60 --pose 0.3,-0.4,0.5,5,-10,30 --backend cpu";
+    let poses = "--pose 1.5,0,0.4,0,0,60 --pose 0.3,-0.4,0.5,5,-10,30 --backend cpu --normals";
     for (name, camera) in [
         ("omni", "--camera omni"),
         ("omni-down", "--camera omni --mount down --size 200x200"),
@@ -695,7 +750,13 @@ fn outputs_open_in_the_readers_people_use() {
         .expect("the reader check's Python runs");
     eprintln!("{}", text(&check.stdout));
     assert!(check.status.success(), "{}", text(&check.stderr));
-    assert!(text(&check.stdout).contains("checks passed in 9 folders"));
+    // Two poses each: one normal map per view (7 single cameras, 2 stereo rigs), one ray map
+    // (origin and direction) per view.
+    assert!(
+        text(&check.stdout).contains("checks passed in 9 folders (22 normal maps, 11 ray maps)"),
+        "{}",
+        text(&check.stdout)
+    );
 }
 
 #[test]
@@ -958,10 +1019,84 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     let unknown = omnisim("bench no-such-anchor --backend cpu --runs 1");
     assert_eq!(unknown.status.code(), Some(1));
     assert!(
-        text(&unknown.stderr).contains("compare.sh"),
+        text(&unknown.stderr).contains("bench/compare.sh"),
         "{}",
         text(&unknown.stderr)
     );
+    // The script it names ships in the repository; no text names a folder beside it.
+    assert!(workspace().join("bench/compare.sh").is_file());
+    let help = omnisim("bench --help");
+    for said in [text(&unknown.stderr), text(&help.stdout)] {
+        assert!(!said.contains("../"), "{said}");
+    }
+    assert!(text(&help.stdout).contains("bench/compare.sh"));
+}
+
+/// docs/speed-accuracy.svg is what `bench --chart --chart-from` draws from the figures beside
+/// it, so the shipped chart follows the chart code; `--chart-from` alone is refused.
+#[test]
+fn the_shipped_speed_chart_is_drawn_from_its_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("chart.svg");
+    let drawn = omnisim(&format!(
+        "bench scenes/env1.ron --camera omni --chart {} --chart-from docs/speed-accuracy.jsonl",
+        svg.display()
+    ));
+    assert!(drawn.status.success(), "{}", text(&drawn.stderr));
+    let shipped = std::fs::read_to_string(workspace().join("docs/speed-accuracy.svg")).unwrap();
+    assert!(
+        std::fs::read_to_string(&svg).unwrap() == shipped,
+        "docs/speed-accuracy.svg is out of date: redraw it with bench --chart docs/speed-accuracy.svg --chart-from docs/speed-accuracy.jsonl"
+    );
+    let alone = omnisim("bench scenes/env1.ron --chart-from docs/speed-accuracy.jsonl");
+    assert!(!alone.status.success() && text(&alone.stderr).contains("--chart"));
+}
+
+/// The comparison scripts `bench --help` points to ship in bench/ and print their usage without
+/// Python; where the reader check's Python is (it has `Open3D` and `OpenEXR`), `same_rays.py` reads
+/// the rays of a render's two ray-map files, as many as the image has pixels with a ray.
+#[test]
+fn bench_scripts_print_their_usage_and_read_ray_maps() {
+    for script in ["bench/compare.sh", "bench/same_rays.sh"] {
+        let usage = Command::new("bash")
+            .args([script, "--help"])
+            .current_dir(workspace())
+            .output()
+            .unwrap();
+        assert!(usage.status.success(), "{script}: {}", text(&usage.stderr));
+        assert!(
+            text(&usage.stdout).contains(&format!("OMNISIM=target/release/omnisim {script}")),
+            "{}",
+            text(&usage.stdout)
+        );
+    }
+    let Some(python) = std::env::var_os("OMNISIM_PYTHON") else {
+        assert!(std::env::var_os("CI").is_none(), "CI is set but OMNISIM_PYTHON is not");
+        eprintln!("\n**** SKIPPED same_rays.py's ray-map reader: set OMNISIM_PYTHON ****\n");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("omni");
+    let result = omnisim(&format!(
+        "render scenes/env1.ron --camera omni --size 40x40 --pose 0,0,0.4 --backend cpu --no-ply --out {}",
+        out.display()
+    ));
+    assert!(result.status.success(), "{}", text(&result.stderr));
+    let read = Command::new(python)
+        .args([
+            "-c",
+            "import sys; sys.path.insert(0, 'bench'); import same_rays, numpy as np; \
+             o, d = same_rays.read_raymap(sys.argv[1]); \
+             assert np.allclose(np.linalg.norm(d, axis=1), 1, atol=1e-6); print(len(o))",
+        ])
+        .arg(&out)
+        .current_dir(workspace())
+        .output()
+        .unwrap();
+    assert!(read.status.success(), "{}", text(&read.stderr));
+    let rays: usize = text(&read.stdout).trim().parse().unwrap();
+    // The omni image's disc: some pixels have a ray, the corners outside the mirror none.
+    assert!(rays > 40 * 40 / 2 && rays < 40 * 40, "{rays} rays");
 }
 
 /// Counts that size allocations or loops are bounded before anything runs.

@@ -182,7 +182,7 @@ fn sensor_yaml(rig: &Rig, k: usize, camera: &Camera, rate: f64) -> String {
             p.fx, p.fy, p.cx, p.cy
         );
     } else {
-        out += "# Not a pinhole: T_BS is the body frame itself; every pixel's ray is in raymap.exr of the set folder";
+        out += "# Not a pinhole: T_BS is the body frame itself; every pixel's ray is in raymap-origin.exr and raymap-direction.exr of the set folder";
         out += match camera {
             Camera::Catadioptric(mirror) if omnisim::calibration::kalibr_omni(mirror).is_some() => {
                 ",\n# the unified model in its calibration-kalibr.yaml.\n"

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use omnisim::camera::Catadioptric;
 use omnisim::{BackendChoice, Camera, Planes, Pose, Renderer, Scene};
 use omnisim_vision::accuracy::{chart_pose, chart_views, colour_error, point_displacements, sample_points};
-use omnisim_vision::chart::{Series, lines, stack};
+use omnisim_vision::chart::{Marker, Series, lines, stack};
 use omnisim_vision::{Interpolation, Raster, Remap};
 
 const SIZES: [u32; 4] = [250, 500, 1000, 2000];
@@ -71,15 +71,22 @@ fn main() {
         }
     }
     let Some(out) = out else { return };
+    // A colour per view; bilinear solid with discs, bicubic dashed with rings, in the legend too.
     let series = |values: &[Vec<Vec<(f64, f64)>>]| -> Vec<Series> {
         let colours = ["#1f77b4", "#d62728", "#2ca02c"];
         let mut all = Vec::new();
         for (v, (name, _)) in views.iter().enumerate() {
             for (i, interpolation) in interpolations.iter().enumerate() {
+                let (dash, marker) = if i == 0 {
+                    (String::new(), Marker::Disc)
+                } else {
+                    ("6 4".to_string(), Marker::Ring)
+                };
                 all.push(Series {
                     label: format!("{name}, {interpolation:?}").to_lowercase(),
                     colour: colours[v].to_string(),
-                    dash: if i == 0 { String::new() } else { "6 4".to_string() },
+                    dash,
+                    marker,
                     points: values[v][i].clone(),
                 });
             }

@@ -78,6 +78,23 @@ impl Planes {
     pub const fn needs_shading(self) -> bool {
         self.colour || self.linear_colour
     }
+
+    /// Bytes a frame with these planes holds for each pixel: the hit planes ([`Pixel`]: face,
+    /// range, f64 point, f32 normal; 48 bytes) and each requested plane's value (colour 3,
+    /// linear colour 12, object id 4). What sizes a render's memory (`OutputSet::bytes_per_pixel`).
+    pub const fn bytes_per_pixel(self) -> usize {
+        let mut bytes = size_of::<Pixel>();
+        if self.colour {
+            bytes += size_of::<[u8; 3]>();
+        }
+        if self.linear_colour {
+            bytes += size_of::<[f32; 3]>();
+        }
+        if self.object {
+            bytes += size_of::<u32>();
+        }
+        bytes
+    }
 }
 
 /// What one pixel's ray hit: a view across the hit planes.

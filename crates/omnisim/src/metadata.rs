@@ -303,7 +303,7 @@ impl CatadioptricMetadata {
                 projection: "u = cx + gamma_x*s_x/(xi - s_z), v = cy + gamma_y*s_y/(xi - s_z), s = unit direction from F' in the mirror frame",
             }),
             image_azimuth: "a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down (u right, v down): the image is mirrored on screen",
-            rays: "see raymap.exr: per-pixel origin and direction in the body frame",
+            rays: "see raymap-origin.exr and raymap-direction.exr: per-pixel origin and unit direction in the body frame",
         }
     }
 }
@@ -384,7 +384,7 @@ pub struct Conventions {
     pub range: &'static str,
     /// Depth images of pinhole and stereo cameras.
     pub depth: String,
-    /// The ray maps.
+    /// The ray maps: two files per view, origin and direction.
     pub ray_map: &'static str,
     /// The point clouds.
     pub point_cloud: &'static str,

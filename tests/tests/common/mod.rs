@@ -152,3 +152,22 @@ pub(crate) fn read_exr(
         .from_file(path)
         .expect("EXR reads back")
 }
+
+/// A three-value EXR (normals, ray origins or directions): its channels, which must be exactly
+/// `R G B` (x y z, the layout `OpenCV` opens), and its `quantity` header attribute.
+pub(crate) fn read_xyz_exr(path: &std::path::Path) -> ([Vec<f32>; 3], String) {
+    let image = read_exr(path);
+    let layer = &image.layer_data[0];
+    let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    assert_eq!(names, ["B", "G", "R"], "{}", path.display());
+    let channel = |name: &str| -> Vec<f32> {
+        let list = &layer.channel_data.list;
+        let c = list.iter().find(|c| c.name.to_string() == name).unwrap();
+        c.sample_data.values_as_f32().collect()
+    };
+    let quantity = match layer.attributes.other.get(&exr::prelude::Text::from("quantity")) {
+        Some(exr::prelude::AttributeValue::Text(text)) => text.to_string(),
+        other => panic!("{}: quantity {other:?}", path.display()),
+    };
+    ([channel("R"), channel("G"), channel("B")], quantity)
+}

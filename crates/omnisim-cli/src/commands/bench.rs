@@ -40,7 +40,7 @@ omnisim bench room --camera equirect --size 1024x1024 --pose 3,2,1.5 --backend c
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --synthetic-triangles 200000")]
 pub(crate) struct BenchArgs {
     /// Scene file (RON), or the name of a scene: `env1`, `env2` (in ./scenes) or an anchor
-    /// scene of ../shared/bench (`room`, `clutter`; compare.sh writes them to
+    /// scene of the repository's bench/compare.sh (room, clutter; it writes them to
     /// $BENCH_CACHE, default ~/.cache/omnisim-bench).
     #[arg(default_value = "scenes/env1.ron")]
     pub scene: PathBuf,
@@ -67,8 +67,12 @@ pub(crate) struct BenchArgs {
     /// to this SVG file; one JSON object per method on stdout.
     #[arg(long)]
     pub chart: Option<PathBuf>,
+    /// With --chart: draw it from the lines an earlier --chart run printed (as
+    /// docs/speed-accuracy.jsonl holds them) instead of measuring; scene and camera name it.
+    #[arg(long, requires = "chart")]
+    pub chart_from: Option<PathBuf>,
     /// Time tracing to hit planes only (face, range, point, normal), without shading: what
-    /// `Open3D`'s `RaycastingScene.cast_rays` computes, for side-by-side figures.
+    /// Open3D's `RaycastingScene.cast_rays` computes, for side-by-side figures.
     #[arg(long)]
     pub hits_only: bool,
     /// Add a wavy height-field mesh of about this many triangles over the floor, to measure a
@@ -88,7 +92,10 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     if let Some(chart) = &args.chart {
         super::prepare_file(chart)?;
-        return super::speed_accuracy::run(&scene, &camera, &args.pose, args.runs, chart);
+        return match &args.chart_from {
+            Some(records) => super::speed_accuracy::redraw(&scene, &camera, records, chart),
+            None => super::speed_accuracy::run(&scene, &camera, &args.pose, args.runs, chart),
+        };
     }
     let choices = match args.backend {
         BenchBackend::Gpu => vec![BackendChoice::Gpu],
@@ -186,7 +193,7 @@ fn median(times: &mut [f64]) -> f64 {
 }
 
 /// The scene file `scene` names: itself if it is a file, else a scene name looked up in
-/// ./scenes and in the anchor cache of ../shared/bench/compare.sh.
+/// ./scenes and in the anchor cache of bench/compare.sh.
 fn resolve_scene(scene: &Path) -> anyhow::Result<PathBuf> {
     let is_name = scene.components().count() == 1 && scene.extension().is_none();
     if scene.is_file() || !is_name {
@@ -204,7 +211,7 @@ fn resolve_scene(scene: &Path) -> anyhow::Result<PathBuf> {
     match candidates.iter().find(|path| path.is_file()) {
         Some(path) => Ok(path.clone()),
         None => bail!(
-            "no scene file {} and no scene named {} in {} (../shared/bench/compare.sh writes the anchor scenes room and clutter)",
+            "no scene file {} and no scene named {} in {} (bench/compare.sh in omnisim's repository writes the anchor scenes room and clutter)",
             scene.display(),
             scene.display(),
             candidates

@@ -9,7 +9,7 @@ use omnisim::advanced::CpuTracer;
 use omnisim::metadata::BackendMetadata;
 use omnisim::output::ExrCompression;
 use omnisim::output::FrameTarget;
-use omnisim::{BackendChoice, OutputSet, Pose, RenderMetadata, Renderer, Scene};
+use omnisim::{BackendChoice, OutputSet, Pose, RenderMetadata, Renderer, Rig, Scene};
 
 use crate::camera_args::CameraArgs;
 use crate::poses::{parse_pose, read_pose_file};
@@ -64,11 +64,21 @@ impl From<BackendArg> for BackendChoice {
 /// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16
 /// bit) and -depth.exr (z, metres); a stereo rig writes -left and -right of each and
 /// -disparity.exr. Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
-/// raymap.exr (every pixel's ray in the body frame), poses.txt (TUM: index tx ty tz qx qy qz
+/// raymap-origin.exr and raymap-direction.exr (every pixel's ray in the body frame, R G B = x y z;
+/// stereo: raymap-left-origin.exr ...), poses.txt (TUM: index tx ty tz qx qy qz
 /// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
 ///
 /// A folder holds one run: omnisim-run.txt lists the run and its files, a re-run of the same
 /// command replaces them, and another run is refused unless --overwrite.
+///
+/// Memory: a view's frame holds 48 bytes a pixel of hit planes (face, range, f64 point, normal)
+/// and 3 of colour, 12 more with --linear and 4 with --segmentation, while the largest copy one
+/// writer makes of a plane is alive (range 4, pinhole depth 8, segmentation 8, normals or
+/// linear colour 12); a stereo rig holds both views' frames. The default outputs take 55
+/// bytes a pixel (100 megapixels: 5.5 GB, and 0.07 GB besides), stereo 110, every output 79;
+/// under ulimit -v, each thread's allocator arena also reserves 64 MiB of address space. A
+/// render that needs more than this process may use (the address space left under ulimit -v,
+/// its cgroup's memory.max, RAM and swap) is refused before anything is written.
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
 omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
@@ -111,7 +121,7 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     pub segmentation: bool,
     /// Also write <stem>-normal.exr: unit surface normals in the world frame, turned towards
-    /// the camera (channels normal.X/Y/Z, NaN where nothing is hit).
+    /// the camera (channels R, G, B = x, y, z, header quantity "normal"; NaN where nothing is hit).
     #[arg(long)]
     pub normals: bool,
     /// Also write <stem>-linear.exr: linear colour before sRGB encoding (channels R, G, B; 1.0 =
@@ -170,6 +180,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     outputs
         .check_scene(&scene)
         .map_err(|message| anyhow::anyhow!("--segmentation: {message}"))?;
+    check_memory(&outputs, &rig, &scene)?;
     // The output folder is checked before the BVH is built: a refused folder says so at once.
     let chosen = format!(
         "edge_samples={} ply={} segmentation={} normals={} linear={}",
@@ -252,6 +263,31 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     ))?;
     Ok(())
+}
+
+/// Bytes of the BVH built for each face of a mesh, after the scene is loaded (docs/benchmarks.md,
+/// "Memory per triangle": 297 bytes a triangle at 5 M, 88 of them the face itself).
+const BVH_BYTES_PER_FACE: u64 = 210;
+
+/// Refuses, before the output folder is touched, a render whose frames and writers (and the
+/// scene's BVH, still to be built) would not fit the memory this process may use
+/// (`memory::check`).
+fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene) -> anyhow::Result<()> {
+    let parts = outputs.bytes_per_pixel(rig);
+    let per_pixel: usize = parts.iter().map(|(_, bytes)| bytes).sum();
+    let (width, height) = rig.first_camera().size();
+    let besides = crate::memory::FIXED_BYTES + scene.faces.len() as u64 * BVH_BYTES_PER_FACE;
+    let resident = u64::from(width) * u64::from(height) * per_pixel as u64 + besides;
+    let parts: Vec<String> = parts.iter().map(|(name, bytes)| format!("{name} {bytes}")).collect();
+    let what = format!(
+        "a {width}x{height} render of {} view(s) ({per_pixel} bytes a pixel: {}; and {} MB for the program and \
+         scene)",
+        rig.views().len(),
+        parts.join(", "),
+        besides / 1_000_000
+    );
+    let address_space = crate::memory::address_space(resident);
+    crate::memory::check(resident, address_space, &what, &crate::memory::limits())
 }
 
 fn parse_square(text: &str) -> Result<u32, String> {

@@ -5,7 +5,9 @@
 //! EXRs are scan lines stored in increasing order, ZIP-compressed unless the caller picks
 //! another lossless [`ExrCompression`]: the same values give the same bytes. Single-value images (range, depth, disparity) hold one channel
 //! named `Y`, the luminance channel every reader opens (`OpenCV` reads no other single channel);
-//! what the values are is in the header: the string attribute `quantity` and `comments`.
+//! three-value images (normals, ray origins and directions, linear colour) hold `R G B`, the only
+//! other layout `OpenCV` and imageio open (`OpenCV` returns them as B, G, R). What the values are
+//! is in the header: the string attribute `quantity` and `comments`.
 
 pub mod atomic;
 pub mod folder;
@@ -34,7 +36,8 @@ use atomic::write_atomically;
 /// The channel of single-value EXRs (range, depth, disparity).
 pub const VALUE_CHANNEL: &str = "Y";
 
-/// The EXR header attribute naming what an EXR holds: `range`, `z`, `disparity` or `rays`.
+/// The EXR header attribute naming what an EXR holds: `range`, `z`, `disparity`, `normal`,
+/// `linear colour`, `ray origin` or `ray direction`.
 pub const QUANTITY_ATTRIBUTE: &str = "quantity";
 
 /// What range means for `camera`, stored in the EXR header and the metadata.
@@ -44,7 +47,7 @@ pub fn range_convention(camera: &Camera) -> &'static str {
          effective viewpoint F') to the first surface hit; +inf where nothing is hit"
     } else {
         "range: Euclidean distance in metres (f32) from each pixel's own ray origin (the mirror point, or the \
-         camera's optical centre in the body frame; see raymap.exr) to the first surface hit; +inf where nothing is hit"
+         camera's optical centre in the body frame; see raymap-origin.exr) to the first surface hit; +inf where nothing is hit"
     }
 }
 
@@ -123,10 +126,14 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
             },
         )
     })?;
-    let bytes: Vec<u8> = colour.iter().flatten().copied().collect();
     write_atomically(path, |out| {
         png_encoder(out)
-            .write_image(&bytes, frame.width, frame.height, image::ExtendedColorType::Rgb8)
+            .write_image(
+                colour.as_flattened(),
+                frame.width,
+                frame.height,
+                image::ExtendedColorType::Rgb8,
+            )
             .map_err(std::io::Error::other)
     })
     .map_err(failed(path))
@@ -185,18 +192,16 @@ pub const TUM_DEPTH_SCALE: f64 = 5000.0;
 /// 16-bit grey PNG of axial depth in the TUM RGB-D convention: value = z × 5000 rounded,
 /// 0 where nothing is hit or where z is beyond 13.1 m (65535 / 5000), which 16 bits cannot hold.
 pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Result<(), OutputError> {
-    let values: Vec<u16> = depth
-        .iter()
-        .map(|&z| {
-            let scaled = (f64::from(z) * TUM_DEPTH_SCALE).round();
-            if scaled.is_finite() && (1.0..=65535.0).contains(&scaled) {
-                scaled as u16
-            } else {
-                0
-            }
-        })
-        .collect();
-    let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    let mut bytes = Vec::with_capacity(2 * depth.len());
+    for &z in depth {
+        let scaled = (f64::from(z) * TUM_DEPTH_SCALE).round();
+        let value = if scaled.is_finite() && (1.0..=65535.0).contains(&scaled) {
+            scaled as u16
+        } else {
+            0
+        };
+        bytes.extend_from_slice(&value.to_ne_bytes());
+    }
     write_atomically(path, |out| {
         png_encoder(out)
             .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
@@ -297,52 +302,94 @@ fn write_exr(
     .map_err(failed(path))
 }
 
-/// Text stored in ray-map EXR headers.
-pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x forward, y left, z up; metres): channels \
-     origin.X/Y/Z and direction.X/Y/Z (unit); a hit at range r is origin + r*direction; NaN where the pixel has no ray";
+/// What the two ray-map files of a view hold, in their headers and in `render.json`.
+pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x forward, y left, z up; metres), two \
+     files per view: raymap-origin.exr (quantity 'ray origin') and raymap-direction.exr (quantity 'ray direction', \
+     unit vectors), channels R, G, B = x, y, z; a hit at range r is origin + r*direction; NaN where the pixel has no ray";
 
-/// Six-channel f32 EXR of every pixel's ray in the body frame: `origin.{X,Y,Z}` and
-/// `direction.{X,Y,Z}`; NaN where the pixel sees nothing. Non-central cameras need it to
+/// The files holding every pixel's ray of a view whose files end in `suffix` (`""`, or a
+/// stereo view's `-left`, `-right`): origin, then direction.
+pub fn ray_map_names(suffix: &str) -> [String; 2] {
+    [
+        format!("raymap{suffix}-origin.exr"),
+        format!("raymap{suffix}-direction.exr"),
+    ]
+}
+
+/// Every pixel's ray in the body frame, as two three-channel f32 EXRs (`R G B` = x y z) that
+/// every EXR reader opens: the origins at `origin_path`, the unit directions at
+/// `direction_path`; NaN where the pixel sees nothing. Non-central cameras need them to
 /// rebuild points from range.
-pub fn write_ray_map_exr(path: &Path, camera: &Camera) -> Result<(), OutputError> {
+pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Camera) -> Result<(), OutputError> {
     let (width, height) = camera.size();
-    let mut channels: [Vec<f32>; 6] = Default::default();
+    let pixels = width as usize * height as usize;
+    let mut origin: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(pixels));
+    let mut direction: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(pixels));
     for v in 0..height {
         for u in 0..width {
-            let values = match camera.ray(DVec2::new(f64::from(u), f64::from(v))) {
-                Some(ray) => [ray.origin.to_array(), ray.direction.to_array()].concat(),
-                None => vec![f64::NAN; 6],
+            let (o, d) = match camera.ray(DVec2::new(f64::from(u), f64::from(v))) {
+                Some(ray) => (ray.origin.to_array(), ray.direction.to_array()),
+                None => ([f64::NAN; 3], [f64::NAN; 3]),
             };
-            for (channel, value) in channels.iter_mut().zip(values) {
-                channel.push(value as f32);
+            for k in 0..3 {
+                origin[k].push(o[k] as f32);
+                direction[k].push(d[k] as f32);
             }
         }
     }
-    let names = [
-        "origin.X",
-        "origin.Y",
-        "origin.Z",
-        "direction.X",
-        "direction.Y",
-        "direction.Z",
-    ];
+    let size = (width, height);
+    write_xyz_exr(
+        origin_path,
+        size,
+        "ray origin",
+        RAY_MAP_CONVENTION,
+        origin,
+        ExrCompression::Zip,
+    )?;
+    write_xyz_exr(
+        direction_path,
+        size,
+        "ray direction",
+        RAY_MAP_CONVENTION,
+        direction,
+        ExrCompression::Zip,
+    )
+}
+
+/// A three-value image (a vector's x y z, or a colour's R G B) as the f32 channels `R G B`:
+/// the one multi-channel layout `OpenCV`'s and imageio's EXR readers open (they refuse other
+/// channel names); `quantity` in the header says what the values are.
+pub(crate) fn write_xyz_exr(
+    path: &Path,
+    size: (u32, u32),
+    quantity: &str,
+    convention: &str,
+    [x, y, z]: [Vec<f32>; 3],
+    compression: ExrCompression,
+) -> Result<(), OutputError> {
     write_exr(
         path,
-        (width, height),
-        "rays",
-        RAY_MAP_CONVENTION,
-        names.into_iter().zip(channels).collect(),
-        ExrCompression::Zip,
+        size,
+        quantity,
+        convention,
+        vec![("R", x), ("G", y), ("B", z)],
+        compression,
     )
 }
 
 /// Binary little-endian PLY of every hit pixel: float x y z (world metres), uchar red green
 /// blue (the colour plane, or grey 128 where the frame has none). Readable by `Open3D`,
-/// `CloudCompare`, `MeshLab` and PCL.
+/// `CloudCompare`, `MeshLab` and PCL. Streams the points from the frame: a list of the hits
+/// would cost 16 bytes a pixel (more while it grows), the largest copy any writer made.
 pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Result<(), OutputError> {
-    let grey = vec![[128u8; 3]; frame.pixels().len()];
-    let colours = frame.colour().unwrap_or(&grey);
-    let hits: Vec<_> = frame.pixels().iter().zip(colours).filter(|(p, _)| p.is_hit()).collect();
+    const GREY: [u8; 3] = [128; 3];
+    let colour = |index: usize| frame.colour().map_or(&GREY, |colours| &colours[index]);
+    let hits = frame
+        .pixels()
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_hit())
+        .map(|(index, p)| (p, colour(index)));
     write_atomically(path, |out| {
         write!(
             out,
@@ -350,7 +397,7 @@ pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Resul
              comment {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
              property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
             ascii_line(comment),
-            hits.len()
+            frame.hit_count()
         )?;
         for (p, colour) in hits {
             for v in [p.point.x, p.point.y, p.point.z] {

@@ -6,14 +6,14 @@ use std::path::Path;
 use image::ImageEncoder;
 use serde::Serialize;
 
-use super::{ExrCompression, OutputError, OutputProblem, failed, write_exr};
+use super::{ExrCompression, OutputError, OutputProblem, failed, write_xyz_exr};
 use crate::frame::{Frame, NO_FACE};
 use crate::output::atomic::write_atomically;
 use crate::scene::Scene;
 
-/// Text stored in normal-map EXR headers.
+/// Text stored in normal-map EXR headers (`quantity` = `normal`).
 pub const NORMAL_CONVENTION: &str = "unit geometric normal of the surface hit, world frame (z up), turned towards the \
-     camera: channels normal.X/Y/Z; NaN where nothing is hit";
+     camera: channels R, G, B = x, y, z; NaN where nothing is hit";
 
 /// Text stored in linear-colour EXR headers.
 pub const LINEAR_CONVENTION: &str = "linear colour after shading, before sRGB encoding and clamping: channels R, G, B; \
@@ -83,7 +83,10 @@ pub fn write_id_png(path: &Path, size: (u32, u32), ids: &[u32]) -> Result<(), Ou
     if let Some(&id) = ids.iter().find(|&&id| id > MAX_SEGMENT_ID) {
         return Err(OutputError::at(path, OutputProblem::IdTooLarge { id }));
     }
-    let bytes: Vec<u8> = ids.iter().flat_map(|&id| (id as u16).to_ne_bytes()).collect();
+    let mut bytes = Vec::with_capacity(2 * ids.len());
+    for &id in ids {
+        bytes.extend_from_slice(&(id as u16).to_ne_bytes());
+    }
     write_atomically(path, |out| {
         super::png_encoder(out)
             .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
@@ -101,22 +104,24 @@ pub fn face_ids(frame: &Frame) -> Vec<u32> {
         .collect()
 }
 
-/// Three-channel f32 EXR of world-frame unit normals, NaN where nothing is hit.
+/// Three-channel f32 EXR of world-frame unit normals (`R G B` = x y z, `quantity` =
+/// `normal`), NaN where nothing is hit.
 pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
-    let mut channels: [Vec<f32>; 3] = Default::default();
+    // Sized up front: grown by doubling, three channels of a large frame left holes that
+    // raised the peak memory of a render by a few bytes a pixel.
+    let mut channels: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(frame.pixels().len()));
     for p in frame.pixels() {
         let normal = if p.is_hit() { p.normal.to_array() } else { [f32::NAN; 3] };
         for (channel, value) in channels.iter_mut().zip(normal) {
             channel.push(value);
         }
     }
-    let [x, y, z] = channels;
-    write_exr(
+    write_xyz_exr(
         path,
         (frame.width, frame.height),
         "normal",
         NORMAL_CONVENTION,
-        vec![("normal.X", x), ("normal.Y", y), ("normal.Z", z)],
+        channels,
         compression,
     )
 }
@@ -133,12 +138,12 @@ pub fn write_linear_exr(path: &Path, frame: &Frame, compression: ExrCompression)
         )
     })?;
     let channel = |k: usize| linear.iter().map(|c| c[k]).collect();
-    write_exr(
+    write_xyz_exr(
         path,
         (frame.width, frame.height),
         "linear colour",
         LINEAR_CONVENTION,
-        vec![("R", channel(0)), ("G", channel(1)), ("B", channel(2))],
+        [channel(0), channel(1), channel(2)],
         compression,
     )
 }

@@ -145,7 +145,57 @@ impl Destination for PlainFolder {
     }
 }
 
+/// Bytes a pixel of the largest copy each writer makes of a plane while it encodes, measured
+/// (peak resident memory of renders from 4 to 9 Mpx, docs/benchmarks.md "Memory"): the range's
+/// f32 values; pinhole depth's f32 plane and its 16-bit PNG; the face ids and their PNG; three
+/// f32 channels of normals or linear colour. Colour PNGs and point clouds copy nothing.
+const WRITER_BYTES: [(&str, usize); 4] = [
+    ("range writer", 4),
+    ("depth writers", 8),
+    ("segmentation writers", 8),
+    ("normal or linear-colour writer", 12),
+];
+
 impl OutputSet {
+    /// Peak memory of a render writing these files through `rig` on the CPU backend, in bytes
+    /// for each pixel of one view, and what makes it up: every view's frame
+    /// ([`Planes::bytes_per_pixel`]: a stereo rig holds both) while the writers, one after
+    /// another, make their copies, of which the largest counts (`WRITER_BYTES`). The ray
+    /// maps (24 bytes a pixel) are written once the frames are gone. Within 0.2 bytes a pixel
+    /// of what renders measured; the GPU backend adds its read-back buffers.
+    pub fn bytes_per_pixel(&self, rig: &Rig) -> Vec<(&'static str, usize)> {
+        let views = rig.views().len();
+        let planes = self.planes();
+        let hits = Planes::HITS.bytes_per_pixel();
+        let mut parts = vec![("hit planes", views * hits)];
+        for (name, plane) in [
+            ("colour", Plane::Colour),
+            ("linear colour", Plane::LinearColour),
+            ("object ids", Plane::Object),
+        ] {
+            if planes.contains(plane) {
+                parts.push((name, views * (Planes::HITS.with(plane).bytes_per_pixel() - hits)));
+            }
+        }
+        let pinhole = matches!(rig.first_camera(), Camera::Pinhole(_));
+        let writers = [
+            self.range,
+            self.depth && pinhole,
+            self.segmentation,
+            self.normals || self.linear,
+        ];
+        if let Some(&(name, bytes)) = WRITER_BYTES
+            .iter()
+            .zip(writers)
+            .filter(|(_, written)| *written)
+            .map(|(writer, _)| writer)
+            .max_by_key(|(_, bytes)| *bytes)
+        {
+            parts.push((name, bytes));
+        }
+        parts
+    }
+
     /// The planes a frame needs for these files (always colour: the point cloud is coloured).
     pub fn planes(&self) -> Planes {
         let mut planes = Planes::COLOUR;
@@ -275,7 +325,8 @@ impl OutputSet {
     }
 
     /// Writes the files of a set of frames that are not per frame, claimed in `folder`:
-    /// calibration in the formats robotics tools read, a ray map per view and the segmentation
+    /// calibration in the formats robotics tools read, the ray maps of each view (origin and
+    /// direction files) and the segmentation
     /// legend (if asked for). Returns their paths.
     pub fn write_set_files(
         &self,
@@ -290,9 +341,10 @@ impl OutputSet {
             written.push(path);
         }
         for view in rig.views() {
-            let path = folder.claim(format!("raymap{}.exr", view.suffix))?;
-            super::write_ray_map_exr(&path, &view.camera)?;
-            written.push(path);
+            let [origin, direction] = super::ray_map_names(view.suffix);
+            let (origin, direction) = (folder.claim(origin)?, folder.claim(direction)?);
+            super::write_ray_map_exrs(&origin, &direction, &view.camera)?;
+            written.extend([origin, direction]);
         }
         if self.segmentation {
             let legend_path = folder.claim("segmentation.json".into())?;
@@ -377,8 +429,49 @@ fn describe_pose(pose: &Pose) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::{Catadioptric, Pinhole, StereoRig};
     use crate::scene::{Face, SceneObject};
     use glam::dvec3;
+
+    /// The memory a render needs, from the plane types: README's "Memory" table and
+    /// `render --help` state these figures, which renders measured (docs/benchmarks.md).
+    #[test]
+    fn bytes_per_pixel_follow_the_plane_types() {
+        assert_eq!(
+            Planes::HITS.bytes_per_pixel(),
+            48,
+            "README states 48 bytes of hit planes"
+        );
+        assert_eq!(Planes::ALL.bytes_per_pixel(), 48 + 3 + 12 + 4);
+        let total =
+            |outputs: &OutputSet, rig: &Rig| -> usize { outputs.bytes_per_pixel(rig).iter().map(|p| p.1).sum() };
+        let omni = Rig::Single(Camera::Catadioptric(Catadioptric::hyperbolic(
+            250, 250, 0.04, 0.16, None,
+        )));
+        let pinhole = Rig::Single(Camera::Pinhole(Pinhole::with_horizontal_fov(64, 48, 1.0)));
+        let stereo = Rig::Stereo(StereoRig {
+            camera: Pinhole::with_horizontal_fov(64, 48, 1.0),
+            baseline: 0.1,
+        });
+        let every = OutputSet {
+            segmentation: true,
+            normals: true,
+            linear: true,
+            ..OutputSet::default()
+        };
+        assert_eq!(
+            OutputSet::default().bytes_per_pixel(&omni),
+            [("hit planes", 48), ("colour", 3), ("range writer", 4)]
+        );
+        assert_eq!(total(&OutputSet::default(), &pinhole), 59);
+        assert_eq!(total(&OutputSet::default(), &stereo), 110);
+        assert_eq!(total(&every, &omni), 79);
+        let segmented = OutputSet {
+            segmentation: true,
+            ..OutputSet::default()
+        };
+        assert_eq!(total(&segmented, &omni), 63);
+    }
 
     #[test]
     fn segmentation_of_more_faces_than_16_bits_hold_is_refused_before_rendering() {

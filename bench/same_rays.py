@@ -1,0 +1,141 @@
+#!/usr/bin/env python3
+"""omnisim against Open3D (Embree 4) on the SAME rays, per image.
+
+omnisim writes each camera's ray map (raymap-origin.exr and raymap-direction.exr, body frame);
+this script moves those exact rays to the pose and hands them to Open3D's
+RaycastingScene.cast_rays (all cores). omnisim is
+timed with `omnisim bench` (median ms per image), Open3D with the median of --runs calls.
+Rounds alternate the two tools; each tool's best round is kept (a noisy shared machine slows
+a round, never speeds it). Prints one JSON line per case and a final table.
+
+Scenes: room, clutter (raycast_anchor.py) and env1 (`omnisim scene export scenes/env1.ron`).
+Usage: same_rays.py --omnisim BIN --repo CHECKOUT --work DIR [--rounds 3] [--cases all|quick] [--scenes room,env1]
+Needs open3d-cpu, numpy, OpenEXR: same_rays.sh makes the venv and runs this.
+"""
+import argparse, json, os, statistics, subprocess, sys, time
+import numpy as np
+import open3d as o3d
+import OpenEXR
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import raycast_anchor as ra  # noqa: E402
+
+def write_ply(path, v, t):
+    ra.write_ply(path, v.astype(np.float32), t.astype(np.int32))
+
+def scene_files(work, repo, omnisim):
+    cache = os.environ.get('BENCH_CACHE', os.path.expanduser('~/.cache/omnisim-bench'))
+    out = {}
+    for name in ('room', 'clutter'):
+        p = os.path.join(work, f'scene_{name}.ply')
+        if not os.path.exists(p):
+            v, t = ra.build_scene(name); write_ply(p, v, t)
+        out[name] = p
+    p = os.path.join(work, 'scene_env1.ply')
+    if not os.path.exists(p):
+        subprocess.run([omnisim, 'scene', 'export', os.path.join(repo, 'scenes', 'env1.ron'), p], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    out['env1'] = p
+    rons = {}
+    for name, ply in out.items():
+        ron = os.path.join(work, f'{name}.ron')
+        with open(ron, 'w') as f:
+            f.write(f'Scene(name: "{name}", objects: [Mesh(name: "{name}", path: "{os.path.basename(ply)}", colour: (200, 200, 200))])\n')
+        rons[name] = ron
+    return out, rons
+
+def read_xyz(path):
+    """One ray-map file: channels R G B = x y z, one row per pixel."""
+    ch = OpenEXR.File(path, separate_channels=True).channels()
+    return np.stack([ch[k].pixels for k in 'RGB'], -1).reshape(-1, 3).astype(np.float64)
+
+def read_raymap(folder):
+    o = read_xyz(os.path.join(folder, 'raymap-origin.exr'))
+    d = read_xyz(os.path.join(folder, 'raymap-direction.exr'))
+    ok = np.isfinite(d).all(1)
+    return o[ok], d[ok]
+
+def world_rays(omnisim, ron, cam_args, pose, work, tag):
+    out = os.path.join(work, 'rm-' + tag)
+    subprocess.run([omnisim, 'render', ron, *cam_args, '--pose', pose, '--backend', 'cpu', '--out', out, '--overwrite'],
+                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    js = json.load(open(os.path.join(out, 'render.json')))
+    M = np.array(js['frames'][0]['world_from_body'])
+    o, d = read_raymap(out)
+    O = o @ M[:3, :3].T + M[:3, 3]; D = d @ M[:3, :3].T
+    return np.hstack([O, D]).astype(np.float32)
+
+def time_open3d(scene, rays, runs):
+    t = o3d.core.Tensor(rays)
+    scene.cast_rays(t)
+    ts = []
+    for _ in range(runs):
+        t0 = time.perf_counter(); r = scene.cast_rays(t); r['t_hit'].numpy(); ts.append(time.perf_counter() - t0)
+    return statistics.median(ts)
+
+def time_omnisim(omnisim, ron, cam_args, pose, runs, extra):
+    p = subprocess.run([omnisim, 'bench', ron, *cam_args, '--pose', pose, '--backend', 'cpu', '--runs', str(runs), *extra],
+                       check=True, capture_output=True, text=True)
+    js = [json.loads(l) for l in p.stdout.splitlines() if l.strip()][0]
+    return js['median_ms'] / 1e3, js
+
+CAMS = {
+    'equirect1024': ['--camera', 'equirect', '--size', '1024x1024'],
+    'pinhole640': ['--camera', 'pinhole', '--size', '640x480', '--hfov', '60'],
+    'omni250': ['--camera', 'omni', '--size', '250x250'],
+    'omni1000': ['--camera', 'omni', '--size', '1000x1000'],
+}
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument('--omnisim', required=True); ap.add_argument('--repo', required=True)
+    ap.add_argument('--work', required=True); ap.add_argument('--rounds', type=int, default=3)
+    ap.add_argument('--runs', type=int, default=5); ap.add_argument('--cases', default='all')
+    ap.add_argument('--scenes', default='room,clutter,env1')
+    ap.add_argument('--extra', default='', help='extra omnisim bench flags, e.g. "--hits-only"')
+    a = ap.parse_args()
+    os.makedirs(a.work, exist_ok=True)
+    plys, rons = scene_files(a.work, a.repo, a.omnisim)
+    cases = []
+    for s in ('room', 'clutter'):
+        for pose in ('3,2,1.5,0,0,0', '3.01,2.01,1.51,0,0,30', '1.2,0.9,0.7,10,-20,200'):
+            cases.append((s, 'equirect1024', pose))
+        cases.append((s, 'pinhole640', '1.2,0.9,0.7,0,-10,30'))
+        cases.append((s, 'omni250', '3,2,1.5,0,0,60'))
+    cases += [('env1', 'omni250', '1.5,0,0.4,0,0,60'), ('env1', 'omni1000', '1.5,0,0.4,0,50,60'),
+              ('env1', 'equirect1024', '0,0,0.4,0,0,0'), ('env1', 'pinhole640', '-1,0.3,0.6,0,-5,20')]
+    if a.cases == 'quick':
+        cases = [c for c in cases if c[1] != 'equirect1024' or c[2].startswith('3,2')]
+    extra = a.extra.split()
+    cases = [c for c in cases if c[0] in a.scenes.split(',')]
+    rows = []
+    scenes = {}
+    for (s, cam, pose) in cases:
+        if s not in scenes:
+            try:
+                v, t = ra.read_ply(plys[s])
+            except AssertionError:  # polygons (scene export): let Open3D triangulate
+                m = o3d.io.read_triangle_mesh(plys[s])
+                v, t = np.asarray(m.vertices), np.asarray(m.triangles)
+            sc = o3d.t.geometry.RaycastingScene()
+            sc.add_triangles(o3d.core.Tensor(v.astype(np.float32)), o3d.core.Tensor(t.astype(np.uint32)))
+            scenes = {s: (sc, len(t))}
+        sc, ntri = scenes[s]
+        rays = world_rays(a.omnisim, rons[s], CAMS[cam], pose, a.work, f'{s}-{cam}')
+        best_o3d = best_om = float('inf'); js = None
+        for _ in range(a.rounds):
+            best_o3d = min(best_o3d, time_open3d(sc, rays, a.runs))
+            t, js = time_omnisim(a.omnisim, rons[s], CAMS[cam], pose, a.runs, extra)
+            best_om = min(best_om, t)
+        row = dict(scene=s, triangles=ntri, camera=cam, pose=pose, rays=len(rays),
+                   open3d_ms=1e3 * best_o3d, omnisim_ms=1e3 * best_om, ratio=best_o3d / best_om,
+                   omnisim_tracer=js.get('tracer'), planes=js.get('planes'))
+        rows.append(row); print(json.dumps(row), flush=True)
+    print(f"\n{'scene':8} {'tris':>9} {'camera':13} {'pose':24} {'rays':>8} {'open3d ms':>10} {'omnisim ms':>10} {'ratio':>6}")
+    for r in rows:
+        print(f"{r['scene']:8} {r['triangles']:9d} {r['camera']:13} {r['pose']:24} {r['rays']:8d} {r['open3d_ms']:10.2f} {r['omnisim_ms']:10.2f} {r['ratio']:5.2f}x")
+    rs = [r['ratio'] for r in rows]
+    print(f"worst {min(rs):.2f}x  median {statistics.median(rs):.2f}x  best {max(rs):.2f}x over {len(rs)} cases")
+
+if __name__ == '__main__':
+    main()
