@@ -59,7 +59,8 @@ run project out/omni --view perspective:width=32,height=24,yaw=30 --view equirec
 
 # What a run records of its circumstances, taken out of text files before hashing: in JSON any
 # key that holds "seconds" or "elapsed" (timings), in every text file the omnisim
-# version, the host name and the temporary work folder.
+# version, the host name and the temporary work folder (also as the digest of the scene file's
+# full path in omnisim-run.txt).
 normalise() {
     case "$1" in
         *.json) python3 -c '
@@ -74,7 +75,7 @@ json.dump(strip(json.load(open(sys.argv[1]))), sys.stdout, sort_keys=True)' "$1"
         *) cat "$1" ;;
     esac | sed -E -e 's/(omnisim[ -]?(version)?"?[:=]? *"?)[0-9]+\.[0-9]+\.[0-9]+/\1_/g' \
         -e "s/$(hostname | sed 's/[.[\*^$/]/\\&/g')/_host_/g" \
-        -e "s#$work#_work_#g" -e "s#$bin#_omnisim_#g"
+        -e "s#$work#_work_#g" -e "s#$bin#_omnisim_#g" -E -e 's/(scene=[^ :]*):[0-9a-f]{16}/\1:_/g'
 }
 sums="$work/sums"
 find out -type f | LC_ALL=C sort | while read -r file; do

@@ -10,9 +10,9 @@ use std::path::Path;
 use common::Tracer;
 use glam::{DMat3, DVec3, Vec3, dvec3};
 use omnisim::advanced::SceneBvh;
-use omnisim::advanced::linear_rgb;
 use omnisim::advanced::{Appearance, CpuTracer, Pixel};
 use omnisim::camera::{Equirectangular, Pinhole};
+use omnisim::scene::lighting::linear_rgb;
 use omnisim::{Camera, Frame, Plane, Planes, Pose, Scene, advanced as shade, advanced as trace};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 

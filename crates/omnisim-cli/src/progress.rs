@@ -65,7 +65,8 @@ impl Progress {
             self.here += 1;
         }
         if !self.terminal {
-            let due = self.last_line.unwrap_or(self.started) + self.every <= now;
+            // Measured back from now: a huge interval (OMNISIM_PROGRESS_SECONDS) cannot overflow.
+            let due = now.duration_since(self.last_line.unwrap_or(self.started)) >= self.every;
             if due || (done == total && self.last_line.is_some()) {
                 let rate = self.here as f64 / (now - self.started).as_secs_f64().max(1e-9);
                 let note = if note.is_empty() {

@@ -8,12 +8,14 @@ use omnisim::Pose;
 use omnisim::camera::RigSpec;
 use omnisim::output::folder::RunFolder;
 
-/// What makes two renders the same run: the scene file (its name and bytes), rig, poses and
-/// `outputs` (the options that choose files); the backend, the folders and the options that
-/// spell the same rig do not count.
+/// What makes two renders the same run: the scene file (where it is: an edited scene renders
+/// into its own folder again), rig, poses and `outputs` (the options that choose files); the
+/// backend, the output folder and the options that spell the same rig do not count. The
+/// record names the scene file and a digest of its full path, not the path itself.
 pub(crate) fn identity(scene: &Path, rig: &RigSpec, poses: &[Pose], outputs: &str) -> anyhow::Result<String> {
     let mut scene_digest = Fnv1a::default();
-    scene_digest.write(omnisim::input::read_text(scene, omnisim::input::SCENE_LIMIT)?.as_bytes());
+    let full_path = std::fs::canonicalize(scene).unwrap_or_else(|_| scene.to_path_buf());
+    scene_digest.write(full_path.as_os_str().as_encoded_bytes());
     let scene_name = scene.file_name().unwrap_or_default().to_string_lossy();
     let mut digest = Fnv1a::default();
     for pose in poses {

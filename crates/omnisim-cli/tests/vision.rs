@@ -839,3 +839,26 @@ fn a_rig_file_renders_is_recorded_and_read_back() {
     );
     assert!(!dir.path().join("b").exists(), "a refused rig wrote its folder");
 }
+
+/// A stereo render folder is read through its left camera (the one its colour images come
+/// from), with no camera option; a progress interval too large for a clock does not crash.
+#[test]
+fn a_stereo_render_folder_is_described_through_its_left_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    let render = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args([
+            "render", "env1.ron", "--camera", "stereo", "--size", "32x24", "--pose", "0,0,0.6",
+        ])
+        .args(["--backend", "cpu", "--out", "st"])
+        .env("OMNISIM_PROGRESS_SECONDS", "1e19")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(render.status.success(), "{}", String::from_utf8_lossy(&render.stderr));
+    succeed(&["describe", "st", "-d", "block-hog", "--out", "d"], dir.path());
+    let sidecar: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("d/st/block-hog.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["shape"][0], 1, "one left image per pose: {sidecar}");
+}

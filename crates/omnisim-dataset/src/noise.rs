@@ -6,7 +6,7 @@ use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::spec::{ColourNoise, DepthNoise, DisparityNoise};
-use omnisim::advanced::linear_to_srgb;
+use omnisim::scene::lighting::linear_to_srgb;
 
 /// One pixel's linear colour after every model of `models`, in order (unclamped).
 pub fn colour_pixel(linear: [f32; 3], models: &[ColourNoise], rng: &mut impl Rng) -> [f64; 3] {

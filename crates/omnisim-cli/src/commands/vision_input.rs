@@ -142,8 +142,10 @@ impl InputArgs {
     /// An `omnisim render` folder's render.json, if the folder has one.
     fn render_record(&self) -> anyhow::Result<Option<RenderView>> {
         let path = self.input.join(RENDER_RECORD);
-        if std::fs::symlink_metadata(&path).is_err() {
-            return Ok(None);
+        match std::fs::symlink_metadata(&path) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(e).with_context(|| format!("cannot check {}", path.display())),
+            Ok(_) => {}
         }
         let text = omnisim::input::read_text(&path, MANIFEST_LIMIT)?;
         let render = serde_json::from_str(&text).with_context(|| {
@@ -171,10 +173,8 @@ impl InputArgs {
                 bail!("the data set has no set '{wanted}'; it has {names:?}");
             }
         }
-        let camera = match view.rig.build().context("the manifest's camera")? {
-            Rig::Single(camera) => camera,
-            Rig::Stereo(stereo) => Camera::Pinhole(stereo.camera),
-        };
+        // A stereo set's images are the left camera's.
+        let camera = view.rig.build().context("the manifest's camera")?.first_camera();
         let suffixes: &[&str] = if self.noisy {
             &["-noisy", "-left-noisy"]
         } else {
@@ -241,10 +241,7 @@ impl InputArgs {
             .filter(|_| !self.camera_given());
         let camera = if let Some(rig) = recorded_rig {
             // The rig render.json records: the camera its colour images (a pair's left) came from.
-            match rig.build().context("the camera render.json records")? {
-                Rig::Single(camera) => camera,
-                Rig::Stereo(stereo) => Camera::Pinhole(stereo.camera),
-            }
+            rig.build().context("the camera render.json records")?.first_camera()
         } else {
             let mut camera_args = self.camera.clone();
             if camera_args.size.is_none() {
@@ -256,7 +253,10 @@ impl InputArgs {
                 Rig::Stereo(_) => bail!("give the images of one camera of a stereo pair as --camera pinhole"),
             }
         };
-        if let Some(render) = &render {
+        // A camera given by options must be the one the render recorded.
+        if recorded_rig.is_none()
+            && let Some(render) = &render
+        {
             self.check_render_camera(render, &camera)?;
         }
         let name = plain_name(

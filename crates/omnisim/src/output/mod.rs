@@ -383,7 +383,8 @@ pub(crate) fn write_xyz_exr(
 /// would cost 16 bytes a pixel (more while it grows), the largest copy any writer made.
 pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Result<(), OutputError> {
     const GREY: [u8; 3] = [128; 3];
-    let colour = |index: usize| frame.colour().map_or(&GREY, |colours| &colours[index]);
+    let colours = frame.colour();
+    let colour = |index: usize| colours.map_or(&GREY, |colours| &colours[index]);
     let hits = frame
         .pixels()
         .iter()

@@ -2,7 +2,7 @@
 //! the code that traces (a `Counter` that does nothing compiles away).
 
 /// What a traversal counts; `()` counts nothing and costs nothing.
-pub trait Counter {
+pub(crate) trait Counter {
     /// One ray–box test.
     fn node_test(&mut self);
     /// One ray–primitive test.
