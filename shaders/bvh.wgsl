@@ -64,6 +64,19 @@ struct Query {
     any_hit: bool,
 }
 
+// Whether a closest-hit candidate at `t` on `triangle` beats `best`: the rule of the CPU
+// tracers (trace/triangle.rs, `wins`) in f32. The nearer hit, and at exactly equal f32
+// distance (a ray along an edge two faces share, coincident faces) the lower face id, then the
+// lower triangle (BVH leaf order), so the traversal order never decides. FAR is no hit.
+fn wins(t: f32, triangle: u32, best: Hit) -> bool {
+    if t == best.t && t < FAR {
+        let face = triangles[triangle].face;
+        let best_face = triangles[best.triangle].face;
+        return face < best_face || (face == best_face && triangle < best.triangle);
+    }
+    return t < best.t;
+}
+
 fn intersect_leaf(node: BvhNode, query: Query, best: ptr<function, Hit>) {
     for (var i = node.first_index; i < node.first_index + node.prim_count; i++) {
         let triangle = triangles[i];
@@ -71,7 +84,9 @@ fn intersect_leaf(node: BvhNode, query: Query, best: ptr<function, Hit>) {
             continue;
         }
         let t = intersect_triangle(triangle, query.origin, query.direction);
-        if t > query.t_min && t < (*best).t {
+        // Any-hit queries keep t < t_max strictly (`best` starts at t_max, no triangle).
+        let better = select(wins(t, i, *best), t < (*best).t, query.any_hit);
+        if t > query.t_min && better {
             *best = Hit(t, i);
             if query.any_hit {
                 return;
@@ -124,7 +139,8 @@ fn traverse(query: Query, t_max: f32) -> Hit {
             right_t = t;
         }
         var go_left = false;
-        if left_t < best.t {
+        // A box entered at the best distance may hold a triangle that wins the tie.
+        if left_t <= best.t && left_t < FAR {
             if left.prim_count > 0u {
                 intersect_leaf(left, query, &best);
                 if query.any_hit && best.t < t_max {
@@ -135,7 +151,7 @@ fn traverse(query: Query, t_max: f32) -> Hit {
             }
         }
         var go_right = false;
-        if right_t < best.t {
+        if right_t <= best.t && right_t < FAR {
             if right.prim_count > 0u {
                 intersect_leaf(right, query, &best);
                 if query.any_hit && best.t < t_max {

@@ -157,6 +157,33 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     assert_eq!(whole, banded);
 }
 
+/// Ties (issue 18): where an exact copy of a wall lies on the wall, the GPU's f32 distances to
+/// both are the same bits, and the lower face id wins there as on the CPU (`wins` in
+/// `shaders/bvh.wgsl`), whichever the walk meets first.
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn coincident_faces_resolve_to_the_lower_face_id_on_the_gpu() {
+    let scene = common::coincident_faces();
+    let (lower_copy, wall_4, wall_2, upper_copy, ..) = common::COINCIDENT_FACE_IDS;
+    let bvh = SceneBvh::build(&scene);
+    let gpu = common::gpu_tracer(&scene, &bvh);
+    let camera = Camera::Equirectangular(omnisim::camera::Equirectangular {
+        width: 256,
+        height: 128,
+    });
+    let mut seen = [0usize; 9];
+    for pose in [
+        Pose::from_degrees(dvec3(0.5, 0.5, 0.5), dvec3(0.0, 0.0, 0.0)),
+        Pose::from_degrees(dvec3(0.3, 0.6, 0.45), dvec3(10.0, -20.0, 35.0)),
+    ] {
+        for pixel in gpu.render(&camera, &pose).expect("GPU render").pixels() {
+            seen[pixel.face as usize] += 1;
+        }
+    }
+    assert!(seen[lower_copy] > 1000 && seen[wall_4] == 0, "{seen:?}");
+    assert!(seen[wall_2] > 1000 && seen[upper_copy] == 0, "{seen:?}");
+}
+
 /// `auto` takes a hardware adapter, never a software one (llvmpipe: the f64 CPU tracer is
 /// faster on the same cores), and says why; `gpu` takes whatever adapter there is.
 #[test]

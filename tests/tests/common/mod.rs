@@ -8,6 +8,7 @@ use omnisim::advanced::CpuTracer;
 use omnisim::advanced::SceneBvh;
 use omnisim::camera::{Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
+use omnisim::scene::{Face, SceneObject};
 use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, RenderError, Renderer, Scene};
 
 pub(crate) fn scene_path(name: &str) -> PathBuf {
@@ -171,3 +172,46 @@ pub(crate) fn read_xyz_exr(path: &std::path::Path) -> ([Vec<f32>; 3], String) {
     };
     ([channel("R"), channel("G"), channel("B")], quantity)
 }
+
+/// A closed unit cube centred at (0.5, 0.5, 0.5), turned by `world_from_cube`.
+pub(crate) fn cube_room(world_from_cube: DMat3) -> Scene {
+    let mut scene = Scene::default();
+    scene.objects.push(SceneObject {
+        name: "cube".into(),
+        kind: "Box",
+    });
+    for vertices in box_faces(DVec3::splat(0.5), DVec3::splat(0.5), world_from_cube) {
+        scene.faces.push(Face {
+            vertices: vertices.into(),
+            colour: [200, 200, 200],
+            object: 0,
+        });
+    }
+    scene
+}
+
+/// The cube room plus faces on its walls' planes: an exact copy of wall 2 (a later id), a
+/// copy of wall 4 listed first (id 0, so the copy is the lower id), and a triangle lying
+/// across part of wall 5 with corners of its own. Every pixel of an equirectangular view from
+/// inside sees two faces at once wherever they overlap.
+pub(crate) fn coincident_faces() -> Scene {
+    let mut scene = cube_room(DMat3::IDENTITY);
+    let walls: Vec<Face> = scene.faces.clone();
+    let copy = |face: &Face| Face {
+        colour: [10, 200, 10],
+        ..face.clone()
+    };
+    scene.faces.insert(0, copy(&walls[4]));
+    scene.faces.push(copy(&walls[2]));
+    let wall = &walls[5].vertices;
+    scene.faces.push(Face {
+        vertices: vec![wall[0], wall[0].lerp(wall[1], 0.7), wall[0].lerp(wall[2], 0.6)].into(),
+        colour: [200, 10, 10],
+        object: 0,
+    });
+    scene
+}
+
+/// Faces of [`coincident_faces`] after the insertion: the copy of wall 4 (id 0), wall 4 (5),
+/// wall 2 (3), its copy (7), wall 5 (6) and the triangle across it (8).
+pub(crate) const COINCIDENT_FACE_IDS: (usize, usize, usize, usize, usize, usize) = (0, 5, 3, 7, 6, 8);

@@ -25,9 +25,9 @@ use counts::{Counter, TraversalCounts};
 pub use reference::{closest_hit, occluded};
 pub use triangle::Hit;
 
-/// Which CPU tracer traces. Both return the same faces and the same f64 ranges and points;
-/// only at exact ties (two faces at the same f64 distance, a ray along a shared edge) may they
-/// name different faces (`tests/tests/fast_tracer.rs` counts them).
+/// Which CPU tracer traces. Both return the same faces and the same f64 ranges and points,
+/// ties included: at exactly equal f64 distance (a ray along a shared edge, coincident faces)
+/// the lower face id wins in both (`triangle::wins`; `tests/tests/fast_tracer.rs`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CpuTracer {
     /// An 8-wide BVH with f32 box and triangle filters; the f64 test decides every hit (`fast/`).

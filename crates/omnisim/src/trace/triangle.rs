@@ -41,8 +41,18 @@ pub(crate) fn intersect(corners: &[DVec3; 3], origin: DVec3, direction: DVec3) -
     Some(e2.dot(q) * inv)
 }
 
-/// The closest-hit step of both tracers: the f64 test of `triangle`, kept in `best` if it is
-/// the nearest hit beyond `t_min` so far.
+/// Whether a hit at `t` on `triangle` beats `best`, by the one rule both CPU tracers and the
+/// GPU (`shaders/bvh.wgsl`, `wins`) share: the nearer hit, and at exactly equal distance (a
+/// ray along an edge two faces share, coincident faces) the lower scene face id, then the
+/// lower triangle (BVH leaf order, the same on every backend). Traversal order, which differs
+/// between the walks, therefore never decides a hit.
+#[inline(always)]
+pub(crate) fn wins(bvh: &SceneBvh, t: f64, triangle: usize, best: Hit) -> bool {
+    t < best.t || (t == best.t && (bvh.face[triangle], triangle) < (bvh.face[best.triangle], best.triangle))
+}
+
+/// The closest-hit step of both tracers: the f64 test of `triangle`, kept in `best` if it
+/// [`wins`] against the best hit beyond `t_min` so far.
 #[inline(always)]
 pub(crate) fn nearer(
     bvh: &SceneBvh,
@@ -53,9 +63,9 @@ pub(crate) fn nearer(
     triangle: usize,
 ) -> Visit {
     match intersect(&bvh.triangles[triangle], origin, direction) {
-        Some(t) if t > t_min && best.is_none_or(|b| t < b.t) => {
+        Some(t) if t > t_min && best.is_none_or(|b| wins(bvh, t, triangle, b)) => {
             *best = Some(Hit { t, triangle });
-            // Rounded up so the f32 culling never discards a nearer candidate.
+            // Rounded up so the f32 culling never discards a nearer or equally near candidate.
             Visit::Closer((t * (1.0 + 1e-6)) as f32)
         }
         _ => Visit::Miss,

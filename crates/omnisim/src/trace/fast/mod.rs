@@ -5,7 +5,8 @@
 //! test (`groups.rs`) rejects a triangle only with a margin above its rounding error, so the
 //! f64 test sees every triangle the reference tracer would accept. Faces, ranges and points
 //! therefore equal the reference's; where two triangles lie at exactly the same f64 distance
-//! (a ray along a shared edge) the traversal order, which differs, picks one of them.
+//! (a ray along a shared edge) both apply the same rule (`triangle::wins`: lower face id,
+//! then lower triangle), so the hit does not depend on the order the walk met them in.
 
 mod groups;
 mod lanes;
