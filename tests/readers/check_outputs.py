@@ -164,6 +164,43 @@ def check_folder(folder):
         print(f"{folder.name} {frame['stem']}: OK ({sum(len(p) for p, _ in seen.values())} points)")
 
 
+# Kalibr's camera-config loader rules (kalibr_common/ConfigReader.py, CameraParameters:
+# checkIntrinsics, checkDistortion, checkResolution): a camchain that breaks one does not load.
+KALIBR_INTRINSICS = {"pinhole": 4, "omni": 5, "ds": 6, "eucm": 6}
+KALIBR_DISTORTION = {"none": 0, "radtan": 4, "equidistant": 4, "fov": 1}
+
+
+def kalibr_loader_rules(cam, where):
+    model = cam["camera_model"]
+    check(model in KALIBR_INTRINSICS, f"{where}: camera_model {model!r} is not one of Kalibr's")
+    intrinsics = [float(v) for v in cam["intrinsics"]]
+    check(len(intrinsics) == KALIBR_INTRINSICS[model], f"{where}: {model} takes {KALIBR_INTRINSICS[model]} intrinsics")
+    fu, fv, pu, pv = intrinsics[-4:]
+    check(fu > 0 and fv > 0, f"{where}: invalid focalLength {fu}, {fv}")
+    check(pu > 0 and pv > 0, f"{where}: invalid principalPoint {pu}, {pv}")
+    if model == "omni":
+        check(intrinsics[0] >= 0, f"{where}: invalid xi")
+    if model in ("ds", "eucm"):
+        alpha = intrinsics[1] if model == "ds" else intrinsics[0]
+        check(0 <= alpha <= 1, f"{where}: invalid alpha")
+    distortion = cam["distortion_model"]
+    check(distortion in KALIBR_DISTORTION, f"{where}: distortion_model {distortion!r} is not one of Kalibr's")
+    check(len(cam["distortion_coeffs"]) == KALIBR_DISTORTION[distortion], f"{where}: {distortion} coefficients")
+    resolution = cam["resolution"]
+    check(len(resolution) == 2 and all(isinstance(v, int) and v > 0 for v in resolution), f"{where}: resolution")
+    transform = np.array(cam["T_cam_imu"], dtype=np.float64)
+    check(transform.shape == (4, 4) and abs(np.linalg.det(transform[:3, :3]) - 1) < 1e-12,
+          f"{where}: T_cam_imu is not a rigid transform")
+
+
+def read_kalibr(folder):
+    """The camchain, each camera checked with Kalibr's loader rules."""
+    chain = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
+    for name, cam in chain.items():
+        kalibr_loader_rules(cam, f"{folder.name} {name}")
+    return chain
+
+
 def kalibr_project(cam, body):
     t = np.array(cam["T_cam_imu"], dtype=np.float64)
     x = body @ t[:3, :3].T + t[:3, 3]
@@ -177,7 +214,7 @@ def kalibr_project(cam, body):
 
 
 def check_pinholes(folder, frame, seen, body):
-    kalibr = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
+    kalibr = read_kalibr(folder)
     if "-left" in seen:
         fs = storage(folder / "calibration-opencv-stereo.yaml")
         k = {"-left": matrix(fs, "M1"), "-right": matrix(fs, "M2")}
@@ -222,10 +259,12 @@ def check_omni(folder, seen, body):
     model = mirror * np.array([1.0, 1.0, -1.0])  # the file's model frame (a reflection)
     projected, _ = cv2.omnidir.projectPoints(model.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, xi, d)
     close(projected, pixels, f"{folder.name} cv2.omnidir")
-    kalibr = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
-    rotation = np.array(kalibr["cam0"]["T_cam_imu"], dtype=np.float64)[:3, :3]
-    check(abs(np.linalg.det(rotation) - 1) < 1e-12, "Kalibr T_cam_imu is a proper rotation")
-    close(kalibr_project(kalibr["cam0"], body), pixels, f"{folder.name} Kalibr omni")
+    kalibr = read_kalibr(folder)
+    # Kalibr's camera is the image flipped top to bottom (positive focal lengths; the file says so).
+    check("IMAGE FLIPPED" in (folder / "calibration-kalibr.yaml").read_text(), "Kalibr omni says the image is flipped")
+    height = kalibr["cam0"]["resolution"][1]
+    flipped = pixels * np.array([1.0, -1.0]) + np.array([0.0, height - 1.0])
+    close(kalibr_project(kalibr["cam0"], body), flipped, f"{folder.name} Kalibr omni")
 
 
 def main():

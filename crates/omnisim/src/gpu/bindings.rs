@@ -102,15 +102,17 @@ pub(crate) const CAMERA_KINDS: [(&str, u32); 4] = [
     ("CAMERA_CYLINDRICAL", 3),
 ];
 
-/// The number the shader's `camera.kind` switch knows `camera` by.
-pub(crate) fn camera_kind(camera: &Camera) -> u32 {
+/// The number the shader's `camera.kind` switch knows `camera` by; `None` for a camera the
+/// shaders cannot make rays for (the lens models).
+pub(crate) fn camera_kind(camera: &Camera) -> Option<u32> {
     let index = match camera {
         Camera::Pinhole(_) => 0,
         Camera::Equirectangular(_) => 1,
         Camera::Catadioptric(_) => 2,
         Camera::Cylindrical(_) => 3,
+        Camera::Lens(_) => return None,
     };
-    CAMERA_KINDS[index].1
+    Some(CAMERA_KINDS[index].1)
 }
 
 /// The layout entries of `stage`'s bind group, from its table.

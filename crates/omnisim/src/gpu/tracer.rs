@@ -159,7 +159,7 @@ impl GpuRenderer {
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
-        let mut params = camera_params(camera, pose, scene.offset);
+        let mut params = camera_params(camera, pose, scene.offset)?;
         let shade = planes.needs_shading();
         // Consecutive frames of one size (trajectories, grids) reuse their buffers.
         let mut cache = scene.band.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -273,7 +273,7 @@ impl GpuRenderer {
             return Ok(0);
         }
         let device = &self.context.device;
-        let mut params = camera_params(camera, pose, scene.offset);
+        let mut params = camera_params(camera, pose, scene.offset)?;
         params.frame.samples_per_axis = samples_per_axis;
         let bytes = edges.len() as u64 * size_of::<ShadedPixel>();
         let init = |label, contents: &[u8], usage| {
@@ -456,7 +456,7 @@ fn gpu_hit(hit: &Pixel, offset: DVec3) -> PixelHit {
 
 /// The uniform block of one render: camera model parameters and the pose, with the viewpoint
 /// made relative to the scene offset in f64 before rounding to f32.
-fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
+fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> Result<CameraParams, GpuError> {
     let column = |c: DVec3| [c.x as f32, c.y as f32, c.z as f32, 0.0];
     let columns = |m: DMat3| [column(m.x_axis), column(m.y_axis), column(m.z_axis)];
     let vector = |v: DVec3| v.as_vec3().to_array();
@@ -465,7 +465,7 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
         frame: FrameBlock {
             world_from_body: columns(pose.world_from_body_rotation()),
             origin: vector(pose.position - offset),
-            kind: bindings::camera_kind(camera),
+            kind: bindings::camera_kind(camera).ok_or(GpuError::NoGpuCamera(camera.model_name()))?,
             width,
             height,
             row_offset: 0,
@@ -526,6 +526,7 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
             params.mirror.central = u32::from(c.is_central());
             params.mirror.shortcut = u32::from(c.rays == MirrorRays::Shortcut);
         }
+        Camera::Lens(_) => return Err(GpuError::NoGpuCamera(camera.model_name())),
     }
-    params
+    Ok(params)
 }

@@ -406,6 +406,7 @@ fn calibration_files(rig: &Rig) -> Vec<(&'static str, String)> {
                 _ => Vec::new(),
             }
         }
+        Rig::Single(Camera::Lens(lens)) => calibration::lens_files(lens),
         Rig::Single(Camera::Equirectangular(_) | Camera::Cylindrical(_)) => Vec::new(),
     }
 }
