@@ -292,6 +292,45 @@ fn pose_files_for_grids_trajectories_and_random_tests_render() {
 }
 
 #[test]
+fn render_help_names_every_lens_and_lens_options_are_checked() {
+    let help = text(&omnisim("render --help").stdout);
+    for model in [
+        "kannala-brandt",
+        "equidistant",
+        "equisolid",
+        "stereographic",
+        "orthographic",
+        "double-sphere",
+        "eucm",
+        "unified",
+        "scaramuzza",
+        "radtan",
+        "rational",
+        "thin-prism",
+    ] {
+        assert!(help.contains(model), "render --help names no {model}");
+    }
+    let refused = [
+        ("--camera fisheye --lens orthographic --fov 200", "between 0 and 180.00 degrees"),
+        ("--camera fisheye --lens double-sphere --xi 1.5", "double-sphere xi = 1.5"),
+        ("--camera fisheye --lens eucm --beta=-1", "eucm beta"),
+        ("--camera fisheye --lens scaramuzza", "--poly"),
+        ("--camera fisheye --lens scaramuzza --poly 5,0,0.001", "scaramuzza a0"),
+        ("--camera fisheye --lens equisolid --k 0.1,0,0,0", "--k does not apply"),
+        ("--camera pinhole --distortion rational --dist 0.1,0,0,0", "takes 8 coefficients"),
+        ("--camera stereo --distortion radtan --dist 0.1,0,0,0", "--distortion does not apply"),
+        ("--camera fisheye --lens kannala-brandt --k 0.1,0", "--k (k1,k2,k3,k4) takes 4 numbers"),
+    ];
+    for (options, message) in refused {
+        let result = omnisim(&format!(
+            "render scenes/env1.ron {options} --pose 0,0,0.4 --backend cpu --out /nonexistent/never"
+        ));
+        let stderr = text(&result.stderr);
+        assert!(!result.status.success() && stderr.contains(message), "{options}: {stderr}");
+    }
+}
+
+#[test]
 fn every_example_in_render_help_runs() {
     let help = text(&omnisim("render --help").stdout);
     let examples: Vec<&str> = help

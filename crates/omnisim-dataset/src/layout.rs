@@ -329,10 +329,10 @@ mod tests {
         mirror_down.mount = Mount::Down;
         let pinhole = Pinhole::with_horizontal_fov(320, 240, 1.2);
         let lens = |model| {
-            Camera::Lens(LensCamera {
+            Camera::Lens(Box::new(LensCamera {
                 intrinsics: Pinhole::with_horizontal_fov(320, 240, 1.2),
                 model,
-            })
+            }))
         };
         let cameras = [
             Camera::Catadioptric(Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))),

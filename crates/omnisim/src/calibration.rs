@@ -298,7 +298,7 @@ pub fn kalibr_camchain_of(camera: &Camera) -> Option<String> {
 /// Kalibr camchain of a lens camera (`pinhole-radtan`, `pinhole-equi`, `ds`, `eucm`,
 /// `omni-radtan`); `None` where Kalibr has no model for the lens.
 pub fn kalibr_lens_camera(camera: &LensCamera) -> Option<String> {
-    let kalibr = KalibrCamera::of(&Camera::Lens(camera.clone()))?;
+    let kalibr = KalibrCamera::of(&Camera::Lens(Box::new(camera.clone())))?;
     let note = format!(
         "# Kalibr model {} (omnisim lens {}); optical frame x right, y down, z forward.\n",
         kalibr.model_pair(),

@@ -26,7 +26,8 @@ pub use lens::{KannalaBrandt, LensModel, Scaramuzza};
 pub use lens_camera::LensCamera;
 pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
 pub use spec::{
-    MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec, RigSpecError, StereoSpec,
+    FisheyeSpec, LensSpec, MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec,
+    RigSpecError, StereoSpec,
 };
 pub use stereo::StereoRig;
 pub use validate::{CameraError, MAX_PIXELS};
@@ -55,8 +56,9 @@ pub enum Camera {
     Cylindrical(Cylindrical),
     /// A camera looking at a mirror.
     Catadioptric(Catadioptric),
-    /// A camera with a lens model: fisheye, or a pinhole with distortion.
-    Lens(LensCamera),
+    /// A camera with a lens model: fisheye, or a pinhole with distortion (boxed: its model
+    /// holds up to 12 coefficients and is larger than the other cameras).
+    Lens(Box<LensCamera>),
 }
 
 impl Camera {
