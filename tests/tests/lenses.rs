@@ -4,6 +4,8 @@
 //! equations and `OCamCalib`'s functions in Python (`tests/readers/check_lens_calibration.py`),
 //! which must project the same points to omnisim's pixels within 1e-6 px.
 
+mod common;
+
 use std::fmt::Write;
 use std::path::Path;
 use std::process::Command;
@@ -13,7 +15,7 @@ use omnisim::advanced::SceneBvh;
 use omnisim::advanced::trace;
 use omnisim::calibration;
 use omnisim::camera::{FisheyeSpec, LensCamera, LensSpec, PinholeSpec, RigSpec};
-use omnisim::{Camera, Pose, Rig, Scene};
+use omnisim::{Camera, Pose, Scene};
 
 /// The room: x in [-2, 2], y in [-3, 3], z in [0, 3] (a box seen from inside).
 const ROOM: (DVec3, DVec3) = (DVec3::new(-2.0, -3.0, 0.0), DVec3::new(2.0, 3.0, 3.0));
@@ -94,13 +96,6 @@ fn lens_rigs() -> Vec<RigSpec> {
     ]
 }
 
-fn lens_camera(spec: &RigSpec) -> LensCamera {
-    match spec.build().expect("a valid rig") {
-        Rig::Single(Camera::Lens(lens)) => *lens,
-        other => panic!("not a lens camera: {other:?}"),
-    }
-}
-
 #[test]
 fn range_and_depth_at_the_border_are_the_distance_to_the_plane() {
     let scene = room();
@@ -108,7 +103,7 @@ fn range_and_depth_at_the_border_are_the_distance_to_the_plane() {
     let pose = Pose::new(dvec3(0.3, -0.2, 1.4), dvec3(0.1, -0.2, 0.5));
     let world_from_body = pose.world_from_body_rotation();
     for spec in lens_rigs() {
-        let lens = lens_camera(&spec);
+        let lens = common::lens_camera(&spec);
         let name = lens.model.name();
         let camera = Camera::Lens(Box::new(lens.clone()));
         let frame = trace(&bvh, &camera, &pose);
@@ -181,7 +176,7 @@ fn opencv_kalibr_and_ocamcalib_read_the_calibration_files_to_omnisims_pixels() {
         .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
     let dir = tempfile::tempdir().unwrap();
     for (index, spec) in lens_rigs().iter().enumerate() {
-        let lens = lens_camera(spec);
+        let lens = common::lens_camera(spec);
         let files = calibration::lens_files(&lens);
         if files.is_empty() {
             // The ideal equisolid, stereographic and orthographic lenses have no tool's format.
@@ -215,4 +210,35 @@ fn opencv_kalibr_and_ocamcalib_read_the_calibration_files_to_omnisims_pixels() {
     eprintln!("{stdout}");
     assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
     assert!(stdout.contains("8 lenses checked"), "{stdout}");
+}
+
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn the_gpu_reads_the_ray_table_in_bands_and_refines_lens_edges_like_the_cpu() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let mut gpu = common::gpu_tracer(&scene, &bvh);
+    let cpu = common::cpu_tracer(&scene, &bvh);
+    let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
+    let camera = Camera::Lens(Box::new(common::lens_camera(&lens_rigs()[3])));
+    let whole = gpu.render(&camera, &pose).unwrap();
+    gpu.renderer.gpu_renderer().unwrap().limit_band_rows(7);
+    let banded = gpu.render(&camera, &pose).unwrap();
+    assert_eq!(whole, banded, "bands index the table by their absolute rows");
+    // Edge samples of a lens camera are traced by the CPU on either backend: the same colours.
+    let antialiased = |tracer: &common::Tracer| {
+        tracer
+            .renderer
+            .render_antialiased(&tracer.scene, &camera, &pose, omnisim::Planes::COLOUR, 3)
+            .unwrap()
+    };
+    let (reference, refined) = (antialiased(&cpu), antialiased(&gpu));
+    let close = reference
+        .colour()
+        .unwrap()
+        .iter()
+        .zip(refined.colour().unwrap())
+        .filter(|(r, g)| (0..3).all(|k| r[k].abs_diff(g[k]) <= 1))
+        .count();
+    assert!(close as f64 >= 0.999 * reference.pixels().len() as f64, "{close}");
 }
