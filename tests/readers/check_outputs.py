@@ -168,6 +168,13 @@ def check_folder(folder):
                   f"{folder.name}: a {camera['lens']} lens writes calibration files")
             for name, projected, use in readers:
                 close(projected, pixels[use], f"{folder.name} {name}")
+            if f"{frame['stem']}-depth.exr" in frame["files"]:  # a distorted pinhole: z-depth
+                fs = storage(folder / "calibration-opencv.yaml")
+                z = opencv_optical(fs, body[""])[:, 2]
+                depth = read_value_exr(folder / f"{frame['stem']}-depth.exr", "z")
+                rows, cols = pixels[:, 1].astype(int), pixels[:, 0].astype(int)
+                error = np.abs(depth[rows, cols] - z) / z
+                check(error.max() < 1e-5, f"{folder.name}: depth off by {error.max():.2e}")
         elif (folder / "calibration-opencv-omnidir.yaml").exists():
             check_omni(folder, seen[""], body[""])
         print(f"{folder.name} {frame['stem']}: OK ({sum(len(p) for p, _ in seen.values())} points)")

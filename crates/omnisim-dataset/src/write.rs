@@ -13,7 +13,6 @@ use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, noise};
 use crate::files::{entry_path, write_file};
 use omnisim::Rig;
-use omnisim::camera::Camera;
 use omnisim::frame::Frame;
 use omnisim::output::{self, FrameTarget, PlainFolder, SegmentObject};
 
@@ -67,10 +66,7 @@ impl Dataset {
                 _ => frame.colour().map(<[_]>::to_vec).unwrap_or_default(),
             };
             sensor_colour.push(colour);
-            let depth = match camera {
-                Camera::Pinhole(pinhole) => Some(pinhole.axial_depth(frame, pose)),
-                _ => None,
-            };
+            let depth = camera.depth_frame().map(|pinhole| pinhole.axial_depth(frame, pose));
             if let Some(model) = &set.noise.depth {
                 if let Some(depth) = &depth {
                     let values = noise::depth(depth, model, &mut rng);

@@ -103,6 +103,16 @@ impl Camera {
         }
     }
 
+    /// The perspective frame whose optical z is this camera's depth (z-depth images): a
+    /// pinhole's, or a distorted pinhole's K and place; `None` for other cameras.
+    pub fn depth_frame(&self) -> Option<&Pinhole> {
+        match self {
+            Camera::Pinhole(c) => Some(c),
+            Camera::Lens(c) if matches!(c.model, LensModel::Perspective(_)) => Some(&c.intrinsics),
+            _ => None,
+        }
+    }
+
     /// Whether all rays share one origin (the pose position).
     pub fn is_central(&self) -> bool {
         match self {
