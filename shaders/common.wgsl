@@ -6,6 +6,7 @@ const CAMERA_PINHOLE: u32 = 0u;
 const CAMERA_EQUIRECTANGULAR: u32 = 1u;
 const CAMERA_CATADIOPTRIC: u32 = 2u;
 const CAMERA_CYLINDRICAL: u32 = 3u;
+const CAMERA_TABLE: u32 = 4u;
 
 const NO_FACE: u32 = 0xffffffffu;
 // Larger than any distance in a scene; WGSL has no infinity literal.

@@ -8,6 +8,7 @@ fn camera_ray(pixel: vec2<f32>) -> CameraRay {
         case CAMERA_EQUIRECTANGULAR: { return equirect_ray(pixel); }
         case CAMERA_CATADIOPTRIC: { return catadioptric_ray(pixel); }
         case CAMERA_CYLINDRICAL: { return cylindrical_ray(pixel); }
+        case CAMERA_TABLE: { return table_ray(pixel); }
         default: { return miss_ray(); }
     }
 }

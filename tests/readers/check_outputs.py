@@ -1,4 +1,6 @@
 """Reads omnisim render folders with the readers people use and checks the values.
+Lens cameras' points must land on their pixels through every calibration file the lens writes
+(lens_projections: OpenCV projectPoints, fisheye, omnidir; Kalibr; OCamCalib's world2cam).
 
 Usage: python3 tests/readers/check_outputs.py DIR  (every folder under DIR with a render.json)
 
@@ -159,25 +161,180 @@ def check_folder(folder):
         body = {v: (points - position) @ rotation for v, (points, _) in seen.items()}
         if model in ("pinhole", "stereo"):
             check_pinholes(folder, frame, seen, body)
-        if (folder / "calibration-opencv-omnidir.yaml").exists():
+        if "lens" in camera:
+            points, pixels = seen[""]
+            readers = lens_projections(folder, body[""])
+            check(readers or camera["lens"] in ("equisolid", "stereographic", "orthographic"),
+                  f"{folder.name}: a {camera['lens']} lens writes calibration files")
+            for name, projected, use in readers:
+                close(projected, pixels[use], f"{folder.name} {name}")
+            if f"{frame['stem']}-depth.exr" in frame["files"]:  # a distorted pinhole: z-depth
+                fs = storage(folder / "calibration-opencv.yaml")
+                z = opencv_optical(fs, body[""])[:, 2]
+                depth = read_value_exr(folder / f"{frame['stem']}-depth.exr", "z")
+                rows, cols = pixels[:, 1].astype(int), pixels[:, 0].astype(int)
+                error = np.abs(depth[rows, cols] - z) / z
+                check(error.max() < 1e-5, f"{folder.name}: depth off by {error.max():.2e}")
+        elif (folder / "calibration-opencv-omnidir.yaml").exists():
             check_omni(folder, seen[""], body[""])
         print(f"{folder.name} {frame['stem']}: OK ({sum(len(p) for p, _ in seen.values())} points)")
 
 
+# Kalibr's camera-config loader rules (kalibr_common/ConfigReader.py, CameraParameters:
+# checkIntrinsics, checkDistortion, checkResolution): a camchain that breaks one does not load.
+KALIBR_INTRINSICS = {"pinhole": 4, "omni": 5, "ds": 6, "eucm": 6}
+KALIBR_DISTORTION = {"none": 0, "radtan": 4, "equidistant": 4, "fov": 1}
+
+
+def kalibr_loader_rules(cam, where):
+    model = cam["camera_model"]
+    check(model in KALIBR_INTRINSICS, f"{where}: camera_model {model!r} is not one of Kalibr's")
+    intrinsics = [float(v) for v in cam["intrinsics"]]
+    check(len(intrinsics) == KALIBR_INTRINSICS[model], f"{where}: {model} takes {KALIBR_INTRINSICS[model]} intrinsics")
+    fu, fv, pu, pv = intrinsics[-4:]
+    check(fu > 0 and fv > 0, f"{where}: invalid focalLength {fu}, {fv}")
+    check(pu > 0 and pv > 0, f"{where}: invalid principalPoint {pu}, {pv}")
+    if model == "omni":
+        check(intrinsics[0] >= 0, f"{where}: invalid xi")
+    if model in ("ds", "eucm"):
+        alpha = intrinsics[1] if model == "ds" else intrinsics[0]
+        check(0 <= alpha <= 1, f"{where}: invalid alpha")
+    distortion = cam["distortion_model"]
+    check(distortion in KALIBR_DISTORTION, f"{where}: distortion_model {distortion!r} is not one of Kalibr's")
+    check(len(cam["distortion_coeffs"]) == KALIBR_DISTORTION[distortion], f"{where}: {distortion} coefficients")
+    resolution = cam["resolution"]
+    check(len(resolution) == 2 and all(isinstance(v, int) and v > 0 for v in resolution), f"{where}: resolution")
+    transform = np.array(cam["T_cam_imu"], dtype=np.float64)
+    check(transform.shape == (4, 4) and abs(np.linalg.det(transform[:3, :3]) - 1) < 1e-12,
+          f"{where}: T_cam_imu is not a rigid transform")
+
+
+def read_kalibr(folder):
+    """The camchain, each camera checked with Kalibr's loader rules."""
+    chain = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
+    for name, cam in chain.items():
+        kalibr_loader_rules(cam, f"{folder.name} {name}")
+    return chain
+
+
+def opencv_optical(fs, body):
+    """Body points in the file's optical frame: X = body_from_camera^T (b - position)."""
+    return (body - matrix(fs, "camera_position_in_body").ravel()) @ matrix(fs, "body_from_camera")
+
+
 def kalibr_project(cam, body):
+    """Kalibr's models (pinhole, omni, ds, eucm; none, radtan, equidistant) as aslam_cameras has them."""
     t = np.array(cam["T_cam_imu"], dtype=np.float64)
     x = body @ t[:3, :3].T + t[:3, 3]
-    if cam["camera_model"] == "omni":
-        xi, fu, fv, pu, pv = cam["intrinsics"]
-        z = x[:, 2] + xi * np.linalg.norm(x, axis=1)
-    else:
-        fu, fv, pu, pv = cam["intrinsics"]
-        z = x[:, 2]
-    return np.stack([pu + fu * x[:, 0] / z, pv + fv * x[:, 1] / z], axis=-1)
+    intrinsics = np.array(cam["intrinsics"], dtype=np.float64)
+    model, (fu, fv, pu, pv) = cam["camera_model"], intrinsics[-4:]
+    norm = np.linalg.norm(x, axis=1)
+    if model == "pinhole":
+        denominator = x[:, 2]
+    elif model == "omni":
+        denominator = x[:, 2] + intrinsics[0] * norm
+    elif model == "ds":
+        xi, alpha = intrinsics[:2]
+        d2 = np.sqrt(x[:, 0] ** 2 + x[:, 1] ** 2 + (xi * norm + x[:, 2]) ** 2)
+        denominator = alpha * d2 + (1 - alpha) * (xi * norm + x[:, 2])
+    else:  # eucm
+        alpha, beta = intrinsics[:2]
+        d = np.sqrt(beta * (x[:, 0] ** 2 + x[:, 1] ** 2) + x[:, 2] ** 2)
+        denominator = alpha * d + (1 - alpha) * x[:, 2]
+    m = x[:, :2] / denominator[:, None]
+    k = np.array(cam["distortion_coeffs"], dtype=np.float64)
+    if cam["distortion_model"] == "radtan":
+        r2 = (m ** 2).sum(axis=1)
+        radial = 1 + k[0] * r2 + k[1] * r2 ** 2
+        mx, my = m[:, 0], m[:, 1]
+        m = np.stack([mx * radial + 2 * k[2] * mx * my + k[3] * (r2 + 2 * mx ** 2),
+                      my * radial + k[2] * (r2 + 2 * my ** 2) + 2 * k[3] * mx * my], axis=1)
+    elif cam["distortion_model"] == "equidistant":
+        r = np.linalg.norm(m, axis=1)
+        theta = np.arctan(r)
+        t2 = theta ** 2
+        theta_d = theta * (1 + k[0] * t2 + k[1] * t2 ** 2 + k[2] * t2 ** 3 + k[3] * t2 ** 4)
+        m = m * (theta_d / r)[:, None]
+    return np.stack([fu * m[:, 0] + pu, fv * m[:, 1] + pv], axis=1)
+
+
+def read_ocam(path):
+    """OCamCalib's get_ocam_model: one comment line before each block, fixed order."""
+    blocks = [line.split() for line in path.read_text().splitlines() if line.strip() and not line.startswith("#")]
+    pol = [float(v) for v in blocks[0][1:1 + int(blocks[0][0])]]
+    invpol = [float(v) for v in blocks[1][1:1 + int(blocks[1][0])]]
+    xc, yc = (float(v) for v in blocks[2])
+    c, d, e = (float(v) for v in blocks[3])
+    height, width = (int(v) for v in blocks[4])
+    stated = float(path.read_text().split("off by at most ")[1].split()[0])
+    return dict(pol=pol, invpol=invpol, xc=xc, yc=yc, c=c, d=d, e=e, height=height, width=width, error=stated)
+
+
+def cam2world(ocam, point2d):
+    """ocam_functions.c cam2world: (row, column) -> unit vector of OCamCalib's frame."""
+    invdet = 1 / (ocam["c"] - ocam["d"] * ocam["e"])
+    xp = invdet * ((point2d[0] - ocam["xc"]) - ocam["d"] * (point2d[1] - ocam["yc"]))
+    yp = invdet * (-ocam["e"] * (point2d[0] - ocam["xc"]) + ocam["c"] * (point2d[1] - ocam["yc"]))
+    r = np.hypot(xp, yp)
+    zp = sum(a * r ** i for i, a in enumerate(ocam["pol"]))
+    v = np.array([xp, yp, zp])
+    return v / np.linalg.norm(v)
+
+
+def world2cam(ocam, point3d):
+    """ocam_functions.c world2cam: OCamCalib frame -> (row, column)."""
+    norm = np.hypot(point3d[0], point3d[1])
+    theta = np.arctan(point3d[2] / norm)
+    rho = sum(a * theta ** i for i, a in enumerate(ocam["invpol"]))
+    x, y = point3d[0] / norm * rho, point3d[1] / norm * rho
+    return np.array([x * ocam["c"] + y * ocam["d"] + ocam["xc"], x * ocam["e"] + y + ocam["yc"]])
+
+
+def ocam_points(body):
+    """Body points in OCamCalib's frame: omnisim's optical frame is (y, x, -z) of it."""
+    optical = body @ np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]], dtype=np.float64)
+    return np.stack([optical[:, 1], optical[:, 0], -optical[:, 2]], axis=1)
+
+
+def lens_projections(folder, body):
+    """(reader, pixels (u, v), which points) for every calibration file of a lens camera in
+    `folder`: OpenCV (projectPoints, fisheye, omnidir), Kalibr (loader rules checked first),
+    OCamCalib's world2cam (within the error its file states: the tolerance is raised by it)."""
+    found = []
+    all_points = np.ones(len(body), bool)
+    if (folder / "calibration-opencv.yaml").exists():
+        fs = storage(folder / "calibration-opencv.yaml")
+        k, d = matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients")
+        projected, _ = cv2.projectPoints(opencv_optical(fs, body).reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+        found.append((f"cv2.projectPoints ({d.size} coefficients)", projected, all_points))
+    if (folder / "calibration-opencv-fisheye.yaml").exists():
+        fs = storage(folder / "calibration-opencv-fisheye.yaml")
+        k, d = matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients")
+        optical = opencv_optical(fs, body)
+        front = optical[:, 2] > 0  # cv2.fisheye divides by z
+        projected, _ = cv2.fisheye.projectPoints(optical[front].reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+        found.append(("cv2.fisheye.projectPoints", projected, front))
+    if (folder / "calibration-opencv-omnidir.yaml").exists():
+        fs = storage(folder / "calibration-opencv-omnidir.yaml")
+        k, d, xi = matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients"), fs.getNode("xi").real()
+        optical = opencv_optical(fs, body).reshape(-1, 1, 3)
+        projected, _ = cv2.omnidir.projectPoints(optical, np.zeros(3), np.zeros(3), k, xi, d)
+        found.append(("cv2.omnidir.projectPoints", projected, all_points))
+    if (folder / "calibration-kalibr.yaml").exists():
+        cam = read_kalibr(folder)["cam0"]
+        t = np.array(cam["T_cam_imu"], dtype=np.float64)
+        front = (body @ t[:3, :3].T + t[:3, 3])[:, 2] > 0
+        use = front if cam["camera_model"] == "pinhole" else all_points
+        found.append((f"Kalibr {cam['camera_model']}-{cam['distortion_model']}", kalibr_project(cam, body[use]), use))
+    if (folder / "calib_results.txt").exists():
+        ocam = read_ocam(folder / "calib_results.txt")
+        projected = np.array([world2cam(ocam, p)[::-1] for p in ocam_points(body)])
+        found.append(("OCamCalib world2cam", projected, all_points))
+    return found
 
 
 def check_pinholes(folder, frame, seen, body):
-    kalibr = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
+    kalibr = read_kalibr(folder)
     if "-left" in seen:
         fs = storage(folder / "calibration-opencv-stereo.yaml")
         k = {"-left": matrix(fs, "M1"), "-right": matrix(fs, "M2")}
@@ -222,10 +379,12 @@ def check_omni(folder, seen, body):
     model = mirror * np.array([1.0, 1.0, -1.0])  # the file's model frame (a reflection)
     projected, _ = cv2.omnidir.projectPoints(model.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, xi, d)
     close(projected, pixels, f"{folder.name} cv2.omnidir")
-    kalibr = yaml.safe_load((folder / "calibration-kalibr.yaml").read_text())
-    rotation = np.array(kalibr["cam0"]["T_cam_imu"], dtype=np.float64)[:3, :3]
-    check(abs(np.linalg.det(rotation) - 1) < 1e-12, "Kalibr T_cam_imu is a proper rotation")
-    close(kalibr_project(kalibr["cam0"], body), pixels, f"{folder.name} Kalibr omni")
+    kalibr = read_kalibr(folder)
+    # Kalibr's camera is the image flipped top to bottom (positive focal lengths; the file says so).
+    check("IMAGE FLIPPED" in (folder / "calibration-kalibr.yaml").read_text(), "Kalibr omni says the image is flipped")
+    height = kalibr["cam0"]["resolution"][1]
+    flipped = pixels * np.array([1.0, -1.0]) + np.array([0.0, height - 1.0])
+    close(kalibr_project(kalibr["cam0"], body), flipped, f"{folder.name} Kalibr omni")
 
 
 def main():

@@ -356,8 +356,11 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
     let body_from_mirror = yaml_matrix(&opencv, "body_from_mirror");
     let kalibr_text = calibration::kalibr_omni(&omni).unwrap();
     let kalibr = kalibr_intrinsics(&kalibr_text);
-    // Kalibr's proper camera frame Rx(π)·M negates fv.
-    assert_eq!(kalibr, vec![xi, k[0], -k[4], k[2], k[5]]);
+    // Kalibr's proper camera frame Rx(π)·M with positive focal lengths describes the image
+    // flipped top to bottom: row v becomes H − 1 − v.
+    let last_row = 249.0;
+    assert_eq!(kalibr, vec![xi, k[0], k[4], k[2], last_row - k[5]]);
+    assert!(kalibr_text.contains("IMAGE FLIPPED"));
     let kalibr_camera = kalibr_camera_from_body(&kalibr_text);
     let mounted_up = Catadioptric {
         mount: Mount::Up,
@@ -395,10 +398,11 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
             kalibr[1] * x.x / denominator + kalibr[3],
             kalibr[2] * x.y / denominator + kalibr[4],
         );
+        let flipped = dvec2(pixel.x, last_row - pixel.y);
         assert!(
-            (projected - pixel).length() < 0.01,
+            (projected - flipped).length() < 0.01,
             "Kalibr omni off by {}",
-            (projected - pixel).length()
+            (projected - flipped).length()
         );
         checked += 1;
     }

@@ -8,7 +8,9 @@ use clap::{Args, ValueEnum};
 use glam::{DVec3, dvec3};
 use omnisim::Rig;
 use omnisim::camera::spec::defaults;
-use omnisim::camera::{MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigSpec, StereoSpec};
+use omnisim::camera::{
+    FisheyeSpec, LensSpec, MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigSpec, StereoSpec,
+};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub(crate) enum CameraKind {
@@ -22,6 +24,54 @@ pub(crate) enum CameraKind {
     Cylindrical,
     /// Catadioptric omnidirectional camera: a camera looking at a --mirror.
     Omni,
+    /// Fisheye or other central lens (--lens), looking along body +x; pixels beyond the lens's
+    /// field of view are background, and render says how many.
+    Fisheye,
+}
+
+/// `--lens`: the fisheye's model (docs/cameras.md gives the equations and sources).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum LensKind {
+    /// OpenCV fisheye / Kalibr pinhole-equi: θd = θ(1 + k1θ² + k2θ⁴ + k3θ⁶ + k4θ⁸), r = f·θd (--k); past 90° where θd still rises.
+    KannalaBrandt,
+    /// r = f·θ, to 180° off axis.
+    Equidistant,
+    /// r = 2f·sin(θ/2), to 180° off axis.
+    Equisolid,
+    /// r = 2f·tan(θ/2), below 180° off axis.
+    Stereographic,
+    /// r = f·sin θ, a hemisphere.
+    Orthographic,
+    /// Double sphere (Usenko et al. 2018; Kalibr ds): --xi in [-1, 1], --alpha in [0, 1).
+    DoubleSphere,
+    /// Extended unified (Khomenko et al. 2016; Kalibr eucm): --alpha in [0, 1), --beta > 0.
+    Eucm,
+    /// Mei's unified model with radtan (Kalibr omni-radtan, cv::omnidir): --xi ≥ 0, --dist k1,k2,p1,p2.
+    Unified,
+    /// Scaramuzza's OCamCalib polynomial: --poly a0,a1,... (pixels, a0 < 0), --affine c,d,e; writes calib_results.txt.
+    Scaramuzza,
+}
+
+/// `--distortion`: Brown–Conrady distortion on the pinhole, exactly as OpenCV's projectPoints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum DistortionKind {
+    /// --dist k1,k2,p1,p2[,k3] (Kalibr pinhole-radtan with four).
+    Radtan,
+    /// --dist k1,k2,p1,p2,k3,k4,k5,k6: radial (1 + k1r² + k2r⁴ + k3r⁶)/(1 + k4r² + k5r⁴ + k6r⁶).
+    Rational,
+    /// --dist k1,k2,p1,p2,k3,k4,k5,k6,s1,s2,s3,s4: rational plus thin prism.
+    ThinPrism,
+}
+
+impl DistortionKind {
+    /// How many coefficients `--dist` takes.
+    fn counts(self) -> &'static [usize] {
+        match self {
+            DistortionKind::Radtan => &[4, 5],
+            DistortionKind::Rational => &[8],
+            DistortionKind::ThinPrism => &[12],
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -58,14 +108,15 @@ pub(crate) struct CameraArgs {
     #[arg(long, value_name = "FILE.ron", conflicts_with_all = [
         "camera", "size", "hfov", "baseline", "vfov", "focal", "mirror", "mirror_a", "mirror_b", "mirror_h",
         "sphere_radius", "camera_distance", "rim", "max_elevation", "mount", "hidden_centre",
-        "misalign_offset", "misalign_tilt", "mirror_rays",
+        "misalign_offset", "misalign_tilt", "mirror_rays", "lens", "fov", "k", "xi", "alpha", "beta", "poly",
+        "affine", "distortion", "dist",
     ])]
     pub rig: Option<PathBuf>,
     /// Vision system to simulate. Options that do not apply to it are refused, and so is a
     /// camera that cannot make an image (the message gives the valid range).
     #[arg(long, value_enum, default_value = "omni")]
     pub camera: CameraKind,
-    /// Image size WIDTHxHEIGHT in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250].
+    /// Image size WIDTHxHEIGHT in pixels [default: pinhole/stereo 640x480, equirect 1024x512, cylindrical 1024x256, omni 250x250, fisheye 640x640].
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(u32, u32)>,
     /// Pinhole/stereo: horizontal field of view in degrees (square pixels, centred principal
@@ -78,8 +129,8 @@ pub(crate) struct CameraArgs {
     /// Cylindrical: vertical field of view in degrees, symmetric about the horizon [default: 90].
     #[arg(long)]
     pub vfov: Option<f64>,
-    /// Focal length in pixels (pinhole, stereo, hyperbolic, spherical) or pixels per metre
-    /// (parabolic); instead of --hfov, and overrides the omni fit.
+    /// Focal length in pixels (pinhole, stereo, hyperbolic, spherical, fisheye) or pixels per
+    /// metre (parabolic); instead of --hfov or --fov, and overrides the omni fit.
     #[arg(long)]
     pub focal: Option<f64>,
     /// Omni: mirror shape [default: hyperbolic].
@@ -125,6 +176,55 @@ pub(crate) struct CameraArgs {
     /// Omni: how mirror rays are found [default: reflect].
     #[arg(long, value_enum)]
     pub mirror_rays: Option<MirrorRaysArg>,
+    /// Fisheye: the lens model [default: equidistant]. Every model is traced exactly to the
+    /// edge of its valid field of view (past 180° where it reaches), and writes the calibration
+    /// files its tools read (OpenCV fisheye/omnidir, Kalibr, OCamCalib).
+    #[arg(long, value_enum)]
+    pub lens: Option<LensKind>,
+    /// Fisheye: field of view of the circle inscribed in the image, degrees: sets the focal
+    /// length [default: 180]; or give --focal.
+    #[arg(long, conflicts_with = "focal")]
+    pub fov: Option<f64>,
+    /// Fisheye kannala-brandt: k1,k2,k3,k4 [default: 0,0,0,0, the equidistant lens].
+    #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
+    pub k: Option<Numbers>,
+    /// Fisheye double-sphere [default: -0.2] and unified [default: 1]: ξ.
+    #[arg(long, allow_hyphen_values = true)]
+    pub xi: Option<f64>,
+    /// Fisheye double-sphere and eucm: α [default: 0.6].
+    #[arg(long)]
+    pub alpha: Option<f64>,
+    /// Fisheye eucm: β [default: 1.1].
+    #[arg(long)]
+    pub beta: Option<f64>,
+    /// Fisheye scaramuzza: OCamCalib's direct polynomial a0,a1,a2,... in pixels (a0 < 0), as
+    /// the first numbers of calib_results.txt.
+    #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
+    pub poly: Option<Numbers>,
+    /// Fisheye scaramuzza: OCamCalib's affine c,d,e [default: 1,0,0].
+    #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
+    pub affine: Option<Numbers>,
+    /// Pinhole: Brown–Conrady lens distortion; give its coefficients with --dist.
+    #[arg(long, value_enum, requires = "dist")]
+    pub distortion: Option<DistortionKind>,
+    /// Pinhole --distortion, or fisheye unified: distortion coefficients in OpenCV's order,
+    /// k1,k2,p1,p2[,k3[,k4,k5,k6[,s1,s2,s3,s4]]] (unified: k1,k2,p1,p2).
+    #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
+    pub dist: Option<Numbers>,
+}
+
+/// A list of numbers given as one comma-separated argument (clap would take a bare `Vec`
+/// as an option given many times).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Numbers(pub Vec<f64>);
+
+/// Comma-separated finite numbers.
+fn parse_numbers(text: &str) -> Result<Numbers, String> {
+    text.split(',')
+        .map(|v| v.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<Vec<f64>>>()
+        .map(Numbers)
+        .ok_or_else(|| format!("'{text}' is not comma-separated numbers, e.g. 0.1,-0.02,0.001,0"))
 }
 
 /// `--max-elevation`: degrees, or `None` for a mirror without rim.
@@ -171,8 +271,10 @@ pub(crate) fn parse_size(text: &str) -> Result<(u32, u32), String> {
 /// Options given that the chosen camera does not use: ignoring them silently would render
 /// something other than what was asked for.
 fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
-    use CameraKind::{Cylindrical, Omni, Pinhole, Stereo};
+    use CameraKind::{Cylindrical, Fisheye, Omni, Pinhole, Stereo};
     let omni = args.camera == Omni;
+    let fisheye = args.camera == Fisheye;
+    let lens = |kinds: &[LensKind]| fisheye && kinds.contains(&args.lens.unwrap_or(LensKind::Equidistant));
     let mirror = args.mirror.unwrap_or(MirrorKind::Hyperbolic);
     let pinhole = matches!(args.camera, Pinhole | Stereo);
     let spherical = mirror == MirrorKind::Spherical;
@@ -180,7 +282,11 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         ("--hfov", args.hfov.is_some(), pinhole),
         ("--baseline", args.baseline.is_some(), args.camera == Stereo),
         ("--vfov", args.vfov.is_some(), args.camera == Cylindrical),
-        ("--focal", args.focal.is_some(), pinhole || omni),
+        (
+            "--focal",
+            args.focal.is_some(),
+            pinhole || omni || (fisheye && !lens(&[LensKind::Scaramuzza])),
+        ),
         ("--mirror", args.mirror.is_some(), omni),
         ("--mirror-a", args.mirror_a.is_some(), omni && !spherical),
         ("--mirror-b", args.mirror_b.is_some(), omni && !spherical),
@@ -198,6 +304,28 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         ("--misalign-offset", args.misalign_offset.is_some(), omni),
         ("--misalign-tilt", args.misalign_tilt.is_some(), omni),
         ("--mirror-rays", args.mirror_rays.is_some(), omni),
+        ("--lens", args.lens.is_some(), fisheye),
+        ("--fov", args.fov.is_some(), fisheye && !lens(&[LensKind::Scaramuzza])),
+        ("--k", args.k.is_some(), lens(&[LensKind::KannalaBrandt])),
+        (
+            "--xi",
+            args.xi.is_some(),
+            lens(&[LensKind::DoubleSphere, LensKind::Unified]),
+        ),
+        (
+            "--alpha",
+            args.alpha.is_some(),
+            lens(&[LensKind::DoubleSphere, LensKind::Eucm]),
+        ),
+        ("--beta", args.beta.is_some(), lens(&[LensKind::Eucm])),
+        ("--poly", args.poly.is_some(), lens(&[LensKind::Scaramuzza])),
+        ("--affine", args.affine.is_some(), lens(&[LensKind::Scaramuzza])),
+        ("--distortion", args.distortion.is_some(), args.camera == Pinhole),
+        (
+            "--dist",
+            args.dist.is_some(),
+            args.distortion.is_some() || lens(&[LensKind::Unified]),
+        ),
     ];
     if let Some((option, ..)) = options.iter().find(|(_, given, applies)| *given && !applies) {
         let name =
@@ -205,6 +333,12 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         let mut camera = name(args.camera.to_possible_value());
         if omni {
             camera += &format!(" --mirror {}", name(mirror.to_possible_value()));
+        }
+        if fisheye {
+            camera += &format!(
+                " --lens {}",
+                name(args.lens.unwrap_or(LensKind::Equidistant).to_possible_value())
+            );
         }
         bail!("{option} does not apply to --camera {camera}; remove it (see omnisim render --help)");
     }
@@ -220,22 +354,21 @@ impl CameraArgs {
         }
         check_applicable(self)?;
         self.warn_about_radians()?;
-        let pinhole = |size| PinholeSpec {
-            size: self.size.unwrap_or(size),
-            hfov: self.hfov.unwrap_or(defaults::HFOV),
-            focal: self.focal,
-        };
+        let size = self.size.unwrap_or(defaults::PINHOLE_SIZE);
+        let hfov = self.hfov.unwrap_or(defaults::HFOV);
         Ok(match self.camera {
-            CameraKind::Pinhole => RigSpec::Pinhole(pinhole(defaults::PINHOLE_SIZE)),
-            CameraKind::Stereo => {
-                let PinholeSpec { size, hfov, focal } = pinhole(defaults::PINHOLE_SIZE);
-                RigSpec::Stereo(StereoSpec {
-                    size,
-                    hfov,
-                    focal,
-                    baseline: self.baseline.unwrap_or(defaults::BASELINE),
-                })
-            }
+            CameraKind::Pinhole => RigSpec::Pinhole(PinholeSpec {
+                size,
+                hfov,
+                focal: self.focal,
+                distortion: self.distortion_coefficients()?,
+            }),
+            CameraKind::Stereo => RigSpec::Stereo(StereoSpec {
+                size,
+                hfov,
+                focal: self.focal,
+                baseline: self.baseline.unwrap_or(defaults::BASELINE),
+            }),
             CameraKind::Equirect => RigSpec::Equirect {
                 size: self.size.unwrap_or(defaults::EQUIRECT_SIZE),
             },
@@ -244,6 +377,85 @@ impl CameraArgs {
                 vfov: self.vfov.unwrap_or(defaults::VFOV),
             },
             CameraKind::Omni => RigSpec::Omni(self.omni()),
+            CameraKind::Fisheye => RigSpec::Fisheye(FisheyeSpec {
+                size: self.size.unwrap_or(defaults::FISHEYE_SIZE),
+                lens: self.lens()?,
+                fov: self.fov,
+                focal: self.focal,
+            }),
+        })
+    }
+
+    /// `--dist` checked against `--distortion`'s count.
+    fn distortion_coefficients(&self) -> anyhow::Result<Option<Vec<f64>>> {
+        let (Some(kind), Some(Numbers(coefficients))) = (self.distortion, &self.dist) else {
+            return Ok(None);
+        };
+        if !kind.counts().contains(&coefficients.len()) {
+            let name = kind
+                .to_possible_value()
+                .map(|v| v.get_name().to_owned())
+                .unwrap_or_default();
+            bail!(
+                "--distortion {name} takes {} coefficients in --dist, not {}: k1,k2,p1,p2[,k3] (radtan), \
+                 k1,k2,p1,p2,k3,k4,k5,k6 (rational), and s1,s2,s3,s4 after those (thin-prism)",
+                kind.counts()
+                    .iter()
+                    .map(ToString::to_string)
+                    .collect::<Vec<_>>()
+                    .join(" or "),
+                coefficients.len()
+            );
+        }
+        Ok(Some(coefficients.clone()))
+    }
+
+    /// The fisheye's `--lens` with its parameters, defaults for those not given.
+    fn lens(&self) -> anyhow::Result<LensSpec> {
+        let exactly = |option: &str, values: &Option<Numbers>, count: usize, default: &[f64]| match values {
+            None => Ok(default.to_vec()),
+            Some(Numbers(values)) if values.len() == count => Ok(values.clone()),
+            Some(Numbers(values)) => Err(anyhow::anyhow!("{option} takes {count} numbers, not {}", values.len())),
+        };
+        Ok(match self.lens.unwrap_or(LensKind::Equidistant) {
+            LensKind::KannalaBrandt => {
+                let k = exactly("--k (k1,k2,k3,k4)", &self.k, 4, &[0.0; 4])?;
+                LensSpec::KannalaBrandt {
+                    k: [k[0], k[1], k[2], k[3]],
+                }
+            }
+            LensKind::Equidistant => LensSpec::Equidistant,
+            LensKind::Equisolid => LensSpec::Equisolid,
+            LensKind::Stereographic => LensSpec::Stereographic,
+            LensKind::Orthographic => LensSpec::Orthographic,
+            LensKind::DoubleSphere => LensSpec::DoubleSphere {
+                xi: self.xi.unwrap_or(defaults::DOUBLE_SPHERE.0),
+                alpha: self.alpha.unwrap_or(defaults::DOUBLE_SPHERE.1),
+            },
+            LensKind::Eucm => LensSpec::Eucm {
+                alpha: self.alpha.unwrap_or(defaults::EUCM.0),
+                beta: self.beta.unwrap_or(defaults::EUCM.1),
+            },
+            LensKind::Unified => {
+                let d = exactly("--dist for the unified lens (k1,k2,p1,p2)", &self.dist, 4, &[0.0; 4])?;
+                LensSpec::Unified {
+                    xi: self.xi.unwrap_or(defaults::UNIFIED_XI),
+                    distortion: [d[0], d[1], d[2], d[3]],
+                }
+            }
+            LensKind::Scaramuzza => {
+                let Some(Numbers(poly)) = self.poly.clone() else {
+                    bail!(
+                        "--lens scaramuzza needs --poly a0,a1,a2,...: OCamCalib's direct polynomial in pixels (a0 < 0), \
+                         e.g. --poly=-200,0,0.0012"
+                    );
+                };
+                let affine = exactly("--affine (c,d,e)", &self.affine, 3, &[1.0, 0.0, 0.0])?;
+                LensSpec::Scaramuzza {
+                    poly,
+                    affine: (affine[0], affine[1], affine[2]),
+                }
+            }
         })
     }
 
@@ -260,6 +472,7 @@ impl CameraArgs {
         let angles = [
             ("--hfov", self.hfov, PI),
             ("--vfov", self.vfov, PI),
+            ("--fov", self.fov, PI),
             ("--max-elevation", self.max_elevation.and_then(|e| e.0), FRAC_PI_2),
         ];
         for (option, value, most) in angles {

@@ -292,6 +292,63 @@ fn pose_files_for_grids_trajectories_and_random_tests_render() {
 }
 
 #[test]
+fn render_help_names_every_lens_and_lens_options_are_checked() {
+    let help = text(&omnisim("render --help").stdout);
+    for model in [
+        "kannala-brandt",
+        "equidistant",
+        "equisolid",
+        "stereographic",
+        "orthographic",
+        "double-sphere",
+        "eucm",
+        "unified",
+        "scaramuzza",
+        "radtan",
+        "rational",
+        "thin-prism",
+    ] {
+        assert!(help.contains(model), "render --help names no {model}");
+    }
+    let refused = [
+        (
+            "--camera fisheye --lens orthographic --fov 200",
+            "between 0 and 180.00 degrees",
+        ),
+        (
+            "--camera fisheye --lens double-sphere --xi 1.5",
+            "double-sphere xi = 1.5",
+        ),
+        ("--camera fisheye --lens eucm --beta=-1", "eucm beta"),
+        ("--camera fisheye --lens scaramuzza", "--poly"),
+        ("--camera fisheye --lens scaramuzza --poly 5,0,0.001", "scaramuzza a0"),
+        ("--camera fisheye --lens equisolid --k 0.1,0,0,0", "--k does not apply"),
+        (
+            "--camera pinhole --distortion rational --dist 0.1,0,0,0",
+            "takes 8 coefficients",
+        ),
+        (
+            "--camera stereo --distortion radtan --dist 0.1,0,0,0",
+            "--distortion does not apply",
+        ),
+        (
+            "--camera fisheye --lens kannala-brandt --k 0.1,0",
+            "--k (k1,k2,k3,k4) takes 4 numbers",
+        ),
+    ];
+    for (options, message) in refused {
+        let result = omnisim(&format!(
+            "render scenes/env1.ron {options} --pose 0,0,0.4 --backend cpu --out /nonexistent/never"
+        ));
+        let stderr = text(&result.stderr);
+        assert!(
+            !result.status.success() && stderr.contains(message),
+            "{options}: {stderr}"
+        );
+    }
+}
+
+#[test]
 fn every_example_in_render_help_runs() {
     let help = text(&omnisim("render --help").stdout);
     let examples: Vec<&str> = help
@@ -735,6 +792,28 @@ fn outputs_open_in_the_readers_people_use() {
             "stereo-uncompressed",
             "--camera stereo --size 160x120 --exr-compression none",
         ),
+        // Lenses: each calibration file they write must put the points on their pixels.
+        (
+            "fisheye-kb",
+            "--camera fisheye --lens kannala-brandt --k 0.02,-0.004,0.0001,0 --fov 200 --size 120x120",
+        ),
+        (
+            "fisheye-ds",
+            "--camera fisheye --lens double-sphere --fov 220 --size 120x120",
+        ),
+        (
+            "fisheye-unified",
+            "--camera fisheye --lens unified --xi 1.3 --dist=-0.05,0.01,0.0001,-0.0002 --fov 200 --size 120x120",
+        ),
+        (
+            "fisheye-scaramuzza",
+            "--camera fisheye --lens scaramuzza --poly=-40,0,0.008,-3e-5,1.5e-8 --size 120x100",
+        ),
+        (
+            "pinhole-thin-prism",
+            "--camera pinhole --distortion thin-prism --size 160x120 \
+             --dist=-0.28,0.07,0.001,-0.002,0.01,0.02,-0.01,0.005,0.001,-0.001,0.002,0.0005",
+        ),
     ] {
         let result = omnisim(&format!(
             "render scenes/env1.ron {camera} {poses} --out {}",
@@ -750,10 +829,10 @@ fn outputs_open_in_the_readers_people_use() {
         .expect("the reader check's Python runs");
     eprintln!("{}", text(&check.stdout));
     assert!(check.status.success(), "{}", text(&check.stderr));
-    // Two poses each: one normal map per view (7 single cameras, 2 stereo rigs), one ray map
+    // Two poses each: one normal map per view (12 single cameras, 2 stereo rigs), one ray map
     // (origin and direction) per view.
     assert!(
-        text(&check.stdout).contains("checks passed in 9 folders (22 normal maps, 11 ray maps)"),
+        text(&check.stdout).contains("checks passed in 14 folders (32 normal maps, 16 ray maps)"),
         "{}",
         text(&check.stdout)
     );

@@ -13,7 +13,6 @@ use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, noise};
 use crate::files::{entry_path, write_file};
 use omnisim::Rig;
-use omnisim::camera::Camera;
 use omnisim::frame::Frame;
 use omnisim::output::{self, FrameTarget, PlainFolder, SegmentObject};
 
@@ -67,10 +66,7 @@ impl Dataset {
                 _ => frame.colour().map(<[_]>::to_vec).unwrap_or_default(),
             };
             sensor_colour.push(colour);
-            let depth = match camera {
-                Camera::Pinhole(pinhole) => Some(pinhole.axial_depth(frame, pose)),
-                _ => None,
-            };
+            let depth = camera.depth_frame().map(|pinhole| pinhole.axial_depth(frame, pose));
             if let Some(model) = &set.noise.depth {
                 if let Some(depth) = &depth {
                     let values = noise::depth(depth, model, &mut rng);
@@ -122,7 +118,11 @@ impl Dataset {
             for (image, path) in layout::frame_files(layout, &set_dir, index, views.len()) {
                 match image {
                     Image::Colour(k) => {
-                        output::write_png(&path, &Frame::from_colour(size.0, size.1, sensor_colour[k].clone()))?;
+                        let mut colour = sensor_colour[k].clone();
+                        if layout::euroc_rows_flipped(&views[k].camera) {
+                            flip_rows(&mut colour, size.0 as usize);
+                        }
+                        output::write_png(&path, &Frame::from_colour(size.0, size.1, colour))?;
                     }
                     Image::Depth => {
                         output::write_tum_depth_png(&path, size, sensor_depth.as_deref().unwrap_or_default())?;
@@ -152,6 +152,15 @@ impl Dataset {
         };
         write_file(&entry_path(&set_dir, index), &to_json(&entry))?;
         Ok(entry.files.iter().map(|f| f.bytes).sum())
+    }
+}
+
+/// Turns an image of rows `width` pixels long upside down.
+fn flip_rows(pixels: &mut [[u8; 3]], width: usize) {
+    let rows = pixels.len() / width.max(1);
+    for row in 0..rows / 2 {
+        let (top, bottom) = pixels.split_at_mut((rows - 1 - row) * width);
+        top[row * width..(row + 1) * width].swap_with_slice(&mut bottom[..width]);
     }
 }
 

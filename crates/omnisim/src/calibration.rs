@@ -1,12 +1,16 @@
-//! Calibration files in the formats robotics tools read: `OpenCV` `FileStorage` YAML (pinhole,
-//! stereo, omnidir) and Kalibr camchains (pinhole, omni). Every file states its conventions
-//! in comments: pixel centres at integer coordinates, metres, and for mirrors the frame flip.
+//! Calibration files in the formats robotics tools read: `OpenCV` `FileStorage` YAML (pinhole
+//! with distortion, stereo, `cv::fisheye`, `cv::omnidir`), Kalibr camchains (`pinhole-none`,
+//! `pinhole-radtan`, `pinhole-equi`, `omni-none`, `omni-radtan`, `ds`, `eucm`) and `OCamCalib`'s
+//! `calib_results.txt`. Every file states its conventions in comments: pixel centres at integer
+//! coordinates, metres, and for mirrors the frame flip.
 
 use std::fmt::Write;
 
 use glam::{DMat3, DVec3};
 
-use crate::camera::{Catadioptric, Pinhole, StereoRig, pinhole::BODY_FROM_OPTICAL};
+use crate::camera::{Camera, Catadioptric, LensCamera, LensModel, Pinhole, StereoRig, pinhole::BODY_FROM_OPTICAL};
+
+mod ocamcalib;
 
 const HEADER: &str = "%YAML:1.0\n---\n";
 
@@ -26,18 +30,22 @@ fn rows(m: DMat3) -> [f64; 9] {
     m.transpose().to_cols_array()
 }
 
-fn opencv_body_from_camera(camera: &Pinhole) -> String {
+fn opencv_body_from_camera(position: DVec3) -> String {
     opencv_matrix("body_from_camera", 3, 3, &rows(BODY_FROM_OPTICAL))
-        + &opencv_matrix("camera_position_in_body", 3, 1, &camera.position.to_array())
+        + &opencv_matrix("camera_position_in_body", 3, 1, &position.to_array())
 }
 
-/// `OpenCV` YAML of one pinhole: `camera_matrix`, zero distortion, and `body_from_camera`.
-pub fn opencv_pinhole(camera: &Pinhole) -> String {
+const OPENCV_FRAME_NOTE: &str = "OpenCV conventions: pixel centres at integer coordinates, (0,0) the\n\
+# top-left pixel's centre; optical frame x right, y down, z forward. body_from_camera is the rotation\n\
+# taking optical-frame vectors to the body frame (x forward, y left, z up); camera_position_in_body in\n\
+# metres.\n";
+
+/// `OpenCV` YAML of a camera with K (`camera_matrix`): `intro`, the conventions,
+/// `distortion_coefficients`, `xi` where the model has it, and `body_from_camera`.
+fn opencv_camera(intro: &str, camera: &Pinhole, distortion: &[f64], xi: Option<f64>) -> String {
     let mut out = String::from(HEADER);
-    out += "# omnisim pinhole camera. OpenCV conventions: pixel centres at integer coordinates, (0,0) the\n\
-            # top-left pixel's centre; optical frame x right, y down, z forward. Ideal lens: no distortion.\n\
-            # body_from_camera is the rotation taking optical-frame vectors to the body frame (x forward,\n\
-            # y left, z up); camera_position_in_body in metres.\n";
+    out += intro;
+    out += OPENCV_FRAME_NOTE;
     let _ = writeln!(out, "image_width: {}\nimage_height: {}", camera.width, camera.height);
     out += &opencv_matrix(
         "camera_matrix",
@@ -45,9 +53,20 @@ pub fn opencv_pinhole(camera: &Pinhole) -> String {
         3,
         &k_matrix(camera.fx, camera.fy, camera.cx, camera.cy),
     );
-    out += &opencv_matrix("distortion_coefficients", 1, 5, &[0.0; 5]);
-    out += &opencv_body_from_camera(camera);
+    out += &opencv_matrix("distortion_coefficients", 1, distortion.len(), distortion);
+    if let Some(xi) = xi {
+        let _ = writeln!(out, "xi: {xi:?}");
+    }
+    out += &opencv_body_from_camera(camera.position);
     out
+}
+
+const PERSPECTIVE_INTRO: &str = "# omnisim pinhole camera; cv2.projectPoints with camera_matrix and distortion_coefficients\n\
+# (OpenCV's order k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4]]]) gives its pixels. ";
+
+/// `OpenCV` YAML of one pinhole: `camera_matrix`, zero distortion, and `body_from_camera`.
+pub fn opencv_pinhole(camera: &Pinhole) -> String {
+    opencv_camera(PERSPECTIVE_INTRO, camera, &[0.0; 5], None)
 }
 
 /// `OpenCV` stereo YAML (stereoCalibrate names): M1, D1, M2, D2, R, T with
@@ -71,13 +90,152 @@ pub fn opencv_stereo(rig: &StereoRig) -> String {
     out += &opencv_matrix("D2", 1, 5, &[0.0; 5]);
     out += &opencv_matrix("R", 3, 3, &rows(DMat3::IDENTITY));
     out += &opencv_matrix("T", 3, 1, &[-rig.baseline, 0.0, 0.0]);
-    out += &opencv_body_from_camera(&rig.cameras()[0]);
+    out += &opencv_body_from_camera(rig.cameras()[0].position);
     out
 }
 
 const KALIBR_BODY_NOTE: &str = "# T_cam_imu of each camera is camera_from_body: it maps points in the robot body frame\n\
 # (x forward, y left, z up; the frame of poses.txt), which stands in for the IMU frame, to the\n\
 # camera frame. Metres.\n";
+
+/// One camera as a Kalibr camchain and a `EuRoC` `sensor.yaml` describe it: both files are
+/// written from this, so they state one frame and one model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KalibrCamera {
+    /// `camera_model`: pinhole, omni, ds or eucm.
+    pub camera_model: &'static str,
+    /// `intrinsics`, in Kalibr's order for the model; focal lengths positive.
+    pub intrinsics: Vec<f64>,
+    /// `distortion_model`: none, radtan or equidistant.
+    pub distortion_model: &'static str,
+    /// `distortion_coeffs`.
+    pub distortion_coeffs: Vec<f64>,
+    /// `resolution`: width, height.
+    pub resolution: (u32, u32),
+    /// `T_cam_imu`: `camera_from_body`, rotation then translation (metres).
+    pub camera_from_body: (DMat3, DVec3),
+    /// Whether the image this describes is the rendered one flipped top to bottom (row v
+    /// becomes H−1−v): a mirror reverses the image's handedness, which Kalibr's models with
+    /// positive focal lengths and a proper rotation cannot express otherwise.
+    pub rows_flipped: bool,
+}
+
+/// Kalibr's camera-config rules (`kalibr_common/ConfigReader.py`): intrinsics per camera model
+/// and coefficients per distortion model.
+pub const KALIBR_INTRINSICS: [(&str, usize); 4] = [("pinhole", 4), ("omni", 5), ("ds", 6), ("eucm", 6)];
+
+impl KalibrCamera {
+    /// Kalibr's description of `camera`; `None` where Kalibr has no model for it (panoramas,
+    /// non-central mirrors, Scaramuzza's polynomial, the ideal fisheyes other than
+    /// equidistant, distortion beyond k1 k2 p1 p2).
+    pub fn of(camera: &Camera) -> Option<Self> {
+        let optical = |position: DVec3| {
+            let camera_from_body = BODY_FROM_OPTICAL.transpose();
+            (camera_from_body, -(camera_from_body * position))
+        };
+        match camera {
+            Camera::Pinhole(c) => Some(Self {
+                camera_model: "pinhole",
+                intrinsics: vec![c.fx, c.fy, c.cx, c.cy],
+                distortion_model: "none",
+                distortion_coeffs: Vec::new(),
+                resolution: (c.width, c.height),
+                camera_from_body: optical(c.position),
+                rows_flipped: false,
+            }),
+            Camera::Lens(c) => {
+                let (camera_model, distortion_model, distortion_coeffs) = kalibr_lens(&c.model)?;
+                let k = &c.intrinsics;
+                let focal = [k.fx, k.fy, k.cx, k.cy];
+                let intrinsics = match &c.model {
+                    LensModel::DoubleSphere { xi, alpha } => [&[*xi, *alpha][..], &focal].concat(),
+                    LensModel::ExtendedUnified { alpha, beta } => [&[*alpha, *beta][..], &focal].concat(),
+                    LensModel::Unified { xi, .. } => [&[*xi][..], &focal].concat(),
+                    _ => focal.to_vec(),
+                };
+                Some(Self {
+                    camera_model,
+                    intrinsics,
+                    distortion_model,
+                    distortion_coeffs,
+                    resolution: c.size(),
+                    camera_from_body: optical(k.position),
+                    rows_flipped: false,
+                })
+            }
+            Camera::Catadioptric(c) => {
+                let model = c.unified_model()?;
+                // The model frame turned half a turn about x: a proper rotation; with the rows
+                // flipped, both focal lengths are positive.
+                let camera_from_mirror = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
+                let last_row = f64::from(c.height) - 1.0;
+                Some(Self {
+                    camera_model: "omni",
+                    intrinsics: vec![model.xi, model.gamma_x, model.gamma_y, model.cx, last_row - model.cy],
+                    distortion_model: "none",
+                    distortion_coeffs: Vec::new(),
+                    resolution: (c.width, c.height),
+                    // The viewpoint F' is the body origin of a central camera.
+                    camera_from_body: (camera_from_mirror * c.body_from_mirror().transpose(), DVec3::ZERO),
+                    rows_flipped: true,
+                })
+            }
+            Camera::Equirectangular(_) | Camera::Cylindrical(_) => None,
+        }
+    }
+
+    /// `body_from_camera` (`EuRoC`'s `T_BS`): rotation and translation.
+    pub fn body_from_camera(&self) -> (DMat3, DVec3) {
+        let (rotation, translation) = self.camera_from_body;
+        // + 0 turns −0 into 0, as files print it.
+        (rotation.transpose() + DMat3::ZERO, -(rotation.transpose() * translation) + 0.0)
+    }
+
+    /// The name Kalibr's command line gives this model pair, e.g. `pinhole-radtan`.
+    pub fn model_pair(&self) -> String {
+        match (self.camera_model, self.distortion_model) {
+            (model, "none") => model.to_owned(),
+            (model, "equidistant") => format!("{model}-equi"),
+            (model, distortion) => format!("{model}-{distortion}"),
+        }
+    }
+
+    /// This camera's entry under `cam<index>:` of a camchain.
+    fn write_entry(&self, out: &mut String, index: usize) {
+        let list = |values: &[f64]| values.iter().map(|v| format!("{v:?}")).collect::<Vec<_>>().join(", ");
+        let _ = write!(
+            out,
+            "  camera_model: {}\n  intrinsics: [{}]\n  distortion_model: {}\n  distortion_coeffs: [{}]\n  \
+             resolution: [{}, {}]\n  rostopic: /cam{index}/image_raw\n",
+            self.camera_model,
+            list(&self.intrinsics),
+            self.distortion_model,
+            list(&self.distortion_coeffs),
+            self.resolution.0,
+            self.resolution.1
+        );
+    }
+}
+
+/// Kalibr's (camera model, distortion model, coefficients) of a lens model.
+fn kalibr_lens(model: &LensModel) -> Option<(&'static str, &'static str, Vec<f64>)> {
+    match model {
+        LensModel::Perspective(distortion) => Some(("pinhole", "radtan", radtan(distortion.coefficients())?)),
+        LensModel::KannalaBrandt(kb) => Some(("pinhole", "equidistant", kb.coefficients().to_vec())),
+        LensModel::Equidistant => Some(("pinhole", "equidistant", vec![0.0; 4])),
+        LensModel::DoubleSphere { .. } => Some(("ds", "none", Vec::new())),
+        LensModel::ExtendedUnified { .. } => Some(("eucm", "none", Vec::new())),
+        LensModel::Unified { distortion, .. } => Some(("omni", "radtan", radtan(distortion.coefficients())?)),
+        LensModel::Equisolid | LensModel::Stereographic | LensModel::Orthographic | LensModel::Scaramuzza(_) => None,
+    }
+}
+
+/// k1 k2 p1 p2 of a distortion vector that has no further non-zero coefficient (Kalibr's
+/// `radtan`, `cv::omnidir`'s D).
+fn radtan(coefficients: &[f64]) -> Option<Vec<f64>> {
+    let (radtan, further) = coefficients.split_at(coefficients.len().min(4));
+    (radtan.len() == 4 && further.iter().all(|&c| c == 0.0)).then(|| radtan.to_vec())
+}
 
 /// A Kalibr 4×4 transform entry `name` = [rotation | translation].
 fn kalibr_transform(name: &str, rotation: DMat3, translation: DVec3) -> String {
@@ -91,43 +249,63 @@ fn kalibr_transform(name: &str, rotation: DMat3, translation: DVec3) -> String {
     out + "  - [0.0, 0.0, 0.0, 1.0]\n"
 }
 
-fn kalibr_camera(out: &mut String, index: usize, model: &str, intrinsics: &[f64], size: (u32, u32)) {
-    let values: Vec<String> = intrinsics.iter().map(|v| format!("{v:?}")).collect();
-    let _ = write!(
-        out,
-        "  camera_model: {model}\n  intrinsics: [{}]\n  distortion_model: none\n  distortion_coeffs: []\n  \
-         resolution: [{}, {}]\n  rostopic: /cam{index}/image_raw\n",
-        values.join(", "),
-        size.0,
-        size.1
-    );
+/// A Kalibr camchain of `cameras` (each with `T_cam_imu`; with a stereo `baseline`, the
+/// right camera's `T_cn_cnm1`), headed by `note`.
+fn kalibr_camchain(note: &str, cameras: &[KalibrCamera], baseline: Option<f64>) -> String {
+    let mut out = String::from("# omnisim camchain (Kalibr). Pixel centres at integer coordinates; metres.\n");
+    out += note;
+    out += KALIBR_BODY_NOTE;
+    for (index, camera) in cameras.iter().enumerate() {
+        let _ = writeln!(out, "cam{index}:");
+        let (rotation, translation) = camera.camera_from_body;
+        out += &kalibr_transform("T_cam_imu", rotation, translation);
+        if let (Some(baseline), 1..) = (baseline, index) {
+            out += &kalibr_transform("T_cn_cnm1", DMat3::IDENTITY, DVec3::new(-baseline, 0.0, 0.0));
+        }
+        camera.write_entry(&mut out, index);
+    }
+    out
 }
 
 /// Kalibr camchain of one pinhole, with its `T_cam_imu`.
 pub fn kalibr_pinhole(camera: &Pinhole) -> String {
-    kalibr_pinholes(std::slice::from_ref(camera), None)
+    let cameras = KalibrCamera::of(&Camera::Pinhole(camera.clone()))
+        .into_iter()
+        .collect::<Vec<_>>();
+    kalibr_camchain("", &cameras, None)
 }
 
 /// Kalibr camchain of a stereo rig: left and right, each with `T_cam_imu`, and the right's
 /// `T_cn_cnm1`.
 pub fn kalibr_stereo(rig: &StereoRig) -> String {
-    kalibr_pinholes(&rig.cameras(), Some(rig.baseline))
+    let cameras: Vec<KalibrCamera> = rig
+        .cameras()
+        .into_iter()
+        .filter_map(|camera| KalibrCamera::of(&Camera::Pinhole(camera)))
+        .collect();
+    kalibr_camchain("", &cameras, Some(rig.baseline))
 }
 
-fn kalibr_pinholes(cameras: &[Pinhole], baseline: Option<f64>) -> String {
-    let mut out = String::from("# omnisim camchain (Kalibr). Pixel centres at integer coordinates; metres.\n");
-    out += KALIBR_BODY_NOTE;
-    for (index, camera) in cameras.iter().enumerate() {
-        let _ = writeln!(out, "cam{index}:");
-        let camera_from_body = BODY_FROM_OPTICAL.transpose();
-        out += &kalibr_transform("T_cam_imu", camera_from_body, -(camera_from_body * camera.position));
-        if let (Some(baseline), 1..) = (baseline, index) {
-            out += &kalibr_transform("T_cn_cnm1", DMat3::IDENTITY, DVec3::new(-baseline, 0.0, 0.0));
-        }
-        let intrinsics = [camera.fx, camera.fy, camera.cx, camera.cy];
-        kalibr_camera(&mut out, index, "pinhole", &intrinsics, (camera.width, camera.height));
+/// The Kalibr camchain of one camera, where Kalibr has its model.
+pub fn kalibr_camchain_of(camera: &Camera) -> Option<String> {
+    match camera {
+        Camera::Pinhole(pinhole) => Some(kalibr_pinhole(pinhole)),
+        Camera::Lens(lens) => kalibr_lens_camera(lens),
+        Camera::Catadioptric(mirror) => kalibr_omni(mirror),
+        Camera::Equirectangular(_) | Camera::Cylindrical(_) => None,
     }
-    out
+}
+
+/// Kalibr camchain of a lens camera (`pinhole-radtan`, `pinhole-equi`, `ds`, `eucm`,
+/// `omni-radtan`); `None` where Kalibr has no model for the lens.
+pub fn kalibr_lens_camera(camera: &LensCamera) -> Option<String> {
+    let kalibr = KalibrCamera::of(&Camera::Lens(Box::new(camera.clone())))?;
+    let note = format!(
+        "# Kalibr model {} (omnisim lens {}); optical frame x right, y down, z forward.\n",
+        kalibr.model_pair(),
+        camera.model.name()
+    );
+    Some(kalibr_camchain(&note, &[kalibr], None))
 }
 
 const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the mirror frame M (origin at the viewpoint F',\n\
@@ -163,28 +341,71 @@ pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
 }
 
 /// Kalibr camchain with the `omni` model (intrinsics xi fu fv pu pv) and `T_cam_imu`; `None` if
-/// non-central. Kalibr needs a proper rotation, so its camera frame is the mirror frame turned
-/// by Rx(π) and fv is negated (the `OpenCV` file keeps positive focal lengths and a reflection).
+/// non-central. Kalibr needs positive focal lengths and a proper rotation, and a mirror
+/// reverses the image's handedness, so this camchain describes the rendered image flipped top
+/// to bottom (row v becomes H−1−v), in the mirror frame turned by Rx(π). The `OpenCV` omnidir
+/// file describes the image as rendered, with a reflected frame.
 pub fn kalibr_omni(camera: &Catadioptric) -> Option<String> {
-    let model = camera.unified_model()?;
-    let mut out = String::from("# omnisim camchain (Kalibr omni model), exact for this aligned central mirror.\n");
-    out += "# Frames: the camera frame is the mirror frame M (origin at the viewpoint F', +z from the camera\n\
-            # towards the mirror) turned half a turn about x: X_cam = (x_M, -y_M, -z_M), a proper rotation.\n\
-            # With it fv is negative: u = pu + fu*x/(z + xi*|X|), v = pv + fv*y/(z + xi*|X|) reproduce the\n\
-            # rendered pixels (the mirror flips the image's handedness). Pixel centres at integer\n\
-            # coordinates. Ideal mirror and lens: no distortion.\n";
-    out += KALIBR_BODY_NOTE;
-    out += "cam0:\n";
-    let camera_from_mirror = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
-    // The viewpoint F' is the body origin of a central camera.
-    let camera_from_body = camera_from_mirror * camera.body_from_mirror().transpose();
-    out += &kalibr_transform("T_cam_imu", camera_from_body, DVec3::ZERO);
-    kalibr_camera(
-        &mut out,
-        0,
-        "omni",
-        &[model.xi, model.gamma_x, -model.gamma_y, model.cx, model.cy],
-        (camera.width, camera.height),
+    let kalibr = KalibrCamera::of(&Camera::Catadioptric(camera.clone()))?;
+    let note = format!(
+        "# Kalibr omni model, exact for this aligned central mirror. IMAGE FLIPPED: this camera is the\n\
+         # rendered image flipped top to bottom (row v -> {} - v, as cv2.flip(image, 0) does; the EuRoC\n\
+         # layout's mav0/cam0 images are stored flipped). A mirror reverses the image's handedness, which\n\
+         # no proper rotation with positive focal lengths reproduces; flipped, it is Kalibr's omni model\n\
+         # with fu, fv > 0. Frames: the camera frame is the mirror frame M (origin at the viewpoint F',\n\
+         # +z from the camera towards the mirror) turned half a turn about x: X_cam = (x_M, -y_M, -z_M).\n\
+         # Ideal mirror and lens: no distortion.\n",
+        camera.height - 1
     );
-    Some(out)
+    Some(kalibr_camchain(&note, &[kalibr], None))
+}
+
+const FISHEYE_INTRO: &str = "# omnisim Kannala-Brandt fisheye for cv2.fisheye: cv2.fisheye.projectPoints with camera_matrix and\n\
+# distortion_coefficients (k1 k2 k3 k4; theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8)) gives\n\
+# its pixels for points in front of the camera (cv2.fisheye stops at theta = 90 degrees; this\n\
+# lens may reach further: the ray maps hold every pixel's ray). ";
+
+const OMNIDIR_LENS_INTRO: &str = "# omnisim unified (Mei) lens for cv2.omnidir: cv2.omnidir.projectPoints with camera_matrix,\n\
+# xi and distortion_coefficients (k1 k2 p1 p2) gives its pixels. xi is a real number: Python\n\
+# fs.getNode('xi').real(). ";
+
+/// The calibration files of a lens camera, (file name, contents): `OpenCV` (plain distortion,
+/// `cv::fisheye`, `cv::omnidir`), Kalibr where it has the model, `OCamCalib` for Scaramuzza's.
+pub fn lens_files(camera: &LensCamera) -> Vec<(&'static str, String)> {
+    let mut files = Vec::new();
+    let intrinsics = &camera.intrinsics;
+    match &camera.model {
+        LensModel::Perspective(distortion) => files.push((
+            "calibration-opencv.yaml",
+            opencv_camera(PERSPECTIVE_INTRO, intrinsics, distortion.coefficients(), None),
+        )),
+        LensModel::KannalaBrandt(kb) => files.push((
+            "calibration-opencv-fisheye.yaml",
+            opencv_camera(FISHEYE_INTRO, intrinsics, &kb.coefficients(), None),
+        )),
+        LensModel::Equidistant => files.push((
+            "calibration-opencv-fisheye.yaml",
+            opencv_camera(FISHEYE_INTRO, intrinsics, &[0.0; 4], None),
+        )),
+        LensModel::Unified { xi, distortion } => {
+            if let Some(coefficients) = radtan(distortion.coefficients()) {
+                files.push((
+                    "calibration-opencv-omnidir.yaml",
+                    opencv_camera(OMNIDIR_LENS_INTRO, intrinsics, &coefficients, Some(*xi)),
+                ));
+            }
+        }
+        LensModel::Scaramuzza(model) => {
+            files.push(("calib_results.txt", ocamcalib::calib_results(camera, model)));
+        }
+        LensModel::Equisolid
+        | LensModel::Stereographic
+        | LensModel::Orthographic
+        | LensModel::DoubleSphere { .. }
+        | LensModel::ExtendedUnified { .. } => {}
+    }
+    if let Some(kalibr) = kalibr_lens_camera(camera) {
+        files.push(("calibration-kalibr.yaml", kalibr));
+    }
+    files
 }

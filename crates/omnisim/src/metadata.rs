@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::camera::{Camera, Catadioptric, MirrorShape, RigSpec};
+use crate::camera::{Camera, Catadioptric, MirrorShape, Pinhole, RigSpec};
 use crate::output;
 use crate::pose::Pose;
 use crate::renderer::{PreparedScene, Renderer};
@@ -152,14 +152,7 @@ impl CameraMetadata {
     pub fn of(camera: &Camera) -> Self {
         let (width, height) = camera.size();
         let parameters = match camera {
-            Camera::Pinhole(c) => CameraParameters::Pinhole {
-                fx: c.fx,
-                fy: c.fy,
-                cx: c.cx,
-                cy: c.cy,
-                position_in_body: c.position.to_array(),
-                optical_frame: "OpenCV (x right, y down, z forward); looks along body +x",
-            },
+            Camera::Pinhole(c) => CameraParameters::Pinhole(PinholeParameters::of(c)),
             Camera::Equirectangular(_) => CameraParameters::Equirectangular {
                 azimuth_of_column_u: AZIMUTH_OF_COLUMN,
                 elevation_of_row_v: "pi/2 - pi*(v + 0.5)/height",
@@ -171,6 +164,12 @@ impl CameraMetadata {
                 row_v: "a ray rises (cy - v)/fy per unit of horizontal distance",
             },
             Camera::Catadioptric(c) => CameraParameters::Catadioptric(Box::new(CatadioptricMetadata::of(c))),
+            Camera::Lens(c) => CameraParameters::Lens {
+                intrinsics: PinholeParameters::of(&c.intrinsics),
+                lens: c.model.name(),
+                lens_parameters: c.model.parameters().into_iter().collect(),
+                max_angle_off_axis_degrees: c.model.max_angle().to_degrees(),
+            },
         };
         Self {
             model: camera.model_name(),
@@ -189,20 +188,7 @@ const AZIMUTH_OF_COLUMN: &str = "pi - 2*pi*(u + 0.5)/width, counter-clockwise fr
 #[serde(untagged)]
 pub enum CameraParameters {
     /// Perspective camera, `OpenCV` intrinsics.
-    Pinhole {
-        /// Focal length in x, pixels.
-        fx: f64,
-        /// Focal length in y, pixels.
-        fy: f64,
-        /// Principal point, column.
-        cx: f64,
-        /// Principal point, row.
-        cy: f64,
-        /// Optical centre in the body frame, metres.
-        position_in_body: [f64; 3],
-        /// Axes of the optical frame.
-        optical_frame: &'static str,
-    },
+    Pinhole(PinholeParameters),
     /// Full-sphere panorama.
     Equirectangular {
         /// Azimuth of each column.
@@ -223,6 +209,48 @@ pub enum CameraParameters {
     },
     /// Camera looking at a mirror.
     Catadioptric(Box<CatadioptricMetadata>),
+    /// A camera with a lens model (docs/cameras.md gives each model's equations).
+    Lens {
+        /// K and the optical centre, as a pinhole's.
+        #[serde(flatten)]
+        intrinsics: PinholeParameters,
+        /// The lens model.
+        lens: &'static str,
+        /// The model's parameters by name.
+        lens_parameters: std::collections::BTreeMap<&'static str, Vec<f64>>,
+        /// The valid field of view's half-angle; pixels beyond it are background.
+        max_angle_off_axis_degrees: f64,
+    },
+}
+
+/// A perspective camera's `OpenCV` intrinsics and place (also a lens camera's).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PinholeParameters {
+    /// Focal length in x, pixels.
+    pub fx: f64,
+    /// Focal length in y, pixels.
+    pub fy: f64,
+    /// Principal point, column.
+    pub cx: f64,
+    /// Principal point, row.
+    pub cy: f64,
+    /// Optical centre in the body frame, metres.
+    pub position_in_body: [f64; 3],
+    /// Axes of the optical frame.
+    pub optical_frame: &'static str,
+}
+
+impl PinholeParameters {
+    fn of(c: &Pinhole) -> Self {
+        Self {
+            fx: c.fx,
+            fy: c.fy,
+            cx: c.cx,
+            cy: c.cy,
+            position_in_body: c.position.to_array(),
+            optical_frame: "OpenCV (x right, y down, z forward); looks along body +x",
+        }
+    }
 }
 
 /// A catadioptric camera: the mirror, the camera looking at it, and the unified model where

@@ -249,7 +249,10 @@ impl Renderer {
     ) -> Result<Frame, RenderError> {
         let mut frame = self.render(prepared, camera, pose, planes)?;
         if planes.needs_shading() {
-            match self.gpu(prepared) {
+            // The GPU's lens rays are a table of pixel centres: their sub-pixel samples are
+            // traced by the CPU, exactly.
+            let gpu = self.gpu(prepared).filter(|_| !matches!(camera, Camera::Lens(_)));
+            match gpu {
                 #[cfg(feature = "gpu")]
                 Some((renderer, gpu)) => {
                     renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis)?;

@@ -7,9 +7,10 @@ use glam::{DMat3, DVec3, dvec3};
 use omnisim::advanced::CpuTracer;
 use omnisim::advanced::SceneBvh;
 use omnisim::camera::{Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
+use omnisim::camera::{FisheyeSpec, LensCamera, LensSpec, PinholeSpec, RigSpec};
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
 use omnisim::scene::{Face, SceneObject};
-use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, RenderError, Renderer, Scene};
+use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, RenderError, Renderer, Rig, Scene};
 
 pub(crate) fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes").join(name)
@@ -82,7 +83,44 @@ pub(crate) fn cameras() -> Vec<Camera> {
         Camera::Catadioptric(Catadioptric::parabolic(250, 250, 0.04, 0.02, 20f64.to_radians())),
         Camera::Catadioptric(elliptic),
         Camera::Catadioptric(Catadioptric::spherical(250, 250, 0.05, 0.25)),
+        lens(&RigSpec::Fisheye(FisheyeSpec {
+            size: (200, 180),
+            lens: LensSpec::KannalaBrandt {
+                k: [0.02, -0.004, 1e-4, -2e-5],
+            },
+            fov: Some(230.0),
+            focal: None,
+        })),
+        lens(&RigSpec::Fisheye(FisheyeSpec {
+            size: (160, 160),
+            lens: LensSpec::Unified {
+                xi: 1.3,
+                distortion: [-0.05, 0.01, 1e-4, -2e-4],
+            },
+            fov: Some(250.0),
+            focal: None,
+        })),
+        lens(&RigSpec::Pinhole(PinholeSpec {
+            size: (160, 120),
+            hfov: 100.0,
+            focal: None,
+            distortion: Some(vec![
+                -0.28, 0.07, 1e-3, -2e-3, 0.01, 0.02, -0.01, 0.005, 1e-3, -1e-3, 2e-3, 5e-4,
+            ]),
+        })),
     ]
+}
+
+/// The lens camera `spec` describes.
+pub(crate) fn lens_camera(spec: &RigSpec) -> LensCamera {
+    match spec.build().expect("a valid lens") {
+        Rig::Single(Camera::Lens(lens)) => *lens,
+        other => panic!("not a lens camera: {other:?}"),
+    }
+}
+
+fn lens(spec: &RigSpec) -> Camera {
+    Camera::Lens(Box::new(lens_camera(spec)))
 }
 
 /// Human-readable name of a camera from `cameras()`, for messages.

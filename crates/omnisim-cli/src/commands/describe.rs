@@ -585,8 +585,9 @@ impl Panorama {
                     sidecar,
                 }))
             }
-            Camera::Pinhole(_) => bail!(
-                "a descriptor reads a panorama, but the images are from a pinhole camera: use on=image or other descriptors"
+            Camera::Pinhole(_) | Camera::Lens(_) => bail!(
+                "a descriptor reads a panorama, but the images are from a {} camera: use on=image or other descriptors",
+                input.camera.model_name()
             ),
         }
     }

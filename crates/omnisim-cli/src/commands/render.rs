@@ -83,7 +83,10 @@ impl From<BackendArg> for BackendChoice {
 #[command(after_help = "Examples:\n  \
 omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
 omnisim render scenes/env2.ron --camera omni --poses-file scenes/paper-omni-poses.txt --out out/env2\n  \
-omnisim render scenes/env1.ron --camera equirect --size 2048x1024 --pose 0,0,0.4 --out out/pano")]
+omnisim render scenes/env1.ron --camera equirect --size 2048x1024 --pose 0,0,0.4 --out out/pano\n  \
+omnisim render scenes/env1.ron --camera fisheye --lens kannala-brandt --k 0.02,-0.004,0.0001,0 --fov 200 --pose 1.5,0,0.4,0,0,60 --out out/fisheye\n  \
+omnisim render scenes/env1.ron --camera fisheye --lens double-sphere --xi=-0.2 --alpha 0.6 --fov 220 --pose 1.5,0,0.4,0,0,60 --out out/ds\n  \
+omnisim render scenes/env1.ron --camera pinhole --distortion radtan --dist=-0.3,0.09,0.001,-0.002 --pose 1.5,0,0.4,0,0,60 --out out/radtan")]
 pub(crate) struct RenderArgs {
     /// Scene file (RON), e.g. scenes/env1.ron.
     pub scene: PathBuf,
@@ -205,6 +208,18 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         prepared.fallback().unwrap_or(renderer.reason())
     ))?;
     crate::warnings::misplaced_poses(&scene, prepared.geometry(), &poses)?;
+    for view in &views {
+        if let omnisim::Camera::Lens(lens) = &view.camera {
+            let (width, height) = lens.size();
+            crate::streams::stderr(format_args!(
+                "{} lens: {} of {} pixels lie beyond its field of view ({:.2}° off axis) and are background",
+                lens.model.name(),
+                lens.pixels_without_ray(),
+                u64::from(width) * u64::from(height),
+                lens.model.max_angle().to_degrees()
+            ))?;
+        }
+    }
 
     let mut progress = Progress::new("poses");
     let mut metadata = RenderMetadata::new(&scene, &rig, BackendMetadata::of(&renderer, &prepared));

@@ -6,8 +6,12 @@
 
 pub mod catadioptric;
 mod cylindrical;
+pub mod distortion;
 mod equirect;
+pub mod lens;
+mod lens_camera;
 pub(crate) mod pinhole;
+mod solve;
 pub mod spec;
 mod stereo;
 mod validate;
@@ -16,10 +20,14 @@ use glam::{DVec2, DVec3};
 
 pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Mount, UnifiedModel};
 pub use cylindrical::Cylindrical;
+pub use distortion::BrownConrady;
 pub use equirect::Equirectangular;
+pub use lens::{KannalaBrandt, LensModel, Scaramuzza};
+pub use lens_camera::LensCamera;
 pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
 pub use spec::{
-    MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec, RigSpecError, StereoSpec,
+    FisheyeSpec, LensSpec, MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec,
+    RigSpecError, StereoSpec,
 };
 pub use stereo::StereoRig;
 pub use validate::{CameraError, MAX_PIXELS};
@@ -48,6 +56,9 @@ pub enum Camera {
     Cylindrical(Cylindrical),
     /// A camera looking at a mirror.
     Catadioptric(Catadioptric),
+    /// A camera with a lens model: fisheye, or a pinhole with distortion (boxed: its model
+    /// holds up to 12 coefficients and is larger than the other cameras).
+    Lens(Box<LensCamera>),
 }
 
 impl Camera {
@@ -58,6 +69,7 @@ impl Camera {
             Camera::Equirectangular(c) => (c.width, c.height),
             Camera::Cylindrical(c) => (c.width, c.height),
             Camera::Catadioptric(c) => (c.width, c.height),
+            Camera::Lens(c) => c.size(),
         }
     }
 
@@ -69,13 +81,14 @@ impl Camera {
     }
 
     /// The ray seen at pixel (u, v), or `None` where the pixel sees nothing of the scene
-    /// (outside the mirror, the camera body).
+    /// (outside the mirror, the camera body, beyond a lens's field of view).
     pub fn ray(&self, pixel: DVec2) -> Option<CameraRay> {
         match self {
             Camera::Pinhole(c) => Some(c.ray(pixel)),
             Camera::Equirectangular(c) => Some(c.ray(pixel)),
             Camera::Cylindrical(c) => Some(c.ray(pixel)),
             Camera::Catadioptric(c) => c.ray(pixel),
+            Camera::Lens(c) => c.ray(pixel),
         }
     }
 
@@ -86,6 +99,17 @@ impl Camera {
             Camera::Equirectangular(c) => c.project(point),
             Camera::Cylindrical(c) => c.project(point),
             Camera::Catadioptric(c) => c.project(point),
+            Camera::Lens(c) => c.project(point),
+        }
+    }
+
+    /// The perspective frame whose optical z is this camera's depth (z-depth images): a
+    /// pinhole's, or a distorted pinhole's K and place; `None` for other cameras.
+    pub fn depth_frame(&self) -> Option<&Pinhole> {
+        match self {
+            Camera::Pinhole(c) => Some(c),
+            Camera::Lens(c) if matches!(c.model, LensModel::Perspective(_)) => Some(&c.intrinsics),
+            _ => None,
         }
     }
 
@@ -95,6 +119,7 @@ impl Camera {
             Camera::Pinhole(c) => c.position == DVec3::ZERO,
             Camera::Equirectangular(_) | Camera::Cylindrical(_) => true,
             Camera::Catadioptric(c) => c.is_central(),
+            Camera::Lens(_) => true,
         }
     }
 
@@ -109,6 +134,7 @@ impl Camera {
                 MirrorShape::Parabolic { .. } => "parabolic-catadioptric",
                 MirrorShape::Spherical { .. } => "spherical-catadioptric",
             },
+            Camera::Lens(c) => c.model.name(),
         }
     }
 }

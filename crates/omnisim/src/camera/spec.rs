@@ -10,8 +10,8 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    Camera, CameraError, Catadioptric, Cylindrical, Equirectangular, MirrorRays, MirrorShape, Misalignment, Mount,
-    Pinhole, StereoRig,
+    BrownConrady, Camera, CameraError, Catadioptric, Cylindrical, Equirectangular, KannalaBrandt, LensCamera,
+    LensModel, MirrorRays, MirrorShape, Misalignment, Mount, Pinhole, Scaramuzza, StereoRig,
 };
 use crate::input::{InputError, locate, read_text, ron_options, without_bom};
 use crate::rig::Rig;
@@ -47,6 +47,16 @@ pub mod defaults {
     pub const SPHERE_RADIUS: f64 = 0.05;
     /// Spherical mirror: sphere centre to pinhole.
     pub const CAMERA_DISTANCE: f64 = 0.25;
+    /// Fisheye image size.
+    pub const FISHEYE_SIZE: (u32, u32) = (640, 640);
+    /// Fisheye image circle's field of view (the circle inscribed in the image), degrees.
+    pub const FISHEYE_FOV: f64 = 180.0;
+    /// Double sphere ξ and α: a typical 190° lens of Usenko et al.'s data sets.
+    pub const DOUBLE_SPHERE: (f64, f64) = (-0.2, 0.6);
+    /// EUCM α and β.
+    pub const EUCM: (f64, f64) = (0.6, 1.1);
+    /// Unified ξ (1: the parabolic mirror's model).
+    pub const UNIFIED_XI: f64 = 1.0;
 
     pub(super) fn hfov() -> f64 {
         HFOV
@@ -90,6 +100,105 @@ pub enum RigSpec {
     },
     /// Catadioptric camera: a camera looking at a mirror.
     Omni(OmniSpec),
+    /// A fisheye or other central lens model, looking along body +x.
+    Fisheye(FisheyeSpec),
+}
+
+/// A fisheye camera's options: the lens and how large its image circle is.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct FisheyeSpec {
+    /// (width, height), pixels.
+    pub size: (u32, u32),
+    /// The lens model and its parameters.
+    pub lens: LensSpec,
+    /// Field of view of the circle inscribed in the image, degrees (sets the focal length);
+    /// [`defaults::FISHEYE_FOV`] unless `focal` is given.
+    #[serde(default)]
+    pub fov: Option<f64>,
+    /// Focal length in pixels (square pixels); instead of `fov`.
+    #[serde(default)]
+    pub focal: Option<f64>,
+}
+
+/// A lens model with its parameters (docs/cameras.md gives each one's equations).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub enum LensSpec {
+    /// Kannala–Brandt (`OpenCV` fisheye, Kalibr `pinhole-equi`): `θ_d = θ(1 + k1θ² + … + k4θ⁸)`.
+    KannalaBrandt {
+        /// k1, k2, k3, k4.
+        k: [f64; 4],
+    },
+    /// r = f·θ.
+    Equidistant,
+    /// r = 2f·sin(θ/2).
+    Equisolid,
+    /// r = 2f·tan(θ/2).
+    Stereographic,
+    /// r = f·sin θ.
+    Orthographic,
+    /// Double sphere (Usenko et al. 2018).
+    DoubleSphere {
+        /// ξ, −1 to 1.
+        xi: f64,
+        /// α, 0 to 1.
+        alpha: f64,
+    },
+    /// Extended unified (Khomenko et al. 2016).
+    Eucm {
+        /// α, 0 to 1.
+        alpha: f64,
+        /// β > 0.
+        beta: f64,
+    },
+    /// Mei's unified model with radtan distortion (Kalibr `omni-radtan`, `cv::omnidir`).
+    Unified {
+        /// ξ ≥ 0.
+        xi: f64,
+        /// k1, k2, p1, p2.
+        #[serde(default)]
+        distortion: [f64; 4],
+    },
+    /// Scaramuzza's polynomial (`OCamCalib`): its own focal length, so `fov` and `focal` do
+    /// not apply.
+    Scaramuzza {
+        /// a0, a1, … of the direct polynomial (`OCamCalib`'s ss; a0 < 0), pixels.
+        poly: Vec<f64>,
+        /// The affine c, d, e.
+        #[serde(default = "identity_affine")]
+        affine: (f64, f64, f64),
+    },
+}
+
+fn identity_affine() -> (f64, f64, f64) {
+    (1.0, 0.0, 0.0)
+}
+
+impl LensSpec {
+    /// The model these parameters describe; `reach` is the largest pixel distance from the
+    /// image centre (where Scaramuzza's valid radius is looked for).
+    fn model(&self, reach: f64) -> Result<LensModel, CameraError> {
+        let model = match self {
+            LensSpec::KannalaBrandt { k } => LensModel::KannalaBrandt(KannalaBrandt::new(*k)?),
+            LensSpec::Equidistant => LensModel::Equidistant,
+            LensSpec::Equisolid => LensModel::Equisolid,
+            LensSpec::Stereographic => LensModel::Stereographic,
+            LensSpec::Orthographic => LensModel::Orthographic,
+            LensSpec::DoubleSphere { xi, alpha } => LensModel::DoubleSphere { xi: *xi, alpha: *alpha },
+            LensSpec::Eucm { alpha, beta } => LensModel::ExtendedUnified {
+                alpha: *alpha,
+                beta: *beta,
+            },
+            LensSpec::Unified { xi, distortion } => LensModel::Unified {
+                xi: *xi,
+                distortion: BrownConrady::new(distortion)?,
+            },
+            LensSpec::Scaramuzza { poly, affine } => LensModel::Scaramuzza(Scaramuzza::new(poly, *affine, reach)?),
+        };
+        model.check()?;
+        Ok(model)
+    }
 }
 
 /// A pinhole's options.
@@ -104,6 +213,11 @@ pub struct PinholeSpec {
     /// Focal length in pixels; overrides `hfov`.
     #[serde(default)]
     pub focal: Option<f64>,
+    /// Brown–Conrady distortion in `OpenCV`'s order: k1 k2 p1 p2 (radtan; + k3), + k4 k5 k6
+    /// (rational), + s1 s2 s3 s4 (thin prism): 4, 5, 8 or 12 numbers. `hfov` and `focal`
+    /// give K, as without distortion.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distortion: Option<Vec<f64>>,
 }
 
 /// A stereo rig's options.
@@ -266,6 +380,23 @@ pub enum RigSpecError {
     /// The camera the fields describe cannot make an image.
     #[error("the camera cannot make an image: {0}")]
     Camera(#[from] CameraError),
+    /// A fisheye's image circle wider than its lens sees.
+    #[error(
+        "fov {asked}° is beyond what the {lens} lens sees: give fov between 0 and {limit:.2} degrees (twice its {half:.2}° off axis), or focal"
+    )]
+    LensFieldOfView {
+        /// What was asked, degrees.
+        asked: f64,
+        /// The lens model.
+        lens: &'static str,
+        /// The widest circle, degrees.
+        limit: f64,
+        /// Its half-angle, degrees.
+        half: f64,
+    },
+    /// `fov` or `focal` given to a lens whose polynomial fixes its scale.
+    #[error("fov and focal do not apply to the scaramuzza lens: its polynomial (poly, in pixels) sets the scale")]
+    ScaleOfScaramuzza,
 }
 
 /// Why a rig file (`render --rig FILE.ron`) was not read.
@@ -318,7 +449,16 @@ impl RigSpec {
     pub fn build(&self) -> Result<Rig, RigSpecError> {
         let rig =
             match self {
-                RigSpec::Pinhole(p) => Rig::Single(Camera::Pinhole(pinhole(p.size, p.hfov, p.focal)?)),
+                RigSpec::Pinhole(p) => {
+                    let camera = pinhole(p.size, p.hfov, p.focal)?;
+                    Rig::Single(match &p.distortion {
+                        None => Camera::Pinhole(camera),
+                        Some(coefficients) => Camera::Lens(Box::new(LensCamera {
+                            intrinsics: camera,
+                            model: LensModel::Perspective(BrownConrady::new(coefficients)?),
+                        })),
+                    })
+                }
                 RigSpec::Stereo(s) => Rig::Stereo(StereoRig {
                     camera: pinhole(s.size, s.hfov, s.focal)?,
                     baseline: s.baseline,
@@ -331,6 +471,7 @@ impl RigSpec {
                     Cylindrical::with_vertical_fov(size.0, size.1, field_of_view("vfov", *vfov)?),
                 )),
                 RigSpec::Omni(o) => Rig::Single(Camera::Catadioptric(o.build()?)),
+                RigSpec::Fisheye(f) => Rig::Single(Camera::Lens(Box::new(f.build()?))),
             };
         match &rig {
             Rig::Single(camera) => camera.validate(),
@@ -356,6 +497,52 @@ fn pinhole((width, height): (u32, u32), hfov: f64, focal: Option<f64>) -> Result
         (camera.fx, camera.fy) = (f, f);
     }
     Ok(camera)
+}
+
+impl FisheyeSpec {
+    /// The lens camera: principal point at the image centre, square pixels, the focal length
+    /// that puts `fov` on the inscribed circle (or `focal`).
+    fn build(&self) -> Result<LensCamera, RigSpecError> {
+        let (width, height) = self.size;
+        let (cx, cy) = ((f64::from(width) - 1.0) / 2.0, (f64::from(height) - 1.0) / 2.0);
+        let reach = cx.hypot(cy) + 1.0;
+        let model = self.lens.model(reach)?;
+        let focal = match (&self.lens, self.focal, self.fov) {
+            (LensSpec::Scaramuzza { .. }, None, None) => 1.0,
+            (LensSpec::Scaramuzza { .. }, ..) => return Err(RigSpecError::ScaleOfScaramuzza),
+            (_, Some(focal), _) => focal,
+            (_, None, fov) => {
+                let asked = fov.unwrap_or(defaults::FISHEYE_FOV);
+                let half = model.max_angle();
+                let limit = 2.0 * half.to_degrees();
+                let radius = (asked > 0.0 && asked <= limit)
+                    .then(|| model.radius_at((asked / 2.0).to_radians()))
+                    .flatten()
+                    .filter(|r| *r > 0.0 && r.is_finite());
+                let Some(radius) = radius else {
+                    return Err(RigSpecError::LensFieldOfView {
+                        asked,
+                        lens: model.name(),
+                        limit,
+                        half: half.to_degrees(),
+                    });
+                };
+                f64::from(width.min(height)) / 2.0 / radius
+            }
+        };
+        Ok(LensCamera {
+            intrinsics: Pinhole {
+                position: DVec3::ZERO,
+                width,
+                height,
+                fx: focal,
+                fy: focal,
+                cx,
+                cy,
+            },
+            model,
+        })
+    }
 }
 
 impl OmniSpec {

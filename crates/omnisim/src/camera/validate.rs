@@ -4,7 +4,7 @@
 
 use glam::dvec2;
 
-use super::{Camera, Catadioptric, MirrorShape, Pinhole, StereoRig};
+use super::{Camera, Catadioptric, LensCamera, MirrorShape, Pinhole, StereoRig};
 
 /// Most pixels one image may have (a frame holds about 40 bytes a pixel in memory).
 pub const MAX_PIXELS: u64 = 100_000_000;
@@ -65,7 +65,7 @@ fn number(v: f64) -> String {
     }
 }
 
-fn within(name: &'static str, value: f64, range: (f64, f64), unit: &'static str) -> Result<(), CameraError> {
+pub(super) fn within(name: &'static str, value: f64, range: (f64, f64), unit: &'static str) -> Result<(), CameraError> {
     if value >= range.0 && value <= range.1 {
         Ok(())
     } else {
@@ -99,6 +99,7 @@ impl Camera {
                 within("cylindrical cy", c.cy, PIXELS, "px")
             }
             Camera::Catadioptric(c) => c.validate(),
+            Camera::Lens(c) => c.validate(),
         }
     }
 }
@@ -116,6 +117,42 @@ impl Pinhole {
         }
         Ok(())
     }
+}
+
+impl LensCamera {
+    /// Checks focal lengths, principal point, position and the lens's parameters, then that
+    /// a grid of at most 64×64 pixels finds one inside the lens's field of view.
+    pub fn validate(&self) -> Result<(), CameraError> {
+        self.intrinsics.validate()?;
+        self.model.check()?;
+        let (width, height) = self.size();
+        if sampled_pixels(width, height).any(|(u, v)| self.ray(dvec2(u, v)).is_some()) {
+            Ok(())
+        } else {
+            Err(CameraError::NoImage(format!(
+                "no pixel is inside the {} lens's field of view ({:.1}° off axis at most); the focal length or \
+                 principal point put it outside the image",
+                self.model.name(),
+                self.model.max_angle().to_degrees()
+            )))
+        }
+    }
+}
+
+/// The spacing of a grid of at most 64×64 pixels over the image.
+fn grid_step(width: u32, height: u32) -> f64 {
+    (f64::from(width.max(height)) / 64.0).max(1.0)
+}
+
+/// Pixel centres on a grid of at most 64×64 over the image.
+fn sampled_pixels(width: u32, height: u32) -> impl Iterator<Item = (f64, f64)> {
+    let step = grid_step(width, height);
+    let samples = move |size: u32| {
+        (0..)
+            .map(move |k| f64::from(k) * step)
+            .take_while(move |&p| p < f64::from(size))
+    };
+    samples(height).flat_map(move |v| samples(width).map(move |u| (u, v)))
 }
 
 impl StereoRig {
@@ -173,24 +210,17 @@ impl Catadioptric {
         for value in self.misalignment.tilt.to_array() {
             within("misalignment tilt", value, TURN, "rad")?;
         }
-        let step = (f64::from(self.width.max(self.height)) / 64.0).max(1.0);
-        let samples = |size: u32| {
-            (0..)
-                .map(move |k| f64::from(k) * step)
-                .take_while(move |&p| p < f64::from(size))
-        };
-        let sees = samples(self.height).any(|v| {
-            samples(self.width).any(|u| {
-                self.ray(dvec2(u, v))
-                    .is_some_and(|r| r.direction.is_finite() && r.origin.is_finite() && r.t_min.is_finite())
-            })
+        let sees = sampled_pixels(self.width, self.height).any(|(u, v)| {
+            self.ray(dvec2(u, v))
+                .is_some_and(|r| r.direction.is_finite() && r.origin.is_finite() && r.t_min.is_finite())
         });
         if sees {
             Ok(())
         } else {
             Err(CameraError::NoImage(format!(
-                "no pixel (sampled every {step:.0} px) sees the mirror; the rim, focal length, hidden centre or \
-                 misalignment put it outside the image"
+                "no pixel (sampled every {:.0} px) sees the mirror; the rim, focal length, hidden centre or \
+                 misalignment put it outside the image",
+                grid_step(self.width, self.height)
             )))
         }
     }

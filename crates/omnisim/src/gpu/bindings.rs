@@ -40,10 +40,12 @@ pub(crate) const EDGE_COLOURS: Binding = binding(6, "edge_colours", Access::Read
 pub(crate) const LIGHTS: Binding = binding(7, "lights", Access::Read);
 pub(crate) const SHADING: Binding = binding(8, "shading", Access::Uniform);
 pub(crate) const SHADED: Binding = binding(9, "shaded", Access::ReadWrite);
+/// The ray table of a lens camera (`camera_table.wgsl`), uploaded once per camera.
+pub(crate) const CAMERA_RAYS: Binding = binding(10, "camera_rays", Access::Read);
 
 /// Every binding of the program.
 #[cfg(test)]
-pub(crate) const ALL: [Binding; 10] = [
+pub(crate) const ALL: [Binding; 11] = [
     CAMERA,
     NODES,
     TRIANGLES,
@@ -54,6 +56,7 @@ pub(crate) const ALL: [Binding; 10] = [
     LIGHTS,
     SHADING,
     SHADED,
+    CAMERA_RAYS,
 ];
 
 /// An entry point and the bindings it uses, in binding order.
@@ -66,7 +69,7 @@ pub(crate) struct Stage {
 /// Tracing: camera rays through the BVH into hit planes.
 pub(crate) const TRACE: Stage = Stage {
     entry_point: shader::ENTRY_POINT,
-    bindings: &[CAMERA, NODES, TRIANGLES, HITS],
+    bindings: &[CAMERA, NODES, TRIANGLES, HITS, CAMERA_RAYS],
 };
 
 /// Shading the hit planes (shadow rays walk the BVH).
@@ -87,6 +90,7 @@ pub(crate) const REFINE: Stage = Stage {
         EDGE_COLOURS,
         LIGHTS,
         SHADING,
+        CAMERA_RAYS,
     ],
 };
 
@@ -95,20 +99,23 @@ pub(crate) const REFINE: Stage = Stage {
 pub(crate) const STAGES: [&Stage; 3] = [&TRACE, &SHADE, &REFINE];
 
 /// The WGSL constant naming each camera model, and its number in `CameraParams.kind`.
-pub(crate) const CAMERA_KINDS: [(&str, u32); 4] = [
+pub(crate) const CAMERA_KINDS: [(&str, u32); 5] = [
     ("CAMERA_PINHOLE", 0),
     ("CAMERA_EQUIRECTANGULAR", 1),
     ("CAMERA_CATADIOPTRIC", 2),
     ("CAMERA_CYLINDRICAL", 3),
+    ("CAMERA_TABLE", 4),
 ];
 
-/// The number the shader's `camera.kind` switch knows `camera` by.
+/// The number the shader's `camera.kind` switch knows `camera` by: lens cameras read their
+/// rays from the table (`CAMERA_RAYS`).
 pub(crate) fn camera_kind(camera: &Camera) -> u32 {
     let index = match camera {
         Camera::Pinhole(_) => 0,
         Camera::Equirectangular(_) => 1,
         Camera::Catadioptric(_) => 2,
         Camera::Cylindrical(_) => 3,
+        Camera::Lens(_) => 4,
     };
     CAMERA_KINDS[index].1
 }

@@ -51,6 +51,9 @@ pub enum GpuError {
         /// Image height, pixels.
         height: u32,
     },
+    /// A camera model with no GPU ray generation.
+    #[error("the GPU backend has no rays for the {0} lens; render it with --backend cpu")]
+    NoGpuCamera(&'static str),
 }
 
 /// The adapter and device in use, and the limits every buffer is checked against.

@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
-pub(crate) const FILES: [(&str, &str); 9] = [
+pub(crate) const FILES: [(&str, &str); 10] = [
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     (
         "camera_pinhole.wgsl",
@@ -20,6 +20,10 @@ pub(crate) const FILES: [(&str, &str); 9] = [
     (
         "camera_catadioptric.wgsl",
         include_str!("../../../../shaders/camera_catadioptric.wgsl"),
+    ),
+    (
+        "camera_table.wgsl",
+        include_str!("../../../../shaders/camera_table.wgsl"),
     ),
     ("bvh.wgsl", include_str!("../../../../shaders/bvh.wgsl")),
     ("trace.wgsl", include_str!("../../../../shaders/trace.wgsl")),

@@ -4,12 +4,16 @@
 //! the adapter's storage-binding limit (128 MiB on lavapipe).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+
+use rayon::prelude::*;
 
 use glam::{DMat3, DVec3, Vec3};
 use wgpu::util::DeviceExt;
 
 use super::bindings::{
-    self, Binding, CAMERA, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING, Stage, TRIANGLES,
+    self, Binding, CAMERA, CAMERA_RAYS, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING,
+    Stage, TRIANGLES,
 };
 use super::context::{GpuContext, GpuError};
 use super::layout::{CameraParams, FrameBlock, MirrorBlock, PixelHit, ProjectionBlock, ShadedPixel};
@@ -30,6 +34,10 @@ pub struct GpuRenderer {
     shade: Pipeline,
     refine: Pipeline,
     max_band_rows: Option<u32>,
+    /// The ray table of the last lens camera traced (`camera_table.wgsl`), uploaded once per
+    /// camera; other cameras bind `no_rays`.
+    rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
+    no_rays: Arc<wgpu::Buffer>,
 }
 
 /// A compute pipeline with the explicit layout of its stage's bindings (`bindings.rs`).
@@ -80,12 +88,20 @@ impl GpuRenderer {
                 stage,
             }
         };
+        let no_rays = Arc::new(device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("no camera rays"),
+            size: 16,
+            usage: wgpu::BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        }));
         Self {
             trace: pipeline_for(&bindings::TRACE),
             shade: pipeline_for(&bindings::SHADE),
             refine: pipeline_for(&bindings::REFINE),
             context,
             max_band_rows: None,
+            rays: Mutex::new(None),
+            no_rays,
         }
     }
 
@@ -139,6 +155,49 @@ impl GpuRenderer {
         self.run_bands(scene, camera, pose, frame, planes, HitSource::Upload(&hits))
     }
 
+    /// The ray table of a lens camera (made and uploaded on its first frame, kept while the
+    /// same camera is traced); a placeholder for the cameras the shader computes rays for.
+    fn camera_rays(&self, camera: &Camera) -> Result<Arc<wgpu::Buffer>, GpuError> {
+        if !matches!(camera, Camera::Lens(_)) {
+            return Ok(Arc::clone(&self.no_rays));
+        }
+        let mut cache = self.rays.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((cached, buffer)) = cache.as_ref()
+            && cached == camera
+        {
+            return Ok(Arc::clone(buffer));
+        }
+        let (width, height) = camera.size();
+        let pixels = width as usize * height as usize;
+        let bytes = pixels as u64 * 16;
+        let limit = self.context.storage_limit();
+        if bytes > limit {
+            return Err(GpuError::SceneTooLarge {
+                buffer: "camera ray table (16 bytes a pixel)",
+                bytes,
+                limit,
+            });
+        }
+        let table: Vec<[f32; 4]> = (0..pixels)
+            .into_par_iter()
+            .map(|index| match camera.pixel_ray(index) {
+                Some(ray) => ray.direction.as_vec3().extend(1.0).to_array(),
+                None => [0.0; 4],
+            })
+            .collect();
+        let buffer = Arc::new(
+            self.context
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("camera rays"),
+                    contents: bytemuck::cast_slice(&table),
+                    usage: wgpu::BufferUsages::STORAGE,
+                }),
+        );
+        *cache = Some((camera.clone(), Arc::clone(&buffer)));
+        Ok(buffer)
+    }
+
     fn run_bands(
         &self,
         scene: &GpuScene,
@@ -160,6 +219,7 @@ impl GpuRenderer {
             return Err(GpuError::ImageTooWide { width, height });
         }
         let mut params = camera_params(camera, pose, scene.offset);
+        let rays = self.camera_rays(camera)?;
         let shade = planes.needs_shading();
         // Consecutive frames of one size (trajectories, grids) reuse their buffers.
         let mut cache = scene.band.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -174,6 +234,7 @@ impl GpuRenderer {
                 (NODES, &scene.nodes),
                 (TRIANGLES, &scene.triangles),
                 (HITS, &buffers.hits),
+                (CAMERA_RAYS, &rays),
             ],
         );
         let shade_group = self.bind_group(
@@ -272,6 +333,10 @@ impl GpuRenderer {
         if samples_per_axis <= 1 || edges.is_empty() {
             return Ok(0);
         }
+        if let Camera::Lens(_) = camera {
+            // The table holds pixel centres only; the renderer refines lens cameras on the CPU.
+            return Err(GpuError::NoGpuCamera(camera.model_name()));
+        }
         let device = &self.context.device;
         let mut params = camera_params(camera, pose, scene.offset);
         params.frame.samples_per_axis = samples_per_axis;
@@ -306,6 +371,7 @@ impl GpuRenderer {
                 (EDGE_COLOURS, &colours),
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
+                (CAMERA_RAYS, &self.no_rays),
             ],
         );
         let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
@@ -526,6 +592,7 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
             params.mirror.central = u32::from(c.is_central());
             params.mirror.shortcut = u32::from(c.rays == MirrorRays::Shortcut);
         }
+        Camera::Lens(c) => params.projection.lens_origin = vector(c.intrinsics.position),
     }
     params
 }

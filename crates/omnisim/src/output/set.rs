@@ -177,7 +177,7 @@ impl OutputSet {
                 parts.push((name, views * (Planes::HITS.with(plane).bytes_per_pixel() - hits)));
             }
         }
-        let pinhole = matches!(rig.first_camera(), Camera::Pinhole(_));
+        let pinhole = rig.first_camera().depth_frame().is_some();
         let writers = [
             self.range,
             self.depth && pinhole,
@@ -230,7 +230,7 @@ impl OutputSet {
             super::write_range_exr(&exr, frame, camera, self.exr_compression)?;
             written.push(exr);
         }
-        if let (true, Camera::Pinhole(pinhole)) = (self.depth, camera) {
+        if let (true, Some(pinhole)) = (self.depth, camera.depth_frame()) {
             let depth = pinhole.axial_depth(frame, target.pose);
             let depth_png = target.path(folder, &format!("{suffix}-depth.png"))?;
             super::write_tum_depth_png(&depth_png, size, &depth)?;
@@ -406,6 +406,7 @@ fn calibration_files(rig: &Rig) -> Vec<(&'static str, String)> {
                 _ => Vec::new(),
             }
         }
+        Rig::Single(Camera::Lens(lens)) => calibration::lens_files(lens),
         Rig::Single(Camera::Equirectangular(_) | Camera::Cylindrical(_)) => Vec::new(),
     }
 }

@@ -1,0 +1,244 @@
+//! Lens cameras through the renderer and against independent readers: range and z-depth at
+//! the image border against the closed-form distance to the room's planes (past 180° where
+//! the lens reaches), and every calibration file a lens writes read by `OpenCV`, Kalibr's
+//! equations and `OCamCalib`'s functions in Python (`tests/readers/check_lens_calibration.py`),
+//! which must project the same points to omnisim's pixels within 1e-6 px.
+
+mod common;
+
+use std::fmt::Write;
+use std::path::Path;
+use std::process::Command;
+
+use glam::{DVec3, dvec2, dvec3};
+use omnisim::advanced::SceneBvh;
+use omnisim::advanced::trace;
+use omnisim::calibration;
+use omnisim::camera::{FisheyeSpec, LensCamera, LensSpec, PinholeSpec, RigSpec};
+use omnisim::{Camera, Pose, Scene};
+
+/// The room: x in [-2, 2], y in [-3, 3], z in [0, 3] (a box seen from inside).
+const ROOM: (DVec3, DVec3) = (DVec3::new(-2.0, -3.0, 0.0), DVec3::new(2.0, 3.0, 3.0));
+
+fn room() -> Scene {
+    Scene::from_ron(
+        r#"Scene(name: "room", objects: [
+            Box(name: "room", size: (4.0, 6.0, 3.0), position: (0.0, 0.0, 0.0), colour: (200, 180, 160)),
+        ])"#,
+        Path::new("lens-room.ron"),
+    )
+    .expect("the room")
+}
+
+/// Distance from `origin` inside the room along unit `direction` to the first plane it meets.
+fn distance_to_room(origin: DVec3, direction: DVec3) -> f64 {
+    (0..3)
+        .filter(|&axis| direction[axis] != 0.0)
+        .map(|axis| {
+            let wall = if direction[axis] > 0.0 {
+                ROOM.1[axis]
+            } else {
+                ROOM.0[axis]
+            };
+            (wall - origin[axis]) / direction[axis]
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn fisheye(lens: LensSpec, fov: Option<f64>) -> RigSpec {
+    RigSpec::Fisheye(FisheyeSpec {
+        size: (96, 80),
+        lens,
+        fov,
+        focal: None,
+    })
+}
+
+/// One camera of each lens family, wide where the lens allows.
+fn lens_rigs() -> Vec<RigSpec> {
+    let pinhole = |distortion: &[f64]| {
+        RigSpec::Pinhole(PinholeSpec {
+            size: (96, 80),
+            hfov: 100.0,
+            focal: None,
+            distortion: Some(distortion.to_vec()),
+        })
+    };
+    vec![
+        pinhole(&[-0.3, 0.09, 1e-3, -2e-3]),
+        pinhole(&[-0.28, 0.07, 1e-3, -2e-3, 0.01, 0.02, -0.01, 0.005]),
+        pinhole(&[
+            -0.28, 0.07, 1e-3, -2e-3, 0.01, 0.02, -0.01, 0.005, 1e-3, -1e-3, 2e-3, 5e-4,
+        ]),
+        fisheye(
+            LensSpec::KannalaBrandt {
+                k: [0.02, -0.004, 1e-4, -2e-5],
+            },
+            Some(250.0),
+        ),
+        fisheye(LensSpec::Equisolid, Some(260.0)),
+        fisheye(LensSpec::DoubleSphere { xi: -0.2, alpha: 0.6 }, Some(230.0)),
+        fisheye(LensSpec::Eucm { alpha: 0.6, beta: 1.1 }, Some(240.0)),
+        fisheye(
+            LensSpec::Unified {
+                xi: 1.3,
+                distortion: [-0.05, 0.01, 1e-4, -2e-4],
+            },
+            Some(250.0),
+        ),
+        fisheye(
+            LensSpec::Scaramuzza {
+                poly: vec![-40.0, 0.0, 8e-3, -3e-5, 1.5e-8],
+                affine: (1.0003, 2e-4, -1e-4),
+            },
+            None,
+        ),
+    ]
+}
+
+#[test]
+fn range_and_depth_at_the_border_are_the_distance_to_the_plane() {
+    let scene = room();
+    let bvh = SceneBvh::build(&scene);
+    let pose = Pose::new(dvec3(0.3, -0.2, 1.4), dvec3(0.1, -0.2, 0.5));
+    let world_from_body = pose.world_from_body_rotation();
+    for spec in lens_rigs() {
+        let lens = common::lens_camera(&spec);
+        let name = lens.model.name();
+        let camera = Camera::Lens(Box::new(lens.clone()));
+        let frame = trace(&bvh, &camera, &pose);
+        let depth = lens.intrinsics.axial_depth(&frame, &pose);
+        let axis = world_from_body * dvec3(1.0, 0.0, 0.0);
+        let (width, height) = lens.size();
+        let (mut border, mut past_90) = (0, 0);
+        for v in 0..height {
+            for u in 0..width {
+                if !(u == 0 || v == 0 || u == width - 1 || v == height - 1) {
+                    continue;
+                }
+                let pixel = frame.pixel(u, v);
+                let Some(ray) = camera.ray(dvec2(f64::from(u), f64::from(v))) else {
+                    assert!(!pixel.is_hit(), "{name} ({u},{v}): a pixel without a ray is background");
+                    continue;
+                };
+                let direction = world_from_body * ray.direction;
+                let expected = distance_to_room(pose.position, direction);
+                assert!(pixel.is_hit(), "{name} ({u},{v}): the closed room is hit everywhere");
+                let hit = pixel.point - pose.position;
+                assert!(
+                    (hit.length() - expected).abs() <= 1e-9 * expected,
+                    "{name} ({u},{v}): range {} vs the plane's {expected}",
+                    hit.length()
+                );
+                assert!((f64::from(pixel.range) - expected).abs() <= 1e-6 * expected);
+                let z = expected * direction.dot(axis);
+                let index = (v * width + u) as usize;
+                assert!(
+                    (f64::from(depth[index]) - z).abs() <= 1e-6 * expected,
+                    "{name}: z-depth"
+                );
+                border += 1;
+                past_90 += usize::from(z < 0.0);
+            }
+        }
+        assert!(border > 20, "{name}: {border} border pixels with rays");
+        eprintln!("{name}: {border} border pixels, {past_90} past 90° off axis");
+        if lens.model.max_angle() > 1.7 && !matches!(spec, RigSpec::Pinhole(_)) {
+            assert!(past_90 > 0, "{name}: the border sees past 90°");
+        }
+    }
+}
+
+/// Points around a camera, in its body frame, that it sees.
+fn seen_points(lens: &LensCamera) -> Vec<(DVec3, glam::DVec2)> {
+    let (width, height) = lens.size();
+    let mut points = Vec::new();
+    for i in 0..4000 {
+        let t = f64::from(i);
+        let point =
+            dvec3((t * 0.37).sin(), (t * 0.91).cos(), (t * 0.13).sin() * 0.8) * (1.0 + (t * 0.07).sin().abs() * 3.0);
+        if let Some(pixel) = lens.project(point)
+            && pixel.x >= -0.5
+            && pixel.y >= -0.5
+            && pixel.x <= f64::from(width) - 0.5
+            && pixel.y <= f64::from(height) - 0.5
+        {
+            points.push((point, pixel));
+        }
+    }
+    points
+}
+
+#[test]
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn opencv_kalibr_and_ocamcalib_read_the_calibration_files_to_omnisims_pixels() {
+    let python = std::env::var_os("OMNISIM_PYTHON")
+        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
+    let dir = tempfile::tempdir().unwrap();
+    for (index, spec) in lens_rigs().iter().enumerate() {
+        let lens = common::lens_camera(spec);
+        let files = calibration::lens_files(&lens);
+        if files.is_empty() {
+            // The ideal equisolid, stereographic and orthographic lenses have no tool's format.
+            continue;
+        }
+        let folder = dir.path().join(format!("{index}-{}", lens.model.name()));
+        std::fs::create_dir(&folder).unwrap();
+        for (name, text) in files {
+            std::fs::write(folder.join(name), text).unwrap();
+        }
+        let mut table = String::from("# body x y z, omnisim's u v (f64)\n");
+        let points = seen_points(&lens);
+        assert!(points.len() > 100, "{}: {} points", lens.model.name(), points.len());
+        for (point, pixel) in points {
+            let _ = writeln!(
+                table,
+                "{:?} {:?} {:?} {:?} {:?}",
+                point.x, point.y, point.z, pixel.x, pixel.y
+            );
+        }
+        std::fs::write(folder.join("points.txt"), table).unwrap();
+    }
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let check = Command::new(python)
+        .arg("tests/readers/check_lens_calibration.py")
+        .arg(dir.path())
+        .current_dir(workspace)
+        .output()
+        .expect("the reader check's Python runs");
+    let stdout = String::from_utf8_lossy(&check.stdout);
+    eprintln!("{stdout}");
+    assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
+    assert!(stdout.contains("8 lenses checked"), "{stdout}");
+}
+
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn the_gpu_reads_the_ray_table_in_bands_and_refines_lens_edges_like_the_cpu() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let mut gpu = common::gpu_tracer(&scene, &bvh);
+    let cpu = common::cpu_tracer(&scene, &bvh);
+    let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
+    let camera = Camera::Lens(Box::new(common::lens_camera(&lens_rigs()[3])));
+    let whole = gpu.render(&camera, &pose).unwrap();
+    gpu.renderer.gpu_renderer().unwrap().limit_band_rows(7);
+    let banded = gpu.render(&camera, &pose).unwrap();
+    assert_eq!(whole, banded, "bands index the table by their absolute rows");
+    // Edge samples of a lens camera are traced by the CPU on either backend: the same colours.
+    let antialiased = |tracer: &common::Tracer| {
+        tracer
+            .renderer
+            .render_antialiased(&tracer.scene, &camera, &pose, omnisim::Planes::COLOUR, 3)
+            .unwrap()
+    };
+    let (reference, refined) = (antialiased(&cpu), antialiased(&gpu));
+    let close = reference
+        .colour()
+        .unwrap()
+        .iter()
+        .zip(refined.colour().unwrap())
+        .filter(|(r, g)| (0..3).all(|k| r[k].abs_diff(g[k]) <= 1))
+        .count();
+    assert!(close as f64 >= 0.999 * reference.pixels().len() as f64, "{close}");
+}
