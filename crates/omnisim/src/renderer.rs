@@ -215,7 +215,8 @@ impl Renderer {
                 let mut frame = self.rays.trace(self.cpu_tracer, &prepared.geometry, camera, pose);
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
-                    shade::shade_frame(self.cpu_tracer, geometry, appearance, &mut frame, planes);
+                    let view = shade::View { camera, pose };
+                    shade::shade_frame(self.cpu_tracer, geometry, appearance, view, &mut frame, planes);
                 }
                 frame
             }
@@ -272,7 +273,6 @@ impl Renderer {
 
     /// Shades `frame` again with `prepared`'s current appearance, without tracing: what a
     /// change of colours or lights costs.
-    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
     pub fn reshade(
         &self,
         prepared: &PreparedScene,
@@ -284,7 +284,17 @@ impl Renderer {
         match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
-            None => shade::shade_frame(self.cpu_tracer, &prepared.geometry, &prepared.appearance, frame, planes),
+            None => {
+                let view = shade::View { camera, pose };
+                shade::shade_frame(
+                    self.cpu_tracer,
+                    &prepared.geometry,
+                    &prepared.appearance,
+                    view,
+                    frame,
+                    planes,
+                );
+            }
         }
         Ok(())
     }

@@ -40,10 +40,12 @@ pub(crate) const EDGE_COLOURS: Binding = binding(6, "edge_colours", Access::Read
 pub(crate) const LIGHTS: Binding = binding(7, "lights", Access::Read);
 pub(crate) const SHADING: Binding = binding(8, "shading", Access::Uniform);
 pub(crate) const SHADED: Binding = binding(9, "shaded", Access::ReadWrite);
+pub(crate) const SURFACES: Binding = binding(10, "surfaces", Access::Read);
+pub(crate) const TEXTURES: Binding = binding(11, "textures", Access::Read);
 
 /// Every binding of the program.
 #[cfg(test)]
-pub(crate) const ALL: [Binding; 10] = [
+pub(crate) const ALL: [Binding; 12] = [
     CAMERA,
     NODES,
     TRIANGLES,
@@ -54,6 +56,8 @@ pub(crate) const ALL: [Binding; 10] = [
     LIGHTS,
     SHADING,
     SHADED,
+    SURFACES,
+    TEXTURES,
 ];
 
 /// An entry point and the bindings it uses, in binding order.
@@ -72,7 +76,9 @@ pub(crate) const TRACE: Stage = Stage {
 /// Shading the hit planes (shadow rays walk the BVH).
 pub(crate) const SHADE: Stage = Stage {
     entry_point: shader::SHADE_ENTRY_POINT,
-    bindings: &[CAMERA, NODES, TRIANGLES, MATERIALS, HITS, LIGHTS, SHADING, SHADED],
+    bindings: &[
+        CAMERA, NODES, TRIANGLES, MATERIALS, HITS, LIGHTS, SHADING, SHADED, SURFACES, TEXTURES,
+    ],
 };
 
 /// Edge supersampling: traced and shaded again at sub-pixel positions.
@@ -87,6 +93,8 @@ pub(crate) const REFINE: Stage = Stage {
         EDGE_COLOURS,
         LIGHTS,
         SHADING,
+        SURFACES,
+        TEXTURES,
     ],
 };
 

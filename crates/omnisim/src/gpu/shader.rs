@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
-pub(crate) const FILES: [(&str, &str); 9] = [
+pub(crate) const FILES: [(&str, &str); 10] = [
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     (
         "camera_pinhole.wgsl",
@@ -23,6 +23,7 @@ pub(crate) const FILES: [(&str, &str); 9] = [
     ),
     ("bvh.wgsl", include_str!("../../../../shaders/bvh.wgsl")),
     ("trace.wgsl", include_str!("../../../../shaders/trace.wgsl")),
+    ("texture.wgsl", include_str!("../../../../shaders/texture.wgsl")),
     ("shade.wgsl", include_str!("../../../../shaders/shade.wgsl")),
     ("antialias.wgsl", include_str!("../../../../shaders/antialias.wgsl")),
 ];

@@ -9,7 +9,8 @@ use glam::{DMat3, DVec3, Vec3};
 use wgpu::util::DeviceExt;
 
 use super::bindings::{
-    self, Binding, CAMERA, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING, Stage, TRIANGLES,
+    self, Binding, CAMERA, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING, SURFACES, Stage,
+    TEXTURES, TRIANGLES,
 };
 use super::context::{GpuContext, GpuError};
 use super::layout::{CameraParams, FrameBlock, MirrorBlock, PixelHit, ProjectionBlock, ShadedPixel};
@@ -187,6 +188,8 @@ impl GpuRenderer {
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
                 (SHADED, &buffers.shaded),
+                (SURFACES, &scene.surfaces),
+                (TEXTURES, &scene.textures),
             ],
         );
         let pixel_count = width as usize * height as usize;
@@ -306,6 +309,8 @@ impl GpuRenderer {
                 (EDGE_COLOURS, &colours),
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
+                (SURFACES, &scene.surfaces),
+                (TEXTURES, &scene.textures),
             ],
         );
         let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);

@@ -4,15 +4,72 @@
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 
-use glam::{DVec3, dvec3};
+use glam::{DVec2, DVec3, dvec3};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Encoding, Property, PropertyAccess, PropertyAccessResult};
+
+use super::library::TextureBank;
+use super::lighting::srgb_to_linear;
+use super::surface::{ColourMap, Surface, UvMap, gradient};
+use super::texture::Wrap;
 
 /// One triangle of a mesh, in the mesh file's own coordinates.
 pub(super) struct MeshTriangle {
     pub vertices: [DVec3; 3],
     /// Face colour from the file (face colour, else the mean of vertex colours), if any.
     pub colour: Option<[u8; 3]>,
+    /// Texture (index in the scene's texture bank), wrap and corner (u, v), v down.
+    pub texture: Option<CornerUvs>,
+    /// sRGB vertex colours, interpolated across the triangle (in linear light).
+    pub corner_colours: Option<[[u8; 3]; 3]>,
+}
+
+/// A mesh triangle's texture coordinates.
+pub(super) struct CornerUvs {
+    pub texture: u32,
+    pub wrap: [Wrap; 2],
+    pub uv: [DVec2; 3],
+}
+
+impl MeshTriangle {
+    /// The surface of this triangle once placed at `world` corners; `None` without texture or
+    /// vertex colours (or for a triangle without area, which is dropped anyway).
+    pub(super) fn surface(&self, world: &[DVec3]) -> Option<Surface> {
+        if self.texture.is_none() && self.corner_colours.is_none() {
+            return None;
+        }
+        let corners = [world[0], world[1], world[2]];
+        let affine = |values: [f64; 3]| gradient(corners, values).map(|g| (values[0], g));
+        let uv = match &self.texture {
+            None => None,
+            Some(t) => {
+                let (u0, gu) = affine(t.uv.map(|uv| uv.x))?;
+                let (v0, gv) = affine(t.uv.map(|uv| uv.y))?;
+                Some(UvMap {
+                    texture: t.texture,
+                    wrap: t.wrap,
+                    at_anchor: DVec2::new(u0, v0),
+                    gradient: [gu, gv],
+                })
+            }
+        };
+        let colours = match self.corner_colours {
+            None => None,
+            Some(c) => {
+                let channel = |k: usize| affine(c.map(|rgb| srgb_to_linear(rgb[k])));
+                let (r, g, b) = (channel(0)?, channel(1)?, channel(2)?);
+                Some(ColourMap {
+                    at_anchor: DVec3::new(r.0, g.0, b.0),
+                    gradient: [r.1, g.1, b.1],
+                })
+            }
+        };
+        Some(Surface {
+            anchor: corners[0],
+            uv,
+            colours,
+        })
+    }
 }
 
 /// Most triangles one mesh may have (about 15 GB of memory at 300 bytes each): a lying or
@@ -21,7 +78,7 @@ pub(crate) const MAX_MESH_TRIANGLES: usize = 50_000_000;
 
 /// Reads a mesh file. `path` must be a regular file of at most [`crate::input::MESH_LIMIT`]
 /// bytes; errors name the file and a position, never the bytes found there.
-pub(super) fn load(path: &Path) -> Result<Vec<MeshTriangle>, String> {
+pub(super) fn load(path: &Path, _bank: &mut TextureBank) -> Result<Vec<MeshTriangle>, String> {
     let reader = crate::input::open_regular(path, crate::input::MESH_LIMIT).map_err(|e| match e {
         crate::input::InputError::Io { error, .. } if error.kind() == std::io::ErrorKind::NotFound => format!(
             "{}: file not found; mesh paths are relative to the scene file's folder",
@@ -252,6 +309,8 @@ fn load_ply(reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
             triangles.push(MeshTriangle {
                 vertices: [point(corners[0]), point(corners[k]), point(corners[k + 1])],
                 colour: face_colour,
+                texture: None,
+                corner_colours: None,
             });
         }
     }
@@ -301,6 +360,8 @@ fn load_obj(mut reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
             triangles.push(MeshTriangle {
                 vertices: [position(t[0])?, position(t[1])?, position(t[2])?],
                 colour: mean_colour(t.iter().map(|&i| colour(i))),
+                texture: None,
+                corner_colours: None,
             });
         }
     }

@@ -66,7 +66,12 @@ pub(crate) fn supersample_edges(
             let mut linear = DVec3::ZERO;
             for offset in sample_offsets(samples_per_axis) {
                 let hit = tracer.trace_pixel(bvh, camera, &local, centre + offset);
-                let sample = shade::shade(tracer, bvh, appearance, &hit);
+                let footprint = if appearance.needs_footprint(hit.face) {
+                    shade::Footprint::of_pixel(camera, pose, centre + offset)
+                } else {
+                    shade::Footprint::POINT
+                };
+                let sample = shade::shade(tracer, bvh, appearance, &hit, &footprint);
                 let colour = if hit.is_hit() {
                     shade::encode(sample)
                 } else {
@@ -131,7 +136,18 @@ mod tests {
         let appearance = Appearance::of(&scene);
         let mut frame = trace::trace(&bvh, &camera, &pose);
         let tracer = CpuTracer::Reference;
-        crate::shade::shade_frame(tracer, &bvh, &appearance, &mut frame, crate::frame::Planes::COLOUR);
+        let view = crate::shade::View {
+            camera: &camera,
+            pose: &pose,
+        };
+        crate::shade::shade_frame(
+            tracer,
+            &bvh,
+            &appearance,
+            view,
+            &mut frame,
+            crate::frame::Planes::COLOUR,
+        );
         let edges = edge_pixels(&frame);
         assert!(!edges.is_empty() && edges.iter().all(|&i| (3..=5).contains(&(i % 9))));
         let refined = supersample_edges(tracer, &bvh, &appearance, &camera, &pose, &mut frame, 4);
