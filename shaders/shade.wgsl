@@ -10,7 +10,7 @@ const SHADOW_OFFSET: f32 = 1e-5;
 // Linear colour of a hit seen through `pixel` (1.0 = full scale).
 fn shade(point: vec3<f32>, normal: vec3<f32>, face: u32, pixel: vec2<f32>) -> vec3<f32> {
     let material = materials[face];
-    let albedo = material.rgb * surface_albedo(material.surface, point, normal, pixel);
+    let albedo = surface_albedo(material.rgb, material.surface, point, normal, pixel);
     if shading.lit == 0u {
         return albedo;
     }

@@ -19,7 +19,7 @@ struct GpuSurface {
     u_at_anchor: f32,
     v_gradient: vec3<f32>,
     v_at_anchor: f32,
-    // Linear vertex colour at the anchor (white without vertex colours).
+    // Linear vertex colour at the anchor (used where has_colours is 1).
     colour_at_anchor: vec3<f32>,
     level_count: u32,
     red_gradient: vec3<f32>,
@@ -27,7 +27,8 @@ struct GpuSurface {
     green_gradient: vec3<f32>,
     wrap_v: u32,
     blue_gradient: vec3<f32>,
-    _pad: u32,
+    // 1: the vertex colours replace the face colour.
+    has_colours: u32,
 }
 
 @group(0) @binding(10) var<storage, read> surfaces: array<GpuSurface>;
@@ -94,16 +95,20 @@ fn footprint_side(pixel: vec2<f32>, step: vec2<f32>, point: vec3<f32>, normal: v
     return origin + t * direction - point;
 }
 
-// The texture and vertex-colour factor of surface `index` at a hit seen through `pixel`.
-fn surface_albedo(index: u32, point: vec3<f32>, normal: vec3<f32>, pixel: vec2<f32>) -> vec3<f32> {
+// The albedo of a face of colour `colour` and surface `index` at a hit seen through `pixel`:
+// the colour (or the vertex colours), times the texture filtered to the pixel's footprint.
+fn surface_albedo(colour: vec3<f32>, index: u32, point: vec3<f32>, normal: vec3<f32>, pixel: vec2<f32>) -> vec3<f32> {
     if index == NO_SURFACE {
-        return vec3<f32>(1.0);
+        return colour;
     }
     let surface = surfaces[index];
     let d = point - surface.anchor;
-    let colour = surface.colour_at_anchor
-        + vec3<f32>(dot(surface.red_gradient, d), dot(surface.green_gradient, d), dot(surface.blue_gradient, d));
-    var factor = clamp(colour, vec3<f32>(0.0), vec3<f32>(1.0));
+    var factor = colour;
+    if surface.has_colours != 0u {
+        let interpolated = surface.colour_at_anchor
+            + vec3<f32>(dot(surface.red_gradient, d), dot(surface.green_gradient, d), dot(surface.blue_gradient, d));
+        factor = clamp(interpolated, vec3<f32>(0.0), vec3<f32>(1.0));
+    }
     if surface.levels_at == NO_TEXTURE {
         return factor;
     }

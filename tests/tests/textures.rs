@@ -45,11 +45,17 @@ fn image_rgb(width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
     out
 }
 
-/// The bilinear texel of the 4×3 texture at (u, v) with clamped edges, in linear light: the
-/// textbook definition (texel centres at (i + ½) / size), written out here independently.
-fn bilinear_closed_form(u: f64, v: f64) -> DVec3 {
+/// The bilinear texel of the 4×3 texture at (u, v) with clamped (or repeated) edges, in linear
+/// light: the textbook definition (texel centres at (i + ½) / size), written out here
+/// independently.
+fn bilinear_closed_form(u: f64, v: f64, repeat: bool) -> DVec3 {
     let texel = |x: i64, y: i64| {
-        let c = TEXELS[(y.clamp(0, 2) * 4 + x.clamp(0, 3)) as usize];
+        let (x, y) = if repeat {
+            (x.rem_euclid(4), y.rem_euclid(3))
+        } else {
+            (x.clamp(0, 3), y.clamp(0, 2))
+        };
+        let c = TEXELS[(y * 4 + x) as usize];
         DVec3::new(srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]))
     };
     let (x, y) = (u * 4.0 - 0.5, v * 3.0 - 0.5);
@@ -80,7 +86,7 @@ fn closed_form_uv(direction: DVec3) -> DVec2 {
     DVec2::new((1.0 - point.y) / 2.0, (0.75 - point.z) / 1.5)
 }
 
-fn check_texels_exact(tracer: &common::Tracer) {
+fn check_texels_exact(tracer: &common::Tracer, repeat: bool) {
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
     let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
     let frame = tracer.render(&camera, &pose).unwrap();
@@ -94,7 +100,7 @@ fn check_texels_exact(tracer: &common::Tracer) {
             }
             let ray = camera.ray(DVec2::new(f64::from(u), f64::from(v))).unwrap();
             let uv = closed_form_uv(ray.direction);
-            let expected = bilinear_closed_form(uv.x, uv.y).to_array().map(linear_to_srgb);
+            let expected = bilinear_closed_form(uv.x, uv.y, repeat).to_array().map(linear_to_srgb);
             for k in 0..3 {
                 assert!(
                     colour[index][k].abs_diff(expected[k]) <= 1,
@@ -112,7 +118,7 @@ fn check_texels_exact(tracer: &common::Tracer) {
 fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_cpu() {
     let folder = tempfile::tempdir().unwrap();
     let scene = textured_square(folder.path());
-    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)));
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
 }
 
 #[test]
@@ -120,7 +126,204 @@ fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_cpu() {
 fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_gpu() {
     let folder = tempfile::tempdir().unwrap();
     let scene = textured_square(folder.path());
-    check_texels_exact(&common::gpu_tracer(&scene, &SceneBvh::build(&scene)));
+    check_texels_exact(&common::gpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+}
+
+/// The square of `textured_square` as a mesh file of `format` (written by this test), its
+/// texture coordinates v up as OBJ and PLY have them.
+fn square_mesh(folder: &Path, format: &str) -> Scene {
+    write_texture(folder);
+    let corners = ["2 1 0.75", "2 1 -0.75", "2 -1 -0.75", "2 -1 0.75"];
+    let uvs = ["0 1", "0 0", "1 0", "1 1"];
+    let file = if format == "obj" {
+        std::fs::write(folder.join("square.mtl"), "newmtl tiles\nKd 1 1 1\nmap_Kd tiles.png\n").unwrap();
+        let mut text = String::from("mtllib square.mtl\nusemtl tiles\n");
+        corners.iter().for_each(|c| text += &format!("v {c}\n"));
+        uvs.iter().for_each(|uv| text += &format!("vt {uv}\n"));
+        text += "f 1/1 2/2 3/3 4/4\n";
+        std::fs::write(folder.join("square.obj"), text).unwrap();
+        "square.obj"
+    } else {
+        let mut text = String::from(
+            "ply\nformat ascii 1.0\ncomment TextureFile tiles.png\nelement vertex 4\nproperty float x\n\
+                 property float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\n\
+                 property list uchar float texcoord\nend_header\n",
+        );
+        corners.iter().for_each(|c| text += &format!("{c}\n"));
+        text += &format!("3 0 1 2 6 {} {} {}\n", uvs[0], uvs[1], uvs[2]);
+        text += &format!("3 0 2 3 6 {} {} {}\n", uvs[0], uvs[2], uvs[3]);
+        std::fs::write(folder.join("square.ply"), text).unwrap();
+        "square.ply"
+    };
+    let text = format!(r#"Scene(name: "mesh", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#);
+    Scene::from_ron(&text, &folder.join("mesh.ron")).unwrap()
+}
+
+#[test]
+fn obj_with_mtl_and_ply_with_texcoords_map_their_textures_exactly() {
+    for format in ["obj", "ply"] {
+        let folder = tempfile::tempdir().unwrap();
+        let scene = square_mesh(folder.path(), format);
+        assert_eq!(scene.faces.len(), 2, "{format}");
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), true);
+    }
+}
+
+#[test]
+fn ply_vertex_colours_are_interpolated_across_each_triangle() {
+    let folder = tempfile::tempdir().unwrap();
+    let corners = [dvec3(2.0, 1.0, -0.75), dvec3(2.0, -1.0, -0.75), dvec3(2.0, 0.0, 0.75)];
+    let colours = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255]];
+    let mut text = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n",
+    );
+    for (p, c) in corners.iter().zip(colours) {
+        text += &format!("{} {} {} {} {} {}\n", p.x, p.y, p.z, c[0], c[1], c[2]);
+    }
+    text += "3 0 1 2\n";
+    std::fs::write(folder.path().join("fan.ply"), text).unwrap();
+    let scene = Scene::from_ron(
+        r#"Scene(name: "fan", objects: [Mesh(name: "fan", path: "fan.ply", colour: (9, 9, 9))])"#,
+        &folder.path().join("fan.ron"),
+    )
+    .unwrap();
+    let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(64, 48, 60f64.to_radians()));
+    let frame = tracer.render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO)).unwrap();
+    let mut checked = 0;
+    for (i, hit) in frame.pixels().iter().enumerate() {
+        if !hit.is_hit() {
+            continue;
+        }
+        // Barycentric weights of the hit point (the triangle lies in x = 2).
+        let area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).x;
+        let total = area(corners[0], corners[1], corners[2]);
+        let w = [
+            area(hit.point, corners[1], corners[2]) / total,
+            area(corners[0], hit.point, corners[2]) / total,
+            area(corners[0], corners[1], hit.point) / total,
+        ];
+        let expected = (0..3).fold(DVec3::ZERO, |sum, k| {
+            sum + w[k] * DVec3::from_array(colours[k].map(srgb_to_linear))
+        });
+        let expected = expected.to_array().map(linear_to_srgb);
+        let got = frame.colour().unwrap()[i];
+        assert!(
+            (0..3).all(|k| got[k].abs_diff(expected[k]) <= 1),
+            "pixel {i}: {got:?} vs {expected:?}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 300, "{checked}");
+}
+
+/// The error loading a scene whose mesh `name` holds `text` (and the 4×3 texture beside it).
+fn mesh_error(name: &str, text: impl AsRef<[u8]>, extra: &[(&str, &str)]) -> String {
+    let folder = tempfile::tempdir().unwrap();
+    write_texture(folder.path());
+    std::fs::write(folder.path().join(name), text).unwrap();
+    for (file, content) in extra {
+        std::fs::write(folder.path().join(file), content).unwrap();
+    }
+    let scene = format!(r#"Scene(name: "bad", objects: [Mesh(name: "bad", path: "{name}", colour: (9, 9, 9))])"#);
+    Scene::from_ron(&scene, &folder.path().join("bad.ron"))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn bad_textured_meshes_get_located_errors() {
+    let ply = |comment: &str, face: &str| {
+        format!(
+            "ply\nformat ascii 1.0\n{comment}element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             element face 1\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\nend_header\n\
+             0 0 0\n1 0 0\n0 1 0\n{face}\n"
+        )
+    };
+    // A binary PLY triangle whose second corner's u is NaN (ASCII PLY has no NaN).
+    let mut binary = b"ply\nformat binary_little_endian 1.0\ncomment TextureFile tiles.png\nelement vertex 3\n\
+        property float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+        property list uchar float texcoord\nend_header\n"
+        .to_vec();
+    for value in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        binary.extend(value.to_le_bytes());
+    }
+    binary.push(3);
+    for index in [0i32, 1, 2] {
+        binary.extend(index.to_le_bytes());
+    }
+    binary.push(6);
+    for value in [0.0f32, 0.0, f32::NAN, 0.0, 0.0, 1.0] {
+        binary.extend(value.to_le_bytes());
+    }
+    let cases = [
+        (
+            "missing texture",
+            mesh_error(
+                "a.ply",
+                ply("comment TextureFile gone.png\n", "3 0 1 2 6 0 0 1 0 0 1"),
+                &[],
+            ),
+            "gone.png: file not found",
+        ),
+        (
+            "NaN UV",
+            mesh_error("a.ply", &binary, &[]),
+            "face 0: texture coordinate (NaN, 0) is not finite",
+        ),
+        (
+            "index out of range",
+            mesh_error(
+                "a.ply",
+                ply("comment TextureFile tiles.png\n", "3 0 1 7 6 0 0 1 0 0 1"),
+                &[],
+            ),
+            "face 0 refers to vertex 7",
+        ),
+        (
+            "texture outside",
+            mesh_error(
+                "a.ply",
+                ply("comment TextureFile ../tiles.png\n", "3 0 1 2 6 0 0 1 0 0 1"),
+                &[],
+            ),
+            "must be relative",
+        ),
+        (
+            "mtllib outside",
+            mesh_error("a.obj", "mtllib ../x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &[]),
+            "mtllib path '../x.mtl' must be relative",
+        ),
+        (
+            "missing mtllib",
+            mesh_error("a.obj", "mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &[]),
+            "x.mtl",
+        ),
+        (
+            "missing map_Kd",
+            mesh_error(
+                "a.obj",
+                "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\n",
+                &[("m.mtl", "newmtl a\nmap_Kd nope.jpg\n")],
+            ),
+            "nope.jpg: file not found",
+        ),
+        (
+            "obj NaN UV",
+            mesh_error(
+                "a.obj",
+                "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt nan 0\nf 1/1 2/1 3/1\n",
+                &[("m.mtl", "newmtl a\nmap_Kd tiles.png\n")],
+            ),
+            "not finite",
+        ),
+    ];
+    for (what, error, expected) in cases {
+        assert!(error.contains(expected) && error.contains("bad.ron"), "{what}: {error}");
+    }
 }
 
 /// A 200 m floor with a 5 mm black-and-white checker, seen at grazing angles by a pinhole
@@ -261,6 +464,46 @@ fn footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_mod
             compared > 100,
             "{}: only {compared} footprints compared",
             common::describe(camera)
+        );
+    }
+}
+
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
+    let scene = common::load("env1-textured.ron");
+    let bvh = SceneBvh::build(&scene);
+    let (cpu, gpu) = (common::cpu_tracer(&scene, &bvh), common::gpu_tracer(&scene, &bvh));
+    let pose = Pose::from_degrees(dvec3(1.0, 0.0, 0.4), dvec3(0.0, 0.0, 200.0));
+    for camera in [
+        Camera::Catadioptric(common::paper_omni()),
+        Camera::Pinhole(Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians())),
+        Camera::Equirectangular(Equirectangular {
+            width: 512,
+            height: 256,
+        }),
+    ] {
+        let planes = Planes::COLOUR.with(Plane::LinearColour);
+        let (a, b) = (
+            cpu.render_planes(&camera, &pose, planes).unwrap(),
+            gpu.render_planes(&camera, &pose, planes).unwrap(),
+        );
+        let (la, lb) = (a.linear_colour().unwrap(), b.linear_colour().unwrap());
+        let (mut compared, mut worst) = (0usize, 0f32);
+        for i in 0..a.pixels().len() {
+            if a.pixels()[i].face != b.pixels()[i].face || !a.pixels()[i].is_hit() {
+                continue;
+            }
+            compared += 1;
+            let difference = (0..3).map(|k| (la[i][k] - lb[i][k]).abs()).fold(0.0, f32::max);
+            worst = worst.max(difference);
+        }
+        // f32 hit points move a texture coordinate by ~1e-6 of a repeat and the level of detail
+        // by as little (measured on lavapipe: at most 2e-5 in linear light).
+        assert!(
+            compared > 40_000 && worst <= 1e-3,
+            "{}: worst linear difference {worst} over {compared} pixels",
+            common::describe(&camera)
         );
     }
 }

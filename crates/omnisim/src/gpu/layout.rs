@@ -133,7 +133,8 @@ pub(crate) struct GpuSurface {
     pub(crate) green_gradient: [f32; 3],
     pub(crate) wrap_v: u32,
     pub(crate) blue_gradient: [f32; 3],
-    pub(crate) _pad: u32,
+    /// 1: the vertex colours replace the face colour.
+    pub(crate) has_colours: u32,
 }
 
 /// WGSL twin: `ShadingParams`.
@@ -275,7 +276,7 @@ pub(crate) fn host_layouts() -> Vec<StructLayout> {
                 ("green_gradient", offset_of!(GpuSurface, green_gradient)),
                 ("wrap_v", offset_of!(GpuSurface, wrap_v)),
                 ("blue_gradient", offset_of!(GpuSurface, blue_gradient)),
-                ("_pad", offset_of!(GpuSurface, _pad)),
+                ("has_colours", offset_of!(GpuSurface, has_colours)),
             ],
         ),
         (

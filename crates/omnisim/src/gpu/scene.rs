@@ -158,7 +158,6 @@ fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32
             let mut out = GpuSurface::zeroed();
             out.anchor = f32s(s.anchor - offset);
             out.levels_at = u32::MAX;
-            out.colour_at_anchor = [1.0; 3];
             if let Some(uv) = &s.uv {
                 out.levels_at = levels_at[uv.texture as usize];
                 out.level_count = surfaces.textures[uv.texture as usize].levels.len() as u32;
@@ -171,6 +170,7 @@ fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32
                 out.red_gradient = f32s(c.gradient[0]);
                 out.green_gradient = f32s(c.gradient[1]);
                 out.blue_gradient = f32s(c.gradient[2]);
+                out.has_colours = 1;
             }
             out
         })

@@ -264,7 +264,7 @@ pub struct MeshFile {
     pub name: String,
     /// PLY or OBJ file, relative to the scene file's folder.
     pub path: String,
-    /// Colour of faces the mesh file gives no colour.
+    /// Colour of faces the mesh file gives no colour, texture or vertex colours.
     pub colour: Rgb,
     /// Uniform scale applied first (e.g. 0.001 for a mesh in millimetres).
     #[serde(default = "one")]

@@ -519,7 +519,11 @@ fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path, bank: &mut Texture
                 .iter()
                 .map(|v| position + world_from_object * (*v * m.scale))
                 .collect();
-            let colour = triangle.colour.map(|c| (c[0], c[1], c[2])).unwrap_or(m.colour);
+            // A textured triangle without a colour of its own shows its texture untinted.
+            let colour = triangle
+                .colour
+                .or(triangle.texture.as_ref().map(|_| [255; 3]))
+                .map_or(m.colour, |c| (c[0], c[1], c[2]));
             let surface = triangle.surface(&vertices);
             (vertices, colour, surface)
         })

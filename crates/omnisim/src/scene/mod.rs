@@ -11,6 +11,7 @@ mod library;
 pub mod lighting;
 mod mesh;
 mod names;
+mod obj;
 pub mod pattern;
 pub mod surface;
 pub mod texture;

@@ -72,8 +72,9 @@ pub struct ColourMap {
     pub gradient: [DVec3; 3],
 }
 
-/// A face's varying albedo: texture, vertex colours, or both (multiplied, and by the face's
-/// colour, which is the tint or glTF's `baseColorFactor`).
+/// A face's varying albedo: vertex colours (which replace the face's colour), a texture (which
+/// multiplies the face's colour or the vertex colours: the face colour is then a tint, glTF's
+/// `baseColorFactor`, MTL's `Kd`), or both.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Surface {
     /// Where the affine functions are anchored (a vertex of the face), world metres.

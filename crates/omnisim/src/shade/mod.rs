@@ -63,31 +63,28 @@ impl Appearance {
     }
 }
 
-/// Linear albedo of a hit: the face colour, times its texture filtered to `footprint` and its
-/// vertex colours where it has them.
+/// Linear albedo of a hit: the face colour (or its vertex colours where it has them), times its
+/// texture filtered to `footprint` where it has one.
 fn albedo(appearance: &Appearance, hit: &Pixel, footprint: &Footprint) -> DVec3 {
     let colour = linear_rgb(appearance.face_colours[hit.face as usize]);
-    match appearance.surfaces.of(hit.face) {
+    let Some(surface) = appearance.surfaces.of(hit.face) else {
+        return colour;
+    };
+    let base = match &surface.colours {
+        Some(colours) => Surface::colour_at(colours, surface.anchor, hit.point).clamp(DVec3::ZERO, DVec3::ONE),
         None => colour,
-        Some(surface) => colour * surface_albedo(&appearance.surfaces, surface, hit, footprint),
+    };
+    match &surface.uv {
+        None => base,
+        Some(map) => {
+            let texture = &appearance.surfaces.textures[map.texture as usize];
+            let uv = Surface::uv_at(map, surface.anchor, hit.point);
+            let sides = footprint.on_plane(hit.point, hit.normal.as_dvec3());
+            let steps = sides.map(|side| DVec2::new(map.gradient[0].dot(side), map.gradient[1].dot(side)));
+            let lod = filter::level_of_detail(texture.size(), steps);
+            base * filter::trilinear(texture, map.wrap, uv, lod)
+        }
     }
-}
-
-/// The texture and vertex-colour factor of `surface` at a hit.
-fn surface_albedo(surfaces: &Surfaces, surface: &Surface, hit: &Pixel, footprint: &Footprint) -> DVec3 {
-    let mut factor = DVec3::ONE;
-    if let Some(colours) = &surface.colours {
-        factor *= Surface::colour_at(colours, surface.anchor, hit.point).clamp(DVec3::ZERO, DVec3::ONE);
-    }
-    if let Some(map) = &surface.uv {
-        let texture = &surfaces.textures[map.texture as usize];
-        let uv = Surface::uv_at(map, surface.anchor, hit.point);
-        let sides = footprint.on_plane(hit.point, hit.normal.as_dvec3());
-        let steps = sides.map(|side| DVec2::new(map.gradient[0].dot(side), map.gradient[1].dot(side)));
-        let lod = filter::level_of_detail(texture.size(), steps);
-        factor *= filter::trilinear(texture, map.wrap, uv, lod);
-    }
-    factor
 }
 
 /// Linear colour of one hit (1.0 = full scale); black where nothing is hit. `tracer` traces
