@@ -11,7 +11,7 @@ const SHADOW_OFFSET: f32 = 1e-5;
 fn shade(point: vec3<f32>, normal: vec3<f32>, face: u32, pixel: vec2<f32>) -> vec3<f32> {
     let material = materials[face];
     let albedo = surface_albedo(material.rgb, material.surface, point, normal, pixel);
-    if shading.lit == 0u {
+    if shading.lit == 0u || is_unlit(material.surface) {
         return albedo;
     }
     let extent = abs(point);

@@ -7,6 +7,10 @@ const NO_TEXTURE: u32 = 0xffffffffu;
 const WRAP_REPEAT: u32 = 0u;
 const WRAP_CLAMP: u32 = 1u;
 const WRAP_MIRROR: u32 = 2u;
+// GpuSurface.flags: the vertex colours replace the face colour; drawn in its albedo whatever
+// the lights.
+const SURFACE_COLOURS: u32 = 1u;
+const SURFACE_UNLIT: u32 = 2u;
 
 // A face's surface: u, v and the vertex colours as affine functions of the hit point,
 // value + gradient · (point − anchor). Host twin: gpu/layout.rs GpuSurface.
@@ -27,8 +31,8 @@ struct GpuSurface {
     green_gradient: vec3<f32>,
     wrap_v: u32,
     blue_gradient: vec3<f32>,
-    // 1: the vertex colours replace the face colour.
-    has_colours: u32,
+    // SURFACE_COLOURS | SURFACE_UNLIT.
+    flags: u32,
 }
 
 @group(0) @binding(10) var<storage, read> surfaces: array<GpuSurface>;
@@ -95,6 +99,11 @@ fn footprint_side(pixel: vec2<f32>, step: vec2<f32>, point: vec3<f32>, normal: v
     return origin + t * direction - point;
 }
 
+// Whether surface `index` is drawn in its albedo whatever the lights.
+fn is_unlit(index: u32) -> bool {
+    return index != NO_SURFACE && (surfaces[index].flags & SURFACE_UNLIT) != 0u;
+}
+
 // The albedo of a face of colour `colour` and surface `index` at a hit seen through `pixel`:
 // the colour (or the vertex colours), times the texture filtered to the pixel's footprint.
 fn surface_albedo(colour: vec3<f32>, index: u32, point: vec3<f32>, normal: vec3<f32>, pixel: vec2<f32>) -> vec3<f32> {
@@ -104,7 +113,7 @@ fn surface_albedo(colour: vec3<f32>, index: u32, point: vec3<f32>, normal: vec3<
     let surface = surfaces[index];
     let d = point - surface.anchor;
     var factor = colour;
-    if surface.has_colours != 0u {
+    if (surface.flags & SURFACE_COLOURS) != 0u {
         let interpolated = surface.colour_at_anchor
             + vec3<f32>(dot(surface.red_gradient, d), dot(surface.green_gradient, d), dot(surface.blue_gradient, d));
         factor = clamp(interpolated, vec3<f32>(0.0), vec3<f32>(1.0));

@@ -507,3 +507,175 @@ fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
         );
     }
 }
+
+/// A GLB container of `json` and the binary chunk `bin` (both padded to 4 bytes).
+fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
+    let mut json = serde_json::to_vec(json).unwrap();
+    json.resize(json.len().div_ceil(4) * 4, b' ');
+    let mut bin = bin.to_vec();
+    bin.resize(bin.len().div_ceil(4) * 4, 0);
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(json);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    out
+}
+
+/// The textured square as a GLB: the square lies in its node's xy plane, placed at x = 2
+/// facing the origin by a parent node (scale 2, translation) and a child (rotation, scale ½);
+/// the 4×3 texture is embedded, clamped. `uv` maps each local (u, v) to what the file
+/// stores, and `extension` is added to the texture info (`KHR_texture_transform` tests).
+fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>, mode: u32) -> Vec<u8> {
+    let corners = [
+        [-1.0f32, 0.75, 0.0],
+        [-1.0, -0.75, 0.0],
+        [1.0, -0.75, 0.0],
+        [1.0, 0.75, 0.0],
+    ];
+    let uvs = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(0.0, 1.0),
+        DVec2::new(1.0, 1.0),
+        DVec2::new(1.0, 0.0),
+    ]
+    .map(uv);
+    let mut bin: Vec<u8> = corners.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    bin.extend(
+        uvs.iter()
+            .flat_map(|uv| [uv.x as f32, uv.y as f32])
+            .flat_map(f32::to_le_bytes),
+    );
+    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    bin.extend([0, 0]);
+    let png_at = bin.len();
+    let png = image_rgb(4, 3, &TEXELS.iter().flatten().copied().collect::<Vec<u8>>());
+    bin.extend(&png);
+    // Local x → world −y, y → z, z → −x (a proper rotation).
+    let rotation = glam::DQuat::from_mat3(&glam::DMat3::from_cols(-DVec3::Y, DVec3::Z, -DVec3::X));
+    let mut info = serde_json::json!({"index": 0});
+    if let Some(extension) = extension {
+        info["extensions"] = serde_json::json!({ "KHR_texture_transform": extension });
+    }
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_texture_transform"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [
+            {"children": [1], "translation": [2.0, 0.0, 0.0], "scale": [2.0, 2.0, 2.0]},
+            {"mesh": 0, "rotation": [rotation.x, rotation.y, rotation.z, rotation.w], "scale": [0.5, 0.5, 0.5]}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0, "mode": mode}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": info}}],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33071}],
+        "images": [{"bufferView": 3, "mimeType": "image/png"}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1.0, -0.75, 0.0], "max": [1.0, 0.75, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+            {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()}
+        ],
+        "buffers": [{"byteLength": bin.len()}]
+    });
+    glb(&json, &bin)
+}
+
+fn load_glb(bytes: &[u8]) -> Result<Scene, omnisim::SceneError> {
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::write(folder.path().join("square.glb"), bytes).unwrap();
+    Scene::from_ron(
+        r#"Scene(name: "glb", objects: [Mesh(name: "square", path: "square.glb", colour: (9, 9, 9))])"#,
+        &folder.path().join("glb.ron"),
+    )
+}
+
+#[test]
+fn a_glb_square_through_its_node_hierarchy_maps_its_embedded_texture_exactly() {
+    let scene = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+}
+
+#[test]
+fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
+    // offset + R(rotation)·(scale ⊙ uv), the extension's formula, baked into the file's
+    // coordinates, against the same coordinates left to the extension.
+    let (offset, rotation, scale) = (DVec2::new(0.1, -0.2), 0.3f64, DVec2::new(1.5, 0.75));
+    let inverse = |t: DVec2| {
+        let (sin, cos) = rotation.sin_cos();
+        let r = t - offset;
+        DVec2::new(cos * r.x + sin * r.y, -sin * r.x + cos * r.y) / scale
+    };
+    let transform =
+        serde_json::json!({"offset": [offset.x, offset.y], "rotation": rotation, "scale": [scale.x, scale.y]});
+    let plain = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
+    let transformed = load_glb(&square_glb(inverse, Some(transform), 4)).unwrap();
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
+    let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
+    let render = |scene: &Scene| {
+        let tracer = common::cpu_tracer(scene, &SceneBvh::build(scene));
+        tracer.render(&camera, &pose).unwrap().colour().unwrap().to_vec()
+    };
+    let (a, b) = (render(&plain), render(&transformed));
+    let worst = a
+        .iter()
+        .zip(&b)
+        .flat_map(|(x, y)| (0..3).map(move |k| x[k].abs_diff(y[k])))
+        .max()
+        .unwrap();
+    assert!(worst <= 1, "largest difference {worst}/255");
+}
+
+#[test]
+fn bad_gltf_files_get_located_errors_without_panicking() {
+    let good = square_glb(|uv| uv, None, 4);
+    let error = |bytes: &[u8]| load_glb(bytes).map(|_| ()).unwrap_err().to_string();
+    let truncated = error(&good[..good.len() - 300]);
+    assert!(
+        truncated.contains("square.glb") && truncated.contains("glb.ron"),
+        "{truncated}"
+    );
+    assert!(
+        error(&good[..40]).contains("not a readable glTF"),
+        "{}",
+        error(&good[..40])
+    );
+    let lines = error(&square_glb(|uv| uv, None, 1));
+    assert!(
+        lines.contains("mesh 0 primitive 0") && lines.contains("triangle primitives only"),
+        "{lines}"
+    );
+    let nan = error(&square_glb(
+        |uv| if uv.x > 0.5 { DVec2::new(f64::NAN, uv.y) } else { uv },
+        None,
+        4,
+    ));
+    assert!(nan.contains("not finite"), "{nan}");
+    // Index 7 of 4 vertices, and a required extension omnisim lacks.
+    let mut bytes = good.clone();
+    let at = bytes
+        .windows(12)
+        .position(|w| w == [0, 0, 1, 0, 2, 0, 0, 0, 2, 0, 3, 0])
+        .unwrap();
+    bytes[at + 2] = 7;
+    let out_of_range = error(&bytes);
+    assert!(out_of_range.contains("index 7 is out of range"), "{out_of_range}");
+    let json_end = 20 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
+    json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    let draco = error(&glb(&json, &good[json_end + 8..]));
+    assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
+}

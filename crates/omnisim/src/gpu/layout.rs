@@ -133,9 +133,14 @@ pub(crate) struct GpuSurface {
     pub(crate) green_gradient: [f32; 3],
     pub(crate) wrap_v: u32,
     pub(crate) blue_gradient: [f32; 3],
-    /// 1: the vertex colours replace the face colour.
-    pub(crate) has_colours: u32,
+    /// [`SURFACE_COLOURS`] | [`SURFACE_UNLIT`].
+    pub(crate) flags: u32,
 }
+
+/// `GpuSurface::flags` bit: the vertex colours replace the face colour (WGSL `SURFACE_COLOURS`).
+pub(crate) const SURFACE_COLOURS: u32 = 1;
+/// `GpuSurface::flags` bit: drawn in its albedo whatever the lights (WGSL `SURFACE_UNLIT`).
+pub(crate) const SURFACE_UNLIT: u32 = 2;
 
 /// WGSL twin: `ShadingParams`.
 #[repr(C)]
@@ -276,7 +281,7 @@ pub(crate) fn host_layouts() -> Vec<StructLayout> {
                 ("green_gradient", offset_of!(GpuSurface, green_gradient)),
                 ("wrap_v", offset_of!(GpuSurface, wrap_v)),
                 ("blue_gradient", offset_of!(GpuSurface, blue_gradient)),
-                ("has_colours", offset_of!(GpuSurface, has_colours)),
+                ("flags", offset_of!(GpuSurface, flags)),
             ],
         ),
         (

@@ -9,7 +9,7 @@ use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
-use super::layout::{GpuLight, GpuMaterial, GpuSurface, ShadingParams, Triangle};
+use super::layout::{GpuLight, GpuMaterial, GpuSurface, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams, Triangle};
 use super::shader;
 use crate::accel::SceneBvh;
 use crate::scene::lighting::{LightKind, linear_rgb};
@@ -158,6 +158,9 @@ fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32
             let mut out = GpuSurface::zeroed();
             out.anchor = f32s(s.anchor - offset);
             out.levels_at = u32::MAX;
+            if s.unlit {
+                out.flags |= SURFACE_UNLIT;
+            }
             if let Some(uv) = &s.uv {
                 out.levels_at = levels_at[uv.texture as usize];
                 out.level_count = surfaces.textures[uv.texture as usize].levels.len() as u32;
@@ -170,7 +173,7 @@ fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32
                 out.red_gradient = f32s(c.gradient[0]);
                 out.green_gradient = f32s(c.gradient[1]);
                 out.blue_gradient = f32s(c.gradient[2]);
-                out.has_colours = 1;
+                out.flags |= SURFACE_COLOURS;
             }
             out
         })

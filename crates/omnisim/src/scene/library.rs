@@ -189,6 +189,7 @@ impl Placement {
                 gradient,
             }),
             colours: None,
+            unlit: false,
         }
     }
 }

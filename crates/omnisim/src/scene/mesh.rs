@@ -1,4 +1,5 @@
-//! Reads triangle meshes (PLY through ply-rs-bw, OBJ through tobj) so that real-world geometry
+//! Reads triangle meshes (PLY through ply-rs-bw here, OBJ through tobj in `obj.rs`, glTF in
+//! `gltf.rs`) so that real-world geometry
 //! and other tools' scenes can be placed in a scene.
 
 use std::io::{BufRead, BufReader};
@@ -22,6 +23,8 @@ pub(super) struct MeshTriangle {
     pub texture: Option<CornerUvs>,
     /// sRGB vertex colours, interpolated across the triangle (in linear light).
     pub corner_colours: Option<[[u8; 3]; 3]>,
+    /// Drawn in its albedo whatever the lights (glTF's `KHR_materials_unlit`).
+    pub unlit: bool,
 }
 
 /// A mesh triangle's texture coordinates.
@@ -35,7 +38,7 @@ impl MeshTriangle {
     /// The surface of this triangle once placed at `world` corners; `None` without texture or
     /// vertex colours (or for a triangle without area, which is dropped anyway).
     pub(super) fn surface(&self, world: &[DVec3]) -> Option<Surface> {
-        if self.texture.is_none() && self.corner_colours.is_none() {
+        if self.texture.is_none() && self.corner_colours.is_none() && !self.unlit {
             return None;
         }
         let corners = [world[0], world[1], world[2]];
@@ -68,6 +71,7 @@ impl MeshTriangle {
             anchor: corners[0],
             uv,
             colours,
+            unlit: self.unlit,
         })
     }
 }
@@ -86,16 +90,22 @@ pub(super) fn load(path: &Path, bank: &mut TextureBank) -> Result<Vec<MeshTriang
         ),
         other => other.to_string(),
     })?;
-    let reader = BufReader::new(reader);
+    let mut reader = BufReader::new(reader);
+    let textures = &mut MeshTextures { mesh: path, bank };
     let result = match path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .as_deref()
     {
-        Some("ply") => load_ply(reader, &mut MeshTextures { mesh: path, bank }),
-        Some("obj") => super::obj::load_obj(reader, &mut MeshTextures { mesh: path, bank }),
-        _ => Err("unknown mesh format; use a .ply or .obj file".into()),
+        Some("ply") => load_ply(reader, textures),
+        Some("obj") => super::obj::load_obj(reader, textures),
+        Some("gltf" | "glb") => {
+            let mut bytes = Vec::new();
+            std::io::Read::read_to_end(&mut reader, &mut bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+            super::gltf::load_gltf(&bytes, textures)
+        }
+        _ => Err("unknown mesh format; use a .ply, .obj, .gltf or .glb file".into()),
     };
     let triangles = result.map_err(|e| format!("{}: {e}", path.display()))?;
     if triangles.is_empty() {
@@ -404,6 +414,7 @@ fn load_ply(reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<Mes
                     uv: fan.map(|c| uvs[c]),
                 }),
                 corner_colours: vertex_colours.as_ref().map(|c| fan.map(|k| c[k])),
+                unlit: false,
             });
         }
     }

@@ -7,6 +7,7 @@
 mod error;
 mod export;
 pub mod file;
+mod gltf;
 mod library;
 pub mod lighting;
 mod mesh;

@@ -116,6 +116,7 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
                     .or_else(|| mean_colour(corner_colours.iter().flatten().map(|&c| Some(c)))),
                 texture,
                 corner_colours: corner_colours.map(|c| [c[0], c[1], c[2]]),
+                unlit: false,
             });
         }
     }

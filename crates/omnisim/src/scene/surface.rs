@@ -83,6 +83,8 @@ pub struct Surface {
     pub uv: Option<UvMap>,
     /// Vertex colours, if any.
     pub colours: Option<ColourMap>,
+    /// Drawn in its albedo whatever the lights (glTF's `KHR_materials_unlit`).
+    pub unlit: bool,
 }
 
 impl Surface {

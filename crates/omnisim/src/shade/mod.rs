@@ -101,7 +101,9 @@ pub fn shade(
         return DVec3::ZERO;
     }
     let albedo = albedo(appearance, hit, footprint);
+    let unlit = appearance.surfaces.of(hit.face).is_some_and(|s| s.unlit);
     match &appearance.lighting {
+        Some(_) if unlit => albedo,
         None => albedo,
         Some(lighting) => albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white,
     }
