@@ -679,3 +679,34 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
     let draco = error(&glb(&json, &good[json_end + 8..]));
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
 }
+
+#[test]
+fn the_shipped_crate_looks_the_same_from_obj_and_gltf_and_is_textured_in_ply() {
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(160, 120, 70f64.to_radians()));
+    let pose = Pose::from_degrees(dvec3(-0.6, -0.3, 0.6), dvec3(0.0, 15.0, 15.0));
+    let render = |name: &str| {
+        let scene = common::load(name);
+        assert!(
+            !scene.surfaces.is_empty() && !scene.surfaces.textures.is_empty(),
+            "{name}"
+        );
+        let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+        tracer.render(&camera, &pose).unwrap().colour().unwrap().to_vec()
+    };
+    let (obj, gltf, ply) = (
+        render("textured-obj.ron"),
+        render("textured-gltf.ron"),
+        render("textured-ply.ron"),
+    );
+    // The same crate, texture and placement: the same image (the glTF's y-up corners come back
+    // through the scene's rotation, up to rounding).
+    let worst = obj
+        .iter()
+        .zip(&gltf)
+        .flat_map(|(a, b)| (0..3).map(move |k| a[k].abs_diff(b[k])))
+        .max()
+        .unwrap();
+    assert!(worst <= 1, "OBJ and glTF differ by {worst}/255");
+    // The PLY's vertex colours darken the crate's lower half.
+    assert!(obj.iter().zip(&ply).filter(|(a, b)| a != b).count() > 1000);
+}

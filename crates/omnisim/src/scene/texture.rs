@@ -33,6 +33,7 @@ pub enum Wrap {
 
 impl Wrap {
     /// The number the GPU knows this mode by (`WRAP_*` in `shaders/texture.wgsl`).
+    #[cfg(feature = "gpu")]
     pub(crate) fn gpu_code(self) -> u32 {
         match self {
             Wrap::Repeat => 0,
