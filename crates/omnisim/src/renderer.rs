@@ -15,6 +15,7 @@ use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::shade::antialias;
+use crate::shade::coverage::{self, Outline};
 use crate::shade::{self, Appearance};
 use crate::trace::CpuTracer;
 use crate::trace::ray_table::RayCache;
@@ -87,6 +88,8 @@ pub struct PreparedScene {
     gpu: Option<GpuScene>,
     /// Set when `auto` traces this scene on the CPU although a GPU is open, and why.
     fallback: Option<String>,
+    /// The faces' outlines, made on the first edge-supersampled render.
+    outline: std::sync::OnceLock<Outline>,
 }
 
 impl Renderer {
@@ -178,6 +181,7 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             gpu,
             fallback,
+            outline: std::sync::OnceLock::new(),
         })
     }
 
@@ -249,11 +253,13 @@ impl Renderer {
         samples_per_axis: u32,
     ) -> Result<Frame, RenderError> {
         let mut frame = self.render(prepared, camera, pose, planes)?;
-        if planes.needs_shading() {
+        if planes.needs_shading() && samples_per_axis > 1 {
+            let outline = prepared.outline.get_or_init(|| Outline::of(&prepared.geometry));
+            let edges = coverage::pixels_to_refine(&frame, &prepared.geometry, outline, camera, pose);
             match self.gpu(prepared) {
                 #[cfg(feature = "gpu")]
                 Some((renderer, gpu)) => {
-                    renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis)?;
+                    renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis, &edges)?;
                 }
                 None => {
                     antialias::supersample_edges(
@@ -264,6 +270,7 @@ impl Renderer {
                         pose,
                         &mut frame,
                         samples_per_axis,
+                        &edges,
                     );
                 }
             }

@@ -257,7 +257,7 @@ impl GpuRenderer {
         Ok(())
     }
 
-    /// Replaces the shaded planes of every edge pixel (see `antialias::edge_pixels`) by the
+    /// Replaces the shaded planes of the pixels `edges` (see `shade/coverage.rs`) by the
     /// mean of `samples_per_axis²` stratified samples traced and shaded on the GPU. Returns
     /// how many pixels were refined.
     pub(crate) fn refine_edges(
@@ -267,11 +267,9 @@ impl GpuRenderer {
         pose: &Pose,
         frame: &mut Frame,
         samples_per_axis: u32,
+        edges: &[usize],
     ) -> Result<usize, GpuError> {
-        let edges: Vec<u32> = crate::shade::antialias::edge_pixels(frame)
-            .into_iter()
-            .map(|i| i as u32)
-            .collect();
+        let edges: Vec<u32> = edges.iter().map(|&i| i as u32).collect();
         if samples_per_axis <= 1 || edges.is_empty() {
             return Ok(0);
         }

@@ -8,6 +8,7 @@
 //! `footprint.rs`, `filter.rs`) and its vertex colours where it has them (`scene/surface.rs`).
 
 pub(crate) mod antialias;
+pub(crate) mod coverage;
 pub(crate) mod filter;
 pub(crate) mod footprint;
 
