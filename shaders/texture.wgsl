@@ -81,9 +81,16 @@ fn bilinear(levels_at: u32, level: u32, uv: vec2<f32>, wrap_u: u32, wrap_v: u32)
 }
 
 // The footprint's side along one image axis on the plane through `point` with `normal`: where
-// the neighbouring pixel's ray (step ahead, else behind) meets the plane, less `point`.
+// the neighbouring pixel's ray meets the plane, less `point`.
 fn footprint_side(pixel: vec2<f32>, step: vec2<f32>, point: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
-    var ray = camera_ray(pixel + step);
+    // The neighbour ahead where it lies inside the image and has a ray, else the one behind
+    // (footprint.rs: ahead_is_inside).
+    let ahead = pixel + step;
+    let inside = ahead.x <= f32(camera.frame.width) - 1.0 && ahead.y <= f32(camera.frame.height) - 1.0;
+    var ray = miss_ray();
+    if inside {
+        ray = camera_ray(ahead);
+    }
     if !ray.valid {
         ray = camera_ray(pixel - step);
         if !ray.valid {

@@ -216,10 +216,13 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
-                let mut frame = self.rays.trace(self.cpu_tracer, &prepared.geometry, camera, pose);
+                let table = self.rays.table(camera);
+                let mut frame = self
+                    .rays
+                    .trace(self.cpu_tracer, &prepared.geometry, camera, pose, table.as_deref());
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
-                    let view = shade::View { camera, pose };
+                    let view = shade::View::new(camera, pose, table.as_deref().map(|t| t.rays.as_slice()));
                     shade::shade_frame(self.cpu_tracer, geometry, appearance, view, &mut frame, planes);
                 }
                 frame
@@ -292,7 +295,8 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
             None => {
-                let view = shade::View { camera, pose };
+                let table = self.rays.table(camera);
+                let view = shade::View::new(camera, pose, table.as_deref().map(|t| t.rays.as_slice()));
                 shade::shade_frame(
                     self.cpu_tracer,
                     &prepared.geometry,

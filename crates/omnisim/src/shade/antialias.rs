@@ -137,10 +137,7 @@ mod tests {
         let appearance = Appearance::of(&scene);
         let mut frame = trace::trace(&bvh, &camera, &pose);
         let tracer = CpuTracer::Reference;
-        let view = crate::shade::View {
-            camera: &camera,
-            pose: &pose,
-        };
+        let view = crate::shade::View::new(&camera, &pose, None);
         crate::shade::shade_frame(
             tracer,
             &bvh,

@@ -18,10 +18,10 @@ use serde::Serialize;
 
 use std::sync::Arc;
 
-use glam::DVec2;
+use glam::{DMat3, DVec2};
 
 use crate::accel::SceneBvh;
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraRay};
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -144,20 +144,45 @@ fn illuminance(tracer: CpuTracer, geometry: &SceneBvh, lighting: &Lighting, hit:
 /// The camera and pose a frame was traced with: where shading finds each pixel's footprint.
 #[derive(Clone, Copy)]
 pub(crate) struct View<'a> {
-    pub(crate) camera: &'a Camera,
-    pub(crate) pose: &'a Pose,
+    camera: &'a Camera,
+    world_from_body: DMat3,
+    position: DVec3,
+    /// The camera's ray of every pixel, row by row, where the renderer keeps them.
+    rays: Option<&'a [Option<CameraRay>]>,
 }
 
-impl View<'_> {
+impl<'a> View<'a> {
+    /// The view of `camera` at `pose`, reading neighbouring rays from `rays` (the camera's ray
+    /// table) where given.
+    pub(crate) fn new(camera: &'a Camera, pose: &Pose, rays: Option<&'a [Option<CameraRay>]>) -> Self {
+        Self {
+            camera,
+            world_from_body: pose.world_from_body_rotation(),
+            position: pose.position,
+            rays,
+        }
+    }
+
     /// The footprint of the pixel at `index` (row by row) where `appearance` textures its
     /// face, else none (untextured faces never compute one).
     fn footprint(&self, appearance: &Appearance, hit: &Pixel, index: usize) -> Footprint {
         if !appearance.needs_footprint(hit.face) {
             return Footprint::POINT;
         }
-        let width = self.camera.size().0.max(1) as usize;
+        let size = self.camera.size();
+        let width = size.0.max(1) as usize;
         let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
-        Footprint::of_pixel(self.camera, self.pose, pixel)
+        let ray_at = |p: DVec2| match self.rays {
+            // Integer pixels inside the image: the table holds exactly `camera.ray(p)`.
+            Some(rays) if p.x >= 0.0 && p.y >= 0.0 => rays.get(p.y as usize * width + p.x as usize).copied().flatten(),
+            _ => self.camera.ray(p),
+        };
+        Footprint::from_body_rays(self.world_from_body, self.position, |step| {
+            let ahead = footprint::ahead_is_inside(pixel, step, size)
+                .then(|| ray_at(pixel + step))
+                .flatten();
+            ahead.or_else(|| ray_at(pixel - step))
+        })
     }
 }
 
