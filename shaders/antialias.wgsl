@@ -20,7 +20,7 @@ fn refine_edges(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workg
     for (var sy = 0u; sy < n; sy++) {
         for (var sx = 0u; sx < n; sx++) {
             let offset = (vec2<f32>(f32(sx), f32(sy)) + 0.5) / f32(n) - 0.5;
-            let sample = shade_hit(trace_pixel(centre + offset));
+            let sample = shade_hit(trace_pixel(centre + offset), centre + offset);
             linear += sample.linear;
             encoded += vec3<u32>(unpack4x8unorm(sample.colour).rgb * 255.0 + 0.5);
         }

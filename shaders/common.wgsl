@@ -136,8 +136,13 @@ struct CameraRay {
 @group(0) @binding(0) var<uniform> camera: CameraParams;
 @group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
-// Linear albedo of each face (w unused).
-@group(0) @binding(3) var<storage, read> materials: array<vec4<f32>>;
+// A face's linear albedo (its colour; a textured face's tint) and its surface (texture.wgsl).
+struct Material {
+    rgb: vec3<f32>,
+    surface: u32,
+}
+
+@group(0) @binding(3) var<storage, read> materials: array<Material>;
 @group(0) @binding(4) var<storage, read_write> hits: array<PixelHit>;
 @group(0) @binding(7) var<storage, read> lights: array<GpuLight>;
 @group(0) @binding(8) var<uniform> shading: ShadingParams;

@@ -7,10 +7,11 @@
 // because hit points carry f32 rounding.
 const SHADOW_OFFSET: f32 = 1e-5;
 
-// Linear colour of a hit (1.0 = full scale).
-fn shade(point: vec3<f32>, normal: vec3<f32>, face: u32) -> vec3<f32> {
-    let albedo = materials[face].rgb;
-    if shading.lit == 0u {
+// Linear colour of a hit seen through `pixel` (1.0 = full scale).
+fn shade(point: vec3<f32>, normal: vec3<f32>, face: u32, pixel: vec2<f32>) -> vec3<f32> {
+    let material = materials[face];
+    let albedo = surface_albedo(material.rgb, material.surface, point, normal, pixel);
+    if shading.lit == 0u || is_unlit(material.surface) {
         return albedo;
     }
     let extent = abs(point);
@@ -52,12 +53,12 @@ fn pack_srgb(linear: vec3<f32>) -> u32 {
     return pack4x8unorm(vec4<f32>(encoded, 0.0));
 }
 
-// The shaded pixel of a hit; black where nothing is hit.
-fn shade_hit(hit: PixelHit) -> ShadedPixel {
+// The shaded pixel of a hit seen through `pixel`; black where nothing is hit.
+fn shade_hit(hit: PixelHit, pixel: vec2<f32>) -> ShadedPixel {
     if hit.face == NO_FACE {
         return ShadedPixel(vec3<f32>(0.0), 0u);
     }
-    let linear = shade(hit.point, hit.normal, hit.face);
+    let linear = shade(hit.point, hit.normal, hit.face, pixel);
     return ShadedPixel(linear, pack_srgb(linear));
 }
 
@@ -67,5 +68,5 @@ fn shade_pixels(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let index = id.y * camera.frame.width + id.x;
-    shaded[index] = shade_hit(hits[index]);
+    shaded[index] = shade_hit(hits[index], vec2<f32>(f32(id.x), f32(id.y + camera.frame.row_offset)));
 }

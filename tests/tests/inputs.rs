@@ -134,8 +134,9 @@ fn fifos_and_devices_are_refused_without_blocking() {
         "{scene_error}"
     );
     assert!(mesh_error.contains("pipe.ply is a FIFO"), "{mesh_error}");
-    // The OBJ's material file (a FIFO here) is never opened: colours come from the scene.
-    assert_eq!(obj_scene.unwrap().faces[0].colour, [1, 2, 3]);
+    // The OBJ's material file (a FIFO here) is checked before it is opened: refused, not waited on.
+    let obj_error = obj_scene.unwrap_err().to_string();
+    assert!(obj_error.contains("m.mtl is a FIFO"), "{obj_error}");
     let error = Scene::load("/dev/zero").unwrap_err().to_string();
     assert!(error.contains("is a device"), "{error}");
 }

@@ -73,6 +73,7 @@ fn shaded_value(backend: &str, tracer: &Tracer, hit: &Pixel, plane: [f32; 3]) ->
             tracer.scene.geometry(),
             tracer.scene.appearance(),
             hit,
+            &shade::Footprint::POINT,
         )
     } else {
         Vec3::from_array(plane).as_dvec3()
@@ -428,7 +429,7 @@ fn no_light_leaks_through_the_edges_and_corners_of_a_closed_box() {
             point,
             normal: Vec3::Z,
         };
-        if shade::shade(CpuTracer::Fast, &bvh, &appearance, &hit) != ambient_only {
+        if shade::shade(CpuTracer::Fast, &bvh, &appearance, &hit, &shade::Footprint::POINT) != ambient_only {
             floor_leaks.push(point);
         }
     }

@@ -236,8 +236,8 @@ fn readme_commands_and_snippets_work() {
         snippets += 1;
     }
     assert_eq!(
-        snippets, 3,
-        "README's RON examples: a scene, its lighting, a data-set spec"
+        snippets, 4,
+        "README's RON examples: a scene, a textured scene, its lighting, a data-set spec"
     );
 
     // The Rust example is the doctest of `Manifest::read`, which `cargo test --doc` compiles.

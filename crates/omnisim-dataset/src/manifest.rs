@@ -236,6 +236,38 @@ pub fn geometry_sha256(scene: &omnisim::scene::Scene) -> String {
         hash.update(face.object.to_le_bytes());
     }
     hash.update(serde_json::to_vec(&scene.lighting).unwrap_or_default());
+    // Textures and vertex colours (the finest level of each texture: the mips follow from it);
+    // a scene without them hashes as it did before they existed.
+    let surfaces = &scene.surfaces;
+    if !surfaces.is_empty() {
+        for level in surfaces.textures.iter().map(|t| &t.levels[0]) {
+            hash.update(level.width.to_le_bytes());
+            hash.update(level.height.to_le_bytes());
+            level.texels.iter().for_each(|t| hash.update(t.to_le_bytes()));
+        }
+        for index in &surfaces.of_face {
+            hash.update(index.to_le_bytes());
+        }
+        for surface in &surfaces.list {
+            let mut numbers = surface.anchor.to_array().to_vec();
+            if let Some(uv) = &surface.uv {
+                hash.update(uv.texture.to_le_bytes());
+                hash.update([uv.wrap[0] as u8, uv.wrap[1] as u8]);
+                numbers.extend(uv.at_anchor.to_array());
+                numbers.extend(uv.gradient.iter().flat_map(omnisim::glam::DVec3::to_array));
+            }
+            if let Some(colours) = &surface.colours {
+                numbers.extend(colours.at_anchor.to_array());
+                numbers.extend(colours.gradient.iter().flat_map(omnisim::glam::DVec3::to_array));
+            }
+            numbers.iter().for_each(|v| hash.update(v.to_le_bytes()));
+            hash.update([
+                u8::from(surface.uv.is_some()),
+                u8::from(surface.colours.is_some()),
+                u8::from(surface.unlit),
+            ]);
+        }
+    }
     hex(&hash.finalize())
 }
 
@@ -423,5 +455,27 @@ mod tests {
         assert_eq!(inside(&root, "map/a.png"), Some(root.join("map/a.png")));
         assert_eq!(inside(&root, "map/link/keep.txt"), None);
         assert_eq!(inside(&root, "map/file-link"), None);
+    }
+}
+
+#[cfg(test)]
+mod texture_identity_tests {
+    use super::geometry_sha256;
+    use omnisim::Scene;
+
+    #[test]
+    fn textures_count_in_the_scene_identity() {
+        let scene = |pattern: &str| {
+            let text = format!(
+                r#"Scene(name: "t", objects: [Floor(name: "f", corners: [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], colour: (255, 255, 255){pattern})])"#
+            );
+            geometry_sha256(&Scene::from_ron(&text, std::path::Path::new("t.ron")).unwrap())
+        };
+        let seed = |s: u32| {
+            format!(", texture: (pattern: Noise(low: (0, 0, 0), high: (255, 255, 255), seed: {s}), texels: 16)")
+        };
+        assert_ne!(scene(""), scene(&seed(1)));
+        assert_ne!(scene(&seed(1)), scene(&seed(2)));
+        assert_eq!(scene(&seed(1)), scene(&seed(1)));
     }
 }

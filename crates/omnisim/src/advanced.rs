@@ -10,6 +10,6 @@ pub use crate::frame::Pixel;
 #[cfg(feature = "gpu")]
 pub use crate::gpu::{GpuError, GpuRenderer};
 pub use crate::shade::antialias::edge_pixels;
-pub use crate::shade::{Appearance, encode, shade};
+pub use crate::shade::{Appearance, Footprint, encode, shade};
 pub use crate::trace::counts::TraversalCounts;
 pub use crate::trace::{CpuTracer, Hit, closest_hit, occluded, trace};

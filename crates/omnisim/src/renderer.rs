@@ -15,6 +15,7 @@ use crate::gpu::{GpuContext, GpuError, GpuRenderer, GpuScene};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::shade::antialias;
+use crate::shade::coverage::{self, Outline};
 use crate::shade::{self, Appearance};
 use crate::trace::CpuTracer;
 use crate::trace::ray_table::RayCache;
@@ -87,6 +88,8 @@ pub struct PreparedScene {
     gpu: Option<GpuScene>,
     /// Set when `auto` traces this scene on the CPU although a GPU is open, and why.
     fallback: Option<String>,
+    /// The faces' outlines, made on the first edge-supersampled render.
+    outline: std::sync::OnceLock<Outline>,
 }
 
 impl Renderer {
@@ -178,6 +181,7 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             gpu,
             fallback,
+            outline: std::sync::OnceLock::new(),
         })
     }
 
@@ -212,10 +216,14 @@ impl Renderer {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
-                let mut frame = self.rays.trace(self.cpu_tracer, &prepared.geometry, camera, pose);
+                let table = self.rays.table(camera);
+                let mut frame = self
+                    .rays
+                    .trace(self.cpu_tracer, &prepared.geometry, camera, pose, table.as_deref());
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
-                    shade::shade_frame(self.cpu_tracer, geometry, appearance, &mut frame, planes);
+                    let view = shade::View::new(camera, pose, table.as_deref().map(|t| t.rays.as_slice()));
+                    shade::shade_frame(self.cpu_tracer, geometry, appearance, view, &mut frame, planes);
                 }
                 frame
             }
@@ -248,14 +256,16 @@ impl Renderer {
         samples_per_axis: u32,
     ) -> Result<Frame, RenderError> {
         let mut frame = self.render(prepared, camera, pose, planes)?;
-        if planes.needs_shading() {
+        if planes.needs_shading() && samples_per_axis > 1 {
+            let outline = prepared.outline.get_or_init(|| Outline::of(&prepared.geometry));
+            let edges = coverage::pixels_to_refine(&frame, &prepared.geometry, outline, camera, pose);
             // The GPU's lens rays are a table of pixel centres: their sub-pixel samples are
             // traced by the CPU, exactly.
             let gpu = self.gpu(prepared).filter(|_| !matches!(camera, Camera::Lens(_)));
             match gpu {
                 #[cfg(feature = "gpu")]
                 Some((renderer, gpu)) => {
-                    renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis)?;
+                    renderer.refine_edges(gpu, camera, pose, &mut frame, samples_per_axis, &edges)?;
                 }
                 None => {
                     antialias::supersample_edges(
@@ -266,6 +276,7 @@ impl Renderer {
                         pose,
                         &mut frame,
                         samples_per_axis,
+                        &edges,
                     );
                 }
             }
@@ -275,7 +286,6 @@ impl Renderer {
 
     /// Shades `frame` again with `prepared`'s current appearance, without tracing: what a
     /// change of colours or lights costs.
-    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
     pub fn reshade(
         &self,
         prepared: &PreparedScene,
@@ -287,7 +297,18 @@ impl Renderer {
         match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
-            None => shade::shade_frame(self.cpu_tracer, &prepared.geometry, &prepared.appearance, frame, planes),
+            None => {
+                let table = self.rays.table(camera);
+                let view = shade::View::new(camera, pose, table.as_deref().map(|t| t.rays.as_slice()));
+                shade::shade_frame(
+                    self.cpu_tracer,
+                    &prepared.geometry,
+                    &prepared.appearance,
+                    view,
+                    frame,
+                    planes,
+                );
+            }
         }
         Ok(())
     }

@@ -42,10 +42,12 @@ pub(crate) const SHADING: Binding = binding(8, "shading", Access::Uniform);
 pub(crate) const SHADED: Binding = binding(9, "shaded", Access::ReadWrite);
 /// The ray table of a lens camera (`camera_table.wgsl`), uploaded once per camera.
 pub(crate) const CAMERA_RAYS: Binding = binding(10, "camera_rays", Access::Read);
+pub(crate) const SURFACES: Binding = binding(11, "surfaces", Access::Read);
+pub(crate) const TEXTURES: Binding = binding(12, "textures", Access::Read);
 
 /// Every binding of the program.
 #[cfg(test)]
-pub(crate) const ALL: [Binding; 11] = [
+pub(crate) const ALL: [Binding; 13] = [
     CAMERA,
     NODES,
     TRIANGLES,
@@ -57,6 +59,8 @@ pub(crate) const ALL: [Binding; 11] = [
     SHADING,
     SHADED,
     CAMERA_RAYS,
+    SURFACES,
+    TEXTURES,
 ];
 
 /// An entry point and the bindings it uses, in binding order.
@@ -75,7 +79,9 @@ pub(crate) const TRACE: Stage = Stage {
 /// Shading the hit planes (shadow rays walk the BVH).
 pub(crate) const SHADE: Stage = Stage {
     entry_point: shader::SHADE_ENTRY_POINT,
-    bindings: &[CAMERA, NODES, TRIANGLES, MATERIALS, HITS, LIGHTS, SHADING, SHADED],
+    bindings: &[
+        CAMERA, NODES, TRIANGLES, MATERIALS, HITS, LIGHTS, SHADING, SHADED, SURFACES, TEXTURES,
+    ],
 };
 
 /// Edge supersampling: traced and shaded again at sub-pixel positions.
@@ -91,6 +97,8 @@ pub(crate) const REFINE: Stage = Stage {
         LIGHTS,
         SHADING,
         CAMERA_RAYS,
+        SURFACES,
+        TEXTURES,
     ],
 };
 

@@ -107,6 +107,41 @@ pub(crate) struct GpuLight {
     pub(crate) _pad: u32,
 }
 
+/// WGSL twin: `Material`: a face's linear albedo and its surface's index (or `NO_SURFACE`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct GpuMaterial {
+    pub(crate) rgb: [f32; 3],
+    pub(crate) surface: u32,
+}
+
+/// WGSL twin: `GpuSurface` (`shaders/texture.wgsl`): a face's u, v and vertex colours as
+/// affine functions of the scene-local hit point, and where its texture's levels are.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct GpuSurface {
+    pub(crate) anchor: [f32; 3],
+    pub(crate) levels_at: u32,
+    pub(crate) u_gradient: [f32; 3],
+    pub(crate) u_at_anchor: f32,
+    pub(crate) v_gradient: [f32; 3],
+    pub(crate) v_at_anchor: f32,
+    pub(crate) colour_at_anchor: [f32; 3],
+    pub(crate) level_count: u32,
+    pub(crate) red_gradient: [f32; 3],
+    pub(crate) wrap_u: u32,
+    pub(crate) green_gradient: [f32; 3],
+    pub(crate) wrap_v: u32,
+    pub(crate) blue_gradient: [f32; 3],
+    /// [`SURFACE_COLOURS`] | [`SURFACE_UNLIT`].
+    pub(crate) flags: u32,
+}
+
+/// `GpuSurface::flags` bit: the vertex colours replace the face colour (WGSL `SURFACE_COLOURS`).
+pub(crate) const SURFACE_COLOURS: u32 = 1;
+/// `GpuSurface::flags` bit: drawn in its albedo whatever the lights (WGSL `SURFACE_UNLIT`).
+pub(crate) const SURFACE_UNLIT: u32 = 2;
+
 /// WGSL twin: `ShadingParams`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -219,6 +254,34 @@ pub(crate) fn host_layouts() -> Vec<StructLayout> {
                 ("vector", offset_of!(GpuLight, vector)),
                 ("kind", offset_of!(GpuLight, kind)),
                 ("strength", offset_of!(GpuLight, strength)),
+            ],
+        ),
+        (
+            "Material",
+            size_of::<GpuMaterial>(),
+            vec![
+                ("rgb", offset_of!(GpuMaterial, rgb)),
+                ("surface", offset_of!(GpuMaterial, surface)),
+            ],
+        ),
+        (
+            "GpuSurface",
+            size_of::<GpuSurface>(),
+            vec![
+                ("anchor", offset_of!(GpuSurface, anchor)),
+                ("levels_at", offset_of!(GpuSurface, levels_at)),
+                ("u_gradient", offset_of!(GpuSurface, u_gradient)),
+                ("u_at_anchor", offset_of!(GpuSurface, u_at_anchor)),
+                ("v_gradient", offset_of!(GpuSurface, v_gradient)),
+                ("v_at_anchor", offset_of!(GpuSurface, v_at_anchor)),
+                ("colour_at_anchor", offset_of!(GpuSurface, colour_at_anchor)),
+                ("level_count", offset_of!(GpuSurface, level_count)),
+                ("red_gradient", offset_of!(GpuSurface, red_gradient)),
+                ("wrap_u", offset_of!(GpuSurface, wrap_u)),
+                ("green_gradient", offset_of!(GpuSurface, green_gradient)),
+                ("wrap_v", offset_of!(GpuSurface, wrap_v)),
+                ("blue_gradient", offset_of!(GpuSurface, blue_gradient)),
+                ("flags", offset_of!(GpuSurface, flags)),
             ],
         ),
         (

@@ -9,10 +9,11 @@ use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
-use super::layout::{GpuLight, ShadingParams, Triangle};
+use super::layout::{GpuLight, GpuMaterial, GpuSurface, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams, Triangle};
 use super::shader;
 use crate::accel::SceneBvh;
 use crate::scene::lighting::{LightKind, linear_rgb};
+use crate::scene::surface::{NO_SURFACE, Surfaces};
 use crate::shade::Appearance;
 
 /// Per-frame buffers for one band size, reused between frames of one size.
@@ -34,6 +35,8 @@ pub(crate) struct GpuScene {
     pub(super) materials: wgpu::Buffer,
     pub(super) lights: wgpu::Buffer,
     pub(super) shading: wgpu::Buffer,
+    pub(super) surfaces: wgpu::Buffer,
+    pub(super) textures: wgpu::Buffer,
     pub(super) band: Mutex<Option<BandBuffers>>,
     /// Face count, fixed by the geometry; appearances must match it.
     faces: usize,
@@ -62,11 +65,14 @@ impl GpuScene {
                 _pad2: 0,
             })
             .collect();
+        let (surfaces, textures) = surface_data(bvh.offset, &appearance.surfaces);
         let limit = context.storage_limit();
         let sizes = [
             ("BVH nodes", std::mem::size_of_val(bvh.bvh.nodes.as_slice())),
             ("triangles", std::mem::size_of_val(triangles.as_slice())),
             ("materials", bvh.face_normals.len() * 16),
+            ("surfaces", std::mem::size_of_val(surfaces.as_slice())),
+            ("textures", std::mem::size_of_val(textures.as_slice())),
         ];
         if let Some(&(buffer, bytes)) = sizes.iter().find(|(_, bytes)| *bytes as u64 > limit) {
             return Err(GpuError::SceneTooLarge {
@@ -97,6 +103,8 @@ impl GpuScene {
                 contents: bytemuck::bytes_of(&shading),
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             }),
+            surfaces: storage("surfaces", bytemuck::cast_slice(&surfaces)),
+            textures: storage("textures", bytemuck::cast_slice(&textures)),
             band: Mutex::new(None),
             faces: bvh.face_normals.len(),
         })
@@ -123,13 +131,71 @@ impl GpuScene {
     }
 }
 
-/// The appearance as GPU data: linear albedo per face, lights relative to the scene offset
-/// (at least one entry, since WGSL arrays cannot be empty), and the shading uniform.
-fn appearance_data(offset: DVec3, appearance: &Appearance) -> (Vec<[f32; 4]>, Vec<GpuLight>, ShadingParams) {
+/// The surfaces and textures as GPU data (each at least one entry: WGSL arrays cannot be
+/// empty). Surfaces are uploaded with the geometry: an appearance change keeps them.
+fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32>) {
+    // Each texture's level headers (first texel, width, height), then its texels.
+    let mut textures: Vec<u32> = Vec::new();
+    let mut levels_at = Vec::with_capacity(surfaces.textures.len());
+    for texture in &surfaces.textures {
+        let header = textures.len();
+        levels_at.push(header as u32);
+        textures.resize(header + 3 * texture.levels.len(), 0);
+        for (l, level) in texture.levels.iter().enumerate() {
+            let first = textures.len() as u32;
+            textures[header + 3 * l..header + 3 * l + 3].copy_from_slice(&[first, level.width, level.height]);
+            textures.extend_from_slice(&level.texels);
+        }
+    }
+    if textures.is_empty() {
+        textures.push(0);
+    }
+    let f32s = |v: DVec3| v.as_vec3().to_array();
+    let mut gpu: Vec<GpuSurface> = surfaces
+        .list
+        .iter()
+        .map(|s| {
+            let mut out = GpuSurface::zeroed();
+            out.anchor = f32s(s.anchor - offset);
+            out.levels_at = u32::MAX;
+            if s.unlit {
+                out.flags |= SURFACE_UNLIT;
+            }
+            if let Some(uv) = &s.uv {
+                out.levels_at = levels_at[uv.texture as usize];
+                out.level_count = surfaces.textures[uv.texture as usize].levels.len() as u32;
+                (out.u_gradient, out.u_at_anchor) = (f32s(uv.gradient[0]), uv.at_anchor.x as f32);
+                (out.v_gradient, out.v_at_anchor) = (f32s(uv.gradient[1]), uv.at_anchor.y as f32);
+                (out.wrap_u, out.wrap_v) = (uv.wrap[0].gpu_code(), uv.wrap[1].gpu_code());
+            }
+            if let Some(c) = &s.colours {
+                out.colour_at_anchor = f32s(c.at_anchor);
+                out.red_gradient = f32s(c.gradient[0]);
+                out.green_gradient = f32s(c.gradient[1]);
+                out.blue_gradient = f32s(c.gradient[2]);
+                out.flags |= SURFACE_COLOURS;
+            }
+            out
+        })
+        .collect();
+    if gpu.is_empty() {
+        gpu.push(GpuSurface::zeroed());
+    }
+    (gpu, textures)
+}
+
+/// The appearance as GPU data: linear albedo and surface per face, lights relative to the
+/// scene offset (at least one entry, since WGSL arrays cannot be empty), and the shading uniform.
+fn appearance_data(offset: DVec3, appearance: &Appearance) -> (Vec<GpuMaterial>, Vec<GpuLight>, ShadingParams) {
+    let surface_of = &appearance.surfaces.of_face;
     let materials = appearance
         .face_colours
         .iter()
-        .map(|&c| linear_rgb(c).as_vec3().extend(1.0).to_array())
+        .enumerate()
+        .map(|(face, &c)| GpuMaterial {
+            rgb: linear_rgb(c).as_vec3().to_array(),
+            surface: surface_of.get(face).copied().unwrap_or(NO_SURFACE),
+        })
         .collect();
     let mut lights: Vec<GpuLight> = appearance
         .lighting

@@ -27,6 +27,7 @@ pub(crate) const FILES: [(&str, &str); 10] = [
     ),
     ("bvh.wgsl", include_str!("../../../../shaders/bvh.wgsl")),
     ("trace.wgsl", include_str!("../../../../shaders/trace.wgsl")),
+    ("texture.wgsl", include_str!("../../../../shaders/texture.wgsl")),
     ("shade.wgsl", include_str!("../../../../shaders/shade.wgsl")),
     ("antialias.wgsl", include_str!("../../../../shaders/antialias.wgsl")),
 ];

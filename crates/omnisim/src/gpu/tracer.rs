@@ -13,7 +13,7 @@ use wgpu::util::DeviceExt;
 
 use super::bindings::{
     self, Binding, CAMERA, CAMERA_RAYS, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING,
-    Stage, TRIANGLES,
+    SURFACES, Stage, TEXTURES, TRIANGLES,
 };
 use super::context::{GpuContext, GpuError};
 use super::layout::{CameraParams, FrameBlock, MirrorBlock, PixelHit, ProjectionBlock, ShadedPixel};
@@ -248,6 +248,8 @@ impl GpuRenderer {
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
                 (SHADED, &buffers.shaded),
+                (SURFACES, &scene.surfaces),
+                (TEXTURES, &scene.textures),
             ],
         );
         let pixel_count = width as usize * height as usize;
@@ -315,7 +317,7 @@ impl GpuRenderer {
         Ok(())
     }
 
-    /// Replaces the shaded planes of every edge pixel (see `antialias::edge_pixels`) by the
+    /// Replaces the shaded planes of the pixels `edges` (see `shade/coverage.rs`) by the
     /// mean of `samples_per_axis²` stratified samples traced and shaded on the GPU. Returns
     /// how many pixels were refined.
     pub(crate) fn refine_edges(
@@ -325,11 +327,9 @@ impl GpuRenderer {
         pose: &Pose,
         frame: &mut Frame,
         samples_per_axis: u32,
+        edges: &[usize],
     ) -> Result<usize, GpuError> {
-        let edges: Vec<u32> = crate::shade::antialias::edge_pixels(frame)
-            .into_iter()
-            .map(|i| i as u32)
-            .collect();
+        let edges: Vec<u32> = edges.iter().map(|&i| i as u32).collect();
         if samples_per_axis <= 1 || edges.is_empty() {
             return Ok(0);
         }
@@ -372,6 +372,8 @@ impl GpuRenderer {
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
                 (CAMERA_RAYS, &self.no_rays),
+                (SURFACES, &scene.surfaces),
+                (TEXTURES, &scene.textures),
             ],
         );
         let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);

@@ -8,6 +8,9 @@ use std::collections::BTreeMap;
 
 use serde::Deserialize;
 
+use super::pattern::Pattern;
+use super::texture::Wrap;
+
 /// An sRGB colour, 0–255 per channel.
 pub type Rgb = (u8, u8, u8);
 
@@ -157,6 +160,9 @@ pub struct BoxFile {
     /// right (−y), top (+z), bottom (−z).
     #[serde(default)]
     pub faces: BTreeMap<String, Rgb>,
+    /// A texture laid on every face, tinted by `colour` (white leaves it as it is).
+    #[serde(default)]
+    pub texture: Option<TextureFile>,
 }
 
 /// `Wall(...)`: a vertical rectangle.
@@ -176,6 +182,9 @@ pub struct WallFile {
     pub height: f64,
     /// sRGB colour.
     pub colour: Rgb,
+    /// A texture laid on every face, tinted by `colour` (white leaves it as it is).
+    #[serde(default)]
+    pub texture: Option<TextureFile>,
 }
 
 /// `Floor(...)`: a horizontal polygon.
@@ -191,6 +200,9 @@ pub struct FloorFile {
     pub z: f64,
     /// sRGB colour.
     pub colour: Rgb,
+    /// A texture laid on every face, tinted by `colour` (white leaves it as it is).
+    #[serde(default)]
+    pub texture: Option<TextureFile>,
 }
 
 /// `Polygon(...)`: any planar polygon.
@@ -203,6 +215,45 @@ pub struct PolygonFile {
     pub vertices: Vec<(f64, f64, f64)>,
     /// sRGB colour.
     pub colour: Rgb,
+    /// A texture laid on every face, tinted by `colour` (white leaves it as it is).
+    #[serde(default)]
+    pub texture: Option<TextureFile>,
+}
+
+/// `texture: (...)`: an image or a procedural pattern laid on a face's plane, in metres.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TextureFile {
+    /// PNG or JPEG file, relative to the scene file's folder (and inside it).
+    #[serde(default)]
+    pub image: Option<String>,
+    /// A seeded procedural pattern instead of an image.
+    #[serde(default)]
+    pub pattern: Option<Pattern>,
+    /// Side of a baked pattern, texels.
+    #[serde(default = "pattern_texels")]
+    pub texels: u32,
+    /// Metres one repeat of the image covers (across, down).
+    #[serde(default = "unit_scale")]
+    pub scale: (f64, f64),
+    /// Turn of the image on the face, counter-clockwise as seen from the front, in the file's
+    /// angle unit.
+    #[serde(default)]
+    pub rotation: f64,
+    /// Where the image's top-left corner sits, metres along the face's right and down axes.
+    #[serde(default)]
+    pub offset: (f64, f64),
+    /// How the image continues past its edges.
+    #[serde(default)]
+    pub wrap: Wrap,
+}
+
+fn pattern_texels() -> u32 {
+    256
+}
+
+fn unit_scale() -> (f64, f64) {
+    (1.0, 1.0)
 }
 
 /// `Mesh(...)`: triangles from a PLY or OBJ file.
@@ -213,7 +264,7 @@ pub struct MeshFile {
     pub name: String,
     /// PLY or OBJ file, relative to the scene file's folder.
     pub path: String,
-    /// Colour of faces the mesh file gives no colour.
+    /// Colour of faces the mesh file gives no colour, texture or vertex colours.
     pub colour: Rgb,
     /// Uniform scale applied first (e.g. 0.001 for a mesh in millimetres).
     #[serde(default = "one")]
@@ -231,6 +282,17 @@ fn one() -> f64 {
 }
 
 impl ObjectFile {
+    /// The texture of a library object (meshes bring their own).
+    pub fn texture(&self) -> Option<&TextureFile> {
+        match self {
+            ObjectFile::Box(o) => o.texture.as_ref(),
+            ObjectFile::Wall(o) => o.texture.as_ref(),
+            ObjectFile::Floor(o) => o.texture.as_ref(),
+            ObjectFile::Polygon(o) => o.texture.as_ref(),
+            ObjectFile::Mesh(_) => None,
+        }
+    }
+
     /// The object's name.
     pub fn name(&self) -> &str {
         match self {

@@ -1,13 +1,16 @@
 //! The object library: turns each object of a scene file into planar faces.
 
 use std::collections::HashMap;
-use std::path::{Component, Path};
+use std::path::{Component, Path, PathBuf};
 
-use glam::{DVec3, dvec3};
+use glam::{DVec2, DVec3, dvec3};
 
 use super::file::{
-    AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, WallFile,
+    AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, TextureFile,
+    WallFile,
 };
+use super::surface::{Surface, Surfaces, UvMap, planar_uv};
+use super::texture::{Texture, Wrap};
 use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};
 use crate::input::locate;
 use crate::pose::rotation_xyz;
@@ -31,6 +34,8 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         description: file.description,
         ..Scene::default()
     };
+    let mut surfaces = Surfaces::default();
+    let mut bank = TextureBank::default();
     // How many objects of each name came before: the n-th of a name is its n-th mention.
     let mut seen: HashMap<&str, usize> = HashMap::new();
     for object in &file.objects {
@@ -59,18 +64,33 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 AngleUnit::Radians => v,
             }
         };
+        let placement = match object.texture() {
+            None => None,
+            Some(texture) => Some(
+                place(texture, angle((texture.rotation, 0.0, 0.0)).x, path, &mut bank).map_err(
+                    |(field, message)| SceneError::Invalid {
+                        path: path.to_path_buf(),
+                        location: locate::name_field(text, name, earlier)
+                            .and_then(|at| locate::field_of_element(text, at, &format!("texture.{field}")))
+                            .or_else(|| locate::name_field(text, name, earlier)),
+                        object: crate::input::shown(name, 64),
+                        message: format!("{}: texture.{field}: {message}", object.kind()),
+                    },
+                )?,
+            ),
+        };
         let faces = match object {
             ObjectFile::Box(b) => box_faces(b, angle(b.rotation)),
             ObjectFile::Wall(w) => wall_face(w),
             ObjectFile::Floor(f) => Ok(floor_face(f)),
             ObjectFile::Polygon(p) => Ok(polygon_face(p)),
-            ObjectFile::Mesh(m) => mesh_faces(m, angle(m.rotation), path),
+            ObjectFile::Mesh(m) => mesh_faces(m, angle(m.rotation), path, &mut bank),
         }
         .map_err(&invalid)?;
         let is_mesh = matches!(object, ObjectFile::Mesh(_));
         let mut dropped = 0usize;
         scene.faces.reserve(faces.len());
-        for (vertices, colour) in faces {
+        for (vertices, colour, surface) in faces {
             validate::check_coordinates(&vertices).map_err(&invalid)?;
             if let Err(problem) = validate::check_face(&vertices) {
                 if !is_mesh {
@@ -79,6 +99,13 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 // A zero-area mesh triangle can never be hit; real scans contain many.
                 dropped += 1;
                 continue;
+            }
+            let surface = match &placement {
+                Some(placement) => Some(placement.surface(&vertices)),
+                None => surface,
+            };
+            if let Some(surface) = surface {
+                surfaces.push(scene.faces.len(), surface);
             }
             scene.faces.push(Face {
                 vertices,
@@ -108,7 +135,130 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
     if let Some(lighting) = &file.lighting {
         scene.lighting = Some(build_lighting(lighting, &seen, text, path)?);
     }
+    surfaces.textures = bank.textures;
+    scene.surfaces = std::sync::Arc::new(surfaces);
     Ok(scene)
+}
+
+/// The scene's textures so far, each file or pattern decoded or baked once however many
+/// objects use it.
+#[derive(Default)]
+pub(super) struct TextureBank {
+    textures: Vec<Texture>,
+    by_key: HashMap<String, u32>,
+}
+
+impl TextureBank {
+    /// The index of the texture `key` names, made by `make` the first time.
+    pub(super) fn get_or_add(
+        &mut self,
+        key: String,
+        make: impl FnOnce() -> Result<Texture, String>,
+    ) -> Result<u32, String> {
+        if let Some(&index) = self.by_key.get(&key) {
+            return Ok(index);
+        }
+        let index = self.textures.len() as u32;
+        self.textures.push(make()?);
+        self.by_key.insert(key, index);
+        Ok(index)
+    }
+}
+
+/// A library object's texture, decoded, and how it lies on the object's faces.
+struct Placement {
+    texture: u32,
+    scale: DVec2,
+    rotation: f64,
+    offset: DVec2,
+    wrap: Wrap,
+}
+
+impl Placement {
+    /// The surface of a (validated) face of the object.
+    fn surface(&self, vertices: &[DVec3]) -> Surface {
+        let anchor = vertices[0];
+        let normal = validate::newell_normal(vertices).normalize();
+        let (at_anchor, gradient) = planar_uv(anchor, normal, self.scale, self.rotation, self.offset);
+        Surface {
+            anchor,
+            uv: Some(UvMap {
+                texture: self.texture,
+                wrap: [self.wrap; 2],
+                at_anchor,
+                gradient,
+            }),
+            colours: None,
+            unlit: false,
+        }
+    }
+}
+
+/// Checks and loads a library object's `texture` (`rotation` already in radians); errors
+/// name the field (below `texture`) and the problem.
+fn place(
+    file: &TextureFile,
+    rotation: f64,
+    scene_path: &Path,
+    bank: &mut TextureBank,
+) -> Result<Placement, (&'static str, String)> {
+    let texture = match (&file.image, &file.pattern) {
+        (Some(image), None) => {
+            let path = inside_folder(scene_path, image, "texture image").map_err(|e| ("image", e))?;
+            bank.get_or_add(format!("image:{}", path.display()), || {
+                super::texture::load_image(&path)
+            })
+            .map_err(|e| ("image", e))?
+        }
+        (None, Some(pattern)) => bank
+            .get_or_add(format!("pattern:{pattern:?}:{}", file.texels), || {
+                pattern.bake(file.texels)
+            })
+            .map_err(|e| ("pattern", e))?,
+        _ => {
+            return Err((
+                "image",
+                "give exactly one of image: \"file.png\" or pattern: Checker(...) | Bricks(...) | Wood(...) | \
+                 Noise(...)"
+                    .into(),
+            ));
+        }
+    };
+    let (sx, sy) = file.scale;
+    if !(sx.is_finite() && sx > 0.0 && sy.is_finite() && sy > 0.0) {
+        return Err((
+            "scale",
+            format!("scale must be two positive finite lengths in metres (one repeat across, down), not ({sx}, {sy})"),
+        ));
+    }
+    if !(rotation.is_finite() && file.offset.0.is_finite() && file.offset.1.is_finite()) {
+        return Err(("rotation", "rotation and offset must be finite".into()));
+    }
+    Ok(Placement {
+        texture,
+        scale: DVec2::new(sx, sy),
+        rotation,
+        offset: DVec2::new(file.offset.0, file.offset.1),
+        wrap: file.wrap,
+    })
+}
+
+/// The path of file `relative` (as a scene file or a mesh names it) below the folder of
+/// `parent`: a file from anyone reads from its own folder and below only.
+pub(super) fn inside_folder(parent: &Path, relative: &str, what: &str) -> Result<PathBuf, String> {
+    let path = Path::new(relative);
+    if relative.is_empty()
+        || path
+            .components()
+            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(format!(
+            "{what} path '{}' must be relative to the scene file's folder (a mesh's own files: to the mesh's \
+             folder) and stay inside it (no '..', no absolute path); put the file beside it or in a folder below it",
+            crate::input::shown(relative, 80)
+        ));
+    }
+    Ok(parent.parent().unwrap_or(Path::new(".")).join(path))
 }
 
 /// Checks the lighting section; light names share one namespace with object names so that
@@ -218,7 +368,8 @@ fn build_lighting(
     })
 }
 
-type RawFace = (Vertices, (u8, u8, u8));
+/// A face as an object makes it: vertices, colour, and the surface a mesh gives it.
+type RawFace = (Vertices, (u8, u8, u8), Option<Surface>);
 
 fn positive(what: &str, value: f64) -> Result<(), String> {
     if value.is_finite() && value > 0.0 {
@@ -305,7 +456,7 @@ fn box_faces(b: &BoxFile, angles: DVec3) -> Result<Vec<RawFace>, String> {
         .map(|(name, corners)| {
             let colour = b.faces.get(*name).copied().unwrap_or(b.colour);
             let vertices = corners.iter().map(|c| position + world_from_object * *c).collect();
-            (vertices, colour)
+            (vertices, colour, None)
         })
         .collect())
 }
@@ -322,17 +473,18 @@ fn wall_face(w: &WallFile) -> Result<Vec<RawFace>, String> {
             dvec3(a.0, a.1, top),
         ],
         w.colour,
+        None,
     )])
 }
 
 fn floor_face(f: &FloorFile) -> Vec<RawFace> {
     let vertices = f.corners.iter().map(|c| dvec3(c.0, c.1, f.z)).collect();
-    vec![(vertices, f.colour)]
+    vec![(vertices, f.colour, None)]
 }
 
 fn polygon_face(p: &PolygonFile) -> Vec<RawFace> {
     let vertices = p.vertices.iter().map(|v| dvec3(v.0, v.1, v.2)).collect();
-    vec![(vertices, p.colour)]
+    vec![(vertices, p.colour, None)]
 }
 
 /// Longest object or light name, bytes: names are listed, printed in errors and written into
@@ -354,35 +506,27 @@ fn unprintable(name: &str) -> Option<String> {
     }
 }
 
-fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path) -> Result<Vec<RawFace>, String> {
+fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path, bank: &mut TextureBank) -> Result<Vec<RawFace>, String> {
     positive("scale", m.scale)?;
-    // A scene file may come from anyone: it reads meshes from its own folder and below only.
-    let relative = Path::new(&m.path);
-    if m.path.is_empty()
-        || relative
-            .components()
-            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
-    {
-        return Err(format!(
-            "mesh path '{}' must be relative to the scene file's folder and stay inside it (no '..', no absolute \
-             path); put the mesh beside the scene or in a folder below it",
-            crate::input::shown(&m.path, 80)
-        ));
-    }
-    let mesh_path = scene_path.parent().unwrap_or(Path::new(".")).join(relative);
-    let triangles = mesh::load(&mesh_path)?;
+    let mesh_path = inside_folder(scene_path, &m.path, "mesh")?;
+    let triangles = mesh::load(&mesh_path, bank)?;
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);
     let faces = triangles
         .into_iter()
         .map(|triangle| {
-            let vertices = triangle
+            let vertices: Vertices = triangle
                 .vertices
                 .iter()
                 .map(|v| position + world_from_object * (*v * m.scale))
                 .collect();
-            let colour = triangle.colour.map(|c| (c[0], c[1], c[2])).unwrap_or(m.colour);
-            (vertices, colour)
+            // A textured triangle without a colour of its own shows its texture untinted.
+            let colour = triangle
+                .colour
+                .or(triangle.texture.as_ref().map(|_| [255; 3]))
+                .map_or(m.colour, |c| (c[0], c[1], c[2]));
+            let surface = triangle.surface(&vertices);
+            (vertices, colour, surface)
         })
         .collect();
     Ok(faces)

@@ -1,18 +1,79 @@
-//! Reads triangle meshes (PLY through ply-rs-bw, OBJ through tobj) so that real-world geometry
+//! Reads triangle meshes (PLY through ply-rs-bw here, OBJ through tobj in `obj.rs`, glTF in
+//! `gltf.rs`) so that real-world geometry
 //! and other tools' scenes can be placed in a scene.
 
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 
-use glam::{DVec3, dvec3};
+use glam::{DVec2, DVec3};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Encoding, Property, PropertyAccess, PropertyAccessResult};
+
+use super::library::TextureBank;
+use super::lighting::srgb_to_linear;
+use super::surface::{ColourMap, Surface, UvMap, gradient};
+use super::texture::Wrap;
 
 /// One triangle of a mesh, in the mesh file's own coordinates.
 pub(super) struct MeshTriangle {
     pub vertices: [DVec3; 3],
     /// Face colour from the file (face colour, else the mean of vertex colours), if any.
     pub colour: Option<[u8; 3]>,
+    /// Texture (index in the scene's texture bank), wrap and corner (u, v), v down.
+    pub texture: Option<CornerUvs>,
+    /// sRGB vertex colours, interpolated across the triangle (in linear light).
+    pub corner_colours: Option<[[u8; 3]; 3]>,
+    /// Drawn in its albedo whatever the lights (glTF's `KHR_materials_unlit`).
+    pub unlit: bool,
+}
+
+/// A mesh triangle's texture coordinates.
+pub(super) struct CornerUvs {
+    pub texture: u32,
+    pub wrap: [Wrap; 2],
+    pub uv: [DVec2; 3],
+}
+
+impl MeshTriangle {
+    /// The surface of this triangle once placed at `world` corners; `None` without texture or
+    /// vertex colours (or for a triangle without area, which is dropped anyway).
+    pub(super) fn surface(&self, world: &[DVec3]) -> Option<Surface> {
+        if self.texture.is_none() && self.corner_colours.is_none() && !self.unlit {
+            return None;
+        }
+        let corners = [world[0], world[1], world[2]];
+        let affine = |values: [f64; 3]| gradient(corners, values).map(|g| (values[0], g));
+        let uv = match &self.texture {
+            None => None,
+            Some(t) => {
+                let (u0, gu) = affine(t.uv.map(|uv| uv.x))?;
+                let (v0, gv) = affine(t.uv.map(|uv| uv.y))?;
+                Some(UvMap {
+                    texture: t.texture,
+                    wrap: t.wrap,
+                    at_anchor: DVec2::new(u0, v0),
+                    gradient: [gu, gv],
+                })
+            }
+        };
+        let colours = match self.corner_colours {
+            None => None,
+            Some(c) => {
+                let channel = |k: usize| affine(c.map(|rgb| srgb_to_linear(rgb[k])));
+                let (r, g, b) = (channel(0)?, channel(1)?, channel(2)?);
+                Some(ColourMap {
+                    at_anchor: DVec3::new(r.0, g.0, b.0),
+                    gradient: [r.1, g.1, b.1],
+                })
+            }
+        };
+        Some(Surface {
+            anchor: corners[0],
+            uv,
+            colours,
+            unlit: self.unlit,
+        })
+    }
 }
 
 /// Most triangles one mesh may have (about 15 GB of memory at 300 bytes each): a lying or
@@ -21,7 +82,7 @@ pub(crate) const MAX_MESH_TRIANGLES: usize = 50_000_000;
 
 /// Reads a mesh file. `path` must be a regular file of at most [`crate::input::MESH_LIMIT`]
 /// bytes; errors name the file and a position, never the bytes found there.
-pub(super) fn load(path: &Path) -> Result<Vec<MeshTriangle>, String> {
+pub(super) fn load(path: &Path, bank: &mut TextureBank) -> Result<Vec<MeshTriangle>, String> {
     let reader = crate::input::open_regular(path, crate::input::MESH_LIMIT).map_err(|e| match e {
         crate::input::InputError::Io { error, .. } if error.kind() == std::io::ErrorKind::NotFound => format!(
             "{}: file not found; mesh paths are relative to the scene file's folder",
@@ -29,22 +90,54 @@ pub(super) fn load(path: &Path) -> Result<Vec<MeshTriangle>, String> {
         ),
         other => other.to_string(),
     })?;
-    let reader = BufReader::new(reader);
+    let mut reader = BufReader::new(reader);
+    let textures = &mut MeshTextures { mesh: path, bank };
     let result = match path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .as_deref()
     {
-        Some("ply") => load_ply(reader),
-        Some("obj") => load_obj(reader),
-        _ => Err("unknown mesh format; use a .ply or .obj file".into()),
+        Some("ply") => load_ply(reader, textures),
+        Some("obj") => super::obj::load_obj(reader, textures),
+        Some("gltf" | "glb") => {
+            let mut bytes = Vec::new();
+            std::io::Read::read_to_end(&mut reader, &mut bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+            super::gltf::load_gltf(&bytes, textures)
+        }
+        _ => Err("unknown mesh format; use a .ply, .obj, .gltf or .glb file".into()),
     };
     let triangles = result.map_err(|e| format!("{}: {e}", path.display()))?;
     if triangles.is_empty() {
         return Err(format!("{}: the mesh has no triangles", path.display()));
     }
     Ok(triangles)
+}
+
+/// The textures a mesh file names, found beside it (and inside the scene's folder).
+pub(super) struct MeshTextures<'a> {
+    pub mesh: &'a Path,
+    pub bank: &'a mut TextureBank,
+}
+
+impl MeshTextures<'_> {
+    /// The bank index of image `name` (relative to the mesh file's folder), decoded once.
+    pub(super) fn image(&mut self, name: &str) -> Result<u32, String> {
+        let path = super::library::inside_folder(self.mesh, name, "texture")?;
+        self.bank.get_or_add(format!("image:{}", path.display()), || {
+            super::texture::load_image(&path)
+        })
+    }
+}
+
+/// Texture coordinates as omnisim uses them (v down from the image's top row), from OBJ's and
+/// PLY's (v up from the bottom row); non-finite ones are an error naming `what`.
+pub(super) fn uv_from_v_up(u: f64, v: f64, what: &dyn Fn() -> String) -> Result<DVec2, String> {
+    if u.is_finite() && v.is_finite() {
+        Ok(DVec2::new(u, 1.0 - v))
+    } else {
+        Err(format!("{}: texture coordinate ({u}, {v}) is not finite", what()))
+    }
 }
 
 fn scalar(p: &Property) -> Option<f64> {
@@ -57,6 +150,14 @@ fn scalar(p: &Property) -> Option<f64> {
         Property::UInt(v) => f64::from(v),
         Property::Float(v) => f64::from(v),
         Property::Double(v) => v,
+        _ => return None,
+    })
+}
+
+fn float_list(p: Property) -> Option<Vec<f64>> {
+    Some(match p {
+        Property::ListFloat(v) => v.into_iter().map(f64::from).collect(),
+        Property::ListDouble(v) => v,
         _ => return None,
     })
 }
@@ -91,6 +192,8 @@ struct PlyVertex {
     /// Which of x, y, z were given.
     given: [bool; 3],
     rgb: [Option<u8>; 3],
+    /// Texture coordinates (u, v up), where given.
+    uv: [Option<f64>; 2],
 }
 
 impl PropertyAccess for PlyVertex {
@@ -103,6 +206,14 @@ impl PropertyAccess for PlyVertex {
             "x" => 0,
             "y" => 1,
             "z" => 2,
+            "u" | "s" | "texture_u" | "texture_s" => {
+                self.uv[0] = scalar(&property);
+                return PropertyAccessResult::Ignored;
+            }
+            "v" | "t" | "texture_v" | "texture_t" => {
+                self.uv[1] = scalar(&property);
+                return PropertyAccessResult::Ignored;
+            }
             _ => {
                 if let (Some(k), Some(v)) = (channel(name), scalar(&property)) {
                     self.rgb[k] = Some(v.clamp(0.0, 255.0) as u8);
@@ -124,6 +235,10 @@ impl PropertyAccess for PlyVertex {
 struct PlyFace {
     indices: Vec<i64>,
     rgb: [Option<u8>; 3],
+    /// Per-corner texture coordinates u0 v0 u1 v1 … (as `ScanNet` and `Matterport` write them).
+    texcoord: Vec<f64>,
+    /// Which `comment TextureFile` the texture coordinates refer to (Matterport).
+    texnumber: Option<f64>,
 }
 
 impl PropertyAccess for PlyFace {
@@ -134,6 +249,14 @@ impl PropertyAccess for PlyFace {
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
         if let Some(k) = channel(name) {
             self.rgb[k] = scalar(&property).map(|v| v.clamp(0.0, 255.0) as u8);
+            return PropertyAccessResult::Ignored;
+        }
+        if name == "texcoord" {
+            self.texcoord = float_list(property).unwrap_or_default();
+            return PropertyAccessResult::Ignored;
+        }
+        if name == "texnumber" {
+            self.texnumber = scalar(&property);
             return PropertyAccessResult::Ignored;
         }
         if !matches!(name, "vertex_indices" | "vertex_index") {
@@ -179,7 +302,7 @@ fn ply_error(stage: &str, error: &ply_rs_bw::parser::ParseError, ascii: bool) ->
     format!("not a readable PLY file: {at}{what}")
 }
 
-fn load_ply(reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
+fn load_ply(reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
     let mut reader = Reader::new(reader);
     let vertex_parser = Parser::<PlyVertex>::new();
     let header = vertex_parser
@@ -226,6 +349,14 @@ fn load_ply(reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
     if let Some(i) = vertices.iter().position(|v| v.given != [true; 3]) {
         return Err(format!("vertex {i} lacks a numeric x, y or z"));
     }
+    // `comment TextureFile name.png` lines (ScanNet, Matterport), decoded when a face uses one.
+    let texture_files: Vec<&str> = header
+        .comments
+        .iter()
+        .filter_map(|c| c.trim().strip_prefix("TextureFile"))
+        .map(str::trim)
+        .collect();
+    let mut texture_ids: Vec<Option<u32>> = vec![None; texture_files.len()];
     let mut triangles = Vec::with_capacity(faces.len());
     for (f, face) in faces.iter().enumerate() {
         let corner = |i: i64| {
@@ -242,6 +373,30 @@ fn load_ply(reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
             ));
         }
         let face_colour = rgb(face.rgb).or_else(|| mean_colour(corners.iter().map(|c| rgb(c.rgb))));
+        // Vertex colours, interpolated, where the face has no colour of its own.
+        let vertex_colours: Option<Vec<[u8; 3]>> = match face.rgb {
+            [None, None, None] => corners.iter().map(|c| rgb(c.rgb)).collect(),
+            _ => None,
+        };
+        let uvs = ply_face_uvs(f, face, &corners)?;
+        let texture = match (&uvs, texture_files.is_empty()) {
+            (Some(_), false) => {
+                let number = face.texnumber.unwrap_or(0.0);
+                let slot = Some(number)
+                    .filter(|n| n.fract() == 0.0 && *n >= 0.0 && (*n as usize) < texture_files.len())
+                    .ok_or_else(|| {
+                        format!(
+                            "face {f} has texnumber {number}, but the header names {} TextureFile(s)",
+                            texture_files.len()
+                        )
+                    })? as usize;
+                if texture_ids[slot].is_none() {
+                    texture_ids[slot] = Some(textures.image(texture_files[slot])?);
+                }
+                texture_ids[slot]
+            }
+            _ => None,
+        };
         let point = |v: &PlyVertex| DVec3::from_array(v.position);
         for k in 1..corners.len() - 1 {
             if triangles.len() == MAX_MESH_TRIANGLES {
@@ -249,16 +404,49 @@ fn load_ply(reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
                     "more than {MAX_MESH_TRIANGLES} triangles; omnisim reads at most that many per mesh"
                 ));
             }
+            let fan = [0, k, k + 1];
             triangles.push(MeshTriangle {
-                vertices: [point(corners[0]), point(corners[k]), point(corners[k + 1])],
+                vertices: fan.map(|c| point(corners[c])),
                 colour: face_colour,
+                texture: texture.zip(uvs.as_ref()).map(|(texture, uvs)| CornerUvs {
+                    texture,
+                    wrap: [Wrap::Repeat; 2],
+                    uv: fan.map(|c| uvs[c]),
+                }),
+                corner_colours: vertex_colours.as_ref().map(|c| fan.map(|k| c[k])),
+                unlit: false,
             });
         }
     }
     Ok(triangles)
 }
 
-fn mean_colour(colours: impl Iterator<Item = Option<[u8; 3]>>) -> Option<[u8; 3]> {
+/// The texture coordinates of a PLY face's corners: its own `texcoord` list, else its
+/// vertices' u, v; `None` without either.
+fn ply_face_uvs(f: usize, face: &PlyFace, corners: &[&PlyVertex]) -> Result<Option<Vec<DVec2>>, String> {
+    let what = || format!("face {f}");
+    if !face.texcoord.is_empty() {
+        if face.texcoord.len() != 2 * corners.len() {
+            return Err(format!(
+                "face {f} has {} texcoord values for {} corners; give two (u, v) per corner",
+                face.texcoord.len(),
+                corners.len()
+            ));
+        }
+        return face
+            .texcoord
+            .chunks_exact(2)
+            .map(|uv| uv_from_v_up(uv[0], uv[1], &what))
+            .collect::<Result<Vec<_>, _>>()
+            .map(Some);
+    }
+    let given: Option<Vec<(f64, f64)>> = corners.iter().map(|c| Some((c.uv[0]?, c.uv[1]?))).collect();
+    given
+        .map(|uvs| uvs.into_iter().map(|(u, v)| uv_from_v_up(u, v, &what)).collect())
+        .transpose()
+}
+
+pub(super) fn mean_colour(colours: impl Iterator<Item = Option<[u8; 3]>>) -> Option<[u8; 3]> {
     let mut sum = [0u32; 3];
     let mut count = 0u32;
     for c in colours {
@@ -269,40 +457,4 @@ fn mean_colour(colours: impl Iterator<Item = Option<[u8; 3]>>) -> Option<[u8; 3]
         count += 1;
     }
     (count > 0).then(|| sum.map(|s| ((s + count / 2) / count) as u8))
-}
-
-/// OBJ geometry and vertex colours; `mtllib` material files are not read (colours come from
-/// vertex colours or the object's `colour`), so an OBJ can name no other file to open.
-fn load_obj(mut reader: impl BufRead) -> Result<Vec<MeshTriangle>, String> {
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ..Default::default()
-    };
-    let (models, _materials) = tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed))
-        .map_err(|e| format!("not a readable OBJ file: {e}"))?;
-    let mut triangles = Vec::new();
-    for model in models {
-        let mesh = &model.mesh;
-        let position = |i: u32| {
-            let i = i as usize * 3;
-            mesh.positions
-                .get(i..i + 3)
-                .map(|p| dvec3(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
-                .ok_or_else(|| format!("object '{}' refers to a vertex that does not exist", model.name))
-        };
-        let colour = |i: u32| {
-            let i = i as usize * 3;
-            mesh.vertex_color
-                .get(i..i + 3)
-                .map(|c| [c[0], c[1], c[2]].map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8))
-        };
-        for t in mesh.indices.chunks_exact(3) {
-            triangles.push(MeshTriangle {
-                vertices: [position(t[0])?, position(t[1])?, position(t[2])?],
-                colour: mean_colour(t.iter().map(|&i| colour(i))),
-            });
-        }
-    }
-    Ok(triangles)
 }

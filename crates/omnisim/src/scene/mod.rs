@@ -7,10 +7,15 @@
 mod error;
 mod export;
 pub mod file;
+mod gltf;
 mod library;
 pub mod lighting;
 mod mesh;
 mod names;
+mod obj;
+pub mod pattern;
+pub mod surface;
+pub mod texture;
 pub(crate) mod triangulate;
 mod validate;
 
@@ -65,6 +70,9 @@ pub struct Scene {
     pub faces: Vec<Face>,
     /// Light points and exposure; `None` draws every face in its flat colour.
     pub lighting: Option<lighting::Lighting>,
+    /// Textures, vertex colours and which face has them; faces without a surface are drawn in
+    /// their flat colour. Shared, since textures can be large.
+    pub surfaces: std::sync::Arc<surface::Surfaces>,
     /// Things the user may want to know that did not stop loading (e.g. dropped degenerate
     /// mesh triangles).
     pub warnings: Vec<String>,

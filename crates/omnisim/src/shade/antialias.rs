@@ -1,4 +1,4 @@
-//! Edge supersampling: pixels where the face changes are traced again at n×n stratified
+//! Edge supersampling: pixels a face outline crosses (`coverage.rs` picks them) are traced again at n×n stratified
 //! sub-pixel positions (a CPU tracer), each sample shaded by the shading stage, and given
 //! the mean. The 8-bit colour is the mean of the samples' 8-bit colours (a box filter on what
 //! a viewer sees, as before lights existed); the linear plane is the mean in linear light.
@@ -40,8 +40,9 @@ pub(crate) fn sample_offsets(samples_per_axis: u32) -> impl Iterator<Item = DVec
     })
 }
 
-/// Replaces the shaded planes of every edge pixel by the mean of `samples_per_axis²`
+/// Replaces the shaded planes of the pixels `edges` by the mean of `samples_per_axis²`
 /// stratified samples. Returns how many pixels were refined.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn supersample_edges(
     tracer: CpuTracer,
     bvh: &SceneBvh,
@@ -50,11 +51,11 @@ pub(crate) fn supersample_edges(
     pose: &Pose,
     frame: &mut Frame,
     samples_per_axis: u32,
+    edges: &[usize],
 ) -> usize {
     if samples_per_axis <= 1 {
         return 0;
     }
-    let edges = edge_pixels(frame);
     let width = frame.width as usize;
     let local = trace::LocalPose::new(bvh, pose);
     let count = samples_per_axis * samples_per_axis;
@@ -66,7 +67,12 @@ pub(crate) fn supersample_edges(
             let mut linear = DVec3::ZERO;
             for offset in sample_offsets(samples_per_axis) {
                 let hit = tracer.trace_pixel(bvh, camera, &local, centre + offset);
-                let sample = shade::shade(tracer, bvh, appearance, &hit);
+                let footprint = if appearance.needs_footprint(hit.face) {
+                    shade::Footprint::of_pixel(camera, pose, centre + offset)
+                } else {
+                    shade::Footprint::POINT
+                };
+                let sample = shade::shade(tracer, bvh, appearance, &hit, &footprint);
                 let colour = if hit.is_hit() {
                     shade::encode(sample)
                 } else {
@@ -131,10 +137,18 @@ mod tests {
         let appearance = Appearance::of(&scene);
         let mut frame = trace::trace(&bvh, &camera, &pose);
         let tracer = CpuTracer::Reference;
-        crate::shade::shade_frame(tracer, &bvh, &appearance, &mut frame, crate::frame::Planes::COLOUR);
+        let view = crate::shade::View::new(&camera, &pose, None);
+        crate::shade::shade_frame(
+            tracer,
+            &bvh,
+            &appearance,
+            view,
+            &mut frame,
+            crate::frame::Planes::COLOUR,
+        );
         let edges = edge_pixels(&frame);
         assert!(!edges.is_empty() && edges.iter().all(|&i| (3..=5).contains(&(i % 9))));
-        let refined = supersample_edges(tracer, &bvh, &appearance, &camera, &pose, &mut frame, 4);
+        let refined = supersample_edges(tracer, &bvh, &appearance, &camera, &pose, &mut frame, 4, &edges);
         assert_eq!(refined, edges.len());
         let colour = |u, v| frame.colour().unwrap()[frame.index(u, v)];
         // The middle column is half red, half blue: 16 samples split 8/8.

@@ -3,53 +3,108 @@
 //!
 //! Model (README, `scene/lighting.rs`): linear = albedo · (ambient + Σ visible `E_light`) / white,
 //! `E_light` = I·cosθ/d² (point) or E⊥·cosθ (directional), sRGB encoding last. A scene without
-//! lighting is drawn in flat face colours (linear = albedo), exactly as the files say.
+//! lighting is drawn in flat face colours (linear = albedo), exactly as the files say. The
+//! albedo is the face's colour, times its texture (filtered to the pixel's footprint,
+//! `footprint.rs`, `filter.rs`) and its vertex colours where it has them (`scene/surface.rs`).
 
 pub(crate) mod antialias;
+pub(crate) mod coverage;
+pub(crate) mod filter;
+pub(crate) mod footprint;
 
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use std::sync::Arc;
+
+use glam::{DMat3, DVec2};
+
 use crate::accel::SceneBvh;
+use crate::camera::{Camera, CameraRay};
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
+use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
+use crate::scene::surface::{Surface, Surfaces};
 use crate::trace::CpuTracer;
+pub use footprint::Footprint;
 
 /// Shadow rays start this far (relative to the point's distance from the scene centre, plus
 /// one) off the face, on the lit side: far above f64 rounding, far below any real gap. The
 /// face itself is skipped too, so a planar face never shadows itself.
 pub(crate) const SHADOW_OFFSET: f64 = 1e-9;
 
-/// What shading reads besides the hits: face colours and lights. Changing it between frames
-/// never rebuilds the BVH or the GPU pipelines.
+/// What shading reads besides the hits: face colours, textures and lights. Changing it between
+/// frames never rebuilds the BVH or the GPU pipelines.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Appearance {
-    /// sRGB colour of each scene face.
+    /// sRGB colour of each scene face (the tint of a textured face).
     pub face_colours: Vec<[u8; 3]>,
     /// Lights and exposure, or `None` for flat colours.
     pub lighting: Option<Lighting>,
+    /// Textures and vertex colours by face (shared with the scene).
+    #[serde(skip)]
+    pub surfaces: Arc<Surfaces>,
 }
 
 impl Appearance {
-    /// The face colours and lighting a scene file gives.
+    /// The face colours, surfaces and lighting a scene file gives.
     pub fn of(scene: &Scene) -> Self {
         Self {
             face_colours: scene.faces.iter().map(|f| f.colour).collect(),
             lighting: scene.lighting.clone(),
+            surfaces: Arc::clone(&scene.surfaces),
+        }
+    }
+
+    /// Whether shading face `face` needs the pixel's footprint (it has a texture).
+    pub fn needs_footprint(&self, face: u32) -> bool {
+        self.surfaces.of(face).is_some_and(|s| s.uv.is_some())
+    }
+}
+
+/// Linear albedo of a hit: the face colour (or its vertex colours where it has them), times its
+/// texture filtered to `footprint` where it has one.
+fn albedo(appearance: &Appearance, hit: &Pixel, footprint: &Footprint) -> DVec3 {
+    let colour = linear_rgb(appearance.face_colours[hit.face as usize]);
+    let Some(surface) = appearance.surfaces.of(hit.face) else {
+        return colour;
+    };
+    let base = match &surface.colours {
+        Some(colours) => Surface::colour_at(colours, surface.anchor, hit.point).clamp(DVec3::ZERO, DVec3::ONE),
+        None => colour,
+    };
+    match &surface.uv {
+        None => base,
+        Some(map) => {
+            let texture = &appearance.surfaces.textures[map.texture as usize];
+            let uv = Surface::uv_at(map, surface.anchor, hit.point);
+            let sides = footprint.on_plane(hit.point, hit.normal.as_dvec3());
+            let steps = sides.map(|side| DVec2::new(map.gradient[0].dot(side), map.gradient[1].dot(side)));
+            let lod = filter::level_of_detail(texture.size(), steps);
+            base * filter::trilinear(texture, map.wrap, uv, lod)
         }
     }
 }
 
 /// Linear colour of one hit (1.0 = full scale); black where nothing is hit. `tracer` traces
-/// the shadow rays (both tracers give the same answer).
-pub fn shade(tracer: CpuTracer, geometry: &SceneBvh, appearance: &Appearance, hit: &Pixel) -> DVec3 {
+/// the shadow rays (both tracers give the same answer); `footprint` is the pixel's, for
+/// textured faces ([`Footprint::POINT`] samples textures at their finest level).
+pub fn shade(
+    tracer: CpuTracer,
+    geometry: &SceneBvh,
+    appearance: &Appearance,
+    hit: &Pixel,
+    footprint: &Footprint,
+) -> DVec3 {
     if !hit.is_hit() {
         return DVec3::ZERO;
     }
-    let albedo = linear_rgb(appearance.face_colours[hit.face as usize]);
+    let albedo = albedo(appearance, hit, footprint);
+    let unlit = appearance.surfaces.of(hit.face).is_some_and(|s| s.unlit);
     match &appearance.lighting {
+        Some(_) if unlit => albedo,
         None => albedo,
         Some(lighting) => albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white,
     }
@@ -86,26 +141,82 @@ fn illuminance(tracer: CpuTracer, geometry: &SceneBvh, lighting: &Lighting, hit:
     total
 }
 
-/// Shades every pixel of `frame` on all CPU threads, filling the planes `planes` asks for.
-/// Without lighting a pixel's 8-bit colour is its
+/// The camera and pose a frame was traced with: where shading finds each pixel's footprint.
+#[derive(Clone, Copy)]
+pub(crate) struct View<'a> {
+    camera: &'a Camera,
+    world_from_body: DMat3,
+    position: DVec3,
+    /// The camera's ray of every pixel, row by row, where the renderer keeps them.
+    rays: Option<&'a [Option<CameraRay>]>,
+}
+
+impl<'a> View<'a> {
+    /// The view of `camera` at `pose`, reading neighbouring rays from `rays` (the camera's ray
+    /// table) where given.
+    pub(crate) fn new(camera: &'a Camera, pose: &Pose, rays: Option<&'a [Option<CameraRay>]>) -> Self {
+        Self {
+            camera,
+            world_from_body: pose.world_from_body_rotation(),
+            position: pose.position,
+            rays,
+        }
+    }
+
+    /// The footprint of the pixel at `index` (row by row) where `appearance` textures its
+    /// face, else none (untextured faces never compute one).
+    fn footprint(&self, appearance: &Appearance, hit: &Pixel, index: usize) -> Footprint {
+        if !appearance.needs_footprint(hit.face) {
+            return Footprint::POINT;
+        }
+        let size = self.camera.size();
+        let width = size.0.max(1) as usize;
+        let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
+        let ray_at = |p: DVec2| match self.rays {
+            // Integer pixels inside the image: the table holds exactly `camera.ray(p)`.
+            Some(rays) if p.x >= 0.0 && p.y >= 0.0 => rays.get(p.y as usize * width + p.x as usize).copied().flatten(),
+            _ => self.camera.ray(p),
+        };
+        Footprint::from_body_rays(self.world_from_body, self.position, |step| {
+            let ahead = footprint::ahead_is_inside(pixel, step, size)
+                .then(|| ray_at(pixel + step))
+                .flatten();
+            ahead.or_else(|| ray_at(pixel - step))
+        })
+    }
+}
+
+/// Shades every pixel of `frame` (traced through `view`) on all CPU threads, filling the
+/// planes `planes` asks for. Without lighting a pixel's 8-bit colour is its
 /// face's colour, which is what encoding the decoded colour gives (`scene/lighting.rs` tests every
 /// byte), without the cost of encoding.
 pub(crate) fn shade_frame(
     tracer: CpuTracer,
     geometry: &SceneBvh,
     appearance: &Appearance,
+    view: View<'_>,
     frame: &mut Frame,
     planes: Planes,
 ) {
+    let shade_pixel = |(index, hit): (usize, &Pixel)| {
+        shade(
+            tracer,
+            geometry,
+            appearance,
+            hit,
+            &view.footprint(appearance, hit, index),
+        )
+    };
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
         let colour = frame
             .pixels()
             .par_iter()
-            .map(|hit| match hit.is_hit() {
+            .enumerate()
+            .map(|(index, hit)| match hit.is_hit() {
                 false => BACKGROUND,
-                true => eight_bit(appearance, hit, || shade(tracer, geometry, appearance, hit)),
+                true => eight_bit(appearance, hit, || shade_pixel((index, hit))),
             })
             .collect();
         frame.set_shading(planes, Vec::new(), colour);
@@ -114,11 +225,12 @@ pub(crate) fn shade_frame(
     let (linear, colour) = frame
         .pixels()
         .par_iter()
-        .map(|hit| {
+        .enumerate()
+        .map(|(index, hit)| {
             if !hit.is_hit() {
                 return ([0.0; 3], BACKGROUND);
             }
-            let linear = shade(tracer, geometry, appearance, hit);
+            let linear = shade_pixel((index, hit));
             (linear.as_vec3().to_array(), eight_bit(appearance, hit, || linear))
         })
         .unzip();
@@ -126,12 +238,12 @@ pub(crate) fn shade_frame(
 }
 
 /// The 8-bit colour of hit pixel `hit` whose linear colour `linear` gives: its face's colour
-/// without lighting (`linear` is then not called), else `linear()` encoded.
+/// where it is unlit and has no surface (`linear` is then not called), else `linear()` encoded.
 #[inline(always)]
 fn eight_bit(appearance: &Appearance, hit: &Pixel, linear: impl FnOnce() -> DVec3) -> [u8; 3] {
     match appearance.lighting {
-        None => appearance.face_colours[hit.face as usize],
-        Some(_) => encode(linear()),
+        None if appearance.surfaces.of(hit.face).is_none() => appearance.face_colours[hit.face as usize],
+        _ => encode(linear()),
     }
 }
 

@@ -23,10 +23,11 @@ const CAMERAS: usize = 2;
 /// per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
-/// Every pixel centre's body-frame ray of one camera, row by row.
-struct RayTable {
+/// Every pixel centre's body-frame ray of one camera, row by row (shading reads the
+/// neighbours' rays for texture footprints too).
+pub(crate) struct RayTable {
     camera: Camera,
-    rays: Vec<Option<CameraRay>>,
+    pub(crate) rays: Vec<Option<CameraRay>>,
 }
 
 /// The ray tables of the last cameras a renderer traced on the CPU.
@@ -36,16 +37,24 @@ pub(crate) struct RayCache {
 }
 
 impl RayCache {
-    /// Traces one frame with `tracer`, reading `camera`'s rays from its table (made on first
-    /// use) where the image is small enough to keep one.
-    pub(crate) fn trace(&self, tracer: CpuTracer, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
-        match self.table(camera) {
+    /// Traces one frame with `tracer`, reading `camera`'s rays from `table` (its
+    /// [`RayCache::table`]) where there is one.
+    pub(crate) fn trace(
+        &self,
+        tracer: CpuTracer,
+        bvh: &SceneBvh,
+        camera: &Camera,
+        pose: &Pose,
+        table: Option<&RayTable>,
+    ) -> Frame {
+        match table {
             Some(table) => tracer.trace_rays(bvh, camera.size(), pose, |index| table.rays[index]),
             None => tracer.trace(bvh, camera, pose),
         }
     }
 
-    fn table(&self, camera: &Camera) -> Option<Arc<RayTable>> {
+    /// `camera`'s ray table, made on first use, where the image is small enough to keep one.
+    pub(crate) fn table(&self, camera: &Camera) -> Option<Arc<RayTable>> {
         let (width, height) = camera.size();
         let pixels = width as usize * height as usize;
         if pixels > MAX_PIXELS {
@@ -96,7 +105,7 @@ mod tests {
                     dvec3(0.0, 0.1, index as f64),
                 );
                 let direct = CpuTracer::Fast.trace(&bvh, camera, &pose);
-                let cached = cache.trace(CpuTracer::Fast, &bvh, camera, &pose);
+                let cached = cache.trace(CpuTracer::Fast, &bvh, camera, &pose, cache.table(camera).as_deref());
                 assert_eq!(direct.pixels(), cached.pixels(), "camera {index}, round {round}");
             }
         }

@@ -1,0 +1,367 @@
+//! glTF 2.0 (`.gltf` with its buffers and images, or one `.glb`) through the gltf crate: the
+//! default scene's node hierarchy with its transforms, triangle primitives, `baseColorFactor`,
+//! `baseColorTexture` (its sampler's wrap modes and its `texCoord` set), `COLOR_0`,
+//! `KHR_texture_transform` and `KHR_materials_unlit`.
+//!
+//! A glTF file becomes one scene object, each of its triangles a face (as for PLY and OBJ).
+//! Buffers and images are resolved here rather than by gltf's `import`, so that a file opens
+//! nothing outside the scene's folder: external URIs go through the mesh path rules, `data:`
+//! URIs are decoded, and every accessor is checked against its buffer (with checked
+//! arithmetic) before it is read. What omnisim cannot show faithfully (Draco, compressed
+//! textures, any other required extension, points and lines, sparse accessors) is refused by
+//! name.
+
+use base64::Engine as _;
+use glam::{DMat4, DVec2, DVec3, DVec4};
+use gltf::mesh::Mode;
+use gltf::texture::WrappingMode;
+
+use super::lighting::linear_to_srgb;
+use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshTextures, MeshTriangle};
+use super::texture::Wrap;
+
+/// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
+const SUPPORTED_EXTENSIONS: [&str; 2] = ["KHR_texture_transform", "KHR_materials_unlit"];
+
+/// Deepest node hierarchy followed, and most node visits (a node may be shared): a file whose
+/// hierarchy loops or multiplies beyond these is refused rather than followed forever.
+const MAX_DEPTH: usize = 256;
+const MAX_NODE_VISITS: usize = 1_000_000;
+
+/// Largest external buffer file read.
+const BUFFER_LIMIT: u64 = crate::input::MESH_LIMIT;
+
+/// What one primitive's material gives its triangles.
+struct Look {
+    colour: [u8; 3],
+    factor: DVec4,
+    texture: Option<(u32, [Wrap; 2], u32, UvTransform)>,
+    unlit: bool,
+}
+
+/// `KHR_texture_transform`: uv' = offset + R(rotation) · (scale ⊙ uv), as the extension's GLSL
+/// states it.
+#[derive(Clone, Copy)]
+struct UvTransform {
+    offset: DVec2,
+    rotation: f64,
+    scale: DVec2,
+}
+
+impl UvTransform {
+    const IDENTITY: UvTransform = UvTransform {
+        offset: DVec2::ZERO,
+        rotation: 0.0,
+        scale: DVec2::ONE,
+    };
+
+    fn apply(self, uv: DVec2) -> DVec2 {
+        let s = uv * self.scale;
+        let (sin, cos) = self.rotation.sin_cos();
+        self.offset + DVec2::new(cos * s.x - sin * s.y, sin * s.x + cos * s.y)
+    }
+}
+
+/// Reads a glTF or GLB file's triangles (`bytes` its whole content).
+pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
+    let document = &gltf.document;
+    if let Some(unsupported) = document
+        .extensions_required()
+        .find(|name| !SUPPORTED_EXTENSIONS.contains(name))
+    {
+        return Err(format!(
+            "the file requires the extension {unsupported}, which omnisim does not support (it reads {}); \
+             re-export without it (Draco and compressed textures: e.g. gltf-transform decompress / png)",
+            SUPPORTED_EXTENSIONS.join(", ")
+        ));
+    }
+    let buffers = document
+        .buffers()
+        .map(|buffer| load_buffer(&buffer, gltf.blob.as_deref(), textures))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut images: Vec<Option<u32>> = vec![None; document.images().len()];
+    let mut triangles = Vec::new();
+    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => document.nodes().collect(),
+    };
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots.into_iter().map(|n| (n, DMat4::IDENTITY, 0)).collect();
+    let mut visits = 0usize;
+    while let Some((node, parent, depth)) = stack.pop() {
+        visits += 1;
+        if depth > MAX_DEPTH || visits > MAX_NODE_VISITS {
+            return Err(format!(
+                "the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node visits (a \
+                 loop?)"
+            ));
+        }
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(format!("node {}: its transform is not finite", node.index()));
+        }
+        if let Some(mesh) = node.mesh() {
+            for primitive in mesh.primitives() {
+                let what = format!("mesh {} primitive {}", mesh.index(), primitive.index());
+                read_primitive(&primitive, world, &buffers, &mut images, textures, &mut triangles)
+                    .map_err(|e| format!("{what}: {e}"))?;
+            }
+        }
+        stack.extend(node.children().map(|child| (child, world, depth + 1)));
+    }
+    Ok(triangles)
+}
+
+/// The bytes of a buffer: the GLB's binary chunk, a `data:` URI, or a file beside the glTF.
+fn load_buffer(buffer: &gltf::Buffer, blob: Option<&[u8]>, textures: &MeshTextures) -> Result<Vec<u8>, String> {
+    let what = format!("buffer {}", buffer.index());
+    let data = match buffer.source() {
+        gltf::buffer::Source::Bin => blob
+            .ok_or(format!("{what} is the GLB binary chunk, but the file has none"))?
+            .to_vec(),
+        gltf::buffer::Source::Uri(uri) => {
+            if let Some(encoded) = data_uri(uri) {
+                encoded.map_err(|e| format!("{what}: {e}"))?
+            } else {
+                let path = super::library::inside_folder(textures.mesh, uri, "buffer")?;
+                let mut bytes = Vec::new();
+                std::io::Read::read_to_end(
+                    &mut crate::input::open_regular(&path, BUFFER_LIMIT).map_err(|e| format!("{what}: {e}"))?,
+                    &mut bytes,
+                )
+                .map_err(|e| format!("{what}: {e}"))?;
+                bytes
+            }
+        }
+    };
+    if data.len() < buffer.length() {
+        return Err(format!(
+            "{what} holds {} bytes but declares {}: the file is truncated",
+            data.len(),
+            buffer.length()
+        ));
+    }
+    Ok(data)
+}
+
+/// The decoded bytes of a `data:...;base64,` URI, or `None` for any other URI.
+fn data_uri(uri: &str) -> Option<Result<Vec<u8>, String>> {
+    let rest = uri.strip_prefix("data:")?;
+    Some(match rest.split_once(";base64,") {
+        Some((_, encoded)) => base64::engine::general_purpose::STANDARD
+            .decode(encoded)
+            .map_err(|_| "its data URI is not valid base64".to_string()),
+        None => Err("a data URI must be base64-encoded".to_string()),
+    })
+}
+
+/// Checks that `accessor` lies inside its view and its view inside its buffer, with checked
+/// arithmetic (a lying file must neither panic the reader nor wrap around).
+fn check_accessor(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let what = format!("accessor {}", accessor.index());
+    if accessor.sparse().is_some() {
+        return Err(format!("{what} is sparse, which omnisim does not read"));
+    }
+    let view = accessor.view().ok_or(format!(
+        "{what} has no buffer view (all zeros), which omnisim does not read"
+    ))?;
+    let count = accessor.count();
+    if count == 0 {
+        return Err(format!("{what} has no elements"));
+    }
+    let size = accessor.size();
+    let stride = view.stride().unwrap_or(size);
+    let end = (count - 1)
+        .checked_mul(stride)
+        .and_then(|n| n.checked_add(size))
+        .and_then(|n| n.checked_add(accessor.offset()));
+    let view_end = view.offset().checked_add(view.length());
+    let buffer = &buffers[view.buffer().index()];
+    match (end, view_end) {
+        (Some(end), Some(view_end)) if end <= view.length() && view_end <= buffer.len() => Ok(()),
+        _ => Err(format!(
+            "{what} ({count} elements) reaches beyond its buffer view or buffer: the file is truncated or corrupt"
+        )),
+    }
+}
+
+fn wrap(mode: WrappingMode) -> Wrap {
+    match mode {
+        WrappingMode::ClampToEdge => Wrap::Clamp,
+        WrappingMode::MirroredRepeat => Wrap::Mirror,
+        WrappingMode::Repeat => Wrap::Repeat,
+    }
+}
+
+/// The look of a primitive's material, its base-colour texture decoded once per image.
+fn look(
+    material: &gltf::Material,
+    buffers: &[Vec<u8>],
+    images: &mut [Option<u32>],
+    textures: &mut MeshTextures,
+) -> Result<Look, String> {
+    let pbr = material.pbr_metallic_roughness();
+    let factor = DVec4::from_array(pbr.base_color_factor().map(f64::from));
+    let texture = match pbr.base_color_texture() {
+        None => None,
+        Some(info) => {
+            let texture = info.texture();
+            let image = texture.source();
+            let index = image.index();
+            if images[index].is_none() {
+                images[index] = Some(load_image(&image, buffers, textures)?);
+            }
+            let sampler = texture.sampler();
+            let (set, transform) = match info.texture_transform() {
+                None => (info.tex_coord(), UvTransform::IDENTITY),
+                Some(t) => (
+                    t.tex_coord().unwrap_or(info.tex_coord()),
+                    UvTransform {
+                        offset: DVec2::from_array(t.offset().map(f64::from)),
+                        rotation: f64::from(t.rotation()),
+                        scale: DVec2::from_array(t.scale().map(f64::from)),
+                    },
+                ),
+            };
+            images[index].map(|id| (id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], set, transform))
+        }
+    };
+    Ok(Look {
+        colour: [factor.x, factor.y, factor.z].map(linear_to_srgb),
+        factor,
+        texture,
+        unlit: material.unlit(),
+    })
+}
+
+/// Decodes image `image` (from a buffer view, a data URI or a file beside the glTF).
+fn load_image(image: &gltf::Image, buffers: &[Vec<u8>], textures: &mut MeshTextures) -> Result<u32, String> {
+    let what = format!("image {}", image.index());
+    let key = format!("gltf:{}:{}", textures.mesh.display(), image.index());
+    match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            let buffer = &buffers[view.buffer().index()];
+            let bytes = view
+                .offset()
+                .checked_add(view.length())
+                .and_then(|end| buffer.get(view.offset()..end))
+                .ok_or(format!("{what}: its buffer view reaches beyond the buffer"))?;
+            textures
+                .bank
+                .get_or_add(key, || super::texture::decode_bytes(bytes, &what))
+        }
+        gltf::image::Source::Uri { uri, .. } => match data_uri(uri) {
+            Some(bytes) => {
+                let bytes = bytes.map_err(|e| format!("{what}: {e}"))?;
+                textures
+                    .bank
+                    .get_or_add(key, || super::texture::decode_bytes(&bytes, &what))
+            }
+            None => textures.image(uri),
+        },
+    }
+}
+
+/// Appends the triangles of one primitive placed by `world`.
+fn read_primitive(
+    primitive: &gltf::Primitive,
+    world: DMat4,
+    buffers: &[Vec<u8>],
+    images: &mut [Option<u32>],
+    textures: &mut MeshTextures,
+    triangles: &mut Vec<MeshTriangle>,
+) -> Result<(), String> {
+    if primitive.mode() != Mode::Triangles {
+        return Err(format!(
+            "its mode is {:?}; omnisim reads triangle primitives only",
+            primitive.mode()
+        ));
+    }
+    let look = look(&primitive.material(), buffers, images, textures)?;
+    for (_, accessor) in primitive.attributes() {
+        check_accessor(&accessor, buffers)?;
+    }
+    if let Some(indices) = primitive.indices() {
+        check_accessor(&indices, buffers)?;
+    }
+    let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(Vec::as_slice));
+    let positions: Vec<DVec3> = reader
+        .read_positions()
+        .ok_or("it has no POSITION attribute")?
+        .map(|p| world.transform_point3(DVec3::from_array(p.map(f64::from))))
+        .collect();
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(indices) => indices.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if let Some(&i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+        return Err(format!(
+            "index {i} is out of range: there are {} vertices",
+            positions.len()
+        ));
+    }
+    if !indices.len().is_multiple_of(3) {
+        return Err(format!("{} indices is not a whole number of triangles", indices.len()));
+    }
+    let uvs: Option<Vec<DVec2>> = match &look.texture {
+        None => None,
+        Some((_, _, set, transform)) => Some(
+            reader
+                .read_tex_coords(*set)
+                .ok_or(format!(
+                    "its material's texture reads TEXCOORD_{set}, which it does not have"
+                ))?
+                .into_f32()
+                .enumerate()
+                .map(|(i, uv)| {
+                    let uv = DVec2::from_array(uv.map(f64::from));
+                    if uv.is_finite() {
+                        Ok(transform.apply(uv))
+                    } else {
+                        Err(format!("vertex {i}: texture coordinate {uv} is not finite"))
+                    }
+                })
+                .collect::<Result<_, _>>()?,
+        ),
+    };
+    if uvs.as_ref().is_some_and(|uvs| uvs.len() < positions.len()) {
+        return Err("TEXCOORD has fewer entries than POSITION".into());
+    }
+    let colours: Option<Vec<[u8; 3]>> = reader.read_colors(0).map(|colours| {
+        colours
+            .into_rgba_f32()
+            .map(|c| {
+                let linear = DVec4::from_array(c.map(f64::from)) * look.factor;
+                [linear.x, linear.y, linear.z].map(linear_to_srgb)
+            })
+            .collect()
+    });
+    if colours.as_ref().is_some_and(|c| c.len() < positions.len()) {
+        return Err("COLOR_0 has fewer entries than POSITION".into());
+    }
+    for corners in indices.chunks_exact(3) {
+        if triangles.len() == MAX_MESH_TRIANGLES {
+            return Err(format!(
+                "more than {MAX_MESH_TRIANGLES} triangles; omnisim reads at most that many per mesh"
+            ));
+        }
+        let at = |k: usize| corners[k] as usize;
+        triangles.push(MeshTriangle {
+            vertices: [positions[at(0)], positions[at(1)], positions[at(2)]],
+            colour: Some(look.colour),
+            texture: look
+                .texture
+                .as_ref()
+                .zip(uvs.as_ref())
+                .map(|((id, wrap, _, _), uvs)| CornerUvs {
+                    texture: *id,
+                    wrap: *wrap,
+                    uv: [uvs[at(0)], uvs[at(1)], uvs[at(2)]],
+                }),
+            corner_colours: colours.as_ref().map(|c| [c[at(0)], c[at(1)], c[at(2)]]),
+            unlit: look.unlit,
+        });
+    }
+    Ok(())
+}

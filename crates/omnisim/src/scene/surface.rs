@@ -1,0 +1,184 @@
+//! What a face carries besides its flat colour: texture coordinates and vertex colours, as
+//! affine functions of the hit point on the face's plane.
+//!
+//! Anything interpolated linearly across a triangle (UVs, colours) is an affine function of the
+//! point on its plane, and so is a planar mapping of a whole polygon (library faces mapped in
+//! metres). A surface therefore stores each such quantity as its value at an anchor point plus
+//! a world-space gradient, computed once in f64 at load; shading evaluates
+//! `value + gradient · (P − anchor)` at the hit point on CPU and GPU alike, so the hit planes
+//! need no barycentrics. Faces without a surface are shaded exactly as before.
+
+use glam::{DVec2, DVec3};
+
+use super::texture::{Texture, Wrap};
+
+/// Index of a face without a surface in [`Surfaces::of_face`].
+pub const NO_SURFACE: u32 = u32::MAX;
+
+/// The scene's textures and face surfaces, kept apart from the geometry (the BVH never sees
+/// them) and indexed by face id.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Surfaces {
+    /// Every texture, mip-mapped; `UvMap::texture` indexes this list.
+    pub textures: Vec<Texture>,
+    /// Every surface, in face order.
+    pub list: Vec<Surface>,
+    /// Index into `list` of each face, [`NO_SURFACE`] for none; shorter than the face list
+    /// (empty for a scene without surfaces): faces past its end have none.
+    pub of_face: Vec<u32>,
+}
+
+impl Surfaces {
+    /// The surface of face `face`, if it has one.
+    pub fn of(&self, face: u32) -> Option<&Surface> {
+        match self.of_face.get(face as usize) {
+            Some(&i) if i != NO_SURFACE => Some(&self.list[i as usize]),
+            _ => None,
+        }
+    }
+
+    /// Gives face `face` (the scene's last so far) `surface`.
+    pub(crate) fn push(&mut self, face: usize, surface: Surface) {
+        self.of_face.resize(face, NO_SURFACE);
+        self.of_face.push(self.list.len() as u32);
+        self.list.push(surface);
+    }
+
+    /// Whether no face has a surface.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+}
+
+/// The texture of a face: which one, how coordinates wrap, and u, v as affine functions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UvMap {
+    /// Index into `Scene::textures`.
+    pub texture: u32,
+    /// Wrap of u and of v.
+    pub wrap: [Wrap; 2],
+    /// (u, v) at the surface's anchor. u runs right along the image, v down (row 0 at v = 0).
+    pub at_anchor: DVec2,
+    /// World-space gradients of u and of v (per metre).
+    pub gradient: [DVec3; 2],
+}
+
+/// Vertex colours interpolated across a triangle, in linear light.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColourMap {
+    /// Linear colour at the anchor.
+    pub at_anchor: DVec3,
+    /// World-space gradients of red, green and blue (per metre).
+    pub gradient: [DVec3; 3],
+}
+
+/// A face's varying albedo: vertex colours (which replace the face's colour), a texture (which
+/// multiplies the face's colour or the vertex colours: the face colour is then a tint, glTF's
+/// `baseColorFactor`, MTL's `Kd`), or both.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Surface {
+    /// Where the affine functions are anchored (a vertex of the face), world metres.
+    pub anchor: DVec3,
+    /// The texture, if any.
+    pub uv: Option<UvMap>,
+    /// Vertex colours, if any.
+    pub colours: Option<ColourMap>,
+    /// Drawn in its albedo whatever the lights (glTF's `KHR_materials_unlit`).
+    pub unlit: bool,
+}
+
+impl Surface {
+    /// (u, v) at world point `point`.
+    pub fn uv_at(map: &UvMap, anchor: DVec3, point: DVec3) -> DVec2 {
+        let d = point - anchor;
+        map.at_anchor + DVec2::new(map.gradient[0].dot(d), map.gradient[1].dot(d))
+    }
+
+    /// Linear vertex colour at world point `point`.
+    pub fn colour_at(map: &ColourMap, anchor: DVec3, point: DVec3) -> DVec3 {
+        let d = point - anchor;
+        map.at_anchor + DVec3::new(map.gradient[0].dot(d), map.gradient[1].dot(d), map.gradient[2].dot(d))
+    }
+}
+
+/// The gradient of the affine function on triangle `corners` that takes `values` at them:
+/// the vector g in the triangle's plane with g·(p1 − p0) = f1 − f0 and g·(p2 − p0) = f2 − f0.
+/// `None` for a triangle without area.
+pub(crate) fn gradient(corners: [DVec3; 3], values: [f64; 3]) -> Option<DVec3> {
+    let (e1, e2) = (corners[1] - corners[0], corners[2] - corners[0]);
+    let n = e1.cross(e2);
+    let area2 = n.length_squared();
+    if !(area2 > 0.0 && area2.is_finite()) {
+        return None;
+    }
+    Some(((values[1] - values[0]) * e2.cross(n) + (values[2] - values[0]) * n.cross(e1)) / area2)
+}
+
+/// The in-plane axes of a face with unit normal `normal` on which library textures are laid:
+/// "right" and "down" as seen from the side the normal points to, with up = +z (or +y for a
+/// horizontal face), so images stand upright on walls and read from above on floors.
+pub(crate) fn plane_axes(normal: DVec3) -> [DVec3; 2] {
+    let up = if normal.z.abs() > 0.999 { DVec3::Y } else { DVec3::Z };
+    let right = up.cross(normal).normalize();
+    let down = -normal.cross(right);
+    [right, down]
+}
+
+/// Places a texture on a face's plane: metres along the face's right and down axes
+/// ([`plane_axes`]), shifted by `offset`, turned by `rotation` (radians, counter-clockwise as
+/// seen from the front), and divided by `scale` (metres per repeat across, down).
+pub(crate) fn planar_uv(
+    anchor: DVec3,
+    normal: DVec3,
+    scale: DVec2,
+    rotation: f64,
+    offset: DVec2,
+) -> (DVec2, [DVec3; 2]) {
+    let [right, down] = plane_axes(normal);
+    let (sin, cos) = rotation.sin_cos();
+    // Texture axes in the world: the face's axes turned by `rotation`.
+    let u_axis = right * cos - down * sin;
+    let v_axis = right * sin + down * cos;
+    let gradient = [u_axis / scale.x, v_axis / scale.y];
+    let at_anchor = DVec2::new(
+        (anchor.dot(u_axis) - offset.x) / scale.x,
+        (anchor.dot(v_axis) - offset.y) / scale.y,
+    );
+    (at_anchor, gradient)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::dvec3;
+
+    #[test]
+    fn triangle_gradients_reproduce_corner_values() {
+        let corners = [dvec3(1.0, 2.0, 3.0), dvec3(2.5, 2.0, 3.5), dvec3(1.0, 4.0, 2.0)];
+        let values = [0.25, -1.0, 3.0];
+        let g = gradient(corners, values).unwrap();
+        for k in 0..3 {
+            let at = values[0] + g.dot(corners[k] - corners[0]);
+            assert!((at - values[k]).abs() < 1e-12, "{at} vs {}", values[k]);
+        }
+        assert!(gradient([DVec3::ZERO, DVec3::X, DVec3::X * 2.0], values).is_none());
+    }
+
+    #[test]
+    fn walls_read_upright_and_floors_from_above() {
+        // A wall facing +x, seen from +x: right is +y, down is −z.
+        assert_eq!(plane_axes(DVec3::X), [DVec3::Y, -DVec3::Z]);
+        // A floor seen from above: right +x, down −y.
+        assert_eq!(plane_axes(DVec3::Z), [DVec3::X, -DVec3::Y]);
+        // 2 m per repeat, offset 0.5 m: u = (x − 0.5) / 2 on a floor.
+        let (at, g) = planar_uv(
+            dvec3(1.5, 0.0, 0.0),
+            DVec3::Z,
+            DVec2::splat(2.0),
+            0.0,
+            DVec2::new(0.5, 0.0),
+        );
+        assert_eq!(at, DVec2::new(0.5, 0.0));
+        assert_eq!(g[0], DVec3::X / 2.0);
+    }
+}

@@ -1,0 +1,84 @@
+//! A pixel's footprint on the surface it sees, as ray differentials.
+//!
+//! Every camera model (pinhole, panoramas, mirrors, central or not) is a function from pixel
+//! coordinates to a ray; its derivatives along the two image axes, transferred to the face hit,
+//! are the pixel's footprint (Igehy 1999, "Tracing ray differentials"). They are taken as the
+//! difference between the pixel's ray and its neighbour's (x + 1, else x − 1 where the image
+//! or the mirror ends; the same for y; [`neighbour_side`]): the camera's own rays, so a curved mirror's spread of the
+//! reflected rays comes out of the camera model with no per-model derivation, and the footprint
+//! is exact to first order for every model. Each neighbouring ray is intersected with the plane
+//! of the hit face: the points' offsets from the hit point are the footprint's sides (their
+//! length already holds the distance and the 1/cos of a slanted face). `shaders/texture.wgsl`
+//! does the same with the camera's WGSL rays.
+
+use glam::{DMat3, DVec2, DVec3};
+
+use crate::camera::{Camera, CameraRay};
+use crate::pose::Pose;
+
+/// Whether the neighbour `step` ahead of `pixel` lies inside an image of `size` pixels; if it
+/// does not (or the camera has no ray there), the one `step` behind stands in. The GPU's
+/// `footprint_side` follows the same rule.
+pub(crate) fn ahead_is_inside(pixel: DVec2, step: DVec2, size: (u32, u32)) -> bool {
+    let ahead = pixel + step;
+    ahead.x <= f64::from(size.0) - 1.0 && ahead.y <= f64::from(size.1) - 1.0
+}
+
+/// The rays of a pixel's two image-axis neighbours, world frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Footprint {
+    /// (origin, unit direction) of the neighbour along x and along y; `None` where the camera
+    /// has no such neighbour.
+    neighbours: [Option<(DVec3, DVec3)>; 2],
+}
+
+impl Footprint {
+    /// No footprint: textures are sampled at their finest level (point sampling). What a
+    /// caller without a camera gets, and what tests compare filtering against.
+    pub const POINT: Footprint = Footprint { neighbours: [None; 2] };
+
+    /// The footprint of pixel `pixel` (sub-pixel positions allowed) of `camera` at `pose`.
+    pub fn of_pixel(camera: &Camera, pose: &Pose, pixel: DVec2) -> Footprint {
+        let size = camera.size();
+        Self::from_body_rays(pose.world_from_body_rotation(), pose.position, |step| {
+            let ahead = ahead_is_inside(pixel, step, size)
+                .then(|| camera.ray(pixel + step))
+                .flatten();
+            ahead.or_else(|| camera.ray(pixel - step))
+        })
+    }
+
+    /// The footprint whose neighbouring body-frame rays `neighbour(step)` gives (step = one
+    /// pixel along x, then along y), seen from a pose with rotation `world_from_body` at
+    /// `position`.
+    pub(crate) fn from_body_rays(
+        world_from_body: DMat3,
+        position: DVec3,
+        neighbour: impl Fn(DVec2) -> Option<CameraRay>,
+    ) -> Footprint {
+        let world = |step: DVec2| {
+            let ray = neighbour(step)?;
+            Some((position + world_from_body * ray.origin, world_from_body * ray.direction))
+        };
+        Footprint {
+            neighbours: [world(DVec2::X), world(DVec2::Y)],
+        }
+    }
+
+    /// The footprint's sides on the plane through `point` with normal `normal`: where each
+    /// neighbouring ray meets that plane, less `point`. A neighbour that runs parallel to the
+    /// plane or meets it behind its origin gives an infinite side; a missing one a zero side.
+    pub fn on_plane(&self, point: DVec3, normal: DVec3) -> [DVec3; 2] {
+        self.neighbours.map(|neighbour| {
+            let Some((origin, direction)) = neighbour else {
+                return DVec3::ZERO;
+            };
+            let t = (point - origin).dot(normal) / direction.dot(normal);
+            if t.is_finite() && t > 0.0 {
+                origin + t * direction - point
+            } else {
+                DVec3::INFINITY
+            }
+        })
+    }
+}

@@ -1,0 +1,151 @@
+// Face surfaces (textures, vertex colours), pixel footprints and texture filtering: the WGSL
+// twin of crates/omnisim/src/shade/{footprint,filter}.rs and scene/surface.rs (the same texel
+// centres, wrap rules, level choice and affine maps, in f32).
+
+const NO_SURFACE: u32 = 0xffffffffu;
+const NO_TEXTURE: u32 = 0xffffffffu;
+const WRAP_REPEAT: u32 = 0u;
+const WRAP_CLAMP: u32 = 1u;
+const WRAP_MIRROR: u32 = 2u;
+// GpuSurface.flags: the vertex colours replace the face colour; drawn in its albedo whatever
+// the lights.
+const SURFACE_COLOURS: u32 = 1u;
+const SURFACE_UNLIT: u32 = 2u;
+
+// A face's surface: u, v and the vertex colours as affine functions of the hit point,
+// value + gradient · (point − anchor). Host twin: gpu/layout.rs GpuSurface.
+struct GpuSurface {
+    // Scene-local anchor.
+    anchor: vec3<f32>,
+    // Index in `textures` of the finest level's header, or NO_TEXTURE.
+    levels_at: u32,
+    u_gradient: vec3<f32>,
+    u_at_anchor: f32,
+    v_gradient: vec3<f32>,
+    v_at_anchor: f32,
+    // Linear vertex colour at the anchor (used where has_colours is 1).
+    colour_at_anchor: vec3<f32>,
+    level_count: u32,
+    red_gradient: vec3<f32>,
+    wrap_u: u32,
+    green_gradient: vec3<f32>,
+    wrap_v: u32,
+    blue_gradient: vec3<f32>,
+    // SURFACE_COLOURS | SURFACE_UNLIT.
+    flags: u32,
+}
+
+@group(0) @binding(11) var<storage, read> surfaces: array<GpuSurface>;
+// Every texture: level headers (first texel's index in this array, width, height; three u32
+// each, finest level first) and texels (8-bit sRGB packed r | g << 8 | b << 16, row 0 at v = 0).
+@group(0) @binding(12) var<storage, read> textures: array<u32>;
+
+// Texel index i of a row or column of `size` texels, wrapped into 0..size.
+fn wrap_index(i: i32, size: i32, wrap: u32) -> i32 {
+    if wrap == WRAP_CLAMP {
+        return clamp(i, 0, size - 1);
+    }
+    if wrap == WRAP_MIRROR {
+        let k = ((i % (2 * size)) + 2 * size) % (2 * size);
+        return select(2 * size - 1 - k, k, k < size);
+    }
+    return ((i % size) + size) % size;
+}
+
+fn srgb_decode(c: f32) -> f32 {
+    return select(pow((c + 0.055) / 1.055, 2.4), c / 12.92, c <= 0.04045);
+}
+
+fn texel(first: u32, width: i32, x: i32, y: i32) -> vec3<f32> {
+    let c = unpack4x8unorm(textures[first + u32(y * width + x)]).rgb;
+    return vec3<f32>(srgb_decode(c.r), srgb_decode(c.g), srgb_decode(c.b));
+}
+
+// Bilinear sample of level `level` of the texture whose headers start at `levels_at`.
+fn bilinear(levels_at: u32, level: u32, uv: vec2<f32>, wrap_u: u32, wrap_v: u32) -> vec3<f32> {
+    let header = levels_at + 3u * level;
+    let first = textures[header];
+    let size = vec2<i32>(i32(textures[header + 1u]), i32(textures[header + 2u]));
+    let safe = select(vec2<f32>(0.0), uv, uv == uv);
+    let t = safe * vec2<f32>(size) - 0.5;
+    let t0 = floor(t);
+    let f = t - t0;
+    let i = vec2<i32>(clamp(t0, vec2<f32>(-2.0e9), vec2<f32>(2.0e9)));
+    let x0 = wrap_index(i.x, size.x, wrap_u);
+    let x1 = wrap_index(i.x + 1, size.x, wrap_u);
+    let y0 = wrap_index(i.y, size.y, wrap_v);
+    let y1 = wrap_index(i.y + 1, size.y, wrap_v);
+    let top = mix(texel(first, size.x, x0, y0), texel(first, size.x, x1, y0), f.x);
+    let bottom = mix(texel(first, size.x, x0, y1), texel(first, size.x, x1, y1), f.x);
+    return mix(top, bottom, f.y);
+}
+
+// The footprint's side along one image axis on the plane through `point` with `normal`: where
+// the neighbouring pixel's ray meets the plane, less `point`.
+fn footprint_side(pixel: vec2<f32>, step: vec2<f32>, point: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
+    // The neighbour ahead where it lies inside the image and has a ray, else the one behind
+    // (footprint.rs: ahead_is_inside).
+    let ahead = pixel + step;
+    let inside = ahead.x <= f32(camera.frame.width) - 1.0 && ahead.y <= f32(camera.frame.height) - 1.0;
+    var ray = miss_ray();
+    if inside {
+        ray = camera_ray(ahead);
+    }
+    if !ray.valid {
+        ray = camera_ray(pixel - step);
+        if !ray.valid {
+            return vec3<f32>(0.0);
+        }
+    }
+    let origin = camera.frame.origin + camera.frame.world_from_body * ray.origin;
+    let direction = camera.frame.world_from_body * ray.direction;
+    let t = dot(point - origin, normal) / dot(direction, normal);
+    if !(t > 0.0 && t < FAR) {
+        return vec3<f32>(FAR);
+    }
+    return origin + t * direction - point;
+}
+
+// Whether surface `index` is drawn in its albedo whatever the lights.
+fn is_unlit(index: u32) -> bool {
+    return index != NO_SURFACE && (surfaces[index].flags & SURFACE_UNLIT) != 0u;
+}
+
+// The albedo of a face of colour `colour` and surface `index` at a hit seen through `pixel`:
+// the colour (or the vertex colours), times the texture filtered to the pixel's footprint.
+fn surface_albedo(colour: vec3<f32>, index: u32, point: vec3<f32>, normal: vec3<f32>, pixel: vec2<f32>) -> vec3<f32> {
+    if index == NO_SURFACE {
+        return colour;
+    }
+    let surface = surfaces[index];
+    let d = point - surface.anchor;
+    var factor = colour;
+    if (surface.flags & SURFACE_COLOURS) != 0u {
+        let interpolated = surface.colour_at_anchor
+            + vec3<f32>(dot(surface.red_gradient, d), dot(surface.green_gradient, d), dot(surface.blue_gradient, d));
+        factor = clamp(interpolated, vec3<f32>(0.0), vec3<f32>(1.0));
+    }
+    if surface.levels_at == NO_TEXTURE {
+        return factor;
+    }
+    let uv = vec2<f32>(surface.u_at_anchor + dot(surface.u_gradient, d), surface.v_at_anchor + dot(surface.v_gradient, d));
+    let side_x = footprint_side(pixel, vec2<f32>(1.0, 0.0), point, normal);
+    let side_y = footprint_side(pixel, vec2<f32>(0.0, 1.0), point, normal);
+    let texels = vec2<f32>(f32(textures[surface.levels_at + 1u]), f32(textures[surface.levels_at + 2u]));
+    let step_x = vec2<f32>(dot(surface.u_gradient, side_x), dot(surface.v_gradient, side_x)) * texels;
+    let step_y = vec2<f32>(dot(surface.u_gradient, side_y), dot(surface.v_gradient, side_y)) * texels;
+    let longest = max(length(step_x), length(step_y));
+    let last = f32(surface.level_count - 1u);
+    // NaN or infinite steps (a neighbour missing the plane): the coarsest level.
+    var lod = last;
+    if longest < FAR {
+        lod = clamp(log2(max(longest, 1.0)), 0.0, last);
+    }
+    let fine = floor(lod);
+    let fraction = lod - fine;
+    var sample = bilinear(surface.levels_at, u32(fine), uv, surface.wrap_u, surface.wrap_v);
+    if fraction > 0.0 {
+        sample = mix(sample, bilinear(surface.levels_at, u32(fine) + 1u, uv, surface.wrap_u, surface.wrap_v), fraction);
+    }
+    return factor * sample;
+}

@@ -1,0 +1,712 @@
+//! Textured faces: texels where the closed form puts them, no aliasing where a pixel covers
+//! many texels, footprints that match neighbouring pixels' rays for every camera model, and
+//! the GPU's filtering against the CPU's.
+
+mod common;
+
+use std::path::Path;
+
+use glam::{DVec2, DVec3, dvec3};
+use omnisim::advanced::{self, CpuTracer, Footprint, SceneBvh};
+use omnisim::camera::{Cylindrical, Equirectangular, Pinhole};
+use omnisim::scene::lighting::{linear_to_srgb, srgb_to_linear};
+use omnisim::{Camera, Plane, Planes, Pose, Scene};
+
+/// A 4×3 texture of distinct colours (sRGB), row by row.
+const TEXELS: [[u8; 3]; 12] = [
+    [255, 0, 0],
+    [0, 255, 0],
+    [0, 0, 255],
+    [255, 255, 0],
+    [0, 255, 255],
+    [255, 0, 255],
+    [40, 40, 40],
+    [230, 230, 230],
+    [128, 64, 0],
+    [0, 64, 128],
+    [64, 128, 0],
+    [200, 100, 50],
+];
+
+/// Writes the 4×3 texture as a PNG in `folder`.
+fn write_texture(folder: &Path) {
+    let bytes: Vec<u8> = TEXELS.iter().flatten().copied().collect();
+    let image = image_rgb(4, 3, &bytes);
+    std::fs::write(folder.join("tiles.png"), image).unwrap();
+}
+
+/// A PNG of RGB8 pixels, written with the png crate (not omnisim's writer).
+fn image_rgb(width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.write_header().unwrap().write_image_data(bytes).unwrap();
+    out
+}
+
+/// The bilinear texel of the 4×3 texture at (u, v) with clamped (or repeated) edges, in linear
+/// light: the textbook definition (texel centres at (i + ½) / size), written out here
+/// independently.
+fn bilinear_closed_form(u: f64, v: f64, repeat: bool) -> DVec3 {
+    let texel = |x: i64, y: i64| {
+        let (x, y) = if repeat {
+            (x.rem_euclid(4), y.rem_euclid(3))
+        } else {
+            (x.clamp(0, 3), y.clamp(0, 2))
+        };
+        let c = TEXELS[(y * 4 + x) as usize];
+        DVec3::new(srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]))
+    };
+    let (x, y) = (u * 4.0 - 0.5, v * 3.0 - 0.5);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (i, j) = (x0 as i64, y0 as i64);
+    let top = texel(i, j) * (1.0 - fx) + texel(i + 1, j) * fx;
+    let bottom = texel(i, j + 1) * (1.0 - fx) + texel(i + 1, j + 1) * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
+/// A 2 m × 1.5 m square at x = 2 facing the origin, the 4×3 texture stretched over it once
+/// (scale (2, 1.5), its top-left corner at y = 1, z = 0.75), clamped.
+fn textured_square(folder: &Path) -> Scene {
+    write_texture(folder);
+    let text = r#"Scene(name: "square", objects: [
+        Polygon(name: "square", vertices: [(2.0, 1.0, 0.75), (2.0, 1.0, -0.75), (2.0, -1.0, -0.75), (2.0, -1.0, 0.75)],
+                colour: (255, 255, 255),
+                texture: (image: "tiles.png", scale: (2.0, 1.5), offset: (-1.0, -0.75), wrap: Clamp)),
+    ])"#;
+    Scene::from_ron(text, &folder.join("square.ron")).unwrap()
+}
+
+/// (u, v) of the square's texture where `ray` from the origin meets x = 2: u runs along −y
+/// from y = 1, v along −z from z = 0.75 (the face's right and down axes seen from the origin).
+fn closed_form_uv(direction: DVec3) -> DVec2 {
+    let point = direction * (2.0 / direction.x);
+    DVec2::new((1.0 - point.y) / 2.0, (0.75 - point.z) / 1.5)
+}
+
+fn check_texels_exact(tracer: &common::Tracer, repeat: bool) {
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
+    let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
+    let frame = tracer.render(&camera, &pose).unwrap();
+    let colour = frame.colour().unwrap();
+    let mut checked = 0;
+    for v in 0..90 {
+        for u in 0..120 {
+            let index = frame.index(u, v);
+            if !frame.pixels()[index].is_hit() {
+                continue;
+            }
+            let ray = camera.ray(DVec2::new(f64::from(u), f64::from(v))).unwrap();
+            let uv = closed_form_uv(ray.direction);
+            let expected = bilinear_closed_form(uv.x, uv.y, repeat).to_array().map(linear_to_srgb);
+            for k in 0..3 {
+                assert!(
+                    colour[index][k].abs_diff(expected[k]) <= 1,
+                    "pixel ({u}, {v}) uv {uv}: {:?} vs closed form {expected:?}",
+                    colour[index]
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 5000, "{checked} pixels see the square");
+}
+
+#[test]
+fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_cpu() {
+    let folder = tempfile::tempdir().unwrap();
+    let scene = textured_square(folder.path());
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+}
+
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_gpu() {
+    let folder = tempfile::tempdir().unwrap();
+    let scene = textured_square(folder.path());
+    check_texels_exact(&common::gpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+}
+
+/// The square of `textured_square` as a mesh file of `format` (written by this test), its
+/// texture coordinates v up as OBJ and PLY have them.
+fn square_mesh(folder: &Path, format: &str) -> Scene {
+    write_texture(folder);
+    let corners = ["2 1 0.75", "2 1 -0.75", "2 -1 -0.75", "2 -1 0.75"];
+    let uvs = ["0 1", "0 0", "1 0", "1 1"];
+    let file = if format == "obj" {
+        std::fs::write(folder.join("square.mtl"), "newmtl tiles\nKd 1 1 1\nmap_Kd tiles.png\n").unwrap();
+        let mut text = String::from("mtllib square.mtl\nusemtl tiles\n");
+        corners.iter().for_each(|c| text += &format!("v {c}\n"));
+        uvs.iter().for_each(|uv| text += &format!("vt {uv}\n"));
+        text += "f 1/1 2/2 3/3 4/4\n";
+        std::fs::write(folder.join("square.obj"), text).unwrap();
+        "square.obj"
+    } else {
+        let mut text = String::from(
+            "ply\nformat ascii 1.0\ncomment TextureFile tiles.png\nelement vertex 4\nproperty float x\n\
+                 property float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\n\
+                 property list uchar float texcoord\nend_header\n",
+        );
+        corners.iter().for_each(|c| text += &format!("{c}\n"));
+        text += &format!("3 0 1 2 6 {} {} {}\n", uvs[0], uvs[1], uvs[2]);
+        text += &format!("3 0 2 3 6 {} {} {}\n", uvs[0], uvs[2], uvs[3]);
+        std::fs::write(folder.join("square.ply"), text).unwrap();
+        "square.ply"
+    };
+    let text = format!(r#"Scene(name: "mesh", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#);
+    Scene::from_ron(&text, &folder.join("mesh.ron")).unwrap()
+}
+
+#[test]
+fn obj_with_mtl_and_ply_with_texcoords_map_their_textures_exactly() {
+    for format in ["obj", "ply"] {
+        let folder = tempfile::tempdir().unwrap();
+        let scene = square_mesh(folder.path(), format);
+        assert_eq!(scene.faces.len(), 2, "{format}");
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), true);
+    }
+}
+
+#[test]
+fn ply_vertex_colours_are_interpolated_across_each_triangle() {
+    let folder = tempfile::tempdir().unwrap();
+    let corners = [dvec3(2.0, 1.0, -0.75), dvec3(2.0, -1.0, -0.75), dvec3(2.0, 0.0, 0.75)];
+    let colours = [[255u8, 0, 0], [0, 255, 0], [0, 0, 255]];
+    let mut text = String::from(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n",
+    );
+    for (p, c) in corners.iter().zip(colours) {
+        text += &format!("{} {} {} {} {} {}\n", p.x, p.y, p.z, c[0], c[1], c[2]);
+    }
+    text += "3 0 1 2\n";
+    std::fs::write(folder.path().join("fan.ply"), text).unwrap();
+    let scene = Scene::from_ron(
+        r#"Scene(name: "fan", objects: [Mesh(name: "fan", path: "fan.ply", colour: (9, 9, 9))])"#,
+        &folder.path().join("fan.ron"),
+    )
+    .unwrap();
+    let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(64, 48, 60f64.to_radians()));
+    let frame = tracer.render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO)).unwrap();
+    let mut checked = 0;
+    for (i, hit) in frame.pixels().iter().enumerate() {
+        if !hit.is_hit() {
+            continue;
+        }
+        // Barycentric weights of the hit point (the triangle lies in x = 2).
+        let area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).x;
+        let total = area(corners[0], corners[1], corners[2]);
+        let w = [
+            area(hit.point, corners[1], corners[2]) / total,
+            area(corners[0], hit.point, corners[2]) / total,
+            area(corners[0], corners[1], hit.point) / total,
+        ];
+        let expected = (0..3).fold(DVec3::ZERO, |sum, k| {
+            sum + w[k] * DVec3::from_array(colours[k].map(srgb_to_linear))
+        });
+        let expected = expected.to_array().map(linear_to_srgb);
+        let got = frame.colour().unwrap()[i];
+        assert!(
+            (0..3).all(|k| got[k].abs_diff(expected[k]) <= 1),
+            "pixel {i}: {got:?} vs {expected:?}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 300, "{checked}");
+}
+
+/// The error loading a scene whose mesh `name` holds `text` (and the 4×3 texture beside it).
+fn mesh_error(name: &str, text: impl AsRef<[u8]>, extra: &[(&str, &str)]) -> String {
+    let folder = tempfile::tempdir().unwrap();
+    write_texture(folder.path());
+    std::fs::write(folder.path().join(name), text).unwrap();
+    for (file, content) in extra {
+        std::fs::write(folder.path().join(file), content).unwrap();
+    }
+    let scene = format!(r#"Scene(name: "bad", objects: [Mesh(name: "bad", path: "{name}", colour: (9, 9, 9))])"#);
+    Scene::from_ron(&scene, &folder.path().join("bad.ron"))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn bad_textured_meshes_get_located_errors() {
+    let ply = |comment: &str, face: &str| {
+        format!(
+            "ply\nformat ascii 1.0\n{comment}element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             element face 1\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\nend_header\n\
+             0 0 0\n1 0 0\n0 1 0\n{face}\n"
+        )
+    };
+    // A binary PLY triangle whose second corner's u is NaN (ASCII PLY has no NaN).
+    let mut binary = b"ply\nformat binary_little_endian 1.0\ncomment TextureFile tiles.png\nelement vertex 3\n\
+        property float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+        property list uchar float texcoord\nend_header\n"
+        .to_vec();
+    for value in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        binary.extend(value.to_le_bytes());
+    }
+    binary.push(3);
+    for index in [0i32, 1, 2] {
+        binary.extend(index.to_le_bytes());
+    }
+    binary.push(6);
+    for value in [0.0f32, 0.0, f32::NAN, 0.0, 0.0, 1.0] {
+        binary.extend(value.to_le_bytes());
+    }
+    let cases = [
+        (
+            "missing texture",
+            mesh_error(
+                "a.ply",
+                ply("comment TextureFile gone.png\n", "3 0 1 2 6 0 0 1 0 0 1"),
+                &[],
+            ),
+            "gone.png: file not found",
+        ),
+        (
+            "NaN UV",
+            mesh_error("a.ply", &binary, &[]),
+            "face 0: texture coordinate (NaN, 0) is not finite",
+        ),
+        (
+            "index out of range",
+            mesh_error(
+                "a.ply",
+                ply("comment TextureFile tiles.png\n", "3 0 1 7 6 0 0 1 0 0 1"),
+                &[],
+            ),
+            "face 0 refers to vertex 7",
+        ),
+        (
+            "texture outside",
+            mesh_error(
+                "a.ply",
+                ply("comment TextureFile ../tiles.png\n", "3 0 1 2 6 0 0 1 0 0 1"),
+                &[],
+            ),
+            "must be relative",
+        ),
+        (
+            "mtllib outside",
+            mesh_error("a.obj", "mtllib ../x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &[]),
+            "mtllib path '../x.mtl' must be relative",
+        ),
+        (
+            "missing mtllib",
+            mesh_error("a.obj", "mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &[]),
+            "x.mtl",
+        ),
+        (
+            "missing map_Kd",
+            mesh_error(
+                "a.obj",
+                "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\n",
+                &[("m.mtl", "newmtl a\nmap_Kd nope.jpg\n")],
+            ),
+            "nope.jpg: file not found",
+        ),
+        (
+            "obj NaN UV",
+            mesh_error(
+                "a.obj",
+                "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt nan 0\nf 1/1 2/1 3/1\n",
+                &[("m.mtl", "newmtl a\nmap_Kd tiles.png\n")],
+            ),
+            "not finite",
+        ),
+    ];
+    for (what, error, expected) in cases {
+        assert!(error.contains(expected) && error.contains("bad.ron"), "{what}: {error}");
+    }
+}
+
+/// A 200 m floor with a 5 mm black-and-white checker, seen at grazing angles by a pinhole
+/// 1 m above it.
+fn fine_checker() -> (Scene, Camera, Pose) {
+    let text = r#"Scene(name: "checker", objects: [
+        Floor(name: "floor", corners: [(-100.0, -100.0), (100.0, -100.0), (100.0, 100.0), (-100.0, 100.0)], z: -1.0,
+              colour: (255, 255, 255),
+              texture: (pattern: Checker(colours: ((0, 0, 0), (255, 255, 255)), squares: 8), texels: 64, scale: (0.04, 0.04))),
+    ])"#;
+    let scene = Scene::from_ron(text, Path::new("checker.ron")).unwrap();
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(160, 120, 60f64.to_radians()));
+    // Looking 2° down: the floor from about 1.7 m (bottom row) to the horizon.
+    let pose = Pose::from_degrees(DVec3::ZERO, dvec3(0.0, 2.0, 0.0));
+    (scene, camera, pose)
+}
+
+/// Largest relative deviation of an 8×8-pixel region's mean linear colour from the checker's
+/// mean (0.5), over regions wholly on the floor, with `shade` giving each hit's colour.
+fn worst_region(frame: &omnisim::Frame, shade: impl Fn(usize) -> f64) -> f64 {
+    let mut worst: f64 = 0.0;
+    for by in 0..frame.height / 8 {
+        for bx in 0..frame.width / 8 {
+            let indices: Vec<usize> = (0..64).map(|k| frame.index(bx * 8 + k % 8, by * 8 + k / 8)).collect();
+            if !indices.iter().all(|&i| frame.pixels()[i].is_hit()) {
+                continue;
+            }
+            let mean = indices.iter().map(|&i| shade(i)).sum::<f64>() / 64.0;
+            worst = worst.max((mean - 0.5).abs() / 0.5);
+        }
+    }
+    worst
+}
+
+#[test]
+fn a_fine_checker_at_grazing_angles_averages_to_grey_and_point_sampling_would_alias() {
+    let (scene, camera, pose) = fine_checker();
+    let bvh = SceneBvh::build(&scene);
+    let tracer = common::cpu_tracer(&scene, &bvh);
+    let frame = tracer
+        .render_planes(&camera, &pose, Planes::COLOUR.with(Plane::LinearColour))
+        .unwrap();
+    let linear = frame.linear_colour().unwrap();
+    let filtered = worst_region(&frame, |i| f64::from(linear[i][0]));
+    assert!(
+        filtered < 0.02,
+        "filtered: a region's mean is {:.1} % off the checker's",
+        filtered * 100.0
+    );
+    // The same hits shaded at the finest level (point sampling): moiré.
+    let appearance = tracer.scene.appearance();
+    let point = |i: usize| {
+        advanced::shade(
+            CpuTracer::Reference,
+            &bvh,
+            appearance,
+            &frame.pixels()[i],
+            &Footprint::POINT,
+        )
+        .x
+    };
+    let aliased = worst_region(&frame, point);
+    assert!(
+        aliased > 0.1,
+        "point sampling should alias, yet its worst region is {:.1} % off",
+        aliased * 100.0
+    );
+}
+
+/// Where a body-frame ray of `camera` at `pose` meets the plane through `on` with `normal`.
+fn meet(camera: &Camera, pose: &Pose, pixel: DVec2, on: DVec3, normal: DVec3) -> Option<DVec3> {
+    let ray = camera.ray(pixel)?;
+    let rotation = pose.world_from_body_rotation();
+    let (origin, direction) = (pose.position + rotation * ray.origin, rotation * ray.direction);
+    let t = (on - origin).dot(normal) / direction.dot(normal);
+    (t > ray.t_min && t.is_finite()).then(|| origin + t * direction)
+}
+
+#[test]
+fn footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_model() {
+    let mut cameras = common::cameras();
+    cameras.push(Camera::Equirectangular(Equirectangular {
+        width: 360,
+        height: 180,
+    }));
+    cameras.push(Camera::Cylindrical(Cylindrical::with_vertical_fov(
+        360,
+        90,
+        90f64.to_radians(),
+    )));
+    // A floor 0.8 m below and a wall 2 m ahead: the known planes.
+    let planes = [(dvec3(0.0, 0.0, -0.8), DVec3::Z), (dvec3(2.0, 0.0, 0.0), DVec3::X)];
+    let pose = Pose::from_degrees(dvec3(0.1, -0.2, 0.05), dvec3(0.0, 0.0, 10.0));
+    for camera in &cameras {
+        let (width, height) = camera.size();
+        let mut compared = 0;
+        for v in (1..height - 1).step_by(7) {
+            for u in (1..width - 1).step_by(7) {
+                let pixel = DVec2::new(f64::from(u), f64::from(v));
+                for (on, normal) in planes {
+                    let Some(point) = meet(camera, &pose, pixel, on, normal) else {
+                        continue;
+                    };
+                    let sides = Footprint::of_pixel(camera, &pose, pixel).on_plane(point, normal);
+                    for (axis, step) in [DVec2::X, DVec2::Y].into_iter().enumerate() {
+                        let (Some(ahead), Some(behind)) = (
+                            meet(camera, &pose, pixel + step, on, normal),
+                            meet(camera, &pose, pixel - step, on, normal),
+                        ) else {
+                            continue;
+                        };
+                        // The central difference of the neighbours' hits; the footprint is a
+                        // one-sided difference, so where the two sides differ by more than 5 %
+                        // (grazing views, the panoramas' poles) neither is a footprint.
+                        let spacing = (ahead - behind) / 2.0;
+                        if (ahead - point).length() > 1.05 * (point - behind).length()
+                            || (point - behind).length() > 1.05 * (ahead - point).length()
+                            || spacing.length() > 0.5
+                        {
+                            continue;
+                        }
+                        // The footprint's width along this image axis.
+                        let error = (sides[axis].length() - spacing.length()).abs() / spacing.length();
+                        assert!(
+                            error <= 0.05,
+                            "{}: pixel {pixel} axis {axis}: footprint {} vs neighbours {} ({:.1} %)",
+                            common::describe(camera),
+                            sides[axis],
+                            spacing,
+                            error * 100.0
+                        );
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            compared > 100,
+            "{}: only {compared} footprints compared",
+            common::describe(camera)
+        );
+    }
+}
+
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
+    let scene = common::load("env1-textured.ron");
+    let bvh = SceneBvh::build(&scene);
+    let (cpu, gpu) = (common::cpu_tracer(&scene, &bvh), common::gpu_tracer(&scene, &bvh));
+    let pose = Pose::from_degrees(dvec3(1.0, 0.0, 0.4), dvec3(0.0, 0.0, 200.0));
+    for camera in [
+        Camera::Catadioptric(common::paper_omni()),
+        Camera::Pinhole(Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians())),
+        Camera::Equirectangular(Equirectangular {
+            width: 512,
+            height: 256,
+        }),
+    ] {
+        let planes = Planes::COLOUR.with(Plane::LinearColour);
+        let (a, b) = (
+            cpu.render_planes(&camera, &pose, planes).unwrap(),
+            gpu.render_planes(&camera, &pose, planes).unwrap(),
+        );
+        let (la, lb) = (a.linear_colour().unwrap(), b.linear_colour().unwrap());
+        let (mut compared, mut worst) = (0usize, 0f32);
+        for i in 0..a.pixels().len() {
+            if a.pixels()[i].face != b.pixels()[i].face || !a.pixels()[i].is_hit() {
+                continue;
+            }
+            compared += 1;
+            let difference = (0..3).map(|k| (la[i][k] - lb[i][k]).abs()).fold(0.0, f32::max);
+            worst = worst.max(difference);
+        }
+        // f32 hit points move a texture coordinate by ~1e-6 of a repeat and the level of detail
+        // by as little (measured on lavapipe: at most 2e-5 in linear light).
+        assert!(
+            compared > 40_000 && worst <= 1e-3,
+            "{}: worst linear difference {worst} over {compared} pixels",
+            common::describe(&camera)
+        );
+    }
+}
+
+/// A GLB container of `json` and the binary chunk `bin` (both padded to 4 bytes).
+fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
+    let mut json = serde_json::to_vec(json).unwrap();
+    json.resize(json.len().div_ceil(4) * 4, b' ');
+    let mut bin = bin.to_vec();
+    bin.resize(bin.len().div_ceil(4) * 4, 0);
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(json);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    out
+}
+
+/// The textured square as a GLB: the square lies in its node's xy plane, placed at x = 2
+/// facing the origin by a parent node (scale 2, translation) and a child (rotation, scale ½);
+/// the 4×3 texture is embedded, clamped. `uv` maps each local (u, v) to what the file
+/// stores, and `extension` is added to the texture info (`KHR_texture_transform` tests).
+fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>, mode: u32) -> Vec<u8> {
+    let corners = [
+        [-1.0f32, 0.75, 0.0],
+        [-1.0, -0.75, 0.0],
+        [1.0, -0.75, 0.0],
+        [1.0, 0.75, 0.0],
+    ];
+    let uvs = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(0.0, 1.0),
+        DVec2::new(1.0, 1.0),
+        DVec2::new(1.0, 0.0),
+    ]
+    .map(uv);
+    let mut bin: Vec<u8> = corners.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    bin.extend(
+        uvs.iter()
+            .flat_map(|uv| [uv.x as f32, uv.y as f32])
+            .flat_map(f32::to_le_bytes),
+    );
+    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    bin.extend([0, 0]);
+    let png_at = bin.len();
+    let png = image_rgb(4, 3, &TEXELS.iter().flatten().copied().collect::<Vec<u8>>());
+    bin.extend(&png);
+    // Local x → world −y, y → z, z → −x (a proper rotation).
+    let rotation = glam::DQuat::from_mat3(&glam::DMat3::from_cols(-DVec3::Y, DVec3::Z, -DVec3::X));
+    let mut info = serde_json::json!({"index": 0});
+    if let Some(extension) = extension {
+        info["extensions"] = serde_json::json!({ "KHR_texture_transform": extension });
+    }
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_texture_transform"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [
+            {"children": [1], "translation": [2.0, 0.0, 0.0], "scale": [2.0, 2.0, 2.0]},
+            {"mesh": 0, "rotation": [rotation.x, rotation.y, rotation.z, rotation.w], "scale": [0.5, 0.5, 0.5]}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0, "mode": mode}]}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": info}}],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33071}],
+        "images": [{"bufferView": 3, "mimeType": "image/png"}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1.0, -0.75, 0.0], "max": [1.0, 0.75, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+            {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()}
+        ],
+        "buffers": [{"byteLength": bin.len()}]
+    });
+    glb(&json, &bin)
+}
+
+fn load_glb(bytes: &[u8]) -> Result<Scene, omnisim::SceneError> {
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::write(folder.path().join("square.glb"), bytes).unwrap();
+    Scene::from_ron(
+        r#"Scene(name: "glb", objects: [Mesh(name: "square", path: "square.glb", colour: (9, 9, 9))])"#,
+        &folder.path().join("glb.ron"),
+    )
+}
+
+#[test]
+fn a_glb_square_through_its_node_hierarchy_maps_its_embedded_texture_exactly() {
+    let scene = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+}
+
+#[test]
+fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
+    // offset + R(rotation)·(scale ⊙ uv), the extension's formula, baked into the file's
+    // coordinates, against the same coordinates left to the extension.
+    let (offset, rotation, scale) = (DVec2::new(0.1, -0.2), 0.3f64, DVec2::new(1.5, 0.75));
+    let inverse = |t: DVec2| {
+        let (sin, cos) = rotation.sin_cos();
+        let r = t - offset;
+        DVec2::new(cos * r.x + sin * r.y, -sin * r.x + cos * r.y) / scale
+    };
+    let transform =
+        serde_json::json!({"offset": [offset.x, offset.y], "rotation": rotation, "scale": [scale.x, scale.y]});
+    let plain = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
+    let transformed = load_glb(&square_glb(inverse, Some(transform), 4)).unwrap();
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
+    let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
+    let render = |scene: &Scene| {
+        let tracer = common::cpu_tracer(scene, &SceneBvh::build(scene));
+        tracer.render(&camera, &pose).unwrap().colour().unwrap().to_vec()
+    };
+    let (a, b) = (render(&plain), render(&transformed));
+    let worst = a
+        .iter()
+        .zip(&b)
+        .flat_map(|(x, y)| (0..3).map(move |k| x[k].abs_diff(y[k])))
+        .max()
+        .unwrap();
+    assert!(worst <= 1, "largest difference {worst}/255");
+}
+
+#[test]
+fn bad_gltf_files_get_located_errors_without_panicking() {
+    let good = square_glb(|uv| uv, None, 4);
+    let error = |bytes: &[u8]| load_glb(bytes).map(|_| ()).unwrap_err().to_string();
+    let truncated = error(&good[..good.len() - 300]);
+    assert!(
+        truncated.contains("square.glb") && truncated.contains("glb.ron"),
+        "{truncated}"
+    );
+    assert!(
+        error(&good[..40]).contains("not a readable glTF"),
+        "{}",
+        error(&good[..40])
+    );
+    let lines = error(&square_glb(|uv| uv, None, 1));
+    assert!(
+        lines.contains("mesh 0 primitive 0") && lines.contains("triangle primitives only"),
+        "{lines}"
+    );
+    let nan = error(&square_glb(
+        |uv| if uv.x > 0.5 { DVec2::new(f64::NAN, uv.y) } else { uv },
+        None,
+        4,
+    ));
+    assert!(nan.contains("not finite"), "{nan}");
+    // Index 7 of 4 vertices, and a required extension omnisim lacks.
+    let mut bytes = good.clone();
+    let at = bytes
+        .windows(12)
+        .position(|w| w == [0, 0, 1, 0, 2, 0, 0, 0, 2, 0, 3, 0])
+        .unwrap();
+    bytes[at + 2] = 7;
+    let out_of_range = error(&bytes);
+    assert!(out_of_range.contains("index 7 is out of range"), "{out_of_range}");
+    let json_end = 20 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
+    json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    let draco = error(&glb(&json, &good[json_end + 8..]));
+    assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
+}
+
+#[test]
+fn the_shipped_crate_looks_the_same_from_obj_and_gltf_and_is_textured_in_ply() {
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(160, 120, 70f64.to_radians()));
+    let pose = Pose::from_degrees(dvec3(-0.6, -0.3, 0.6), dvec3(0.0, 15.0, 15.0));
+    let render = |name: &str| {
+        let scene = common::load(name);
+        assert!(
+            !scene.surfaces.is_empty() && !scene.surfaces.textures.is_empty(),
+            "{name}"
+        );
+        let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+        tracer.render(&camera, &pose).unwrap().colour().unwrap().to_vec()
+    };
+    let (obj, gltf, ply) = (
+        render("textured-obj.ron"),
+        render("textured-gltf.ron"),
+        render("textured-ply.ron"),
+    );
+    // The same crate, texture and placement: the same image (the glTF's y-up corners come back
+    // through the scene's rotation, up to rounding).
+    let worst = obj
+        .iter()
+        .zip(&gltf)
+        .flat_map(|(a, b)| (0..3).map(move |k| a[k].abs_diff(b[k])))
+        .max()
+        .unwrap();
+    assert!(worst <= 1, "OBJ and glTF differ by {worst}/255");
+    // The PLY's vertex colours darken the crate's lower half.
+    assert!(obj.iter().zip(&ply).filter(|(a, b)| a != b).count() > 1000);
+}
