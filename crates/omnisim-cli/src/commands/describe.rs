@@ -43,7 +43,7 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 ///   gist       panoramic gist, horizontal blocks [scales=4, orientations=8, blocks=16]
 ///   grid-gist  gist on a grid [scales=4, orientations=8, grid=4, on=image]
 ///   radon      Radon transform of the image about the camera's principal point (omni) or the image centre
-///              [angles=360, radial-samples=0 (0: up to the nearest image edge), radial-step=1, line-step=0.5 (pixels)]
+///              [angles=360, radial-samples=0 (0: every p strictly inside the disc reaching the nearest image edge), radial-step=1, line-step=0.5 (pixels)]
 ///   sift       Lowe 2004 [sigma=1.6, input-sigma=0.5, scales=3, contrast=0.04, edge=10, bins=36, peak=0.8,
 ///              descriptor-width=4 (cells per side), descriptor-bins=8, clamp=0.2, border=5, upsample=true, on=image]
 ///   surf       Bay et al. 2006 [threshold=100, octaves=4, intervals=4, sample-step=1, hessian-weight=0.9,
