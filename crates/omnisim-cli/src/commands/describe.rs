@@ -17,6 +17,7 @@ use omnisim_vision::hog::{
     BlockHogParams, Orientations, PanoramicHogParams, VerticalHogParams, block_hog, panoramic_hog, vertical_hog,
 };
 use omnisim_vision::keypoints::Features;
+use omnisim_vision::lmgist::{LmGist, LmGistParams};
 use omnisim_vision::pca::Pca;
 use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
@@ -39,9 +40,15 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 ///   fourier    Fourier signature of the panorama, magnitudes (NAME-phases.npy: phases) [k=16]
 ///   hog        panoramic HOG, horizontal cells of the full width [cells=16, bins=8, signed=false]
 ///   vertical-hog  HOG of overlapping vertical cells of the panorama, for orientation [width=32, column-step=1, bins=8, signed=false]
-///   block-hog  Dalal & Triggs HOG [cell=8, block=2, stride=1, bins=9, signed=false, clip=0.2, on=image]
-///   gist       panoramic gist, horizontal blocks [scales=4, orientations=8, blocks=16]
-///   grid-gist  gist on a grid [scales=4, orientations=8, grid=4, on=image]
+///   block-hog  block HOG in Dalal & Triggs' layout (cells, overlapping blocks, L2-Hys) with linear
+///              orientation votes but without their trilinear spatial votes and Gaussian block window
+///              (as scikit-image's hog) [cell=8, block=2, stride=1, bins=9, signed=false, clip=0.2, on=image]
+///   gist       omnisim's panoramic gist: LMgist's Gabor bank over horizontal blocks, circular in x,
+///              without LMgist's prefilter and resize [scales=4, orientations=8, blocks=16]
+///   grid-gist  omnisim's gist on a grid (as gist, not LMgist) [scales=4, orientations=8, grid=4, on=image]
+///   lmgist     Oliva & Torralba's LMgist exactly: channel mean, resize + centred crop to size², whitening
+///              prefilter (fc cycles/image), 32-px mirrored border, blocks at fix(linspace(0, size, n+1)),
+///              LMgist's column-major order [size=256, scales=4, orientations=8, blocks=4, fc=4, on=image]
 ///   radon      Radon transform of the image about the camera's principal point (omni) or the image centre
 ///              [angles=360, radial-samples=0 (0: every p strictly inside the disc reaching the nearest image edge), radial-step=1, line-step=0.5 (pixels)]
 ///   sift       Lowe 2004 [sigma=1.6, input-sigma=0.5, scales=3, contrast=0.04, edge=10, bins=36, peak=0.8,
@@ -117,6 +124,7 @@ enum Method {
     VerticalHog(VerticalHogParams),
     BlockHog(BlockHogParams),
     Gist(GistParams),
+    LmGist(LmGist),
     Radon(RadonParams),
     Sift(SiftParams),
     Surf(SurfParams),
@@ -132,6 +140,7 @@ impl Method {
                 Method::VerticalHog(p) => p.validate(),
                 Method::BlockHog(p) => p.validate(),
                 Method::Gist(p) => p.validate(),
+                Method::LmGist(g) => g.params().validate(),
                 Method::Radon(p) => p.validate(),
                 Method::Sift(p) => p.validate(),
                 Method::Surf(p) => p.validate(),
@@ -144,6 +153,8 @@ impl Method {
             Method::BlockHog(p) => p.fits(w, h),
             Method::Gist(p) => p.fits(w, h),
             Method::Radon(p) => p.fits(w, h),
+            // Any size: it is resized to its own.
+            Method::LmGist(g) => g.params().validate(),
             // Any size: an image too small gives no keypoints.
             Method::Sift(p) => p.validate(),
             Method::Surf(p) => p.validate(),
@@ -240,6 +251,24 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             let parameters = json!({ "scales": p.scales, "orientations": p.orientations, "grid": grid });
             (Method::Gist(p), on(Reads::Image)?, parameters)
         }
+        "lmgist" => {
+            spec.check_keys(&["size", "scales", "orientations", "blocks", "fc", "on"])?;
+            let d = LmGistParams::default();
+            let p = LmGistParams {
+                image_size: spec.get("size", d.image_size)?,
+                scales: spec.get("scales", d.scales)?,
+                orientations: spec.get("orientations", d.orientations)?,
+                blocks: spec.get("blocks", d.blocks)?,
+                prefilter_cycles: spec.get("fc", d.prefilter_cycles)?,
+            };
+            let parameters = json!({
+                "image_size": p.image_size, "scales": p.scales, "orientations": p.orientations, "blocks": p.blocks,
+                "prefilter_cycles_per_image": p.prefilter_cycles, "boundary_extension_px": omnisim_vision::lmgist::BOUNDARY,
+                "block_order": "LMgist's: filter by filter, blocks column-major", "grey": "mean of the colour channels"
+            });
+            let lmgist = LmGist::new(p).with_context(|| format!("--descriptor {}", spec.name))?;
+            (Method::LmGist(lmgist), on(Reads::Image)?, parameters)
+        }
         "radon" => {
             spec.check_keys(&["angles", "radial-samples", "radial-step", "line-step"])?;
             let d = RadonParams::default();
@@ -326,7 +355,7 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             (Method::Surf(p), on(Reads::Image)?, parameters)
         }
         other => bail!(
-            "unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, radon, sift or surf"
+            "unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, lmgist, radon, sift or surf"
         ),
     };
     // Every setting that does not depend on the images is checked here; the limits the
@@ -379,6 +408,7 @@ impl Choice {
             Method::VerticalHog(p) => values(vertical_hog(grey, *p)?),
             Method::BlockHog(p) => values(block_hog(grey, *p)?),
             Method::Gist(p) => values(gist(grey, *p)?),
+            Method::LmGist(g) => values(g.describe(grey)?),
             Method::Radon(p) => {
                 let radon = Radon::new(grey, *p)?;
                 Described::Values {
@@ -498,6 +528,8 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
                         result.panorama_seconds.push(*seconds);
                         panorama
                     }
+                    // LMgist averages the colour channels itself (`mean(img, 3)`).
+                    _ if matches!(choice.method, Method::LmGist(_)) => &image,
                     _ => &grey,
                 };
                 let clock = Instant::now();
