@@ -6,6 +6,7 @@
 //!   `docs/vision.md` for each paper and equation): [`fourier`] signature, [`radon`] transform
 //!   with phase-only correlation, [`hog`], [`gist`] (omnisim's variant for panoramas) and
 //!   [`lmgist`] (Oliva & Torralba's reference code exactly), and [`pca`].
+//! - [`localize`]: map against test images by global appearance, scored, reported, charted.
 //! - [`accuracy`] of resampled views against exact renders, and [`chart`]s of it.
 //! - Local features: [`sift`] (Lowe 2004) and [`surf`] (Bay et al. 2006), their
 //!   [`keypoints`] and ratio-test matching.
@@ -46,6 +47,7 @@ pub mod gist;
 pub mod hog;
 pub mod keypoints;
 pub mod lmgist;
+pub mod localize;
 pub mod npy;
 pub mod pca;
 pub mod projection;

@@ -245,6 +245,27 @@ impl Radon {
     }
 }
 
+impl Radon {
+    /// A descriptor of the transform that a turn of the image leaves unchanged: for each
+    /// radial sample p, the magnitudes of the first k coefficients of the DFT of R(·, p) along
+    /// φ (a turn is a circular shift along φ, which changes only their phases). Radial-major,
+    /// `width × k` values; k is at most angles/2 + 1.
+    pub fn signature(&self, k: usize) -> Result<Vec<f32>, VisionError> {
+        let (radial, angles) = (self.values.width, self.values.height);
+        require((1..=angles / 2 + 1).contains(&k), "coefficients", || {
+            format!("needs 1 ≤ k ≤ angles/2 + 1 = {}, got {k}", angles / 2 + 1)
+        })?;
+        let mut columns: Vec<C64> = (0..radial * angles)
+            .map(|i| C64::new(f64::from(self.values.at(i / angles, i % angles)), 0.0))
+            .collect();
+        fft::rows(&mut columns, angles, FftDirection::Forward);
+        Ok(columns
+            .chunks(angles)
+            .flat_map(|c| c[..k].iter().map(|v| v.norm() as f32))
+            .collect())
+    }
+}
+
 fn radial_position(j: usize, samples: usize, step: f64) -> f64 {
     (j as f64 - (samples - 1) as f64 / 2.0) * step
 }
@@ -356,6 +377,37 @@ mod tests {
         assert!(peak > 0.8, "peak {peak}");
         let (back, _) = b.rotation_to(&a).unwrap();
         assert_eq!(back.steps, 270);
+    }
+
+    /// The signature is unchanged by a turn (a circular shift along φ) and is the DFT of each
+    /// radial column: its first coefficient is the column's sum.
+    #[test]
+    fn signature_ignores_turns() {
+        let image = coverage(41, |x, y| {
+            (x - 5.0).powi(2) + (y + 3.0).powi(2) < 40.0 || (x > 4.0 && y > 8.0 && x < 12.0)
+        });
+        let radon = Radon::new(
+            &image,
+            RadonParams {
+                angles: 72,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let mut turned = radon.clone();
+        for i in 0..72 {
+            for j in 0..radon.values.width {
+                turned.values.data[((i + 17) % 72) * radon.values.width + j] = radon.values.at(j, i);
+            }
+        }
+        let (a, b) = (radon.signature(8).unwrap(), turned.signature(8).unwrap());
+        assert_eq!(a.len(), radon.values.width * 8);
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() <= 1e-4 * x.abs().max(1.0), "{x} vs {y}");
+        }
+        let column_sum: f32 = (0..72).map(|i| radon.values.at(20, i)).sum();
+        assert!((a[20 * 8] - column_sum).abs() <= 1e-3 * column_sum.max(1.0));
+        assert!(radon.signature(0).is_err() && radon.signature(38).is_err());
     }
 
     /// A disc off the image centre, transformed about its own centre (`centre`), gives the

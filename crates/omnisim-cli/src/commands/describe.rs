@@ -77,14 +77,8 @@ pub(crate) struct DescribeArgs {
     /// Output folder (created if missing); one sub-folder per set.
     #[arg(long)]
     pub out: PathBuf,
-    /// Size of the panorama resampled from omnidirectional images, WIDTHxHEIGHT.
-    #[arg(long, default_value = "512x128", value_parser = parse_size)]
-    pub panorama: (u32, u32),
-    /// Elevations the panorama spans, degrees, LOW:HIGH.
-    #[arg(long, default_value = "-45:15", value_parser = parse_degrees_range, allow_hyphen_values = true)]
-    pub elevation: (f64, f64),
-    #[arg(long, value_enum, default_value = "bicubic")]
-    pub interpolation: InterpolationArg,
+    #[command(flatten)]
+    pub view: PanoramaArgs,
     /// Fit a PCA of K components to each global descriptor of the map set (--map) and project
     /// every set with it (NAME-pca.npy); the basis goes to OUT/pca/NAME/ (mean.npy, axes.npy,
     /// variances.npy, and pca.json with the total variance).
@@ -98,18 +92,31 @@ pub(crate) struct DescribeArgs {
     pub pca_basis: Option<PathBuf>,
 }
 
+/// The panorama that descriptors reading one are given (shared with `localize`).
+#[derive(Debug, Clone, Args)]
+pub(crate) struct PanoramaArgs {
+    /// Size of the panorama resampled from omnidirectional images, WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x128", value_parser = parse_size)]
+    pub panorama: (u32, u32),
+    /// Elevations the panorama spans, degrees, LOW:HIGH.
+    #[arg(long, default_value = "-45:15", value_parser = parse_degrees_range, allow_hyphen_values = true)]
+    pub elevation: (f64, f64),
+    #[arg(long, value_enum, default_value = "bicubic")]
+    pub interpolation: InterpolationArg,
+}
+
 /// The folder of OUT that holds the PCA bases (a set of that name is refused with --pca-fit).
 const PCA_FOLDER: &str = "pca";
 
 /// Which image a descriptor reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Reads {
+pub(crate) enum Reads {
     Image,
     Panorama,
 }
 
 impl Reads {
-    fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Reads::Image => "image",
             Reads::Panorama => "panorama",
@@ -118,7 +125,7 @@ impl Reads {
 }
 
 #[derive(Debug, Clone)]
-enum Method {
+pub(crate) enum Method {
     Fourier(FourierParams),
     Hog(PanoramicHogParams),
     VerticalHog(VerticalHogParams),
@@ -132,7 +139,7 @@ enum Method {
 
 impl Method {
     /// Checks the settings; with `size`, also for an image of that size (width, height).
-    fn fits(&self, size: Option<(usize, usize)>) -> Result<(), omnisim_vision::VisionError> {
+    pub(crate) fn fits(&self, size: Option<(usize, usize)>) -> Result<(), omnisim_vision::VisionError> {
         let Some((w, h)) = size else {
             return match self {
                 Method::Fourier(p) => p.validate(),
@@ -164,14 +171,14 @@ impl Method {
 
 /// One descriptor as chosen: what it computes, what it reads, and its settings for the sidecar.
 #[derive(Debug, Clone)]
-struct Choice {
-    name: String,
-    method: Method,
-    reads: Reads,
-    parameters: Value,
+pub(crate) struct Choice {
+    pub name: String,
+    pub method: Method,
+    pub reads: Reads,
+    pub parameters: Value,
 }
 
-fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
+pub(crate) fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
     let on = |default: Reads| -> anyhow::Result<Reads> {
         match spec.settings.get("on").map(String::as_str) {
             None => Ok(default),
@@ -378,7 +385,7 @@ fn decimal(value: f32) -> f64 {
 }
 
 /// What one descriptor gives for one image.
-enum Described {
+pub(crate) enum Described {
     /// A fixed-shape array (and, for the Fourier signature, the phases beside it).
     Values {
         shape: Vec<usize>,
@@ -389,7 +396,7 @@ enum Described {
 }
 
 impl Choice {
-    fn describe(&self, grey: &Raster) -> anyhow::Result<Described> {
+    pub(crate) fn describe(&self, grey: &Raster) -> anyhow::Result<Described> {
         let values = |d: omnisim_vision::Descriptor| Described::Values {
             shape: d.shape,
             values: d.values,
@@ -422,7 +429,17 @@ impl Choice {
         })
     }
 
-    fn is_global(&self) -> bool {
+    /// The image this descriptor reads: the panorama, the colour image (`LMgist` averages
+    /// the channels itself, as `mean(img, 3)`) or the grey image.
+    pub(crate) fn source<'a>(&self, colour: &'a Raster, grey: &'a Raster, panorama: Option<&'a Raster>) -> &'a Raster {
+        match (self.reads, panorama) {
+            (Reads::Panorama, Some(panorama)) => panorama,
+            _ if matches!(self.method, Method::LmGist(_)) => colour,
+            _ => grey,
+        }
+    }
+
+    pub(crate) fn is_global(&self) -> bool {
         !matches!(self.method, Method::Sift(_) | Method::Surf(_))
     }
 }
@@ -485,7 +502,11 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
         (None, Some(_)) => Some(0),
         _ => None,
     };
-    let panorama = Panorama::new(&input, args, choices.iter().any(|c| c.reads == Reads::Panorama))?;
+    let panorama = Panorama::new(
+        &input.camera,
+        &args.view,
+        choices.iter().any(|c| c.reads == Reads::Panorama),
+    )?;
     // The limits the images' size sets, from the camera's size, before any image is read.
     let (w, h) = input.camera.size();
     let image_size = (w as usize, h as usize);
@@ -523,15 +544,10 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
             let grey = image.to_grey();
             let pano = panorama.as_ref().map(|p| p.of(&grey)).transpose()?;
             for (choice, result) in choices.iter().zip(&mut per_choice) {
-                let source = match (choice.reads, &pano) {
-                    (Reads::Panorama, Some((panorama, seconds))) => {
-                        result.panorama_seconds.push(*seconds);
-                        panorama
-                    }
-                    // LMgist averages the colour channels itself (`mean(img, 3)`).
-                    _ if matches!(choice.method, Method::LmGist(_)) => &image,
-                    _ => &grey,
-                };
+                if let (Reads::Panorama, Some((_, seconds))) = (choice.reads, &pano) {
+                    result.panorama_seconds.push(*seconds);
+                }
+                let source = choice.source(&image, &grey, pano.as_ref().map(|p| &p.0));
                 let clock = Instant::now();
                 let described = choice
                     .describe(source)
@@ -580,21 +596,21 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
 }
 
 /// The panorama every image is resampled to, when a descriptor reads one.
-struct Panorama {
+pub(crate) struct Panorama {
     /// `None`: the images are panoramas already.
     remap: Option<Remap>,
     interpolation: Interpolation,
-    sidecar: Value,
+    pub sidecar: Value,
 }
 
 impl Panorama {
-    fn new(input: &Input, args: &DescribeArgs, needed: bool) -> anyhow::Result<Option<Self>> {
+    pub(crate) fn new(camera: &Camera, args: &PanoramaArgs, needed: bool) -> anyhow::Result<Option<Self>> {
         if !needed {
             return Ok(None);
         }
         let (width, height) = args.panorama;
         let (low, high) = args.elevation;
-        match &input.camera {
+        match camera {
             Camera::Catadioptric(omni) => {
                 let view = View::panorama(width, height, low.to_radians(), high.to_radians())?;
                 let remap = Remap::new(omni, &view).context("the panorama")?;
@@ -624,12 +640,12 @@ impl Panorama {
     }
 
     /// Size of the panorama of an image of `image_size`.
-    fn size(&self, image_size: (usize, usize)) -> (usize, usize) {
+    pub(crate) fn size(&self, image_size: (usize, usize)) -> (usize, usize) {
         self.remap.as_ref().map_or(image_size, |r| (r.width, r.height))
     }
 
     /// The panorama of a grey image and the seconds its resampling took.
-    fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
+    pub(crate) fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
         let clock = Instant::now();
         let Some(remap) = &self.remap else {
             return Ok((grey.clone(), 0.0));
