@@ -4,7 +4,7 @@
 //! phases and by Radon + phase-only correlation, and a turn between columns at most half a
 //! column (Fourier) or half an angle step (Radon, 3° steps); position error does not fall as noise
 //! rises; the report validates against its shipped schema (Python's jsonschema) and the SVG
-//! parses; a second run reuses the described sets.
+//! parses; a second run reuses the described sets; SIFT retrieval finds each map image itself.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -218,6 +218,7 @@ fn report_validates_against_its_schema() {
             "--map",
             "map",
             "--test",
+            "map",
             "clean",
             "noisy",
             "--neighbours",
@@ -226,6 +227,8 @@ fn report_validates_against_its_schema() {
             "fourier",
             "-d",
             "hog",
+            "-d",
+            "sift",
             "--out",
             "loc",
         ],
@@ -255,4 +258,13 @@ print('jsonschema', jsonschema.__version__ if hasattr(jsonschema, '__version__')
     let report: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
     // k-NN entries beside the nearest neighbour's.
     assert!(results(&report, "clean").any(|r| r["neighbours"] == 3));
+    // SIFT retrieves by ratio-test matches: each map image finds itself.
+    let sift: Vec<&Value> = results(&report, "map").filter(|r| r["descriptor"] == "sift").collect();
+    assert_eq!(sift.len(), 2);
+    for r in sift {
+        assert_eq!(r["distance"], "ratio-matches");
+        if r["neighbours"] == 1 {
+            assert_eq!(f(&r["position_error_cm"]["max"]), 0.0);
+        }
+    }
 }

@@ -16,7 +16,10 @@ use omnisim::output::folder::create_real_folder;
 use omnisim_dataset::manifest::{FileKind, Manifest, ManifestSet, sha256_hex};
 use omnisim_dataset::spec::ColourNoise;
 use omnisim_vision::fourier::FourierSignature;
-use omnisim_vision::localize::report::{Case, DatasetRecord, Report, ResultRecord, SCHEMA, SetRecord, Timing};
+use omnisim_vision::keypoints::Features;
+use omnisim_vision::localize::report::{
+    Case, DatasetRecord, LOCAL_FEATURES, Report, ResultRecord, SCHEMA, SetRecord, Timing,
+};
 use omnisim_vision::localize::{self, Described as SetDescribed, Distance, Heading, Method as Localizer, PlanarPose};
 use omnisim_vision::pca::Pca;
 use omnisim_vision::radon::Radon;
@@ -40,8 +43,9 @@ use crate::progress::Progress;
 /// plane, heading θz (test sets drawn with tilt are scored on θz alone).
 ///
 /// Descriptors [default: fourier, hog, gist, radon, pca] are describe's (`omnisim describe
-/// --help`: fourier, hog, vertical-hog, block-hog, gist, grid-gist, lmgist, radon, with their
-/// settings) and
+/// --help`: fourier, hog, vertical-hog, block-hog, gist, grid-gist, lmgist, radon, sift, surf,
+/// with their settings; sift and surf retrieve the map image with most ratio-test matches,
+/// ratio 0.8, distance "ratio-matches", brute force: slow on large maps) and
 ///   pca   the panorama's grey pixels projected on the first K principal axes of the map's
 ///         (Payá et al. 2010) [k=20, at most map images − 1]
 /// Test sets with colour noise are read as their noisy copies, maps as ground truth.
@@ -141,28 +145,20 @@ fn descriptors(args: &LocalizeArgs) -> anyhow::Result<Vec<Descriptor>> {
         if out.iter().any(|d| d.name == spec.name) {
             bail!("--descriptor {} is given twice", spec.name);
         }
-        let (kind, parameters) = match spec.name.as_str() {
-            "pca" => {
-                spec.check_keys(&["k"])?;
-                let components = spec.get("k", 20usize)?;
-                if components == 0 {
-                    bail!("--descriptor pca: k must be at least 1");
-                }
-                (
-                    Kind::Pca { components },
-                    json!({ "k": components, "of": "the panorama's grey pixels" }),
-                )
+        let (kind, parameters) = if spec.name == "pca" {
+            spec.check_keys(&["k"])?;
+            let components = spec.get("k", 20usize)?;
+            if components == 0 {
+                bail!("--descriptor pca: k must be at least 1");
             }
-            "sift" | "surf" => bail!(
-                "--descriptor {}: local features are not localized yet (retrieval by matches and relative pose are \
-                 left for later, docs/localization.md); give global descriptors",
-                spec.name
-            ),
-            _ => {
-                let choice = choose(spec)?;
-                let parameters = choice.parameters.clone();
-                (Kind::Describe(choice), parameters)
-            }
+            (
+                Kind::Pca { components },
+                json!({ "k": components, "of": "the panorama's grey pixels" }),
+            )
+        } else {
+            let choice = choose(spec)?;
+            let parameters = choice.parameters.clone();
+            (Kind::Describe(choice), parameters)
         };
         out.push(Descriptor {
             name: spec.name.clone(),
@@ -294,6 +290,8 @@ struct Rows {
     rows: Vec<Vec<f32>>,
     /// Fourier: phases (same shape as the rows); Radon: nothing more (the rows are the transform).
     phases: Option<Vec<Vec<f32>>>,
+    /// Local features (SIFT, SURF), one per image; described on every run (not cached).
+    features: Vec<Features>,
     shape: Vec<usize>,
     seconds: f64,
 }
@@ -342,6 +340,7 @@ fn load_cached(out: &Path, set: &str, name: &str, key: &str) -> Option<Rows> {
     Some(Rows {
         rows: rows_of(data),
         phases,
+        features: Vec::new(),
         shape: record.shape,
         seconds: record.seconds_per_image,
     })
@@ -401,6 +400,7 @@ fn describe_sets(
             .map(|_| Rows {
                 rows: Vec::new(),
                 phases: None,
+                features: Vec::new(),
                 shape: Vec::new(),
                 seconds: 0.0,
             })
@@ -425,7 +425,10 @@ fn describe_sets(
                             .with_context(|| format!("{} of {}", d.name, frame.path.display()))?
                         {
                             Described::Values { shape, values, phases } => (values, phases, shape),
-                            Described::Features(_) => bail!("{}: not a global descriptor", d.name),
+                            Described::Features(features) => {
+                                rows.features.push(features);
+                                (Vec::new(), None, Vec::new())
+                            }
                         }
                     }
                 };
@@ -446,7 +449,9 @@ fn describe_sets(
         }
         for (&i, mut rows) in missing.iter().zip(fresh) {
             rows.seconds /= rows.rows.len().max(1) as f64;
-            store(&args.out, &set.name, &descriptors[i].name, &keys[i], &rows)?;
+            if rows.features.is_empty() {
+                store(&args.out, &set.name, &descriptors[i].name, &keys[i], &rows)?;
+            }
             per[i] = Some(rows);
         }
         all.push(per.into_iter().flatten().collect());
@@ -513,6 +518,62 @@ fn prepare(descriptor: &Descriptor, rows: &Rows, pca: Option<&Pca>, view_width: 
     Ok(SetDescribed { rows, heading })
 }
 
+/// Seconds to describe one image with descriptor `d`, over map `m` and test set `t`.
+fn describe_seconds(sets: &[SetData], described: &[Vec<Rows>], m: usize, t: usize, d: usize) -> f64 {
+    let (nm, nt) = (sets[m].images.frames.len() as f64, sets[t].images.frames.len() as f64);
+    (described[m][d].seconds * nm + described[t][d].seconds * nt) / (nm + nt)
+}
+
+/// Lowe's ratio for local features' matches.
+const RATIO: f32 = 0.8;
+
+/// Every test set localized against map `m` by local features `d`: retrieval by the count of
+/// ratio-test matches.
+fn localize_features(
+    args: &LocalizeArgs,
+    sets: &[SetData],
+    described: &[Vec<Rows>],
+    (m, d): (usize, usize),
+    tests: &[usize],
+    name: &str,
+) -> anyhow::Result<Vec<ResultRecord>> {
+    let map = &described[m][d].features;
+    let bytes = map
+        .iter()
+        .map(|f| 4 * (f.descriptors.len() + 5 * f.keypoints.len()))
+        .sum::<usize>()
+        / map.len().max(1);
+    let neighbour_counts: Vec<usize> = if args.neighbours > 1 {
+        vec![1, args.neighbours]
+    } else {
+        vec![1]
+    };
+    let mut out = Vec::new();
+    for &t in tests {
+        for &neighbours in &neighbour_counts {
+            let clock = Instant::now();
+            let estimates =
+                localize::localize_by_matches(map, &sets[m].poses, &described[t][d].features, RATIO, neighbours)?;
+            let matching = clock.elapsed().as_secs_f64() / estimates.len().max(1) as f64;
+            let scores = localize::score(&estimates, &sets[t].poses);
+            let case = Case {
+                map: &sets[m].name,
+                test: &sets[t].name,
+                descriptor: name,
+                distance: LOCAL_FEATURES,
+                neighbours,
+                heading: None,
+            };
+            let timing = Timing {
+                describe: describe_seconds(sets, described, m, t, d),
+                matching,
+            };
+            out.extend(ResultRecord::new(&case, &estimates, &scores, timing, bytes));
+        }
+    }
+    Ok(out)
+}
+
 pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
     if args.neighbours == 0 {
         bail!("--neighbours must be at least 1");
@@ -577,6 +638,17 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
                 }
                 Kind::Describe(_) => None,
             };
+            if !described[m][d].features.is_empty() {
+                results.extend(localize_features(
+                    args,
+                    &sets,
+                    &described,
+                    (m, d),
+                    &tests,
+                    &descriptor.name,
+                )?);
+                continue;
+            }
             let map = prepare(descriptor, &described[m][d], pca.as_ref(), view_size.0)?;
             // What a map image keeps: the compared values, and the phases or transform the
             // heading needs.
@@ -605,19 +677,16 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
                             localize::localize(&map, &sets[m].poses, &test, Localizer { distance, neighbours })?;
                         let matching = clock.elapsed().as_secs_f64() / estimates.len().max(1) as f64;
                         let scores = localize::score(&estimates, truth);
-                        let describe_seconds = (described[m][d].seconds * sets[m].images.frames.len() as f64
-                            + described[t][d].seconds * sets[t].images.frames.len() as f64)
-                            / (sets[m].images.frames.len() + sets[t].images.frames.len()) as f64;
                         let case = Case {
                             map: &sets[m].name,
                             test: &sets[t].name,
                             descriptor: &descriptor.name,
-                            distance,
+                            distance: distance.name(),
                             neighbours,
                             heading: map.heading.as_ref().map(Heading::name),
                         };
                         let timing = Timing {
-                            describe: describe_seconds,
+                            describe: describe_seconds(&sets, &described, m, t, d),
                             matching,
                         };
                         results.extend(ResultRecord::new(&case, &estimates, &scores, timing, bytes));

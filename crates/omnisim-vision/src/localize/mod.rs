@@ -22,7 +22,10 @@ use std::f64::consts::{PI, TAU};
 
 pub use distance::Distance;
 
+use rayon::prelude::*;
+
 use crate::fourier::FourierSignature;
+use crate::keypoints::Features;
 use crate::radon::Radon;
 use crate::{VisionError, require};
 
@@ -171,6 +174,46 @@ pub fn localize(
             })
         })
         .collect()
+}
+
+/// Localizes every test image by local features: the map image with which it shares most
+/// ratio-test matches (Lowe 2004 §7.1, `ratio` 0.8 there) is the nearest, `distance` =
+/// 1/(1 + matches), and with `neighbours` > 1 the position is the mean of the k best weighted
+/// by 1 + matches. Ties go to the lower map index. No heading.
+pub fn localize_by_matches(
+    map: &[Features],
+    map_poses: &[PlanarPose],
+    test: &[Features],
+    ratio: f32,
+    neighbours: usize,
+) -> Result<Vec<Estimate>, VisionError> {
+    require(map_poses.len() == map.len() && !map.is_empty(), "map", || {
+        format!("{} map poses for {} map images", map_poses.len(), map.len())
+    })?;
+    require(neighbours >= 1, "neighbours", || "at least 1".to_string())?;
+    require(ratio > 0.0 && ratio <= 1.0, "ratio", || {
+        format!("needs 0 < ratio ≤ 1, got {ratio}")
+    })?;
+    Ok(test
+        .par_iter()
+        .map(|features| {
+            let mut ranked: Vec<(usize, f64)> = map
+                .iter()
+                .enumerate()
+                .map(|(i, m)| (i, 1.0 / (1.0 + features.match_ratio(m, ratio).len() as f64)))
+                .collect();
+            ranked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            ranked.truncate(neighbours.min(map.len()));
+            let (x, y) = weighted_position(map_poses, &ranked);
+            Estimate {
+                nearest: ranked[0].0,
+                distance: ranked[0].1,
+                x,
+                y,
+                yaw: None,
+            }
+        })
+        .collect())
 }
 
 /// The `k` map rows nearest to `query`, nearest first (ties: lower index first).

@@ -8,6 +8,9 @@ use super::metrics::{Summary, recall, summarise};
 use super::{Distance, Estimate, Score};
 use crate::chart::{Marker, Scale, Series, lines_on, stack};
 
+/// The `distance` of local features' results: retrieval by the count of ratio-test matches.
+pub const LOCAL_FEATURES: &str = "ratio-matches";
+
 /// The schema's `$id`, which every report names in its `$schema` field.
 pub const SCHEMA: &str = "https://omnisim.invalid/schemas/localization-report.schema.json";
 
@@ -119,8 +122,8 @@ pub struct ResultRecord {
     pub test: String,
     /// The descriptor.
     pub descriptor: String,
-    /// The distance.
-    pub distance: Distance,
+    /// The distance ([`Distance::name`]), or "ratio-matches" for local features.
+    pub distance: String,
     /// Neighbours averaged for the position (1: the nearest).
     pub neighbours: usize,
     /// Position errors in the floor plane, cm.
@@ -146,8 +149,8 @@ pub struct Case<'a> {
     pub test: &'a str,
     /// The descriptor.
     pub descriptor: &'a str,
-    /// The distance.
-    pub distance: Distance,
+    /// The distance ([`Distance::name`]), or "ratio-matches" for local features.
+    pub distance: &'a str,
     /// Neighbours.
     pub neighbours: usize,
     /// The heading method's name, where there is one.
@@ -173,7 +176,7 @@ impl ResultRecord {
             map: case.map.to_string(),
             test: case.test.to_string(),
             descriptor: case.descriptor.to_string(),
-            distance: case.distance,
+            distance: case.distance.to_string(),
             neighbours: case.neighbours,
             position_error_cm: summarise(&errors_cm)?,
             recall: Recall {
@@ -238,7 +241,7 @@ impl Report {
                     r.map == map
                         && r.test == test
                         && r.descriptor == descriptor
-                        && r.distance == distance
+                        && (r.distance == distance.name() || r.distance == LOCAL_FEATURES)
                         && r.neighbours == 1
                 })
                 .map(|r| {
