@@ -4,7 +4,8 @@
 //! phases and by Radon + phase-only correlation, and a turn between columns at most half a
 //! column (Fourier) or half an angle step (Radon, 3° steps); position error does not fall as noise
 //! rises; the report validates against its shipped schema (Python's jsonschema) and the SVG
-//! parses; a second run reuses the described sets; SIFT retrieval finds each map image itself.
+//! parses; a second run reuses the described sets; SIFT retrieval finds each map image itself
+//! and the planar-motion essential matrix of its matches no turn.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -265,6 +266,9 @@ print('jsonschema', jsonschema.__version__ if hasattr(jsonschema, '__version__')
         assert_eq!(r["distance"], "ratio-matches");
         if r["neighbours"] == 1 {
             assert_eq!(f(&r["position_error_cm"]["max"]), 0.0);
+            // The planar-motion essential matrix of an image matched with itself: no turn.
+            assert_eq!(r["orientation"]["method"], "feature-planar-motion");
+            assert!(f(&r["orientation"]["error_deg"]["max"]) < 1e-6, "{}", r["orientation"]);
         }
     }
 }

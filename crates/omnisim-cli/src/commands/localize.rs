@@ -45,7 +45,9 @@ use crate::progress::Progress;
 /// Descriptors [default: fourier, hog, gist, radon, pca] are describe's (`omnisim describe
 /// --help`: fourier, hog, vertical-hog, block-hog, gist, grid-gist, lmgist, radon, sift, surf,
 /// with their settings; sift and surf retrieve the map image with most ratio-test matches,
-/// ratio 0.8, distance "ratio-matches", brute force: slow on large maps) and
+/// ratio 0.8, distance "ratio-matches", brute force: slow on large maps; for central cameras
+/// their heading is the planar-motion essential matrix of the matches' bearing vectors,
+/// by RANSAC) and
 ///   pca   the panorama's grey pixels projected on the first K principal axes of the map's
 ///         (Payá et al. 2010) [k=20, at most map images − 1]
 /// Test sets with colour noise are read as their noisy copies, maps as ground truth.
@@ -531,6 +533,7 @@ const RATIO: f32 = 0.8;
 /// ratio-test matches.
 fn localize_features(
     args: &LocalizeArgs,
+    camera: &omnisim::Camera,
     sets: &[SetData],
     described: &[Vec<Rows>],
     (m, d): (usize, usize),
@@ -552,8 +555,16 @@ fn localize_features(
     for &t in tests {
         for &neighbours in &neighbour_counts {
             let clock = Instant::now();
-            let estimates =
-                localize::localize_by_matches(map, &sets[m].poses, &described[t][d].features, RATIO, neighbours)?;
+            let test = &described[t][d].features;
+            let mut estimates = localize::localize_by_matches(map, &sets[m].poses, test, RATIO, neighbours)?;
+            if camera.is_central() {
+                let bearing = |x: f32, y: f32| {
+                    camera
+                        .ray(omnisim::glam::DVec2::new(f64::from(x), f64::from(y)))
+                        .map(|ray| ray.direction)
+                };
+                localize::add_feature_headings(&mut estimates, map, &sets[m].poses, test, RATIO, &bearing);
+            }
             let matching = clock.elapsed().as_secs_f64() / estimates.len().max(1) as f64;
             let scores = localize::score(&estimates, &sets[t].poses);
             let case = Case {
@@ -562,7 +573,7 @@ fn localize_features(
                 descriptor: name,
                 distance: LOCAL_FEATURES,
                 neighbours,
-                heading: None,
+                heading: camera.is_central().then_some(localize::FEATURE_HEADING),
             };
             let timing = Timing {
                 describe: describe_seconds(sets, described, m, t, d),
@@ -641,6 +652,7 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
             if !described[m][d].features.is_empty() {
                 results.extend(localize_features(
                     args,
+                    &camera,
                     &sets,
                     &described,
                     (m, d),

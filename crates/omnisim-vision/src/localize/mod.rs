@@ -11,11 +11,13 @@
 //!
 //! - [`distance`]: the distances the papers compare.
 //! - [`metrics`]: error summaries and recall.
+//! - [`relative`]: the turn between two images from matched local features (planar motion).
 //! - [`report`]: the JSON report (its schema ships as `docs/localization-report.schema.json`)
 //!   and its charts.
 
 pub mod distance;
 pub mod metrics;
+pub mod relative;
 pub mod report;
 
 use std::f64::consts::{PI, TAU};
@@ -214,6 +216,38 @@ pub fn localize_by_matches(
             }
         })
         .collect())
+}
+
+/// Name in reports of the heading that local features give ([`relative::planar_turn`]).
+pub const FEATURE_HEADING: &str = "feature-planar-motion";
+
+/// Adds to each estimate of [`localize_by_matches`] the heading the local features give: the
+/// nearest map image's heading turned by [`relative::planar_turn`] of their ratio-test matches,
+/// each keypoint's pixel (x, y) taken to a unit bearing by `bearing` (the camera's ray; `None`
+/// where the pixel sees nothing). Estimates with fewer than 3 usable matches keep no heading.
+pub fn add_feature_headings(
+    estimates: &mut [Estimate],
+    map: &[Features],
+    map_poses: &[PlanarPose],
+    test: &[Features],
+    ratio: f32,
+    bearing: &(dyn Fn(f32, f32) -> Option<glam::DVec3> + Sync),
+) {
+    estimates.par_iter_mut().zip(test).for_each(|(estimate, features)| {
+        let nearest = &map[estimate.nearest];
+        let (mut from, mut to) = (Vec::new(), Vec::new());
+        for (i, j) in features.match_ratio(nearest, ratio) {
+            let (t, m) = (features.keypoints[i], nearest.keypoints[j]);
+            if let (Some(bt), Some(bm)) = (bearing(t.x, t.y), bearing(m.x, m.y)) {
+                from.push(bm);
+                to.push(bt);
+            }
+        }
+        // 0.02: about a degree off the epipolar plane, a keypoint's half-pixel error on a
+        // small omni image.
+        estimate.yaw = relative::planar_turn(&from, &to, 0.02, 500)
+            .map(|found| wrap(map_poses[estimate.nearest].yaw + found.turn));
+    });
 }
 
 /// The `k` map rows nearest to `query`, nearest first (ties: lower index first).

@@ -84,7 +84,7 @@ pub struct Recall {
 /// The heading estimate of a descriptor that has one.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OrientationRecord {
-    /// "fourier-phase" or "radon-poc".
+    /// "fourier-phase", "radon-poc" or "feature-planar-motion".
     pub method: String,
     /// Absolute heading errors, degrees.
     pub error_deg: Summary,
