@@ -53,6 +53,7 @@ enum Command {
     Dataset(commands::dataset::DatasetArgs),
     Describe(commands::describe::DescribeArgs),
     Project(commands::project::ProjectArgs),
+    Localize(commands::localize::LocalizeArgs),
     Preview(commands::preview::PreviewArgs),
 }
 
@@ -69,6 +70,7 @@ fn main() -> std::process::ExitCode {
         Command::Dataset(args) => commands::dataset::run(args),
         Command::Describe(args) => commands::describe::run(&args),
         Command::Project(args) => commands::project::run(&args),
+        Command::Localize(args) => commands::localize::run(&args),
         Command::Preview(args) => commands::preview::run(args),
     };
     match result {

@@ -8,6 +8,7 @@ use std::process::{Command, Output};
 use omnisim::camera::Catadioptric;
 use omnisim_vision::fourier::{FourierParams, FourierSignature};
 use omnisim_vision::hog::{PanoramicHogParams, panoramic_hog};
+use omnisim_vision::lmgist::{LmGist, LmGistParams};
 use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
 use omnisim_vision::{Interpolation, Raster, Remap, View};
@@ -120,6 +121,8 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
             "sift",
             "-d",
             "surf:threshold=50,upright=true",
+            "-d",
+            "lmgist:size=64,blocks=2",
             "--panorama",
             "256x64",
             "--pca-fit",
@@ -211,6 +214,19 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
         "radon",
         &first("test", "radon.npy"),
         &Radon::new(&image, params).unwrap().values.data,
+    );
+    // LMgist reads the colour image (it averages the channels itself).
+    let colour = Raster::from_image(&image::open(ds.join("test/env1-0000.png")).unwrap());
+    let lmgist = LmGist::new(LmGistParams {
+        image_size: 64,
+        blocks: 2,
+        ..Default::default()
+    })
+    .unwrap();
+    assert_close(
+        "lmgist",
+        &first("test", "lmgist.npy"),
+        &lmgist.describe(&colour).unwrap().values,
     );
     let features = sift(&image, &SiftParams::default()).unwrap();
     assert!(!features.keypoints.is_empty(), "the test image gives SIFT keypoints");

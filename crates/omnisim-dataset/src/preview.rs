@@ -179,15 +179,7 @@ pub fn draw(dataset: &Dataset) -> Result<Preview, DatasetError> {
 impl Preview {
     /// The picture rasterised at one pixel per SVG unit, as PNG bytes.
     pub fn png(&self) -> Result<Vec<u8>, DatasetError> {
-        let mut options = resvg::usvg::Options::default();
-        options.fontdb_mut().load_system_fonts();
-        let picture = |e: String| DatasetError::Picture(e);
-        let tree = resvg::usvg::Tree::from_str(&self.svg, &options).map_err(|e| picture(e.to_string()))?;
-        let (width, height) = self.view.size;
-        let mut pixmap = resvg::tiny_skia::Pixmap::new(width, height)
-            .ok_or_else(|| picture(format!("{width}×{height} is not a picture size")))?;
-        resvg::render(&tree, resvg::tiny_skia::Transform::identity(), &mut pixmap.as_mut());
-        pixmap.encode_png().map_err(|e| picture(e.to_string()))
+        rasterise(&self.svg, Some(self.view.size))
     }
 
     /// Writes `PREFIX.svg` and `PREFIX.png` (each atomically); returns their paths.
@@ -202,6 +194,30 @@ impl Preview {
         super::files::write_file(&png, &self.png()?)?;
         Ok([svg, png])
     }
+}
+
+/// An SVG drawing as PNG bytes, one pixel per SVG unit, at `size` (width, height) or the
+/// drawing's own size; text in the system's fonts.
+pub fn rasterise(svg: &str, size: Option<(u32, u32)>) -> Result<Vec<u8>, DatasetError> {
+    let mut options = resvg::usvg::Options::default();
+    let fonts = options.fontdb_mut();
+    fonts.load_system_fonts();
+    // `sans-serif` means Arial to usvg; where there is none, a sans-serif face that is there.
+    let installed = |family: &str| fonts.faces().any(|f| f.families.iter().any(|(name, _)| name == family));
+    if let Some(family) = ["Arial", "DejaVu Sans", "Liberation Sans", "Noto Sans"]
+        .into_iter()
+        .find(|f| installed(f))
+    {
+        fonts.set_sans_serif_family(family);
+    }
+    let picture = |e: String| DatasetError::Picture(e);
+    let tree = resvg::usvg::Tree::from_str(svg, &options).map_err(|e| picture(e.to_string()))?;
+    let own = tree.size().to_int_size();
+    let (width, height) = size.unwrap_or((own.width(), own.height()));
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(width, height)
+        .ok_or_else(|| picture(format!("{width}×{height} is not a picture size")))?;
+    resvg::render(&tree, resvg::tiny_skia::Transform::identity(), &mut pixmap.as_mut());
+    pixmap.encode_png().map_err(|e| picture(e.to_string()))
 }
 
 fn set_colour(set: usize) -> String {

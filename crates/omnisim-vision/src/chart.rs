@@ -1,4 +1,5 @@
-//! Log–log charts as SVG: labelled points ([`scatter`]) and lines ([`lines`]). Written by hand: plotters, the usual crate, needs system
+//! Charts as SVG: labelled points ([`scatter`], log–log) and lines ([`lines`] log–log,
+//! [`lines_on`] on the axes asked for). Written by hand: plotters, the usual crate, needs system
 //! font libraries (font-kit, fontconfig) to lay out text, and a chart of a dozen labelled
 //! points needs none of that.
 
@@ -72,24 +73,105 @@ fn text_box(x: f64, y: f64, text: &str) -> Rect {
     }
 }
 
-fn decades(values: impl Iterator<Item = f64>) -> (i32, i32) {
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
-    (
-        lo.log10().floor() as i32,
-        (hi.log10().ceil() as i32).max(lo.log10().floor() as i32 + 1),
-    )
+/// How an axis maps values to positions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scale {
+    /// Logarithmic, whole decades.
+    Log,
+    /// Linear from 0 (or the smallest value, if negative) to a round number above the largest.
+    Linear,
+}
+
+/// One axis: its scale and the range it spans.
+struct Axis {
+    scale: Scale,
+    lo: f64,
+    hi: f64,
+}
+
+impl Axis {
+    fn new(scale: Scale, values: impl Iterator<Item = f64>) -> Self {
+        let (lo, hi) = values
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        match scale {
+            Scale::Log => {
+                let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (1.0, 10.0) };
+                let d0 = lo.log10().floor();
+                let d1 = hi.log10().ceil().max(d0 + 1.0);
+                Self { scale, lo: d0, hi: d1 }
+            }
+            Scale::Linear => {
+                let (lo, hi) = if lo.is_finite() {
+                    (lo.min(0.0), hi.max(0.0))
+                } else {
+                    (0.0, 1.0)
+                };
+                let step = nice_step(hi - lo);
+                Self {
+                    scale,
+                    lo: (lo / step).floor() * step,
+                    hi: ((hi / step).ceil() * step).max(lo + step),
+                }
+            }
+        }
+    }
+
+    /// Position of `v` along the axis, 0..1.
+    fn fraction(&self, v: f64) -> f64 {
+        match self.scale {
+            Scale::Log => (v.log10() - self.lo) / (self.hi - self.lo),
+            Scale::Linear => (v - self.lo) / (self.hi - self.lo),
+        }
+    }
+
+    /// Grid values and their labels (`log_label` writes a decade's).
+    fn ticks(&self, log_label: impl Fn(i32) -> String) -> Vec<(f64, String)> {
+        match self.scale {
+            Scale::Log => (self.lo as i32..=self.hi as i32)
+                .map(|d| (10f64.powi(d), log_label(d)))
+                .collect(),
+            Scale::Linear => {
+                let step = nice_step(self.hi - self.lo);
+                let count = ((self.hi - self.lo) / step).round() as usize;
+                (0..=count)
+                    .map(|i| {
+                        let v = self.lo + step * i as f64;
+                        (
+                            v,
+                            format!("{}", (v / step).round() * step)
+                                .trim_end_matches(".0")
+                                .to_string(),
+                        )
+                    })
+                    .collect()
+            }
+        }
+    }
+}
+
+/// A step of 1, 2 or 5 times a power of ten giving 4 to 10 grid lines over `span`.
+fn nice_step(span: f64) -> f64 {
+    let span = if span > 0.0 && span.is_finite() { span } else { 1.0 };
+    let raw = span / 5.0;
+    let power = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * power)
+        .find(|&step| span / step <= 10.0)
+        .unwrap_or(10.0 * power)
 }
 
 fn escape(text: &str) -> String {
     text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }
 
-/// Log–log axes: the frame, decade grid lines, labels, and the mapping from data to SVG
-/// coordinates. Everything a chart draws goes in `svg`, closed by [`Axes::finish`].
+/// Axes: the frame, grid lines, labels, and the mapping from data to SVG coordinates.
+/// Everything a chart draws goes in `svg`, closed by [`Axes::finish`].
 struct Axes {
     svg: String,
-    x_decades: (i32, i32),
-    y_decades: (i32, i32),
+    x_axis: Axis,
+    y_axis: Axis,
     floor: f64,
 }
 
@@ -97,13 +179,12 @@ impl Axes {
     /// The axes of a chart whose `title` may have more lines after `\n`: the first is the
     /// title, the others (smaller) say what a reader must know to read it, such as where it
     /// was measured.
-    fn new(title: &str, x_label: &str, y_label: &str, xs: &[f64], ys: &[f64], floor: f64) -> Self {
-        let x_decades = decades(xs.iter().copied());
-        let y_decades = decades(ys.iter().map(|y| y.max(floor)));
+    fn new(title: &str, labels: (&str, &str), xs: &[f64], ys: &[f64], floor: f64, scales: (Scale, Scale)) -> Self {
+        let (x_label, y_label) = labels;
         let mut axes = Self {
             svg: String::new(),
-            x_decades,
-            y_decades,
+            x_axis: Axis::new(scales.0, xs.iter().copied()),
+            y_axis: Axis::new(scales.1, ys.iter().map(|y| y.max(floor))),
             floor,
         };
         let (plot_w, plot_h) = (WIDTH - LEFT - RIGHT, HEIGHT - TOP - BOTTOM);
@@ -129,21 +210,20 @@ impl Axes {
             axes.svg,
             r#"<rect x="{LEFT}" y="{TOP}" width="{plot_w}" height="{plot_h}" fill="none" stroke="black"/>"#
         );
-        for d in x_decades.0..=x_decades.1 {
-            let x = axes.x(10f64.powi(d));
+        for (value, label) in axes.x_axis.ticks(|d| 10f64.powi(d).to_string()) {
+            let x = axes.x(value);
             let _ = writeln!(
                 axes.svg,
-                r##"<line x1="{x}" y1="{TOP}" x2="{x}" y2="{}" stroke="#ddd"/><text x="{x}" y="{}" text-anchor="middle">{}</text>"##,
+                r##"<line x1="{x}" y1="{TOP}" x2="{x}" y2="{}" stroke="#ddd"/><text x="{x}" y="{}" text-anchor="middle">{label}</text>"##,
                 TOP + plot_h,
                 TOP + plot_h + 18.0,
-                10f64.powi(d)
             );
         }
-        for d in y_decades.0..=y_decades.1 {
-            let y = axes.y(10f64.powi(d));
+        for (value, label) in axes.y_axis.ticks(|d| format!("1e{d}")) {
+            let y = axes.y(value);
             let _ = writeln!(
                 axes.svg,
-                r##"<line x1="{LEFT}" y1="{y}" x2="{}" y2="{y}" stroke="#ddd"/><text x="{}" y="{}" text-anchor="end">1e{d}</text>"##,
+                r##"<line x1="{LEFT}" y1="{y}" x2="{}" y2="{y}" stroke="#ddd"/><text x="{}" y="{}" text-anchor="end">{label}</text>"##,
                 LEFT + plot_w,
                 LEFT - 6.0,
                 y + 4.0
@@ -164,14 +244,12 @@ impl Axes {
     }
 
     fn x(&self, x: f64) -> f64 {
-        let (x0, x1) = self.x_decades;
-        LEFT + (x.log10() - f64::from(x0)) / f64::from(x1 - x0) * (WIDTH - LEFT - RIGHT)
+        LEFT + self.x_axis.fraction(x) * (WIDTH - LEFT - RIGHT)
     }
 
     fn y(&self, y: f64) -> f64 {
-        let (y0, y1) = self.y_decades;
         let plot_h = HEIGHT - TOP - BOTTOM;
-        TOP + plot_h - (y.max(self.floor).log10() - f64::from(y0)) / f64::from(y1 - y0) * plot_h
+        TOP + plot_h - self.y_axis.fraction(y.max(self.floor)) * plot_h
     }
 
     fn plot(&self) -> Rect {
@@ -288,7 +366,7 @@ fn place_labels(markers: &[(f64, f64)], texts: &[String], plot: &Rect) -> Vec<Re
 pub fn scatter(title: &str, x_label: &str, y_label: &str, points: &[Point], floor: f64) -> String {
     let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
     let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
-    let mut axes = Axes::new(title, x_label, y_label, &xs, &ys, floor);
+    let mut axes = Axes::new(title, (x_label, y_label), &xs, &ys, floor, (Scale::Log, Scale::Log));
     let markers: Vec<(f64, f64)> = points.iter().map(|p| (axes.x(p.x), axes.y(p.y))).collect();
     let numbers: Vec<String> = (1..=points.len()).map(|n| n.to_string()).collect();
     let labels = place_labels(&markers, &numbers, &axes.plot());
@@ -363,9 +441,15 @@ fn series_marker(series: &Series, x: f64, y: f64) -> String {
 
 /// Log–log chart of lines with markers; values below `floor` on y are drawn at `floor`.
 pub fn lines(title: &str, x_label: &str, y_label: &str, series: &[Series], floor: f64) -> String {
+    lines_on((Scale::Log, Scale::Log), title, (x_label, y_label), series, floor)
+}
+
+/// Chart of lines with markers on the given (x, y) scales and (x, y) labels; values below
+/// `floor` on y are drawn at `floor` (give −∞ for none on a linear axis).
+pub fn lines_on(scales: (Scale, Scale), title: &str, labels: (&str, &str), series: &[Series], floor: f64) -> String {
     let xs: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
     let ys: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
-    let mut axes = Axes::new(title, x_label, y_label, &xs, &ys, floor);
+    let mut axes = Axes::new(title, labels, &xs, &ys, floor, scales);
     for (i, s) in series.iter().enumerate() {
         let path: Vec<String> = s
             .points

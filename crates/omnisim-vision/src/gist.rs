@@ -70,16 +70,7 @@ impl GistParams {
     pub fn validate(&self) -> Result<(), VisionError> {
         // Beyond 16 scales the peak frequency is below 1e-4 cycles per pixel; each filter costs a
         // full-image transform, so the bank is bounded.
-        require(
-            (1..=16).contains(&self.scales) && (1..=64).contains(&self.orientations),
-            "filters",
-            || {
-                format!(
-                    "needs 1–16 scales and 1–64 orientations, got {} and {}",
-                    self.scales, self.orientations
-                )
-            },
-        )?;
+        check_bank(self.scales, self.orientations)?;
         let (nx, ny) = self.blocks.counts();
         require(nx >= 1 && ny >= 1, "blocks", || "needs at least one block".to_string())
     }
@@ -102,8 +93,17 @@ impl GistParams {
     }
 }
 
+/// 1–16 scales and 1–64 orientations: the bounds of a Gabor bank (here and in `LMgist`).
+pub(crate) fn check_bank(scales: usize, orientations: usize) -> Result<(), VisionError> {
+    require(
+        (1..=16).contains(&scales) && (1..=64).contains(&orientations),
+        "filters",
+        || format!("needs 1–16 scales and 1–64 orientations, got {scales} and {orientations}"),
+    )
+}
+
 /// Transfer function of filter (scale, orientation) at frequency (fx, fy), cycles per pixel.
-fn gabor(scale: usize, orientation: usize, orientations: usize, fx: f64, fy: f64) -> f64 {
+pub(crate) fn gabor(scale: usize, orientation: usize, orientations: usize, fx: f64, fy: f64) -> f64 {
     use std::f64::consts::{PI, TAU};
     let centre = 0.3 / 1.85f64.powi(scale as i32);
     let width = 16.0 * (orientations * orientations) as f64 / (32.0 * 32.0);
@@ -118,12 +118,18 @@ pub const PADDING: usize = 32;
 /// Source row of padded row `r` (`PADDING` rows above the image), mirrored at the borders as
 /// MATLAB's `padarray(…, 'symmetric')`: …, 1, 0 | 0, 1, …, h − 1 | h − 1, h − 2, ….
 fn mirrored_row(r: usize, h: usize) -> usize {
-    let i = (r as isize - PADDING as isize).rem_euclid(2 * h as isize) as usize;
-    if i < h { i } else { 2 * h - 1 - i }
+    symmetric_index(r as isize - PADDING as isize, h)
+}
+
+/// Index `i` (any integer) of an axis of `n` samples extended by MATLAB's
+/// `padarray(…, 'symmetric')`: reflected about both ends, edge sample repeated, period 2n.
+pub(crate) fn symmetric_index(i: isize, n: usize) -> usize {
+    let i = i.rem_euclid(2 * n as isize) as usize;
+    if i < n { i } else { 2 * n - 1 - i }
 }
 
 /// Frequency of DFT bin k of n, cycles per sample, in [−½, ½).
-fn frequency(k: usize, n: usize) -> f64 {
+pub(crate) fn frequency(k: usize, n: usize) -> f64 {
     let k = if 2 * k >= n { k as f64 - n as f64 } else { k as f64 };
     k / n as f64
 }

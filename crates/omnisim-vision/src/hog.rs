@@ -1,7 +1,10 @@
 //! Histograms of oriented gradients.
 //!
-//! - [`block_hog`]: Dalal & Triggs 2005 (CVPR), the standard descriptor: cells of c × c pixels,
-//!   blocks of b × b cells moved by a stride, each block's histograms L2-Hys normalised.
+//! - [`block_hog`]: the block layout of Dalal & Triggs 2005 (CVPR): cells of c × c pixels,
+//!   blocks of b × b cells moved by a stride, each block's histograms L2-Hys normalised. Not
+//!   their full descriptor: each pixel votes into its own cell only (no trilinear spatial
+//!   interpolation between neighbouring cells) and blocks have no Gaussian window
+//!   (σ = half the block width); scikit-image's `hog` leaves out the same two.
 //! - [`panoramic_hog`]: the rotation-invariant variant of Payá et al. 2014 (Sensors 14(2))
 //!   and Amorós et al. 2021 (Sensors 21(10), §2.2): the
 //!   panorama is cut into k horizontal cells that span its full width; a turn of the camera
@@ -195,7 +198,8 @@ fn l2_normalise(values: &mut [f32]) {
     }
 }
 
-/// The standard block HOG of a one-channel image: shape [`blocks_y`, `blocks_x`, block, block,
+/// The block HOG of a one-channel image (Dalal & Triggs' layout without their spatial
+/// interpolation and block window; module docs): shape [`blocks_y`, `blocks_x`, block, block,
 /// bins], each block's vector L2-Hys normalised (L2, clipped at `clip`, L2 again).
 pub fn block_hog(image: &Raster, params: BlockHogParams) -> Result<Descriptor, VisionError> {
     require(image.channels == 1, "channels", || {

@@ -4,7 +4,9 @@
 //!   views resampled from a central catadioptric image through its exact camera model.
 //! - Global-appearance descriptors of the papers the reference paper cites (see
 //!   `docs/vision.md` for each paper and equation): [`fourier`] signature, [`radon`] transform
-//!   with phase-only correlation, [`hog`], [`gist`], and [`pca`].
+//!   with phase-only correlation, [`hog`], [`gist`] (omnisim's variant for panoramas) and
+//!   [`lmgist`] (Oliva & Torralba's reference code exactly), and [`pca`].
+//! - [`localize`]: map against test images by global appearance, scored, reported, charted.
 //! - [`accuracy`] of resampled views against exact renders, and [`chart`]s of it.
 //! - Local features: [`sift`] (Lowe 2004) and [`surf`] (Bay et al. 2006), their
 //!   [`keypoints`] and ratio-test matching.
@@ -44,6 +46,8 @@ pub mod fourier;
 pub mod gist;
 pub mod hog;
 pub mod keypoints;
+pub mod lmgist;
+pub mod localize;
 pub mod npy;
 pub mod pca;
 pub mod projection;

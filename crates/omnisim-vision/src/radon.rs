@@ -7,6 +7,14 @@
 //! [0, 2π), so that turning the image about its centre by θ shifts R circularly along φ by θ:
 //! `R_b(φ`, p) = `R_a(φ` − θ, p).
 //!
+//! Support: the integral runs over the disc of radius `reach` (the distance from the centre to
+//! the nearest image edge), and the radial samples stop short of it (|p| < reach). Every angle
+//! then sees the same support, a chord of length 2√(reach² − p²). Integrating over the whole
+//! square made a pattern fixed to the pixel grid: when the centre falls on a whole pixel (odd
+//! sizes, 251²), the sample p = ±reach is the edge row or column, counted for half its length
+//! or, at exactly 0°/90°/180°/270°, all of it, and phase-only correlation locked onto that
+//! pattern at 0° (3 of 20 yaws of a 251² image came back as 0°).
+//!
 //! Written here: no maintained Rust crate computes a Radon transform (imageproc has none), and
 //! the line integral is a few lines over the bilinear sampler of [`crate::raster`].
 
@@ -21,9 +29,10 @@ use crate::{Interpolation, Raster, Rotation, VisionError, require};
 pub struct RadonParams {
     /// Angles over the full turn, step 2π/angles. Default 360 (1°), as Berenguer et al.
     pub angles: usize,
-    /// Radial samples `p_j` = (j − (`n−1)/2)·radial_step`, j = 0..n; `None`: as many as reach
-    /// the image edge nearest the centre, 2·⌊reach/step⌋ + 1 (reach = (min(W, H) − 1)/2 for
-    /// the image centre).
+    /// Radial samples `p_j` = (j − (`n−1)/2)·radial_step`, j = 0..n; `None`: every p strictly
+    /// inside the disc that reaches the image edge nearest the centre, 2·(⌈reach/step⌉ − 1) + 1
+    /// (reach = (min(W, H) − 1)/2 for the image centre: 249 samples for 250² and 251²).
+    /// Samples at or beyond the reach integrate nothing.
     pub radial_samples: Option<usize>,
     /// Pixels between radial samples. Default 1.
     pub radial_step: f64,
@@ -89,9 +98,11 @@ pub struct Radon {
     pub radial_step: f64,
 }
 
-/// Where a transform of a given image size samples: its centre and radial sample count.
+/// Where a transform of a given image size samples: its centre, the radius of the disc it
+/// integrates over, and its radial sample count.
 struct Layout {
     centre: (f64, f64),
+    reach: f64,
     radial: usize,
 }
 
@@ -116,13 +127,16 @@ impl RadonParams {
         )?;
         // From the centre to the nearest image edge ((min(W, H) − 1)/2 for the image centre).
         let reach = cx.min(max_x - cx).min(cy).min(max_y - cy);
-        // In f64 first: a tiny step would overflow the count as an integer.
+        // In f64 first: a tiny step would overflow the count as an integer. Only |p| < reach:
+        // the line at p = reach touches the disc in one point (module docs).
         let radial = match self.radial_samples {
             Some(n) => n as f64,
-            None => 2.0 * (reach / self.radial_step).floor() + 1.0,
+            None => 2.0 * ((reach / self.radial_step).ceil() - 1.0).max(0.0) + 1.0,
         };
         require((2.0..=MAX_SAMPLES).contains(&radial), "radial samples", || {
-            format!("{radial:.0} (2 × reach / radial step + 1); needs 2 to {MAX_SAMPLES:.0e}")
+            format!(
+                "{radial:.0} (the odd count of samples strictly within {reach} px of the centre); needs 2 to {MAX_SAMPLES:.0e}"
+            )
         })?;
         let values = radial * self.angles as f64;
         require(values <= MAX_VALUES, "sampling", || {
@@ -138,6 +152,7 @@ impl RadonParams {
         })?;
         Ok(Layout {
             centre: (cx, cy),
+            reach,
             radial: radial as usize,
         })
     }
@@ -145,33 +160,38 @@ impl RadonParams {
 
 impl Radon {
     /// Transform of a one-channel image about [`RadonParams::centre`] (the mirror axis; by
-    /// default the image centre ((W−1)/2, (H−1)/2)).
+    /// default the image centre ((W−1)/2, (H−1)/2)), over the disc that reaches the nearest
+    /// image edge.
     pub fn new(image: &Raster, params: RadonParams) -> Result<Self, VisionError> {
         require(image.channels == 1, "channels", || {
             format!("the Radon transform reads one channel, got {}", image.channels)
         })?;
         let Layout {
             centre: (cx, cy),
+            reach,
             radial,
         } = params.layout(image.width, image.height)?;
-        let (max_x, max_y) = ((image.width - 1) as f64, (image.height - 1) as f64);
         let p = |j: usize| radial_position(j, radial, params.radial_step);
-        // The farthest image corner from the centre: every line leaves the image within ±this
-        // of its foot.
-        let half_length = cx.abs().max((max_x - cx).abs()).hypot(cy.abs().max((max_y - cy).abs())) + 1.0;
-        let steps = (half_length / params.line_step).ceil() as i64;
         let mut values = Raster::new(radial, params.angles, 1);
         values.data.par_chunks_mut(radial).enumerate().for_each(|(i, row)| {
             let (sin, cos) = (std::f64::consts::TAU * i as f64 / params.angles as f64).sin_cos();
             let mut sample = [0.0f32];
             for (j, value) in row.iter_mut().enumerate() {
                 let p = p(j);
+                // The chord of the disc at distance p: t² ≤ reach² − p², the same at every angle,
+                // sampled symmetrically about the line's foot.
+                let half_chord = (reach * reach - p * p).max(0.0).sqrt();
+                let steps = (half_chord / params.line_step).floor() as i64;
                 let mut sum = 0.0f64;
-                for k in -steps..=steps {
-                    let t = k as f64 * params.line_step;
-                    let (x, y) = (cx + p * cos - t * sin, cy + p * sin + t * cos);
-                    if (0.0..=max_x).contains(&x) && (0.0..=max_y).contains(&y) {
-                        image.sample(x, y, Interpolation::Bilinear, &mut sample);
+                if p.abs() < reach {
+                    for k in -steps..=steps {
+                        let t = k as f64 * params.line_step;
+                        image.sample(
+                            cx + p * cos - t * sin,
+                            cy + p * sin + t * cos,
+                            Interpolation::Bilinear,
+                            &mut sample,
+                        );
                         sum += f64::from(sample[0]);
                     }
                 }
@@ -222,6 +242,27 @@ impl Radon {
             .max_by(|(_, x), (_, y)| x.re.total_cmp(&y.re))
             .expect("non-empty");
         Ok((Rotation::from_steps(peak_index / w, h), peak.re))
+    }
+}
+
+impl Radon {
+    /// A descriptor of the transform that a turn of the image leaves unchanged: for each
+    /// radial sample p, the magnitudes of the first k coefficients of the DFT of R(·, p) along
+    /// φ (a turn is a circular shift along φ, which changes only their phases). Radial-major,
+    /// `width × k` values; k is at most angles/2 + 1.
+    pub fn signature(&self, k: usize) -> Result<Vec<f32>, VisionError> {
+        let (radial, angles) = (self.values.width, self.values.height);
+        require((1..=angles / 2 + 1).contains(&k), "coefficients", || {
+            format!("needs 1 ≤ k ≤ angles/2 + 1 = {}, got {k}", angles / 2 + 1)
+        })?;
+        let mut columns: Vec<C64> = (0..radial * angles)
+            .map(|i| C64::new(f64::from(self.values.at(i / angles, i % angles)), 0.0))
+            .collect();
+        fft::rows(&mut columns, angles, FftDirection::Forward);
+        Ok(columns
+            .chunks(angles)
+            .flat_map(|c| c[..k].iter().map(|v| v.norm() as f32))
+            .collect())
     }
 }
 
@@ -338,6 +379,37 @@ mod tests {
         assert_eq!(back.steps, 270);
     }
 
+    /// The signature is unchanged by a turn (a circular shift along φ) and is the DFT of each
+    /// radial column: its first coefficient is the column's sum.
+    #[test]
+    fn signature_ignores_turns() {
+        let image = coverage(41, |x, y| {
+            (x - 5.0).powi(2) + (y + 3.0).powi(2) < 40.0 || (x > 4.0 && y > 8.0 && x < 12.0)
+        });
+        let radon = Radon::new(
+            &image,
+            RadonParams {
+                angles: 72,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let mut turned = radon.clone();
+        for i in 0..72 {
+            for j in 0..radon.values.width {
+                turned.values.data[((i + 17) % 72) * radon.values.width + j] = radon.values.at(j, i);
+            }
+        }
+        let (a, b) = (radon.signature(8).unwrap(), turned.signature(8).unwrap());
+        assert_eq!(a.len(), radon.values.width * 8);
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() <= 1e-4 * x.abs().max(1.0), "{x} vs {y}");
+        }
+        let column_sum: f32 = (0..72).map(|i| radon.values.at(20, i)).sum();
+        assert!((a[20 * 8] - column_sum).abs() <= 1e-3 * column_sum.max(1.0));
+        assert!(radon.signature(0).is_err() && radon.signature(38).is_err());
+    }
+
     /// A disc off the image centre, transformed about its own centre (`centre`), gives the
     /// chords of a centred disc; about the image centre it does not.
     #[test]
@@ -350,8 +422,8 @@ mod tests {
             ..Default::default()
         };
         let radon = Radon::new(&image, params).unwrap();
-        // The nearest edge is 50 − 12 = 38 px away: 2·38 + 1 samples.
-        assert_eq!(radon.values.width, 77);
+        // The nearest edge is 50 − 12 = 38 px away: |p| ≤ 37, 2·37 + 1 samples.
+        assert_eq!(radon.values.width, 75);
         let chord_error = |radon: &Radon| {
             let mut worst: f64 = 0.0;
             for i in 0..36 {

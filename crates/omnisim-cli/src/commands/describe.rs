@@ -17,6 +17,7 @@ use omnisim_vision::hog::{
     BlockHogParams, Orientations, PanoramicHogParams, VerticalHogParams, block_hog, panoramic_hog, vertical_hog,
 };
 use omnisim_vision::keypoints::Features;
+use omnisim_vision::lmgist::{LmGist, LmGistParams};
 use omnisim_vision::pca::Pca;
 use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
@@ -39,11 +40,17 @@ use super::vision_input::{Input, InputArgs, NamedSettings, read_image};
 ///   fourier    Fourier signature of the panorama, magnitudes (NAME-phases.npy: phases) [k=16]
 ///   hog        panoramic HOG, horizontal cells of the full width [cells=16, bins=8, signed=false]
 ///   vertical-hog  HOG of overlapping vertical cells of the panorama, for orientation [width=32, column-step=1, bins=8, signed=false]
-///   block-hog  Dalal & Triggs HOG [cell=8, block=2, stride=1, bins=9, signed=false, clip=0.2, on=image]
-///   gist       panoramic gist, horizontal blocks [scales=4, orientations=8, blocks=16]
-///   grid-gist  gist on a grid [scales=4, orientations=8, grid=4, on=image]
+///   block-hog  block HOG in Dalal & Triggs' layout (cells, overlapping blocks, L2-Hys) with linear
+///              orientation votes but without their trilinear spatial votes and Gaussian block window
+///              (as scikit-image's hog) [cell=8, block=2, stride=1, bins=9, signed=false, clip=0.2, on=image]
+///   gist       omnisim's panoramic gist: LMgist's Gabor bank over horizontal blocks, circular in x,
+///              without LMgist's prefilter and resize [scales=4, orientations=8, blocks=16]
+///   grid-gist  omnisim's gist on a grid (as gist, not LMgist) [scales=4, orientations=8, grid=4, on=image]
+///   lmgist     Oliva & Torralba's LMgist exactly: channel mean, resize + centred crop to size², whitening
+///              prefilter (fc cycles/image), 32-px mirrored border, blocks at fix(linspace(0, size, n+1)),
+///              LMgist's column-major order [size=256, scales=4, orientations=8, blocks=4, fc=4, on=image]
 ///   radon      Radon transform of the image about the camera's principal point (omni) or the image centre
-///              [angles=360, radial-samples=0 (0: up to the nearest image edge), radial-step=1, line-step=0.5 (pixels)]
+///              [angles=360, radial-samples=0 (0: every p strictly inside the disc reaching the nearest image edge), radial-step=1, line-step=0.5 (pixels)]
 ///   sift       Lowe 2004 [sigma=1.6, input-sigma=0.5, scales=3, contrast=0.04, edge=10, bins=36, peak=0.8,
 ///              descriptor-width=4 (cells per side), descriptor-bins=8, clamp=0.2, border=5, upsample=true, on=image]
 ///   surf       Bay et al. 2006 [threshold=100, octaves=4, intervals=4, sample-step=1, hessian-weight=0.9,
@@ -70,14 +77,8 @@ pub(crate) struct DescribeArgs {
     /// Output folder (created if missing); one sub-folder per set.
     #[arg(long)]
     pub out: PathBuf,
-    /// Size of the panorama resampled from omnidirectional images, WIDTHxHEIGHT.
-    #[arg(long, default_value = "512x128", value_parser = parse_size)]
-    pub panorama: (u32, u32),
-    /// Elevations the panorama spans, degrees, LOW:HIGH.
-    #[arg(long, default_value = "-45:15", value_parser = parse_degrees_range, allow_hyphen_values = true)]
-    pub elevation: (f64, f64),
-    #[arg(long, value_enum, default_value = "bicubic")]
-    pub interpolation: InterpolationArg,
+    #[command(flatten)]
+    pub view: PanoramaArgs,
     /// Fit a PCA of K components to each global descriptor of the map set (--map) and project
     /// every set with it (NAME-pca.npy); the basis goes to OUT/pca/NAME/ (mean.npy, axes.npy,
     /// variances.npy, and pca.json with the total variance).
@@ -91,18 +92,31 @@ pub(crate) struct DescribeArgs {
     pub pca_basis: Option<PathBuf>,
 }
 
+/// The panorama that descriptors reading one are given (shared with `localize`).
+#[derive(Debug, Clone, Args)]
+pub(crate) struct PanoramaArgs {
+    /// Size of the panorama resampled from omnidirectional images, WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x128", value_parser = parse_size)]
+    pub panorama: (u32, u32),
+    /// Elevations the panorama spans, degrees, LOW:HIGH.
+    #[arg(long, default_value = "-45:15", value_parser = parse_degrees_range, allow_hyphen_values = true)]
+    pub elevation: (f64, f64),
+    #[arg(long, value_enum, default_value = "bicubic")]
+    pub interpolation: InterpolationArg,
+}
+
 /// The folder of OUT that holds the PCA bases (a set of that name is refused with --pca-fit).
 const PCA_FOLDER: &str = "pca";
 
 /// Which image a descriptor reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Reads {
+pub(crate) enum Reads {
     Image,
     Panorama,
 }
 
 impl Reads {
-    fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Reads::Image => "image",
             Reads::Panorama => "panorama",
@@ -111,12 +125,13 @@ impl Reads {
 }
 
 #[derive(Debug, Clone)]
-enum Method {
+pub(crate) enum Method {
     Fourier(FourierParams),
     Hog(PanoramicHogParams),
     VerticalHog(VerticalHogParams),
     BlockHog(BlockHogParams),
     Gist(GistParams),
+    LmGist(LmGist),
     Radon(RadonParams),
     Sift(SiftParams),
     Surf(SurfParams),
@@ -124,7 +139,7 @@ enum Method {
 
 impl Method {
     /// Checks the settings; with `size`, also for an image of that size (width, height).
-    fn fits(&self, size: Option<(usize, usize)>) -> Result<(), omnisim_vision::VisionError> {
+    pub(crate) fn fits(&self, size: Option<(usize, usize)>) -> Result<(), omnisim_vision::VisionError> {
         let Some((w, h)) = size else {
             return match self {
                 Method::Fourier(p) => p.validate(),
@@ -132,6 +147,7 @@ impl Method {
                 Method::VerticalHog(p) => p.validate(),
                 Method::BlockHog(p) => p.validate(),
                 Method::Gist(p) => p.validate(),
+                Method::LmGist(g) => g.params().validate(),
                 Method::Radon(p) => p.validate(),
                 Method::Sift(p) => p.validate(),
                 Method::Surf(p) => p.validate(),
@@ -144,6 +160,8 @@ impl Method {
             Method::BlockHog(p) => p.fits(w, h),
             Method::Gist(p) => p.fits(w, h),
             Method::Radon(p) => p.fits(w, h),
+            // Any size: it is resized to its own.
+            Method::LmGist(g) => g.params().validate(),
             // Any size: an image too small gives no keypoints.
             Method::Sift(p) => p.validate(),
             Method::Surf(p) => p.validate(),
@@ -153,14 +171,14 @@ impl Method {
 
 /// One descriptor as chosen: what it computes, what it reads, and its settings for the sidecar.
 #[derive(Debug, Clone)]
-struct Choice {
-    name: String,
-    method: Method,
-    reads: Reads,
-    parameters: Value,
+pub(crate) struct Choice {
+    pub name: String,
+    pub method: Method,
+    pub reads: Reads,
+    pub parameters: Value,
 }
 
-fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
+pub(crate) fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
     let on = |default: Reads| -> anyhow::Result<Reads> {
         match spec.settings.get("on").map(String::as_str) {
             None => Ok(default),
@@ -239,6 +257,24 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             };
             let parameters = json!({ "scales": p.scales, "orientations": p.orientations, "grid": grid });
             (Method::Gist(p), on(Reads::Image)?, parameters)
+        }
+        "lmgist" => {
+            spec.check_keys(&["size", "scales", "orientations", "blocks", "fc", "on"])?;
+            let d = LmGistParams::default();
+            let p = LmGistParams {
+                image_size: spec.get("size", d.image_size)?,
+                scales: spec.get("scales", d.scales)?,
+                orientations: spec.get("orientations", d.orientations)?,
+                blocks: spec.get("blocks", d.blocks)?,
+                prefilter_cycles: spec.get("fc", d.prefilter_cycles)?,
+            };
+            let parameters = json!({
+                "image_size": p.image_size, "scales": p.scales, "orientations": p.orientations, "blocks": p.blocks,
+                "prefilter_cycles_per_image": p.prefilter_cycles, "boundary_extension_px": omnisim_vision::lmgist::BOUNDARY,
+                "block_order": "LMgist's: filter by filter, blocks column-major", "grey": "mean of the colour channels"
+            });
+            let lmgist = LmGist::new(p).with_context(|| format!("--descriptor {}", spec.name))?;
+            (Method::LmGist(lmgist), on(Reads::Image)?, parameters)
         }
         "radon" => {
             spec.check_keys(&["angles", "radial-samples", "radial-step", "line-step"])?;
@@ -326,7 +362,7 @@ fn choose(spec: &NamedSettings) -> anyhow::Result<Choice> {
             (Method::Surf(p), on(Reads::Image)?, parameters)
         }
         other => bail!(
-            "unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, radon, sift or surf"
+            "unknown descriptor '{other}': give fourier, hog, vertical-hog, block-hog, gist, grid-gist, lmgist, radon, sift or surf"
         ),
     };
     // Every setting that does not depend on the images is checked here; the limits the
@@ -349,7 +385,7 @@ fn decimal(value: f32) -> f64 {
 }
 
 /// What one descriptor gives for one image.
-enum Described {
+pub(crate) enum Described {
     /// A fixed-shape array (and, for the Fourier signature, the phases beside it).
     Values {
         shape: Vec<usize>,
@@ -360,7 +396,7 @@ enum Described {
 }
 
 impl Choice {
-    fn describe(&self, grey: &Raster) -> anyhow::Result<Described> {
+    pub(crate) fn describe(&self, grey: &Raster) -> anyhow::Result<Described> {
         let values = |d: omnisim_vision::Descriptor| Described::Values {
             shape: d.shape,
             values: d.values,
@@ -379,6 +415,7 @@ impl Choice {
             Method::VerticalHog(p) => values(vertical_hog(grey, *p)?),
             Method::BlockHog(p) => values(block_hog(grey, *p)?),
             Method::Gist(p) => values(gist(grey, *p)?),
+            Method::LmGist(g) => values(g.describe(grey)?),
             Method::Radon(p) => {
                 let radon = Radon::new(grey, *p)?;
                 Described::Values {
@@ -392,7 +429,17 @@ impl Choice {
         })
     }
 
-    fn is_global(&self) -> bool {
+    /// The image this descriptor reads: the panorama, the colour image (`LMgist` averages
+    /// the channels itself, as `mean(img, 3)`) or the grey image.
+    pub(crate) fn source<'a>(&self, colour: &'a Raster, grey: &'a Raster, panorama: Option<&'a Raster>) -> &'a Raster {
+        match (self.reads, panorama) {
+            (Reads::Panorama, Some(panorama)) => panorama,
+            _ if matches!(self.method, Method::LmGist(_)) => colour,
+            _ => grey,
+        }
+    }
+
+    pub(crate) fn is_global(&self) -> bool {
         !matches!(self.method, Method::Sift(_) | Method::Surf(_))
     }
 }
@@ -455,7 +502,11 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
         (None, Some(_)) => Some(0),
         _ => None,
     };
-    let panorama = Panorama::new(&input, args, choices.iter().any(|c| c.reads == Reads::Panorama))?;
+    let panorama = Panorama::new(
+        &input.camera,
+        &args.view,
+        choices.iter().any(|c| c.reads == Reads::Panorama),
+    )?;
     // The limits the images' size sets, from the camera's size, before any image is read.
     let (w, h) = input.camera.size();
     let image_size = (w as usize, h as usize);
@@ -493,13 +544,10 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
             let grey = image.to_grey();
             let pano = panorama.as_ref().map(|p| p.of(&grey)).transpose()?;
             for (choice, result) in choices.iter().zip(&mut per_choice) {
-                let source = match (choice.reads, &pano) {
-                    (Reads::Panorama, Some((panorama, seconds))) => {
-                        result.panorama_seconds.push(*seconds);
-                        panorama
-                    }
-                    _ => &grey,
-                };
+                if let (Reads::Panorama, Some((_, seconds))) = (choice.reads, &pano) {
+                    result.panorama_seconds.push(*seconds);
+                }
+                let source = choice.source(&image, &grey, pano.as_ref().map(|p| &p.0));
                 let clock = Instant::now();
                 let described = choice
                     .describe(source)
@@ -548,21 +596,21 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
 }
 
 /// The panorama every image is resampled to, when a descriptor reads one.
-struct Panorama {
+pub(crate) struct Panorama {
     /// `None`: the images are panoramas already.
     remap: Option<Remap>,
     interpolation: Interpolation,
-    sidecar: Value,
+    pub sidecar: Value,
 }
 
 impl Panorama {
-    fn new(input: &Input, args: &DescribeArgs, needed: bool) -> anyhow::Result<Option<Self>> {
+    pub(crate) fn new(camera: &Camera, args: &PanoramaArgs, needed: bool) -> anyhow::Result<Option<Self>> {
         if !needed {
             return Ok(None);
         }
         let (width, height) = args.panorama;
         let (low, high) = args.elevation;
-        match &input.camera {
+        match camera {
             Camera::Catadioptric(omni) => {
                 let view = View::panorama(width, height, low.to_radians(), high.to_radians())?;
                 let remap = Remap::new(omni, &view).context("the panorama")?;
@@ -593,12 +641,12 @@ impl Panorama {
     }
 
     /// Size of the panorama of an image of `image_size`.
-    fn size(&self, image_size: (usize, usize)) -> (usize, usize) {
+    pub(crate) fn size(&self, image_size: (usize, usize)) -> (usize, usize) {
         self.remap.as_ref().map_or(image_size, |r| (r.width, r.height))
     }
 
     /// The panorama of a grey image and the seconds its resampling took.
-    fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
+    pub(crate) fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
         let clock = Instant::now();
         let Some(remap) = &self.remap else {
             return Ok((grey.clone(), 0.0));

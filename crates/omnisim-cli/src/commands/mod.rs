@@ -3,6 +3,7 @@
 pub(crate) mod bench;
 pub(crate) mod dataset;
 pub(crate) mod describe;
+pub(crate) mod localize;
 pub(crate) mod poses;
 pub(crate) mod preview;
 pub(crate) mod project;

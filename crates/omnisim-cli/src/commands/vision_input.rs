@@ -83,6 +83,16 @@ struct ManifestSetView {
 const MANIFEST_LIMIT: u64 = 1 << 30;
 
 impl InputArgs {
+    /// The sets `sets` of the data set in `folder`, ground truth or their noisy copies.
+    pub(crate) fn dataset(folder: PathBuf, sets: Vec<String>, noisy: bool) -> Self {
+        Self {
+            input: folder,
+            sets,
+            noisy,
+            camera: default_camera_args(),
+        }
+    }
+
     pub(crate) fn read(&self) -> anyhow::Result<Input> {
         recordable(&self.input)?;
         let manifest = self.input.join("manifest.json");
