@@ -635,7 +635,7 @@ impl Panorama {
             }
             Camera::Pinhole(_) | Camera::Lens(_) => bail!(
                 "a descriptor reads a panorama, but the images are from a {} camera: use on=image or other descriptors",
-                input.camera.model_name()
+                camera.model_name()
             ),
         }
     }

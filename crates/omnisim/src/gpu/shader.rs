@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 
 /// The shader files in the order they are concatenated: definitions first, entry point last.
-pub(crate) const FILES: [(&str, &str); 10] = [
+pub(crate) const FILES: [(&str, &str); 11] = [
     ("common.wgsl", include_str!("../../../../shaders/common.wgsl")),
     (
         "camera_pinhole.wgsl",
