@@ -169,6 +169,7 @@ impl CameraMetadata {
                 lens: c.model.name(),
                 lens_parameters: c.model.parameters().into_iter().collect(),
                 max_angle_off_axis_degrees: c.model.max_angle().to_degrees(),
+                pixels_without_ray: c.pixels_without_ray(),
             },
         };
         Self {
@@ -220,6 +221,8 @@ pub enum CameraParameters {
         lens_parameters: std::collections::BTreeMap<&'static str, Vec<f64>>,
         /// The valid field of view's half-angle; pixels beyond it are background.
         max_angle_off_axis_degrees: f64,
+        /// How many pixels of the image lie beyond it (background in every output).
+        pixels_without_ray: u64,
     },
 }
 
