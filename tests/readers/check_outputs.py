@@ -163,6 +163,9 @@ def check_folder(folder):
             check_pinholes(folder, frame, seen, body)
         if "lens" in camera:
             points, pixels = seen[""]
+            rays = np.isfinite(raymaps[""][1]).all(axis=-1)
+            check(camera["pixels_without_ray"] == int((~rays).sum()),
+                  f"{folder.name}: render.json's pixels_without_ray is the ray map's NaN count")
             readers = lens_projections(folder, body[""])
             check(readers or camera["lens"] in ("equisolid", "stereographic", "orthographic"),
                   f"{folder.name}: a {camera['lens']} lens writes calibration files")

@@ -65,12 +65,11 @@ fn pose_text(rotation: DMat3, position: DVec3) -> String {
     )
 }
 
-/// `body_from_optical` (rotation, translation) of view `k`, for pinhole views.
+/// `body_from_optical` (rotation, translation) of view `k`, for pinhole views (with or
+/// without distortion).
 fn body_from_optical(rig: &Rig, k: usize) -> Option<(DMat3, DVec3)> {
-    match &rig.views().get(k)?.camera {
-        Camera::Pinhole(pinhole) => Some((BODY_FROM_OPTICAL, pinhole.position)),
-        _ => None,
-    }
+    let pinhole = rig.views().get(k)?.camera.depth_frame()?.clone();
+    Some((BODY_FROM_OPTICAL, pinhole.position))
 }
 
 /// The index files of `layout` for a complete set: (path under the set folder, text).
@@ -321,6 +320,19 @@ mod tests {
         }
         out[15] = 1.0;
         out
+    }
+
+    #[test]
+    fn a_distorted_pinhole_has_the_pinholes_optical_frame_in_tum_ground_truth() {
+        let spec = omnisim::camera::RigSpec::Pinhole(omnisim::camera::PinholeSpec {
+            size: (64, 48),
+            hfov: 80.0,
+            focal: None,
+            distortion: Some(vec![-0.2, 0.05, 0.001, 0.0]),
+        });
+        let rig = spec.build().unwrap();
+        assert!(matches!(rig.views()[0].camera, Camera::Lens(_)));
+        assert_eq!(body_from_optical(&rig, 0), Some((BODY_FROM_OPTICAL, DVec3::ZERO)));
     }
 
     #[test]

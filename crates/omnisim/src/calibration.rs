@@ -188,7 +188,10 @@ impl KalibrCamera {
     pub fn body_from_camera(&self) -> (DMat3, DVec3) {
         let (rotation, translation) = self.camera_from_body;
         // + 0 turns −0 into 0, as files print it.
-        (rotation.transpose() + DMat3::ZERO, -(rotation.transpose() * translation) + 0.0)
+        (
+            rotation.transpose() + DMat3::ZERO,
+            -(rotation.transpose() * translation) + 0.0,
+        )
     }
 
     /// The name Kalibr's command line gives this model pair, e.g. `pinhole-radtan`.

@@ -164,12 +164,13 @@ impl CameraMetadata {
                 row_v: "a ray rises (cy - v)/fy per unit of horizontal distance",
             },
             Camera::Catadioptric(c) => CameraParameters::Catadioptric(Box::new(CatadioptricMetadata::of(c))),
-            Camera::Lens(c) => CameraParameters::Lens {
+            Camera::Lens(c) => CameraParameters::Lens(Box::new(LensMetadata {
                 intrinsics: PinholeParameters::of(&c.intrinsics),
                 lens: c.model.name(),
                 lens_parameters: c.model.parameters().into_iter().collect(),
                 max_angle_off_axis_degrees: c.model.max_angle().to_degrees(),
-            },
+                pixels_without_ray: c.pixels_without_ray(),
+            })),
         };
         Self {
             model: camera.model_name(),
@@ -210,17 +211,23 @@ pub enum CameraParameters {
     /// Camera looking at a mirror.
     Catadioptric(Box<CatadioptricMetadata>),
     /// A camera with a lens model (docs/cameras.md gives each model's equations).
-    Lens {
-        /// K and the optical centre, as a pinhole's.
-        #[serde(flatten)]
-        intrinsics: PinholeParameters,
-        /// The lens model.
-        lens: &'static str,
-        /// The model's parameters by name.
-        lens_parameters: std::collections::BTreeMap<&'static str, Vec<f64>>,
-        /// The valid field of view's half-angle; pixels beyond it are background.
-        max_angle_off_axis_degrees: f64,
-    },
+    Lens(Box<LensMetadata>),
+}
+
+/// A lens camera: K and place as a pinhole's, the model and its valid field of view.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LensMetadata {
+    /// K and the optical centre, as a pinhole's.
+    #[serde(flatten)]
+    pub intrinsics: PinholeParameters,
+    /// The lens model.
+    pub lens: &'static str,
+    /// The model's parameters by name.
+    pub lens_parameters: std::collections::BTreeMap<&'static str, Vec<f64>>,
+    /// The valid field of view's half-angle; pixels beyond it are background.
+    pub max_angle_off_axis_degrees: f64,
+    /// How many pixels of the image lie beyond it (background in every output).
+    pub pixels_without_ray: u64,
 }
 
 /// A perspective camera's `OpenCV` intrinsics and place (also a lens camera's).

@@ -231,6 +231,18 @@ mod tests {
     }
 
     #[test]
+    fn a_lens_whose_circle_misses_the_image_is_refused_with_its_field_of_view() {
+        let mut lens = camera(LensModel::Orthographic);
+        lens.intrinsics.cx = 5000.0;
+        let message = lens.validate().expect_err("no pixel sees").to_string();
+        assert!(
+            message.contains("orthographic") && message.contains("90.0°"),
+            "{message}"
+        );
+        assert!(camera(LensModel::Orthographic).validate().is_ok());
+    }
+
+    #[test]
     fn double_sphere_is_the_papers_equations() {
         // Usenko, Demmel, Cremers 2018, eqs. (40)-(50), written out.
         let (xi, alpha) = (-0.2_f64, 0.6_f64);

@@ -126,7 +126,15 @@ impl LensCamera {
         self.intrinsics.validate()?;
         self.model.check()?;
         let (width, height) = self.size();
-        if sampled_pixels(width, height).any(|(u, v)| self.ray(dvec2(u, v)).is_some()) {
+        // The principal point first: it has a ray in every lens that sees anything there, so
+        // the check made before every image usually costs one ray.
+        let principal = (self.intrinsics.cx, self.intrinsics.cy);
+        let inside = |(u, v): &(f64, f64)| (0.0..f64::from(width)).contains(u) && (0.0..f64::from(height)).contains(v);
+        if std::iter::once(principal)
+            .filter(inside)
+            .chain(sampled_pixels(width, height))
+            .any(|(u, v)| self.ray(dvec2(u, v)).is_some())
+        {
             Ok(())
         } else {
             Err(CameraError::NoImage(format!(
