@@ -9,7 +9,7 @@ Rounds alternate the two tools; each tool's best round is kept (a noisy shared m
 a round, never speeds it). Prints one JSON line per case and a final table.
 
 Scenes: room, clutter (raycast_anchor.py) and env1 (`omnisim scene export scenes/env1.ron`).
-Usage: same_rays.py --omnisim BIN --repo CHECKOUT --work DIR [--rounds 3] [--cases all|quick] [--scenes room,env1]
+Usage: same_rays.py --omnisim BIN --repo CHECKOUT --work DIR [--rounds 3] [--cases all|quick|models] [--scenes room,env1]
 Needs open3d-cpu, numpy, OpenEXR: same_rays.sh makes the venv and runs this.
 """
 import argparse, json, os, statistics, subprocess, sys, time
@@ -84,6 +84,9 @@ CAMS = {
     'pinhole640': ['--camera', 'pinhole', '--size', '640x480', '--hfov', '60'],
     'omni250': ['--camera', 'omni', '--size', '250x250'],
     'omni1000': ['--camera', 'omni', '--size', '1000x1000'],
+    'cylindrical1024': ['--camera', 'cylindrical', '--size', '1024x256', '--vfov', '80'],
+    'omni250-parabolic': ['--camera', 'omni', '--size', '250x250', '--mirror', 'parabolic', '--mirror-b', '0.05'],
+    'omni250-spherical': ['--camera', 'omni', '--size', '250x250', '--mirror', 'spherical', '--mount', 'down'],
 }
 
 def main():
@@ -104,6 +107,14 @@ def main():
         cases.append((s, 'omni250', '3,2,1.5,0,0,60'))
     cases += [('env1', 'omni250', '1.5,0,0.4,0,0,60'), ('env1', 'omni1000', '1.5,0,0.4,0,50,60'),
               ('env1', 'equirect1024', '0,0,0.4,0,0,0'), ('env1', 'pinhole640', '-1,0.3,0.6,0,-5,20')]
+    # The other camera models and mirrors (--cases models: these alone), at env1's paper pose
+    # and in clutter at the room centre.
+    models = [(s, cam, pose) for s, pose in (('env1', '1.5,0,0.4,0,0,60'), ('clutter', '3,2,1.5,0,0,60'))
+              for cam in ('cylindrical1024', 'omni250-parabolic', 'omni250-spherical')]
+    if a.cases == 'models':
+        cases = models
+    elif a.cases == 'all':
+        cases += models
     if a.cases == 'quick':
         cases = [c for c in cases if c[1] != 'equirect1024' or c[2].startswith('3,2')]
     extra = a.extra.split()

@@ -30,7 +30,7 @@ const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
 /// Scenes with more triangles than this get `LARGE_BUILD_PARAMS`: from 50k triangles the fast
 /// build takes about half the medium build's time for 3–8 % more box tests per ray, below it
 /// 20–40 % more (issue 18, `bench/bvh_build.py` scenes; docs/benchmarks.md, "BVH build").
-const LARGE_SCENE: usize = 50_000;
+pub(crate) const LARGE_SCENE: usize = 50_000;
 
 /// obvhs's fast build (narrower PLOC search, less reinsertion), leaves of at most two
 /// triangles, for large scenes where build time counts (docs/benchmarks.md, "BVH build").

@@ -104,7 +104,8 @@ impl CpuTracer {
         hits.par_extend(rayon::iter::repeat_n(Pixel::MISS, width as usize * height as usize));
         let row_length = width.max(1) as usize;
         if let Self::Fast | Self::FastPortable = self {
-            // Tiles of 8×8 pixels traced as one packet each (`fast::closest_hits`).
+            // Tiles of 8×8 pixels, each traced as one packet (`fast::closest_hits`) unless the
+            // scene is dense and its rays form a wide cone (`fast::takes_packet_walk`).
             hits.par_chunks_mut(row_length * 8)
                 .enumerate()
                 .for_each(|(band, pixels)| {
@@ -122,7 +123,16 @@ impl CpuTracer {
                                 active |= 1 << r;
                             }
                         }
-                        let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
+                        let found = if fast::takes_packet_walk(bvh, &rays, active) {
+                            fast::closest_hits(bvh, &rays, active, self == Self::FastPortable)
+                        } else {
+                            std::array::from_fn(|r| {
+                                let (origin, direction, t_min) = rays[r];
+                                (active & (1 << r) != 0)
+                                    .then(|| self.closest_hit(bvh, origin, direction, t_min))
+                                    .flatten()
+                            })
+                        };
                         for (r, offset) in tile.enumerate() {
                             if let Some(hit) = found[r] {
                                 let (origin, direction, _) = rays[r];
