@@ -86,13 +86,27 @@ pub fn srgb_to_linear(value: u8) -> f64 {
 
 /// sRGB encoding of a linear value, clamped to [0, 1], rounded to 8 bits: exactly
 /// [`encode_by_formula`]'s byte, found among the 255 linear values where that byte steps up
-/// (a binary search of eight comparisons instead of a `powf`; textured and lit pixels encode
-/// every pixel).
+/// (a table guess and a step or two instead of a `powf`; textured and lit pixels encode every
+/// pixel).
 pub fn linear_to_srgb(value: f64) -> u8 {
-    static STEPS: std::sync::LazyLock<[f64; 255]> =
-        std::sync::LazyLock::new(|| std::array::from_fn(|k| first_value_encoding_to(k as u8 + 1)));
-    // NaN compares false everywhere and encodes to 0, as the formula's `NaN as u8` does.
-    STEPS.partition_point(|&step| step <= value.clamp(0.0, 1.0)) as u8
+    /// The steps, and the byte at the start of each of 4096 equal buckets of [0, 1] (a
+    /// bucket is narrower than the smallest step, so at most two steps follow the guess).
+    static TABLES: std::sync::LazyLock<([f64; 255], [u8; 4097])> = std::sync::LazyLock::new(|| {
+        let steps: [f64; 255] = std::array::from_fn(|k| first_value_encoding_to(k as u8 + 1));
+        let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / 4096.0) as u8);
+        (steps, buckets)
+    });
+    let (steps, buckets) = &*TABLES;
+    let c = value.clamp(0.0, 1.0);
+    if c.is_nan() {
+        // As the formula's `NaN as u8`.
+        return 0;
+    }
+    let mut byte = buckets[(c * 4096.0) as usize] as usize;
+    while byte < 255 && steps[byte] <= c {
+        byte += 1;
+    }
+    byte as u8
 }
 
 /// sRGB encoding (IEC 61966-2-1) of a linear value clamped to [0, 1], rounded to 8 bits, by
