@@ -178,7 +178,15 @@ mod tests {
             let step = first_value_encoding_to(byte).to_bits();
             values.extend((step - 4..=step + 4).map(f64::from_bits));
         }
-        values.extend([f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, 0.0, 1.0, f64::MIN_POSITIVE]);
+        values.extend([
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            0.0,
+            1.0,
+            f64::MIN_POSITIVE,
+        ]);
         for value in values {
             assert_eq!(linear_to_srgb(value), encode_by_formula(value), "{value:e}");
         }
