@@ -84,8 +84,34 @@ pub fn srgb_to_linear(value: u8) -> f64 {
     TABLE[value as usize]
 }
 
-/// sRGB encoding of a linear value, clamped to [0, 1], rounded to 8 bits.
+/// sRGB encoding of a linear value, clamped to [0, 1], rounded to 8 bits: exactly
+/// [`encode_by_formula`]'s byte, found among the 255 linear values where that byte steps up
+/// (a table guess and a step or two instead of a `powf`; textured and lit pixels encode every
+/// pixel).
 pub fn linear_to_srgb(value: f64) -> u8 {
+    /// The steps, and the byte at the start of each of 4096 equal buckets of [0, 1] (a
+    /// bucket is narrower than the smallest step, so at most two steps follow the guess).
+    static TABLES: std::sync::LazyLock<([f64; 255], [u8; 4097])> = std::sync::LazyLock::new(|| {
+        let steps: [f64; 255] = std::array::from_fn(|k| first_value_encoding_to(k as u8 + 1));
+        let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / 4096.0) as u8);
+        (steps, buckets)
+    });
+    let (steps, buckets) = &*TABLES;
+    let c = value.clamp(0.0, 1.0);
+    if c.is_nan() {
+        // As the formula's `NaN as u8`.
+        return 0;
+    }
+    let mut byte = buckets[(c * 4096.0) as usize] as usize;
+    while byte < 255 && steps[byte] <= c {
+        byte += 1;
+    }
+    byte as u8
+}
+
+/// sRGB encoding (IEC 61966-2-1) of a linear value clamped to [0, 1], rounded to 8 bits, by
+/// the formula.
+fn encode_by_formula(value: f64) -> u8 {
     let c = value.clamp(0.0, 1.0);
     let encoded = if c <= 0.003_130_8 {
         12.92 * c
@@ -93,6 +119,21 @@ pub fn linear_to_srgb(value: f64) -> u8 {
         1.055 * c.powf(1.0 / 2.4) - 0.055
     };
     (encoded * 255.0).round() as u8
+}
+
+/// The smallest f64 in [0, 1] that [`encode_by_formula`] takes to `byte` or more: a bisection
+/// over the bit patterns of non-negative f64s, which order as the values do.
+fn first_value_encoding_to(byte: u8) -> f64 {
+    let (mut below, mut at) = (0u64, 1f64.to_bits());
+    while at - below > 1 {
+        let middle = below + (at - below) / 2;
+        if encode_by_formula(f64::from_bits(middle)) >= byte {
+            at = middle;
+        } else {
+            below = middle;
+        }
+    }
+    f64::from_bits(at)
 }
 
 /// Linear RGB of an sRGB colour.
@@ -124,6 +165,30 @@ mod tests {
         let unit = direction("(1.0, 0.0, -1.0)");
         for scaled in ["(1e308, 0.0, -1e308)", "(1e-300, 0.0, -1e-300)"] {
             assert!((direction(scaled) - unit).length() < 1e-15, "{scaled}");
+        }
+    }
+
+    #[test]
+    fn the_table_encodes_exactly_as_the_formula() {
+        use rand::{Rng, SeedableRng};
+        let mut random = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut values: Vec<f64> = (0..1_000_000).map(|_| random.random_range(-0.1..1.1)).collect();
+        // Every step and its neighbours, a few ulps either side.
+        for byte in 1..=255u8 {
+            let step = first_value_encoding_to(byte).to_bits();
+            values.extend((step - 4..=step + 4).map(f64::from_bits));
+        }
+        values.extend([
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            0.0,
+            1.0,
+            f64::MIN_POSITIVE,
+        ]);
+        for value in values {
+            assert_eq!(linear_to_srgb(value), encode_by_formula(value), "{value:e}");
         }
     }
 

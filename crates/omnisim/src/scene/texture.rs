@@ -8,6 +8,8 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use crate::scene::lighting::{linear_to_srgb, srgb_to_linear};
 
 /// Largest texture side, texels: a 16k texture is 1 GiB of texels with its mips already.
@@ -131,23 +133,26 @@ fn half(above: &MipLevel) -> MipLevel {
         let end = if x + 1 == half { size } else { (2 * x + 2).min(size) };
         start..end
     };
-    let mut texels = Vec::with_capacity(width as usize * height as usize);
-    for y in 0..height {
-        for x in 0..width {
-            let mut sum = [0.0f64; 3];
-            let mut count = 0.0;
-            for sy in span(y, above.height, height) {
-                for sx in span(x, above.width, width) {
-                    let c = above.texel(sx, sy);
-                    for k in 0..3 {
-                        sum[k] += srgb_to_linear(c[k]);
+    // Rows on all threads: a 4096² level takes 0.1 s on one.
+    let texels = (0..height)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            (0..width).map(move |x| {
+                let mut sum = [0.0f64; 3];
+                let mut count = 0.0;
+                for sy in span(y, above.height, height) {
+                    for sx in span(x, above.width, width) {
+                        let c = above.texel(sx, sy);
+                        for k in 0..3 {
+                            sum[k] += srgb_to_linear(c[k]);
+                        }
+                        count += 1.0;
                     }
-                    count += 1.0;
                 }
-            }
-            texels.push(pack(sum.map(|s| linear_to_srgb(s / count))));
-        }
-    }
+                pack(sum.map(|s| linear_to_srgb(s / count)))
+            })
+        })
+        .collect();
     MipLevel { width, height, texels }
 }
 
