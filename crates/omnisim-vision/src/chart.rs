@@ -137,12 +137,9 @@ impl Axis {
                 (0..=count)
                     .map(|i| {
                         let v = self.lo + step * i as f64;
-                        (
-                            v,
-                            format!("{}", (v / step).round() * step)
-                                .trim_end_matches(".0")
-                                .to_string(),
-                        )
+                        // As many decimals as the step has: 0.15, not 0.15000000000000002.
+                        let decimals = (-step.log10().floor()).max(0.0) as usize;
+                        (v, format!("{:.*}", decimals, (v / step).round() * step))
                     })
                     .collect()
             }

@@ -38,9 +38,10 @@ use crate::progress::Progress;
 /// --neighbours K > 1, also the 1/distance-weighted mean of the K nearest), its heading the
 /// nearest map image's heading turned by the Fourier signature's phase shift (fourier) or the
 /// Radon transform's phase-only correlation (radon; places are compared by the transform's
-/// turn-free signature, |DFT along φ| of each radial sample, 16 coefficients). The manifest's poses of the map are the
-/// map; a test image's pose is read only to score it. Poses are planar: position in the floor
-/// plane, heading θz (test sets drawn with tilt are scored on θz alone).
+/// turn-free signature, |DFT along φ| of each radial sample, 16 coefficients). The
+/// manifest's poses of the map are the map; a test image's pose is read only to score it.
+/// Poses are planar: position in the floor plane, heading θz (test sets drawn with tilt are
+/// scored on θz alone).
 ///
 /// Descriptors [default: fourier, hog, gist, radon, pca] are describe's (`omnisim describe
 /// --help`: fourier, hog, vertical-hog, block-hog, gist, grid-gist, lmgist, radon, sift, surf,
