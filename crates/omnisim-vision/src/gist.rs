@@ -103,7 +103,7 @@ pub(crate) fn check_bank(scales: usize, orientations: usize) -> Result<(), Visio
 }
 
 /// Transfer function of filter (scale, orientation) at frequency (fx, fy), cycles per pixel.
-pub(crate) fn gabor(scale: usize, orientation: usize, orientations: usize, fx: f64, fy: f64) -> f64 {
+fn gabor(scale: usize, orientation: usize, orientations: usize, fx: f64, fy: f64) -> f64 {
     use std::f64::consts::{PI, TAU};
     let centre = 0.3 / 1.85f64.powi(scale as i32);
     let width = 16.0 * (orientations * orientations) as f64 / (32.0 * 32.0);
@@ -129,7 +129,7 @@ pub(crate) fn symmetric_index(i: isize, n: usize) -> usize {
 }
 
 /// Frequency of DFT bin k of n, cycles per sample, in [−½, ½).
-pub(crate) fn frequency(k: usize, n: usize) -> f64 {
+fn frequency(k: usize, n: usize) -> f64 {
     let k = if 2 * k >= n { k as f64 - n as f64 } else { k as f64 };
     k / n as f64
 }
@@ -145,6 +145,48 @@ fn block_means(values: &[f64], width: usize, height: usize, nx: usize, ny: usize
         counts[block] += 1;
     }
     sums.iter().zip(&counts).map(|(s, &c)| (s / c as f64) as f32).collect()
+}
+
+/// A filter bank: one transfer function per (scale, orientation), scale-major.
+pub(crate) type Bank = std::sync::Arc<Vec<Vec<f64>>>;
+
+/// What a bank is made for: (width, padded height, scales, orientations).
+type BankSize = (usize, usize, usize, usize);
+
+thread_local! {
+    /// The banks this thread made, by (width, padded height, scales, orientations): a data
+    /// set's images share one size, and evaluating the bank (an exp and an atan2 per bin and
+    /// filter) took half of each image's time. At most [`BANKS_KEPT`] sizes are kept.
+    static BANKS: std::cell::RefCell<Vec<(BankSize, Bank)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Filter banks kept per thread.
+const BANKS_KEPT: usize = 4;
+
+/// The bank for a `w × padded` spectrum, made once per thread and size.
+pub(crate) fn bank(w: usize, padded: usize, scales: usize, orientations: usize) -> Bank {
+    let key = (w, padded, scales, orientations);
+    BANKS.with(|banks| {
+        let mut banks = banks.borrow_mut();
+        if let Some((_, bank)) = banks.iter().find(|(k, _)| *k == key) {
+            return bank.clone();
+        }
+        let bank: Bank = std::sync::Arc::new(
+            (0..scales)
+                .flat_map(|s| (0..orientations).map(move |o| (s, o)))
+                .map(|(s, o)| {
+                    (0..w * padded)
+                        .map(|i| gabor(s, o, orientations, frequency(i % w, w), frequency(i / w, padded)))
+                        .collect()
+                })
+                .collect(),
+        );
+        if banks.len() == BANKS_KEPT {
+            banks.remove(0);
+        }
+        banks.push((key, bank.clone()));
+        bank
+    })
 }
 
 /// gist of a one-channel image: shape [scales, orientations, `blocks_y`, `blocks_x`] (`blocks_x` =
@@ -165,25 +207,16 @@ pub fn gist(image: &Raster, params: GistParams) -> Result<Descriptor, VisionErro
     fft::fft2(&mut spectrum, w, padded, FftDirection::Forward);
     let mut values = Vec::with_capacity(params.scales * params.orientations * nx * ny);
     let mut filtered = vec![C64::default(); w * padded];
-    for scale in 0..params.scales {
-        for orientation in 0..params.orientations {
-            for (i, (out, &input)) in filtered.iter_mut().zip(&spectrum).enumerate() {
-                let g = gabor(
-                    scale,
-                    orientation,
-                    params.orientations,
-                    frequency(i % w, w),
-                    frequency(i / w, padded),
-                );
-                *out = input * g;
-            }
-            fft::fft2(&mut filtered, w, padded, FftDirection::Inverse);
-            let amplitude: Vec<f64> = filtered[PADDING * w..(PADDING + h) * w]
-                .iter()
-                .map(|c| c.norm())
-                .collect();
-            values.extend(block_means(&amplitude, w, h, nx, ny));
+    for filter in bank(w, padded, params.scales, params.orientations).iter() {
+        for ((out, &input), &g) in filtered.iter_mut().zip(&spectrum).zip(filter) {
+            *out = input * g;
         }
+        fft::fft2(&mut filtered, w, padded, FftDirection::Inverse);
+        let amplitude: Vec<f64> = filtered[PADDING * w..(PADDING + h) * w]
+            .iter()
+            .map(|c| c.norm())
+            .collect();
+        values.extend(block_means(&amplitude, w, h, nx, ny));
     }
     Ok(Descriptor {
         shape: vec![params.scales, params.orientations, ny, nx],

@@ -22,12 +22,10 @@
 //! N × N blocks column by column (MATLAB's column-major `reshape`), so the flat vector equals
 //! `LMgist`'s. Computed in f64 (MATLAB's code runs in single precision).
 
-use std::sync::Arc;
-
 use rustfft::FftDirection;
 
 use crate::fft::{self, C64};
-use crate::gist::{check_bank, frequency, gabor, symmetric_index};
+use crate::gist::{bank, check_bank, symmetric_index};
 use crate::{Descriptor, Raster, VisionError, require};
 
 /// `LMgist`'s settings; the default is its published one.
@@ -89,7 +87,7 @@ impl LmGistParams {
 pub struct LmGist {
     params: LmGistParams,
     /// Transfer functions on the padded square, one per (scale, orientation), scale-major.
-    bank: Arc<Vec<Vec<f64>>>,
+    bank: crate::gist::Bank,
 }
 
 impl LmGist {
@@ -97,18 +95,8 @@ impl LmGist {
     pub fn new(params: LmGistParams) -> Result<Self, VisionError> {
         params.validate()?;
         let n = params.image_size + 2 * BOUNDARY;
-        let bank = (0..params.scales)
-            .flat_map(|s| (0..params.orientations).map(move |o| (s, o)))
-            .map(|(s, o)| {
-                (0..n * n)
-                    .map(|i| gabor(s, o, params.orientations, frequency(i % n, n), frequency(i / n, n)))
-                    .collect()
-            })
-            .collect();
-        Ok(Self {
-            params,
-            bank: Arc::new(bank),
-        })
+        let bank = bank(n, n, params.scales, params.orientations);
+        Ok(Self { params, bank })
     }
 
     /// The settings.
