@@ -8,7 +8,7 @@ use std::path::Path;
 
 use glam::{DVec2, DVec3, dvec3};
 use omnisim::advanced::{self, CpuTracer, Footprint, SceneBvh};
-use omnisim::camera::{Cylindrical, Equirectangular, Pinhole};
+use omnisim::camera::{Cylindrical, Equirectangular, FisheyeSpec, LensSpec, Pinhole, RigSpec};
 use omnisim::scene::lighting::{linear_to_srgb, srgb_to_linear};
 use omnisim::{Camera, Plane, Planes, Pose, Scene};
 
@@ -482,6 +482,13 @@ fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
             width: 512,
             height: 256,
         }),
+        // A lens camera: the GPU's footprints read the neighbours' rays from its ray table.
+        Camera::Lens(Box::new(common::lens_camera(&RigSpec::Fisheye(FisheyeSpec {
+            size: (320, 320),
+            lens: LensSpec::Equidistant,
+            fov: Some(200.0),
+            focal: None,
+        })))),
     ] {
         let planes = Planes::COLOUR.with(Plane::LinearColour);
         let (a, b) = (

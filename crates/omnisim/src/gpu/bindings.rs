@@ -76,11 +76,22 @@ pub(crate) const TRACE: Stage = Stage {
     bindings: &[CAMERA, NODES, TRIANGLES, HITS, CAMERA_RAYS],
 };
 
-/// Shading the hit planes (shadow rays walk the BVH).
+/// Shading the hit planes (shadow rays walk the BVH; texture footprints read the neighbouring
+/// pixels' camera rays, a lens camera's from its table).
 pub(crate) const SHADE: Stage = Stage {
     entry_point: shader::SHADE_ENTRY_POINT,
     bindings: &[
-        CAMERA, NODES, TRIANGLES, MATERIALS, HITS, LIGHTS, SHADING, SHADED, SURFACES, TEXTURES,
+        CAMERA,
+        NODES,
+        TRIANGLES,
+        MATERIALS,
+        HITS,
+        LIGHTS,
+        SHADING,
+        SHADED,
+        CAMERA_RAYS,
+        SURFACES,
+        TEXTURES,
     ],
 };
 

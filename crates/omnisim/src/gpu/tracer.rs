@@ -248,6 +248,7 @@ impl GpuRenderer {
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
                 (SHADED, &buffers.shaded),
+                (CAMERA_RAYS, &rays),
                 (SURFACES, &scene.surfaces),
                 (TEXTURES, &scene.textures),
             ],
