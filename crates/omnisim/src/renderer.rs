@@ -18,7 +18,7 @@ use crate::shade::antialias;
 use crate::shade::coverage::{self, Outline};
 use crate::shade::{self, Appearance};
 use crate::trace::CpuTracer;
-use crate::trace::ray_table::RayCache;
+use crate::trace::ray_table::{self, RayCache};
 
 /// Which backend the user asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -217,9 +217,8 @@ impl Renderer {
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
             None => {
                 let table = self.rays.table(camera);
-                let mut frame = self
-                    .rays
-                    .trace(self.cpu_tracer, &prepared.geometry, camera, pose, table.as_deref());
+                let mut frame =
+                    ray_table::trace_frame(self.cpu_tracer, &prepared.geometry, camera, pose, table.as_deref());
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
                     let view = shade::View::new(camera, pose, table.as_deref().map(|t| t.rays.as_slice()));
@@ -258,7 +257,9 @@ impl Renderer {
         let mut frame = self.render(prepared, camera, pose, planes)?;
         if planes.needs_shading() && samples_per_axis > 1 {
             let outline = prepared.outline.get_or_init(|| Outline::of(&prepared.geometry));
-            let edges = coverage::pixels_to_refine(&frame, &prepared.geometry, outline, camera, pose);
+            let table = self.rays.table(camera);
+            let rays = table.as_deref().map(|t| t.rays.as_slice());
+            let edges = coverage::pixels_to_refine(&frame, &prepared.geometry, outline, camera, pose, rays);
             // The GPU's lens rays are a table of pixel centres: their sub-pixel samples are
             // traced by the CPU, exactly.
             let gpu = self.gpu(prepared).filter(|_| !matches!(camera, Camera::Lens(_)));

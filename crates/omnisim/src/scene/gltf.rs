@@ -11,6 +11,9 @@
 //! textures, any other required extension, points and lines, sparse accessors) is refused by
 //! name.
 
+use std::collections::HashMap;
+use std::collections::hash_map::Entry;
+
 use base64::Engine as _;
 use glam::{DMat4, DVec2, DVec3, DVec4};
 use gltf::mesh::Mode;
@@ -81,6 +84,7 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
         .map(|buffer| load_buffer(&buffer, gltf.blob.as_deref(), textures))
         .collect::<Result<Vec<_>, _>>()?;
     let mut images: Vec<Option<u32>> = vec![None; document.images().len()];
+    let mut decoded: HashMap<(usize, usize), Vec<MeshTriangle>> = HashMap::new();
     let mut triangles = Vec::new();
     let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
@@ -103,9 +107,22 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
         }
         if let Some(mesh) = node.mesh() {
             for primitive in mesh.primitives() {
-                let what = format!("mesh {} primitive {}", mesh.index(), primitive.index());
-                read_primitive(&primitive, world, &buffers, &mut images, textures, &mut triangles)
-                    .map_err(|e| format!("{what}: {e}"))?;
+                let what = || format!("mesh {} primitive {}", mesh.index(), primitive.index());
+                // A mesh that several nodes place is decoded and checked once.
+                let local = match decoded.entry((mesh.index(), primitive.index())) {
+                    Entry::Occupied(entry) => entry.into_mut(),
+                    Entry::Vacant(entry) => entry.insert(
+                        read_primitive(&primitive, &buffers, &mut images, textures)
+                            .map_err(|e| format!("{}: {e}", what()))?,
+                    ),
+                };
+                if triangles.len() + local.len() > MAX_MESH_TRIANGLES {
+                    return Err(format!("{}: {}", what(), too_many_triangles()));
+                }
+                triangles.extend(local.iter().map(|triangle| MeshTriangle {
+                    vertices: triangle.vertices.map(|vertex| world.transform_point3(vertex)),
+                    ..triangle.clone()
+                }));
             }
         }
         stack.extend(node.children().map(|child| (child, world, depth + 1)));
@@ -263,15 +280,13 @@ fn load_image(image: &gltf::Image, buffers: &[Vec<u8>], textures: &mut MeshTextu
     }
 }
 
-/// Appends the triangles of one primitive placed by `world`.
+/// The triangles of one primitive, in its mesh's own coordinates.
 fn read_primitive(
     primitive: &gltf::Primitive,
-    world: DMat4,
     buffers: &[Vec<u8>],
     images: &mut [Option<u32>],
     textures: &mut MeshTextures,
-    triangles: &mut Vec<MeshTriangle>,
-) -> Result<(), String> {
+) -> Result<Vec<MeshTriangle>, String> {
     if primitive.mode() != Mode::Triangles {
         return Err(format!(
             "its mode is {:?}; omnisim reads triangle primitives only",
@@ -289,7 +304,7 @@ fn read_primitive(
     let positions: Vec<DVec3> = reader
         .read_positions()
         .ok_or("it has no POSITION attribute")?
-        .map(|p| world.transform_point3(DVec3::from_array(p.map(f64::from))))
+        .map(|p| DVec3::from_array(p.map(f64::from)))
         .collect();
     let indices: Vec<u32> = match reader.read_indices() {
         Some(indices) => indices.into_u32().collect(),
@@ -340,12 +355,11 @@ fn read_primitive(
     if colours.as_ref().is_some_and(|c| c.len() < positions.len()) {
         return Err("COLOR_0 has fewer entries than POSITION".into());
     }
+    if indices.len() / 3 > MAX_MESH_TRIANGLES {
+        return Err(too_many_triangles());
+    }
+    let mut triangles = Vec::with_capacity(indices.len() / 3);
     for corners in indices.chunks_exact(3) {
-        if triangles.len() == MAX_MESH_TRIANGLES {
-            return Err(format!(
-                "more than {MAX_MESH_TRIANGLES} triangles; omnisim reads at most that many per mesh"
-            ));
-        }
         let at = |k: usize| corners[k] as usize;
         triangles.push(MeshTriangle {
             vertices: [positions[at(0)], positions[at(1)], positions[at(2)]],
@@ -363,5 +377,9 @@ fn read_primitive(
             unlit: look.unlit,
         });
     }
-    Ok(())
+    Ok(triangles)
+}
+
+fn too_many_triangles() -> String {
+    format!("more than {MAX_MESH_TRIANGLES} triangles; omnisim reads at most that many per mesh")
 }

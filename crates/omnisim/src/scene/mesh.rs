@@ -15,6 +15,7 @@ use super::surface::{ColourMap, Surface, UvMap, gradient};
 use super::texture::Wrap;
 
 /// One triangle of a mesh, in the mesh file's own coordinates.
+#[derive(Clone)]
 pub(super) struct MeshTriangle {
     pub vertices: [DVec3; 3],
     /// Face colour from the file (face colour, else the mean of vertex colours), if any.
@@ -28,6 +29,7 @@ pub(super) struct MeshTriangle {
 }
 
 /// A mesh triangle's texture coordinates.
+#[derive(Clone)]
 pub(super) struct CornerUvs {
     pub texture: u32,
     pub wrap: [Wrap; 2],

@@ -98,12 +98,13 @@ pub(crate) fn unpack(packed: u32) -> [u8; 3] {
 impl Texture {
     /// A texture from row-major 8-bit sRGB pixels (`width × height` of them), with its mips.
     pub fn from_rgb(width: u32, height: u32, pixels: &[[u8; 3]]) -> Texture {
-        assert_eq!(pixels.len(), width as usize * height as usize, "pixel count");
-        let mut levels = vec![MipLevel {
-            width,
-            height,
-            texels: pixels.iter().map(|&p| pack(p)).collect(),
-        }];
+        Self::from_packed(width, height, pixels.iter().map(|&p| pack(p)).collect())
+    }
+
+    /// The texture of `width` × `height` row-major texels packed as [`MipLevel::texels`].
+    fn from_packed(width: u32, height: u32, texels: Vec<u32>) -> Texture {
+        assert_eq!(texels.len(), width as usize * height as usize, "texel count");
+        let mut levels = vec![MipLevel { width, height, texels }];
         while let Some(above) = levels.last().filter(|l| l.width > 1 || l.height > 1) {
             levels.push(half(above));
         }
@@ -218,9 +219,13 @@ fn decode<R: std::io::BufRead + std::io::Seek>(mut reader: image::ImageReader<R>
             "the image is {width}×{height}; omnisim reads at most {MAX_TEXTURE_TEXELS} texels per texture"
         ));
     }
+    // Packed straight from the decoded image: no third copy of a large texture.
     let rgb = image.into_rgb8();
-    let pixels: Vec<[u8; 3]> = rgb.pixels().map(|p| p.0).collect();
-    Ok(Texture::from_rgb(width, height, &pixels))
+    Ok(Texture::from_packed(
+        width,
+        height,
+        rgb.pixels().map(|p| pack(p.0)).collect(),
+    ))
 }
 
 #[cfg(test)]

@@ -58,6 +58,8 @@ pub(crate) fn supersample_edges(
     }
     let width = frame.width as usize;
     let local = trace::LocalPose::new(bvh, pose);
+    // Sub-pixel samples: footprints from the camera's own rays, not a table of pixel centres.
+    let view = shade::View::new(camera, pose, None);
     let count = samples_per_axis * samples_per_axis;
     let refined: Vec<([u8; 3], [f32; 3])> = edges
         .par_iter()
@@ -68,7 +70,7 @@ pub(crate) fn supersample_edges(
             for offset in sample_offsets(samples_per_axis) {
                 let hit = tracer.trace_pixel(bvh, camera, &local, centre + offset);
                 let footprint = if appearance.needs_footprint(hit.face) {
-                    shade::Footprint::of_pixel(camera, pose, centre + offset)
+                    view.footprint_at(centre + offset)
                 } else {
                     shade::Footprint::POINT
                 };

@@ -18,7 +18,7 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::accel::SceneBvh;
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraRay};
 use crate::frame::Frame;
 use crate::pose::Pose;
 
@@ -84,13 +84,14 @@ impl Outline {
 
 /// The pixels to refine in `frame` (traced through `camera` at `pose` from `bvh`), sorted:
 /// those whose centre face differs from a 4-neighbour's, and every pixel a visible face
-/// outline crosses.
+/// outline crosses. `rays` is the camera's ray table where the renderer keeps one.
 pub(crate) fn pixels_to_refine(
     frame: &Frame,
     bvh: &SceneBvh,
     outline: &Outline,
     camera: &Camera,
     pose: &Pose,
+    rays: Option<&[Option<CameraRay>]>,
 ) -> Vec<usize> {
     let (width, height) = (frame.width as usize, frame.height as usize);
     let mut refine = vec![false; width * height];
@@ -131,8 +132,8 @@ pub(crate) fn pixels_to_refine(
                 let index = row as usize * width + column as usize;
                 let hit = &frame.pixels()[index];
                 let visible = !hit.is_hit()
-                    || camera
-                        .ray(DVec2::new(column, row))
+                    || rays
+                        .map_or_else(|| camera.ray(DVec2::new(column, row)), |rays| rays[index])
                         .is_none_or(|ray| point.distance(ray.origin) <= f64::from(hit.range) * (1.0 + HIDDEN_MARGIN));
                 if visible {
                     found.push(index);

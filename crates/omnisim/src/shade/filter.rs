@@ -5,12 +5,11 @@
 use glam::{DVec2, DVec3};
 
 use crate::scene::lighting::srgb_to_linear;
-use crate::scene::texture::{MipLevel, Texture, Wrap, unpack};
+use crate::scene::texture::{MipLevel, Texture, Wrap};
 
 /// Linear colour of a texel.
 fn texel(level: &MipLevel, x: u32, y: u32) -> DVec3 {
-    let c = unpack(level.texels[y as usize * level.width as usize + x as usize]);
-    DVec3::new(srgb_to_linear(c[0]), srgb_to_linear(c[1]), srgb_to_linear(c[2]))
+    DVec3::from_array(level.texel(x, y).map(srgb_to_linear))
 }
 
 /// Texel coordinate `t` (texel centres at integer + 0.5 of `size`-texel rows) as the two

@@ -19,7 +19,7 @@ use crate::pose::Pose;
 /// Whether the neighbour `step` ahead of `pixel` lies inside an image of `size` pixels; if it
 /// does not (or the camera has no ray there), the one `step` behind stands in. The GPU's
 /// `footprint_side` follows the same rule.
-pub(crate) fn ahead_is_inside(pixel: DVec2, step: DVec2, size: (u32, u32)) -> bool {
+fn ahead_is_inside(pixel: DVec2, step: DVec2, size: (u32, u32)) -> bool {
     let ahead = pixel + step;
     ahead.x <= f64::from(size.0) - 1.0 && ahead.y <= f64::from(size.1) - 1.0
 }
@@ -39,25 +39,31 @@ impl Footprint {
 
     /// The footprint of pixel `pixel` (sub-pixel positions allowed) of `camera` at `pose`.
     pub fn of_pixel(camera: &Camera, pose: &Pose, pixel: DVec2) -> Footprint {
-        let size = camera.size();
-        Self::from_body_rays(pose.world_from_body_rotation(), pose.position, |step| {
-            let ahead = ahead_is_inside(pixel, step, size)
-                .then(|| camera.ray(pixel + step))
-                .flatten();
-            ahead.or_else(|| camera.ray(pixel - step))
-        })
+        Self::around(
+            pixel,
+            camera.size(),
+            pose.world_from_body_rotation(),
+            pose.position,
+            |p| camera.ray(p),
+        )
     }
 
-    /// The footprint whose neighbouring body-frame rays `neighbour(step)` gives (step = one
-    /// pixel along x, then along y), seen from a pose with rotation `world_from_body` at
-    /// `position`.
-    pub(crate) fn from_body_rays(
+    /// The footprint of pixel `pixel` of an image of `size` pixels whose body-frame ray at any
+    /// pixel position `ray_at` gives, seen from a pose with rotation `world_from_body` at
+    /// `position`: the neighbour one pixel ahead along each axis, or the one behind where the
+    /// one ahead is outside the image or has no ray.
+    pub(crate) fn around(
+        pixel: DVec2,
+        size: (u32, u32),
         world_from_body: DMat3,
         position: DVec3,
-        neighbour: impl Fn(DVec2) -> Option<CameraRay>,
+        ray_at: impl Fn(DVec2) -> Option<CameraRay>,
     ) -> Footprint {
         let world = |step: DVec2| {
-            let ray = neighbour(step)?;
+            let ahead = ahead_is_inside(pixel, step, size)
+                .then(|| ray_at(pixel + step))
+                .flatten();
+            let ray = ahead.or_else(|| ray_at(pixel - step))?;
             Some((position + world_from_body * ray.origin, world_from_body * ray.direction))
         };
         Footprint {

@@ -102,11 +102,11 @@ pub fn shade(
         return DVec3::ZERO;
     }
     let albedo = albedo(appearance, hit, footprint);
-    let unlit = appearance.surfaces.of(hit.face).is_some_and(|s| s.unlit);
     match &appearance.lighting {
-        Some(_) if unlit => albedo,
-        None => albedo,
-        Some(lighting) => albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white,
+        Some(lighting) if !appearance.surfaces.of(hit.face).is_some_and(|s| s.unlit) => {
+            albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white
+        }
+        _ => albedo,
     }
 }
 
@@ -177,11 +177,13 @@ impl<'a> View<'a> {
             Some(rays) if p.x >= 0.0 && p.y >= 0.0 => rays.get(p.y as usize * width + p.x as usize).copied().flatten(),
             _ => self.camera.ray(p),
         };
-        Footprint::from_body_rays(self.world_from_body, self.position, |step| {
-            let ahead = footprint::ahead_is_inside(pixel, step, size)
-                .then(|| ray_at(pixel + step))
-                .flatten();
-            ahead.or_else(|| ray_at(pixel - step))
+        Footprint::around(pixel, size, self.world_from_body, self.position, ray_at)
+    }
+
+    /// The footprint at any pixel position (sub-pixel samples), from the camera's own rays.
+    pub(crate) fn footprint_at(&self, pixel: DVec2) -> Footprint {
+        Footprint::around(pixel, self.camera.size(), self.world_from_body, self.position, |p| {
+            self.camera.ray(p)
         })
     }
 }

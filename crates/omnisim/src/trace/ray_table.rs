@@ -36,23 +36,22 @@ pub(crate) struct RayCache {
     tables: Mutex<Vec<Arc<RayTable>>>,
 }
 
-impl RayCache {
-    /// Traces one frame with `tracer`, reading `camera`'s rays from `table` (its
-    /// [`RayCache::table`]) where there is one.
-    pub(crate) fn trace(
-        &self,
-        tracer: CpuTracer,
-        bvh: &SceneBvh,
-        camera: &Camera,
-        pose: &Pose,
-        table: Option<&RayTable>,
-    ) -> Frame {
-        match table {
-            Some(table) => tracer.trace_rays(bvh, camera.size(), pose, |index| table.rays[index]),
-            None => tracer.trace(bvh, camera, pose),
-        }
+/// Traces one frame with `tracer`, reading `camera`'s rays from `table` (its
+/// [`RayCache::table`]) where there is one.
+pub(crate) fn trace_frame(
+    tracer: CpuTracer,
+    bvh: &SceneBvh,
+    camera: &Camera,
+    pose: &Pose,
+    table: Option<&RayTable>,
+) -> Frame {
+    match table {
+        Some(table) => tracer.trace_rays(bvh, camera.size(), pose, |index| table.rays[index]),
+        None => tracer.trace(bvh, camera, pose),
     }
+}
 
+impl RayCache {
     /// `camera`'s ray table, made on first use, where the image is small enough to keep one.
     pub(crate) fn table(&self, camera: &Camera) -> Option<Arc<RayTable>> {
         let (width, height) = camera.size();
@@ -105,7 +104,7 @@ mod tests {
                     dvec3(0.0, 0.1, index as f64),
                 );
                 let direct = CpuTracer::Fast.trace(&bvh, camera, &pose);
-                let cached = cache.trace(CpuTracer::Fast, &bvh, camera, &pose, cache.table(camera).as_deref());
+                let cached = trace_frame(CpuTracer::Fast, &bvh, camera, &pose, cache.table(camera).as_deref());
                 assert_eq!(direct.pixels(), cached.pixels(), "camera {index}, round {round}");
             }
         }
