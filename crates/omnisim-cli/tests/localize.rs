@@ -205,6 +205,33 @@ fn localize_meets_the_issues_checks() {
     {
         assert_eq!(a["images"], b["images"]);
     }
+
+    // A damaged cache file is not trusted: that set is described again, with the same results.
+    let phases = std::fs::read_dir(dir.path().join("loc/descriptors"))
+        .unwrap()
+        .map(|set| set.unwrap().path().join("fourier-phases.npy"))
+        .find(|path| path.exists())
+        .expect("a cached Fourier phases file");
+    std::fs::write(&phases, b"not an npy file").unwrap();
+    let stderr = omnisim(&args, dir.path());
+    assert_eq!(
+        stderr.matches("every descriptor from descriptors/").count(),
+        5,
+        "{stderr}"
+    );
+    let third: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
+    assert_eq!(
+        report["results"].as_array().unwrap().len(),
+        third["results"].as_array().unwrap().len()
+    );
+    for (a, b) in report["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(third["results"].as_array().unwrap())
+    {
+        assert_eq!(a["images"], b["images"]);
+    }
 }
 
 #[test]

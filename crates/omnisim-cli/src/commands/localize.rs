@@ -237,6 +237,13 @@ fn read_sets(args: &LocalizeArgs, manifest: &Manifest) -> anyhow::Result<(Vec<Se
             let have: Vec<&str> = manifest.sets.iter().map(|s| s.set.name.as_str()).collect();
             bail!("the data set has no set '{name}' (--{role}); it has {have:?}");
         };
+        // The name becomes a folder under --out (the descriptor cache): one plain name only.
+        if !matches!(
+            Path::new(name).components().collect::<Vec<_>>()[..],
+            [std::path::Component::Normal(_)]
+        ) {
+            bail!("the manifest's set name {name:?} is not a plain folder name; was manifest.json edited?");
+        }
         let sigma = noise_sigma(set);
         let noisy = role == "test" && !set.set.noise.colour.is_empty();
         let input = InputArgs::dataset(args.dataset.clone(), vec![name.to_string()], noisy).read()?;
@@ -327,18 +334,27 @@ fn cache_files(out: &Path, set: &str, name: &str) -> (PathBuf, PathBuf, PathBuf)
     )
 }
 
-fn load_cached(out: &Path, set: &str, name: &str, key: &str) -> Option<Rows> {
+/// The cached rows of `images` images, or `None` (describe again) where the record, the values
+/// or a phases file that exists do not agree with each other and with the set: a stale or
+/// edited cache is never trusted.
+fn load_cached(out: &Path, set: &str, name: &str, key: &str, images: usize) -> Option<Rows> {
     let (values, phases, record) = cache_files(out, set, name);
     let record: CacheRecord = serde_json::from_slice(&std::fs::read(record).ok()?).ok()?;
     if record.key != key {
         return None;
     }
     let (shape, data) = npy::read(&values).ok()?;
+    let agrees = |shape: &[usize]| shape.first() == Some(&images) && shape[1..] == record.shape[..];
+    if !agrees(&shape) || record.shape.contains(&0) {
+        return None;
+    }
     let length: usize = shape.iter().skip(1).product();
-    let rows_of = |data: Vec<f32>| -> Vec<Vec<f32>> { data.chunks(length.max(1)).map(<[f32]>::to_vec).collect() };
+    let rows_of = |data: Vec<f32>| -> Vec<Vec<f32>> { data.chunks(length).map(<[f32]>::to_vec).collect() };
     let phases = match npy::read(&phases) {
         Ok((s, p)) if s == shape => Some(rows_of(p)),
-        _ => None,
+        Ok(_) => return None,
+        Err(_) if phases.exists() => return None,
+        Err(_) => None,
     };
     Some(Rows {
         rows: rows_of(data),
@@ -389,7 +405,7 @@ fn describe_sets(
         let mut per: Vec<Option<Rows>> = descriptors
             .iter()
             .zip(&keys)
-            .map(|(d, key)| load_cached(&args.out, &set.name, &d.name, key))
+            .map(|(d, key)| load_cached(&args.out, &set.name, &d.name, key, set.images.frames.len()))
             .collect();
         let missing: Vec<usize> = (0..descriptors.len()).filter(|&i| per[i].is_none()).collect();
         if missing.is_empty() {
@@ -467,7 +483,9 @@ fn describe_sets(
 fn prepare(descriptor: &Descriptor, rows: &Rows, pca: Option<&Pca>, view_width: usize) -> anyhow::Result<SetDescribed> {
     let heading = match (&descriptor.kind, &rows.phases) {
         (Kind::Describe(c), Some(phases)) if matches!(c.method, Method::Fourier(_)) => {
-            let (height, k) = (rows.shape[0], rows.shape[1]);
+            let [height, k] = rows.shape[..] else {
+                bail!("a Fourier signature of shape {:?}", rows.shape);
+            };
             Some(Heading::Fourier(
                 rows.rows
                     .iter()
@@ -485,12 +503,17 @@ fn prepare(descriptor: &Descriptor, rows: &Rows, pca: Option<&Pca>, view_width: 
                     .collect(),
             ))
         }
-        (Kind::Describe(c), _) if matches!(c.method, Method::Radon(_)) => {
-            let radial_step = match c.method {
-                Method::Radon(p) => p.radial_step,
-                _ => 1.0,
+        (
+            Kind::Describe(Choice {
+                method: Method::Radon(p),
+                ..
+            }),
+            _,
+        ) => {
+            let radial_step = p.radial_step;
+            let [angles, radial] = rows.shape[..] else {
+                bail!("a Radon descriptor of shape {:?}", rows.shape);
             };
-            let (angles, radial) = (rows.shape[0], rows.shape[1]);
             Some(Heading::Radon(
                 rows.rows
                     .iter()
