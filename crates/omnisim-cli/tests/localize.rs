@@ -299,3 +299,217 @@ print('jsonschema', jsonschema.__version__ if hasattr(jsonschema, '__version__')
         }
     }
 }
+
+/// A spec with two sweeps: map spacing and noise σ, each set rendered into its own folder.
+const SWEEP_SPEC: &str = r#"Dataset(
+    scene: "env1.ron",
+    seed: 16,
+    rig: Omni(size: (48, 48), mirror: Hyperbolic(a: 0.04, b: 0.16)),
+    outputs: (point_cloud: false, segmentation: true),
+    sets: [
+        // A comment holding ] and ) does not end the list.
+        Set(name: "map-${step}", poses: Grid(x: (-2.0, 2.0, ${step}), y: (-1.0, 1.0, ${step}), z: [0.4])),
+        Set(name: "noise-${sigma}", poses: Random(count: 5, low: (-2.0, -1.0, 0.4), high: (2.0, 1.0, 0.4), tilt: 0.0, seed: 3),
+            noise: (colour: [Gaussian(sigma: ${sigma})])),
+        Set(name: "people-${people}", poses: Random(count: 5, low: (-2.0, -1.0, 0.4), high: (2.0, 1.0, 0.4), tilt: 0.0, seed: 3),
+            occluders: [Occluders(shape: Person, count: ${people}, clearance: 0.3)]),
+    ],
+)"#;
+
+/// The data points (markers outside the legend) of each chart of a report's SVG whose title
+/// holds `title`.
+fn chart_markers(svg: &str, title: &str) -> Vec<usize> {
+    let document = roxmltree::Document::parse(svg).unwrap();
+    document
+        .root_element()
+        .children()
+        .filter(|c| c.has_tag_name("svg"))
+        .filter(|chart| {
+            chart
+                .descendants()
+                .any(|n| n.attribute("class") == Some("title") && n.text().is_some_and(|t| t.contains(title)))
+        })
+        .map(|chart| {
+            chart
+                .descendants()
+                .filter(|n| n.has_tag_name("circle") && n.attribute("class") == Some("marker"))
+                .filter(|n| !n.ancestors().any(|a| a.attribute("class") == Some("legend")))
+                .count()
+        })
+        .collect()
+}
+
+/// `omnisim localize SPEC --sweep`: one run renders every swept set, describes and localizes
+/// them and charts error against noise σ and map spacing with one point per value and
+/// descriptor; a re-run renders and describes nothing; a sweep that gains a value renders that
+/// set alone.
+#[test]
+fn a_sweep_renders_its_sets_once_and_charts_one_point_per_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    std::fs::write(dir.path().join("sweep.ron"), SWEEP_SPEC).unwrap();
+    let run = |sigmas: &str| {
+        omnisim(
+            &[
+                "localize",
+                "sweep.ron",
+                "--backend",
+                "cpu",
+                "--sweep",
+                &format!("sigma={sigmas}"),
+                "--sweep",
+                "step=1.0,2.0",
+                "--sweep",
+                "people=1,3",
+                "--map",
+                "map-${step}",
+                "--test",
+                "noise-${sigma}",
+                "people-${people}",
+                "--panorama",
+                "64x16",
+                "-d",
+                "fourier",
+                "-d",
+                "hog",
+                "--distance",
+                "l1",
+                "--out",
+                "loc",
+            ],
+            dir.path(),
+        )
+    };
+    let first = run("0,0.05,0.2");
+    for set in ["map-1.0", "map-2.0", "noise-0", "noise-0.05", "noise-0.2"] {
+        assert!(
+            first.contains(&format!("set '{set}': ")) && !first.contains(&format!("set '{set}': 0 frame(s) rendered")),
+            "{set} was not rendered: {first}"
+        );
+        assert!(
+            dir.path().join("loc/sets").join(set).join("manifest.json").is_file(),
+            "{set}"
+        );
+    }
+    let report: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
+    let sets = report["sets"].as_array().unwrap();
+    let sigma = |name: &str| f(&sets.iter().find(|s| s["name"] == name).unwrap()["noise_sigma"]);
+    assert_eq!(
+        (sigma("noise-0"), sigma("noise-0.05"), sigma("noise-0.2")),
+        (0.0, 0.05, 0.2)
+    );
+    let spacing = |name: &str| f(&sets.iter().find(|s| s["name"] == name).unwrap()["spacing_m"]);
+    // Grid steps (a pose inside furniture is skipped, which can only widen the spacing).
+    assert!(spacing("map-1.0") >= 1.0 - 1e-9 && spacing("map-2.0") >= 2.0 - 1e-9);
+    assert!(spacing("map-1.0") < spacing("map-2.0"));
+    // Occlusion as the fraction of the seeing pixels that the frame's people cover, counted in
+    // the object-id images.
+    let occluded = |name: &str| f(&sets.iter().find(|s| s["name"] == name).unwrap()["occluded_fraction"]);
+    assert_eq!(occluded("noise-0.05"), 0.0);
+    let (one, three) = (occluded("people-1"), occluded("people-3"));
+    assert!(
+        0.0 < one && one < 1.0 && 0.0 < three && three < 1.0 && one != three,
+        "{one} {three}"
+    );
+    // 2 maps × 5 test sets × 2 descriptors × 1 distance.
+    assert_eq!(report["results"].as_array().unwrap().len(), 20);
+    let svg = std::fs::read_to_string(dir.path().join("loc/report.svg")).unwrap();
+    assert_eq!(
+        chart_markers(&svg, "against noise"),
+        [2 * 3],
+        "one point per σ and descriptor"
+    );
+    assert_eq!(
+        chart_markers(&svg, "against map density"),
+        [2 * 2],
+        "one point per step and descriptor"
+    );
+    // Occluded fractions 0 (the noise sets: the first given is drawn), people-1's, people-3's.
+    assert_eq!(chart_markers(&svg, "against occlusion"), [2 * 3]);
+    assert!(svg.contains("occluded fraction of the image"));
+
+    let again = run("0,0.05,0.2");
+    for set in [
+        "map-1.0",
+        "map-2.0",
+        "noise-0",
+        "noise-0.05",
+        "noise-0.2",
+        "people-1",
+        "people-3",
+    ] {
+        assert!(
+            again.contains(&format!("set '{set}': 0 frame(s) rendered"))
+                && again.contains(&format!("set '{set}': every descriptor from descriptors/")),
+            "{set} was rendered or described again: {again}"
+        );
+    }
+    let same: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
+    let estimates = |r: &Value| -> Vec<Value> {
+        r["results"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x["images"].clone())
+            .collect()
+    };
+    assert!(estimates(&report) == estimates(&same), "a re-run localizes differently");
+
+    let more = run("0,0.05,0.1,0.2");
+    assert!(more.contains("set 'noise-0.1': 5 frame(s) rendered"), "{more}");
+    assert!(more.contains("set 'noise-0.2': 0 frame(s) rendered"), "{more}");
+    let svg = std::fs::read_to_string(dir.path().join("loc/report.svg")).unwrap();
+    assert_eq!(chart_markers(&svg, "against noise"), [2 * 4]);
+}
+
+/// A set whose name in the manifest is not one plain folder name (`../../x`, an edited
+/// manifest) is refused before localize names a folder for it, and nothing is written outside
+/// --out.
+#[test]
+fn a_set_name_that_leaves_the_output_folder_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    std::fs::copy(scenes.join("env1.ron"), dir.path().join("env1.ron")).unwrap();
+    let plain = SWEEP_SPEC
+        .replace("${step}", "2.0")
+        .replace("map-2.0", "map")
+        .replace("noise-${sigma}", "noise")
+        .replace("${sigma}", "0.1")
+        .replace("${people}", "1");
+    std::fs::write(dir.path().join("plain.ron"), plain).unwrap();
+    omnisim(
+        &["dataset", "plain.ron", "--backend", "cpu", "--out", "nested/ds"],
+        dir.path(),
+    );
+    let manifest = dir.path().join("nested/ds/manifest.json");
+    let mut edited: Value = serde_json::from_slice(&std::fs::read(&manifest).unwrap()).unwrap();
+    let set = edited["sets"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|s| s["name"] == "map")
+        .unwrap();
+    set["name"] = Value::from("../../x");
+    std::fs::write(&manifest, serde_json::to_vec(&edited).unwrap()).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args([
+            "localize",
+            "nested/ds",
+            "--map",
+            "../../x",
+            "--test",
+            "../../x",
+            "-d",
+            "fourier",
+            "--out",
+            "nested/loc",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(stderr.contains("not a plain folder name"), "{stderr}");
+    assert!(!dir.path().join("x").exists() && !dir.path().join("nested/x").exists());
+}

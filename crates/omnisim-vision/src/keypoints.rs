@@ -43,21 +43,24 @@ impl Features {
 
     /// Pairs (index in `self`, index in `other`) whose nearest neighbour (Euclidean distance
     /// of descriptors) is closer than `ratio` times the second nearest (Lowe 2004 §7.1,
-    /// ratio 0.8). Brute force: O(n·m), fine for the few thousand features of one image.
+    /// ratio 0.8). Brute force, O(n·m), with an early exit: a candidate is dropped as soon as
+    /// its partial distance reaches the second nearest's (the squares only add up), which
+    /// leaves the result unchanged and skips most of each 128-value descriptor.
     pub fn match_ratio(&self, other: &Features, ratio: f32) -> Vec<(usize, usize)> {
         if self.length != other.length || other.keypoints.len() < 2 {
             return Vec::new();
         }
-        let squared = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>();
         (0..self.keypoints.len())
             .filter_map(|i| {
                 let a = self.descriptor(i);
                 let (mut best, mut second, mut best_j) = (f32::INFINITY, f32::INFINITY, 0);
                 for j in 0..other.keypoints.len() {
-                    let d = squared(a, other.descriptor(j));
+                    let Some(d) = squared_distance_below(a, other.descriptor(j), second) else {
+                        continue;
+                    };
                     if d < best {
                         (second, best, best_j) = (best, d, j);
-                    } else if d < second {
+                    } else {
                         second = d;
                     }
                 }
@@ -65,6 +68,32 @@ impl Features {
             })
             .collect()
     }
+}
+
+/// Values summed between checks against the bound in [`squared_distance_below`].
+const LANES: usize = 8;
+
+/// |a − b|² where it is below `bound`, else `None` (found early: the partial sum is checked
+/// every 32 values). Eight running sums, so that the compiler keeps them in one vector register.
+fn squared_distance_below(a: &[f32], b: &[f32], bound: f32) -> Option<f32> {
+    let mut sums = [0.0f32; LANES];
+    let (a_chunks, b_chunks) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
+    let tail: f32 = a_chunks
+        .remainder()
+        .iter()
+        .zip(b_chunks.remainder())
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum();
+    for (k, (x, y)) in a_chunks.zip(b_chunks).enumerate() {
+        for ((s, x), y) in sums.iter_mut().zip(x).zip(y) {
+            *s += (x - y) * (x - y);
+        }
+        if k % 4 == 3 && sums.iter().sum::<f32>() >= bound {
+            return None;
+        }
+    }
+    let total = sums.iter().sum::<f32>() + tail;
+    (total < bound).then_some(total)
 }
 
 /// Values at (scale −1..=1, row −1..=1, column −1..=1) around a sample: `n[s][y][x]`.
@@ -175,17 +204,20 @@ mod tests {
         assert!(is_extremum(&n, false));
     }
 
+    /// A keypoint for tests of matching, which reads only the descriptors.
+    const KEYPOINT: Keypoint = Keypoint {
+        x: 0.0,
+        y: 0.0,
+        sigma: 1.0,
+        angle: 0.0,
+        response: 1.0,
+        octave: 0,
+    };
+
     /// The ratio test keeps a distinctive match and drops an ambiguous one.
     #[test]
     fn ratio_test() {
-        let kp = Keypoint {
-            x: 0.0,
-            y: 0.0,
-            sigma: 1.0,
-            angle: 0.0,
-            response: 1.0,
-            octave: 0,
-        };
+        let kp = KEYPOINT;
         let a = Features {
             keypoints: vec![kp; 2],
             length: 2,
@@ -197,5 +229,45 @@ mod tests {
             descriptors: vec![0.99, 0.01, 0.0, 0.9, 0.05, 0.9],
         };
         assert_eq!(a.match_ratio(&b, 0.8), vec![(0, 0)]);
+    }
+
+    /// The early exit changes nothing: on seeded 128- and 61-value descriptors (a tail past the
+    /// lanes), matches equal those of a plain search over every full distance.
+    #[test]
+    fn early_exit_matches_a_full_search() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let kp = KEYPOINT;
+        for length in [128, 61] {
+            let mut features = |n: usize| Features {
+                keypoints: vec![kp; n],
+                length,
+                descriptors: (0..n * length).map(|_| next()).collect(),
+            };
+            let (a, mut b) = (features(60), features(80));
+            // A few near copies, so that some matches pass the ratio test.
+            for i in 0..10 {
+                for k in 0..length {
+                    b.descriptors[(3 * i) * length + k] = a.descriptors[i * length + k] + 0.01 * (k % 3) as f32;
+                }
+            }
+            let full = |x: &[f32], y: &[f32]| x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum::<f32>();
+            let expected: Vec<(usize, usize)> = (0..60)
+                .filter_map(|i| {
+                    let mut d: Vec<(f32, usize)> =
+                        (0..80).map(|j| (full(a.descriptor(i), b.descriptor(j)), j)).collect();
+                    d.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
+                    (d[0].0 < 0.64 * d[1].0).then_some((i, d[0].1))
+                })
+                .collect();
+            let found = a.match_ratio(&b, 0.8);
+            assert!(found.len() >= 10, "{length}: {found:?}");
+            assert_eq!(found, expected, "{length}");
+        }
     }
 }

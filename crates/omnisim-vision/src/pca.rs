@@ -52,14 +52,22 @@ impl Pca {
         require(samples.iter().all(|s| s.len() == dim) && dim > 0, "samples", || {
             "every sample must have the same, non-zero length".to_string()
         })?;
-        let mean: Vec<f64> = (0..dim)
-            .map(|j| samples.iter().map(|s| f64::from(s[j])).sum::<f64>() / n as f64)
-            .collect();
-        let centred = DMatrix::from_fn(n, dim, |i, j| f64::from(samples[i][j]) - mean[j]);
+        // Sums sample by sample, in the samples' order (a column-by-column pass strides through
+        // every sample for each value: most of a 400-image map's fit).
+        let mut mean = vec![0.0f64; dim];
+        for sample in samples {
+            for (m, &v) in mean.iter_mut().zip(sample) {
+                *m += f64::from(v);
+            }
+        }
+        mean.iter_mut().for_each(|m| *m /= n as f64);
+        // One centred sample per column: Xᵀ of the module docs (`dim × n`; column-major, so it
+        // fills sample by sample).
+        let centred = DMatrix::from_fn(dim, n, |j, i| f64::from(samples[i][j]) - mean[j]);
         let eigen = if gram {
-            SymmetricEigen::new(&centred * centred.transpose())
-        } else {
             SymmetricEigen::new(centred.transpose() * &centred)
+        } else {
+            SymmetricEigen::new(&centred * centred.transpose())
         };
         let mut order: Vec<usize> = (0..eigen.eigenvalues.len()).collect();
         order.sort_by(|&a, &b| eigen.eigenvalues[b].total_cmp(&eigen.eigenvalues[a]));
@@ -74,7 +82,7 @@ impl Pca {
         let mut axes = Vec::with_capacity(kept.len() * dim);
         for &i in &kept {
             if gram {
-                let axis = centred.transpose() * eigen.eigenvectors.column(i) / eigen.eigenvalues[i].sqrt();
+                let axis = &centred * eigen.eigenvectors.column(i) / eigen.eigenvalues[i].sqrt();
                 axes.extend(axis.iter().map(|&v| v as f32));
             } else {
                 axes.extend(eigen.eigenvectors.column(i).iter().map(|&v| v as f32));

@@ -7,13 +7,14 @@
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
 use omnisim::output::atomic::write_atomically;
 use omnisim::output::folder::create_real_folder;
-use omnisim_dataset::manifest::{FileKind, Manifest, ManifestSet, sha256_hex};
+use omnisim_dataset::manifest::{FileKind, FrameEntry, Manifest, ManifestSet, sha256_hex};
 use omnisim_dataset::spec::ColourNoise;
 use omnisim_vision::fourier::FourierSignature;
 use omnisim_vision::keypoints::Features;
@@ -24,9 +25,12 @@ use omnisim_vision::localize::{self, Described as SetDescribed, Distance, Headin
 use omnisim_vision::pca::Pca;
 use omnisim_vision::radon::Radon;
 use omnisim_vision::{Raster, npy};
+use rayon::prelude::*;
 use serde_json::{Value, json};
 
 use super::describe::{Choice, Described, Method, Panorama, PanoramaArgs, Reads, choose};
+use super::render::BackendArg;
+use super::sweep::{self, Sweep};
 use super::vision_input::{InputArgs, InputSet, NamedSettings, read_image};
 use crate::progress::Progress;
 
@@ -71,8 +75,20 @@ omnisim localize data/loc --map map-0.2 --map map-0.4 --test test-day -d fourier
 )]
 pub(crate) struct LocalizeArgs {
     /// A data-set folder written by `omnisim dataset` (its manifest.json gives the images, the
-    /// camera and the poses).
+    /// camera and the poses), or a data-set spec (.ron): then each set named by --map and
+    /// --test is rendered first into OUT/sets/<set>/, a data set of its own, resumed and reused
+    /// by later runs (its stamp).
     pub dataset: PathBuf,
+    /// With a spec: NAME=V1,V2,... makes one set per value of each set whose text holds
+    /// ${NAME} (in its name too), e.g. `--sweep sigma=0,0.01,0.05` with
+    /// `Set(name: "test-noise-${sigma}", …, noise: (colour: [Gaussian(sigma: ${sigma})]))`;
+    /// --map and --test names expand the same way (`--test 'test-noise-${sigma}'`). Repeat
+    /// for several sweeps.
+    #[arg(long, value_parser = Sweep::parse, value_name = "NAME=V1,V2,...")]
+    pub sweep: Vec<Sweep>,
+    /// With a spec: the renderer of its sets.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: BackendArg,
     /// The map set; repeat to compare maps (e.g. grids of different steps).
     #[arg(long, required = true)]
     pub map: Vec<String>,
@@ -109,6 +125,8 @@ const DEFAULT_DESCRIPTORS: [&str; 5] = ["fourier", "hog", "gist", "radon", "pca"
 const RADON_SIGNATURE: usize = 16;
 /// The folder of OUT holding the described sets.
 const DESCRIPTORS: &str = "descriptors";
+/// The folder of OUT holding the sets rendered from a spec, one data set each.
+const SETS: &str = "sets";
 
 /// A descriptor as localize uses it: one of describe's, or the panorama's pixels for PCA.
 enum Kind {
@@ -212,14 +230,56 @@ fn spacing(poses: &[PlanarPose]) -> Option<f64> {
     Some(poses.iter().map(nearest).sum::<f64>() / poses.len() as f64)
 }
 
-fn read_sets(args: &LocalizeArgs, manifest: &Manifest) -> anyhow::Result<(Vec<SetData>, omnisim::Camera)> {
+/// The sets named by --map and --test, with the sweeps' values put in.
+struct Roles {
+    map: Vec<String>,
+    test: Vec<String>,
+}
+
+/// Whether `name` is one plain folder name (a set's name becomes a folder under --out).
+fn plain_folder_name(name: &str) -> bool {
+    matches!(
+        Path::new(name).components().collect::<Vec<_>>()[..],
+        [std::path::Component::Normal(_)]
+    )
+}
+
+/// The fraction of a frame's pixels that see something which its own occluders cover, counted
+/// in its object-id image; `None` where the data set has none (rendered without segmentation).
+fn occluded_fraction(folder: &Path, entry: &FrameEntry) -> anyhow::Result<Option<f64>> {
+    let Some(file) = entry
+        .files
+        .iter()
+        .find(|f| f.kind == FileKind::GroundTruth && f.path.ends_with("-object.png"))
+    else {
+        return Ok(None);
+    };
+    let ids: Vec<u64> = entry.perturbations["occluders"].as_array().map_or_else(Vec::new, |o| {
+        o.iter().filter_map(|o| o["segment"]["id"].as_u64()).collect()
+    });
+    let path = folder.join(&file.path);
+    let objects = image::open(&path)
+        .with_context(|| format!("cannot read the object-id image {}", path.display()))?
+        .into_luma16();
+    let (mut seen, mut covered) = (0usize, 0usize);
+    for &image::Luma([id]) in objects.pixels() {
+        if id != 0 {
+            seen += 1;
+            covered += usize::from(ids.contains(&u64::from(id)));
+        }
+    }
+    Ok(Some(covered as f64 / seen.max(1) as f64))
+}
+
+/// Reads the sets of `roles` from the first of `datasets` (folder, manifest) that has each.
+fn read_sets(roles: &Roles, datasets: &[(PathBuf, Manifest)]) -> anyhow::Result<(Vec<SetData>, omnisim::Camera)> {
     let mut names: Vec<(&str, &str)> = Vec::new();
     let mut seen: Vec<(&str, &str)> = Vec::new();
-    for (name, role) in args
+    for (name, role) in roles
         .map
         .iter()
         .map(|m| (m.as_str(), "map"))
-        .chain(args.test.iter().map(|t| (t.as_str(), "test")))
+        .chain(roles.test.iter().map(|t| (t.as_str(), "test")))
     {
         if seen.contains(&(name, role)) {
             bail!("--{role} {name} is given twice");
@@ -233,26 +293,32 @@ fn read_sets(args: &LocalizeArgs, manifest: &Manifest) -> anyhow::Result<(Vec<Se
     let mut out = Vec::new();
     let mut camera = None;
     for (name, role) in names {
-        let Some(set) = manifest.sets.iter().find(|s| s.set.name == name) else {
-            let have: Vec<&str> = manifest.sets.iter().map(|s| s.set.name.as_str()).collect();
+        let Some((folder, set)) = datasets
+            .iter()
+            .find_map(|(folder, m)| Some((folder, m.sets.iter().find(|s| s.set.name == name)?)))
+        else {
+            let have: Vec<&str> = datasets
+                .iter()
+                .flat_map(|(_, m)| m.sets.iter().map(|s| s.set.name.as_str()))
+                .collect();
             bail!("the data set has no set '{name}' (--{role}); it has {have:?}");
         };
         // The name becomes a folder under --out (the descriptor cache): one plain name only.
-        if !matches!(
-            Path::new(name).components().collect::<Vec<_>>()[..],
-            [std::path::Component::Normal(_)]
-        ) {
+        if !plain_folder_name(name) {
             bail!("the manifest's set name {name:?} is not a plain folder name; was manifest.json edited?");
         }
         let sigma = noise_sigma(set);
         let noisy = role == "test" && !set.set.noise.colour.is_empty();
-        let input = InputArgs::dataset(args.dataset.clone(), vec![name.to_string()], noisy).read()?;
-        camera.get_or_insert(input.camera.clone());
+        let input = InputArgs::dataset(folder.clone(), vec![name.to_string()], noisy).read()?;
+        if *camera.get_or_insert(input.camera.clone()) != input.camera {
+            bail!("set '{name}' was rendered with another camera than the sets before it");
+        }
         let images = input.sets.into_iter().next().context("the set was read")?;
         let kind = if noisy { FileKind::Noisy } else { FileKind::GroundTruth };
         let mut poses = Vec::new();
         let mut hashes = Vec::new();
         let mut occluders = 0usize;
+        let mut occluded = Some(0.0);
         for (frame, entry) in images.frames.iter().zip(&set.frame_entries) {
             let [x, y, _] = entry.pose.position;
             poses.push(PlanarPose {
@@ -267,6 +333,10 @@ fn read_sets(args: &LocalizeArgs, manifest: &Manifest) -> anyhow::Result<(Vec<Se
                 .with_context(|| format!("set '{name}' frame {}: its image is not in the manifest", entry.index))?;
             hashes.push(file.sha256.clone());
             occluders += entry.perturbations["occluders"].as_array().map_or(0, Vec::len);
+            occluded = match (occluded, occluded_fraction(folder, entry)?) {
+                (Some(sum), Some(fraction)) => Some(sum + fraction),
+                _ => None,
+            };
         }
         if images.frames.is_empty() {
             bail!("set '{name}' has no images");
@@ -276,7 +346,7 @@ fn read_sets(args: &LocalizeArgs, manifest: &Manifest) -> anyhow::Result<(Vec<Se
             name: name.to_string(),
             record: SetRecord {
                 name: name.to_string(),
-                roles: [("map", &args.map), ("test", &args.test)]
+                roles: [("map", &roles.map), ("test", &roles.test)]
                     .into_iter()
                     .filter(|(_, names)| names.iter().any(|n| n == name))
                     .map(|(role, _)| role.to_string())
@@ -284,6 +354,7 @@ fn read_sets(args: &LocalizeArgs, manifest: &Manifest) -> anyhow::Result<(Vec<Se
                 frames,
                 noise_sigma: sigma,
                 occluders_per_frame: occluders as f64 / frames as f64,
+                occluded_fraction: occluded.map(|sum| sum / frames as f64),
                 spacing_m: if role == "map" { spacing(&poses) } else { None },
             },
             images,
@@ -385,12 +456,64 @@ fn store(out: &Path, set: &str, name: &str, key: &str, rows: &Rows) -> anyhow::R
     write_atomically(&record, |w| w.write_all(&text)).with_context(|| format!("cannot write {}", record.display()))
 }
 
+/// Frames described at once between progress reports.
+const FRAMES_PER_BATCH: usize = 32;
+
+/// One frame described by one descriptor, and the seconds it took (with the panorama's, for
+/// descriptors that read it).
+struct FrameDescribed {
+    values: Described,
+    seconds: f64,
+}
+
+/// The image at `path` described by each of `descriptors[chosen]`.
+fn describe_frame(
+    path: &Path,
+    size: (usize, usize),
+    panorama: Option<&Panorama>,
+    descriptors: &[Descriptor],
+    chosen: &[usize],
+) -> anyhow::Result<Vec<FrameDescribed>> {
+    let image = read_image(path, Some(size))?;
+    let grey = image.to_grey();
+    let pano = panorama.map(|p| p.of(&grey)).transpose()?;
+    chosen
+        .iter()
+        .map(|&i| {
+            let d = &descriptors[i];
+            let clock = Instant::now();
+            let values = match &d.kind {
+                Kind::Pca { .. } => {
+                    let (p, _) = pano.as_ref().context("the panorama")?;
+                    Described::Values {
+                        shape: vec![p.height, p.width],
+                        values: p.data.clone(),
+                        phases: None,
+                    }
+                }
+                Kind::Describe(choice) => choice
+                    .describe(choice.source(&image, &grey, pano.as_ref().map(|p| &p.0)))
+                    .with_context(|| format!("{} of {}", d.name, path.display()))?,
+            };
+            let panorama_seconds = match &pano {
+                Some((_, seconds)) if d.reads_panorama() => *seconds,
+                _ => 0.0,
+            };
+            Ok(FrameDescribed {
+                values,
+                seconds: clock.elapsed().as_secs_f64() + panorama_seconds,
+            })
+        })
+        .collect()
+}
+
 /// Describes every set by every descriptor, from the cache where its key matches.
 fn describe_sets(
     args: &LocalizeArgs,
     sets: &[SetData],
     descriptors: &[Descriptor],
     panorama: Option<&Panorama>,
+    image_size: (usize, usize),
 ) -> anyhow::Result<Vec<Vec<Rows>>> {
     let panorama_record = panorama.map_or(Value::Null, |p| p.sidecar.clone());
     let mut progress = Progress::new("images");
@@ -424,46 +547,32 @@ fn describe_sets(
                 seconds: 0.0,
             })
             .collect();
-        let mut size = None;
-        for frame in &set.images.frames {
-            let image = read_image(&frame.path, size)?;
-            size = Some((image.width, image.height));
-            let grey = image.to_grey();
-            let pano = panorama.map(|p| p.of(&grey)).transpose()?;
-            for (&i, rows) in missing.iter().zip(&mut fresh) {
-                let d = &descriptors[i];
-                let clock = Instant::now();
-                let (values, phases, shape) = match &d.kind {
-                    Kind::Pca { .. } => {
-                        let (p, _) = pano.as_ref().context("the panorama")?;
-                        (p.data.clone(), None, vec![p.height, p.width])
-                    }
-                    Kind::Describe(choice) => {
-                        match choice
-                            .describe(choice.source(&image, &grey, pano.as_ref().map(|p| &p.0)))
-                            .with_context(|| format!("{} of {}", d.name, frame.path.display()))?
-                        {
-                            Described::Values { shape, values, phases } => (values, phases, shape),
-                            Described::Features(features) => {
-                                rows.features.push(features);
-                                (Vec::new(), None, Vec::new())
+        // Frames in parallel (rayon's pool, one thread per core), a batch at a time so that
+        // progress is reported and the frames' results join in order.
+        for batch in set.images.frames.chunks(FRAMES_PER_BATCH) {
+            let described: Vec<Vec<FrameDescribed>> = batch
+                .par_iter()
+                .map(|frame| describe_frame(&frame.path, image_size, panorama, descriptors, &missing))
+                .collect::<anyhow::Result<_>>()?;
+            for frame in described {
+                for (rows, one) in fresh.iter_mut().zip(frame) {
+                    rows.seconds += one.seconds;
+                    match one.values {
+                        Described::Values { shape, values, phases } => {
+                            rows.rows.push(values);
+                            if let Some(p) = phases {
+                                rows.phases.get_or_insert_with(Vec::new).push(p);
                             }
+                            rows.shape = shape;
+                        }
+                        Described::Features(features) => {
+                            rows.features.push(features);
+                            rows.rows.push(Vec::new());
                         }
                     }
-                };
-                let panorama_seconds = if d.reads_panorama() {
-                    pano.as_ref().map_or(0.0, |p| p.1)
-                } else {
-                    0.0
-                };
-                rows.seconds += clock.elapsed().as_secs_f64() + panorama_seconds;
-                rows.rows.push(values);
-                if let Some(p) = phases {
-                    rows.phases.get_or_insert_with(Vec::new).push(p);
                 }
-                rows.shape = shape;
             }
-            done += 1;
+            done += batch.len();
             progress.step(done, total, false, &set.name)?;
         }
         for (&i, mut rows) in missing.iter().zip(fresh) {
@@ -580,15 +689,16 @@ fn localize_features(
         for &neighbours in &neighbour_counts {
             let clock = Instant::now();
             let test = &described[t][d].features;
-            let mut estimates = localize::localize_by_matches(map, &sets[m].poses, test, RATIO, neighbours)?;
+            let mut retrieved = localize::localize_by_matches(map, &sets[m].poses, test, RATIO, neighbours)?;
             if camera.is_central() {
                 let bearing = |x: f32, y: f32| {
                     camera
                         .ray(omnisim::glam::DVec2::new(f64::from(x), f64::from(y)))
                         .map(|ray| ray.direction)
                 };
-                localize::add_feature_headings(&mut estimates, map, &sets[m].poses, test, RATIO, &bearing);
+                localize::add_feature_headings(&mut retrieved, map, &sets[m].poses, test, &bearing);
             }
+            let estimates: Vec<localize::Estimate> = retrieved.into_iter().map(|r| r.estimate).collect();
             let matching = clock.elapsed().as_secs_f64() / estimates.len().max(1) as f64;
             let scores = localize::score(&estimates, &sets[t].poses);
             let case = Case {
@@ -609,20 +719,59 @@ fn localize_features(
     Ok(out)
 }
 
+/// The sets of the spec `args.dataset` that `roles` name, expanded over the sweeps and rendered
+/// into OUT/sets/<set>/ where not already there: each (folder, manifest), and the spec's SHA-256.
+fn render_spec(args: &LocalizeArgs, roles: &Roles) -> anyhow::Result<(Vec<(PathBuf, Manifest)>, String)> {
+    let text = omnisim::input::read_text(&args.dataset, omnisim::input::SCENE_LIMIT)?;
+    let specs = sweep::sets(&text, &args.dataset, &args.sweep)?;
+    let names: Vec<String> = roles.map.iter().chain(&roles.test).cloned().collect();
+    if let Some(bad) = names.iter().find(|n| !plain_folder_name(n)) {
+        bail!("set name {bad:?} is not a plain folder name");
+    }
+    create_real_folder(&args.out, &args.out)?;
+    let renderer = omnisim::Renderer::new(args.backend.into())?;
+    let folders = sweep::render(&args.dataset, &specs, &names, &args.out.join(SETS), &renderer)?;
+    let datasets = folders
+        .into_values()
+        .map(|folder| {
+            let manifest = Manifest::read(&folder.join("manifest.json"))
+                .with_context(|| format!("the data set rendered into {}", folder.display()))?;
+            Ok((folder, manifest))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    Ok((datasets, sha256_hex(text.as_bytes())))
+}
+
 pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
     if args.neighbours == 0 {
         bail!("--neighbours must be at least 1");
     }
     let started = Instant::now();
     let descriptors = descriptors(args)?;
-    let manifest_path = args.dataset.join("manifest.json");
-    let manifest = Manifest::read(&manifest_path).with_context(|| {
-        format!(
-            "{} is not a data set written by `omnisim dataset` (no readable manifest.json)",
-            args.dataset.display()
-        )
-    })?;
-    let (sets, camera) = read_sets(args, &manifest)?;
+    let roles = Roles {
+        map: sweep::expand_names(&args.map, &args.sweep),
+        test: sweep::expand_names(&args.test, &args.sweep),
+    };
+    let (datasets, spec_sha256) = if args.dataset.is_file() {
+        render_spec(args, &roles)?
+    } else {
+        if !args.sweep.is_empty() {
+            bail!(
+                "--sweep needs a data-set spec (.ron), not the data-set folder {}",
+                args.dataset.display()
+            );
+        }
+        let manifest = Manifest::read(&args.dataset.join("manifest.json")).with_context(|| {
+            format!(
+                "{} is not a data set written by `omnisim dataset` (no readable manifest.json) nor a spec file",
+                args.dataset.display()
+            )
+        })?;
+        let hash = manifest.spec_sha256.clone();
+        (vec![(args.dataset.clone(), manifest)], hash)
+    };
+    let manifest = &datasets.first().context("no data set")?.1;
+    let (sets, camera) = read_sets(&roles, &datasets)?;
     let panorama = Panorama::new(&camera, &args.view, descriptors.iter().any(Descriptor::reads_panorama))?;
     let (w, h) = camera.size();
     let image_size = (w as usize, h as usize);
@@ -651,17 +800,30 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
         }
     }
     create_real_folder(&args.out, &args.out)?;
-    let described = describe_sets(args, &sets, &descriptors, panorama.as_ref())?;
-    let maps: Vec<usize> = args
+    let described = describe_sets(args, &sets, &descriptors, panorama.as_ref(), image_size)?;
+    let maps: Vec<usize> = roles
         .map
         .iter()
         .filter_map(|m| sets.iter().position(|s| &s.name == m))
         .collect();
-    let tests: Vec<usize> = args
+    let tests: Vec<usize> = roles
         .test
         .iter()
         .filter_map(|t| sets.iter().position(|s| &s.name == t))
         .collect();
+    // A set is prepared once for every map that it meets, except under PCA, whose projection
+    // is the map's.
+    let mut prepared: BTreeMap<(usize, usize), Rc<SetDescribed>> = BTreeMap::new();
+    let mut prepare_once = |set: usize, d: usize, pca: Option<&Pca>| -> anyhow::Result<Rc<SetDescribed>> {
+        if let (None, Some(done)) = (pca, prepared.get(&(set, d))) {
+            return Ok(done.clone());
+        }
+        let done = Rc::new(prepare(&descriptors[d], &described[set][d], pca, view_size.0)?);
+        if pca.is_none() {
+            prepared.insert((set, d), done.clone());
+        }
+        Ok(done)
+    };
     let mut results = Vec::new();
     for &m in &maps {
         for (d, descriptor) in descriptors.iter().enumerate() {
@@ -685,7 +847,7 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
                 )?);
                 continue;
             }
-            let map = prepare(descriptor, &described[m][d], pca.as_ref(), view_size.0)?;
+            let map = prepare_once(m, d, pca.as_ref())?;
             // What a map image keeps: the compared values, and the phases or transform the
             // heading needs.
             let heading_values = match &map.heading {
@@ -699,7 +861,7 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
             };
             let bytes = 4 * (map.rows.first().map_or(0, Vec::len) + heading_values);
             for &t in &tests {
-                let test = prepare(descriptor, &described[t][d], pca.as_ref(), view_size.0)?;
+                let test = prepare_once(t, d, pca.as_ref())?;
                 let truth = &sets[t].poses;
                 let neighbour_counts: Vec<usize> = if args.neighbours > 1 {
                     vec![1, args.neighbours]
@@ -745,7 +907,7 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
             .collect(),
         dataset: DatasetRecord {
             folder: args.dataset.display().to_string(),
-            spec_sha256: manifest.spec_sha256.clone(),
+            spec_sha256,
             geometry_sha256: manifest.geometry_sha256.clone(),
             renderer: manifest.renderer.clone(),
             version: manifest.version.clone(),
@@ -753,6 +915,7 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
         settings: json!({
             "descriptors": settings, "panorama": panorama.as_ref().map(|p| p.sidecar.clone()),
             "distances": args.distance, "neighbours": args.neighbours, "chart_distance": args.chart_distance,
+            "sweeps": args.sweep.iter().map(|s| (s.name.clone(), s.values.clone())).collect::<BTreeMap<_, _>>(),
         }),
         sets: sets.iter().map(|s| s.record.clone()).collect(),
         results,

@@ -10,6 +10,7 @@ pub(crate) mod project;
 pub(crate) mod render;
 pub(crate) mod scene;
 pub(crate) mod speed_accuracy;
+pub(crate) mod sweep;
 pub(crate) mod vision_input;
 
 /// Creates the folder of a file the user named and checks it is writable before any long work;

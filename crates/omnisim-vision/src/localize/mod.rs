@@ -155,7 +155,7 @@ pub fn localize(
     require(method.neighbours >= 1, "neighbours", || "at least 1".to_string())?;
     let k = method.neighbours.min(map.rows.len());
     test.rows
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(t, row)| {
             let ranked = nearest(&map.rows, row, method.distance, k);
@@ -178,6 +178,16 @@ pub fn localize(
         .collect()
 }
 
+/// A test image retrieved by local features: its estimate and its ratio-test matches with the
+/// nearest map image (pairs of keypoint indices, test then map), kept for the heading.
+#[derive(Debug, Clone)]
+pub struct Retrieved {
+    /// Position (and, after [`add_feature_headings`], heading).
+    pub estimate: Estimate,
+    /// Ratio-test matches with map image `estimate.nearest`.
+    pub matches: Vec<(usize, usize)>,
+}
+
 /// Localizes every test image by local features: the map image with which it shares most
 /// ratio-test matches (Lowe 2004 §7.1, `ratio` 0.8 there) is the nearest, `distance` =
 /// 1/(1 + matches), and with `neighbours` > 1 the position is the mean of the k best weighted
@@ -188,7 +198,7 @@ pub fn localize_by_matches(
     test: &[Features],
     ratio: f32,
     neighbours: usize,
-) -> Result<Vec<Estimate>, VisionError> {
+) -> Result<Vec<Retrieved>, VisionError> {
     require(map_poses.len() == map.len() && !map.is_empty(), "map", || {
         format!("{} map poses for {} map images", map_poses.len(), map.len())
     })?;
@@ -199,20 +209,24 @@ pub fn localize_by_matches(
     Ok(test
         .par_iter()
         .map(|features| {
-            let mut ranked: Vec<(usize, f64)> = map
+            let mut matches: Vec<Vec<(usize, usize)>> = map.iter().map(|m| features.match_ratio(m, ratio)).collect();
+            let mut ranked: Vec<(usize, f64)> = matches
                 .iter()
                 .enumerate()
-                .map(|(i, m)| (i, 1.0 / (1.0 + features.match_ratio(m, ratio).len() as f64)))
+                .map(|(i, found)| (i, 1.0 / (1.0 + found.len() as f64)))
                 .collect();
             ranked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
             ranked.truncate(neighbours.min(map.len()));
             let (x, y) = weighted_position(map_poses, &ranked);
-            Estimate {
-                nearest: ranked[0].0,
-                distance: ranked[0].1,
-                x,
-                y,
-                yaw: None,
+            Retrieved {
+                estimate: Estimate {
+                    nearest: ranked[0].0,
+                    distance: ranked[0].1,
+                    x,
+                    y,
+                    yaw: None,
+                },
+                matches: std::mem::take(&mut matches[ranked[0].0]),
             }
         })
         .collect())
@@ -222,21 +236,22 @@ pub fn localize_by_matches(
 pub const FEATURE_HEADING: &str = "feature-planar-motion";
 
 /// Adds to each estimate of [`localize_by_matches`] the heading the local features give: the
-/// nearest map image's heading turned by [`relative::planar_turn`] of their ratio-test matches,
-/// each keypoint's pixel (x, y) taken to a unit bearing by `bearing` (the camera's ray; `None`
-/// where the pixel sees nothing). Estimates with fewer than 3 usable matches keep no heading.
+/// nearest map image's heading turned by [`relative::planar_turn`] of their ratio-test matches
+/// (found by the retrieval, not searched again), each keypoint's pixel (x, y) taken to a unit
+/// bearing by `bearing` (the camera's ray; `None` where the pixel sees nothing). Estimates with
+/// fewer than 3 usable matches keep no heading.
 pub fn add_feature_headings(
-    estimates: &mut [Estimate],
+    retrieved: &mut [Retrieved],
     map: &[Features],
     map_poses: &[PlanarPose],
     test: &[Features],
-    ratio: f32,
     bearing: &(dyn Fn(f32, f32) -> Option<glam::DVec3> + Sync),
 ) {
-    estimates.par_iter_mut().zip(test).for_each(|(estimate, features)| {
+    retrieved.par_iter_mut().zip(test).for_each(|(found, features)| {
+        let estimate = &mut found.estimate;
         let nearest = &map[estimate.nearest];
         let (mut from, mut to) = (Vec::new(), Vec::new());
-        for (i, j) in features.match_ratio(nearest, ratio) {
+        for &(i, j) in &found.matches {
             let (t, m) = (features.keypoints[i], nearest.keypoints[j]);
             if let (Some(bt), Some(bm)) = (bearing(t.x, t.y), bearing(m.x, m.y)) {
                 from.push(bm);
@@ -245,8 +260,8 @@ pub fn add_feature_headings(
         }
         // 0.02: about a degree off the epipolar plane, a keypoint's half-pixel error on a
         // small omni image.
-        estimate.yaw = relative::planar_turn(&from, &to, 0.02, 500)
-            .map(|found| wrap(map_poses[estimate.nearest].yaw + found.turn));
+        estimate.yaw =
+            relative::planar_turn(&from, &to, 0.02, 500).map(|turn| wrap(map_poses[estimate.nearest].yaw + turn.turn));
     });
 }
 

@@ -65,6 +65,9 @@ pub struct SetRecord {
     pub noise_sigma: f64,
     /// Occluders per frame, mean.
     pub occluders_per_frame: f64,
+    /// The fraction of the image's pixels that see something which per-frame occluders
+    /// cover, mean over frames; `None` where the data set has no segmentation images.
+    pub occluded_fraction: Option<f64>,
     /// Maps: the mean distance from each pose to its nearest neighbour, metres (the grid
     /// step of a grid).
     pub spacing_m: Option<f64>,
@@ -314,11 +317,19 @@ impl Report {
                 "Gaussian noise σ (linear light, 1 = full scale)",
                 &(|s: &SetRecord| s.noise_sigma) as &dyn Fn(&SetRecord) -> f64,
             ),
-            (
-                "Median position error against occlusion",
-                "occluders per frame",
-                &|s: &SetRecord| s.occluders_per_frame,
-            ),
+            if tests.iter().all(|t| t.occluded_fraction.is_some()) {
+                (
+                    "Median position error against occlusion",
+                    "occluded fraction of the image",
+                    &(|s: &SetRecord| s.occluded_fraction.unwrap_or(0.0)) as &dyn Fn(&SetRecord) -> f64,
+                )
+            } else {
+                (
+                    "Median position error against occlusion",
+                    "occluders per frame",
+                    &(|s: &SetRecord| s.occluders_per_frame) as &dyn Fn(&SetRecord) -> f64,
+                )
+            },
         ] {
             let sets = distinct(key);
             if sets.len() >= 2 {

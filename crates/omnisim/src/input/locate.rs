@@ -80,13 +80,7 @@ pub fn scene_field(text: &str, field: &str) -> Option<(usize, usize)> {
 /// the 1-based (line, column), if it has a `name: "…"` field.
 pub fn element_at(text: &str, list: &str, line: usize, column: usize) -> Option<String> {
     let target = offset_of(text, line, column)?;
-    // The `list:` key itself, not the word in a comment or a string.
-    let mut previous_is_word = false;
-    let list = code(text, 0).find_map(|(i, c)| {
-        let found = !previous_is_word && is_key_at(text, i, list);
-        previous_is_word = c.is_alphanumeric() || c == '_';
-        found.then_some(i)
-    })?;
+    let list = list_key(text, list)?;
     let mut depth = 0usize;
     let mut start = None;
     for (i, c) in code(text, list) {
@@ -115,6 +109,49 @@ pub fn element_at(text: &str, list: &str, line: usize, column: usize) -> Option<
     }
     // The list never closed (a syntax error): the last object opened before the position.
     start.filter(|&s| s <= target).and_then(|s| object_name(&text[s..]))
+}
+
+/// The byte offset of the `list:` key itself, not the word in a comment or a string.
+fn list_key(text: &str, list: &str) -> Option<usize> {
+    let mut previous_is_word = false;
+    code(text, 0).find_map(|(i, c)| {
+        let found = !previous_is_word && is_key_at(text, i, list);
+        previous_is_word = c.is_alphanumeric() || c == '_';
+        found.then_some(i)
+    })
+}
+
+/// The elements of the `list: [...]` list, as byte ranges of `text`: the whole list inside its
+/// brackets, and each element from just after the `[` or `,` before it (its leading comments
+/// and name, e.g. `Set`, included) to its closing bracket. `None` if the list is missing or
+/// does not close. Lets a caller cut a spec into one-element specs that keep the rest verbatim.
+pub fn list_elements(text: &str, list: &str) -> Option<(std::ops::Range<usize>, Vec<std::ops::Range<usize>>)> {
+    let key = list_key(text, list)?;
+    let mut depth = 0usize;
+    let (mut inside, mut element_start) = (None, 0);
+    let mut elements = Vec::new();
+    for (i, c) in code(text, key) {
+        match c {
+            '(' | '[' | '{' => {
+                depth += 1;
+                if depth == 1 {
+                    inside = Some(i + 1);
+                    element_start = i + 1;
+                }
+            }
+            ')' | ']' | '}' => {
+                depth = depth.checked_sub(1)?;
+                match depth {
+                    0 => return Some((inside?..i, elements)),
+                    1 => elements.push(element_start..i + 1),
+                    _ => {}
+                }
+            }
+            ',' if depth == 1 => element_start = i + 1,
+            _ => {}
+        }
+    }
+    None
 }
 
 /// The 1-based (line, column) of the field `path` (`poses.tilt`, `layouts[0].rate`) of the
@@ -248,6 +285,19 @@ mod tests {
         assert_eq!(element_at(text, "objects", 3, 10).as_deref(), Some("a (\\\"x"));
         assert_eq!(element_at(text, "objects", 5, 16).as_deref(), Some("b"));
         assert_eq!(element_at(text, "objects", 1, 3), None);
+    }
+
+    /// Each element's text, from after the separator to its closing bracket, comments kept and
+    /// brackets in strings and comments ignored.
+    #[test]
+    fn lists_elements_with_their_names() {
+        let text = "D(a: 1, // sets: [no]\n sets: [\n  // first\n  Set(name: \"a)\", p: [1, 2]),\n  Set(name: \"b\"), /* ] */\n], z: 2)";
+        let (inside, elements) = list_elements(text, "sets").unwrap();
+        assert!(text[inside].trim_end().ends_with("/* ] */"));
+        let texts: Vec<&str> = elements.iter().map(|r| text[r.clone()].trim()).collect();
+        assert_eq!(texts, ["// first\n  Set(name: \"a)\", p: [1, 2])", "Set(name: \"b\")"]);
+        assert!(list_elements("D(sets: [S(", "sets").is_none());
+        assert!(list_elements("D(objects: [])", "sets").is_none());
     }
 
     #[test]
