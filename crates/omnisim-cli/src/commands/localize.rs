@@ -61,16 +61,19 @@ use crate::progress::Progress;
 /// mean, median, p95, max), recall at 10/25/50 cm, heading error (degrees), seconds per image
 /// (describe, match), bytes per map image, and every test image's result; its schema is
 /// docs/localization-report.schema.json. OUT/report.svg and .png chart the median error per
-/// test set, against noise σ, occluders per frame and map spacing, and the heading error.
+/// test set, against noise σ, the occluded fraction (from the object-id images, where the data
+/// set has them; else occluders per frame) and map spacing, and the heading error.
 /// Descriptors are kept in OUT/descriptors/<set>/ with a key of their settings and the
 /// images' SHA-256: a re-run describes only what changed.
 #[derive(Debug, Clone, Args)]
 #[command(
     verbatim_doc_comment,
     after_help = "Examples:\n  \
-omnisim dataset scenes/env1-localize.ron --out data/loc\n  \
-omnisim localize data/loc --map map-0.2 --test test-day test-night --out loc\n  \
-omnisim localize data/loc --map map-0.2 --map map-0.4 --test test-day -d fourier:k=32 -d radon:angles=180 \
+omnisim localize scenes/env1-localize.ron --sweep step=0.2,0.4 --sweep sigma=0.01,0.05 --sweep people=2 \
+--map 'map-${step}' --test test-day test-night 'test-occluded-${people}' 'test-noise-${sigma}' --out loc\n  \
+omnisim dataset scenes/env1-dataset.ron --out data/env1\n  \
+omnisim localize data/env1 --map map --test test-day test-night --out loc\n  \
+omnisim localize data/env1 --map map --test test-day -d fourier:k=32 -d radon:angles=180 \
 --distance l1,cosine --neighbours 3 --out loc-knn"
 )]
 pub(crate) struct LocalizeArgs {
