@@ -112,17 +112,23 @@ pub(crate) fn sets(text: &str, path: &Path, sweeps: &[Sweep]) -> anyhow::Result<
     }
     let mut out: Vec<SetSpecText> = Vec::new();
     for element in elements {
+        // Blank lines in place of the sets before it: the set keeps its lines, so that an
+        // error's line:column is the spec file's.
+        let before = "\n".repeat(text[inside.start..element.start].matches('\n').count());
         let original = &text[element];
         for set in expand(original, sweeps) {
-            let one = format!("{head}{set}\n{tail}");
-            let spec = omnisim_dataset::spec::parse(&one, path)?;
+            let one = format!("{head}{before}{set}\n{tail}");
+            let spec = omnisim_dataset::spec::parse(&one, path).map_err(|error| {
+                let error = anyhow::Error::new(error);
+                if set.contains("${") {
+                    error.context(
+                        "a set holds a placeholder ${…} that no --sweep gives a value (--sweep NAME=V1,V2,...)",
+                    )
+                } else {
+                    error
+                }
+            })?;
             let name = spec.sets.first().context("a set")?.name.clone();
-            if set.contains("${") {
-                bail!(
-                    "set '{name}' of {} holds a placeholder ${{…}} that no --sweep gives",
-                    path.display()
-                );
-            }
             if out.iter().any(|s| s.name == name) {
                 bail!(
                     "{}: two sets are named '{name}'; put the swept placeholder in the set's name too, e.g. \
@@ -230,5 +236,34 @@ mod tests {
             expand_names(&["map".into(), "t-${sigma}".into()], &[sigma]),
             ["map", "t-0", "t-0.01", "t-0.05"]
         );
+    }
+
+    /// A spec cut into one-set specs: swept sets expanded, each set at its own lines (errors
+    /// point into the file), and the refusals.
+    #[test]
+    fn a_spec_is_cut_into_sets() {
+        let text = "Dataset(\n    scene: \"env1.ron\",\n    rig: Omni(size: (32, 32), mirror: Hyperbolic(a: 0.04, b: 0.16)),\n    sets: [\n        Set(name: \"map\", poses: List([(0.0, 0.0, 0.4, 0.0, 0.0, 0.0)])),\n        Set(name: \"t-${s}\", poses: List([(0.0, 0.0, 0.4, 0.0, 0.0, 0.0)]),\n            noise: (colour: [Gaussian(sigma: ${s})])),\n    ],\n)\n";
+        let path = Path::new("s.ron");
+        let s = Sweep::parse("s=0.1,0.2").unwrap();
+        let cut = sets(text, path, std::slice::from_ref(&s)).unwrap();
+        let names: Vec<&str> = cut.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["map", "t-0.1", "t-0.2"]);
+        assert!(cut[2].text.contains("sigma: 0.2") && !cut[2].text.contains("name: \"map\""));
+        // The second set keeps its line (7, `sigma`) in its one-set spec.
+        let unswept = format!("{:#}", sets(text, path, &[]).err().unwrap());
+        assert!(
+            unswept.contains("no --sweep gives") && unswept.contains("s.ron:7:"),
+            "{unswept}"
+        );
+        let unused = sets(text, path, &[s.clone(), Sweep::parse("q=1").unwrap()])
+            .err()
+            .unwrap();
+        assert!(unused.to_string().contains("--sweep q is not used"), "{unused}");
+        let outside = text.replace("size: (32, 32)", "size: (${s}, 32)");
+        let outside = sets(&outside, path, std::slice::from_ref(&s)).err().unwrap();
+        assert!(outside.to_string().contains("outside the sets"), "{outside}");
+        let twice = text.replace("name: \"t-${s}\"", "name: \"t\"");
+        let twice = sets(&twice, path, &[s]).err().unwrap();
+        assert!(twice.to_string().contains("two sets are named 't'"), "{twice}");
     }
 }
