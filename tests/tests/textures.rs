@@ -877,3 +877,27 @@ fn a_missing_or_escaping_external_buffer_is_a_located_error() {
     let escaping = load(folder.path());
     assert!(escaping.contains("..") && escaping.contains("inside"), "{escaping}");
 }
+
+#[test]
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn a_gltf_and_a_glb_written_by_pygltflib_map_their_texture_exactly() {
+    let python = std::env::var_os("OMNISIM_PYTHON")
+        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
+    let folder = tempfile::tempdir().unwrap();
+    write_texture(folder.path());
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let writer = std::process::Command::new(python)
+        .arg("tests/readers/write_textured_gltf.py")
+        .arg(folder.path())
+        .current_dir(workspace)
+        .output()
+        .expect("the glTF writer's Python runs");
+    assert!(writer.status.success(), "{}", String::from_utf8_lossy(&writer.stderr));
+    for file in ["square.gltf", "square.glb"] {
+        let text =
+            format!(r#"Scene(name: "pygltflib", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#);
+        let scene = Scene::from_ron(&text, &folder.path().join("square.ron")).unwrap();
+        assert_eq!(scene.faces.len(), 2, "{file}");
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+    }
+}
