@@ -90,21 +90,30 @@ fn check_texels_exact(tracer: &common::Tracer, repeat: bool) {
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
     let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
     let frame = tracer.render(&camera, &pose).unwrap();
-    let colour = frame.colour().unwrap();
+    let hits: Vec<bool> = frame.pixels().iter().map(omnisim::advanced::Pixel::is_hit).collect();
+    check_closed_form(&camera, frame.colour().unwrap(), &hits, |direction| {
+        let uv = closed_form_uv(direction);
+        bilinear_closed_form(uv.x, uv.y, repeat).to_array().map(linear_to_srgb)
+    });
+}
+
+/// Asserts that every hit pixel of `camera`'s colour frame `colour` is within 1/255 of
+/// `expected` of its ray's direction, and that more than 5000 pixels were checked.
+fn check_closed_form(camera: &Camera, colour: &[[u8; 3]], hits: &[bool], expected: impl Fn(DVec3) -> [u8; 3]) {
+    let (width, height) = camera.size();
     let mut checked = 0;
-    for v in 0..90 {
-        for u in 0..120 {
-            let index = frame.index(u, v);
-            if !frame.pixels()[index].is_hit() {
+    for v in 0..height {
+        for u in 0..width {
+            let index = (v * width + u) as usize;
+            if !hits[index] {
                 continue;
             }
-            let ray = camera.ray(DVec2::new(f64::from(u), f64::from(v))).unwrap();
-            let uv = closed_form_uv(ray.direction);
-            let expected = bilinear_closed_form(uv.x, uv.y, repeat).to_array().map(linear_to_srgb);
+            let direction = camera.ray(DVec2::new(f64::from(u), f64::from(v))).unwrap().direction;
+            let expected = expected(direction);
             for k in 0..3 {
                 assert!(
                     colour[index][k].abs_diff(expected[k]) <= 1,
-                    "pixel ({u}, {v}) uv {uv}: {:?} vs closed form {expected:?}",
+                    "pixel ({u}, {v}): {:?} vs closed form {expected:?}",
                     colour[index]
                 );
             }
@@ -790,7 +799,7 @@ fn render_mesh(folder: &Path, file: &str, lit: bool) -> (Camera, Vec<[u8; 3]>, V
     let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene))
         .render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO))
         .unwrap();
-    let hits = frame.pixels().iter().map(|p| p.is_hit()).collect();
+    let hits = frame.pixels().iter().map(omnisim::advanced::Pixel::is_hit).collect();
     (camera, frame.colour().unwrap().to_vec(), hits)
 }
 
@@ -800,29 +809,12 @@ fn gltf_vertex_colours_times_base_colour_factor_from_an_external_buffer_match_th
     let factor = [0.8, 0.5, 1.0, 1.0];
     let file = gltf_square_with_colours(folder.path(), factor, false);
     let (camera, colour, hits) = render_mesh(folder.path(), file, false);
-    let mut checked = 0;
-    for v in 0..90u32 {
-        for u in 0..120u32 {
-            let index = (v * 120 + u) as usize;
-            if !hits[index] {
-                continue;
-            }
-            // World (2, y, z) is local (−y, z): the colour there, times the factor.
-            let direction = camera.ray(DVec2::new(f64::from(u), f64::from(v))).unwrap().direction;
-            let point = direction * (2.0 / direction.x);
-            let linear = square_colour(-point.y, point.z) * DVec3::new(factor[0], factor[1], factor[2]);
-            let expected = linear.to_array().map(linear_to_srgb);
-            for k in 0..3 {
-                assert!(
-                    colour[index][k].abs_diff(expected[k]) <= 1,
-                    "pixel ({u}, {v}): {:?} vs closed form {expected:?}",
-                    colour[index]
-                );
-            }
-            checked += 1;
-        }
-    }
-    assert!(checked > 5000, "{checked} pixels see the square");
+    check_closed_form(&camera, &colour, &hits, |direction| {
+        // World (2, y, z) is local (−y, z): the colour there, times the factor.
+        let point = direction * (2.0 / direction.x);
+        let linear = square_colour(-point.y, point.z) * DVec3::new(factor[0], factor[1], factor[2]);
+        linear.to_array().map(linear_to_srgb)
+    });
     // The colours vary across the square (a flat mean would fail the closed form above).
     let seen: std::collections::HashSet<[u8; 3]> = colour.iter().copied().collect();
     assert!(seen.len() > 100, "{} colours", seen.len());

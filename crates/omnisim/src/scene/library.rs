@@ -148,6 +148,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         scene.lighting = Some(build_lighting(lighting, &seen, text, path)?);
     }
     surfaces.textures = bank.textures;
+    surfaces.sources = bank.sources;
     scene.surfaces = std::sync::Arc::new(surfaces);
     Ok(scene)
 }
@@ -157,22 +158,26 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
 #[derive(Default)]
 pub(super) struct TextureBank {
     textures: Vec<Texture>,
+    /// The source of each texture, which is also its key in `by_key`.
+    sources: Vec<String>,
     by_key: HashMap<String, u32>,
 }
 
 impl TextureBank {
-    /// The index of the texture `key` names, made by `make` the first time.
+    /// The index of the texture `source` names (a file, a pattern, a glTF image: one texture
+    /// per source), made by `make` the first time.
     pub(super) fn get_or_add(
         &mut self,
-        key: String,
+        source: String,
         make: impl FnOnce() -> Result<Texture, String>,
     ) -> Result<u32, String> {
-        if let Some(&index) = self.by_key.get(&key) {
+        if let Some(&index) = self.by_key.get(&source) {
             return Ok(index);
         }
         let index = self.textures.len() as u32;
         self.textures.push(make()?);
-        self.by_key.insert(key, index);
+        self.sources.push(source.clone());
+        self.by_key.insert(source, index);
         Ok(index)
     }
 }
@@ -217,13 +222,13 @@ fn place(
     let texture = match (&file.image, &file.pattern) {
         (Some(image), None) => {
             let path = inside_folder(scene_path, image, "texture image").map_err(|e| ("image", e))?;
-            bank.get_or_add(format!("image:{}", path.display()), || {
+            bank.get_or_add(format!("image {}", path.display()), || {
                 super::texture::load_image(&path)
             })
             .map_err(|e| ("image", e))?
         }
         (None, Some(pattern)) => bank
-            .get_or_add(format!("pattern:{pattern:?}:{}", file.texels), || {
+            .get_or_add(format!("pattern {pattern:?} baked to {}² texels", file.texels), || {
                 pattern.bake(file.texels)
             })
             .map_err(|e| ("pattern", e))?,
