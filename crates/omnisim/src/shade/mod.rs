@@ -226,8 +226,8 @@ impl PixelRays for TableRays<'_> {
 /// face's colour, which is what encoding the decoded colour gives (`scene/lighting.rs` tests every
 /// byte), without the cost of encoding. A scene in which no face has a surface (texture or
 /// vertex colours) is decided once per frame and shaded as before surfaces existed: no
-/// footprints, no surface look-ups per pixel (env1's untextured colour images paid about
-/// 7 ns a pixel for them, docs/benchmarks.md).
+/// footprints, no surface look-ups per pixel (they cost env1's untextured images about 12
+/// instructions a pixel, docs/benchmarks.md).
 pub(crate) fn shade_frame(
     tracer: CpuTracer,
     geometry: &SceneBvh,
