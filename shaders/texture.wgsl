@@ -134,12 +134,13 @@ fn surface_albedo(colour: vec3<f32>, index: u32, point: vec3<f32>, normal: vec3<
     let texels = vec2<f32>(f32(textures[surface.levels_at + 1u]), f32(textures[surface.levels_at + 2u]));
     let step_x = vec2<f32>(dot(surface.u_gradient, side_x), dot(surface.v_gradient, side_x)) * texels;
     let step_y = vec2<f32>(dot(surface.u_gradient, side_y), dot(surface.v_gradient, side_y)) * texels;
-    let longest = max(length(step_x), length(step_y));
+    let sides = vec2<f32>(length(step_x), length(step_y));
     let last = f32(surface.level_count - 1u);
-    // NaN or infinite steps (a neighbour missing the plane): the coarsest level.
+    // NaN or infinite steps on either side (a neighbour missing the plane): the coarsest
+    // level (NaN < FAR is false; filter.rs: level_of_detail).
     var lod = last;
-    if longest < FAR {
-        lod = clamp(log2(max(longest, 1.0)), 0.0, last);
+    if sides.x < FAR && sides.y < FAR {
+        lod = clamp(log2(max(max(sides.x, sides.y), 1.0)), 0.0, last);
     }
     let fine = floor(lod);
     let fraction = lod - fine;

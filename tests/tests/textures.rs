@@ -90,21 +90,30 @@ fn check_texels_exact(tracer: &common::Tracer, repeat: bool) {
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
     let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
     let frame = tracer.render(&camera, &pose).unwrap();
-    let colour = frame.colour().unwrap();
+    let hits: Vec<bool> = frame.pixels().iter().map(omnisim::advanced::Pixel::is_hit).collect();
+    check_closed_form(&camera, frame.colour().unwrap(), &hits, |direction| {
+        let uv = closed_form_uv(direction);
+        bilinear_closed_form(uv.x, uv.y, repeat).to_array().map(linear_to_srgb)
+    });
+}
+
+/// Asserts that every hit pixel of `camera`'s colour frame `colour` is within 1/255 of
+/// `expected` of its ray's direction, and that more than 5000 pixels were checked.
+fn check_closed_form(camera: &Camera, colour: &[[u8; 3]], hits: &[bool], expected: impl Fn(DVec3) -> [u8; 3]) {
+    let (width, height) = camera.size();
     let mut checked = 0;
-    for v in 0..90 {
-        for u in 0..120 {
-            let index = frame.index(u, v);
-            if !frame.pixels()[index].is_hit() {
+    for v in 0..height {
+        for u in 0..width {
+            let index = (v * width + u) as usize;
+            if !hits[index] {
                 continue;
             }
-            let ray = camera.ray(DVec2::new(f64::from(u), f64::from(v))).unwrap();
-            let uv = closed_form_uv(ray.direction);
-            let expected = bilinear_closed_form(uv.x, uv.y, repeat).to_array().map(linear_to_srgb);
+            let direction = camera.ray(DVec2::new(f64::from(u), f64::from(v))).unwrap().direction;
+            let expected = expected(direction);
             for k in 0..3 {
                 assert!(
                     colour[index][k].abs_diff(expected[k]) <= 1,
-                    "pixel ({u}, {v}) uv {uv}: {:?} vs closed form {expected:?}",
+                    "pixel ({u}, {v}): {:?} vs closed form {expected:?}",
                     colour[index]
                 );
             }
@@ -716,4 +725,171 @@ fn the_shipped_crate_looks_the_same_from_obj_and_gltf_and_is_textured_in_ply() {
     assert!(worst <= 1, "OBJ and glTF differ by {worst}/255");
     // The PLY's vertex colours darken the crate's lower half.
     assert!(obj.iter().zip(&ply).filter(|(a, b)| a != b).count() > 1000);
+}
+
+/// The linear vertex colour the glTF square of [`gltf_square_with_colours`] gives local
+/// point (x, y): affine over the whole square, so both triangles interpolate this one
+/// function and it is the closed form everywhere on it.
+fn square_colour(x: f64, y: f64) -> DVec3 {
+    DVec3::new(0.2 + 0.3 * (x + 1.0) / 2.0, 0.9 - 0.5 * (y + 0.75) / 1.5, 0.5)
+}
+
+/// A `.gltf` (JSON) whose geometry lives in an external `square.bin` beside it: the square of
+/// [`square_glb`] (same nodes: at x = 2 facing the origin) with `COLOR_0` (floats) from
+/// [`square_colour`], a `baseColorFactor` of `factor` and, where `unlit`, the
+/// `KHR_materials_unlit` extension. Written into `folder`; returns the glTF's file name.
+fn gltf_square_with_colours(folder: &Path, factor: [f64; 4], unlit: bool) -> &'static str {
+    let corners = [
+        [-1.0f32, 0.75, 0.0],
+        [-1.0, -0.75, 0.0],
+        [1.0, -0.75, 0.0],
+        [1.0, 0.75, 0.0],
+    ];
+    let mut bin: Vec<u8> = corners.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    for c in corners {
+        let colour = square_colour(f64::from(c[0]), f64::from(c[1]));
+        bin.extend(colour.to_array().iter().flat_map(|&k| (k as f32).to_le_bytes()));
+    }
+    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    std::fs::write(folder.join("square.bin"), &bin).unwrap();
+    let rotation = glam::DQuat::from_mat3(&glam::DMat3::from_cols(-DVec3::Y, DVec3::Z, -DVec3::X));
+    let mut material = serde_json::json!({"pbrMetallicRoughness": {"baseColorFactor": factor}});
+    if unlit {
+        material["extensions"] = serde_json::json!({"KHR_materials_unlit": {}});
+    }
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_materials_unlit"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [
+            {"children": [1], "translation": [2.0, 0.0, 0.0], "scale": [2.0, 2.0, 2.0]},
+            {"mesh": 0, "rotation": [rotation.x, rotation.y, rotation.z, rotation.w], "scale": [0.5, 0.5, 0.5]}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1}, "indices": 2, "material": 0}]}],
+        "materials": [material],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1.0, -0.75, 0.0], "max": [1.0, 0.75, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 96, "byteLength": 12}
+        ],
+        "buffers": [{"uri": "square.bin", "byteLength": bin.len()}]
+    });
+    std::fs::write(folder.join("square.gltf"), serde_json::to_vec_pretty(&json).unwrap()).unwrap();
+    "square.gltf"
+}
+
+/// The colour frame of the square mesh `file` in `folder`, in a scene lit by a lamp where
+/// `lit`, seen by a pinhole at the origin looking along +x.
+fn render_mesh(folder: &Path, file: &str, lit: bool) -> (Camera, Vec<[u8; 3]>, Vec<bool>) {
+    let lighting = if lit {
+        r#", lighting: (lights: [Point(name: "lamp", position: (0.5, 0.6, 0.4), intensity: 150.0)])"#
+    } else {
+        ""
+    };
+    let text =
+        format!(r#"Scene(name: "gltf", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))]{lighting})"#);
+    let scene = Scene::from_ron(&text, &folder.join("gltf.ron")).unwrap();
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
+    let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene))
+        .render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO))
+        .unwrap();
+    let hits = frame.pixels().iter().map(omnisim::advanced::Pixel::is_hit).collect();
+    (camera, frame.colour().unwrap().to_vec(), hits)
+}
+
+#[test]
+fn gltf_vertex_colours_times_base_colour_factor_from_an_external_buffer_match_the_closed_form() {
+    let folder = tempfile::tempdir().unwrap();
+    let factor = [0.8, 0.5, 1.0, 1.0];
+    let file = gltf_square_with_colours(folder.path(), factor, false);
+    let (camera, colour, hits) = render_mesh(folder.path(), file, false);
+    check_closed_form(&camera, &colour, &hits, |direction| {
+        // World (2, y, z) is local (−y, z): the colour there, times the factor.
+        let point = direction * (2.0 / direction.x);
+        let linear = square_colour(-point.y, point.z) * DVec3::new(factor[0], factor[1], factor[2]);
+        linear.to_array().map(linear_to_srgb)
+    });
+    // The colours vary across the square (a flat mean would fail the closed form above).
+    let seen: std::collections::HashSet<[u8; 3]> = colour.iter().copied().collect();
+    assert!(seen.len() > 100, "{} colours", seen.len());
+}
+
+#[test]
+fn khr_materials_unlit_draws_the_albedo_whatever_the_lights() {
+    let folder = tempfile::tempdir().unwrap();
+    let factor = [1.0, 1.0, 1.0, 1.0];
+    let file = gltf_square_with_colours(folder.path(), factor, true);
+    let (_, unlit_in_the_dark, _) = render_mesh(folder.path(), file, false);
+    let (_, unlit_under_the_lamp, hits) = render_mesh(folder.path(), file, true);
+    assert!(hits.iter().filter(|&&h| h).count() > 5000);
+    assert_eq!(unlit_in_the_dark, unlit_under_the_lamp);
+    // The same material without the extension is shaded by the lamp: nearly every pixel differs.
+    let file = gltf_square_with_colours(folder.path(), factor, false);
+    let (_, lit, _) = render_mesh(folder.path(), file, true);
+    let differing = lit
+        .iter()
+        .zip(&unlit_under_the_lamp)
+        .zip(&hits)
+        .filter(|((a, b), hit)| **hit && a != b)
+        .count();
+    assert!(differing > 5000, "{differing} pixels differ");
+}
+
+#[test]
+fn a_missing_or_escaping_external_buffer_is_a_located_error() {
+    let folder = tempfile::tempdir().unwrap();
+    let file = gltf_square_with_colours(folder.path(), [1.0; 4], false);
+    let load = |folder: &Path| {
+        Scene::from_ron(
+            &format!(r#"Scene(name: "gltf", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#),
+            &folder.join("gltf.ron"),
+        )
+        .map(|_| ())
+        .unwrap_err()
+        .to_string()
+    };
+    std::fs::remove_file(folder.path().join("square.bin")).unwrap();
+    let missing = load(folder.path());
+    assert!(
+        missing.contains("square.bin") && missing.contains("square.gltf"),
+        "{missing}"
+    );
+    let text = std::fs::read_to_string(folder.path().join(file)).unwrap();
+    std::fs::write(
+        folder.path().join(file),
+        text.replace("\"square.bin\"", "\"../square.bin\""),
+    )
+    .unwrap();
+    let escaping = load(folder.path());
+    assert!(escaping.contains("..") && escaping.contains("inside"), "{escaping}");
+}
+
+#[test]
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn a_gltf_and_a_glb_written_by_pygltflib_map_their_texture_exactly() {
+    let python = std::env::var_os("OMNISIM_PYTHON")
+        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
+    let folder = tempfile::tempdir().unwrap();
+    write_texture(folder.path());
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let writer = std::process::Command::new(python)
+        .arg("tests/readers/write_textured_gltf.py")
+        .arg(folder.path())
+        .current_dir(workspace)
+        .output()
+        .expect("the glTF writer's Python runs");
+    assert!(writer.status.success(), "{}", String::from_utf8_lossy(&writer.stderr));
+    for file in ["square.gltf", "square.glb"] {
+        let text =
+            format!(r#"Scene(name: "pygltflib", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#);
+        let scene = Scene::from_ron(&text, &folder.path().join("square.ron")).unwrap();
+        assert_eq!(scene.faces.len(), 2, "{file}");
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+    }
 }

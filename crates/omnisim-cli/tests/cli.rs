@@ -1283,3 +1283,36 @@ fn a_render_without_a_terminal_reports_progress() {
     ));
     assert!(!text(&quiet.stderr).contains("poses, "), "{}", text(&quiet.stderr));
 }
+
+#[test]
+fn scene_check_lists_each_texture_with_its_source_size_mips_bytes_and_users() {
+    let check = text(&omnisim("scene check scenes/env1-textured.ron").stdout);
+    // Six patterns; the floor's wood is 512² with 10 levels: 4 bytes × (4^10 − 1) / 3 texels.
+    assert!(check.contains("textures: 6, "), "{check}");
+    let floor = check
+        .lines()
+        .find(|l| l.contains("used by floor;"))
+        .unwrap_or_else(|| panic!("{check}"));
+    assert!(
+        floor.contains("512×512 texels, 10 mip levels, 1398100 bytes") && floor.contains("from pattern Wood"),
+        "{floor}"
+    );
+    // The rug's checker is baked at 192²: levels 192, 96, 48, 24, 12, 6, 3, 1.
+    let rug = check
+        .lines()
+        .find(|l| l.contains("used by rug;"))
+        .unwrap_or_else(|| panic!("{check}"));
+    assert!(
+        rug.contains("192×192 texels, 8 mip levels") && rug.contains("Checker"),
+        "{rug}"
+    );
+    // An untextured scene lists none; a mesh's image names its file.
+    assert!(!text(&omnisim("scene check scenes/env1.ron").stdout).contains("texture"));
+    for (scene, source) in [
+        ("textured-obj", "from image scenes/meshes/crate.png"),
+        ("textured-gltf", "from image 0 inside scenes/meshes/crate.glb"),
+    ] {
+        let check = text(&omnisim(&format!("scene check scenes/{scene}.ron")).stdout);
+        assert!(check.contains(&format!("used by crate; {source}")), "{check}");
+    }
+}

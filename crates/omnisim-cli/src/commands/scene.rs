@@ -13,9 +13,11 @@ pub(crate) enum SceneCommand {
     /// Load and validate a scene; print its objects, faces and bounds.
     ///
     /// The scene name must be 1-100 bytes of letters, digits, '-', '_', '.' and spaces (it names
-    /// output files); coordinates must lie within ±1e6 m; meshes are read from the scene's
-    /// folder and below only (no '..' or absolute paths), OBJ material files never; only
-    /// regular files are read (scenes up to 64 MiB, meshes 2 GiB).
+    /// output files); coordinates must lie within ±1e6 m; meshes, their material files, buffers
+    /// and textures are read from the scene's (or the mesh's) folder and below only (no '..'
+    /// or absolute paths); only regular files are read (scenes up to 64 MiB, meshes 2 GiB).
+    /// Textures are listed with their source, size, mip levels, bytes and the objects that
+    /// show them.
     Check {
         /// Scene file (RON).
         scene: PathBuf,
@@ -58,6 +60,7 @@ pub(crate) fn run(command: SceneCommand) -> anyhow::Result<()> {
             for (object, faces) in scene.objects.iter().zip(faces) {
                 crate::streams::stdout(format_args!("  {:<8} {:<24} {faces} faces", object.kind, object.name))?;
             }
+            list_textures(&scene)?;
         }
         SceneCommand::Export { scene, output } => {
             let format = ExportFormat::from_path(&output)
@@ -67,6 +70,45 @@ pub(crate) fn run(command: SceneCommand) -> anyhow::Result<()> {
             loaded.export(&output, format)?;
             crate::streams::stdout(output.display())?;
         }
+    }
+    Ok(())
+}
+
+/// One line per texture: where it came from, its size, mip levels and bytes (mips included),
+/// and the objects that show it.
+fn list_textures(scene: &Scene) -> anyhow::Result<()> {
+    let surfaces = &scene.surfaces;
+    if surfaces.textures.is_empty() {
+        return Ok(());
+    }
+    let total: usize = surfaces
+        .textures
+        .iter()
+        .map(omnisim::scene::texture::Texture::bytes)
+        .sum();
+    crate::streams::stdout(format_args!(
+        "textures: {}, {total} bytes with their mip levels",
+        surfaces.textures.len()
+    ))?;
+    for (index, ((texture, source), users)) in surfaces
+        .textures
+        .iter()
+        .zip(&surfaces.sources)
+        .zip(scene.texture_objects())
+        .enumerate()
+    {
+        let (width, height) = texture.size();
+        let names: Vec<&str> = users.iter().map(|&o| scene.objects[o as usize].name.as_str()).collect();
+        crate::streams::stdout(format_args!(
+            "  texture {index}: {width}×{height} texels, {} mip levels, {} bytes; used by {}; from {source}",
+            texture.levels.len(),
+            texture.bytes(),
+            if names.is_empty() {
+                "no face".to_string()
+            } else {
+                names.join(", ")
+            }
+        ))?;
     }
     Ok(())
 }

@@ -163,6 +163,10 @@ pub struct BoxFile {
     /// A texture laid on every face, tinted by `colour` (white leaves it as it is).
     #[serde(default)]
     pub texture: Option<TextureFile>,
+    /// Per-face textures overriding `texture`: keys as in `faces`, or `sides` for the four
+    /// vertical faces (a named face wins over `sides`).
+    #[serde(default)]
+    pub face_textures: BTreeMap<String, TextureFile>,
 }
 
 /// `Wall(...)`: a vertical rectangle.

@@ -255,7 +255,7 @@ fn look(
 /// Decodes image `image` (from a buffer view, a data URI or a file beside the glTF).
 fn load_image(image: &gltf::Image, buffers: &[Vec<u8>], textures: &mut MeshTextures) -> Result<u32, String> {
     let what = format!("image {}", image.index());
-    let key = format!("gltf:{}:{}", textures.mesh.display(), image.index());
+    let key = format!("image {} inside {}", image.index(), textures.mesh.display());
     match image.source() {
         gltf::image::Source::View { view, .. } => {
             let buffer = &buffers[view.buffer().index()];

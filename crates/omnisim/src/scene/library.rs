@@ -64,20 +64,32 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 AngleUnit::Radians => v,
             }
         };
-        let placement = match object.texture() {
-            None => None,
-            Some(texture) => Some(
-                place(texture, angle((texture.rotation, 0.0, 0.0)).x, path, &mut bank).map_err(
-                    |(field, message)| SceneError::Invalid {
-                        path: path.to_path_buf(),
-                        location: locate::name_field(text, name, earlier)
-                            .and_then(|at| locate::field_of_element(text, at, &format!("texture.{field}")))
-                            .or_else(|| locate::name_field(text, name, earlier)),
-                        object: crate::input::shown(name, 64),
-                        message: format!("{}: texture.{field}: {message}", object.kind()),
-                    },
-                )?,
-            ),
+        // Checks and loads a texture written at `field` of the object.
+        let mut place_at = |texture: &TextureFile, field: &str| {
+            place(texture, angle((texture.rotation, 0.0, 0.0)).x, path, &mut bank).map_err(|(key, message)| {
+                SceneError::Invalid {
+                    path: path.to_path_buf(),
+                    location: locate::name_field(text, name, earlier)
+                        .and_then(|at| locate::field_of_element(text, at, &format!("{field}.{key}")))
+                        .or_else(|| locate::name_field(text, name, earlier)),
+                    object: crate::input::shown(name, 64),
+                    message: format!("{}: {field}.{key}: {message}", object.kind()),
+                }
+            })
+        };
+        let placement = object.texture().map(|t| place_at(t, "texture")).transpose()?;
+        // A Box's own texture for each of its faces (in `box_faces` order), where it names one.
+        let face_placements = match object {
+            ObjectFile::Box(b) => box_face_textures(b)
+                .map_err(&invalid)?
+                .iter()
+                .map(|chosen| {
+                    chosen
+                        .map(|(key, texture)| place_at(texture, &format!("face_textures.\"{key}\"")))
+                        .transpose()
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+            _ => Vec::new(),
         };
         let faces = match object {
             ObjectFile::Box(b) => box_faces(b, angle(b.rotation)),
@@ -90,7 +102,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let is_mesh = matches!(object, ObjectFile::Mesh(_));
         let mut dropped = 0usize;
         scene.faces.reserve(faces.len());
-        for (vertices, colour, surface) in faces {
+        for (k, (vertices, colour, surface)) in faces.into_iter().enumerate() {
             validate::check_coordinates(&vertices).map_err(&invalid)?;
             if let Err(problem) = validate::check_face(&vertices) {
                 if !is_mesh {
@@ -100,7 +112,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 dropped += 1;
                 continue;
             }
-            let surface = match &placement {
+            let surface = match face_placements.get(k).and_then(Option::as_ref).or(placement.as_ref()) {
                 Some(placement) => Some(placement.surface(&vertices)),
                 None => surface,
             };
@@ -136,6 +148,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         scene.lighting = Some(build_lighting(lighting, &seen, text, path)?);
     }
     surfaces.textures = bank.textures;
+    surfaces.sources = bank.sources;
     scene.surfaces = std::sync::Arc::new(surfaces);
     Ok(scene)
 }
@@ -145,22 +158,26 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
 #[derive(Default)]
 pub(super) struct TextureBank {
     textures: Vec<Texture>,
+    /// The source of each texture, which is also its key in `by_key`.
+    sources: Vec<String>,
     by_key: HashMap<String, u32>,
 }
 
 impl TextureBank {
-    /// The index of the texture `key` names, made by `make` the first time.
+    /// The index of the texture `source` names (a file, a pattern, a glTF image: one texture
+    /// per source), made by `make` the first time.
     pub(super) fn get_or_add(
         &mut self,
-        key: String,
+        source: String,
         make: impl FnOnce() -> Result<Texture, String>,
     ) -> Result<u32, String> {
-        if let Some(&index) = self.by_key.get(&key) {
+        if let Some(&index) = self.by_key.get(&source) {
             return Ok(index);
         }
         let index = self.textures.len() as u32;
         self.textures.push(make()?);
-        self.by_key.insert(key, index);
+        self.sources.push(source.clone());
+        self.by_key.insert(source, index);
         Ok(index)
     }
 }
@@ -205,13 +222,13 @@ fn place(
     let texture = match (&file.image, &file.pattern) {
         (Some(image), None) => {
             let path = inside_folder(scene_path, image, "texture image").map_err(|e| ("image", e))?;
-            bank.get_or_add(format!("image:{}", path.display()), || {
+            bank.get_or_add(format!("image {}", path.display()), || {
                 super::texture::load_image(&path)
             })
             .map_err(|e| ("image", e))?
         }
         (None, Some(pattern)) => bank
-            .get_or_add(format!("pattern:{pattern:?}:{}", file.texels), || {
+            .get_or_add(format!("pattern {pattern:?} baked to {}² texels", file.texels), || {
                 pattern.bake(file.texels)
             })
             .map_err(|e| ("pattern", e))?,
@@ -379,6 +396,27 @@ fn positive(what: &str, value: f64) -> Result<(), String> {
             "{what} must be a positive finite number of metres, not {value}"
         ))
     }
+}
+
+/// The texture of each face of box `b`, in `box_faces` order, where `face_textures` gives
+/// one: the face's own key, else `sides` for a vertical face. Unknown keys are refused.
+fn box_face_textures(b: &BoxFile) -> Result<[Option<(&str, &TextureFile)>; 6], String> {
+    if let Some(unknown) = b
+        .face_textures
+        .keys()
+        .find(|k| k.as_str() != "sides" && !BOX_FACES.contains(&k.as_str()))
+    {
+        return Err(format!(
+            "unknown face '{}' in face_textures; the faces are {} and sides (front, back, left and right)",
+            crate::input::shown(unknown, 40),
+            BOX_FACES.join(", ")
+        ));
+    }
+    let of_name = |name: &'static str| b.face_textures.get(name).map(|t| (name, t));
+    Ok(BOX_FACES.map(|name| {
+        let vertical = !matches!(name, "top" | "bottom");
+        of_name(name).or_else(|| if vertical { of_name("sides") } else { None })
+    }))
 }
 
 fn box_faces(b: &BoxFile, angles: DVec3) -> Result<Vec<RawFace>, String> {
@@ -556,5 +594,62 @@ mod name_tests {
                 "{message}"
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod box_texture_tests {
+    use crate::scene::{Scene, SceneError};
+
+    fn checker(grey: u8) -> String {
+        format!("(pattern: Checker(colours: (({grey}, 0, 0), (0, {grey}, 0)), squares: 2), texels: 4)")
+    }
+
+    fn load(face_textures: &str) -> Result<Scene, SceneError> {
+        let text = format!(
+            "Scene(name: \"s\", objects: [\n  Box(name: \"crate\", size: (1.0, 1.0, 1.0), colour: (255, 255, 255),\n    \
+             texture: {},\n    face_textures: {face_textures})])",
+            checker(10)
+        );
+        Scene::from_ron(&text, std::path::Path::new("s.ron"))
+    }
+
+    #[test]
+    fn a_named_face_wins_over_sides_which_wins_over_the_box_texture() {
+        let scene = load(&format!(
+            "{{ \"top\": {}, \"sides\": {}, \"front\": {} }}",
+            checker(20),
+            checker(30),
+            checker(40)
+        ))
+        .unwrap();
+        // Textures in the order first met: the box's, then top, sides, front as BTreeMap keys
+        // are placed face by face (front, back, left, right, top, bottom).
+        let texture_of = |face: u32| scene.surfaces.of(face).and_then(|s| s.uv.as_ref()).map(|uv| uv.texture);
+        let pattern_of = |face: u32| {
+            let texture = &scene.surfaces.textures[texture_of(face).unwrap() as usize];
+            texture.levels[0].texel(0, 0)[0]
+        };
+        // Checker texel (0, 0) is the first colour's red: the pattern's grey.
+        let reds: Vec<u8> = (0..6).map(pattern_of).collect();
+        assert_eq!(reds, [40, 30, 30, 30, 20, 10], "front, back, left, right, top, bottom");
+        // Four faces share the sides' texture: baked once.
+        assert_eq!(scene.surfaces.textures.len(), 4);
+    }
+
+    #[test]
+    fn unknown_faces_and_bad_fields_are_located() {
+        let error = load(&format!("{{ \"lid\": {} }}", checker(20)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("unknown face 'lid' in face_textures") && error.contains("sides"),
+            "{error}"
+        );
+        let bad = "{ \"top\": (pattern: Checker(colours: ((0, 0, 0), (9, 9, 9)), squares: 2), scale: (0.0, 1.0)) }";
+        let error = load(bad).unwrap_err().to_string();
+        assert!(error.contains("face_textures.\"top\".scale"), "{error}");
+        // Line 4 of the file, where face_textures is written.
+        assert!(error.contains("s.ron:4:"), "{error}");
     }
 }

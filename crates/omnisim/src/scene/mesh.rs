@@ -126,7 +126,7 @@ impl MeshTextures<'_> {
     /// The bank index of image `name` (relative to the mesh file's folder), decoded once.
     pub(super) fn image(&mut self, name: &str) -> Result<u32, String> {
         let path = super::library::inside_folder(self.mesh, name, "texture")?;
-        self.bank.get_or_add(format!("image:{}", path.display()), || {
+        self.bank.get_or_add(format!("image {}", path.display()), || {
             super::texture::load_image(&path)
         })
     }

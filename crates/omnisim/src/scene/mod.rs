@@ -142,6 +142,22 @@ impl Scene {
         bounds_of(self.faces.iter().filter(|f| f.object == object))
     }
 
+    /// For each texture (in `surfaces.textures` order), the objects with a face that shows it,
+    /// in object order.
+    pub fn texture_objects(&self) -> Vec<Vec<u32>> {
+        let mut users = vec![Vec::new(); self.surfaces.textures.len()];
+        for (index, face) in self.faces.iter().enumerate() {
+            let Some(uv) = self.surfaces.of(index as u32).and_then(|s| s.uv.as_ref()) else {
+                continue;
+            };
+            let objects: &mut Vec<u32> = &mut users[uv.texture as usize];
+            if objects.last() != Some(&face.object) {
+                objects.push(face.object);
+            }
+        }
+        users
+    }
+
     /// Writes the triangulated scene with face colours, for other tools to load exactly the
     /// geometry omnisim traces.
     pub fn export(&self, path: &Path, format: ExportFormat) -> Result<(), SceneError> {

@@ -21,6 +21,9 @@ pub const NO_SURFACE: u32 = u32::MAX;
 pub struct Surfaces {
     /// Every texture, mip-mapped; `UvMap::texture` indexes this list.
     pub textures: Vec<Texture>,
+    /// Where each texture came from (an image file, a pattern, a glTF's image), in the order
+    /// of `textures`: what `scene check` lists.
+    pub sources: Vec<String>,
     /// Every surface, in face order.
     pub list: Vec<Surface>,
     /// Index into `list` of each face, [`NO_SURFACE`] for none; shorter than the face list

@@ -24,6 +24,38 @@ fn ahead_is_inside(pixel: DVec2, step: DVec2, size: (u32, u32)) -> bool {
     ahead.x <= f64::from(size.0) - 1.0 && ahead.y <= f64::from(size.1) - 1.0
 }
 
+/// Where a footprint reads a camera's body-frame ray at a pixel position: the camera itself,
+/// or a table of its pixel-centre rays. The ray is lent to `use_ray`, not copied out (moving
+/// 56-byte rays through `Option`s took a fifth of a textured pixel's time).
+pub(crate) trait PixelRays {
+    /// `use_ray` applied to the ray at `pixel`, or `None` where there is none.
+    fn with_ray<T>(&self, pixel: DVec2, use_ray: impl FnOnce(&CameraRay) -> T) -> Option<T>;
+}
+
+impl PixelRays for Camera {
+    fn with_ray<T>(&self, pixel: DVec2, use_ray: impl FnOnce(&CameraRay) -> T) -> Option<T> {
+        self.ray(pixel).map(|ray| use_ray(&ray))
+    }
+}
+
+/// `world` of the ray of the neighbour `step` ahead of `pixel`, or of the one behind where
+/// that one is outside the image or has no ray.
+#[inline(always)]
+fn neighbour<T>(
+    pixel: DVec2,
+    step: DVec2,
+    size: (u32, u32),
+    rays: &impl PixelRays,
+    world: impl Fn(&CameraRay) -> T,
+) -> Option<T> {
+    let ahead = if ahead_is_inside(pixel, step, size) {
+        rays.with_ray(pixel + step, &world)
+    } else {
+        None
+    };
+    ahead.or_else(|| rays.with_ray(pixel - step, &world))
+}
+
 /// The rays of a pixel's two image-axis neighbours, world frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Footprint {
@@ -44,39 +76,40 @@ impl Footprint {
             camera.size(),
             pose.world_from_body_rotation(),
             pose.position,
-            |p| camera.ray(p),
+            camera,
         )
     }
 
-    /// The footprint of pixel `pixel` of an image of `size` pixels whose body-frame ray at any
-    /// pixel position `ray_at` gives, seen from a pose with rotation `world_from_body` at
-    /// `position`: the neighbour one pixel ahead along each axis, or the one behind where the
-    /// one ahead is outside the image or has no ray.
+    /// The footprint of pixel `pixel` of an image of `size` pixels whose body-frame rays
+    /// `rays` gives, seen from a pose with rotation `world_from_body` at `position`: the
+    /// neighbour one pixel ahead along each axis, or the one behind where the one ahead is
+    /// outside the image or has no ray.
+    #[inline]
     pub(crate) fn around(
         pixel: DVec2,
         size: (u32, u32),
         world_from_body: DMat3,
         position: DVec3,
-        ray_at: impl Fn(DVec2) -> Option<CameraRay>,
+        rays: &impl PixelRays,
     ) -> Footprint {
-        let world = |step: DVec2| {
-            let ahead = ahead_is_inside(pixel, step, size)
-                .then(|| ray_at(pixel + step))
-                .flatten();
-            let ray = ahead.or_else(|| ray_at(pixel - step))?;
-            Some((position + world_from_body * ray.origin, world_from_body * ray.direction))
-        };
+        let world = |ray: &CameraRay| (position + world_from_body * ray.origin, world_from_body * ray.direction);
         Footprint {
-            neighbours: [world(DVec2::X), world(DVec2::Y)],
+            neighbours: [
+                neighbour(pixel, DVec2::X, size, rays, world),
+                neighbour(pixel, DVec2::Y, size, rays, world),
+            ],
         }
     }
 
     /// The footprint's sides on the plane through `point` with normal `normal`: where each
     /// neighbouring ray meets that plane, less `point`. A neighbour that runs parallel to the
     /// plane or meets it behind its origin gives an infinite side; a missing one a zero side.
+    #[inline]
     pub fn on_plane(&self, point: DVec3, normal: DVec3) -> [DVec3; 2] {
-        self.neighbours.map(|neighbour| {
-            let Some((origin, direction)) = neighbour else {
+        // Written out per side: `array::map` kept the sides in memory (a tenth of a textured
+        // pixel's time).
+        let side = |neighbour: &Option<(DVec3, DVec3)>| {
+            let Some((origin, direction)) = *neighbour else {
                 return DVec3::ZERO;
             };
             let t = (point - origin).dot(normal) / direction.dot(normal);
@@ -85,6 +118,7 @@ impl Footprint {
             } else {
                 DVec3::INFINITY
             }
-        })
+        };
+        [side(&self.neighbours[0]), side(&self.neighbours[1])]
     }
 }

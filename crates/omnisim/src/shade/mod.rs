@@ -29,6 +29,7 @@ use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
 use crate::scene::surface::{Surface, Surfaces};
 use crate::trace::CpuTracer;
 pub use footprint::Footprint;
+use footprint::PixelRays;
 
 /// Shadow rays start this far (relative to the point's distance from the scene centre, plus
 /// one) off the face, on the lit side: far above f64 rounding, far below any real gap. The
@@ -81,9 +82,10 @@ fn albedo(appearance: &Appearance, hit: &Pixel, footprint: &Footprint) -> DVec3 
             let texture = &appearance.surfaces.textures[map.texture as usize];
             let uv = Surface::uv_at(map, surface.anchor, hit.point);
             let sides = footprint.on_plane(hit.point, hit.normal.as_dvec3());
-            let steps = sides.map(|side| DVec2::new(map.gradient[0].dot(side), map.gradient[1].dot(side)));
+            let step = |side: DVec3| DVec2::new(map.gradient[0].dot(side), map.gradient[1].dot(side));
+            let steps = [step(sides[0]), step(sides[1])];
             let lod = filter::level_of_detail(texture.size(), steps);
-            base * filter::trilinear(texture, map.wrap, uv, lod)
+            base * filter::trilinear(texture, map.wrap, uv, lod).as_dvec3()
         }
     }
 }
@@ -165,6 +167,7 @@ impl<'a> View<'a> {
 
     /// The footprint of the pixel at `index` (row by row) where `appearance` textures its
     /// face, else none (untextured faces never compute one).
+    #[inline]
     fn footprint(&self, appearance: &Appearance, hit: &Pixel, index: usize) -> Footprint {
         if !appearance.needs_footprint(hit.face) {
             return Footprint::POINT;
@@ -172,26 +175,59 @@ impl<'a> View<'a> {
         let size = self.camera.size();
         let width = size.0.max(1) as usize;
         let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
-        let ray_at = |p: DVec2| match self.rays {
-            // Integer pixels inside the image: the table holds exactly `camera.ray(p)`.
-            Some(rays) if p.x >= 0.0 && p.y >= 0.0 => rays.get(p.y as usize * width + p.x as usize).copied().flatten(),
-            _ => self.camera.ray(p),
-        };
-        Footprint::around(pixel, size, self.world_from_body, self.position, ray_at)
+        match self.rays {
+            Some(table) => {
+                let rays = TableRays {
+                    table,
+                    width,
+                    camera: self.camera,
+                };
+                Footprint::around(pixel, size, self.world_from_body, self.position, &rays)
+            }
+            None => Footprint::around(pixel, size, self.world_from_body, self.position, self.camera),
+        }
     }
 
     /// The footprint at any pixel position (sub-pixel samples), from the camera's own rays.
     pub(crate) fn footprint_at(&self, pixel: DVec2) -> Footprint {
-        Footprint::around(pixel, self.camera.size(), self.world_from_body, self.position, |p| {
-            self.camera.ray(p)
-        })
+        Footprint::around(
+            pixel,
+            self.camera.size(),
+            self.world_from_body,
+            self.position,
+            self.camera,
+        )
+    }
+}
+
+/// A camera's table of pixel-centre rays (row by row, `width` a row), the camera itself for
+/// positions outside the image.
+struct TableRays<'a> {
+    table: &'a [Option<CameraRay>],
+    width: usize,
+    camera: &'a Camera,
+}
+
+impl PixelRays for TableRays<'_> {
+    #[inline(always)]
+    fn with_ray<T>(&self, pixel: DVec2, use_ray: impl FnOnce(&CameraRay) -> T) -> Option<T> {
+        if pixel.x >= 0.0 && pixel.y >= 0.0 {
+            // Integer pixels inside the image: the table holds exactly `camera.ray(pixel)`.
+            let index = pixel.y as usize * self.width + pixel.x as usize;
+            self.table.get(index)?.as_ref().map(use_ray)
+        } else {
+            self.camera.with_ray(pixel, use_ray)
+        }
     }
 }
 
 /// Shades every pixel of `frame` (traced through `view`) on all CPU threads, filling the
 /// planes `planes` asks for. Without lighting a pixel's 8-bit colour is its
 /// face's colour, which is what encoding the decoded colour gives (`scene/lighting.rs` tests every
-/// byte), without the cost of encoding.
+/// byte), without the cost of encoding. A scene in which no face has a surface (texture or
+/// vertex colours) is decided once per frame and shaded as before surfaces existed: no
+/// footprints, no surface look-ups per pixel (they cost env1's untextured images about 12
+/// instructions a pixel, docs/benchmarks.md).
 pub(crate) fn shade_frame(
     tracer: CpuTracer,
     geometry: &SceneBvh,
@@ -200,15 +236,32 @@ pub(crate) fn shade_frame(
     frame: &mut Frame,
     planes: Planes,
 ) {
-    let shade_pixel = |(index, hit): (usize, &Pixel)| {
-        shade(
-            tracer,
-            geometry,
-            appearance,
-            hit,
-            &view.footprint(appearance, hit, index),
-        )
+    if appearance.surfaces.is_empty() {
+        shade_planes::<false>(tracer, geometry, appearance, view, frame, planes);
+    } else {
+        shade_planes::<true>(tracer, geometry, appearance, view, frame, planes);
+    }
+}
+
+/// [`shade_frame`] for a scene where some face has a surface (`SURFACES`) or none does.
+fn shade_planes<const SURFACES: bool>(
+    tracer: CpuTracer,
+    geometry: &SceneBvh,
+    appearance: &Appearance,
+    view: View<'_>,
+    frame: &mut Frame,
+    planes: Planes,
+) {
+    let linear = |index: usize, hit: &Pixel| {
+        let footprint = if SURFACES {
+            view.footprint(appearance, hit, index)
+        } else {
+            Footprint::POINT
+        };
+        shade(tracer, geometry, appearance, hit, &footprint)
     };
+    // Unlit faces without a surface take their face's byte directly.
+    let flat = |hit: &Pixel| appearance.lighting.is_none() && !(SURFACES && appearance.surfaces.of(hit.face).is_some());
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
@@ -218,7 +271,7 @@ pub(crate) fn shade_frame(
             .enumerate()
             .map(|(index, hit)| match hit.is_hit() {
                 false => BACKGROUND,
-                true => eight_bit(appearance, hit, || shade_pixel((index, hit))),
+                true => eight_bit(appearance, hit, flat(hit), || linear(index, hit)),
             })
             .collect();
         frame.set_shading(planes, Vec::new(), colour);
@@ -232,24 +285,31 @@ pub(crate) fn shade_frame(
             if !hit.is_hit() {
                 return ([0.0; 3], BACKGROUND);
             }
-            let linear = shade_pixel((index, hit));
-            (linear.as_vec3().to_array(), eight_bit(appearance, hit, || linear))
+            let shaded = linear(index, hit);
+            (
+                shaded.as_vec3().to_array(),
+                eight_bit(appearance, hit, flat(hit), || shaded),
+            )
         })
         .unzip();
     frame.set_shading(planes, linear, colour);
 }
 
 /// The 8-bit colour of hit pixel `hit` whose linear colour `linear` gives: its face's colour
-/// where it is unlit and has no surface (`linear` is then not called), else `linear()` encoded.
+/// where it is `flat` (unlit, no surface; `linear` is then not called), else `linear()` encoded.
 #[inline(always)]
-fn eight_bit(appearance: &Appearance, hit: &Pixel, linear: impl FnOnce() -> DVec3) -> [u8; 3] {
-    match appearance.lighting {
-        None if appearance.surfaces.of(hit.face).is_none() => appearance.face_colours[hit.face as usize],
-        _ => encode(linear()),
+fn eight_bit(appearance: &Appearance, hit: &Pixel, flat: bool, linear: impl FnOnce() -> DVec3) -> [u8; 3] {
+    match flat {
+        true => appearance.face_colours[hit.face as usize],
+        false => encode(linear()),
     }
 }
 
 /// 8-bit sRGB of a linear colour.
 pub fn encode(linear: DVec3) -> [u8; 3] {
-    linear.to_array().map(linear_to_srgb)
+    [
+        linear_to_srgb(linear.x),
+        linear_to_srgb(linear.y),
+        linear_to_srgb(linear.z),
+    ]
 }
