@@ -14,8 +14,9 @@ use glam::{DVec3, dvec2, dvec3};
 use omnisim::advanced::SceneBvh;
 use omnisim::advanced::trace;
 use omnisim::calibration;
-use omnisim::camera::{FisheyeSpec, LensCamera, LensSpec, PinholeSpec, RigSpec};
-use omnisim::{Camera, Pose, Scene};
+use omnisim::camera::spec::defaults;
+use omnisim::camera::{FisheyeSpec, LensCamera, LensSpec, PinholeSpec, RigSpec, StereoSpec};
+use omnisim::{Camera, Pose, Rig, Scene};
 
 /// The room: x in [-2, 2], y in [-3, 3], z in [0, 3] (a box seen from inside).
 const ROOM: (DVec3, DVec3) = (DVec3::new(-2.0, -3.0, 0.0), DVec3::new(2.0, 3.0, 3.0));
@@ -241,4 +242,122 @@ fn the_gpu_reads_the_ray_table_in_bands_and_refines_lens_edges_like_the_cpu() {
         .filter(|(r, g)| (0..3).all(|k| r[k].abs_diff(g[k]) <= 1))
         .count();
     assert!(close as f64 >= 0.999 * reference.pixels().len() as f64, "{close}");
+}
+
+/// A stereo pair with `lens` on both cameras (or Brown–Conrady `distortion`), 96×80.
+fn stereo(lens: Option<LensSpec>, distortion: Option<Vec<f64>>, baseline: f64) -> RigSpec {
+    RigSpec::Stereo(StereoSpec {
+        size: (96, 80),
+        hfov: defaults::HFOV,
+        focal: None,
+        baseline,
+        distortion,
+        fov: lens.as_ref().map(|_| 220.0),
+        lens,
+    })
+}
+
+#[test]
+fn each_eye_of_a_stereo_lens_pair_is_the_single_lens_camera_at_that_eyes_pose() {
+    let scene = room();
+    let bvh = SceneBvh::build(&scene);
+    let kb = LensSpec::KannalaBrandt {
+        k: [0.02, -0.004, 1e-4, -2e-5],
+    };
+    let distortion = vec![-0.28, 0.07, 1e-3, -2e-3, 0.01];
+    let pairs = [
+        (
+            stereo(Some(kb.clone()), None, 0.25),
+            common::lens_camera(&fisheye(kb, Some(220.0))),
+        ),
+        (
+            stereo(None, Some(distortion.clone()), 0.25),
+            common::lens_camera(&RigSpec::Pinhole(PinholeSpec {
+                size: (96, 80),
+                hfov: defaults::HFOV,
+                focal: None,
+                distortion: Some(distortion),
+            })),
+        ),
+    ];
+    for (spec, single) in pairs {
+        let name = single.model.name();
+        let Rig::Stereo(rig) = spec.build().expect("a valid pair") else {
+            panic!("{name}: a stereo rig")
+        };
+        assert!(!rig.has_disparity(), "{name}: a pair with a lens has no disparity");
+        let views = Rig::Stereo(rig.clone()).views();
+        let single = Camera::Lens(Box::new(single));
+        // Dyadic positions and no turn: the eye's place adds without rounding, so the frames are
+        // the same bit for bit; a turned pose rounds the eye's origin differently, by an ulp.
+        let poses = [
+            (Pose::from_degrees(dvec3(0.5, -0.25, 1.0), DVec3::ZERO), true),
+            (
+                Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(5.0, -10.0, 100.0)),
+                false,
+            ),
+        ];
+        for (pose, exact) in poses {
+            let mut frames = Vec::new();
+            for (view, y) in views.iter().zip([0.125, -0.125]) {
+                let eye = Pose::new(
+                    pose.position + pose.world_from_body_rotation() * dvec3(0.0, y, 0.0),
+                    pose.angles,
+                );
+                let frame = trace(&bvh, &view.camera, &pose);
+                let alone = trace(&bvh, &single, &eye);
+                let hits = frame.pixels().iter().filter(|p| p.is_hit()).count();
+                assert!(hits > 3000, "{name}{}: {hits} hits", view.suffix);
+                if exact {
+                    assert_eq!(frame.pixels(), alone.pixels(), "{name}{}", view.suffix);
+                } else {
+                    for (a, b) in frame.pixels().iter().zip(alone.pixels()) {
+                        assert_eq!(a.is_hit(), b.is_hit(), "{name}{}", view.suffix);
+                        let error = (f64::from(a.range) - f64::from(b.range)).abs() / f64::from(b.range.max(1.0));
+                        assert!(
+                            a.range == b.range || error < 1e-6,
+                            "{name}{}: {a:?} vs {b:?}",
+                            view.suffix
+                        );
+                    }
+                }
+                frames.push(frame);
+            }
+            // The eyes see the room from 0.25 m apart: their images differ.
+            assert_ne!(frames[0].pixels(), frames[1].pixels(), "{name}: parallax");
+        }
+    }
+}
+
+#[test]
+fn a_stereo_rig_refuses_lens_fields_that_do_not_apply() {
+    let refusal = |spec: RigSpec| spec.build().expect_err("refused").to_string();
+    let mut fov_without_lens = stereo(None, None, 0.12);
+    let RigSpec::Stereo(s) = &mut fov_without_lens else {
+        unreachable!()
+    };
+    s.fov = Some(120.0);
+    assert!(refusal(fov_without_lens).contains("stereo fov does not apply to pinholes"));
+    let both = stereo(Some(LensSpec::Equidistant), Some(vec![0.1, 0.0, 0.0, 0.0]), 0.12);
+    assert!(refusal(both).contains("stereo distortion does not apply with a lens"));
+    let mut hfov_with_lens = stereo(Some(LensSpec::Equidistant), None, 0.12);
+    let RigSpec::Stereo(s) = &mut hfov_with_lens else {
+        unreachable!()
+    };
+    s.hfov = 90.0;
+    assert!(refusal(hfov_with_lens).contains("stereo hfov does not apply to a lens"));
+    let too_wide = stereo(Some(LensSpec::Orthographic), None, 0.12);
+    assert!(refusal(too_wide).contains("between 0 and 180.00 degrees"));
+    assert!(refusal(stereo(Some(LensSpec::Equidistant), None, 0.0)).contains("baseline"));
+    // A pair without a lens keeps its disparity, and its rig file its old form.
+    let plain = stereo(None, None, 0.12);
+    let Rig::Stereo(rig) = plain.build().unwrap() else {
+        unreachable!()
+    };
+    assert!(rig.has_disparity());
+    let text = serde_json::to_string(&plain).unwrap();
+    assert!(
+        !text.contains("lens") && !text.contains("distortion") && !text.contains("\"fov\""),
+        "{text}"
+    );
 }

@@ -16,7 +16,9 @@ use omnisim::camera::{
 pub(crate) enum CameraKind {
     /// Perspective camera looking along body +x (OpenCV optical frame).
     Pinhole,
-    /// Two pinholes --baseline apart on body y (left at +y), with ground-truth disparity.
+    /// Two cameras --baseline apart on body y (left at +y): rectified pinholes with ground-truth
+    /// disparity, or both with --distortion or a --lens (then no disparity: each camera's
+    /// calibration and the extrinsics R, T describe the pair).
     Stereo,
     /// Full-sphere equirectangular panorama.
     Equirect,
@@ -176,13 +178,13 @@ pub(crate) struct CameraArgs {
     /// Omni: how mirror rays are found [default: reflect].
     #[arg(long, value_enum)]
     pub mirror_rays: Option<MirrorRaysArg>,
-    /// Fisheye: the lens model [default: equidistant]. Every model is traced exactly to the
+    /// Fisheye [default: equidistant] and stereo (both cameras): the lens model. Every model is traced exactly to the
     /// edge of its valid field of view (past 180° where it reaches), and writes the calibration
     /// files its tools read (OpenCV fisheye/omnidir, Kalibr, OCamCalib).
     #[arg(long, value_enum)]
     pub lens: Option<LensKind>,
-    /// Fisheye: field of view of the circle inscribed in the image, degrees: sets the focal
-    /// length [default: 180]; or give --focal.
+    /// Fisheye and stereo --lens: field of view of the circle inscribed in the image, degrees:
+    /// sets the focal length [default: 180]; or give --focal.
     #[arg(long, conflicts_with = "focal")]
     pub fov: Option<f64>,
     /// Fisheye kannala-brandt: k1,k2,k3,k4 [default: 0,0,0,0, the equidistant lens].
@@ -204,10 +206,11 @@ pub(crate) struct CameraArgs {
     /// Fisheye scaramuzza: OCamCalib's affine c,d,e [default: 1,0,0].
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
     pub affine: Option<Numbers>,
-    /// Pinhole: Brown–Conrady lens distortion; give its coefficients with --dist.
+    /// Pinhole and stereo (both cameras): Brown–Conrady lens distortion; give its coefficients
+    /// with --dist.
     #[arg(long, value_enum, requires = "dist")]
     pub distortion: Option<DistortionKind>,
-    /// Pinhole --distortion, or fisheye unified: distortion coefficients in OpenCV's order,
+    /// Pinhole and stereo --distortion, or the unified lens: distortion coefficients in OpenCV's order,
     /// k1,k2,p1,p2[,k3[,k4,k5,k6[,s1,s2,s3,s4]]] (unified: k1,k2,p1,p2).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
     pub dist: Option<Numbers>,
@@ -273,10 +276,12 @@ pub(crate) fn parse_size(text: &str) -> Result<(u32, u32), String> {
 fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
     use CameraKind::{Cylindrical, Fisheye, Omni, Pinhole, Stereo};
     let omni = args.camera == Omni;
-    let fisheye = args.camera == Fisheye;
+    let stereo = args.camera == Stereo;
+    // A camera with a lens model: the fisheye, or a stereo pair given --lens.
+    let fisheye = args.camera == Fisheye || (stereo && args.lens.is_some());
     let lens = |kinds: &[LensKind]| fisheye && kinds.contains(&args.lens.unwrap_or(LensKind::Equidistant));
     let mirror = args.mirror.unwrap_or(MirrorKind::Hyperbolic);
-    let pinhole = matches!(args.camera, Pinhole | Stereo);
+    let pinhole = args.camera == Pinhole || (stereo && !fisheye);
     let spherical = mirror == MirrorKind::Spherical;
     let options = [
         ("--hfov", args.hfov.is_some(), pinhole),
@@ -320,7 +325,7 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         ("--beta", args.beta.is_some(), lens(&[LensKind::Eucm])),
         ("--poly", args.poly.is_some(), lens(&[LensKind::Scaramuzza])),
         ("--affine", args.affine.is_some(), lens(&[LensKind::Scaramuzza])),
-        ("--distortion", args.distortion.is_some(), args.camera == Pinhole),
+        ("--distortion", args.distortion.is_some(), pinhole),
         (
             "--dist",
             args.dist.is_some(),
@@ -368,6 +373,9 @@ impl CameraArgs {
                 hfov,
                 focal: self.focal,
                 baseline: self.baseline.unwrap_or(defaults::BASELINE),
+                distortion: self.distortion_coefficients()?,
+                lens: self.lens.map(|_| self.lens()).transpose()?,
+                fov: self.fov,
             }),
             CameraKind::Equirect => RigSpec::Equirect {
                 size: self.size.unwrap_or(defaults::EQUIRECT_SIZE),
@@ -410,7 +418,8 @@ impl CameraArgs {
         Ok(Some(coefficients.clone()))
     }
 
-    /// The fisheye's `--lens` with its parameters, defaults for those not given.
+    /// The `--lens` (the fisheye's, or a stereo pair's) with its parameters, defaults for those
+    /// not given.
     fn lens(&self) -> anyhow::Result<LensSpec> {
         let exactly = |option: &str, values: &Option<Numbers>, count: usize, default: &[f64]| match values {
             None => Ok(default.to_vec()),

@@ -243,7 +243,9 @@ mod tests {
 
     use glam::{DVec2, dvec2, dvec3};
     use omnisim::calibration::kalibr_camchain_of;
-    use omnisim::camera::{BrownConrady, Catadioptric, KannalaBrandt, LensCamera, LensModel, Mount, Pinhole};
+    use omnisim::camera::{
+        BrownConrady, Catadioptric, KannalaBrandt, LensCamera, LensModel, Mount, Pinhole, StereoRig,
+    };
 
     /// The numbers between the brackets after `key` (its first occurrence at or after `from`).
     fn numbers_after(text: &str, key: &str) -> Vec<f64> {
@@ -346,7 +348,19 @@ mod tests {
                 model,
             }))
         };
+        // Both cameras of a fisheye stereo pair: their sensor.yaml files carry the lens and place
+        // each eye.
+        let [left_eye, right_eye] = StereoRig {
+            camera: pinhole.clone(),
+            lens: Some(LensModel::KannalaBrandt(
+                KannalaBrandt::new([0.01, -0.002, 1e-4, 0.0]).unwrap(),
+            )),
+            baseline: 0.2,
+        }
+        .cameras();
         let cameras = [
+            left_eye,
+            right_eye,
             Camera::Catadioptric(Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))),
             Camera::Catadioptric(mirror_down),
             Camera::Pinhole(Pinhole {

@@ -69,28 +69,59 @@ pub fn opencv_pinhole(camera: &Pinhole) -> String {
     opencv_camera(PERSPECTIVE_INTRO, camera, &[0.0; 5], None)
 }
 
-/// `OpenCV` stereo YAML (stereoCalibrate names): M1, D1, M2, D2, R, T with
+/// `OpenCV` stereo YAML (stereoCalibrate names): M1, D1, M2, D2 (and xi1, xi2 for
+/// `cv::omnidir`) where `OpenCV` has the cameras' model, and R, T with
 /// `X_right` = `R·X_left` + T, metres.
 pub fn opencv_stereo(rig: &StereoRig) -> String {
     let c = &rig.camera;
     let mut out = String::from(HEADER);
-    out += "# omnisim stereo rig, rectified by construction. OpenCV conventions (pixel centres at integer\n\
-            # coordinates; optical frames x right, y down, z forward). X_right = R * X_left + T, metres.\n\
-            # body_from_camera (rotation, optical frame to body frame x forward, y left, z up) and\n\
+    let cameras = match &rig.lens {
+        None => {
+            out += "# omnisim stereo rig, rectified by construction. OpenCV conventions (pixel centres at integer\n\
+                    # coordinates; optical frames x right, y down, z forward). X_right = R * X_left + T, metres.\n";
+            Some((vec![0.0; 5], None))
+        }
+        Some(model) => {
+            let opencv = opencv_lens(model);
+            let _ = writeln!(
+                out,
+                "# omnisim stereo pair, both cameras with the {} lens: the right camera is the left one moved\n\
+                 # by the baseline along its optical x, so R = I, but the images are not rectified (each has the\n\
+                 # lens; there is no disparity file). {}\n\
+                 # OpenCV conventions (pixel centres at integer coordinates; optical frames x right, y down,\n\
+                 # z forward). X_right = R * X_left + T, metres.",
+                model.name(),
+                match &opencv {
+                    Some(form) => form.stereo_note,
+                    None =>
+                        "OpenCV has no model for this lens: M1, D1, M2, D2 are left out; the\n\
+                             # cameras are in calibration-kalibr.yaml where Kalibr has the model, render.json and the\n\
+                             # ray maps (raymap-*-left/right.exr).",
+                }
+            );
+            opencv.map(|form| (form.coefficients, form.xi))
+        }
+    };
+    out += "# body_from_camera (rotation, optical frame to body frame x forward, y left, z up) and\n\
             # camera_position_in_body (metres) place the left camera on the robot.\n";
     let _ = writeln!(
         out,
         "image_width: {}\nimage_height: {}\nbaseline: {:?}",
         c.width, c.height, rig.baseline
     );
-    let k = k_matrix(c.fx, c.fy, c.cx, c.cy);
-    out += &opencv_matrix("M1", 3, 3, &k);
-    out += &opencv_matrix("D1", 1, 5, &[0.0; 5]);
-    out += &opencv_matrix("M2", 3, 3, &k);
-    out += &opencv_matrix("D2", 1, 5, &[0.0; 5]);
+    if let Some((distortion, xi)) = cameras {
+        let k = k_matrix(c.fx, c.fy, c.cx, c.cy);
+        for index in ["1", "2"] {
+            out += &opencv_matrix(&format!("M{index}"), 3, 3, &k);
+            out += &opencv_matrix(&format!("D{index}"), 1, distortion.len(), &distortion);
+            if let Some(xi) = xi {
+                let _ = writeln!(out, "xi{index}: {xi:?}");
+            }
+        }
+    }
     out += &opencv_matrix("R", 3, 3, &rows(DMat3::IDENTITY));
     out += &opencv_matrix("T", 3, 1, &[-rig.baseline, 0.0, 0.0]);
-    out += &opencv_body_from_camera(rig.cameras()[0].position);
+    out += &opencv_body_from_camera(DVec3::new(0.0, rig.baseline / 2.0, 0.0));
     out
 }
 
@@ -279,14 +310,22 @@ pub fn kalibr_pinhole(camera: &Pinhole) -> String {
 }
 
 /// Kalibr camchain of a stereo rig: left and right, each with `T_cam_imu`, and the right's
-/// `T_cn_cnm1`.
-pub fn kalibr_stereo(rig: &StereoRig) -> String {
-    let cameras: Vec<KalibrCamera> = rig
+/// `T_cn_cnm1`; `None` where Kalibr has no model for the cameras' lens.
+pub fn kalibr_stereo(rig: &StereoRig) -> Option<String> {
+    let cameras = rig
         .cameras()
-        .into_iter()
-        .filter_map(|camera| KalibrCamera::of(&Camera::Pinhole(camera)))
-        .collect();
-    kalibr_camchain("", &cameras, Some(rig.baseline))
+        .iter()
+        .map(KalibrCamera::of)
+        .collect::<Option<Vec<KalibrCamera>>>()?;
+    let note = match &rig.lens {
+        None => String::new(),
+        Some(model) => format!(
+            "# Kalibr model {} for both cameras (omnisim lens {}); optical frames x right, y down, z forward.\n",
+            cameras[0].model_pair(),
+            model.name()
+        ),
+    };
+    Some(kalibr_camchain(&note, &cameras, Some(rig.baseline)))
 }
 
 /// The Kalibr camchain of one camera, where Kalibr has its model.
@@ -372,43 +411,100 @@ const OMNIDIR_LENS_INTRO: &str = "# omnisim unified (Mei) lens for cv2.omnidir: 
 # xi and distortion_coefficients (k1 k2 p1 p2) gives its pixels. xi is a real number: Python\n\
 # fs.getNode('xi').real(). ";
 
-/// The calibration files of a lens camera, (file name, contents): `OpenCV` (plain distortion,
-/// `cv::fisheye`, `cv::omnidir`), Kalibr where it has the model, `OCamCalib` for Scaramuzza's.
-pub fn lens_files(camera: &LensCamera) -> Vec<(&'static str, String)> {
-    let mut files = Vec::new();
-    let intrinsics = &camera.intrinsics;
-    match &camera.model {
-        LensModel::Perspective(distortion) => files.push((
-            "calibration-opencv.yaml",
-            opencv_camera(PERSPECTIVE_INTRO, intrinsics, distortion.coefficients(), None),
-        )),
-        LensModel::KannalaBrandt(kb) => files.push((
-            "calibration-opencv-fisheye.yaml",
-            opencv_camera(FISHEYE_INTRO, intrinsics, &kb.coefficients(), None),
-        )),
-        LensModel::Equidistant => files.push((
-            "calibration-opencv-fisheye.yaml",
-            opencv_camera(FISHEYE_INTRO, intrinsics, &[0.0; 4], None),
-        )),
-        LensModel::Unified { xi, distortion } => {
-            if let Some(coefficients) = radtan(distortion.coefficients()) {
-                files.push((
-                    "calibration-opencv-omnidir.yaml",
-                    opencv_camera(OMNIDIR_LENS_INTRO, intrinsics, &coefficients, Some(*xi)),
-                ));
-            }
-        }
-        LensModel::Scaramuzza(model) => {
-            files.push(("calib_results.txt", ocamcalib::calib_results(camera, model)));
-        }
-        LensModel::Equisolid
+/// How `OpenCV` describes a lens: plain `projectPoints`, `cv::fisheye` or `cv::omnidir`.
+struct OpenCvLens {
+    /// The single camera's file name.
+    file: &'static str,
+    /// The single camera's file's opening comment.
+    intro: &'static str,
+    /// What a stereo file's M1, D1 (xi1), M2, D2 (xi2) are for.
+    stereo_note: &'static str,
+    /// `distortion_coefficients` (D).
+    coefficients: Vec<f64>,
+    /// `cv::omnidir`'s ξ.
+    xi: Option<f64>,
+}
+
+/// `OpenCV`'s form of `model`; `None` where `OpenCV` has no model for it.
+fn opencv_lens(model: &LensModel) -> Option<OpenCvLens> {
+    let fisheye = |coefficients: Vec<f64>| OpenCvLens {
+        file: "calibration-opencv-fisheye.yaml",
+        intro: FISHEYE_INTRO,
+        stereo_note: "M1, D1, M2, D2 are\n# cv2.fisheye's K and D (k1 k2 k3 k4), as cv2.fisheye.stereoCalibrate names them.",
+        coefficients,
+        xi: None,
+    };
+    match model {
+        LensModel::Perspective(distortion) => Some(OpenCvLens {
+            file: "calibration-opencv.yaml",
+            intro: PERSPECTIVE_INTRO,
+            stereo_note: "M1, D1, M2, D2 are\n# cv2.projectPoints's camera matrix and distortion (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4]]]).",
+            coefficients: distortion.coefficients().to_vec(),
+            xi: None,
+        }),
+        LensModel::KannalaBrandt(kb) => Some(fisheye(kb.coefficients().to_vec())),
+        LensModel::Equidistant => Some(fisheye(vec![0.0; 4])),
+        LensModel::Unified { xi, distortion } => Some(OpenCvLens {
+            file: "calibration-opencv-omnidir.yaml",
+            intro: OMNIDIR_LENS_INTRO,
+            stereo_note: "M1, D1, xi1, M2, D2, xi2\n# are cv2.omnidir's K, D (k1 k2 p1 p2) and xi (reals: fs.getNode('xi1').real()).",
+            coefficients: radtan(distortion.coefficients())?,
+            xi: Some(*xi),
+        }),
+        LensModel::Scaramuzza(_)
+        | LensModel::Equisolid
         | LensModel::Stereographic
         | LensModel::Orthographic
         | LensModel::DoubleSphere { .. }
-        | LensModel::ExtendedUnified { .. } => {}
+        | LensModel::ExtendedUnified { .. } => None,
     }
+}
+
+/// The files of one lens camera that describe it alone, (file name, contents): `OpenCV`
+/// (plain distortion, `cv::fisheye`, `cv::omnidir`) where it has the model, `OCamCalib` for
+/// Scaramuzza's.
+fn lens_camera_files(camera: &LensCamera) -> Vec<(&'static str, String)> {
+    let mut files = Vec::new();
+    if let Some(form) = opencv_lens(&camera.model) {
+        files.push((
+            form.file,
+            opencv_camera(form.intro, &camera.intrinsics, &form.coefficients, form.xi),
+        ));
+    }
+    if let LensModel::Scaramuzza(model) = &camera.model {
+        files.push(("calib_results.txt", ocamcalib::calib_results(camera, model)));
+    }
+    files
+}
+
+/// The calibration files of a lens camera, (file name, contents): `OpenCV` (plain distortion,
+/// `cv::fisheye`, `cv::omnidir`), Kalibr where it has the model, `OCamCalib` for Scaramuzza's.
+pub fn lens_files(camera: &LensCamera) -> Vec<(String, String)> {
+    let mut files: Vec<(String, String)> = lens_camera_files(camera)
+        .into_iter()
+        .map(|(name, text)| (name.to_owned(), text))
+        .collect();
     if let Some(kalibr) = kalibr_lens_camera(camera) {
-        files.push(("calibration-kalibr.yaml", kalibr));
+        files.push(("calibration-kalibr.yaml".to_owned(), kalibr));
+    }
+    files
+}
+
+/// The calibration files of a stereo rig, (file name, contents): `OpenCV`'s stereo file (R, T
+/// and, where `OpenCV` has the model, both cameras) and the Kalibr camchain (where Kalibr has
+/// the model); with a lens, also each camera's own files, named `…-left` and `…-right`.
+pub fn stereo_files(rig: &StereoRig) -> Vec<(String, String)> {
+    let mut files = vec![("calibration-opencv-stereo.yaml".to_owned(), opencv_stereo(rig))];
+    for (camera, side) in rig.cameras().iter().zip(["left", "right"]) {
+        if let Camera::Lens(lens) = camera {
+            for (name, text) in lens_camera_files(lens) {
+                let (stem, extension) = name.rsplit_once('.').unwrap_or((name, ""));
+                files.push((format!("{stem}-{side}.{extension}"), text));
+            }
+        }
+    }
+    if let Some(kalibr) = kalibr_stereo(rig) {
+        files.push(("calibration-kalibr.yaml".to_owned(), kalibr));
     }
     files
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::camera::{Camera, Catadioptric, MirrorShape, Pinhole, RigSpec};
+use crate::camera::{Camera, Catadioptric, MirrorShape, NO_DISPARITY, Pinhole, RigSpec};
 use crate::output;
 use crate::pose::Pose;
 use crate::renderer::{PreparedScene, Renderer};
@@ -107,16 +107,20 @@ impl RigMetadata {
                 RigMetadata::Stereo(StereoMetadata {
                     model: "stereo",
                     baseline: stereo.baseline,
-                    left: CameraMetadata::of(&Camera::Pinhole(left)),
-                    right: CameraMetadata::of(&Camera::Pinhole(right)),
-                    disparity: "<stem>-disparity.exr: u_left - u_right = fx*baseline/z for the left image",
+                    left: CameraMetadata::of(&left),
+                    right: CameraMetadata::of(&right),
+                    disparity: if stereo.has_disparity() {
+                        "<stem>-disparity.exr: u_left - u_right = fx*baseline/z for the left image"
+                    } else {
+                        NO_DISPARITY
+                    },
                 })
             }
         }
     }
 }
 
-/// A rectified stereo pair.
+/// A stereo pair.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StereoMetadata {
     /// Always "stereo".
@@ -127,7 +131,7 @@ pub struct StereoMetadata {
     pub left: CameraMetadata,
     /// The right camera.
     pub right: CameraMetadata,
-    /// What the disparity file holds.
+    /// What the disparity file holds, or why a pair with a lens has none.
     pub disparity: &'static str,
 }
 

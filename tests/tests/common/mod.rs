@@ -49,12 +49,7 @@ pub(crate) fn box_faces(centre: DVec3, half: DVec3, world_from_box: DMat3) -> Ve
 /// One camera of each model and option, at test-friendly sizes.
 pub(crate) fn cameras() -> Vec<Camera> {
     let pinhole = Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians());
-    let stereo_right = StereoRig {
-        camera: pinhole.clone(),
-        baseline: 0.12,
-    }
-    .cameras()[1]
-        .clone();
+    let [_, stereo_right] = StereoRig::rectified(pinhole.clone(), 0.12).pinholes();
     let mut misaligned = paper_omni();
     misaligned.misalignment = Misalignment {
         offset: dvec3(0.002, -0.001, 0.003),

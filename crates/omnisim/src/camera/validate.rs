@@ -167,7 +167,7 @@ impl StereoRig {
     /// Checks the baseline and both cameras.
     pub fn validate(&self) -> Result<(), CameraError> {
         within("stereo baseline", self.baseline, BASELINE, "m")?;
-        self.cameras().iter().try_for_each(Pinhole::validate)
+        self.cameras().iter().try_for_each(Camera::validate)
     }
 }
 
@@ -316,10 +316,7 @@ mod tests {
             error.contains("camera distance (outside the sphere) = 1e300 m"),
             "{error}"
         );
-        let rig = StereoRig {
-            camera: Pinhole::with_horizontal_fov(64, 48, 1.0),
-            baseline: 1e300,
-        };
+        let rig = StereoRig::rectified(Pinhole::with_horizontal_fov(64, 48, 1.0), 1e300);
         assert!(rig.validate().unwrap_err().to_string().contains("baseline = 1e300 m"));
         let mut pinhole = Pinhole::with_horizontal_fov(64, 48, 1.0);
         pinhole.fx = 1e-300;

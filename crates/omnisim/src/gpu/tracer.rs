@@ -35,9 +35,20 @@ pub struct GpuRenderer {
     refine: Pipeline,
     max_band_rows: Option<u32>,
     /// The ray table of the last lens camera traced (`camera_table.wgsl`), uploaded once per
-    /// camera; other cameras bind `no_rays`.
+    /// camera and kept under [`table_key`]; other cameras bind `no_rays`.
     rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
     no_rays: Arc<wgpu::Buffer>,
+}
+
+/// What a camera's ray table depends on: the camera without its place. The table holds
+/// directions only (origins come from `lens_origin`), so the two cameras of a stereo pair
+/// share one upload.
+fn table_key(camera: &Camera) -> Camera {
+    let mut key = camera.clone();
+    if let Camera::Lens(lens) = &mut key {
+        lens.intrinsics.position = DVec3::ZERO;
+    }
+    key
 }
 
 /// A compute pipeline with the explicit layout of its stage's bindings (`bindings.rs`).
@@ -161,9 +172,10 @@ impl GpuRenderer {
         if !matches!(camera, Camera::Lens(_)) {
             return Ok(Arc::clone(&self.no_rays));
         }
+        let key = table_key(camera);
         let mut cache = self.rays.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if let Some((cached, buffer)) = cache.as_ref()
-            && cached == camera
+            && *cached == key
         {
             return Ok(Arc::clone(buffer));
         }
@@ -194,7 +206,7 @@ impl GpuRenderer {
                     usage: wgpu::BufferUsages::STORAGE,
                 }),
         );
-        *cache = Some((camera.clone(), Arc::clone(&buffer)));
+        *cache = Some((key, Arc::clone(&buffer)));
         Ok(buffer)
     }
 
