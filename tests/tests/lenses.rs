@@ -15,7 +15,10 @@ use omnisim::advanced::SceneBvh;
 use omnisim::advanced::trace;
 use omnisim::calibration;
 use omnisim::camera::spec::defaults;
-use omnisim::camera::{FisheyeSpec, LensCamera, LensSpec, PinholeSpec, RigSpec, StereoSpec};
+use omnisim::camera::{
+    BrownConrady, Catadioptric, FisheyeSpec, LensCamera, LensModel, LensSpec, MirrorSpec, Misalignment, Mount,
+    OmniSpec, PinholeSpec, RigSpec, StereoSpec,
+};
 use omnisim::{Camera, Pose, Rig, Scene};
 
 /// The room: x in [-2, 2], y in [-3, 3], z in [0, 3] (a box seen from inside).
@@ -360,4 +363,165 @@ fn a_stereo_rig_refuses_lens_fields_that_do_not_apply() {
         !text.contains("lens") && !text.contains("distortion") && !text.contains("\"fov\""),
         "{text}"
     );
+}
+
+/// Mirrors seen through `lens`: the paper's hyperbolic one (aligned, misaligned, mounted down
+/// with a hidden centre) and a sphere.
+fn mirrors_with(lens: Option<&LensModel>) -> Vec<Catadioptric> {
+    let paper = Catadioptric::hyperbolic(160, 160, 0.04, 0.16, Some(20f64.to_radians()));
+    let mut misaligned = paper.clone();
+    misaligned.misalignment = Misalignment {
+        offset: dvec3(0.002, -0.001, 0.003),
+        tilt: dvec3(0.01, -0.02, 0.3),
+    };
+    let mut down = paper.clone();
+    down.mount = Mount::Down;
+    down.hidden_centre_px = 12.0;
+    let mut mirrors = vec![paper, misaligned, down, Catadioptric::spherical(120, 120, 0.05, 0.25)];
+    for mirror in &mut mirrors {
+        mirror.lens = lens.cloned().map(Box::new);
+    }
+    mirrors
+}
+
+fn pixels_of(camera: &Catadioptric) -> impl Iterator<Item = glam::DVec2> {
+    let (width, height) = (camera.width, camera.height);
+    (0..height).flat_map(move |v| (0..width).map(move |u| dvec2(f64::from(u), f64::from(v))))
+}
+
+#[test]
+fn a_mirror_seen_through_a_lens_without_distortion_is_the_ideal_pinholes_bit_for_bit() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(5.0, -10.0, 100.0));
+    for zeros in [4, 5, 8, 12] {
+        let lens = LensModel::Perspective(BrownConrady::new(&vec![0.0; zeros]).unwrap());
+        for (ideal, lensed) in mirrors_with(None).into_iter().zip(mirrors_with(Some(&lens))) {
+            lensed.validate().unwrap();
+            for pixel in pixels_of(&ideal) {
+                assert_eq!(ideal.ray(pixel), lensed.ray(pixel), "{pixel}");
+            }
+            let (ideal, lensed) = (Camera::Catadioptric(ideal), Camera::Catadioptric(lensed));
+            assert_eq!(
+                trace(&bvh, &ideal, &pose).pixels(),
+                trace(&bvh, &lensed, &pose).pixels()
+            );
+        }
+    }
+}
+
+/// `OpenCV`'s `projectPoints` distortion (k1 k2 p1 p2 k3), written out.
+fn opencv_distort(k: [f64; 5], m: glam::DVec2) -> glam::DVec2 {
+    let [k1, k2, p1, p2, k3] = k;
+    let (x, y) = (m.x, m.y);
+    let r2 = x * x + y * y;
+    let radial = 1.0 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
+    dvec2(
+        x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+        y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
+    )
+}
+
+#[test]
+fn each_pixel_of_a_mirror_seen_through_a_distorted_lens_reflects_its_undistorted_pinhole_ray() {
+    let k = [-0.12, 0.03, 1e-3, -2e-3, 0.004];
+    let lens = LensModel::Perspective(BrownConrady::new(&k).unwrap());
+    for (ideal, lensed) in mirrors_with(None).into_iter().zip(mirrors_with(Some(&lens))) {
+        lensed.validate().unwrap();
+        let (focal, centre) = (lensed.focal, dvec2(lensed.cx, lensed.cy));
+        let (mut checked, mut worst) = (0usize, 0f64);
+        for pixel in pixels_of(&lensed) {
+            let Some(ray) = lensed.ray(pixel) else { continue };
+            // The lens's inverse: the undistorted point m, which OpenCV's formula distorts back to
+            // the pixel (undistortPoints' definition).
+            let (towards, _) = lensed.lens_ray(pixel).expect("a pixel with a ray has a lens ray");
+            let m = towards.truncate() / towards.z;
+            let distorted = opencv_distort(k, m) * focal + centre;
+            assert!(
+                (distorted - pixel).length() < 1e-9,
+                "{pixel}: m distorts to {distorted}"
+            );
+            // The ideal pinhole's ray through m, off the mirror: the same ray.
+            let expected = ideal
+                .ray(centre + m * focal)
+                .expect("the ideal pinhole sees the mirror there");
+            let error = (ray.origin - expected.origin)
+                .length()
+                .max((ray.direction - expected.direction).length())
+                .max((ray.t_min - expected.t_min).abs());
+            worst = worst.max(error);
+            assert!(error <= 1e-9, "{pixel}: {ray:?} vs {expected:?}");
+            // Aligned central mirrors: the closed-form projection (unified model, then the lens)
+            // puts the ray's points back on the pixel.
+            if lensed.is_central() {
+                let back = lensed.project(ray.direction * 3.0).expect("inside");
+                assert!((back - pixel).length() < 1e-6, "{pixel}: projects to {back}");
+            }
+            checked += 1;
+        }
+        let pixels = (lensed.width * lensed.height) as usize;
+        assert!(
+            checked * 3 > pixels,
+            "{:?}: {checked} of {pixels} pixels",
+            lensed.mirror
+        );
+        eprintln!(
+            "{:?} mount {:?}: {checked} pixels, worst {worst:.1e}",
+            lensed.mirror, lensed.mount
+        );
+    }
+}
+
+#[test]
+fn a_mirror_lens_is_refused_where_it_does_not_apply() {
+    let omni = |mirror: MirrorSpec, distortion: Option<Vec<f64>>, lens: Option<LensSpec>| {
+        RigSpec::Omni(OmniSpec {
+            mirror,
+            max_elevation: Some(20.0),
+            distortion,
+            lens,
+            ..OmniSpec::default()
+        })
+    };
+    let refusal = |spec: RigSpec| spec.build().expect_err("refused").to_string();
+    let parabolic = MirrorSpec::Parabolic {
+        a: 0.04,
+        b: None,
+        h: 0.02,
+    };
+    let message = refusal(omni(parabolic, Some(vec![0.1, 0.0, 0.0, 0.0]), None));
+    assert!(message.contains("orthographic"), "{message}");
+    let scaramuzza = LensSpec::Scaramuzza {
+        poly: vec![-40.0, 0.0, 8e-3],
+        affine: (1.0, 0.0, 0.0),
+    };
+    let message = refusal(omni(MirrorSpec::default(), None, Some(scaramuzza)));
+    assert!(message.contains("scaramuzza lens sets its own scale"), "{message}");
+    let message = refusal(omni(
+        MirrorSpec::default(),
+        Some(vec![0.1, 0.0, 0.0, 0.0]),
+        Some(LensSpec::Equidistant),
+    ));
+    assert!(
+        message.contains("omni distortion does not apply with a lens"),
+        "{message}"
+    );
+    let message = refusal(omni(MirrorSpec::default(), Some(vec![0.1, 0.0, 0.0]), None));
+    assert!(message.contains("distortion takes 4"), "{message}");
+    // Any central lens but Scaramuzza's: a Kannala–Brandt lens on the paper's mirror renders,
+    // and files without one keep their form.
+    let kb = LensSpec::KannalaBrandt {
+        k: [0.01, -0.002, 0.0, 0.0],
+    };
+    let Rig::Single(Camera::Catadioptric(mirror)) = omni(MirrorSpec::default(), None, Some(kb)).build().unwrap() else {
+        unreachable!()
+    };
+    assert!(matches!(mirror.lens.as_deref(), Some(LensModel::KannalaBrandt(_))));
+    assert_eq!(
+        mirror.unified_distortion(),
+        None,
+        "no unified model expresses a KB lens"
+    );
+    let text = serde_json::to_string(&RigSpec::Omni(OmniSpec::default())).unwrap();
+    assert!(!text.contains("lens") && !text.contains("distortion"), "{text}");
 }

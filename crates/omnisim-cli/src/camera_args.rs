@@ -24,7 +24,8 @@ pub(crate) enum CameraKind {
     Equirect,
     /// 360° cylindrical panorama (--vfov).
     Cylindrical,
-    /// Catadioptric omnidirectional camera: a camera looking at a --mirror.
+    /// Catadioptric omnidirectional camera: a camera looking at a --mirror (the ideal pinhole, or
+    /// with --distortion or a --lens).
     Omni,
     /// Fisheye or other central lens (--lens), looking along body +x; pixels beyond the lens's
     /// field of view are background, and render says how many.
@@ -178,7 +179,8 @@ pub(crate) struct CameraArgs {
     /// Omni: how mirror rays are found [default: reflect].
     #[arg(long, value_enum)]
     pub mirror_rays: Option<MirrorRaysArg>,
-    /// Fisheye [default: equidistant] and stereo (both cameras): the lens model. Every model is traced exactly to the
+    /// Fisheye [default: equidistant], stereo (both cameras) and omni (the camera that looks at a
+    /// hyperbolic or spherical mirror; not scaramuzza): the lens model. Every model is traced exactly to the
     /// edge of its valid field of view (past 180° where it reaches), and writes the calibration
     /// files its tools read (OpenCV fisheye/omnidir, Kalibr, OCamCalib).
     #[arg(long, value_enum)]
@@ -206,8 +208,8 @@ pub(crate) struct CameraArgs {
     /// Fisheye scaramuzza: OCamCalib's affine c,d,e [default: 1,0,0].
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
     pub affine: Option<Numbers>,
-    /// Pinhole and stereo (both cameras): Brown–Conrady lens distortion; give its coefficients
-    /// with --dist.
+    /// Pinhole, stereo (both cameras) and omni (the camera that looks at a hyperbolic or
+    /// spherical mirror): Brown–Conrady lens distortion; give its coefficients with --dist.
     #[arg(long, value_enum, requires = "dist")]
     pub distortion: Option<DistortionKind>,
     /// Pinhole and stereo --distortion, or the unified lens: distortion coefficients in OpenCV's order,
@@ -277,8 +279,8 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
     use CameraKind::{Cylindrical, Fisheye, Omni, Pinhole, Stereo};
     let omni = args.camera == Omni;
     let stereo = args.camera == Stereo;
-    // A camera with a lens model: the fisheye, or a stereo pair given --lens.
-    let fisheye = args.camera == Fisheye || (stereo && args.lens.is_some());
+    // A camera with a lens model: the fisheye, or a stereo pair or a mirror's camera given --lens.
+    let fisheye = args.camera == Fisheye || ((stereo || omni) && args.lens.is_some());
     let lens = |kinds: &[LensKind]| fisheye && kinds.contains(&args.lens.unwrap_or(LensKind::Equidistant));
     let mirror = args.mirror.unwrap_or(MirrorKind::Hyperbolic);
     let pinhole = args.camera == Pinhole || (stereo && !fisheye);
@@ -310,7 +312,11 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         ("--misalign-tilt", args.misalign_tilt.is_some(), omni),
         ("--mirror-rays", args.mirror_rays.is_some(), omni),
         ("--lens", args.lens.is_some(), fisheye),
-        ("--fov", args.fov.is_some(), fisheye && !lens(&[LensKind::Scaramuzza])),
+        (
+            "--fov",
+            args.fov.is_some(),
+            fisheye && !omni && !lens(&[LensKind::Scaramuzza]),
+        ),
         ("--k", args.k.is_some(), lens(&[LensKind::KannalaBrandt])),
         (
             "--xi",
@@ -325,7 +331,7 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         ("--beta", args.beta.is_some(), lens(&[LensKind::Eucm])),
         ("--poly", args.poly.is_some(), lens(&[LensKind::Scaramuzza])),
         ("--affine", args.affine.is_some(), lens(&[LensKind::Scaramuzza])),
-        ("--distortion", args.distortion.is_some(), pinhole),
+        ("--distortion", args.distortion.is_some(), pinhole || (omni && !fisheye)),
         (
             "--dist",
             args.dist.is_some(),
@@ -384,7 +390,7 @@ impl CameraArgs {
                 size: self.size.unwrap_or(defaults::CYLINDRICAL_SIZE),
                 vfov: self.vfov.unwrap_or(defaults::VFOV),
             },
-            CameraKind::Omni => RigSpec::Omni(self.omni()),
+            CameraKind::Omni => RigSpec::Omni(self.omni()?),
             CameraKind::Fisheye => RigSpec::Fisheye(FisheyeSpec {
                 size: self.size.unwrap_or(defaults::FISHEYE_SIZE),
                 lens: self.lens()?,
@@ -495,7 +501,7 @@ impl CameraArgs {
         Ok(())
     }
 
-    fn omni(&self) -> OmniSpec {
+    fn omni(&self) -> anyhow::Result<OmniSpec> {
         let mirror = match self.mirror.unwrap_or(MirrorKind::Hyperbolic) {
             MirrorKind::Hyperbolic => MirrorSpec::Hyperbolic {
                 a: self.mirror_a.unwrap_or(defaults::HYPERBOLIC_A),
@@ -512,7 +518,7 @@ impl CameraArgs {
             },
         };
         let paper = OmniSpec::default();
-        OmniSpec {
+        Ok(OmniSpec {
             size: self.size.unwrap_or(paper.size),
             mirror,
             max_elevation: self.max_elevation.map_or(paper.max_elevation, |e| e.0),
@@ -529,6 +535,8 @@ impl CameraArgs {
                 Some(MirrorRaysArg::Shortcut) => MirrorRaysSpec::Shortcut,
                 Some(MirrorRaysArg::Reflect) | None => MirrorRaysSpec::Reflect,
             },
-        }
+            distortion: self.distortion_coefficients()?,
+            lens: self.lens.map(|_| self.lens()).transpose()?,
+        })
     }
 }

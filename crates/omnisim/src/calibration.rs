@@ -196,6 +196,7 @@ impl KalibrCamera {
             }
             Camera::Catadioptric(c) => {
                 let model = c.unified_model()?;
+                let [k1, k2, p1, p2] = c.unified_distortion()?;
                 // The model frame turned half a turn about x: a proper rotation; with the rows
                 // flipped, both focal lengths are positive.
                 let camera_from_mirror = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
@@ -203,8 +204,13 @@ impl KalibrCamera {
                 Some(Self {
                     camera_model: "omni",
                     intrinsics: vec![model.xi, model.gamma_x, model.gamma_y, model.cx, last_row - model.cy],
-                    distortion_model: "none",
-                    distortion_coeffs: Vec::new(),
+                    // The rows flipped turn the tangential p1 over (y → −y).
+                    distortion_model: if c.lens.is_some() { "radtan" } else { "none" },
+                    distortion_coeffs: if c.lens.is_some() {
+                        vec![k1, k2, -p1, p2]
+                    } else {
+                        Vec::new()
+                    },
                     resolution: (c.width, c.height),
                     // The viewpoint F' is the body origin of a central camera.
                     camera_from_body: (camera_from_mirror * c.body_from_mirror().transpose(), DVec3::ZERO),
@@ -357,7 +363,28 @@ const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the
 # R_model_from_M = Rx(pi) (rvec = (pi, 0, 0)) with fy negated, or keep K and flip rows: v' = 2*cy - v.\n\
 # body_from_mirror gives M in the robot body frame (x forward, y left, z up): a point at body azimuth\n\
 # phi appears at image angle atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down.\n\
-# Pixel centres at integer coordinates. Ideal mirror and lens: no distortion.\n";
+# Pixel centres at integer coordinates. ";
+
+/// What a mirror's calibration file says about the lens of the camera that looks at it.
+fn mirror_lens_note(camera: &Catadioptric) -> String {
+    match &camera.lens {
+        None => "Ideal mirror and lens: no distortion.\n".to_owned(),
+        Some(lens) => {
+            let parameters: Vec<String> = lens
+                .parameters()
+                .into_iter()
+                .map(|(name, values)| format!("{name} {values:?}"))
+                .collect();
+            format!(
+                "The camera that looks at the mirror has a lens,\n\
+                 # {} ({}): the unified model's radtan distortion below expresses it\n\
+                 # exactly (the lens's k1 s^2, k2 s^4, p1 s, p2 s for s = gamma/focal).\n",
+                lens.name(),
+                parameters.join("; ")
+            )
+        }
+    }
+}
 
 /// `OpenCV` omnidir YAML (`cv::omnidir)`: `camera_matrix`, distortion (k1 k2 p1 p2 = 0), xi as a
 /// real, as `OpenCV`'s own `omni_calibration` sample writes it.
@@ -365,8 +392,10 @@ const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the
 pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
     let model = camera.unified_model()?;
     let mut out = String::from(HEADER);
+    let distortion = camera.unified_distortion()?;
     out += "# omnisim catadioptric camera as Mei's unified model (exact for this aligned central mirror).\n";
     out += OMNI_FRAME_NOTE;
+    out += &mirror_lens_note(camera);
     let _ = writeln!(out, "image_width: {}\nimage_height: {}", camera.width, camera.height);
     out += &opencv_matrix(
         "camera_matrix",
@@ -374,7 +403,7 @@ pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
         3,
         &k_matrix(model.gamma_x, model.gamma_y, model.cx, model.cy),
     );
-    out += &opencv_matrix("distortion_coefficients", 1, 4, &[0.0; 4]);
+    out += &opencv_matrix("distortion_coefficients", 1, 4, &distortion);
     out += "# xi is a real number (as OpenCV's omni_calibration sample writes it): Python\n\
             # fs.getNode('xi').real(), C++ double xi = fs[\"xi\"]; cv::omnidir takes it as a double.\n";
     let _ = writeln!(out, "xi: {:?}", model.xi);
@@ -396,8 +425,12 @@ pub fn kalibr_omni(camera: &Catadioptric) -> Option<String> {
          # no proper rotation with positive focal lengths reproduces; flipped, it is Kalibr's omni model\n\
          # with fu, fv > 0. Frames: the camera frame is the mirror frame M (origin at the viewpoint F',\n\
          # +z from the camera towards the mirror) turned half a turn about x: X_cam = (x_M, -y_M, -z_M).\n\
-         # Ideal mirror and lens: no distortion.\n",
-        camera.height - 1
+         # {}",
+        camera.height - 1,
+        match &camera.lens {
+            None => mirror_lens_note(camera),
+            Some(_) => mirror_lens_note(camera) + "# Flipped, p1 changes sign.\n",
+        }
     );
     Some(kalibr_camchain(&note, &[kalibr], None))
 }

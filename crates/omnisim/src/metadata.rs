@@ -290,6 +290,9 @@ pub struct CatadioptricMetadata {
     pub body_origin_in_mirror_frame: [f64; 3],
     /// Mei's unified model, for aligned central mirrors.
     pub unified_model: Option<UnifiedModelMetadata>,
+    /// The lens of the camera that looks at the mirror; absent for the ideal pinhole.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_lens: Option<MirrorLensMetadata>,
     /// How body azimuth maps to image angle.
     pub image_azimuth: &'static str,
     /// Where per-pixel rays are.
@@ -341,10 +344,31 @@ impl CatadioptricMetadata {
                 gamma_y: m.gamma_y,
                 projection: "u = cx + gamma_x*s_x/(xi - s_z), v = cy + gamma_y*s_y/(xi - s_z), s = unit direction from F' in the mirror frame",
             }),
+            camera_lens: c.lens.as_ref().map(|lens| MirrorLensMetadata {
+                lens: lens.name(),
+                lens_parameters: lens.parameters().into_iter().collect(),
+                applied: "m = ((u - cx)/focal, (v - cy)/focal) is the lens's normalised image point; its inverse \
+                          gives the camera's ray to the mirror",
+                unified_model_distortion: c.unified_distortion(),
+            }),
             image_azimuth: "a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down (u right, v down): the image is mirrored on screen",
             rays: "see raymap-origin.exr and raymap-direction.exr: per-pixel origin and unit direction in the body frame",
         }
     }
+}
+
+/// The lens of a catadioptric camera's inner camera.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MirrorLensMetadata {
+    /// The lens model's name.
+    pub lens: &'static str,
+    /// Its parameters by name.
+    pub lens_parameters: std::collections::BTreeMap<&'static str, Vec<f64>>,
+    /// How the lens applies.
+    pub applied: &'static str,
+    /// The unified model's radtan k1 k2 p1 p2 that expresses this lens exactly (`cv::omnidir`;
+    /// the calibration files carry it); absent where none does.
+    pub unified_model_distortion: Option<[f64; 4]>,
 }
 
 /// A mirror's shape and parameters, metres.

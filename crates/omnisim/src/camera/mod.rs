@@ -121,6 +121,17 @@ impl Camera {
         }
     }
 
+    /// Whether a lens model's f64 inverse gives this camera's rays (a lens camera, or a mirror
+    /// seen through a lens): the GPU reads them from a ray table of pixel centres, so edge
+    /// samples are traced on the CPU.
+    pub fn has_lens_model(&self) -> bool {
+        match self {
+            Camera::Lens(_) => true,
+            Camera::Catadioptric(c) => c.lens.is_some(),
+            Camera::Pinhole(_) | Camera::Equirectangular(_) | Camera::Cylindrical(_) => false,
+        }
+    }
+
     /// Whether all rays share one origin (the pose position).
     pub fn is_central(&self) -> bool {
         match self {

@@ -284,6 +284,15 @@ pub struct OmniSpec {
     /// How mirror rays are found, as `render --mirror-rays`.
     #[serde(default)]
     pub mirror_rays: MirrorRaysSpec,
+    /// Brown–Conrady distortion of the camera that looks at the mirror (hyperbolic and
+    /// spherical mirrors), as [`PinholeSpec::distortion`]; its K is the mirror fit's (or
+    /// `focal`). `None`: the reference paper's ideal pinhole.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distortion: Option<Vec<f64>>,
+    /// Or any central lens model on that camera (not scaramuzza, whose polynomial sets its own
+    /// scale), with the same K.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lens: Option<LensSpec>,
 }
 
 /// How an omnidirectional camera's mirror rays are found.
@@ -362,6 +371,8 @@ impl Default for OmniSpec {
             misalign_offset: (0.0, 0.0, 0.0),
             misalign_tilt: (0.0, 0.0, 0.0),
             mirror_rays: MirrorRaysSpec::default(),
+            distortion: None,
+            lens: None,
         }
     }
 }
@@ -410,9 +421,11 @@ pub enum RigSpecError {
     /// `fov` or `focal` given to a lens whose polynomial fixes its scale.
     #[error("fov and focal do not apply to the scaramuzza lens: its polynomial (poly, in pixels) sets the scale")]
     ScaleOfScaramuzza,
-    /// A stereo rig's field that does not apply to the cameras it describes.
-    #[error("stereo {field} does not apply {why}")]
-    StereoField {
+    /// A rig's field that does not apply to the cameras it describes.
+    #[error("{rig} {field} does not apply {why}")]
+    FieldDoesNotApply {
+        /// `stereo` or `omni`.
+        rig: &'static str,
         /// The field given.
         field: &'static str,
         /// Why, and what to give instead.
@@ -523,7 +536,13 @@ impl StereoSpec {
     /// The pair: both cameras built as one [`PinholeSpec`] (with `distortion`) or one
     /// [`FisheyeSpec`] (with `lens`) would be, `baseline` apart.
     fn build(&self) -> Result<StereoRig, RigSpecError> {
-        let refuse = |field, why| Err(RigSpecError::StereoField { field, why });
+        let refuse = |field, why| {
+            Err(RigSpecError::FieldDoesNotApply {
+                rig: "stereo",
+                field,
+                why,
+            })
+        };
         let (camera, lens) = match &self.lens {
             None if self.fov.is_some() => {
                 return refuse(
@@ -673,6 +692,18 @@ impl OmniSpec {
             MirrorRaysSpec::Reflect => MirrorRays::Reflect,
             MirrorRaysSpec::Shortcut => MirrorRays::Shortcut,
         };
+        camera.lens = match (&self.lens, &self.distortion) {
+            (Some(_), Some(_)) => {
+                return Err(RigSpecError::FieldDoesNotApply {
+                    rig: "omni",
+                    field: "distortion",
+                    why: "with a lens: give the mirror's camera a pinhole's distortion or a lens, not both",
+                });
+            }
+            (Some(lens), None) => Some(lens.model(f64::from(w).hypot(f64::from(h)))?),
+            (None, distortion) => perspective_lens(distortion.as_deref())?,
+        }
+        .map(Box::new);
         camera.check_rays()?;
         Ok(camera)
     }

@@ -166,10 +166,11 @@ impl GpuRenderer {
         self.run_bands(scene, camera, pose, frame, planes, HitSource::Upload(&hits))
     }
 
-    /// The ray table of a lens camera (made and uploaded on its first frame, kept while the
-    /// same camera is traced); a placeholder for the cameras the shader computes rays for.
+    /// The ray table of a camera with a lens model (made and uploaded on its first frame,
+    /// kept while the same camera is traced); a placeholder for the cameras the shader
+    /// computes rays for.
     fn camera_rays(&self, camera: &Camera) -> Result<Arc<wgpu::Buffer>, GpuError> {
-        if !matches!(camera, Camera::Lens(_)) {
+        if !camera.has_lens_model() {
             return Ok(Arc::clone(&self.no_rays));
         }
         let key = table_key(camera);
@@ -190,11 +191,18 @@ impl GpuRenderer {
                 limit,
             });
         }
+        let row = width.max(1) as usize;
         let table: Vec<[f32; 4]> = (0..pixels)
             .into_par_iter()
-            .map(|index| match camera.pixel_ray(index) {
-                Some(ray) => ray.direction.as_vec3().extend(1.0).to_array(),
-                None => [0.0; 4],
+            .map(|index| {
+                let direction = match camera {
+                    // The mirror's camera: its lens's direction, before the tilt and the mirror.
+                    Camera::Catadioptric(c) => c
+                        .lens_ray(glam::dvec2((index % row) as f64, (index / row) as f64))
+                        .map(|(_, direction)| direction),
+                    _ => camera.pixel_ray(index).map(|ray| ray.direction),
+                };
+                direction.map_or([0.0; 4], |d| d.as_vec3().extend(1.0).to_array())
             })
             .collect();
         let buffer = Arc::new(
@@ -346,7 +354,7 @@ impl GpuRenderer {
         if samples_per_axis <= 1 || edges.is_empty() {
             return Ok(0);
         }
-        if let Camera::Lens(_) = camera {
+        if camera.has_lens_model() {
             // The table holds pixel centres only; the renderer refines lens cameras on the CPU.
             return Err(GpuError::NoGpuCamera(camera.model_name()));
         }
@@ -573,7 +581,8 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
             orthographic: 0,
             central: 1,
             shortcut: 0,
-            _pad: [0; 3],
+            inner_lens: 0,
+            _pad: [0; 2],
         },
     };
     match camera {
@@ -606,6 +615,7 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
             params.mirror.orthographic = u32::from(!c.is_perspective());
             params.mirror.central = u32::from(c.is_central());
             params.mirror.shortcut = u32::from(c.rays == MirrorRays::Shortcut);
+            params.mirror.inner_lens = u32::from(c.lens.is_some());
         }
         Camera::Lens(c) => params.projection.lens_origin = vector(c.intrinsics.position),
     }
