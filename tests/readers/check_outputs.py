@@ -264,6 +264,71 @@ def kalibr_project(cam, body):
     return np.stack([fu * m[:, 0] + pu, fv * m[:, 1] + pv], axis=1)
 
 
+# Basalt's loader (basalt-headers, headers_serialization.h): cereal reads these keys of
+# "value0" in this order, and each camera_type's intrinsics by these names; a camera_type it
+# does not know silently becomes its first variant (eucm), so an unknown one is refused here.
+BASALT_KEYS = ["T_imu_cam", "intrinsics", "resolution", "calib_accel_bias", "calib_gyro_bias", "imu_update_rate",
+               "accel_noise_std", "gyro_noise_std", "accel_bias_std", "gyro_bias_std", "cam_time_offset_ns",
+               "vignette"]
+BASALT_INTRINSICS = {"kb4": ["k1", "k2", "k3", "k4"], "ds": ["xi", "alpha"], "eucm": ["alpha", "beta"],
+                     "ucm": ["alpha"], "pinhole": []}
+
+
+def read_basalt(path):
+    """Basalt's calibration JSON, checked with its loader's rules: keys and their order, camera
+    types, intrinsic names, unit quaternions, one resolution per camera, IMU vector lengths."""
+    root = json.loads(path.read_text())
+    check(list(root) == ["value0"], f"{path}: cereal's root value0")
+    calib = root["value0"]
+    check(list(calib) == BASALT_KEYS, f"{path}: keys {list(calib)}")
+    cameras = len(calib["intrinsics"])
+    check(len(calib["T_imu_cam"]) == len(calib["resolution"]) == cameras > 0, f"{path}: one pose, size per camera")
+    for entry in calib["intrinsics"]:
+        kind = entry["camera_type"]
+        check(kind in BASALT_INTRINSICS, f"{path}: camera_type {kind!r} is not one of Basalt's")
+        check(list(entry["intrinsics"]) == ["fx", "fy", "cx", "cy"] + BASALT_INTRINSICS[kind], f"{path}: {kind} names")
+    for pose in calib["T_imu_cam"]:
+        check(list(pose) == ["px", "py", "pz", "qx", "qy", "qz", "qw"], f"{path}: T_imu_cam names")
+        q = np.array([pose[k] for k in ("qx", "qy", "qz", "qw")])
+        check(abs(np.linalg.norm(q) - 1) < 1e-12, f"{path}: T_imu_cam quaternion not unit")
+    check(len(calib["calib_accel_bias"]) == 9 and len(calib["calib_gyro_bias"]) == 12, f"{path}: IMU bias lengths")
+    check(all(len(calib[k]) == 3 for k in BASALT_KEYS[6:10]), f"{path}: IMU noise lengths")
+    return calib
+
+
+def basalt_project(calib, index, body):
+    """Body points through Basalt's camera `index`: T_imu_cam's inverse, then its model as
+    basalt-headers writes it (kb4, ds, eucm, ucm, pinhole)."""
+    pose, entry = calib["T_imu_cam"][index], calib["intrinsics"][index]
+    x_, y_, z_, w_ = (pose[k] for k in ("qx", "qy", "qz", "qw"))
+    rotation = np.array([[1 - 2 * (y_ * y_ + z_ * z_), 2 * (x_ * y_ - z_ * w_), 2 * (x_ * z_ + y_ * w_)],
+                         [2 * (x_ * y_ + z_ * w_), 1 - 2 * (x_ * x_ + z_ * z_), 2 * (y_ * z_ - x_ * w_)],
+                         [2 * (x_ * z_ - y_ * w_), 2 * (y_ * z_ + x_ * w_), 1 - 2 * (x_ * x_ + y_ * y_)]])
+    x = (body - np.array([pose["px"], pose["py"], pose["pz"]])) @ rotation
+    i = entry["intrinsics"]
+    kind = entry["camera_type"]
+    norm = np.linalg.norm(x, axis=1)
+    if kind == "kb4":
+        r = np.hypot(x[:, 0], x[:, 1])
+        theta = np.arctan2(r, x[:, 2])
+        t2 = theta ** 2
+        d = theta * (1 + i["k1"] * t2 + i["k2"] * t2 ** 2 + i["k3"] * t2 ** 3 + i["k4"] * t2 ** 4)
+        m = x[:, :2] * (d / r)[:, None]
+    else:
+        if kind == "ds":
+            d2 = np.sqrt(x[:, 0] ** 2 + x[:, 1] ** 2 + (i["xi"] * norm + x[:, 2]) ** 2)
+            denominator = i["alpha"] * d2 + (1 - i["alpha"]) * (i["xi"] * norm + x[:, 2])
+        elif kind == "eucm":
+            d = np.sqrt(i["beta"] * (x[:, 0] ** 2 + x[:, 1] ** 2) + x[:, 2] ** 2)
+            denominator = i["alpha"] * d + (1 - i["alpha"]) * x[:, 2]
+        elif kind == "ucm":
+            denominator = i["alpha"] * norm + (1 - i["alpha"]) * x[:, 2]
+        else:
+            denominator = x[:, 2]
+        m = x[:, :2] / denominator[:, None]
+    return np.stack([i["fx"] * m[:, 0] + i["cx"], i["fy"] * m[:, 1] + i["cy"]], axis=1)
+
+
 def read_ocam(path):
     """OCamCalib's get_ocam_model: one comment line before each block, fixed order."""
     blocks = [line.split() for line in path.read_text().splitlines() if line.strip() and not line.startswith("#")]
@@ -349,6 +414,11 @@ def lens_projections(folder, body, view="", cam_name="cam0"):
         t = np.array(cam["T_cam_imu"], dtype=np.float64)
         use = kalibr_front(cam, body @ t[:3, :3].T + t[:3, 3])
         found.append((f"Kalibr {cam['camera_model']}-{cam['distortion_model']}", kalibr_project(cam, body[use]), use))
+    if (folder / "calibration-basalt.json").exists():
+        calib = read_basalt(folder / "calibration-basalt.json")
+        index = int(cam_name[3:])
+        found.append((f"Basalt {calib['intrinsics'][index]['camera_type']}", basalt_project(calib, index, body),
+                      np.ones(len(body), bool)))
     if (folder / f"calib_results{view}.txt").exists():
         ocam = read_ocam(folder / f"calib_results{view}.txt")
         projected = np.array([world2cam(ocam, p)[::-1] for p in ocam_points(body)])

@@ -1,7 +1,7 @@
 //! Lens cameras through the renderer and against independent readers: range and z-depth at
 //! the image border against the closed-form distance to the room's planes (past 180° where
-//! the lens reaches), and every calibration file a lens writes read by `OpenCV`, Kalibr's
-//! equations and `OCamCalib`'s functions in Python (`tests/readers/check_lens_calibration.py`),
+//! the lens reaches), and every calibration file a lens writes read by `OpenCV`, Kalibr's and
+//! Basalt's equations and loader rules and `OCamCalib`'s functions in Python (`tests/readers/check_lens_calibration.py`),
 //! which must project the same points to omnisim's pixels within 1e-6 px.
 
 mod common;
@@ -96,6 +96,14 @@ fn lens_rigs() -> Vec<RigSpec> {
                 affine: (1.0003, 2e-4, -1e-4),
             },
             None,
+        ),
+        // Without distortion the unified model is also Basalt's `ucm`.
+        fisheye(
+            LensSpec::Unified {
+                xi: 0.8,
+                distortion: [0.0; 4],
+            },
+            Some(200.0),
         ),
     ]
 }
@@ -213,7 +221,10 @@ fn opencv_kalibr_and_ocamcalib_read_the_calibration_files_to_omnisims_pixels() {
     let stdout = String::from_utf8_lossy(&check.stdout);
     eprintln!("{stdout}");
     assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
-    assert!(stdout.contains("8 lenses checked"), "{stdout}");
+    assert!(stdout.contains("9 lenses checked"), "{stdout}");
+    for reader in ["Basalt kb4", "Basalt ds", "Basalt eucm", "Basalt ucm"] {
+        assert!(stdout.contains(reader), "{reader}: {stdout}");
+    }
 }
 
 #[test]

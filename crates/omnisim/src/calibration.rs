@@ -1,7 +1,7 @@
 //! Calibration files in the formats robotics tools read: `OpenCV` `FileStorage` YAML (pinhole
 //! with distortion, stereo, `cv::fisheye`, `cv::omnidir`), Kalibr camchains (`pinhole-none`,
-//! `pinhole-radtan`, `pinhole-equi`, `omni-none`, `omni-radtan`, `ds`, `eucm`) and `OCamCalib`'s
-//! `calib_results.txt`. Every file states its conventions in comments: pixel centres at integer
+//! `pinhole-radtan`, `pinhole-equi`, `omni-none`, `omni-radtan`, `ds`, `eucm`), `OCamCalib`'s
+//! `calib_results.txt` and Basalt's calibration JSON (`kb4`, `ds`, `eucm`, `ucm`). Every file states its conventions in comments: pixel centres at integer
 //! coordinates, metres, and for mirrors the frame flip.
 
 use std::fmt::Write;
@@ -10,6 +10,7 @@ use glam::{DMat3, DVec3};
 
 use crate::camera::{Camera, Catadioptric, LensCamera, LensModel, Pinhole, StereoRig, pinhole::BODY_FROM_OPTICAL};
 
+mod basalt;
 mod ocamcalib;
 
 const HEADER: &str = "%YAML:1.0\n---\n";
@@ -511,7 +512,8 @@ fn lens_camera_files(camera: &LensCamera) -> Vec<(&'static str, String)> {
 }
 
 /// The calibration files of a lens camera, (file name, contents): `OpenCV` (plain distortion,
-/// `cv::fisheye`, `cv::omnidir`), Kalibr where it has the model, `OCamCalib` for Scaramuzza's.
+/// `cv::fisheye`, `cv::omnidir`), Kalibr and Basalt where they have the model, `OCamCalib` for
+/// Scaramuzza's.
 pub fn lens_files(camera: &LensCamera) -> Vec<(String, String)> {
     let mut files: Vec<(String, String)> = lens_camera_files(camera)
         .into_iter()
@@ -520,15 +522,19 @@ pub fn lens_files(camera: &LensCamera) -> Vec<(String, String)> {
     if let Some(kalibr) = kalibr_lens_camera(camera) {
         files.push(("calibration-kalibr.yaml".to_owned(), kalibr));
     }
+    if let Some(basalt) = basalt::calibration(&[camera]) {
+        files.push(("calibration-basalt.json".to_owned(), basalt));
+    }
     files
 }
 
 /// The calibration files of a stereo rig, (file name, contents): `OpenCV`'s stereo file (R, T
-/// and, where `OpenCV` has the model, both cameras) and the Kalibr camchain (where Kalibr has
-/// the model); with a lens, also each camera's own files, named `…-left` and `…-right`.
+/// and, where `OpenCV` has the model, both cameras), the Kalibr camchain and Basalt's JSON (where
+/// they have the model); with a lens, also each camera's own files, named `…-left` and `…-right`.
 pub fn stereo_files(rig: &StereoRig) -> Vec<(String, String)> {
     let mut files = vec![("calibration-opencv-stereo.yaml".to_owned(), opencv_stereo(rig))];
-    for (camera, side) in rig.cameras().iter().zip(["left", "right"]) {
+    let cameras = rig.cameras();
+    for (camera, side) in cameras.iter().zip(["left", "right"]) {
         if let Camera::Lens(lens) = camera {
             for (name, text) in lens_camera_files(lens) {
                 let (stem, extension) = name.rsplit_once('.').unwrap_or((name, ""));
@@ -538,6 +544,18 @@ pub fn stereo_files(rig: &StereoRig) -> Vec<(String, String)> {
     }
     if let Some(kalibr) = kalibr_stereo(rig) {
         files.push(("calibration-kalibr.yaml".to_owned(), kalibr));
+    }
+    let lenses: Vec<&LensCamera> = cameras
+        .iter()
+        .filter_map(|camera| match camera {
+            Camera::Lens(lens) => Some(&**lens),
+            _ => None,
+        })
+        .collect();
+    if let [_, _] = lenses[..]
+        && let Some(basalt) = basalt::calibration(&lenses)
+    {
+        files.push(("calibration-basalt.json".to_owned(), basalt));
     }
     files
 }
