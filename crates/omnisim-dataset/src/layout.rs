@@ -358,9 +358,15 @@ mod tests {
             baseline: 0.2,
         }
         .cameras();
+        // A mirror seen through a radtan lens: Kalibr's omni-radtan, flipped.
+        let mut mirror_radtan = Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()));
+        mirror_radtan.lens = Some(Box::new(LensModel::Perspective(
+            BrownConrady::new(&[-0.1, 0.02, 1e-3, -2e-3]).unwrap(),
+        )));
         let cameras = [
             left_eye,
             right_eye,
+            Camera::Catadioptric(mirror_radtan),
             Camera::Catadioptric(Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))),
             Camera::Catadioptric(mirror_down),
             Camera::Pinhole(Pinhole {
