@@ -261,21 +261,14 @@ impl KalibrCamera {
 /// Kalibr's (camera model, distortion model, coefficients) of a lens model.
 fn kalibr_lens(model: &LensModel) -> Option<(&'static str, &'static str, Vec<f64>)> {
     match model {
-        LensModel::Perspective(distortion) => Some(("pinhole", "radtan", radtan(distortion.coefficients())?)),
+        LensModel::Perspective(distortion) => Some(("pinhole", "radtan", distortion.radtan()?.to_vec())),
         LensModel::KannalaBrandt(kb) => Some(("pinhole", "equidistant", kb.coefficients().to_vec())),
         LensModel::Equidistant => Some(("pinhole", "equidistant", vec![0.0; 4])),
         LensModel::DoubleSphere { .. } => Some(("ds", "none", Vec::new())),
         LensModel::ExtendedUnified { .. } => Some(("eucm", "none", Vec::new())),
-        LensModel::Unified { distortion, .. } => Some(("omni", "radtan", radtan(distortion.coefficients())?)),
+        LensModel::Unified { distortion, .. } => Some(("omni", "radtan", distortion.radtan()?.to_vec())),
         LensModel::Equisolid | LensModel::Stereographic | LensModel::Orthographic | LensModel::Scaramuzza(_) => None,
     }
-}
-
-/// k1 k2 p1 p2 of a distortion vector that has no further non-zero coefficient (Kalibr's
-/// `radtan`, `cv::omnidir`'s D).
-fn radtan(coefficients: &[f64]) -> Option<Vec<f64>> {
-    let (radtan, further) = coefficients.split_at(coefficients.len().min(4));
-    (radtan.len() == 4 && further.iter().all(|&c| c == 0.0)).then(|| radtan.to_vec())
 }
 
 /// A Kalibr 4×4 transform entry `name` = [rotation | translation].
@@ -482,7 +475,7 @@ fn opencv_lens(model: &LensModel) -> Option<OpenCvLens> {
             file: "calibration-opencv-omnidir.yaml",
             intro: OMNIDIR_LENS_INTRO,
             stereo_note: "M1, D1, xi1, M2, D2, xi2\n# are cv2.omnidir's K, D (k1 k2 p1 p2) and xi (reals: fs.getNode('xi1').real()).",
-            coefficients: radtan(distortion.coefficients())?,
+            coefficients: distortion.radtan()?.to_vec(),
             xi: Some(*xi),
         }),
         LensModel::Scaramuzza(_)

@@ -442,11 +442,7 @@ impl Catadioptric {
         match self.lens.as_deref() {
             None => Some([0.0; 4]),
             Some(LensModel::Perspective(distortion)) => {
-                let (radtan, further) = distortion
-                    .coefficients()
-                    .split_at(4.min(distortion.coefficients().len()));
-                let &[k1, k2, p1, p2] = radtan else { return None };
-                further.iter().all(|&c| c == 0.0).then_some(())?;
+                let [k1, k2, p1, p2] = distortion.radtan()?;
                 let s = model.gamma_x / self.focal;
                 Some([k1 * s * s, k2 * s.powi(4), p1 * s, p2 * s])
             }
