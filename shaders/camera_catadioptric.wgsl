@@ -1,5 +1,6 @@
-// Catadioptric ray generation: the camera's ray to the mirror, reflected by the law of
-// reflection (or, for the paper's shortcut, taken from the viewpoint through the mirror point).
+// Catadioptric ray generation: the camera's ray to the mirror (through its lens model from the
+// ray table where it has one), reflected by the law of reflection (or, for the paper's
+// shortcut, taken from the viewpoint through the mirror point).
 // f64 twin and the frames: crates/omnisim/src/camera/catadioptric.rs. Everything here is in
 // the frame C: the mirror frame shifted (in f64, on the host) to the nominal camera, so the
 // quadric's coefficients carry no cancellation into f32.
@@ -19,6 +20,13 @@ fn catadioptric_ray(pixel: vec2<f32>) -> CameraRay {
     if camera.mirror.orthographic != 0u {
         origin += camera.mirror.camera_tilt * vec3<f32>(offset, 0.0);
         d = camera.mirror.camera_tilt * vec3<f32>(0.0, 0.0, 1.0);
+    } else if camera.mirror.inner_lens != 0u {
+        // The lens's f64 inverse, per pixel centre, from the table (camera_table.wgsl).
+        let towards = camera_rays[u32(pixel.y) * camera.frame.width + u32(pixel.x)];
+        if towards.w == 0.0 {
+            return miss_ray();
+        }
+        d = normalize(camera.mirror.camera_tilt * towards.xyz);
     } else {
         d = normalize(camera.mirror.camera_tilt * vec3<f32>(offset, 1.0));
     }

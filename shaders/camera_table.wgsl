@@ -2,7 +2,8 @@
 // host computes once per camera in f64 (crates/omnisim/src/camera/lens_camera.rs) and uploads
 // as f32: xyz the unit direction, w = 1 where the pixel has a ray, 0 beyond the lens's field of
 // view. Rays start at the lens's optical centre. Pixel centres only: edge supersampling of
-// these cameras runs on the CPU.
+// these cameras runs on the CPU. A catadioptric camera with a lens model reads its inner
+// camera's optical-frame directions (before the misalignment tilt) here too.
 
 @group(0) @binding(10) var<storage, read> camera_rays: array<vec4<f32>>;
 

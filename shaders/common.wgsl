@@ -59,10 +59,12 @@ struct MirrorBlock {
     // Squared pixel radius hidden by the camera body.
     hidden_centre_sq: f32,
     // Booleans as u32: orthographic camera (parabolic), all rays through one viewpoint,
-    // the paper's shortcut instead of reflection.
+    // the paper's shortcut instead of reflection, the camera's lens model (its rays to the
+    // mirror come from the ray table, camera_table.wgsl).
     orthographic: u32,
     central: u32,
     shortcut: u32,
+    inner_lens: u32,
 }
 
 struct CameraParams {

@@ -9,10 +9,12 @@ points.txt: body-frame x y z and omnisim's u v in f64, and the lens's calibratio
 - calibration-opencv-omnidir.yaml: cv2.omnidir.projectPoints (Mei's unified model + radtan);
 - calibration-kalibr.yaml: Kalibr's loader rules, then its models (pinhole, omni, ds, eucm with
   none, radtan or equidistant distortion) written out from aslam_cameras;
+- calibration-basalt.json: Basalt's loader rules (cereal's keys and order, camera types,
+  intrinsic names), then its models (kb4, ds, eucm, ucm) written out from basalt-headers;
 - calib_results.txt: read as OCamCalib's get_ocam_model reads it; its cam2world must give each
   pixel's ray exactly, its world2cam (the fitted inverse polynomial) the pixel within the error
   the file states.
-OpenCV and Kalibr must agree with omnisim within 1e-6 px.
+OpenCV, Kalibr and Basalt must agree with omnisim within 1e-6 px.
 """
 
 import pathlib
@@ -56,7 +58,8 @@ def main():
     folders = sorted(p for p in pathlib.Path(sys.argv[1]).iterdir() if (p / "points.txt").exists())
     for folder in folders:
         check_lens(folder)
-    print(f"{len(folders)} lenses checked with OpenCV {cv2.__version__}, Kalibr's rules and OCamCalib's functions")
+    print(f"{len(folders)} lenses checked with OpenCV {cv2.__version__}, Kalibr's and Basalt's rules and OCamCalib's "
+          "functions")
 
 
 if __name__ == "__main__":

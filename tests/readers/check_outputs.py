@@ -159,8 +159,11 @@ def check_folder(folder):
         rotation, position = world_from_body[:3, :3], world_from_body[:3, 3]
         seen = {v: check_view(folder, frame, v, rotation, position, raymaps[v]) for v in views}
         body = {v: (points - position) @ rotation for v, (points, _) in seen.items()}
-        if model in ("pinhole", "stereo"):
+        stereo_lens = model == "stereo" and "lens" in camera["left"]
+        if model == "pinhole" or (model == "stereo" and not stereo_lens):
             check_pinholes(folder, frame, seen, body)
+        if stereo_lens:
+            check_lens_stereo(folder, frame, camera, seen, body, raymaps)
         if "lens" in camera:
             points, pixels = seen[""]
             rays = np.isfinite(raymaps[""][1]).all(axis=-1)
@@ -261,6 +264,71 @@ def kalibr_project(cam, body):
     return np.stack([fu * m[:, 0] + pu, fv * m[:, 1] + pv], axis=1)
 
 
+# Basalt's loader (basalt-headers, headers_serialization.h): cereal reads these keys of
+# "value0" in this order, and each camera_type's intrinsics by these names; a camera_type it
+# does not know silently becomes its first variant (eucm), so an unknown one is refused here.
+BASALT_KEYS = ["T_imu_cam", "intrinsics", "resolution", "calib_accel_bias", "calib_gyro_bias", "imu_update_rate",
+               "accel_noise_std", "gyro_noise_std", "accel_bias_std", "gyro_bias_std", "cam_time_offset_ns",
+               "vignette"]
+BASALT_INTRINSICS = {"kb4": ["k1", "k2", "k3", "k4"], "ds": ["xi", "alpha"], "eucm": ["alpha", "beta"],
+                     "ucm": ["alpha"], "pinhole": []}
+
+
+def read_basalt(path):
+    """Basalt's calibration JSON, checked with its loader's rules: keys and their order, camera
+    types, intrinsic names, unit quaternions, one resolution per camera, IMU vector lengths."""
+    root = json.loads(path.read_text())
+    check(list(root) == ["value0"], f"{path}: cereal's root value0")
+    calib = root["value0"]
+    check(list(calib) == BASALT_KEYS, f"{path}: keys {list(calib)}")
+    cameras = len(calib["intrinsics"])
+    check(len(calib["T_imu_cam"]) == len(calib["resolution"]) == cameras > 0, f"{path}: one pose, size per camera")
+    for entry in calib["intrinsics"]:
+        kind = entry["camera_type"]
+        check(kind in BASALT_INTRINSICS, f"{path}: camera_type {kind!r} is not one of Basalt's")
+        check(list(entry["intrinsics"]) == ["fx", "fy", "cx", "cy"] + BASALT_INTRINSICS[kind], f"{path}: {kind} names")
+    for pose in calib["T_imu_cam"]:
+        check(list(pose) == ["px", "py", "pz", "qx", "qy", "qz", "qw"], f"{path}: T_imu_cam names")
+        q = np.array([pose[k] for k in ("qx", "qy", "qz", "qw")])
+        check(abs(np.linalg.norm(q) - 1) < 1e-12, f"{path}: T_imu_cam quaternion not unit")
+    check(len(calib["calib_accel_bias"]) == 9 and len(calib["calib_gyro_bias"]) == 12, f"{path}: IMU bias lengths")
+    check(all(len(calib[k]) == 3 for k in BASALT_KEYS[6:10]), f"{path}: IMU noise lengths")
+    return calib
+
+
+def basalt_project(calib, index, body):
+    """Body points through Basalt's camera `index`: T_imu_cam's inverse, then its model as
+    basalt-headers writes it (kb4, ds, eucm, ucm, pinhole)."""
+    pose, entry = calib["T_imu_cam"][index], calib["intrinsics"][index]
+    x_, y_, z_, w_ = (pose[k] for k in ("qx", "qy", "qz", "qw"))
+    rotation = np.array([[1 - 2 * (y_ * y_ + z_ * z_), 2 * (x_ * y_ - z_ * w_), 2 * (x_ * z_ + y_ * w_)],
+                         [2 * (x_ * y_ + z_ * w_), 1 - 2 * (x_ * x_ + z_ * z_), 2 * (y_ * z_ - x_ * w_)],
+                         [2 * (x_ * z_ - y_ * w_), 2 * (y_ * z_ + x_ * w_), 1 - 2 * (x_ * x_ + y_ * y_)]])
+    x = (body - np.array([pose["px"], pose["py"], pose["pz"]])) @ rotation
+    i = entry["intrinsics"]
+    kind = entry["camera_type"]
+    norm = np.linalg.norm(x, axis=1)
+    if kind == "kb4":
+        r = np.hypot(x[:, 0], x[:, 1])
+        theta = np.arctan2(r, x[:, 2])
+        t2 = theta ** 2
+        d = theta * (1 + i["k1"] * t2 + i["k2"] * t2 ** 2 + i["k3"] * t2 ** 3 + i["k4"] * t2 ** 4)
+        m = x[:, :2] * (d / r)[:, None]
+    else:
+        if kind == "ds":
+            d2 = np.sqrt(x[:, 0] ** 2 + x[:, 1] ** 2 + (i["xi"] * norm + x[:, 2]) ** 2)
+            denominator = i["alpha"] * d2 + (1 - i["alpha"]) * (i["xi"] * norm + x[:, 2])
+        elif kind == "eucm":
+            d = np.sqrt(i["beta"] * (x[:, 0] ** 2 + x[:, 1] ** 2) + x[:, 2] ** 2)
+            denominator = i["alpha"] * d + (1 - i["alpha"]) * x[:, 2]
+        elif kind == "ucm":
+            denominator = i["alpha"] * norm + (1 - i["alpha"]) * x[:, 2]
+        else:
+            denominator = x[:, 2]
+        m = x[:, :2] / denominator[:, None]
+    return np.stack([i["fx"] * m[:, 0] + i["cx"], i["fy"] * m[:, 1] + i["cy"]], axis=1)
+
+
 def read_ocam(path):
     """OCamCalib's get_ocam_model: one comment line before each block, fixed order."""
     blocks = [line.split() for line in path.read_text().splitlines() if line.strip() and not line.startswith("#")]
@@ -299,41 +367,122 @@ def ocam_points(body):
     return np.stack([optical[:, 1], optical[:, 0], -optical[:, 2]], axis=1)
 
 
-def lens_projections(folder, body):
-    """(reader, pixels (u, v), which points) for every calibration file of a lens camera in
-    `folder`: OpenCV (projectPoints, fisheye, omnidir), Kalibr (loader rules checked first),
-    OCamCalib's world2cam (within the error its file states: the tolerance is raised by it)."""
-    found = []
-    all_points = np.ones(len(body), bool)
-    if (folder / "calibration-opencv.yaml").exists():
-        fs = storage(folder / "calibration-opencv.yaml")
-        k, d = matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients")
-        projected, _ = cv2.projectPoints(opencv_optical(fs, body).reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
-        found.append((f"cv2.projectPoints ({d.size} coefficients)", projected, all_points))
-    if (folder / "calibration-opencv-fisheye.yaml").exists():
-        fs = storage(folder / "calibration-opencv-fisheye.yaml")
-        k, d = matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients")
-        optical = opencv_optical(fs, body)
-        front = optical[:, 2] > 0  # cv2.fisheye divides by z
+def opencv_lens_file(folder, view=""):
+    """A lens camera's OpenCV file and its kind ("", "-fisheye", "-omnidir"), or None."""
+    for kind in ("", "-fisheye", "-omnidir"):
+        path = folder / f"calibration-opencv{kind}{view}.yaml"
+        if path.exists():
+            return path, kind
+    return None
+
+
+def opencv_project(kind, k, d, xi, optical):
+    """(reader, pixels (u, v), which points) of optical-frame points through OpenCV's module for
+    `kind`: projectPoints, fisheye (points in front: it divides by z) or omnidir."""
+    if kind == "-fisheye":
+        front = optical[:, 2] > 0
         projected, _ = cv2.fisheye.projectPoints(optical[front].reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
-        found.append(("cv2.fisheye.projectPoints", projected, front))
-    if (folder / "calibration-opencv-omnidir.yaml").exists():
-        fs = storage(folder / "calibration-opencv-omnidir.yaml")
-        k, d, xi = matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients"), fs.getNode("xi").real()
-        optical = opencv_optical(fs, body).reshape(-1, 1, 3)
-        projected, _ = cv2.omnidir.projectPoints(optical, np.zeros(3), np.zeros(3), k, xi, d)
-        found.append(("cv2.omnidir.projectPoints", projected, all_points))
+        return "cv2.fisheye.projectPoints", projected, front
+    every = np.ones(len(optical), bool)
+    if kind == "-omnidir":
+        projected, _ = cv2.omnidir.projectPoints(optical.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, xi, d)
+        return "cv2.omnidir.projectPoints", projected, every
+    projected, _ = cv2.projectPoints(optical.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), k, d)
+    return f"cv2.projectPoints ({d.size} coefficients)", projected, every
+
+
+def kalibr_front(cam, x):
+    """The points Kalibr's model projects: pinhole models divide by z, the others take all."""
+    return x[:, 2] > 0 if cam["camera_model"] == "pinhole" else np.ones(len(x), bool)
+
+
+def lens_projections(folder, body, view="", cam_name="cam0"):
+    """(reader, pixels (u, v), which points) for every calibration file of a lens camera in
+    `folder` (a stereo pair's `view`, "-left" or "-right", Kalibr's `cam_name`): OpenCV
+    (projectPoints, fisheye, omnidir), Kalibr (loader rules checked first), OCamCalib's
+    world2cam (within the error its file states: the tolerance is raised by it)."""
+    found = []
+    opencv = opencv_lens_file(folder, view)
+    if opencv is not None:
+        path, kind = opencv
+        fs = storage(path)
+        xi = fs.getNode("xi").real() if kind == "-omnidir" else None
+        found.append(opencv_project(kind, matrix(fs, "camera_matrix"), matrix(fs, "distortion_coefficients"), xi,
+                                    opencv_optical(fs, body)))
     if (folder / "calibration-kalibr.yaml").exists():
-        cam = read_kalibr(folder)["cam0"]
+        cam = read_kalibr(folder)[cam_name]
         t = np.array(cam["T_cam_imu"], dtype=np.float64)
-        front = (body @ t[:3, :3].T + t[:3, 3])[:, 2] > 0
-        use = front if cam["camera_model"] == "pinhole" else all_points
+        use = kalibr_front(cam, body @ t[:3, :3].T + t[:3, 3])
         found.append((f"Kalibr {cam['camera_model']}-{cam['distortion_model']}", kalibr_project(cam, body[use]), use))
-    if (folder / "calib_results.txt").exists():
-        ocam = read_ocam(folder / "calib_results.txt")
+    if (folder / "calibration-basalt.json").exists():
+        calib = read_basalt(folder / "calibration-basalt.json")
+        index = int(cam_name[3:])
+        found.append((f"Basalt {calib['intrinsics'][index]['camera_type']}", basalt_project(calib, index, body),
+                      np.ones(len(body), bool)))
+    if (folder / f"calib_results{view}.txt").exists():
+        ocam = read_ocam(folder / f"calib_results{view}.txt")
         projected = np.array([world2cam(ocam, p)[::-1] for p in ocam_points(body)])
-        found.append(("OCamCalib world2cam", projected, all_points))
+        found.append(("OCamCalib world2cam", projected, np.ones(len(body), bool)))
     return found
+
+
+def check_lens_stereo(folder, frame, camera, seen, body, raymaps):
+    """A stereo pair with a lens: no disparity; each camera's files put its points on its
+    pixels; the right camera's points, placed by the left camera's OpenCV file and R, T (and
+    by Kalibr's cam0 and T_cn_cnm1), land on the right image's pixels."""
+    check(camera["disparity"].startswith("not written"), f"{folder.name}: render.json says why there is no disparity")
+    check(not any(f.endswith("-disparity.exr") for f in frame["files"]), f"{folder.name}: no disparity file")
+    lens = camera["left"]["lens"]
+    for view, cam_name in (("-left", "cam0"), ("-right", "cam1")):
+        rays = np.isfinite(raymaps[view][1]).all(axis=-1)
+        check(camera[view[1:]]["pixels_without_ray"] == int((~rays).sum()),
+              f"{folder.name}{view}: render.json's pixels_without_ray is the ray map's NaN count")
+        readers = lens_projections(folder, body[view], view, cam_name)
+        check(readers or lens in ("equisolid", "stereographic", "orthographic"),
+              f"{folder.name}{view}: a {lens} lens writes calibration files")
+        pixels = seen[view][1]
+        for name, projected, use in readers:
+            close(projected, pixels[use], f"{folder.name}{view} {name}")
+        if f"{frame['stem']}{view}-depth.exr" in frame["files"]:  # distorted pinholes: z-depth
+            z = opencv_optical(storage(folder / f"calibration-opencv{view}.yaml"), body[view])[:, 2]
+            depth = read_value_exr(folder / f"{frame['stem']}{view}-depth.exr", "z")
+            error = np.abs(depth[pixels[:, 1].astype(int), pixels[:, 0].astype(int)] - z) / z
+            check(error.max() < 1e-5, f"{folder.name}{view}: depth off by {error.max():.2e}")
+    pixels = seen["-right"][1]
+    stereo = storage(folder / "calibration-opencv-stereo.yaml")
+    r, t = matrix(stereo, "R"), matrix(stereo, "T")
+    check(abs(np.linalg.det(r) - 1) < 1e-12 and abs(np.linalg.norm(t) - camera["baseline"]) < 1e-12,
+          f"{folder.name}: R, T are a rigid motion by the baseline")
+    left, right = opencv_lens_file(folder, "-left"), opencv_lens_file(folder, "-right")
+    if left is not None:  # the stereo file places the left camera as its own file does
+        for name in ("body_from_camera", "camera_position_in_body"):
+            check(np.array_equal(matrix(stereo, name), matrix(storage(left[0]), name)), f"{folder.name}: {name}")
+    optical = opencv_optical(stereo, body["-right"]) @ r.T + t.ravel()
+    if right is not None:
+        kind = right[1]
+        for fs, k, d, xi in [
+            (storage(right[0]), "camera_matrix", "distortion_coefficients", "xi"),
+            (stereo, "M2", "D2", "xi2"),
+        ]:
+            xi_value = fs.getNode(xi).real() if kind == "-omnidir" else None
+            name, projected, use = opencv_project(kind, matrix(fs, k), matrix(fs, d), xi_value, optical)
+            close(projected, pixels[use], f"{folder.name} right through R, T and {k}: {name}")
+    else:
+        check(left is None and stereo.getNode("M2").empty(), f"{folder.name}: OpenCV files only where OpenCV has the lens")
+    if (folder / "calibration-kalibr.yaml").exists():
+        chain = read_kalibr(folder)
+        check(set(chain) == {"cam0", "cam1"}, f"{folder.name}: the camchain has cam0 and cam1")
+        t0, t1 = (np.array(chain[c]["T_cam_imu"], dtype=np.float64) for c in ("cam0", "cam1"))
+        t10 = np.array(chain["cam1"]["T_cn_cnm1"], dtype=np.float64)
+        check(t10.shape == (4, 4) and abs(np.linalg.det(t10[:3, :3]) - 1) < 1e-12
+              and np.array_equal(t10[3], [0, 0, 0, 1]), f"{folder.name}: T_cn_cnm1 is a rigid transform")
+        check(abs(np.linalg.norm(t10[:3, 3]) - camera["baseline"]) < 1e-12, f"{folder.name}: |T_cn_cnm1| = baseline")
+        check(np.abs(t10 @ t0 - t1).max() < 1e-12, f"{folder.name}: T_cn_cnm1 T_cam0_imu = T_cam1_imu")
+        x = body["-right"] @ t0[:3, :3].T + t0[:3, 3]
+        x = x @ t10[:3, :3].T + t10[:3, 3]
+        use = kalibr_front(chain["cam1"], x)
+        close(kalibr_project(dict(chain["cam1"], T_cam_imu=np.eye(4)), x[use]), pixels[use],
+              f"{folder.name} right through Kalibr cam0 and T_cn_cnm1")
 
 
 def check_pinholes(folder, frame, seen, body):

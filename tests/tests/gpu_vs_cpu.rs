@@ -15,7 +15,9 @@ use omnisim::{Camera, Planes, Pose, advanced as trace};
 /// Whether the camera's ray for this pixel meets the mirror within 5° of grazing.
 fn grazes_the_mirror(camera: &Camera, pixel: DVec2) -> bool {
     let Camera::Catadioptric(c) = camera else { return false };
-    let (origin, d) = c.camera_ray_in_mirror(pixel);
+    let (origin, d) = c
+        .camera_ray_in_mirror(pixel)
+        .expect("no lens: every pixel has a ray to the mirror");
     let quadric = c.quadric();
     quadric
         .first_hit(origin, d)

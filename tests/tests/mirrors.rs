@@ -89,15 +89,12 @@ fn cylindrical_panorama_matches_its_closed_form() {
 fn stereo_disparity_is_f_b_over_z_on_a_planar_wall() {
     let scene = common::load("env1.ron");
     let bvh = SceneBvh::build(&scene);
-    let rig = StereoRig {
-        camera: Pinhole::with_horizontal_fov(320, 240, 60f64.to_radians()),
-        baseline: 0.12,
-    };
-    let [left, right] = rig.cameras();
+    let rig = StereoRig::rectified(Pinhole::with_horizontal_fov(320, 240, 60f64.to_radians()), 0.12);
+    let [left, right] = rig.pinholes();
     // Facing the east wall (x = 3) squarely from x = 0.5: z = 2.5 m on the whole wall.
     let pose = Pose::from_degrees(dvec3(0.5, -0.4, 1.2), DVec3::ZERO);
     let frame = trace::trace(&bvh, &Camera::Pinhole(left.clone()), &pose);
-    let disparity = rig.disparity(&frame, &pose);
+    let disparity = rig.disparity(&frame, &pose).expect("ideal pinholes have disparity");
     let east_wall = scene.objects.iter().position(|o| o.name == "east wall").unwrap() as u32;
     let expected = rig.camera.fx * rig.baseline / 2.5;
     let mut on_wall = 0;
@@ -439,19 +436,16 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
         assert!((kalibr_camera(body) - optical).length() < 1e-12, "Kalibr T_cam_imu");
     }
     // Stereo: X_right = X_left + T, both projected with their camera matrices.
-    let rig = StereoRig {
-        camera: Pinhole::with_horizontal_fov(400, 300, 70f64.to_radians()),
-        baseline: 0.2,
-    };
+    let rig = StereoRig::rectified(Pinhole::with_horizontal_fov(400, 300, 70f64.to_radians()), 0.2);
     let stereo = calibration::opencv_stereo(&rig);
     let (m2, t) = (yaml_matrix(&stereo, "M2"), yaml_matrix(&stereo, "T"));
-    let [left, right] = rig.cameras();
+    let [left, right] = rig.pinholes();
     // The stereo file places the left camera as the pinhole file does; Kalibr places both.
     let pinhole_file = calibration::opencv_pinhole(&left);
     for name in ["body_from_camera", "camera_position_in_body"] {
         assert_eq!(yaml_matrix(&stereo, name), yaml_matrix(&pinhole_file, name), "{name}");
     }
-    let kalibr = calibration::kalibr_stereo(&rig);
+    let kalibr = calibration::kalibr_stereo(&rig).expect("Kalibr has the pinhole");
     let right_from_body = kalibr_camera_from_body(&kalibr[kalibr.find("cam1:").unwrap()..]);
     for _ in 0..200 {
         let body = dvec3(

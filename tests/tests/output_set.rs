@@ -25,10 +25,10 @@ fn everything() -> OutputSet {
 #[test]
 fn frame_entries_and_run_files_account_for_every_file_in_the_folder() {
     let scene = common::load("env1.ron");
-    let rig = Rig::Stereo(StereoRig {
-        camera: Pinhole::with_horizontal_fov(32, 24, 70f64.to_radians()),
-        baseline: 0.12,
-    });
+    let rig = Rig::Stereo(StereoRig::rectified(
+        Pinhole::with_horizontal_fov(32, 24, 70f64.to_radians()),
+        0.12,
+    ));
     let renderer = Renderer::new(BackendChoice::Cpu).unwrap();
     let prepared = renderer.prepare(&scene).unwrap();
     let outputs = everything();

@@ -16,13 +16,16 @@ use omnisim::camera::{
 pub(crate) enum CameraKind {
     /// Perspective camera looking along body +x (OpenCV optical frame).
     Pinhole,
-    /// Two pinholes --baseline apart on body y (left at +y), with ground-truth disparity.
+    /// Two cameras --baseline apart on body y (left at +y): rectified pinholes with ground-truth
+    /// disparity, or both with --distortion or a --lens (then no disparity: each camera's
+    /// calibration and the extrinsics R, T describe the pair).
     Stereo,
     /// Full-sphere equirectangular panorama.
     Equirect,
     /// 360° cylindrical panorama (--vfov).
     Cylindrical,
-    /// Catadioptric omnidirectional camera: a camera looking at a --mirror.
+    /// Catadioptric omnidirectional camera: a camera looking at a --mirror (the ideal pinhole, or
+    /// with --distortion or a --lens).
     Omni,
     /// Fisheye or other central lens (--lens), looking along body +x; pixels beyond the lens's
     /// field of view are background, and render says how many.
@@ -176,13 +179,14 @@ pub(crate) struct CameraArgs {
     /// Omni: how mirror rays are found [default: reflect].
     #[arg(long, value_enum)]
     pub mirror_rays: Option<MirrorRaysArg>,
-    /// Fisheye: the lens model [default: equidistant]. Every model is traced exactly to the
+    /// Fisheye [default: equidistant], stereo (both cameras) and omni (the camera that looks at a
+    /// hyperbolic or spherical mirror; not scaramuzza): the lens model. Every model is traced exactly to the
     /// edge of its valid field of view (past 180° where it reaches), and writes the calibration
     /// files its tools read (OpenCV fisheye/omnidir, Kalibr, OCamCalib).
     #[arg(long, value_enum)]
     pub lens: Option<LensKind>,
-    /// Fisheye: field of view of the circle inscribed in the image, degrees: sets the focal
-    /// length [default: 180]; or give --focal.
+    /// Fisheye and stereo --lens: field of view of the circle inscribed in the image, degrees:
+    /// sets the focal length [default: 180]; or give --focal.
     #[arg(long, conflicts_with = "focal")]
     pub fov: Option<f64>,
     /// Fisheye kannala-brandt: k1,k2,k3,k4 [default: 0,0,0,0, the equidistant lens].
@@ -204,10 +208,11 @@ pub(crate) struct CameraArgs {
     /// Fisheye scaramuzza: OCamCalib's affine c,d,e [default: 1,0,0].
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
     pub affine: Option<Numbers>,
-    /// Pinhole: Brown–Conrady lens distortion; give its coefficients with --dist.
+    /// Pinhole, stereo (both cameras) and omni (the camera that looks at a hyperbolic or
+    /// spherical mirror): Brown–Conrady lens distortion; give its coefficients with --dist.
     #[arg(long, value_enum, requires = "dist")]
     pub distortion: Option<DistortionKind>,
-    /// Pinhole --distortion, or fisheye unified: distortion coefficients in OpenCV's order,
+    /// Pinhole and stereo --distortion, or the unified lens: distortion coefficients in OpenCV's order,
     /// k1,k2,p1,p2[,k3[,k4,k5,k6[,s1,s2,s3,s4]]] (unified: k1,k2,p1,p2).
     #[arg(long, value_parser = parse_numbers, allow_hyphen_values = true)]
     pub dist: Option<Numbers>,
@@ -273,10 +278,12 @@ pub(crate) fn parse_size(text: &str) -> Result<(u32, u32), String> {
 fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
     use CameraKind::{Cylindrical, Fisheye, Omni, Pinhole, Stereo};
     let omni = args.camera == Omni;
-    let fisheye = args.camera == Fisheye;
+    let stereo = args.camera == Stereo;
+    // A camera with a lens model: the fisheye, or a stereo pair or a mirror's camera given --lens.
+    let fisheye = args.camera == Fisheye || ((stereo || omni) && args.lens.is_some());
     let lens = |kinds: &[LensKind]| fisheye && kinds.contains(&args.lens.unwrap_or(LensKind::Equidistant));
     let mirror = args.mirror.unwrap_or(MirrorKind::Hyperbolic);
-    let pinhole = matches!(args.camera, Pinhole | Stereo);
+    let pinhole = args.camera == Pinhole || (stereo && !fisheye);
     let spherical = mirror == MirrorKind::Spherical;
     let options = [
         ("--hfov", args.hfov.is_some(), pinhole),
@@ -305,7 +312,11 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         ("--misalign-tilt", args.misalign_tilt.is_some(), omni),
         ("--mirror-rays", args.mirror_rays.is_some(), omni),
         ("--lens", args.lens.is_some(), fisheye),
-        ("--fov", args.fov.is_some(), fisheye && !lens(&[LensKind::Scaramuzza])),
+        (
+            "--fov",
+            args.fov.is_some(),
+            fisheye && !omni && !lens(&[LensKind::Scaramuzza]),
+        ),
         ("--k", args.k.is_some(), lens(&[LensKind::KannalaBrandt])),
         (
             "--xi",
@@ -320,7 +331,7 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
         ("--beta", args.beta.is_some(), lens(&[LensKind::Eucm])),
         ("--poly", args.poly.is_some(), lens(&[LensKind::Scaramuzza])),
         ("--affine", args.affine.is_some(), lens(&[LensKind::Scaramuzza])),
-        ("--distortion", args.distortion.is_some(), args.camera == Pinhole),
+        ("--distortion", args.distortion.is_some(), pinhole || (omni && !fisheye)),
         (
             "--dist",
             args.dist.is_some(),
@@ -368,6 +379,9 @@ impl CameraArgs {
                 hfov,
                 focal: self.focal,
                 baseline: self.baseline.unwrap_or(defaults::BASELINE),
+                distortion: self.distortion_coefficients()?,
+                lens: self.lens.map(|_| self.lens()).transpose()?,
+                fov: self.fov,
             }),
             CameraKind::Equirect => RigSpec::Equirect {
                 size: self.size.unwrap_or(defaults::EQUIRECT_SIZE),
@@ -376,7 +390,7 @@ impl CameraArgs {
                 size: self.size.unwrap_or(defaults::CYLINDRICAL_SIZE),
                 vfov: self.vfov.unwrap_or(defaults::VFOV),
             },
-            CameraKind::Omni => RigSpec::Omni(self.omni()),
+            CameraKind::Omni => RigSpec::Omni(self.omni()?),
             CameraKind::Fisheye => RigSpec::Fisheye(FisheyeSpec {
                 size: self.size.unwrap_or(defaults::FISHEYE_SIZE),
                 lens: self.lens()?,
@@ -410,7 +424,8 @@ impl CameraArgs {
         Ok(Some(coefficients.clone()))
     }
 
-    /// The fisheye's `--lens` with its parameters, defaults for those not given.
+    /// The `--lens` (the fisheye's, or a stereo pair's) with its parameters, defaults for those
+    /// not given.
     fn lens(&self) -> anyhow::Result<LensSpec> {
         let exactly = |option: &str, values: &Option<Numbers>, count: usize, default: &[f64]| match values {
             None => Ok(default.to_vec()),
@@ -486,7 +501,7 @@ impl CameraArgs {
         Ok(())
     }
 
-    fn omni(&self) -> OmniSpec {
+    fn omni(&self) -> anyhow::Result<OmniSpec> {
         let mirror = match self.mirror.unwrap_or(MirrorKind::Hyperbolic) {
             MirrorKind::Hyperbolic => MirrorSpec::Hyperbolic {
                 a: self.mirror_a.unwrap_or(defaults::HYPERBOLIC_A),
@@ -503,7 +518,7 @@ impl CameraArgs {
             },
         };
         let paper = OmniSpec::default();
-        OmniSpec {
+        Ok(OmniSpec {
             size: self.size.unwrap_or(paper.size),
             mirror,
             max_elevation: self.max_elevation.map_or(paper.max_elevation, |e| e.0),
@@ -520,6 +535,8 @@ impl CameraArgs {
                 Some(MirrorRaysArg::Shortcut) => MirrorRaysSpec::Shortcut,
                 Some(MirrorRaysArg::Reflect) | None => MirrorRaysSpec::Reflect,
             },
-        }
+            distortion: self.distortion_coefficients()?,
+            lens: self.lens.map(|_| self.lens()).transpose()?,
+        })
     }
 }

@@ -328,8 +328,37 @@ fn render_help_names_every_lens_and_lens_options_are_checked() {
             "takes 8 coefficients",
         ),
         (
-            "--camera stereo --distortion radtan --dist 0.1,0,0,0",
-            "--distortion does not apply",
+            "--camera stereo --lens equidistant --distortion radtan --dist 0.1,0,0,0",
+            "--distortion does not apply to --camera stereo --lens equidistant",
+        ),
+        (
+            "--camera stereo --lens kannala-brandt --hfov 90",
+            "--hfov does not apply to --camera stereo --lens kannala-brandt",
+        ),
+        ("--camera stereo --fov 120", "--fov does not apply to --camera stereo"),
+        (
+            "--camera omni --lens kannala-brandt --fov 100",
+            "--fov does not apply to --camera omni --mirror hyperbolic --lens kannala-brandt",
+        ),
+        (
+            "--camera omni --mirror parabolic --distortion radtan --dist 0.1,0,0,0",
+            "the parabolic mirror's camera is orthographic",
+        ),
+        (
+            "--camera omni --lens scaramuzza --poly=-40,0,0.008",
+            "the scaramuzza lens sets its own scale",
+        ),
+        (
+            "--camera stereo --lens orthographic --fov 200",
+            "between 0 and 180.00 degrees",
+        ),
+        (
+            "--camera stereo --lens scaramuzza --poly=-40,0,0.008 --focal 30",
+            "--focal does not apply",
+        ),
+        (
+            "--camera stereo --distortion rational --dist 0.1,0,0,0",
+            "takes 8 coefficients",
         ),
         (
             "--camera fisheye --lens kannala-brandt --k 0.1,0",
@@ -809,6 +838,24 @@ fn outputs_open_in_the_readers_people_use() {
             "fisheye-scaramuzza",
             "--camera fisheye --lens scaramuzza --poly=-40,0,0.008,-3e-5,1.5e-8 --size 120x100",
         ),
+        // A mirror seen through a distorted lens: cv::omnidir's and Kalibr's radtan express it.
+        (
+            "omni-radtan",
+            "--camera omni --size 160x160 --distortion radtan --dist=-0.1,0.02,0.001,-0.002",
+        ),
+        // Stereo pairs with a lens: each camera's files, R and T, T_cn_cnm1; no disparity.
+        (
+            "stereo-kb",
+            "--camera stereo --lens kannala-brandt --k 0.02,-0.004,0.0001,0 --fov 200 --size 120x100",
+        ),
+        (
+            "stereo-ds",
+            "--camera stereo --lens double-sphere --fov 220 --size 120x100 --baseline 0.3",
+        ),
+        (
+            "stereo-radtan",
+            "--camera stereo --distortion radtan --dist=-0.2,0.05,0.001,-0.002 --size 120x100",
+        ),
         (
             "pinhole-thin-prism",
             "--camera pinhole --distortion thin-prism --size 160x120 \
@@ -829,10 +876,10 @@ fn outputs_open_in_the_readers_people_use() {
         .expect("the reader check's Python runs");
     eprintln!("{}", text(&check.stdout));
     assert!(check.status.success(), "{}", text(&check.stderr));
-    // Two poses each: one normal map per view (12 single cameras, 2 stereo rigs), one ray map
+    // Two poses each: one normal map per view (13 single cameras, 5 stereo rigs), one ray map
     // (origin and direction) per view.
     assert!(
-        text(&check.stdout).contains("checks passed in 14 folders (32 normal maps, 16 ray maps)"),
+        text(&check.stdout).contains("checks passed in 18 folders (46 normal maps, 23 ray maps)"),
         "{}",
         text(&check.stdout)
     );

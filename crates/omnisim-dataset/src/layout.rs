@@ -243,7 +243,9 @@ mod tests {
 
     use glam::{DVec2, dvec2, dvec3};
     use omnisim::calibration::kalibr_camchain_of;
-    use omnisim::camera::{BrownConrady, Catadioptric, KannalaBrandt, LensCamera, LensModel, Mount, Pinhole};
+    use omnisim::camera::{
+        BrownConrady, Catadioptric, KannalaBrandt, LensCamera, LensModel, Mount, Pinhole, StereoRig,
+    };
 
     /// The numbers between the brackets after `key` (its first occurrence at or after `from`).
     fn numbers_after(text: &str, key: &str) -> Vec<f64> {
@@ -346,7 +348,25 @@ mod tests {
                 model,
             }))
         };
+        // Both cameras of a fisheye stereo pair: their sensor.yaml files carry the lens and place
+        // each eye.
+        let [left_eye, right_eye] = StereoRig {
+            camera: pinhole.clone(),
+            lens: Some(LensModel::KannalaBrandt(
+                KannalaBrandt::new([0.01, -0.002, 1e-4, 0.0]).unwrap(),
+            )),
+            baseline: 0.2,
+        }
+        .cameras();
+        // A mirror seen through a radtan lens: Kalibr's omni-radtan, flipped.
+        let mut mirror_radtan = Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()));
+        mirror_radtan.lens = Some(Box::new(LensModel::Perspective(
+            BrownConrady::new(&[-0.1, 0.02, 1e-3, -2e-3]).unwrap(),
+        )));
         let cameras = [
+            left_eye,
+            right_eye,
+            Camera::Catadioptric(mirror_radtan),
             Camera::Catadioptric(Catadioptric::hyperbolic(250, 250, 0.04, 0.16, Some(20f64.to_radians()))),
             Camera::Catadioptric(mirror_down),
             Camera::Pinhole(Pinhole {

@@ -766,8 +766,17 @@ fn check_set(spec: &Spec, set: &SetSpec) -> Checked {
         if !(d.sigma.is_finite() && d.sigma >= 0.0) {
             return Err(("noise.disparity.sigma".into(), "must be finite and ≥ 0".into()));
         }
-        if !matches!(spec.rig, RigSpec::Stereo(_)) {
-            return Err(("noise.disparity".into(), "only a Stereo rig has disparity".into()));
+        match &spec.rig {
+            RigSpec::Stereo(stereo) if stereo.lens.is_some() || stereo.distortion.is_some() => {
+                return Err((
+                    "noise.disparity".into(),
+                    "a Stereo rig with a lens or distortion has no disparity (it is defined for rectified ideal \
+                     pinholes): remove noise.disparity, or the rig's lens"
+                        .into(),
+                ));
+            }
+            RigSpec::Stereo(_) => {}
+            _ => return Err(("noise.disparity".into(), "only a Stereo rig has disparity".into())),
         }
     }
     for (i, layout) in set.layouts.iter().enumerate() {
@@ -794,11 +803,16 @@ fn check_set(spec: &Spec, set: &SetSpec) -> Checked {
                     .into(),
             ));
         }
-        if matches!(layout, LayoutSpec::Tum { .. }) && !matches!(spec.rig, RigSpec::Pinhole(_) | RigSpec::Stereo(_)) {
+        let optical_depth = match &spec.rig {
+            RigSpec::Pinhole(_) => true,
+            RigSpec::Stereo(stereo) => stereo.lens.is_none(),
+            _ => false,
+        };
+        if matches!(layout, LayoutSpec::Tum { .. }) && !optical_depth {
             return Err((
                 format!("layouts[{i}]"),
                 "TUM RGB-D pairs every colour image with a depth image along an optical axis, which only a Pinhole \
-                 or Stereo rig has; for this rig use Euroc (images and poses), with the range EXRs as depth"
+                 or Stereo rig (without a fisheye lens) has; for this rig use Euroc (images and poses), with the range EXRs as depth"
                     .into(),
             ));
         }

@@ -1421,3 +1421,56 @@ fn the_preview_of_a_large_set_draws_an_even_spread_of_its_poses() {
     assert!(frames.windows(2).all(|w| (1..=2).contains(&(w[1] - w[0]))));
     assert!(picture.svg.contains("grid: 6000 poses (5000 drawn)"));
 }
+
+#[test]
+fn a_stereo_fisheye_pair_writes_each_cameras_lens_and_no_disparity() {
+    let stereo = small_spec()
+        .replace(
+            "rig: Pinhole(size: (32, 24), hfov: 70.0)",
+            "rig: Stereo(size: (32, 24), lens: KannalaBrandt(k: (0.01, -0.002, 0.0001, 0.0)), fov: 200.0)",
+        )
+        .replace(
+            "layouts: [Tum(rate: 10.0), Euroc(rate: 10.0)]",
+            "layouts: [Euroc(rate: 10.0)]",
+        );
+    let (dir, spec) = project(&stereo);
+    let dataset = Dataset::load(&spec).unwrap();
+    let out = dir.path().join("out");
+    run(&dataset, &out, RunOptions::default(), None);
+    for (cam, x) in [("cam0", "0.06"), ("cam1", "-0.06")] {
+        let sensor = std::fs::read_to_string(out.join(format!("map/mav0/{cam}/sensor.yaml"))).unwrap();
+        assert!(
+            sensor.contains("camera_model: pinhole") && sensor.contains("distortion_model: equidistant"),
+            "{sensor}"
+        );
+        // T_BS places each eye on body y.
+        assert!(
+            sensor.contains(&format!("0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, {x}")),
+            "{sensor}"
+        );
+    }
+    let files: Vec<String> = snapshot(&out).into_keys().collect();
+    assert!(
+        files
+            .iter()
+            .any(|f| f.ends_with("map/calibration-opencv-fisheye-right.yaml")),
+        "{files:?}"
+    );
+    assert!(!files.iter().any(|f| f.contains("disparity")), "{files:?}");
+    // Neither disparity noise nor TUM's optical-axis depth applies to the pair.
+    for (change, message) in [
+        ("depth: (c2: 0.003)", "depth: (c2: 0.003), disparity: (sigma: 0.1)"),
+        ("layouts: [Euroc(rate: 10.0)]", "layouts: [Tum(rate: 10.0)]"),
+    ] {
+        let (dir, spec) = project(&stereo.replace(change, message));
+        let error = match Dataset::load(&spec) {
+            Ok(_) => panic!("{message}: refused"),
+            Err(error) => error.to_string(),
+        };
+        assert!(
+            error.contains("without a fisheye lens") || error.contains("has no disparity"),
+            "{error}"
+        );
+        drop(dir);
+    }
+}

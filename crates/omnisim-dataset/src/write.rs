@@ -99,8 +99,10 @@ impl Dataset {
                 sensor_depth = depth;
             }
         }
-        if let (Some(model), Rig::Stereo(stereo)) = (&set.noise.disparity, &self.rig) {
-            let values = noise::disparity(&stereo.disparity(&frames[0], pose), model, &mut rng);
+        if let (Some(model), Rig::Stereo(stereo)) = (&set.noise.disparity, &self.rig)
+            && let Some(disparity) = stereo.disparity(&frames[0], pose)
+        {
+            let values = noise::disparity(&disparity, model, &mut rng);
             let path = set_dir.join(format!("{stem}-disparity-noisy.exr"));
             output::write_disparity_exr(
                 &path,

@@ -1,7 +1,7 @@
 //! Calibration files in the formats robotics tools read: `OpenCV` `FileStorage` YAML (pinhole
 //! with distortion, stereo, `cv::fisheye`, `cv::omnidir`), Kalibr camchains (`pinhole-none`,
-//! `pinhole-radtan`, `pinhole-equi`, `omni-none`, `omni-radtan`, `ds`, `eucm`) and `OCamCalib`'s
-//! `calib_results.txt`. Every file states its conventions in comments: pixel centres at integer
+//! `pinhole-radtan`, `pinhole-equi`, `omni-none`, `omni-radtan`, `ds`, `eucm`), `OCamCalib`'s
+//! `calib_results.txt` and Basalt's calibration JSON (`kb4`, `ds`, `eucm`, `ucm`). Every file states its conventions in comments: pixel centres at integer
 //! coordinates, metres, and for mirrors the frame flip.
 
 use std::fmt::Write;
@@ -10,6 +10,7 @@ use glam::{DMat3, DVec3};
 
 use crate::camera::{Camera, Catadioptric, LensCamera, LensModel, Pinhole, StereoRig, pinhole::BODY_FROM_OPTICAL};
 
+mod basalt;
 mod ocamcalib;
 
 const HEADER: &str = "%YAML:1.0\n---\n";
@@ -69,28 +70,59 @@ pub fn opencv_pinhole(camera: &Pinhole) -> String {
     opencv_camera(PERSPECTIVE_INTRO, camera, &[0.0; 5], None)
 }
 
-/// `OpenCV` stereo YAML (stereoCalibrate names): M1, D1, M2, D2, R, T with
+/// `OpenCV` stereo YAML (stereoCalibrate names): M1, D1, M2, D2 (and xi1, xi2 for
+/// `cv::omnidir`) where `OpenCV` has the cameras' model, and R, T with
 /// `X_right` = `R·X_left` + T, metres.
 pub fn opencv_stereo(rig: &StereoRig) -> String {
     let c = &rig.camera;
     let mut out = String::from(HEADER);
-    out += "# omnisim stereo rig, rectified by construction. OpenCV conventions (pixel centres at integer\n\
-            # coordinates; optical frames x right, y down, z forward). X_right = R * X_left + T, metres.\n\
-            # body_from_camera (rotation, optical frame to body frame x forward, y left, z up) and\n\
+    let cameras = match &rig.lens {
+        None => {
+            out += "# omnisim stereo rig, rectified by construction. OpenCV conventions (pixel centres at integer\n\
+                    # coordinates; optical frames x right, y down, z forward). X_right = R * X_left + T, metres.\n";
+            Some((vec![0.0; 5], None))
+        }
+        Some(model) => {
+            let opencv = opencv_lens(model);
+            let _ = writeln!(
+                out,
+                "# omnisim stereo pair, both cameras with the {} lens: the right camera is the left one moved\n\
+                 # by the baseline along its optical x, so R = I, but the images are not rectified (each has the\n\
+                 # lens; there is no disparity file). {}\n\
+                 # OpenCV conventions (pixel centres at integer coordinates; optical frames x right, y down,\n\
+                 # z forward). X_right = R * X_left + T, metres.",
+                model.name(),
+                match &opencv {
+                    Some(form) => form.stereo_note,
+                    None =>
+                        "OpenCV has no model for this lens: M1, D1, M2, D2 are left out; the\n\
+                             # cameras are in calibration-kalibr.yaml where Kalibr has the model, render.json and the\n\
+                             # ray maps (raymap-*-left/right.exr).",
+                }
+            );
+            opencv.map(|form| (form.coefficients, form.xi))
+        }
+    };
+    out += "# body_from_camera (rotation, optical frame to body frame x forward, y left, z up) and\n\
             # camera_position_in_body (metres) place the left camera on the robot.\n";
     let _ = writeln!(
         out,
         "image_width: {}\nimage_height: {}\nbaseline: {:?}",
         c.width, c.height, rig.baseline
     );
-    let k = k_matrix(c.fx, c.fy, c.cx, c.cy);
-    out += &opencv_matrix("M1", 3, 3, &k);
-    out += &opencv_matrix("D1", 1, 5, &[0.0; 5]);
-    out += &opencv_matrix("M2", 3, 3, &k);
-    out += &opencv_matrix("D2", 1, 5, &[0.0; 5]);
+    if let Some((distortion, xi)) = cameras {
+        let k = k_matrix(c.fx, c.fy, c.cx, c.cy);
+        for index in ["1", "2"] {
+            out += &opencv_matrix(&format!("M{index}"), 3, 3, &k);
+            out += &opencv_matrix(&format!("D{index}"), 1, distortion.len(), &distortion);
+            if let Some(xi) = xi {
+                let _ = writeln!(out, "xi{index}: {xi:?}");
+            }
+        }
+    }
     out += &opencv_matrix("R", 3, 3, &rows(DMat3::IDENTITY));
     out += &opencv_matrix("T", 3, 1, &[-rig.baseline, 0.0, 0.0]);
-    out += &opencv_body_from_camera(rig.cameras()[0].position);
+    out += &opencv_body_from_camera(DVec3::new(0.0, rig.baseline / 2.0, 0.0));
     out
 }
 
@@ -165,6 +197,7 @@ impl KalibrCamera {
             }
             Camera::Catadioptric(c) => {
                 let model = c.unified_model()?;
+                let [k1, k2, p1, p2] = c.unified_distortion()?;
                 // The model frame turned half a turn about x: a proper rotation; with the rows
                 // flipped, both focal lengths are positive.
                 let camera_from_mirror = DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0));
@@ -172,8 +205,13 @@ impl KalibrCamera {
                 Some(Self {
                     camera_model: "omni",
                     intrinsics: vec![model.xi, model.gamma_x, model.gamma_y, model.cx, last_row - model.cy],
-                    distortion_model: "none",
-                    distortion_coeffs: Vec::new(),
+                    // The rows flipped turn the tangential p1 over (y → −y).
+                    distortion_model: if c.lens.is_some() { "radtan" } else { "none" },
+                    distortion_coeffs: if c.lens.is_some() {
+                        vec![k1, k2, -p1, p2]
+                    } else {
+                        Vec::new()
+                    },
                     resolution: (c.width, c.height),
                     // The viewpoint F' is the body origin of a central camera.
                     camera_from_body: (camera_from_mirror * c.body_from_mirror().transpose(), DVec3::ZERO),
@@ -223,21 +261,14 @@ impl KalibrCamera {
 /// Kalibr's (camera model, distortion model, coefficients) of a lens model.
 fn kalibr_lens(model: &LensModel) -> Option<(&'static str, &'static str, Vec<f64>)> {
     match model {
-        LensModel::Perspective(distortion) => Some(("pinhole", "radtan", radtan(distortion.coefficients())?)),
+        LensModel::Perspective(distortion) => Some(("pinhole", "radtan", distortion.radtan()?.to_vec())),
         LensModel::KannalaBrandt(kb) => Some(("pinhole", "equidistant", kb.coefficients().to_vec())),
         LensModel::Equidistant => Some(("pinhole", "equidistant", vec![0.0; 4])),
         LensModel::DoubleSphere { .. } => Some(("ds", "none", Vec::new())),
         LensModel::ExtendedUnified { .. } => Some(("eucm", "none", Vec::new())),
-        LensModel::Unified { distortion, .. } => Some(("omni", "radtan", radtan(distortion.coefficients())?)),
+        LensModel::Unified { distortion, .. } => Some(("omni", "radtan", distortion.radtan()?.to_vec())),
         LensModel::Equisolid | LensModel::Stereographic | LensModel::Orthographic | LensModel::Scaramuzza(_) => None,
     }
-}
-
-/// k1 k2 p1 p2 of a distortion vector that has no further non-zero coefficient (Kalibr's
-/// `radtan`, `cv::omnidir`'s D).
-fn radtan(coefficients: &[f64]) -> Option<Vec<f64>> {
-    let (radtan, further) = coefficients.split_at(coefficients.len().min(4));
-    (radtan.len() == 4 && further.iter().all(|&c| c == 0.0)).then(|| radtan.to_vec())
 }
 
 /// A Kalibr 4×4 transform entry `name` = [rotation | translation].
@@ -279,14 +310,22 @@ pub fn kalibr_pinhole(camera: &Pinhole) -> String {
 }
 
 /// Kalibr camchain of a stereo rig: left and right, each with `T_cam_imu`, and the right's
-/// `T_cn_cnm1`.
-pub fn kalibr_stereo(rig: &StereoRig) -> String {
-    let cameras: Vec<KalibrCamera> = rig
+/// `T_cn_cnm1`; `None` where Kalibr has no model for the cameras' lens.
+pub fn kalibr_stereo(rig: &StereoRig) -> Option<String> {
+    let cameras = rig
         .cameras()
-        .into_iter()
-        .filter_map(|camera| KalibrCamera::of(&Camera::Pinhole(camera)))
-        .collect();
-    kalibr_camchain("", &cameras, Some(rig.baseline))
+        .iter()
+        .map(KalibrCamera::of)
+        .collect::<Option<Vec<KalibrCamera>>>()?;
+    let note = match &rig.lens {
+        None => String::new(),
+        Some(model) => format!(
+            "# Kalibr model {} for both cameras (omnisim lens {}); optical frames x right, y down, z forward.\n",
+            cameras[0].model_pair(),
+            model.name()
+        ),
+    };
+    Some(kalibr_camchain(&note, &cameras, Some(rig.baseline)))
 }
 
 /// The Kalibr camchain of one camera, where Kalibr has its model.
@@ -318,7 +357,28 @@ const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the
 # R_model_from_M = Rx(pi) (rvec = (pi, 0, 0)) with fy negated, or keep K and flip rows: v' = 2*cy - v.\n\
 # body_from_mirror gives M in the robot body frame (x forward, y left, z up): a point at body azimuth\n\
 # phi appears at image angle atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down.\n\
-# Pixel centres at integer coordinates. Ideal mirror and lens: no distortion.\n";
+# Pixel centres at integer coordinates. ";
+
+/// What a mirror's calibration file says about the lens of the camera that looks at it.
+fn mirror_lens_note(camera: &Catadioptric) -> String {
+    match &camera.lens {
+        None => "Ideal mirror and lens: no distortion.\n".to_owned(),
+        Some(lens) => {
+            let parameters: Vec<String> = lens
+                .parameters()
+                .into_iter()
+                .map(|(name, values)| format!("{name} {values:?}"))
+                .collect();
+            format!(
+                "The camera that looks at the mirror has a lens,\n\
+                 # {} ({}): the unified model's radtan distortion below expresses it\n\
+                 # exactly (the lens's k1 s^2, k2 s^4, p1 s, p2 s for s = gamma/focal).\n",
+                lens.name(),
+                parameters.join("; ")
+            )
+        }
+    }
+}
 
 /// `OpenCV` omnidir YAML (`cv::omnidir)`: `camera_matrix`, distortion (k1 k2 p1 p2 = 0), xi as a
 /// real, as `OpenCV`'s own `omni_calibration` sample writes it.
@@ -326,8 +386,10 @@ const OMNI_FRAME_NOTE: &str = "# Frames: the unified model's camera frame is the
 pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
     let model = camera.unified_model()?;
     let mut out = String::from(HEADER);
+    let distortion = camera.unified_distortion()?;
     out += "# omnisim catadioptric camera as Mei's unified model (exact for this aligned central mirror).\n";
     out += OMNI_FRAME_NOTE;
+    out += &mirror_lens_note(camera);
     let _ = writeln!(out, "image_width: {}\nimage_height: {}", camera.width, camera.height);
     out += &opencv_matrix(
         "camera_matrix",
@@ -335,7 +397,7 @@ pub fn opencv_omnidir(camera: &Catadioptric) -> Option<String> {
         3,
         &k_matrix(model.gamma_x, model.gamma_y, model.cx, model.cy),
     );
-    out += &opencv_matrix("distortion_coefficients", 1, 4, &[0.0; 4]);
+    out += &opencv_matrix("distortion_coefficients", 1, 4, &distortion);
     out += "# xi is a real number (as OpenCV's omni_calibration sample writes it): Python\n\
             # fs.getNode('xi').real(), C++ double xi = fs[\"xi\"]; cv::omnidir takes it as a double.\n";
     let _ = writeln!(out, "xi: {:?}", model.xi);
@@ -357,8 +419,12 @@ pub fn kalibr_omni(camera: &Catadioptric) -> Option<String> {
          # no proper rotation with positive focal lengths reproduces; flipped, it is Kalibr's omni model\n\
          # with fu, fv > 0. Frames: the camera frame is the mirror frame M (origin at the viewpoint F',\n\
          # +z from the camera towards the mirror) turned half a turn about x: X_cam = (x_M, -y_M, -z_M).\n\
-         # Ideal mirror and lens: no distortion.\n",
-        camera.height - 1
+         # {}",
+        camera.height - 1,
+        match &camera.lens {
+            None => mirror_lens_note(camera),
+            Some(_) => mirror_lens_note(camera) + "# Flipped, p1 changes sign.\n",
+        }
     );
     Some(kalibr_camchain(&note, &[kalibr], None))
 }
@@ -372,43 +438,117 @@ const OMNIDIR_LENS_INTRO: &str = "# omnisim unified (Mei) lens for cv2.omnidir: 
 # xi and distortion_coefficients (k1 k2 p1 p2) gives its pixels. xi is a real number: Python\n\
 # fs.getNode('xi').real(). ";
 
-/// The calibration files of a lens camera, (file name, contents): `OpenCV` (plain distortion,
-/// `cv::fisheye`, `cv::omnidir`), Kalibr where it has the model, `OCamCalib` for Scaramuzza's.
-pub fn lens_files(camera: &LensCamera) -> Vec<(&'static str, String)> {
-    let mut files = Vec::new();
-    let intrinsics = &camera.intrinsics;
-    match &camera.model {
-        LensModel::Perspective(distortion) => files.push((
-            "calibration-opencv.yaml",
-            opencv_camera(PERSPECTIVE_INTRO, intrinsics, distortion.coefficients(), None),
-        )),
-        LensModel::KannalaBrandt(kb) => files.push((
-            "calibration-opencv-fisheye.yaml",
-            opencv_camera(FISHEYE_INTRO, intrinsics, &kb.coefficients(), None),
-        )),
-        LensModel::Equidistant => files.push((
-            "calibration-opencv-fisheye.yaml",
-            opencv_camera(FISHEYE_INTRO, intrinsics, &[0.0; 4], None),
-        )),
-        LensModel::Unified { xi, distortion } => {
-            if let Some(coefficients) = radtan(distortion.coefficients()) {
-                files.push((
-                    "calibration-opencv-omnidir.yaml",
-                    opencv_camera(OMNIDIR_LENS_INTRO, intrinsics, &coefficients, Some(*xi)),
-                ));
-            }
-        }
-        LensModel::Scaramuzza(model) => {
-            files.push(("calib_results.txt", ocamcalib::calib_results(camera, model)));
-        }
-        LensModel::Equisolid
+/// How `OpenCV` describes a lens: plain `projectPoints`, `cv::fisheye` or `cv::omnidir`.
+struct OpenCvLens {
+    /// The single camera's file name.
+    file: &'static str,
+    /// The single camera's file's opening comment.
+    intro: &'static str,
+    /// What a stereo file's M1, D1 (xi1), M2, D2 (xi2) are for.
+    stereo_note: &'static str,
+    /// `distortion_coefficients` (D).
+    coefficients: Vec<f64>,
+    /// `cv::omnidir`'s ξ.
+    xi: Option<f64>,
+}
+
+/// `OpenCV`'s form of `model`; `None` where `OpenCV` has no model for it.
+fn opencv_lens(model: &LensModel) -> Option<OpenCvLens> {
+    let fisheye = |coefficients: Vec<f64>| OpenCvLens {
+        file: "calibration-opencv-fisheye.yaml",
+        intro: FISHEYE_INTRO,
+        stereo_note: "M1, D1, M2, D2 are\n# cv2.fisheye's K and D (k1 k2 k3 k4), as cv2.fisheye.stereoCalibrate names them.",
+        coefficients,
+        xi: None,
+    };
+    match model {
+        LensModel::Perspective(distortion) => Some(OpenCvLens {
+            file: "calibration-opencv.yaml",
+            intro: PERSPECTIVE_INTRO,
+            stereo_note: "M1, D1, M2, D2 are\n# cv2.projectPoints's camera matrix and distortion (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4]]]).",
+            coefficients: distortion.coefficients().to_vec(),
+            xi: None,
+        }),
+        LensModel::KannalaBrandt(kb) => Some(fisheye(kb.coefficients().to_vec())),
+        LensModel::Equidistant => Some(fisheye(vec![0.0; 4])),
+        LensModel::Unified { xi, distortion } => Some(OpenCvLens {
+            file: "calibration-opencv-omnidir.yaml",
+            intro: OMNIDIR_LENS_INTRO,
+            stereo_note: "M1, D1, xi1, M2, D2, xi2\n# are cv2.omnidir's K, D (k1 k2 p1 p2) and xi (reals: fs.getNode('xi1').real()).",
+            coefficients: distortion.radtan()?.to_vec(),
+            xi: Some(*xi),
+        }),
+        LensModel::Scaramuzza(_)
+        | LensModel::Equisolid
         | LensModel::Stereographic
         | LensModel::Orthographic
         | LensModel::DoubleSphere { .. }
-        | LensModel::ExtendedUnified { .. } => {}
+        | LensModel::ExtendedUnified { .. } => None,
     }
+}
+
+/// The files of one lens camera that describe it alone, (file name, contents): `OpenCV`
+/// (plain distortion, `cv::fisheye`, `cv::omnidir`) where it has the model, `OCamCalib` for
+/// Scaramuzza's.
+fn lens_camera_files(camera: &LensCamera) -> Vec<(&'static str, String)> {
+    let mut files = Vec::new();
+    if let Some(form) = opencv_lens(&camera.model) {
+        files.push((
+            form.file,
+            opencv_camera(form.intro, &camera.intrinsics, &form.coefficients, form.xi),
+        ));
+    }
+    if let LensModel::Scaramuzza(model) = &camera.model {
+        files.push(("calib_results.txt", ocamcalib::calib_results(camera, model)));
+    }
+    files
+}
+
+/// The calibration files of a lens camera, (file name, contents): `OpenCV` (plain distortion,
+/// `cv::fisheye`, `cv::omnidir`), Kalibr and Basalt where they have the model, `OCamCalib` for
+/// Scaramuzza's.
+pub fn lens_files(camera: &LensCamera) -> Vec<(String, String)> {
+    let mut files: Vec<(String, String)> = lens_camera_files(camera)
+        .into_iter()
+        .map(|(name, text)| (name.to_owned(), text))
+        .collect();
     if let Some(kalibr) = kalibr_lens_camera(camera) {
-        files.push(("calibration-kalibr.yaml", kalibr));
+        files.push(("calibration-kalibr.yaml".to_owned(), kalibr));
+    }
+    if let Some(basalt) = basalt::calibration(&[camera]) {
+        files.push(("calibration-basalt.json".to_owned(), basalt));
+    }
+    files
+}
+
+/// The calibration files of a stereo rig, (file name, contents): `OpenCV`'s stereo file (R, T
+/// and, where `OpenCV` has the model, both cameras), the Kalibr camchain and Basalt's JSON (where
+/// they have the model); with a lens, also each camera's own files, named `…-left` and `…-right`.
+pub fn stereo_files(rig: &StereoRig) -> Vec<(String, String)> {
+    let mut files = vec![("calibration-opencv-stereo.yaml".to_owned(), opencv_stereo(rig))];
+    let cameras = rig.cameras();
+    for (camera, side) in cameras.iter().zip(["left", "right"]) {
+        if let Camera::Lens(lens) = camera {
+            for (name, text) in lens_camera_files(lens) {
+                let (stem, extension) = name.rsplit_once('.').unwrap_or((name, ""));
+                files.push((format!("{stem}-{side}.{extension}"), text));
+            }
+        }
+    }
+    if let Some(kalibr) = kalibr_stereo(rig) {
+        files.push(("calibration-kalibr.yaml".to_owned(), kalibr));
+    }
+    let lenses: Vec<&LensCamera> = cameras
+        .iter()
+        .filter_map(|camera| match camera {
+            Camera::Lens(lens) => Some(&**lens),
+            _ => None,
+        })
+        .collect();
+    if let [_, _] = lenses[..]
+        && let Some(basalt) = basalt::calibration(&lenses)
+    {
+        files.push(("calibration-basalt.json".to_owned(), basalt));
     }
     files
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::camera::{Camera, Catadioptric, MirrorShape, Pinhole, RigSpec};
+use crate::camera::{Camera, Catadioptric, MirrorShape, NO_DISPARITY, Pinhole, RigSpec};
 use crate::output;
 use crate::pose::Pose;
 use crate::renderer::{PreparedScene, Renderer};
@@ -107,16 +107,20 @@ impl RigMetadata {
                 RigMetadata::Stereo(StereoMetadata {
                     model: "stereo",
                     baseline: stereo.baseline,
-                    left: CameraMetadata::of(&Camera::Pinhole(left)),
-                    right: CameraMetadata::of(&Camera::Pinhole(right)),
-                    disparity: "<stem>-disparity.exr: u_left - u_right = fx*baseline/z for the left image",
+                    left: CameraMetadata::of(&left),
+                    right: CameraMetadata::of(&right),
+                    disparity: if stereo.has_disparity() {
+                        "<stem>-disparity.exr: u_left - u_right = fx*baseline/z for the left image"
+                    } else {
+                        NO_DISPARITY
+                    },
                 })
             }
         }
     }
 }
 
-/// A rectified stereo pair.
+/// A stereo pair.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StereoMetadata {
     /// Always "stereo".
@@ -127,7 +131,7 @@ pub struct StereoMetadata {
     pub left: CameraMetadata,
     /// The right camera.
     pub right: CameraMetadata,
-    /// What the disparity file holds.
+    /// What the disparity file holds, or why a pair with a lens has none.
     pub disparity: &'static str,
 }
 
@@ -286,6 +290,9 @@ pub struct CatadioptricMetadata {
     pub body_origin_in_mirror_frame: [f64; 3],
     /// Mei's unified model, for aligned central mirrors.
     pub unified_model: Option<UnifiedModelMetadata>,
+    /// The lens of the camera that looks at the mirror; absent for the ideal pinhole.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera_lens: Option<MirrorLensMetadata>,
     /// How body azimuth maps to image angle.
     pub image_azimuth: &'static str,
     /// Where per-pixel rays are.
@@ -337,10 +344,31 @@ impl CatadioptricMetadata {
                 gamma_y: m.gamma_y,
                 projection: "u = cx + gamma_x*s_x/(xi - s_z), v = cy + gamma_y*s_y/(xi - s_z), s = unit direction from F' in the mirror frame",
             }),
+            camera_lens: c.lens.as_ref().map(|lens| MirrorLensMetadata {
+                lens: lens.name(),
+                lens_parameters: lens.parameters().into_iter().collect(),
+                applied: "m = ((u - cx)/focal, (v - cy)/focal) is the lens's normalised image point; its inverse \
+                          gives the camera's ray to the mirror",
+                unified_model_distortion: c.unified_distortion(),
+            }),
             image_azimuth: "a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down (u right, v down): the image is mirrored on screen",
             rays: "see raymap-origin.exr and raymap-direction.exr: per-pixel origin and unit direction in the body frame",
         }
     }
+}
+
+/// The lens of a catadioptric camera's inner camera.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MirrorLensMetadata {
+    /// The lens model's name.
+    pub lens: &'static str,
+    /// Its parameters by name.
+    pub lens_parameters: std::collections::BTreeMap<&'static str, Vec<f64>>,
+    /// How the lens applies.
+    pub applied: &'static str,
+    /// The unified model's radtan k1 k2 p1 p2 that expresses this lens exactly (`cv::omnidir`;
+    /// the calibration files carry it); absent where none does.
+    pub unified_model_distortion: Option<[f64; 4]>,
 }
 
 /// A mirror's shape and parameters, metres.

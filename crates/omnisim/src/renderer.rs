@@ -262,7 +262,7 @@ impl Renderer {
             let edges = coverage::pixels_to_refine(&frame, &prepared.geometry, outline, camera, pose, rays);
             // The GPU's lens rays are a table of pixel centres: their sub-pixel samples are
             // traced by the CPU, exactly.
-            let gpu = self.gpu(prepared).filter(|_| !matches!(camera, Camera::Lens(_)));
+            let gpu = self.gpu(prepared).filter(|_| !camera.has_lens_model());
             match gpu {
                 #[cfg(feature = "gpu")]
                 Some((renderer, gpu)) => {

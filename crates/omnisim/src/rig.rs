@@ -9,7 +9,8 @@ use crate::camera::{Camera, StereoRig};
 pub enum Rig {
     /// One image per pose.
     Single(Camera),
-    /// Two pinhole images per pose (left and right), and the left image's disparity.
+    /// Two images per pose (left and right), and the left image's disparity where the pair
+    /// is rectified ideal pinholes.
     Stereo(StereoRig),
 }
 
@@ -36,11 +37,11 @@ impl Rig {
                 vec![
                     View {
                         suffix: "-left",
-                        camera: Camera::Pinhole(left),
+                        camera: left,
                     },
                     View {
                         suffix: "-right",
-                        camera: Camera::Pinhole(right),
+                        camera: right,
                     },
                 ]
             }
@@ -52,7 +53,10 @@ impl Rig {
     pub fn first_camera(&self) -> Camera {
         match self {
             Rig::Single(camera) => camera.clone(),
-            Rig::Stereo(stereo) => Camera::Pinhole(stereo.cameras()[0].clone()),
+            Rig::Stereo(stereo) => {
+                let [left, _] = stereo.cameras();
+                left
+            }
         }
     }
 }
@@ -64,10 +68,7 @@ mod tests {
 
     #[test]
     fn a_stereo_rig_has_a_left_and_a_right_view_a_baseline_apart() {
-        let rig = Rig::Stereo(StereoRig {
-            camera: Pinhole::with_horizontal_fov(64, 48, 1.0),
-            baseline: 0.2,
-        });
+        let rig = Rig::Stereo(StereoRig::rectified(Pinhole::with_horizontal_fov(64, 48, 1.0), 0.2));
         let views = rig.views();
         let suffixes: Vec<_> = views.iter().map(|v| v.suffix).collect();
         assert_eq!(suffixes, ["-left", "-right"]);

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use glam::{DMat3, DVec3, dvec3};
 use omnisim::advanced::CpuTracer;
 use omnisim::advanced::SceneBvh;
+use omnisim::camera::{BrownConrady, FisheyeSpec, LensCamera, LensModel, LensSpec, PinholeSpec, RigSpec};
 use omnisim::camera::{Catadioptric, Cylindrical, Equirectangular, Pinhole, StereoRig};
-use omnisim::camera::{FisheyeSpec, LensCamera, LensSpec, PinholeSpec, RigSpec};
 use omnisim::camera::{MirrorShape, Misalignment, Mount};
 use omnisim::scene::{Face, SceneObject};
 use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, RenderError, Renderer, Rig, Scene};
@@ -49,12 +49,7 @@ pub(crate) fn box_faces(centre: DVec3, half: DVec3, world_from_box: DMat3) -> Ve
 /// One camera of each model and option, at test-friendly sizes.
 pub(crate) fn cameras() -> Vec<Camera> {
     let pinhole = Pinhole::with_horizontal_fov(320, 240, 70f64.to_radians());
-    let stereo_right = StereoRig {
-        camera: pinhole.clone(),
-        baseline: 0.12,
-    }
-    .cameras()[1]
-        .clone();
+    let [_, stereo_right] = StereoRig::rectified(pinhole.clone(), 0.12).pinholes();
     let mut misaligned = paper_omni();
     misaligned.misalignment = Misalignment {
         offset: dvec3(0.002, -0.001, 0.003),
@@ -69,9 +64,29 @@ pub(crate) fn cameras() -> Vec<Camera> {
         b: 0.05,
         h: 0.02,
     };
+    // A misaligned mirror seen through a distorted lens (its rays to the mirror come from the
+    // lens's inverse; the GPU reads them from the ray table), and the right eye of a fisheye pair.
+    let mut lensed = misaligned.clone();
+    lensed.lens = Some(Box::new(LensModel::Perspective(
+        BrownConrady::new(&[-0.12, 0.03, 1e-3, -2e-3, 0.004]).expect("radtan"),
+    )));
+    let fisheye_pair = StereoRig {
+        camera: lens_camera(&RigSpec::Fisheye(FisheyeSpec {
+            size: (200, 160),
+            lens: LensSpec::Equidistant,
+            fov: Some(200.0),
+            focal: None,
+        }))
+        .intrinsics,
+        lens: Some(LensModel::Equidistant),
+        baseline: 0.12,
+    };
+    let [_, fisheye_right] = fisheye_pair.cameras();
     vec![
         Camera::Pinhole(pinhole),
         Camera::Pinhole(stereo_right),
+        Camera::Catadioptric(lensed),
+        fisheye_right,
         Camera::Equirectangular(Equirectangular {
             width: 512,
             height: 256,
@@ -128,12 +143,14 @@ pub(crate) fn describe(camera: &Camera) -> String {
     match camera {
         Camera::Pinhole(p) => format!("pinhole at {}", p.position),
         Camera::Catadioptric(c) => format!(
-            "{:?} mount {:?} central {} hidden {}",
+            "{:?} mount {:?} central {} hidden {} lens {}",
             c.mirror,
             c.mount,
             c.is_central(),
-            c.hidden_centre_px
+            c.hidden_centre_px,
+            c.lens.as_deref().map_or("none", LensModel::name)
         ),
+        Camera::Lens(c) => format!("{} at {}", c.model.name(), c.intrinsics.position),
         other => other.model_name().to_string(),
     }
 }

@@ -63,7 +63,8 @@ impl From<BackendArg> for BackendChoice {
 /// ray origin, channel "Y", header quantity "range", +inf = no hit) and <scene>-N.ply (binary
 /// coloured point cloud, world frame); pinhole and stereo also -depth.png (TUM: z × 5000, 16
 /// bit) and -depth.exr (z, metres); a stereo rig writes -left and -right of each and
-/// -disparity.exr. Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
+/// -disparity.exr (rectified ideal pinholes only: a pair with --lens or --distortion writes
+/// each camera's calibration and the extrinsics instead). Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
 /// raymap-origin.exr and raymap-direction.exr (every pixel's ray in the body frame, R G B = x y z;
 /// stereo: raymap-left-origin.exr ...), poses.txt (TUM: index tx ty tz qx qy qz
 /// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
@@ -219,6 +220,15 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 lens.model.max_angle().to_degrees()
             ))?;
         }
+    }
+
+    if let Rig::Stereo(stereo) = &rig
+        && !stereo.has_disparity()
+    {
+        crate::streams::stderr(format_args!(
+            "stereo pair with a lens: disparity {}",
+            omnisim::camera::NO_DISPARITY
+        ))?;
     }
 
     let mut progress = Progress::new("poses");

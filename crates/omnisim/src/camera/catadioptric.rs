@@ -17,6 +17,8 @@
 use glam::{DMat3, DVec2, DVec3, dvec2, dvec3};
 
 use super::CameraRay;
+use super::lens::LensModel;
+use super::lens_camera::{lens_ray, pixel_through};
 use crate::pose::rotation_xyz;
 
 /// The mirror's shape and, for the spherical mirror, where its camera is.
@@ -184,6 +186,10 @@ pub struct Catadioptric {
     pub misalignment: Misalignment,
     /// How mirror rays are found.
     pub rays: MirrorRays,
+    /// The lens of the perspective camera that looks at the mirror (hyperbolic and spherical
+    /// mirrors), applied with K = (focal, focal, cx, cy); `None`: the ideal pinhole (boxed: a
+    /// lens holds up to 12 coefficients).
+    pub lens: Option<Box<LensModel>>,
 }
 
 impl Catadioptric {
@@ -200,6 +206,7 @@ impl Catadioptric {
             mount: Mount::Up,
             misalignment: Misalignment::default(),
             rays: MirrorRays::Reflect,
+            lens: None,
         }
     }
 
@@ -333,16 +340,35 @@ impl Catadioptric {
         }
     }
 
-    /// The camera's ray for `pixel` in S, before the mirror: (origin, unit direction).
-    pub fn camera_ray_in_mirror(&self, pixel: DVec2) -> (DVec3, DVec3) {
+    /// The ray of the camera's lens at `pixel`, in its optical frame before the misalignment
+    /// tilt (`lens_camera::lens_ray`): (towards, unit direction); `None` without a lens or
+    /// beyond its field of view.
+    pub fn lens_ray(&self, pixel: DVec2) -> Option<(DVec3, DVec3)> {
+        lens_ray(
+            self.lens.as_deref()?,
+            DVec2::splat(self.focal),
+            dvec2(self.cx, self.cy),
+            pixel,
+        )
+    }
+
+    /// The camera's ray for `pixel` in S, before the mirror: (origin, unit direction); `None`
+    /// beyond the field of view of the camera's lens.
+    pub fn camera_ray_in_mirror(&self, pixel: DVec2) -> Option<(DVec3, DVec3)> {
         let tilt = rotation_xyz(self.misalignment.tilt);
         let centre = self.nominal_camera_in_mirror() + self.misalignment.offset;
         let offset = (pixel - dvec2(self.cx, self.cy)) / self.focal;
-        if self.is_perspective() {
-            (centre, (tilt * offset.extend(1.0)).normalize())
+        Some(if self.is_perspective() {
+            let towards = match &self.lens {
+                None => offset.extend(1.0),
+                // The lens's f64 inverse: the undistorted point at z = 1 for a perspective lens
+                // (as above, bit for bit, when its distortion is zero).
+                Some(_) => self.lens_ray(pixel)?.0,
+            };
+            (centre, (tilt * towards).normalize())
         } else {
             (centre + tilt * offset.extend(0.0), tilt * DVec3::Z)
-        }
+        })
     }
 
     /// Traces pixel (u, v) to the mirror and off it. `None` where the pixel sees the camera
@@ -352,7 +378,7 @@ impl Catadioptric {
         if centre.length_squared() < self.hidden_centre_px * self.hidden_centre_px {
             return None;
         }
-        let (origin, d) = self.camera_ray_in_mirror(pixel);
+        let (origin, d) = self.camera_ray_in_mirror(pixel)?;
         let quadric = self.quadric();
         let q = origin + quadric.first_hit(origin, d)? * d;
         if let Some(rim) = self.rim_radius
@@ -383,7 +409,8 @@ impl Catadioptric {
         })
     }
 
-    /// Mei's unified model of an aligned central mirror; `None` for non-central cameras.
+    /// Mei's unified model of an aligned central mirror seen by the ideal pinhole (the inner
+    /// lens is [`Self::unified_distortion`]); `None` for non-central cameras.
     pub fn unified_model(&self) -> Option<UnifiedModel> {
         if !self.is_central() {
             return None;
@@ -403,6 +430,24 @@ impl Catadioptric {
             cx: self.cx,
             cy: self.cy,
         })
+    }
+
+    /// The inner lens as the unified model's radtan (k1 k2 p1 p2 on the projected sphere point,
+    /// Kalibr `omni-radtan`, `cv::omnidir`), exact: the ideal pinhole's normalised point is
+    /// s·m for the model's m, with s = γ/focal, so distorting it by (k1, k2, p1, p2) and dividing
+    /// by s distorts m by (k1·s², k2·s⁴, p1·s, p2·s). Zero without a lens; `None` where the
+    /// camera has no unified model or the lens is not radtan (k3 and beyond zero).
+    pub fn unified_distortion(&self) -> Option<[f64; 4]> {
+        let model = self.unified_model()?;
+        match self.lens.as_deref() {
+            None => Some([0.0; 4]),
+            Some(LensModel::Perspective(distortion)) => {
+                let [k1, k2, p1, p2] = distortion.radtan()?;
+                let s = model.gamma_x / self.focal;
+                Some([k1 * s * s, k2 * s.powi(4), p1 * s, p2 * s])
+            }
+            Some(_) => None,
+        }
     }
 
     /// Highest elevation above the horizon (mirror frame) the mirror shape can show without a
@@ -441,10 +486,19 @@ impl Catadioptric {
         {
             return None;
         }
-        let pixel = dvec2(
+        let ideal = dvec2(
             model.cx + model.gamma_x * s.x / (model.xi - s.z),
             model.cy + model.gamma_y * s.y / (model.xi - s.z),
         );
+        let pixel = match self.lens.as_deref() {
+            None => ideal,
+            // The ideal pinhole's pixel is where the inner camera sees the mirror point: its
+            // lens moves it.
+            Some(lens) => {
+                let (focal, centre) = (DVec2::splat(self.focal), dvec2(self.cx, self.cy));
+                pixel_through(lens, focal, centre, ((ideal - centre) / focal).extend(1.0))?
+            }
+        };
         (pixel.distance(dvec2(self.cx, self.cy)) >= self.hidden_centre_px).then_some(pixel)
     }
 }

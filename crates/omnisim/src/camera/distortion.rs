@@ -93,6 +93,13 @@ impl BrownConrady {
         &self.coefficients[..self.given]
     }
 
+    /// k1 k2 p1 p2 where no further coefficient is non-zero: the radtan distortion of Kalibr
+    /// and `cv::omnidir`; `None` otherwise.
+    pub fn radtan(&self) -> Option<[f64; 4]> {
+        let [k1, k2, p1, p2, further @ ..] = self.coefficients;
+        further.iter().all(|&c| c == 0.0).then_some([k1, k2, p1, p2])
+    }
+
     /// The undistorted radius (normalised coordinates) beyond which the map folds back.
     pub fn max_radius(&self) -> f64 {
         self.max_radius

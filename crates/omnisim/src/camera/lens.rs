@@ -315,6 +315,15 @@ impl LensModel {
     /// Unit optical-frame direction of normalised image point `m`; `None` where no ray of
     /// the valid field of view maps there.
     pub fn unproject(&self, m: DVec2) -> Option<DVec3> {
+        let direction = self.towards(m)?.normalize();
+        direction.is_finite().then_some(direction)
+    }
+
+    /// An optical-frame direction (of any length) of normalised image point `m`: for a
+    /// perspective lens the undistorted point at z = 1, so that an ideal pinhole's ray and a
+    /// zero-distortion lens's are the same bit for bit; `None` where no ray of the valid field
+    /// of view maps there.
+    pub fn towards(&self, m: DVec2) -> Option<DVec3> {
         let r = m.length();
         let towards = if r > 0.0 { m / r } else { DVec2::ZERO };
         let direction = match self {
@@ -365,7 +374,6 @@ impl LensModel {
                 dvec3(sensor.y, sensor.x, -model.pol(rho).0)
             }
         };
-        let direction = direction.normalize();
         direction.is_finite().then_some(direction)
     }
 

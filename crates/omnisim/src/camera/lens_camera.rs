@@ -12,6 +12,27 @@ use super::pinhole::{BODY_FROM_OPTICAL, Pinhole};
 /// the last guard against a wrapped ray at the edge of a lens's field of view.
 const ROUND_TRIP_PX: f64 = 1e-6;
 
+/// The pixel of optical-frame direction `optical` through `model` and K (`focal`, `centre`);
+/// `None` outside the valid field of view.
+pub(crate) fn pixel_through(model: &LensModel, focal: DVec2, centre: DVec2, optical: DVec3) -> Option<DVec2> {
+    let m = model.project(optical)?;
+    Some(DVec2::new(focal.x * m.x + centre.x, focal.y * m.y + centre.y))
+}
+
+/// The optical-frame ray of `pixel` through `model` and K (`focal`, `centre`): the model's
+/// [`LensModel::towards`] and its unit direction; `None` outside the valid field of view, or
+/// where the unit direction does not project back within [`ROUND_TRIP_PX`] of the pixel. Lens
+/// cameras and a mirror's inner lens share it.
+pub(crate) fn lens_ray(model: &LensModel, focal: DVec2, centre: DVec2, pixel: DVec2) -> Option<(DVec3, DVec3)> {
+    let towards = model.towards(DVec2::new(
+        (pixel.x - centre.x) / focal.x,
+        (pixel.y - centre.y) / focal.y,
+    ))?;
+    let direction = towards.normalize();
+    let back = pixel_through(model, focal, centre, direction.is_finite().then_some(direction)?)?;
+    ((back - pixel).length() <= ROUND_TRIP_PX).then_some((towards, direction))
+}
+
 /// A central camera with a lens model: pixel = (fx·mx + cx, fy·my + cy) for the model's
 /// normalised image point m.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,10 +49,8 @@ impl LensCamera {
     /// field of view.
     pub fn optical_direction(&self, pixel: DVec2) -> Option<DVec3> {
         let k = &self.intrinsics;
-        let m = DVec2::new((pixel.x - k.cx) / k.fx, (pixel.y - k.cy) / k.fy);
-        let direction = self.model.unproject(m)?;
-        let back = self.pixel_of_optical(direction)?;
-        ((back - pixel).length() <= ROUND_TRIP_PX).then_some(direction)
+        let (_, direction) = lens_ray(&self.model, DVec2::new(k.fx, k.fy), DVec2::new(k.cx, k.cy), pixel)?;
+        Some(direction)
     }
 
     /// The ray of pixel (u, v) in the body frame; `None` where the lens maps no ray there
@@ -46,9 +65,8 @@ impl LensCamera {
     }
 
     fn pixel_of_optical(&self, optical: DVec3) -> Option<DVec2> {
-        let m = self.model.project(optical)?;
         let k = &self.intrinsics;
-        Some(DVec2::new(k.fx * m.x + k.cx, k.fy * m.y + k.cy))
+        pixel_through(&self.model, DVec2::new(k.fx, k.fy), DVec2::new(k.cx, k.cy), optical)
     }
 
     /// Pixel of a body-frame point; `None` outside the valid field of view.

@@ -29,7 +29,7 @@ pub use spec::{
     FisheyeSpec, LensSpec, MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec,
     RigSpecError, StereoSpec,
 };
-pub use stereo::StereoRig;
+pub use stereo::{NO_DISPARITY, StereoRig};
 pub use validate::{CameraError, MAX_PIXELS};
 
 /// A ray of a camera in its body frame.
@@ -45,10 +45,10 @@ pub struct CameraRay {
     pub t_min: f64,
 }
 
-/// Every single-image vision system (a stereo rig is two `Pinhole`s, see `StereoRig`).
+/// Every single-image vision system (a stereo rig is two of them, see `StereoRig`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Camera {
-    /// A perspective camera (also each camera of a stereo rig).
+    /// A perspective camera (also each camera of an ideal stereo rig).
     Pinhole(Pinhole),
     /// A full-sphere equirectangular panorama.
     Equirectangular(Equirectangular),
@@ -62,6 +62,14 @@ pub enum Camera {
 }
 
 impl Camera {
+    /// The camera with `intrinsics` (size, K, place): the ideal pinhole, or with a lens model.
+    pub fn with_lens(intrinsics: Pinhole, model: Option<LensModel>) -> Self {
+        match model {
+            None => Camera::Pinhole(intrinsics),
+            Some(model) => Camera::Lens(Box::new(LensCamera { intrinsics, model })),
+        }
+    }
+
     /// Image size (width, height) in pixels.
     pub fn size(&self) -> (u32, u32) {
         match self {
@@ -113,13 +121,24 @@ impl Camera {
         }
     }
 
+    /// Whether a lens model's f64 inverse gives this camera's rays (a lens camera, or a mirror
+    /// seen through a lens): the GPU reads them from a ray table of pixel centres, so edge
+    /// samples are traced on the CPU.
+    pub fn has_lens_model(&self) -> bool {
+        match self {
+            Camera::Lens(_) => true,
+            Camera::Catadioptric(c) => c.lens.is_some(),
+            Camera::Pinhole(_) | Camera::Equirectangular(_) | Camera::Cylindrical(_) => false,
+        }
+    }
+
     /// Whether all rays share one origin (the pose position).
     pub fn is_central(&self) -> bool {
         match self {
             Camera::Pinhole(c) => c.position == DVec3::ZERO,
             Camera::Equirectangular(_) | Camera::Cylindrical(_) => true,
             Camera::Catadioptric(c) => c.is_central(),
-            Camera::Lens(_) => true,
+            Camera::Lens(c) => c.intrinsics.position == DVec3::ZERO,
         }
     }
 

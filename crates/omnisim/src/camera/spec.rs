@@ -235,6 +235,19 @@ pub struct StereoSpec {
     /// Distance between the optical centres, metres.
     #[serde(default = "defaults::baseline")]
     pub baseline: f64,
+    /// Brown–Conrady distortion of both cameras, as [`PinholeSpec::distortion`] (`hfov` and
+    /// `focal` give K). A pair with distortion writes no disparity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distortion: Option<Vec<f64>>,
+    /// A fisheye or other central lens on both cameras, instead of pinholes: `fov` or `focal`
+    /// give its focal length as [`FisheyeSpec`]'s do, and `hfov` does not apply. A pair with a
+    /// lens writes no disparity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lens: Option<LensSpec>,
+    /// With `lens`: the field of view of the circle inscribed in each image, degrees
+    /// ([`defaults::FISHEYE_FOV`] unless `focal` is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fov: Option<f64>,
 }
 
 /// A catadioptric camera's options (README, "Omnidirectional options").
@@ -271,6 +284,15 @@ pub struct OmniSpec {
     /// How mirror rays are found, as `render --mirror-rays`.
     #[serde(default)]
     pub mirror_rays: MirrorRaysSpec,
+    /// Brown–Conrady distortion of the camera that looks at the mirror (hyperbolic and
+    /// spherical mirrors), as [`PinholeSpec::distortion`]; its K is the mirror fit's (or
+    /// `focal`). `None`: the reference paper's ideal pinhole.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distortion: Option<Vec<f64>>,
+    /// Or any central lens model on that camera (not scaramuzza, whose polynomial sets its own
+    /// scale), with the same K.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lens: Option<LensSpec>,
 }
 
 /// How an omnidirectional camera's mirror rays are found.
@@ -349,6 +371,8 @@ impl Default for OmniSpec {
             misalign_offset: (0.0, 0.0, 0.0),
             misalign_tilt: (0.0, 0.0, 0.0),
             mirror_rays: MirrorRaysSpec::default(),
+            distortion: None,
+            lens: None,
         }
     }
 }
@@ -397,6 +421,16 @@ pub enum RigSpecError {
     /// `fov` or `focal` given to a lens whose polynomial fixes its scale.
     #[error("fov and focal do not apply to the scaramuzza lens: its polynomial (poly, in pixels) sets the scale")]
     ScaleOfScaramuzza,
+    /// A rig's field that does not apply to the cameras it describes.
+    #[error("{rig} {field} does not apply {why}")]
+    FieldDoesNotApply {
+        /// `stereo` or `omni`.
+        rig: &'static str,
+        /// The field given.
+        field: &'static str,
+        /// Why, and what to give instead.
+        why: &'static str,
+    },
 }
 
 /// Why a rig file (`render --rig FILE.ron`) was not read.
@@ -449,20 +483,11 @@ impl RigSpec {
     pub fn build(&self) -> Result<Rig, RigSpecError> {
         let rig =
             match self {
-                RigSpec::Pinhole(p) => {
-                    let camera = pinhole(p.size, p.hfov, p.focal)?;
-                    Rig::Single(match &p.distortion {
-                        None => Camera::Pinhole(camera),
-                        Some(coefficients) => Camera::Lens(Box::new(LensCamera {
-                            intrinsics: camera,
-                            model: LensModel::Perspective(BrownConrady::new(coefficients)?),
-                        })),
-                    })
-                }
-                RigSpec::Stereo(s) => Rig::Stereo(StereoRig {
-                    camera: pinhole(s.size, s.hfov, s.focal)?,
-                    baseline: s.baseline,
-                }),
+                RigSpec::Pinhole(p) => Rig::Single(Camera::with_lens(
+                    pinhole(p.size, p.hfov, p.focal)?,
+                    perspective_lens(p.distortion.as_deref())?,
+                )),
+                RigSpec::Stereo(s) => Rig::Stereo(s.build()?),
                 RigSpec::Equirect { size } => Rig::Single(Camera::Equirectangular(Equirectangular {
                     width: size.0,
                     height: size.1,
@@ -497,6 +522,67 @@ fn pinhole((width, height): (u32, u32), hfov: f64, focal: Option<f64>) -> Result
         (camera.fx, camera.fy) = (f, f);
     }
     Ok(camera)
+}
+
+/// The lens of a pinhole with `distortion` (Brown–Conrady coefficients); `None` without.
+fn perspective_lens(distortion: Option<&[f64]>) -> Result<Option<LensModel>, RigSpecError> {
+    Ok(distortion
+        .map(BrownConrady::new)
+        .transpose()?
+        .map(LensModel::Perspective))
+}
+
+impl StereoSpec {
+    /// The pair: both cameras built as one [`PinholeSpec`] (with `distortion`) or one
+    /// [`FisheyeSpec`] (with `lens`) would be, `baseline` apart.
+    fn build(&self) -> Result<StereoRig, RigSpecError> {
+        let refuse = |field, why| {
+            Err(RigSpecError::FieldDoesNotApply {
+                rig: "stereo",
+                field,
+                why,
+            })
+        };
+        let (camera, lens) = match &self.lens {
+            None if self.fov.is_some() => {
+                return refuse(
+                    "fov",
+                    "to pinholes: it is a lens's image circle; give hfov or focal, or a lens",
+                );
+            }
+            None => (
+                pinhole(self.size, self.hfov, self.focal)?,
+                perspective_lens(self.distortion.as_deref())?,
+            ),
+            Some(_) if self.distortion.is_some() => {
+                return refuse(
+                    "distortion",
+                    "with a lens: give a pinhole's distortion or a fisheye lens, not both",
+                );
+            }
+            Some(_) if self.hfov != defaults::HFOV => {
+                return refuse(
+                    "hfov",
+                    "to a lens: give fov (the image circle's field of view) or focal",
+                );
+            }
+            Some(lens) => {
+                let eye = FisheyeSpec {
+                    size: self.size,
+                    lens: lens.clone(),
+                    fov: self.fov,
+                    focal: self.focal,
+                }
+                .build()?;
+                (eye.intrinsics, Some(eye.model))
+            }
+        };
+        Ok(StereoRig {
+            camera,
+            lens,
+            baseline: self.baseline,
+        })
+    }
 }
 
 impl FisheyeSpec {
@@ -606,6 +692,18 @@ impl OmniSpec {
             MirrorRaysSpec::Reflect => MirrorRays::Reflect,
             MirrorRaysSpec::Shortcut => MirrorRays::Shortcut,
         };
+        camera.lens = match (&self.lens, &self.distortion) {
+            (Some(_), Some(_)) => {
+                return Err(RigSpecError::FieldDoesNotApply {
+                    rig: "omni",
+                    field: "distortion",
+                    why: "with a lens: give the mirror's camera a pinhole's distortion or a lens, not both",
+                });
+            }
+            (Some(lens), None) => Some(lens.model(f64::from(w).hypot(f64::from(h)))?),
+            (None, distortion) => perspective_lens(distortion.as_deref())?,
+        }
+        .map(Box::new);
         camera.check_rays()?;
         Ok(camera)
     }

@@ -4,7 +4,7 @@
 
 use glam::dvec2;
 
-use super::{Camera, Catadioptric, LensCamera, MirrorShape, Pinhole, StereoRig};
+use super::{Camera, Catadioptric, LensCamera, LensModel, MirrorShape, Pinhole, StereoRig};
 
 /// Most pixels one image may have (a frame holds about 40 bytes a pixel in memory).
 pub const MAX_PIXELS: u64 = 100_000_000;
@@ -167,7 +167,7 @@ impl StereoRig {
     /// Checks the baseline and both cameras.
     pub fn validate(&self) -> Result<(), CameraError> {
         within("stereo baseline", self.baseline, BASELINE, "m")?;
-        self.cameras().iter().try_for_each(Pinhole::validate)
+        self.cameras().iter().try_for_each(Camera::validate)
     }
 }
 
@@ -208,6 +208,21 @@ impl Catadioptric {
         within("focal", self.focal, FOCAL, "px")?;
         within("cx", self.cx, PIXELS, "px")?;
         within("cy", self.cy, PIXELS, "px")?;
+        if let Some(lens) = self.lens.as_deref() {
+            if !self.is_perspective() {
+                return Err(CameraError::Method(
+                    "a lens model applies to the perspective camera of a hyperbolic or spherical mirror; the \
+                     parabolic mirror's camera is orthographic (telecentric): remove the lens",
+                ));
+            }
+            if let LensModel::Scaramuzza(_) = lens {
+                return Err(CameraError::Method(
+                    "the scaramuzza lens sets its own scale in pixels, and the mirror's camera takes its focal \
+                     length from the mirror's fit (or focal): give the mirror's camera another lens model",
+                ));
+            }
+            lens.check()?;
+        }
         if let Some(rim) = self.rim_radius {
             within("rim radius", rim, RIG_LENGTH, "m")?;
         }
@@ -316,10 +331,7 @@ mod tests {
             error.contains("camera distance (outside the sphere) = 1e300 m"),
             "{error}"
         );
-        let rig = StereoRig {
-            camera: Pinhole::with_horizontal_fov(64, 48, 1.0),
-            baseline: 1e300,
-        };
+        let rig = StereoRig::rectified(Pinhole::with_horizontal_fov(64, 48, 1.0), 1e300);
         assert!(rig.validate().unwrap_err().to_string().contains("baseline = 1e300 m"));
         let mut pinhole = Pinhole::with_horizontal_fov(64, 48, 1.0);
         pinhole.fx = 1e-300;

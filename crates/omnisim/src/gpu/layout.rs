@@ -58,8 +58,9 @@ pub(crate) struct MirrorBlock {
     pub(crate) orthographic: u32,
     pub(crate) central: u32,
     pub(crate) shortcut: u32,
+    pub(crate) inner_lens: u32,
     /// WGSL rounds the struct up to its 16-byte alignment.
-    pub(crate) _pad: [u32; 3],
+    pub(crate) _pad: [u32; 2],
 }
 
 /// WGSL twin: `Triangle`.
@@ -215,6 +216,7 @@ pub(crate) fn host_layouts() -> Vec<StructLayout> {
                 ("orthographic", offset_of!(MirrorBlock, orthographic)),
                 ("central", offset_of!(MirrorBlock, central)),
                 ("shortcut", offset_of!(MirrorBlock, shortcut)),
+                ("inner_lens", offset_of!(MirrorBlock, inner_lens)),
             ],
         ),
         (

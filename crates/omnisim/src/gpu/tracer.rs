@@ -35,9 +35,20 @@ pub struct GpuRenderer {
     refine: Pipeline,
     max_band_rows: Option<u32>,
     /// The ray table of the last lens camera traced (`camera_table.wgsl`), uploaded once per
-    /// camera; other cameras bind `no_rays`.
+    /// camera and kept under [`table_key`]; other cameras bind `no_rays`.
     rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
     no_rays: Arc<wgpu::Buffer>,
+}
+
+/// What a camera's ray table depends on: the camera without its place. The table holds
+/// directions only (origins come from `lens_origin`), so the two cameras of a stereo pair
+/// share one upload.
+fn table_key(camera: &Camera) -> Camera {
+    let mut key = camera.clone();
+    if let Camera::Lens(lens) = &mut key {
+        lens.intrinsics.position = DVec3::ZERO;
+    }
+    key
 }
 
 /// A compute pipeline with the explicit layout of its stage's bindings (`bindings.rs`).
@@ -155,15 +166,17 @@ impl GpuRenderer {
         self.run_bands(scene, camera, pose, frame, planes, HitSource::Upload(&hits))
     }
 
-    /// The ray table of a lens camera (made and uploaded on its first frame, kept while the
-    /// same camera is traced); a placeholder for the cameras the shader computes rays for.
+    /// The ray table of a camera with a lens model (made and uploaded on its first frame,
+    /// kept while the same camera is traced); a placeholder for the cameras the shader
+    /// computes rays for.
     fn camera_rays(&self, camera: &Camera) -> Result<Arc<wgpu::Buffer>, GpuError> {
-        if !matches!(camera, Camera::Lens(_)) {
+        if !camera.has_lens_model() {
             return Ok(Arc::clone(&self.no_rays));
         }
+        let key = table_key(camera);
         let mut cache = self.rays.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if let Some((cached, buffer)) = cache.as_ref()
-            && cached == camera
+            && *cached == key
         {
             return Ok(Arc::clone(buffer));
         }
@@ -178,11 +191,18 @@ impl GpuRenderer {
                 limit,
             });
         }
+        let row = width.max(1) as usize;
         let table: Vec<[f32; 4]> = (0..pixels)
             .into_par_iter()
-            .map(|index| match camera.pixel_ray(index) {
-                Some(ray) => ray.direction.as_vec3().extend(1.0).to_array(),
-                None => [0.0; 4],
+            .map(|index| {
+                let direction = match camera {
+                    // The mirror's camera: its lens's direction, before the tilt and the mirror.
+                    Camera::Catadioptric(c) => c
+                        .lens_ray(glam::dvec2((index % row) as f64, (index / row) as f64))
+                        .map(|(_, direction)| direction),
+                    _ => camera.pixel_ray(index).map(|ray| ray.direction),
+                };
+                direction.map_or([0.0; 4], |d| d.as_vec3().extend(1.0).to_array())
             })
             .collect();
         let buffer = Arc::new(
@@ -194,7 +214,7 @@ impl GpuRenderer {
                     usage: wgpu::BufferUsages::STORAGE,
                 }),
         );
-        *cache = Some((camera.clone(), Arc::clone(&buffer)));
+        *cache = Some((key, Arc::clone(&buffer)));
         Ok(buffer)
     }
 
@@ -334,7 +354,7 @@ impl GpuRenderer {
         if samples_per_axis <= 1 || edges.is_empty() {
             return Ok(0);
         }
-        if let Camera::Lens(_) = camera {
+        if camera.has_lens_model() {
             // The table holds pixel centres only; the renderer refines lens cameras on the CPU.
             return Err(GpuError::NoGpuCamera(camera.model_name()));
         }
@@ -561,7 +581,8 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
             orthographic: 0,
             central: 1,
             shortcut: 0,
-            _pad: [0; 3],
+            inner_lens: 0,
+            _pad: [0; 2],
         },
     };
     match camera {
@@ -594,6 +615,7 @@ fn camera_params(camera: &Camera, pose: &Pose, offset: DVec3) -> CameraParams {
             params.mirror.orthographic = u32::from(!c.is_perspective());
             params.mirror.central = u32::from(c.is_central());
             params.mirror.shortcut = u32::from(c.rays == MirrorRays::Shortcut);
+            params.mirror.inner_lens = u32::from(c.lens.is_some());
         }
         Camera::Lens(c) => params.projection.lens_origin = vector(c.intrinsics.position),
     }

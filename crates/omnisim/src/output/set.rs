@@ -293,8 +293,9 @@ impl OutputSet {
         for (view, frame) in views.iter().zip(frames) {
             written.extend(self.write_view(folder, target, view, frame)?);
         }
-        if let (true, Rig::Stereo(stereo)) = (self.disparity, rig) {
-            let disparity = stereo.disparity(&frames[0], target.pose);
+        if let (true, Rig::Stereo(stereo)) = (self.disparity, rig)
+            && let Some(disparity) = stereo.disparity(&frames[0], target.pose)
+        {
             let path = target.path(folder, "-disparity.exr")?;
             super::write_disparity_exr(
                 &path,
@@ -336,7 +337,7 @@ impl OutputSet {
     ) -> Result<Vec<PathBuf>, OutputError> {
         let mut written = Vec::new();
         for (name, text) in calibration_files(rig) {
-            let path = folder.claim(name.to_string())?;
+            let path = folder.claim(name)?;
             write_atomically(&path, |file| file.write_all(text.as_bytes())).map_err(failed(&path))?;
             written.push(path);
         }
@@ -387,16 +388,13 @@ impl OutputSet {
 }
 
 /// Calibration files of `rig` where its model has a standard form: (file name, contents).
-fn calibration_files(rig: &Rig) -> Vec<(&'static str, String)> {
-    match rig {
+fn calibration_files(rig: &Rig) -> Vec<(String, String)> {
+    let files: Vec<(&str, String)> = match rig {
         Rig::Single(Camera::Pinhole(pinhole)) => vec![
             ("calibration-opencv.yaml", calibration::opencv_pinhole(pinhole)),
             ("calibration-kalibr.yaml", calibration::kalibr_pinhole(pinhole)),
         ],
-        Rig::Stereo(stereo) => vec![
-            ("calibration-opencv-stereo.yaml", calibration::opencv_stereo(stereo)),
-            ("calibration-kalibr.yaml", calibration::kalibr_stereo(stereo)),
-        ],
+        Rig::Stereo(stereo) => return calibration::stereo_files(stereo),
         Rig::Single(Camera::Catadioptric(mirror)) => {
             match (calibration::opencv_omnidir(mirror), calibration::kalibr_omni(mirror)) {
                 (Some(omnidir), Some(kalibr)) => vec![
@@ -406,9 +404,10 @@ fn calibration_files(rig: &Rig) -> Vec<(&'static str, String)> {
                 _ => Vec::new(),
             }
         }
-        Rig::Single(Camera::Lens(lens)) => calibration::lens_files(lens),
+        Rig::Single(Camera::Lens(lens)) => return calibration::lens_files(lens),
         Rig::Single(Camera::Equirectangular(_) | Camera::Cylindrical(_)) => Vec::new(),
-    }
+    };
+    files.into_iter().map(|(name, text)| (name.to_owned(), text)).collect()
 }
 
 /// Pretty-printed JSON of `value`, written atomically.
@@ -450,10 +449,7 @@ mod tests {
             250, 250, 0.04, 0.16, None,
         )));
         let pinhole = Rig::Single(Camera::Pinhole(Pinhole::with_horizontal_fov(64, 48, 1.0)));
-        let stereo = Rig::Stereo(StereoRig {
-            camera: Pinhole::with_horizontal_fov(64, 48, 1.0),
-            baseline: 0.1,
-        });
+        let stereo = Rig::Stereo(StereoRig::rectified(Pinhole::with_horizontal_fov(64, 48, 1.0), 0.1));
         let every = OutputSet {
             segmentation: true,
             normals: true,
