@@ -24,20 +24,6 @@ fn ahead_is_inside(pixel: DVec2, step: DVec2, size: (u32, u32)) -> bool {
     ahead.x <= f64::from(size.0) - 1.0 && ahead.y <= f64::from(size.1) - 1.0
 }
 
-/// Where a footprint reads a camera's body-frame ray at a pixel position: the camera itself,
-/// or a table of its pixel-centre rays. The ray is lent to `use_ray`, not copied out (moving
-/// 56-byte rays through `Option`s took a fifth of a textured pixel's time).
-pub(crate) trait PixelRays {
-    /// `use_ray` applied to the ray at `pixel`, or `None` where there is none.
-    fn with_ray<T>(&self, pixel: DVec2, use_ray: impl FnOnce(&CameraRay) -> T) -> Option<T>;
-}
-
-impl PixelRays for Camera {
-    fn with_ray<T>(&self, pixel: DVec2, use_ray: impl FnOnce(&CameraRay) -> T) -> Option<T> {
-        self.ray(pixel).map(|ray| use_ray(&ray))
-    }
-}
-
 /// `world` of the ray of the neighbour `step` ahead of `pixel`, or of the one behind where
 /// that one is outside the image or has no ray.
 #[inline(always)]
@@ -45,15 +31,15 @@ fn neighbour<T>(
     pixel: DVec2,
     step: DVec2,
     size: (u32, u32),
-    rays: &impl PixelRays,
+    camera: &Camera,
     world: impl Fn(&CameraRay) -> T,
 ) -> Option<T> {
     let ahead = if ahead_is_inside(pixel, step, size) {
-        rays.with_ray(pixel + step, &world)
+        camera.ray(pixel + step).as_ref().map(&world)
     } else {
         None
     };
-    ahead.or_else(|| rays.with_ray(pixel - step, &world))
+    ahead.or_else(|| camera.ray(pixel - step).as_ref().map(&world))
 }
 
 /// The rays of a pixel's two image-axis neighbours, world frame.
@@ -80,8 +66,7 @@ impl Footprint {
         )
     }
 
-    /// The footprint of pixel `pixel` of an image of `size` pixels whose body-frame rays
-    /// `rays` gives, seen from a pose with rotation `world_from_body` at `position`: the
+    /// The footprint of pixel `pixel` of `camera`'s image of `size` pixels, seen from a pose with rotation `world_from_body` at `position`: the
     /// neighbour one pixel ahead along each axis, or the one behind where the one ahead is
     /// outside the image or has no ray.
     #[inline]
@@ -90,13 +75,49 @@ impl Footprint {
         size: (u32, u32),
         world_from_body: DMat3,
         position: DVec3,
-        rays: &impl PixelRays,
+        camera: &Camera,
     ) -> Footprint {
         let world = |ray: &CameraRay| (position + world_from_body * ray.origin, world_from_body * ray.direction);
         Footprint {
             neighbours: [
-                neighbour(pixel, DVec2::X, size, rays, world),
-                neighbour(pixel, DVec2::Y, size, rays, world),
+                neighbour(pixel, DVec2::X, size, camera, world),
+                neighbour(pixel, DVec2::Y, size, camera, world),
+            ],
+        }
+    }
+
+    /// [`Footprint::around`] for the pixel at `index` (row by row) of an image of `size`
+    /// pixels whose pixel-centre rays `table` holds (`camera`'s own rays beyond its edges):
+    /// the same neighbours, found by integer index steps (±1, ±width) instead of pixel
+    /// positions in f64 (the conversions cost about 50 instructions a textured pixel,
+    /// docs/benchmarks.md).
+    #[inline]
+    pub(crate) fn in_table(
+        index: usize,
+        size: (u32, u32),
+        world_from_body: DMat3,
+        position: DVec3,
+        table: &[Option<CameraRay>],
+        camera: &Camera,
+    ) -> Footprint {
+        let (width, height) = (size.0.max(1) as usize, size.1 as usize);
+        let (x, y) = (index % width, index / width);
+        let world = |ray: &CameraRay| (position + world_from_body * ray.origin, world_from_body * ray.direction);
+        let at = |i: usize| table.get(i)?.as_ref().map(world);
+        // The neighbour `step` entries ahead where `ahead_inside`, else (or where it has no ray)
+        // the one behind: in the table, or from the camera at `outside` (pixel −1 of the row or
+        // column) where there is none behind.
+        let neighbour = |ahead_inside: bool, step: usize, behind_inside: bool, outside: DVec2| {
+            let ahead = if ahead_inside { at(index + step) } else { None };
+            ahead.or_else(|| match behind_inside {
+                true => at(index - step),
+                false => camera.ray(outside).as_ref().map(world),
+            })
+        };
+        Footprint {
+            neighbours: [
+                neighbour(x + 1 < width, 1, x > 0, DVec2::new(-1.0, y as f64)),
+                neighbour(y + 1 < height, width, y > 0, DVec2::new(x as f64, -1.0)),
             ],
         }
     }

@@ -29,7 +29,6 @@ use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
 use crate::scene::surface::{Surface, Surfaces};
 use crate::trace::CpuTracer;
 pub use footprint::Footprint;
-use footprint::PixelRays;
 
 /// Shadow rays start this far (relative to the point's distance from the scene centre, plus
 /// one) off the face, on the lit side: far above f64 rounding, far below any real gap. The
@@ -173,19 +172,12 @@ impl<'a> View<'a> {
             return Footprint::POINT;
         }
         let size = self.camera.size();
+        if let Some(table) = self.rays {
+            return Footprint::in_table(index, size, self.world_from_body, self.position, table, self.camera);
+        }
         let width = size.0.max(1) as usize;
         let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
-        match self.rays {
-            Some(table) => {
-                let rays = TableRays {
-                    table,
-                    width,
-                    camera: self.camera,
-                };
-                Footprint::around(pixel, size, self.world_from_body, self.position, &rays)
-            }
-            None => Footprint::around(pixel, size, self.world_from_body, self.position, self.camera),
-        }
+        Footprint::around(pixel, size, self.world_from_body, self.position, self.camera)
     }
 
     /// The footprint at any pixel position (sub-pixel samples), from the camera's own rays.
@@ -197,27 +189,6 @@ impl<'a> View<'a> {
             self.position,
             self.camera,
         )
-    }
-}
-
-/// A camera's table of pixel-centre rays (row by row, `width` a row), the camera itself for
-/// positions outside the image.
-struct TableRays<'a> {
-    table: &'a [Option<CameraRay>],
-    width: usize,
-    camera: &'a Camera,
-}
-
-impl PixelRays for TableRays<'_> {
-    #[inline(always)]
-    fn with_ray<T>(&self, pixel: DVec2, use_ray: impl FnOnce(&CameraRay) -> T) -> Option<T> {
-        if pixel.x >= 0.0 && pixel.y >= 0.0 {
-            // Integer pixels inside the image: the table holds exactly `camera.ray(pixel)`.
-            let index = pixel.y as usize * self.width + pixel.x as usize;
-            self.table.get(index)?.as_ref().map(use_ray)
-        } else {
-            self.camera.with_ray(pixel, use_ray)
-        }
     }
 }
 
