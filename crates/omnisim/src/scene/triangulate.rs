@@ -1,6 +1,8 @@
 //! Splits planar faces into triangles for the BVH, remembering which face each came from.
 
 use glam::DVec3;
+use rayon::iter::Either;
+use rayon::prelude::*;
 
 use super::Scene;
 use super::validate::{flatten, newell_normal};
@@ -52,16 +54,25 @@ impl TriangleIndex {
     }
 }
 
-/// Every face's triangles, by reference, in face order.
+/// Every face's triangles, by reference, in face order, made on all threads (part of the BVH
+/// build). A triangle is its own fan, without the polygon's normal and convexity test.
 pub(crate) fn triangle_indices(scene: &Scene) -> Vec<TriangleIndex> {
-    let mut out = Vec::new();
-    for (face, polygon) in scene.faces.iter().enumerate() {
-        out.extend(polygon_triangles(&polygon.vertices).into_iter().map(|t| TriangleIndex {
-            face: face as u32,
-            corners: t.map(|i| i as u32),
-        }));
-    }
-    out
+    scene
+        .faces
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(face, polygon)| {
+            let triangles = if polygon.vertices.len() == 3 {
+                Either::Left(std::iter::once([0, 1, 2]))
+            } else {
+                Either::Right(polygon_triangles(&polygon.vertices).into_iter())
+            };
+            triangles.map(move |t| TriangleIndex {
+                face: face as u32,
+                corners: t.map(|i| i as u32),
+            })
+        })
+        .collect()
 }
 
 /// Index triples covering a simple planar polygon: a fan when convex, ear clipping otherwise.
