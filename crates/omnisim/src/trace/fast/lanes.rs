@@ -137,11 +137,14 @@ impl Lanes for Lanes8 {
 /// Eight-lane types the packet walk runs on: [`Lanes8`] everywhere, [`Avx8`] where the CPU
 /// has AVX2.
 pub(crate) trait Wide: Lanes {
+    /// Whether code running on this type may use AVX (the box test of the single-ray walk).
+    const AVX: bool;
     /// The first eight values of `values`.
     fn load(values: &[f32]) -> Self;
 }
 
 impl Wide for Lanes8 {
+    const AVX: bool = false;
     #[inline(always)]
     fn load(values: &[f32]) -> Self {
         Lanes8::load(values)
@@ -223,6 +226,7 @@ mod avx {
     }
 
     impl Wide for Avx8 {
+        const AVX: bool = true;
         #[inline(always)]
         fn load(values: &[f32]) -> Self {
             let values = &values[..8];

@@ -125,7 +125,14 @@ fn closest_hits_in<W: Wide>(
     for rays_in in octants(rays, active).into_iter().filter(|&rays_in| rays_in != 0) {
         let packet = PacketRays::<W>::new(rays, rays_in, bvh.wide.extent);
         debug_assert!(packet.bounds.same_signs());
-        bvh.wide.traverse_interval::<W>(&packet, &mut t_hi, rays_in, &mut visit);
+        let single = |r: usize| {
+            (
+                LaneRay::new(rays[r].0, rays[r].1, bvh.wide.extent),
+                rays::t_lo(rays[r].2),
+            )
+        };
+        bvh.wide
+            .traverse_interval::<W>(&packet, &mut t_hi, rays_in, single, &mut visit);
     }
     best
 }

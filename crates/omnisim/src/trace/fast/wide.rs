@@ -32,16 +32,19 @@ impl WideBvh {
         // Every node visit pops one entry and pushes at most `WIDTH`: `WIDTH − 1` per level.
         // A stack on the stack for the usual depths (zeroing it is part of every ray's cost).
         match (WIDTH - 1) * self.depth + WIDTH {
-            n if n <= 32 => self.walk::<AVX, C>(&mut [(0, 0.0); 32], ray, t_lo, t_hi, counter, visit),
-            n if n <= 96 => self.walk::<AVX, C>(&mut [(0, 0.0); 96], ray, t_lo, t_hi, counter, visit),
-            n => self.walk::<AVX, C>(&mut vec![(0, 0.0); n], ray, t_lo, t_hi, counter, visit),
+            n if n <= 32 => self.walk::<AVX, C>(&mut [(0, 0.0); 32], 0, ray, t_lo, t_hi, counter, visit),
+            n if n <= 96 => self.walk::<AVX, C>(&mut [(0, 0.0); 96], 0, ray, t_lo, t_hi, counter, visit),
+            n => self.walk::<AVX, C>(&mut vec![(0, 0.0); n], 0, ray, t_lo, t_hi, counter, visit),
         }
     }
 
+    /// The walk of [`WideBvh::traverse`] from inner node `root` down.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn walk<const AVX: bool, C: Counter>(
         &self,
         stack: &mut [(u32, f32)],
+        root: u32,
         ray: &LaneRay,
         t_lo: f32,
         mut t_hi: f32,
@@ -49,7 +52,7 @@ impl WideBvh {
         mut visit: impl FnMut(usize) -> Visit,
     ) {
         // The entry visited next (the nearest child entered) stays out of the stack.
-        let mut current = (0u32, f32::NEG_INFINITY);
+        let mut current = (root, f32::NEG_INFINITY);
         let mut len = 0;
         loop {
             let (entry, t_enter) = current;
@@ -105,6 +108,13 @@ impl WideBvh {
 /// the per-ray tests 198 and 388 M; single rays 240 and 212 M). docs/benchmarks.md.
 const SMALL_BOX: f32 = 4.0;
 
+/// A subtree that at most this many of a packet's rays may enter is walked ray by ray from its
+/// root. Callgrind, omni 250² from the room centre, packet-walk instructions for 10 images, at
+/// 0, 4, 8, 16, 24, 32: scan100000 790, 678, 609, 535, 507, 494 M; clutter 1437, 1265, 1196,
+/// 1146, 1143, 1176 M; clutter spherical mirror 1956, 1604, 1462, 1347, 1316, 1317 M; env1
+/// 260 M throughout (docs/benchmarks.md).
+const FEW_RAYS: u32 = 24;
+
 /// Rays traced together by [`WideBvh::traverse_interval`]: a tile of 8×8 pixels (faster than 4×4 on the clock: docs/benchmarks.md).
 pub(crate) const PACKET: usize = 64;
 
@@ -117,18 +127,22 @@ impl WideBvh {
     /// single-ray walk would show it, and perhaps a few more the f64 test then rejects.
     /// Tight only where `rays.bounds.same_signs()`; entries of `bounds` outside `active` are
     /// left alone.
-    /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever).
+    /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
+    /// `single(r)` gives ray r as the single-ray walk takes it (with its `t_lo`), for subtrees
+    /// few rays enter (`FEW_RAYS`).
     #[inline(always)]
     pub(crate) fn traverse_interval<W: Wide>(
         &self,
         rays: &PacketRays<W>,
         bounds: &mut [f32; PACKET],
         active: u64,
+        single: impl Fn(usize) -> (LaneRay, f32),
         mut visit: impl FnMut(usize, usize) -> Visit,
     ) {
         if self.nodes.is_empty() || active == 0 {
             return;
         }
+        let mut single_stack = vec![(0u32, 0.0f32); (WIDTH - 1) * self.depth + WIDTH];
         // The rays' bounds, −∞ for rays outside the packet (so they count in no maximum).
         let mut t_hi: [f32; PACKET] = std::array::from_fn(|r| {
             if active & (1 << r) != 0 {
@@ -150,6 +164,33 @@ impl WideBvh {
             len -= 1;
             let (entry, t_enter, mask) = stack[len];
             if t_enter > far {
+                continue;
+            }
+            if entry & LEAF == 0 && mask.count_ones() <= FEW_RAYS {
+                // Few rays left in this subtree: each walks it alone (the single-ray walk from
+                // this node), keeping the bound the packet had found for it.
+                let mut rest = mask;
+                while rest != 0 {
+                    let r = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    let (ray, t_lo) = single(r);
+                    let mut bound = t_hi[r];
+                    let start = bound;
+                    let mut alone = |triangle| {
+                        let result = visit(r, triangle);
+                        if let Visit::Closer(t) = result {
+                            bound = bound.min(t);
+                        }
+                        result
+                    };
+                    if W::AVX {
+                        self.walk::<true, ()>(&mut single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
+                    } else {
+                        self.walk::<false, ()>(&mut single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
+                    }
+                    t_hi[r] = bound;
+                }
+                far = farthest(t_hi);
                 continue;
             }
             if entry & LEAF == 0 {
