@@ -94,11 +94,10 @@ impl SceneBvh {
         };
         drop(boxes);
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
-        let (corners, face): (Vec<[DVec3; 3]>, Vec<u32>) = bvh
-            .primitive_indices
-            .par_iter()
-            .map(|&i| (local(&triangles[i as usize]), triangles[i as usize].face))
-            .unzip();
+        // Indexed collects: each list is allocated once, by this thread.
+        let order = &bvh.primitive_indices;
+        let corners: Vec<[DVec3; 3]> = order.par_iter().map(|&i| local(&triangles[i as usize])).collect();
+        let face: Vec<u32> = order.par_iter().map(|&i| triangles[i as usize].face).collect();
         drop(triangles);
         let wide = WideBvh::build(&bvh, &corners);
         let face_normals = (0..scene.faces.len())

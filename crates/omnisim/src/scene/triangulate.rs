@@ -1,8 +1,6 @@
 //! Splits planar faces into triangles for the BVH, remembering which face each came from.
 
 use glam::DVec3;
-use rayon::iter::Either;
-use rayon::prelude::*;
 
 use super::Scene;
 use super::validate::{flatten, newell_normal};
@@ -54,25 +52,22 @@ impl TriangleIndex {
     }
 }
 
-/// Every face's triangles, by reference, in face order, made on all threads (part of the BVH
-/// build). A triangle is its own fan, without the polygon's normal and convexity test.
+/// Every face's triangles, by reference, in face order. A triangle is its own fan, without the
+/// polygon's normal and convexity test (the BVH build times this; docs/benchmarks.md).
 pub(crate) fn triangle_indices(scene: &Scene) -> Vec<TriangleIndex> {
-    scene
-        .faces
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(face, polygon)| {
-            let triangles = if polygon.vertices.len() == 3 {
-                Either::Left(std::iter::once([0, 1, 2]))
-            } else {
-                Either::Right(polygon_triangles(&polygon.vertices).into_iter())
-            };
-            triangles.map(move |t| TriangleIndex {
-                face: face as u32,
-                corners: t.map(|i| i as u32),
-            })
-        })
-        .collect()
+    let mut out = Vec::with_capacity(scene.faces.len());
+    for (face, polygon) in scene.faces.iter().enumerate() {
+        let corners = |t: [usize; 3]| TriangleIndex {
+            face: face as u32,
+            corners: t.map(|i| i as u32),
+        };
+        if polygon.vertices.len() == 3 {
+            out.push(corners([0, 1, 2]));
+        } else {
+            out.extend(polygon_triangles(&polygon.vertices).into_iter().map(corners));
+        }
+    }
+    out
 }
 
 /// Index triples covering a simple planar polygon: a fan when convex, ear clipping otherwise.
