@@ -8,8 +8,12 @@ timed with `omnisim bench` (median ms per image), Open3D with the median of --ru
 Rounds alternate the two tools; each tool's best round is kept (a noisy shared machine slows
 a round, never speeds it). Prints one JSON line per case and a final table.
 
-Scenes: room, clutter (raycast_anchor.py) and env1 (`omnisim scene export scenes/env1.ron`).
+Scenes: room, clutter (raycast_anchor.py) and env1 (`omnisim scene export scenes/env1.ron`), and
+with --generated KIND:TRIANGLES,... scenes of bench/scenes.py (scan, boxes, clutter at any size:
+scenes the tuning never saw), each with omni 250² (hyperbolic and spherical), equirect 1024² and
+pinhole 640×480 from the room centre.
 Usage: same_rays.py --omnisim BIN --repo CHECKOUT --work DIR [--rounds 3] [--cases all|quick|models] [--scenes room,env1]
+       [--generated scan:100000,boxes:1000000]
 Needs open3d-cpu, numpy, OpenEXR: same_rays.sh makes the venv and runs this.
 """
 import argparse, json, os, statistics, subprocess, sys, time
@@ -19,6 +23,7 @@ import OpenEXR
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import raycast_anchor as ra  # noqa: E402
+import scenes as generated_scenes  # noqa: E402
 
 def write_ply(path, v, t):
     ra.write_ply(path, v.astype(np.float32), t.astype(np.int32))
@@ -96,9 +101,19 @@ def main():
     ap.add_argument('--runs', type=int, default=5); ap.add_argument('--cases', default='all')
     ap.add_argument('--scenes', default='room,clutter,env1')
     ap.add_argument('--extra', default='', help='extra omnisim bench flags, e.g. "--hits-only"')
+    ap.add_argument('--generated', default='', help='bench/scenes.py scenes, e.g. scan:100000,boxes:1000000')
     a = ap.parse_args()
     os.makedirs(a.work, exist_ok=True)
     plys, rons = scene_files(a.work, a.repo, a.omnisim)
+    generated = []
+    for spec in filter(None, a.generated.split(',')):
+        kind, count = spec.split(':')
+        name = f'{kind}{count}'
+        plys[name] = os.path.join(a.work, f'scene_{name}.ply')
+        if not os.path.exists(plys[name]):
+            generated_scenes.write(kind, int(count), plys[name])
+        rons[name] = os.path.splitext(plys[name])[0] + '.ron'
+        generated.append(name)
     cases = []
     for s in ('room', 'clutter'):
         for pose in ('3,2,1.5,0,0,0', '3.01,2.01,1.51,0,0,30', '1.2,0.9,0.7,10,-20,200'):
@@ -119,6 +134,8 @@ def main():
         cases = [c for c in cases if c[1] != 'equirect1024' or c[2].startswith('3,2')]
     extra = a.extra.split()
     cases = [c for c in cases if c[0] in a.scenes.split(',')]
+    cases += [(name, cam, '3,2,1.5,0,0,60') for name in generated
+              for cam in ('omni250', 'omni250-spherical', 'equirect1024', 'pinhole640')]
     rows = []
     scenes = {}
     for (s, cam, pose) in cases:

@@ -224,11 +224,12 @@ fn a_cluttered_room_and_its_shadow_rays_match_the_reference() {
     );
 }
 
-/// A scene dense enough (over 50k triangles) that the fast tracer sends wide packets ray by
-/// ray (`takes_packet_walk`): the spherical mirror's tiles are wide, the paper's hyperbolic
-/// ones narrow, so both walks run in one frame; every pixel must still be the reference's.
+/// A dense scene of small boxes (over 50k triangles, the large-scene build), whose boxes are
+/// small against the packets' footprints, so the packet walk tests rays one by one against
+/// them (`SMALL_BOX` in `trace/fast/wide.rs`): the spherical mirror's tiles are wide, the
+/// paper's hyperbolic ones narrow; every pixel must still be the reference's.
 #[test]
-fn a_dense_scene_traced_partly_ray_by_ray_matches_the_reference() {
+fn a_dense_scene_with_per_ray_box_tests_matches_the_reference() {
     let scene = clutter(4_400, 13);
     let bvh = SceneBvh::build(&scene);
     assert!(bvh.triangles().len() > 50_000, "{} triangles", bvh.triangles().len());

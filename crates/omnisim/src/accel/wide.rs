@@ -8,6 +8,7 @@
 use glam::{DVec3, Vec4};
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::node::Bvh2Node;
+use rayon::prelude::*;
 
 /// Marks a child index as a leaf (the rest is its first triangle group).
 pub(crate) const LEAF: u32 = 1 << 31;
@@ -54,9 +55,9 @@ impl WideBvh {
     /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
     pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
         let extent = triangles
-            .iter()
-            .flatten()
-            .fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
+            .par_iter()
+            .map(|t| t.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element())))
+            .reduce(|| 0.0, f64::max) as f32;
         let mut wide = Self {
             extent,
             ..Self::default()
@@ -68,7 +69,6 @@ impl WideBvh {
         let builder = Builder {
             nodes: &bvh.nodes,
             counts: &counts,
-            triangles,
         };
         // A root that is (or fits) one leaf is the single child of a node of its own.
         let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
@@ -77,7 +77,13 @@ impl WideBvh {
             builder.open(0)
         };
         wide.nodes.push(empty_node());
-        builder.fill(&mut wide, 0, &root, 0);
+        let mut leaves = Vec::new();
+        builder.fill(&mut wide, &mut leaves, 0, &root, 0);
+        // The groups' f32 lanes on all threads, once the tree has placed them.
+        wide.groups = leaves
+            .par_iter()
+            .map(|(indices, count)| TriangleGroup::new(triangles, &indices[..*count]))
+            .collect();
         wide
     }
 }
@@ -173,13 +179,20 @@ fn half_area(node: &Bvh2Node) -> f32 {
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
     counts: &'a [u32],
-    triangles: &'a [[DVec3; 3]],
 }
 
 impl Builder<'_> {
     /// Fills wide node `slot` with the BVH2 nodes `children` (at most `WIDTH`), opening each
     /// child that needs a node of its own; `depth` is the slot's depth.
-    fn fill(&self, wide: &mut WideBvh, slot: usize, children: &[usize], depth: usize) {
+    /// Groups are listed in `leaves` (triangle indices, count) and made afterwards.
+    fn fill(
+        &self,
+        wide: &mut WideBvh,
+        leaves: &mut Vec<([u32; 4], usize)>,
+        slot: usize,
+        children: &[usize],
+        depth: usize,
+    ) {
         wide.depth = wide.depth.max(depth);
         let mut node = empty_node();
         for (lane, &index) in children.iter().enumerate() {
@@ -194,13 +207,16 @@ impl Builder<'_> {
                 self.gather(index, &mut leaf);
                 let groups = leaf.len().div_ceil(4);
                 assert!(
-                    groups <= MAX_LEAF_GROUPS && wide.groups.len() < GROUP_INDEX as usize,
+                    groups <= MAX_LEAF_GROUPS && leaves.len() < GROUP_INDEX as usize,
                     "BVH2 leaf of {} triangles, or over 2^28 groups",
                     leaf.len()
                 );
-                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | wide.groups.len() as u32;
-                wide.groups
-                    .extend(leaf.chunks(4).map(|chunk| TriangleGroup::new(self.triangles, chunk)));
+                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | leaves.len() as u32;
+                leaves.extend(leaf.chunks(4).map(|chunk| {
+                    let mut indices = [0; 4];
+                    indices[..chunk.len()].copy_from_slice(chunk);
+                    (indices, chunk.len())
+                }));
             } else {
                 node.child[lane] = wide.nodes.len() as u32;
                 wide.nodes.push(empty_node());
@@ -210,7 +226,7 @@ impl Builder<'_> {
         for (lane, &index) in children.iter().enumerate() {
             if node.child[lane] & LEAF == 0 {
                 let grandchildren = self.open(index);
-                self.fill(wide, node.child[lane] as usize, &grandchildren, depth + 1);
+                self.fill(wide, leaves, node.child[lane] as usize, &grandchildren, depth + 1);
             }
         }
     }

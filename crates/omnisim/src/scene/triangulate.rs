@@ -52,14 +52,20 @@ impl TriangleIndex {
     }
 }
 
-/// Every face's triangles, by reference, in face order.
+/// Every face's triangles, by reference, in face order. A triangle is its own fan, without the
+/// polygon's normal and convexity test (the BVH build times this; docs/benchmarks.md).
 pub(crate) fn triangle_indices(scene: &Scene) -> Vec<TriangleIndex> {
-    let mut out = Vec::new();
+    let mut out = Vec::with_capacity(scene.faces.len());
     for (face, polygon) in scene.faces.iter().enumerate() {
-        out.extend(polygon_triangles(&polygon.vertices).into_iter().map(|t| TriangleIndex {
+        let corners = |t: [usize; 3]| TriangleIndex {
             face: face as u32,
             corners: t.map(|i| i as u32),
-        }));
+        };
+        if polygon.vertices.len() == 3 {
+            out.push(corners([0, 1, 2]));
+        } else {
+            out.extend(polygon_triangles(&polygon.vertices).into_iter().map(corners));
+        }
     }
     out
 }

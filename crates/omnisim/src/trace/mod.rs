@@ -104,8 +104,8 @@ impl CpuTracer {
         hits.par_extend(rayon::iter::repeat_n(Pixel::MISS, width as usize * height as usize));
         let row_length = width.max(1) as usize;
         if let Self::Fast | Self::FastPortable = self {
-            // Tiles of 8×8 pixels, each traced as one packet (`fast::closest_hits`) unless the
-            // scene is dense and its rays form a wide cone (`fast::takes_packet_walk`).
+            // Tiles of 8×8 pixels, each traced as one packet (`fast::closest_hits`), whose
+            // rays are tested one by one against boxes small against the packet's footprint.
             hits.par_chunks_mut(row_length * 8)
                 .enumerate()
                 .for_each(|(band, pixels)| {
@@ -123,16 +123,7 @@ impl CpuTracer {
                                 active |= 1 << r;
                             }
                         }
-                        let found = if fast::takes_packet_walk(bvh, &rays, active) {
-                            fast::closest_hits(bvh, &rays, active, self == Self::FastPortable)
-                        } else {
-                            std::array::from_fn(|r| {
-                                let (origin, direction, t_min) = rays[r];
-                                (active & (1 << r) != 0)
-                                    .then(|| self.closest_hit(bvh, origin, direction, t_min))
-                                    .flatten()
-                            })
-                        };
+                        let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
                         for (r, offset) in tile.enumerate() {
                             if let Some(hit) = found[r] {
                                 let (origin, direction, _) = rays[r];

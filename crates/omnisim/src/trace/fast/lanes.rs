@@ -20,6 +20,12 @@ pub(crate) trait Lanes:
     fn greater(self, other: Self) -> u32;
     /// Lanes where `self < other` (ordered).
     fn less(self, other: Self) -> u32;
+    /// Lanes where `self <= other` (ordered).
+    fn not_greater(self, other: Self) -> u32;
+    /// Lane-wise minimum (the SSE/AVX `min`: `other` where either is NaN).
+    fn min(self, other: Self) -> Self;
+    /// Lane-wise maximum (the SSE/AVX `max`).
+    fn max(self, other: Self) -> Self;
 }
 
 impl Lanes for Vec4 {
@@ -38,6 +44,18 @@ impl Lanes for Vec4 {
     #[inline(always)]
     fn less(self, other: Self) -> u32 {
         self.cmplt(other).bitmask()
+    }
+    #[inline(always)]
+    fn not_greater(self, other: Self) -> u32 {
+        self.cmple(other).bitmask()
+    }
+    #[inline(always)]
+    fn min(self, other: Self) -> Self {
+        Vec4::min(self, other)
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        Vec4::max(self, other)
     }
 }
 
@@ -102,16 +120,31 @@ impl Lanes for Lanes8 {
     fn less(self, other: Self) -> u32 {
         self.0[0].less(other.0[0]) | self.0[1].less(other.0[1]) << 4
     }
+    #[inline(always)]
+    fn not_greater(self, other: Self) -> u32 {
+        self.0[0].not_greater(other.0[0]) | self.0[1].not_greater(other.0[1]) << 4
+    }
+    #[inline(always)]
+    fn min(self, other: Self) -> Self {
+        self.zip(other, Vec4::min)
+    }
+    #[inline(always)]
+    fn max(self, other: Self) -> Self {
+        self.zip(other, Vec4::max)
+    }
 }
 
 /// Eight-lane types the packet walk runs on: [`Lanes8`] everywhere, [`Avx8`] where the CPU
 /// has AVX2.
 pub(crate) trait Wide: Lanes {
+    /// Whether code running on this type may use AVX (the box test of the single-ray walk).
+    const AVX: bool;
     /// The first eight values of `values`.
     fn load(values: &[f32]) -> Self;
 }
 
 impl Wide for Lanes8 {
+    const AVX: bool = false;
     #[inline(always)]
     fn load(values: &[f32]) -> Self {
         Lanes8::load(values)
@@ -130,8 +163,9 @@ mod avx {
     //! exactly eight f32s from slices checked to hold them.
 
     use std::arch::x86_64::{
-        __m256, _CMP_GT_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps, _mm256_cmp_ps,
-        _mm256_loadu_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_ps, _mm256_sub_ps, _mm256_xor_ps,
+        __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps,
+        _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
+        _mm256_set1_ps, _mm256_sub_ps, _mm256_xor_ps,
     };
     use std::ops::{Add, Mul, Neg, Sub};
 
@@ -177,9 +211,22 @@ mod avx {
         fn less(self, other: Self) -> u32 {
             unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, other.0)) as u32 }
         }
+        #[inline(always)]
+        fn not_greater(self, other: Self) -> u32 {
+            unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(self.0, other.0)) as u32 }
+        }
+        #[inline(always)]
+        fn min(self, other: Self) -> Self {
+            Self(unsafe { _mm256_min_ps(self.0, other.0) })
+        }
+        #[inline(always)]
+        fn max(self, other: Self) -> Self {
+            Self(unsafe { _mm256_max_ps(self.0, other.0) })
+        }
     }
 
     impl Wide for Avx8 {
+        const AVX: bool = true;
         #[inline(always)]
         fn load(values: &[f32]) -> Self {
             let values = &values[..8];

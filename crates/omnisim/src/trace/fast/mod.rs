@@ -125,42 +125,16 @@ fn closest_hits_in<W: Wide>(
     for rays_in in octants(rays, active).into_iter().filter(|&rays_in| rays_in != 0) {
         let packet = PacketRays::<W>::new(rays, rays_in, bvh.wide.extent);
         debug_assert!(packet.bounds.same_signs());
-        bvh.wide.traverse_interval::<W>(&packet, &mut t_hi, rays_in, &mut visit);
+        let single = |r: usize| {
+            (
+                LaneRay::new(rays[r].0, rays[r].1, bvh.wide.extent),
+                rays::t_lo(rays[r].2),
+            )
+        };
+        bvh.wide
+            .traverse_interval::<W>(&packet, &mut t_hi, rays_in, single, &mut visit);
     }
     best
-}
-
-/// Widest packet the packet walk takes in a dense scene, as the cosine of the largest angle
-/// between one of its rays and their mean direction (7°). Screen tiles of 8×8 rays of the
-/// paper's hyperbolic and of the parabolic omni camera at 250² stay within 6.5° and 5.4° and
-/// walk as packets; a third of the spherical mirror's tiles are wider (up to 23.5°) and go
-/// ray by ray. Measured (docs/benchmarks.md, "Packet or single rays"): in the 240k-triangle
-/// clutter scene that took the spherical mirror's median frame from 92 to 68–78 ms (every
-/// ray single: 56–60 ms), the hyperbolic one unchanged; in env1 (104 triangles) single rays
-/// were slower than packets of any width (spherical: 2.5 ms packets, 3.8 ms with this rule,
-/// 5.6 ms single), hence `DENSE_SCENE`.
-const PACKET_CONE_COS: f64 = 0.9925;
-
-/// Scenes with more triangles than this trace wide packets ray by ray; smaller ones walk
-/// every packet. Only env1 (104) and clutter (240k) were measured: the cut between is the
-/// BVH build's (`accel::LARGE_SCENE`), not a measured crossover.
-const DENSE_SCENE: usize = crate::accel::LARGE_SCENE;
-
-/// Whether the rays of `active` take the packet walk ([`closest_hits`]) rather than going ray
-/// by ray: always in scenes up to `DENSE_SCENE` triangles, else where [`is_coherent`].
-pub(crate) fn takes_packet_walk(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> bool {
-    bvh.triangles.len() <= DENSE_SCENE || is_coherent(rays, active)
-}
-
-/// Whether the rays of `active` are coherent enough for the packet walk in a dense scene:
-/// every direction within the cone of `PACKET_CONE_COS` around their mean. Wider packets cost
-/// more in the interval walk than their rays do one by one there.
-fn is_coherent(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> bool {
-    let directions = || (0..PACKET).filter(move |&r| active & (1 << r) != 0).map(|r| rays[r].1);
-    let Some(axis) = directions().sum::<DVec3>().try_normalize() else {
-        return active == 0;
-    };
-    directions().all(|direction| direction.dot(axis) >= PACKET_CONE_COS)
 }
 
 /// The rays of `active` by the octant of their f32 direction (sign bits, −0 negative, as
@@ -215,35 +189,4 @@ fn occluded_in<const AVX: bool>(bvh: &SceneBvh, origin: DVec3, direction: DVec3,
             triangle::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
         });
     blocked
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Rays fanned evenly up to `degrees` from the z axis, all from the origin.
-    fn fan(degrees: f64) -> [(DVec3, DVec3, f64); PACKET] {
-        std::array::from_fn(|r| {
-            let (angle, turn) = ((r % 8) as f64 / 7.0 * degrees.to_radians(), (r / 8) as f64 * 0.785);
-            let direction = DVec3::new(angle.sin() * turn.cos(), angle.sin() * turn.sin(), angle.cos());
-            (DVec3::ZERO, direction, 0.0)
-        })
-    }
-
-    #[test]
-    fn packets_wider_than_the_cone_go_ray_by_ray() {
-        // A fan of half-angle θ around z has its mean direction near z, so its widest ray is
-        // about θ from the mean.
-        assert!(is_coherent(&fan(3.0), u64::MAX));
-        assert!(is_coherent(&fan(6.0), u64::MAX));
-        assert!(!is_coherent(&fan(12.0), u64::MAX));
-        // Only active rays count: the fan's inner half is narrow.
-        let inner = (0..PACKET).filter(|r| r % 8 < 4).fold(0u64, |m, r| m | 1 << r);
-        assert!(is_coherent(&fan(12.0), inner));
-        assert!(is_coherent(&fan(12.0), 0));
-        // Opposite rays have no mean direction: not a packet.
-        let mut opposite = fan(0.0);
-        opposite[1].1 = -opposite[0].1;
-        assert!(!is_coherent(&opposite, 0b11));
-    }
 }

@@ -2,7 +2,7 @@
 //! ([`LaneRay`]), or a packet of up to [`PACKET`] rays eight to a batch with the bounds of its
 //! origins and inverse directions ([`PacketRays`]).
 
-use glam::{DVec3, Vec3, Vec4};
+use glam::{DVec3, Vec3, Vec3A, Vec4};
 use obvhs::ray::safe_inverse;
 
 use super::PACKET;
@@ -38,13 +38,12 @@ pub(crate) fn t_lo(t_min: f64) -> f32 {
     (t_min * (1.0 - 1e-6)) as f32
 }
 
-/// The f32 inverse of a direction, finite everywhere (obvhs's `safe_inverse`: ±2²³ for ±0).
+/// The f32 inverse of a direction, finite everywhere: obvhs's `safe_inverse` on each axis
+/// (±2²³ for components within `f32::EPSILON` of zero, ±0 included), three lanes at once.
 fn inverse(direction: Vec3) -> Vec3 {
-    Vec3::new(
-        safe_inverse(direction.x),
-        safe_inverse(direction.y),
-        safe_inverse(direction.z),
-    )
+    let d = Vec3A::from(direction);
+    let tiny = d.abs().cmple(Vec3A::splat(f32::EPSILON));
+    Vec3::from(Vec3A::select(tiny, d.signum() / f32::EPSILON, Vec3A::ONE / d))
 }
 
 /// Batches of eight rays in a packet.
@@ -56,6 +55,14 @@ pub(crate) struct PacketRays<W> {
     pub(crate) batches: [RayLanes<W>; BATCHES],
     /// Each ray's [`t_lo`].
     pub(crate) t_lo: [W; BATCHES],
+    /// Each ray's f32 inverse direction per axis (as [`LaneRay`] holds it), for the per-ray
+    /// box test of a leaf.
+    pub(crate) inverse: [[W; 3]; BATCHES],
+    /// Half the largest distance between the rays' origins (bounding-box diagonal).
+    pub(crate) origin_radius: f32,
+    /// About the tangent of the packet's half-angle (from the box of its directions; ∞ beyond
+    /// about 80°): its footprint grows by this much per metre.
+    pub(crate) spread: f32,
     pub(crate) bounds: PacketBounds,
 }
 
@@ -87,6 +94,7 @@ impl<W: Wide> PacketRays<W> {
         let mut direction = [[0.0f32; PACKET]; 3];
         let mut error = [0.0f32; PACKET];
         let mut t_lo = [0.0f32; PACKET];
+        let mut inverse_lanes = [[0.0f32; PACKET]; 3];
         let (mut origin_min, mut origin_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         let (mut direction_min, mut direction_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         // Per axis, whether some direction has its sign bit set, and whether some has it clear.
@@ -97,9 +105,11 @@ impl<W: Wide> PacketRays<W> {
             rest &= rest - 1;
             let (o, d, t_min) = rays[r];
             let (o, d) = (o.as_vec3(), d.as_vec3());
+            let inv = inverse(d);
             for axis in 0..3 {
                 origin[axis][r] = o[axis];
                 direction[axis][r] = d[axis];
+                inverse_lanes[axis][r] = inv[axis];
             }
             error[r] = position_error(o, scene_extent);
             t_lo[r] = self::t_lo(t_min);
@@ -123,6 +133,18 @@ impl<W: Wide> PacketRays<W> {
                 inverse_max[axis] = safe_inverse(direction_min[axis]);
             }
         }
+        // The directions' box, half its diagonal: at least the chord from its centre to any
+        // direction, so about the sine of the packet's half-angle (only a heuristic reads it).
+        let chord = if active == 0 {
+            0.0
+        } else {
+            (direction_max - direction_min).length() / 2.0
+        };
+        let spread = if chord < 0.99 {
+            chord / (1.0 - chord * chord).sqrt()
+        } else {
+            f32::INFINITY
+        };
         let batch = |values: &[f32; PACKET], b: usize| W::load(&values[8 * b..]);
         Self {
             batches: std::array::from_fn(|b| RayLanes {
@@ -131,12 +153,55 @@ impl<W: Wide> PacketRays<W> {
                 position_error: batch(&error, b),
             }),
             t_lo: std::array::from_fn(|b| batch(&t_lo, b)),
+            inverse: std::array::from_fn(|b| std::array::from_fn(|axis| batch(&inverse_lanes[axis], b))),
+            origin_radius: if active == 0 {
+                0.0
+            } else {
+                (origin_max - origin_min).length() / 2.0
+            },
+            spread,
             bounds: PacketBounds {
                 origin_min,
                 origin_max,
                 inverse_min,
                 inverse_max,
             },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The three-lane inverse is obvhs's `safe_inverse` bit for bit, zeros and tiny values
+    /// of either sign included.
+    #[test]
+    fn the_inverse_is_safe_inverse_on_every_axis() {
+        let values = [
+            0.0,
+            -0.0,
+            f32::EPSILON,
+            -f32::EPSILON,
+            f32::EPSILON * 1.5,
+            1e-30,
+            -1e-30,
+            0.3,
+            -0.7,
+            1.0,
+            -1.0,
+        ];
+        for &x in &values {
+            for &y in &values {
+                let got = inverse(Vec3::new(x, y, -x));
+                let want = [safe_inverse(x), safe_inverse(y), safe_inverse(-x)];
+                assert_eq!(
+                    got.to_array().map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "({x}, {y}, {})",
+                    -x
+                );
+            }
         }
     }
 }

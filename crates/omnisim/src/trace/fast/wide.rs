@@ -32,16 +32,19 @@ impl WideBvh {
         // Every node visit pops one entry and pushes at most `WIDTH`: `WIDTH − 1` per level.
         // A stack on the stack for the usual depths (zeroing it is part of every ray's cost).
         match (WIDTH - 1) * self.depth + WIDTH {
-            n if n <= 32 => self.walk::<AVX, C>(&mut [(0, 0.0); 32], ray, t_lo, t_hi, counter, visit),
-            n if n <= 96 => self.walk::<AVX, C>(&mut [(0, 0.0); 96], ray, t_lo, t_hi, counter, visit),
-            n => self.walk::<AVX, C>(&mut vec![(0, 0.0); n], ray, t_lo, t_hi, counter, visit),
+            n if n <= 32 => self.walk::<AVX, C>(&mut [(0, 0.0); 32], 0, ray, t_lo, t_hi, counter, visit),
+            n if n <= 96 => self.walk::<AVX, C>(&mut [(0, 0.0); 96], 0, ray, t_lo, t_hi, counter, visit),
+            n => self.walk::<AVX, C>(&mut vec![(0, 0.0); n], 0, ray, t_lo, t_hi, counter, visit),
         }
     }
 
+    /// The walk of [`WideBvh::traverse`] from inner node `root` down.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn walk<const AVX: bool, C: Counter>(
         &self,
         stack: &mut [(u32, f32)],
+        root: u32,
         ray: &LaneRay,
         t_lo: f32,
         mut t_hi: f32,
@@ -49,7 +52,7 @@ impl WideBvh {
         mut visit: impl FnMut(usize) -> Visit,
     ) {
         // The entry visited next (the nearest child entered) stays out of the stack.
-        let mut current = (0u32, f32::NEG_INFINITY);
+        let mut current = (root, f32::NEG_INFINITY);
         let mut len = 0;
         loop {
             let (entry, t_enter) = current;
@@ -98,6 +101,20 @@ impl WideBvh {
     }
 }
 
+/// A child box narrower than this many times the packet's footprint radius where the packet
+/// enters it takes per-ray slab tests in the packet walk. Callgrind, clutter (240k triangles),
+/// omni 250² from its centre, instructions of the packet walk: factor 1, 2, 4, every box:
+/// hyperbolic 180, 142, 134, 146 M per image, spherical mirror 218, 186, 181, 203 M (before
+/// the per-ray tests 198 and 388 M; single rays 240 and 212 M). docs/benchmarks.md.
+const SMALL_BOX: f32 = 4.0;
+
+/// A subtree that at most this many of a packet's rays may enter is walked ray by ray from its
+/// root. Callgrind, omni 250² from the room centre, packet-walk instructions for 10 images, at
+/// 0, 4, 8, 16, 24, 32: scan100000 790, 678, 609, 535, 507, 494 M; clutter 1437, 1265, 1196,
+/// 1146, 1143, 1176 M; clutter spherical mirror 1956, 1604, 1462, 1347, 1316, 1317 M; env1
+/// 260 M throughout (docs/benchmarks.md).
+const FEW_RAYS: u32 = 24;
+
 /// Rays traced together by [`WideBvh::traverse_interval`]: a tile of 8×8 pixels (faster than 4×4 on the clock: docs/benchmarks.md).
 pub(crate) const PACKET: usize = 64;
 
@@ -110,18 +127,22 @@ impl WideBvh {
     /// single-ray walk would show it, and perhaps a few more the f64 test then rejects.
     /// Tight only where `rays.bounds.same_signs()`; entries of `bounds` outside `active` are
     /// left alone.
-    /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever).
+    /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
+    /// `single(r)` gives ray r as the single-ray walk takes it (with its `t_lo`), for subtrees
+    /// few rays enter (`FEW_RAYS`).
     #[inline(always)]
     pub(crate) fn traverse_interval<W: Wide>(
         &self,
         rays: &PacketRays<W>,
         bounds: &mut [f32; PACKET],
         active: u64,
+        single: impl Fn(usize) -> (LaneRay, f32),
         mut visit: impl FnMut(usize, usize) -> Visit,
     ) {
         if self.nodes.is_empty() || active == 0 {
             return;
         }
+        let mut single_stack = vec![(0u32, 0.0f32); (WIDTH - 1) * self.depth + WIDTH];
         // The rays' bounds, −∞ for rays outside the packet (so they count in no maximum).
         let mut t_hi: [f32; PACKET] = std::array::from_fn(|r| {
             if active & (1 << r) != 0 {
@@ -134,25 +155,77 @@ impl WideBvh {
         // The packet's bound: the farthest any of its rays may still find a closer hit.
         let farthest = |t_hi: &[f32; PACKET]| t_hi.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
         let mut far = farthest(t_hi);
-        let mut stack = vec![(0u32, 0.0f32); (WIDTH - 1) * self.depth + WIDTH];
+        // Entries: child, where the packet may enter it, and the rays that may enter its box
+        // before their bounds.
+        let mut stack = vec![(0u32, 0.0f32, 0u64); (WIDTH - 1) * self.depth + WIDTH];
         let mut len = 1;
-        stack[0] = (0, f32::NEG_INFINITY);
+        stack[0] = (0, f32::NEG_INFINITY, active);
         while len > 0 {
             len -= 1;
-            let (entry, t_enter) = stack[len];
+            let (entry, t_enter, mask) = stack[len];
             if t_enter > far {
+                continue;
+            }
+            if entry & LEAF == 0 && mask.count_ones() <= FEW_RAYS {
+                // Few rays left in this subtree: each walks it alone (the single-ray walk from
+                // this node), keeping the bound the packet had found for it.
+                let mut rest = mask;
+                while rest != 0 {
+                    let r = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    let (ray, t_lo) = single(r);
+                    let mut bound = t_hi[r];
+                    let start = bound;
+                    let mut alone = |triangle| {
+                        let result = visit(r, triangle);
+                        if let Visit::Closer(t) = result {
+                            bound = bound.min(t);
+                        }
+                        result
+                    };
+                    if W::AVX {
+                        self.walk::<true, ()>(&mut single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
+                    } else {
+                        self.walk::<false, ()>(&mut single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
+                    }
+                    t_hi[r] = bound;
+                }
+                far = farthest(t_hi);
                 continue;
             }
             if entry & LEAF == 0 {
                 let node = &self.nodes[entry as usize];
-                let (hits, near) = enter_interval(node, &rays.bounds, far);
-                len = push_children(&mut stack, len, node, hits, &near);
+                let (mut hits, near) = enter_interval(node, &rays.bounds, far);
+                let base = len;
+                while hits != 0 {
+                    let lane = hits.trailing_zeros() as usize;
+                    hits &= hits - 1;
+                    let child = node.child[lane];
+                    // A box small against the packet's footprint where the packet reaches it
+                    // is missed by most of its rays: each ray's own slab test then drops them
+                    // from the subtree (the leaf filter runs on the rays left); a larger box
+                    // passes the packet's rays on untested.
+                    let (half, k) = (lane / 4, lane % 4);
+                    let extent = (0..3).fold(0.0f32, |e, axis| {
+                        e.max(node.max[axis][half][k] - node.min[axis][half][k])
+                    });
+                    let footprint = rays.origin_radius + near[lane].max(0.0) * rays.spread;
+                    let child_mask = if extent < SMALL_BOX * footprint {
+                        rays_entering(rays, t_hi, node, lane, mask)
+                    } else {
+                        mask
+                    };
+                    if child_mask == 0 {
+                        continue;
+                    }
+                    len = insert_by_distance(&mut stack, base, len, (child, near[lane], child_mask), |e| e.1);
+                }
                 continue;
             }
-            // Batches with a ray whose bound still reaches the leaf.
+            // Of those, the rays whose bound still reaches the leaf.
             let entering = W::splat(t_enter);
             let reaching: [u32; BATCHES] = std::array::from_fn(|b| {
-                let lanes = (active >> (8 * b)) as u32 & 0xff;
+                let lanes = (mask >> (8 * b)) as u32 & 0xff;
                 if lanes == 0 {
                     0
                 } else {
@@ -205,27 +278,61 @@ impl WideBvh {
 /// farthest first, by their entry distances `near` (an insertion sort of at most eight), so
 /// the nearest is popped next; returns the new length.
 #[inline(always)]
-fn push_children(
-    stack: &mut [(u32, f32)],
-    mut len: usize,
-    node: &WideNode,
-    mut hits: u32,
-    near: &[f32; WIDTH],
-) -> usize {
-    let base = len;
+fn push_children(stack: &mut [(u32, f32)], len: usize, node: &WideNode, mut hits: u32, near: &[f32; WIDTH]) -> usize {
+    let (base, mut len) = (len, len);
     while hits != 0 {
         let lane = hits.trailing_zeros() as usize;
         hits &= hits - 1;
-        let child = (node.child[lane], near[lane]);
-        let mut at = len;
-        while at > base && stack[at - 1].1 < child.1 {
-            stack[at] = stack[at - 1];
-            at -= 1;
-        }
-        stack[at] = child;
-        len += 1;
+        len = insert_by_distance(stack, base, len, (node.child[lane], near[lane]), |e| e.1);
     }
     len
+}
+
+/// Inserts `entry` among `stack[base..len]` (kept farthest first by `distance`, so the nearest
+/// is popped next; one step of an insertion sort); returns the new length.
+#[inline(always)]
+fn insert_by_distance<T: Copy>(
+    stack: &mut [T],
+    base: usize,
+    len: usize,
+    entry: T,
+    distance: impl Fn(&T) -> f32,
+) -> usize {
+    let mut at = len;
+    while at > base && distance(&stack[at - 1]) < distance(&entry) {
+        stack[at] = stack[at - 1];
+        at -= 1;
+    }
+    stack[at] = entry;
+    len + 1
+}
+
+/// The rays of `mask` that enter box `lane` of `node` before their bound `t_hi`, by each ray's
+/// own slab test (the single-ray walk's operations, eight rays at a time).
+#[inline(always)]
+fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &WideNode, lane: usize, mask: u64) -> u64 {
+    let (half, k) = (lane / 4, lane % 4);
+    let low = [0, 1, 2].map(|axis| W::splat(node.min[axis][half][k]));
+    let high = [0, 1, 2].map(|axis| W::splat(node.max[axis][half][k]));
+    let mut entering = 0u64;
+    for b in 0..BATCHES {
+        let lanes = (mask >> (8 * b)) as u32 & 0xff;
+        if lanes == 0 {
+            continue;
+        }
+        let mut near = W::splat(0.0);
+        let mut exit = W::load(&t_hi[8 * b..]);
+        for axis in 0..3 {
+            let origin = rays.batches[b].origin[axis];
+            let inverse = rays.inverse[b][axis];
+            let t1 = (low[axis] - origin) * inverse;
+            let t2 = (high[axis] - origin) * inverse;
+            near = near.max(t1.min(t2));
+            exit = exit.min(t1.max(t2));
+        }
+        entering |= u64::from(lanes & near.not_greater(exit)) << (8 * b);
+    }
+    entering
 }
 
 /// Interval slab test of a node's eight boxes against a packet: the lanes some ray with
