@@ -391,20 +391,12 @@ mod tests {
             let kalibr = kalibr_camchain_of(&camera).expect("a Kalibr model");
             let flipped = euroc_rows_flipped(&camera);
             assert_eq!(flipped, kalibr.contains("IMAGE FLIPPED"), "{sensor}");
-            let camera_model = |text: &str| {
-                let line = text
-                    .lines()
-                    .find(|l| l.trim_start().starts_with("camera_model:"))
-                    .unwrap();
+            let field = |text: &str, key: &str| {
+                let line = text.lines().find(|l| l.trim_start().starts_with(key)).unwrap();
                 line.split(':').nth(1).unwrap().trim().to_owned()
             };
-            let distortion_model = |text: &str| {
-                let line = text
-                    .lines()
-                    .find(|l| l.trim_start().starts_with("distortion_model:"))
-                    .unwrap();
-                line.split(':').nth(1).unwrap().trim().to_owned()
-            };
+            let camera_model = |text: &str| field(text, "camera_model:");
+            let distortion_model = |text: &str| field(text, "distortion_model:");
             assert_eq!(camera_model(&sensor), camera_model(&kalibr));
             // Kalibr's rules: positive focal lengths.
             let intrinsics = numbers_after(&kalibr, "intrinsics:");
