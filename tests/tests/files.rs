@@ -6,6 +6,7 @@ mod common;
 use glam::dvec3;
 use omnisim::advanced::SceneBvh;
 use omnisim::output::ExrCompression;
+use omnisim::output::atomic::Synced;
 use omnisim::scene::ExportFormat;
 use omnisim::{Pose, advanced as trace, output};
 use ply_rs_bw::parser::Parser;
@@ -46,7 +47,7 @@ fn png_reads_back_pixel_for_pixel() {
     let frame = rendered();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("colour.png");
-    output::write_png(&path, &frame).unwrap();
+    output::write_png(&mut Synced, &path, &frame).unwrap();
     let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
     let mut reader = decoder.read_info().unwrap();
     let mut bytes = vec![0; reader.output_buffer_size().unwrap()];
@@ -68,6 +69,7 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
     ] {
         let path = dir.path().join(format!("range-{compression:?}.exr"));
         output::write_range_exr(
+            &mut Synced,
             &path,
             &frame,
             &omnisim::Camera::Catadioptric(common::paper_omni()),
@@ -116,7 +118,7 @@ fn ply_point_cloud_reads_back_point_for_point() {
     let frame = rendered();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("cloud.ply");
-    output::write_point_cloud_ply(&path, &frame, "pose θx=30°").unwrap();
+    output::write_point_cloud_ply(&mut Synced, &path, &frame, "pose θx=30°").unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let header_end = bytes.windows(10).position(|w| w == b"end_header").unwrap();
     assert!(bytes[..header_end].is_ascii(), "PLY headers are ASCII");
@@ -189,7 +191,7 @@ fn failed_write_leaves_nothing_behind() {
     let frame = rendered();
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("no such folder").join("colour.png");
-    assert!(output::write_png(&missing, &frame).is_err());
+    assert!(output::write_png(&mut Synced, &missing, &frame).is_err());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
@@ -205,7 +207,7 @@ fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     depth[1] = 20.0; // beyond what 16 bits hold at 1/5000 m
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("depth.png");
-    output::write_tum_depth_png(&path, (160, 120), &depth).unwrap();
+    output::write_tum_depth_png(&mut Synced, &path, (160, 120), &depth).unwrap();
     let stored = read_png16(&path);
     assert_eq!(&stored[..2], &[0, 0]);
     for (value, z) in stored.iter().zip(&depth).skip(2) {
@@ -261,8 +263,8 @@ fn segmentation_ids_round_trip_through_png_and_legend() {
         let size = (frame.width, frame.height);
         let object_path = dir.path().join(format!("{index}-object.png"));
         let face_path = dir.path().join(format!("{index}-face.png"));
-        output::write_id_png(&object_path, size, frame.object().unwrap()).unwrap();
-        output::write_id_png(&face_path, size, &output::face_ids(&frame)).unwrap();
+        output::write_id_png(&mut Synced, &object_path, size, frame.object().unwrap()).unwrap();
+        output::write_id_png(&mut Synced, &face_path, size, &output::face_ids(&frame)).unwrap();
         let (objects, faces) = (read_png16(&object_path), read_png16(&face_path));
         assert_eq!(legend.objects.len(), scene.objects.len());
         let mut seen = std::collections::BTreeSet::new();
@@ -301,7 +303,7 @@ fn normals_are_unit_face_the_camera_and_read_back_from_exr() {
     }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("normal.exr");
-    output::write_normal_exr(&path, &frame, ExrCompression::Zip).unwrap();
+    output::write_normal_exr(&mut Synced, &path, &frame, ExrCompression::Zip).unwrap();
     // R G B = x y z, the layout OpenCV reads; what they are is in the header.
     let (channels, quantity) = common::read_xyz_exr(&path);
     assert_eq!(quantity, "normal");
@@ -322,7 +324,7 @@ fn linear_colour_exr_reads_back_and_encodes_to_the_png_colour() {
     let (_, frame) = rendered_with_every_plane(&pose);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("linear.exr");
-    output::write_linear_exr(&path, &frame, ExrCompression::Zip).unwrap();
+    output::write_linear_exr(&mut Synced, &path, &frame, ExrCompression::Zip).unwrap();
     let image = common::read_exr(&path);
     let channels = &image.layer_data[0].channel_data.list;
     let linear = frame.linear_colour().unwrap();
@@ -347,14 +349,14 @@ fn every_file_is_byte_reproducible() {
         let path = |name: &str| dir.path().join(format!("{n}-{name}"));
         let depth: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
         let size = (frame.width, frame.height);
-        output::write_png(&path("c.png"), &frame).unwrap();
-        output::write_range_exr(&path("r.exr"), &frame, &camera, ExrCompression::Zip).unwrap();
-        output::write_axial_depth_exr(&path("z.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
-        output::write_disparity_exr(&path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
-        output::write_tum_depth_png(&path("z.png"), size, &depth).unwrap();
+        output::write_png(&mut Synced, &path("c.png"), &frame).unwrap();
+        output::write_range_exr(&mut Synced, &path("r.exr"), &frame, &camera, ExrCompression::Zip).unwrap();
+        output::write_axial_depth_exr(&mut Synced, &path("z.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
+        output::write_disparity_exr(&mut Synced, &path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
+        output::write_tum_depth_png(&mut Synced, &path("z.png"), size, &depth).unwrap();
         output::write_ray_map_exrs(&path("origin.exr"), &path("direction.exr"), &camera).unwrap();
-        output::write_normal_exr(&path("n.exr"), &frame, ExrCompression::Zip).unwrap();
-        output::write_point_cloud_ply(&path("p.ply"), &frame, "test").unwrap();
+        output::write_normal_exr(&mut Synced, &path("n.exr"), &frame, ExrCompression::Zip).unwrap();
+        output::write_point_cloud_ply(&mut Synced, &path("p.ply"), &frame, "test").unwrap();
         [
             "c.png",
             "r.exr",
@@ -396,7 +398,7 @@ fn temporary_files_never_follow_links() {
         std::os::unix::fs::symlink(&victim, out.join(name)).unwrap();
     }
     let path = out.join("colour.png");
-    output::write_png(&path, &frame).unwrap();
+    output::write_png(&mut Synced, &path, &frame).unwrap();
     assert_eq!(std::fs::read_to_string(&victim).unwrap(), "precious");
     assert!(std::fs::symlink_metadata(&path).unwrap().file_type().is_file());
     let temporaries = std::fs::read_dir(&out)

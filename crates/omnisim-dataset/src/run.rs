@@ -4,7 +4,9 @@
 //! set), then per set `<set>/` with the frame files, the set files (calibration), the layouts
 //! (`tum/`, `mav0/`) and `.frames/` (one entry per done frame, and `set.json`). Every file
 //! is written atomically; a frame is done when its entry exists, so a killed run re-renders
-//! at most the frames it was writing, with the same bytes. `merge` checks every file's hash
+//! at most the frames it was writing, with the same bytes. Frame files are not synced one by
+//! one: a batch of frames is made durable in one pass (`syncfs` on Linux), and only then are
+//! their entries written, so an entry never names a file a crash could lose. `merge` checks every file's hash
 //! and writes the layouts' index files and `manifest.json`; the merge that ends an unsharded
 //! run checks only the sizes of the frames that run wrote itself (it hashed them as it wrote
 //! them, so a file changed during the run without changing size goes unnoticed until the
@@ -12,9 +14,10 @@
 
 use std::collections::HashSet;
 use std::ops::ControlFlow;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
+use std::time::{Duration, Instant};
 
 use super::appearance::frame_appearance;
 use super::layout::{self};
@@ -22,11 +25,12 @@ use super::manifest::{FileKind, file_entry, to_json};
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan};
-use crate::files::{ENTRIES, SET_ENTRY, write_file};
+use crate::files::{ENTRIES, SET_ENTRY, io, write_file};
 use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
 use crate::merge::assemble;
-use crate::write::RenderedFrame;
+use crate::write::{RenderedFrame, WrittenFrame};
 use omnisim::frame::{Frame, Plane};
+use omnisim::output::atomic::{Durability, make_durable, write_bytes_atomically};
 use omnisim::output::{PlainFolder, SegmentationLegend};
 use omnisim::{PreparedScene, Renderer};
 
@@ -120,6 +124,9 @@ fn writer_threads(asked: Option<usize>) -> usize {
     }
 }
 
+/// What a writer thread says of a frame: its set and index, and the frame written or why not.
+type WriterReport = (usize, usize, Result<WrittenFrame, DatasetError>);
+
 /// How a frame of a run came to be done.
 enum Outcome {
     /// An earlier run wrote it: its bytes.
@@ -187,6 +194,79 @@ impl Heard<'_, '_> {
     }
 }
 
+/// Frames of a batch: written, their files not yet durable, their entries not yet written.
+/// A batch is made durable at once when it holds [`Pending::FRAMES`] frames or
+/// [`Pending::BYTES`], or its first frame has waited [`Pending::AGE`] (at most that much
+/// finished work is lost to a crash, and rendered again by the next run).
+#[derive(Default)]
+struct Pending {
+    frames: Vec<WrittenFrame>,
+    bytes: u64,
+    since: Option<Instant>,
+    /// Entries written since the last sync (the next one makes them durable too).
+    entries: Vec<PathBuf>,
+}
+
+impl Pending {
+    const FRAMES: usize = 32;
+    const BYTES: u64 = 64 << 20;
+    const AGE: Duration = Duration::from_secs(1);
+
+    fn push(&mut self, frame: WrittenFrame) {
+        self.bytes += frame.bytes;
+        self.since.get_or_insert_with(Instant::now);
+        self.frames.push(frame);
+    }
+
+    fn due(&self) -> bool {
+        self.frames.len() >= Self::FRAMES
+            || self.bytes >= Self::BYTES
+            || self.since.is_some_and(|since| since.elapsed() >= Self::AGE)
+    }
+
+    /// Makes the batch's files durable, then writes each frame's entry and tells `heard`,
+    /// frame by frame: once the run stops, no further entry is written (those frames are
+    /// rendered again by a later run). Entries are themselves synced by the next batch, or
+    /// by the end of the run.
+    fn commit(&mut self, out: &Path, heard: &mut Heard) {
+        let mut frames = std::mem::take(&mut self.frames);
+        (self.bytes, self.since) = (0, None);
+        // In frame order, whatever order the writers finished in: a stopped run has done the
+        // first frames of its batch.
+        frames.sort_by_key(|frame| (frame.set, frame.index));
+        if frames.is_empty() || heard.stopped {
+            return;
+        }
+        let mut files = std::mem::take(&mut self.entries);
+        files.extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
+        if let Err(error) = make_durable(out, &files) {
+            heard.frame(frames[0].set, frames[0].index, Err(io(out)(error)));
+            return;
+        }
+        for frame in frames {
+            if heard.stopped {
+                return;
+            }
+            let written = write_bytes_atomically(&frame.entry_path, Durability::Deferred, &frame.entry)
+                .map(|()| Outcome::Written(frame.bytes))
+                .map_err(io(&frame.entry_path));
+            if written.is_ok() {
+                self.entries.push(frame.entry_path);
+            }
+            heard.frame(frame.set, frame.index, written);
+        }
+    }
+
+    /// Makes the entries written since the last sync durable.
+    fn sync_entries(&mut self, out: &Path) -> Result<(), DatasetError> {
+        let entries = std::mem::take(&mut self.entries);
+        if entries.is_empty() {
+            return Ok(());
+        }
+        make_durable(out, &entries).map_err(io(out))
+    }
+}
+
 /// A set's prepared scene, with its per-set occluders, kept while its frames render.
 struct SetScene {
     set: usize,
@@ -246,6 +326,7 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
+        let mut pending = Pending::default();
         std::thread::scope(|scope| {
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
@@ -263,9 +344,16 @@ impl Dataset {
             }
             drop((report, queue));
             let mut current: Option<SetScene> = None;
+            let hear = |heard: &mut Heard, pending: &mut Pending, (set, index, result): WriterReport| match result {
+                Ok(frame) => pending.push(frame),
+                Err(error) => heard.frame(set, index, Err(error)),
+            };
             for &(s, index) in &frames {
-                while let Ok((set, i, result)) = written.try_recv() {
-                    heard.frame(set, i, result.map(Outcome::Written));
+                while let Ok(report) = written.try_recv() {
+                    hear(&mut heard, &mut pending, report);
+                }
+                if pending.due() {
+                    pending.commit(out, &mut heard);
                 }
                 if heard.stopped {
                     break;
@@ -293,14 +381,16 @@ impl Dataset {
                 heard.frame(s, index, outcome);
             }
             drop(to_write);
-            for (set, i, result) in written {
-                heard.frame(set, i, result.map(Outcome::Written));
+            for report in written {
+                hear(&mut heard, &mut pending, report);
             }
+            pending.commit(out, &mut heard);
         });
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
         if let Some(failure) = failure {
             return Err(failure);
         }
+        pending.sync_entries(out)?;
         summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
             assemble(out, &[], &written)?;

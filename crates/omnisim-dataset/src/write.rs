@@ -1,25 +1,29 @@
-//! Writing one rendered frame: its files, noisy copies and layouts, then its entry (the
-//! frame is done once the entry exists).
+//! Writing one rendered frame: its files, noisy copies and layouts, and the entry that makes
+//! it done once the run has made its files durable (`run.rs` does so for a batch of frames,
+//! then writes their entries).
 
-use std::path::Path;
+use std::io::{Cursor, Write};
+use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
 use super::appearance::AppearanceRecord;
 use super::layout::{self, Image};
-use super::manifest::{FileKind, FrameEntry, PoseEntry, file_entry, to_json};
+use super::manifest::{FileEntry, FileKind, FrameEntry, PoseEntry, relative, sha256_hex, to_json};
 use super::occluders::Occluder;
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, noise};
-use crate::files::{entry_path, write_file};
+use crate::files::entry_path;
 use omnisim::Rig;
 use omnisim::frame::Frame;
-use omnisim::output::{self, FrameTarget, PlainFolder, SegmentObject};
+use omnisim::output::atomic::{Durability, FileStore, Sink, write_bytes_atomically};
+use omnisim::output::{self, Destination, FrameTarget, OutputError, SegmentObject};
 
 impl Dataset {
-    /// Writes a rendered frame's files (ground truth, noisy copies, layouts), then its entry;
-    /// returns the bytes written. Runs on a writer thread while later frames render.
-    pub(crate) fn write_frame(&self, out: &Path, rendered: RenderedFrame) -> Result<u64, DatasetError> {
+    /// Writes a rendered frame's files (ground truth, noisy copies, layouts), not yet
+    /// durable, and returns the entry to write once they are. Runs on a writer thread while
+    /// later frames render.
+    pub(crate) fn write_frame(&self, out: &Path, rendered: RenderedFrame) -> Result<WrittenFrame, DatasetError> {
         let RenderedFrame {
             set: s,
             index,
@@ -41,17 +45,13 @@ impl Dataset {
             pose,
         };
         let stem = target.stem();
-        let mut files = Vec::new();
-        let written =
-            (self.spec.outputs).write_frame_files(&mut PlainFolder(set_dir.clone()), &target, &self.rig, &frames)?;
-        for path in written {
-            files.push(file_entry(out, &path, FileKind::GroundTruth)?);
-        }
+        let mut folder = FrameFiles::new(out, &set_dir);
+        (self.spec.outputs).write_frame_files(&mut folder, &target, &self.rig, &frames)?;
+        folder.kind = FileKind::Noisy;
         // Noisy copies, each view's colour then depth, then disparity: one stream, fixed order.
         let mut rng = stream(seed, &set.name, Some(index), Purpose::Noise);
         let mut sensor_colour = Vec::with_capacity(views.len());
         let mut sensor_depth = None;
-        let mut noisy = Vec::new();
         for (view, frame) in views.iter().zip(&frames) {
             let (suffix, camera) = (view.suffix, &view.camera);
             let size = (frame.width, frame.height);
@@ -59,8 +59,7 @@ impl Dataset {
                 (true, Some(linear)) => {
                     let colour = noise::colour(linear, &set.noise.colour, &mut rng);
                     let path = set_dir.join(format!("{stem}{suffix}-noisy.png"));
-                    output::write_png(&path, &Frame::from_colour(size.0, size.1, colour.clone()))?;
-                    noisy.push(path);
+                    output::write_png(&mut folder, &path, &Frame::from_colour(size.0, size.1, colour.clone()))?;
                     colour
                 }
                 _ => frame.colour().map(<[_]>::to_vec).unwrap_or_default(),
@@ -71,10 +70,10 @@ impl Dataset {
                 if let Some(depth) = &depth {
                     let values = noise::depth(depth, model, &mut rng);
                     let png = set_dir.join(format!("{stem}{suffix}-depth-noisy.png"));
-                    output::write_tum_depth_png(&png, size, &values)?;
+                    output::write_tum_depth_png(&mut folder, &png, size, &values)?;
                     let exr = set_dir.join(format!("{stem}{suffix}-depth-noisy.exr"));
-                    output::write_axial_depth_exr(&exr, size, values.clone(), self.spec.outputs.exr_compression)?;
-                    noisy.extend([png, exr]);
+                    let compression = self.spec.outputs.exr_compression;
+                    output::write_axial_depth_exr(&mut folder, &exr, size, values.clone(), compression)?;
                     sensor_depth.get_or_insert(values);
                 } else {
                     let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
@@ -87,12 +86,12 @@ impl Dataset {
                         .collect();
                     let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
                     output::write_range_exr(
+                        &mut folder,
                         &exr,
                         &Frame::from_hits(size.0, size.1, hits),
                         camera,
                         self.spec.outputs.exr_compression,
                     )?;
-                    noisy.push(exr);
                 }
             }
             if sensor_depth.is_none() {
@@ -105,16 +104,14 @@ impl Dataset {
             let values = noise::disparity(&disparity, model, &mut rng);
             let path = set_dir.join(format!("{stem}-disparity-noisy.exr"));
             output::write_disparity_exr(
+                &mut folder,
                 &path,
                 (frames[0].width, frames[0].height),
                 values,
                 self.spec.outputs.exr_compression,
             )?;
-            noisy.push(path);
         }
-        for path in noisy {
-            files.push(file_entry(out, &path, FileKind::Noisy)?);
-        }
+        folder.kind = FileKind::Layout;
         let size = (frames[0].width, frames[0].height);
         for layout in &set.layouts {
             for (image, path) in layout::frame_files(layout, &set_dir, index, views.len()) {
@@ -124,13 +121,13 @@ impl Dataset {
                         if layout::euroc_rows_flipped(&views[k].camera) {
                             flip_rows(&mut colour, size.0 as usize);
                         }
-                        output::write_png(&path, &Frame::from_colour(size.0, size.1, colour))?;
+                        output::write_png(&mut folder, &path, &Frame::from_colour(size.0, size.1, colour))?;
                     }
                     Image::Depth => {
-                        output::write_tum_depth_png(&path, size, sensor_depth.as_deref().unwrap_or_default())?;
+                        let depth = sensor_depth.as_deref().unwrap_or_default();
+                        output::write_tum_depth_png(&mut folder, &path, size, depth)?;
                     }
                 }
-                files.push(file_entry(out, &path, FileKind::Layout)?);
             }
         }
         let perturbations = Perturbations {
@@ -150,10 +147,90 @@ impl Dataset {
             stem,
             pose: PoseEntry::of(pose),
             perturbations: serde_json::to_value(&perturbations).unwrap_or_default(),
-            files,
+            files: folder.files,
         };
-        write_file(&entry_path(&set_dir, index), &to_json(&entry))?;
-        Ok(entry.files.iter().map(|f| f.bytes).sum())
+        Ok(WrittenFrame {
+            set: s,
+            index,
+            bytes: entry.files.iter().map(|f| f.bytes).sum(),
+            files: folder.paths,
+            entry_path: entry_path(&set_dir, index),
+            entry: to_json(&entry),
+        })
+    }
+}
+
+/// A frame whose files are written, not yet durable, and the entry that will make it done.
+pub(crate) struct WrittenFrame {
+    pub(crate) set: usize,
+    pub(crate) index: usize,
+    /// Bytes of its files.
+    pub(crate) bytes: u64,
+    /// Its files.
+    pub(crate) files: Vec<PathBuf>,
+    /// Where its entry goes, and the entry.
+    pub(crate) entry_path: PathBuf,
+    pub(crate) entry: Vec<u8>,
+}
+
+/// A frame's files as a data set writes them: each encoded into memory, hashed there (not
+/// read back), written in one call and renamed into place unsynced
+/// ([`Durability::Deferred`]); the run makes a batch of frames durable before it writes
+/// their entries. Records each file's entry as it goes.
+struct FrameFiles<'a> {
+    /// The data-set folder (entries name files relative to it).
+    root: &'a Path,
+    /// The set's folder.
+    dir: PathBuf,
+    /// What the files written next are.
+    kind: FileKind,
+    /// Reused by each file of the frame.
+    buffer: Vec<u8>,
+    files: Vec<FileEntry>,
+    paths: Vec<PathBuf>,
+}
+
+impl<'a> FrameFiles<'a> {
+    fn new(root: &'a Path, dir: &Path) -> Self {
+        Self {
+            root,
+            dir: dir.to_path_buf(),
+            kind: FileKind::GroundTruth,
+            buffer: Vec::new(),
+            files: Vec::new(),
+            paths: Vec::new(),
+        }
+    }
+}
+
+impl FileStore for FrameFiles<'_> {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        let mut buffer = std::mem::take(&mut self.buffer);
+        buffer.clear();
+        let mut encoded = Cursor::new(buffer);
+        fill(&mut encoded)?;
+        encoded.flush()?;
+        let bytes = encoded.into_inner();
+        write_bytes_atomically(path, Durability::Deferred, &bytes)?;
+        self.files.push(FileEntry {
+            path: relative(self.root, path),
+            kind: self.kind,
+            bytes: bytes.len() as u64,
+            sha256: sha256_hex(&bytes),
+        });
+        self.paths.push(path.to_path_buf());
+        self.buffer = bytes;
+        Ok(())
+    }
+}
+
+impl Destination for FrameFiles<'_> {
+    fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    fn claim(&mut self, name: String) -> Result<PathBuf, OutputError> {
+        Ok(self.dir.join(name))
     }
 }
 

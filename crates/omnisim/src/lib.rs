@@ -26,7 +26,8 @@
 //! let camera = rig.build()?.views().remove(0).camera;
 //! let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
 //! let frame = renderer.render(&prepared, &camera, &pose, Planes::COLOUR)?;
-//! output::write_png(&std::env::temp_dir().join("omnisim-env1-omni.png"), &frame)?;
+//! let path = std::env::temp_dir().join("omnisim-env1-omni.png");
+//! output::write_png(&mut output::atomic::Synced, &path, &frame)?;
 //! # assert!(frame.hit_count() > 0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

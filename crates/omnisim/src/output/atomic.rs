@@ -9,8 +9,8 @@
 //! that shards on other machines, sharing the folder, are writing.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::io::{BufWriter, Seek, Write};
+use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
 /// How every temporary file's name starts.
@@ -23,11 +23,47 @@ const WRITE_BUFFER: usize = 256 * 1024;
 /// A temporary untouched this long is stale even if a process with its id runs (ids are reused).
 const STALE_AFTER: Duration = Duration::from_secs(3600);
 
-/// Writes `path` through `fill`; on any error the temporary file is removed and `path` is
-/// untouched.
+/// When a file written through [`write_bytes_atomically`] reaches the disk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Durability {
+    /// Synced before it is renamed into place: on disk when the call returns.
+    Now,
+    /// Renamed into place unsynced: whole for every reader at once, on disk once the caller
+    /// has called [`make_durable`] for it (one pass for a batch of files instead of an
+    /// `fsync` each). After a crash before that, the file may be missing, empty or cut short
+    /// under its name, so nothing that vouches for it (an entry, a manifest) may be written
+    /// before [`make_durable`] returns.
+    Deferred,
+}
+
+/// Writes `path` through `fill`, durable when it returns; on any error the temporary file
+/// is removed and `path` is untouched.
 pub fn write_atomically(
     path: &Path,
     fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    write_temporary(path, Durability::Now, |file| {
+        let mut out = BufWriter::with_capacity(WRITE_BUFFER, file);
+        fill(&mut out)?;
+        out.into_inner().map_err(std::io::IntoInnerError::into_error)
+    })
+}
+
+/// [`write_atomically`] of bytes already encoded: one `write` call, synced as `durability`
+/// says.
+pub fn write_bytes_atomically(path: &Path, durability: Durability, bytes: &[u8]) -> std::io::Result<()> {
+    write_temporary(path, durability, |mut file| {
+        file.write_all(bytes)?;
+        Ok(file)
+    })
+}
+
+/// Creates the temporary beside `path`, lets `fill` write it, syncs it as `durability` says
+/// and renames it into place.
+fn write_temporary(
+    path: &Path,
+    durability: Durability,
+    fill: impl FnOnce(File) -> std::io::Result<File>,
 ) -> std::io::Result<()> {
     let dir = match path.parent() {
         Some(parent) if !parent.as_os_str().is_empty() => parent,
@@ -41,13 +77,56 @@ pub fn write_atomically(
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
     // Dropping `temporary` on an early return removes the file.
     let (file, temporary) = builder.tempfile_in(dir)?.into_parts();
-    let mut out = BufWriter::with_capacity(WRITE_BUFFER, file);
-    fill(&mut out)?;
-    out.flush()?;
-    out.into_inner()
-        .map_err(std::io::IntoInnerError::into_error)?
-        .sync_all()?;
+    let file = fill(file)?;
+    if durability == Durability::Now {
+        file.sync_all()?;
+    }
     temporary.persist(path).map_err(|e| e.error)
+}
+
+/// Puts `files` (written with [`Durability::Deferred`] into `dir` or folders below it, on
+/// one file system) on disk. Linux: one `syncfs` of the file system holding `dir` (the
+/// renames included); elsewhere an `fsync` of each file.
+pub fn make_durable(dir: &Path, files: &[PathBuf]) -> std::io::Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        let _ = files;
+        rustix::fs::syncfs(File::open(dir)?)?;
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = dir;
+        for path in files {
+            // Windows syncs only handles open for writing; opening one neither truncates
+            // nor creates.
+            File::options().read(true).write(cfg!(windows)).open(path)?.sync_all()?;
+        }
+    }
+    Ok(())
+}
+
+/// What a file writer writes into: bytes in order, and a seek back for EXR's offset table.
+pub trait Sink: Write + Seek {}
+
+impl<T: Write + Seek + ?Sized> Sink for T {}
+
+/// Where the file writers (`output::write_png` and the others) put a file once they have its
+/// path: always atomically (never half a file under its name); when it reaches the disk and
+/// what else is kept of it is the store's choice.
+pub trait FileStore {
+    /// Writes the file `path` through `fill`.
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()>;
+}
+
+/// Each file written straight to its temporary and synced before it is renamed into place:
+/// [`write_atomically`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Synced;
+
+impl FileStore for Synced {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        write_atomically(path, |out| fill(out))
+    }
 }
 
 /// How this process's temporaries are named: [`TEMPORARY_PREFIX`], the process id, `@`, the host
@@ -167,6 +246,22 @@ mod tests {
         }
         assert!(live.exists() && mine.exists() && elsewhere.exists() && other.exists());
         assert_eq!(remove_stale_temporaries(&dir.path().join("missing")).unwrap(), 0);
+    }
+
+    #[test]
+    fn deferred_files_are_whole_at_once_and_made_durable_together() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.bin"), dir.path().join("b.bin"));
+        write_bytes_atomically(&a, Durability::Deferred, b"first").unwrap();
+        write_bytes_atomically(&b, Durability::Now, b"second").unwrap();
+        // Replacing a file leaves the new bytes only, and no temporary beside it.
+        write_bytes_atomically(&a, Durability::Deferred, b"third").unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), b"third");
+        assert_eq!(std::fs::read(&b).unwrap(), b"second");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        make_durable(dir.path(), &[a.clone(), b]).unwrap();
+        // A folder that is not there cannot be made durable: the caller hears of it.
+        assert!(make_durable(&dir.path().join("missing"), &[dir.path().join("missing/a.bin")]).is_err());
     }
 
     #[test]

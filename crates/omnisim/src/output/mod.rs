@@ -22,7 +22,6 @@ pub use set::{Destination, FrameTarget, OutputSet, PlainFolder};
 
 use serde::{Deserialize, Serialize};
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use image::ImageEncoder;
@@ -31,7 +30,7 @@ use glam::DVec2;
 
 use crate::camera::Camera;
 use crate::frame::Frame;
-use atomic::write_atomically;
+use atomic::{FileStore, Synced};
 
 /// The channel of single-value EXRs (range, depth, disparity).
 pub const VALUE_CHANNEL: &str = "Y";
@@ -116,7 +115,7 @@ pub(crate) fn png_encoder<W: std::io::Write>(out: W) -> image::codecs::png::PngE
 }
 
 /// 8-bit sRGB PNG of the frame's colour plane; background black.
-pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
+pub fn write_png(to: &mut impl FileStore, path: &Path, frame: &Frame) -> Result<(), OutputError> {
     let colour = frame.colour().ok_or_else(|| {
         OutputError::at(
             path,
@@ -126,7 +125,7 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
             },
         )
     })?;
-    write_atomically(path, |out| {
+    to.store(path, |out| {
         png_encoder(out)
             .write_image(
                 colour.as_flattened(),
@@ -142,6 +141,7 @@ pub fn write_png(path: &Path, frame: &Frame) -> Result<(), OutputError> {
 /// Single-channel f32 EXR of range (`quantity` = `range`), metres, +inf where nothing is hit;
 /// `camera` made `frame` and decides what range is measured from (`range_convention`).
 pub fn write_range_exr(
+    to: &mut impl FileStore,
     path: &Path,
     frame: &Frame,
     camera: &Camera,
@@ -149,6 +149,7 @@ pub fn write_range_exr(
 ) -> Result<(), OutputError> {
     let ranges = frame.pixels().iter().map(|p| p.range).collect();
     write_channel_exr(
+        to,
         path,
         (frame.width, frame.height),
         "range",
@@ -161,6 +162,7 @@ pub fn write_range_exr(
 /// Single-channel f32 EXR of disparity (`quantity` = `disparity`; pixels, `u_left` − `u_right`),
 /// NaN where no hit.
 pub fn write_disparity_exr(
+    to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
     disparity: Vec<f32>,
@@ -168,18 +170,19 @@ pub fn write_disparity_exr(
 ) -> Result<(), OutputError> {
     let convention = "disparity of the left image in pixels: u_left - u_right = fx*baseline/z, z = depth along \
                       the optical axis; NaN where nothing is hit";
-    write_channel_exr(path, size, "disparity", convention, disparity, compression)
+    write_channel_exr(to, path, size, "disparity", convention, disparity, compression)
 }
 
 /// Single-channel f32 EXR of depth along the optical axis (`quantity` = `z`), metres, +inf
 /// where no hit.
 pub fn write_axial_depth_exr(
+    to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
     depth: Vec<f32>,
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
-    write_channel_exr(path, size, "z", AXIAL_DEPTH_CONVENTION, depth, compression)
+    write_channel_exr(to, path, size, "z", AXIAL_DEPTH_CONVENTION, depth, compression)
 }
 
 /// Text stored with axial depth.
@@ -191,7 +194,12 @@ pub const TUM_DEPTH_SCALE: f64 = 5000.0;
 
 /// 16-bit grey PNG of axial depth in the TUM RGB-D convention: value = z × 5000 rounded,
 /// 0 where nothing is hit or where z is beyond 13.1 m (65535 / 5000), which 16 bits cannot hold.
-pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Result<(), OutputError> {
+pub fn write_tum_depth_png(
+    to: &mut impl FileStore,
+    path: &Path,
+    size: (u32, u32),
+    depth: &[f32],
+) -> Result<(), OutputError> {
     let mut bytes = Vec::with_capacity(2 * depth.len());
     for &z in depth {
         let scaled = (f64::from(z) * TUM_DEPTH_SCALE).round();
@@ -202,7 +210,7 @@ pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Resu
         };
         bytes.extend_from_slice(&value.to_ne_bytes());
     }
-    write_atomically(path, |out| {
+    to.store(path, |out| {
         png_encoder(out)
             .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
             .map_err(std::io::Error::other)
@@ -212,6 +220,7 @@ pub fn write_tum_depth_png(path: &Path, size: (u32, u32), depth: &[f32]) -> Resu
 
 /// One f32 channel named `Y` holding `quantity`, with its convention in `comments`.
 fn write_channel_exr(
+    to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
     quantity: &str,
@@ -220,6 +229,7 @@ fn write_channel_exr(
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     write_exr(
+        to,
         path,
         size,
         quantity,
@@ -261,6 +271,7 @@ impl ExrCompression {
 /// f32 channels of one image: `quantity` in the header attribute of that name, the convention
 /// in `comments`.
 fn write_exr(
+    to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
     quantity: &str,
@@ -290,7 +301,7 @@ fn write_exr(
         compression.encoding(),
         AnyChannels::sort(list),
     );
-    write_atomically(path, |out| {
+    to.store(path, |out| {
         Image::from_layer(layer)
             .write()
             // exr's parallel writer builds a thread pool per image: 10× the encoding time of a
@@ -339,6 +350,7 @@ pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Ca
     }
     let size = (width, height);
     write_xyz_exr(
+        &mut Synced,
         origin_path,
         size,
         "ray origin",
@@ -347,6 +359,7 @@ pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Ca
         ExrCompression::Zip,
     )?;
     write_xyz_exr(
+        &mut Synced,
         direction_path,
         size,
         "ray direction",
@@ -360,6 +373,7 @@ pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Ca
 /// the one multi-channel layout `OpenCV`'s and imageio's EXR readers open (they refuse other
 /// channel names); `quantity` in the header says what the values are.
 pub(crate) fn write_xyz_exr(
+    to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
     quantity: &str,
@@ -368,6 +382,7 @@ pub(crate) fn write_xyz_exr(
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     write_exr(
+        to,
         path,
         size,
         quantity,
@@ -379,19 +394,23 @@ pub(crate) fn write_xyz_exr(
 
 /// Binary little-endian PLY of every hit pixel: float x y z (world metres), uchar red green
 /// blue (the colour plane, or grey 128 where the frame has none). Readable by `Open3D`,
-/// `CloudCompare`, `MeshLab` and PCL. Streams the points from the frame: a list of the hits
-/// would cost 16 bytes a pixel (more while it grows), the largest copy any writer made.
-pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Result<(), OutputError> {
+/// `CloudCompare`, `MeshLab` and PCL. Streams the points from the frame a block at a time: a
+/// list of the hits would cost 16 bytes a pixel (more while it grows), the largest copy any
+/// writer made.
+pub fn write_point_cloud_ply(
+    to: &mut impl FileStore,
+    path: &Path,
+    frame: &Frame,
+    comment: &str,
+) -> Result<(), OutputError> {
+    /// Bytes of one point: three f32 and three u8.
+    const POINT: usize = 15;
+    /// Points encoded before each write: 60 kB blocks.
+    const BLOCK: usize = 4096;
     const GREY: [u8; 3] = [128; 3];
     let colours = frame.colour();
     let colour = |index: usize| colours.map_or(&GREY, |colours| &colours[index]);
-    let hits = frame
-        .pixels()
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| p.is_hit())
-        .map(|(index, p)| (p, colour(index)));
-    write_atomically(path, |out| {
+    to.store(path, |out| {
         write!(
             out,
             "ply\nformat binary_little_endian 1.0\ncomment omnisim point cloud, world frame, metres, z up\n\
@@ -400,13 +419,20 @@ pub fn write_point_cloud_ply(path: &Path, frame: &Frame, comment: &str) -> Resul
             ascii_line(comment),
             frame.hit_count()
         )?;
-        for (p, colour) in hits {
-            for v in [p.point.x, p.point.y, p.point.z] {
-                out.write_all(&(v as f32).to_le_bytes())?;
+        let mut block = Vec::with_capacity(BLOCK * POINT);
+        for (index, p) in frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit()) {
+            let mut point = [0u8; POINT];
+            for (bytes, v) in point.chunks_exact_mut(4).zip([p.point.x, p.point.y, p.point.z]) {
+                bytes.copy_from_slice(&(v as f32).to_le_bytes());
             }
-            out.write_all(colour)?;
+            point[12..].copy_from_slice(colour(index));
+            block.extend_from_slice(&point);
+            if block.len() == BLOCK * POINT {
+                out.write_all(&block)?;
+                block.clear();
+            }
         }
-        Ok(())
+        out.write_all(&block)
     })
     .map_err(failed(path))
 }

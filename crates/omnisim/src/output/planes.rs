@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::{ExrCompression, OutputError, OutputProblem, failed, write_xyz_exr};
 use crate::frame::{Frame, NO_FACE};
-use crate::output::atomic::write_atomically;
+use crate::output::atomic::FileStore;
 use crate::scene::Scene;
 
 /// Text stored in normal-map EXR headers (`quantity` = `normal`).
@@ -79,7 +79,7 @@ impl SegmentationLegend {
 }
 
 /// 16-bit grey PNG of ids (0 = background). Refuses ids a 16-bit image cannot hold.
-pub fn write_id_png(path: &Path, size: (u32, u32), ids: &[u32]) -> Result<(), OutputError> {
+pub fn write_id_png(to: &mut impl FileStore, path: &Path, size: (u32, u32), ids: &[u32]) -> Result<(), OutputError> {
     if let Some(&id) = ids.iter().find(|&&id| id > MAX_SEGMENT_ID) {
         return Err(OutputError::at(path, OutputProblem::IdTooLarge { id }));
     }
@@ -87,7 +87,7 @@ pub fn write_id_png(path: &Path, size: (u32, u32), ids: &[u32]) -> Result<(), Ou
     for &id in ids {
         bytes.extend_from_slice(&(id as u16).to_ne_bytes());
     }
-    write_atomically(path, |out| {
+    to.store(path, |out| {
         super::png_encoder(out)
             .write_image(&bytes, size.0, size.1, image::ExtendedColorType::L16)
             .map_err(std::io::Error::other)
@@ -106,7 +106,12 @@ pub fn face_ids(frame: &Frame) -> Vec<u32> {
 
 /// Three-channel f32 EXR of world-frame unit normals (`R G B` = x y z, `quantity` =
 /// `normal`), NaN where nothing is hit.
-pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
+pub fn write_normal_exr(
+    to: &mut impl FileStore,
+    path: &Path,
+    frame: &Frame,
+    compression: ExrCompression,
+) -> Result<(), OutputError> {
     // Sized up front: grown by doubling, three channels of a large frame left holes that
     // raised the peak memory of a render by a few bytes a pixel.
     let mut channels: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(frame.pixels().len()));
@@ -117,6 +122,7 @@ pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression)
         }
     }
     write_xyz_exr(
+        to,
         path,
         (frame.width, frame.height),
         "normal",
@@ -127,7 +133,12 @@ pub fn write_normal_exr(path: &Path, frame: &Frame, compression: ExrCompression)
 }
 
 /// Three-channel f32 EXR (R, G, B) of the frame's linear colour plane.
-pub fn write_linear_exr(path: &Path, frame: &Frame, compression: ExrCompression) -> Result<(), OutputError> {
+pub fn write_linear_exr(
+    to: &mut impl FileStore,
+    path: &Path,
+    frame: &Frame,
+    compression: ExrCompression,
+) -> Result<(), OutputError> {
     let linear = frame.linear_colour().ok_or_else(|| {
         OutputError::at(
             path,
@@ -139,6 +150,7 @@ pub fn write_linear_exr(path: &Path, frame: &Frame, compression: ExrCompression)
     })?;
     let channel = |k: usize| linear.iter().map(|c| c[k]).collect();
     write_xyz_exr(
+        to,
         path,
         (frame.width, frame.height),
         "linear colour",

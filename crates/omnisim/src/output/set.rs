@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::atomic::write_atomically;
+use super::atomic::{FileStore, Sink, Synced, write_atomically};
 use super::folder::RunFolder;
 use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed};
 use crate::calibration;
@@ -113,12 +113,20 @@ impl FrameTarget<'_> {
 }
 
 /// Where an output set writes: a render's [`RunFolder`], which records each file before it is
-/// written, or a [`PlainFolder`] whose owner keeps its own records (data sets).
-pub trait Destination {
+/// written, or a [`PlainFolder`] whose owner keeps its own records; each syncs every file as
+/// it writes it. A data set's frames go to a store of its own (hashing each file as it is
+/// written, syncing a batch of frames at once).
+pub trait Destination: FileStore {
     /// The folder the files go to.
     fn dir(&self) -> &Path;
     /// The path to write the file `name` to.
     fn claim(&mut self, name: String) -> Result<PathBuf, OutputError>;
+}
+
+impl FileStore for RunFolder {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        Synced.store(path, fill)
+    }
 }
 
 impl Destination for RunFolder {
@@ -134,6 +142,12 @@ impl Destination for RunFolder {
 /// A folder files are written into as they are named.
 #[derive(Debug, Clone)]
 pub struct PlainFolder(pub PathBuf);
+
+impl FileStore for PlainFolder {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        Synced.store(path, fill)
+    }
+}
 
 impl Destination for PlainFolder {
     fn dir(&self) -> &Path {
@@ -222,20 +236,20 @@ impl OutputSet {
         let mut written = Vec::new();
         if self.colour {
             let png = target.path(folder, &format!("{suffix}.png"))?;
-            super::write_png(&png, frame)?;
+            super::write_png(folder, &png, frame)?;
             written.push(png);
         }
         if self.range {
             let exr = target.path(folder, &format!("{suffix}-range.exr"))?;
-            super::write_range_exr(&exr, frame, camera, self.exr_compression)?;
+            super::write_range_exr(folder, &exr, frame, camera, self.exr_compression)?;
             written.push(exr);
         }
         if let (true, Some(pinhole)) = (self.depth, camera.depth_frame()) {
             let depth = pinhole.axial_depth(frame, target.pose);
             let depth_png = target.path(folder, &format!("{suffix}-depth.png"))?;
-            super::write_tum_depth_png(&depth_png, size, &depth)?;
+            super::write_tum_depth_png(folder, &depth_png, size, &depth)?;
             let depth_exr = target.path(folder, &format!("{suffix}-depth.exr"))?;
-            super::write_axial_depth_exr(&depth_exr, size, depth, self.exr_compression)?;
+            super::write_axial_depth_exr(folder, &depth_exr, size, depth, self.exr_compression)?;
             written.extend([depth_png, depth_exr]);
         }
         if self.segmentation {
@@ -249,19 +263,19 @@ impl OutputSet {
                     },
                 )
             })?;
-            super::write_id_png(&object_png, size, objects)?;
+            super::write_id_png(folder, &object_png, size, objects)?;
             let face_png = target.path(folder, &format!("{suffix}-face.png"))?;
-            super::write_id_png(&face_png, size, &super::face_ids(frame))?;
+            super::write_id_png(folder, &face_png, size, &super::face_ids(frame))?;
             written.extend([object_png, face_png]);
         }
         if self.normals {
             let normal_exr = target.path(folder, &format!("{suffix}-normal.exr"))?;
-            super::write_normal_exr(&normal_exr, frame, self.exr_compression)?;
+            super::write_normal_exr(folder, &normal_exr, frame, self.exr_compression)?;
             written.push(normal_exr);
         }
         if self.linear {
             let linear_exr = target.path(folder, &format!("{suffix}-linear.exr"))?;
-            super::write_linear_exr(&linear_exr, frame, self.exr_compression)?;
+            super::write_linear_exr(folder, &linear_exr, frame, self.exr_compression)?;
             written.push(linear_exr);
         }
         if self.point_cloud {
@@ -272,7 +286,7 @@ impl OutputSet {
                 camera.model_name(),
                 describe_pose(target.pose)
             );
-            super::write_point_cloud_ply(&ply, frame, &comment)?;
+            super::write_point_cloud_ply(folder, &ply, frame, &comment)?;
             written.push(ply);
         }
         Ok(written)
@@ -298,6 +312,7 @@ impl OutputSet {
         {
             let path = target.path(folder, "-disparity.exr")?;
             super::write_disparity_exr(
+                folder,
                 &path,
                 (frames[0].width, frames[0].height),
                 disparity,
