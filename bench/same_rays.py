@@ -9,6 +9,13 @@ Rounds alternate the two tools; each tool's best round is kept (a noisy shared m
 a round, never speeds it). Prints one JSON line per case and a final table.
 
 Scenes: room, clutter (raycast_anchor.py) and env1 (`omnisim scene export scenes/env1.ron`), and
+env1-lit (--scenes env1-lit: scenes/env1-lit.ron, env1's geometry with two point lights): omnisim
+renders its lit colour image, Open3D casts the primary rays and then, with test_occlusions, one
+shadow ray per light per hit wherever the light is on the side of the face the camera sees (the
+rays omnisim's shading casts; lights parsed from the scene file). The shadow rays are made from
+a first cast outside the timing, so Open3D's time is its two queries alone; they start 0.1 mm
+off the face along its normal towards the camera and end at the light (omnisim starts them
+1e-9 x (1 + |p|) off and skips the face itself; f32 needs the larger step), and
 with --generated KIND:TRIANGLES,... scenes of bench/scenes.py (scan, boxes, clutter at any size:
 scenes the tuning never saw), each with omni 250² (hyperbolic and spherical), equirect 1024² and
 pinhole 640×480 from the room centre.
@@ -16,7 +23,7 @@ Usage: same_rays.py --omnisim BIN --repo CHECKOUT --work DIR [--rounds 3] [--cas
        [--generated scan:100000,boxes:1000000]
 Needs open3d-cpu, numpy, OpenEXR: same_rays.sh makes the venv and runs this.
 """
-import argparse, json, os, statistics, subprocess, sys, time
+import argparse, json, os, re, statistics, subprocess, sys, time
 import numpy as np
 import open3d as o3d
 import OpenEXR
@@ -41,13 +48,65 @@ def scene_files(work, repo, omnisim):
         subprocess.run([omnisim, 'scene', 'export', os.path.join(repo, 'scenes', 'env1.ron'), p], check=True,
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     out['env1'] = p
-    rons = {}
-    for name, ply in out.items():
+    lit = os.path.join(work, 'scene_env1-lit.ply')
+    if not os.path.exists(lit):
+        subprocess.run([omnisim, 'scene', 'export', os.path.join(repo, 'scenes', 'env1-lit.ron'), lit], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    rons = {'env1-lit': os.path.join(repo, 'scenes', 'env1-lit.ron')}
+    for name, ply in list(out.items()):
         ron = os.path.join(work, f'{name}.ron')
         with open(ron, 'w') as f:
             f.write(f'Scene(name: "{name}", objects: [Mesh(name: "{name}", path: "{os.path.basename(ply)}", colour: (200, 200, 200))])\n')
         rons[name] = ron
+    out['env1-lit'] = lit
     return out, rons
+
+def point_lights(ron):
+    """Positions of the point lights switched on in a scene file (the only kind env1-lit has)."""
+    text = open(ron).read()
+    if re.search(r'\b(Directional|Spot)\s*\(', text):
+        sys.exit(f'{ron}: only point lights are handled here')
+    lights = []
+    for m in re.finditer(r'Point\((.*?)\),?\s*$', text, re.M):
+        body = m.group(1)
+        if re.search(r'\bon:\s*false', body):
+            continue
+        pos = re.search(r'position:\s*\(([^)]*)\)', body).group(1)
+        lights.append([float(x) for x in pos.split(',')])
+    if not lights:
+        sys.exit(f'{ron}: no point light found')
+    return np.array(lights)
+
+def shadow_rays(scene, rays, lights):
+    """One ray per hit and light, from the hit to the light, where the light is on the side of
+    the face the camera sees (as omnisim's shading casts them): origin 0.1 mm off the face,
+    direction = light - origin, so that t in [0, 1] spans the way to the light."""
+    r = scene.cast_rays(o3d.core.Tensor(rays))
+    t = r['t_hit'].numpy()
+    hit = np.isfinite(t)
+    o = rays[hit, :3].astype(np.float64) + rays[hit, 3:].astype(np.float64) * t[hit, None]
+    n = r['primitive_normals'].numpy()[hit].astype(np.float64)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n[(n * rays[hit, 3:]).sum(1) > 0] *= -1
+    out = []
+    for light in lights:
+        towards = light - o
+        lit = (n * towards).sum(1) > 0
+        origin = o[lit] + 1e-4 * n[lit]
+        out.append(np.hstack([origin, light - origin]))
+    return np.vstack(out).astype(np.float32), int(hit.sum())
+
+def time_open3d_lit(scene, rays, shadows, runs):
+    """Median of the primary cast plus the shadow rays' any-hit test."""
+    t, s = o3d.core.Tensor(rays), o3d.core.Tensor(shadows)
+    scene.cast_rays(t); scene.test_occlusions(s, tnear=0.0, tfar=1.0)
+    ts = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        scene.cast_rays(t)['t_hit'].numpy()
+        blocked = scene.test_occlusions(s, tnear=0.0, tfar=1.0).numpy()
+        ts.append(time.perf_counter() - t0)
+    return statistics.median(ts), float(blocked.mean())
 
 def read_xyz(path):
     """One ray-map file: channels R G B = x y z, one row per pixel."""
@@ -122,6 +181,8 @@ def main():
         cases.append((s, 'omni250', '3,2,1.5,0,0,60'))
     cases += [('env1', 'omni250', '1.5,0,0.4,0,0,60'), ('env1', 'omni1000', '1.5,0,0.4,0,50,60'),
               ('env1', 'equirect1024', '0,0,0.4,0,0,0'), ('env1', 'pinhole640', '-1,0.3,0.6,0,-5,20')]
+    # Lit: env1's poses, the lit scene (its shadow rays timed on both sides).
+    cases += [('env1-lit', cam, pose) for (_, cam, pose) in cases[-4:] if cam != 'omni1000']
     # The other camera models and mirrors (--cases models: these alone), at env1's paper pose
     # and in clutter at the room centre.
     models = [(s, cam, pose) for s, pose in (('env1', '1.5,0,0.4,0,0,60'), ('clutter', '3,2,1.5,0,0,60'))
@@ -150,14 +211,23 @@ def main():
             scenes = {s: (sc, len(t))}
         sc, ntri = scenes[s]
         rays = world_rays(a.omnisim, rons[s], CAMS[cam], pose, a.work, f'{s}-{cam}')
-        best_o3d = best_om = float('inf'); js = None
+        lit = s.endswith('-lit')
+        if lit:
+            shadows, hits = shadow_rays(sc, rays, point_lights(rons[s]))
+        best_o3d = best_om = float('inf'); js = None; blocked = None
         for _ in range(a.rounds):
-            best_o3d = min(best_o3d, time_open3d(sc, rays, a.runs))
+            if lit:
+                t, blocked = time_open3d_lit(sc, rays, shadows, a.runs)
+            else:
+                t = time_open3d(sc, rays, a.runs)
+            best_o3d = min(best_o3d, t)
             t, js = time_omnisim(a.omnisim, rons[s], CAMS[cam], pose, a.runs, extra)
             best_om = min(best_om, t)
         row = dict(scene=s, triangles=ntri, camera=cam, pose=pose, rays=len(rays),
                    open3d_ms=1e3 * best_o3d, omnisim_ms=1e3 * best_om, ratio=best_o3d / best_om,
                    omnisim_tracer=js.get('tracer'), planes=js.get('planes'))
+        if lit:
+            row.update(hits=hits, shadow_rays=len(shadows), shadowed=blocked)
         rows.append(row); print(json.dumps(row), flush=True)
     print(f"\n{'scene':8} {'tris':>9} {'camera':13} {'pose':24} {'rays':>8} {'open3d ms':>10} {'omnisim ms':>10} {'ratio':>6}")
     for r in rows:

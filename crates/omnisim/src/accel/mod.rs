@@ -40,6 +40,22 @@ const LARGE_BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::fast_build()
 };
 
+/// Below this many triangles the build's per-triangle passes (boxes, leaf order, the wide
+/// BVH's groups, face normals) stay on the calling thread: at 10k triangles handing them to
+/// rayon's pool, which a fresh process must start first, cost more than the work
+/// (docs/benchmarks.md, "BVH build at small sizes").
+const PARALLEL_FROM: usize = 50_000;
+
+/// `f` of each of `0..count`, in order: on all threads from [`PARALLEL_FROM`] items, else on
+/// this one.
+pub(crate) fn map_indices<U: Send>(count: usize, f: impl Fn(usize) -> U + Sync + Send) -> Vec<U> {
+    if count < PARALLEL_FROM {
+        (0..count).map(f).collect()
+    } else {
+        (0..count).into_par_iter().map(f).collect()
+    }
+}
+
 /// A scene's triangles in a BVH, around a local origin: what both tracers traverse. Built once
 /// per geometry ([`crate::Renderer::prepare`]); colours and lights live elsewhere.
 #[derive(Clone)]
@@ -80,7 +96,7 @@ impl SceneBvh {
         let start = Instant::now();
         let triangles = scene.triangle_indices();
         let local = |t: &TriangleIndex| t.corners(scene).map(|p| p - offset);
-        let boxes: Vec<Aabb> = triangles.par_iter().map(|t| padded_aabb(&local(t))).collect();
+        let boxes: Vec<Aabb> = map_indices(triangles.len(), |i| padded_aabb(&local(&triangles[i])));
         let mut core_time = Duration::ZERO;
         let bvh = if boxes.is_empty() {
             Bvh2::default()
@@ -96,14 +112,11 @@ impl SceneBvh {
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         // Indexed collects: each list is allocated once, by this thread.
         let order = &bvh.primitive_indices;
-        let corners: Vec<[DVec3; 3]> = order.par_iter().map(|&i| local(&triangles[i as usize])).collect();
-        let face: Vec<u32> = order.par_iter().map(|&i| triangles[i as usize].face).collect();
+        let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| local(&triangles[order[k] as usize]));
+        let face: Vec<u32> = map_indices(order.len(), |k| triangles[order[k] as usize].face);
         drop(triangles);
         let wide = WideBvh::build(&bvh, &corners);
-        let face_normals = (0..scene.faces.len())
-            .into_par_iter()
-            .map(|face| scene.face_normal(face))
-            .collect();
+        let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
         Self {
             offset,
             triangles: corners,

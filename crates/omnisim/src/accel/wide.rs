@@ -54,10 +54,12 @@ pub(crate) struct WideBvh {
 impl WideBvh {
     /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
     pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
-        let extent = triangles
-            .par_iter()
-            .map(|t| t.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element())))
-            .reduce(|| 0.0, f64::max) as f32;
+        let largest = |t: &[DVec3; 3]| t.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+        let extent = if triangles.len() < super::PARALLEL_FROM {
+            triangles.iter().map(largest).fold(0.0, f64::max)
+        } else {
+            triangles.par_iter().map(largest).reduce(|| 0.0, f64::max)
+        } as f32;
         let mut wide = Self {
             extent,
             ..Self::default()
@@ -80,10 +82,10 @@ impl WideBvh {
         let mut leaves = Vec::new();
         builder.fill(&mut wide, &mut leaves, 0, &root, 0);
         // The groups' f32 lanes on all threads, once the tree has placed them.
-        wide.groups = leaves
-            .par_iter()
-            .map(|(indices, count)| TriangleGroup::new(triangles, &indices[..*count]))
-            .collect();
+        wide.groups = super::map_indices(leaves.len(), |k| {
+            let (indices, count) = &leaves[k];
+            TriangleGroup::new(triangles, &indices[..*count])
+        });
         wide
     }
 }
