@@ -96,7 +96,16 @@ impl SceneBvh {
         let start = Instant::now();
         let triangles = scene.triangle_indices();
         let local = |t: &TriangleIndex| t.corners(scene).map(|p| p - offset);
-        let boxes: Vec<Aabb> = map_indices(triangles.len(), |i| padded_aabb(&local(&triangles[i])));
+        // Small scenes read each triangle's corners from its face once, for the boxes and the
+        // leaf order both; large ones read them twice rather than hold 72 bytes a triangle
+        // while obvhs builds.
+        let read_once: Vec<[DVec3; 3]> = if triangles.len() < PARALLEL_FROM {
+            triangles.iter().map(local).collect()
+        } else {
+            Vec::new()
+        };
+        let corners_of = |i: usize| read_once.get(i).copied().unwrap_or_else(|| local(&triangles[i]));
+        let boxes: Vec<Aabb> = map_indices(triangles.len(), |i| padded_aabb(&corners_of(i)));
         let mut core_time = Duration::ZERO;
         let bvh = if boxes.is_empty() {
             Bvh2::default()
@@ -112,9 +121,9 @@ impl SceneBvh {
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         // Indexed collects: each list is allocated once, by this thread.
         let order = &bvh.primitive_indices;
-        let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| local(&triangles[order[k] as usize]));
+        let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| corners_of(order[k] as usize));
         let face: Vec<u32> = map_indices(order.len(), |k| triangles[order[k] as usize].face);
-        drop(triangles);
+        drop((triangles, read_once));
         let wide = WideBvh::build(&bvh, &corners);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
         Self {
