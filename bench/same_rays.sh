@@ -2,7 +2,10 @@
 # omnisim against Open3D (Embree 4) on the same rays: omnisim's own ray map of each camera,
 # moved to the pose, is what Open3D casts. Per-image time, rounds alternated, best round kept.
 #
-#   OMNISIM=target/release/omnisim bench/same_rays.sh [--rounds 3] [--scenes room,env1] [--extra "--hits-only"]
+#   OMNISIM=target/release/omnisim bench/same_rays.sh [--rounds 3] [--scenes room,env1,env1-lit] [--extra "--hits-only"]
+#
+# env1-lit (not in the default scenes): lit colour images, Open3D given the primary rays plus one
+# shadow ray per light per hit (same_rays.py --help).
 #
 # From the repository root (env1 is its scenes/env1.ron). Uses the venv of compare.sh
 # (${BENCH_CACHE:-$HOME/.cache/omnisim-bench}) plus OpenEXR, or the Python BENCH_PYTHON names
