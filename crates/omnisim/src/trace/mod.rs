@@ -110,9 +110,11 @@ impl CpuTracer {
                 .enumerate()
                 .for_each(|(band, pixels)| {
                     let rows = pixels.len() / row_length;
+                    // One packet array per band: entries outside a tile's `active` rays are
+                    // never read, so they need no clearing between tiles.
+                    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
                     for column in (0..row_length).step_by(8) {
                         let columns = (row_length - column).min(8);
-                        let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
                         let mut active = 0u64;
                         // Ray r of the packet is pixel (column + r % columns, row r / columns).
                         let tile = (0..rows).flat_map(|row| (0..columns).map(move |c| row * row_length + column + c));
@@ -122,6 +124,10 @@ impl CpuTracer {
                                 rays[r] = (origin, direction, ray.t_min);
                                 active |= 1 << r;
                             }
+                        }
+                        if active == 0 {
+                            // A tile outside the image circle of a mirror or fisheye.
+                            continue;
                         }
                         let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
                         for (r, offset) in tile.enumerate() {

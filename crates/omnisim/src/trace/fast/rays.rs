@@ -63,6 +63,9 @@ pub(crate) struct PacketRays<W> {
     /// About the tangent of the packet's half-angle (from the box of its directions; ∞ beyond
     /// about 80°): its footprint grows by this much per metre.
     pub(crate) spread: f32,
+    /// Per axis, whether some ray's direction has its sign bit set: all of them do where the
+    /// packet's rays share their signs, as the walk asks (`PacketBounds::same_signs`).
+    pub(crate) negative: [bool; 3],
     pub(crate) bounds: PacketBounds,
 }
 
@@ -160,6 +163,7 @@ impl<W: Wide> PacketRays<W> {
                 (origin_max - origin_min).length() / 2.0
             },
             spread,
+            negative,
             bounds: PacketBounds {
                 origin_min,
                 origin_max,

@@ -125,8 +125,9 @@ impl WideBvh {
     /// every box some ray enters, maybe more), and each leaf triangle is filtered against
     /// eight rays at a time. `visit(r, triangle)` sees, for each ray, every triangle the
     /// single-ray walk would show it, and perhaps a few more the f64 test then rejects.
-    /// Tight only where `rays.bounds.same_signs()`; entries of `bounds` outside `active` are
-    /// left alone.
+    /// The rays must share their directions' signs (`rays.bounds.same_signs()`: the interval
+    /// test and the per-ray box tests pick each axis's near plane by that sign); entries of
+    /// `bounds` outside `active` are left alone.
     /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
     /// `single(r)` gives ray r as the single-ray walk takes it (with its `t_lo`), for subtrees
     /// few rays enter (`FEW_RAYS`).
@@ -137,12 +138,49 @@ impl WideBvh {
         bounds: &mut [f32; PACKET],
         active: u64,
         single: impl Fn(usize) -> (LaneRay, f32),
-        mut visit: impl FnMut(usize, usize) -> Visit,
+        visit: impl FnMut(usize, usize) -> Visit,
     ) {
         if self.nodes.is_empty() || active == 0 {
             return;
         }
-        let mut single_stack = vec![(0u32, 0.0f32); (WIDTH - 1) * self.depth + WIDTH];
+        // Stacks on the machine stack for the usual depths (a heap allocation per packet cost
+        // more than zeroing them).
+        match (WIDTH - 1) * self.depth + WIDTH {
+            n if n <= 96 => self.walk_interval(
+                &mut [(0, 0.0, 0); 96],
+                &mut [(0, 0.0); 96],
+                rays,
+                bounds,
+                active,
+                single,
+                visit,
+            ),
+            n => self.walk_interval(
+                &mut vec![(0, 0.0, 0); n],
+                &mut vec![(0, 0.0); n],
+                rays,
+                bounds,
+                active,
+                single,
+                visit,
+            ),
+        }
+    }
+
+    /// The walk of [`WideBvh::traverse_interval`] on the given stacks (the packet's, and the
+    /// single-ray walk's for subtrees few rays enter).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn walk_interval<W: Wide>(
+        &self,
+        stack: &mut [(u32, f32, u64)],
+        single_stack: &mut [(u32, f32)],
+        rays: &PacketRays<W>,
+        bounds: &mut [f32; PACKET],
+        active: u64,
+        single: impl Fn(usize) -> (LaneRay, f32),
+        mut visit: impl FnMut(usize, usize) -> Visit,
+    ) {
         // The rays' bounds, −∞ for rays outside the packet (so they count in no maximum).
         let mut t_hi: [f32; PACKET] = std::array::from_fn(|r| {
             if active & (1 << r) != 0 {
@@ -153,11 +191,14 @@ impl WideBvh {
         });
         let t_hi = &mut t_hi;
         // The packet's bound: the farthest any of its rays may still find a closer hit.
-        let farthest = |t_hi: &[f32; PACKET]| t_hi.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b));
+        let farthest = |t_hi: &[f32; PACKET]| {
+            t_hi.chunks_exact(4)
+                .fold(Vec4::NEG_INFINITY, |a, b| a.max(Vec4::from_slice(b)))
+                .max_element()
+        };
         let mut far = farthest(t_hi);
         // Entries: child, where the packet may enter it, and the rays that may enter its box
         // before their bounds.
-        let mut stack = vec![(0u32, 0.0f32, 0u64); (WIDTH - 1) * self.depth + WIDTH];
         let mut len = 1;
         stack[0] = (0, f32::NEG_INFINITY, active);
         while len > 0 {
@@ -184,9 +225,9 @@ impl WideBvh {
                         result
                     };
                     if W::AVX {
-                        self.walk::<true, ()>(&mut single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
+                        self.walk::<true, ()>(single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
                     } else {
-                        self.walk::<false, ()>(&mut single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
+                        self.walk::<false, ()>(single_stack, entry, &ray, t_lo, start, &mut (), &mut alone);
                     }
                     t_hi[r] = bound;
                 }
@@ -196,21 +237,17 @@ impl WideBvh {
             if entry & LEAF == 0 {
                 let node = &self.nodes[entry as usize];
                 let (mut hits, near) = enter_interval(node, &rays.bounds, far);
+                // A box small against the packet's footprint where the packet reaches it is
+                // missed by most of its rays: each ray's own slab test then drops them from
+                // the subtree (the leaf filter runs on the rays left); a larger box passes the
+                // packet's rays on untested.
+                let small = small_boxes(node, &near, rays);
                 let base = len;
                 while hits != 0 {
                     let lane = hits.trailing_zeros() as usize;
                     hits &= hits - 1;
                     let child = node.child[lane];
-                    // A box small against the packet's footprint where the packet reaches it
-                    // is missed by most of its rays: each ray's own slab test then drops them
-                    // from the subtree (the leaf filter runs on the rays left); a larger box
-                    // passes the packet's rays on untested.
-                    let (half, k) = (lane / 4, lane % 4);
-                    let extent = (0..3).fold(0.0f32, |e, axis| {
-                        e.max(node.max[axis][half][k] - node.min[axis][half][k])
-                    });
-                    let footprint = rays.origin_radius + near[lane].max(0.0) * rays.spread;
-                    let child_mask = if extent < SMALL_BOX * footprint {
+                    let child_mask = if small & (1 << lane) != 0 {
                         rays_entering(rays, t_hi, node, lane, mask)
                     } else {
                         mask
@@ -218,7 +255,7 @@ impl WideBvh {
                     if child_mask == 0 {
                         continue;
                     }
-                    len = insert_by_distance(&mut stack, base, len, (child, near[lane], child_mask), |e| e.1);
+                    len = insert_by_distance(stack, base, len, (child, near[lane], child_mask), |e| e.1);
                 }
                 continue;
             }
@@ -307,13 +344,31 @@ fn insert_by_distance<T: Copy>(
     len + 1
 }
 
+/// The lanes of `node` whose box is narrower than `SMALL_BOX` times the packet's footprint
+/// radius where the packet enters it (`near`), all eight at once.
+#[inline(always)]
+fn small_boxes<W>(node: &WideNode, near: &[f32; WIDTH], rays: &PacketRays<W>) -> u32 {
+    let mut small = 0;
+    for half in 0..HALVES {
+        let extent = (0..3).fold(Vec4::ZERO, |e, axis| e.max(node.max[axis][half] - node.min[axis][half]));
+        let footprint = Vec4::splat(rays.origin_radius)
+            + Vec4::from_slice(&near[4 * half..]).max(Vec4::ZERO) * Vec4::splat(rays.spread);
+        small |= extent.cmplt(Vec4::splat(SMALL_BOX) * footprint).bitmask() << (4 * half);
+    }
+    small
+}
+
 /// The rays of `mask` that enter box `lane` of `node` before their bound `t_hi`, by each ray's
-/// own slab test (the single-ray walk's operations, eight rays at a time).
+/// own slab test (the single-ray walk's operations, eight rays at a time; the rays share their
+/// directions' signs, so the near and far planes are the same for all).
 #[inline(always)]
 fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &WideNode, lane: usize, mask: u64) -> u64 {
+    debug_assert!(rays.bounds.same_signs());
     let (half, k) = (lane / 4, lane % 4);
-    let low = [0, 1, 2].map(|axis| W::splat(node.min[axis][half][k]));
-    let high = [0, 1, 2].map(|axis| W::splat(node.max[axis][half][k]));
+    let planes = [0, 1, 2].map(|axis| {
+        let (near, far) = slab_planes(node, axis, rays.negative[axis]);
+        (W::splat(near[half][k]), W::splat(far[half][k]))
+    });
     let mut entering = 0u64;
     for b in 0..BATCHES {
         let lanes = (mask >> (8 * b)) as u32 & 0xff;
@@ -322,52 +377,64 @@ fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &Wid
         }
         let mut near = W::splat(0.0);
         let mut exit = W::load(&t_hi[8 * b..]);
-        for axis in 0..3 {
+        for (axis, &(near_plane, far_plane)) in planes.iter().enumerate() {
             let origin = rays.batches[b].origin[axis];
             let inverse = rays.inverse[b][axis];
-            let t1 = (low[axis] - origin) * inverse;
-            let t2 = (high[axis] - origin) * inverse;
-            near = near.max(t1.min(t2));
-            exit = exit.min(t1.max(t2));
+            near = near.max((near_plane - origin) * inverse);
+            exit = exit.min((far_plane - origin) * inverse);
         }
         entering |= u64::from(lanes & near.not_greater(exit)) << (8 * b);
     }
     entering
 }
 
-/// Interval slab test of a node's eight boxes against a packet: the lanes some ray with
-/// origin and inverse direction within `bounds` might enter between 0 and `far`, and a lower
-/// bound of where. Conservative because f32 subtraction and multiplication round
-/// monotonically: each ray's slab distances (as [`enter`] computes them) lie between the
-/// products of the bounds' corners, so its entry is at least, and its exit at most, what is
-/// computed here.
+/// Interval slab test of a node's eight boxes against a packet whose rays share their
+/// directions' signs (`PacketBounds::same_signs`; `closest_hits` walks one octant at a time):
+/// the lanes some ray with origin and inverse direction within `bounds` might enter between 0
+/// and `far`, and a lower bound of where. Conservative because f32 subtraction and
+/// multiplication round monotonically: each ray's slab distances (as [`enter`] computes them)
+/// lie between the products of the bounds' corners, so its entry is at least, and its exit at
+/// most, what is computed here. With the signs known, the near plane is picked as the
+/// single-ray test picks it, and of the four corner products of (plane − origin) × inverse
+/// only the extreme one is formed: the lower bound of x × [i₀, i₁] (0 < i₀ ≤ i₁) is x × i₀
+/// where x ≥ 0 and x × i₁ where not, and the mirror image for negative inverses.
 #[inline(always)]
 fn enter_interval(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, [f32; WIDTH]) {
+    debug_assert!(bounds.same_signs());
     let mut near = [Vec4::ZERO; HALVES];
     let mut mask = 0;
     for (half, near) in near.iter_mut().enumerate() {
         let mut exit = Vec4::splat(far);
         for axis in 0..3 {
-            let (origin_min, origin_max) = (
-                Vec4::splat(bounds.origin_min[axis]),
-                Vec4::splat(bounds.origin_max[axis]),
-            );
+            let negative = bounds.inverse_max[axis] < 0.0;
+            let (near_plane, far_plane) = slab_planes(node, axis, negative);
             let (inverse_min, inverse_max) = (
                 Vec4::splat(bounds.inverse_min[axis]),
                 Vec4::splat(bounds.inverse_max[axis]),
             );
-            // The range of (plane − origin) × inverse over the packet.
-            let span = |plane: Vec4| {
-                let (a, b) = (plane - origin_max, plane - origin_min);
-                let products = [a * inverse_min, a * inverse_max, b * inverse_min, b * inverse_max];
-                let low = products[0].min(products[1]).min(products[2].min(products[3]));
-                let high = products[0].max(products[1]).max(products[2].max(products[3]));
-                (low, high)
+            let (origin_min, origin_max) = (
+                Vec4::splat(bounds.origin_min[axis]),
+                Vec4::splat(bounds.origin_max[axis]),
+            );
+            // The plane's smallest and largest (plane − origin) over the packet: the one whose
+            // product is least is the largest offset for negative inverses, the smallest for
+            // positive ones, and the reverse for the greatest product.
+            let (least, greatest) = if negative {
+                (near_plane[half] - origin_min, far_plane[half] - origin_max)
+            } else {
+                (near_plane[half] - origin_max, far_plane[half] - origin_min)
             };
-            let (low_min, low_max) = span(node.min[axis][half]);
-            let (high_min, high_max) = span(node.max[axis][half]);
-            *near = near.max(low_min.min(high_min));
-            exit = exit.min(low_max.max(high_max));
+            let (towards_zero, away) = if negative {
+                (inverse_max, inverse_min)
+            } else {
+                (inverse_min, inverse_max)
+            };
+            let non_negative = |x: Vec4| x.cmpge(Vec4::ZERO);
+            let flip = glam::BVec4A::splat(negative);
+            let low = least * Vec4::select(non_negative(least) ^ flip, towards_zero, away);
+            let high = greatest * Vec4::select(non_negative(greatest) ^ flip, away, towards_zero);
+            *near = near.max(low);
+            exit = exit.min(high);
         }
         mask |= near.cmple(exit).bitmask() << (4 * half);
     }
@@ -375,7 +442,9 @@ fn enter_interval(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, [f3
 }
 
 /// Slab test of a node's eight boxes, two `Vec4` halves (SSE on `x86_64)`: the lanes entered
-/// between 0 and `t_hi`, and where.
+/// between 0 and `t_hi`, and where. (Picking each axis's near plane by the direction's sign,
+/// as the packet walk does, cost the single-ray walk 7 % more instructions than this minimum
+/// and maximum: callgrind, clutter; docs/benchmarks.md.)
 #[inline(always)]
 fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
     let mut near = [Vec4::ZERO; HALVES];
@@ -391,6 +460,18 @@ fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
         mask |= near.cmple(far).bitmask() << (4 * half);
     }
     (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
+}
+
+/// A node's near and far planes on `axis` for rays whose directions there are `negative` or
+/// not: (min, max), or (max, min) (f32 subtraction and multiplication round monotonically,
+/// so the slab distances order as the planes do).
+#[inline(always)]
+fn slab_planes(node: &WideNode, axis: usize, negative: bool) -> (&[Vec4; HALVES], &[Vec4; HALVES]) {
+    if negative {
+        (&node.max[axis], &node.min[axis])
+    } else {
+        (&node.min[axis], &node.max[axis])
+    }
 }
 
 /// [`enter`] with the eight lanes in one 256-bit AVX vector: the same operations in the same
@@ -437,7 +518,7 @@ fn enter_avx(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
 mod tests {
     use super::*;
     use crate::accel::wide::empty_node;
-    use glam::DVec3;
+    use glam::{DVec3, Vec3};
     use rand::{Rng, SeedableRng, rngs::StdRng};
 
     fn unit(rng: &mut StdRng) -> DVec3 {
@@ -463,10 +544,39 @@ mod tests {
         node
     }
 
+    /// The interval test with all four corner products of (plane − origin) × inverse per
+    /// plane and both planes per axis: what [`enter_interval`] computes with the signs known.
+    fn enter_interval_by_corners(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, [f32; WIDTH]) {
+        let mut near = [Vec4::ZERO; HALVES];
+        let mut mask = 0;
+        for (half, near) in near.iter_mut().enumerate() {
+            let mut exit = Vec4::splat(far);
+            for axis in 0..3 {
+                let splat = |v: Vec3| Vec4::splat(v[axis]);
+                let (origin_min, origin_max) = (splat(bounds.origin_min), splat(bounds.origin_max));
+                let (inverse_min, inverse_max) = (splat(bounds.inverse_min), splat(bounds.inverse_max));
+                let span = |plane: Vec4| {
+                    let (a, b) = (plane - origin_max, plane - origin_min);
+                    let products = [a * inverse_min, a * inverse_max, b * inverse_min, b * inverse_max];
+                    let low = products[0].min(products[1]).min(products[2].min(products[3]));
+                    let high = products[0].max(products[1]).max(products[2].max(products[3]));
+                    (low, high)
+                };
+                let (low_min, low_max) = span(node.min[axis][half]);
+                let (high_min, high_max) = span(node.max[axis][half]);
+                *near = near.max(low_min.min(high_min));
+                exit = exit.min(low_max.max(high_max));
+            }
+            mask |= near.cmple(exit).bitmask() << (4 * half);
+        }
+        (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
+    }
+
     /// The interval test's one promise: every box a ray of the packet enters (by the per-ray
     /// test the other walks use) is admitted, no farther away than that ray enters it. Packets
-    /// from one origin and from spread origins (rays leaving a mirror), narrow and wide, with
-    /// zero and negative-zero direction components, different bounds per ray.
+    /// of one octant (as the walk makes them) from one origin and from spread origins (rays
+    /// leaving a mirror), narrow and wide, with zero and negative-zero direction components,
+    /// different bounds per ray.
     #[test]
     fn the_interval_test_admits_every_box_a_ray_of_the_packet_enters() {
         let mut rng = StdRng::seed_from_u64(11);
@@ -499,11 +609,17 @@ mod tests {
                 })
                 .collect();
             let packet: [(DVec3, DVec3, f64); PACKET] = std::array::from_fn(|r| (rays[r].0, rays[r].1, 0.0));
-            let active = if rng.random_bool(0.5) {
+            let drawn = if rng.random_bool(0.5) {
                 u64::MAX
             } else {
                 rng.random::<u64>() | 1
             };
+            // The walk takes one octant of directions at a time (`closest_hits`): the most
+            // populous one here.
+            let active = super::super::octants(&packet, drawn)
+                .into_iter()
+                .max_by_key(|rays_in| rays_in.count_ones())
+                .unwrap_or(0);
             let bounds = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, active, 30.0).bounds;
             let t_hi: Vec<f32> = (0..PACKET)
                 .map(|_| {
@@ -528,7 +644,15 @@ mod tests {
                 }
                 any_ray |= hits;
             }
-            if bounds.same_signs() && cone <= 0.02 {
+            assert!(bounds.same_signs());
+            let (corners, corners_near) = enter_interval_by_corners(&node, &bounds, far);
+            assert_eq!(admitted, corners, "not the four-corner test's lanes");
+            for lane in (0..WIDTH).filter(|lane| admitted & (1 << lane) != 0) {
+                assert_eq!(near[lane], corners_near[lane], "not the four-corner test's entry");
+            }
+            // Tightness, as before the walk split packets by octant: whole packets that lie
+            // in one octant.
+            if active == drawn && cone <= 0.02 {
                 coherent_packets += 1;
                 entered += any_ray.count_ones() as usize;
                 admitted_extra += (admitted & !any_ray).count_ones() as usize;
