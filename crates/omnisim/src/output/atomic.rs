@@ -29,10 +29,10 @@ pub enum Durability {
     /// Synced before it is renamed into place: on disk when the call returns.
     Now,
     /// Renamed into place unsynced: whole for every reader at once, on disk once the caller
-    /// has called [`make_durable`] for it (one pass for a batch of files instead of an
+    /// has called [`DurableFolder::make_durable`] for it (one pass for a batch of files instead of an
     /// `fsync` each). After a crash before that, the file may be missing, empty or cut short
     /// under its name, so nothing that vouches for it (an entry, a manifest) may be written
-    /// before [`make_durable`] returns.
+    /// before [`DurableFolder::make_durable`] returns.
     Deferred,
 }
 
@@ -84,18 +84,37 @@ fn write_temporary(
     temporary.persist(path).map_err(|e| e.error)
 }
 
-/// Puts `files` (written with [`Durability::Deferred`] into `dir` or folders below it, on
-/// one file system) on disk, their names included. Linux 5.8 and later: one `syncfs` of the
-/// file system holding `dir` (the renames included). Elsewhere, and on older kernels, whose
-/// `syncfs` does not report write-back errors (a lost write would go unnoticed): an `fsync`
-/// of each file, then of each folder holding one ([`sync_each`]).
-pub fn make_durable(dir: &Path, files: &[PathBuf]) -> std::io::Result<()> {
-    #[cfg(target_os = "linux")]
-    if syncfs_reports_errors() {
-        return Ok(rustix::fs::syncfs(File::open(dir)?)?);
+/// A folder whose files, written with [`Durability::Deferred`] into it or folders below it
+/// (on one file system), are made durable a batch at a time ([`DurableFolder::make_durable`]).
+/// Open it before the first file of a batch is written: Linux's `syncfs` reports the
+/// write-back errors since its handle was opened, and only once across every process (a
+/// shard beside this one may see an error first), so a handle opened per batch could miss
+/// the one error that says a file of this run was lost.
+#[derive(Debug)]
+pub struct DurableFolder {
+    #[cfg_attr(not(target_os = "linux"), allow(dead_code))]
+    handle: File,
+}
+
+impl DurableFolder {
+    /// Opens `dir` to make the files written below it durable later.
+    pub fn open(dir: &Path) -> std::io::Result<Self> {
+        Ok(Self {
+            handle: File::open(dir)?,
+        })
     }
-    let _ = dir;
-    sync_each(files)
+
+    /// Puts `files` on disk, their names included. Linux 5.8 and later: one `syncfs` of the
+    /// folder's file system (the renames included). Elsewhere, and on older kernels, whose
+    /// `syncfs` does not report write-back errors (a lost write would go unnoticed): an
+    /// `fsync` of each file, then of each folder holding one ([`sync_each`]).
+    pub fn make_durable(&self, files: &[PathBuf]) -> std::io::Result<()> {
+        #[cfg(target_os = "linux")]
+        if syncfs_reports_errors() {
+            return Ok(rustix::fs::syncfs(&self.handle)?);
+        }
+        sync_each(files)
+    }
 }
 
 /// Whether this kernel's `syncfs` reports write-back errors (Linux 5.8 and later), as its
@@ -141,7 +160,9 @@ fn sync_each(files: &[PathBuf]) -> std::io::Result<()> {
     }
     if cfg!(unix) {
         for dir in dirs {
-            File::open(dir).and_then(|dir| dir.sync_all()).map_err(|e| at(dir, &e))?;
+            File::open(dir)
+                .and_then(|dir| dir.sync_all())
+                .map_err(|e| at(dir, &e))?;
         }
     }
     Ok(())
@@ -306,9 +327,12 @@ mod tests {
         assert_eq!(std::fs::read(&a).unwrap(), b"third");
         assert_eq!(std::fs::read(&b).unwrap(), b"second");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
-        make_durable(dir.path(), &[a.clone(), b]).unwrap();
+        DurableFolder::open(dir.path())
+            .unwrap()
+            .make_durable(&[a.clone(), b])
+            .unwrap();
         // A folder that is not there cannot be made durable: the caller hears of it.
-        assert!(make_durable(&dir.path().join("missing"), &[dir.path().join("missing/a.bin")]).is_err());
+        assert!(DurableFolder::open(&dir.path().join("missing")).is_err());
     }
 
     /// The per-file way (other systems, Linux before 5.8) syncs files in several folders, and
