@@ -30,7 +30,7 @@ use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
 use crate::merge::assemble;
 use crate::write::{RenderedFrame, WrittenFrame};
 use omnisim::frame::{Frame, Plane};
-use omnisim::output::atomic::{Durability, make_durable, write_bytes_atomically};
+use omnisim::output::atomic::{Durability, DurableFolder, write_bytes_atomically};
 use omnisim::output::{PlainFolder, SegmentationLegend};
 use omnisim::{PreparedScene, Renderer};
 
@@ -198,8 +198,9 @@ impl Heard<'_, '_> {
 /// A batch is made durable at once when it holds [`Pending::FRAMES`] frames or
 /// [`Pending::BYTES`], or its first frame has waited [`Pending::AGE`] (at most that much
 /// finished work is lost to a crash, and rendered again by the next run).
-#[derive(Default)]
 struct Pending {
+    /// The data-set folder, opened before the first frame is written.
+    folder: DurableFolder,
     frames: Vec<WrittenFrame>,
     bytes: u64,
     since: Option<Instant>,
@@ -211,6 +212,16 @@ impl Pending {
     const FRAMES: usize = 32;
     const BYTES: u64 = 64 << 20;
     const AGE: Duration = Duration::from_secs(1);
+
+    fn new(folder: DurableFolder) -> Self {
+        Self {
+            folder,
+            frames: Vec::new(),
+            bytes: 0,
+            since: None,
+            entries: Vec::new(),
+        }
+    }
 
     fn push(&mut self, frame: WrittenFrame) {
         self.bytes += frame.bytes;
@@ -239,7 +250,7 @@ impl Pending {
         }
         let mut files = std::mem::take(&mut self.entries);
         files.extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
-        if let Err(error) = make_durable(out, &files) {
+        if let Err(error) = self.folder.make_durable(&files) {
             heard.frame(frames[0].set, frames[0].index, Err(io(out)(error)));
             return;
         }
@@ -263,7 +274,7 @@ impl Pending {
         if entries.is_empty() {
             return Ok(());
         }
-        make_durable(out, &entries).map_err(io(out))
+        self.folder.make_durable(&entries).map_err(io(out))
     }
 }
 
@@ -326,7 +337,7 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
-        let mut pending = Pending::default();
+        let mut pending = Pending::new(DurableFolder::open(out).map_err(io(out))?);
         std::thread::scope(|scope| {
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);

@@ -29,10 +29,10 @@ pub enum Durability {
     /// Synced before it is renamed into place: on disk when the call returns.
     Now,
     /// Renamed into place unsynced: whole for every reader at once, on disk once the caller
-    /// has called [`make_durable`] for it (one pass for a batch of files instead of an
+    /// has called [`DurableFolder::make_durable`] for it (one pass for a batch of files instead of an
     /// `fsync` each). After a crash before that, the file may be missing, empty or cut short
     /// under its name, so nothing that vouches for it (an entry, a manifest) may be written
-    /// before [`make_durable`] returns.
+    /// before [`DurableFolder::make_durable`] returns.
     Deferred,
 }
 
@@ -84,25 +84,93 @@ fn write_temporary(
     temporary.persist(path).map_err(|e| e.error)
 }
 
-/// Puts `files` (written with [`Durability::Deferred`] into `dir` or folders below it, on
-/// one file system) on disk. Linux: one `syncfs` of the file system holding `dir` (the
-/// renames included); elsewhere an `fsync` of each file.
-pub fn make_durable(dir: &Path, files: &[PathBuf]) -> std::io::Result<()> {
-    #[cfg(target_os = "linux")]
-    {
-        let _ = files;
-        rustix::fs::syncfs(File::open(dir)?)?;
+/// A folder whose files, written with [`Durability::Deferred`] into it or folders below it
+/// (on one file system), are made durable a batch at a time ([`DurableFolder::make_durable`]).
+/// Open it before the first file of a batch is written: Linux's `syncfs` reports the
+/// write-back errors since its handle was opened, and only once across every process (a
+/// shard beside this one may see an error first), so a handle opened per batch could miss
+/// the one error that says a file of this run was lost.
+#[derive(Debug)]
+pub struct DurableFolder {
+    #[cfg_attr(not(target_os = "linux"), allow(dead_code))]
+    handle: File,
+}
+
+impl DurableFolder {
+    /// Opens `dir` to make the files written below it durable later.
+    pub fn open(dir: &Path) -> std::io::Result<Self> {
+        Ok(Self {
+            handle: File::open(dir)?,
+        })
     }
-    #[cfg(not(target_os = "linux"))]
-    {
-        let _ = dir;
-        for path in files {
-            // Windows syncs only handles open for writing; opening one neither truncates
-            // nor creates.
-            File::options().read(true).write(cfg!(windows)).open(path)?.sync_all()?;
+
+    /// Puts `files` on disk, their names included. Linux 5.8 and later: one `syncfs` of the
+    /// folder's file system (the renames included). Elsewhere, and on older kernels, whose
+    /// `syncfs` does not report write-back errors (a lost write would go unnoticed): an
+    /// `fsync` of each file, then of each folder holding one ([`sync_each`]).
+    pub fn make_durable(&self, files: &[PathBuf]) -> std::io::Result<()> {
+        #[cfg(target_os = "linux")]
+        if syncfs_reports_errors() {
+            return Ok(rustix::fs::syncfs(&self.handle)?);
+        }
+        sync_each(files)
+    }
+}
+
+/// Whether this kernel's `syncfs` reports write-back errors (Linux 5.8 and later), as its
+/// release (`/proc/sys/kernel/osrelease`) says; read once.
+#[cfg(target_os = "linux")]
+fn syncfs_reports_errors() -> bool {
+    static REPORTS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *REPORTS.get_or_init(|| {
+        let release = std::fs::read_to_string("/proc/sys/kernel/osrelease").unwrap_or_default();
+        release_at_least(&release, (5, 8))
+    })
+}
+
+/// Whether a kernel release such as `4.18.0-477.el8.x86_64` is `least` or later; an
+/// unreadable one is not.
+#[cfg(target_os = "linux")]
+fn release_at_least(release: &str, least: (u32, u32)) -> bool {
+    let mut numbers = release
+        .trim()
+        .split(|c: char| !c.is_ascii_digit())
+        .map(|n| n.parse::<u32>().ok());
+    match (numbers.next().flatten(), numbers.next().flatten()) {
+        (Some(major), Some(minor)) => (major, minor) >= least,
+        _ => false,
+    }
+}
+
+/// `fsync`s each of `files`, then each folder holding one (so that their renames are on disk
+/// too; Windows cannot open a folder to sync it, and its file system logs renames itself).
+/// An error names the file or folder.
+fn sync_each(files: &[PathBuf]) -> std::io::Result<()> {
+    let mut dirs = std::collections::BTreeSet::new();
+    for path in files {
+        // Windows syncs only handles open for writing; opening one neither truncates
+        // nor creates.
+        let file = File::options().read(true).write(cfg!(windows)).open(path);
+        file.and_then(|file| file.sync_all()).map_err(|e| at(path, &e))?;
+        dirs.insert(
+            path.parent()
+                .filter(|p| !p.as_os_str().is_empty())
+                .unwrap_or(Path::new(".")),
+        );
+    }
+    if cfg!(unix) {
+        for dir in dirs {
+            File::open(dir)
+                .and_then(|dir| dir.sync_all())
+                .map_err(|e| at(dir, &e))?;
         }
     }
     Ok(())
+}
+
+/// `error` with the path it happened at in its message.
+fn at(path: &Path, error: &std::io::Error) -> std::io::Error {
+    std::io::Error::new(error.kind(), format!("{}: {error}", path.display()))
 }
 
 /// What a file writer writes into: bytes in order, and a seek back for EXR's offset table.
@@ -259,9 +327,45 @@ mod tests {
         assert_eq!(std::fs::read(&a).unwrap(), b"third");
         assert_eq!(std::fs::read(&b).unwrap(), b"second");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
-        make_durable(dir.path(), &[a.clone(), b]).unwrap();
+        DurableFolder::open(dir.path())
+            .unwrap()
+            .make_durable(&[a.clone(), b])
+            .unwrap();
         // A folder that is not there cannot be made durable: the caller hears of it.
-        assert!(make_durable(&dir.path().join("missing"), &[dir.path().join("missing/a.bin")]).is_err());
+        assert!(DurableFolder::open(&dir.path().join("missing")).is_err());
+    }
+
+    /// The per-file way (other systems, Linux before 5.8) syncs files in several folders, and
+    /// names the file it could not sync.
+    #[test]
+    fn files_synced_one_by_one_and_their_folders_name_what_failed() {
+        let dir = tempfile::tempdir().unwrap();
+        let sub = dir.path().join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        let (a, b) = (dir.path().join("a.bin"), sub.join("b.bin"));
+        for path in [&a, &b] {
+            write_bytes_atomically(path, Durability::Deferred, b"x").unwrap();
+        }
+        sync_each(&[a.clone(), b]).unwrap();
+        let missing = sub.join("gone.bin");
+        let error = sync_each(&[a, missing.clone()]).unwrap_err();
+        assert_eq!(error.kind(), std::io::ErrorKind::NotFound);
+        assert!(error.to_string().contains(&missing.display().to_string()), "{error}");
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn syncfs_is_trusted_from_linux_5_8() {
+        for (release, trusted) in [
+            ("4.18.0-477.27.1.el8_8.x86_64", false),
+            ("5.4.0-150-generic", false),
+            ("5.8.0", true),
+            ("5.15.167.4-microsoft-standard-WSL2", true),
+            ("6.8.0-45-generic\n", true),
+            ("", false),
+        ] {
+            assert_eq!(release_at_least(release, (5, 8)), trusted, "{release}");
+        }
     }
 
     #[test]
