@@ -289,7 +289,8 @@ impl Dataset {
     /// Renders the frames of `options.shard` (all frames without one) into `out`, skipping
     /// those an earlier run finished, then, without a shard, merges. Frames render on this
     /// thread while writer threads write the ones before them. `on_frame` hears of every
-    /// frame and may stop the run (frames being written finish; a later run resumes the rest).
+    /// frame and may stop the run (frames whose files are still waiting for their batch to be
+    /// made durable get no entry and are rendered again by a later run, which resumes the rest).
     pub fn run(
         &self,
         renderer: &Renderer,

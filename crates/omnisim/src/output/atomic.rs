@@ -94,27 +94,48 @@ fn write_temporary(
 pub struct DurableFolder {
     #[cfg_attr(not(target_os = "linux"), allow(dead_code))]
     handle: File,
+    /// Whether one `syncfs` of the folder's file system stands for every file's `fsync`.
+    whole_file_system: bool,
 }
 
 impl DurableFolder {
     /// Opens `dir` to make the files written below it durable later.
     pub fn open(dir: &Path) -> std::io::Result<Self> {
+        let handle = File::open(dir)?;
+        #[cfg(target_os = "linux")]
+        let whole_file_system = syncfs_reports_errors() && is_local_disk(&handle);
+        #[cfg(not(target_os = "linux"))]
+        let whole_file_system = false;
         Ok(Self {
-            handle: File::open(dir)?,
+            handle,
+            whole_file_system,
         })
     }
 
-    /// Puts `files` on disk, their names included. Linux 5.8 and later: one `syncfs` of the
-    /// folder's file system (the renames included). Elsewhere, and on older kernels, whose
-    /// `syncfs` does not report write-back errors (a lost write would go unnoticed): an
-    /// `fsync` of each file, then of each folder holding one ([`sync_each`]).
+    /// Puts `files` on disk, their names included. Linux 5.8 and later on a local disk file
+    /// system: one `syncfs` of the folder's file system (the renames included). Elsewhere: an
+    /// `fsync` of each file, then of each folder holding one ([`sync_each`]); older kernels'
+    /// `syncfs` does not report write-back errors (a lost write would go unnoticed), and on
+    /// network and cluster file systems (NFS, Lustre, GPFS, FUSE mounts of object stores)
+    /// errors may surface only on each file's own `fsync`.
     pub fn make_durable(&self, files: &[PathBuf]) -> std::io::Result<()> {
         #[cfg(target_os = "linux")]
-        if syncfs_reports_errors() {
+        if self.whole_file_system {
             return Ok(rustix::fs::syncfs(&self.handle)?);
         }
         sync_each(files)
     }
+}
+
+/// Whether `folder` lies on a local disk file system whose `syncfs` writes back and reports
+/// every file's data: ext2/3/4, XFS, Btrfs, F2FS, ZFS or tmpfs, by `statfs`'s magic number.
+/// Any other (NFS, CIFS, Lustre, GPFS, FUSE, overlay) or an unreadable one is not.
+#[cfg(target_os = "linux")]
+fn is_local_disk(folder: &File) -> bool {
+    const LOCAL_DISKS: [u32; 6] = [0xEF53, 0x5846_5342, 0x9123_683E, 0xF2F5_2010, 0x2FC1_2FC1, 0x0102_1994];
+    // `f_type` is a signed or unsigned word by architecture; the magic numbers are its low 32 bits.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    rustix::fs::fstatfs(folder).is_ok_and(|stat| LOCAL_DISKS.contains(&(stat.f_type as u64 as u32)))
 }
 
 /// Whether this kernel's `syncfs` reports write-back errors (Linux 5.8 and later), as its
@@ -365,6 +386,17 @@ mod tests {
             ("", false),
         ] {
             assert_eq!(release_at_least(release, (5, 8)), trusted, "{release}");
+        }
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn only_local_disk_file_systems_are_synced_whole() {
+        // procfs stands in for any file system off the list (NFS, FUSE, Lustre): each file is
+        // then synced on its own.
+        assert!(!is_local_disk(&File::open("/proc").unwrap()));
+        if let Ok(shm) = File::open("/dev/shm") {
+            assert!(is_local_disk(&shm), "/dev/shm is tmpfs");
         }
     }
 
