@@ -43,6 +43,7 @@ pub mod accuracy;
 pub mod chart;
 pub mod fft;
 pub mod fourier;
+mod gaussian;
 pub mod gist;
 pub mod hog;
 pub mod keypoints;
