@@ -40,6 +40,8 @@
 //! ```
 
 pub mod accuracy;
+mod angle;
+mod buffers;
 pub mod chart;
 pub mod fft;
 pub mod fourier;
