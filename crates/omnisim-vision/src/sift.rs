@@ -130,11 +130,11 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
     // Run on one of rayon's threads: the ~80 parallel loops of a run then start there, each
     // without handing work over from a thread outside the pool and waiting for it (a tenth of
     // a 250² image's time on one thread).
-    rayon::scope(|_| features(image, params))
+    Ok(rayon::scope(|_| features(image, params)))
 }
 
 /// [`sift`] once its parameters are checked.
-fn features(image: &Raster, params: &SiftParams) -> Result<Features, VisionError> {
+fn features(image: &Raster, params: &SiftParams) -> Features {
     let grey = image.to_grey();
     let s = params.scales_per_octave;
     let first_octave = if params.upsample { -1 } else { 0 };
@@ -147,11 +147,11 @@ fn features(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
     let shortest = base.width.min(base.height);
     let smallest_octave = 2 * params.border + 3;
     if shortest < smallest_octave {
-        return Ok(Features {
+        return Features {
             keypoints: Vec::new(),
             length: descriptor_length(params),
             descriptors: Vec::new(),
-        });
+        };
     }
     // OpenCV's count (log2 of the side − 2), then only octaves that leave room inside the border.
     let octaves = ((shortest as f32).log2() - 2.0).round().max(1.0) as usize;
@@ -225,11 +225,11 @@ fn features(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
         })
         .collect();
     buffers::keep(gaussians.into_iter().chain(dogs).flatten().map(|layer| layer.data));
-    Ok(Features {
+    Features {
         keypoints: keypoints.into_iter().map(|(k, _, _)| k).collect(),
         length,
         descriptors,
-    })
+    }
 }
 
 fn descriptor_length(params: &SiftParams) -> usize {
@@ -445,7 +445,7 @@ impl Samples {
 
     /// Weighted gradient magnitudes, and orientation bins 0..=n (n only by rounding) counted
     /// clockwise on screen from the keypoint's `angle` (counter-clockwise with y up, as in
-    /// OpenCV, so that the descriptors are comparable with OpenCV's).
+    /// `OpenCV`, so that the descriptors are comparable with `OpenCV`'s).
     fn magnitudes_and_bins(&self, angle: f32, n: usize) -> (Vec<f32>, Vec<f32>) {
         let (mut magnitudes, mut bins) = (vec![0.0; self.dx.len()], vec![0.0; self.dx.len()]);
         let gradients = self.dx.iter().zip(&self.dy).zip(&self.weight);
@@ -550,7 +550,7 @@ fn upsample(image: &Raster) -> Raster {
     let taps = |u: usize, n: usize| -> ([usize; 2], [f64; 2]) {
         let i = (u / 2) as i64;
         let clamp = |v: i64| v.clamp(0, n as i64 - 1) as usize;
-        if u % 2 == 0 {
+        if u.is_multiple_of(2) {
             ([clamp(i - 1), clamp(i)], [0.25, 0.75])
         } else {
             ([clamp(i), clamp(i + 1)], [0.75, 0.25])
