@@ -20,8 +20,7 @@
 //! Written here: imageproc's HOG is the block variant only and imageproc would bring
 //! nalgebra 0.35 (Rust 1.89, above this workspace's 1.87).
 
-use std::f32::consts::{PI, TAU};
-
+use crate::angle::atan2_degrees;
 use crate::{Descriptor, Raster, Rotation, VisionError, require};
 
 /// Orientation binning shared by both variants.
@@ -83,26 +82,35 @@ impl Default for PanoramicHogParams {
     }
 }
 
-/// Gradient magnitude and angle of every pixel; with `wrap` the columns are circular (a 360°
-/// panorama), otherwise and for rows the border pixel is repeated.
+/// Gradient magnitude and direction (degrees, 0..360, from +x towards +y) of every pixel;
+/// with `wrap` the columns are circular (a 360° panorama), otherwise and for rows the border
+/// pixel is repeated. Directions come from [`atan2_degrees`] (within 0.005°): libm's `atan2f`
+/// was most of HOG's time.
 fn gradients(image: &Raster, wrap: bool) -> Vec<(f32, f32)> {
     let (w, h) = (image.width, image.height);
-    let column = |x: usize, dx: isize| {
-        let x = x as isize + dx;
-        if wrap {
-            x.rem_euclid(w as isize) as usize
-        } else {
-            x.clamp(0, w as isize - 1) as usize
+    let mut out = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let (above, row, below) = (
+            image.row(y.saturating_sub(1)),
+            image.row(y),
+            image.row((y + 1).min(h - 1)),
+        );
+        for x in 0..w {
+            let left = match (x, wrap) {
+                (0, true) => w - 1,
+                (0, false) => 0,
+                _ => x - 1,
+            };
+            let right = match (x + 1 == w, wrap) {
+                (true, true) => 0,
+                (true, false) => w - 1,
+                _ => x + 1,
+            };
+            let (gx, gy) = (row[right] - row[left], below[x] - above[x]);
+            out.push(((gx * gx + gy * gy).sqrt(), atan2_degrees(gy, gx)));
         }
-    };
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            let gx = image.at(column(x, 1), y) - image.at(column(x, -1), y);
-            let gy = image.at(x, (y + 1).min(h - 1)) - image.at(x, y.saturating_sub(1));
-            (gx.hypot(gy), gy.atan2(gx))
-        })
-        .collect()
+    }
+    out
 }
 
 impl Orientations {
@@ -112,15 +120,19 @@ impl Orientations {
         })
     }
 
-    /// Adds `magnitude` at `angle` to `histogram`, split linearly between the two bins whose
-    /// centres (b + ½)·range/bins are nearest (circularly).
-    fn vote(&self, angle: f32, magnitude: f32, histogram: &mut [f32]) {
-        let range = if self.signed { TAU } else { PI };
-        // In bins from bin 0's centre: −½ … bins − ½.
-        let position = angle.rem_euclid(range) / range * self.bins as f32 - 0.5;
-        let lower = position.floor();
-        let fraction = position - lower;
-        let lower = (lower as isize).rem_euclid(self.bins as isize) as usize;
+    /// Adds `magnitude` at `degrees` (0..360) to `histogram`, split linearly between the two
+    /// bins whose centres (b + ½)·range/bins are nearest (circularly).
+    fn vote(&self, degrees: f32, magnitude: f32, histogram: &mut [f32]) {
+        let range = if self.signed { 360.0 } else { 180.0 };
+        let folded = if degrees >= range { degrees - range } else { degrees };
+        // In bins from bin 0's centre: −½ … bins − ½; below 0 it is between the last bin and
+        // the first (floors without libm's call).
+        let position = folded / range * self.bins as f32 - 0.5;
+        let (lower, fraction) = if position >= 0.0 {
+            (position as usize % self.bins, position - (position as usize) as f32)
+        } else {
+            (self.bins - 1, position + 1.0)
+        };
         histogram[lower] += magnitude * (1.0 - fraction);
         histogram[(lower + 1) % self.bins] += magnitude * fraction;
     }
@@ -209,13 +221,18 @@ pub fn block_hog(image: &Raster, params: BlockHogParams) -> Result<Descriptor, V
     let bins = params.orientations.bins;
     let (cells_x, cells_y) = (image.width / params.cell, image.height / params.cell);
     let mut cells = vec![0.0f32; cells_x * cells_y * bins];
-    for (i, &(magnitude, angle)) in gradients(image, false).iter().enumerate() {
-        let (cx, cy) = (i % image.width / params.cell, i / image.width / params.cell);
-        if cx < cells_x && cy < cells_y {
-            let start = (cy * cells_x + cx) * bins;
+    // Pixels past the last whole cell (right and bottom) vote nowhere.
+    for (y, row) in gradients(image, false)
+        .chunks(image.width)
+        .take(cells_y * params.cell)
+        .enumerate()
+    {
+        let cell_row = &mut cells[y / params.cell * cells_x * bins..][..cells_x * bins];
+        for (x, &(magnitude, angle)) in row[..cells_x * params.cell].iter().enumerate() {
+            let start = x / params.cell * bins;
             params
                 .orientations
-                .vote(angle, magnitude, &mut cells[start..start + bins]);
+                .vote(angle, magnitude, &mut cell_row[start..start + bins]);
         }
     }
     let blocks_x = (cells_x - params.block) / params.stride + 1;
@@ -252,11 +269,12 @@ pub fn panoramic_hog(panorama: &Raster, params: PanoramicHogParams) -> Result<De
     params.fits(panorama.width, panorama.height)?;
     let bins = params.orientations.bins;
     let mut values = vec![0.0f32; params.cells * bins];
-    for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {
-        let cell = i / panorama.width * params.cells / panorama.height;
-        params
-            .orientations
-            .vote(angle, magnitude, &mut values[cell * bins..(cell + 1) * bins]);
+    for (y, row) in gradients(panorama, true).chunks(panorama.width).enumerate() {
+        let cell = y * params.cells / panorama.height;
+        let histogram = &mut values[cell * bins..(cell + 1) * bins];
+        for &(magnitude, angle) in row {
+            params.orientations.vote(angle, magnitude, histogram);
+        }
     }
     if params.normalise {
         values.chunks_mut(bins).for_each(l2_normalise);
@@ -303,11 +321,10 @@ pub fn vertical_hog(panorama: &Raster, params: VerticalHogParams) -> Result<Desc
     let w = panorama.width;
     let bins = params.orientations.bins;
     let mut columns = vec![0.0f32; w * bins];
-    for (i, &(magnitude, angle)) in gradients(panorama, true).iter().enumerate() {
-        let x = i % w;
-        params
-            .orientations
-            .vote(angle, magnitude, &mut columns[x * bins..(x + 1) * bins]);
+    for row in gradients(panorama, true).chunks(w) {
+        for (histogram, &(magnitude, angle)) in columns.chunks_mut(bins).zip(row) {
+            params.orientations.vote(angle, magnitude, histogram);
+        }
     }
     let cells = w / params.step;
     let mut values = vec![0.0f32; cells * bins];

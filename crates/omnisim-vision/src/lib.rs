@@ -40,9 +40,12 @@
 //! ```
 
 pub mod accuracy;
+mod angle;
+mod buffers;
 pub mod chart;
 pub mod fft;
 pub mod fourier;
+mod gaussian;
 pub mod gist;
 pub mod hog;
 pub mod keypoints;

@@ -23,8 +23,10 @@
 
 use rayon::prelude::*;
 
-use crate::keypoints::{Features, Keypoint, QuadraticFit, is_extremum, neighbourhood, normalise};
-use crate::{Interpolation, Raster, VisionError, require};
+use crate::angle::atan2_degrees;
+use crate::gaussian::gaussian_blur;
+use crate::keypoints::{Features, Keypoint, QuadraticFit, neighbourhood, normalise};
+use crate::{Raster, VisionError, buffers, require};
 
 /// SIFT's parameters; `Default` gives Lowe's (and `OpenCV`'s) values.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -125,6 +127,14 @@ impl SiftParams {
 /// An image too small for one octave gives no features.
 pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError> {
     params.validate()?;
+    // Run on one of rayon's threads: the ~80 parallel loops of a run then start there, each
+    // without handing work over from a thread outside the pool and waiting for it (a tenth of
+    // a 250² image's time on one thread).
+    Ok(rayon::scope(|_| features(image, params)))
+}
+
+/// [`sift`] once its parameters are checked.
+fn features(image: &Raster, params: &SiftParams) -> Features {
     let grey = image.to_grey();
     let s = params.scales_per_octave;
     let first_octave = if params.upsample { -1 } else { 0 };
@@ -133,15 +143,15 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
     } else {
         (grey, params.input_sigma)
     };
-    let base = gaussian_blur(&base, (params.sigma.powi(2) - input_sigma.powi(2)).max(0.01).sqrt());
+    let mut base = gaussian_blur(&base, (params.sigma.powi(2) - input_sigma.powi(2)).max(0.01).sqrt());
     let shortest = base.width.min(base.height);
     let smallest_octave = 2 * params.border + 3;
     if shortest < smallest_octave {
-        return Ok(Features {
+        return Features {
             keypoints: Vec::new(),
             length: descriptor_length(params),
             descriptors: Vec::new(),
-        });
+        };
     }
     // OpenCV's count (log2 of the side − 2), then only octaves that leave room inside the border.
     let octaves = ((shortest as f32).log2() - 2.0).round().max(1.0) as usize;
@@ -152,7 +162,7 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
     for o in 0..octaves {
         let mut layers = Vec::with_capacity(s + 3);
         layers.push(if o == 0 {
-            base.clone()
+            std::mem::replace(&mut base, Raster::new(0, 0, 1))
         } else {
             decimate(&gaussians[o - 1][s])
         });
@@ -214,11 +224,12 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
             descriptor(&gaussians[*o][*layer], x, y, k.angle, k.sigma / scale, params)
         })
         .collect();
-    Ok(Features {
+    buffers::keep(gaussians.into_iter().chain(dogs).flatten().map(|layer| layer.data));
+    Features {
         keypoints: keypoints.into_iter().map(|(k, _, _)| k).collect(),
         length,
         descriptors,
-    })
+    }
 }
 
 fn descriptor_length(params: &SiftParams) -> usize {
@@ -257,25 +268,51 @@ fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams) -> Vec<Extremum> 
     let threshold = 0.5 * params.contrast_threshold / s as f32;
     let mut found = Vec::new();
     for y in b..h - b {
-        for x in b..w - b {
-            let value = dogs[layer].at(x, y);
-            if value.abs() <= threshold {
+        let row = dogs[layer].row(y);
+        for start in (b..w - b).step_by(SCAN_BLOCK) {
+            let block = start..(start + SCAN_BLOCK).min(w - b);
+            // Most blocks hold no sample above the threshold; one test without branches (which
+            // the compiler vectorises) skips them.
+            if row[block.clone()]
+                .iter()
+                .fold(true, |quiet, v| quiet & (v.abs() <= threshold))
+            {
                 continue;
             }
-            let layers = [
-                &dogs[layer - 1].data[..],
-                &dogs[layer].data[..],
-                &dogs[layer + 1].data[..],
-            ];
-            let Some(n) = neighbourhood(layers, w, x, y) else {
-                continue;
-            };
-            if is_extremum(&n, value > 0.0) {
+            for x in block {
+                let value = row[x];
+                let beats = |layer: usize, own: bool| beats_block(&dogs[layer].data, w, x, y, value, own);
+                // An infinite sample is refused as `neighbourhood` would; a NaN one fails `beats`.
+                if value.abs() <= threshold
+                    || value.is_infinite()
+                    || !beats(layer, true)
+                    || !beats(layer - 1, false)
+                    || !beats(layer + 1, false)
+                {
+                    continue;
+                }
                 found.extend(refine(dogs, x, y, layer, params));
             }
         }
     }
     found
+}
+
+/// Samples of a row that [`extrema`] tests for the threshold at once.
+const SCAN_BLOCK: usize = 8;
+
+/// Whether `value`, the sample at (x, y) of the middle layer, is strictly above (if positive)
+/// or below each value of the 3 × 3 block of `layer` around (x, y), its own sample left out
+/// when `own` (`layer` is the sample's layer). A value that is not finite fails, as in
+/// [`neighbourhood`]. Testing the sample's own layer first, block by block, rejects most
+/// samples without gathering all 26 neighbours.
+fn beats_block(layer: &[f32], w: usize, x: usize, y: usize, value: f32, own: bool) -> bool {
+    let maximum = value > 0.0;
+    (y - 1..=y + 1).all(|yy| {
+        layer[yy * w + x - 1..][..3].iter().enumerate().all(|(dx, &v)| {
+            (own && yy == y && dx == 1) || (v.is_finite() && if maximum { value > v } else { value < v })
+        })
+    })
 }
 
 /// Lowe 2004 §4: moves the sample to the fitted extremum (at most 5 times), then applies the
@@ -333,6 +370,11 @@ fn gradient(image: &Raster, x: usize, y: usize) -> (f32, f32) {
     )
 }
 
+/// e^(scale·t²) for t = −radius..=radius: one axis's factor of a 2-D Gaussian window.
+fn gaussian_factors(radius: i64, scale: f32) -> Vec<f32> {
+    (-radius..=radius).map(|t| (scale * (t * t) as f32).exp()).collect()
+}
+
 /// Lowe 2004 §5: the angles (degrees, +x towards +y) of the orientation histogram's peaks.
 fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &SiftParams) -> Vec<f32> {
     let n = params.orientation_bins;
@@ -340,21 +382,24 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
     let radius = (3.0 * window).round() as i64;
     let (px, py) = (x.round() as i64, y.round() as i64);
     let mut raw = vec![0.0f32; n];
-    for i in -radius..=radius {
+    // The Gaussian window e^(−(i² + j²)/2w²) as the product of its row and column factors.
+    let weights = gaussian_factors(radius, -1.0 / (2.0 * window * window));
+    for (i, &row_weight) in (-radius..=radius).zip(&weights) {
         let yy = py + i;
         if yy <= 0 || yy >= image.height as i64 - 1 {
             continue;
         }
-        for j in -radius..=radius {
+        for (j, &column_weight) in (-radius..=radius).zip(&weights) {
             let xx = px + j;
             if xx <= 0 || xx >= image.width as i64 - 1 {
                 continue;
             }
             let (dx, dy) = gradient(image, xx as usize, yy as usize);
-            let weight = (-((i * i + j * j) as f32) / (2.0 * window * window)).exp();
-            let angle = dy.atan2(dx).to_degrees().rem_euclid(360.0);
-            let bin = ((angle * n as f32 / 360.0).round() as usize) % n;
-            raw[bin] += weight * (dx * dx + dy * dy).sqrt();
+            let angle = atan2_degrees(dy, dx);
+            // Rounds to the nearest bin (angle ≥ 0); bin n is bin 0.
+            let bin = (angle * n as f32 / 360.0 + 0.5) as usize;
+            let bin = if bin >= n { bin - n } else { bin };
+            raw[bin] += row_weight * column_weight * (dx * dx + dy * dy).sqrt();
         }
     }
     let at = |h: &[f32], i: i64| h[i.rem_euclid(n as i64) as usize];
@@ -379,6 +424,40 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
         .collect()
 }
 
+/// The samples of one descriptor's window: place in cells, gradient, window weight.
+#[derive(Default)]
+struct Samples {
+    rbin: Vec<f32>,
+    cbin: Vec<f32>,
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    weight: Vec<f32>,
+}
+
+impl Samples {
+    fn push(&mut self, rbin: f32, cbin: f32, dx: f32, dy: f32, weight: f32) {
+        self.rbin.push(rbin);
+        self.cbin.push(cbin);
+        self.dx.push(dx);
+        self.dy.push(dy);
+        self.weight.push(weight);
+    }
+
+    /// Weighted gradient magnitudes, and orientation bins 0..=n (n only by rounding) counted
+    /// clockwise on screen from the keypoint's `angle` (counter-clockwise with y up, as in
+    /// `OpenCV`, so that the descriptors are comparable with `OpenCV`'s).
+    fn magnitudes_and_bins(&self, angle: f32, n: usize) -> (Vec<f32>, Vec<f32>) {
+        let (mut magnitudes, mut bins) = (vec![0.0; self.dx.len()], vec![0.0; self.dx.len()]);
+        let gradients = self.dx.iter().zip(&self.dy).zip(&self.weight);
+        for ((magnitude, obin), ((&dx, &dy), &weight)) in magnitudes.iter_mut().zip(&mut bins).zip(gradients) {
+            let turned = angle - atan2_degrees(dy, dx);
+            *obin = if turned < 0.0 { turned + 360.0 } else { turned } * n as f32 / 360.0;
+            *magnitude = (dx * dx + dy * dy).sqrt() * weight;
+        }
+        (magnitudes, bins)
+    }
+}
+
 /// Lowe 2004 §6 (`OpenCV`'s `calcSIFTDescriptor`): the descriptor of the keypoint at (x, y) of
 /// `image` (octave pixels), turned by `angle` degrees, of scale `octave_sigma`.
 fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, params: &SiftParams) -> Vec<f32> {
@@ -387,17 +466,26 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
     let (px, py) = (x.round() as i64, y.round() as i64);
     let (sin, cos) = angle.to_radians().sin_cos();
     let cell = 3.0 * octave_sigma;
+    // The turn and the scale to cells in one multiply per term (as OpenCV).
+    let (sin_cell, cos_cell) = (sin / cell, cos / cell);
     let radius = (cell * std::f32::consts::SQRT_2 * (d as f32 + 1.0) * 0.5).round() as i64;
     let radius = radius.min(((image.width.pow(2) + image.height.pow(2)) as f32).sqrt() as i64);
     let window = -1.0 / (d as f32 * d as f32 * 0.5);
     // Cells with a margin of one on each side and two extra orientation bins, folded back below.
     let stride = n + 2;
     let mut hist = vec![0.0f32; (d + 2) * (d + 2) * stride];
-    for i in -radius..=radius {
-        for j in -radius..=radius {
+    // The window e^((c_rot² + r_rot²)·window) with c_rot² + r_rot² = (i² + j²)/cell², as the
+    // product of its row and column factors.
+    let weights = gaussian_factors(radius, window / (cell * cell));
+    // Three passes, as OpenCV's: the samples inside the turned window, then their magnitudes
+    // and orientations in one loop without branches (which the compiler vectorises), then the
+    // votes.
+    let mut samples = Samples::default();
+    for (i, &row_weight) in (-radius..=radius).zip(&weights) {
+        for (j, &column_weight) in (-radius..=radius).zip(&weights) {
             // The sample's place in the keypoint's frame, in cells.
-            let c_rot = (j as f32 * cos + i as f32 * sin) / cell;
-            let r_rot = (-j as f32 * sin + i as f32 * cos) / cell;
+            let c_rot = j as f32 * cos_cell + i as f32 * sin_cell;
+            let r_rot = -j as f32 * sin_cell + i as f32 * cos_cell;
             let rbin = r_rot + d as f32 / 2.0 - 0.5;
             let cbin = c_rot + d as f32 / 2.0 - 0.5;
             let (r, c) = (py + i, px + j);
@@ -413,19 +501,24 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
                 continue;
             }
             let (dx, dy) = gradient(image, c as usize, r as usize);
-            let magnitude = (dx * dx + dy * dy).sqrt() * ((c_rot * c_rot + r_rot * r_rot) * window).exp();
-            // Bins run clockwise on screen from the keypoint's angle (counter-clockwise with y
-            // up, as in OpenCV), so the descriptors are comparable with OpenCV's.
-            let obin = (angle - dy.atan2(dx).to_degrees()).rem_euclid(360.0) * n as f32 / 360.0;
-            let (r0, c0, o0) = (rbin.floor(), cbin.floor(), obin.floor());
-            let (fr, fc, fo) = (rbin - r0, cbin - c0, obin - o0);
-            let o0 = (o0 as usize) % n;
-            let base = ((r0 as i64 + 1) as usize * (d + 2) + (c0 as i64 + 1) as usize) * stride + o0;
-            for (dr, wr) in [(0, 1.0 - fr), (1, fr)] {
-                for (dc, wc) in [(0, 1.0 - fc), (1, fc)] {
-                    for (dor, wo) in [(0, 1.0 - fo), (1, fo)] {
-                        hist[base + (dr * (d + 2) + dc) * stride + dor] += magnitude * wr * wc * wo;
-                    }
+            samples.push(rbin, cbin, dx, dy, row_weight * column_weight);
+        }
+    }
+    let (magnitudes, bins) = samples.magnitudes_and_bins(angle, n);
+    for ((&rbin, &cbin), (&magnitude, &obin)) in
+        samples.rbin.iter().zip(&samples.cbin).zip(magnitudes.iter().zip(&bins))
+    {
+        // Floors without libm's call: rbin and cbin are above −1, obin is 0 or more.
+        let floor = |v: f32| if v >= 0.0 { v as i64 } else { -1 };
+        let (r0, c0, o0) = (floor(rbin), floor(cbin), obin as usize);
+        let (fr, fc, fo) = (rbin - r0 as f32, cbin - c0 as f32, obin - o0 as f32);
+        // obin reaches n only by rounding up from just below 360°: bin 0.
+        let o0 = if o0 >= n { o0 - n } else { o0 };
+        let base = ((r0 + 1) as usize * (d + 2) + (c0 + 1) as usize) * stride + o0;
+        for (dr, wr) in [(0, 1.0 - fr), (1, fr)] {
+            for (dc, wc) in [(0, 1.0 - fc), (1, fc)] {
+                for (dor, wo) in [(0, 1.0 - fo), (1, fo)] {
+                    hist[base + (dr * (d + 2) + dc) * stride + dor] += magnitude * wr * wc * wo;
                 }
             }
         }
@@ -446,129 +539,63 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
 }
 
 /// The image doubled by bilinear interpolation, pixel u of the result at (u + ½)/2 − ½
-/// (`OpenCV`'s `resize` with `INTER_LINEAR`).
+/// (`OpenCV`'s `resize` with `INTER_LINEAR`): each output pixel is ¾·¼ of its two nearest
+/// input pixels on each axis, borders repeated. Equal bit for bit to [`Raster::sample`] with
+/// [`crate::Interpolation::Bilinear`] (the weights' products are exact; the same sum in the same
+/// order), which spent most of this in its general tap setup.
 fn upsample(image: &Raster) -> Raster {
     let (w, h) = (image.width * 2, image.height * 2);
-    let mut out = Raster::new(w, h, 1);
-    let mut value = [0.0];
-    for y in 0..h {
-        for x in 0..w {
-            image.sample(
-                (x as f64 + 0.5) / 2.0 - 0.5,
-                (y as f64 + 0.5) / 2.0 - 0.5,
-                Interpolation::Bilinear,
-                &mut value,
-            );
-            out.data[y * w + x] = value[0];
+    // Output column or row u reads input u/2 − ¼: pixels ⌊u/2⌋ − 1 and ⌊u/2⌋ weighted ¼, ¾
+    // for even u, ⌊u/2⌋ and ⌊u/2⌋ + 1 weighted ¾, ¼ for odd u, clamped to the image.
+    let taps = |u: usize, n: usize| -> ([usize; 2], [f64; 2]) {
+        let i = (u / 2) as i64;
+        let clamp = |v: i64| v.clamp(0, n as i64 - 1) as usize;
+        if u.is_multiple_of(2) {
+            ([clamp(i - 1), clamp(i)], [0.25, 0.75])
+        } else {
+            ([clamp(i), clamp(i + 1)], [0.75, 0.25])
         }
-    }
+    };
+    let columns: Vec<([usize; 2], [f64; 2])> = (0..w).map(|x| taps(x, image.width)).collect();
+    let mut out = Raster::from_vec(w, h, 1, buffers::take(w * h)).expect("sized");
+    out.data.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let ([ya, yb], [wya, wyb]) = taps(y, image.height);
+        let (above, below) = (image.row(ya), image.row(yb));
+        for (o, &([xa, xb], [wxa, wxb])) in row.iter_mut().zip(&columns) {
+            let mut value = 0.0f32;
+            value += (wxa * wya) as f32 * above[xa];
+            value += (wxb * wya) as f32 * above[xb];
+            value += (wxa * wyb) as f32 * below[xa];
+            value += (wxb * wyb) as f32 * below[xb];
+            *o = value;
+        }
+    });
     out
 }
 
 /// Every second pixel of every second row.
 fn decimate(image: &Raster) -> Raster {
     let (w, h) = (image.width / 2, image.height / 2);
-    let data = (0..h)
-        .flat_map(|y| (0..w).map(move |x| image.at(2 * x, 2 * y)))
-        .collect();
-    Raster {
-        width: w,
-        height: h,
-        channels: 1,
-        data,
+    let mut data = buffers::take(w * h);
+    for (y, row) in data.chunks_mut(w.max(1)).enumerate() {
+        for (x, value) in row.iter_mut().enumerate() {
+            *value = image.at(2 * x, 2 * y);
+        }
     }
+    Raster::from_vec(w, h, 1, data).expect("sized")
 }
 
 fn difference(a: &Raster, b: &Raster) -> Raster {
-    let data = a.data.iter().zip(&b.data).map(|(x, y)| x - y).collect();
-    Raster {
-        width: a.width,
-        height: a.height,
-        channels: 1,
-        data,
+    let mut data = buffers::take(a.data.len());
+    for ((d, x), y) in data.iter_mut().zip(&a.data).zip(&b.data) {
+        *d = x - y;
     }
-}
-
-/// Separable Gaussian blur of a one-channel image, kernel radius ⌊(⌊8σ + 1⌉ | 1)/2⌋ and
-/// mirrored borders without repeating the edge pixel (`OpenCV`'s `GaussianBlur` for f32 images,
-/// `BORDER_REFLECT_101`). Written here: `image::imageops::blur` is u8/f32 RGBA-oriented with
-/// its own kernel extent and border, which would move keypoints away from `OpenCV`'s.
-pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
-    let radius = (((8.0 * sigma + 1.0).round() as usize) | 1) / 2;
-    let mut kernel: Vec<f32> = (0..=2 * radius)
-        .map(|i| {
-            let t = i as f32 - radius as f32;
-            (-t * t / (2.0 * sigma * sigma)).exp()
-        })
-        .collect();
-    let total: f32 = kernel.iter().sum();
-    kernel.iter_mut().for_each(|k| *k /= total);
-    let (w, h) = (image.width, image.height);
-    let reflect = |i: i64, n: usize| -> usize {
-        let n = n as i64;
-        if n == 1 {
-            return 0;
-        }
-        let period = 2 * (n - 1);
-        let m = i.rem_euclid(period);
-        (if m < n { m } else { period - m }) as usize
-    };
-    // Each line is copied once with its mirrored margins, then convolved without index checks.
-    let convolve = |source: &[f32], len: usize, out: &mut [f32]| {
-        let padded: Vec<f32> = (0..len + 2 * radius)
-            .map(|i| source[reflect(i as i64 - radius as i64, len)])
-            .collect();
-        for (o, window) in out.iter_mut().zip(padded.windows(kernel.len())) {
-            *o = window.iter().zip(&kernel).map(|(v, k)| v * k).sum();
-        }
-    };
-    let mut rows = vec![0.0f32; w * h];
-    rows.par_chunks_mut(w)
-        .zip(image.data.par_chunks(w))
-        .for_each(|(out, row)| convolve(row, w, out));
-    // Columns: transpose, blur rows, transpose back.
-    let transposed: Vec<f32> = (0..w)
-        .flat_map(|x| (0..h).map(move |y| (x, y)))
-        .map(|(x, y)| rows[y * w + x])
-        .collect();
-    let mut blurred = vec![0.0f32; w * h];
-    blurred
-        .par_chunks_mut(h)
-        .zip(transposed.par_chunks(h))
-        .for_each(|(out, column)| convolve(column, h, out));
-    let data = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| blurred[x * h + y])
-        .collect();
-    Raster {
-        width: w,
-        height: h,
-        channels: 1,
-        data,
-    }
+    Raster::from_vec(a.width, a.height, 1, data).expect("sized")
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The blur keeps a constant image, and blurring an impulse gives the normalised Gaussian
-    /// of the asked σ (its second moment is σ²).
-    #[test]
-    fn gaussian_blur_of_an_impulse() {
-        let mut impulse = Raster::new(41, 41, 1);
-        impulse.data[20 * 41 + 20] = 1.0;
-        let sigma = 2.5f32;
-        let blurred = gaussian_blur(&impulse, sigma);
-        let total: f32 = blurred.data.iter().sum();
-        let variance: f32 = (0..41)
-            .map(|x| blurred.at(x, 20) / blurred.row(20).iter().sum::<f32>() * (x as f32 - 20.0).powi(2))
-            .sum();
-        assert!((total - 1.0).abs() < 1e-5, "{total}");
-        assert!((variance - sigma * sigma).abs() < 0.01 * sigma * sigma, "{variance}");
-        let flat = gaussian_blur(&Raster::from_vec(7, 5, 1, vec![0.3; 35]).unwrap(), 1.6);
-        assert!(flat.data.iter().all(|v| (v - 0.3).abs() < 1e-6));
-    }
 
     /// A Gaussian blob of σ₀ on a flat ground: the scale-normalised Laplacian of the scale
     /// space peaks at σ = σ₀ at its centre (Lindeberg 1998), so SIFT's strongest keypoint is
@@ -599,6 +626,24 @@ mod tests {
             let norm: f32 = features.descriptor(i).iter().map(|v| v * v).sum::<f32>().sqrt();
             assert!((norm - 1.0).abs() < 1e-4);
             assert!(features.descriptor(i).iter().all(|&v| v >= 0.0));
+        }
+    }
+
+    /// The doubling equals the general bilinear sampler at (u + ½)/2 − ½ bit for bit, borders
+    /// included, on odd and even sides.
+    #[test]
+    fn upsample_equals_bilinear_sampling() {
+        let (w, h) = (7, 4);
+        let data = (0..w * h).map(|i| ((i * 37 % 11) as f32).sin()).collect();
+        let image = Raster::from_vec(w, h, 1, data).unwrap();
+        let doubled = upsample(&image);
+        let mut value = [0.0];
+        for y in 0..2 * h {
+            for x in 0..2 * w {
+                let (u, v) = ((x as f64 + 0.5) / 2.0 - 0.5, (y as f64 + 0.5) / 2.0 - 0.5);
+                image.sample(u, v, crate::Interpolation::Bilinear, &mut value);
+                assert_eq!(doubled.at(x, y).to_bits(), value[0].to_bits(), "({x}, {y})");
+            }
         }
     }
 

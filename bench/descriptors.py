@@ -1,0 +1,202 @@
+#!/usr/bin/env python3
+"""`omnisim describe` against OpenCV, scikit-image and numpy: time per image per descriptor,
+on the same images, in one run (issue 18).
+
+Images (rendered once into --work by `omnisim render`, env1-textured): a 512² pinhole (90°
+field of view, looking at the brick wall and the chequered rug), the same view at 1024² (SIFT
+at twice the scale), a 512² equirectangular image and the paper's 250² omni image; the omni
+image's 512 × 128 panorama comes from `omnisim project` (8-bit, for the peers; `describe`
+resamples its own in f32 from the same model).
+
+Each image is rendered COPIES times (the same pose). Each round runs `omnisim describe` once
+per image folder with every descriptor (each descriptor's time per image is the `seconds` its
+sidecar records for each frame: the descriptor alone, not the image's reading nor the
+panorama's resampling; the first frame is left out), then the peers on the same image, each
+called COPIES times and timed around its one call (reading and converting the image left
+out):
+
+| omnisim            | peer                                                              |
+|--------------------|-------------------------------------------------------------------|
+| sift               | `cv2.SIFT_create().detectAndCompute` (8-bit grey, as OpenCV reads) |
+| surf               | `cv2.xfeatures2d.SURF_create(100)` where the build has it (the pip |
+|                    | wheels leave the non-free module out: then no peer)               |
+| block-hog          | `skimage.feature.hog`: 9 bins, 8 × 8 cells, 2 × 2 blocks, L2-Hys   |
+| hog (panorama)     | `skimage.feature.hog`: 8 bins, 16 cells of the full width, 1 × 1   |
+|                    | blocks, L2 (the same 16 × 8 histogram)                             |
+| fourier (panorama) | `np.fft.fft` of every row, first 16 coefficients, magnitude, phase |
+| radon              | `skimage.transform.radon` over 360 angles, `circle=True`           |
+| gist               | none (LMgist's own code is MATLAB)                                 |
+
+Threads: `RAYON_NUM_THREADS` for omnisim and `cv2.setNumThreads` for OpenCV are both set to
+--threads; scikit-image and numpy run these on one thread.
+
+Prints one JSON line per (image, descriptor) on stderr and a Markdown table: best (and
+median) of all timed calls in ms, the ratio peer / omnisim (above 1: omnisim is faster) and the load average.
+
+--baseline BIN times a second omnisim build (an earlier commit's) in the same rounds.
+
+Usage: descriptors.py --omnisim target/release/omnisim --work /tmp/descriptors [--baseline OLD_BIN] [--rounds 5] [--threads 1]
+Needs OpenCV, numpy and scikit-image (tests/readers/requirements.txt).
+"""
+import argparse, json, os, shutil, statistics, subprocess, sys, time
+
+import cv2
+import numpy as np
+import skimage
+from skimage.feature import hog as skimage_hog
+from skimage.transform import radon as skimage_radon
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCENE = os.path.join(ROOT, 'scenes', 'env1-textured.ron')
+VIEW = '1.0 0.5 0.4 0 20 200'
+PAPER_POSE = '1.5 0 0.4 0 0 60'
+# Each image is rendered this many times (the same pose) and described in one process; the
+# first is left out of the times (a process's first image also pays for rayon's threads and
+# fresh memory: 10–30 ms), and each peer is called as often in one process.
+COPIES = 4
+
+# name: (render options, descriptors omnisim runs on it)
+IMAGES = {
+    'pinhole 512²': (['--camera', 'pinhole', '--size', '512x512', '--hfov', '90'], VIEW,
+                     ['sift', 'surf', 'block-hog', 'radon']),
+    'pinhole 1024²': (['--camera', 'pinhole', '--size', '1024x1024', '--hfov', '90'], VIEW, ['sift', 'surf']),
+    'equirect 512²': (['--camera', 'equirect', '--size', '512x512'], PAPER_POSE,
+                      ['sift', 'surf', 'fourier', 'hog', 'gist']),
+    'omni 250²': (['--camera', 'omni', '--size', '250x250'], PAPER_POSE,
+                  ['sift', 'surf', 'radon', 'fourier', 'hog', 'gist']),
+}
+PANORAMA = (512, 128)  # describe's default for omni images
+
+
+def folder(work, name):
+    return os.path.join(work, name.replace(' ', '-').replace('²', ''))
+
+
+def render(omnisim, work):
+    for name, (options, pose, _) in IMAGES.items():
+        out = folder(work, name)
+        if not os.path.exists(os.path.join(out, 'render.json')):
+            poses = os.path.join(work, f'{folder("", name).strip("/")}-poses.txt')
+            with open(poses, 'w') as f:
+                f.write(f'{pose}\n' * COPIES)
+            subprocess.run([omnisim, 'render', SCENE, *options, '--poses-file', poses, '--out', out, '--overwrite'],
+                           check=True, capture_output=True)
+    omni = folder(work, 'omni 250²')
+    pano = os.path.join(work, 'omni-panorama')
+    if not os.path.isdir(pano):
+        w, h = PANORAMA
+        subprocess.run([omnisim, 'project', omni, '--view', f'panorama:width={w},height={h}', '--out', pano],
+                       check=True, capture_output=True)
+
+
+def png(directory, suffix=''):
+    for root, _, files in os.walk(directory):
+        for f in sorted(files):
+            if f.endswith(suffix + '.png') and (suffix or f[-8:-4].isdigit()):
+                return os.path.join(root, f)
+    sys.exit(f'no image in {directory}')
+
+
+def describe(omnisim, work, name, threads):
+    """Seconds per image of each descriptor (all images but the first), from describe's sidecars."""
+    out = os.path.join(work, 'describe', folder('', name).strip('/'))
+    if os.path.isdir(out):
+        shutil.rmtree(out)
+    args = [omnisim, 'describe', folder(work, name), '--out', out]
+    for d in IMAGES[name][2]:
+        args += ['-d', d]
+    env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
+    subprocess.run(args, check=True, capture_output=True, env=env)
+    (set_folder,) = [os.path.join(out, s) for s in os.listdir(out)]
+    frames = {d: json.load(open(os.path.join(set_folder, d + '.json')))['frames'] for d in IMAGES[name][2]}
+    return {d: [f['seconds'] for f in frames[d][1:]] for d in frames}
+
+
+def timed(call):
+    """Seconds of each of COPIES calls."""
+    seconds = []
+    for _ in range(COPIES):
+        start = time.perf_counter()
+        call()
+        seconds.append(time.perf_counter() - start)
+    return seconds
+
+
+def peers(work, name):
+    """Seconds of each peer on this image (None: no peer)."""
+    grey8 = cv2.imread(png(folder(work, name)), cv2.IMREAD_GRAYSCALE)
+    grey = grey8.astype(np.float64) / 255.0
+    if name == 'omni 250²':
+        pano = cv2.imread(png(os.path.join(work, 'omni-panorama'), '-panorama'), cv2.IMREAD_GRAYSCALE) / 255.0
+    else:
+        pano = grey
+    found = {}
+    sift = cv2.SIFT_create()
+    found['sift'] = timed(lambda: sift.detectAndCompute(grey8, None))
+    try:
+        surf = cv2.xfeatures2d.SURF_create(100)
+        found['surf'] = timed(lambda: surf.detectAndCompute(grey8, None))
+    except (AttributeError, cv2.error):
+        found['surf'] = None
+    found['block-hog'] = timed(lambda: skimage_hog(grey, orientations=9, pixels_per_cell=(8, 8),
+                                                   cells_per_block=(2, 2), block_norm='L2-Hys'))
+    rows = pano.shape[0] // 16
+    found['hog'] = timed(lambda: skimage_hog(pano, orientations=8, pixels_per_cell=(rows, pano.shape[1]),
+                                             cells_per_block=(1, 1), block_norm='L2'))
+
+    def fourier():
+        spectrum = np.fft.fft(pano, axis=1)[:, :16]
+        return np.abs(spectrum), np.angle(spectrum)
+    found['fourier'] = timed(fourier)
+    angles = np.arange(360, dtype=np.float64)
+    found['radon'] = timed(lambda: skimage_radon(grey, theta=angles, circle=True))
+    found['gist'] = None
+    return found
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--omnisim', required=True)
+    parser.add_argument('--work', required=True)
+    parser.add_argument('--rounds', type=int, default=5)
+    parser.add_argument('--threads', type=int, default=1)
+    parser.add_argument('--baseline', help='another omnisim binary, timed in the same rounds')
+    args = parser.parse_args()
+    os.makedirs(args.work, exist_ok=True)
+    cv2.setNumThreads(args.threads)
+    render(args.omnisim, args.work)
+    times = {}  # (image, descriptor) -> {'omnisim': [...], 'baseline': [...], 'peer': [...]}
+    loads = []
+    for _ in range(args.rounds):
+        loads.append(os.getloadavg()[0])
+        for name, (_, _, descriptors) in IMAGES.items():
+            baseline = describe(args.baseline, args.work, name, args.threads) if args.baseline else {}
+            ours = describe(args.omnisim, args.work, name, args.threads)
+            theirs = peers(args.work, name)
+            for d in descriptors:
+                entry = times.setdefault((name, d), {'omnisim': [], 'baseline': [], 'peer': []})
+                entry['omnisim'] += ours[d]
+                entry['baseline'] += baseline.get(d, [])
+                entry['peer'] += theirs[d] or []
+    peer_names = {'sift': f'OpenCV {cv2.__version__}', 'surf': 'OpenCV (non-free)', 'block-hog': 'scikit-image',
+                  'hog': 'scikit-image', 'radon': 'scikit-image', 'fourier': f'numpy {np.__version__}', 'gist': '—'}
+    print(f'# {args.rounds} rounds, {args.threads} thread(s), load average {min(loads):.1f}–{max(loads):.1f}, '
+          f'scikit-image {skimage.__version__}')
+    print('| image | descriptor | baseline ms | omnisim ms | peer | peer ms | peer / omnisim |')
+    print('|---|---|---:|---:|---|---:|---:|')
+
+    def cell(seconds):
+        ms = [1e3 * t for t in seconds]
+        return f'{min(ms):.1f} ({statistics.median(ms):.1f})' if ms else '—'
+    for (name, d), entry in times.items():
+        row = {'image': name, 'descriptor': d, 'threads': args.threads,
+               **{f'{k}_ms': [round(1e3 * t, 2) for t in v] for k, v in entry.items()}}
+        print(json.dumps(row, ensure_ascii=False), file=sys.stderr)
+        theirs = entry['peer']
+        ratio = f'{min(theirs) / min(entry["omnisim"]):.2f}×' if theirs else ''
+        print(f'| {name} | {d} | {cell(entry["baseline"])} | {cell(entry["omnisim"])} | '
+              f'{peer_names[d] if theirs else "none"} | {cell(theirs)} | {ratio} |')
+
+
+if __name__ == '__main__':
+    main()
