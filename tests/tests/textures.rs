@@ -402,17 +402,41 @@ fn a_fine_checker_at_grazing_angles_averages_to_grey_and_point_sampling_would_al
     );
 }
 
-/// Where a body-frame ray of `camera` at `pose` meets the plane through `on` with `normal`.
-fn meet(camera: &Camera, pose: &Pose, pixel: DVec2, on: DVec3, normal: DVec3) -> Option<DVec3> {
+/// The world origin and direction of `camera`'s ray at `pixel` at `pose`.
+fn world_ray(camera: &Camera, pose: &Pose, pixel: DVec2) -> Option<(DVec3, DVec3, f64)> {
     let ray = camera.ray(pixel)?;
     let rotation = pose.world_from_body_rotation();
-    let (origin, direction) = (pose.position + rotation * ray.origin, rotation * ray.direction);
+    Some((
+        pose.position + rotation * ray.origin,
+        rotation * ray.direction,
+        ray.t_min,
+    ))
+}
+
+/// Where a body-frame ray of `camera` at `pose` meets the plane through `on` with `normal`.
+fn meet(camera: &Camera, pose: &Pose, pixel: DVec2, on: DVec3, normal: DVec3) -> Option<DVec3> {
+    let (origin, direction, t_min) = world_ray(camera, pose, pixel)?;
     let t = (on - origin).dot(normal) / direction.dot(normal);
-    (t > ray.t_min && t.is_finite()).then(|| origin + t * direction)
+    (t > t_min && t.is_finite()).then(|| origin + t * direction)
+}
+
+/// The finite-difference footprint of `pixel` on the plane through `point` with `normal`:
+/// per image axis, half the distance between the neighbours' rays (behind and ahead) where
+/// they meet it; `None` for an axis where the two one-sided differences differ by more than
+/// 5 % (grazing views, the panoramas' poles: neither is then a footprint) or the spacing
+/// exceeds 0.5 m.
+fn neighbour_spacing(camera: &Camera, pose: &Pose, pixel: DVec2, point: DVec3, normal: DVec3) -> [Option<f64>; 2] {
+    [DVec2::X, DVec2::Y].map(|step| {
+        let ahead = meet(camera, pose, pixel + step, point, normal)?;
+        let behind = meet(camera, pose, pixel - step, point, normal)?;
+        let (forward, backward) = ((ahead - point).length(), (point - behind).length());
+        let spacing = (ahead - behind).length() / 2.0;
+        (forward <= 1.05 * backward && backward <= 1.05 * forward && spacing <= 0.5).then_some(spacing)
+    })
 }
 
 #[test]
-fn footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_model() {
+fn ray_cone_footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_model() {
     let mut cameras = common::cameras();
     cameras.push(Camera::Equirectangular(Equirectangular {
         width: 360,
@@ -428,50 +452,58 @@ fn footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_mod
     let pose = Pose::from_degrees(dvec3(0.1, -0.2, 0.05), dvec3(0.0, 0.0, 10.0));
     for camera in &cameras {
         let (width, height) = camera.size();
-        let mut compared = 0;
+        let (mut across, mut slanted) = (0, 0);
         for v in (1..height - 1).step_by(7) {
             for u in (1..width - 1).step_by(7) {
                 let pixel = DVec2::new(f64::from(u), f64::from(v));
+                let footprint = Footprint::of_pixel(camera, &pose, pixel);
                 for (on, normal) in planes {
                     let Some(point) = meet(camera, &pose, pixel, on, normal) else {
                         continue;
                     };
-                    let sides = Footprint::of_pixel(camera, &pose, pixel).on_plane(point, normal);
-                    for (axis, step) in [DVec2::X, DVec2::Y].into_iter().enumerate() {
-                        let (Some(ahead), Some(behind)) = (
-                            meet(camera, &pose, pixel + step, on, normal),
-                            meet(camera, &pose, pixel - step, on, normal),
-                        ) else {
-                            continue;
-                        };
-                        // The central difference of the neighbours' hits; the footprint is a
-                        // one-sided difference, so where the two sides differ by more than 5 %
-                        // (grazing views, the panoramas' poles) neither is a footprint.
-                        let spacing = (ahead - behind) / 2.0;
-                        if (ahead - point).length() > 1.05 * (point - behind).length()
-                            || (point - behind).length() > 1.05 * (ahead - point).length()
-                            || spacing.length() > 0.5
-                        {
-                            continue;
-                        }
-                        // The footprint's width along this image axis.
-                        let error = (sides[axis].length() - spacing.length()).abs() / spacing.length();
+                    let (origin, direction, _) = world_ray(camera, &pose, pixel).unwrap();
+                    let range = (point - origin).length() as f32;
+                    let describe = |what: &str| format!("{}: pixel {pixel}, {what}", common::describe(camera));
+                    // On the plane across the ray the cone's width is the longer spacing of the
+                    // neighbours' rays (exact to first order for every camera model).
+                    let width = f64::from(footprint.width(range));
+                    if let [Some(x), Some(y)] = neighbour_spacing(camera, &pose, pixel, point, direction) {
+                        let longer = x.max(y);
+                        let error = (width - longer).abs() / longer;
                         assert!(
                             error <= 0.05,
-                            "{}: pixel {pixel} axis {axis}: footprint {} vs neighbours {} ({:.1} %)",
-                            common::describe(camera),
-                            sides[axis],
-                            spacing,
-                            error * 100.0
+                            "{}",
+                            describe(&format!(
+                                "cone width {width} vs neighbours {longer} ({:.1} %)",
+                                error * 100.0
+                            ))
                         );
-                        compared += 1;
+                        across += 1;
+                    }
+                    // On the known, slanted plane the neighbours' longer spacing lies between the
+                    // width and the cone's longer axis there, width / |cos θ|.
+                    let longer_axis = f64::from(footprint.longer_axis(range, normal.as_vec3()));
+                    let cosine = direction.dot(normal).abs();
+                    assert!(
+                        (longer_axis * cosine - width).abs() <= 1e-5 * width,
+                        "{}",
+                        describe("longer axis")
+                    );
+                    if let [Some(x), Some(y)] = neighbour_spacing(camera, &pose, pixel, point, normal) {
+                        let longer = x.max(y);
+                        assert!(
+                            0.95 * width <= longer && longer <= 1.05 * longer_axis,
+                            "{}",
+                            describe(&format!("neighbours {longer} outside [{width}, {longer_axis}]"))
+                        );
+                        slanted += 1;
                     }
                 }
             }
         }
         assert!(
-            compared > 100,
-            "{}: only {compared} footprints compared",
+            across > 100 && slanted > 100,
+            "{}: only {across} and {slanted} footprints compared",
             common::describe(camera)
         );
     }

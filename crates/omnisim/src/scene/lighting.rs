@@ -89,24 +89,43 @@ pub fn srgb_to_linear(value: u8) -> f64 {
 /// (a table guess and a step or two instead of a `powf`; textured and lit pixels encode every
 /// pixel).
 pub fn linear_to_srgb(value: f64) -> u8 {
-    /// The steps, and the byte at the start of each of 4096 equal buckets of [0, 1] (a
-    /// bucket is narrower than the smallest step, so at most two steps follow the guess).
-    static TABLES: std::sync::LazyLock<([f64; 255], [u8; 4097])> = std::sync::LazyLock::new(|| {
-        let steps: [f64; 255] = std::array::from_fn(|k| first_value_encoding_to(k as u8 + 1));
-        let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / 4096.0) as u8);
-        (steps, buckets)
-    });
-    let (steps, buckets) = &*TABLES;
-    let c = value.clamp(0.0, 1.0);
-    if c.is_nan() {
-        // As the formula's `NaN as u8`.
-        return 0;
+    ENCODING.byte(value)
+}
+
+/// [`linear_to_srgb`] of each channel of a linear colour (the table found once for the three).
+pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
+    let encoding = &*ENCODING;
+    linear.map(|c| encoding.byte(c))
+}
+
+/// The steps, and the byte at the start of each of 4096 equal buckets of [0, 1] (a bucket is
+/// narrower than the smallest step, so at most two steps follow the guess).
+struct SrgbEncoding {
+    steps: [f64; 255],
+    buckets: [u8; 4097],
+}
+
+static ENCODING: std::sync::LazyLock<SrgbEncoding> = std::sync::LazyLock::new(|| {
+    let steps: [f64; 255] = std::array::from_fn(|k| first_value_encoding_to(k as u8 + 1));
+    let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / 4096.0) as u8);
+    SrgbEncoding { steps, buckets }
+});
+
+impl SrgbEncoding {
+    /// [`linear_to_srgb`].
+    #[inline(always)]
+    fn byte(&self, value: f64) -> u8 {
+        let c = value.clamp(0.0, 1.0);
+        if c.is_nan() {
+            // As the formula's `NaN as u8`.
+            return 0;
+        }
+        let mut byte = self.buckets[(c * 4096.0) as usize] as usize;
+        while byte < 255 && self.steps[byte] <= c {
+            byte += 1;
+        }
+        byte as u8
     }
-    let mut byte = buckets[(c * 4096.0) as usize] as usize;
-    while byte < 255 && steps[byte] <= c {
-        byte += 1;
-    }
-    byte as u8
 }
 
 /// sRGB encoding (IEC 61966-2-1) of a linear value clamped to [0, 1], rounded to 8 bits, by

@@ -63,28 +63,25 @@ pub(crate) fn trilinear(texture: &Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32)
     }
 }
 
-/// The level of detail of a footprint whose sides are the texture-coordinate steps `steps`
-/// (one per image axis) on a texture of `size` texels: log2 of the longer side in texels of
+/// The level of detail of a footprint whose longer axis is `length` metres on a face of
+/// `texels_per_metre_squared` (`UvMap::texels_per_metre_squared`): log2 of that axis in texels of
 /// the finest level (the isotropic rule of OpenGL's `textureLod` selection), taken as half
-/// the log2 of its square. Infinite or NaN steps (a neighbouring ray that misses the face's
-/// plane) give the coarsest level.
-pub(crate) fn level_of_detail(size: (u32, u32), steps: [DVec2; 2]) -> f32 {
-    let texels = DVec2::new(f64::from(size.0), f64::from(size.1));
-    let (x, y) = (
-        (steps[0] * texels).length_squared(),
-        (steps[1] * texels).length_squared(),
-    );
-    // NaN on either side (an infinite side times a zero gradient) as the GPU's `longest < FAR`.
-    if x.is_nan() || y.is_nan() {
+/// the log2 of its square. A NaN length (a degenerate footprint) gives the coarsest level.
+pub(crate) fn level_of_detail(texels_per_metre_squared: f32, length: f32) -> f32 {
+    let squared = texels_per_metre_squared * length * length;
+    // As the GPU's `squared < FAR`.
+    if squared.is_nan() {
         f32::INFINITY
     } else {
-        0.5 * (x.max(y).max(1.0) as f32).log2()
+        0.5 * squared.max(1.0).log2()
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::surface::UvMap;
+    use glam::DVec3;
 
     fn ramp() -> Texture {
         // 4×1 texels 0, 85, 170, 255 in sRGB.
@@ -116,16 +113,23 @@ mod tests {
     }
 
     #[test]
-    fn level_of_detail_is_log2_of_the_longer_footprint_side_in_texels() {
-        let steps = [DVec2::new(4.0 / 256.0, 0.0), DVec2::new(0.0, 1.0 / 256.0)];
-        assert_eq!(level_of_detail((256, 256), steps), 2.0);
-        assert_eq!(level_of_detail((256, 256), [DVec2::ZERO; 2]), 0.0);
-        assert_eq!(
-            level_of_detail((256, 256), [DVec2::splat(f64::INFINITY), DVec2::ZERO]),
-            f32::INFINITY
-        );
-        // NaN steps: the coarsest level too.
-        assert_eq!(level_of_detail((256, 256), [DVec2::NAN, DVec2::ZERO]), f32::INFINITY);
+    fn level_of_detail_is_log2_of_the_longer_footprint_axis_in_texels() {
+        // 256 texels per metre along u, 64 along v (an anisotropic map takes the larger).
+        let map = |gradient| UvMap {
+            texture: 0,
+            wrap: [Wrap::Repeat; 2],
+            at_anchor: DVec2::ZERO,
+            gradient,
+        };
+        let scale = map([DVec3::X, DVec3::Y * 0.25]).texels_per_metre_squared((256, 256));
+        assert_eq!(scale, 256.0 * 256.0);
+        let rotated = map([DVec3::new(0.6, 0.8, 0.0), DVec3::new(-0.8, 0.6, 0.0)]);
+        assert!((rotated.texels_per_metre_squared((256, 256)) - 256.0 * 256.0).abs() < 1e-9);
+        assert_eq!(level_of_detail(scale as f32, 4.0 / 256.0), 2.0);
+        assert_eq!(level_of_detail(scale as f32, 0.0), 0.0);
+        assert_eq!(level_of_detail(scale as f32, f32::INFINITY), f32::INFINITY);
+        // NaN: the coarsest level too.
+        assert_eq!(level_of_detail(scale as f32, f32::NAN), f32::INFINITY);
         let t = ramp();
         // Beyond the pyramid: the 1×1 level, the mean in linear light.
         let coarsest = trilinear(&t, [Wrap::Repeat; 2], DVec2::splat(0.3), 99.0).x;

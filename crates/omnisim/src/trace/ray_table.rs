@@ -5,12 +5,12 @@
 //! of an omni pixel, measured with callgrind, docs/benchmarks.md). A run of many poses through
 //! one camera (a data set, a trajectory, a benchmark) therefore reads them from a table.
 
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
 use crate::accel::SceneBvh;
-use crate::camera::{Camera, CameraRay};
+use crate::camera::{Camera, CameraRay, Cone};
 use crate::frame::Frame;
 use crate::pose::Pose;
 use crate::trace::CpuTracer;
@@ -19,15 +19,23 @@ use crate::trace::CpuTracer;
 /// without recomputing.
 const CAMERAS: usize = 2;
 
-/// Largest image whose rays are kept (64 bytes a pixel: 64 MB); larger ones are computed
+/// Largest image whose rays are kept (64 bytes a pixel, 80 with the cones: 80 MB); larger ones are computed
 /// per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
-/// Every pixel centre's body-frame ray of one camera, row by row (shading reads the
-/// neighbours' rays for texture footprints too).
+/// Every pixel centre's body-frame ray of one camera, row by row, and, once a textured face
+/// is shaded through it, every pixel's ray cone (the texture footprint, `shade/footprint.rs`).
 pub(crate) struct RayTable {
     camera: Camera,
     pub(crate) rays: Vec<Option<CameraRay>>,
+    cones: OnceLock<Vec<Cone>>,
+}
+
+impl RayTable {
+    /// Every pixel's ray cone, made on first use from the table's rays.
+    pub(crate) fn cones(&self) -> &[Cone] {
+        self.cones.get_or_init(|| Cone::of_table(&self.camera, &self.rays))
+    }
 }
 
 /// The ray tables of the last cameras a renderer traced on the CPU.
@@ -72,6 +80,7 @@ impl RayCache {
         let table = Arc::new(RayTable {
             camera: camera.clone(),
             rays,
+            cones: OnceLock::new(),
         });
         if tables.len() == CAMERAS {
             tables.remove(0);
