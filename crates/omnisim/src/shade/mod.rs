@@ -112,8 +112,10 @@ pub fn shade(
 }
 
 /// [`shade`] for a hit whose face's surface is `surface` (looked up once per pixel), with the
-/// footprint computed only where a texture needs it.
-#[inline(always)]
+/// footprint computed only where a texture needs it. Kept out of line: inlined into the
+/// per-pixel closure, it cost the flat path of untextured unlit images, which never calls it,
+/// about 16 instructions a pixel in register saves (docs/benchmarks.md, "Ray cones").
+#[inline(never)]
 fn shade_on(
     tracer: CpuTracer,
     geometry: &SceneBvh,
