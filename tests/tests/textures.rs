@@ -193,11 +193,19 @@ fn ply_vertex_colours_are_interpolated_across_each_triangle() {
     }
     text += "3 0 1 2\n";
     std::fs::write(folder.path().join("fan.ply"), text).unwrap();
+    check_fan_colours(folder.path(), corners, colours);
+}
+
+/// The triangle whose `corners` have vertex `colours`, read from `fan.ply` in `folder` and
+/// seen from the origin: every pixel's colour is the barycentric mix of the corners' colours
+/// in linear light at its hit point, within 1/255.
+fn check_fan_colours(folder: &Path, corners: [DVec3; 3], colours: [[u8; 3]; 3]) {
     let scene = Scene::from_ron(
         r#"Scene(name: "fan", objects: [Mesh(name: "fan", path: "fan.ply", colour: (9, 9, 9))])"#,
-        &folder.path().join("fan.ron"),
+        &folder.join("fan.ron"),
     )
     .unwrap();
+    assert_eq!(scene.faces.len(), 1);
     let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(64, 48, 60f64.to_radians()));
     let frame = tracer.render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO)).unwrap();
@@ -902,21 +910,30 @@ fn a_missing_or_escaping_external_buffer_is_a_located_error() {
     assert!(escaping.contains("..") && escaping.contains("inside"), "{escaping}");
 }
 
+/// Runs the Python writer `script` (tests/readers) on `folder` with `OMNISIM_PYTHON`.
+fn run_python_writer(script: &str, folder: &Path) {
+    let python = std::env::var_os("OMNISIM_PYTHON")
+        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let writer = std::process::Command::new(python)
+        .arg(script)
+        .arg(folder)
+        .current_dir(workspace)
+        .output()
+        .unwrap_or_else(|e| panic!("{script}: Python does not run: {e}"));
+    assert!(
+        writer.status.success(),
+        "{script}: {}",
+        String::from_utf8_lossy(&writer.stderr)
+    );
+}
+
 #[test]
 #[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
 fn a_gltf_and_a_glb_written_by_pygltflib_map_their_texture_exactly() {
-    let python = std::env::var_os("OMNISIM_PYTHON")
-        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
     let folder = tempfile::tempdir().unwrap();
     write_texture(folder.path());
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    let writer = std::process::Command::new(python)
-        .arg("tests/readers/write_textured_gltf.py")
-        .arg(folder.path())
-        .current_dir(workspace)
-        .output()
-        .expect("the glTF writer's Python runs");
-    assert!(writer.status.success(), "{}", String::from_utf8_lossy(&writer.stderr));
+    run_python_writer("tests/readers/write_textured_gltf.py", folder.path());
     for file in ["square.gltf", "square.glb"] {
         let text =
             format!(r#"Scene(name: "pygltflib", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#);
@@ -924,4 +941,21 @@ fn a_gltf_and_a_glb_written_by_pygltflib_map_their_texture_exactly() {
         assert_eq!(scene.faces.len(), 2, "{file}");
         check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
     }
+}
+
+#[test]
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn an_obj_and_a_ply_written_by_trimesh_keep_their_uvs_and_colours() {
+    let folder = tempfile::tempdir().unwrap();
+    write_texture(folder.path());
+    run_python_writer("tests/readers/write_trimesh_meshes.py", folder.path());
+    // The OBJ, its MTL and trimesh's copy of the texture: vertices and UVs (v up) as the square
+    // of `square_mesh`, so every texel is where the closed form puts it (OBJ repeats).
+    let text = r#"Scene(name: "trimesh", objects: [Mesh(name: "square", path: "square.obj", colour: (9, 9, 9))])"#;
+    let scene = Scene::from_ron(text, &folder.path().join("square.ron")).unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), true);
+    // The binary PLY's vertices and vertex colours.
+    let corners = [dvec3(2.0, 1.0, -0.75), dvec3(2.0, -1.0, -0.75), dvec3(2.0, 0.0, 0.75)];
+    check_fan_colours(folder.path(), corners, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
 }
