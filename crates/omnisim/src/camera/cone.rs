@@ -97,23 +97,24 @@ impl Cone {
         Cone([axis(DVec2::X), axis(DVec2::Y)])
     }
 
-    /// The cones of every pixel of `camera` whose pixel-centre rays `rays` holds (row by row),
-    /// zero where a pixel has no ray: what the ray table keeps.
-    pub(crate) fn of_table(camera: &Camera, rays: &[Option<CameraRay>]) -> Vec<Cone> {
+    /// The cones of every pixel of `camera`, row by row, with `ray_of` giving the ray of the
+    /// pixel at an index (the ray table's, or the camera's own), zero where a pixel has no ray:
+    /// what the renderer keeps per camera.
+    pub(crate) fn of_image(camera: &Camera, ray_of: impl Fn(usize) -> Option<CameraRay> + Sync) -> Vec<Cone> {
         use rayon::prelude::*;
         let size = camera.size();
         let width = size.0.max(1) as usize;
-        // Inside the image the table's rays, beyond it the camera's own.
+        // Inside the image `ray_of`, beyond it the camera's own rays.
         let ray_at = |p: DVec2| match p.x >= 0.0 && p.y >= 0.0 {
-            true => rays.get(p.y as usize * width + p.x as usize).copied().flatten(),
+            true => ray_of(p.y as usize * width + p.x as usize),
             false => camera.ray(p),
         };
-        rays.par_iter()
-            .enumerate()
-            .map(|(index, ray)| match ray {
+        (0..width * size.1 as usize)
+            .into_par_iter()
+            .map(|index| match ray_of(index) {
                 Some(ray) => {
                     let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
-                    Cone::around(pixel, size, ray, ray_at)
+                    Cone::around(pixel, size, &ray, ray_at)
                 }
                 None => Cone::ZERO,
             })

@@ -21,14 +21,14 @@ use std::sync::Arc;
 use glam::{DMat3, DVec2};
 
 use crate::accel::SceneBvh;
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraRay, Cone};
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb3};
 use crate::scene::surface::{Surface, Surfaces};
 use crate::trace::CpuTracer;
-use crate::trace::ray_table::RayTable;
+use crate::trace::ray_table::{RayCache, RayTable};
 pub use footprint::Footprint;
 
 /// Shadow rays start this far (relative to the point's distance from the scene centre, plus
@@ -174,16 +174,24 @@ pub(crate) struct View<'a> {
     world_from_body: DMat3,
     /// The camera's rays (and cones) of every pixel, where the renderer keeps them.
     table: Option<&'a RayTable>,
+    /// Where the cones of an image too large for a ray table are kept.
+    cache: Option<&'a RayCache>,
 }
 
 impl<'a> View<'a> {
     /// The view of `camera` at `pose`, reading rays and cones from `table` (the camera's ray
-    /// table) where given.
-    pub(crate) fn new(camera: &'a Camera, pose: &Pose, table: Option<&'a RayTable>) -> Self {
+    /// table) where given, else cones from `cache` where it keeps them for this camera.
+    pub(crate) fn new(
+        camera: &'a Camera,
+        pose: &Pose,
+        table: Option<&'a RayTable>,
+        cache: Option<&'a RayCache>,
+    ) -> Self {
         Self {
             camera,
             world_from_body: pose.world_from_body_rotation(),
             table,
+            cache,
         }
     }
 
@@ -193,16 +201,22 @@ impl<'a> View<'a> {
     }
 
     /// The footprint of each pixel by index (row by row): from the ray table's rays and cones
-    /// where there is one (the cones made on first use), else from the camera's rays.
+    /// where there is one (the cones made on first use), else from a cone table and the
+    /// pixel's own camera ray, else from the camera's rays alone (three a pixel).
     fn footprints(&self) -> impl Fn(usize) -> Footprint + Sync + '_ {
         let table = self.table.map(|table| (table.rays.as_slice(), table.cones()));
+        let cone_table = match table {
+            Some(_) => None,
+            None => self.cache.and_then(|cache| cache.cone_table(self.camera)),
+        };
         let width = self.camera.size().0.max(1) as usize;
-        move |index| match table {
-            Some((rays, cones)) => match &rays[index] {
-                Some(ray) => Footprint::new(cones[index], self.world_from_body, ray),
-                None => Footprint::POINT,
-            },
-            None => self.footprint_at(DVec2::new((index % width) as f64, (index / width) as f64)),
+        let with_cone = |cone: Cone, ray: Option<&CameraRay>| {
+            ray.map_or(Footprint::POINT, |ray| Footprint::new(cone, self.world_from_body, ray))
+        };
+        move |index| match (table, &cone_table) {
+            (Some((rays, cones)), _) => with_cone(cones[index], rays[index].as_ref()),
+            (None, Some(cone_table)) => with_cone(cone_table.cones[index], self.camera.pixel_ray(index).as_ref()),
+            (None, None) => self.footprint_at(DVec2::new((index % width) as f64, (index / width) as f64)),
         }
     }
 }
