@@ -1,6 +1,7 @@
-// Face surfaces (textures, vertex colours), pixel footprints and texture filtering: the WGSL
-// twin of crates/omnisim/src/shade/{footprint,filter}.rs and scene/surface.rs (the same texel
-// centres, wrap rules, level choice and affine maps, in f32).
+// Face surfaces (textures, vertex colours), pixel footprints (ray cones) and texture filtering:
+// the WGSL twin of crates/omnisim/src/shade/{footprint,filter}.rs, camera/cone.rs and
+// scene/surface.rs (the same cones, texel centres, wrap rules, level choice and affine maps,
+// in f32).
 
 const NO_SURFACE: u32 = 0xffffffffu;
 const NO_TEXTURE: u32 = 0xffffffffu;
@@ -80,30 +81,62 @@ fn bilinear(levels_at: u32, level: u32, uv: vec2<f32>, wrap_u: u32, wrap_v: u32)
     return mix(top, bottom, f.y);
 }
 
-// The footprint's side along one image axis on the plane through `point` with `normal`: where
-// the neighbouring pixel's ray meets the plane, less `point`.
-fn footprint_side(pixel: vec2<f32>, step: vec2<f32>, point: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
+// One image axis of the ray cone of `ray`, the camera's body-frame ray at `pixel`: (width at
+// the origin, spread), from the neighbouring pixel's ray (camera/cone.rs: ConeAxis::between,
+// where it is derived).
+fn cone_axis(pixel: vec2<f32>, step: vec2<f32>, ray: CameraRay) -> vec2<f32> {
     // The neighbour ahead where it lies inside the image and has a ray, else the one behind
-    // (footprint.rs: ahead_is_inside).
+    // (cone.rs: ahead_is_inside).
     let ahead = pixel + step;
     let inside = ahead.x <= f32(camera.frame.width) - 1.0 && ahead.y <= f32(camera.frame.height) - 1.0;
-    var ray = miss_ray();
+    var neighbour = miss_ray();
     if inside {
-        ray = camera_ray(ahead);
+        neighbour = camera_ray(ahead);
     }
-    if !ray.valid {
-        ray = camera_ray(pixel - step);
-        if !ray.valid {
-            return vec3<f32>(0.0);
+    if !neighbour.valid {
+        neighbour = camera_ray(pixel - step);
+        if !neighbour.valid {
+            return vec2<f32>(0.0);
         }
     }
-    let origin = camera.frame.origin + camera.frame.world_from_body * ray.origin;
-    let direction = camera.frame.world_from_body * ray.direction;
-    let t = dot(point - origin, normal) / dot(direction, normal);
-    if !(t > 0.0 && t < FAR) {
-        return vec3<f32>(FAR);
+    let d = ray.direction;
+    let origins = neighbour.origin - ray.origin;
+    let directions = neighbour.direction - d;
+    let origins_across = origins - dot(origins, d) * d;
+    let directions_across = directions - dot(directions, d) * d;
+    let spread = length(directions_across);
+    if spread > 0.0 {
+        return vec2<f32>(dot(origins_across, directions_across) / spread, spread);
     }
-    return origin + t * direction - point;
+    return vec2<f32>(length(origins_across), 0.0);
+}
+
+// The longer axis (metres) of the footprint of the pixel at `pixel` on a face with unit
+// `normal` at scene-local `point`: the ray cone's width at the hit over |cos| of the angle
+// between ray and normal (shade/footprint.rs: Footprint::longer_axis).
+fn footprint_length(pixel: vec2<f32>, point: vec3<f32>, normal: vec3<f32>) -> f32 {
+    let ray = camera_ray(pixel);
+    if !ray.valid {
+        return 0.0;
+    }
+    let x = cone_axis(pixel, vec2<f32>(1.0, 0.0), ray);
+    let y = cone_axis(pixel, vec2<f32>(0.0, 1.0), ray);
+    let direction = camera.frame.world_from_body * ray.direction;
+    let range = dot(point - (camera.frame.origin + camera.frame.world_from_body * ray.origin), direction);
+    let width = max(abs(x.x + range * x.y), abs(y.x + range * y.y));
+    return width / max(abs(dot(direction, normal)), 1.17549435e-38);
+}
+
+// The squared texels per metre, along the direction where it is largest, of gradients `u`,
+// `v` on a texture of `texels` (filter.rs: texels_per_metre_squared).
+fn texels_per_metre_squared(u: vec3<f32>, v: vec3<f32>, texels: vec2<f32>) -> f32 {
+    let su = u * texels.x;
+    let sv = v * texels.y;
+    let uu = dot(su, su);
+    let uv = dot(su, sv);
+    let vv = dot(sv, sv);
+    let half_difference = 0.5 * (uu - vv);
+    return 0.5 * (uu + vv) + sqrt(half_difference * half_difference + uv * uv);
 }
 
 // Whether surface `index` is drawn in its albedo whatever the lights.
@@ -129,18 +162,15 @@ fn surface_albedo(colour: vec3<f32>, index: u32, point: vec3<f32>, normal: vec3<
         return factor;
     }
     let uv = vec2<f32>(surface.u_at_anchor + dot(surface.u_gradient, d), surface.v_at_anchor + dot(surface.v_gradient, d));
-    let side_x = footprint_side(pixel, vec2<f32>(1.0, 0.0), point, normal);
-    let side_y = footprint_side(pixel, vec2<f32>(0.0, 1.0), point, normal);
     let texels = vec2<f32>(f32(textures[surface.levels_at + 1u]), f32(textures[surface.levels_at + 2u]));
-    let step_x = vec2<f32>(dot(surface.u_gradient, side_x), dot(surface.v_gradient, side_x)) * texels;
-    let step_y = vec2<f32>(dot(surface.u_gradient, side_y), dot(surface.v_gradient, side_y)) * texels;
-    let sides = vec2<f32>(length(step_x), length(step_y));
+    let length = footprint_length(pixel, point, normal);
+    let squared = texels_per_metre_squared(surface.u_gradient, surface.v_gradient, texels) * length * length;
     let last = f32(surface.level_count - 1u);
-    // NaN or infinite steps on either side (a neighbour missing the plane): the coarsest
-    // level (NaN < FAR is false; filter.rs: level_of_detail).
+    // A NaN or overflowing footprint: the coarsest level (NaN < FAR is false; filter.rs:
+    // level_of_detail).
     var lod = last;
-    if sides.x < FAR && sides.y < FAR {
-        lod = clamp(log2(max(max(sides.x, sides.y), 1.0)), 0.0, last);
+    if squared < FAR {
+        lod = clamp(0.5 * log2(max(squared, 1.0)), 0.0, last);
     }
     let fine = floor(lod);
     let fraction = lod - fine;

@@ -193,11 +193,19 @@ fn ply_vertex_colours_are_interpolated_across_each_triangle() {
     }
     text += "3 0 1 2\n";
     std::fs::write(folder.path().join("fan.ply"), text).unwrap();
+    check_fan_colours(folder.path(), corners, colours);
+}
+
+/// The triangle whose `corners` have vertex `colours`, read from `fan.ply` in `folder` and
+/// seen from the origin: every pixel's colour is the barycentric mix of the corners' colours
+/// in linear light at its hit point, within 1/255.
+fn check_fan_colours(folder: &Path, corners: [DVec3; 3], colours: [[u8; 3]; 3]) {
     let scene = Scene::from_ron(
         r#"Scene(name: "fan", objects: [Mesh(name: "fan", path: "fan.ply", colour: (9, 9, 9))])"#,
-        &folder.path().join("fan.ron"),
+        &folder.join("fan.ron"),
     )
     .unwrap();
+    assert_eq!(scene.faces.len(), 1);
     let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(64, 48, 60f64.to_radians()));
     let frame = tracer.render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO)).unwrap();
@@ -402,17 +410,41 @@ fn a_fine_checker_at_grazing_angles_averages_to_grey_and_point_sampling_would_al
     );
 }
 
-/// Where a body-frame ray of `camera` at `pose` meets the plane through `on` with `normal`.
-fn meet(camera: &Camera, pose: &Pose, pixel: DVec2, on: DVec3, normal: DVec3) -> Option<DVec3> {
+/// The world origin and direction of `camera`'s ray at `pixel` at `pose`.
+fn world_ray(camera: &Camera, pose: &Pose, pixel: DVec2) -> Option<(DVec3, DVec3, f64)> {
     let ray = camera.ray(pixel)?;
     let rotation = pose.world_from_body_rotation();
-    let (origin, direction) = (pose.position + rotation * ray.origin, rotation * ray.direction);
+    Some((
+        pose.position + rotation * ray.origin,
+        rotation * ray.direction,
+        ray.t_min,
+    ))
+}
+
+/// Where a body-frame ray of `camera` at `pose` meets the plane through `on` with `normal`.
+fn meet(camera: &Camera, pose: &Pose, pixel: DVec2, on: DVec3, normal: DVec3) -> Option<DVec3> {
+    let (origin, direction, t_min) = world_ray(camera, pose, pixel)?;
     let t = (on - origin).dot(normal) / direction.dot(normal);
-    (t > ray.t_min && t.is_finite()).then(|| origin + t * direction)
+    (t > t_min && t.is_finite()).then(|| origin + t * direction)
+}
+
+/// The finite-difference footprint of `pixel` on the plane through `point` with `normal`:
+/// per image axis, half the distance between the neighbours' rays (behind and ahead) where
+/// they meet it; `None` for an axis where the two one-sided differences differ by more than
+/// 5 % (grazing views, the panoramas' poles: neither is then a footprint) or the spacing
+/// exceeds 0.5 m.
+fn neighbour_spacing(camera: &Camera, pose: &Pose, pixel: DVec2, point: DVec3, normal: DVec3) -> [Option<f64>; 2] {
+    [DVec2::X, DVec2::Y].map(|step| {
+        let ahead = meet(camera, pose, pixel + step, point, normal)?;
+        let behind = meet(camera, pose, pixel - step, point, normal)?;
+        let (forward, backward) = ((ahead - point).length(), (point - behind).length());
+        let spacing = (ahead - behind).length() / 2.0;
+        (forward <= 1.05 * backward && backward <= 1.05 * forward && spacing <= 0.5).then_some(spacing)
+    })
 }
 
 #[test]
-fn footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_model() {
+fn ray_cone_footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_model() {
     let mut cameras = common::cameras();
     cameras.push(Camera::Equirectangular(Equirectangular {
         width: 360,
@@ -428,50 +460,58 @@ fn footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_camera_mod
     let pose = Pose::from_degrees(dvec3(0.1, -0.2, 0.05), dvec3(0.0, 0.0, 10.0));
     for camera in &cameras {
         let (width, height) = camera.size();
-        let mut compared = 0;
+        let (mut across, mut slanted) = (0, 0);
         for v in (1..height - 1).step_by(7) {
             for u in (1..width - 1).step_by(7) {
                 let pixel = DVec2::new(f64::from(u), f64::from(v));
+                let footprint = Footprint::of_pixel(camera, &pose, pixel);
                 for (on, normal) in planes {
                     let Some(point) = meet(camera, &pose, pixel, on, normal) else {
                         continue;
                     };
-                    let sides = Footprint::of_pixel(camera, &pose, pixel).on_plane(point, normal);
-                    for (axis, step) in [DVec2::X, DVec2::Y].into_iter().enumerate() {
-                        let (Some(ahead), Some(behind)) = (
-                            meet(camera, &pose, pixel + step, on, normal),
-                            meet(camera, &pose, pixel - step, on, normal),
-                        ) else {
-                            continue;
-                        };
-                        // The central difference of the neighbours' hits; the footprint is a
-                        // one-sided difference, so where the two sides differ by more than 5 %
-                        // (grazing views, the panoramas' poles) neither is a footprint.
-                        let spacing = (ahead - behind) / 2.0;
-                        if (ahead - point).length() > 1.05 * (point - behind).length()
-                            || (point - behind).length() > 1.05 * (ahead - point).length()
-                            || spacing.length() > 0.5
-                        {
-                            continue;
-                        }
-                        // The footprint's width along this image axis.
-                        let error = (sides[axis].length() - spacing.length()).abs() / spacing.length();
+                    let (origin, direction, _) = world_ray(camera, &pose, pixel).unwrap();
+                    let range = (point - origin).length() as f32;
+                    let describe = |what: &str| format!("{}: pixel {pixel}, {what}", common::describe(camera));
+                    // On the plane across the ray the cone's width is the longer spacing of the
+                    // neighbours' rays (exact to first order for every camera model).
+                    let width = f64::from(footprint.width(range));
+                    if let [Some(x), Some(y)] = neighbour_spacing(camera, &pose, pixel, point, direction) {
+                        let longer = x.max(y);
+                        let error = (width - longer).abs() / longer;
                         assert!(
                             error <= 0.05,
-                            "{}: pixel {pixel} axis {axis}: footprint {} vs neighbours {} ({:.1} %)",
-                            common::describe(camera),
-                            sides[axis],
-                            spacing,
-                            error * 100.0
+                            "{}",
+                            describe(&format!(
+                                "cone width {width} vs neighbours {longer} ({:.1} %)",
+                                error * 100.0
+                            ))
                         );
-                        compared += 1;
+                        across += 1;
+                    }
+                    // On the known, slanted plane the neighbours' longer spacing lies between the
+                    // width and the cone's longer axis there, width / |cos θ|.
+                    let longer_axis = f64::from(footprint.longer_axis(range, normal.as_vec3()));
+                    let cosine = direction.dot(normal).abs();
+                    assert!(
+                        (longer_axis * cosine - width).abs() <= 1e-5 * width,
+                        "{}",
+                        describe("longer axis")
+                    );
+                    if let [Some(x), Some(y)] = neighbour_spacing(camera, &pose, pixel, point, normal) {
+                        let longer = x.max(y);
+                        assert!(
+                            0.95 * width <= longer && longer <= 1.05 * longer_axis,
+                            "{}",
+                            describe(&format!("neighbours {longer} outside [{width}, {longer_axis}]"))
+                        );
+                        slanted += 1;
                     }
                 }
             }
         }
         assert!(
-            compared > 100,
-            "{}: only {compared} footprints compared",
+            across > 100 && slanted > 100,
+            "{}: only {across} and {slanted} footprints compared",
             common::describe(camera)
         );
     }
@@ -870,21 +910,30 @@ fn a_missing_or_escaping_external_buffer_is_a_located_error() {
     assert!(escaping.contains("..") && escaping.contains("inside"), "{escaping}");
 }
 
+/// Runs the Python writer `script` (tests/readers) on `folder` with `OMNISIM_PYTHON`.
+fn run_python_writer(script: &str, folder: &Path) {
+    let python = std::env::var_os("OMNISIM_PYTHON")
+        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+    let writer = std::process::Command::new(python)
+        .arg(script)
+        .arg(folder)
+        .current_dir(workspace)
+        .output()
+        .unwrap_or_else(|e| panic!("{script}: Python does not run: {e}"));
+    assert!(
+        writer.status.success(),
+        "{script}: {}",
+        String::from_utf8_lossy(&writer.stderr)
+    );
+}
+
 #[test]
 #[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
 fn a_gltf_and_a_glb_written_by_pygltflib_map_their_texture_exactly() {
-    let python = std::env::var_os("OMNISIM_PYTHON")
-        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
     let folder = tempfile::tempdir().unwrap();
     write_texture(folder.path());
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-    let writer = std::process::Command::new(python)
-        .arg("tests/readers/write_textured_gltf.py")
-        .arg(folder.path())
-        .current_dir(workspace)
-        .output()
-        .expect("the glTF writer's Python runs");
-    assert!(writer.status.success(), "{}", String::from_utf8_lossy(&writer.stderr));
+    run_python_writer("tests/readers/write_textured_gltf.py", folder.path());
     for file in ["square.gltf", "square.glb"] {
         let text =
             format!(r#"Scene(name: "pygltflib", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#);
@@ -892,4 +941,21 @@ fn a_gltf_and_a_glb_written_by_pygltflib_map_their_texture_exactly() {
         assert_eq!(scene.faces.len(), 2, "{file}");
         check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
     }
+}
+
+#[test]
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn an_obj_and_a_ply_written_by_trimesh_keep_their_uvs_and_colours() {
+    let folder = tempfile::tempdir().unwrap();
+    write_texture(folder.path());
+    run_python_writer("tests/readers/write_trimesh_meshes.py", folder.path());
+    // The OBJ, its MTL and trimesh's copy of the texture: vertices and UVs (v up) as the square
+    // of `square_mesh`, so every texel is where the closed form puts it (OBJ repeats).
+    let text = r#"Scene(name: "trimesh", objects: [Mesh(name: "square", path: "square.obj", colour: (9, 9, 9))])"#;
+    let scene = Scene::from_ron(text, &folder.path().join("square.ron")).unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), true);
+    // The binary PLY's vertices and vertex colours.
+    let corners = [dvec3(2.0, 1.0, -0.75), dvec3(2.0, -1.0, -0.75), dvec3(2.0, 0.0, 0.75)];
+    check_fan_colours(folder.path(), corners, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
 }

@@ -221,7 +221,7 @@ impl Renderer {
                     ray_table::trace_frame(self.cpu_tracer, &prepared.geometry, camera, pose, table.as_deref());
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
-                    let view = shade::View::new(camera, pose, table.as_deref().map(|t| t.rays.as_slice()));
+                    let view = shade::View::new(camera, pose, table.as_deref(), Some(&self.rays));
                     shade::shade_frame(self.cpu_tracer, geometry, appearance, view, &mut frame, planes);
                 }
                 frame
@@ -300,7 +300,7 @@ impl Renderer {
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
             None => {
                 let table = self.rays.table(camera);
-                let view = shade::View::new(camera, pose, table.as_deref().map(|t| t.rays.as_slice()));
+                let view = shade::View::new(camera, pose, table.as_deref(), Some(&self.rays));
                 shade::shade_frame(
                     self.cpu_tracer,
                     &prepared.geometry,

@@ -5,6 +5,7 @@
 //! coordinates follow `OpenCV`: u = column, v = row, pixel centres at integer coordinates.
 
 pub mod catadioptric;
+mod cone;
 mod cylindrical;
 pub mod distortion;
 mod equirect;
@@ -19,6 +20,7 @@ mod validate;
 use glam::{DVec2, DVec3};
 
 pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Mount, UnifiedModel};
+pub(crate) use cone::Cone;
 pub use cylindrical::Cylindrical;
 pub use distortion::BrownConrady;
 pub use equirect::Equirectangular;

@@ -71,42 +71,62 @@ impl Lighting {
 /// 256 values: shading decodes a face colour per hit (a 5 M-triangle mesh, 512×256 unlit:
 /// 280 → 43 ms per image against decoding every face per frame).
 pub fn srgb_to_linear(value: u8) -> f64 {
-    static TABLE: std::sync::LazyLock<[f64; 256]> = std::sync::LazyLock::new(|| {
-        std::array::from_fn(|i| {
-            let c = i as f64 / 255.0;
-            if c <= 0.04045 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            }
-        })
-    });
-    TABLE[value as usize]
+    DECODING[value as usize]
 }
+
+/// [`srgb_to_linear`] of every byte.
+static DECODING: std::sync::LazyLock<[f64; 256]> = std::sync::LazyLock::new(|| {
+    std::array::from_fn(|i| {
+        let c = i as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    })
+});
 
 /// sRGB encoding of a linear value, clamped to [0, 1], rounded to 8 bits: exactly
 /// [`encode_by_formula`]'s byte, found among the 255 linear values where that byte steps up
-/// (a table guess and a step or two instead of a `powf`; textured and lit pixels encode every
+/// (a table guess and at most one step instead of a `powf`; textured and lit pixels encode every
 /// pixel).
 pub fn linear_to_srgb(value: f64) -> u8 {
-    /// The steps, and the byte at the start of each of 4096 equal buckets of [0, 1] (a
-    /// bucket is narrower than the smallest step, so at most two steps follow the guess).
-    static TABLES: std::sync::LazyLock<([f64; 255], [u8; 4097])> = std::sync::LazyLock::new(|| {
-        let steps: [f64; 255] = std::array::from_fn(|k| first_value_encoding_to(k as u8 + 1));
-        let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / 4096.0) as u8);
-        (steps, buckets)
+    ENCODING.byte(value)
+}
+
+/// [`linear_to_srgb`] of each channel of a linear colour (the table found once for the three).
+pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
+    let encoding = &*ENCODING;
+    linear.map(|c| encoding.byte(c))
+}
+
+/// The steps (then +inf), and the byte at the start of each of 4096 equal buckets of [0, 1]: a
+/// bucket (2.4e-4 wide) is narrower than the smallest step (3.0e-4, 1/(255 · 12.92) at the
+/// dark end), so at most one step follows the guess.
+struct SrgbEncoding {
+    steps: [f64; 256],
+    buckets: [u8; 4097],
+}
+
+static ENCODING: std::sync::LazyLock<SrgbEncoding> = std::sync::LazyLock::new(|| {
+    let steps: [f64; 256] = std::array::from_fn(|k| match k {
+        255 => f64::INFINITY,
+        _ => first_value_encoding_to(k as u8 + 1),
     });
-    let (steps, buckets) = &*TABLES;
-    let c = value.clamp(0.0, 1.0);
-    if c.is_nan() {
-        // As the formula's `NaN as u8`.
-        return 0;
+    let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / 4096.0) as u8);
+    SrgbEncoding { steps, buckets }
+});
+
+impl SrgbEncoding {
+    /// [`linear_to_srgb`]: the bucket's byte, plus one where the value reaches the next step.
+    /// NaN stays NaN through the clamp, indexes bucket 0 (`as` takes NaN to 0) and passes no
+    /// step: byte 0, as the formula's `NaN as u8`.
+    #[inline(always)]
+    fn byte(&self, value: f64) -> u8 {
+        let c = value.clamp(0.0, 1.0);
+        let byte = self.buckets[(c * 4096.0) as usize];
+        byte + u8::from(self.steps[byte as usize] <= c)
     }
-    let mut byte = buckets[(c * 4096.0) as usize] as usize;
-    while byte < 255 && steps[byte] <= c {
-        byte += 1;
-    }
-    byte as u8
 }
 
 /// sRGB encoding (IEC 61966-2-1) of a linear value clamped to [0, 1], rounded to 8 bits, by
@@ -138,11 +158,8 @@ fn first_value_encoding_to(byte: u8) -> f64 {
 
 /// Linear RGB of an sRGB colour.
 pub fn linear_rgb(colour: [u8; 3]) -> DVec3 {
-    DVec3::new(
-        srgb_to_linear(colour[0]),
-        srgb_to_linear(colour[1]),
-        srgb_to_linear(colour[2]),
-    )
+    let decoding = &*DECODING;
+    DVec3::from_array(colour.map(|c| decoding[c as usize]))
 }
 
 #[cfg(test)]

@@ -29,15 +29,39 @@ pub struct Surfaces {
     /// Index into `list` of each face, [`NO_SURFACE`] for none; shorter than the face list
     /// (empty for a scene without surfaces): faces past its end have none.
     pub of_face: Vec<u32>,
+    /// Each surface's [`UvMap::texels_per_metre_squared`] on its texture (zero without one),
+    /// in `list` order: made once with the textures ([`Surfaces::set_textures`]), read by
+    /// every textured pixel.
+    pub(crate) texel_scales: Vec<f32>,
 }
 
 impl Surfaces {
     /// The surface of face `face`, if it has one.
     pub fn of(&self, face: u32) -> Option<&Surface> {
+        self.with_scale(face).map(|(surface, _)| surface)
+    }
+
+    /// The surface of face `face`, if it has one, and its texture's texels per metre squared
+    /// (zero without a texture).
+    #[inline]
+    pub(crate) fn with_scale(&self, face: u32) -> Option<(&Surface, f32)> {
         match self.of_face.get(face as usize) {
-            Some(&i) if i != NO_SURFACE => Some(&self.list[i as usize]),
+            Some(&i) if i != NO_SURFACE => Some((&self.list[i as usize], self.texel_scales[i as usize])),
             _ => None,
         }
+    }
+
+    /// Sets the textures the surfaces' maps index and where they came from, and each
+    /// surface's texel scale on its texture.
+    pub(crate) fn set_textures(&mut self, textures: Vec<Texture>, sources: Vec<String>) {
+        self.texel_scales = (self.list.iter())
+            .map(|surface| match &surface.uv {
+                Some(map) => map.texels_per_metre_squared(textures[map.texture as usize].size()) as f32,
+                None => 0.0,
+            })
+            .collect();
+        self.textures = textures;
+        self.sources = sources;
     }
 
     /// Gives face `face` (the scene's last so far) `surface`.
@@ -64,6 +88,22 @@ pub struct UvMap {
     pub at_anchor: DVec2,
     /// World-space gradients of u and of v (per metre).
     pub gradient: [DVec3; 2],
+}
+
+impl UvMap {
+    /// The squared number of texels per metre, along the direction where it is largest, on a
+    /// texture of `size` texels: the larger eigenvalue of the Gram matrix of the gradients in
+    /// texels (exact for library faces, whose mapping is a scaled rotation; the upper bound
+    /// for a skewed mesh mapping). The level of detail scales a footprint's length by it.
+    pub fn texels_per_metre_squared(&self, size: (u32, u32)) -> f64 {
+        let (u, v) = (
+            self.gradient[0] * f64::from(size.0),
+            self.gradient[1] * f64::from(size.1),
+        );
+        let (uu, uv, vv) = (u.length_squared(), u.dot(v), v.length_squared());
+        let half_difference = 0.5 * (uu - vv);
+        0.5 * (uu + vv) + (half_difference * half_difference + uv * uv).sqrt()
+    }
 }
 
 /// Vertex colours interpolated across a triangle, in linear light.

@@ -59,7 +59,7 @@ pub(crate) fn supersample_edges(
     let width = frame.width as usize;
     let local = trace::LocalPose::new(bvh, pose);
     // Sub-pixel samples: footprints from the camera's own rays, not a table of pixel centres.
-    let view = shade::View::new(camera, pose, None);
+    let view = shade::View::new(camera, pose, None, None);
     let count = samples_per_axis * samples_per_axis;
     let refined: Vec<([u8; 3], [f32; 3])> = edges
         .par_iter()
@@ -139,7 +139,7 @@ mod tests {
         let appearance = Appearance::of(&scene);
         let mut frame = trace::trace(&bvh, &camera, &pose);
         let tracer = CpuTracer::Reference;
-        let view = crate::shade::View::new(&camera, &pose, None);
+        let view = crate::shade::View::new(&camera, &pose, None, None);
         crate::shade::shade_frame(
             tracer,
             &bvh,

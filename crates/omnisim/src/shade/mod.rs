@@ -21,13 +21,14 @@ use std::sync::Arc;
 use glam::{DMat3, DVec2};
 
 use crate::accel::SceneBvh;
-use crate::camera::{Camera, CameraRay};
+use crate::camera::{Camera, CameraRay, Cone};
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::pose::Pose;
 use crate::scene::Scene;
-use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb};
+use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb3};
 use crate::scene::surface::{Surface, Surfaces};
 use crate::trace::CpuTracer;
+use crate::trace::ray_table::{RayCache, RayTable};
 pub use footprint::Footprint;
 
 /// Shadow rays start this far (relative to the point's distance from the scene centre, plus
@@ -64,11 +65,21 @@ impl Appearance {
     }
 }
 
-/// Linear albedo of a hit: the face colour (or its vertex colours where it has them), times its
-/// texture filtered to `footprint` where it has one.
-fn albedo(appearance: &Appearance, hit: &Pixel, footprint: &Footprint) -> DVec3 {
+/// A face's surface and its texture's texels per metre squared (`Surfaces::with_scale`).
+type SurfaceAndScale<'a> = Option<(&'a Surface, f32)>;
+
+/// Linear albedo of a hit on a face with `surface`: the face colour (or its vertex colours
+/// where it has them), times its texture filtered to the pixel's footprint where it has one
+/// (`footprint` is asked only then).
+#[inline(always)]
+fn albedo(
+    appearance: &Appearance,
+    hit: &Pixel,
+    surface: SurfaceAndScale<'_>,
+    footprint: impl FnOnce() -> Footprint,
+) -> DVec3 {
     let colour = linear_rgb(appearance.face_colours[hit.face as usize]);
-    let Some(surface) = appearance.surfaces.of(hit.face) else {
+    let Some((surface, scale)) = surface else {
         return colour;
     };
     let base = match &surface.colours {
@@ -80,10 +91,7 @@ fn albedo(appearance: &Appearance, hit: &Pixel, footprint: &Footprint) -> DVec3 
         Some(map) => {
             let texture = &appearance.surfaces.textures[map.texture as usize];
             let uv = Surface::uv_at(map, surface.anchor, hit.point);
-            let sides = footprint.on_plane(hit.point, hit.normal.as_dvec3());
-            let step = |side: DVec3| DVec2::new(map.gradient[0].dot(side), map.gradient[1].dot(side));
-            let steps = [step(sides[0]), step(sides[1])];
-            let lod = filter::level_of_detail(texture.size(), steps);
+            let lod = filter::level_of_detail(scale, footprint().longer_axis(hit.range, hit.normal));
             base * filter::trilinear(texture, map.wrap, uv, lod).as_dvec3()
         }
     }
@@ -99,12 +107,29 @@ pub fn shade(
     hit: &Pixel,
     footprint: &Footprint,
 ) -> DVec3 {
+    let surface = appearance.surfaces.with_scale(hit.face);
+    shade_on(tracer, geometry, appearance, hit, surface, || *footprint)
+}
+
+/// [`shade`] for a hit whose face's surface is `surface` (looked up once per pixel), with the
+/// footprint computed only where a texture needs it. Kept out of line: inlined into the
+/// per-pixel closure, it cost the flat path of untextured unlit images, which never calls it,
+/// about 16 instructions a pixel in register saves (docs/benchmarks.md, "Ray cones").
+#[inline(never)]
+fn shade_on(
+    tracer: CpuTracer,
+    geometry: &SceneBvh,
+    appearance: &Appearance,
+    hit: &Pixel,
+    surface: SurfaceAndScale<'_>,
+    footprint: impl FnOnce() -> Footprint,
+) -> DVec3 {
     if !hit.is_hit() {
         return DVec3::ZERO;
     }
-    let albedo = albedo(appearance, hit, footprint);
+    let albedo = albedo(appearance, hit, surface, footprint);
     match &appearance.lighting {
-        Some(lighting) if !appearance.surfaces.of(hit.face).is_some_and(|s| s.unlit) => {
+        Some(lighting) if !surface.is_some_and(|(s, _)| s.unlit) => {
             albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white
         }
         _ => albedo,
@@ -147,48 +172,52 @@ fn illuminance(tracer: CpuTracer, geometry: &SceneBvh, lighting: &Lighting, hit:
 pub(crate) struct View<'a> {
     camera: &'a Camera,
     world_from_body: DMat3,
-    position: DVec3,
-    /// The camera's ray of every pixel, row by row, where the renderer keeps them.
-    rays: Option<&'a [Option<CameraRay>]>,
+    /// The camera's rays (and cones) of every pixel, where the renderer keeps them.
+    table: Option<&'a RayTable>,
+    /// Where the cones of an image too large for a ray table are kept.
+    cache: Option<&'a RayCache>,
 }
 
 impl<'a> View<'a> {
-    /// The view of `camera` at `pose`, reading neighbouring rays from `rays` (the camera's ray
-    /// table) where given.
-    pub(crate) fn new(camera: &'a Camera, pose: &Pose, rays: Option<&'a [Option<CameraRay>]>) -> Self {
+    /// The view of `camera` at `pose`, reading rays and cones from `table` (the camera's ray
+    /// table) where given, else cones from `cache` where it keeps them for this camera.
+    pub(crate) fn new(
+        camera: &'a Camera,
+        pose: &Pose,
+        table: Option<&'a RayTable>,
+        cache: Option<&'a RayCache>,
+    ) -> Self {
         Self {
             camera,
             world_from_body: pose.world_from_body_rotation(),
-            position: pose.position,
-            rays,
+            table,
+            cache,
         }
-    }
-
-    /// The footprint of the pixel at `index` (row by row) where `appearance` textures its
-    /// face, else none (untextured faces never compute one).
-    #[inline]
-    fn footprint(&self, appearance: &Appearance, hit: &Pixel, index: usize) -> Footprint {
-        if !appearance.needs_footprint(hit.face) {
-            return Footprint::POINT;
-        }
-        let size = self.camera.size();
-        if let Some(table) = self.rays {
-            return Footprint::in_table(index, size, self.world_from_body, self.position, table, self.camera);
-        }
-        let width = size.0.max(1) as usize;
-        let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
-        Footprint::around(pixel, size, self.world_from_body, self.position, self.camera)
     }
 
     /// The footprint at any pixel position (sub-pixel samples), from the camera's own rays.
     pub(crate) fn footprint_at(&self, pixel: DVec2) -> Footprint {
-        Footprint::around(
-            pixel,
-            self.camera.size(),
-            self.world_from_body,
-            self.position,
-            self.camera,
-        )
+        Footprint::around(pixel, self.world_from_body, self.camera)
+    }
+
+    /// The footprint of each pixel by index (row by row): from the ray table's rays and cones
+    /// where there is one (the cones made on first use), else from a cone table and the
+    /// pixel's own camera ray, else from the camera's rays alone (three a pixel).
+    fn footprints(&self) -> impl Fn(usize) -> Footprint + Sync + '_ {
+        let table = self.table.map(|table| (table.rays.as_slice(), table.cones()));
+        let cone_table = match table {
+            Some(_) => None,
+            None => self.cache.and_then(|cache| cache.cone_table(self.camera)),
+        };
+        let width = self.camera.size().0.max(1) as usize;
+        let with_cone = |cone: Cone, ray: Option<&CameraRay>| {
+            ray.map_or(Footprint::POINT, |ray| Footprint::new(cone, self.world_from_body, ray))
+        };
+        move |index| match (table, &cone_table) {
+            (Some((rays, cones)), _) => with_cone(cones[index], rays[index].as_ref()),
+            (None, Some(cone_table)) => with_cone(cone_table.cones[index], self.camera.pixel_ray(index).as_ref()),
+            (None, None) => self.footprint_at(DVec2::new((index % width) as f64, (index / width) as f64)),
+        }
     }
 }
 
@@ -223,16 +252,21 @@ fn shade_planes<const SURFACES: bool>(
     frame: &mut Frame,
     planes: Planes,
 ) {
-    let linear = |index: usize, hit: &Pixel| {
-        let footprint = if SURFACES {
-            view.footprint(appearance, hit, index)
-        } else {
-            Footprint::POINT
+    let footprints = SURFACES.then(|| view.footprints());
+    let surface_of = |hit: &Pixel| match SURFACES {
+        true => appearance.surfaces.with_scale(hit.face),
+        false => None,
+    };
+    let linear = |index: usize, hit: &Pixel, surface: SurfaceAndScale<'_>| {
+        let footprint = || {
+            footprints
+                .as_ref()
+                .map_or(Footprint::POINT, |footprint_of| footprint_of(index))
         };
-        shade(tracer, geometry, appearance, hit, &footprint)
+        shade_on(tracer, geometry, appearance, hit, surface, footprint)
     };
     // Unlit faces without a surface take their face's byte directly.
-    let flat = |hit: &Pixel| appearance.lighting.is_none() && !(SURFACES && appearance.surfaces.of(hit.face).is_some());
+    let flat = |surface: SurfaceAndScale<'_>| appearance.lighting.is_none() && surface.is_none();
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
@@ -240,9 +274,12 @@ fn shade_planes<const SURFACES: bool>(
             .pixels()
             .par_iter()
             .enumerate()
-            .map(|(index, hit)| match hit.is_hit() {
-                false => BACKGROUND,
-                true => eight_bit(appearance, hit, flat(hit), || linear(index, hit)),
+            .map(|(index, hit)| {
+                if !hit.is_hit() {
+                    return BACKGROUND;
+                }
+                let surface = surface_of(hit);
+                eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
             })
             .collect();
         frame.set_shading(planes, Vec::new(), colour);
@@ -256,10 +293,11 @@ fn shade_planes<const SURFACES: bool>(
             if !hit.is_hit() {
                 return ([0.0; 3], BACKGROUND);
             }
-            let shaded = linear(index, hit);
+            let surface = surface_of(hit);
+            let shaded = linear(index, hit, surface);
             (
                 shaded.as_vec3().to_array(),
-                eight_bit(appearance, hit, flat(hit), || shaded),
+                eight_bit(appearance, hit, flat(surface), || shaded),
             )
         })
         .unzip();
@@ -278,9 +316,5 @@ fn eight_bit(appearance: &Appearance, hit: &Pixel, flat: bool, linear: impl FnOn
 
 /// 8-bit sRGB of a linear colour.
 pub fn encode(linear: DVec3) -> [u8; 3] {
-    [
-        linear_to_srgb(linear.x),
-        linear_to_srgb(linear.y),
-        linear_to_srgb(linear.z),
-    ]
+    linear_to_srgb3(linear.to_array())
 }

@@ -5,12 +5,12 @@
 //! of an omni pixel, measured with callgrind, docs/benchmarks.md). A run of many poses through
 //! one camera (a data set, a trajectory, a benchmark) therefore reads them from a table.
 
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use rayon::prelude::*;
 
 use crate::accel::SceneBvh;
-use crate::camera::{Camera, CameraRay};
+use crate::camera::{Camera, CameraRay, Cone};
 use crate::frame::Frame;
 use crate::pose::Pose;
 use crate::trace::CpuTracer;
@@ -19,21 +19,65 @@ use crate::trace::CpuTracer;
 /// without recomputing.
 const CAMERAS: usize = 2;
 
-/// Largest image whose rays are kept (64 bytes a pixel: 64 MB); larger ones are computed
+/// Largest image whose rays are kept (64 bytes a pixel, 80 with the cones: 80 MB); larger ones are computed
 /// per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
-/// Every pixel centre's body-frame ray of one camera, row by row (shading reads the
-/// neighbours' rays for texture footprints too).
+/// Largest image whose ray cones are kept where its rays are not (16 bytes a pixel: 64 MB): a
+/// textured pixel then computes its own camera ray only, not its neighbours' too (equirect
+/// 2048×1024: docs/benchmarks.md, "Ray cones").
+const MAX_CONE_PIXELS: usize = 1 << 22;
+
+/// Every pixel centre's body-frame ray of one camera, row by row, and, once a textured face
+/// is shaded through it, every pixel's ray cone (the texture footprint, `shade/footprint.rs`).
 pub(crate) struct RayTable {
     camera: Camera,
     pub(crate) rays: Vec<Option<CameraRay>>,
+    cones: OnceLock<Vec<Cone>>,
 }
 
-/// The ray tables of the last cameras a renderer traced on the CPU.
+impl RayTable {
+    /// Every pixel's ray cone, made on first use from the table's rays.
+    pub(crate) fn cones(&self) -> &[Cone] {
+        self.cones
+            .get_or_init(|| Cone::of_image(&self.camera, |index| self.rays[index]))
+    }
+}
+
+/// Every pixel's ray cone of one camera whose rays are not kept (its image is larger than
+/// `MAX_PIXELS`).
+pub(crate) struct ConeTable {
+    camera: Camera,
+    pub(crate) cones: Vec<Cone>,
+}
+
+/// The ray tables (and cone tables) of the last cameras a renderer traced on the CPU.
 #[derive(Default)]
 pub(crate) struct RayCache {
     tables: Mutex<Vec<Arc<RayTable>>>,
+    cone_tables: Mutex<Vec<Arc<ConeTable>>>,
+}
+
+/// The entry of `list` made for `camera`, or `make()` added (the oldest dropped beyond
+/// `CAMERAS`).
+fn cached<T>(
+    list: &Mutex<Vec<Arc<T>>>,
+    camera: &Camera,
+    of: impl Fn(&T) -> &Camera,
+    make: impl FnOnce() -> T,
+) -> Arc<T> {
+    // A poisoned lock only means another thread panicked while holding it: the tables are
+    // complete or absent, never half made, so they stay usable.
+    let mut list = list.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(entry) = list.iter().find(|entry| of(entry) == camera) {
+        return Arc::clone(entry);
+    }
+    let entry = Arc::new(make());
+    if list.len() == CAMERAS {
+        list.remove(0);
+    }
+    list.push(Arc::clone(&entry));
+    entry
 }
 
 /// Traces one frame with `tracer`, reading `camera`'s rays from `table` (its
@@ -59,25 +103,38 @@ impl RayCache {
         if pixels > MAX_PIXELS {
             return None;
         }
-        // A poisoned lock only means another thread panicked while holding it: the tables
-        // are complete or absent, never half made, so they stay usable.
-        let mut tables = self.tables.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some(table) = tables.iter().find(|table| table.camera == *camera) {
-            return Some(Arc::clone(table));
+        Some(cached(
+            &self.tables,
+            camera,
+            |table| &table.camera,
+            || RayTable {
+                camera: camera.clone(),
+                rays: (0..pixels)
+                    .into_par_iter()
+                    .map(|index| camera.pixel_ray(index))
+                    .collect(),
+                cones: OnceLock::new(),
+            },
+        ))
+    }
+
+    /// `camera`'s ray cones alone, made on first use, where its image is too large for a ray
+    /// table ([`RayCache::table`]) but small enough to keep its cones.
+    pub(crate) fn cone_table(&self, camera: &Camera) -> Option<Arc<ConeTable>> {
+        let (width, height) = camera.size();
+        let pixels = width as usize * height as usize;
+        if pixels <= MAX_PIXELS || pixels > MAX_CONE_PIXELS {
+            return None;
         }
-        let rays = (0..pixels)
-            .into_par_iter()
-            .map(|index| camera.pixel_ray(index))
-            .collect();
-        let table = Arc::new(RayTable {
-            camera: camera.clone(),
-            rays,
-        });
-        if tables.len() == CAMERAS {
-            tables.remove(0);
-        }
-        tables.push(Arc::clone(&table));
-        Some(table)
+        Some(cached(
+            &self.cone_tables,
+            camera,
+            |table| &table.camera,
+            || ConeTable {
+                camera: camera.clone(),
+                cones: Cone::of_image(camera, |index| camera.pixel_ray(index)),
+            },
+        ))
     }
 }
 

@@ -1,0 +1,132 @@
+//! A pixel's ray cone (Akenine-Möller et al., "Texture Level of Detail Strategies for
+//! Real-Time Ray Tracing", Ray Tracing Gems, 2019): how far its neighbours' rays run from its
+//! own, the texture footprint's width at any distance along it (`shade/footprint.rs` lays it on
+//! the face hit).
+//!
+//! Every camera model (pinhole, panoramas, mirrors, central or not) is a function from pixel
+//! coordinates to a ray o + t·d. Let a neighbour's ray (x + 1, else x − 1 where the image or
+//! the mirror ends; the same for y: [`ahead_is_inside`]) differ by Δo and Δd, and write
+//! v⊥ = v − (v·d)d for the part of a vector across the ray. On the plane across the ray at
+//! distance t the neighbour passes Δo⊥ + t·Δd⊥ from the pixel's point (to first order in Δ).
+//! With s = |Δd⊥| (the spread) and a = Δo⊥·Δd⊥ / s (the width at the origin), that offset's
+//! length is |a + t·s| exactly where Δo⊥ ∥ Δd⊥: always for central cameras (Δo = 0, a = 0:
+//! pinhole, panoramas, lenses, central mirrors, whose rays leave the viewpoint), and for a
+//! non-central mirror of revolution along the radial and tangential directions; elsewhere on
+//! such a mirror it approximates, and only within centimetres of the mirror (t·s dominates
+//! beyond). The cone's width is the larger of the two axes', w(t) = maxₖ |aₖ + t·sₖ|
+//! (isotropic: an elongated pixel footprint becomes the circle around it). Because lengths and
+//! angles do not change with the pose, the cone depends on the camera alone: the CPU keeps one
+//! per pixel in the ray table (`trace/ray_table.rs`), computed from its rays (a curved
+//! mirror's reflected rays included); the GPU (`cone_axis` in `shaders/texture.wgsl`) computes
+//! the same from the camera's WGSL rays.
+
+use glam::{DVec2, DVec3};
+
+use super::{Camera, CameraRay};
+
+/// Whether the neighbour `step` ahead of `pixel` lies inside an image of `size` pixels; if it
+/// does not (or the camera has no ray there), the one `step` behind stands in. The GPU's
+/// `cone_axis` follows the same rule.
+fn ahead_is_inside(pixel: DVec2, step: DVec2, size: (u32, u32)) -> bool {
+    let ahead = pixel + step;
+    ahead.x <= f64::from(size.0) - 1.0 && ahead.y <= f64::from(size.1) - 1.0
+}
+
+/// One image axis of a ray cone: the footprint's width along it at distance t along the ray
+/// is |a + t·s| metres (a = `at_origin`, s = `spread`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct ConeAxis {
+    /// Width at the ray's origin, metres (zero for central cameras).
+    at_origin: f32,
+    /// Growth of the width per metre along the ray (the angle between neighbouring rays).
+    spread: f32,
+}
+
+impl ConeAxis {
+    /// The axis from `ray` to its neighbour `neighbour` (module documentation).
+    pub(crate) fn between(ray: &CameraRay, neighbour: &CameraRay) -> ConeAxis {
+        let d = ray.direction;
+        let across = |v: DVec3| v - v.dot(d) * d;
+        let (origins, directions) = (across(neighbour.origin - ray.origin), across(neighbour.direction - d));
+        let spread = directions.length();
+        let at_origin = if spread > 0.0 {
+            origins.dot(directions) / spread
+        } else {
+            origins.length()
+        };
+        ConeAxis {
+            at_origin: at_origin as f32,
+            spread: spread as f32,
+        }
+    }
+}
+
+/// A pixel's ray cone: one [`ConeAxis`] per image axis.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct Cone([ConeAxis; 2]);
+
+impl Cone {
+    /// No width: a pixel without a ray, or point sampling.
+    pub(crate) const ZERO: Cone = Cone(
+        [ConeAxis {
+            at_origin: 0.0,
+            spread: 0.0,
+        }; 2],
+    );
+
+    /// The cone of the pixel at `pixel` (sub-pixel positions allowed) of an image of `size`
+    /// pixels whose ray is `ray`, with `ray_at` giving the ray at any pixel position (`None`
+    /// where there is none): the neighbour one pixel ahead along each axis, or the one behind
+    /// where that one is outside the image or has no ray; an axis without either is zero.
+    pub(crate) fn around(
+        pixel: DVec2,
+        size: (u32, u32),
+        ray: &CameraRay,
+        ray_at: impl Fn(DVec2) -> Option<CameraRay>,
+    ) -> Cone {
+        let axis = |step: DVec2| {
+            let ahead = if ahead_is_inside(pixel, step, size) {
+                ray_at(pixel + step)
+            } else {
+                None
+            };
+            ahead
+                .or_else(|| ray_at(pixel - step))
+                .map_or(ConeAxis::default(), |neighbour| ConeAxis::between(ray, &neighbour))
+        };
+        Cone([axis(DVec2::X), axis(DVec2::Y)])
+    }
+
+    /// The cones of every pixel of `camera`, row by row, with `ray_of` giving the ray of the
+    /// pixel at an index (the ray table's, or the camera's own), zero where a pixel has no ray:
+    /// what the renderer keeps per camera.
+    pub(crate) fn of_image(camera: &Camera, ray_of: impl Fn(usize) -> Option<CameraRay> + Sync) -> Vec<Cone> {
+        use rayon::prelude::*;
+        let size = camera.size();
+        let width = size.0.max(1) as usize;
+        // Inside the image `ray_of`, beyond it the camera's own rays.
+        let ray_at = |p: DVec2| match p.x >= 0.0 && p.y >= 0.0 {
+            true => ray_of(p.y as usize * width + p.x as usize),
+            false => camera.ray(p),
+        };
+        (0..width * size.1 as usize)
+            .into_par_iter()
+            .map(|index| match ray_of(index) {
+                Some(ray) => {
+                    let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
+                    Cone::around(pixel, size, &ray, ray_at)
+                }
+                None => Cone::ZERO,
+            })
+            .collect()
+    }
+
+    /// The cone's width at distance `range` along the ray (metres).
+    #[inline]
+    pub(crate) fn width(&self, range: f32) -> f32 {
+        let [x, y] = self.0;
+        (x.at_origin + range * x.spread)
+            .abs()
+            .max((y.at_origin + range * y.spread).abs())
+    }
+}
