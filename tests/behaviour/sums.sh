@@ -42,6 +42,13 @@ run render scenes/env2.ron --camera omni --size 64x64 --misalign-offset 0.002,0,
 run render scenes/env1.ron --camera omni --size 64x64 --mirror-rays shortcut --edge-samples 4 --pose 1.5,0,0.4,0,0,60 --backend cpu --out out/shortcut
 run render scenes/env1.ron --camera omni --size 64x64 --tracer reference --exr-compression rle --pose 1.5,0,0.4,0,50,60 --backend cpu --out out/reference
 
+# Textured faces (image and procedural textures filtered to each pixel's ray cone).
+run render scenes/env1-textured.ron --camera omni --size 64x64 --pose 1.5,0,0.4,0,0,60 "${all[@]}" --out out/textured-omni
+run render scenes/env1-textured-lit.ron --camera pinhole --size 64x48 --edge-samples 4 --pose 1.2,0.9,0.7,0,10,200 --backend cpu --out out/textured-pinhole
+for format in gltf obj ply; do
+    run render scenes/textured-$format.ron --camera equirect --size 96x48 --pose -0.5,0,0.8 --backend cpu --out out/textured-$format
+done
+
 # The shipped data-set specs, small: fewer and smaller frames, the same features.
 for spec in scenes/env1-dataset.ron scenes/env1-speed-dataset.ron; do
     sed -i -e 's/size: (250, 250)/size: (48, 48)/' -e 's/spacing: 0.1/spacing: 1.0/' \
