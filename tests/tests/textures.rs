@@ -538,7 +538,16 @@ fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
             fov: Some(200.0),
             focal: None,
         })))),
-    ] {
+    ]
+    .into_iter()
+    // Every mirror of the shared list: non-central ones (misaligned, spherical, parabolic),
+    // whose cones have a width at the origin, and one seen through an inner lens, whose rays
+    // the GPU reads from the ray table.
+    .chain(
+        common::cameras()
+            .into_iter()
+            .filter(|camera| matches!(camera, Camera::Catadioptric(_))),
+    ) {
         let planes = Planes::COLOUR.with(Plane::LinearColour);
         let (a, b) = (
             cpu.render_planes(&camera, &pose, planes).unwrap(),
@@ -557,7 +566,7 @@ fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
         // f32 hit points move a texture coordinate by ~1e-6 of a repeat and the level of detail
         // by as little (measured on lavapipe: at most 2e-5 in linear light).
         assert!(
-            compared > 40_000 && worst <= 1e-3,
+            compared > a.pixels().len() / 2 && worst <= 1e-3,
             "{}: worst linear difference {worst} over {compared} pixels",
             common::describe(&camera)
         );

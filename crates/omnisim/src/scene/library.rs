@@ -147,7 +147,8 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
     if let Some(lighting) = &file.lighting {
         scene.lighting = Some(build_lighting(lighting, &seen, text, path)?);
     }
-    surfaces.set_textures(bank.textures, bank.sources);
+    surfaces.textures = bank.textures;
+    surfaces.sources = bank.sources;
     scene.surfaces = std::sync::Arc::new(surfaces);
     Ok(scene)
 }

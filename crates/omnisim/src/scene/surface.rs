@@ -29,10 +29,6 @@ pub struct Surfaces {
     /// Index into `list` of each face, [`NO_SURFACE`] for none; shorter than the face list
     /// (empty for a scene without surfaces): faces past its end have none.
     pub of_face: Vec<u32>,
-    /// Each surface's [`UvMap::texels_per_metre_squared`] on its texture (zero without one),
-    /// in `list` order: made once with the textures ([`Surfaces::set_textures`]), read by
-    /// every textured pixel.
-    pub(crate) texel_scales: Vec<f32>,
 }
 
 impl Surfaces {
@@ -42,26 +38,20 @@ impl Surfaces {
     }
 
     /// The surface of face `face`, if it has one, and its texture's texels per metre squared
-    /// (zero without a texture).
+    /// (zero without a texture or with a missing one). The scale is worked out here from the
+    /// texture's size rather than kept beside the list, so that a `Surfaces` built or edited
+    /// through its public fields can never pair a surface with a stale or missing scale
+    /// (the GPU works it out from the texture's header in the same way).
     #[inline]
     pub(crate) fn with_scale(&self, face: u32) -> Option<(&Surface, f32)> {
-        match self.of_face.get(face as usize) {
-            Some(&i) if i != NO_SURFACE => Some((&self.list[i as usize], self.texel_scales[i as usize])),
-            _ => None,
-        }
-    }
-
-    /// Sets the textures the surfaces' maps index and where they came from, and each
-    /// surface's texel scale on its texture.
-    pub(crate) fn set_textures(&mut self, textures: Vec<Texture>, sources: Vec<String>) {
-        self.texel_scales = (self.list.iter())
-            .map(|surface| match &surface.uv {
-                Some(map) => map.texels_per_metre_squared(textures[map.texture as usize].size()) as f32,
-                None => 0.0,
-            })
-            .collect();
-        self.textures = textures;
-        self.sources = sources;
+        let surface = match self.of_face.get(face as usize) {
+            Some(&i) if i != NO_SURFACE => self.list.get(i as usize)?,
+            _ => return None,
+        };
+        let scale = (surface.uv.as_ref())
+            .and_then(|map| Some(map.texels_per_metre_squared(self.textures.get(map.texture as usize)?.size())))
+            .unwrap_or(0.0);
+        Some((surface, scale as f32))
     }
 
     /// Gives face `face` (the scene's last so far) `surface`.
@@ -194,6 +184,39 @@ pub(crate) fn planar_uv(
 mod tests {
     use super::*;
     use glam::dvec3;
+
+    /// A `Surfaces` made through its public fields (no loader) is read like a loaded one: a
+    /// textured surface's scale follows its texture's size as it is now, and a surface whose
+    /// texture is missing reads as untextured (scale zero) instead of panicking.
+    #[test]
+    fn surfaces_built_by_hand_pair_each_surface_with_its_textures_scale() {
+        let map = UvMap {
+            texture: 0,
+            wrap: [Wrap::Repeat; 2],
+            at_anchor: DVec2::ZERO,
+            gradient: [DVec3::X * 2.0, DVec3::Y * 3.0],
+        };
+        let surface = Surface {
+            anchor: DVec3::ZERO,
+            uv: Some(map.clone()),
+            colours: None,
+            unlit: false,
+        };
+        let mut surfaces = Surfaces {
+            list: vec![surface],
+            of_face: vec![NO_SURFACE, 0],
+            ..Surfaces::default()
+        };
+        assert_eq!(surfaces.with_scale(1).map(|(_, scale)| scale), Some(0.0));
+        assert!(surfaces.of(0).is_none() && surfaces.of(2).is_none());
+        for size in [4, 16] {
+            surfaces.textures = vec![Texture::from_rgb(size, size, &vec![[9, 9, 9]; (size * size) as usize])];
+            // u runs 2 repeats a metre along x, v 3 along y: the larger is 3 × size texels a metre.
+            let expected = (3.0 * f64::from(size)).powi(2);
+            assert_eq!(surfaces.with_scale(1).unwrap().1, expected as f32);
+            assert_eq!(map.texels_per_metre_squared((size, size)), expected);
+        }
+    }
 
     #[test]
     fn triangle_gradients_reproduce_corner_values() {
