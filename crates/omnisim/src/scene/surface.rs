@@ -34,24 +34,10 @@ pub struct Surfaces {
 impl Surfaces {
     /// The surface of face `face`, if it has one.
     pub fn of(&self, face: u32) -> Option<&Surface> {
-        self.with_scale(face).map(|(surface, _)| surface)
-    }
-
-    /// The surface of face `face`, if it has one, and its texture's texels per metre squared
-    /// (zero without a texture or with a missing one). The scale is worked out here from the
-    /// texture's size rather than kept beside the list, so that a `Surfaces` built or edited
-    /// through its public fields can never pair a surface with a stale or missing scale
-    /// (the GPU works it out from the texture's header in the same way).
-    #[inline]
-    pub(crate) fn with_scale(&self, face: u32) -> Option<(&Surface, f32)> {
-        let surface = match self.of_face.get(face as usize) {
-            Some(&i) if i != NO_SURFACE => self.list.get(i as usize)?,
-            _ => return None,
-        };
-        let scale = (surface.uv.as_ref())
-            .and_then(|map| Some(map.texels_per_metre_squared(self.textures.get(map.texture as usize)?.size())))
-            .unwrap_or(0.0);
-        Some((surface, scale as f32))
+        match self.of_face.get(face as usize) {
+            Some(&i) if i != NO_SURFACE => self.list.get(i as usize),
+            _ => None,
+        }
     }
 
     /// Gives face `face` (the scene's last so far) `surface`.
@@ -185,37 +171,24 @@ mod tests {
     use super::*;
     use glam::dvec3;
 
-    /// A `Surfaces` made through its public fields (no loader) is read like a loaded one: a
-    /// textured surface's scale follows its texture's size as it is now, and a surface whose
-    /// texture is missing reads as untextured (scale zero) instead of panicking.
+    /// A `Surfaces` made through its public fields is read without panicking, even where its
+    /// face index points past the list.
     #[test]
-    fn surfaces_built_by_hand_pair_each_surface_with_its_textures_scale() {
-        let map = UvMap {
-            texture: 0,
-            wrap: [Wrap::Repeat; 2],
-            at_anchor: DVec2::ZERO,
-            gradient: [DVec3::X * 2.0, DVec3::Y * 3.0],
-        };
+    fn surfaces_built_by_hand_are_read_safely() {
         let surface = Surface {
             anchor: DVec3::ZERO,
-            uv: Some(map.clone()),
+            uv: None,
             colours: None,
-            unlit: false,
+            unlit: true,
         };
-        let mut surfaces = Surfaces {
+        let surfaces = Surfaces {
             list: vec![surface],
-            of_face: vec![NO_SURFACE, 0],
+            of_face: vec![NO_SURFACE, 0, 7],
             ..Surfaces::default()
         };
-        assert_eq!(surfaces.with_scale(1).map(|(_, scale)| scale), Some(0.0));
-        assert!(surfaces.of(0).is_none() && surfaces.of(2).is_none());
-        for size in [4, 16] {
-            surfaces.textures = vec![Texture::from_rgb(size, size, &vec![[9, 9, 9]; (size * size) as usize])];
-            // u runs 2 repeats a metre along x, v 3 along y: the larger is 3 × size texels a metre.
-            let expected = (3.0 * f64::from(size)).powi(2);
-            assert_eq!(surfaces.with_scale(1).unwrap().1, expected as f32);
-            assert_eq!(map.texels_per_metre_squared((size, size)), expected);
-        }
+        assert!(surfaces.of(0).is_none() && surfaces.of(3).is_none());
+        assert!(surfaces.of(1).is_some_and(|s| s.unlit));
+        assert!(surfaces.of(2).is_none(), "index 7 lies past the list of one");
     }
 
     #[test]

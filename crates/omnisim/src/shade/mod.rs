@@ -65,9 +65,6 @@ impl Appearance {
     }
 }
 
-/// A face's surface and its texture's texels per metre squared (`Surfaces::with_scale`).
-type SurfaceAndScale<'a> = Option<(&'a Surface, f32)>;
-
 /// Linear albedo of a hit on a face with `surface`: the face colour (or its vertex colours
 /// where it has them), times its texture filtered to the pixel's footprint where it has one
 /// (`footprint` is asked only then).
@@ -75,11 +72,11 @@ type SurfaceAndScale<'a> = Option<(&'a Surface, f32)>;
 fn albedo(
     appearance: &Appearance,
     hit: &Pixel,
-    surface: SurfaceAndScale<'_>,
+    surface: Option<&Surface>,
     footprint: impl FnOnce() -> Footprint,
 ) -> DVec3 {
     let colour = linear_rgb(appearance.face_colours[hit.face as usize]);
-    let Some((surface, scale)) = surface else {
+    let Some(surface) = surface else {
         return colour;
     };
     let base = match &surface.colours {
@@ -91,6 +88,9 @@ fn albedo(
         Some(map) => {
             let texture = &appearance.surfaces.textures[map.texture as usize];
             let uv = Surface::uv_at(map, surface.anchor, hit.point);
+            // Worked out per pixel from the texture as it is (a Surfaces may be built or edited
+            // through its public fields), as the GPU reads it from the texture's header.
+            let scale = map.texels_per_metre_squared(texture.size()) as f32;
             let lod = filter::level_of_detail(scale, footprint().longer_axis(hit.range, hit.normal));
             base * filter::trilinear(texture, map.wrap, uv, lod).as_dvec3()
         }
@@ -107,7 +107,7 @@ pub fn shade(
     hit: &Pixel,
     footprint: &Footprint,
 ) -> DVec3 {
-    let surface = appearance.surfaces.with_scale(hit.face);
+    let surface = appearance.surfaces.of(hit.face);
     shade_on(tracer, geometry, appearance, hit, surface, || *footprint)
 }
 
@@ -121,7 +121,7 @@ fn shade_on(
     geometry: &SceneBvh,
     appearance: &Appearance,
     hit: &Pixel,
-    surface: SurfaceAndScale<'_>,
+    surface: Option<&Surface>,
     footprint: impl FnOnce() -> Footprint,
 ) -> DVec3 {
     if !hit.is_hit() {
@@ -129,7 +129,7 @@ fn shade_on(
     }
     let albedo = albedo(appearance, hit, surface, footprint);
     match &appearance.lighting {
-        Some(lighting) if !surface.is_some_and(|(s, _)| s.unlit) => {
+        Some(lighting) if !surface.is_some_and(|s| s.unlit) => {
             albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white
         }
         _ => albedo,
@@ -252,12 +252,13 @@ fn shade_planes<const SURFACES: bool>(
     frame: &mut Frame,
     planes: Planes,
 ) {
-    let footprints = SURFACES.then(|| view.footprints());
+    // Cones are made only where a texture may need them (not for vertex colours alone).
+    let footprints = (SURFACES && !appearance.surfaces.textures.is_empty()).then(|| view.footprints());
     let surface_of = |hit: &Pixel| match SURFACES {
-        true => appearance.surfaces.with_scale(hit.face),
+        true => appearance.surfaces.of(hit.face),
         false => None,
     };
-    let linear = |index: usize, hit: &Pixel, surface: SurfaceAndScale<'_>| {
+    let linear = |index: usize, hit: &Pixel, surface: Option<&Surface>| {
         let footprint = || {
             footprints
                 .as_ref()
@@ -266,7 +267,7 @@ fn shade_planes<const SURFACES: bool>(
         shade_on(tracer, geometry, appearance, hit, surface, footprint)
     };
     // Unlit faces without a surface take their face's byte directly.
-    let flat = |surface: SurfaceAndScale<'_>| appearance.lighting.is_none() && surface.is_none();
+    let flat = |surface: Option<&Surface>| appearance.lighting.is_none() && surface.is_none();
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
