@@ -129,6 +129,13 @@ pub(crate) fn sets(text: &str, path: &Path, sweeps: &[Sweep]) -> anyhow::Result<
                 }
             })?;
             let name = spec.sets.first().context("a set")?.name.clone();
+            // A placeholder that still parses (in a name or a path) is refused all the same.
+            if set.contains("${") {
+                bail!(
+                    "{}: set '{name}' holds a placeholder ${{…}} that no --sweep gives a value (--sweep NAME=V1,V2,...)",
+                    path.display()
+                );
+            }
             if out.iter().any(|s| s.name == name) {
                 bail!(
                     "{}: two sets are named '{name}'; put the swept placeholder in the set's name too, e.g. \
@@ -250,6 +257,12 @@ mod tests {
         assert_eq!(names, ["map", "t-0.1", "t-0.2"]);
         assert!(cut[2].text.contains("sigma: 0.2") && !cut[2].text.contains("name: \"map\""));
         // The second set keeps its line (7, `sigma`) in its one-set spec.
+        let named_only = text.replace("sigma: ${s}", "sigma: 0.1");
+        let refused = format!("{:#}", sets(&named_only, path, &[]).err().unwrap());
+        assert!(
+            refused.contains("set 't-${s}'") && refused.contains("no --sweep gives"),
+            "{refused}"
+        );
         let unswept = format!("{:#}", sets(text, path, &[]).err().unwrap());
         assert!(
             unswept.contains("no --sweep gives") && unswept.contains("s.ron:7:"),
