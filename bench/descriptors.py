@@ -68,15 +68,19 @@ IMAGES = {
 PANORAMA = (512, 128)  # describe's default for omni images
 
 
+def slug(name):
+    return name.replace(' ', '-').replace('²', '')
+
+
 def folder(work, name):
-    return os.path.join(work, name.replace(' ', '-').replace('²', ''))
+    return os.path.join(work, slug(name))
 
 
 def render(omnisim, work):
     for name, (options, pose, _) in IMAGES.items():
         out = folder(work, name)
         if not os.path.exists(os.path.join(out, 'render.json')):
-            poses = os.path.join(work, f'{folder("", name).strip("/")}-poses.txt')
+            poses = os.path.join(work, f'{slug(name)}-poses.txt')
             with open(poses, 'w') as f:
                 f.write(f'{pose}\n' * COPIES)
             subprocess.run([omnisim, 'render', SCENE, *options, '--poses-file', poses, '--out', out, '--overwrite'],
@@ -99,7 +103,7 @@ def png(directory, suffix=''):
 
 def describe(omnisim, work, name, threads):
     """Seconds per image of each descriptor (all images but the first), from describe's sidecars."""
-    out = os.path.join(work, 'describe', folder('', name).strip('/'))
+    out = os.path.join(work, 'describe', slug(name))
     if os.path.isdir(out):
         shutil.rmtree(out)
     args = [omnisim, 'describe', folder(work, name), '--out', out]

@@ -135,9 +135,10 @@ def main():
     omnisim_out = os.path.join(a.work, 'omnisim')
     _, sets = omnisim_dataset(a.omnisim, a.spec, omnisim_out)
     inputs = load_inputs(a.omnisim, a.spec, sets[0], a.work)
+    compression = exr_compression(a.spec)
     best_python = best_omnisim = 0.0
     for round_ in range(a.rounds):
-        python = pipeline(inputs, os.path.join(a.work, 'python'), exr_compression(a.spec))
+        python = pipeline(inputs, os.path.join(a.work, 'python'), compression)
         omnisim, _ = omnisim_dataset(a.omnisim, a.spec, omnisim_out)
         best_python, best_omnisim = max(best_python, python), max(best_omnisim, omnisim)
         print(json.dumps(dict(round=round_, python_frames_per_s=python, omnisim_frames_per_s=omnisim,

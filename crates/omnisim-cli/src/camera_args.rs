@@ -287,7 +287,7 @@ fn check_applicable(args: &CameraArgs) -> anyhow::Result<()> {
     let spherical = mirror == MirrorKind::Spherical;
     let options = [
         ("--hfov", args.hfov.is_some(), pinhole),
-        ("--baseline", args.baseline.is_some(), args.camera == Stereo),
+        ("--baseline", args.baseline.is_some(), stereo),
         ("--vfov", args.vfov.is_some(), args.camera == Cylindrical),
         (
             "--focal",
@@ -380,7 +380,7 @@ impl CameraArgs {
                 focal: self.focal,
                 baseline: self.baseline.unwrap_or(defaults::BASELINE),
                 distortion: self.distortion_coefficients()?,
-                lens: self.lens.map(|_| self.lens()).transpose()?,
+                lens: self.given_lens()?,
                 fov: self.fov,
             }),
             CameraKind::Equirect => RigSpec::Equirect {
@@ -422,6 +422,11 @@ impl CameraArgs {
             );
         }
         Ok(Some(coefficients.clone()))
+    }
+
+    /// [`Self::lens`] where `--lens` is given (a stereo pair's or a mirror's camera), else none.
+    fn given_lens(&self) -> anyhow::Result<Option<LensSpec>> {
+        self.lens.map(|_| self.lens()).transpose()
     }
 
     /// The `--lens` (the fisheye's, or a stereo pair's) with its parameters, defaults for those
@@ -536,7 +541,7 @@ impl CameraArgs {
                 Some(MirrorRaysArg::Reflect) | None => MirrorRaysSpec::Reflect,
             },
             distortion: self.distortion_coefficients()?,
-            lens: self.lens.map(|_| self.lens()).transpose()?,
+            lens: self.given_lens()?,
         })
     }
 }

@@ -1336,19 +1336,20 @@ fn scene_check_lists_each_texture_with_its_source_size_mips_bytes_and_users() {
     let check = text(&omnisim("scene check scenes/env1-textured.ron").stdout);
     // Six patterns; the floor's wood is 512² with 10 levels: 4 bytes × (4^10 − 1) / 3 texels.
     assert!(check.contains("textures: 6, "), "{check}");
-    let floor = check
-        .lines()
-        .find(|l| l.contains("used by floor;"))
-        .unwrap_or_else(|| panic!("{check}"));
+    let used_by = |object: &str| {
+        let user = format!("used by {object};");
+        check
+            .lines()
+            .find(|l| l.contains(&user))
+            .unwrap_or_else(|| panic!("{check}"))
+    };
+    let floor = used_by("floor");
     assert!(
         floor.contains("512×512 texels, 10 mip levels, 1398100 bytes") && floor.contains("from pattern Wood"),
         "{floor}"
     );
     // The rug's checker is baked at 192²: levels 192, 96, 48, 24, 12, 6, 3, 1.
-    let rug = check
-        .lines()
-        .find(|l| l.contains("used by rug;"))
-        .unwrap_or_else(|| panic!("{check}"));
+    let rug = used_by("rug");
     assert!(
         rug.contains("192×192 texels, 8 mip levels") && rug.contains("Checker"),
         "{rug}"

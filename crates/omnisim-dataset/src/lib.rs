@@ -343,9 +343,9 @@ fn io_hint(error: &std::io::Error) -> &'static str {
 fn centres(rig: &Rig, pose: &Pose) -> Vec<DVec3> {
     match rig {
         Rig::Single(_) => vec![pose.position],
-        Rig::Stereo(stereo) => [stereo.baseline / 2.0, -stereo.baseline / 2.0]
-            .map(|y| pose.position + pose.world_from_body_rotation() * DVec3::new(0.0, y, 0.0))
-            .to_vec(),
+        Rig::Stereo(stereo) => (stereo.pinholes().iter())
+            .map(|eye| pose.position + pose.world_from_body_rotation() * eye.position)
+            .collect(),
     }
 }
 

@@ -181,7 +181,7 @@ struct FrameFiles<'a> {
     /// The data-set folder (entries name files relative to it).
     root: &'a Path,
     /// The set's folder.
-    dir: PathBuf,
+    dir: &'a Path,
     /// What the files written next are.
     kind: FileKind,
     /// Reused by each file of the frame.
@@ -191,10 +191,10 @@ struct FrameFiles<'a> {
 }
 
 impl<'a> FrameFiles<'a> {
-    fn new(root: &'a Path, dir: &Path) -> Self {
+    fn new(root: &'a Path, dir: &'a Path) -> Self {
         Self {
             root,
-            dir: dir.to_path_buf(),
+            dir,
             kind: FileKind::GroundTruth,
             buffer: Vec::new(),
             files: Vec::new(),
@@ -226,7 +226,7 @@ impl FileStore for FrameFiles<'_> {
 
 impl Destination for FrameFiles<'_> {
     fn dir(&self) -> &Path {
-        &self.dir
+        self.dir
     }
 
     fn claim(&mut self, name: String) -> Result<PathBuf, OutputError> {

@@ -85,14 +85,11 @@ impl Cone {
         ray_at: impl Fn(DVec2) -> Option<CameraRay>,
     ) -> Cone {
         let axis = |step: DVec2| {
-            let ahead = if ahead_is_inside(pixel, step, size) {
-                ray_at(pixel + step)
-            } else {
-                None
-            };
-            ahead
-                .or_else(|| ray_at(pixel - step))
-                .map_or(ConeAxis::default(), |neighbour| ConeAxis::between(ray, &neighbour))
+            (ahead_is_inside(pixel, step, size)
+                .then(|| ray_at(pixel + step))
+                .flatten())
+            .or_else(|| ray_at(pixel - step))
+            .map_or(ConeAxis::default(), |neighbour| ConeAxis::between(ray, &neighbour))
         };
         Cone([axis(DVec2::X), axis(DVec2::Y)])
     }

@@ -203,8 +203,11 @@ impl<T: Write + Seek + ?Sized> Sink for T {}
 /// path: always atomically (never half a file under its name); when it reaches the disk and
 /// what else is kept of it is the store's choice.
 pub trait FileStore {
-    /// Writes the file `path` through `fill`.
-    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()>;
+    /// Writes the file `path` through `fill`: by default straight to its temporary, synced
+    /// before it is renamed into place ([`write_atomically`]).
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        write_atomically(path, |out| fill(out))
+    }
 }
 
 /// Each file written straight to its temporary and synced before it is renamed into place:
@@ -212,11 +215,7 @@ pub trait FileStore {
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Synced;
 
-impl FileStore for Synced {
-    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        write_atomically(path, |out| fill(out))
-    }
-}
+impl FileStore for Synced {}
 
 /// How this process's temporaries are named: [`TEMPORARY_PREFIX`], the process id, `@`, the host
 /// name, `@`, then a random part. A shared folder (shards on a cluster file system) holds

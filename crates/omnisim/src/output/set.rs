@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::atomic::{FileStore, Sink, Synced, write_atomically};
+use super::atomic::{FileStore, write_atomically};
 use super::folder::RunFolder;
 use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed};
 use crate::calibration;
@@ -123,11 +123,7 @@ pub trait Destination: FileStore {
     fn claim(&mut self, name: String) -> Result<PathBuf, OutputError>;
 }
 
-impl FileStore for RunFolder {
-    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        Synced.store(path, fill)
-    }
-}
+impl FileStore for RunFolder {}
 
 impl Destination for RunFolder {
     fn dir(&self) -> &Path {
@@ -143,11 +139,7 @@ impl Destination for RunFolder {
 #[derive(Debug, Clone)]
 pub struct PlainFolder(pub PathBuf);
 
-impl FileStore for PlainFolder {
-    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        Synced.store(path, fill)
-    }
-}
+impl FileStore for PlainFolder {}
 
 impl Destination for PlainFolder {
     fn dir(&self) -> &Path {

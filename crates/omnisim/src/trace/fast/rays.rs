@@ -90,13 +90,15 @@ impl PacketBounds {
 }
 
 impl<W: Wide> PacketRays<W> {
-    /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`
-    /// (the others are zero and must stay masked); `scene_extent` as for [`LaneRay::new`].
+    /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`, at
+    /// least one (the others are zero and must stay masked); `scene_extent` as for [`LaneRay::new`].
     /// Always inlined: called from the walk compiled with AVX2, it must be compiled there too
     /// (out of line it is built for the baseline CPU, its lane intrinsics become calls, and an
     /// env1 omni image took 7 % more instructions).
     #[inline(always)]
     pub(crate) fn new(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, scene_extent: f32) -> Self {
+        // Every caller skips empty packets (their boxes would be empty: infinite bounds).
+        debug_assert!(active != 0, "a packet without rays");
         let mut origin = [[0.0f32; PACKET]; 3];
         let mut direction = [[0.0f32; PACKET]; 3];
         let mut error = [0.0f32; PACKET];
@@ -142,11 +144,7 @@ impl<W: Wide> PacketRays<W> {
         }
         // The directions' box, half its diagonal: at least the chord from its centre to any
         // direction, so about the sine of the packet's half-angle (only a heuristic reads it).
-        let chord = if active == 0 {
-            0.0
-        } else {
-            (direction_max - direction_min).length() / 2.0
-        };
+        let chord = (direction_max - direction_min).length() / 2.0;
         let spread = if chord < 0.99 {
             chord / (1.0 - chord * chord).sqrt()
         } else {
@@ -161,11 +159,7 @@ impl<W: Wide> PacketRays<W> {
             }),
             t_lo: std::array::from_fn(|b| batch(&t_lo, b)),
             inverse: std::array::from_fn(|b| std::array::from_fn(|axis| batch(&inverse_lanes[axis], b))),
-            origin_radius: if active == 0 {
-                0.0
-            } else {
-                (origin_max - origin_min).length() / 2.0
-            },
+            origin_radius: (origin_max - origin_min).length() / 2.0,
             spread,
             negative,
             bounds: PacketBounds {
