@@ -1,8 +1,20 @@
-// Closest-hit and any-hit (shadow) traversal of obvhs's BVH2 (32-byte `small_bvh2_node`
-// nodes), following obvhs's `Bvh2::ray_traverse_dynamic` step for step.
-// CPU twin: crates/omnisim/src/trace/reference.rs (closest_hit, occluded).
+// Closest-hit and any-hit (shadow) traversal of the fast CPU tracer's 8-wide BVH
+// (accel/wide.rs, laid out for the GPU by gpu/wide.rs). A node's eight boxes are tested at
+// once; the children entered form a group (node << 8 | one bit per child) taken nearest child
+// first, then in lane order; a leaf child is tested where it is taken, an inner one is visited
+// next and the rest of its group waits on the stack, one entry per level. Sorting every child
+// onto the stack by distance, as the CPU walk does, made lavapipe 1.2–1.7× slower than the BVH2
+// walk this replaced: a software GPU scatters each per-invocation stack write
+// (docs/benchmarks.md, "GPU walk of the wide BVH").
+// CPU twin: crates/omnisim/src/trace/fast/wide.rs (WideBvh::traverse: the same boxes, slab
+// test and leaves; it orders every child by distance).
 
+// One group per level below the root: the host refuses wide BVHs deeper than this.
 const STACK_SIZE: u32 = 64u;
+// A child entry with this bit is a leaf: a run of triangles.
+const LEAF: u32 = 0x80000000u;
+const LEAF_COUNT_SHIFT: u32 = 26u;
+const LEAF_FIRST: u32 = 0x3ffffffu;
 // Barycentric slack that closes the gaps f32 rounding leaves along shared edges.
 const EDGE_TOLERANCE: f32 = 1e-6;
 
@@ -17,20 +29,6 @@ fn safe_inverse(x: f32) -> f32 {
         return select(1.0, -1.0, x < 0.0) / epsilon;
     }
     return 1.0 / x;
-}
-
-// Entry distance of the ray into a node's box, or FAR.
-fn box_entry(node: BvhNode, origin: vec3<f32>, inv_direction: vec3<f32>) -> f32 {
-    let t1 = (node.min - origin) * inv_direction;
-    let t2 = (node.max - origin) * inv_direction;
-    let near = min(t1, t2);
-    let far = max(t1, t2);
-    let t_near = max(max(near.x, near.y), near.z);
-    let t_far = min(min(far.x, far.y), far.z);
-    if t_far >= t_near && t_far >= 0.0 {
-        return t_near;
-    }
-    return FAR;
 }
 
 // Möller–Trumbore; t where the ray meets the triangle, or FAR.
@@ -67,18 +65,22 @@ struct Query {
 // Whether a closest-hit candidate at `t` on `triangle` beats `best`: the rule of the CPU
 // tracers (trace/triangle.rs, `wins`) in f32. The nearer hit, and at exactly equal f32
 // distance (a ray along an edge two faces share, coincident faces) the lower face id, then the
-// lower triangle (BVH leaf order), so the traversal order never decides. FAR is no hit.
+// lower triangle in BVH leaf order, so the traversal order never decides. FAR is no hit.
 fn wins(t: f32, triangle: u32, best: Hit) -> bool {
     if t == best.t && t < FAR {
         let face = triangles[triangle].face;
         let best_face = triangles[best.triangle].face;
-        return face < best_face || (face == best_face && triangle < best.triangle);
+        return face < best_face
+            || (face == best_face && triangles[triangle].leaf_order < triangles[best.triangle].leaf_order);
     }
     return t < best.t;
 }
 
-fn intersect_leaf(node: BvhNode, query: Query, best: ptr<function, Hit>) {
-    for (var i = node.first_index; i < node.first_index + node.prim_count; i++) {
+// Tests the triangles of leaf `entry` against the query; true when an any-hit query found one.
+fn intersect_leaf(entry: u32, query: Query, best: ptr<function, Hit>) -> bool {
+    let first = entry & LEAF_FIRST;
+    let end = first + ((entry >> LEAF_COUNT_SHIFT) & 31u) + 1u;
+    for (var i = first; i < end; i++) {
         let triangle = triangles[i];
         if triangle.face == query.skip_face {
             continue;
@@ -89,10 +91,11 @@ fn intersect_leaf(node: BvhNode, query: Query, best: ptr<function, Hit>) {
         if t > query.t_min && better {
             *best = Hit(t, i);
             if query.any_hit {
-                return;
+                return true;
             }
         }
     }
+    return false;
 }
 
 fn closest_hit(origin: vec3<f32>, direction: vec3<f32>, t_min: f32) -> Hit {
@@ -108,73 +111,73 @@ fn occluded(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, skip_face: u32)
 // found.
 fn traverse(query: Query, t_max: f32) -> Hit {
     var best = Hit(t_max, 0u);
-    if arrayLength(&nodes) == 0u {
-        return best;
-    }
     let origin = query.origin;
-    let direction = query.direction;
-    let inv_direction = vec3<f32>(safe_inverse(direction.x), safe_inverse(direction.y), safe_inverse(direction.z));
-    let root = nodes[0];
-    if box_entry(root, origin, inv_direction) >= FAR {
-        return best;
-    }
-    if root.prim_count > 0u {
-        intersect_leaf(root, query, &best);
-        return best;
-    }
+    let inv_direction = vec3<f32>(
+        safe_inverse(query.direction.x),
+        safe_inverse(query.direction.y),
+        safe_inverse(query.direction.z),
+    );
+    // Groups waiting: node << 8 | the children entered and not taken yet.
     var stack: array<u32, STACK_SIZE>;
-    var stack_len = 0u;
-    var current = root.first_index;
+    var len = 0u;
+    var node = 0u;
     loop {
-        var left = nodes[current];
-        var right = nodes[current + 1u];
-        var left_t = box_entry(left, origin, inv_direction);
-        var right_t = box_entry(right, origin, inv_direction);
-        if left_t > right_t {
-            let node = left;
-            left = right;
-            right = node;
-            let t = left_t;
-            left_t = right_t;
-            right_t = t;
+        // The children of inner node `node` the ray enters between 0 and the best distance (a
+        // box entered at the best distance may hold a triangle that wins the tie), and the
+        // nearest of them.
+        let lanes = nodes[node].lanes;
+        var entered_lanes = 0u;
+        var nearest = 0u;
+        var nearest_t = FAR;
+        for (var half = 0u; half < 2u; half++) {
+            var near = vec4<f32>(0.0);
+            var far = vec4<f32>(best.t);
+            for (var axis = 0u; axis < 3u; axis++) {
+                let t1 = (nodes[node].min[2u * axis + half] - origin[axis]) * inv_direction[axis];
+                let t2 = (nodes[node].max[2u * axis + half] - origin[axis]) * inv_direction[axis];
+                near = max(near, min(t1, t2));
+                far = min(far, max(t1, t2));
+            }
+            let entered = near <= far;
+            for (var k = 0u; k < 4u; k++) {
+                let lane = 4u * half + k;
+                if entered[k] && ((lanes >> lane) & 1u) != 0u {
+                    entered_lanes |= 1u << lane;
+                    if near[k] < nearest_t {
+                        nearest_t = near[k];
+                        nearest = lane;
+                    }
+                }
+            }
         }
-        var go_left = false;
-        // A box entered at the best distance may hold a triangle that wins the tie.
-        if left_t <= best.t && left_t < FAR {
-            if left.prim_count > 0u {
-                intersect_leaf(left, query, &best);
-                if query.any_hit && best.t < t_max {
+        var group = (node << 8u) | entered_lanes;
+        // Take children until an inner one is found (popping groups as they run out).
+        loop {
+            if (group & 0xffu) == 0u {
+                if len == 0u {
                     return best;
                 }
-            } else {
-                go_left = true;
+                len -= 1u;
+                group = stack[len];
+                continue;
             }
-        }
-        var go_right = false;
-        if right_t <= best.t && right_t < FAR {
-            if right.prim_count > 0u {
-                intersect_leaf(right, query, &best);
-                if query.any_hit && best.t < t_max {
+            // The nearest child first (while its bit is still set), then lane order; a popped
+            // group may share `nearest`'s bit by chance, which changes the order only.
+            let lane = select(firstTrailingBit(group & 0xffu), nearest, ((group >> nearest) & 1u) != 0u);
+            group &= ~(1u << lane);
+            let child = nodes[group >> 8u].child[lane / 4u][lane % 4u];
+            if (child & LEAF) != 0u {
+                if intersect_leaf(child, query, &best) {
                     return best;
                 }
-            } else {
-                go_right = true;
+                continue;
             }
-        }
-        if go_left && go_right {
-            current = left.first_index;
-            stack[stack_len] = right.first_index;
-            stack_len += 1u;
-        } else if go_left {
-            current = left.first_index;
-        } else if go_right {
-            current = right.first_index;
-        } else {
-            if stack_len == 0u {
-                break;
+            if (group & 0xffu) != 0u {
+                stack[len] = group;
+                len += 1u;
             }
-            stack_len -= 1u;
-            current = stack[stack_len];
+            node = child;
+            break;
         }
     }
     return best;

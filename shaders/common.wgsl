@@ -73,21 +73,26 @@ struct CameraParams {
     mirror: MirrorBlock,
 }
 
-struct BvhNode {
-    min: vec3<f32>,
-    prim_count: u32,
-    max: vec3<f32>,
-    first_index: u32,
+// A node of the 8-wide BVH (bvh.wgsl): its children's boxes, lane i = child i; entry
+// 2·axis + half holds children 4·half..4·half + 4 on that axis.
+struct WideNode {
+    min: array<vec4<f32>, 6>,
+    max: array<vec4<f32>, 6>,
+    // Inner node index, or LEAF | (triangle count − 1) << LEAF_COUNT_SHIFT | first triangle.
+    child: array<vec4<u32>, 2>,
+    // Bit i set where child i exists.
+    lanes: u32,
 }
 
-// A triangle as corner v0 and edges e1 = v1 − v0, e2 = v2 − v0 (edges computed in f64).
+// A triangle as corner v0 and edges e1 = v1 − v0, e2 = v2 − v0 (edges computed in f64), in
+// the order the wide BVH's leaves reach it; leaf_order is its index in BVH leaf order.
 struct Triangle {
     v0: vec3<f32>,
     face: u32,
     e1: vec3<f32>,
-    _pad1: u32,
+    leaf_order: u32,
     e2: vec3<f32>,
-    _pad2: u32,
+    _pad: u32,
 }
 
 // The hit planes of one pixel (trace.wgsl writes them, shade.wgsl reads them).
@@ -136,7 +141,7 @@ struct CameraRay {
 }
 
 @group(0) @binding(0) var<uniform> camera: CameraParams;
-@group(0) @binding(1) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(1) var<storage, read> nodes: array<WideNode>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
 // A face's linear albedo (its colour; a textured face's tint) and its surface (texture.wgsl).
 struct Material {

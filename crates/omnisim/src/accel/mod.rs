@@ -156,25 +156,6 @@ impl SceneBvh {
     pub fn triangle_face(&self, triangle: usize) -> u32 {
         self.face[triangle]
     }
-
-    /// Deepest node below the root, which bounds the traversal stack any tracer needs.
-    pub fn depth(&self) -> usize {
-        if self.bvh.nodes.is_empty() {
-            return 0;
-        }
-        let mut deepest = 0;
-        let mut pending = vec![(0usize, 0usize)];
-        while let Some((index, depth)) = pending.pop() {
-            deepest = deepest.max(depth);
-            let node = &self.bvh.nodes[index];
-            if !node.is_leaf() {
-                let first = node.first_index as usize;
-                pending.push((first, depth + 1));
-                pending.push((first + 1, depth + 1));
-            }
-        }
-        deepest
-    }
 }
 
 /// A triangle's f32 box, grown so that f32 box tests never reject a ray the f64 triangle test

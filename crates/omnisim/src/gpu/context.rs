@@ -20,12 +20,14 @@ pub enum GpuError {
         /// What wgpu said.
         source: wgpu::RequestDeviceError,
     },
-    /// The BVH is deeper than the shader's traversal stack.
-    #[error("the scene's BVH is {depth} levels deep; the GPU traversal stack holds {limit}")]
+    /// The BVH is deeper than the shader's traversal stack can walk.
+    #[error(
+        "the scene's wide BVH is {depth} levels deep; the GPU traversal stack walks at most {limit} (use the CPU backend)"
+    )]
     BvhTooDeep {
-        /// Depth of the scene's BVH.
+        /// Depth of the scene's wide BVH below its root.
         depth: usize,
-        /// Entries of the shader's stack.
+        /// Deepest level the shader's stack walks.
         limit: usize,
     },
     /// A scene buffer exceeds what the adapter binds.

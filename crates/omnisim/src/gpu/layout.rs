@@ -63,16 +63,33 @@ pub(crate) struct MirrorBlock {
     pub(crate) _pad: [u32; 2],
 }
 
-/// WGSL twin: `Triangle`.
+/// WGSL twin: `Triangle`, in the order the wide BVH's leaves reach it (`gpu/wide.rs`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub(crate) struct Triangle {
     pub(crate) v0: [f32; 3],
     pub(crate) face: u32,
     pub(crate) e1: [f32; 3],
-    pub(crate) _pad1: u32,
+    /// Index in BVH leaf order, which breaks ties between triangles of one face.
+    pub(crate) leaf_order: u32,
     pub(crate) e2: [f32; 3],
-    pub(crate) _pad2: u32,
+    pub(crate) _pad: u32,
+}
+
+/// WGSL twin: `WideNode`, a node of the 8-wide BVH (`gpu/wide.rs` converts the CPU's).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub(crate) struct GpuWideNode {
+    /// Children's box corners, lane i = child i: entry 2·axis + half holds children
+    /// 4·half..4·half + 4 on that axis.
+    pub(crate) min: [[f32; 4]; 6],
+    pub(crate) max: [[f32; 4]; 6],
+    /// Inner node index, or `GPU_LEAF` | (triangle count − 1) << 26 | first triangle.
+    pub(crate) child: [u32; 8],
+    /// Bit i set where child i exists.
+    pub(crate) lanes: u32,
+    /// WGSL rounds the struct up to its 16-byte alignment.
+    pub(crate) _pad: [u32; 3],
 }
 
 /// WGSL twin: `PixelHit`, the hit planes of one pixel.
@@ -155,10 +172,6 @@ pub(crate) struct ShadingParams {
     pub(crate) lit: u32,
 }
 
-#[cfg(test)]
-/// WGSL twin: `BvhNode` is obvhs's `Bvh2Node` with the `small_bvh2_node` feature.
-pub(crate) type BvhNode = obvhs::bvh2::node::Bvh2Node;
-
 /// A host struct's name, size and (field, offset) list.
 #[cfg(test)]
 pub(crate) type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
@@ -226,9 +239,8 @@ pub(crate) fn host_layouts() -> Vec<StructLayout> {
                 ("v0", offset_of!(Triangle, v0)),
                 ("face", offset_of!(Triangle, face)),
                 ("e1", offset_of!(Triangle, e1)),
-                ("_pad1", offset_of!(Triangle, _pad1)),
+                ("leaf_order", offset_of!(Triangle, leaf_order)),
                 ("e2", offset_of!(Triangle, e2)),
-                ("_pad2", offset_of!(Triangle, _pad2)),
             ],
         ),
         (
@@ -297,13 +309,13 @@ pub(crate) fn host_layouts() -> Vec<StructLayout> {
             ],
         ),
         (
-            "BvhNode",
-            size_of::<BvhNode>(),
+            "WideNode",
+            size_of::<GpuWideNode>(),
             vec![
-                ("min", offset_of!(BvhNode, min)),
-                ("prim_count", offset_of!(BvhNode, prim_count)),
-                ("max", offset_of!(BvhNode, max)),
-                ("first_index", offset_of!(BvhNode, first_index)),
+                ("min", offset_of!(GpuWideNode, min)),
+                ("max", offset_of!(GpuWideNode, max)),
+                ("child", offset_of!(GpuWideNode, child)),
+                ("lanes", offset_of!(GpuWideNode, lanes)),
             ],
         ),
     ]

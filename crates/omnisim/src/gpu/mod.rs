@@ -9,6 +9,7 @@ mod shader;
 #[cfg(test)]
 mod tests;
 mod tracer;
+mod wide;
 
 pub(crate) use context::GpuContext;
 pub use context::GpuError;

@@ -9,8 +9,10 @@ use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
-use super::layout::{GpuLight, GpuMaterial, GpuSurface, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams, Triangle};
-use super::shader;
+use super::layout::{
+    GpuLight, GpuMaterial, GpuSurface, GpuWideNode, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams, Triangle,
+};
+use super::{shader, wide};
 use crate::accel::SceneBvh;
 use crate::scene::lighting::{LightKind, linear_rgb};
 use crate::scene::surface::{NO_SURFACE, Surfaces};
@@ -45,36 +47,34 @@ pub(crate) struct GpuScene {
 impl GpuScene {
     /// Uploads the geometry and the appearance; refuses what the adapter cannot bind.
     pub(crate) fn new(context: &GpuContext, bvh: &SceneBvh, appearance: &Appearance) -> Result<Self, GpuError> {
-        let depth = bvh.depth();
-        if depth >= shader::STACK_SIZE {
-            return Err(GpuError::BvhTooDeep {
-                depth,
-                limit: shader::STACK_SIZE,
+        // The walk keeps one group (the children not taken yet) per inner node above the one
+        // it visits: one stack entry per level below the root.
+        let (depth, limit) = (bvh.wide.depth, shader::STACK_SIZE);
+        if depth > limit {
+            return Err(GpuError::BvhTooDeep { depth, limit });
+        }
+        let limit = context.storage_limit();
+        // The leaves address at most GPU_MAX_TRIANGLES triangles, whatever the adapter binds.
+        let triangle_bytes = std::mem::size_of::<Triangle>();
+        let triangles_limit = limit.min((wide::GPU_MAX_TRIANGLES * triangle_bytes) as u64);
+        if (bvh.triangles.len() * triangle_bytes) as u64 > triangles_limit {
+            return Err(GpuError::SceneTooLarge {
+                buffer: "triangles",
+                bytes: (bvh.triangles.len() * triangle_bytes) as u64,
+                limit: triangles_limit,
             });
         }
-        let triangles: Vec<Triangle> = bvh
-            .triangles
-            .iter()
-            .zip(&bvh.face)
-            .map(|(t, &face)| Triangle {
-                v0: t[0].as_vec3().to_array(),
-                face,
-                e1: (t[1] - t[0]).as_vec3().to_array(),
-                _pad1: 0,
-                e2: (t[2] - t[0]).as_vec3().to_array(),
-                _pad2: 0,
-            })
-            .collect();
+        let (nodes, triangles) = wide::gpu_bvh(bvh);
         let (surfaces, textures) = surface_data(bvh.offset, &appearance.surfaces);
-        let limit = context.storage_limit();
+        // The stack's group entries address at most GPU_MAX_NODES nodes.
+        let nodes_limit = limit.min((wide::GPU_MAX_NODES * std::mem::size_of::<GpuWideNode>()) as u64);
         let sizes = [
-            ("BVH nodes", std::mem::size_of_val(bvh.bvh.nodes.as_slice())),
-            ("triangles", std::mem::size_of_val(triangles.as_slice())),
-            ("materials", bvh.face_normals.len() * 16),
-            ("surfaces", std::mem::size_of_val(surfaces.as_slice())),
-            ("textures", std::mem::size_of_val(textures.as_slice())),
+            ("BVH nodes", std::mem::size_of_val(nodes.as_slice()), nodes_limit),
+            ("materials", bvh.face_normals.len() * 16, limit),
+            ("surfaces", std::mem::size_of_val(surfaces.as_slice()), limit),
+            ("textures", std::mem::size_of_val(textures.as_slice()), limit),
         ];
-        if let Some(&(buffer, bytes)) = sizes.iter().find(|(_, bytes)| *bytes as u64 > limit) {
+        if let Some(&(buffer, bytes, limit)) = sizes.iter().find(|(_, bytes, limit)| *bytes as u64 > *limit) {
             return Err(GpuError::SceneTooLarge {
                 buffer,
                 bytes: bytes as u64,
@@ -89,12 +89,10 @@ impl GpuScene {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             })
         };
-        // An empty node list still needs a bindable buffer.
-        let nodes: &[u8] = bytemuck::cast_slice(&bvh.bvh.nodes);
         let (materials, lights, shading) = appearance_data(bvh.offset, appearance);
         Ok(Self {
             offset: bvh.offset,
-            nodes: storage("bvh nodes", if nodes.is_empty() { &[0; 32] } else { nodes }),
+            nodes: storage("bvh nodes", bytemuck::cast_slice(&nodes)),
             triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
             materials: storage("materials", bytemuck::cast_slice(&materials)),
             lights: storage("lights", bytemuck::cast_slice(&lights)),

@@ -48,7 +48,8 @@ pub(crate) const REFINE_WORKGROUP_SIZE: u32 = 64;
 /// against the WGSL attribute.
 pub(crate) const WORKGROUP_SIZE: [u32; 2] = [8, 8];
 
-/// Traversal stack depth of `bvh.wgsl`; deeper BVHs are refused before dispatch.
+/// Traversal stack entries of `bvh.wgsl` (one per level of the wide BVH); deeper BVHs are
+/// refused before dispatch.
 pub(crate) const STACK_SIZE: usize = 64;
 
 /// The whole program as one WGSL source.
