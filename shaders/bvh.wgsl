@@ -3,7 +3,7 @@
 // once; the children entered form a group (node << 8 | one bit per child) taken nearest child
 // first, then in lane order; a leaf child is tested where it is taken, an inner one is visited
 // next and the rest of its group waits on the stack, one entry per level. Sorting every child
-// onto the stack by distance, as the CPU walk does, made lavapipe 1.2–1.7× slower than the BVH2
+// onto the stack by distance, as the CPU walk does, made lavapipe 1.1–1.8× slower than the BVH2
 // walk this replaced: a software GPU scatters each per-invocation stack write
 // (docs/benchmarks.md, "GPU walk of the wide BVH").
 // CPU twin: crates/omnisim/src/trace/fast/wide.rs (WideBvh::traverse: the same boxes, slab

@@ -1,7 +1,7 @@
 //! The reference tracer: a stack walk of the BVH2 with the f64 test of every triangle reached,
 //! generic over what it counts.
 //!
-//! The algorithm is obvhs's `Bvh2::ray_traverse_dynamic` (and `shaders/bvh.wgsl`) step by step:
+//! The algorithm is obvhs's `Bvh2::ray_traverse_dynamic` step by step:
 //! test both children of a node, handle hit leaves at once, go on into the nearer hit inner
 //! child and push the farther. It is written here for two reasons obvhs's traversal cannot
 //! serve: `omnisim bench` reports node and primitive tests per ray, counted by the same code
