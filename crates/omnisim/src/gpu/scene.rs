@@ -49,9 +49,12 @@ impl GpuScene {
     pub(crate) fn new(context: &GpuContext, bvh: &SceneBvh, appearance: &Appearance) -> Result<Self, GpuError> {
         // The walk keeps one group (the children not taken yet) per inner node above the one
         // it visits: one stack entry per level below the root.
-        let (depth, limit) = (bvh.wide.depth, shader::STACK_SIZE);
-        if depth > limit {
-            return Err(GpuError::BvhTooDeep { depth, limit });
+        let depth = bvh.wide.depth;
+        if depth > shader::STACK_SIZE {
+            return Err(GpuError::BvhTooDeep {
+                depth,
+                limit: shader::STACK_SIZE,
+            });
         }
         let limit = context.storage_limit();
         // The leaves address at most GPU_MAX_TRIANGLES triangles, whatever the adapter binds.
