@@ -70,7 +70,8 @@ pub struct SceneBvh {
     /// Unit normal of each scene face (f64, orientation as the face's vertex order), so that
     /// shading works with exact normals whatever precision the hit came in.
     pub(crate) face_normals: Vec<DVec3>,
-    /// The fast CPU tracer's 8-wide BVH over the same boxes and triangles.
+    /// The 8-wide BVH over the same boxes and triangles that the fast CPU tracer and the GPU
+    /// walk (`gpu/wide.rs` converts it).
     pub(crate) wide: WideBvh,
     /// Time the whole build took: triangulation, boxes, obvhs's builder, leaf order, the
     /// wide BVH collapsed from it and the face normals.

@@ -30,6 +30,18 @@ pub enum GpuError {
         /// Deepest level the shader's stack walks.
         limit: usize,
     },
+    /// The scene has more nodes or triangles than the GPU's BVH entries can address.
+    #[error(
+        "the scene's wide BVH has {count} {what}; the GPU's BVH entries address at most {limit} (use the CPU backend)"
+    )]
+    BvhFormatLimit {
+        /// What there are too many of (`nodes`, `triangles`).
+        what: &'static str,
+        /// How many the scene has.
+        count: usize,
+        /// How many the format addresses.
+        limit: usize,
+    },
     /// A scene buffer exceeds what the adapter binds.
     #[error(
         "the scene's {buffer} take {bytes} bytes; the adapter binds at most {limit} bytes per buffer (use the CPU backend)"

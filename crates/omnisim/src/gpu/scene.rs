@@ -9,9 +9,7 @@ use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
-use super::layout::{
-    GpuLight, GpuMaterial, GpuSurface, GpuWideNode, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams, Triangle,
-};
+use super::layout::{GpuLight, GpuMaterial, GpuSurface, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams};
 use super::{shader, wide};
 use crate::accel::SceneBvh;
 use crate::scene::lighting::{LightKind, linear_rgb};
@@ -44,35 +42,38 @@ pub(crate) struct GpuScene {
     faces: usize,
 }
 
+/// Refuses, before any conversion, a BVH (of `depth` levels below its root, `nodes` wide nodes
+/// and `triangles` triangles) the shader cannot walk: deeper than its stack, or with
+/// more nodes or triangles than its entries address.
+pub(super) fn check_limits(depth: usize, nodes: usize, triangles: usize) -> Result<(), GpuError> {
+    // The walk keeps one group (the children not taken yet) per inner node above the one it
+    // visits: one stack entry per level below the root.
+    if depth > shader::STACK_SIZE {
+        return Err(GpuError::BvhTooDeep {
+            depth,
+            limit: shader::STACK_SIZE,
+        });
+    }
+    let counts = [
+        ("nodes", nodes, wide::GPU_MAX_NODES),
+        ("triangles", triangles, wide::GPU_MAX_TRIANGLES),
+    ];
+    match counts.into_iter().find(|&(_, count, limit)| count > limit) {
+        Some((what, count, limit)) => Err(GpuError::BvhFormatLimit { what, count, limit }),
+        None => Ok(()),
+    }
+}
+
 impl GpuScene {
     /// Uploads the geometry and the appearance; refuses what the adapter cannot bind.
     pub(crate) fn new(context: &GpuContext, bvh: &SceneBvh, appearance: &Appearance) -> Result<Self, GpuError> {
-        // The walk keeps one group (the children not taken yet) per inner node above the one
-        // it visits: one stack entry per level below the root.
-        let depth = bvh.wide.depth;
-        if depth > shader::STACK_SIZE {
-            return Err(GpuError::BvhTooDeep {
-                depth,
-                limit: shader::STACK_SIZE,
-            });
-        }
+        check_limits(bvh.wide.depth, bvh.wide.nodes.len(), bvh.triangles.len())?;
         let limit = context.storage_limit();
-        // The leaves address at most GPU_MAX_TRIANGLES triangles, whatever the adapter binds.
-        let triangle_bytes = std::mem::size_of::<Triangle>();
-        let triangles_limit = limit.min((wide::GPU_MAX_TRIANGLES * triangle_bytes) as u64);
-        if (bvh.triangles.len() * triangle_bytes) as u64 > triangles_limit {
-            return Err(GpuError::SceneTooLarge {
-                buffer: "triangles",
-                bytes: (bvh.triangles.len() * triangle_bytes) as u64,
-                limit: triangles_limit,
-            });
-        }
         let (nodes, triangles) = wide::gpu_bvh(bvh);
         let (surfaces, textures) = surface_data(bvh.offset, &appearance.surfaces);
-        // The stack's group entries address at most GPU_MAX_NODES nodes.
-        let nodes_limit = limit.min((wide::GPU_MAX_NODES * std::mem::size_of::<GpuWideNode>()) as u64);
         let sizes = [
-            ("BVH nodes", std::mem::size_of_val(nodes.as_slice()), nodes_limit),
+            ("BVH nodes", std::mem::size_of_val(nodes.as_slice()), limit),
+            ("triangles", std::mem::size_of_val(triangles.as_slice()), limit),
             ("materials", bvh.face_normals.len() * 16, limit),
             ("surfaces", std::mem::size_of_val(surfaces.as_slice()), limit),
             ("textures", std::mem::size_of_val(textures.as_slice()), limit),

@@ -3,7 +3,7 @@
 
 use super::bindings::{self, Access};
 use super::layout::host_layouts;
-use super::shader;
+use super::{shader, wide};
 
 fn module() -> naga::Module {
     naga::front::wgsl::parse_str(&shader::source())
@@ -133,4 +133,7 @@ fn bindings_and_camera_kinds_are_the_wgsl_ones() {
         assert_eq!(constant(name), kind, "{name}");
     }
     assert_eq!(constant("STACK_SIZE") as usize, shader::STACK_SIZE);
+    assert_eq!(constant("LEAF"), wide::GPU_LEAF);
+    assert_eq!(constant("LEAF_COUNT_SHIFT"), wide::GPU_LEAF_COUNT_SHIFT);
+    assert_eq!(constant("LEAF_FIRST") as usize, wide::GPU_MAX_TRIANGLES - 1);
 }

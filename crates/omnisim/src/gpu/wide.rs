@@ -21,6 +21,9 @@ pub(crate) const GPU_LEAF_COUNT_SHIFT: u32 = 26;
 /// `LEAF_FIRST`); larger scenes are refused before conversion.
 pub(crate) const GPU_MAX_TRIANGLES: usize = 1 << GPU_LEAF_COUNT_SHIFT;
 
+// A CPU leaf (at most 2^(31 − GROUP_COUNT_SHIFT) groups of four) fits a GPU leaf's count.
+const _: () = assert!(4 << (31 - GROUP_COUNT_SHIFT) <= 1 << (31 - GPU_LEAF_COUNT_SHIFT));
+
 /// Nodes the shader's group entries address (node << 8 | one bit per child).
 pub(crate) const GPU_MAX_NODES: usize = 1 << 24;
 
@@ -139,6 +142,7 @@ mod tests {
                     for t in run {
                         let corners = bvh.triangles[t.leaf_order as usize];
                         assert_eq!(t.v0, corners[0].as_vec3().to_array());
+                        assert_eq!(t.e1, (corners[1] - corners[0]).as_vec3().to_array());
                         assert_eq!(t.e2, (corners[2] - corners[0]).as_vec3().to_array());
                         assert_eq!(t.face, bvh.face[t.leaf_order as usize]);
                         seen[t.leaf_order as usize] += 1;
@@ -146,6 +150,35 @@ mod tests {
                 }
             }
             assert!(seen.iter().all(|&n| n == 1), "{name}: every triangle in one leaf");
+        }
+    }
+
+    /// A BVH as deep as the shader's stack is walked, one level deeper is refused, and so are
+    /// node and triangle counts past what the GPU's entries address.
+    #[test]
+    fn limits_are_checked_before_conversion() {
+        use crate::gpu::context::GpuError;
+        use crate::gpu::scene::check_limits;
+        let stack = crate::gpu::shader::STACK_SIZE;
+        assert!(check_limits(stack, GPU_MAX_NODES, GPU_MAX_TRIANGLES).is_ok());
+        assert!(
+            matches!(check_limits(stack + 1, 1, 1), Err(GpuError::BvhTooDeep { depth, limit }) if depth == stack + 1 && limit == stack)
+        );
+        for (what, nodes, triangles, count, limit) in [
+            ("nodes", GPU_MAX_NODES + 1, 1, GPU_MAX_NODES + 1, GPU_MAX_NODES),
+            (
+                "triangles",
+                1,
+                GPU_MAX_TRIANGLES + 1,
+                GPU_MAX_TRIANGLES + 1,
+                GPU_MAX_TRIANGLES,
+            ),
+        ] {
+            let error = check_limits(1, nodes, triangles).unwrap_err();
+            assert!(
+                matches!(error, GpuError::BvhFormatLimit { what: w, count: c, limit: l } if w == what && c == count && l == limit),
+                "{error}"
+            );
         }
     }
 }
