@@ -7,9 +7,7 @@ use glam::Vec4;
 use super::groups::filter;
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
-use crate::accel::wide::{
-    GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, PackedNode, TriangleGroup, WIDTH, WideBvh, WideNode,
-};
+use crate::accel::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, TriangleGroup, WIDTH, WideBvh, WideNode};
 use crate::trace::counts::Counter;
 use crate::trace::triangle::Visit;
 
@@ -84,7 +82,7 @@ impl WideBvh {
                     let (hits, near) = if AVX {
                         enter_avx(node, ray, t_hi)
                     } else {
-                        enter(&node.decode(), ray, t_hi)
+                        enter(node, ray, t_hi)
                     };
                     if hits != 0 {
                         // The nearest child entered is visited next without a push.
@@ -237,8 +235,7 @@ impl WideBvh {
                 continue;
             }
             if entry & LEAF == 0 {
-                // Decoded once for the packet's many tests of its boxes.
-                let node = &self.nodes[entry as usize].decode();
+                let node = &self.nodes[entry as usize];
                 let (mut hits, near) = enter_interval(node, &rays.bounds, far);
                 // A box small against the packet's footprint where the packet reaches it is
                 // missed by most of its rays: each ray's own slab test then drops them from
@@ -318,12 +315,12 @@ impl WideBvh {
 /// farthest first, by their entry distances `near` (an insertion sort of at most eight), so
 /// the nearest is popped next; returns the new length.
 #[inline(always)]
-fn push_children(stack: &mut [(u32, f32)], len: usize, node: &PackedNode, mut hits: u32, near: &[f32; WIDTH]) -> usize {
+fn push_children(stack: &mut [(u32, f32)], len: usize, node: &WideNode, mut hits: u32, near: &[f32; WIDTH]) -> usize {
     let (base, mut len) = (len, len);
     while hits != 0 {
         let lane = hits.trailing_zeros() as usize;
         hits &= hits - 1;
-        len = insert_by_distance(stack, base, len, (node.child(lane), near[lane]), |e| e.1);
+        len = insert_by_distance(stack, base, len, (node.child[lane], near[lane]), |e| e.1);
     }
     len
 }
@@ -477,49 +474,44 @@ fn slab_planes(node: &WideNode, axis: usize, negative: bool) -> (&[Vec4; HALVES]
     }
 }
 
-/// [`enter`] of a packed node with the eight lanes in one 256-bit AVX vector: its planes
-/// decoded as [`PackedNode::decode`] decodes them (`origin + steps × step`, the product exact),
-/// then the same operations in the same order (IEEE single precision either way), so the same
-/// lanes and distances as `enter(&node.decode(), ..)`. Reached only from code compiled with AVX2
-/// enabled (`fast/mod.rs` checks the CPU first); elsewhere the portable test.
+/// [`enter`] with the eight lanes in one 256-bit AVX vector: the same operations in the same
+/// order (IEEE single precision either way), so the same lanes and distances. Reached only
+/// from code compiled with AVX2 enabled (`fast/mod.rs` checks the CPU first); elsewhere the
+/// portable test.
 #[inline(always)]
-fn enter_avx(node: &PackedNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
+fn enter_avx(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{
-            _CMP_LE_OQ, _mm_loadl_epi64, _mm256_add_ps, _mm256_cmp_ps, _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32,
-            _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps,
-            _mm256_storeu_ps, _mm256_sub_ps,
+            _CMP_LE_OQ, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+            _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps,
         };
         const { assert!(WIDTH == 8) };
         let mut near_lanes = [0.0f32; WIDTH];
         // SAFETY: `AVX` traversals run only inside `#[target_feature(enable = "avx2")]`
         // functions called after `is_x86_feature_detected!("avx2")` (`fast/mod.rs`). Each
-        // 64-bit load reads a coordinate's eight step bytes (`[u8; 8]`, unaligned loads are
-        // allowed), and the store writes the eight f32s of `near_lanes`.
+        // load and the store reads or writes eight f32s: a coordinate's `[Vec4; 2]` (32
+        // contiguous bytes; unaligned loads) and `near_lanes`.
         let mask = unsafe {
             let mut near = _mm256_setzero_ps();
             let mut far = _mm256_set1_ps(t_hi);
             for axis in 0..3 {
-                let (corner, step) = (_mm256_set1_ps(node.origin[axis]), _mm256_set1_ps(node.step(axis)));
-                let plane = |steps: &[u8; WIDTH]| {
-                    let steps = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(steps.as_ptr().cast())));
-                    _mm256_add_ps(corner, _mm256_mul_ps(steps, step))
-                };
                 let origin = _mm256_set1_ps(ray.lanes.origin[axis].x);
                 let inverse = _mm256_set1_ps(ray.inv_direction[axis].x);
-                let t1 = _mm256_mul_ps(_mm256_sub_ps(plane(&node.low[axis]), origin), inverse);
-                let t2 = _mm256_mul_ps(_mm256_sub_ps(plane(&node.high[axis]), origin), inverse);
+                let low = _mm256_loadu_ps(node.min[axis].as_ptr().cast::<f32>());
+                let high = _mm256_loadu_ps(node.max[axis].as_ptr().cast::<f32>());
+                let t1 = _mm256_mul_ps(_mm256_sub_ps(low, origin), inverse);
+                let t2 = _mm256_mul_ps(_mm256_sub_ps(high, origin), inverse);
                 near = _mm256_max_ps(near, _mm256_min_ps(t1, t2));
                 far = _mm256_min_ps(far, _mm256_max_ps(t1, t2));
             }
             _mm256_storeu_ps(near_lanes.as_mut_ptr(), near);
             _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
         };
-        (mask & u32::from(node.lanes), near_lanes)
+        (mask & node.lanes, near_lanes)
     }
     #[cfg(not(target_arch = "x86_64"))]
-    enter(&node.decode(), ray, t_hi)
+    enter(node, ray, t_hi)
 }
 
 #[cfg(test)]
@@ -550,101 +542,6 @@ mod tests {
             node.lanes |= 1 << lane;
         }
         node
-    }
-
-    /// [`enter_avx`] compiled with AVX2, for the tests.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn enter_avx2(node: &PackedNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
-        enter_avx(node, ray, t_hi)
-    }
-
-    /// A packed node keeps what the walks need: each decoded box contains the original one and
-    /// lies within two steps of it (steps of at most 4/255 of the node's extent: the
-    /// power of two at or above 1/255 of it, doubled where outward rounding needed one more), each child
-    /// entry is the original, and the AVX test of the packed node gives the lanes and entry
-    /// distances of the portable test of its decoded form, bit for bit. Nodes near the origin and
-    /// up to 10 km from it, flat and thin boxes among them, with inner and leaf children mixed.
-    #[test]
-    fn packed_nodes_contain_their_boxes_and_test_as_decoded() {
-        let mut rng = StdRng::seed_from_u64(13);
-        let (mut entered, mut compared) = (0, 0);
-        for _ in 0..4_000 {
-            let mut node = random_node(&mut rng);
-            let shift = unit(&mut rng) * [0.0, 1.0, 1e4][rng.random_range(0..3)];
-            let (first_node, first_group) = (rng.random_range(1..1_000_000), rng.random_range(0..1_000_000));
-            let (mut inner, mut offset) = (0, 0);
-            node.lanes = rng.random_range(1..256);
-            for lane in 0..WIDTH {
-                for axis in 0..3 {
-                    node.min[axis][lane / 4][lane % 4] += shift[axis] as f32;
-                    node.max[axis][lane / 4][lane % 4] += shift[axis] as f32;
-                }
-                node.child[lane] = if rng.random_bool(0.5) {
-                    inner += 1;
-                    first_node + inner - 1
-                } else {
-                    let groups = rng.random_range(1..=4);
-                    offset += groups;
-                    LEAF | (groups - 1) << GROUP_COUNT_SHIFT | (first_group + offset - groups)
-                };
-            }
-            let packed = PackedNode::new(&node);
-            let decoded = packed.decode();
-            assert_eq!(decoded.lanes, node.lanes);
-            for lane in (0..WIDTH).filter(|lane| node.lanes & (1 << lane) != 0) {
-                assert_eq!(packed.child(lane), node.child[lane], "child {lane}");
-                for axis in 0..3 {
-                    let (h, k) = (lane / 4, lane % 4);
-                    let (low, high) = (node.min[axis][h][k], node.max[axis][h][k]);
-                    let (low_q, high_q) = (decoded.min[axis][h][k], decoded.max[axis][h][k]);
-                    let step = packed.step(axis);
-                    assert!(
-                        low_q <= low && high_q >= high,
-                        "[{low}, {high}] quantised to [{low_q}, {high_q}]"
-                    );
-                    assert!(low - low_q <= 2.0 * step && high_q - high <= 2.0 * step, "step {step}");
-                }
-            }
-            for axis in 0..3 {
-                let (lo, hi) = (0..WIDTH)
-                    .filter(|lane| node.lanes & (1 << lane) != 0)
-                    .map(|lane| (node.min[axis][lane / 4][lane % 4], node.max[axis][lane / 4][lane % 4]))
-                    .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (a, b)| {
-                        (lo.min(a), hi.max(b))
-                    });
-                let step = packed.step(axis);
-                assert!(
-                    hi == lo || step <= (hi - lo) * 4.0 / 255.0,
-                    "a step of {step} over [{lo}, {hi}]"
-                );
-            }
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                for _ in 0..8 {
-                    let origin = shift + unit(&mut rng) * rng.random_range(0.0..25.0);
-                    // Aimed near one of the boxes, so that most rays enter some.
-                    let lane = rng.random_range(0..WIDTH);
-                    let aim = DVec3::from_array(std::array::from_fn(|axis| {
-                        f64::from(node.min[axis][lane / 4][lane % 4] + node.max[axis][lane / 4][lane % 4]) / 2.0
-                    }));
-                    let ray = LaneRay::new(origin, (aim - origin + unit(&mut rng) * 0.5).normalize(), 1e4);
-                    let t_hi = [f32::INFINITY, rng.random_range(0.0..30.0)][rng.random_range(0..2)];
-                    // SAFETY: the CPU has AVX2 (checked above).
-                    let (lanes, near) = unsafe { enter_avx2(&packed, &ray, t_hi) };
-                    let (want, want_near) = enter(&decoded, &ray, t_hi);
-                    assert_eq!(lanes, want);
-                    assert_eq!(near.map(f32::to_bits), want_near.map(f32::to_bits));
-                    entered += lanes.count_ones();
-                    compared += 1;
-                }
-            }
-        }
-        #[cfg(target_arch = "x86_64")]
-        assert!(
-            !std::arch::is_x86_feature_detected!("avx2") || (compared > 10_000 && entered > 5_000),
-            "{compared} rays, {entered} boxes entered"
-        );
     }
 
     /// The interval test with all four corner products of (plane − origin) × inverse per
