@@ -77,7 +77,7 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
     let mut best = None;
     let t_lo = rays::t_lo(t_min);
     bvh.wide
-        .traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, counter, |triangle| {
+        .traverse::<AVX, C>(&ray, t_lo, f32::INFINITY, &bvh.triangles, counter, |triangle| {
             triangle::nearer(bvh, origin, direction, t_min, &mut best, triangle)
         });
     best
@@ -132,7 +132,7 @@ fn closest_hits_in<W: Wide>(
         let packet = PacketRays::<W>::new(rays, rays_in, bvh.wide.extent);
         debug_assert!(packet.bounds.same_signs());
         bvh.wide
-            .traverse_interval::<W>(&packet, &mut t_hi, rays_in, single, &mut visit);
+            .traverse_interval::<W>(&packet, &mut t_hi, rays_in, single, &bvh.triangles, &mut visit);
     }
     best
 }
@@ -184,9 +184,13 @@ fn occluded_avx2(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, sk
 fn occluded_in<const AVX: bool>(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
     let ray = LaneRay::new(origin, direction, bvh.wide.extent);
     let mut blocked = false;
-    bvh.wide
-        .traverse::<AVX, ()>(&ray, 0.0, triangle::shadow_bound(t_max), &mut (), |triangle| {
-            triangle::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle)
-        });
+    bvh.wide.traverse::<AVX, ()>(
+        &ray,
+        0.0,
+        triangle::shadow_bound(t_max),
+        &bvh.triangles,
+        &mut (),
+        |triangle| triangle::blocks(bvh, origin, direction, t_max, skip_face, &mut blocked, triangle),
+    );
     blocked
 }
