@@ -261,14 +261,15 @@ impl WideBvh {
             }
             // Of those, the rays whose bound still reaches the leaf.
             let entering = W::splat(t_enter);
-            let reaching: [u32; BATCHES] = std::array::from_fn(|b| {
+            // A loop, not `array::from_fn`, whose closure is compiled outside the AVX2 walk
+            // (its lane intrinsics became calls).
+            let mut reaching = [0u32; BATCHES];
+            for (b, reaching) in reaching.iter_mut().enumerate() {
                 let lanes = (mask >> (8 * b)) as u32 & 0xff;
-                if lanes == 0 {
-                    0
-                } else {
-                    lanes & !entering.greater(W::load(&t_hi[8 * b..]))
+                if lanes != 0 {
+                    *reaching = lanes & !entering.greater(W::load(&t_hi[8 * b..]));
                 }
-            });
+            }
             for group in self.leaf_groups(entry) {
                 let mut lanes = group.lanes;
                 while lanes != 0 {
