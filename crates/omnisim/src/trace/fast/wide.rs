@@ -182,13 +182,12 @@ impl WideBvh {
         mut visit: impl FnMut(usize, usize) -> Visit,
     ) {
         // The rays' bounds, −∞ for rays outside the packet (so they count in no maximum).
-        let mut t_hi: [f32; PACKET] = std::array::from_fn(|r| {
+        let mut t_hi = [f32::NEG_INFINITY; PACKET];
+        for (r, t_hi) in t_hi.iter_mut().enumerate() {
             if active & (1 << r) != 0 {
-                bounds[r]
-            } else {
-                f32::NEG_INFINITY
+                *t_hi = bounds[r];
             }
-        });
+        }
         let t_hi = &mut t_hi;
         // The packet's bound: the farthest any of its rays may still find a closer hit.
         let farthest = |t_hi: &[f32; PACKET]| {
