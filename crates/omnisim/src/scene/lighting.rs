@@ -97,7 +97,12 @@ pub fn linear_to_srgb(value: f64) -> u8 {
 /// [`linear_to_srgb`] of each channel of a linear colour (the table found once for the three).
 pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
     let encoding = &*ENCODING;
-    linear.map(|c| encoding.byte(c))
+    // Written out: `array::map` was an out-of-line call per pixel (callgrind, lit images).
+    [
+        encoding.byte(linear[0]),
+        encoding.byte(linear[1]),
+        encoding.byte(linear[2]),
+    ]
 }
 
 /// The steps (then +inf), and the byte at the start of each of 4096 equal buckets of [0, 1]: a
@@ -159,7 +164,12 @@ fn first_value_encoding_to(byte: u8) -> f64 {
 /// Linear RGB of an sRGB colour.
 pub fn linear_rgb(colour: [u8; 3]) -> DVec3 {
     let decoding = &*DECODING;
-    DVec3::from_array(colour.map(|c| decoding[c as usize]))
+    let [r, g, b] = colour;
+    DVec3::new(
+        decoding[usize::from(r)],
+        decoding[usize::from(g)],
+        decoding[usize::from(b)],
+    )
 }
 
 #[cfg(test)]

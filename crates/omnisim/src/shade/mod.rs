@@ -25,10 +25,10 @@ use crate::camera::{Camera, CameraRay, Cone};
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::pose::Pose;
 use crate::scene::Scene;
-use crate::scene::lighting::{LightKind, Lighting, linear_rgb, linear_to_srgb3};
+use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb, linear_to_srgb3};
 use crate::scene::surface::{Surface, Surfaces};
-use crate::trace::CpuTracer;
 use crate::trace::ray_table::{RayCache, RayTable};
+use crate::trace::{CpuTracer, PACKET, ShadowRays};
 pub use footprint::Footprint;
 
 /// Shadow rays start this far (relative to the point's distance from the scene centre, plus
@@ -108,38 +108,57 @@ pub fn shade(
     footprint: &Footprint,
 ) -> DVec3 {
     let surface = appearance.surfaces.of(hit.face);
-    shade_on(tracer, geometry, appearance, hit, surface, || *footprint)
+    shade_on(
+        appearance,
+        hit,
+        surface,
+        || *footprint,
+        |lighting| illuminance(tracer, geometry, lighting, hit),
+    )
 }
 
 /// [`shade`] for a hit whose face's surface is `surface` (looked up once per pixel), with the
-/// footprint computed only where a texture needs it. Kept out of line: inlined into the
-/// per-pixel closure, it cost the flat path of untextured unlit images, which never calls it,
-/// about 16 instructions a pixel in register saves (docs/benchmarks.md, "Ray cones").
+/// footprint computed only where a texture needs it, and the illuminance (lux) from
+/// `illuminance` where the scene is lit. Kept out of line: inlined into the per-pixel
+/// closure, it cost the flat path of untextured unlit images, which never calls it, about 16
+/// instructions a pixel in register saves (docs/benchmarks.md, "Ray cones").
 #[inline(never)]
 fn shade_on(
-    tracer: CpuTracer,
-    geometry: &SceneBvh,
     appearance: &Appearance,
     hit: &Pixel,
     surface: Option<&Surface>,
     footprint: impl FnOnce() -> Footprint,
+    illuminance: impl FnOnce(&Lighting) -> DVec3,
 ) -> DVec3 {
     if !hit.is_hit() {
         return DVec3::ZERO;
     }
     let albedo = albedo(appearance, hit, surface, footprint);
     match &appearance.lighting {
-        Some(lighting) if !surface.is_some_and(|s| s.unlit) => {
-            albedo * illuminance(tracer, geometry, lighting, hit) / lighting.white
-        }
+        Some(lighting) if !surface.is_some_and(|s| s.unlit) => albedo * illuminance(lighting) / lighting.white,
         _ => albedo,
     }
 }
 
 /// Illuminance (lux, per colour channel) reaching a hit from the side its ray came from.
 fn illuminance(tracer: CpuTracer, geometry: &SceneBvh, lighting: &Lighting, hit: &Pixel) -> DVec3 {
+    let (local, normal, origin) = shadow_start(geometry, hit);
+    let mut total = DVec3::splat(lighting.ambient);
+    for light in lighting.lights_on() {
+        let Some((towards, distance, lux)) = towards_light(geometry, light, local, normal) else {
+            continue;
+        };
+        if !tracer.occluded(geometry, origin, towards, distance, hit.face) {
+            total += lux;
+        }
+    }
+    total
+}
+
+/// A hit's scene-local point, its face's exact f64 normal turned to the side the camera sees
+/// (the hit's normal says which), and where its shadow rays start.
+fn shadow_start(geometry: &SceneBvh, hit: &Pixel) -> (DVec3, DVec3, DVec3) {
     let face_normal = geometry.face_normals[hit.face as usize];
-    // The exact f64 normal, turned to the side the camera sees (the hit's normal says which).
     let normal = if face_normal.dot(hit.normal.as_dvec3()) < 0.0 {
         -face_normal
     } else {
@@ -147,24 +166,94 @@ fn illuminance(tracer: CpuTracer, geometry: &SceneBvh, lighting: &Lighting, hit:
     };
     let local = hit.point - geometry.offset;
     let origin = local + normal * (SHADOW_OFFSET * (1.0 + local.abs().max_element()));
-    let mut total = DVec3::splat(lighting.ambient);
-    for light in lighting.lights_on() {
-        let (towards, distance, strength) = match light.kind {
-            LightKind::Point { position, intensity } => {
-                let offset = position - geometry.offset - local;
-                let squared = offset.length_squared();
-                let distance = squared.sqrt();
-                (offset / distance, distance, intensity / squared)
-            }
-            LightKind::Directional { direction, illuminance } => (-direction, f64::INFINITY, illuminance),
-        };
-        let cosine = normal.dot(towards);
-        if cosine.is_nan() || cosine <= 0.0 || tracer.occluded(geometry, origin, towards, distance, hit.face) {
-            continue;
+    (local, normal, origin)
+}
+
+/// The shadow ray towards `light` from scene-local `local` on a face turned to `normal`
+/// (direction and length), and the illuminance the light gives there where nothing blocks
+/// it; `None` where the light lies behind the face (no ray is cast).
+fn towards_light(geometry: &SceneBvh, light: &Light, local: DVec3, normal: DVec3) -> Option<(DVec3, f64, DVec3)> {
+    let (towards, distance, strength) = match light.kind {
+        LightKind::Point { position, intensity } => {
+            let offset = position - geometry.offset - local;
+            let squared = offset.length_squared();
+            let distance = squared.sqrt();
+            (offset / distance, distance, intensity / squared)
         }
-        total += light.colour * (strength * cosine);
+        LightKind::Directional { direction, illuminance } => (-direction, f64::INFINITY, illuminance),
+    };
+    let cosine = normal.dot(towards);
+    if cosine.is_nan() || cosine <= 0.0 {
+        return None;
     }
-    total
+    Some((towards, distance, light.colour * (strength * cosine)))
+}
+
+/// [`illuminance`] of every hit of `frame` that `lit` accepts (zero elsewhere), by index. The
+/// shadow rays of each 8×8 tile towards one light start near one another and end at one
+/// point (or run parallel): they are traced as one packet (`CpuTracer::occluded_rays`),
+/// with the same answers and sums as ray by ray.
+fn frame_illuminance(
+    tracer: CpuTracer,
+    geometry: &SceneBvh,
+    lighting: &Lighting,
+    frame: &Frame,
+    lit: impl Fn(&Pixel) -> bool + Sync,
+) -> Vec<DVec3> {
+    let row_length = frame.width.max(1) as usize;
+    let mut lux = vec![DVec3::ZERO; frame.pixels().len()];
+    lux.par_chunks_mut(row_length * 8)
+        .zip(frame.pixels().par_chunks(row_length * 8))
+        .for_each(|(lux, hits)| {
+            let rows = hits.len() / row_length;
+            let mut shadows = ShadowRays {
+                rays: [(DVec3::ZERO, DVec3::X, 0.0); PACKET],
+                t_max: [0.0; PACKET],
+                skip_face: [0; PACKET],
+            };
+            // Per ray of the tile: scene-local point and turned normal, and its light's lux.
+            let mut starts = [(DVec3::ZERO, DVec3::ZERO); PACKET];
+            let mut light_lux = [DVec3::ZERO; PACKET];
+            for column in (0..row_length).step_by(8) {
+                let tile = crate::trace::tile(row_length, rows, column);
+                let mut active = 0u64;
+                for (r, offset) in tile.clone().enumerate() {
+                    let hit = &hits[offset];
+                    if hit.is_hit() && lit(hit) {
+                        let (local, normal, origin) = shadow_start(geometry, hit);
+                        starts[r] = (local, normal);
+                        shadows.rays[r].0 = origin;
+                        shadows.skip_face[r] = hit.face;
+                        lux[offset] = DVec3::splat(lighting.ambient);
+                        active |= 1 << r;
+                    }
+                }
+                for light in lighting.lights_on() {
+                    let mut cast = 0u64;
+                    for (r, &(local, normal)) in starts.iter().enumerate() {
+                        if active & (1 << r) == 0 {
+                            continue;
+                        }
+                        if let Some((towards, distance, e)) = towards_light(geometry, light, local, normal) {
+                            shadows.rays[r].1 = towards;
+                            shadows.t_max[r] = distance;
+                            light_lux[r] = e;
+                            cast |= 1 << r;
+                        }
+                    }
+                    if cast == 0 {
+                        continue;
+                    }
+                    let reached = cast & !tracer.occluded_rays(geometry, &shadows, cast);
+                    for (r, offset) in tile.clone().enumerate() {
+                        if reached & (1 << r) != 0 {
+                            lux[offset] += light_lux[r];
+                        }
+                    }
+                }
+            }
+        });
+    lux
 }
 
 /// The camera and pose a frame was traced with: where shading finds each pixel's footprint.
@@ -258,31 +347,45 @@ fn shade_planes<const SURFACES: bool>(
         true => appearance.surfaces.of(hit.face),
         false => None,
     };
+    // The illuminance of every lit hit, its shadow rays traced tile by tile.
+    let lux = appearance.lighting.as_ref().map(|lighting| {
+        frame_illuminance(tracer, geometry, lighting, frame, |hit| {
+            !surface_of(hit).is_some_and(|s| s.unlit)
+        })
+    });
     let linear = |index: usize, hit: &Pixel, surface: Option<&Surface>| {
         let footprint = || {
             footprints
                 .as_ref()
                 .map_or(Footprint::POINT, |footprint_of| footprint_of(index))
         };
-        shade_on(tracer, geometry, appearance, hit, surface, footprint)
+        shade_on(appearance, hit, surface, footprint, |lighting| match &lux {
+            Some(lux) => lux[index],
+            None => illuminance(tracer, geometry, lighting, hit),
+        })
     };
     // Unlit faces without a surface take their face's byte directly.
     let flat = |surface: Option<&Surface>| appearance.lighting.is_none() && surface.is_none();
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
-        let colour = frame
-            .pixels()
-            .par_iter()
+        // In chunks whose loop inlines the pixel's work: as a rayon `map` each pixel was a call
+        // (perf, env1 omni colour: 7 % of a frame).
+        const CHUNK: usize = 4096;
+        let mut colour = vec![BACKGROUND; frame.pixels().len()];
+        colour
+            .par_chunks_mut(CHUNK)
+            .zip(frame.pixels().par_chunks(CHUNK))
             .enumerate()
-            .map(|(index, hit)| {
-                if !hit.is_hit() {
-                    return BACKGROUND;
+            .for_each(|(chunk, (colour, hits))| {
+                for (offset, (colour, hit)) in colour.iter_mut().zip(hits).enumerate() {
+                    if hit.is_hit() {
+                        let surface = surface_of(hit);
+                        let index = chunk * CHUNK + offset;
+                        *colour = eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface));
+                    }
                 }
-                let surface = surface_of(hit);
-                eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
-            })
-            .collect();
+            });
         frame.set_shading(planes, Vec::new(), colour);
         return;
     }

@@ -22,6 +22,7 @@ use crate::camera::{Camera, CameraRay};
 use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
 use counts::{Counter, TraversalCounts};
+pub(crate) use fast::{PACKET, ShadowRays};
 pub use reference::{closest_hit, occluded};
 pub use triangle::Hit;
 
@@ -81,6 +82,27 @@ impl CpuTracer {
         }
     }
 
+    /// [`CpuTracer::occluded`] of each ray of `active` in `shadows` (bit r for ray r): the rays
+    /// found blocked. The fast tracers walk them as one packet.
+    pub(crate) fn occluded_rays(self, bvh: &SceneBvh, shadows: &ShadowRays, active: u64) -> u64 {
+        match self {
+            Self::Fast | Self::FastPortable => fast::occluded_rays(bvh, shadows, active, self == Self::FastPortable),
+            Self::Reference => {
+                let mut blocked = 0;
+                let mut rest = active;
+                while rest != 0 {
+                    let r = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    let (origin, direction, _) = shadows.rays[r];
+                    if occluded(bvh, origin, direction, shadows.t_max[r], shadows.skip_face[r]) {
+                        blocked |= 1 << r;
+                    }
+                }
+                blocked
+            }
+        }
+    }
+
     /// Traces one frame's hit planes on all CPU threads.
     pub fn trace(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
         self.trace_rays(bvh, camera.size(), pose, |index| camera.pixel_ray(index))
@@ -96,17 +118,21 @@ impl CpuTracer {
         ray: impl Fn(usize) -> Option<CameraRay> + Sync,
     ) -> Frame {
         let local = LocalPose::new(bvh, pose);
-        // Filled on all threads: the first touch of a large buffer's pages (fresh from the
-        // kernel for every frame, unless the allocator keeps freed memory as the `omnisim`
-        // binary asks glibc to) costs about as much as tracing a simple scene, and the threads
-        // share it (docs/benchmarks.md, "Interval packets and frame buffers").
-        let mut hits = Vec::new();
-        hits.par_extend(rayon::iter::repeat_n(Pixel::MISS, width as usize * height as usize));
+        // Every pixel is written once, by the thread that traces it, with no fill before: the
+        // first touch of a large buffer's pages (fresh from the kernel for every frame, unless
+        // the allocator keeps freed memory as the `omnisim` binary asks glibc to) costs about
+        // as much as tracing a simple scene, and the threads share it (docs/benchmarks.md,
+        // "Interval packets and frame buffers"); a fill of misses first cost env1's omni
+        // image a pass over its 3 MB.
+        let pixels = width as usize * height as usize;
+        let mut hits = Vec::with_capacity(pixels);
+        let frame = &mut hits.spare_capacity_mut()[..pixels];
         let row_length = width.max(1) as usize;
         if let Self::Fast | Self::FastPortable = self {
             // Tiles of 8×8 pixels, each traced as one packet (`fast::closest_hits`), whose
             // rays are tested one by one against boxes small against the packet's footprint.
-            hits.par_chunks_mut(row_length * 8)
+            frame
+                .par_chunks_mut(row_length * 8)
                 .enumerate()
                 .for_each(|(band, pixels)| {
                     let rows = pixels.len() / row_length;
@@ -114,10 +140,8 @@ impl CpuTracer {
                     // never read, so they need no clearing between tiles.
                     let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
                     for column in (0..row_length).step_by(8) {
-                        let columns = (row_length - column).min(8);
                         let mut active = 0u64;
-                        // Ray r of the packet is pixel (column + r % columns, row r / columns).
-                        let tile = (0..rows).flat_map(|row| (0..columns).map(move |c| row * row_length + column + c));
+                        let tile = tile(row_length, rows, column);
                         for (r, offset) in tile.clone().enumerate() {
                             if let Some(ray) = ray(band * 8 * row_length + offset) {
                                 let (origin, direction) = local.ray(&ray);
@@ -125,26 +149,32 @@ impl CpuTracer {
                                 active |= 1 << r;
                             }
                         }
-                        if active == 0 {
-                            // A tile outside the image circle of a mirror or fisheye.
-                            continue;
-                        }
-                        let found = fast::closest_hits(bvh, &rays, active, self == Self::FastPortable);
+                        // A tile outside the image circle of a mirror or fisheye has no rays.
+                        let found = match active {
+                            0 => [None; fast::PACKET],
+                            _ => fast::closest_hits(bvh, &rays, active, self == Self::FastPortable),
+                        };
                         for (r, offset) in tile.enumerate() {
-                            if let Some(hit) = found[r] {
-                                let (origin, direction, _) = rays[r];
-                                pixels[offset] = pixel(bvh, origin, direction, hit);
-                            }
+                            pixels[offset].write(match found[r] {
+                                Some(hit) => {
+                                    let (origin, direction, _) = rays[r];
+                                    pixel(bvh, origin, direction, hit)
+                                }
+                                None => Pixel::MISS,
+                            });
                         }
                     }
                 });
-            return Frame::from_hits(width, height, hits);
+        } else {
+            frame.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
+                for (column, pixel) in pixels.iter_mut().enumerate() {
+                    pixel.write(self.trace_ray(bvh, &local, ray(row * row_length + column), &mut ()));
+                }
+            });
         }
-        hits.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
-            for (column, pixel) in pixels.iter_mut().enumerate() {
-                *pixel = self.trace_ray(bvh, &local, ray(row * row_length + column), &mut ());
-            }
-        });
+        // SAFETY: the loops above wrote each of the first `pixels` entries: the bands (or
+        // rows) cover the frame, and a band's tiles cover every pixel of it.
+        unsafe { hits.set_len(pixels) };
         Frame::from_hits(width, height, hits)
     }
 
@@ -185,6 +215,14 @@ impl CpuTracer {
     }
 }
 
+/// The pixels of the 8×8 tile at `column` of a band of `rows` ≤ 8 rows of `row_length` pixels,
+/// as offsets into the band: ray r of the tile's packet is pixel (column + r % columns, row
+/// r / columns), with min(8, `row_length` − column) columns.
+pub(crate) fn tile(row_length: usize, rows: usize, column: usize) -> impl Iterator<Item = usize> + Clone {
+    let columns = (row_length - column).min(8);
+    (0..rows).flat_map(move |row| (0..columns).map(move |c| row * row_length + column + c))
+}
+
 /// The hit planes of `hit` on the ray from `origin` (scene-local) along `direction`.
 fn pixel(bvh: &SceneBvh, origin: DVec3, direction: DVec3, hit: Hit) -> Pixel {
     let face = bvh.face[hit.triangle];
@@ -223,4 +261,73 @@ impl LocalPose {
 /// Traces one frame's hit planes with the reference tracer, on all CPU threads.
 pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
     CpuTracer::Reference.trace(bvh, camera, pose)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng, rngs::StdRng};
+
+    /// Packets of shadow rays give every ray [`occluded`]'s answer, on each tracer: rays from
+    /// one small patch and from all over the room, towards one lamp or along one sun
+    /// direction, some rays left out, each skipping a face of its own.
+    #[test]
+    fn shadow_packets_give_each_rays_own_answer() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env2.ron"));
+        let scene = crate::scene::Scene::load(path).unwrap();
+        let bvh = SceneBvh::build(&scene);
+        let (lo, hi) = scene.bounds().unwrap();
+        let mut rng = StdRng::seed_from_u64(21);
+        let point = |rng: &mut StdRng| DVec3::from_array(std::array::from_fn(|k| rng.random_range(lo[k]..hi[k])));
+        let (mut blocked_rays, mut rays_cast) = (0, 0);
+        for _ in 0..300 {
+            let patch = rng.random_bool(0.5);
+            let centre = point(&mut rng);
+            let lamp = point(&mut rng);
+            let sun = rng
+                .random_bool(0.2)
+                .then(|| DVec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 1.0).normalize());
+            let mut shadows = ShadowRays {
+                rays: [(DVec3::ZERO, DVec3::X, 0.0); PACKET],
+                t_max: [0.0; PACKET],
+                skip_face: [0; PACKET],
+            };
+            for r in 0..PACKET {
+                let start = match patch {
+                    true => centre + DVec3::from_array(std::array::from_fn(|_| rng.random_range(-0.05..0.05))),
+                    false => point(&mut rng),
+                } - bvh.offset;
+                let (direction, distance) = if let Some(towards) = sun {
+                    (towards, f64::INFINITY)
+                } else {
+                    let offset = lamp - bvh.offset - start;
+                    (offset / offset.length(), offset.length())
+                };
+                shadows.rays[r] = (start, direction, 0.0);
+                shadows.t_max[r] = distance;
+                shadows.skip_face[r] = rng.random_range(0..scene.faces.len() as u32);
+            }
+            let active = if rng.random_bool(0.5) {
+                u64::MAX
+            } else {
+                rng.random::<u64>()
+            };
+            let want = (0..PACKET)
+                .filter(|&r| active & (1 << r) != 0)
+                .filter(|&r| {
+                    let (origin, direction, _) = shadows.rays[r];
+                    occluded(&bvh, origin, direction, shadows.t_max[r], shadows.skip_face[r])
+                })
+                .fold(0u64, |bits, r| bits | 1 << r);
+            for tracer in [CpuTracer::Fast, CpuTracer::FastPortable, CpuTracer::Reference] {
+                assert_eq!(tracer.occluded_rays(&bvh, &shadows, active), want, "{tracer:?}");
+            }
+            blocked_rays += want.count_ones();
+            rays_cast += active.count_ones();
+        }
+        assert!(
+            blocked_rays > rays_cast / 20 && blocked_rays < rays_cast * 19 / 20,
+            "{blocked_rays} of {rays_cast} rays blocked: a poor test"
+        );
+    }
 }

@@ -48,12 +48,16 @@ impl TriangleGroup {
     /// The triangle of `lane` in all eight lanes, to filter eight rays against it.
     #[inline(always)]
     pub(crate) fn broadcast<W: Wide>(&self, lane: usize) -> TriangleLanes<W> {
+        // Written out, not `array::map`: `map` is compiled outside the AVX2 walk that calls
+        // this, so its lane intrinsics became calls through memory (perf: about 4 % of an
+        // env1 omni image).
         let splat = |v: Vec4| W::splat(v[lane]);
+        let splat3 = |v: &[Vec4; 3]| [splat(v[0]), splat(v[1]), splat(v[2])];
         let t = &self.lanes4;
         TriangleLanes {
-            corner: t.corner.map(splat),
-            edge1: t.edge1.map(splat),
-            edge2: t.edge2.map(splat),
+            corner: splat3(&t.corner),
+            edge1: splat3(&t.edge1),
+            edge2: splat3(&t.edge2),
             longest_edge: splat(t.longest_edge),
         }
     }

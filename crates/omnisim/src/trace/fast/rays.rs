@@ -150,15 +150,29 @@ impl<W: Wide> PacketRays<W> {
         } else {
             f32::INFINITY
         };
-        let batch = |values: &[f32; PACKET], b: usize| W::load(&values[8 * b..]);
+        // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
+        // loads became calls, and the arrays were copied: callgrind, env1-lit omni).
+        let zero = W::splat(0.0);
+        let mut batches = [RayLanes {
+            origin: [zero; 3],
+            direction: [zero; 3],
+            position_error: zero,
+        }; BATCHES];
+        let (mut t_lo_lanes, mut inverse) = ([zero; BATCHES], [[zero; 3]; BATCHES]);
+        for b in 0..BATCHES {
+            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
+            for axis in 0..3 {
+                batches[b].origin[axis] = batch(&origin[axis]);
+                batches[b].direction[axis] = batch(&direction[axis]);
+                inverse[b][axis] = batch(&inverse_lanes[axis]);
+            }
+            batches[b].position_error = batch(&error);
+            t_lo_lanes[b] = batch(&t_lo);
+        }
         Self {
-            batches: std::array::from_fn(|b| RayLanes {
-                origin: std::array::from_fn(|axis| batch(&origin[axis], b)),
-                direction: std::array::from_fn(|axis| batch(&direction[axis], b)),
-                position_error: batch(&error, b),
-            }),
-            t_lo: std::array::from_fn(|b| batch(&t_lo, b)),
-            inverse: std::array::from_fn(|b| std::array::from_fn(|axis| batch(&inverse_lanes[axis], b))),
+            batches,
+            t_lo: t_lo_lanes,
+            inverse,
             origin_radius: (origin_max - origin_min).length() / 2.0,
             spread,
             negative,

@@ -190,13 +190,12 @@ impl WideBvh {
         mut visit: impl FnMut(usize, usize) -> Visit,
     ) {
         // The rays' bounds, −∞ for rays outside the packet (so they count in no maximum).
-        let mut t_hi: [f32; PACKET] = std::array::from_fn(|r| {
+        let mut t_hi = [f32::NEG_INFINITY; PACKET];
+        for (r, t_hi) in t_hi.iter_mut().enumerate() {
             if active & (1 << r) != 0 {
-                bounds[r]
-            } else {
-                f32::NEG_INFINITY
+                *t_hi = bounds[r];
             }
-        });
+        }
         let t_hi = &mut t_hi;
         // The packet's bound: the farthest any of its rays may still find a closer hit.
         let farthest = |t_hi: &[f32; PACKET]| {
@@ -269,14 +268,15 @@ impl WideBvh {
             }
             // Of those, the rays whose bound still reaches the leaf.
             let entering = W::splat(t_enter);
-            let reaching: [u32; BATCHES] = std::array::from_fn(|b| {
+            // A loop, not `array::from_fn`, whose closure is compiled outside the AVX2 walk
+            // (its lane intrinsics became calls).
+            let mut reaching = [0u32; BATCHES];
+            for (b, reaching) in reaching.iter_mut().enumerate() {
                 let lanes = (mask >> (8 * b)) as u32 & 0xff;
-                if lanes == 0 {
-                    0
-                } else {
-                    lanes & !entering.greater(W::load(&t_hi[8 * b..]))
+                if lanes != 0 {
+                    *reaching = lanes & !entering.greater(W::load(&t_hi[8 * b..]));
                 }
-            });
+            }
             for group in self.leaf_groups(entry) {
                 let mut lanes = group.lanes;
                 while lanes != 0 {
