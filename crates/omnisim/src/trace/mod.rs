@@ -173,7 +173,8 @@ impl CpuTracer {
             });
         }
         // SAFETY: the loops above wrote each of the first `pixels` entries: the bands (or
-        // rows) cover the frame, and a band's tiles cover every pixel of it.
+        // rows) cover the frame, and a band's tiles cover every pixel of it. A panic in them
+        // unwinds past this line, leaving the length 0 (and `Pixel` is `Copy`: nothing to drop).
         unsafe { hits.set_len(pixels) };
         Frame::from_hits(width, height, hits)
     }

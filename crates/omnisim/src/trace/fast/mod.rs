@@ -24,15 +24,25 @@ use lanes::{Lanes8, Wide};
 use rays::{LaneRay, PacketRays};
 
 /// `avx` (a call of a build compiled with AVX2) where [`use_avx2`], else `plain`: the
-/// dispatch of every walk here.
+/// dispatch of every walk here, an expression (`portable` read once). Its calls take plain
+/// variables, so the `unsafe` covers the AVX2 call alone.
+#[cfg(target_arch = "x86_64")]
 macro_rules! by_cpu {
-    ($portable:expr, $avx:expr, $plain:expr) => {{
-        #[cfg(target_arch = "x86_64")]
+    ($portable:expr, $avx:expr, $plain:expr) => {
         if use_avx2($portable) {
             // SAFETY: `use_avx2` is true only where the CPU has AVX2.
-            return unsafe { $avx };
+            unsafe { $avx }
+        } else {
+            $plain
         }
-        let _ = $portable; // read only where an AVX2 build exists (x86_64)
+    };
+}
+
+/// [`by_cpu`] where no AVX2 build exists: always `plain`.
+#[cfg(not(target_arch = "x86_64"))]
+macro_rules! by_cpu {
+    ($portable:expr, $avx:expr, $plain:expr) => {{
+        let _: bool = $portable;
         $plain
     }};
 }
@@ -212,6 +222,10 @@ fn occluded_rays_in<W: Wide>(bvh: &SceneBvh, shadows: &ShadowRays, active: u64) 
     for (t_hi, &t_max) in t_hi.iter_mut().zip(&shadows.t_max) {
         *t_hi = triangle::shadow_bound(t_max);
     }
+    debug_assert!(
+        (0..PACKET).all(|r| active >> r & 1 == 0 || shadows.rays[r].2 == 0.0),
+        "shadow rays start at t = 0"
+    );
     let mut blocked = 0u64;
     walk_packet::<W>(bvh, &shadows.rays, active, &mut t_hi, |r, triangle| {
         let (origin, direction, _) = shadows.rays[r];

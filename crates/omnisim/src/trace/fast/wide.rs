@@ -312,7 +312,7 @@ impl WideBvh {
 /// Asks the CPU to fetch the f64 corners of `groups`' triangles (the reference test's input,
 /// 72 bytes a triangle, two cache lines) while the f32 filter runs on the groups: in a dense
 /// scene the first load of a triangle's corners was the f64 test's costliest instruction
-/// (`perf`, scan100000 omni 250²: 60 % of its samples). A hint only: nothing is read; x86_64
+/// (`perf`, scan100000 omni 250²: 60 % of its samples). A hint only: nothing is read; `x86_64`
 /// only, a no-op elsewhere.
 #[inline(always)]
 fn prefetch_corners(groups: &[TriangleGroup], corners: &[[DVec3; 3]]) {
