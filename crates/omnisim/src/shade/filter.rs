@@ -85,8 +85,8 @@ impl<'a, const L: usize> Lookups<'a, L> {
         let coarse = if fraction > 0.0 { fine + 1 } else { fine };
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
-        for axis in 0..2 {
-            self.clamp[axis][lane] = wrap[axis] == Wrap::Clamp;
+        for (clamp, wrap) in self.clamp.iter_mut().zip(wrap) {
+            clamp[lane] = wrap == Wrap::Clamp;
         }
         for (level, (index, share)) in [(fine, 1.0 - fraction), (coarse, fraction)].into_iter().enumerate() {
             let mip: &'a MipLevel = &texture.levels[index];
@@ -157,14 +157,12 @@ fn neighbours<const L: usize>(
 #[inline(always)]
 fn decoded<const L: usize, const AVX2: bool>(texels: &[u32; L], shift: u32, decoding: &[f32; 256]) -> [f32; L] {
     #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        if let Ok(eight) = <&[u32; 8]>::try_from(&texels[..]) {
-            let mut out = [0.0; L];
-            // SAFETY: callers pass AVX2 = true only where the CPU has AVX2 (`trilinear_lanes`);
-            // `out` holds eight f32 (L = 8, as `eight` shows).
-            unsafe { decode_avx2(eight, shift, decoding, out.as_mut_ptr()) };
-            return out;
-        }
+    if AVX2 && let Ok(eight) = <&[u32; 8]>::try_from(&texels[..]) {
+        let mut out = [0.0; L];
+        // SAFETY: callers pass AVX2 = true only where the CPU has AVX2 (`trilinear_lanes`);
+        // `out` holds eight f32 (L = 8, as `eight` shows).
+        unsafe { decode_avx2(eight, shift, decoding, out.as_mut_ptr()) };
+        return out;
     }
     std::array::from_fn(|k| decoding[((texels[k] >> shift) & 0xff) as usize])
 }

@@ -182,23 +182,18 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     /// Filters a batch's textures and writes its pixels' colours.
     fn finish(&self, batch: &Batch<'_>, colour: &mut [[u8; 3]], mut linear: Option<&mut [[f32; 3]]>) {
         let samples = trilinear_lanes(&batch.lookups);
-        for lane in 0..batch.len {
-            let sample = DVec3::new(
-                f64::from(samples[0][lane]),
-                f64::from(samples[1][lane]),
-                f64::from(samples[2][lane]),
-            );
+        for (lane, &slot) in batch.slot.iter().enumerate().take(batch.len) {
+            let sample = DVec3::from_array([0, 1, 2].map(|channel| f64::from(samples[channel][lane])));
             let albedo = batch.base[lane] * sample;
-            let hit = batch.hit[lane];
+            let surface = Some(batch.surface[lane]);
             let shaded = lit(
                 self.tracer,
                 self.geometry,
                 self.appearance,
-                hit,
-                Some(batch.surface[lane]),
+                batch.hit[lane],
+                surface,
                 albedo,
             );
-            let slot = batch.slot[lane];
             if let Some(linear) = linear.as_deref_mut() {
                 linear[slot] = shaded.as_vec3().to_array();
             }
