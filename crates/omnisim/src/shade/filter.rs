@@ -36,9 +36,9 @@ pub(crate) struct Lookups<'a, const L: usize> {
 }
 
 impl<'a, const L: usize> Lookups<'a, L> {
-    /// Look-ups whose every lane samples `texture`, wrapped by `wrap`, at `uv` and level of
+    /// Look-ups whose every lane samples `texture`, wrapped by `wraps`, at `uv` and level of
     /// detail `lod` (0 = finest; clamped to the pyramid, NaN the coarsest).
-    pub(crate) fn filled(texture: &'a Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32) -> Self {
+    pub(crate) fn filled(texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) -> Self {
         let mut lookups = Lookups {
             u: [0.0; L],
             v: [0.0; L],
@@ -49,7 +49,7 @@ impl<'a, const L: usize> Lookups<'a, L> {
             share: [[0.0; L]; 2],
         };
         if L > 0 {
-            lookups.set(0, texture, wrap, uv, lod);
+            lookups.set(0, texture, wraps, uv, lod);
             lookups.copy_lane(0, 1..L);
         }
         lookups
@@ -77,16 +77,17 @@ impl<'a, const L: usize> Lookups<'a, L> {
     /// Sets lane `lane` to sample `texture` as [`Lookups::filled`] says: the two levels around
     /// `lod`, weighted by its fraction (a whole level repeats with weight zero).
     #[inline(always)]
-    pub(crate) fn set(&mut self, lane: usize, texture: &'a Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32) {
+    pub(crate) fn set(&mut self, lane: usize, texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) {
         let last = (texture.levels.len() - 1) as f32;
         let lod = if lod.is_nan() { last } else { lod.clamp(0.0, last) };
-        let fine = lod as usize;
+        // Through i32: `lod` lies in 0..=last, and `as usize` costs a saturating conversion.
+        let fine = lod as i32 as usize;
         let fraction = lod - fine as f32;
         let coarse = if fraction > 0.0 { fine + 1 } else { fine };
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
-        for (clamp, wrap) in self.clamp.iter_mut().zip(wrap) {
-            clamp[lane] = wrap == Wrap::Clamp;
+        for (clamp, wrap_clamps) in self.clamp.iter_mut().zip(wraps.clamp) {
+            clamp[lane] = wrap_clamps;
         }
         for (level, (index, share)) in [(fine, 1.0 - fraction), (coarse, fraction)].into_iter().enumerate() {
             let mip: &'a MipLevel = &texture.levels[index];
@@ -94,8 +95,27 @@ impl<'a, const L: usize> Lookups<'a, L> {
             self.share[level][lane] = share;
             for (axis, size) in [mip.width, mip.height].map(f64::from).into_iter().enumerate() {
                 self.size[level][axis][lane] = size;
-                self.period[level][axis][lane] = if wrap[axis] == Wrap::Mirror { 2.0 * size } else { size };
+                // Exact: the factor is 1 or 2.
+                self.period[level][axis][lane] = wraps.periods[axis] * size;
             }
+        }
+    }
+}
+
+/// A texture's wrap of u and v as the lanes read it, worked out once per face: whether each
+/// axis clamps, and its period in texture sizes (2 for mirror, else 1).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Wraps {
+    clamp: [bool; 2],
+    periods: [f64; 2],
+}
+
+impl Wraps {
+    /// The lanes' form of `wrap`.
+    pub(crate) fn of(wrap: [Wrap; 2]) -> Self {
+        Wraps {
+            clamp: wrap.map(|wrap| wrap == Wrap::Clamp),
+            periods: wrap.map(|wrap| if wrap == Wrap::Mirror { 2.0 } else { 1.0 }),
         }
     }
 }
@@ -270,7 +290,7 @@ pub(crate) fn trilinear_lanes(lookups: &Lookups<'_, LANES>) -> [[f32; LANES]; 3]
 /// levels around it, bilinear each, mixed by its fraction, in linear light. One lane of
 /// [`trilinear_lanes`], for pixels shaded one at a time.
 pub(crate) fn trilinear(texture: &Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32) -> Vec3A {
-    let [[red], [green], [blue]] = lanes::<1, false>(&Lookups::filled(texture, wrap, uv, lod));
+    let [[red], [green], [blue]] = lanes::<1, false>(&Lookups::filled(texture, Wraps::of(wrap), uv, lod));
     Vec3A::new(red, green, blue)
 }
 
@@ -283,8 +303,11 @@ pub(crate) fn level_of_detail(texels_per_metre_squared: f32, length: f32) -> f32
     // As the GPU's `squared < FAR`.
     if squared.is_nan() {
         f32::INFINITY
+    } else if squared <= 1.0 {
+        // log2 of 1, without the call: magnified textures (most of a room's pixels) skip it.
+        0.0
     } else {
-        0.5 * squared.max(1.0).log2()
+        0.5 * squared.log2()
     }
 }
 
@@ -364,9 +387,9 @@ mod tests {
                 (texture, wrap, uv, lod)
             });
             let (texture, wrap, uv, lod) = lanes_in[0];
-            let mut lookups = Lookups::<LANES>::filled(texture, wrap, uv, lod);
+            let mut lookups = Lookups::<LANES>::filled(texture, Wraps::of(wrap), uv, lod);
             for (lane, &(texture, wrap, uv, lod)) in lanes_in.iter().enumerate() {
-                lookups.set(lane, texture, wrap, uv, lod);
+                lookups.set(lane, texture, Wraps::of(wrap), uv, lod);
             }
             let bits = |samples: [[f32; LANES]; 3]| samples.map(|channel| channel.map(f32::to_bits));
             let portable = bits(lanes::<LANES, false>(&lookups));

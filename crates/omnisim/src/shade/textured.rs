@@ -7,7 +7,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::filter::{LANES, Lookups, trilinear_lanes};
+use super::filter::{LANES, Lookups, Wraps, trilinear_lanes};
 use super::{
     Appearance, Footprint, View, eight_bit, encode, lit, shade_on, texture_coordinates, texture_of, untextured_albedo,
 };
@@ -69,6 +69,8 @@ struct Face<'a> {
     surface: &'a Surface,
     map: &'a UvMap,
     texture: &'a Texture,
+    /// Its map's wrap, as the lanes read it.
+    wraps: Wraps,
     /// Its texture's squared texels per metre (`texture_of`).
     texels_per_metre_squared: f32,
     /// Its albedo before the texture where that is the same all over (no vertex colours).
@@ -85,6 +87,7 @@ impl<'a> Face<'a> {
             surface,
             map,
             texture,
+            wraps: Wraps::of(map.wrap),
             texels_per_metre_squared,
             base: surface
                 .colours
@@ -157,7 +160,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                     hit: [hit; LANES],
                     surface: [surface; LANES],
                     base: [base; LANES],
-                    lookups: Lookups::filled(texture, map.wrap, uv, lod),
+                    lookups: Lookups::filled(texture, face.wraps, uv, lod),
                 }),
             };
             if batch.len == LANES {
@@ -169,7 +172,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             batch.hit[lane] = hit;
             batch.surface[lane] = surface;
             batch.base[lane] = base;
-            batch.lookups.set(lane, texture, map.wrap, uv, lod);
+            batch.lookups.set(lane, texture, face.wraps, uv, lod);
             batch.len += 1;
         }
         // Lanes past the last batch's length hold earlier pixels' look-ups (or copies of its
