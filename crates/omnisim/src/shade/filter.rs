@@ -137,6 +137,17 @@ fn floor(x: f64) -> f64 {
     if nearest > x { nearest - 1.0 } else { nearest }
 }
 
+/// 2^52: added to an integer n in 0..2^52 held in f64, it leaves n as the low mantissa bits.
+const INDEX_BIAS: f64 = 4_503_599_627_370_496.0;
+
+/// The texel index `n` (an integer in 0..2^28, the texel limit), as `n as i32` gives it: read
+/// off the bits of n + 2^52, one add and a shuffle in lanes where `as i32`'s saturating checks
+/// cost about 70 instructions a pixel (docs/benchmarks.md).
+#[inline(always)]
+fn texel_index(n: f64) -> i32 {
+    (n + INDEX_BIAS).to_bits() as u32 as i32
+}
+
 /// Each lane's texel coordinate `t` (texel centres at integer + 0.5) on an axis of `size`
 /// texels, wrapped with period `period` or clamped (`clamp`), as the two neighbouring texel
 /// indices (integers in f64) and the weight of the second; NaN or infinite reads texel 0.
@@ -227,10 +238,10 @@ fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L
         let tap = 4 * level;
         for k in 0..L {
             let (row0, row1) = (y0[k] * width[k], y1[k] * width[k]);
-            indices[tap][k] = (row0 + x0[k]) as i32;
-            indices[tap + 1][k] = (row0 + x1[k]) as i32;
-            indices[tap + 2][k] = (row1 + x0[k]) as i32;
-            indices[tap + 3][k] = (row1 + x1[k]) as i32;
+            indices[tap][k] = texel_index(row0 + x0[k]);
+            indices[tap + 1][k] = texel_index(row0 + x1[k]);
+            indices[tap + 2][k] = texel_index(row1 + x0[k]);
+            indices[tap + 3][k] = texel_index(row1 + x1[k]);
             let share = lookups.share[level][k];
             let (top, bottom) = (share * (1.0 - fy[k]), share * fy[k]);
             weights[tap][k] = top * (1.0 - fx[k]);
