@@ -86,18 +86,18 @@ fn bilinear(levels_at: u32, level: u32, uv: vec2<f32>, wrap_u: u32, wrap_v: u32)
 // where it is derived).
 fn cone_axis(pixel: vec2<f32>, step: vec2<f32>, ray: CameraRay) -> vec2<f32> {
     // The neighbour ahead where it lies inside the image and has a ray, else the one behind
-    // (cone.rs: ahead_is_inside).
+    // where that does; neither: a zero axis (cone.rs: neighbours).
     let ahead = pixel + step;
-    let inside = ahead.x <= f32(camera.frame.width) - 1.0 && ahead.y <= f32(camera.frame.height) - 1.0;
+    let behind = pixel - step;
     var neighbour = miss_ray();
-    if inside {
+    if ahead.x <= f32(camera.frame.width) - 1.0 && ahead.y <= f32(camera.frame.height) - 1.0 {
         neighbour = camera_ray(ahead);
     }
+    if !neighbour.valid && behind.x >= 0.0 && behind.y >= 0.0 {
+        neighbour = camera_ray(behind);
+    }
     if !neighbour.valid {
-        neighbour = camera_ray(pixel - step);
-        if !neighbour.valid {
-            return vec2<f32>(0.0);
-        }
+        return vec2<f32>(0.0);
     }
     let d = ray.direction;
     let origins = neighbour.origin - ray.origin;

@@ -540,6 +540,17 @@ fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
         })))),
     ]
     .into_iter()
+    // Lens cameras one pixel wide and one high: no neighbour inside the image across, on
+    // either backend (the GPU reads only its ray table).
+    .chain([(1, 96), (96, 1)].map(|size| {
+        Camera::Lens(Box::new(common::lens_camera(&RigSpec::Fisheye(FisheyeSpec {
+            size,
+            lens: LensSpec::Equidistant,
+            fov: None,
+            // Every pixel of the line inside the lens's field (48 px off centre: 69°).
+            focal: Some(40.0),
+        }))))
+    }))
     // Every mirror of the shared list: non-central ones (misaligned, spherical, parabolic),
     // whose cones have a width at the origin, and one seen through an inner lens, whose rays
     // the GPU reads from the ray table.

@@ -5,7 +5,7 @@
 //!
 //! Every camera model (pinhole, panoramas, mirrors, central or not) is a function from pixel
 //! coordinates to a ray o + t·d. Let a neighbour's ray (x + 1, else x − 1 where the image or
-//! the mirror ends; the same for y: [`ahead_is_inside`]) differ by Δo and Δd, and write
+//! the mirror ends; the same for y: [`neighbours`]) differ by Δo and Δd, and write
 //! v⊥ = v − (v·d)d for the part of a vector across the ray. On the plane across the ray at
 //! distance t the neighbour passes Δo⊥ + t·Δd⊥ from the pixel's point (to first order in Δ).
 //! With s = |Δd⊥| (the spread) and a = Δo⊥·Δd⊥ / s (the width at the origin), that offset's
@@ -24,12 +24,16 @@ use glam::{DVec2, DVec3};
 
 use super::{Camera, CameraRay};
 
-/// Whether the neighbour `step` ahead of `pixel` lies inside an image of `size` pixels; if it
-/// does not (or the camera has no ray there), the one `step` behind stands in. The GPU's
-/// `cone_axis` follows the same rule.
-fn ahead_is_inside(pixel: DVec2, step: DVec2, size: (u32, u32)) -> bool {
-    let ahead = pixel + step;
-    ahead.x <= f64::from(size.0) - 1.0 && ahead.y <= f64::from(size.1) - 1.0
+/// The neighbour `step` ahead of `pixel` if it lies inside an image of `size` pixels, else the
+/// one `step` behind if that does (a width-1 image has neither along x: that axis is zero). The
+/// GPU's `cone_axis` follows the same rule, so both read only rays inside the image (the GPU's
+/// ray table holds no others).
+fn neighbours(pixel: DVec2, step: DVec2, size: (u32, u32)) -> [Option<DVec2>; 2] {
+    let (ahead, behind) = (pixel + step, pixel - step);
+    [
+        (ahead.x <= f64::from(size.0) - 1.0 && ahead.y <= f64::from(size.1) - 1.0).then_some(ahead),
+        (behind.x >= 0.0 && behind.y >= 0.0).then_some(behind),
+    ]
 }
 
 /// One image axis of a ray cone: the footprint's width along it at distance t along the ray
@@ -75,9 +79,10 @@ impl Cone {
     );
 
     /// The cone of the pixel at `pixel` (sub-pixel positions allowed) of an image of `size`
-    /// pixels whose ray is `ray`, with `ray_at` giving the ray at any pixel position (`None`
-    /// where there is none): the neighbour one pixel ahead along each axis, or the one behind
-    /// where that one is outside the image or has no ray; an axis without either is zero.
+    /// pixels whose ray is `ray`, with `ray_at` giving the ray at any pixel position inside the
+    /// image (`None` where there is none): the neighbour one pixel ahead along each axis, or the
+    /// one behind where that one is outside the image or has no ray; an axis without either
+    /// inside the image is zero.
     pub(crate) fn around(
         pixel: DVec2,
         size: (u32, u32),
@@ -85,11 +90,10 @@ impl Cone {
         ray_at: impl Fn(DVec2) -> Option<CameraRay>,
     ) -> Cone {
         let axis = |step: DVec2| {
-            (ahead_is_inside(pixel, step, size)
-                .then(|| ray_at(pixel + step))
-                .flatten())
-            .or_else(|| ray_at(pixel - step))
-            .map_or(ConeAxis::default(), |neighbour| ConeAxis::between(ray, &neighbour))
+            let [ahead, behind] = neighbours(pixel, step, size);
+            (ahead.and_then(&ray_at))
+                .or_else(|| behind.and_then(&ray_at))
+                .map_or(ConeAxis::default(), |neighbour| ConeAxis::between(ray, &neighbour))
         };
         Cone([axis(DVec2::X), axis(DVec2::Y)])
     }
@@ -101,11 +105,8 @@ impl Cone {
         use rayon::prelude::*;
         let size = camera.size();
         let width = size.0.max(1) as usize;
-        // Inside the image `ray_of`, beyond it the camera's own rays.
-        let ray_at = |p: DVec2| match p.x >= 0.0 && p.y >= 0.0 {
-            true => ray_of(p.y as usize * width + p.x as usize),
-            false => camera.ray(p),
-        };
+        // Neighbours lie inside the image.
+        let ray_at = |p: DVec2| ray_of(p.y as usize * width + p.x as usize);
         (0..width * size.1 as usize)
             .into_par_iter()
             .map(|index| match ray_of(index) {
@@ -125,5 +126,27 @@ impl Cone {
         (x.at_origin + range * x.spread)
             .abs()
             .max((y.at_origin + range * y.spread).abs())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Pinhole;
+
+    /// An image one pixel wide (or high) has no neighbour inside it along that axis: that axis
+    /// of every cone is zero, as the GPU's `cone_axis` finds it (it reads only rays inside the
+    /// image), and the other axis comes from the neighbouring pixel's ray.
+    #[test]
+    fn an_image_one_pixel_wide_or_high_has_no_cone_axis_across() {
+        for (size, across) in [((1, 4), 0), ((4, 1), 1)] {
+            let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(size.0, size.1, 1.0));
+            let cones = Cone::of_image(&camera, |index| camera.pixel_ray(index));
+            assert_eq!(cones.len(), 4);
+            for cone in cones {
+                assert_eq!(cone.0[across], ConeAxis::default(), "{size:?}");
+                assert!(cone.0[1 - across].spread > 0.0, "{size:?}");
+            }
+        }
     }
 }

@@ -43,31 +43,6 @@ impl Wrap {
             Wrap::Mirror => 2,
         }
     }
-
-    /// Texel indices of `i` and of `i + 1` in a row or column of `size` texels, wrapped into
-    /// `0..size`: one integer remainder for both (a mask where `size` is a power of two),
-    /// as bilinear filtering reads them.
-    #[inline]
-    pub(crate) fn pair(self, i: i64, size: u32) -> (u32, u32) {
-        let size = i64::from(size);
-        // i mod m for m > 0 a row's length or twice it.
-        let modulo = |m: i64| if m & (m - 1) == 0 { i & (m - 1) } else { i.rem_euclid(m) };
-        // k + 1 mod m for k in 0..m.
-        let next = |k: i64, m: i64| if k + 1 == m { 0 } else { k + 1 };
-        let (a, b) = match self {
-            Wrap::Repeat => {
-                let a = modulo(size);
-                (a, next(a, size))
-            }
-            Wrap::Clamp => (i.clamp(0, size - 1), i.saturating_add(1).clamp(0, size - 1)),
-            Wrap::Mirror => {
-                let fold = |k: i64| if k < size { k } else { 2 * size - 1 - k };
-                let k = modulo(2 * size);
-                (fold(k), fold(next(k, 2 * size)))
-            }
-        };
-        (a as u32, b as u32)
-    }
 }
 
 /// One level of a mip pyramid.
@@ -261,43 +236,6 @@ mod tests {
         let texture = Texture::from_rgb(3, 1, &[[0; 3], [0; 3], [255; 3]]);
         assert_eq!(texture.levels.len(), 2);
         assert_eq!(texture.levels[1].texel(0, 0), [linear_to_srgb(1.0 / 3.0); 3]);
-    }
-
-    #[test]
-    fn wrap_modes_fold_indices() {
-        // The first index of each pair, and the second is the first of the next pair; sizes 3
-        // (remainders) and 4 (masks).
-        let expected = |wrap: Wrap, size: u32| -> Vec<u32> {
-            let folded: Vec<u32> = (-9..12)
-                .map(|i: i64| {
-                    let n = i64::from(size);
-                    (match wrap {
-                        Wrap::Repeat => i.rem_euclid(n),
-                        Wrap::Clamp => i.clamp(0, n - 1),
-                        Wrap::Mirror => {
-                            let k = i.rem_euclid(2 * n);
-                            if k < n { k } else { 2 * n - 1 - k }
-                        }
-                    }) as u32
-                })
-                .collect();
-            folded
-        };
-        for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
-            for size in [1, 3, 4] {
-                let want = expected(wrap, size);
-                for (k, i) in (-9..11).enumerate() {
-                    assert_eq!(wrap.pair(i, size), (want[k], want[k + 1]), "{wrap:?} {size} {i}");
-                }
-            }
-        }
-        let first = |wrap: Wrap| (-3..7).map(|i| wrap.pair(i, 3).0).collect::<Vec<_>>();
-        assert_eq!(first(Wrap::Repeat), [0, 1, 2, 0, 1, 2, 0, 1, 2, 0]);
-        assert_eq!(first(Wrap::Clamp), [0, 0, 0, 0, 1, 2, 2, 2, 2, 2]);
-        assert_eq!(first(Wrap::Mirror), [2, 1, 0, 0, 1, 2, 2, 1, 0, 0]);
-        // Saturated indices (coordinates beyond i64) stay in range.
-        assert_eq!(Wrap::Clamp.pair(i64::MAX, 3), (2, 2));
-        assert!(Wrap::Repeat.pair(i64::MIN, 3).0 < 3);
     }
 
     #[test]

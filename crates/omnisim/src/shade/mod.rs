@@ -11,6 +11,7 @@ pub(crate) mod antialias;
 pub(crate) mod coverage;
 pub(crate) mod filter;
 pub(crate) mod footprint;
+mod textured;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -26,7 +27,8 @@ use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb, linear_to_srgb3};
-use crate::scene::surface::{Surface, Surfaces};
+use crate::scene::surface::{Surface, Surfaces, UvMap};
+use crate::scene::texture::Texture;
 use crate::trace::ray_table::{RayCache, RayTable};
 use crate::trace::{CpuTracer, PACKET, ShadowRays};
 pub use footprint::Footprint;
@@ -75,26 +77,54 @@ fn albedo(
     surface: Option<&Surface>,
     footprint: impl FnOnce() -> Footprint,
 ) -> DVec3 {
-    let colour = linear_rgb(appearance.face_colours[hit.face as usize]);
     let Some(surface) = surface else {
-        return colour;
+        return linear_rgb(appearance.face_colours[hit.face as usize]);
     };
-    let base = match &surface.colours {
-        Some(colours) => Surface::colour_at(colours, surface.anchor, hit.point).clamp(DVec3::ZERO, DVec3::ONE),
-        None => colour,
-    };
+    let base = untextured_albedo(appearance, hit, surface);
     match &surface.uv {
         None => base,
         Some(map) => {
-            let texture = &appearance.surfaces.textures[map.texture as usize];
-            let uv = Surface::uv_at(map, surface.anchor, hit.point);
-            // Worked out per pixel from the texture as it is (a Surfaces may be built or edited
-            // through its public fields), as the GPU reads it from the texture's header.
-            let scale = map.texels_per_metre_squared(texture.size()) as f32;
-            let lod = filter::level_of_detail(scale, footprint().longer_axis(hit.range, hit.normal));
+            let (texture, scale) = texture_of(appearance, map);
+            let (uv, lod) = texture_coordinates(hit, surface.anchor, map, scale, footprint);
             base * filter::trilinear(texture, map.wrap, uv, lod).as_dvec3()
         }
     }
+}
+
+/// The albedo of a hit on a face with `surface` before its texture: its vertex colours where
+/// it has them, else the face's colour.
+#[inline(always)]
+fn untextured_albedo(appearance: &Appearance, hit: &Pixel, surface: &Surface) -> DVec3 {
+    match &surface.colours {
+        Some(colours) => Surface::colour_at(colours, surface.anchor, hit.point).clamp(DVec3::ZERO, DVec3::ONE),
+        None => linear_rgb(appearance.face_colours[hit.face as usize]),
+    }
+}
+
+/// The texture a face textured by `map` samples, and its squared texels per metre
+/// ([`UvMap::texels_per_metre_squared`]), worked out from the texture as it is (a `Surfaces`
+/// may be built or edited through its public fields), as the GPU reads it from the texture's
+/// header.
+#[inline(always)]
+fn texture_of<'a>(appearance: &'a Appearance, map: &UvMap) -> (&'a Texture, f32) {
+    let texture = &appearance.surfaces.textures[map.texture as usize];
+    (texture, map.texels_per_metre_squared(texture.size()) as f32)
+}
+
+/// The texture coordinates and level of detail of a hit on a face whose surface is anchored at
+/// `anchor` and textured by `map`, of `texels_per_metre_squared` ([`texture_of`]), seen through
+/// the pixel's footprint.
+#[inline(always)]
+fn texture_coordinates(
+    hit: &Pixel,
+    anchor: DVec3,
+    map: &UvMap,
+    texels_per_metre_squared: f32,
+    footprint: impl FnOnce() -> Footprint,
+) -> (DVec2, f32) {
+    let uv = Surface::uv_at(map, anchor, hit.point);
+    let length = footprint().longer_axis(hit.range, hit.normal);
+    (uv, filter::level_of_detail(texels_per_metre_squared, length))
 }
 
 /// Linear colour of one hit (1.0 = full scale); black where nothing is hit. `tracer` traces
@@ -119,7 +149,7 @@ pub fn shade(
 
 /// [`shade`] for a hit whose face's surface is `surface` (looked up once per pixel), with the
 /// footprint computed only where a texture needs it, and the illuminance (lux) from
-/// `illuminance` where the scene is lit. Kept out of line: inlined into the per-pixel
+/// `lux_of` where the scene is lit. Kept out of line: inlined into the per-pixel
 /// closure, it cost the flat path of untextured unlit images, which never calls it, about 16
 /// instructions a pixel in register saves (docs/benchmarks.md, "Ray cones").
 #[inline(never)]
@@ -128,14 +158,27 @@ fn shade_on(
     hit: &Pixel,
     surface: Option<&Surface>,
     footprint: impl FnOnce() -> Footprint,
-    illuminance: impl FnOnce(&Lighting) -> DVec3,
+    lux_of: impl FnOnce(&Lighting) -> DVec3,
 ) -> DVec3 {
     if !hit.is_hit() {
         return DVec3::ZERO;
     }
     let albedo = albedo(appearance, hit, surface, footprint);
+    lit(appearance, surface, albedo, lux_of)
+}
+
+/// The linear colour of a hit of albedo `albedo` on a face with `surface`: lit by the scene's
+/// lights where it has them and the surface is not unlit, with the illuminance (lux) that
+/// `lux_of` gives.
+#[inline(always)]
+fn lit(
+    appearance: &Appearance,
+    surface: Option<&Surface>,
+    albedo: DVec3,
+    lux_of: impl FnOnce(&Lighting) -> DVec3,
+) -> DVec3 {
     match &appearance.lighting {
-        Some(lighting) if !surface.is_some_and(|s| s.unlit) => albedo * illuminance(lighting) / lighting.white,
+        Some(lighting) if !surface.is_some_and(|s| s.unlit) => albedo * lux_of(lighting) / lighting.white,
         _ => albedo,
     }
 }
@@ -325,44 +368,31 @@ pub(crate) fn shade_frame(
     frame: &mut Frame,
     planes: Planes,
 ) {
+    // The illuminance of every lit hit, its shadow rays traced tile by tile; none unlit.
+    let lux = appearance.lighting.as_ref().map_or_else(Vec::new, |lighting| {
+        frame_illuminance(tracer, geometry, lighting, frame, |hit| {
+            appearance.surfaces.is_empty() || !appearance.surfaces.of(hit.face).is_some_and(|s| s.unlit)
+        })
+    });
     if appearance.surfaces.is_empty() {
-        shade_planes::<false>(tracer, geometry, appearance, view, frame, planes);
+        shade_planes::<false>(appearance, &lux, frame, planes);
+    } else if appearance.surfaces.textures.is_empty() {
+        shade_planes::<true>(appearance, &lux, frame, planes);
     } else {
-        shade_planes::<true>(tracer, geometry, appearance, view, frame, planes);
+        textured::shade_planes(appearance, &lux, view, frame, planes);
     }
 }
 
-/// [`shade_frame`] for a scene where some face has a surface (`SURFACES`) or none does.
-fn shade_planes<const SURFACES: bool>(
-    tracer: CpuTracer,
-    geometry: &SceneBvh,
-    appearance: &Appearance,
-    view: View<'_>,
-    frame: &mut Frame,
-    planes: Planes,
-) {
-    // Cones are made only where a texture may need them (not for vertex colours alone).
-    let footprints = (SURFACES && !appearance.surfaces.textures.is_empty()).then(|| view.footprints());
+/// [`shade_frame`] for an untextured scene where some face has a surface (vertex colours:
+/// `SURFACES`) or none does, lit by `lux` (by pixel index; empty for an unlit scene).
+fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], frame: &mut Frame, planes: Planes) {
     let surface_of = |hit: &Pixel| match SURFACES {
         true => appearance.surfaces.of(hit.face),
         false => None,
     };
-    // The illuminance of every lit hit, its shadow rays traced tile by tile.
-    let lux = appearance.lighting.as_ref().map(|lighting| {
-        frame_illuminance(tracer, geometry, lighting, frame, |hit| {
-            !surface_of(hit).is_some_and(|s| s.unlit)
-        })
-    });
+    // No texture: the footprint is never asked for.
     let linear = |index: usize, hit: &Pixel, surface: Option<&Surface>| {
-        let footprint = || {
-            footprints
-                .as_ref()
-                .map_or(Footprint::POINT, |footprint_of| footprint_of(index))
-        };
-        shade_on(appearance, hit, surface, footprint, |lighting| match &lux {
-            Some(lux) => lux[index],
-            None => illuminance(tracer, geometry, lighting, hit),
-        })
+        shade_on(appearance, hit, surface, || Footprint::POINT, |_| lux[index])
     };
     // Unlit faces without a surface take their face's byte directly.
     let flat = |surface: Option<&Surface>| appearance.lighting.is_none() && surface.is_none();
