@@ -805,3 +805,50 @@ fn colour_alone_equals_colour_beside_linear_colour() {
         }
     }
 }
+
+/// A lit frame's shadow rays are traced tile by tile as packets (`shade_frame`); each pixel's
+/// linear colour must still be, bit for bit, what shading its hit alone gives (`shade`, whose
+/// shadow rays go one by one), and its 8-bit colour that colour encoded: on the fast tracer
+/// and the reference alike, with unlit pixels and lights behind faces among them.
+#[test]
+fn a_lit_frame_is_each_pixel_shaded_alone_bit_for_bit() {
+    for room in LIT_ROOMS {
+        let scene = lit_room(room);
+        let bvh = SceneBvh::build(&scene);
+        let mut tracer = common::cpu_tracer(&scene, &bvh);
+        for cpu in [CpuTracer::Fast, CpuTracer::Reference] {
+            tracer.renderer.set_cpu_tracer(cpu);
+            for camera in common::cameras() {
+                for pose in room_poses() {
+                    let frame = render(&tracer, &camera, &pose, SHADED);
+                    let (linear, colour) = (frame.linear_colour().unwrap(), frame.colour().unwrap());
+                    let mut lit = 0;
+                    for (index, hit) in frame.pixels().iter().enumerate() {
+                        let alone = shade::shade(
+                            cpu,
+                            tracer.scene.geometry(),
+                            tracer.scene.appearance(),
+                            hit,
+                            &shade::Footprint::POINT,
+                        );
+                        let name = common::describe(&camera);
+                        assert_eq!(
+                            linear[index],
+                            alone.as_vec3().to_array(),
+                            "{room} {name} {cpu:?} pixel {index}"
+                        );
+                        if hit.is_hit() {
+                            assert_eq!(
+                                colour[index],
+                                shade::encode(alone),
+                                "{room} {name} {cpu:?} pixel {index}"
+                            );
+                            lit += usize::from(alone != DVec3::ZERO);
+                        }
+                    }
+                    assert!(lit > frame.pixels().len() / 10, "{room}: {lit} lit pixels");
+                }
+            }
+        }
+    }
+}
