@@ -10,7 +10,8 @@
 //! then up to log2 1/|cos θ| coarser: grazing views blur slightly more, never alias).
 //! `tests/tests/textures.rs` checks both, for every camera model: w against the neighbours'
 //! spacing on the plane across the ray within 5 %, and the bounds on known planes. Per pixel
-//! this costs the ray's world direction, a multiply-add per axis and a division, where
+//! this costs a multiply-add per axis and a division (a frame's footprints are laid in the
+//! camera body's frame, on the face's normal turned there once per face), where
 //! intersecting the two neighbours' rays with the face's plane cost about 300 instructions
 //! (docs/benchmarks.md).
 
@@ -19,11 +20,13 @@ use glam::{DMat3, DVec2, Vec3};
 use crate::camera::{Camera, CameraRay, Cone};
 use crate::pose::Pose;
 
-/// A pixel's footprint: its ray cone and its ray's world direction.
+/// A pixel's footprint: its ray cone and its ray's direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Footprint {
     cone: Cone,
-    /// Unit world direction of the pixel's ray (zero for [`Footprint::POINT`]).
+    /// Unit direction of the pixel's ray (zero for [`Footprint::POINT`]), in the frame of the
+    /// normals it is laid on: the world's ([`Footprint::of_pixel`]), or the camera body's
+    /// ([`Footprint::in_body`]).
     direction: Vec3,
 }
 
@@ -64,6 +67,17 @@ impl Footprint {
         }
     }
 
+    /// The footprint of the pixel whose cone is `cone` and body-frame ray `ray`, in the body
+    /// frame: laid on normals turned into the body frame, so a frame's textured pixels turn
+    /// their face's normal once per face rather than each ray into the world.
+    #[inline]
+    pub(crate) fn in_body(cone: Cone, ray: &CameraRay) -> Footprint {
+        Footprint {
+            cone,
+            direction: ray.direction.as_vec3(),
+        }
+    }
+
     /// The cone's width at distance `range` along the ray (metres): the footprint's axis
     /// across the slant of any face there.
     #[inline]
@@ -71,8 +85,8 @@ impl Footprint {
         self.cone.width(range)
     }
 
-    /// The footprint's longer axis (metres) on a face with unit normal `normal` at distance
-    /// `range`: the width over |cos θ|, θ between the ray and the normal. Infinite (or huge)
+    /// The footprint's longer axis (metres) on a face with unit normal `normal` (in the frame
+    /// of the footprint's direction) at distance `range`: the width over |cos θ|, θ between the ray and the normal. Infinite (or huge)
     /// where the ray grazes the face; zero for [`Footprint::POINT`].
     #[inline]
     pub fn longer_axis(&self, range: f32, normal: Vec3) -> f32 {

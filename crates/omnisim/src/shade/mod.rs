@@ -19,7 +19,7 @@ use serde::Serialize;
 
 use std::sync::Arc;
 
-use glam::{DMat3, DVec2};
+use glam::{DMat3, DVec2, Vec3};
 
 use crate::accel::SceneBvh;
 use crate::camera::{Camera, CameraRay, Cone};
@@ -85,7 +85,7 @@ fn albedo(
         None => base,
         Some(map) => {
             let (texture, scale) = texture_of(appearance, map);
-            let (uv, lod) = texture_coordinates(hit, surface.anchor, map, scale, footprint);
+            let (uv, lod) = texture_coordinates(hit, surface.anchor, map, scale, hit.normal, footprint);
             base * filter::trilinear(texture, map.wrap, uv, lod).as_dvec3()
         }
     }
@@ -113,17 +113,18 @@ fn texture_of<'a>(appearance: &'a Appearance, map: &UvMap) -> (&'a Texture, f32)
 
 /// The texture coordinates and level of detail of a hit on a face whose surface is anchored at
 /// `anchor` and textured by `map`, of `texels_per_metre_squared` ([`texture_of`]), seen through
-/// the pixel's footprint.
+/// the pixel's footprint, laid on the face's `normal` (in the footprint's frame).
 #[inline(always)]
 fn texture_coordinates(
     hit: &Pixel,
     anchor: DVec3,
     map: &UvMap,
     texels_per_metre_squared: f32,
+    normal: Vec3,
     footprint: impl FnOnce() -> Footprint,
 ) -> (DVec2, f32) {
     let uv = Surface::uv_at(map, anchor, hit.point);
-    let length = footprint().longer_axis(hit.range, hit.normal);
+    let length = footprint().longer_axis(hit.range, normal);
     (uv, filter::level_of_detail(texels_per_metre_squared, length))
 }
 
@@ -332,8 +333,15 @@ impl<'a> View<'a> {
         Footprint::around(pixel, self.world_from_body, self.camera)
     }
 
-    /// The footprint of each pixel by index (row by row): from the ray table's rays and cones
-    /// where there is one (the cones made on first use), else from a cone table and the
+    /// World vector `normal` (a face's) in the camera body's frame, where [`View::footprints`]
+    /// lays footprints.
+    fn body_normal(&self, normal: Vec3) -> Vec3 {
+        (self.world_from_body.transpose() * normal.as_dvec3()).as_vec3()
+    }
+
+    /// The footprint of each pixel by index (row by row), in the camera body's frame
+    /// ([`Footprint::in_body`], laid on [`View::body_normal`]s): from the ray table's rays and
+    /// cones where there is one (the cones made on first use), else from a cone table and the
     /// pixel's own camera ray, else from the camera's rays alone (three a pixel).
     fn footprints(&self) -> impl Fn(usize) -> Footprint + Sync + '_ {
         let table = self.table.map(|table| (table.rays.as_slice(), table.cones()));
@@ -342,13 +350,16 @@ impl<'a> View<'a> {
             None => self.cache.and_then(|cache| cache.cone_table(self.camera)),
         };
         let width = self.camera.size().0.max(1) as usize;
-        let with_cone = |cone: Cone, ray: Option<&CameraRay>| {
-            ray.map_or(Footprint::POINT, |ray| Footprint::new(cone, self.world_from_body, ray))
-        };
+        let with_cone =
+            |cone: Cone, ray: Option<&CameraRay>| ray.map_or(Footprint::POINT, |ray| Footprint::in_body(cone, ray));
         move |index| match (table, &cone_table) {
             (Some((rays, cones)), _) => with_cone(cones[index], rays[index].as_ref()),
             (None, Some(cone_table)) => with_cone(cone_table.cones[index], self.camera.pixel_ray(index).as_ref()),
-            (None, None) => self.footprint_at(DVec2::new((index % width) as f64, (index / width) as f64)),
+            (None, None) => Footprint::around(
+                DVec2::new((index % width) as f64, (index / width) as f64),
+                DMat3::IDENTITY,
+                self.camera,
+            ),
         }
     }
 }

@@ -1,10 +1,12 @@
 //! Frames of textured scenes: pixels on textured faces are filtered [`LANES`] at a time
 //! (`filter::trilinear_lanes`: coordinates, wraps, weights and mixing in vector lanes), the
-//! rest shaded one by one as `mod.rs` shades untextured scenes. The same colours, to the bit,
-//! as shading each pixel alone (`shade`): per pixel the same look-up, lanes that give the
-//! one-lane sample's bits (tested in `filter.rs`), the same lighting and encoding.
+//! rest shaded one by one as `mod.rs` shades untextured scenes. The same colours as shading
+//! each pixel alone (`shade`): per pixel the same look-up, lanes that give the one-lane
+//! sample's bits (tested in `filter.rs`), the same lighting and encoding; only the footprint's
+//! angle is taken in the camera body's frame (the face's normal turned once per face), so its
+//! f32 rounding, and rarely a linear colour's last bits, may differ.
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::filter::{LANES, Lookups, Wraps, trilinear_lanes};
@@ -28,6 +30,7 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     let shader = Shader {
         appearance,
         lux,
+        view: &view,
         footprint_of: &footprint_of,
     };
     let mut colour = vec![BACKGROUND; pixels.len()];
@@ -49,7 +52,9 @@ struct Shader<'a, F> {
     appearance: &'a Appearance,
     /// The illuminance of each lit pixel by its index in the frame (empty unlit).
     lux: &'a [DVec3],
-    /// The footprint of a pixel by its index in the frame.
+    /// The camera and pose the frame was traced with.
+    view: &'a View<'a>,
+    /// The footprint of a pixel by its index in the frame, in the camera body's frame.
     footprint_of: &'a F,
 }
 
@@ -66,11 +71,15 @@ struct Face<'a> {
     texels_per_metre_squared: f32,
     /// Its albedo before the texture where that is the same all over (no vertex colours).
     base: Option<DVec3>,
+    /// Its normal in the camera body's frame, where the footprints lie (either side: the
+    /// footprint takes its angle's |cos|).
+    normal: Vec3,
 }
 
 impl<'a> Face<'a> {
-    /// The face `hit` lies on, whose surface is `surface`, if that has a texture.
-    fn of(appearance: &'a Appearance, hit: &Pixel, surface: &'a Surface) -> Option<Self> {
+    /// The face `hit` (seen through `view`) lies on, whose surface is `surface`, if that has a
+    /// texture.
+    fn of(appearance: &'a Appearance, view: &View<'_>, hit: &Pixel, surface: &'a Surface) -> Option<Self> {
         let map = surface.uv.as_ref()?;
         let (texture, texels_per_metre_squared) = texture_of(appearance, map);
         Some(Face {
@@ -84,6 +93,7 @@ impl<'a> Face<'a> {
                 .colours
                 .is_none()
                 .then(|| untextured_albedo(appearance, hit, surface)),
+            normal: view.body_normal(hit.normal),
         })
     }
 }
@@ -115,7 +125,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                 Some(face) if face.id == hit.face => face,
                 _ => {
                     let surface = appearance.surfaces.of(hit.face);
-                    let Some(face) = surface.and_then(|surface| Face::of(appearance, hit, surface)) else {
+                    let Some(face) = surface.and_then(|surface| Face::of(appearance, self.view, hit, surface)) else {
                         // As `mod.rs` shades it: no texture, so no footprint.
                         let flat = appearance.lighting.is_none() && surface.is_none();
                         let shaded = || {
@@ -141,7 +151,8 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                 }
             };
             let (surface, map, texture) = (face.surface, face.map, face.texture);
-            let (uv, lod) = texture_coordinates(hit, surface.anchor, map, face.texels_per_metre_squared, || {
+            let scale = face.texels_per_metre_squared;
+            let (uv, lod) = texture_coordinates(hit, surface.anchor, map, scale, face.normal, || {
                 (self.footprint_of)(start + slot)
             });
             let base = face.base.unwrap_or_else(|| untextured_albedo(appearance, hit, surface));
