@@ -56,7 +56,7 @@ impl<'a, const L: usize> Lookups<'a, L> {
     }
 
     /// Makes lanes `to` sample what lane `from` samples.
-    pub(crate) fn copy_lane(&mut self, from: usize, to: std::ops::Range<usize>) {
+    fn copy_lane(&mut self, from: usize, to: std::ops::Range<usize>) {
         for lane in to {
             self.u[lane] = self.u[from];
             self.v[lane] = self.v[from];
@@ -150,7 +150,8 @@ fn texel_index(n: f64) -> i32 {
 
 /// Each lane's texel coordinate `t` (texel centres at integer + 0.5) on an axis of `size`
 /// texels, wrapped with period `period` or clamped (`clamp`), as the two neighbouring texel
-/// indices (integers in f64) and the weight of the second; NaN or infinite reads texel 0.
+/// indices (integers in f64) and the weight of the second; NaN or infinite reads coordinate 0
+/// (for repeat, the mean of the last and the first texel).
 #[inline(always)]
 fn neighbours<const L: usize>(
     t: &[f64; L],
@@ -190,8 +191,10 @@ fn decoded<const L: usize, const AVX2: bool>(texels: &[u32; L], shift: u32, deco
     #[cfg(target_arch = "x86_64")]
     if AVX2 && let Ok(eight) = <&[u32; 8]>::try_from(&texels[..]) {
         let mut out = [0.0; L];
-        // SAFETY: callers pass AVX2 = true only where the CPU has AVX2 (`trilinear_lanes`);
-        // `out` holds eight f32 (L = 8, as `eight` shows).
+        // SAFETY: AVX2 = true comes only from `lanes_avx2`, which `trilinear_lanes` calls after
+        // detecting AVX2 (checked below in debug builds); `out` holds eight f32 (L = 8, as
+        // `eight` shows).
+        debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
         unsafe { decode_avx2(eight, shift, decoding, out.as_mut_ptr()) };
         return out;
     }

@@ -60,7 +60,7 @@ impl Footprint {
     /// The footprint of the pixel whose cone is `cone` and body-frame ray `ray`, seen from a
     /// pose with rotation `world_from_body`.
     #[inline]
-    pub(crate) fn new(cone: Cone, world_from_body: DMat3, ray: &CameraRay) -> Footprint {
+    fn new(cone: Cone, world_from_body: DMat3, ray: &CameraRay) -> Footprint {
         Footprint {
             cone,
             direction: (world_from_body * ray.direction).as_vec3(),
@@ -86,8 +86,9 @@ impl Footprint {
     }
 
     /// The footprint's longer axis (metres) on a face with unit normal `normal` (in the frame
-    /// of the footprint's direction) at distance `range`: the width over |cos θ|, θ between the ray and the normal. Infinite (or huge)
-    /// where the ray grazes the face; zero for [`Footprint::POINT`].
+    /// of the footprint's direction) at distance `range`: the width over |cos θ|, θ between
+    /// the ray and the normal. Infinite (or huge) where the ray grazes the face; zero for
+    /// [`Footprint::POINT`].
     #[inline]
     pub fn longer_axis(&self, range: f32, normal: Vec3) -> f32 {
         self.width(range) / self.direction.dot(normal).abs().max(f32::MIN_POSITIVE)

@@ -233,7 +233,7 @@ fn towards_light(geometry: &SceneBvh, light: &Light, local: DVec3, normal: DVec3
     Some((towards, distance, light.colour * (strength * cosine)))
 }
 
-/// [`illuminance`] of every hit of `frame` that `lit` accepts (zero elsewhere), by index. The
+/// [`illuminance`] of every hit of `frame` that `is_lit` accepts (zero elsewhere), by index. The
 /// shadow rays of each 8×8 tile towards one light start near one another and end at one
 /// point (or run parallel): they are traced as one packet (`CpuTracer::occluded_rays`),
 /// with the same answers and sums as ray by ray.
@@ -242,7 +242,7 @@ fn frame_illuminance(
     geometry: &SceneBvh,
     lighting: &Lighting,
     frame: &Frame,
-    lit: impl Fn(&Pixel) -> bool + Sync,
+    is_lit: impl Fn(&Pixel) -> bool + Sync,
 ) -> Vec<DVec3> {
     let row_length = frame.width.max(1) as usize;
     let mut lux = vec![DVec3::ZERO; frame.pixels().len()];
@@ -263,7 +263,7 @@ fn frame_illuminance(
                 let mut active = 0u64;
                 for (r, offset) in tile.clone().enumerate() {
                     let hit = &hits[offset];
-                    if hit.is_hit() && lit(hit) {
+                    if hit.is_hit() && is_lit(hit) {
                         let (local, normal, origin) = shadow_start(geometry, hit);
                         starts[r] = (local, normal);
                         shadows.rays[r].0 = origin;

@@ -4,7 +4,8 @@
 //! each pixel alone (`shade`): per pixel the same look-up, lanes that give the one-lane
 //! sample's bits (tested in `filter.rs`), the same lighting and encoding; only the footprint's
 //! angle is taken in the camera body's frame (the face's normal turned once per face), so its
-//! f32 rounding, and rarely a linear colour's last bits, may differ.
+//! f32 rounding may differ, and with it, rarely, a pixel's level of detail: a linear colour's
+//! last bits, or now and then an 8-bit byte.
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
