@@ -979,3 +979,48 @@ fn an_obj_and_a_ply_written_by_trimesh_keep_their_uvs_and_colours() {
     let corners = [dvec3(2.0, 1.0, -0.75), dvec3(2.0, -1.0, -0.75), dvec3(2.0, 0.0, 0.75)];
     check_fan_colours(folder.path(), corners, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
 }
+
+/// Textured frames are shaded in chunks of pixels and batches of eight lanes (`shade/textured.rs`)
+/// and lit from the frame's shadow-ray packets; each pixel must still be, bit for bit, what
+/// shading its hit alone gives with its own footprint (`shade`, `Footprint::of_pixel`), linear
+/// and 8-bit. Odd image sizes put chunk and batch ends mid-row; the lit textured room has
+/// textured, plain and unlit faces and misses. The pose turns nothing, so the frame's
+/// body-frame footprints and `of_pixel`'s world-frame ones are the same numbers.
+#[test]
+fn a_textured_frame_is_each_pixel_shaded_alone_bit_for_bit() {
+    let scene = common::load("env1-textured-lit.ron");
+    let bvh = SceneBvh::build(&scene);
+    let mut tracer = common::cpu_tracer(&scene, &bvh);
+    let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), DVec3::ZERO);
+    let cameras = [
+        Camera::Pinhole(Pinhole::with_horizontal_fov(37, 29, 80f64.to_radians())),
+        Camera::Catadioptric(common::paper_omni()),
+    ];
+    for cpu in [CpuTracer::Fast, CpuTracer::Reference] {
+        tracer.renderer.set_cpu_tracer(cpu);
+        for camera in &cameras {
+            let frame = tracer
+                .render_planes(camera, &pose, Planes::COLOUR.with(Plane::LinearColour))
+                .expect("render");
+            let (linear, colour) = (frame.linear_colour().unwrap(), frame.colour().unwrap());
+            let width = frame.width as usize;
+            let mut textured = 0;
+            for (index, hit) in frame.pixels().iter().enumerate() {
+                let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
+                let footprint = Footprint::of_pixel(camera, &pose, pixel);
+                let alone = advanced::shade(cpu, tracer.scene.geometry(), tracer.scene.appearance(), hit, &footprint);
+                let name = common::describe(camera);
+                assert_eq!(
+                    linear[index],
+                    alone.as_vec3().to_array(),
+                    "{name} {cpu:?} pixel {index}"
+                );
+                if hit.is_hit() {
+                    assert_eq!(colour[index], advanced::encode(alone), "{name} {cpu:?} pixel {index}");
+                    textured += usize::from(tracer.scene.appearance().needs_footprint(hit.face));
+                }
+            }
+            assert!(textured > frame.pixels().len() / 10, "{textured} textured pixels");
+        }
+    }
+}
