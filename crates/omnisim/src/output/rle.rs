@@ -1,4 +1,4 @@
-//! OpenEXR's RLE compression of one block of scan lines, byte for byte what the `exr` crate
+//! `OpenEXR`'s RLE compression of one block of scan lines, byte for byte what the `exr` crate
 //! writes. Hand-written because `exr` compresses a byte at a time with bounds checks on every
 //! step, and that loop was the largest single cost of a data set's range EXR (0.3 of 0.6
 //! core-ms a 250 × 250 frame, docs/benchmarks.md); this one looks for the next run eight bytes
@@ -23,7 +23,7 @@ pub(crate) struct RleEncoder {
 
 impl RleEncoder {
     /// The RLE stream of a block's little-endian bytes (each scan line's channels in name
-    /// order): OpenEXR's predictor ([`predict`]), then runs and literals ([`pack`]).
+    /// order): `OpenEXR`'s predictor ([`predict`]), then runs and literals ([`pack`]).
     pub(crate) fn compress(&mut self, block_le: &[u8]) -> Vec<u8> {
         predict(block_le, &mut self.separated, &mut self.predicted);
         let mut packed = Vec::with_capacity(block_le.len() + block_le.len() / MAX_LITERAL + 2);
@@ -32,7 +32,7 @@ impl RleEncoder {
     }
 }
 
-/// OpenEXR's predictor: the even bytes, then the odd ones (`separated`), each replaced by its
+/// `OpenEXR`'s predictor: the even bytes, then the odd ones (`separated`), each replaced by its
 /// difference from the byte before plus 128, wrapping (`predicted`); the first byte is kept.
 fn predict(block_le: &[u8], separated: &mut Vec<u8>, predicted: &mut Vec<u8>) {
     let n = block_le.len();
@@ -55,7 +55,7 @@ fn predict(block_le: &[u8], separated: &mut Vec<u8>, predicted: &mut Vec<u8>) {
     );
 }
 
-/// Greedy tokens, as OpenEXR and `exr` make them: at each position a run of at least
+/// Greedy tokens, as `OpenEXR` and `exr` make them: at each position a run of at least
 /// [`MIN_RUN`] equal bytes (at most [`MAX_RUN`]) becomes a count and the byte; otherwise the
 /// bytes up to the next such run (at most [`MAX_LITERAL`]) are stored after a negative count.
 fn pack(bytes: &[u8], out: &mut Vec<u8>) {
