@@ -12,6 +12,7 @@
 pub mod atomic;
 pub mod folder;
 mod planes;
+mod rle;
 mod set;
 
 pub use planes::{
@@ -280,6 +281,34 @@ fn write_exr(
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     use exr::prelude::*;
+    let image = exr_image(size, quantity, convention, channels, compression);
+    let headers = (&image).write().infer_meta_data();
+    // The channels in the file's order (by name), as each scan line holds them.
+    let channels: Vec<&[f32]> = (image.layer_data.channel_data.list.iter())
+        .filter_map(|channel| match &channel.sample_data {
+            FlatSamples::F32(values) => Some(values.as_slice()),
+            _ => None,
+        })
+        .collect();
+    to.store(path, |out| {
+        exr::block::write(out, headers, true, |meta, chunks| {
+            write_exr_blocks(&meta, chunks, &channels, size.0 as usize, compression)
+        })
+        .map_err(std::io::Error::other)
+    })
+    .map_err(failed(path))
+}
+
+/// The `exr` image of f32 `channels` with omnisim's attributes; its headers are what
+/// [`write_exr`] writes.
+fn exr_image(
+    size: (u32, u32),
+    quantity: &str,
+    convention: &str,
+    channels: Vec<(&str, Vec<f32>)>,
+    compression: ExrCompression,
+) -> exr::prelude::Image<exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>> {
+    use exr::prelude::*;
     let mut attributes = LayerAttributes {
         comments: Some(Text::from(convention)),
         software_name: Some(Text::from(concat!("omnisim ", env!("CARGO_PKG_VERSION")))),
@@ -295,22 +324,58 @@ fn write_exr(
         .into_iter()
         .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
         .collect();
-    let layer = Layer::new(
+    Image::from_layer(Layer::new(
         (size.0 as usize, size.1 as usize),
         attributes,
         compression.encoding(),
         AnyChannels::sort(list),
-    );
-    to.store(path, |out| {
-        Image::from_layer(layer)
-            .write()
-            // exr's parallel writer builds a thread pool per image: 10× the encoding time of a
-            // 250×250 frame; data sets already write frames on several threads.
-            .non_parallel()
-            .to_buffered(out)
-            .map_err(std::io::Error::other)
-    })
-    .map_err(failed(path))
+    ))
+}
+
+/// Each block of scan lines of `channels` (f32 planes `width` wide, in the file's channel
+/// order), compressed and written in increasing order: RLE by [`rle::RleEncoder`], the others by
+/// `exr`'s own encoders; the bytes are those `exr`'s image writer makes.
+fn write_exr_blocks(
+    meta: &exr::meta::MetaData,
+    chunks: &mut impl exr::block::writer::ChunksWriter,
+    channels: &[&[f32]],
+    width: usize,
+    compression: ExrCompression,
+) -> exr::error::UnitResult {
+    use exr::block::UncompressedBlock;
+    use exr::block::chunk::{Chunk, CompressedBlock, CompressedScanLineBlock};
+    let mut rle = rle::RleEncoder::default();
+    for (index_in_header, index) in meta.enumerate_ordered_header_block_indices() {
+        let rows = index.pixel_position.y()..index.pixel_position.y() + index.pixel_size.y();
+        let mut data = Vec::with_capacity(rows.len() * channels.len() * width * 4);
+        for row in rows {
+            for values in channels {
+                let start = data.len();
+                data.resize(start + width * 4, 0);
+                let line = &values[row * width..(row + 1) * width];
+                for (bytes, value) in data[start..].chunks_exact_mut(4).zip(line) {
+                    bytes.copy_from_slice(&value.to_ne_bytes());
+                }
+            }
+        }
+        let chunk = if compression == ExrCompression::Rle && cfg!(target_endian = "little") {
+            let packed = rle.compress(&data);
+            let header = &meta.headers[index.layer];
+            Chunk {
+                layer_index: index.layer,
+                compressed_block: CompressedBlock::ScanLine(CompressedScanLineBlock {
+                    y_coordinate: i32::try_from(index.pixel_position.y()).unwrap_or(i32::MAX)
+                        + header.own_attributes.layer_position.y(),
+                    // Stored as is where compression does not make the block smaller.
+                    compressed_pixels_le: if packed.len() < data.len() { packed } else { data },
+                }),
+            }
+        } else {
+            UncompressedBlock { index, data }.compress_to_chunk(&meta.headers)?
+        };
+        chunks.write_chunk(index_in_header, chunk)?;
+    }
+    Ok(())
 }
 
 /// What the two ray-map files of a view hold, in their headers and in `render.json`.
@@ -419,20 +484,23 @@ pub fn write_point_cloud_ply(
             ascii_line(comment),
             frame.hit_count()
         )?;
-        let mut block = Vec::with_capacity(BLOCK * POINT);
-        for (index, p) in frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit()) {
-            let mut point = [0u8; POINT];
-            for (bytes, v) in point.chunks_exact_mut(4).zip([p.point.x, p.point.y, p.point.z]) {
-                bytes.copy_from_slice(&(v as f32).to_le_bytes());
+        let mut block = vec![0u8; BLOCK * POINT];
+        let mut hits = frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit());
+        loop {
+            // Each row written in place: x y z as f32, then the colour.
+            let mut filled = 0;
+            for (row, (index, p)) in block.chunks_exact_mut(POINT).zip(hits.by_ref()) {
+                row[0..4].copy_from_slice(&(p.point.x as f32).to_le_bytes());
+                row[4..8].copy_from_slice(&(p.point.y as f32).to_le_bytes());
+                row[8..12].copy_from_slice(&(p.point.z as f32).to_le_bytes());
+                row[12..].copy_from_slice(colour(index));
+                filled += POINT;
             }
-            point[12..].copy_from_slice(colour(index));
-            block.extend_from_slice(&point);
-            if block.len() == BLOCK * POINT {
-                out.write_all(&block)?;
-                block.clear();
+            out.write_all(&block[..filled])?;
+            if filled < block.len() {
+                return Ok(());
             }
         }
-        out.write_all(&block)
     })
     .map_err(failed(path))
 }
@@ -451,6 +519,88 @@ fn ascii_line(text: &str) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use exr::prelude::WritableImage;
+
+    /// Keeps the bytes a writer stores instead of writing a file.
+    struct Kept(Vec<u8>);
+
+    impl FileStore for Kept {
+        fn store(
+            &mut self,
+            _: &Path,
+            fill: impl FnOnce(&mut dyn atomic::Sink) -> std::io::Result<()>,
+        ) -> std::io::Result<()> {
+            let mut out = std::io::Cursor::new(Vec::new());
+            fill(&mut out)?;
+            self.0 = out.into_inner();
+            Ok(())
+        }
+    }
+
+    /// The chunks `write_exr` compresses itself (RLE) or hands to `exr`'s encoders give the
+    /// bytes `exr`'s own image writer makes, for one and three channels, odd sizes, runs
+    /// longer than a token, NaN and infinities, and blocks that do not compress.
+    #[test]
+    fn exr_files_are_byte_for_byte_those_of_exrs_writer() {
+        let mut seed = 12345_u64;
+        let mut random = move || {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 33) as u32
+        };
+        for (width, height) in [(1, 1), (7, 3), (250, 250), (301, 17)] {
+            let n = width * height;
+            let plane = |random: &mut dyn FnMut() -> u32| -> Vec<f32> {
+                (0..n)
+                    .map(|i| match (i / 97) % 5 {
+                        // Constant stretches: runs longer than one token.
+                        0 => 2.5,
+                        1 => f32::INFINITY,
+                        2 => f32::NAN,
+                        3 => f32::from_bits(random()),
+                        _ => 1.0 + (i % 300) as f32 * 1e-3,
+                    })
+                    .collect()
+            };
+            let planes = [plane(&mut random), plane(&mut random), plane(&mut random)];
+            let size = (width as u32, height as u32);
+            for compression in [ExrCompression::Rle, ExrCompression::None, ExrCompression::Zip] {
+                for channels in [
+                    vec![("Y", planes[0].clone())],
+                    vec![
+                        ("R", planes[0].clone()),
+                        ("G", planes[1].clone()),
+                        ("B", planes[2].clone()),
+                    ],
+                ] {
+                    let mut expected = std::io::Cursor::new(Vec::new());
+                    exr_image(size, "range", "text", channels.clone(), compression)
+                        .write()
+                        .non_parallel()
+                        .to_buffered(&mut expected)
+                        .unwrap();
+                    let mut kept = Kept(Vec::new());
+                    write_exr(
+                        &mut kept,
+                        Path::new("x.exr"),
+                        size,
+                        "range",
+                        "text",
+                        channels,
+                        compression,
+                    )
+                    .unwrap();
+                    assert!(
+                        kept.0 == expected.get_ref()[..],
+                        "{width}x{height} {compression:?}: the bytes differ from exr's"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn ply_comments_become_printable_ascii() {
         assert_eq!(super::ascii_line("θx=30\nnext"), "\\u{3b8}x=30 next");

@@ -1,0 +1,111 @@
+//! `OpenEXR`'s RLE compression of one block of scan lines, byte for byte what the `exr` crate
+//! writes. Hand-written because `exr` compresses a byte at a time with bounds checks on every
+//! step, and that loop was the largest single cost of a data set's range EXR (0.3 of 0.6
+//! core-ms a 250 × 250 frame, docs/benchmarks.md); this one looks for the next run eight bytes
+//! at a time. `exr` offers no way to plug in another encoder for a block, so `write_exr` hands
+//! it finished chunks.
+
+/// Runs shorter than this are stored as literal bytes.
+const MIN_RUN: usize = 3;
+/// The longest run one token holds (its count byte stores the length − 1).
+const MAX_RUN: usize = 128;
+/// The most literal bytes one token holds (its count byte stores −length).
+const MAX_LITERAL: usize = 127;
+
+/// Compresses blocks one after another, reusing its buffers.
+#[derive(Default)]
+pub(crate) struct RleEncoder {
+    /// A block's even bytes, then its odd ones.
+    separated: Vec<u8>,
+    /// The same, each as its difference from the one before.
+    predicted: Vec<u8>,
+}
+
+impl RleEncoder {
+    /// The RLE stream of a block's little-endian bytes (each scan line's channels in name
+    /// order): `OpenEXR`'s predictor ([`predict`]), then runs and literals ([`pack`]).
+    pub(crate) fn compress(&mut self, block_le: &[u8]) -> Vec<u8> {
+        predict(block_le, &mut self.separated, &mut self.predicted);
+        let mut packed = Vec::with_capacity(block_le.len() + block_le.len() / MAX_LITERAL + 2);
+        pack(&self.predicted, &mut packed);
+        packed
+    }
+}
+
+/// `OpenEXR`'s predictor: the even bytes, then the odd ones (`separated`), each replaced by its
+/// difference from the byte before plus 128, wrapping (`predicted`); the first byte is kept.
+fn predict(block_le: &[u8], separated: &mut Vec<u8>, predicted: &mut Vec<u8>) {
+    let n = block_le.len();
+    separated.clear();
+    separated.resize(n, 0);
+    let (even, odd) = separated.split_at_mut(n.div_ceil(2));
+    for ((e, o), pair) in even.iter_mut().zip(odd.iter_mut()).zip(block_le.chunks_exact(2)) {
+        *e = pair[0];
+        *o = pair[1];
+    }
+    if n % 2 == 1 {
+        even[n / 2] = block_le[n - 1];
+    }
+    predicted.clear();
+    predicted.extend(separated.first());
+    predicted.extend(
+        (separated.iter().skip(1))
+            .zip(separated.iter())
+            .map(|(&current, &previous)| current.wrapping_sub(previous).wrapping_add(128)),
+    );
+}
+
+/// Greedy tokens, as `OpenEXR` and `exr` make them: at each position a run of at least
+/// [`MIN_RUN`] equal bytes (at most [`MAX_RUN`]) becomes a count and the byte; otherwise the
+/// bytes up to the next such run (at most [`MAX_LITERAL`]) are stored after a negative count.
+fn pack(bytes: &[u8], out: &mut Vec<u8>) {
+    let n = bytes.len();
+    let mut start = 0;
+    while start < n {
+        let run = run_length(bytes, start);
+        if run >= MIN_RUN {
+            // run − 1 ≤ 127: fits the count byte.
+            out.extend_from_slice(&[(run - 1) as u8, bytes[start]]);
+            start += run;
+            continue;
+        }
+        let end = next_run(bytes, start + run, (start + MAX_LITERAL).min(n));
+        // −(end − start), as a two's-complement byte.
+        out.push((end - start).wrapping_neg() as u8);
+        out.extend_from_slice(&bytes[start..end]);
+        start = end;
+    }
+}
+
+/// How many bytes from `start` equal the first, at most [`MAX_RUN`].
+fn run_length(bytes: &[u8], start: usize) -> usize {
+    let first = bytes[start];
+    let rest = &bytes[start..(start + MAX_RUN).min(bytes.len())];
+    rest.iter().position(|&b| b != first).unwrap_or(rest.len())
+}
+
+/// The first position in `from..limit` where three equal bytes start (all three inside
+/// `bytes`), or `limit`. Eight positions a step: byte j of `(x ^ y) | (y ^ z)`, with x, y, z
+/// the words at p, p + 1, p + 2, is zero exactly where a run of three starts at p + j, and the
+/// lowest flag of the zero-byte test is exact.
+fn next_run(bytes: &[u8], from: usize, limit: usize) -> usize {
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    const HIGHS: u64 = 0x8080_8080_8080_8080;
+    let word = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap_or_default());
+    let mut p = from;
+    while p < limit && p + 10 <= bytes.len() {
+        let v = (word(p) ^ word(p + 1)) | (word(p + 1) ^ word(p + 2));
+        let zero = v.wrapping_sub(ONES) & !v & HIGHS;
+        if zero != 0 {
+            return (p + zero.trailing_zeros() as usize / 8).min(limit);
+        }
+        p += 8;
+    }
+    while p < limit {
+        if p + 2 < bytes.len() && bytes[p] == bytes[p + 1] && bytes[p + 1] == bytes[p + 2] {
+            return p;
+        }
+        p += 1;
+    }
+    limit
+}
