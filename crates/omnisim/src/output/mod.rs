@@ -358,13 +358,17 @@ fn write_exr_blocks(
                 }
             }
         }
-        let chunk = if compression == ExrCompression::Rle && cfg!(target_endian = "little") {
+        // Every channel is f32 (`exr_image` makes no other), so a block holds 4 bytes a sample;
+        // anything else goes through exr's own compressor, which checks the block's size.
+        let all_f32 = channels.len() == meta.headers[index.layer].channels.list.len();
+        let chunk = if compression == ExrCompression::Rle && cfg!(target_endian = "little") && all_f32 {
             let packed = rle.compress(&data);
             let header = &meta.headers[index.layer];
             Chunk {
                 layer_index: index.layer,
                 compressed_block: CompressedBlock::ScanLine(CompressedScanLineBlock {
-                    y_coordinate: i32::try_from(index.pixel_position.y()).unwrap_or(i32::MAX)
+                    y_coordinate: i32::try_from(index.pixel_position.y())
+                        .map_err(|_| exr::error::Error::Invalid("scan line beyond i32".into()))?
                         + header.own_attributes.layer_position.y(),
                     // Stored as is where compression does not make the block smaller.
                     compressed_pixels_le: if packed.len() < data.len() { packed } else { data },
@@ -487,7 +491,8 @@ pub fn write_point_cloud_ply(
         let mut block = vec![0u8; BLOCK * POINT];
         let mut hits = frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit());
         loop {
-            // Each row written in place: x y z as f32, then the colour.
+            // Each row written in place: x y z as f32, then the colour. `zip` takes a row before
+            // a hit, so no hit is drawn and dropped when the block is full.
             let mut filled = 0;
             for (row, (index, p)) in block.chunks_exact_mut(POINT).zip(hits.by_ref()) {
                 row[0..4].copy_from_slice(&(p.point.x as f32).to_le_bytes());
