@@ -214,6 +214,13 @@ impl WideBvh {
             if t_enter > far {
                 continue;
             }
+            // Of its rays, those whose bound still reaches where the packet enters it: a ray
+            // that found a closer hit (or a blocked shadow ray, bound −∞) since the entry was
+            // pushed leaves it, and counts towards no subtree's `FEW_RAYS`.
+            let mask = reaching::<W>(t_hi, t_enter, mask);
+            if mask == 0 {
+                continue;
+            }
             if entry & LEAF == 0 && mask.count_ones() <= FEW_RAYS {
                 // Few rays left in this subtree: each walks it alone (the single-ray walk from
                 // this node), keeping the bound the packet had found for it.
@@ -224,18 +231,22 @@ impl WideBvh {
                     let (ray, t_lo) = single(r);
                     let mut bound = t_hi[r];
                     let start = bound;
-                    let mut alone = |triangle| {
-                        let result = visit(r, triangle);
-                        if let Visit::Closer(t) = result {
-                            bound = bound.min(t);
-                        }
-                        result
-                    };
-                    if W::AVX {
-                        self.walk::<true, ()>(single_stack, entry, &ray, t_lo, start, corners, &mut (), &mut alone);
-                    } else {
-                        self.walk::<false, ()>(single_stack, entry, &ray, t_lo, start, corners, &mut (), &mut alone);
-                    }
+                    // Handed over by value, inlined into the walk (through `&mut` it was a call
+                    // a triangle, the f64 test's operands through memory).
+                    self.walk_alone::<W>(
+                        single_stack,
+                        entry,
+                        (&ray, t_lo, start),
+                        corners,
+                        #[inline(always)]
+                        |triangle| {
+                            let result = visit(r, triangle);
+                            if let Visit::Closer(t) = result {
+                                bound = bound.min(t);
+                            }
+                            result
+                        },
+                    );
                     t_hi[r] = bound;
                 }
                 far = farthest(t_hi);
@@ -266,24 +277,14 @@ impl WideBvh {
                 }
                 continue;
             }
-            // Of those, the rays whose bound still reaches the leaf.
-            let entering = W::splat(t_enter);
-            // A loop, not `array::from_fn`, whose closure is compiled outside the AVX2 walk
-            // (its lane intrinsics became calls).
-            let mut reaching = [0u32; BATCHES];
-            for (b, reaching) in reaching.iter_mut().enumerate() {
-                let lanes = (mask >> (8 * b)) as u32 & 0xff;
-                if lanes != 0 {
-                    *reaching = lanes & !entering.greater(W::load(&t_hi[8 * b..]));
-                }
-            }
             for group in self.leaf_groups(entry) {
                 let mut lanes = group.lanes;
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
                     let triangle = group.broadcast::<W>(lane);
-                    for (b, &rays_in) in reaching.iter().enumerate() {
+                    for b in 0..BATCHES {
+                        let rays_in = (mask >> (8 * b)) as u32 & 0xff;
                         if rays_in == 0 {
                             continue;
                         }
@@ -305,6 +306,42 @@ impl WideBvh {
             if active & (1 << r) != 0 {
                 *bound = t_hi[r];
             }
+        }
+    }
+}
+
+/// The rays of `mask` whose bound `t_hi` is not below `t_enter`, eight at a time.
+#[inline(always)]
+fn reaching<W: Wide>(t_hi: &[f32; PACKET], t_enter: f32, mask: u64) -> u64 {
+    let entering = W::splat(t_enter);
+    let mut reaching = 0u64;
+    // A loop, not an iterator chain, whose closures are compiled outside the AVX2 walk (their
+    // lane intrinsics became calls).
+    for b in 0..BATCHES {
+        let lanes = (mask >> (8 * b)) as u32 & 0xff;
+        if lanes != 0 {
+            reaching |= u64::from(lanes & !entering.greater(W::load(&t_hi[8 * b..]))) << (8 * b);
+        }
+    }
+    reaching
+}
+
+impl WideBvh {
+    /// The single-ray walk of `ray` (within `t_lo` and `t_hi`) from inner node `root`, with
+    /// the box test of the packet walk's lanes `W`: a packet's subtree few rays enter.
+    #[inline(always)]
+    fn walk_alone<W: Wide>(
+        &self,
+        stack: &mut [(u32, f32)],
+        root: u32,
+        (ray, t_lo, t_hi): (&LaneRay, f32, f32),
+        corners: &[[DVec3; 3]],
+        visit: impl FnMut(usize) -> Visit,
+    ) {
+        if W::AVX {
+            self.walk::<true, ()>(stack, root, ray, t_lo, t_hi, corners, &mut (), visit);
+        } else {
+            self.walk::<false, ()>(stack, root, ray, t_lo, t_hi, corners, &mut (), visit);
         }
     }
 }
