@@ -279,7 +279,17 @@ fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams) -> Vec<Extremum> 
             {
                 continue;
             }
-            for x in block {
+            // A block that is not skipped still holds few extrema: its samples are tested
+            // against their own layer's 8 neighbours at once first.
+            let candidates = if block.len() == SCAN_BLOCK {
+                own_layer_candidates(&dogs[layer].data, w, start, y, threshold)
+            } else {
+                u32::MAX
+            };
+            for (i, x) in block.enumerate() {
+                if candidates & (1 << i) == 0 {
+                    continue;
+                }
                 let value = row[x];
                 let beats = |layer: usize, own: bool| beats_block(&dogs[layer].data, w, x, y, value, own);
                 // An infinite sample is refused as `neighbourhood` would; a NaN one fails `beats`.
@@ -300,6 +310,31 @@ fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams) -> Vec<Extremum> 
 
 /// Samples of a row that [`extrema`] tests for the threshold at once.
 const SCAN_BLOCK: usize = 8;
+
+/// Bit i set where sample `start` + i of row `y` of `layer` is above `threshold` and strictly
+/// above its 8 neighbours in the layer, or below −`threshold` and strictly below them: a
+/// necessary condition for [`extrema`]'s threshold and own-layer [`beats_block`] tests (a NaN
+/// fails both), made for [`SCAN_BLOCK`] samples at once without branches, which the compiler
+/// vectorises. Testing each sample of the blocks above the threshold on its own was a third of
+/// SIFT's time on a 250² omni image, whose blocks are mostly not quiet.
+fn own_layer_candidates(layer: &[f32], w: usize, start: usize, y: usize, threshold: f32) -> u32 {
+    let centre: [f32; SCAN_BLOCK] = layer[y * w + start..][..SCAN_BLOCK].try_into().expect("a whole block");
+    let mut above = centre.map(|v| v > threshold);
+    let mut below = centre.map(|v| v < -threshold);
+    for yy in y - 1..=y + 1 {
+        for dx in 0..3 {
+            if yy == y && dx == 1 {
+                continue;
+            }
+            let neighbours = &layer[yy * w + start + dx - 1..][..SCAN_BLOCK];
+            for ((above, below), (&value, &v)) in above.iter_mut().zip(&mut below).zip(centre.iter().zip(neighbours)) {
+                *above &= value > v;
+                *below &= value < v;
+            }
+        }
+    }
+    (0..SCAN_BLOCK).fold(0, |bits, i| bits | (u32::from(above[i] | below[i]) << i))
+}
 
 /// Whether `value`, the sample at (x, y) of the middle layer, is strictly above (if positive)
 /// or below each value of the 3 × 3 block of `layer` around (x, y), its own sample left out
@@ -425,7 +460,6 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
 }
 
 /// The samples of one descriptor's window: place in cells, gradient, window weight.
-#[derive(Default)]
 struct Samples {
     rbin: Vec<f32>,
     cbin: Vec<f32>,
@@ -435,6 +469,17 @@ struct Samples {
 }
 
 impl Samples {
+    /// Room for `n` samples, so that the window's loop never grows the vectors.
+    fn with_capacity(n: usize) -> Self {
+        Self {
+            rbin: Vec::with_capacity(n),
+            cbin: Vec::with_capacity(n),
+            dx: Vec::with_capacity(n),
+            dy: Vec::with_capacity(n),
+            weight: Vec::with_capacity(n),
+        }
+    }
+
     fn push(&mut self, rbin: f32, cbin: f32, dx: f32, dy: f32, weight: f32) {
         self.rbin.push(rbin);
         self.cbin.push(cbin);
@@ -480,7 +525,8 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
     // Three passes, as OpenCV's: the samples inside the turned window, then their magnitudes
     // and orientations in one loop without branches (which the compiler vectorises), then the
     // votes.
-    let mut samples = Samples::default();
+    let side = 2 * radius as usize + 1;
+    let mut samples = Samples::with_capacity(side * side);
     for (i, &row_weight) in (-radius..=radius).zip(&weights) {
         for (j, &column_weight) in (-radius..=radius).zip(&weights) {
             // The sample's place in the keypoint's frame, in cells.
