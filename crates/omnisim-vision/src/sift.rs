@@ -319,20 +319,23 @@ const SCAN_BLOCK: usize = 8;
 /// SIFT's time on a 250² omni image, whose blocks are mostly not quiet.
 fn own_layer_candidates(layer: &[f32], w: usize, start: usize, y: usize, threshold: f32) -> u32 {
     let centre: [f32; SCAN_BLOCK] = layer[y * w + start..][..SCAN_BLOCK].try_into().expect("a whole block");
-    let mut above = centre.map(|v| v > threshold);
-    let mut below = centre.map(|v| v < -threshold);
+    // The largest and smallest neighbour by plain comparisons (one vector instruction each):
+    // a NaN neighbour may be passed over here, but the exact test refuses it after.
+    let (mut largest, mut smallest) = (centre.map(|_| f32::NEG_INFINITY), centre.map(|_| f32::INFINITY));
     for yy in y - 1..=y + 1 {
         for dx in 0..3 {
             if yy == y && dx == 1 {
                 continue;
             }
             let neighbours = &layer[yy * w + start + dx - 1..][..SCAN_BLOCK];
-            for ((above, below), (&value, &v)) in above.iter_mut().zip(&mut below).zip(centre.iter().zip(neighbours)) {
-                *above &= value > v;
-                *below &= value < v;
+            for ((largest, smallest), &v) in largest.iter_mut().zip(&mut smallest).zip(neighbours) {
+                *largest = if v > *largest { v } else { *largest };
+                *smallest = if v < *smallest { v } else { *smallest };
             }
         }
     }
+    let above: [bool; SCAN_BLOCK] = std::array::from_fn(|i| centre[i] > threshold && centre[i] > largest[i]);
+    let below: [bool; SCAN_BLOCK] = std::array::from_fn(|i| centre[i] < -threshold && centre[i] < smallest[i]);
     (0..SCAN_BLOCK).fold(0, |bits, i| bits | (u32::from(above[i] | below[i]) << i))
 }
 
@@ -419,22 +422,40 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
     let mut raw = vec![0.0f32; n];
     // The Gaussian window e^(−(i² + j²)/2w²) as the product of its row and column factors.
     let weights = gaussian_factors(radius, -1.0 / (2.0 * window * window));
+    // The columns inside the image's interior, where a central difference exists.
+    let first = (px - radius).max(1);
+    let last = (px + radius).min(image.width as i64 - 2);
+    let columns = (first - (px - radius)) as usize..(last - (px - radius) + 1).max(0) as usize;
+    let (mut bins, mut votes) = (vec![0usize; columns.len()], vec![0.0f32; columns.len()]);
     for (i, &row_weight) in (-radius..=radius).zip(&weights) {
         let yy = py + i;
-        if yy <= 0 || yy >= image.height as i64 - 1 {
+        if yy <= 0 || yy >= image.height as i64 - 1 || columns.is_empty() {
             continue;
         }
-        for (j, &column_weight) in (-radius..=radius).zip(&weights) {
-            let xx = px + j;
-            if xx <= 0 || xx >= image.width as i64 - 1 {
-                continue;
-            }
-            let (dx, dy) = gradient(image, xx as usize, yy as usize);
-            let angle = atan2_degrees(dy, dx);
+        let (above, here, below) = (
+            image.row(yy as usize - 1),
+            image.row(yy as usize),
+            image.row(yy as usize + 1),
+        );
+        // Each row's bins and votes in a loop without branches (which the compiler
+        // vectorises), then added in the same order as one sample at a time.
+        let xs = first as usize..=last as usize;
+        let gradients = xs
+            .clone()
+            .map(|xx| (here[xx + 1] - here[xx - 1], below[xx] - above[xx]));
+        for (((bin, vote), (dx, dy)), &column_weight) in bins
+            .iter_mut()
+            .zip(&mut votes)
+            .zip(gradients)
+            .zip(&weights[columns.clone()])
+        {
             // Rounds to the nearest bin (angle ≥ 0); bin n is bin 0.
-            let bin = (angle * n as f32 / 360.0 + 0.5) as usize;
-            let bin = if bin >= n { bin - n } else { bin };
-            raw[bin] += row_weight * column_weight * (dx * dx + dy * dy).sqrt();
+            let nearest = (atan2_degrees(dy, dx) * n as f32 / 360.0 + 0.5) as usize;
+            *bin = if nearest >= n { nearest - n } else { nearest };
+            *vote = row_weight * column_weight * (dx * dx + dy * dy).sqrt();
+        }
+        for (&bin, &vote) in bins.iter().zip(&votes) {
+            raw[bin] += vote;
         }
     }
     let at = |h: &[f32], i: i64| h[i.rem_euclid(n as i64) as usize];
