@@ -714,6 +714,40 @@ mod tests {
         }
     }
 
+    /// The block pre-test of 8 samples against their own layer's neighbours equals the
+    /// per-sample threshold and own-layer test on finite layers, and never drops a sample that
+    /// test keeps where NaNs and infinities are sprinkled in.
+    #[test]
+    fn own_layer_candidates_keep_every_sample_the_exact_test_keeps() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(18);
+        let (w, h, threshold) = (40, 6, 0.3f32);
+        for trial in 0..200 {
+            let mut layer: Vec<f32> = (0..w * h).map(|_| rng.random_range(-1.0..1.0)).collect();
+            if trial % 2 == 1 {
+                for _ in 0..12 {
+                    let at = rng.random_range(0..w * h);
+                    layer[at] = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY][rng.random_range(0..3)];
+                }
+            }
+            for y in 1..h - 1 {
+                for start in (1..w - SCAN_BLOCK).step_by(3) {
+                    let bits = own_layer_candidates(&layer, w, start, y, threshold);
+                    for i in 0..SCAN_BLOCK {
+                        let value = layer[y * w + start + i];
+                        let exact = value.abs() > threshold && beats_block(&layer, w, start + i, y, value, true);
+                        let kept = bits & (1 << i) != 0;
+                        if trial % 2 == 0 {
+                            assert_eq!(kept, exact, "trial {trial}, ({}, {y})", start + i);
+                        } else {
+                            assert!(kept || !exact, "trial {trial}, ({}, {y})", start + i);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn bad_parameters_are_refused() {
         let image = Raster::new(64, 64, 1);
