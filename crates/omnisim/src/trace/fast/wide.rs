@@ -232,7 +232,7 @@ impl WideBvh {
                     let mut bound = t_hi[r];
                     let start = bound;
                     // Handed over by value, inlined into the walk (through `&mut` it was a call
-                    // a triangle, the f64 test's operands through memory).
+                    // per triangle, the f64 test's operands passed through memory).
                     self.walk_alone::<W>(
                         single_stack,
                         entry,
@@ -310,7 +310,8 @@ impl WideBvh {
     }
 }
 
-/// The rays of `mask` whose bound `t_hi` is not below `t_enter`, eight at a time.
+/// The rays of `mask` whose bound `t_hi` is not below `t_enter`, eight at a time (a NaN bound
+/// or entry keeps the ray: the compare is ordered, so the test only ever keeps too many).
 #[inline(always)]
 fn reaching<W: Wide>(t_hi: &[f32; PACKET], t_enter: f32, mask: u64) -> u64 {
     let entering = W::splat(t_enter);
