@@ -449,6 +449,26 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
     frame.set_shading(planes, linear, colour);
 }
 
+/// Writes a hit pixel's 8-bit colour into `colour`: `flat` where it is a flat face's byte (as
+/// [`eight_bit`] takes it), else the linear colour `shaded` gives, encoded; and that linear
+/// colour into `linear` where asked. `shaded` is called only where one of them needs it.
+#[inline(always)]
+fn write_pixel(
+    flat: Option<[u8; 3]>,
+    shaded: impl FnOnce() -> DVec3,
+    colour: &mut [u8; 3],
+    linear: Option<&mut [f32; 3]>,
+) {
+    match linear {
+        Some(linear) => {
+            let shaded = shaded();
+            *linear = shaded.as_vec3().to_array();
+            *colour = flat.unwrap_or_else(|| encode(shaded));
+        }
+        None => *colour = flat.unwrap_or_else(|| encode(shaded())),
+    }
+}
+
 /// The 8-bit colour of hit pixel `hit` whose linear colour `linear` gives: its face's colour
 /// where it is `flat` (unlit, no surface; `linear` is then not called), else `linear()` encoded.
 #[inline(always)]

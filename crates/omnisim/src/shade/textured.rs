@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::filter::{LANES, Lookups, Wraps, trilinear_lanes};
 use super::{
-    Appearance, Footprint, View, eight_bit, encode, lit, shade_on, texture_coordinates, texture_of, untextured_albedo,
+    Appearance, Footprint, View, lit, shade_on, texture_coordinates, texture_of, untextured_albedo, write_pixel,
 };
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::scene::surface::{Surface, UvMap};
@@ -128,7 +128,8 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                     let surface = appearance.surfaces.of(hit.face);
                     let Some(face) = surface.and_then(|surface| Face::of(appearance, self.view, hit, surface)) else {
                         // As `mod.rs` shades it: no texture, so no footprint.
-                        let flat = appearance.lighting.is_none() && surface.is_none();
+                        let flat = (appearance.lighting.is_none() && surface.is_none())
+                            .then(|| appearance.face_colours[hit.face as usize]);
                         let shaded = || {
                             shade_on(
                                 appearance,
@@ -138,14 +139,8 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                                 |_| self.lux[start + slot],
                             )
                         };
-                        match linear.as_deref_mut() {
-                            Some(linear) => {
-                                let shaded = shaded();
-                                linear[slot] = shaded.as_vec3().to_array();
-                                colour[slot] = eight_bit(appearance, hit, flat, || shaded);
-                            }
-                            None => colour[slot] = eight_bit(appearance, hit, flat, shaded),
-                        }
+                        let linear = linear.as_deref_mut().map(|linear| &mut linear[slot]);
+                        write_pixel(flat, shaded, &mut colour[slot], linear);
                         continue;
                     };
                     *last.insert(face)
@@ -194,11 +189,10 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             let sample = DVec3::from_array([0, 1, 2].map(|channel| f64::from(samples[channel][lane])));
             let albedo = batch.base[lane] * sample;
             let surface = Some(batch.surface[lane]);
-            let shaded = lit(self.appearance, surface, albedo, |_| self.lux[start + slot]);
-            if let Some(linear) = linear.as_deref_mut() {
-                linear[slot] = shaded.as_vec3().to_array();
-            }
-            colour[slot] = encode(shaded);
+            let shaded = || lit(self.appearance, surface, albedo, |_| self.lux[start + slot]);
+            let linear = linear.as_deref_mut().map(|linear| &mut linear[slot]);
+            // A textured pixel is never flat: its colour is always encoded.
+            write_pixel(None, shaded, &mut colour[slot], linear);
         }
     }
 }

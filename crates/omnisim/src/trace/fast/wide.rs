@@ -150,27 +150,12 @@ impl WideBvh {
         }
         // Stacks on the machine stack for the usual depths (a heap allocation per packet cost
         // more than zeroing them).
+        let walk = |packet_stack: &mut [_], single_stack: &mut [_]| {
+            self.walk_interval(packet_stack, single_stack, rays, bounds, active, single, corners, visit);
+        };
         match (WIDTH - 1) * self.depth + WIDTH {
-            n if n <= 96 => self.walk_interval(
-                &mut [(0, 0.0, 0); 96],
-                &mut [(0, 0.0); 96],
-                rays,
-                bounds,
-                active,
-                single,
-                corners,
-                visit,
-            ),
-            n => self.walk_interval(
-                &mut vec![(0, 0.0, 0); n],
-                &mut vec![(0, 0.0); n],
-                rays,
-                bounds,
-                active,
-                single,
-                corners,
-                visit,
-            ),
+            n if n <= 96 => walk(&mut [(0, 0.0, 0); 96], &mut [(0, 0.0); 96]),
+            n => walk(&mut vec![(0, 0.0, 0); n], &mut vec![(0, 0.0); n]),
         }
     }
 
