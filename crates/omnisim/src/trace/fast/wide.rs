@@ -730,4 +730,31 @@ mod tests {
             "{admitted_extra} boxes admitted that no ray enters, against {entered} entered"
         );
     }
+
+    /// The popped-entry narrowing at an exact tie: a ray whose bound equals where the packet
+    /// enters the entry stays in it (a triangle there may tie its best hit and win on a lower
+    /// face id), one whose bound is the next f32 below leaves, a NaN bound stays, and rays
+    /// outside the mask stay out. Rays in every eight-ray batch, the last lane included.
+    #[test]
+    fn narrowing_keeps_rays_whose_bound_ties_the_entry() {
+        let t_enter = 2.5_f32;
+        let mut t_hi = [f32::INFINITY; PACKET];
+        let (tied, below, not_a_number, blocked, outside) = ([0, 13, 63], [1, 22, 62], [30, 47], [40], [5, 55]);
+        for r in tied {
+            t_hi[r] = t_enter;
+        }
+        for r in below {
+            t_hi[r] = t_enter.next_down();
+        }
+        for r in not_a_number {
+            t_hi[r] = f32::NAN;
+        }
+        t_hi[blocked[0]] = f32::NEG_INFINITY;
+        let bits = |rays: &[usize]| rays.iter().fold(0u64, |m, &r| m | 1 << r);
+        let mask = !bits(&outside);
+        let kept = reaching::<crate::trace::fast::lanes::Lanes8>(&t_hi, t_enter, mask);
+        let expected = mask & !bits(&below) & !bits(&blocked);
+        assert_eq!(kept, expected, "kept {kept:#x}, expected {expected:#x}");
+        assert_eq!(kept & bits(&tied), bits(&tied));
+    }
 }
