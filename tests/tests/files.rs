@@ -80,6 +80,76 @@ fn exr_range_reads_back_bit_for_bit_with_infinity_for_misses() {
     }
 }
 
+/// A range image that hits nothing: one constant plane (+inf), whose RLE blocks (one scan line
+/// each) run through their even bytes and end in a literal. Written with RLE by omnisim's own
+/// encoder, 250 and 33 pixels wide, into `dir`; returns the files and their frames.
+fn constant_range_exrs(dir: &std::path::Path) -> Vec<(std::path::PathBuf, omnisim::Frame)> {
+    [(250, 250), (33, 3)]
+        .into_iter()
+        .map(|(width, height)| {
+            let frame = omnisim::Frame::empty(width, height);
+            let path = dir.join(format!("nothing-{width}x{height}.exr"));
+            output::write_range_exr(
+                &mut Synced,
+                &path,
+                &frame,
+                &omnisim::Camera::Catadioptric(common::paper_omni()),
+                ExrCompression::Rle,
+            )
+            .unwrap();
+            (path, frame)
+        })
+        .collect()
+}
+
+#[test]
+fn a_range_exr_that_hits_nothing_reads_back_as_infinity() {
+    let dir = tempfile::tempdir().unwrap();
+    for (path, frame) in constant_range_exrs(dir.path()) {
+        check_range_exr(&path, &frame, exr::prelude::Compression::RLE);
+    }
+}
+
+/// `OpenEXR` (the reference library, through its Python binding) reads the constant planes of
+/// [`constant_range_exrs`] as RLE files of +inf, bit for bit.
+#[test]
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn openexr_reads_a_range_exr_that_hits_nothing_as_infinity() {
+    let python = std::env::var_os("OMNISIM_PYTHON")
+        .expect("OMNISIM_PYTHON names no Python: set it to one with tests/readers/requirements.txt (README, Tests)");
+    let dir = tempfile::tempdir().unwrap();
+    let script = r#"
+import sys
+import numpy as np
+import OpenEXR
+channel, files = sys.argv[1], sys.argv[2:]
+for path, width, height in zip(files[0::3], files[1::3], files[2::3]):
+    exr = OpenEXR.File(path, separate_channels=True)
+    compression = str(exr.header()["compression"])
+    assert "RLE" in compression, f"{path}: {compression}"
+    pixels = exr.channels()[channel].pixels
+    assert pixels.shape == (int(height), int(width)) and pixels.dtype == np.float32, (path, pixels.shape, pixels.dtype)
+    bits = pixels.view(np.uint32)
+    assert (bits == 0x7F800000).all(), f"{path}: {np.count_nonzero(bits != 0x7F800000)} values are not +inf"
+    print(path, "ok")
+"#;
+    let mut command = std::process::Command::new(python);
+    command.arg("-c").arg(script).arg(output::VALUE_CHANNEL);
+    for (path, frame) in constant_range_exrs(dir.path()) {
+        command
+            .arg(&path)
+            .arg(frame.width.to_string())
+            .arg(frame.height.to_string());
+    }
+    let run = command.output().expect("Python runs");
+    assert!(
+        run.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+}
+
 /// The range EXR at `path` holds `frame`'s ranges bit for bit, compressed as `compression`.
 fn check_range_exr(path: &std::path::Path, frame: &omnisim::Frame, compression: exr::prelude::Compression) {
     let image = common::read_exr(path);

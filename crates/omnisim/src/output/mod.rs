@@ -543,6 +543,59 @@ mod tests {
         }
     }
 
+    /// The bytes of `channels` as `write_exr` writes them, after checking that they are the
+    /// bytes `exr`'s own image writer makes and that `exr`'s reader gives the values back bit
+    /// for bit.
+    fn check_against_exr(size: (u32, u32), channels: Vec<(&str, Vec<f32>)>, compression: ExrCompression) {
+        let mut expected = std::io::Cursor::new(Vec::new());
+        exr_image(size, "range", "text", channels.clone(), compression)
+            .write()
+            .non_parallel()
+            .to_buffered(&mut expected)
+            .unwrap();
+        let mut kept = Kept(Vec::new());
+        write_exr(
+            &mut kept,
+            Path::new("x.exr"),
+            size,
+            "range",
+            "text",
+            channels.clone(),
+            compression,
+        )
+        .unwrap();
+        let (width, height) = size;
+        assert!(
+            kept.0 == expected.get_ref()[..],
+            "{width}x{height} {compression:?}: the bytes differ from exr's"
+        );
+        use exr::prelude::{ReadChannels, ReadLayers};
+        let image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(kept.0))
+            .unwrap();
+        let read: Vec<(String, Vec<u32>)> = (image.layer_data.channel_data.list.iter())
+            .map(|c| {
+                (
+                    c.name.to_string(),
+                    c.sample_data.values_as_f32().map(f32::to_bits).collect(),
+                )
+            })
+            .collect();
+        let mut written: Vec<(String, Vec<u32>)> = (channels.into_iter())
+            .map(|(name, values)| (name.to_string(), values.iter().map(|v| v.to_bits()).collect()))
+            .collect();
+        written.sort();
+        assert!(
+            read == written,
+            "{width}x{height} {compression:?}: exr reads other values back"
+        );
+    }
+
     /// The chunks `write_exr` compresses itself (RLE) or hands to `exr`'s encoders give the
     /// bytes `exr`'s own image writer makes, for one and three channels, odd sizes, runs
     /// longer than a token, NaN and infinities, and blocks that do not compress.
@@ -580,26 +633,31 @@ mod tests {
                         ("B", planes[2].clone()),
                     ],
                 ] {
-                    let mut expected = std::io::Cursor::new(Vec::new());
-                    exr_image(size, "range", "text", channels.clone(), compression)
-                        .write()
-                        .non_parallel()
-                        .to_buffered(&mut expected)
-                        .unwrap();
-                    let mut kept = Kept(Vec::new());
-                    write_exr(
-                        &mut kept,
-                        Path::new("x.exr"),
+                    check_against_exr(size, channels, compression);
+                }
+            }
+        }
+    }
+
+    /// Constant planes, whose RLE runs end a block (a block is one scan line): after the
+    /// predictor a plane of equal bytes (0.0, 0x41414141) is one literal byte and then one run
+    /// to the line's end, which ends in a full token (32 wide: 127 bytes; 64: 128 + 127) or in
+    /// a run of exactly three (33 wide: 128 + 3; three channels 43 wide: 4 × 128 + 3); +inf
+    /// (a range image that hits nothing) runs through its even bytes and ends the block in a
+    /// literal; 2.5 alternates and never runs. The bytes are `exr`'s and read back bit for bit.
+    #[test]
+    fn constant_planes_whose_runs_end_a_block_are_exrs_bytes() {
+        for (width, height) in [(32, 2), (33, 3), (43, 2), (64, 1), (1, 4), (250, 250)] {
+            let n = width * height;
+            for value in [0.0, f32::from_bits(0x4141_4141), f32::INFINITY, 2.5, -0.0] {
+                let plane = vec![value; n];
+                let size = (width as u32, height as u32);
+                for compression in [ExrCompression::Rle, ExrCompression::None, ExrCompression::Zip] {
+                    check_against_exr(size, vec![("Y", plane.clone())], compression);
+                    check_against_exr(
                         size,
-                        "range",
-                        "text",
-                        channels,
+                        vec![("R", plane.clone()), ("G", plane.clone()), ("B", plane.clone())],
                         compression,
-                    )
-                    .unwrap();
-                    assert!(
-                        kept.0 == expected.get_ref()[..],
-                        "{width}x{height} {compression:?}: the bytes differ from exr's"
                     );
                 }
             }
