@@ -182,30 +182,29 @@ fn features(image: &Raster, params: &SiftParams) -> Features {
         .collect();
     let mut keypoints: Vec<(Keypoint, usize, usize)> = candidates
         .par_iter()
-        .flat_map_iter(|&(o, layer)| {
-            let located = extrema(&dogs[o], layer, params);
+        .map_init(Scratch::default, |scratch, &(o, layer)| {
             let scale = 2f32.powi(o as i32 + first_octave);
             // Doubling samples the input at (u + ½)/2 − ½: doubled pixel u sits at u/2 − ¼.
             let shift = if params.upsample { -0.25 } else { 0.0 };
-            located
-                .into_iter()
-                .flat_map(|e| {
-                    let octave_sigma = params.sigma * 2f32.powf(e.scale / s as f32);
-                    let angles = orientations(&gaussians[o][e.layer], e.x, e.y, octave_sigma, params);
-                    angles.into_iter().map(move |angle| {
-                        let keypoint = Keypoint {
-                            x: e.x * scale + shift,
-                            y: e.y * scale + shift,
-                            sigma: octave_sigma * scale,
-                            angle,
-                            response: e.contrast.abs(),
-                            octave: o as i32 + first_octave,
-                        };
-                        (keypoint, o, e.layer)
-                    })
-                })
-                .collect::<Vec<_>>()
+            let mut found = Vec::new();
+            for e in extrema(&dogs[o], layer, params) {
+                let octave_sigma = params.sigma * 2f32.powf(e.scale / s as f32);
+                orientations(&gaussians[o][e.layer], e.x, e.y, octave_sigma, params, scratch);
+                found.extend(scratch.angles.iter().map(|&angle| {
+                    let keypoint = Keypoint {
+                        x: e.x * scale + shift,
+                        y: e.y * scale + shift,
+                        sigma: octave_sigma * scale,
+                        angle,
+                        response: e.contrast.abs(),
+                        octave: o as i32 + first_octave,
+                    };
+                    (keypoint, o, e.layer)
+                }));
+            }
+            found
         })
+        .flatten_iter()
         .collect();
     // Two extrema can converge on the same point (OpenCV's removeDuplicatedSorted).
     keypoints.sort_by(|a, b| {
@@ -215,15 +214,24 @@ fn features(image: &Raster, params: &SiftParams) -> Features {
     keypoints.dedup_by(|a, b| a.0 == b.0);
 
     let length = descriptor_length(params);
-    let descriptors = keypoints
-        .par_iter()
-        .flat_map_iter(|(k, o, layer)| {
+    let mut descriptors = vec![0.0; keypoints.len() * length];
+    descriptors.par_chunks_mut(length).zip(&keypoints).for_each_init(
+        Scratch::default,
+        |scratch, (out, (k, o, layer))| {
             let scale = 2f32.powi(*o as i32 + first_octave);
             let shift = if params.upsample { -0.25 } else { 0.0 };
             let (x, y) = ((k.x - shift) / scale, (k.y - shift) / scale);
-            descriptor(&gaussians[*o][*layer], x, y, k.angle, k.sigma / scale, params)
-        })
-        .collect();
+            descriptor(
+                &gaussians[*o][*layer],
+                (x, y),
+                k.angle,
+                k.sigma / scale,
+                params,
+                scratch,
+                out,
+            );
+        },
+    );
     buffers::keep(gaussians.into_iter().chain(dogs).flatten().map(|layer| layer.data));
     Features {
         keypoints: keypoints.into_iter().map(|(k, _, _)| k).collect(),
@@ -408,26 +416,63 @@ fn gradient(image: &Raster, x: usize, y: usize) -> (f32, f32) {
     )
 }
 
-/// e^(scale·t²) for t = −radius..=radius: one axis's factor of a 2-D Gaussian window.
-fn gaussian_factors(radius: i64, scale: f32) -> Vec<f32> {
-    (-radius..=radius).map(|t| (scale * (t * t) as f32).exp()).collect()
+/// e^(scale·t²) for t = −radius..=radius, into `factors`: one axis's factor of a 2-D Gaussian
+/// window.
+fn gaussian_factors(radius: i64, scale: f32, factors: &mut Vec<f32>) {
+    factors.clear();
+    factors.extend((-radius..=radius).map(|t| (scale * (t * t) as f32).exp()));
 }
 
-/// Lowe 2004 §5: the angles (degrees, +x towards +y) of the orientation histogram's peaks.
-fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &SiftParams) -> Vec<f32> {
+/// Buffers a thread reuses from one keypoint to the next (allocated per keypoint before).
+#[derive(Default)]
+struct Scratch {
+    /// One axis's factors of the Gaussian window.
+    weights: Vec<f32>,
+    /// Orientation: the histogram, smoothed, a row's bins and votes, and the peaks' angles.
+    raw: Vec<f32>,
+    smoothed: Vec<f32>,
+    bins: Vec<usize>,
+    votes: Vec<f32>,
+    angles: Vec<f32>,
+    /// Descriptor: the histogram with its margins, the window's samples, their weighted
+    /// magnitudes and orientation bins.
+    hist: Vec<f32>,
+    samples: Samples,
+    magnitudes: Vec<f32>,
+    orientation_bins: Vec<f32>,
+}
+
+/// Lowe 2004 §5: the angles (degrees, +x towards +y) of the orientation histogram's peaks,
+/// into `scratch.angles`.
+fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &SiftParams, scratch: &mut Scratch) {
     let n = params.orientation_bins;
     let window = 1.5 * octave_sigma;
     let radius = (3.0 * window).round() as i64;
     let (px, py) = (x.round() as i64, y.round() as i64);
-    let mut raw = vec![0.0f32; n];
+    let Scratch {
+        weights,
+        raw,
+        smoothed,
+        bins,
+        votes,
+        angles,
+        ..
+    } = scratch;
+    raw.clear();
+    raw.resize(n, 0.0);
     // The Gaussian window e^(−(i² + j²)/2w²) as the product of its row and column factors.
-    let weights = gaussian_factors(radius, -1.0 / (2.0 * window * window));
+    gaussian_factors(radius, -1.0 / (2.0 * window * window), weights);
+    // Slices from here on: through `&mut Vec` every store into the values reloaded the Vec.
+    let (raw, weights) = (&mut raw[..], &weights[..]);
     // The columns inside the image's interior, where a central difference exists.
     let first = (px - radius).max(1);
     let last = (px + radius).min(image.width as i64 - 2);
     let columns = (first - (px - radius)) as usize..(last - (px - radius) + 1).max(0) as usize;
-    let (mut bins, mut votes) = (vec![0usize; columns.len()], vec![0.0f32; columns.len()]);
-    for (i, &row_weight) in (-radius..=radius).zip(&weights) {
+    // Every row overwrites them whole.
+    bins.resize(columns.len(), 0);
+    votes.resize(columns.len(), 0.0);
+    let (bins, votes) = (&mut bins[..], &mut votes[..]);
+    for (i, &row_weight) in (-radius..=radius).zip(weights) {
         let yy = py + i;
         if yy <= 0 || yy >= image.height as i64 - 1 || columns.is_empty() {
             continue;
@@ -445,7 +490,7 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
             .map(|xx| (here[xx + 1] - here[xx - 1], below[xx] - above[xx]));
         for (((bin, vote), (dx, dy)), &column_weight) in bins
             .iter_mut()
-            .zip(&mut votes)
+            .zip(votes.iter_mut())
             .zip(gradients)
             .zip(&weights[columns.clone()])
         {
@@ -454,33 +499,32 @@ fn orientations(image: &Raster, x: f32, y: f32, octave_sigma: f32, params: &Sift
             *bin = if nearest >= n { nearest - n } else { nearest };
             *vote = row_weight * column_weight * (dx * dx + dy * dy).sqrt();
         }
-        for (&bin, &vote) in bins.iter().zip(&votes) {
+        for (&bin, &vote) in bins.iter().zip(votes.iter()) {
             raw[bin] += vote;
         }
     }
     let at = |h: &[f32], i: i64| h[i.rem_euclid(n as i64) as usize];
-    let hist: Vec<f32> = (0..n as i64)
-        .map(|i| {
-            (at(&raw, i - 2) + at(&raw, i + 2)) / 16.0
-                + (at(&raw, i - 1) + at(&raw, i + 1)) * 4.0 / 16.0
-                + at(&raw, i) * 6.0 / 16.0
-        })
-        .collect();
-    let highest = hist.iter().copied().fold(0.0f32, f32::max);
-    (0..n as i64)
-        .filter_map(|i| {
-            let (left, centre, right) = (at(&hist, i - 1), at(&hist, i), at(&hist, i + 1));
-            if centre > left && centre > right && centre >= params.peak_ratio * highest {
-                let bin = i as f32 + 0.5 * (left - right) / (left - 2.0 * centre + right);
-                Some((bin * 360.0 / n as f32).rem_euclid(360.0))
-            } else {
-                None
-            }
-        })
-        .collect()
+    smoothed.clear();
+    smoothed.extend((0..n as i64).map(|i| {
+        (at(raw, i - 2) + at(raw, i + 2)) / 16.0
+            + (at(raw, i - 1) + at(raw, i + 1)) * 4.0 / 16.0
+            + at(raw, i) * 6.0 / 16.0
+    }));
+    let highest = smoothed.iter().copied().fold(0.0f32, f32::max);
+    angles.clear();
+    angles.extend((0..n as i64).filter_map(|i| {
+        let (left, centre, right) = (at(smoothed, i - 1), at(smoothed, i), at(smoothed, i + 1));
+        if centre > left && centre > right && centre >= params.peak_ratio * highest {
+            let bin = i as f32 + 0.5 * (left - right) / (left - 2.0 * centre + right);
+            Some((bin * 360.0 / n as f32).rem_euclid(360.0))
+        } else {
+            None
+        }
+    }));
 }
 
 /// The samples of one descriptor's window: place in cells, gradient, window weight.
+#[derive(Default)]
 struct Samples {
     rbin: Vec<f32>,
     cbin: Vec<f32>,
@@ -490,14 +534,17 @@ struct Samples {
 }
 
 impl Samples {
-    /// Room for `n` samples, so that the window's loop never grows the vectors.
-    fn with_capacity(n: usize) -> Self {
-        Self {
-            rbin: Vec::with_capacity(n),
-            cbin: Vec::with_capacity(n),
-            dx: Vec::with_capacity(n),
-            dy: Vec::with_capacity(n),
-            weight: Vec::with_capacity(n),
+    /// Empty, with room for `n` samples, so that the window's loop never grows the vectors.
+    fn clear_for(&mut self, n: usize) {
+        for values in [
+            &mut self.rbin,
+            &mut self.cbin,
+            &mut self.dx,
+            &mut self.dy,
+            &mut self.weight,
+        ] {
+            values.clear();
+            values.reserve(n);
         }
     }
 
@@ -511,22 +558,33 @@ impl Samples {
 
     /// Weighted gradient magnitudes, and orientation bins 0..=n (n only by rounding) counted
     /// clockwise on screen from the keypoint's `angle` (counter-clockwise with y up, as in
-    /// `OpenCV`, so that the descriptors are comparable with `OpenCV`'s).
-    fn magnitudes_and_bins(&self, angle: f32, n: usize) -> (Vec<f32>, Vec<f32>) {
-        let (mut magnitudes, mut bins) = (vec![0.0; self.dx.len()], vec![0.0; self.dx.len()]);
+    /// `OpenCV`, so that the descriptors are comparable with `OpenCV`'s), into `magnitudes`
+    /// and `bins`.
+    fn magnitudes_and_bins(&self, angle: f32, n: usize, magnitudes: &mut Vec<f32>, bins: &mut Vec<f32>) {
+        // Overwritten whole below.
+        magnitudes.resize(self.dx.len(), 0.0);
+        bins.resize(self.dx.len(), 0.0);
         let gradients = self.dx.iter().zip(&self.dy).zip(&self.weight);
-        for ((magnitude, obin), ((&dx, &dy), &weight)) in magnitudes.iter_mut().zip(&mut bins).zip(gradients) {
+        for ((magnitude, obin), ((&dx, &dy), &weight)) in magnitudes.iter_mut().zip(bins.iter_mut()).zip(gradients) {
             let turned = angle - atan2_degrees(dy, dx);
             *obin = if turned < 0.0 { turned + 360.0 } else { turned } * n as f32 / 360.0;
             *magnitude = (dx * dx + dy * dy).sqrt() * weight;
         }
-        (magnitudes, bins)
     }
 }
 
 /// Lowe 2004 §6 (`OpenCV`'s `calcSIFTDescriptor`): the descriptor of the keypoint at (x, y) of
-/// `image` (octave pixels), turned by `angle` degrees, of scale `octave_sigma`.
-fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, params: &SiftParams) -> Vec<f32> {
+/// `image` (octave pixels), turned by `angle` degrees, of scale `octave_sigma`, into `out`
+/// (its [`descriptor_length`] values).
+fn descriptor(
+    image: &Raster,
+    (x, y): (f32, f32),
+    angle: f32,
+    octave_sigma: f32,
+    params: &SiftParams,
+    scratch: &mut Scratch,
+    out: &mut [f32],
+) {
     let d = params.descriptor_width;
     let n = params.descriptor_bins;
     let (px, py) = (x.round() as i64, y.round() as i64);
@@ -539,17 +597,28 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
     let window = -1.0 / (d as f32 * d as f32 * 0.5);
     // Cells with a margin of one on each side and two extra orientation bins, folded back below.
     let stride = n + 2;
-    let mut hist = vec![0.0f32; (d + 2) * (d + 2) * stride];
+    let Scratch {
+        weights,
+        hist,
+        samples,
+        magnitudes,
+        orientation_bins,
+        ..
+    } = scratch;
+    hist.clear();
+    hist.resize((d + 2) * (d + 2) * stride, 0.0);
     // The window e^((c_rot² + r_rot²)·window) with c_rot² + r_rot² = (i² + j²)/cell², as the
     // product of its row and column factors.
-    let weights = gaussian_factors(radius, window / (cell * cell));
+    gaussian_factors(radius, window / (cell * cell), weights);
+    // Slices from here on: through `&mut Vec` every store into the values reloaded the Vec.
+    let (hist, weights) = (&mut hist[..], &weights[..]);
     // Three passes, as OpenCV's: the samples inside the turned window, then their magnitudes
     // and orientations in one loop without branches (which the compiler vectorises), then the
     // votes.
     let side = 2 * radius as usize + 1;
-    let mut samples = Samples::with_capacity(side * side);
-    for (i, &row_weight) in (-radius..=radius).zip(&weights) {
-        for (j, &column_weight) in (-radius..=radius).zip(&weights) {
+    samples.clear_for(side * side);
+    for (i, &row_weight) in (-radius..=radius).zip(weights) {
+        for (j, &column_weight) in (-radius..=radius).zip(weights) {
             // The sample's place in the keypoint's frame, in cells.
             let c_rot = j as f32 * cos_cell + i as f32 * sin_cell;
             let r_rot = -j as f32 * sin_cell + i as f32 * cos_cell;
@@ -571,9 +640,12 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
             samples.push(rbin, cbin, dx, dy, row_weight * column_weight);
         }
     }
-    let (magnitudes, bins) = samples.magnitudes_and_bins(angle, n);
-    for ((&rbin, &cbin), (&magnitude, &obin)) in
-        samples.rbin.iter().zip(&samples.cbin).zip(magnitudes.iter().zip(&bins))
+    samples.magnitudes_and_bins(angle, n, magnitudes, orientation_bins);
+    for ((&rbin, &cbin), (&magnitude, &obin)) in samples
+        .rbin
+        .iter()
+        .zip(&samples.cbin)
+        .zip(magnitudes.iter().zip(orientation_bins.iter()))
     {
         // Floors without libm's call: rbin and cbin are above −1, obin is 0 or more.
         let floor = |v: f32| if v >= 0.0 { v as i64 } else { -1 };
@@ -590,19 +662,16 @@ fn descriptor(image: &Raster, x: f32, y: f32, angle: f32, octave_sigma: f32, par
             }
         }
     }
-    let mut out = Vec::with_capacity(d * d * n);
-    for i in 0..d {
-        for j in 0..d {
-            let cell = &mut hist[((i + 1) * (d + 2) + j + 1) * stride..][..stride];
-            cell[0] += cell[n];
-            cell[1] += cell[n + 1];
-            out.extend_from_slice(&cell[..n]);
-        }
+    for (k, values) in out.chunks_exact_mut(n).enumerate() {
+        let (i, j) = (k / d, k % d);
+        let cell = &mut hist[((i + 1) * (d + 2) + j + 1) * stride..][..stride];
+        cell[0] += cell[n];
+        cell[1] += cell[n + 1];
+        values.copy_from_slice(&cell[..n]);
     }
-    normalise(&mut out);
+    normalise(out);
     out.iter_mut().for_each(|v| *v = v.min(params.magnitude_clamp));
-    normalise(&mut out);
-    out
+    normalise(out);
 }
 
 /// The image doubled by bilinear interpolation, pixel u of the result at (u + ½)/2 − ½
