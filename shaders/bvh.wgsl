@@ -107,10 +107,21 @@ fn occluded(origin: vec3<f32>, direction: vec3<f32>, t_max: f32, skip_face: u32)
     return traverse(Query(origin, direction, 0.0, skip_face, true), t_max).t < t_max;
 }
 
+// Whether a component of `v` is NaN, read from its bits: WGSL lets an implementation assume
+// that float values are never NaN, so `x != x` may be folded away.
+fn has_nan(v: vec3<f32>) -> bool {
+    return any((bitcast<vec3<u32>>(v) & vec3<u32>(0x7fffffffu)) > vec3<u32>(0x7f800000u));
+}
+
 // The hit nearest in (query.t_min, t_max), or Hit(t_max, 0) if none; with any_hit, the first
 // found.
 fn traverse(query: Query, t_max: f32) -> Hit {
     var best = Hit(t_max, 0u);
+    // A NaN ray hits nothing (every distance on it is NaN, which no comparison keeps), but its
+    // slab tests admit every box: without this it walked the whole tree to find so.
+    if has_nan(query.origin) || has_nan(query.direction) {
+        return best;
+    }
     let origin = query.origin;
     let inv_direction = vec3<f32>(
         safe_inverse(query.direction.x),

@@ -166,6 +166,47 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     assert_eq!(whole, banded);
 }
 
+/// A NaN ray hits nothing on the GPU, as on the CPU: a pose of NaN position or angles (the
+/// library takes poses unchecked) makes every camera ray NaN, and every pixel is a miss in
+/// both. The GPU walk returns such rays at once (`has_nan` in `shaders/bvh.wgsl`); its time per
+/// frame is printed beside a finite pose's (docs/benchmarks.md), not asserted.
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn nan_rays_are_misses_on_the_gpu_as_on_the_cpu() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let gpu = common::gpu_tracer(&scene, &bvh);
+    let camera = Camera::Catadioptric(common::paper_omni());
+    let finite = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
+    let median_ms = |pose: &Pose| {
+        let mut times: Vec<f64> = (0..7)
+            .map(|_| {
+                let start = std::time::Instant::now();
+                gpu.render(&camera, pose).expect("GPU render");
+                start.elapsed().as_secs_f64() * 1e3
+            })
+            .collect();
+        times.sort_by(f64::total_cmp);
+        times[3]
+    };
+    for pose in [
+        Pose::from_degrees(dvec3(f64::NAN, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
+        Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, f64::NAN, 60.0)),
+    ] {
+        let reference = trace::trace(&bvh, &camera, &pose);
+        let frame = gpu.render(&camera, &pose).expect("GPU render");
+        assert_eq!(frame.hit_count(), 0, "the GPU found hits on NaN rays");
+        assert_eq!(reference.hit_count(), 0, "the CPU found hits on NaN rays");
+        eprintln!(
+            "NaN pose {:?}: {:.2} ms a frame (finite pose: {:.2} ms)",
+            pose.position,
+            median_ms(&pose),
+            median_ms(&finite)
+        );
+    }
+    assert!(gpu.render(&camera, &finite).unwrap().hit_count() > 10_000);
+}
+
 /// Ties (issue 18): where an exact copy of a wall lies on the wall, the GPU's f32 distances to
 /// both are the same bits, and the lower face id wins there as on the CPU (`wins` in
 /// `shaders/bvh.wgsl`), whichever the walk meets first.
