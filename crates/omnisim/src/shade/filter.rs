@@ -17,9 +17,9 @@ static DECODING: std::sync::LazyLock<[f32; 256]> =
 pub(crate) const LANES: usize = 8;
 
 /// The texture look-ups of `L` pixels, one a lane, laid out for filtering in lanes: each lane's
-/// texture coordinates (f64, as the definition has them), and for each of the two
-/// levels its level of detail falls between (the finer, then the coarser) the level's texels,
-/// size, wrap periods and share.
+/// texture coordinates (f64, as the definition has them), its wrap, and for each of the
+/// two levels its level of detail falls between (the finer, then the coarser) the level's
+/// texels, size and share.
 pub(crate) struct Lookups<'a, const L: usize> {
     u: [f64; L],
     v: [f64; L],
@@ -27,8 +27,8 @@ pub(crate) struct Lookups<'a, const L: usize> {
     texels: [[&'a [u32]; L]; 2],
     /// Width and height by level, axis, lane (texels).
     size: [[[f64; L]; 2]; 2],
-    /// The wrap's period by level, axis, lane: the size, twice it for mirror.
-    period: [[[f64; L]; 2]; 2],
+    /// The wrap's period in sizes by axis, lane: 1, or 2 for mirror.
+    periods: [[f64; L]; 2],
     /// Whether the axis clamps, by axis, lane.
     clamp: [[bool; L]; 2],
     /// Each level's weight, by level, lane.
@@ -44,7 +44,7 @@ impl<'a, const L: usize> Lookups<'a, L> {
             v: [0.0; L],
             texels: [[&[]; L]; 2],
             size: [[[0.0; L]; 2]; 2],
-            period: [[[0.0; L]; 2]; 2],
+            periods: [[0.0; L]; 2],
             clamp: [[false; L]; 2],
             share: [[0.0; L]; 2],
         };
@@ -65,40 +65,43 @@ impl<'a, const L: usize> Lookups<'a, L> {
                 self.share[level][lane] = self.share[level][from];
                 for axis in 0..2 {
                     self.size[level][axis][lane] = self.size[level][axis][from];
-                    self.period[level][axis][lane] = self.period[level][axis][from];
                 }
             }
             for axis in 0..2 {
                 self.clamp[axis][lane] = self.clamp[axis][from];
+                self.periods[axis][lane] = self.periods[axis][from];
             }
         }
     }
 
     /// Sets lane `lane` to sample `texture` as [`Lookups::filled`] says: the two levels around
-    /// `lod`, weighted by its fraction (a whole level repeats with weight zero).
+    /// `lod`, weighted by its fraction (a whole level repeats with weight zero). Written out
+    /// field by field: a pixel's whole set-up before its lanes (the wrap's periods are
+    /// multiplied out in the lanes).
     #[inline(always)]
     pub(crate) fn set(&mut self, lane: usize, texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) {
-        let last = (texture.levels.len() - 1) as f32;
+        let levels: &'a [MipLevel] = &texture.levels;
+        let last = (levels.len() - 1) as f32;
         let lod = if lod.is_nan() { last } else { lod.clamp(0.0, last) };
         // Through i32: `lod` lies in 0..=last, and `as usize` costs a saturating conversion.
         let fine = lod as i32 as usize;
         let fraction = lod - fine as f32;
-        let coarse = if fraction > 0.0 { fine + 1 } else { fine };
+        let coarse = fine + usize::from(fraction > 0.0);
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
-        for (clamp, wrap_clamps) in self.clamp.iter_mut().zip(wraps.clamp) {
-            clamp[lane] = wrap_clamps;
-        }
-        for (level, (index, share)) in [(fine, 1.0 - fraction), (coarse, fraction)].into_iter().enumerate() {
-            let mip: &'a MipLevel = &texture.levels[index];
-            self.texels[level][lane] = &mip.texels;
-            self.share[level][lane] = share;
-            for (axis, size) in [mip.width, mip.height].map(f64::from).into_iter().enumerate() {
-                self.size[level][axis][lane] = size;
-                // Exact: the factor is 1 or 2.
-                self.period[level][axis][lane] = wraps.periods[axis] * size;
-            }
-        }
+        self.clamp[0][lane] = wraps.clamp[0];
+        self.clamp[1][lane] = wraps.clamp[1];
+        self.periods[0][lane] = wraps.periods[0];
+        self.periods[1][lane] = wraps.periods[1];
+        let (finer, coarser) = (&levels[fine], &levels[coarse]);
+        self.texels[0][lane] = &finer.texels;
+        self.texels[1][lane] = &coarser.texels;
+        self.size[0][0][lane] = f64::from(finer.width);
+        self.size[0][1][lane] = f64::from(finer.height);
+        self.size[1][0][lane] = f64::from(coarser.width);
+        self.size[1][1][lane] = f64::from(coarser.height);
+        self.share[0][lane] = 1.0 - fraction;
+        self.share[1][lane] = fraction;
     }
 }
 
@@ -149,14 +152,14 @@ fn texel_index(n: f64) -> i32 {
 }
 
 /// Each lane's texel coordinate `t` (texel centres at integer + 0.5) on an axis of `size`
-/// texels, wrapped with period `period` or clamped (`clamp`), as the two neighbouring texel
-/// indices (integers in f64) and the weight of the second; NaN or infinite reads coordinate 0
-/// (for repeat, the mean of the last and the first texel).
+/// texels, wrapped with period `periods` sizes or clamped (`clamp`), as the two neighbouring
+/// texel indices (integers in f64) and the weight of the second; NaN or infinite reads
+/// coordinate 0 (for repeat, the mean of the last and the first texel).
 #[inline(always)]
 fn neighbours<const L: usize>(
     t: &[f64; L],
     size: &[f64; L],
-    period: &[f64; L],
+    periods: &[f64; L],
     clamp: &[bool; L],
 ) -> ([f64; L], [f64; L], [f32; L]) {
     // Minimum and maximum as selects (no NaN reaches them), which vectorise.
@@ -169,8 +172,8 @@ fn neighbours<const L: usize>(
         let x = higher(lower(x, FAR), -FAR);
         let i = floor(x);
         weight[k] = (x - i) as f32;
-        // i mod period and i + 1 mod period, exact (see FAR).
-        let period = period[k];
+        // i mod period and i + 1 mod period, exact (see FAR; the factor is 1 or 2).
+        let period = periods[k] * size;
         let m = i - period * floor(i / period);
         let n = if m + 1.0 == period { 0.0 } else { m + 1.0 };
         // Mirror's second half runs backwards; repeat never reaches it.
@@ -235,9 +238,9 @@ fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L
     let mut weights = [[0.0f32; L]; 8];
     for level in 0..2 {
         let [width, height] = &lookups.size[level];
-        let [x_period, y_period] = &lookups.period[level];
-        let (x0, x1, fx) = neighbours(&lookups.u, width, x_period, &lookups.clamp[0]);
-        let (y0, y1, fy) = neighbours(&lookups.v, height, y_period, &lookups.clamp[1]);
+        let [x_periods, y_periods] = &lookups.periods;
+        let (x0, x1, fx) = neighbours(&lookups.u, width, x_periods, &lookups.clamp[0]);
+        let (y0, y1, fy) = neighbours(&lookups.v, height, y_periods, &lookups.clamp[1]);
         let tap = 4 * level;
         for k in 0..L {
             let (row0, row1) = (y0[k] * width[k], y1[k] * width[k]);
@@ -433,8 +436,8 @@ mod tests {
         for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
             for size in [1, 3, 4] {
                 let size64 = f64::from(size);
-                let period = if wrap == Wrap::Mirror { 2.0 * size64 } else { size64 };
-                let axis = |t: f64| neighbours(&[t], &[size64], &[period], &[wrap == Wrap::Clamp]);
+                let periods = if wrap == Wrap::Mirror { 2.0 } else { 1.0 };
+                let axis = |t: f64| neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp]);
                 for i in (-9..11).chain([-4_000_000_001, 1 << 40]) {
                     let t = (i as f64 + 0.75) / f64::from(size);
                     let (first, second, weight) = axis(t);
