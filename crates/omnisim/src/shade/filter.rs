@@ -23,8 +23,10 @@ pub(crate) const LANES: usize = 8;
 pub(crate) struct Lookups<'a, const L: usize> {
     u: [f64; L],
     v: [f64; L],
-    /// By level, lane.
+    /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]).
     texels: [[&'a [u32]; L]; 2],
+    /// The index of the last of those texels, by level, lane: fetches are clamped to it.
+    last: [[u32; L]; 2],
     /// Width and height by level, axis, lane (texels).
     size: [[[f64; L]; 2]; 2],
     /// The wrap's period in sizes by axis, lane: 1, or 2 for mirror.
@@ -42,7 +44,8 @@ impl<'a, const L: usize> Lookups<'a, L> {
         let mut lookups = Lookups {
             u: [0.0; L],
             v: [0.0; L],
-            texels: [[&[]; L]; 2],
+            texels: [[&NO_TEXELS; L]; 2],
+            last: [[0; L]; 2],
             size: [[[0.0; L]; 2]; 2],
             periods: [[0.0; L]; 2],
             clamp: [[false; L]; 2],
@@ -62,6 +65,7 @@ impl<'a, const L: usize> Lookups<'a, L> {
             self.v[lane] = self.v[from];
             for level in 0..2 {
                 self.texels[level][lane] = self.texels[level][from];
+                self.last[level][lane] = self.last[level][from];
                 self.share[level][lane] = self.share[level][from];
                 for axis in 0..2 {
                     self.size[level][axis][lane] = self.size[level][axis][from];
@@ -94,8 +98,11 @@ impl<'a, const L: usize> Lookups<'a, L> {
         self.periods[0][lane] = wraps.periods[0];
         self.periods[1][lane] = wraps.periods[1];
         let (finer, coarser) = (&levels[fine], &levels[coarse]);
-        self.texels[0][lane] = &finer.texels;
-        self.texels[1][lane] = &coarser.texels;
+        let (finer_texels, coarser_texels) = (texels_of(finer), texels_of(coarser));
+        self.texels[0][lane] = finer_texels;
+        self.texels[1][lane] = coarser_texels;
+        self.last[0][lane] = last_index(finer_texels);
+        self.last[1][lane] = last_index(coarser_texels);
         self.size[0][0][lane] = f64::from(finer.width);
         self.size[0][1][lane] = f64::from(finer.height);
         self.size[1][0][lane] = f64::from(coarser.width);
@@ -103,6 +110,27 @@ impl<'a, const L: usize> Lookups<'a, L> {
         self.share[0][lane] = 1.0 - fraction;
         self.share[1][lane] = fraction;
     }
+}
+
+/// What an empty mip level (a `Texture` built by hand) reads: one black texel.
+static NO_TEXELS: [u32; 1] = [0];
+
+/// The texels lanes read of `level`: its own, or [`NO_TEXELS`] where it has none, so that
+/// every lane has a texel to fetch.
+#[inline(always)]
+fn texels_of(level: &MipLevel) -> &[u32] {
+    if level.texels.is_empty() {
+        &NO_TEXELS
+    } else {
+        &level.texels
+    }
+}
+
+/// The index of the last of `texels` (not empty), within u32 (a level holds at most 2^28 in a
+/// loaded texture; a larger one built by hand reads only its first 2^32).
+#[inline(always)]
+fn last_index(texels: &[u32]) -> u32 {
+    u32::try_from(texels.len() - 1).unwrap_or(u32::MAX)
 }
 
 /// A texture's wrap of u and v as the lanes read it, worked out once per face: whether each
@@ -204,6 +232,53 @@ fn decoded<const L: usize, const AVX2: bool>(texels: &[u32; L], shift: u32, deco
     std::array::from_fn(|k| decoding[((texels[k] >> shift) & 0xff) as usize])
 }
 
+/// Each lane's texel `index` of its level `level` (0 finer, 1 coarser) of `lookups`, clamped
+/// to the level's last texel (what a consistent level's indices already are): with `AVX2` (and
+/// eight lanes) two gathers, where a bounds-checked look-up per lane cost about 32 instructions
+/// a pixel over the eight taps (docs/benchmarks.md, "eighth pass").
+#[inline(always)]
+fn fetched<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>, level: usize, index: &[i32; L]) -> [u32; L] {
+    let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
+    let index: [u32; L] = std::array::from_fn(|k| (index[k] as u32).min(last[k]));
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        let addresses: [u64; L] =
+            std::array::from_fn(|k| texels[k].as_ptr().expose_provenance() as u64 + 4 * u64::from(index[k]));
+        if let Ok(eight) = <&[u64; 8]>::try_from(&addresses[..]) {
+            let mut out = [0; L];
+            // SAFETY: AVX2 = true comes only from `lanes_avx2` (see `decoded`); every address
+            // is that of a texel of its lane's level: `Lookups` keeps `last` the index of the
+            // last of `texels` (never empty), and the index is clamped to it just above; `out`
+            // holds eight u32 (L = 8, as `eight` shows).
+            debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
+            unsafe { gather_avx2(eight, out.as_mut_ptr()) };
+            return out;
+        }
+    }
+    std::array::from_fn(|k| texels[k].get(index[k] as usize).copied().unwrap_or_default())
+}
+
+/// [`fetched`] for eight lanes: the u32 at each of `addresses`, written to `out`.
+///
+/// # Safety
+/// The CPU must have AVX2; every address must be that of a readable u32; `out` must be valid
+/// for eight u32 writes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gather_avx2(addresses: &[u64; 8], out: *mut u32) {
+    use std::arch::x86_64::{__m128i, __m256i, _mm_storeu_si128, _mm256_i64gather_epi32, _mm256_loadu_si256};
+    // SAFETY: the loads read the eight addresses; the gathers read the u32 the caller promised
+    // (absolute addresses, from a null base); the stores write the eight u32 of `out`.
+    unsafe {
+        let halves = [0, 4].map(|first| {
+            let lanes = _mm256_loadu_si256(addresses[first..].as_ptr().cast::<__m256i>());
+            _mm256_i64gather_epi32::<1>(std::ptr::null(), lanes)
+        });
+        _mm_storeu_si128(out.cast::<__m128i>(), halves[0]);
+        _mm_storeu_si128(out.add(4).cast::<__m128i>(), halves[1]);
+    }
+}
+
 /// [`decoded`] for eight lanes: one gather from the table, written to `out` (eight f32).
 ///
 /// # Safety
@@ -257,11 +332,8 @@ fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L
         }
     }
     let mut texels = [[0u32; L]; 8];
-    for tap in 0..8 {
-        for k in 0..L {
-            let level = lookups.texels[tap / 4][k];
-            texels[tap][k] = level.get(indices[tap][k] as u32 as usize).copied().unwrap_or_default();
-        }
+    for (tap, texels) in texels.iter_mut().enumerate() {
+        *texels = fetched::<L, AVX2>(lookups, tap / 4, &indices[tap]);
     }
     let decoding = &*DECODING;
     let mut sums = [[0.0f32; L]; 3];
@@ -436,6 +508,53 @@ mod tests {
                 let one = trilinear(texture, wrap, uv, lod).to_array().map(f32::to_bits);
                 assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
             }
+        }
+    }
+
+    /// A texture built by hand whose levels hold fewer texels than their sizes say, or none:
+    /// fetches are clamped to each level's last texel (an empty level reads black), in lanes
+    /// with and without AVX2 as in one lane, and never read outside the level.
+    #[test]
+    fn short_and_empty_levels_read_their_last_texel_or_black() {
+        let texel = |rgb: [u8; 3]| crate::scene::texture::pack(rgb);
+        let texture = Texture {
+            levels: vec![
+                MipLevel {
+                    width: 4,
+                    height: 4,
+                    texels: vec![texel([10, 20, 30]), texel([200, 100, 50]), texel([255, 255, 255])],
+                },
+                MipLevel {
+                    width: 2,
+                    height: 2,
+                    texels: Vec::new(),
+                },
+            ],
+        };
+        let white = f64::from(srgb_to_linear(255) as f32);
+        // Texel (3, 3) of the finest level: index 15, clamped to the last texel, white.
+        let corner = trilinear(&texture, [Wrap::Clamp; 2], DVec2::splat(0.99), 0.0);
+        for channel in corner.to_array() {
+            // Its four taps' f32 weights sum to 1 within rounding.
+            assert!((f64::from(channel) - white).abs() < 1e-6, "{corner}");
+        }
+        // The empty level: black.
+        assert_eq!(
+            trilinear(&texture, [Wrap::Repeat; 2], DVec2::splat(0.3), 1.0),
+            Vec3A::ZERO
+        );
+        let wraps = Wraps::of([Wrap::Repeat; 2]);
+        let mut lookups = Lookups::<LANES>::filled(&texture, wraps, DVec2::ZERO, 0.0);
+        let lanes_in: [(DVec2, f32); LANES] =
+            std::array::from_fn(|k| (DVec2::new(k as f64 / 7.0, 0.61), k as f32 / 7.0));
+        for (lane, &(uv, lod)) in lanes_in.iter().enumerate() {
+            lookups.set(lane, &texture, wraps, uv, lod);
+        }
+        let portable = lanes::<LANES, false>(&lookups);
+        assert_eq!(trilinear_lanes(&lookups), portable);
+        for (k, &(uv, lod)) in lanes_in.iter().enumerate() {
+            let one = trilinear(&texture, [Wrap::Repeat; 2], uv, lod).to_array();
+            assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
         }
     }
 
