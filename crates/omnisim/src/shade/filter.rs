@@ -17,18 +17,20 @@ static DECODING: std::sync::LazyLock<[f32; 256]> =
 pub(crate) const LANES: usize = 8;
 
 /// The texture look-ups of `L` pixels, one a lane, laid out for filtering in lanes: each lane's
-/// texture coordinates (f64, as the definition has them), and for each of the two
-/// levels its level of detail falls between (the finer, then the coarser) the level's texels,
-/// size, wrap periods and share.
+/// texture coordinates (f64, as the definition has them), its wrap, and for each of the
+/// two levels its level of detail falls between (the finer, then the coarser) the level's
+/// texels, size and share.
 pub(crate) struct Lookups<'a, const L: usize> {
     u: [f64; L],
     v: [f64; L],
-    /// By level, lane.
+    /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]).
     texels: [[&'a [u32]; L]; 2],
+    /// The index of the last of those texels, by level, lane: fetches are clamped to it.
+    last: [[u32; L]; 2],
     /// Width and height by level, axis, lane (texels).
     size: [[[f64; L]; 2]; 2],
-    /// The wrap's period by level, axis, lane: the size, twice it for mirror.
-    period: [[[f64; L]; 2]; 2],
+    /// The wrap's period in sizes by axis, lane: 1, or 2 for mirror.
+    periods: [[f64; L]; 2],
     /// Whether the axis clamps, by axis, lane.
     clamp: [[bool; L]; 2],
     /// Each level's weight, by level, lane.
@@ -42,9 +44,10 @@ impl<'a, const L: usize> Lookups<'a, L> {
         let mut lookups = Lookups {
             u: [0.0; L],
             v: [0.0; L],
-            texels: [[&[]; L]; 2],
+            texels: [[&NO_TEXELS; L]; 2],
+            last: [[0; L]; 2],
             size: [[[0.0; L]; 2]; 2],
-            period: [[[0.0; L]; 2]; 2],
+            periods: [[0.0; L]; 2],
             clamp: [[false; L]; 2],
             share: [[0.0; L]; 2],
         };
@@ -62,44 +65,72 @@ impl<'a, const L: usize> Lookups<'a, L> {
             self.v[lane] = self.v[from];
             for level in 0..2 {
                 self.texels[level][lane] = self.texels[level][from];
+                self.last[level][lane] = self.last[level][from];
                 self.share[level][lane] = self.share[level][from];
                 for axis in 0..2 {
                     self.size[level][axis][lane] = self.size[level][axis][from];
-                    self.period[level][axis][lane] = self.period[level][axis][from];
                 }
             }
             for axis in 0..2 {
                 self.clamp[axis][lane] = self.clamp[axis][from];
+                self.periods[axis][lane] = self.periods[axis][from];
             }
         }
     }
 
     /// Sets lane `lane` to sample `texture` as [`Lookups::filled`] says: the two levels around
-    /// `lod`, weighted by its fraction (a whole level repeats with weight zero).
+    /// `lod`, weighted by its fraction (a whole level repeats with weight zero). Written out
+    /// field by field: a pixel's whole set-up before its lanes (the wrap's periods are
+    /// multiplied out in the lanes).
     #[inline(always)]
     pub(crate) fn set(&mut self, lane: usize, texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) {
-        let last = (texture.levels.len() - 1) as f32;
+        let levels: &'a [MipLevel] = &texture.levels;
+        let last = (levels.len() - 1) as f32;
         let lod = if lod.is_nan() { last } else { lod.clamp(0.0, last) };
         // Through i32: `lod` lies in 0..=last, and `as usize` costs a saturating conversion.
         let fine = lod as i32 as usize;
         let fraction = lod - fine as f32;
-        let coarse = if fraction > 0.0 { fine + 1 } else { fine };
+        let coarse = fine + usize::from(fraction > 0.0);
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
-        for (clamp, wrap_clamps) in self.clamp.iter_mut().zip(wraps.clamp) {
-            clamp[lane] = wrap_clamps;
-        }
-        for (level, (index, share)) in [(fine, 1.0 - fraction), (coarse, fraction)].into_iter().enumerate() {
-            let mip: &'a MipLevel = &texture.levels[index];
-            self.texels[level][lane] = &mip.texels;
-            self.share[level][lane] = share;
-            for (axis, size) in [mip.width, mip.height].map(f64::from).into_iter().enumerate() {
-                self.size[level][axis][lane] = size;
-                // Exact: the factor is 1 or 2.
-                self.period[level][axis][lane] = wraps.periods[axis] * size;
-            }
-        }
+        self.clamp[0][lane] = wraps.clamp[0];
+        self.clamp[1][lane] = wraps.clamp[1];
+        self.periods[0][lane] = wraps.periods[0];
+        self.periods[1][lane] = wraps.periods[1];
+        let (finer, coarser) = (&levels[fine], &levels[coarse]);
+        let (finer_texels, coarser_texels) = (texels_of(finer), texels_of(coarser));
+        self.texels[0][lane] = finer_texels;
+        self.texels[1][lane] = coarser_texels;
+        self.last[0][lane] = last_index(finer_texels);
+        self.last[1][lane] = last_index(coarser_texels);
+        self.size[0][0][lane] = f64::from(finer.width);
+        self.size[0][1][lane] = f64::from(finer.height);
+        self.size[1][0][lane] = f64::from(coarser.width);
+        self.size[1][1][lane] = f64::from(coarser.height);
+        self.share[0][lane] = 1.0 - fraction;
+        self.share[1][lane] = fraction;
     }
+}
+
+/// What an empty mip level (a `Texture` built by hand) reads: one black texel.
+static NO_TEXELS: [u32; 1] = [0];
+
+/// The texels lanes read of `level`: its own, or [`NO_TEXELS`] where it has none, so that
+/// every lane has a texel to fetch.
+#[inline(always)]
+fn texels_of(level: &MipLevel) -> &[u32] {
+    if level.texels.is_empty() {
+        &NO_TEXELS
+    } else {
+        &level.texels
+    }
+}
+
+/// The index of the last of `texels` (not empty), within u32 (a level holds at most 2^28 in a
+/// loaded texture; a larger one built by hand reads only its first 2^32).
+#[inline(always)]
+fn last_index(texels: &[u32]) -> u32 {
+    u32::try_from(texels.len() - 1).unwrap_or(u32::MAX)
 }
 
 /// A texture's wrap of u and v as the lanes read it, worked out once per face: whether each
@@ -149,14 +180,14 @@ fn texel_index(n: f64) -> i32 {
 }
 
 /// Each lane's texel coordinate `t` (texel centres at integer + 0.5) on an axis of `size`
-/// texels, wrapped with period `period` or clamped (`clamp`), as the two neighbouring texel
-/// indices (integers in f64) and the weight of the second; NaN or infinite reads coordinate 0
-/// (for repeat, the mean of the last and the first texel).
+/// texels, wrapped with period `periods` sizes or clamped (`clamp`), as the two neighbouring
+/// texel indices (integers in f64) and the weight of the second; NaN or infinite reads
+/// coordinate 0 (for repeat, the mean of the last and the first texel).
 #[inline(always)]
 fn neighbours<const L: usize>(
     t: &[f64; L],
     size: &[f64; L],
-    period: &[f64; L],
+    periods: &[f64; L],
     clamp: &[bool; L],
 ) -> ([f64; L], [f64; L], [f32; L]) {
     // Minimum and maximum as selects (no NaN reaches them), which vectorise.
@@ -169,8 +200,8 @@ fn neighbours<const L: usize>(
         let x = higher(lower(x, FAR), -FAR);
         let i = floor(x);
         weight[k] = (x - i) as f32;
-        // i mod period and i + 1 mod period, exact (see FAR).
-        let period = period[k];
+        // i mod period and i + 1 mod period, exact (see FAR; the factor is 1 or 2).
+        let period = periods[k] * size;
         let m = i - period * floor(i / period);
         let n = if m + 1.0 == period { 0.0 } else { m + 1.0 };
         // Mirror's second half runs backwards; repeat never reaches it.
@@ -199,6 +230,53 @@ fn decoded<const L: usize, const AVX2: bool>(texels: &[u32; L], shift: u32, deco
         return out;
     }
     std::array::from_fn(|k| decoding[((texels[k] >> shift) & 0xff) as usize])
+}
+
+/// Each lane's texel `index` of its level `level` (0 finer, 1 coarser) of `lookups`, clamped
+/// to the level's last texel (what a consistent level's indices already are): with `AVX2` (and
+/// eight lanes) two gathers, where a bounds-checked look-up per lane cost about 32 instructions
+/// a pixel over the eight taps (docs/benchmarks.md, "eighth pass").
+#[inline(always)]
+fn fetched<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>, level: usize, index: &[i32; L]) -> [u32; L] {
+    let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
+    let index: [u32; L] = std::array::from_fn(|k| (index[k] as u32).min(last[k]));
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        let addresses: [u64; L] =
+            std::array::from_fn(|k| texels[k].as_ptr().expose_provenance() as u64 + 4 * u64::from(index[k]));
+        if let Ok(eight) = <&[u64; 8]>::try_from(&addresses[..]) {
+            let mut out = [0; L];
+            // SAFETY: AVX2 = true comes only from `lanes_avx2` (see `decoded`); every address
+            // is that of a texel of its lane's level: `Lookups` keeps `last` the index of the
+            // last of `texels` (never empty), and the index is clamped to it just above; `out`
+            // holds eight u32 (L = 8, as `eight` shows).
+            debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
+            unsafe { gather_avx2(eight, out.as_mut_ptr()) };
+            return out;
+        }
+    }
+    std::array::from_fn(|k| texels[k].get(index[k] as usize).copied().unwrap_or_default())
+}
+
+/// [`fetched`] for eight lanes: the u32 at each of `addresses`, written to `out`.
+///
+/// # Safety
+/// The CPU must have AVX2; every address must be that of a readable u32; `out` must be valid
+/// for eight u32 writes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gather_avx2(addresses: &[u64; 8], out: *mut u32) {
+    use std::arch::x86_64::{__m128i, __m256i, _mm_storeu_si128, _mm256_i64gather_epi32, _mm256_loadu_si256};
+    // SAFETY: the loads read the eight addresses; the gathers read the u32 the caller promised
+    // (absolute addresses, from a null base); the stores write the eight u32 of `out`.
+    unsafe {
+        let halves = [0, 4].map(|first| {
+            let lanes = _mm256_loadu_si256(addresses[first..].as_ptr().cast::<__m256i>());
+            _mm256_i64gather_epi32::<1>(std::ptr::null(), lanes)
+        });
+        _mm_storeu_si128(out.cast::<__m128i>(), halves[0]);
+        _mm_storeu_si128(out.add(4).cast::<__m128i>(), halves[1]);
+    }
 }
 
 /// [`decoded`] for eight lanes: one gather from the table, written to `out` (eight f32).
@@ -235,9 +313,9 @@ fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L
     let mut weights = [[0.0f32; L]; 8];
     for level in 0..2 {
         let [width, height] = &lookups.size[level];
-        let [x_period, y_period] = &lookups.period[level];
-        let (x0, x1, fx) = neighbours(&lookups.u, width, x_period, &lookups.clamp[0]);
-        let (y0, y1, fy) = neighbours(&lookups.v, height, y_period, &lookups.clamp[1]);
+        let [x_periods, y_periods] = &lookups.periods;
+        let (x0, x1, fx) = neighbours(&lookups.u, width, x_periods, &lookups.clamp[0]);
+        let (y0, y1, fy) = neighbours(&lookups.v, height, y_periods, &lookups.clamp[1]);
         let tap = 4 * level;
         for k in 0..L {
             let (row0, row1) = (y0[k] * width[k], y1[k] * width[k]);
@@ -254,11 +332,8 @@ fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L
         }
     }
     let mut texels = [[0u32; L]; 8];
-    for tap in 0..8 {
-        for k in 0..L {
-            let level = lookups.texels[tap / 4][k];
-            texels[tap][k] = level.get(indices[tap][k] as u32 as usize).copied().unwrap_or_default();
-        }
+    for (tap, texels) in texels.iter_mut().enumerate() {
+        *texels = fetched::<L, AVX2>(lookups, tap / 4, &indices[tap]);
     }
     let decoding = &*DECODING;
     let mut sums = [[0.0f32; L]; 3];
@@ -312,18 +387,39 @@ pub(crate) fn trilinear(texture: &Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32)
 /// `texels_per_metre_squared` (`UvMap::texels_per_metre_squared`): log2 of that axis in texels of
 /// the finest level (the isotropic rule of OpenGL's `textureLod` selection), taken as half
 /// the log2 of its square. A NaN length (a degenerate footprint) gives the coarsest level.
+///
+/// The log2 is read off the square's f32 bits ([`log2_by_bits`], exact at powers of two, within
+/// 0.004 levels between them), as GPUs' own level selection approximates it, and
+/// `shaders/texture.wgsl` computes the same formula: libm's `log2f` cost a textured pixel about
+/// 30 instructions (docs/benchmarks.md, "eighth pass").
 pub(crate) fn level_of_detail(texels_per_metre_squared: f32, length: f32) -> f32 {
     let squared = texels_per_metre_squared * length * length;
     // As the GPU's `squared < FAR`.
     if squared.is_nan() {
         f32::INFINITY
     } else if squared <= 1.0 {
-        // log2 of 1, without the call: magnified textures (most of a room's pixels) skip it.
+        // log2 of 1: magnified textures (most of a room's pixels).
         0.0
     } else {
-        0.5 * squared.log2()
+        0.5 * log2_by_bits(squared)
     }
 }
+
+/// log2 of `x` (positive, normal or infinite) from its f32 bits: for x = 2^e · (1 + f),
+/// 0 ≤ f < 1, the exponent e plus log2(1 + f) ≈ f + c · f · (1 − f), the quadratic through
+/// both ends with the least largest error (c = 0.34655: within 0.0077 of log2, where f alone
+/// is 0.086 off). Exact at powers of two, continuous and increasing (slope at least 1 − c).
+#[inline(always)]
+fn log2_by_bits(x: f32) -> f32 {
+    let bits = x.to_bits();
+    let exponent = (bits >> 23) as i32 - 127;
+    // Below 2^23: exact in f32, as is the scaling by a power of two.
+    let fraction = (bits & 0x7f_ffff) as f32 * (1.0 / 8_388_608.0);
+    exponent as f32 + (fraction + LOG2_BEND * (fraction * (1.0 - fraction)))
+}
+
+/// The bend of [`log2_by_bits`]'s quadratic (`LOG2_BEND` in `shaders/texture.wgsl`).
+const LOG2_BEND: f32 = 0.34655;
 
 #[cfg(test)]
 mod tests {
@@ -415,6 +511,53 @@ mod tests {
         }
     }
 
+    /// A texture built by hand whose levels hold fewer texels than their sizes say, or none:
+    /// fetches are clamped to each level's last texel (an empty level reads black), in lanes
+    /// with and without AVX2 as in one lane, and never read outside the level.
+    #[test]
+    fn short_and_empty_levels_read_their_last_texel_or_black() {
+        let texel = |rgb: [u8; 3]| crate::scene::texture::pack(rgb);
+        let texture = Texture {
+            levels: vec![
+                MipLevel {
+                    width: 4,
+                    height: 4,
+                    texels: vec![texel([10, 20, 30]), texel([200, 100, 50]), texel([255, 255, 255])],
+                },
+                MipLevel {
+                    width: 2,
+                    height: 2,
+                    texels: Vec::new(),
+                },
+            ],
+        };
+        let white = f64::from(srgb_to_linear(255) as f32);
+        // Texel (3, 3) of the finest level: index 15, clamped to the last texel, white.
+        let corner = trilinear(&texture, [Wrap::Clamp; 2], DVec2::splat(0.99), 0.0);
+        for channel in corner.to_array() {
+            // Its four taps' f32 weights sum to 1 within rounding.
+            assert!((f64::from(channel) - white).abs() < 1e-6, "{corner}");
+        }
+        // The empty level: black.
+        assert_eq!(
+            trilinear(&texture, [Wrap::Repeat; 2], DVec2::splat(0.3), 1.0),
+            Vec3A::ZERO
+        );
+        let wraps = Wraps::of([Wrap::Repeat; 2]);
+        let mut lookups = Lookups::<LANES>::filled(&texture, wraps, DVec2::ZERO, 0.0);
+        let lanes_in: [(DVec2, f32); LANES] =
+            std::array::from_fn(|k| (DVec2::new(k as f64 / 7.0, 0.61), k as f32 / 7.0));
+        for (lane, &(uv, lod)) in lanes_in.iter().enumerate() {
+            lookups.set(lane, &texture, wraps, uv, lod);
+        }
+        let portable = lanes::<LANES, false>(&lookups);
+        assert_eq!(trilinear_lanes(&lookups), portable);
+        for (k, &(uv, lod)) in lanes_in.iter().enumerate() {
+            let one = trilinear(&texture, [Wrap::Repeat; 2], uv, lod).to_array();
+            assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
+        }
+    }
+
     /// The wraps' texel pairs, in lanes: each index i (its coordinate a quarter texel past i's
     /// centre) and i + 1 folded by remainders, for sizes 1, 3 (remainders) and 4 (powers of two).
     #[test]
@@ -433,8 +576,8 @@ mod tests {
         for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
             for size in [1, 3, 4] {
                 let size64 = f64::from(size);
-                let period = if wrap == Wrap::Mirror { 2.0 * size64 } else { size64 };
-                let axis = |t: f64| neighbours(&[t], &[size64], &[period], &[wrap == Wrap::Clamp]);
+                let periods = if wrap == Wrap::Mirror { 2.0 } else { 1.0 };
+                let axis = |t: f64| neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp]);
                 for i in (-9..11).chain([-4_000_000_001, 1 << 40]) {
                     let t = (i as f64 + 0.75) / f64::from(size);
                     let (first, second, weight) = axis(t);
@@ -466,8 +609,20 @@ mod tests {
         let rotated = map([DVec3::new(0.6, 0.8, 0.0), DVec3::new(-0.8, 0.6, 0.0)]);
         assert!((rotated.texels_per_metre_squared((256, 256)) - 256.0 * 256.0).abs() < 1e-9);
         assert_eq!(level_of_detail(scale as f32, 4.0 / 256.0), 2.0);
+        // Between powers of two: within 0.004 levels of half the log2, and increasing.
+        let mut previous = 0.0;
+        for k in 0..=100_000 {
+            let length = 1.0 + f64::from(k) * 0.000_63;
+            let lod = level_of_detail(scale as f32, (length / 256.0) as f32);
+            let exact = length.log2();
+            assert!((f64::from(lod) - exact).abs() < 0.004, "{length}: {lod} vs {exact}");
+            assert!(lod >= previous, "{length}: {lod} after {previous}");
+            previous = lod;
+        }
         assert_eq!(level_of_detail(scale as f32, 0.0), 0.0);
-        assert_eq!(level_of_detail(scale as f32, f32::INFINITY), f32::INFINITY);
+        // Infinite: 2^128's level, beyond every pyramid (at most 15 levels), as the GPU's
+        // coarsest.
+        assert_eq!(level_of_detail(scale as f32, f32::INFINITY), 64.0);
         // NaN: the coarsest level too.
         assert_eq!(level_of_detail(scale as f32, f32::NAN), f32::INFINITY);
         let t = ramp();
