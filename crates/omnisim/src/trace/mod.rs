@@ -14,6 +14,8 @@ pub(crate) mod ray_table;
 pub(crate) mod reference;
 pub(crate) mod triangle;
 
+use std::mem::MaybeUninit;
+
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
@@ -131,40 +133,11 @@ impl CpuTracer {
         if let Self::Fast | Self::FastPortable = self {
             // Tiles of 8×8 pixels, each traced as one packet (`fast::closest_hits`), whose
             // rays are tested one by one against boxes small against the packet's footprint.
+            let portable = self == Self::FastPortable;
             frame
                 .par_chunks_mut(row_length * 8)
                 .enumerate()
-                .for_each(|(band, pixels)| {
-                    let rows = pixels.len() / row_length;
-                    // One packet array per band: entries outside a tile's `active` rays are
-                    // never read, so they need no clearing between tiles.
-                    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
-                    for column in (0..row_length).step_by(8) {
-                        let mut active = 0u64;
-                        let tile = tile(row_length, rows, column);
-                        for (r, offset) in tile.clone().enumerate() {
-                            if let Some(ray) = ray(band * 8 * row_length + offset) {
-                                let (origin, direction) = local.ray(&ray);
-                                rays[r] = (origin, direction, ray.t_min);
-                                active |= 1 << r;
-                            }
-                        }
-                        // A tile outside the image circle of a mirror or fisheye has no rays.
-                        let found = match active {
-                            0 => [None; fast::PACKET],
-                            _ => fast::closest_hits(bvh, &rays, active, self == Self::FastPortable),
-                        };
-                        for (r, offset) in tile.enumerate() {
-                            pixels[offset].write(match found[r] {
-                                Some(hit) => {
-                                    let (origin, direction, _) = rays[r];
-                                    pixel(bvh, origin, direction, hit)
-                                }
-                                None => Pixel::MISS,
-                            });
-                        }
-                    }
-                });
+                .for_each(|(band, pixels)| trace_band(bvh, &local, row_length, band, pixels, &ray, portable));
         } else {
             frame.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
                 for (column, pixel) in pixels.iter_mut().enumerate() {
@@ -216,6 +189,115 @@ impl CpuTracer {
     }
 }
 
+/// Traces band `band` (≤ 8 rows of `row_length` pixels, `pixels`) tile by tile with the fast
+/// tracer, writing every pixel once: built with AVX2 ([`with_avx2`]) where the CPU has it and
+/// the portable path was not asked for: the tile loop (ray table, the pose's f64 turn, the
+/// pixel writes) was a quarter of env1's omni frame, in SSE2 code (docs/benchmarks.md).
+fn trace_band(
+    bvh: &SceneBvh,
+    local: &LocalPose,
+    row_length: usize,
+    band: usize,
+    pixels: &mut [MaybeUninit<Pixel>],
+    ray: &(impl Fn(usize) -> Option<CameraRay> + Sync),
+    portable: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if !portable && std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked on the line above).
+        unsafe {
+            with_avx2(
+                #[inline(always)]
+                || trace_band_in(bvh, local, row_length, band, pixels, ray, false),
+            );
+        }
+        return;
+    }
+    trace_band_in(bvh, local, row_length, band, pixels, ray, portable);
+}
+
+/// `work()` compiled with AVX2 (it is inlined here): VEX encoding and wider vectors, no FMA,
+/// so the same f64 results.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
+    work()
+}
+
+/// [`trace_band`]'s work, `portable` as there.
+#[inline(always)]
+fn trace_band_in(
+    bvh: &SceneBvh,
+    local: &LocalPose,
+    row_length: usize,
+    band: usize,
+    pixels: &mut [MaybeUninit<Pixel>],
+    ray: &impl Fn(usize) -> Option<CameraRay>,
+    portable: bool,
+) {
+    let rows = pixels.len() / row_length;
+    // One packet array per band: entries outside a tile's `active` rays are never read, so
+    // they need no clearing between tiles.
+    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
+    let mut origins = OriginCache::new(local);
+    for column in (0..row_length).step_by(8) {
+        let mut active = 0u64;
+        let tile = tile(row_length, rows, column);
+        for (r, offset) in tile.clone().enumerate() {
+            if let Some(ray) = ray(band * 8 * row_length + offset) {
+                let origin = origins.turn(local, ray.origin);
+                rays[r] = (origin, local.turn_direction(ray.direction), ray.t_min);
+                active |= 1 << r;
+            }
+        }
+        // A tile outside the image circle of a mirror or fisheye has no rays.
+        let found = match active {
+            0 => [None; fast::PACKET],
+            _ => fast::closest_hits(bvh, &rays, active, portable),
+        };
+        for (r, offset) in tile.enumerate() {
+            pixels[offset].write(match found[r] {
+                Some(hit) => {
+                    let (origin, direction, _) = rays[r];
+                    pixel(bvh, origin, direction, hit)
+                }
+                None => Pixel::MISS,
+            });
+        }
+    }
+}
+
+/// The last body-frame ray origin turned into the scene-local frame: a central camera's rays
+/// share one origin, so the turn is made once per band instead of once per ray. Keyed by
+/// the origin's bits, so a reused result is exactly what [`LocalPose::ray`] would give. The
+/// bits are compared one word at a time: a whole-array compare was loaded across the words'
+/// separate stores, a store-forwarding stall per ray (perf, env1 omni).
+struct OriginCache {
+    body: (u64, u64, u64),
+    local: DVec3,
+}
+
+impl OriginCache {
+    /// The cache holding the camera's centre, (0, 0, 0), turned by `pose`.
+    fn new(pose: &LocalPose) -> Self {
+        Self {
+            body: (0, 0, 0),
+            local: pose.turn_origin(DVec3::ZERO),
+        }
+    }
+
+    /// `origin` turned by `pose` ([`LocalPose::turn_origin`]).
+    #[inline(always)]
+    fn turn(&mut self, pose: &LocalPose, origin: DVec3) -> DVec3 {
+        let bits = (origin.x.to_bits(), origin.y.to_bits(), origin.z.to_bits());
+        if bits != self.body {
+            self.body = bits;
+            self.local = pose.turn_origin(origin);
+        }
+        self.local
+    }
+}
+
 /// The pixels of the 8×8 tile at `column` of a band of `rows` ≤ 8 rows of `row_length` pixels,
 /// as offsets into the band: ray r of the tile's packet is pixel (column + r % columns, row
 /// r / columns), with min(8, `row_length` − column) columns.
@@ -252,10 +334,19 @@ impl LocalPose {
 
     /// A body-frame camera ray as (origin, direction) in the scene-local frame the BVH uses.
     fn ray(&self, ray: &CameraRay) -> (DVec3, DVec3) {
-        (
-            self.origin + self.world_from_body * ray.origin,
-            self.world_from_body * ray.direction,
-        )
+        (self.turn_origin(ray.origin), self.turn_direction(ray.direction))
+    }
+
+    /// A body-frame ray origin in the scene-local frame.
+    #[inline(always)]
+    fn turn_origin(&self, origin: DVec3) -> DVec3 {
+        self.origin + self.world_from_body * origin
+    }
+
+    /// A body-frame ray direction in the scene-local frame.
+    #[inline(always)]
+    fn turn_direction(&self, direction: DVec3) -> DVec3 {
+        self.world_from_body * direction
     }
 }
 
