@@ -360,6 +360,49 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng, rngs::StdRng};
 
+    /// The band's origin cache gives, bit for bit, the per-ray turn of every origin it is
+    /// asked for: repeated origins (a central camera), origins that change from ray to ray
+    /// (a non-central mirror), signed zeros (equal as numbers, not as bits) and the cache's
+    /// own starting key, (0, 0, 0).
+    #[test]
+    fn origin_cache_turns_each_origin_as_the_pose_does() {
+        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"));
+        let bvh = SceneBvh::build(&crate::scene::Scene::load(path).unwrap());
+        let mut rng = StdRng::seed_from_u64(5);
+        let pose = Pose::new(DVec3::new(1.5, -0.25, 0.4), DVec3::new(0.2, -0.35, 3.5));
+        let local = LocalPose::new(&bvh, &pose);
+        let mut cache = OriginCache::new(&local);
+        let picks = [DVec3::ZERO, DVec3::new(-0.0, 0.0, -0.0), DVec3::new(0.01, -0.02, 0.03)];
+        let (mut reused, mut turned) = (0, 0);
+        for _ in 0..2000 {
+            let origin = match rng.random_range(0..4) {
+                3 => DVec3::new(
+                    rng.random_range(-0.1..0.1),
+                    rng.random_range(-0.1..0.1),
+                    rng.random_range(-0.1..0.1),
+                ),
+                k => picks[k],
+            };
+            let before = cache.body;
+            let got = cache.turn(&local, origin);
+            let want = local.turn_origin(origin);
+            assert_eq!(
+                got.to_array().map(f64::to_bits),
+                want.to_array().map(f64::to_bits),
+                "{origin:?}"
+            );
+            if before == cache.body {
+                reused += 1;
+            } else {
+                turned += 1;
+            }
+        }
+        assert!(
+            reused > 200 && turned > 200,
+            "{reused} reused, {turned} turned: a poor test"
+        );
+    }
+
     /// Packets of shadow rays give every ray [`occluded`]'s answer, on each tracer: rays from
     /// one small patch and from all over the room, towards one lamp or along one sun
     /// direction, some rays left out, each skipping a face of its own.
