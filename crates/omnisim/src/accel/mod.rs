@@ -21,13 +21,13 @@ use wide::WideBvh;
 
 /// obvhs's medium build with leaves of at most two triangles instead of eight, and without its
 /// second reinsertion pass (after the leaves are collapsed). Leaves of two, counted by
-/// `omnisim bench` on the clutter anchor (240k triangles), equirectangular from its centre:
-/// 27.6 → 11.0 f64 triangle tests and 214 → 226 f32 box tests per ray, CPU 5–20 % faster,
-/// lavapipe unchanged, build 165 → 137 ms. The second pass was a sixth of a 10k-triangle
-/// build's instructions, for under 1 % of a frame's (callgrind: omni 250² +0.9 % at 10k
-/// triangles, +0.5 % at 30k); without it the 10k–30k builds matched or beat `Open3D`'s in
-/// the runs where both saw a quiet machine (docs/benchmarks.md, "small scenes' frames and
-/// builds").
+/// `omnisim bench` on the clutter anchor (240k triangles, built with this preset before
+/// `LARGE_SCENE` existed), equirectangular from its centre: 27.6 → 11.0 f64 triangle tests
+/// and 214 → 226 f32 box tests per ray, CPU 5–20 % faster, lavapipe unchanged. The second
+/// reinsertion pass was a sixth of a 10k-triangle build's instructions (callgrind 38.9 →
+/// 32.2 M), for under 1 % of a frame's (omni 250² +0.9 % at 10k triangles, +0.5 % at 30k);
+/// against `Open3D`'s build the wall-clock runs were too noisy to decide (docs/benchmarks.md,
+/// "small scenes' frames and builds").
 const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     max_prims_per_leaf: 2,
     post_collapse_reinsertion_batch_ratio_multiplier: 0.0,

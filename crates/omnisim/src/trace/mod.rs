@@ -15,6 +15,7 @@ pub(crate) mod reference;
 pub(crate) mod triangle;
 
 use std::mem::MaybeUninit;
+use std::ops::Range;
 
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
@@ -216,8 +217,9 @@ fn trace_band(
     trace_band_in(bvh, local, row_length, band, pixels, ray, portable);
 }
 
-/// `work()` compiled with AVX2 (it is inlined here): VEX encoding and wider vectors, no FMA,
-/// so the same f64 results.
+/// `work()` compiled with AVX2 (it is inlined here): VEX encoding and wider vectors. The f64
+/// results are the same bits: Rust neither fuses `a * b + c` into an FMA nor reorders float
+/// operations, whatever the target features.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
@@ -238,14 +240,13 @@ fn trace_band_in(
     let rows = pixels.len() / row_length;
     // One packet array per band: entries outside a tile's `active` rays are never read, so
     // they need no clearing between tiles.
-    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); fast::PACKET];
+    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); PACKET];
     let mut origins = OriginCache::new(local);
     let first_pixel = band * 8 * row_length;
     for column in (0..row_length).step_by(8) {
-        // The tile's rows as ranges of the band, walked by plain loops ([`tile`]'s order: ray
-        // r is row r / columns, column r % columns): its iterator cost 15 instructions a ray.
-        let columns = (row_length - column).min(8);
-        let rows_of_tile = (0..rows).map(|row| row * row_length + column..row * row_length + column + columns);
+        // The tile's rows as ranges of the band, walked by plain loops: [`tile`]'s flat
+        // iterator cost 15 instructions a ray.
+        let (columns, rows_of_tile) = tile_rows(row_length, rows, column);
         let mut active = 0u64;
         let mut r = 0;
         for offsets in rows_of_tile.clone() {
@@ -260,11 +261,12 @@ fn trace_band_in(
         }
         // A tile outside the image circle of a mirror or fisheye has no rays.
         let found = match active {
-            0 => [None; fast::PACKET],
+            0 => [None; PACKET],
             _ => fast::closest_hits(bvh, &rays, active, portable),
         };
-        for (offsets, row) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
-            let row_rays = rays[row..row + columns].iter().zip(&found[row..row + columns]);
+        for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
+            let rays_of_row = first_ray..first_ray + columns;
+            let row_rays = rays[rays_of_row.clone()].iter().zip(&found[rays_of_row]);
             for (pixel_out, (&(origin, direction, _), found)) in pixels[offsets].iter_mut().zip(row_rays) {
                 pixel_out.write(match *found {
                     Some(hit) => pixel(bvh, origin, direction, hit),
@@ -310,8 +312,14 @@ impl OriginCache {
 /// as offsets into the band: ray r of the tile's packet is pixel (column + r % columns, row
 /// r / columns), with min(8, `row_length` − column) columns.
 pub(crate) fn tile(row_length: usize, rows: usize, column: usize) -> impl Iterator<Item = usize> + Clone {
+    tile_rows(row_length, rows, column).1.flatten()
+}
+
+/// [`tile`] row by row: its number of columns, and each row's pixels as a range of offsets.
+fn tile_rows(row_length: usize, rows: usize, column: usize) -> (usize, impl Iterator<Item = Range<usize>> + Clone) {
     let columns = (row_length - column).min(8);
-    (0..rows).flat_map(move |row| (0..columns).map(move |c| row * row_length + column + c))
+    let start = move |row| row * row_length + column;
+    (columns, (0..rows).map(move |row| start(row)..start(row) + columns))
 }
 
 /// The hit planes of `hit` on the ray from `origin` (scene-local) along `direction`.
@@ -409,6 +417,24 @@ mod tests {
             reused > 200 && turned > 200,
             "{reused} reused, {turned} turned: a poor test"
         );
+
+        // Signed zeros that the turn keeps apart: with no rotation and a viewpoint at −0, the
+        // centre (0, 0, 0) turns to +0 and (−0, −0, −0) to −0, which a cache keyed by value
+        // would mix up. The fresh cache's own key comes first.
+        let at_negative_zero = LocalPose {
+            world_from_body: DMat3::IDENTITY,
+            origin: DVec3::splat(-0.0),
+        };
+        let mut cache = OriginCache::new(&at_negative_zero);
+        for origin in [DVec3::ZERO, DVec3::splat(-0.0), DVec3::ZERO, DVec3::splat(-0.0)] {
+            let want = at_negative_zero.turn_origin(origin).to_array().map(f64::to_bits);
+            assert_eq!(
+                origin.to_array().map(f64::to_bits),
+                want,
+                "the case needs the zeros kept"
+            );
+            assert_eq!(cache.turn(&at_negative_zero, origin).to_array().map(f64::to_bits), want);
+        }
     }
 
     /// Packets of shadow rays give every ray [`occluded`]'s answer, on each tracer: rays from
