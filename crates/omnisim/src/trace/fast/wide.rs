@@ -422,14 +422,13 @@ fn small_boxes<W>(node: &WideNode, near: &[f32; WIDTH], rays: &PacketRays<W>) ->
 #[inline(always)]
 fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &WideNode, lane: usize, mask: u64) -> u64 {
     debug_assert!(rays.bounds.same_signs());
-    let (half, k) = (lane / 4, lane % 4);
-    // Written out, not `array::map`: its closure was compiled outside the AVX2 walk, a call
-    // per axis of every small box.
-    let plane = |axis: usize| {
-        let (near, far) = slab_planes(node, axis, rays.negative[axis]);
-        (W::splat(near[half][k]), W::splat(far[half][k]))
-    };
-    let planes = [plane(0), plane(1), plane(2)];
+    // Written out, not `array::map` nor a closure: both were compiled outside the AVX2 walk,
+    // a call per axis of every small box.
+    let planes = [
+        box_planes::<W>(node, 0, rays.negative[0], lane),
+        box_planes::<W>(node, 1, rays.negative[1], lane),
+        box_planes::<W>(node, 2, rays.negative[2], lane),
+    ];
     let mut entering = 0u64;
     for b in 0..BATCHES {
         let lanes = (mask >> (8 * b)) as u32 & 0xff;
@@ -521,6 +520,14 @@ fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
         mask |= near.cmple(far).bitmask() << (4 * half);
     }
     (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
+}
+
+/// Box `lane`'s near and far planes of [`slab_planes`], in every lane of `W`.
+#[inline(always)]
+fn box_planes<W: Wide>(node: &WideNode, axis: usize, negative: bool, lane: usize) -> (W, W) {
+    let (near, far) = slab_planes(node, axis, negative);
+    let (half, k) = (lane / 4, lane % 4);
+    (W::splat(near[half][k]), W::splat(far[half][k]))
 }
 
 /// A node's near and far planes on `axis` for rays whose directions there are `negative` or
