@@ -141,6 +141,8 @@ pub(crate) trait Wide: Lanes {
     const AVX: bool;
     /// The first eight values of `values`.
     fn load(values: &[f32]) -> Self;
+    /// Lane `k` (below eight).
+    fn lane(self, k: usize) -> f32;
 }
 
 impl Wide for Lanes8 {
@@ -148,6 +150,10 @@ impl Wide for Lanes8 {
     #[inline(always)]
     fn load(values: &[f32]) -> Self {
         Lanes8::load(values)
+    }
+    #[inline(always)]
+    fn lane(self, k: usize) -> f32 {
+        self.0[k / 4][k % 4]
     }
 }
 
@@ -163,9 +169,10 @@ mod avx {
     //! exactly eight f32s from slices checked to hold them.
 
     use std::arch::x86_64::{
-        __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_and_ps, _mm256_blendv_ps,
-        _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
-        _mm256_set1_ps, _mm256_sub_ps, _mm256_xor_ps,
+        __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtss_f32, _mm256_add_ps, _mm256_and_ps,
+        _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
+        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_sub_ps, _mm256_xor_ps,
     };
     use std::ops::{Add, Mul, Neg, Sub};
 
@@ -231,6 +238,15 @@ mod avx {
         fn load(values: &[f32]) -> Self {
             let values = &values[..8];
             Self(unsafe { _mm256_loadu_ps(values.as_ptr()) })
+        }
+        #[inline(always)]
+        fn lane(self, k: usize) -> f32 {
+            debug_assert!(k < 8);
+            // One lane permute (the index's low three bits pick the lane), no store.
+            unsafe {
+                let picked = _mm256_permutevar8x32_ps(self.0, _mm256_set1_epi32(k as i32));
+                _mm_cvtss_f32(_mm256_castps256_ps128(picked))
+            }
         }
     }
 }

@@ -167,12 +167,6 @@ fn walk_packet<W: Wide>(
     // The interval walk is tight only for rays whose directions share their signs, so a
     // packet that straddles an axis plane is walked once per octant it spans (callgrind, omni
     // images: 13 % fewer instructions than walking such packets ray by ray; docs/benchmarks.md).
-    let single = |r: usize| {
-        (
-            LaneRay::new(rays[r].0, rays[r].1, bvh.wide.extent),
-            rays::t_lo(rays[r].2),
-        )
-    };
     for rays_in in octants(rays, active).into_iter().filter(|&rays_in| rays_in != 0) {
         let packet = PacketRays::<W>::new(rays, rays_in, bvh.wide.extent);
         debug_assert!(packet.bounds.same_signs());
@@ -180,7 +174,6 @@ fn walk_packet<W: Wide>(
             &packet,
             t_hi,
             rays_in,
-            single,
             &bvh.triangles,
             #[inline(always)]
             |r, triangle| visit(r, triangle),

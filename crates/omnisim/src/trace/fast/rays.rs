@@ -184,11 +184,93 @@ impl<W: Wide> PacketRays<W> {
             },
         }
     }
+
+    /// Ray r as [`LaneRay::new`] and [`t_lo`] make it, for a single-ray walk of a subtree: the
+    /// same f32 values, taken from the packet's lanes instead of converted and inverted again.
+    #[inline(always)]
+    pub(crate) fn single(&self, r: usize) -> (LaneRay, f32) {
+        let (b, k) = (r / 8, r % 8);
+        // Written out, not `array::map` (compiled outside the AVX2 walk, its lanes become calls).
+        let splat = |axes: &[W; 3]| {
+            [
+                Vec4::splat(axes[0].lane(k)),
+                Vec4::splat(axes[1].lane(k)),
+                Vec4::splat(axes[2].lane(k)),
+            ]
+        };
+        let batch = &self.batches[b];
+        let ray = LaneRay {
+            lanes: RayLanes {
+                origin: splat(&batch.origin),
+                direction: splat(&batch.direction),
+                position_error: Vec4::splat(batch.position_error.lane(k)),
+            },
+            inv_direction: splat(&self.inverse[b]),
+        };
+        (ray, self.t_lo[b].lane(k))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every field of a `LaneRay` as bits, lane by lane, and its `t_lo`.
+    fn bits((ray, t_lo): &(LaneRay, f32)) -> Vec<u32> {
+        let lanes = &ray.lanes;
+        [lanes.origin, lanes.direction, ray.inv_direction]
+            .iter()
+            .flatten()
+            .chain([&lanes.position_error])
+            .flat_map(Vec4::to_array)
+            .chain([*t_lo])
+            .map(f32::to_bits)
+            .collect()
+    }
+
+    /// Ray r taken from a packet's lanes is the ray `LaneRay::new` and `t_lo` make, bit for
+    /// bit: every lane of every batch, rays left out of the packet around it, zero and tiny
+    /// direction components, on the portable lanes and (where the CPU has AVX2) the AVX ones.
+    #[test]
+    fn a_ray_taken_from_the_packet_is_the_single_rays_own() {
+        use rand::{Rng, SeedableRng, rngs::StdRng};
+        let mut rng = StdRng::seed_from_u64(3);
+        for _ in 0..200 {
+            let rays: [(DVec3, DVec3, f64); PACKET] = std::array::from_fn(|_| {
+                let mut direction = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0)));
+                match rng.random_range(0..6) {
+                    0 => direction[rng.random_range(0..3)] = 0.0,
+                    1 => direction[rng.random_range(0..3)] = -1e-9,
+                    _ => {}
+                }
+                let origin = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-500.0..500.0)));
+                (origin, direction.normalize(), rng.random_range(0.0..0.01))
+            });
+            let active = rng.random::<u64>() | 1;
+            let extent = rng.random_range(1.0..1000.0);
+            let portable = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&rays, active, extent);
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: called only where the CPU has AVX2.
+            let avx =
+                std::arch::is_x86_feature_detected!("avx2").then(|| unsafe { avx_singles(&rays, active, extent) });
+            for r in (0..PACKET).filter(|r| active >> r & 1 == 1) {
+                let want = bits(&(LaneRay::new(rays[r].0, rays[r].1, extent), t_lo(rays[r].2)));
+                assert_eq!(bits(&portable.single(r)), want, "ray {r}");
+                #[cfg(target_arch = "x86_64")]
+                if let Some(avx) = &avx {
+                    assert_eq!(avx[r], want, "ray {r}, AVX lanes");
+                }
+            }
+        }
+    }
+
+    /// Each ray of a packet made on AVX lanes, taken out again, as [`bits`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn avx_singles(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, extent: f32) -> Vec<Vec<u32>> {
+        let packet = PacketRays::<crate::trace::fast::lanes::Avx8>::new(rays, active, extent);
+        (0..PACKET).map(|r| bits(&packet.single(r))).collect()
+    }
 
     /// The three-lane inverse is obvhs's `safe_inverse` bit for bit, zeros and tiny values
     /// of either sign included.

@@ -133,15 +133,14 @@ impl WideBvh {
     /// test and the per-ray box tests pick each axis's near plane by that sign); entries of
     /// `bounds` outside `active` are left alone.
     /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
-    /// `single(r)` gives ray r as the single-ray walk takes it (with its `t_lo`), for subtrees
-    /// few rays enter (`FEW_RAYS`), with `corners` as [`WideBvh::traverse`] takes them.
+    /// subtrees few rays enter (`FEW_RAYS`) are walked by each of them alone
+    /// ([`PacketRays::single`]), with `corners` as [`WideBvh::traverse`] takes them.
     #[inline(always)]
     pub(crate) fn traverse_interval<W: Wide>(
         &self,
         rays: &PacketRays<W>,
         bounds: &mut [f32; PACKET],
         active: u64,
-        single: impl Fn(usize) -> (LaneRay, f32),
         corners: &[[DVec3; 3]],
         visit: impl FnMut(usize, usize) -> Visit,
     ) {
@@ -151,7 +150,7 @@ impl WideBvh {
         // Stacks on the machine stack for the usual depths (a heap allocation per packet cost
         // more than zeroing them).
         let walk = |packet_stack: &mut [_], single_stack: &mut [_]| {
-            self.walk_interval(packet_stack, single_stack, rays, bounds, active, single, corners, visit);
+            self.walk_interval(packet_stack, single_stack, rays, bounds, active, corners, visit);
         };
         match (WIDTH - 1) * self.depth + WIDTH {
             n if n <= 96 => walk(&mut [(0, 0.0, 0); 96], &mut [(0, 0.0); 96]),
@@ -170,7 +169,6 @@ impl WideBvh {
         rays: &PacketRays<W>,
         bounds: &mut [f32; PACKET],
         active: u64,
-        single: impl Fn(usize) -> (LaneRay, f32),
         corners: &[[DVec3; 3]],
         mut visit: impl FnMut(usize, usize) -> Visit,
     ) {
@@ -213,7 +211,7 @@ impl WideBvh {
                 while rest != 0 {
                     let r = rest.trailing_zeros() as usize;
                     rest &= rest - 1;
-                    let (ray, t_lo) = single(r);
+                    let (ray, t_lo) = rays.single(r);
                     let mut bound = t_hi[r];
                     let start = bound;
                     // Handed over by value, inlined into the walk (through `&mut` it was a call
@@ -424,11 +422,13 @@ fn small_boxes<W>(node: &WideNode, near: &[f32; WIDTH], rays: &PacketRays<W>) ->
 #[inline(always)]
 fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &WideNode, lane: usize, mask: u64) -> u64 {
     debug_assert!(rays.bounds.same_signs());
-    let (half, k) = (lane / 4, lane % 4);
-    let planes = [0, 1, 2].map(|axis| {
-        let (near, far) = slab_planes(node, axis, rays.negative[axis]);
-        (W::splat(near[half][k]), W::splat(far[half][k]))
-    });
+    // Written out, not `array::map` nor a closure: both were compiled outside the AVX2 walk,
+    // a call per axis of every small box.
+    let planes = [
+        box_planes::<W>(node, 0, rays.negative[0], lane),
+        box_planes::<W>(node, 1, rays.negative[1], lane),
+        box_planes::<W>(node, 2, rays.negative[2], lane),
+    ];
     let mut entering = 0u64;
     for b in 0..BATCHES {
         let lanes = (mask >> (8 * b)) as u32 & 0xff;
@@ -520,6 +520,14 @@ fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
         mask |= near.cmple(far).bitmask() << (4 * half);
     }
     (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
+}
+
+/// Box `lane`'s near and far planes of [`slab_planes`], in every lane of `W`.
+#[inline(always)]
+fn box_planes<W: Wide>(node: &WideNode, axis: usize, negative: bool, lane: usize) -> (W, W) {
+    let (near, far) = slab_planes(node, axis, negative);
+    let (half, k) = (lane / 4, lane % 4);
+    (W::splat(near[half][k]), W::splat(far[half][k]))
 }
 
 /// A node's near and far planes on `axis` for rays whose directions there are `negative` or
