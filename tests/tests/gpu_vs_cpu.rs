@@ -168,8 +168,9 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
 
 /// A NaN ray hits nothing on the GPU, as on the CPU: a pose of NaN position or angles (the
 /// library takes poses unchecked) makes every camera ray NaN, and every pixel is a miss in
-/// both. The GPU walk returns such rays at once (`has_nan` in `shaders/bvh.wgsl`); its time per
-/// frame is printed beside a finite pose's (docs/benchmarks.md), not asserted.
+/// both; a finite pose's frame still has its hits. A correctness test, one frame per pose: the
+/// speed of the GPU walk's early return for such rays (`has_nan` in `shaders/bvh.wgsl`) is
+/// measured in docs/benchmarks.md only.
 #[test]
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn nan_rays_are_misses_on_the_gpu_as_on_the_cpu() {
@@ -177,18 +178,6 @@ fn nan_rays_are_misses_on_the_gpu_as_on_the_cpu() {
     let bvh = SceneBvh::build(&scene);
     let gpu = common::gpu_tracer(&scene, &bvh);
     let camera = Camera::Catadioptric(common::paper_omni());
-    let finite = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
-    let median_ms = |pose: &Pose| {
-        let mut times: Vec<f64> = (0..7)
-            .map(|_| {
-                let start = std::time::Instant::now();
-                gpu.render(&camera, pose).expect("GPU render");
-                start.elapsed().as_secs_f64() * 1e3
-            })
-            .collect();
-        times.sort_by(f64::total_cmp);
-        times[3]
-    };
     for pose in [
         Pose::from_degrees(dvec3(f64::NAN, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
         Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, f64::NAN, 60.0)),
@@ -197,13 +186,8 @@ fn nan_rays_are_misses_on_the_gpu_as_on_the_cpu() {
         let frame = gpu.render(&camera, &pose).expect("GPU render");
         assert_eq!(frame.hit_count(), 0, "the GPU found hits on NaN rays");
         assert_eq!(reference.hit_count(), 0, "the CPU found hits on NaN rays");
-        eprintln!(
-            "NaN pose {:?}: {:.2} ms a frame (finite pose: {:.2} ms)",
-            pose.position,
-            median_ms(&pose),
-            median_ms(&finite)
-        );
     }
+    let finite = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
     assert!(gpu.render(&camera, &finite).unwrap().hit_count() > 10_000);
 }
 

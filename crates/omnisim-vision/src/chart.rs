@@ -112,9 +112,11 @@ struct Axis {
 }
 
 impl Axis {
+    /// The axis spanning `values`: only finite ones, and on a log scale only those above 0
+    /// (the others have no place on it, and log10(0) = −∞ would make its decades endless).
     fn new(scale: Scale, values: impl Iterator<Item = f64>) -> Self {
         let (lo, hi) = values
-            .filter(|v| v.is_finite())
+            .filter(|&v| v.is_finite() && (scale == Scale::Linear || v > 0.0))
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
         match scale {
             Scale::Log => {
@@ -358,22 +360,26 @@ fn leaders_cross([a, b]: [(f64, f64); 2], [c, d]: [(f64, f64); 2], hidden: &[Rec
 /// markers joined to it through a chain of overlapping discs. A leader line starting in a blob
 /// may cross its markers: a reader sees the blob as one shape, and cannot leave it otherwise.
 fn blobs(markers: &[(f64, f64)]) -> Vec<usize> {
-    let mut blob: Vec<usize> = (0..markers.len()).collect();
-    // Relabel until stable: each pass joins overlapping markers to the smaller blob.
-    let mut changed = true;
-    while changed {
-        changed = false;
-        for i in 0..markers.len() {
-            for j in 0..markers.len() {
-                let (a, b) = (markers[i], markers[j]);
-                if (a.0 - b.0).hypot(a.1 - b.1) < 2.0 * (MARKER_RADIUS + 1.0) && blob[j] < blob[i] {
-                    blob[i] = blob[j];
-                    changed = true;
-                }
+    // Union–find over the overlapping pairs, each set rooted at its smallest index (a merge
+    // hangs the larger root under the smaller), so one pass over the pairs suffices.
+    let mut parent: Vec<usize> = (0..markers.len()).collect();
+    let root = |parent: &mut Vec<usize>, mut i: usize| {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    };
+    for i in 0..markers.len() {
+        for j in 0..i {
+            let (a, b) = (markers[i], markers[j]);
+            if (a.0 - b.0).hypot(a.1 - b.1) < 2.0 * (MARKER_RADIUS + 1.0) {
+                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                parent[ri.max(rj)] = ri.min(rj);
             }
         }
     }
-    blob
+    (0..markers.len()).map(|i| root(&mut parent, i)).collect()
 }
 
 /// How strictly [`place_labels`] picks a spot: every candidate is tried at one level before
@@ -425,6 +431,8 @@ fn candidate_spots(x: f64, y: f64, w: f64, h: f64, plot: &Rect) -> impl Iterator
         ]
         .map(|(dx, dy)| at(dx, dy))
     });
+    // No spot farther than the plot's diagonal can lie inside it: that bound keeps the rings
+    // finite for a marker far outside the plot, or at an infinite or NaN position.
     let reach = [
         (plot.x0, plot.y0),
         (plot.x1, plot.y0),
@@ -433,7 +441,8 @@ fn candidate_spots(x: f64, y: f64, w: f64, h: f64, plot: &Rect) -> impl Iterator
     ]
     .iter()
     .map(|&(cx, cy)| (cx - x).hypot(cy - y))
-    .fold(0.0, f64::max);
+    .fold(0.0, f64::max)
+    .min((plot.x1 - plot.x0).hypot(plot.y1 - plot.y0));
     let far = (0..)
         .map(|ring| MARKER_RADIUS + 2.0 + 8.0 * f64::from(8 + ring))
         .take_while(move |&d| d <= reach)
@@ -457,8 +466,22 @@ fn candidate_spots(x: f64, y: f64, w: f64, h: f64, plot: &Rect) -> impl Iterator
 /// A number moved away from its marker gets a leader line, which crosses no number, no other
 /// leader and no marker outside the blob its own is drawn in. Where no spot keeps all of that,
 /// the nearest with a clean leader line is taken, then the nearest merely free; `None` where
-/// the plot has no free spot left at all (the legend still lists the point).
+/// the plot has no free spot left at all (the legend still lists the point), and for a
+/// marker outside `plot` or at a non-finite position (such a marker is not drawn, and is left
+/// out of every other number's placing).
 fn place_labels(markers: &[(f64, f64)], texts: &[String], plot: &Rect) -> Vec<Option<Rect>> {
+    let on_plot: Vec<usize> = (0..markers.len())
+        .filter(|&i| plot.contains(markers[i].0, markers[i].1))
+        .collect();
+    if on_plot.len() < markers.len() {
+        let kept: Vec<(f64, f64)> = on_plot.iter().map(|&i| markers[i]).collect();
+        let kept_texts: Vec<String> = on_plot.iter().map(|&i| texts[i].clone()).collect();
+        let mut labels = vec![None; markers.len()];
+        for (&i, label) in on_plot.iter().zip(place_labels(&kept, &kept_texts, plot)) {
+            labels[i] = label;
+        }
+        return labels;
+    }
     let covered: Vec<Rect> = markers
         .iter()
         .map(|&(x, y)| Rect::around(x, y, MARKER_RADIUS + 1.0))
@@ -528,16 +551,48 @@ fn place_labels(markers: &[(f64, f64)], texts: &[String], plot: &Rect) -> Vec<Op
     labels
 }
 
+/// Why `point` has no place on a log–log chart whose y values below `floor` are drawn on it
+/// (the legend's note), or `None` where it has one: a log axis holds only finite values above 0.
+fn off_log_axes(point: &Point, x_label: &str, y_label: &str, floor: f64) -> Option<String> {
+    let on_log_axis = |v: f64| v > 0.0 && v.is_finite();
+    let (label, value) = if !on_log_axis(point.x) {
+        (x_label, point.x)
+    } else if point.y.is_nan() || !on_log_axis(point.y.max(floor)) {
+        (y_label, point.y)
+    } else {
+        return None;
+    };
+    Some(format!(
+        " (not drawn: its {label} is {value}, and a log axis holds only finite values above 0)"
+    ))
+}
+
 /// Log–log chart of numbered `points`, each in its colour, with a legend of their labels;
-/// values below `floor` on y are drawn at `floor`.
+/// values below `floor` on y are drawn at `floor`. A point with a value a log axis cannot hold
+/// (0, negative, infinite, NaN) is not drawn, and its legend row says why.
 pub fn scatter(title: &str, x_label: &str, y_label: &str, points: &[Point], floor: f64) -> String {
     let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
     let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
     let mut axes = Axes::new(title, (x_label, y_label), &xs, &ys, floor, (Scale::Log, Scale::Log));
-    let markers: Vec<(f64, f64)> = points.iter().map(|p| (axes.x(p.x), axes.y(p.y))).collect();
+    let left_off: Vec<Option<String>> = points
+        .iter()
+        .map(|p| off_log_axes(p, x_label, y_label, floor))
+        .collect();
+    // A point left off has no marker: NaN keeps it out of the numbers' placing.
+    let markers: Vec<(f64, f64)> = points
+        .iter()
+        .zip(&left_off)
+        .map(|(p, off)| match off {
+            None => (axes.x(p.x), axes.y(p.y)),
+            Some(_) => (f64::NAN, f64::NAN),
+        })
+        .collect();
     let numbers: Vec<String> = (1..=points.len()).map(|n| n.to_string()).collect();
     let labels = place_labels(&markers, &numbers, &axes.plot());
-    for (p, &(x, y)) in points.iter().zip(&markers) {
+    for ((p, &(x, y)), off) in points.iter().zip(&markers).zip(&left_off) {
+        if off.is_some() {
+            continue;
+        }
         let _ = writeln!(
             axes.svg,
             r#"<circle class="marker" cx="{x:.1}" cy="{y:.1}" r="{MARKER_RADIUS}" fill="{}" fill-opacity="0.85"/>"#,
@@ -566,12 +621,12 @@ pub fn scatter(title: &str, x_label: &str, y_label: &str, points: &[Point], floo
             r#"<circle cx="{sx}" cy="{sy}" r="{MARKER_RADIUS}" fill="{}" fill-opacity="0.85"/>"#,
             p.colour
         );
-        let unnumbered = if labels[i].is_none() {
-            " (no room to number it on the plot)"
-        } else {
-            ""
+        let note = match (&left_off[i], labels[i]) {
+            (Some(why), _) => why,
+            (None, None) => " (no room to number it on the plot)",
+            (None, Some(_)) => "",
         };
-        axes.legend(i, &swatch, &format!("{}: {}{unnumbered}", i + 1, p.label));
+        axes.legend(i, &swatch, &format!("{}: {}{note}", i + 1, p.label));
     }
     axes.finish()
 }
@@ -943,6 +998,132 @@ mod tests {
         let labels = place_labels(&markers, &texts, &plot);
         assert!(labels.iter().any(Option::is_none) && labels.iter().any(Option::is_some));
         assert_readable(&markers, &labels, &plot, false);
+    }
+
+    /// Markers at infinite or NaN positions (a `Point` at x or y = +∞ reaches the placer so)
+    /// get no number, and leave the finite ones theirs: the placer's rings around such a marker
+    /// never ended.
+    #[test]
+    fn markers_off_the_plot_or_not_finite_get_no_number() {
+        let markers = [
+            (f64::INFINITY, 200.0),
+            (300.0, f64::INFINITY),
+            (f64::NAN, f64::NAN),
+            (f64::NEG_INFINITY, 200.0),
+            (LEFT - 50.0, 200.0),
+            (300.0, 200.0),
+        ];
+        let texts: Vec<String> = (1..=markers.len()).map(|n| n.to_string()).collect();
+        let labels = place_labels(&markers, &texts, &PLOT);
+        assert!(labels[..5].iter().all(Option::is_none), "{labels:?}");
+        assert_readable(&markers[5..], &labels[5..], &PLOT, true);
+        assert!(labels[5].is_some());
+    }
+
+    /// Points at x or y = +∞, x = 0 or below, y = NaN are not drawn and their legend rows say
+    /// why; the others are drawn and numbered, and the axes keep to the finite positive values
+    /// (log10(0) = −∞ made the decades run from `i32::MIN`).
+    #[test]
+    fn points_a_log_axis_cannot_hold_are_left_off_with_a_reason() {
+        let points = vec![
+            point("infinite x", f64::INFINITY, 0.5, "red"),
+            point("infinite y", 3.0, f64::INFINITY, "red"),
+            point("zero x", 0.0, 0.5, "red"),
+            point("negative x", -2.0, 0.5, "red"),
+            point("NaN y", 3.0, f64::NAN, "red"),
+            point("drawn", 3.0, 0.5, "blue"),
+        ];
+        let svg = scatter("t", "time", "error", &points, 1e-3);
+        let markers = elements(&svg, "<circle class=\"marker\"");
+        assert_eq!(markers.len(), 1);
+        assert_eq!(attribute(markers[0], "fill"), "blue");
+        assert_eq!(elements(&svg, "<text class=\"label\"").len(), 1);
+        let legend = elements(&svg, "<g class=\"legend\">");
+        for (row, why) in legend
+            .iter()
+            .zip(["time is inf", "error is inf", "time is 0", "time is -2", "error is NaN"])
+        {
+            assert!(
+                row.contains(&format!(
+                    "(not drawn: its {why}, and a log axis holds only finite values above 0)"
+                )),
+                "{row}"
+            );
+        }
+        assert!(!legend[5].contains("not drawn") && !legend[5].contains("no room"));
+        // x spans one decade, 1..10, around the one point drawn: two grid lines.
+        assert_eq!(svg.matches(r#"text-anchor="middle">1</text>"#).count(), 1);
+        assert_eq!(svg.matches(r#"text-anchor="middle">10</text>"#).count(), 1);
+        assert!(!svg.contains("inf\"") && !svg.contains("NaN\""));
+    }
+
+    /// The placer's geometry against closed forms, on the box (0, 0)–(10, 10).
+    #[test]
+    fn a_segment_enters_a_box_only_through_its_inside() {
+        let square = Rect {
+            x0: 0.0,
+            y0: 0.0,
+            x1: 10.0,
+            y1: 10.0,
+        };
+        let enters = |a: (f64, f64), b: (f64, f64)| segment_enters(&square, [a, b]) && segment_enters(&square, [b, a]);
+        assert!(enters((-5.0, 5.0), (15.0, 5.0)), "straight through");
+        assert!(enters((-5.0, -4.0), (15.0, 14.0)), "through, slanted");
+        assert!(enters((-5.0, 5.0), (5.0, 5.0)), "ending inside");
+        assert!(enters((2.0, 2.0), (3.0, 8.0)), "wholly inside");
+        assert!(!enters((-5.0, 0.0), (15.0, 0.0)), "along an edge");
+        assert!(!enters((-5.0, 5.0), (5.0, -5.0)), "touching a corner");
+        assert!(!enters((-5.0, 5.0), (0.0, 5.0)), "ending on an edge");
+        assert!(!enters((-5.0, 15.0), (15.0, 15.0)), "parallel, outside");
+        assert!(
+            !enters((-5.0, -5.0), (-5.0, 15.0)),
+            "parallel to the other side, outside"
+        );
+        assert!(!enters((12.0, -20.0), (30.0, 5.0)), "slanted, missing");
+    }
+
+    /// Two leader lines cross only at a point inside both, seen outside the markers hidden.
+    #[test]
+    fn leaders_cross_only_in_their_insides() {
+        let diagonal = [(0.0, 0.0), (10.0, 10.0)];
+        let cross = |other: [(f64, f64); 2], hidden: &[Rect]| {
+            let one = leaders_cross(diagonal, other, hidden);
+            assert_eq!(one, leaders_cross(other, diagonal, hidden), "{other:?}");
+            one
+        };
+        assert!(cross([(0.0, 10.0), (10.0, 0.0)], &[]), "an X");
+        assert!(
+            !cross([(0.0, 10.0), (10.0, 0.0)], &[Rect::around(5.0, 5.0, 1.0)]),
+            "an X under a marker"
+        );
+        assert!(
+            cross([(0.0, 10.0), (10.0, 0.0)], &[Rect::around(2.0, 2.0, 1.0)]),
+            "an X beside a marker"
+        );
+        assert!(!cross([(0.0, 0.0), (10.0, 0.0)], &[]), "a shared end");
+        assert!(!cross([(5.0, 5.0), (10.0, 0.0)], &[]), "one's end on the other");
+        assert!(!cross([(0.0, 10.0), (4.0, 6.0)], &[]), "short of the other");
+        assert!(!cross([(1.0, 0.0), (11.0, 10.0)], &[]), "parallel");
+        assert!(!cross([(2.0, 2.0), (8.0, 8.0)], &[]), "overlapping on one line");
+    }
+
+    /// Blobs: markers joined through a chain of overlapping discs (centres nearer than
+    /// 2 × (radius + 1) = 12), each labelled with its chain's smallest index, in any order.
+    #[test]
+    fn blobs_join_chains_in_any_order() {
+        let chain = |xs: &[f64]| blobs(&xs.iter().map(|&x| (x, 50.0)).collect::<Vec<_>>());
+        assert_eq!(
+            chain(&[40.0, 30.0, 20.0, 10.0, 0.0, 200.0]),
+            [0, 0, 0, 0, 0, 5],
+            "reversed"
+        );
+        assert_eq!(chain(&[20.0, 0.0, 40.0, 10.0, 30.0]), [0; 5], "shuffled");
+        assert_eq!(
+            chain(&[100.0, 0.0, 10.0, 90.0, 50.0]),
+            [0, 1, 1, 0, 4],
+            "two chains and one alone"
+        );
+        assert_eq!(chain(&[0.0, 11.5, 23.5]), [0, 0, 2], "12 apart is not overlapping");
     }
 
     /// A line chart draws one polyline and one marker per point, at the log positions; its

@@ -242,6 +242,32 @@ mod tests {
         }
     }
 
+    /// A `--chart-from` file may say a method took 0 ms or less: such a point has no place on
+    /// the log time axis, so it is left off and its legend row says why; the chart is drawn at
+    /// once (log10(0) = −∞ made the axis' decades run from `i32::MIN`: a hang, then no memory).
+    #[test]
+    fn times_of_zero_or_less_are_left_off_the_chart_with_a_reason() {
+        let lines = [
+            r#"{"device":"d","mean_abs_colour_error":0.5,"median_ms":0,"method":"zero, 1","pixels_differing":0.1}"#,
+            r#"{"device":"d","mean_abs_colour_error":0.5,"median_ms":-3,"method":"negative, 1","pixels_differing":0.1}"#,
+            r#"{"device":"d","mean_abs_colour_error":0.5,"median_ms":4,"method":"drawn, 1","pixels_differing":0.1}"#,
+        ];
+        let records: Vec<Record> = lines.iter().map(|l| serde_json::from_str(l).unwrap()).collect();
+        let svg = draw("omni 250x250", &records);
+        let legend: Vec<&str> = svg.lines().filter(|l| l.contains(r#"class="legend""#)).collect();
+        let markers = svg.lines().filter(|l| l.contains(r#"class="marker""#)).count();
+        assert_eq!((legend.len(), markers), (3, 1));
+        for (row, time) in legend.iter().zip(["0", "-3"]) {
+            assert!(
+                row.contains(&format!(
+                    "(not drawn: its median time per image (ms) is {time}, and a log axis holds only finite values above 0)"
+                )),
+                "{row}"
+            );
+        }
+        assert!(!legend[2].contains("not drawn"), "{}", legend[2]);
+    }
+
     /// docs/speed-accuracy.svg's GPU points were timed on llvmpipe: the chart says so in its
     /// title and in those points' legend rows. Each method has a colour of its own, the same
     /// for its 1, 4 and 16 samples, and each legend swatch is its marker's colour.

@@ -543,9 +543,8 @@ mod tests {
         }
     }
 
-    /// The bytes of `channels` as `write_exr` writes them, after checking that they are the
-    /// bytes `exr`'s own image writer makes and that `exr`'s reader gives the values back bit
-    /// for bit.
+    /// Checks that `write_exr` writes `channels` as the bytes `exr`'s own image writer makes,
+    /// and that `exr`'s reader gives the values back bit for bit.
     fn check_against_exr(size: (u32, u32), channels: Vec<(&str, Vec<f32>)>, compression: ExrCompression) {
         let mut expected = std::io::Cursor::new(Vec::new());
         exr_image(size, "range", "text", channels.clone(), compression)

@@ -742,9 +742,16 @@ mod tests {
     /// The popped-entry narrowing at an exact tie: a ray whose bound equals where the packet
     /// enters the entry stays in it (a triangle there may tie its best hit and win on a lower
     /// face id), one whose bound is the next f32 below leaves, a NaN bound stays, and rays
-    /// outside the mask stay out. Rays in every eight-ray batch, the last lane included.
+    /// outside the mask stay out. Rays in every eight-ray batch, the last lane included; on the
+    /// portable lanes and, where the CPU has AVX2, on the AVX lanes the AVX2 walk runs.
     #[test]
     fn narrowing_keeps_rays_whose_bound_ties_the_entry() {
+        /// [`reaching`] on eight lanes in one AVX register, as the AVX2 packet walk runs it.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn reaching_avx(t_hi: &[f32; PACKET], t_enter: f32, mask: u64) -> u64 {
+            reaching::<crate::trace::fast::lanes::Avx8>(t_hi, t_enter, mask)
+        }
         let t_enter = 2.5_f32;
         let mut t_hi = [f32::INFINITY; PACKET];
         let (tied, below, not_a_number, blocked, outside) = ([0, 13, 63], [1, 22, 62], [30, 47], [40], [5, 55]);
@@ -760,9 +767,15 @@ mod tests {
         t_hi[blocked[0]] = f32::NEG_INFINITY;
         let bits = |rays: &[usize]| rays.iter().fold(0u64, |m, &r| m | 1 << r);
         let mask = !bits(&outside);
-        let kept = reaching::<crate::trace::fast::lanes::Lanes8>(&t_hi, t_enter, mask);
         let expected = mask & !bits(&below) & !bits(&blocked);
-        assert_eq!(kept, expected, "kept {kept:#x}, expected {expected:#x}");
-        assert_eq!(kept & bits(&tied), bits(&tied));
+        assert_eq!(expected & bits(&tied), bits(&tied));
+        let kept = reaching::<crate::trace::fast::lanes::Lanes8>(&t_hi, t_enter, mask);
+        assert_eq!(kept, expected, "portable lanes kept {kept:#x}, expected {expected:#x}");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: called only where the CPU has AVX2.
+            let kept = unsafe { reaching_avx(&t_hi, t_enter, mask) };
+            assert_eq!(kept, expected, "AVX lanes kept {kept:#x}, expected {expected:#x}");
+        }
     }
 }
