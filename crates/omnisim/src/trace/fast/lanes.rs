@@ -242,7 +242,8 @@ mod avx {
         #[inline(always)]
         fn lane(self, k: usize) -> f32 {
             debug_assert!(k < 8);
-            // One lane permute (the index's low three bits pick the lane), no store.
+            // Lane k read by a permute of the index's low three bits (LLVM may choose another
+            // sequence for it: the 07:00 release build has no `vpermps`), no store.
             unsafe {
                 let picked = _mm256_permutevar8x32_ps(self.0, _mm256_set1_epi32(k as i32));
                 _mm_cvtss_f32(_mm256_castps256_ps128(picked))

@@ -187,28 +187,33 @@ impl<W: Wide> PacketRays<W> {
 
     /// Ray r as [`LaneRay::new`] and [`t_lo`] make it, for a single-ray walk of a subtree: the
     /// same f32 values, taken from the packet's lanes instead of converted and inverted again.
+    /// r must be one of the rays `new` was given in `active`: another lane holds a zero ray.
     #[inline(always)]
     pub(crate) fn single(&self, r: usize) -> (LaneRay, f32) {
         let (b, k) = (r / 8, r % 8);
-        // Written out, not `array::map` (compiled outside the AVX2 walk, its lanes become calls).
-        let splat = |axes: &[W; 3]| {
-            [
-                Vec4::splat(axes[0].lane(k)),
-                Vec4::splat(axes[1].lane(k)),
-                Vec4::splat(axes[2].lane(k)),
-            ]
-        };
         let batch = &self.batches[b];
+        debug_assert!(self.inverse[b][0].lane(k) != 0.0, "ray {r} is not in the packet");
         let ray = LaneRay {
             lanes: RayLanes {
-                origin: splat(&batch.origin),
-                direction: splat(&batch.direction),
+                origin: splat_lane(&batch.origin, k),
+                direction: splat_lane(&batch.direction, k),
                 position_error: Vec4::splat(batch.position_error.lane(k)),
             },
-            inv_direction: splat(&self.inverse[b]),
+            inv_direction: splat_lane(&self.inverse[b], k),
         };
         (ray, self.t_lo[b].lane(k))
     }
+}
+
+/// Lane k of each axis, spread over a single ray's four lanes. A function, not a closure or
+/// `array::map`: those were compiled outside the AVX2 walk, and their lanes became calls.
+#[inline(always)]
+fn splat_lane<W: Wide>(axes: &[W; 3], k: usize) -> [Vec4; 3] {
+    [
+        Vec4::splat(axes[0].lane(k)),
+        Vec4::splat(axes[1].lane(k)),
+        Vec4::splat(axes[2].lane(k)),
+    ]
 }
 
 #[cfg(test)]
@@ -229,8 +234,8 @@ mod tests {
     }
 
     /// Ray r taken from a packet's lanes is the ray `LaneRay::new` and `t_lo` make, bit for
-    /// bit: every lane of every batch, rays left out of the packet around it, zero and tiny
-    /// direction components, on the portable lanes and (where the CPU has AVX2) the AVX ones.
+    /// bit: every lane of every batch, rays left out of the packet around it, signed-zero and
+    /// tiny direction components, origins beyond the extent, on the portable lanes and (where the CPU has AVX2) the AVX ones.
     #[test]
     fn a_ray_taken_from_the_packet_is_the_single_rays_own() {
         use rand::{Rng, SeedableRng, rngs::StdRng};
@@ -238,12 +243,15 @@ mod tests {
         for _ in 0..200 {
             let rays: [(DVec3, DVec3, f64); PACKET] = std::array::from_fn(|_| {
                 let mut direction = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0)));
-                match rng.random_range(0..6) {
+                match rng.random_range(0..8) {
                     0 => direction[rng.random_range(0..3)] = 0.0,
-                    1 => direction[rng.random_range(0..3)] = -1e-9,
+                    1 => direction[rng.random_range(0..3)] = -0.0,
+                    2 => direction[rng.random_range(0..3)] = -1e-9,
+                    3 => direction[rng.random_range(0..3)] = 1e-9,
                     _ => {}
                 }
-                let origin = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-500.0..500.0)));
+                // Origins reach 1,500 against extents of 1 to 1,000: some lie beyond the extent.
+                let origin = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1500.0..1500.0)));
                 (origin, direction.normalize(), rng.random_range(0.0..0.01))
             });
             let active = rng.random::<u64>() | 1;
@@ -264,12 +272,21 @@ mod tests {
         }
     }
 
-    /// Each ray of a packet made on AVX lanes, taken out again, as [`bits`].
+    /// Each ray of a packet made on AVX lanes, taken out again, as [`bits`] (empty for a ray
+    /// outside `active`).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn avx_singles(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, extent: f32) -> Vec<Vec<u32>> {
         let packet = PacketRays::<crate::trace::fast::lanes::Avx8>::new(rays, active, extent);
-        (0..PACKET).map(|r| bits(&packet.single(r))).collect()
+        (0..PACKET)
+            .map(|r| {
+                if active >> r & 1 == 1 {
+                    bits(&packet.single(r))
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect()
     }
 
     /// The three-lane inverse is obvhs's `safe_inverse` bit for bit, zeros and tiny values
