@@ -281,7 +281,7 @@ mod tests {
         let mut values: Vec<f64> = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, 0.0, 1.0, -1.0, 2.0];
         // Every bucket's edge and every step, a few ulps either side.
         for edge in (0..=4096)
-            .map(|i| i as f64 / 4096.0)
+            .map(|i| f64::from(i) / 4096.0)
             .chain((1..=255).map(first_value_encoding_to))
         {
             let bits = edge.to_bits();
