@@ -105,12 +105,29 @@ pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
     ]
 }
 
+/// [`linear_to_srgb3`] of eight colours: with AVX2 (checked per call) four channels at a time
+/// in vector lanes, the bucket and step look-ups gathered, to the same bytes (tested).
+/// Textured pixels are encoded eight at a time (`shade/textured.rs`), where one channel
+/// after another cost about 56 instructions a pixel (docs/benchmarks.md, "ninth pass").
+pub fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8]) -> [[u8; 3]; 8] {
+    let encoding = &*ENCODING;
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        let mut bytes = [[0; 3]; 8];
+        // SAFETY: AVX2 was just detected.
+        unsafe { encoding.bytes_avx2(linear.as_flattened(), bytes.as_flattened_mut()) };
+        return bytes;
+    }
+    linear.map(|colour| colour.map(|value| encoding.byte(value)))
+}
+
 /// The steps (then +inf), and the byte at the start of each of 4096 equal buckets of [0, 1]: a
 /// bucket (2.4e-4 wide) is narrower than the smallest step (3.0e-4, 1/(255 · 12.92) at the
-/// dark end), so at most one step follows the guess.
+/// dark end), so at most one step follows the guess. The buckets end with three spare bytes:
+/// the lanes gather four bytes from a bucket's address.
 struct SrgbEncoding {
     steps: [f64; 256],
-    buckets: [u8; 4097],
+    buckets: [u8; 4100],
 }
 
 static ENCODING: std::sync::LazyLock<SrgbEncoding> = std::sync::LazyLock::new(|| {
@@ -118,7 +135,7 @@ static ENCODING: std::sync::LazyLock<SrgbEncoding> = std::sync::LazyLock::new(||
         255 => f64::INFINITY,
         _ => first_value_encoding_to(k as u8 + 1),
     });
-    let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / 4096.0) as u8);
+    let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i.min(4096) as f64 / 4096.0) as u8);
     SrgbEncoding { steps, buckets }
 });
 
@@ -135,6 +152,42 @@ impl SrgbEncoding {
         let bucket = unsafe { (c * 4096.0).to_int_unchecked::<u32>() };
         let byte = self.buckets[bucket as usize];
         byte + u8::from(self.steps[byte as usize] <= c)
+    }
+
+    /// [`SrgbEncoding::byte`] of each of `values`, four in a vector: the same clamp, bucket
+    /// and step test, in lanes.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn bytes_avx2(&self, values: &[f64], bytes: &mut [u8]) {
+        use std::arch::x86_64::{
+            __m128i, _CMP_GT_OQ, _CMP_LE_OQ, _mm_and_si128, _mm_i32gather_epi32, _mm_set1_epi32, _mm_storeu_si128,
+            _mm256_and_pd, _mm256_cmp_pd, _mm256_cvttpd_epi32, _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_min_pd,
+            _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd,
+        };
+        for (values, bytes) in values.chunks_exact(4).zip(bytes.chunks_exact_mut(4)) {
+            let mut guesses = [0u32; 4];
+            // SAFETY: the load reads the chunk's four values. Each c lies in [0, 1] (a NaN or
+            // a value not above 0 is masked to 0, `min` keeps 1 as the bound), so its bucket
+            // is in 0..=4096, and the four bytes gathered from it lie inside `buckets`
+            // (4100); each guess is a byte, inside `steps` (256); the store writes four u32.
+            unsafe {
+                let value = _mm256_loadu_pd(values.as_ptr());
+                let positive = _mm256_cmp_pd::<_CMP_GT_OQ>(value, _mm256_setzero_pd());
+                let c = _mm256_and_pd(_mm256_min_pd(value, _mm256_set1_pd(1.0)), positive);
+                let bucket = _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(4096.0)));
+                let gathered = _mm_i32gather_epi32::<1>(self.buckets.as_ptr().cast::<i32>(), bucket);
+                let guess = _mm_and_si128(gathered, _mm_set1_epi32(0xff));
+                let step = _mm256_i32gather_pd::<8>(self.steps.as_ptr(), guess);
+                let reached = _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(step, c));
+                _mm_storeu_si128(guesses.as_mut_ptr().cast::<__m128i>(), guess);
+                for (k, byte) in bytes.iter_mut().enumerate() {
+                    *byte = guesses[k] as u8 + ((reached >> k) & 1) as u8;
+                }
+            }
+        }
     }
 }
 
@@ -220,6 +273,28 @@ mod tests {
         ]);
         for value in values {
             assert_eq!(linear_to_srgb(value), encode_by_formula(value), "{value:e}");
+        }
+    }
+
+    #[test]
+    fn the_lanes_encode_as_one_value_at_a_time() {
+        let mut values: Vec<f64> = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, 0.0, 1.0, -1.0, 2.0];
+        // Every bucket's edge and every step, a few ulps either side.
+        for edge in (0..=4096)
+            .map(|i| f64::from(i) / 4096.0)
+            .chain((1..=255).map(first_value_encoding_to))
+        {
+            let bits = edge.to_bits();
+            values.extend((bits.saturating_sub(2)..=bits + 2).map(f64::from_bits));
+        }
+        values.resize(values.len().next_multiple_of(24), 0.5);
+        for colours in values.chunks_exact(24) {
+            let colours: [[f64; 3]; 8] = std::array::from_fn(|k| std::array::from_fn(|c| colours[3 * k + c]));
+            assert_eq!(
+                linear_to_srgb3_lanes(&colours),
+                colours.map(linear_to_srgb3),
+                "{colours:?}"
+            );
         }
     }
 

@@ -15,6 +15,7 @@ use super::{
     Appearance, Footprint, View, lit, shade_on, texture_coordinates, texture_of, untextured_albedo, write_pixel,
 };
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
+use crate::scene::lighting::linear_to_srgb3_lanes;
 use crate::scene::surface::{Surface, UvMap};
 use crate::scene::texture::Texture;
 
@@ -182,17 +183,25 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     }
 
     /// Filters a batch's textures and writes the colours of its pixels (of a chunk from pixel
-    /// index `start` on).
+    /// index `start` on), encoding the batch's eight colours at once.
     fn finish(&self, start: usize, batch: &Batch<'_>, colour: &mut [[u8; 3]], mut linear: Option<&mut [[f32; 3]]>) {
         let samples = trilinear_lanes(&batch.lookups);
+        // Lanes past the batch's length stay black: encoded, and not written.
+        let mut shaded = [[0.0; 3]; LANES];
         for (lane, &slot) in batch.slot.iter().enumerate().take(batch.len) {
             let sample = DVec3::from_array([0, 1, 2].map(|channel| f64::from(samples[channel][lane])));
             let albedo = batch.base[lane] * sample;
             let surface = Some(batch.surface[lane]);
-            let shaded = || lit(self.appearance, surface, albedo, |_| self.lux[start + slot]);
-            let linear = linear.as_deref_mut().map(|linear| &mut linear[slot]);
-            // A textured pixel is never flat: its colour is always encoded.
-            write_pixel(None, shaded, &mut colour[slot], linear);
+            let lit = lit(self.appearance, surface, albedo, |_| self.lux[start + slot]);
+            if let Some(linear) = linear.as_deref_mut() {
+                linear[slot] = lit.as_vec3().to_array();
+            }
+            shaded[lane] = lit.to_array();
+        }
+        // A textured pixel is never flat: its colour is always encoded.
+        let encoded = linear_to_srgb3_lanes(&shaded);
+        for (&slot, &encoded) in batch.slot.iter().zip(&encoded).take(batch.len) {
+            colour[slot] = encoded;
         }
     }
 }
