@@ -112,10 +112,10 @@ pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
 pub fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8]) -> [[u8; 3]; 8] {
     let encoding = &*ENCODING;
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
+    if let Some(avx2) = crate::avx2::Avx2::detected() {
         let mut bytes = [[0; 3]; 8];
-        // SAFETY: AVX2 was just detected.
-        unsafe { encoding.bytes_avx2(linear.as_flattened(), bytes.as_flattened_mut()) };
+        // SAFETY: `avx2` proves the CPU has AVX2, which `bytes_avx2` is compiled for.
+        unsafe { encoding.bytes_avx2(avx2, linear.as_flattened(), bytes.as_flattened_mut()) };
         return bytes;
     }
     linear.map(|colour| colour.map(|value| encoding.byte(value)))
@@ -155,13 +155,10 @@ impl SrgbEncoding {
     }
 
     /// [`SrgbEncoding::byte`] of each of `values`, four in a vector: the same clamp, bucket
-    /// and step test, in lanes.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
+    /// and step test, in lanes. The token proves the CPU has AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn bytes_avx2(&self, values: &[f64], bytes: &mut [u8]) {
+    fn bytes_avx2(&self, _: crate::avx2::Avx2, values: &[f64], bytes: &mut [u8]) {
         use std::arch::x86_64::{
             __m128i, _CMP_GT_OQ, _CMP_LE_OQ, _mm_and_si128, _mm_i32gather_epi32, _mm_set1_epi32, _mm_storeu_si128,
             _mm256_and_pd, _mm256_cmp_pd, _mm256_cvttpd_epi32, _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_min_pd,

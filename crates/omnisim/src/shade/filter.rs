@@ -6,6 +6,7 @@
 
 use glam::{DVec2, Vec3A};
 
+use crate::avx2::Avx2;
 use crate::scene::lighting::srgb_to_linear;
 use crate::scene::texture::{MipLevel, Texture, Wrap};
 
@@ -216,76 +217,101 @@ fn neighbours<const L: usize>(
 }
 
 /// Each lane's decoded channel (shift 0, 8 or 16 of the packed texel) through `decoding`: with
-/// `AVX2` (and eight lanes) one gather.
+/// `avx2` (and eight lanes) one gather.
 #[inline(always)]
-fn decoded<const L: usize, const AVX2: bool>(texels: &[u32; L], shift: u32, decoding: &[f32; 256]) -> [f32; L] {
+fn decoded<const L: usize>(texels: &[u32; L], shift: u32, decoding: &[f32; 256], avx2: Option<Avx2>) -> [f32; L] {
     #[cfg(target_arch = "x86_64")]
-    if AVX2 && let Ok(eight) = <&[u32; 8]>::try_from(&texels[..]) {
+    if let Some(avx2) = avx2
+        && let Ok(eight) = <&[u32; 8]>::try_from(&texels[..])
+    {
         let mut out = [0.0; L];
-        // SAFETY: AVX2 = true comes only from `lanes_avx2`, which `trilinear_lanes` calls after
-        // detecting AVX2 (checked below in debug builds); `out` holds eight f32 (L = 8, as
-        // `eight` shows).
-        debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
-        unsafe { decode_avx2(eight, shift, decoding, out.as_mut_ptr()) };
+        // SAFETY: `out` holds eight f32 (L = 8, as `eight` shows).
+        unsafe { decode_avx2(avx2, eight, shift, decoding, out.as_mut_ptr()) };
         return out;
     }
     std::array::from_fn(|k| decoding[((texels[k] >> shift) & 0xff) as usize])
 }
 
-/// Each lane's texel `index` of its level `level` (0 finer, 1 coarser) of `lookups`, clamped
-/// to the level's last texel (what a consistent level's indices already are): with `AVX2` (and
-/// eight lanes) two gathers, where a bounds-checked look-up per lane cost about 32 instructions
-/// a pixel over the eight taps (docs/benchmarks.md, "eighth pass").
+/// The texels every lane reads of a level (`Lookups::texels[level]`), where all of them read
+/// the same slice (a run of pixels on one face, at one level: the usual case) and it holds at
+/// most `i32::MAX` texels, so that one gather from its base reaches each lane's texel.
 #[inline(always)]
-fn fetched<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>, level: usize, index: &[i32; L]) -> [u32; L] {
-    let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
-    let index: [u32; L] = std::array::from_fn(|k| (index[k] as u32).min(last[k]));
+fn shared_texels<'a, const L: usize>(texels: &[&'a [u32]; L]) -> Option<&'a [u32]> {
+    let first = *texels.first()?;
+    // A loop, not `Iterator::all`, whose closure could be compiled outside the AVX2 lanes.
+    let mut shared = first.len() <= i32::MAX as usize;
+    for &lane in texels {
+        // Address and length: the same slice.
+        shared &= std::ptr::eq(lane, first);
+    }
+    shared.then_some(first)
+}
+
+/// Each lane's texel `index` of its level `level` (0 finer, 1 coarser) of `lookups`, clamped
+/// to the level's last texel (what a consistent level's indices already are): with `avx2`
+/// (and eight lanes) where every lane reads `shared` ([`shared_texels`]), one gather from it;
+/// else a bounds-checked look-up per lane, which over the eight taps cost about 32
+/// instructions a pixel (docs/benchmarks.md, "eighth pass").
+#[inline(always)]
+fn fetched<const L: usize>(
+    lookups: &Lookups<'_, L>,
+    level: usize,
+    shared: Option<&[u32]>,
+    index: &[i32; L],
+    avx2: Option<Avx2>,
+) -> [u32; L] {
     #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        let addresses: [u64; L] =
-            std::array::from_fn(|k| texels[k].as_ptr().expose_provenance() as u64 + 4 * u64::from(index[k]));
-        if let Ok(eight) = <&[u64; 8]>::try_from(&addresses[..]) {
-            let mut out = [0; L];
-            // SAFETY: AVX2 = true comes only from `lanes_avx2` (see `decoded`); every address
-            // is that of a texel of its lane's level: `Lookups` keeps `last` the index of the
-            // last of `texels` (never empty), and the index is clamped to it just above; `out`
-            // holds eight u32 (L = 8, as `eight` shows).
-            debug_assert!(std::arch::is_x86_feature_detected!("avx2"));
-            unsafe { gather_avx2(eight, out.as_mut_ptr()) };
-            return out;
-        }
+    if let Some(avx2) = avx2
+        && let Some(texels) = shared
+        && let Ok(eight) = <&[i32; 8]>::try_from(&index[..])
+    {
+        // Clamped to the shared slice's own last texel (`Lookups::last` holds the same index),
+        // so the bound the gather needs is checked here: below its length, within i32.
+        let last = (texels.len() - 1) as u32;
+        let index: [u32; 8] = std::array::from_fn(|k| (eight[k] as u32).min(last));
+        let mut out = [0; L];
+        // SAFETY: every index is at most `last`, inside `texels` and within i32 (see
+        // `shared_texels`); `out` holds eight u32 (L = 8, as `eight` shows).
+        unsafe { gather_avx2(avx2, texels, &index, out.as_mut_ptr()) };
+        return out;
     }
-    std::array::from_fn(|k| texels[k].get(index[k] as usize).copied().unwrap_or_default())
+    let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
+    std::array::from_fn(|k| {
+        texels[k]
+            .get((index[k] as u32).min(last[k]) as usize)
+            .copied()
+            .unwrap_or_default()
+    })
 }
 
-/// [`fetched`] for eight lanes: the u32 at each of `addresses`, written to `out`.
+/// [`fetched`] for eight lanes that read one slice: `texels[index[k]]` for each lane k,
+/// gathered from the slice's base, written to `out`. The token proves the CPU has AVX2.
 ///
 /// # Safety
-/// The CPU must have AVX2; every address must be that of a readable u32; `out` must be valid
-/// for eight u32 writes.
+/// Every index must be below `texels.len()` and at most `i32::MAX`; `out` must be valid for
+/// eight u32 writes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn gather_avx2(addresses: &[u64; 8], out: *mut u32) {
-    use std::arch::x86_64::{__m128i, __m256i, _mm_storeu_si128, _mm256_i64gather_epi32, _mm256_loadu_si256};
-    // SAFETY: the loads read the eight addresses; the gathers read the u32 the caller promised
-    // (absolute addresses, from a null base); the stores write the eight u32 of `out`.
+unsafe fn gather_avx2(_: Avx2, texels: &[u32], index: &[u32; 8], out: *mut u32) {
+    use std::arch::x86_64::{__m256i, _mm256_i32gather_epi32, _mm256_loadu_si256, _mm256_storeu_si256};
+    // SAFETY: the load reads the eight indices; each gathered u32 is `texels[index]`, inside
+    // the slice (the caller's promise; as i32 the indices keep their value); the store writes
+    // the eight u32 of `out`.
     unsafe {
-        let halves = [0, 4].map(|first| {
-            let lanes = _mm256_loadu_si256(addresses[first..].as_ptr().cast::<__m256i>());
-            _mm256_i64gather_epi32::<1>(std::ptr::null(), lanes)
-        });
-        _mm_storeu_si128(out.cast::<__m128i>(), halves[0]);
-        _mm_storeu_si128(out.add(4).cast::<__m128i>(), halves[1]);
+        let lanes = _mm256_loadu_si256(index.as_ptr().cast::<__m256i>());
+        let gathered = _mm256_i32gather_epi32::<4>(texels.as_ptr().cast::<i32>(), lanes);
+        _mm256_storeu_si256(out.cast::<__m256i>(), gathered);
     }
 }
 
-/// [`decoded`] for eight lanes: one gather from the table, written to `out` (eight f32).
+/// [`decoded`] for eight lanes: one gather from the table, written to `out` (eight f32). The
+/// token proves the CPU has AVX2.
 ///
 /// # Safety
-/// The CPU must have AVX2; `out` must be valid for eight f32 writes.
+/// `out` must be valid for eight f32 writes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn decode_avx2(texels: &[u32; 8], shift: u32, decoding: &[f32; 256], out: *mut f32) {
+unsafe fn decode_avx2(_: Avx2, texels: &[u32; 8], shift: u32, decoding: &[f32; 256], out: *mut f32) {
     use std::arch::x86_64::{
         __m256i, _mm_cvtsi32_si128, _mm256_and_si256, _mm256_i32gather_ps, _mm256_loadu_si256, _mm256_set1_epi32,
         _mm256_srl_epi32, _mm256_storeu_ps,
@@ -304,9 +330,9 @@ unsafe fn decode_avx2(texels: &[u32; 8], shift: u32, decoding: &[f32; 256], out:
 /// eight taps of each (corners (x0, y0), (x1, y0), (x0, y1), (x1, y1) of the finer level, then
 /// of the coarser) mixed as one weighted sum per channel, summed in one order: taps k and
 /// k + 4, then those sums' 0 + 2 and 1 + 3, then the two. The same operations in every lane, so
-/// any lane count and either `AVX2` give the same bits.
+/// any lane count, with `avx2` or without, gives the same bits.
 #[inline(always)]
-fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L]; 3] {
+fn lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32; L]; 3] {
     // Texel indices (integers below 2^28, the texel limit: exact in f64, and in i32) and
     // weights by tap.
     let mut indices = [[0i32; L]; 8];
@@ -331,16 +357,21 @@ fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L
             weights[tap + 3][k] = bottom * fx[k];
         }
     }
+    // Whether each level's lanes read one slice, found once for its four taps.
+    let shared = match avx2 {
+        Some(_) => [shared_texels(&lookups.texels[0]), shared_texels(&lookups.texels[1])],
+        None => [None; 2],
+    };
     let mut texels = [[0u32; L]; 8];
     for (tap, texels) in texels.iter_mut().enumerate() {
-        *texels = fetched::<L, AVX2>(lookups, tap / 4, &indices[tap]);
+        *texels = fetched(lookups, tap / 4, shared[tap / 4], &indices[tap], avx2);
     }
     let decoding = &*DECODING;
     let mut sums = [[0.0f32; L]; 3];
     for (sum, shift) in sums.iter_mut().zip([0, 8, 16]) {
         let mut v = [[0.0f32; L]; 8];
         for tap in 0..8 {
-            let decoded = decoded::<L, AVX2>(&texels[tap], shift, decoding);
+            let decoded = decoded(&texels[tap], shift, decoding, avx2);
             for k in 0..L {
                 v[tap][k] = weights[tap][k] * decoded[k];
             }
@@ -352,14 +383,11 @@ fn lanes<const L: usize, const AVX2: bool>(lookups: &Lookups<'_, L>) -> [[f32; L
     sums
 }
 
-/// [`lanes`] compiled for AVX2.
-///
-/// # Safety
-/// The CPU must have AVX2.
+/// [`lanes`] compiled for AVX2, which the token proves the CPU has.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn lanes_avx2(lookups: &Lookups<'_, LANES>) -> [[f32; LANES]; 3] {
-    lanes::<LANES, true>(lookups)
+fn lanes_avx2(lookups: &Lookups<'_, LANES>, avx2: Avx2) -> [[f32; LANES]; 3] {
+    lanes(lookups, Some(avx2))
 }
 
 /// Trilinear samples of [`LANES`] pixels at once, red, green and blue by lane: with AVX2
@@ -368,18 +396,18 @@ unsafe fn lanes_avx2(lookups: &Lookups<'_, LANES>) -> [[f32; LANES]; 3] {
 /// code (tested).
 pub(crate) fn trilinear_lanes(lookups: &Lookups<'_, LANES>) -> [[f32; LANES]; 3] {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: AVX2 was just detected.
-        return unsafe { lanes_avx2(lookups) };
+    if let Some(avx2) = Avx2::detected() {
+        // SAFETY: `avx2` proves the CPU has AVX2, which `lanes_avx2` is compiled for.
+        return unsafe { lanes_avx2(lookups, avx2) };
     }
-    lanes::<LANES, false>(lookups)
+    lanes(lookups, None)
 }
 
 /// Trilinear sample at level of detail `lod` (0 = finest; clamped to the pyramid): the two
 /// levels around it, bilinear each, mixed by its fraction, in linear light. One lane of
 /// [`trilinear_lanes`], for pixels shaded one at a time.
 pub(crate) fn trilinear(texture: &Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32) -> Vec3A {
-    let [[red], [green], [blue]] = lanes::<1, false>(&Lookups::filled(texture, Wraps::of(wrap), uv, lod));
+    let [[red], [green], [blue]] = lanes::<1>(&Lookups::filled(texture, Wraps::of(wrap), uv, lod), None);
     Vec3A::new(red, green, blue)
 }
 
@@ -502,7 +530,7 @@ mod tests {
                 lookups.set(lane, texture, Wraps::of(wrap), uv, lod);
             }
             let bits = |samples: [[f32; LANES]; 3]| samples.map(|channel| channel.map(f32::to_bits));
-            let portable = bits(lanes::<LANES, false>(&lookups));
+            let portable = bits(lanes(&lookups, None));
             assert_eq!(bits(trilinear_lanes(&lookups)), portable);
             for (k, &(texture, wrap, uv, lod)) in lanes_in.iter().enumerate() {
                 let one = trilinear(texture, wrap, uv, lod).to_array().map(f32::to_bits);
@@ -550,10 +578,23 @@ mod tests {
         for (lane, &(uv, lod)) in lanes_in.iter().enumerate() {
             lookups.set(lane, &texture, wraps, uv, lod);
         }
-        let portable = lanes::<LANES, false>(&lookups);
+        let portable = lanes(&lookups, None);
         assert_eq!(trilinear_lanes(&lookups), portable);
         for (k, &(uv, lod)) in lanes_in.iter().enumerate() {
             let one = trilinear(&texture, [Wrap::Repeat; 2], uv, lod).to_array();
+            assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
+        }
+        // Every lane on the short finest level (with AVX2 one gather from it a tap), indices
+        // past its three texels among them: clamped as in one lane.
+        let lanes_in: [DVec2; LANES] = std::array::from_fn(|k| DVec2::new(k as f64 / 7.0, 0.1 + k as f64 / 9.0));
+        for (lane, &uv) in lanes_in.iter().enumerate() {
+            lookups.set(lane, &texture, wraps, uv, 0.0);
+        }
+        assert!(shared_texels(&lookups.texels[0]).is_some_and(|texels| texels.len() == 3));
+        let portable = lanes(&lookups, None);
+        assert_eq!(trilinear_lanes(&lookups), portable);
+        for (k, &uv) in lanes_in.iter().enumerate() {
+            let one = trilinear(&texture, [Wrap::Repeat; 2], uv, 0.0).to_array();
             assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
         }
     }

@@ -1,0 +1,21 @@
+//! A proof that the CPU has AVX2, passed to code that runs AVX2 instructions (the texture
+//! filter's and sRGB encoding's gathers), so that their `unsafe` rests on a value only the
+//! feature check makes, not on which caller instantiates them.
+
+/// Zero-sized proof that the running CPU has AVX2: its field is private, so one exists only
+/// where [`Avx2::detected`] found the feature.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Avx2(());
+
+impl Avx2 {
+    /// The proof, where the CPU has AVX2 (a cached check, cheap per call as the fast tracer
+    /// takes it); `None` elsewhere, and on other architectures.
+    #[inline(always)]
+    pub(crate) fn detected() -> Option<Self> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Some(Avx2(()));
+        }
+        None
+    }
+}
