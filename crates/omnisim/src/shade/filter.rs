@@ -249,9 +249,10 @@ fn shared_texels<'a, const L: usize>(texels: &[&'a [u32]; L]) -> Option<&'a [u32
 
 /// Each lane's texel `index` of its level `level` (0 finer, 1 coarser) of `lookups`, clamped
 /// to the level's last texel (what a consistent level's indices already are): with `avx2`
-/// (and eight lanes) where every lane reads `shared` ([`shared_texels`]), one gather from it;
-/// else a bounds-checked look-up per lane, which over the eight taps cost about 32
-/// instructions a pixel (docs/benchmarks.md, "eighth pass").
+/// (and eight lanes) where every lane reads `shared` ([`shared_texels`]), one gather from its
+/// base; where the lanes' slices differ, two gathers of their texels' exposed addresses,
+/// where a bounds-checked look-up per lane cost 3.3 M instructions more an equirect textured
+/// frame (docs/benchmarks.md, "eighth pass" and "tenth pass").
 #[inline(always)]
 fn fetched<const L: usize>(
     lookups: &Lookups<'_, L>,
@@ -262,17 +263,28 @@ fn fetched<const L: usize>(
 ) -> [u32; L] {
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = avx2
-        && let Some(texels) = shared
         && let Ok(eight) = <&[i32; 8]>::try_from(&index[..])
     {
-        // Clamped to the shared slice's own last texel (`Lookups::last` holds the same index),
-        // so the bound the gather needs is checked here: below its length, within i32.
-        let last = (texels.len() - 1) as u32;
-        let index: [u32; 8] = std::array::from_fn(|k| (eight[k] as u32).min(last));
         let mut out = [0; L];
-        // SAFETY: every index is at most `last`, inside `texels` and within i32 (see
-        // `shared_texels`); `out` holds eight u32 (L = 8, as `eight` shows).
-        unsafe { gather_avx2(avx2, texels, &index, out.as_mut_ptr()) };
+        if let Some(texels) = shared {
+            // Clamped to the shared slice's own last texel (`Lookups::last` holds the same
+            // index), so the bound the gather needs is checked here: below its length, in i32.
+            let last = (texels.len() - 1) as u32;
+            let index: [u32; 8] = std::array::from_fn(|k| (eight[k] as u32).min(last));
+            // SAFETY: every index is at most `last`, inside `texels` and within i32 (see
+            // `shared_texels`); `out` holds eight u32 (L = 8, as `eight` shows).
+            unsafe { gather_avx2(avx2, texels, &index, out.as_mut_ptr()) };
+        } else {
+            let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
+            let addresses: [u64; 8] = std::array::from_fn(|k| {
+                let index = (eight[k] as u32).min(last[k]);
+                texels[k].as_ptr().expose_provenance() as u64 + 4 * u64::from(index)
+            });
+            // SAFETY: each address is that of a texel of its lane's slice, whose provenance
+            // was exposed just above: `Lookups` keeps `last` the index of the last of
+            // `texels` (never empty), and the index is clamped to it; `out` holds eight u32.
+            unsafe { gather_exposed_avx2(avx2, &addresses, out.as_mut_ptr()) };
+        }
         return out;
     }
     let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
@@ -301,6 +313,32 @@ unsafe fn gather_avx2(_: Avx2, texels: &[u32], index: &[u32; 8], out: *mut u32) 
         let lanes = _mm256_loadu_si256(index.as_ptr().cast::<__m256i>());
         let gathered = _mm256_i32gather_epi32::<4>(texels.as_ptr().cast::<i32>(), lanes);
         _mm256_storeu_si256(out.cast::<__m256i>(), gathered);
+    }
+}
+
+/// [`fetched`] for eight lanes that read different slices: the u32 at each of `addresses`,
+/// written to `out`, gathered as offsets from a base of address 0 that takes its provenance
+/// from [`std::ptr::with_exposed_provenance`] (so each access has the exposed provenance of
+/// the slice holding it). The token proves the CPU has AVX2.
+///
+/// # Safety
+/// Every address must be that of a u32 inside an allocation whose provenance was exposed
+/// (`expose_provenance`) and which is readable for the call; `out` must be valid for eight
+/// u32 writes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gather_exposed_avx2(_: Avx2, addresses: &[u64; 8], out: *mut u32) {
+    use std::arch::x86_64::{__m128i, __m256i, _mm_storeu_si128, _mm256_i64gather_epi32, _mm256_loadu_si256};
+    let base = std::ptr::with_exposed_provenance::<i32>(0);
+    // SAFETY: the loads read the eight addresses; the gathers read the u32 the caller promised
+    // (address 0 plus each address, with exposed provenance); the stores write the eight u32
+    // of `out`.
+    unsafe {
+        for (half, first) in [0, 4].into_iter().enumerate() {
+            let lanes = _mm256_loadu_si256(addresses[first..].as_ptr().cast::<__m256i>());
+            let gathered = _mm256_i64gather_epi32::<1>(base, lanes);
+            _mm_storeu_si128(out.add(4 * half).cast::<__m128i>(), gathered);
+        }
     }
 }
 
