@@ -115,10 +115,10 @@ pub fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8]) -> [[u8; 3]; 8] {
     if let Some(avx2) = crate::avx2::Avx2::detected() {
         let mut bytes = [[0; 3]; 8];
         // SAFETY: `avx2` proves the CPU has AVX2, which `bytes_avx2` is compiled for.
-        unsafe { encoding.bytes_avx2(avx2, linear.as_flattened(), bytes.as_flattened_mut()) };
+        unsafe { encoding.bytes_avx2(avx2, linear, &mut bytes) };
         return bytes;
     }
-    linear.map(|colour| colour.map(|value| encoding.byte(value)))
+    linear.map(linear_to_srgb3)
 }
 
 /// The steps (then +inf), and the byte at the start of each of 4096 equal buckets of [0, 1]: a
@@ -127,15 +127,20 @@ pub fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8]) -> [[u8; 3]; 8] {
 /// the lanes gather four bytes from a bucket's address.
 struct SrgbEncoding {
     steps: [f64; 256],
-    buckets: [u8; 4100],
+    buckets: [u8; BUCKETS + 4],
 }
+
+/// The number of equal buckets of [0, 1] in [`SrgbEncoding`]: a value c's is c · `BUCKETS`,
+/// 0..=`BUCKETS` (the last holds only 1.0).
+const BUCKETS: usize = 4096;
 
 static ENCODING: std::sync::LazyLock<SrgbEncoding> = std::sync::LazyLock::new(|| {
     let steps: [f64; 256] = std::array::from_fn(|k| match k {
         255 => f64::INFINITY,
         _ => first_value_encoding_to(k as u8 + 1),
     });
-    let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i.min(4096) as f64 / 4096.0) as u8);
+    // The spare bytes past bucket `BUCKETS` are read only to be masked off; they hold 255.
+    let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / BUCKETS as f64) as u8);
     SrgbEncoding { steps, buckets }
 });
 
@@ -158,12 +163,14 @@ impl SrgbEncoding {
     /// and step test, in lanes. The token proves the CPU has AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn bytes_avx2(&self, _: crate::avx2::Avx2, values: &[f64], bytes: &mut [u8]) {
+    fn bytes_avx2(&self, _: crate::avx2::Avx2, linear: &[[f64; 3]; 8], bytes: &mut [[u8; 3]; 8]) {
         use std::arch::x86_64::{
             __m128i, _CMP_GT_OQ, _CMP_LE_OQ, _mm_and_si128, _mm_i32gather_epi32, _mm_set1_epi32, _mm_storeu_si128,
             _mm256_and_pd, _mm256_cmp_pd, _mm256_cvttpd_epi32, _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_min_pd,
             _mm256_movemask_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setzero_pd,
         };
+        // 24 values, six chunks of four: no remainder is left out.
+        let (values, bytes) = (linear.as_flattened(), bytes.as_flattened_mut());
         for (values, bytes) in values.chunks_exact(4).zip(bytes.chunks_exact_mut(4)) {
             let mut guesses = [0u32; 4];
             // SAFETY: the load reads the chunk's four values. Each c lies in [0, 1] (a NaN or
@@ -275,7 +282,22 @@ mod tests {
 
     #[test]
     fn the_lanes_encode_as_one_value_at_a_time() {
-        let mut values: Vec<f64> = vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, 0.0, 1.0, -1.0, 2.0];
+        let mut values: Vec<f64> = vec![
+            f64::NAN,
+            -f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            0.0,
+            1.0,
+            -1.0,
+            2.0,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            f64::from_bits(1),
+            -f64::from_bits(1),
+            -1e-300,
+        ];
         // Every bucket's edge and every step, a few ulps either side.
         for edge in (0..=4096)
             .map(|i| f64::from(i) / 4096.0)
@@ -285,13 +307,26 @@ mod tests {
             values.extend((bits.saturating_sub(2)..=bits + 2).map(f64::from_bits));
         }
         values.resize(values.len().next_multiple_of(24), 0.5);
-        for colours in values.chunks_exact(24) {
+        // Each value in every lane position: the list again, shifted by one to 23 places.
+        let shifted: Vec<f64> = (0..24)
+            .flat_map(|shift| values[shift..].iter().chain(&values[..shift]))
+            .copied()
+            .collect();
+        let avx2 = crate::avx2::Avx2::detected();
+        if avx2.is_none() {
+            eprintln!("no AVX2 on this CPU: the lanes' scalar fallback is what is checked");
+        }
+        for colours in shifted.chunks_exact(24) {
             let colours: [[f64; 3]; 8] = std::array::from_fn(|k| std::array::from_fn(|c| colours[3 * k + c]));
-            assert_eq!(
-                linear_to_srgb3_lanes(&colours),
-                colours.map(linear_to_srgb3),
-                "{colours:?}"
-            );
+            let want = colours.map(linear_to_srgb3);
+            assert_eq!(linear_to_srgb3_lanes(&colours), want, "{colours:?}");
+            #[cfg(target_arch = "x86_64")]
+            if let Some(avx2) = avx2 {
+                let mut bytes = [[0; 3]; 8];
+                // SAFETY: `avx2` proves the CPU has AVX2.
+                unsafe { ENCODING.bytes_avx2(avx2, &colours, &mut bytes) };
+                assert_eq!(bytes, want, "AVX2 lanes, {colours:?}");
+            }
         }
     }
 

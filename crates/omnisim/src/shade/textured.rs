@@ -192,11 +192,11 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             let sample = DVec3::from_array([0, 1, 2].map(|channel| f64::from(samples[channel][lane])));
             let albedo = batch.base[lane] * sample;
             let surface = Some(batch.surface[lane]);
-            let lit = lit(self.appearance, surface, albedo, |_| self.lux[start + slot]);
+            let lit_colour = lit(self.appearance, surface, albedo, |_| self.lux[start + slot]);
             if let Some(linear) = linear.as_deref_mut() {
-                linear[slot] = lit.as_vec3().to_array();
+                linear[slot] = lit_colour.as_vec3().to_array();
             }
-            shaded[lane] = lit.to_array();
+            shaded[lane] = lit_colour.to_array();
         }
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded);
