@@ -104,6 +104,14 @@ pub enum Scale {
     Linear,
 }
 
+impl Scale {
+    /// Whether the scale has a place for `v`: a finite value, and on a log scale one above 0
+    /// (log10(0) = −∞ would make its decades endless).
+    fn holds(self, v: f64) -> bool {
+        v.is_finite() && (self == Scale::Linear || v > 0.0)
+    }
+}
+
 /// One axis: its scale and the range it spans.
 struct Axis {
     scale: Scale,
@@ -112,11 +120,10 @@ struct Axis {
 }
 
 impl Axis {
-    /// The axis spanning `values`: only finite ones, and on a log scale only those above 0
-    /// (the others have no place on it, and log10(0) = −∞ would make its decades endless).
+    /// The axis spanning those of `values` the scale holds ([`Scale::holds`]).
     fn new(scale: Scale, values: impl Iterator<Item = f64>) -> Self {
         let (lo, hi) = values
-            .filter(|&v| v.is_finite() && (scale == Scale::Linear || v > 0.0))
+            .filter(|&v| scale.holds(v))
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
         match scale {
             Scale::Log => {
@@ -554,10 +561,9 @@ fn place_labels(markers: &[(f64, f64)], texts: &[String], plot: &Rect) -> Vec<Op
 /// Why `point` has no place on a log–log chart whose y values below `floor` are drawn on it
 /// (the legend's note), or `None` where it has one: a log axis holds only finite values above 0.
 fn off_log_axes(point: &Point, x_label: &str, y_label: &str, floor: f64) -> Option<String> {
-    let on_log_axis = |v: f64| v > 0.0 && v.is_finite();
-    let (label, value) = if !on_log_axis(point.x) {
+    let (label, value) = if !Scale::Log.holds(point.x) {
         (x_label, point.x)
-    } else if point.y.is_nan() || !on_log_axis(point.y.max(floor)) {
+    } else if point.y.is_nan() || !Scale::Log.holds(point.y.max(floor)) {
         (y_label, point.y)
     } else {
         return None;

@@ -345,6 +345,13 @@ fn write_exr_blocks(
     use exr::block::UncompressedBlock;
     use exr::block::chunk::{Chunk, CompressedBlock, CompressedScanLineBlock};
     let mut rle = rle::RleEncoder::default();
+    // Every channel is f32 (`exr_image` makes no other), so a block holds 4 bytes a sample;
+    // anything else goes through exr's own compressor, which checks the block's size.
+    let all_f32 = meta
+        .headers
+        .iter()
+        .all(|header| header.channels.list.len() == channels.len());
+    let own_rle = compression == ExrCompression::Rle && cfg!(target_endian = "little") && all_f32;
     for (index_in_header, index) in meta.enumerate_ordered_header_block_indices() {
         let rows = index.pixel_position.y()..index.pixel_position.y() + index.pixel_size.y();
         let mut data = Vec::with_capacity(rows.len() * channels.len() * width * 4);
@@ -358,10 +365,7 @@ fn write_exr_blocks(
                 }
             }
         }
-        // Every channel is f32 (`exr_image` makes no other), so a block holds 4 bytes a sample;
-        // anything else goes through exr's own compressor, which checks the block's size.
-        let all_f32 = channels.len() == meta.headers[index.layer].channels.list.len();
-        let chunk = if compression == ExrCompression::Rle && cfg!(target_endian = "little") && all_f32 {
+        let chunk = if own_rle {
             let packed = rle.compress(&data);
             let header = &meta.headers[index.layer];
             Chunk {

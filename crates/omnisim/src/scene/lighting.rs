@@ -154,7 +154,7 @@ impl SrgbEncoding {
         // SAFETY: c lies in [0, 1] (never NaN), so c · 4096 is in 0..=4096. Unchecked because
         // `as usize`'s saturating conversion cost about 25 instructions a channel (callgrind,
         // textured frames: docs/benchmarks.md).
-        let bucket = unsafe { (c * 4096.0).to_int_unchecked::<u32>() };
+        let bucket = unsafe { (c * BUCKETS as f64).to_int_unchecked::<u32>() };
         let byte = self.buckets[bucket as usize];
         byte + u8::from(self.steps[byte as usize] <= c)
     }
@@ -181,7 +181,7 @@ impl SrgbEncoding {
                 let value = _mm256_loadu_pd(values.as_ptr());
                 let positive = _mm256_cmp_pd::<_CMP_GT_OQ>(value, _mm256_setzero_pd());
                 let c = _mm256_and_pd(_mm256_min_pd(value, _mm256_set1_pd(1.0)), positive);
-                let bucket = _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(4096.0)));
+                let bucket = _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64)));
                 let gathered = _mm_i32gather_epi32::<1>(self.buckets.as_ptr().cast::<i32>(), bucket);
                 let guess = _mm_and_si128(gathered, _mm_set1_epi32(0xff));
                 let step = _mm256_i32gather_pd::<8>(self.steps.as_ptr(), guess);
@@ -299,8 +299,8 @@ mod tests {
             -1e-300,
         ];
         // Every bucket's edge and every step, a few ulps either side.
-        for edge in (0..=4096)
-            .map(|i| f64::from(i) / 4096.0)
+        for edge in (0..=BUCKETS)
+            .map(|i| i as f64 / BUCKETS as f64)
             .chain((1..=255).map(first_value_encoding_to))
         {
             let bits = edge.to_bits();

@@ -52,31 +52,10 @@ impl<'a, const L: usize> Lookups<'a, L> {
             clamp: [[false; L]; 2],
             share: [[0.0; L]; 2],
         };
-        if L > 0 {
-            lookups.set(0, texture, wraps, uv, lod);
-            lookups.copy_lane(0, 1..L);
+        for lane in 0..L {
+            lookups.set(lane, texture, wraps, uv, lod);
         }
         lookups
-    }
-
-    /// Makes lanes `to` sample what lane `from` samples.
-    fn copy_lane(&mut self, from: usize, to: std::ops::Range<usize>) {
-        for lane in to {
-            self.u[lane] = self.u[from];
-            self.v[lane] = self.v[from];
-            for level in 0..2 {
-                self.texels[level][lane] = self.texels[level][from];
-                self.last[level][lane] = self.last[level][from];
-                self.share[level][lane] = self.share[level][from];
-                for axis in 0..2 {
-                    self.size[level][axis][lane] = self.size[level][axis][from];
-                }
-            }
-            for axis in 0..2 {
-                self.clamp[axis][lane] = self.clamp[axis][from];
-                self.periods[axis][lane] = self.periods[axis][from];
-            }
-        }
     }
 
     /// Sets lane `lane` to sample `texture` as [`Lookups::filled`] says: the two levels around

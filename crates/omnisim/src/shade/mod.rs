@@ -179,9 +179,14 @@ fn lit(
     lux_of: impl FnOnce(&Lighting) -> DVec3,
 ) -> DVec3 {
     match &appearance.lighting {
-        Some(lighting) if !surface.is_some_and(|s| s.unlit) => albedo * lux_of(lighting) / lighting.white,
+        Some(lighting) if lit_by_lights(surface) => albedo * lux_of(lighting) / lighting.white,
         _ => albedo,
     }
+}
+
+/// Whether the lights shine on a face with `surface`: all but unlit ones.
+fn lit_by_lights(surface: Option<&Surface>) -> bool {
+    !surface.is_some_and(|s| s.unlit)
 }
 
 /// Illuminance (lux, per colour channel) reaching a hit from the side its ray came from.
@@ -382,7 +387,7 @@ pub(crate) fn shade_frame(
     // The illuminance of every lit hit, its shadow rays traced tile by tile; none unlit.
     let lux = appearance.lighting.as_ref().map_or_else(Vec::new, |lighting| {
         frame_illuminance(tracer, geometry, lighting, frame, |hit| {
-            appearance.surfaces.is_empty() || !appearance.surfaces.of(hit.face).is_some_and(|s| s.unlit)
+            appearance.surfaces.is_empty() || lit_by_lights(appearance.surfaces.of(hit.face))
         })
     });
     if appearance.surfaces.is_empty() {

@@ -204,7 +204,7 @@ fn trace_band(
     portable: bool,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if !portable && std::arch::is_x86_feature_detected!("avx2") {
+    if fast::use_avx2(portable) {
         // SAFETY: the CPU has AVX2 (checked on the line above).
         unsafe {
             with_avx2(

@@ -69,7 +69,7 @@ pub(crate) fn closest_hit<C: Counter>(
 /// asked for (`CpuTracer::FastPortable`).
 #[cfg(target_arch = "x86_64")]
 #[inline]
-fn use_avx2(portable: bool) -> bool {
+pub(crate) fn use_avx2(portable: bool) -> bool {
     !portable && std::arch::is_x86_feature_detected!("avx2")
 }
 
