@@ -678,28 +678,32 @@ pub fn lines(title: &str, x_label: &str, y_label: &str, series: &[Series], floor
 }
 
 /// Chart of lines with markers on the given (x, y) scales and (x, y) labels; values below
-/// `floor` on y are drawn at `floor` (give −∞ for none on a linear axis).
+/// `floor` on y are drawn at `floor` (give −∞ for none on a linear axis). A point an axis
+/// cannot hold ([`Scale::holds`]: NaN, ±∞, and 0 or below on a log axis) is not drawn, its
+/// line is broken there, and its series' legend row says how many were left out.
 pub fn lines_on(scales: (Scale, Scale), title: &str, labels: (&str, &str), series: &[Series], floor: f64) -> String {
     let xs: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
     let ys: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.1)).collect();
     let mut axes = Axes::new(title, labels, &xs, &ys, floor, scales);
+    let held = |&(x, y): &(f64, f64)| scales.0.holds(x) && !y.is_nan() && scales.1.holds(y.max(floor));
     for (i, s) in series.iter().enumerate() {
-        let path: Vec<String> = s
-            .points
-            .iter()
-            .map(|&(x, y)| format!("{:.1},{:.1}", axes.x(x), axes.y(y)))
-            .collect();
-        let _ = writeln!(
-            axes.svg,
-            r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="2" stroke-dasharray="{}"/>"#,
-            path.join(" "),
-            s.colour,
-            s.dash
-        );
-        for &(x, y) in &s.points {
-            let marker = series_marker(s, axes.x(x), axes.y(y));
-            axes.svg += &marker;
-            axes.svg += "\n";
+        for run in s.points.split(|p| !held(p)).filter(|run| !run.is_empty()) {
+            let path: Vec<String> = run
+                .iter()
+                .map(|&(x, y)| format!("{:.1},{:.1}", axes.x(x), axes.y(y)))
+                .collect();
+            let _ = writeln!(
+                axes.svg,
+                r#"<polyline points="{}" fill="none" stroke="{}" stroke-width="2" stroke-dasharray="{}"/>"#,
+                path.join(" "),
+                s.colour,
+                s.dash
+            );
+            for &(x, y) in run {
+                let marker = series_marker(s, axes.x(x), axes.y(y));
+                axes.svg += &marker;
+                axes.svg += "\n";
+            }
         }
         let (sx, sy) = Axes::legend_swatch_centre(i);
         let swatch = format!(
@@ -710,7 +714,16 @@ pub fn lines_on(scales: (Scale, Scale), title: &str, labels: (&str, &str), serie
             s.dash,
             series_marker(s, sx, sy)
         );
-        axes.legend(i, &swatch, &s.label);
+        let left_out = s.points.iter().filter(|p| !held(p)).count();
+        let text = match left_out {
+            0 => s.label.clone(),
+            n => format!(
+                "{} ({n} point{} not drawn: an axis holds only finite values, and a log axis only those above 0)",
+                s.label,
+                if n == 1 { "" } else { "s" }
+            ),
+        };
+        axes.legend(i, &swatch, &text);
     }
     axes.finish()
 }
@@ -1174,5 +1187,50 @@ mod tests {
         let both = stack(&[svg.clone(), svg]);
         assert!(both.contains(&format!("<svg y=\"{HEIGHT}\" ")) && both.contains("<svg y=\"0\" "));
         assert!(both.contains(&format!("height=\"{}\"", 2.0 * HEIGHT)));
+    }
+
+    /// Points an axis cannot hold (x = 0 or below and y = NaN on log axes, ±∞ on any) are
+    /// left out: no "inf" or "NaN" coordinate reaches the SVG, the line breaks there, and the
+    /// legend counts them; y = 0 is still drawn on the floor.
+    #[test]
+    fn lines_leave_out_points_an_axis_cannot_hold() {
+        let series = |points: Vec<(f64, f64)>| Series {
+            label: "s".into(),
+            colour: "red".into(),
+            dash: String::new(),
+            marker: Marker::Disc,
+            points,
+        };
+        let log = lines(
+            "t",
+            "x",
+            "y",
+            &[series(vec![
+                (1.0, 0.1),
+                (0.0, 0.5),
+                (10.0, 0.0),
+                (100.0, f64::NAN),
+                (1000.0, 1.0),
+            ])],
+            1e-3,
+        );
+        let linear = lines_on(
+            (Scale::Linear, Scale::Linear),
+            "t",
+            ("x", "y"),
+            &[series(vec![(1.0, 1.0), (2.0, f64::INFINITY), (3.0, 2.0), (4.0, 3.0)])],
+            f64::NEG_INFINITY,
+        );
+        for (svg, polylines, markers, left_out) in [(&log, 3, 3, "2 points"), (&linear, 2, 3, "1 point ")] {
+            assert!(!svg.to_lowercase().contains("inf") && !svg.contains("NaN"), "{svg}");
+            assert_eq!(svg.matches("<polyline").count(), polylines, "{svg}");
+            assert_eq!(elements(svg, "<circle class=\"marker\"").len(), markers + 1, "{svg}");
+            let legend = elements(svg, "<g class=\"legend\">");
+            assert!(legend[0].contains(&format!("({left_out}")), "{}", legend[0]);
+        }
+        assert!(
+            log.contains(&format!("cy=\"{:.1}\"", HEIGHT - BOTTOM)),
+            "y = 0 on the floor: {log}"
+        );
     }
 }
