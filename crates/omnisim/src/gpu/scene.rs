@@ -26,6 +26,8 @@ pub(super) struct BandBuffers {
     pub(super) shaded: wgpu::Buffer,
     pub(super) shaded_readback: wgpu::Buffer,
     pub(super) camera: wgpu::Buffer,
+    /// Host-visible hits a re-shade writes (made by the first re-shade of this band size).
+    pub(super) upload: Option<wgpu::Buffer>,
     /// Timestamps of the passes, where the device has timestamp queries.
     pub(super) clock: Option<PassClock>,
 }

@@ -275,7 +275,12 @@ impl GpuRenderer {
         if cache.as_ref().is_some_and(|b| (b.rows, b.width) != (band_rows, width)) {
             *cache = None;
         }
-        let buffers = &*cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
+        let buffers = cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
+        if matches!(source, HitSource::Upload(_)) && buffers.upload.is_none() {
+            let usage = wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC;
+            buffers.upload = Some(self.buffer("hits upload", buffers.hits.size(), usage));
+        }
+        let buffers = &*buffers;
         let clock = buffers.clock.as_ref();
         let trace_group = self.bind_group(
             &self.trace,
@@ -319,21 +324,23 @@ impl GpuRenderer {
             let queue = &self.context.queue;
             queue.write_buffer(&buffers.camera, 0, bytemuck::bytes_of(&params));
             let range = row as usize * width as usize..(row + rows) as usize * width as usize;
-            if let HitSource::Upload(hits) = source {
-                let local: Vec<PixelHit> = hits[range.clone()]
-                    .par_iter()
-                    .map(|h| gpu_hit(h, scene.offset))
-                    .collect();
-                queue.write_buffer(&buffers.hits, 0, bytemuck::cast_slice(&local));
+            let pixels = range.len() as u64;
+            let hit_bytes = pixels * size_of::<PixelHit>();
+            let shaded_bytes = pixels * size_of::<ShadedPixel>();
+            let mut encoder = self.context.device.create_command_encoder(&Default::default());
+            if let (HitSource::Upload(hits), Some(upload)) = (source, &buffers.upload) {
+                self.map_buffers(&[(upload, hit_bytes)], wgpu::MapMode::Write)?;
+                let written = upload
+                    .get_mapped_range_mut(..hit_bytes)
+                    .map(|mut view| write_gpu_hits(view.slice(..), &hits[range.clone()], scene.offset));
+                upload.unmap();
+                written.map_err(|e| GpuError::Readback(e.to_string()))?;
+                copy(&mut encoder, upload, &buffers.hits, hit_bytes);
             }
             let groups = [
                 width.div_ceil(shader::WORKGROUP_SIZE[0]),
                 rows.div_ceil(shader::WORKGROUP_SIZE[1]),
             ];
-            let pixels = range.len() as u64;
-            let hit_bytes = pixels * size_of::<PixelHit>();
-            let shaded_bytes = pixels * size_of::<ShadedPixel>();
-            let mut encoder = self.context.device.create_command_encoder(&Default::default());
             let mut to_map = Vec::with_capacity(3);
             if trace {
                 let writes = clock.map(|c| c.writes(Pass::Trace));
@@ -357,7 +364,7 @@ impl GpuRenderer {
             queue.submit([encoder.finish()]);
             stages.submit += submit_start.elapsed();
             let wait_start = Instant::now();
-            self.map_for_reading(&to_map)?;
+            self.map_buffers(&to_map, wgpu::MapMode::Read)?;
             let read_start = Instant::now();
             stages.wait += read_start - wait_start;
             if trace {
@@ -519,6 +526,7 @@ impl GpuRenderer {
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             clock: PassClock::new(&self.context.device, &self.context.queue),
+            upload: None,
         }
     }
 
@@ -552,13 +560,13 @@ impl GpuRenderer {
         })
     }
 
-    /// Maps the first `bytes` of each buffer for reading, after one wait for the GPU. On an
+    /// Maps the first `bytes` of each buffer, after one wait for the GPU. On an
     /// error, the buffers that did map are unmapped again, so that the next frame can map them.
-    fn map_for_reading(&self, buffers: &[(&wgpu::Buffer, u64)]) -> Result<(), GpuError> {
+    fn map_buffers(&self, buffers: &[(&wgpu::Buffer, u64)], mode: wgpu::MapMode) -> Result<(), GpuError> {
         let (sender, receiver) = std::sync::mpsc::channel();
         for (index, &(buffer, bytes)) in buffers.iter().enumerate() {
             let sender = sender.clone();
-            buffer.map_async(wgpu::MapMode::Read, ..bytes, move |result| {
+            buffer.map_async(mode, ..bytes, move |result| {
                 let _ = sender.send((index, result));
             });
         }
@@ -586,7 +594,7 @@ impl GpuRenderer {
 
     /// The first `bytes` of `buffer` (after the GPU work that writes it was submitted).
     fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
-        self.map_for_reading(&[(buffer, bytes)])?;
+        self.map_buffers(&[(buffer, bytes)], wgpu::MapMode::Read)?;
         let values = mapped(buffer, bytes).map(|view| bytemuck::cast_slice::<u8, T>(&view).to_vec());
         buffer.unmap();
         values
@@ -641,6 +649,28 @@ fn host_hit(hit: &PixelHit, offset: DVec3) -> Pixel {
         point: offset + Vec3::from_array(hit.point).as_dvec3(),
         normal: Vec3::from_array(hit.normal),
     }
+}
+
+/// Hits converted per parallel task when uploading: 128 KiB of GPU hits.
+const UPLOAD_BLOCK: usize = 4096;
+
+/// Writes `hits` as GPU data into `slots` (a mapped upload buffer, exactly their size), in
+/// parallel blocks: the mapping is write-only, and only its fixed-size blocks can go to
+/// other threads (wgpu's `WriteOnly` slices are not `Send`).
+fn write_gpu_hits(slots: wgpu::WriteOnly<'_, [u8]>, hits: &[Pixel], offset: DVec3) {
+    const HIT_BYTES: usize = std::mem::size_of::<PixelHit>();
+    let record = |hit: &Pixel| bytemuck::cast::<PixelHit, [u8; HIT_BYTES]>(gpu_hit(hit, offset));
+    let (records, _) = slots.into_chunks::<HIT_BYTES>();
+    let (blocks, rest) = records.into_chunks::<UPLOAD_BLOCK>();
+    let blocks: Vec<_> = blocks.into_iter().collect();
+    let whole = hits.chunks_exact(UPLOAD_BLOCK);
+    rest.write_iter(whole.remainder().iter().map(record));
+    blocks
+        .into_par_iter()
+        .zip(whole.collect::<Vec<_>>())
+        .for_each(|(block, hits)| {
+            wgpu::WriteOnly::<[[u8; HIT_BYTES]]>::from(block).write_iter(hits.iter().map(record));
+        });
 }
 
 /// A frame's hit as GPU data, for re-shading.
