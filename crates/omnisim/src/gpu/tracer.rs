@@ -367,33 +367,56 @@ impl GpuRenderer {
             self.map_buffers(&to_map, wgpu::MapMode::Read)?;
             let read_start = Instant::now();
             stages.wait += read_start - wait_start;
-            if trace {
-                let view = mapped(&buffers.hits_readback, hit_bytes)?;
-                let gpu_hits: &[PixelHit] = bytemuck::cast_slice(&view);
-                output
-                    .hits
-                    .par_extend(gpu_hits.par_iter().map(|h| host_hit(h, scene.offset)));
-            }
-            if shade {
-                let view = mapped(&buffers.shaded_readback, shaded_bytes)?;
-                let shaded: &[ShadedPixel] = bytemuck::cast_slice(&view);
-                let band_hits = match source {
-                    HitSource::Trace => &output.hits[range],
-                    HitSource::Upload(hits) => &hits[range],
-                };
-                if planes.contains(Plane::Colour) {
-                    output.colour.par_extend(
-                        shaded.par_iter().zip(band_hits).map(
-                            |(s, hit)| {
-                                if hit.is_hit() { unpack(s.colour) } else { BACKGROUND }
-                            },
-                        ),
+            let hits_view = trace.then(|| mapped(&buffers.hits_readback, hit_bytes)).transpose()?;
+            let shaded_view = shade
+                .then(|| mapped(&buffers.shaded_readback, shaded_bytes))
+                .transpose()?;
+            let gpu_hits: Option<&[PixelHit]> = hits_view.as_deref().map(bytemuck::cast_slice);
+            let shaded: Option<&[ShadedPixel]> = shaded_view.as_deref().map(bytemuck::cast_slice);
+            let offset = scene.offset;
+            match (gpu_hits, shaded.filter(|_| planes.contains(Plane::Colour))) {
+                // Hits and colour in one parallel pass (one fork-join): on an H200 this
+                // took the readback of a Mpixel from 1.45 to 0.7-0.8 ms.
+                (Some(gpu_hits), Some(shaded)) => {
+                    let mut both = (std::mem::take(&mut output.hits), std::mem::take(&mut output.colour));
+                    both.par_extend(
+                        gpu_hits
+                            .par_iter()
+                            .zip(shaded)
+                            .with_min_len(MIN_TASK_PIXELS)
+                            .map(|(h, s)| {
+                                let hit = host_hit(h, offset);
+                                (hit, colour_of(s, &hit))
+                            }),
                     );
+                    (output.hits, output.colour) = both;
                 }
-                if planes.contains(Plane::LinearColour) {
-                    output.linear.par_extend(shaded.par_iter().map(|s| s.linear));
+                (Some(gpu_hits), None) => output.hits.par_extend(
+                    gpu_hits
+                        .par_iter()
+                        .with_min_len(MIN_TASK_PIXELS)
+                        .map(|h| host_hit(h, offset)),
+                ),
+                // A re-shade: the hits are the frame's own.
+                (None, Some(shaded)) => {
+                    if let HitSource::Upload(hits) = source {
+                        output.colour.par_extend(
+                            shaded
+                                .par_iter()
+                                .zip(&hits[range])
+                                .with_min_len(MIN_TASK_PIXELS)
+                                .map(|(s, hit)| colour_of(s, hit)),
+                        );
+                    }
                 }
+                (None, None) => {}
             }
+            if let Some(shaded) = shaded.filter(|_| planes.contains(Plane::LinearColour)) {
+                output
+                    .linear
+                    .par_extend(shaded.par_iter().with_min_len(MIN_TASK_PIXELS).map(|s| s.linear));
+            }
+            drop((hits_view, shaded_view));
             if let Some(clock) = clock {
                 let view = mapped(&clock.readback, clock.readback.size())?;
                 let first_band = row == 0;
@@ -636,6 +659,18 @@ fn size_of<T>() -> u64 {
 fn unpack(packed: u32) -> [u8; 3] {
     let [r, g, b, _] = packed.to_le_bytes();
     [r, g, b]
+}
+
+/// Fewest pixels a rayon task converts, so that a small image wakes few threads.
+const MIN_TASK_PIXELS: usize = 8192;
+
+/// A shaded pixel's 8-bit colour: the background where nothing was hit.
+fn colour_of(shaded: &ShadedPixel, hit: &Pixel) -> [u8; 3] {
+    if hit.is_hit() {
+        unpack(shaded.colour)
+    } else {
+        BACKGROUND
+    }
 }
 
 /// A GPU hit as the frame's hit planes (points back in world metres, in f64).
