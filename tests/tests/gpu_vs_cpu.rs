@@ -160,10 +160,30 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     let mut gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
     let camera = common::cameras()[2].clone();
-    let whole = gpu.render(&camera, &pose).unwrap();
-    gpu.renderer.gpu_renderer().unwrap().limit_band_rows(7); // 256 rows: 36 full bands and a last one of 4 rows
-    let banded = gpu.render(&camera, &pose).unwrap();
+    let whole = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
+    gpu.renderer.gpu_renderer().unwrap().limit_band_rows(7);
+    let bands = camera.size().1.div_ceil(7);
+    assert!(
+        bands > 2 && camera.size().1 % 7 != 0,
+        "full bands and a shorter last one"
+    );
+    let mut banded = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
     assert_eq!(whole, banded);
+    // Each band's stages are summed; pass times come in pairs where the adapter has timestamps.
+    let stages = gpu.renderer.gpu_stages().unwrap();
+    assert_eq!(stages.bands, bands);
+    assert_eq!(stages.trace_pass.is_some(), stages.shade_pass.is_some());
+    // A re-shade in bands uploads each band's hits and shades them to the same planes, tracing nothing.
+    gpu.renderer
+        .reshade(&gpu.scene, &camera, &pose, &mut banded, Planes::ALL)
+        .unwrap();
+    assert_eq!(whole, banded);
+    let reshaded = gpu.renderer.gpu_stages().unwrap();
+    assert_eq!((reshaded.bands, reshaded.trace_pass), (bands, None));
+    assert_eq!(reshaded.shade_pass.is_some(), stages.shade_pass.is_some());
+    let hits = gpu.render_planes(&camera, &pose, Planes::HITS).unwrap();
+    assert_eq!(hits.pixels(), whole.pixels());
+    assert_eq!(gpu.renderer.gpu_stages().unwrap().shade_pass, None);
 }
 
 /// A NaN ray hits nothing on the GPU, as on the CPU: a pose of NaN position or angles (the

@@ -330,6 +330,16 @@ impl Renderer {
         None
     }
 
+    /// Where the GPU backend's last frame (render or re-shade) spent its time; `None` on the
+    /// CPU backend.
+    #[cfg(feature = "gpu")]
+    pub fn gpu_stages(&self) -> Option<crate::gpu::GpuStages> {
+        match &self.backend {
+            Backend::Gpu(renderer) => Some(renderer.last_stages()),
+            Backend::Cpu => None,
+        }
+    }
+
     /// "gpu" or "cpu".
     pub fn backend_name(&self) -> &'static str {
         match self.backend {

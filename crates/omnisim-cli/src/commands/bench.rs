@@ -2,11 +2,12 @@
 //! object per backend.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::bail;
 use clap::{Args, ValueEnum};
 use glam::dvec3;
+use omnisim::advanced::GpuStages;
 use omnisim::scene::{Face, SceneObject};
 use omnisim::{BackendChoice, Planes, Pose, Renderer, Scene};
 use serde_json::json;
@@ -32,7 +33,9 @@ const WARM_UP_TIME: std::time::Duration = std::time::Duration::from_millis(500);
 /// the median), median/min/max ms per image, BVH build ms, triangle count, backend, adapter,
 /// the process's peak resident memory and, for the CPU, box and triangle tests per ray
 /// (counted in one extra, untimed pass; the fast tracer's triangle tests are f32 lanes, and
-/// its f64 tests are counted apart).
+/// its f64 tests are counted apart). For the GPU, `gpu_stages_ms` and `reshade_gpu_stages_ms`
+/// split the medians: host submit, wait for the GPU (passes and copies), host readback into
+/// the frame, and each pass's GPU time where the adapter has timestamp queries.
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
 omnisim bench scenes/env1.ron --camera equirect --size 1024x1024 --backend both\n  \
@@ -126,15 +129,19 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
         }
         let mut times = Vec::with_capacity(args.runs);
         let mut reshade_times = Vec::with_capacity(args.runs);
+        let mut render_stages = Vec::with_capacity(args.runs);
+        let mut reshade_stages = Vec::with_capacity(args.runs);
         let mut hits = 0;
         for _ in 0..args.runs {
             let start = Instant::now();
             let mut frame = render()?;
             times.push(start.elapsed().as_secs_f64());
+            render_stages.extend(renderer.gpu_stages());
             hits = frame.hit_count();
             let start = Instant::now();
             renderer.reshade(&prepared, &camera, &args.pose, &mut frame, Planes::COLOUR)?;
             reshade_times.push(start.elapsed().as_secs_f64());
+            reshade_stages.extend(renderer.gpu_stages());
         }
         let median_seconds = median(&mut times);
         let rays = f64::from(width) * f64::from(height);
@@ -180,10 +187,32 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
             "triangle_tests_per_ray": tests.map(|t| t.1),
             "f64_triangle_tests_per_ray": tests.map(|t| t.2),
             "peak_rss_mb": peak_rss_bytes().map(|b| b as f64 / 1e6),
+            "gpu_stages_ms": stage_medians(&render_stages),
+            "reshade_gpu_stages_ms": stage_medians(&reshade_stages),
         });
         crate::streams::stdout(record)?;
     }
     Ok(())
+}
+
+/// Each GPU stage's median over the timed frames, ms (null for the CPU backend; a pass time
+/// null where the adapter has no timestamp queries or the pass did not run).
+fn stage_medians(stages: &[GpuStages]) -> serde_json::Value {
+    let Some(first) = stages.first() else {
+        return serde_json::Value::Null;
+    };
+    let median_ms = |stage: fn(&GpuStages) -> Option<Duration>| {
+        let mut times: Vec<f64> = stages.iter().filter_map(stage).map(|t| t.as_secs_f64()).collect();
+        (times.len() == stages.len()).then(|| median(&mut times) * 1e3)
+    };
+    json!({
+        "bands": first.bands,
+        "submit": median_ms(|s| Some(s.submit)),
+        "wait": median_ms(|s| Some(s.wait)),
+        "readback": median_ms(|s| Some(s.readback)),
+        "trace_pass": median_ms(|s| s.trace_pass),
+        "shade_pass": median_ms(|s| s.shade_pass),
+    })
 }
 
 /// Median of `times` (sorted in place).

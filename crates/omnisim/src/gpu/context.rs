@@ -106,6 +106,8 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("omnisim"),
             required_limits: limits.clone(),
+            // For `omnisim bench`'s pass times (`timing.rs`), where the adapter has them.
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
             ..Default::default()
         }))
         .map_err(|source| GpuError::Device {

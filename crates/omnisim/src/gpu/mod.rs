@@ -8,10 +8,12 @@ mod scene;
 mod shader;
 #[cfg(test)]
 mod tests;
+mod timing;
 mod tracer;
 mod wide;
 
 pub(crate) use context::GpuContext;
 pub use context::GpuError;
 pub(crate) use scene::GpuScene;
+pub use timing::GpuStages;
 pub use tracer::GpuRenderer;

@@ -10,6 +10,7 @@ use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
 use super::layout::{GpuLight, GpuMaterial, GpuSurface, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams};
+use super::timing::PassClock;
 use super::{shader, wide};
 use crate::accel::SceneBvh;
 use crate::scene::lighting::{LightKind, linear_rgb};
@@ -25,6 +26,10 @@ pub(super) struct BandBuffers {
     pub(super) shaded: wgpu::Buffer,
     pub(super) shaded_readback: wgpu::Buffer,
     pub(super) camera: wgpu::Buffer,
+    /// Host-visible hits a re-shade writes (made by the first re-shade of this band size).
+    pub(super) upload: Option<wgpu::Buffer>,
+    /// Timestamps of the passes, where the device has timestamp queries.
+    pub(super) clock: Option<PassClock>,
 }
 
 /// Buffers of one prepared scene.

@@ -4,7 +4,8 @@
 //! the adapter's storage-binding limit (128 MiB on lavapipe).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Instant;
 
 use rayon::prelude::*;
 
@@ -19,8 +20,9 @@ use super::context::{GpuContext, GpuError};
 use super::layout::{CameraParams, FrameBlock, MirrorBlock, PixelHit, ProjectionBlock, ShadedPixel};
 use super::scene::{BandBuffers, GpuScene};
 use super::shader;
+use super::timing::{self, GpuStages, Pass, PassClock};
 use crate::camera::{Camera, MirrorRays, Mount};
-use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Planes};
+use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
 use crate::pose::{Pose, rotation_xyz};
 
 /// How many compute pipelines this process has compiled, for tests that prove a change of
@@ -38,6 +40,8 @@ pub struct GpuRenderer {
     /// camera and kept under [`table_key`]; other cameras bind `no_rays`.
     rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
     no_rays: Arc<wgpu::Buffer>,
+    /// Where the last frame's time went, for `omnisim bench`.
+    stages: Mutex<GpuStages>,
 }
 
 /// What a camera's ray table depends on: the camera without its place. The table holds
@@ -64,6 +68,14 @@ struct Pipeline {
 enum HitSource<'a> {
     Trace,
     Upload(&'a [Pixel]),
+}
+
+/// The planes a run of bands made: the hit planes where it traced (empty for an upload), and
+/// the shaded planes the request asked for (each empty where not asked for).
+struct BandOutput {
+    hits: Vec<Pixel>,
+    colour: Vec<[u8; 3]>,
+    linear: Vec<[f32; 3]>,
 }
 
 impl GpuRenderer {
@@ -113,6 +125,7 @@ impl GpuRenderer {
             max_band_rows: None,
             rays: Mutex::new(None),
             no_rays,
+            stages: Mutex::new(GpuStages::default()),
         }
     }
 
@@ -139,6 +152,11 @@ impl GpuRenderer {
         &self.context
     }
 
+    /// Where the last frame (render or re-shade) spent its time.
+    pub fn last_stages(&self) -> GpuStages {
+        *self.stages.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     /// Traces a frame and shades the planes `planes` asks for.
     pub(crate) fn render(
         &self,
@@ -148,8 +166,11 @@ impl GpuRenderer {
         planes: Planes,
     ) -> Result<Frame, GpuError> {
         let (width, height) = camera.size();
-        let mut frame = Frame::empty(width, height);
-        self.run_bands(scene, camera, pose, &mut frame, planes, HitSource::Trace)?;
+        let output = self.run_bands(scene, camera, pose, planes, HitSource::Trace)?;
+        let mut frame = Frame::from_hits(width, height, output.hits);
+        if planes.needs_shading() {
+            frame.set_shading(planes, output.linear, output.colour);
+        }
         Ok(frame)
     }
 
@@ -162,8 +183,11 @@ impl GpuRenderer {
         frame: &mut Frame,
         planes: Planes,
     ) -> Result<(), GpuError> {
-        let hits = frame.pixels().to_vec();
-        self.run_bands(scene, camera, pose, frame, planes, HitSource::Upload(&hits))
+        let output = self.run_bands(scene, camera, pose, planes, HitSource::Upload(frame.pixels()))?;
+        if planes.needs_shading() {
+            frame.set_shading(planes, output.linear, output.colour);
+        }
+        Ok(())
     }
 
     /// The ray table of a camera with a lens model (made and uploaded on its first frame,
@@ -218,17 +242,19 @@ impl GpuRenderer {
         Ok(buffer)
     }
 
+    /// Traces (or uploads) and shades the image band by band. Each band's results are read
+    /// straight from the mapped buffers into the frame's planes, on every core: on a real GPU
+    /// this host work, not the GPU's, decided the time per image (docs/benchmarks.md, issue 18).
     fn run_bands(
         &self,
         scene: &GpuScene,
         camera: &Camera,
         pose: &Pose,
-        frame: &mut Frame,
         planes: Planes,
         source: HitSource,
-    ) -> Result<(), GpuError> {
+    ) -> Result<BandOutput, GpuError> {
         let (width, height) = camera.size();
-        let row_bytes = u64::from(width) * std::mem::size_of::<PixelHit>() as u64;
+        let row_bytes = u64::from(width) * size_of::<PixelHit>();
         let max_rows_by_dispatch =
             u64::from(self.context.limits.max_compute_workgroups_per_dimension) * u64::from(shader::WORKGROUP_SIZE[1]);
         let band_rows = (self.context.storage_limit() / row_bytes.max(1))
@@ -238,15 +264,24 @@ impl GpuRenderer {
         if band_rows == 0 {
             return Err(GpuError::ImageTooWide { width, height });
         }
+        // Band 1's submit stage includes the bind groups and the ray table's first upload.
+        let mut submit_start = Instant::now();
         let mut params = camera_params(camera, pose, scene.offset);
         let rays = self.camera_rays(camera)?;
+        let trace = matches!(source, HitSource::Trace);
         let shade = planes.needs_shading();
         // Consecutive frames of one size (trajectories, grids) reuse their buffers.
-        let mut cache = scene.band.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut cache = scene.band.lock().unwrap_or_else(PoisonError::into_inner);
         if cache.as_ref().is_some_and(|b| (b.rows, b.width) != (band_rows, width)) {
             *cache = None;
         }
-        let buffers = &*cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
+        let buffers = cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
+        if matches!(source, HitSource::Upload(_)) && buffers.upload.is_none() {
+            let usage = wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC;
+            buffers.upload = Some(self.buffer("hits upload", buffers.hits.size(), usage));
+        }
+        let buffers = &*buffers;
+        let clock = buffers.clock.as_ref();
         let trace_group = self.bind_group(
             &self.trace,
             &[
@@ -274,8 +309,13 @@ impl GpuRenderer {
             ],
         );
         let pixel_count = width as usize * height as usize;
-        let mut hits_out = Vec::with_capacity(pixel_count);
-        let mut shaded_out: Vec<ShadedPixel> = Vec::with_capacity(if shade { pixel_count } else { 0 });
+        let wanted = |wanted: bool| if wanted { pixel_count } else { 0 };
+        let mut output = BandOutput {
+            hits: Vec::with_capacity(wanted(trace)),
+            colour: Vec::with_capacity(wanted(planes.contains(Plane::Colour))),
+            linear: Vec::with_capacity(wanted(planes.contains(Plane::LinearColour))),
+        };
+        let mut stages = GpuStages::default();
         let mut row = 0;
         while row < height {
             let rows = band_rows.min(height - row);
@@ -284,58 +324,123 @@ impl GpuRenderer {
             let queue = &self.context.queue;
             queue.write_buffer(&buffers.camera, 0, bytemuck::bytes_of(&params));
             let range = row as usize * width as usize..(row + rows) as usize * width as usize;
-            if let HitSource::Upload(hits) = &source {
-                let local: Vec<PixelHit> = hits[range.clone()].iter().map(|h| gpu_hit(h, scene.offset)).collect();
-                queue.write_buffer(&buffers.hits, 0, bytemuck::cast_slice(&local));
+            let pixels = range.len() as u64;
+            let hit_bytes = pixels * size_of::<PixelHit>();
+            let shaded_bytes = pixels * size_of::<ShadedPixel>();
+            let mut encoder = self.context.device.create_command_encoder(&Default::default());
+            if let (HitSource::Upload(hits), Some(upload)) = (source, &buffers.upload) {
+                self.map_buffers(&[(upload, hit_bytes)], wgpu::MapMode::Write)?;
+                let written = upload
+                    .get_mapped_range_mut(..hit_bytes)
+                    .map(|mut view| write_gpu_hits(view.slice(..), &hits[range.clone()], scene.offset));
+                upload.unmap();
+                written.map_err(|e| GpuError::Readback(e.to_string()))?;
+                copy(&mut encoder, upload, &buffers.hits, hit_bytes);
             }
             let groups = [
                 width.div_ceil(shader::WORKGROUP_SIZE[0]),
                 rows.div_ceil(shader::WORKGROUP_SIZE[1]),
             ];
-            let pixels = range.len() as u64;
-            let mut encoder = self.context.device.create_command_encoder(&Default::default());
-            if matches!(source, HitSource::Trace) {
-                dispatch(&mut encoder, &self.trace, &trace_group, groups);
-                copy(
-                    &mut encoder,
-                    &buffers.hits,
-                    &buffers.hits_readback,
-                    pixels * size_of::<PixelHit>(),
-                );
+            let mut to_map = Vec::with_capacity(3);
+            if trace {
+                let writes = clock.map(|c| c.writes(Pass::Trace));
+                dispatch(&mut encoder, &self.trace, &trace_group, groups, writes);
+                copy(&mut encoder, &buffers.hits, &buffers.hits_readback, hit_bytes);
+                to_map.push((&buffers.hits_readback, hit_bytes));
             }
             if shade {
-                dispatch(&mut encoder, &self.shade, &shade_group, groups);
-                copy(
-                    &mut encoder,
-                    &buffers.shaded,
-                    &buffers.shaded_readback,
-                    pixels * size_of::<ShadedPixel>(),
-                );
+                let writes = clock.map(|c| c.writes(Pass::Shade));
+                dispatch(&mut encoder, &self.shade, &shade_group, groups, writes);
+                copy(&mut encoder, &buffers.shaded, &buffers.shaded_readback, shaded_bytes);
+                to_map.push((&buffers.shaded_readback, shaded_bytes));
+            }
+            if let Some(clock) = clock {
+                let passes = [(trace, Pass::Trace), (shade, Pass::Shade)];
+                for (_, pass) in passes.into_iter().filter(|(run, _)| *run) {
+                    clock.resolve(&mut encoder, pass);
+                }
+                to_map.push((&clock.readback, clock.readback.size()));
             }
             queue.submit([encoder.finish()]);
-            if matches!(source, HitSource::Trace) {
-                let hits: Vec<PixelHit> = self.read(&buffers.hits_readback, pixels * size_of::<PixelHit>())?;
-                hits_out.extend(hits.iter().map(|h| host_hit(h, scene.offset)));
+            stages.submit += submit_start.elapsed();
+            let wait_start = Instant::now();
+            self.map_buffers(&to_map, wgpu::MapMode::Read)?;
+            let read_start = Instant::now();
+            stages.wait += read_start - wait_start;
+            let hits_view = trace.then(|| mapped(&buffers.hits_readback, hit_bytes)).transpose()?;
+            let shaded_view = shade
+                .then(|| mapped(&buffers.shaded_readback, shaded_bytes))
+                .transpose()?;
+            let gpu_hits: Option<&[PixelHit]> = hits_view.as_deref().map(bytemuck::cast_slice);
+            let shaded: Option<&[ShadedPixel]> = shaded_view.as_deref().map(bytemuck::cast_slice);
+            let offset = scene.offset;
+            match (gpu_hits, shaded.filter(|_| planes.contains(Plane::Colour))) {
+                // Hits and colour in one parallel pass (one fork-join): on an H200 this
+                // took the readback of a Mpixel from 1.45 to 0.7-0.8 ms.
+                (Some(gpu_hits), Some(shaded)) => {
+                    let mut both = (std::mem::take(&mut output.hits), std::mem::take(&mut output.colour));
+                    both.par_extend(
+                        gpu_hits
+                            .par_iter()
+                            .zip(shaded)
+                            .with_min_len(MIN_TASK_PIXELS)
+                            .map(|(h, s)| {
+                                let hit = host_hit(h, offset);
+                                (hit, colour_of(s, &hit))
+                            }),
+                    );
+                    (output.hits, output.colour) = both;
+                }
+                (Some(gpu_hits), None) => output.hits.par_extend(
+                    gpu_hits
+                        .par_iter()
+                        .with_min_len(MIN_TASK_PIXELS)
+                        .map(|h| host_hit(h, offset)),
+                ),
+                // A re-shade: the hits are the frame's own.
+                (None, Some(shaded)) => {
+                    if let HitSource::Upload(hits) = source {
+                        output.colour.par_extend(
+                            shaded
+                                .par_iter()
+                                .zip(&hits[range])
+                                .with_min_len(MIN_TASK_PIXELS)
+                                .map(|(s, hit)| colour_of(s, hit)),
+                        );
+                    }
+                }
+                (None, None) => {}
             }
-            if shade {
-                shaded_out
-                    .extend(self.read::<ShadedPixel>(&buffers.shaded_readback, pixels * size_of::<ShadedPixel>())?);
+            if let Some(shaded) = shaded.filter(|_| planes.contains(Plane::LinearColour)) {
+                output
+                    .linear
+                    .par_extend(shaded.par_iter().with_min_len(MIN_TASK_PIXELS).map(|s| s.linear));
             }
+            drop((hits_view, shaded_view));
+            if let Some(clock) = clock {
+                let view = mapped(&clock.readback, clock.readback.size())?;
+                let first_band = row == 0;
+                timing::add_pass(
+                    &mut stages.trace_pass,
+                    trace.then(|| clock.elapsed(&view, Pass::Trace)).flatten(),
+                    first_band,
+                );
+                timing::add_pass(
+                    &mut stages.shade_pass,
+                    shade.then(|| clock.elapsed(&view, Pass::Shade)).flatten(),
+                    first_band,
+                );
+            }
+            for (buffer, _) in to_map {
+                buffer.unmap();
+            }
+            stages.readback += read_start.elapsed();
+            stages.bands += 1;
             row += rows;
+            submit_start = Instant::now();
         }
-        if matches!(source, HitSource::Trace) {
-            *frame = Frame::from_hits(width, height, hits_out);
-        }
-        if shade {
-            let colour = shaded_out
-                .iter()
-                .zip(frame.pixels())
-                .map(|(s, hit)| if hit.is_hit() { unpack(s.colour) } else { BACKGROUND })
-                .collect();
-            let linear = shaded_out.iter().map(|s| s.linear).collect();
-            frame.set_shading(planes, linear, colour);
-        }
-        Ok(())
+        *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = stages;
+        Ok(output)
     }
 
     /// Replaces the shaded planes of the pixels `edges` (see `shade/coverage.rs`) by the
@@ -405,6 +510,7 @@ impl GpuRenderer {
             &self.refine,
             &bind_group,
             [columns, groups.div_ceil(columns)],
+            None,
         );
         copy(&mut encoder, &colours, &readback, bytes);
         self.context.queue.submit([encoder.finish()]);
@@ -442,6 +548,8 @@ impl GpuRenderer {
                 size_of::<CameraParams>(),
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
+            clock: PassClock::new(&self.context.device, &self.context.queue),
+            upload: None,
         }
     }
 
@@ -475,32 +583,65 @@ impl GpuRenderer {
         })
     }
 
-    fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
+    /// Maps the first `bytes` of each buffer, after one wait for the GPU. On an
+    /// error, the buffers that did map are unmapped again, so that the next frame can map them.
+    fn map_buffers(&self, buffers: &[(&wgpu::Buffer, u64)], mode: wgpu::MapMode) -> Result<(), GpuError> {
         let (sender, receiver) = std::sync::mpsc::channel();
-        buffer.map_async(wgpu::MapMode::Read, ..bytes, move |result| {
-            let _ = sender.send(result);
-        });
-        self.context
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        receiver
-            .recv()
-            .map_err(|e| GpuError::Readback(e.to_string()))?
-            .map_err(|e| GpuError::Readback(e.to_string()))?;
-        let values = {
-            let view = buffer
-                .get_mapped_range(..bytes)
-                .map_err(|e| GpuError::Readback(e.to_string()))?;
-            bytemuck::cast_slice::<u8, T>(&view).to_vec()
-        };
+        for (index, &(buffer, bytes)) in buffers.iter().enumerate() {
+            let sender = sender.clone();
+            buffer.map_async(mode, ..bytes, move |result| {
+                let _ = sender.send((index, result));
+            });
+        }
+        drop(sender);
+        let polled = self.context.device.poll(wgpu::PollType::wait_indefinitely());
+        let mut failure = polled.err().map(|e| e.to_string());
+        let mut mapped = Vec::with_capacity(buffers.len());
+        // After a failed poll some callbacks may never run: take only those that did.
+        for (index, result) in receiver.try_iter() {
+            match result {
+                Ok(()) => mapped.push(index),
+                Err(e) => failure = Some(e.to_string()),
+            }
+        }
+        if mapped.len() < buffers.len() {
+            for index in mapped {
+                buffers[index].0.unmap();
+            }
+            return Err(GpuError::Readback(
+                failure.unwrap_or_else(|| "the GPU did not map a result buffer".into()),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The first `bytes` of `buffer` (after the GPU work that writes it was submitted).
+    fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
+        self.map_buffers(&[(buffer, bytes)], wgpu::MapMode::Read)?;
+        let values = mapped(buffer, bytes).map(|view| bytemuck::cast_slice::<u8, T>(&view).to_vec());
         buffer.unmap();
-        Ok(values)
+        values
     }
 }
 
-fn dispatch(encoder: &mut wgpu::CommandEncoder, pipeline: &Pipeline, bind_group: &wgpu::BindGroup, groups: [u32; 2]) {
-    let mut pass = encoder.begin_compute_pass(&Default::default());
+/// The mapped first `bytes` of `buffer`.
+fn mapped(buffer: &wgpu::Buffer, bytes: u64) -> Result<wgpu::BufferView, GpuError> {
+    buffer
+        .get_mapped_range(..bytes)
+        .map_err(|e| GpuError::Readback(e.to_string()))
+}
+
+fn dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    pipeline: &Pipeline,
+    bind_group: &wgpu::BindGroup,
+    groups: [u32; 2],
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites>,
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(pipeline.stage.entry_point),
+        timestamp_writes,
+    });
     pass.set_pipeline(&pipeline.pipeline);
     pass.set_bind_group(0, bind_group, &[]);
     pass.dispatch_workgroups(groups[0], groups[1], 1);
@@ -520,6 +661,18 @@ fn unpack(packed: u32) -> [u8; 3] {
     [r, g, b]
 }
 
+/// Fewest pixels a rayon task converts, so that a small image wakes few threads.
+const MIN_TASK_PIXELS: usize = 8192;
+
+/// A shaded pixel's 8-bit colour: the background where nothing was hit.
+fn colour_of(shaded: &ShadedPixel, hit: &Pixel) -> [u8; 3] {
+    if hit.is_hit() {
+        unpack(shaded.colour)
+    } else {
+        BACKGROUND
+    }
+}
+
 /// A GPU hit as the frame's hit planes (points back in world metres, in f64).
 fn host_hit(hit: &PixelHit, offset: DVec3) -> Pixel {
     if hit.face == NO_FACE {
@@ -531,6 +684,28 @@ fn host_hit(hit: &PixelHit, offset: DVec3) -> Pixel {
         point: offset + Vec3::from_array(hit.point).as_dvec3(),
         normal: Vec3::from_array(hit.normal),
     }
+}
+
+/// Hits converted per parallel task when uploading: 128 KiB of GPU hits.
+const UPLOAD_BLOCK: usize = 4096;
+
+/// Writes `hits` as GPU data into `slots` (a mapped upload buffer, exactly their size), in
+/// parallel blocks: the mapping is write-only, and only its fixed-size blocks can go to
+/// other threads (wgpu's `WriteOnly` slices are not `Send`).
+fn write_gpu_hits(slots: wgpu::WriteOnly<'_, [u8]>, hits: &[Pixel], offset: DVec3) {
+    const HIT_BYTES: usize = std::mem::size_of::<PixelHit>();
+    let record = |hit: &Pixel| bytemuck::cast::<PixelHit, [u8; HIT_BYTES]>(gpu_hit(hit, offset));
+    let (records, _) = slots.into_chunks::<HIT_BYTES>();
+    let (blocks, rest) = records.into_chunks::<UPLOAD_BLOCK>();
+    let blocks: Vec<_> = blocks.into_iter().collect();
+    let whole = hits.chunks_exact(UPLOAD_BLOCK);
+    rest.write_iter(whole.remainder().iter().map(record));
+    blocks
+        .into_par_iter()
+        .zip(whole.collect::<Vec<_>>())
+        .for_each(|(block, hits)| {
+            wgpu::WriteOnly::<[[u8; HIT_BYTES]]>::from(block).write_iter(hits.iter().map(record));
+        });
 }
 
 /// A frame's hit as GPU data, for re-shading.
