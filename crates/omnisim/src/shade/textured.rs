@@ -123,6 +123,15 @@ impl<'a> Face<'a> {
     }
 }
 
+/// An untextured face: its surface (vertex colours, or none), and its byte where it is flat
+/// (unlit, no surface).
+#[derive(Clone, Copy)]
+struct Untextured<'a> {
+    id: u32,
+    surface: Option<&'a Surface>,
+    flat: Option<[u8; 3]>,
+}
+
 /// A chunk of a frame as shading writes it: the index of its first pixel in the frame, its
 /// hits, and its pixels' 8-bit colours (and linear colours where asked).
 struct Chunk<'c> {
@@ -150,44 +159,56 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         let mut run: Option<Run<'a>> = None;
         // Set up afresh for each run's lanes, in place.
         let mut lookups = Lookups::empty();
+        // The last untextured face seen, looked up once for its pixels.
+        let mut untextured: Option<Untextured<'a>> = None;
         for (slot, hit) in chunk.hits.iter().enumerate() {
             if !hit.is_hit() {
                 continue;
             }
-            let run = match &mut run {
-                // Neighbouring pixels mostly see the same face.
-                Some(run) if run.face.id == hit.face => run,
-                _ => {
+            // Neighbouring pixels mostly see the same face.
+            if run.as_ref().is_none_or(|run| run.face.id != hit.face) {
+                if untextured.is_none_or(|face| face.id != hit.face) {
                     let surface = appearance.surfaces.of(hit.face);
-                    let Some(face) =
+                    if let Some(face) =
                         surface.and_then(|surface| Face::of(appearance, self.levels, self.view, hit, surface))
-                    else {
-                        // As `mod.rs` shades it: no texture, so no footprint.
-                        let flat = (appearance.lighting.is_none() && surface.is_none())
-                            .then(|| appearance.face_colours[hit.face as usize]);
-                        let shaded = || {
-                            shade_on(
-                                appearance,
-                                hit,
-                                surface,
-                                || Footprint::POINT,
-                                |_| self.lux[chunk.start + slot],
-                            )
-                        };
-                        let linear = chunk.linear.as_deref_mut().map(|linear| &mut linear[slot]);
-                        write_pixel(flat, shaded, &mut chunk.colour[slot], linear);
-                        continue;
-                    };
-                    if let Some(ended) = &run {
-                        self.finish(&mut chunk, ended, &mut lookups);
+                    {
+                        if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
+                            self.finish(&mut chunk, ended, &mut lookups);
+                        }
+                        run = Some(Run {
+                            face,
+                            len: 0,
+                            slot: [slot; LANES],
+                        });
+                    } else {
+                        untextured = Some(Untextured {
+                            id: hit.face,
+                            surface,
+                            flat: (appearance.lighting.is_none() && surface.is_none())
+                                .then(|| appearance.face_colours[hit.face as usize]),
+                        });
                     }
-                    run.insert(Run {
-                        face,
-                        len: 0,
-                        slot: [slot; LANES],
-                    })
                 }
-            };
+                if let Some(Untextured { id, surface, flat }) = untextured
+                    && id == hit.face
+                {
+                    // As `mod.rs` shades it: no texture, so no footprint.
+                    let shaded = || {
+                        shade_on(
+                            appearance,
+                            hit,
+                            surface,
+                            || Footprint::POINT,
+                            |_| self.lux[chunk.start + slot],
+                        )
+                    };
+                    let linear = chunk.linear.as_deref_mut().map(|linear| &mut linear[slot]);
+                    write_pixel(flat, shaded, &mut chunk.colour[slot], linear);
+                    continue;
+                }
+            }
+            // The pixel's face is the run's (just started, where it was another's).
+            let Some(run) = run.as_mut() else { continue };
             run.slot[run.len] = slot;
             run.len += 1;
             if run.len == LANES {
