@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::filter::{LANES, Level, Lookups, Wraps, level_of_detail, trilinear_lanes};
 use super::{Appearance, Footprint, View, lit, shade_on, texture_of, untextured_albedo, write_pixel};
 use crate::avx2::Avx2;
-use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
+use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
 use crate::scene::lighting::linear_to_srgb3_lanes;
 use crate::scene::surface::{Surface, UvMap};
 
@@ -79,7 +79,6 @@ struct Shader<'a, F> {
 /// A textured face, and what shading its pixels reads besides their hits.
 #[derive(Clone, Copy)]
 struct Face<'a> {
-    id: u32,
     surface: &'a Surface,
     map: &'a UvMap,
     /// Its texture's levels, as the lanes read them.
@@ -108,7 +107,6 @@ impl<'a> Face<'a> {
         let map = surface.uv.as_ref()?;
         let (_, texels_per_metre_squared) = texture_of(appearance, map);
         Some(Face {
-            id: hit.face,
             surface,
             map,
             levels: &levels[map.texture as usize],
@@ -127,7 +125,6 @@ impl<'a> Face<'a> {
 /// (unlit, no surface).
 #[derive(Clone, Copy)]
 struct Untextured<'a> {
-    id: u32,
     surface: Option<&'a Surface>,
     flat: Option<[u8; 3]>,
 }
@@ -161,13 +158,16 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         let mut lookups = Lookups::empty();
         // The last untextured face seen, looked up once for its pixels.
         let mut untextured: Option<Untextured<'a>> = None;
+        // The ids of the run's face and of that untextured face ([`NO_FACE`] for none), kept
+        // apart: comparing through the `Option`s cost about 30 instructions a pixel.
+        let (mut run_face, mut untextured_face) = (NO_FACE, NO_FACE);
         for (slot, hit) in chunk.hits.iter().enumerate() {
             if !hit.is_hit() {
                 continue;
             }
             // Neighbouring pixels mostly see the same face.
-            if run.as_ref().is_none_or(|run| run.face.id != hit.face) {
-                if untextured.is_none_or(|face| face.id != hit.face) {
+            if hit.face != run_face {
+                if hit.face != untextured_face {
                     let surface = appearance.surfaces.of(hit.face);
                     if let Some(face) =
                         surface.and_then(|surface| Face::of(appearance, self.levels, self.view, hit, surface))
@@ -180,17 +180,18 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                             len: 0,
                             slot: [slot; LANES],
                         });
+                        run_face = hit.face;
                     } else {
                         untextured = Some(Untextured {
-                            id: hit.face,
                             surface,
                             flat: (appearance.lighting.is_none() && surface.is_none())
                                 .then(|| appearance.face_colours[hit.face as usize]),
                         });
+                        untextured_face = hit.face;
                     }
                 }
-                if let Some(Untextured { id, surface, flat }) = untextured
-                    && id == hit.face
+                if let Some(Untextured { surface, flat, .. }) = untextured
+                    && hit.face == untextured_face
                 {
                     // As `mod.rs` shades it: no texture, so no footprint.
                     let shaded = || {
