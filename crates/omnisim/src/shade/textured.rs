@@ -1,5 +1,6 @@
-//! Frames of textured scenes: pixels on textured faces are filtered [`LANES`] at a time
-//! (`filter::trilinear_lanes`: coordinates, wraps, weights and mixing in vector lanes), the
+//! Frames of textured scenes: pixels on textured faces are shaded in runs of [`LANES`] pixels
+//! of one face, each stage over the run's lanes (coordinates and levels of detail, then
+//! `filter::trilinear_lanes`: wraps, weights and mixing, then lighting and encoding), the
 //! rest shaded one by one as `mod.rs` shades untextured scenes. The same colours as shading
 //! each pixel alone (`shade`): per pixel the same look-up, lanes that give the one-lane
 //! sample's bits (tested in `filter.rs`), the same lighting and encoding; only the footprint's
@@ -254,9 +255,10 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         lookups.set_face(face.levels, face.wraps, &u, &v, &lod);
         let samples = trilinear_lanes(lookups, avx2);
         let appearance = self.appearance;
-        // Lanes past the run's length stay black: encoded, and not written.
+        // Every lane, so that the loop has a fixed length: lanes past the run's length (earlier
+        // pixels of the face) are shaded and encoded, and not written.
         let mut shaded = [[0.0; 3]; LANES];
-        for (k, &slot) in run.slot.iter().enumerate().take(run.len) {
+        for (k, (shaded, &slot)) in shaded.iter_mut().zip(&run.slot).enumerate() {
             let sample = DVec3::new(
                 f64::from(samples[0][k]),
                 f64::from(samples[1][k]),
@@ -265,11 +267,12 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             let base = face
                 .base
                 .unwrap_or_else(|| untextured_albedo(appearance, hit(k), surface));
-            let lit_colour = lit(appearance, Some(surface), base * sample, |_| self.lux[start + slot]);
-            if let Some(linear) = chunk.linear.as_deref_mut() {
-                linear[slot] = lit_colour.as_vec3().to_array();
+            *shaded = lit(appearance, Some(surface), base * sample, |_| self.lux[start + slot]).to_array();
+        }
+        if let Some(linear) = chunk.linear.as_deref_mut() {
+            for (&slot, &[red, green, blue]) in run.slot.iter().zip(&shaded).take(run.len) {
+                linear[slot] = [red as f32, green as f32, blue as f32];
             }
-            shaded[k] = lit_colour.to_array();
         }
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded);
