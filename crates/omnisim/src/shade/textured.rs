@@ -139,12 +139,14 @@ struct Chunk<'c> {
     linear: Option<&'c mut [[f32; 3]]>,
 }
 
-/// Textured pixels of one face in a chunk waiting for their lanes: the face, and where each
-/// pixel goes (lanes past `len` repeat the first: filtered, and not written).
-struct Run<'a> {
+/// Textured pixels of one face in a chunk waiting for their lanes: the face, where each pixel
+/// goes and its hit (held, so that the lanes read it without a bounds check; lanes past `len`
+/// repeat earlier pixels of the face: shaded, and not written).
+struct Run<'a, 'c> {
     face: Face<'a>,
     len: usize,
     slot: [usize; LANES],
+    hit: [&'c Pixel; LANES],
 }
 
 impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
@@ -154,7 +156,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     /// coordinates to encoding.
     fn chunk(&self, mut chunk: Chunk<'_>) {
         let appearance = self.appearance;
-        let mut run: Option<Run<'a>> = None;
+        let mut run: Option<Run<'a, '_>> = None;
         // Set up afresh for each run's lanes, in place.
         let mut lookups = Lookups::empty();
         // The last untextured face seen, looked up once for its pixels.
@@ -162,7 +164,8 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         // The ids of the run's face and of that untextured face ([`NO_FACE`] for none), kept
         // apart: comparing through the `Option`s cost about 30 instructions a pixel.
         let (mut run_face, mut untextured_face) = (NO_FACE, NO_FACE);
-        for (slot, hit) in chunk.hits.iter().enumerate() {
+        let hits = chunk.hits;
+        for (slot, hit) in hits.iter().enumerate() {
             if !hit.is_hit() {
                 continue;
             }
@@ -180,6 +183,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                             face,
                             len: 0,
                             slot: [slot; LANES],
+                            hit: [hit; LANES],
                         });
                         run_face = hit.face;
                     } else {
@@ -212,6 +216,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             // The pixel's face is the run's (just started, where it was another's).
             let Some(run) = run.as_mut() else { continue };
             run.slot[run.len] = slot;
+            run.hit[run.len] = hit;
             run.len += 1;
             if run.len == LANES {
                 self.finish(&mut chunk, run, &mut lookups);
@@ -226,7 +231,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     /// Shades the pixels of `run` in `chunk` and writes their colours, setting up `lookups`
     /// for their lanes: with AVX2 where the CPU has it (the lanes' gathers, and every stage
     /// compiled for it), else portably, to the same bits.
-    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>) {
+    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a, '_>, lookups: &mut Lookups<'a, LANES>) {
         match Avx2::detected() {
             Some(avx2) => avx2.run(|| self.finish_in(chunk, run, lookups, Some(avx2))),
             None => self.finish_in(chunk, run, lookups, None),
@@ -236,14 +241,19 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     /// [`Shader::finish`]'s work, stage by stage over the run's lanes: texture coordinates
     /// and levels of detail, the filter, the lighting and the sRGB encoding.
     #[inline(always)]
-    fn finish_in(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>, avx2: Option<Avx2>) {
-        let (start, hits) = (chunk.start, chunk.hits);
+    fn finish_in(
+        &self,
+        chunk: &mut Chunk<'_>,
+        run: &Run<'a, '_>,
+        lookups: &mut Lookups<'a, LANES>,
+        avx2: Option<Avx2>,
+    ) {
+        let start = chunk.start;
         let face = &run.face;
         let (surface, map) = (face.surface, face.map);
-        let hit = |k: usize| &hits[run.slot[k]];
         let (mut u, mut v, mut length) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for k in 0..LANES {
-            let hit = hit(k);
+            let hit = run.hit[k];
             let uv = Surface::uv_at(map, surface.anchor, hit.point);
             (u[k], v[k]) = (uv.x, uv.y);
             length[k] = (self.footprint_of)(start + run.slot[k]).longer_axis(hit.range, face.normal);
@@ -266,7 +276,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             );
             let base = face
                 .base
-                .unwrap_or_else(|| untextured_albedo(appearance, hit(k), surface));
+                .unwrap_or_else(|| untextured_albedo(appearance, run.hit[k], surface));
             *shaded = lit(appearance, Some(surface), base * sample, |_| self.lux[start + slot]).to_array();
         }
         if let Some(linear) = chunk.linear.as_deref_mut() {
