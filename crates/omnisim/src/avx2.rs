@@ -19,3 +19,25 @@ impl Avx2 {
         None
     }
 }
+
+impl Avx2 {
+    /// `work()` compiled with AVX2 (it is inlined into [`run_avx2`]), which the token proves
+    /// the CPU has: wider vectors and gathers for the lanes `work` runs.
+    #[inline(always)]
+    pub(crate) fn run<R>(self, work: impl FnOnce() -> R) -> R {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `self` proves the CPU has AVX2, which `run_avx2` is compiled for.
+            unsafe { run_avx2(work) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        work()
+    }
+}
+
+/// [`Avx2::run`]'s body, compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_avx2<R>(work: impl FnOnce() -> R) -> R {
+    work()
+}

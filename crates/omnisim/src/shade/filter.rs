@@ -36,26 +36,39 @@ pub(crate) struct Lookups<'a, const L: usize> {
     clamp: [[bool; L]; 2],
     /// Each level's weight, by level, lane.
     share: [[f32; L]; 2],
+    /// Whether every lane reads the same slice of a level, by level (then one gather from
+    /// its base fetches a tap), and each axis's wrap where every lane has the same (then the
+    /// lanes work out only that one): known where the lanes were set up together
+    /// ([`Lookups::set_face`]), else taken as not.
+    shared: [bool; 2],
+    wrap: [Option<Wrap>; 2],
 }
 
 impl<'a, const L: usize> Lookups<'a, L> {
     /// Look-ups whose every lane samples `texture`, wrapped by `wraps`, at `uv` and level of
     /// detail `lod` (0 = finest; clamped to the pyramid, NaN the coarsest).
     pub(crate) fn filled(texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) -> Self {
-        let mut lookups = Lookups {
-            u: [0.0; L],
-            v: [0.0; L],
-            texels: [[&NO_TEXELS; L]; 2],
-            last: [[0; L]; 2],
-            size: [[[0.0; L]; 2]; 2],
-            periods: [[0.0; L]; 2],
-            clamp: [[false; L]; 2],
-            share: [[0.0; L]; 2],
-        };
+        let mut lookups = Self::empty();
         for lane in 0..L {
             lookups.set(lane, texture, wraps, uv, lod);
         }
         lookups
+    }
+
+    /// Look-ups whose every lane reads [`NO_TEXELS`] at coordinates 0, to be set up.
+    pub(crate) fn empty() -> Self {
+        Lookups {
+            u: [0.0; L],
+            v: [0.0; L],
+            texels: [[&NO_TEXELS; L]; 2],
+            last: [[0; L]; 2],
+            size: [[[1.0; L]; 2]; 2],
+            periods: [[1.0; L]; 2],
+            clamp: [[false; L]; 2],
+            share: [[0.0; L]; 2],
+            shared: [false; 2],
+            wrap: [None; 2],
+        }
     }
 
     /// Sets lane `lane` to sample `texture` as [`Lookups::filled`] says: the two levels around
@@ -65,58 +78,130 @@ impl<'a, const L: usize> Lookups<'a, L> {
     #[inline(always)]
     pub(crate) fn set(&mut self, lane: usize, texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) {
         let levels: &'a [MipLevel] = &texture.levels;
-        let last = (levels.len() - 1) as f32;
-        let lod = if lod.is_nan() { last } else { lod.clamp(0.0, last) };
-        // Through i32: `lod` lies in 0..=last, and `as usize` costs a saturating conversion.
-        let fine = lod as i32 as usize;
-        let fraction = lod - fine as f32;
-        let coarse = fine + usize::from(fraction > 0.0);
+        let (fine, fraction) = level_below(lod, levels.len());
+        let coarse = fine + u32::from(fraction > 0.0);
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
-        self.clamp[0][lane] = wraps.clamp[0];
-        self.clamp[1][lane] = wraps.clamp[1];
-        self.periods[0][lane] = wraps.periods[0];
-        self.periods[1][lane] = wraps.periods[1];
-        let (finer, coarser) = (&levels[fine], &levels[coarse]);
-        let (finer_texels, coarser_texels) = (texels_of(finer), texels_of(coarser));
-        self.texels[0][lane] = finer_texels;
-        self.texels[1][lane] = coarser_texels;
-        self.last[0][lane] = last_index(finer_texels);
-        self.last[1][lane] = last_index(coarser_texels);
-        self.size[0][0][lane] = f64::from(finer.width);
-        self.size[0][1][lane] = f64::from(finer.height);
-        self.size[1][0][lane] = f64::from(coarser.width);
-        self.size[1][1][lane] = f64::from(coarser.height);
+        for axis in 0..2 {
+            self.clamp[axis][lane] = wraps.clamp[axis];
+            self.periods[axis][lane] = wraps.periods[axis];
+        }
+        for (which, at) in [fine, coarse].into_iter().enumerate() {
+            self.set_level(which, lane, Level::of(&levels[at as usize]));
+        }
         self.share[0][lane] = 1.0 - fraction;
         self.share[1][lane] = fraction;
+        // This lane may read another slice, or wrap otherwise, than the others.
+        self.shared = [false; 2];
+        self.wrap = [None; 2];
+    }
+
+    /// Sets every lane k to sample the texture whose levels are `levels` ([`Level::all`]),
+    /// wrapped by `wraps`, at (`u[k]`, `v[k]`) and level of detail `lod[k]`, as
+    /// [`Lookups::set`] sets each: the lanes of a run of pixels on one face. The uniform parts
+    /// are stored once, the level choice runs in lanes, and whether each level's lanes read
+    /// one slice is found from their level indices (the pointer comparisons it replaces cost
+    /// about 7 M instructions an equirect frame, docs/benchmarks.md, "tenth pass").
+    #[inline(always)]
+    pub(crate) fn set_face(&mut self, levels: &[Level<'a>], wraps: Wraps, u: &[f64; L], v: &[f64; L], lod: &[f32; L]) {
+        let (mut fine, mut coarse, mut fraction) = ([0u32; L], [0u32; L], [0.0f32; L]);
+        for k in 0..L {
+            (fine[k], fraction[k]) = level_below(lod[k], levels.len());
+            coarse[k] = fine[k] + u32::from(fraction[k] > 0.0);
+        }
+        self.u = *u;
+        self.v = *v;
+        for axis in 0..2 {
+            self.clamp[axis] = [wraps.clamp[axis]; L];
+            self.periods[axis] = [wraps.periods[axis]; L];
+            self.wrap[axis] = Some(wraps.wrap[axis]);
+        }
+        for (which, at) in [fine, coarse].iter().enumerate() {
+            let shared = at.iter().all(|&level| level == at[0]);
+            self.shared[which] = shared;
+            if shared {
+                let level = levels[at[0] as usize];
+                self.texels[which] = [level.texels; L];
+                self.last[which] = [level.last; L];
+                self.size[which] = [[level.size[0]; L], [level.size[1]; L]];
+            } else {
+                for k in 0..L {
+                    self.set_level(which, k, levels[at[k] as usize]);
+                }
+            }
+        }
+        for (k, &fraction) in fraction.iter().enumerate() {
+            self.share[0][k] = 1.0 - fraction;
+            self.share[1][k] = fraction;
+        }
+    }
+
+    /// Sets lane `lane`'s level `which` (0 finer, 1 coarser) to `level`.
+    #[inline(always)]
+    fn set_level(&mut self, which: usize, lane: usize, level: Level<'a>) {
+        self.texels[which][lane] = level.texels;
+        self.last[which][lane] = level.last;
+        self.size[which][0][lane] = level.size[0];
+        self.size[which][1][lane] = level.size[1];
+    }
+}
+
+/// The finer of the two levels of a pyramid of `count` levels around level of detail `lod`
+/// (clamped to the pyramid; NaN the coarsest), and the weight of the level after it (zero at
+/// a whole level, which then repeats).
+#[inline(always)]
+fn level_below(lod: f32, count: usize) -> (u32, f32) {
+    let last = (count - 1) as f32;
+    let lod = if lod.is_nan() { last } else { lod.clamp(0.0, last) };
+    // Through i32: `lod` lies in 0..=last, and `as u32` costs a saturating conversion.
+    let fine = lod as i32;
+    (fine as u32, lod - fine as f32)
+}
+
+/// A mip level as the lanes read it: its texels (never empty: an empty level, which only a
+/// `Texture` built by hand can have, reads [`NO_TEXELS`]), the index of the last of them, and
+/// its width and height.
+#[derive(Clone, Copy)]
+pub(crate) struct Level<'a> {
+    texels: &'a [u32],
+    last: u32,
+    size: [f64; 2],
+}
+
+impl<'a> Level<'a> {
+    /// The lanes' form of `level`.
+    #[inline(always)]
+    fn of(level: &'a MipLevel) -> Self {
+        let texels: &[u32] = if level.texels.is_empty() {
+            &NO_TEXELS
+        } else {
+            &level.texels
+        };
+        Level {
+            texels,
+            // Within u32: a level holds at most 2^28 texels in a loaded texture; a larger one
+            // built by hand reads only its first 2^32.
+            last: u32::try_from(texels.len() - 1).unwrap_or(u32::MAX),
+            size: [f64::from(level.width), f64::from(level.height)],
+        }
+    }
+
+    /// The lanes' form of every level of `texture`, finest first: worked out once per frame
+    /// (converting each lane's level as it was set up cost about 30 instructions a textured
+    /// pixel, docs/benchmarks.md).
+    pub(crate) fn all(texture: &'a Texture) -> Vec<Self> {
+        texture.levels.iter().map(Level::of).collect()
     }
 }
 
 /// What an empty mip level (a `Texture` built by hand) reads: one black texel.
 static NO_TEXELS: [u32; 1] = [0];
 
-/// The texels lanes read of `level`: its own, or [`NO_TEXELS`] where it has none, so that
-/// every lane has a texel to fetch.
-#[inline(always)]
-fn texels_of(level: &MipLevel) -> &[u32] {
-    if level.texels.is_empty() {
-        &NO_TEXELS
-    } else {
-        &level.texels
-    }
-}
-
-/// The index of the last of `texels` (not empty), within u32 (a level holds at most 2^28 in a
-/// loaded texture; a larger one built by hand reads only its first 2^32).
-#[inline(always)]
-fn last_index(texels: &[u32]) -> u32 {
-    u32::try_from(texels.len() - 1).unwrap_or(u32::MAX)
-}
-
 /// A texture's wrap of u and v as the lanes read it, worked out once per face: whether each
 /// axis clamps, and its period in texture sizes (2 for mirror, else 1).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Wraps {
+    wrap: [Wrap; 2],
     clamp: [bool; 2],
     periods: [f64; 2],
 }
@@ -125,6 +210,7 @@ impl Wraps {
     /// The lanes' form of `wrap`.
     pub(crate) fn of(wrap: [Wrap; 2]) -> Self {
         Wraps {
+            wrap,
             clamp: wrap.map(|wrap| wrap == Wrap::Clamp),
             periods: wrap.map(|wrap| if wrap == Wrap::Mirror { 2.0 } else { 1.0 }),
         }
@@ -162,13 +248,41 @@ fn texel_index(n: f64) -> i32 {
 /// Each lane's texel coordinate `t` (texel centres at integer + 0.5) on an axis of `size`
 /// texels, wrapped with period `periods` sizes or clamped (`clamp`), as the two neighbouring
 /// texel indices (integers in f64) and the weight of the second; NaN or infinite reads
-/// coordinate 0 (for repeat, the mean of the last and the first texel).
+/// coordinate 0 (for repeat, the mean of the last and the first texel). Where every lane
+/// has the same `wrap`, only that wrap's indices are worked out (the same values).
 #[inline(always)]
 fn neighbours<const L: usize>(
     t: &[f64; L],
     size: &[f64; L],
     periods: &[f64; L],
     clamp: &[bool; L],
+    wrap: Option<Wrap>,
+) -> ([f64; L], [f64; L], [f32; L]) {
+    match wrap {
+        Some(Wrap::Repeat) => neighbours_by(t, size, periods, clamp, Taken::Repeated),
+        Some(Wrap::Clamp) => neighbours_by(t, size, periods, clamp, Taken::Clamped),
+        _ => neighbours_by(t, size, periods, clamp, Taken::ByLane),
+    }
+}
+
+/// Which indices [`neighbours_by`] takes: each lane's by its `clamp`, or every lane's repeated
+/// or clamped ones.
+#[derive(Clone, Copy, PartialEq)]
+enum Taken {
+    ByLane,
+    Repeated,
+    Clamped,
+}
+
+/// [`neighbours`], taking the indices `taken` says (a constant where it is inlined, so the
+/// others are never worked out).
+#[inline(always)]
+fn neighbours_by<const L: usize>(
+    t: &[f64; L],
+    size: &[f64; L],
+    periods: &[f64; L],
+    clamp: &[bool; L],
+    taken: Taken,
 ) -> ([f64; L], [f64; L], [f32; L]) {
     // Minimum and maximum as selects (no NaN reaches them), which vectorise.
     let lower = |a: f64, b: f64| if a < b { a } else { b };
@@ -180,17 +294,30 @@ fn neighbours<const L: usize>(
         let x = higher(lower(x, FAR), -FAR);
         let i = floor(x);
         weight[k] = (x - i) as f32;
-        // i mod period and i + 1 mod period, exact (see FAR; the factor is 1 or 2).
-        let period = periods[k] * size;
-        let m = i - period * floor(i / period);
-        let n = if m + 1.0 == period { 0.0 } else { m + 1.0 };
-        // Mirror's second half runs backwards; repeat never reaches it.
-        let fold = |j: f64| if j < size { j } else { 2.0 * size - 1.0 - j };
         let last = size - 1.0;
-        let (wrapped0, wrapped1) = (fold(m), fold(n));
-        let (clamped0, clamped1) = (higher(lower(i, last), 0.0), higher(lower(i + 1.0, last), 0.0));
-        first[k] = if clamp[k] { clamped0 } else { wrapped0 };
-        second[k] = if clamp[k] { clamped1 } else { wrapped1 };
+        let clamped = || (higher(lower(i, last), 0.0), higher(lower(i + 1.0, last), 0.0));
+        // i mod period and i + 1 mod period, exact (see FAR; the factor is 1 or 2).
+        let wrapped = || {
+            let period = periods[k] * size;
+            let m = i - period * floor(i / period);
+            let n = if m + 1.0 == period { 0.0 } else { m + 1.0 };
+            (m, n)
+        };
+        (first[k], second[k]) = match taken {
+            Taken::Clamped => clamped(),
+            // Repeat's period is one size, so both lie below it: the fold leaves them.
+            Taken::Repeated => wrapped(),
+            Taken::ByLane => {
+                // Mirror's second half runs backwards; repeat never reaches it.
+                let fold = |j: f64| if j < size { j } else { 2.0 * size - 1.0 - j };
+                let ((m, n), (clamped0, clamped1)) = (wrapped(), clamped());
+                if clamp[k] {
+                    (clamped0, clamped1)
+                } else {
+                    (fold(m), fold(n))
+                }
+            }
+        };
     }
     (first, second, weight)
 }
@@ -211,19 +338,13 @@ fn decoded<const L: usize>(texels: &[u32; L], shift: u32, decoding: &[f32; 256],
     std::array::from_fn(|k| decoding[((texels[k] >> shift) & 0xff) as usize])
 }
 
-/// The texels every lane reads of a level (`Lookups::texels[level]`), where all of them read
-/// the same slice (a run of pixels on one face, at one level: the usual case) and it holds at
-/// most `i32::MAX` texels, so that one gather from its base reaches each lane's texel.
+/// The slice every lane reads of level `level` (0 finer, 1 coarser), where `lookups` knows
+/// that they read one (a run of pixels on one face, at one level: the usual case) and it
+/// holds at most `i32::MAX` texels, so that one gather from its base reaches each lane's texel.
 #[inline(always)]
-fn shared_texels<'a, const L: usize>(texels: &[&'a [u32]; L]) -> Option<&'a [u32]> {
-    let first = *texels.first()?;
-    // A loop, not `Iterator::all`, whose closure could be compiled outside the AVX2 lanes.
-    let mut shared = first.len() <= i32::MAX as usize;
-    for &lane in texels {
-        // Address and length: the same slice.
-        shared &= std::ptr::eq(lane, first);
-    }
-    shared.then_some(first)
+fn shared_texels<'a, const L: usize>(lookups: &Lookups<'a, L>, level: usize) -> Option<&'a [u32]> {
+    let first = *lookups.texels[level].first()?;
+    (lookups.shared[level] && first.len() <= i32::MAX as usize).then_some(first)
 }
 
 /// Each lane's texel `index` of its level `level` (0 finer, 1 coarser) of `lookups`, clamped
@@ -347,9 +468,11 @@ unsafe fn decode_avx2(_: Avx2, texels: &[u32; 8], shift: u32, decoding: &[f32; 2
 /// eight taps of each (corners (x0, y0), (x1, y0), (x0, y1), (x1, y1) of the finer level, then
 /// of the coarser) mixed as one weighted sum per channel, summed in one order: taps k and
 /// k + 4, then those sums' 0 + 2 and 1 + 3, then the two. The same operations in every lane, so
-/// any lane count, with `avx2` or without, gives the same bits.
+/// any lane count, with `avx2` or without, gives the same bits (tested). With `avx2` the
+/// fetches and the sRGB decoding are gathered; the caller compiles the lanes for AVX2
+/// ([`Avx2::run`]) so that their coordinates, wraps, weights and mixing run in vector lanes.
 #[inline(always)]
-fn lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32; L]; 3] {
+pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32; L]; 3] {
     // Texel indices (integers below 2^28, the texel limit: exact in f64, and in i32) and
     // weights by tap.
     let mut indices = [[0i32; L]; 8];
@@ -357,8 +480,8 @@ fn lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32;
     for level in 0..2 {
         let [width, height] = &lookups.size[level];
         let [x_periods, y_periods] = &lookups.periods;
-        let (x0, x1, fx) = neighbours(&lookups.u, width, x_periods, &lookups.clamp[0]);
-        let (y0, y1, fy) = neighbours(&lookups.v, height, y_periods, &lookups.clamp[1]);
+        let (x0, x1, fx) = neighbours(&lookups.u, width, x_periods, &lookups.clamp[0], lookups.wrap[0]);
+        let (y0, y1, fy) = neighbours(&lookups.v, height, y_periods, &lookups.clamp[1], lookups.wrap[1]);
         let tap = 4 * level;
         for k in 0..L {
             let (row0, row1) = (y0[k] * width[k], y1[k] * width[k]);
@@ -376,7 +499,7 @@ fn lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32;
     }
     // Whether each level's lanes read one slice, found once for its four taps.
     let shared = match avx2 {
-        Some(_) => [shared_texels(&lookups.texels[0]), shared_texels(&lookups.texels[1])],
+        Some(_) => [shared_texels(lookups, 0), shared_texels(lookups, 1)],
         None => [None; 2],
     };
     let mut texels = [[0u32; L]; 8];
@@ -400,31 +523,11 @@ fn lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32;
     sums
 }
 
-/// [`lanes`] compiled for AVX2, which the token proves the CPU has.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn lanes_avx2(lookups: &Lookups<'_, LANES>, avx2: Avx2) -> [[f32; LANES]; 3] {
-    lanes(lookups, Some(avx2))
-}
-
-/// Trilinear samples of [`LANES`] pixels at once, red, green and blue by lane: with AVX2
-/// (checked per call, as the fast tracer does) their coordinates, wraps, weights and mixing
-/// run in vector lanes and the sRGB decoding is gathered, to the same bits as the portable
-/// code (tested).
-pub(crate) fn trilinear_lanes(lookups: &Lookups<'_, LANES>) -> [[f32; LANES]; 3] {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(avx2) = Avx2::detected() {
-        // SAFETY: `avx2` proves the CPU has AVX2, which `lanes_avx2` is compiled for.
-        return unsafe { lanes_avx2(lookups, avx2) };
-    }
-    lanes(lookups, None)
-}
-
 /// Trilinear sample at level of detail `lod` (0 = finest; clamped to the pyramid): the two
 /// levels around it, bilinear each, mixed by its fraction, in linear light. One lane of
 /// [`trilinear_lanes`], for pixels shaded one at a time.
 pub(crate) fn trilinear(texture: &Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32) -> Vec3A {
-    let [[red], [green], [blue]] = lanes::<1>(&Lookups::filled(texture, Wraps::of(wrap), uv, lod), None);
+    let [[red], [green], [blue]] = trilinear_lanes::<1>(&Lookups::filled(texture, Wraps::of(wrap), uv, lod), None);
     Vec3A::new(red, green, blue)
 }
 
@@ -471,6 +574,15 @@ mod tests {
     use super::*;
     use crate::scene::surface::UvMap;
     use glam::DVec3;
+
+    /// The lanes as textured frames run them: compiled for AVX2 and gathering where the CPU
+    /// has it, else portable.
+    fn with_avx2_where_detected(lookups: &Lookups<'_, LANES>) -> [[f32; LANES]; 3] {
+        match Avx2::detected() {
+            Some(avx2) => avx2.run(|| trilinear_lanes(lookups, Some(avx2))),
+            None => trilinear_lanes(lookups, None),
+        }
+    }
 
     fn ramp() -> Texture {
         // 4×1 texels 0, 85, 170, 255 in sRGB.
@@ -547,11 +659,28 @@ mod tests {
                 lookups.set(lane, texture, Wraps::of(wrap), uv, lod);
             }
             let bits = |samples: [[f32; LANES]; 3]| samples.map(|channel| channel.map(f32::to_bits));
-            let portable = bits(lanes(&lookups, None));
-            assert_eq!(bits(trilinear_lanes(&lookups)), portable);
+            let portable = bits(trilinear_lanes(&lookups, None));
+            assert_eq!(bits(with_avx2_where_detected(&lookups)), portable);
             for (k, &(texture, wrap, uv, lod)) in lanes_in.iter().enumerate() {
                 let one = trilinear(texture, wrap, uv, lod).to_array().map(f32::to_bits);
                 assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
+            }
+            // The lanes of a run on one face (the first lane's texture and wrap), set up
+            // together: the bits of each lane set up alone. Every third run at one level, so
+            // that its lanes share their slices.
+            let levels = Level::all(texture);
+            let one_level = next() % 3 == 0;
+            let lod: [f32; LANES] = std::array::from_fn(|k| if one_level { lod } else { lanes_in[k].3 });
+            let (u, v) = (lanes_in.map(|lane| lane.2.x), lanes_in.map(|lane| lane.2.y));
+            lookups.set_face(&levels, Wraps::of(wrap), &u, &v, &lod);
+            assert!(!one_level || lookups.shared == [true; 2]);
+            let together = bits(trilinear_lanes(&lookups, None));
+            assert_eq!(bits(with_avx2_where_detected(&lookups)), together);
+            for k in 0..LANES {
+                let one = trilinear(texture, wrap, DVec2::new(u[k], v[k]), lod[k])
+                    .to_array()
+                    .map(f32::to_bits);
+                assert_eq!(one, [0, 1, 2].map(|c| together[c][k]), "lane {k} of a face");
             }
         }
     }
@@ -595,8 +724,8 @@ mod tests {
         for (lane, &(uv, lod)) in lanes_in.iter().enumerate() {
             lookups.set(lane, &texture, wraps, uv, lod);
         }
-        let portable = lanes(&lookups, None);
-        assert_eq!(trilinear_lanes(&lookups), portable);
+        let portable = trilinear_lanes(&lookups, None);
+        assert_eq!(with_avx2_where_detected(&lookups), portable);
         for (k, &(uv, lod)) in lanes_in.iter().enumerate() {
             let one = trilinear(&texture, [Wrap::Repeat; 2], uv, lod).to_array();
             assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
@@ -604,12 +733,17 @@ mod tests {
         // Every lane on the short finest level (with AVX2 one gather from it a tap), indices
         // past its three texels among them: clamped as in one lane.
         let lanes_in: [DVec2; LANES] = std::array::from_fn(|k| DVec2::new(k as f64 / 7.0, 0.1 + k as f64 / 9.0));
-        for (lane, &uv) in lanes_in.iter().enumerate() {
-            lookups.set(lane, &texture, wraps, uv, 0.0);
-        }
-        assert!(shared_texels(&lookups.texels[0]).is_some_and(|texels| texels.len() == 3));
-        let portable = lanes(&lookups, None);
-        assert_eq!(trilinear_lanes(&lookups), portable);
+        let levels = Level::all(&texture);
+        lookups.set_face(
+            &levels,
+            wraps,
+            &lanes_in.map(|uv| uv.x),
+            &lanes_in.map(|uv| uv.y),
+            &[0.0; LANES],
+        );
+        assert!(shared_texels(&lookups, 0).is_some_and(|texels| texels.len() == 3));
+        let portable = trilinear_lanes(&lookups, None);
+        assert_eq!(with_avx2_where_detected(&lookups), portable);
         for (k, &uv) in lanes_in.iter().enumerate() {
             let one = trilinear(&texture, [Wrap::Repeat; 2], uv, 0.0).to_array();
             assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
@@ -635,7 +769,16 @@ mod tests {
             for size in [1, 3, 4] {
                 let size64 = f64::from(size);
                 let periods = if wrap == Wrap::Mirror { 2.0 } else { 1.0 };
-                let axis = |t: f64| neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp]);
+                // Lane by lane, and as every lane's one wrap: the same indices.
+                let axis = |t: f64| {
+                    let by_lane = neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp], None);
+                    let uniform = neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp], Some(wrap));
+                    let bits = |(first, second, weight): ([f64; 1], [f64; 1], [f32; 1])| {
+                        (first[0].to_bits(), second[0].to_bits(), weight[0].to_bits())
+                    };
+                    assert_eq!(bits(by_lane), bits(uniform), "{wrap:?} {size} {t}");
+                    by_lane
+                };
                 for i in (-9..11).chain([-4_000_000_001, 1 << 40]) {
                     let t = (i as f64 + 0.75) / f64::from(size);
                     let (first, second, weight) = axis(t);

@@ -1,5 +1,6 @@
-//! Frames of textured scenes: pixels on textured faces are filtered [`LANES`] at a time
-//! (`filter::trilinear_lanes`: coordinates, wraps, weights and mixing in vector lanes), the
+//! Frames of textured scenes: pixels on textured faces are shaded in runs of [`LANES`] pixels
+//! of one face, each stage over the run's lanes (coordinates and levels of detail, then
+//! `filter::trilinear_lanes`: wraps, weights and mixing, then lighting and encoding), the
 //! rest shaded one by one as `mod.rs` shades untextured scenes. The same colours as shading
 //! each pixel alone (`shade`): per pixel the same look-up, lanes that give the one-lane
 //! sample's bits (tested in `filter.rs`), the same lighting and encoding; only the footprint's
@@ -10,14 +11,12 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::filter::{LANES, Lookups, Wraps, trilinear_lanes};
-use super::{
-    Appearance, Footprint, View, lit, shade_on, texture_coordinates, texture_of, untextured_albedo, write_pixel,
-};
-use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
+use super::filter::{LANES, Level, Lookups, Wraps, level_of_detail, trilinear_lanes};
+use super::{Appearance, Footprint, View, lit, shade_on, texture_of, untextured_albedo, write_pixel};
+use crate::avx2::Avx2;
+use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
 use crate::scene::lighting::linear_to_srgb3_lanes;
 use crate::scene::surface::{Surface, UvMap};
-use crate::scene::texture::Texture;
 
 /// Pixels one task shades: enough to fill the lanes many times over, few enough to spread a
 /// 250×250 image over every thread.
@@ -29,11 +28,13 @@ const CHUNK: usize = 512;
 pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_>, frame: &mut Frame, planes: Planes) {
     let footprint_of = view.footprints();
     let pixels = frame.pixels();
+    let levels: Vec<Vec<Level<'_>>> = appearance.surfaces.textures.iter().map(Level::all).collect();
     let shader = Shader {
         appearance,
         lux,
         view: &view,
         footprint_of: &footprint_of,
+        levels: &levels,
     };
     let mut colour = vec![BACKGROUND; pixels.len()];
     let mut linear = Vec::new();
@@ -42,9 +43,23 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
         linear = vec![[0.0; 3]; pixels.len()];
         chunks
             .zip(linear.par_chunks_mut(CHUNK))
-            .for_each(|((chunk, (hits, colour)), linear)| shader.chunk(chunk * CHUNK, hits, colour, Some(linear)));
+            .for_each(|((chunk, (hits, colour)), linear)| {
+                shader.chunk(Chunk {
+                    start: chunk * CHUNK,
+                    hits,
+                    colour,
+                    linear: Some(linear),
+                });
+            });
     } else {
-        chunks.for_each(|(chunk, (hits, colour))| shader.chunk(chunk * CHUNK, hits, colour, None));
+        chunks.for_each(|(chunk, (hits, colour))| {
+            shader.chunk(Chunk {
+                start: chunk * CHUNK,
+                hits,
+                colour,
+                linear: None,
+            });
+        });
     }
     frame.set_shading(planes, linear, colour);
 }
@@ -58,15 +73,17 @@ struct Shader<'a, F> {
     view: &'a View<'a>,
     /// The footprint of a pixel by its index in the frame, in the camera body's frame.
     footprint_of: &'a F,
+    /// Each texture's levels as the lanes read them ([`Level::all`]), by texture index.
+    levels: &'a [Vec<Level<'a>>],
 }
 
 /// A textured face, and what shading its pixels reads besides their hits.
 #[derive(Clone, Copy)]
 struct Face<'a> {
-    id: u32,
     surface: &'a Surface,
     map: &'a UvMap,
-    texture: &'a Texture,
+    /// Its texture's levels, as the lanes read them.
+    levels: &'a [Level<'a>],
     /// Its map's wrap, as the lanes read it.
     wraps: Wraps,
     /// Its texture's squared texels per metre (`texture_of`).
@@ -80,15 +97,20 @@ struct Face<'a> {
 
 impl<'a> Face<'a> {
     /// The face `hit` (seen through `view`) lies on, whose surface is `surface`, if that has a
-    /// texture.
-    fn of(appearance: &'a Appearance, view: &View<'_>, hit: &Pixel, surface: &'a Surface) -> Option<Self> {
+    /// texture (whose levels are `levels[map.texture]`).
+    fn of(
+        appearance: &'a Appearance,
+        levels: &'a [Vec<Level<'a>>],
+        view: &View<'_>,
+        hit: &Pixel,
+        surface: &'a Surface,
+    ) -> Option<Self> {
         let map = surface.uv.as_ref()?;
-        let (texture, texels_per_metre_squared) = texture_of(appearance, map);
+        let (_, texels_per_metre_squared) = texture_of(appearance, map);
         Some(Face {
-            id: hit.face,
             surface,
             map,
-            texture,
+            levels: &levels[map.texture as usize],
             wraps: Wraps::of(map.wrap),
             texels_per_metre_squared,
             base: surface
@@ -100,108 +122,172 @@ impl<'a> Face<'a> {
     }
 }
 
-/// Textured pixels of a chunk waiting for their lanes: where each goes, its surface,
-/// its albedo before the texture, and its look-up.
-struct Batch<'a> {
+/// An untextured face: its surface (vertex colours, or none), and its byte where it is flat
+/// (unlit, no surface).
+#[derive(Clone, Copy)]
+struct Untextured<'a> {
+    surface: Option<&'a Surface>,
+    flat: Option<[u8; 3]>,
+}
+
+/// A chunk of a frame as shading writes it: the index of its first pixel in the frame, its
+/// hits, and its pixels' 8-bit colours (and linear colours where asked).
+struct Chunk<'c> {
+    start: usize,
+    hits: &'c [Pixel],
+    colour: &'c mut [[u8; 3]],
+    linear: Option<&'c mut [[f32; 3]]>,
+}
+
+/// Textured pixels of one face in a chunk waiting for their lanes: the face, where each pixel
+/// goes and its hit (held, so that the lanes read it without a bounds check; lanes past `len`
+/// repeat earlier pixels of the face: shaded, and not written).
+struct Run<'a, 'c> {
+    face: Face<'a>,
     len: usize,
     slot: [usize; LANES],
-    surface: [&'a Surface; LANES],
-    base: [DVec3; LANES],
-    lookups: Lookups<'a, LANES>,
+    hit: [&'c Pixel; LANES],
 }
 
 impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
-    /// Shades the hits `hits` of the pixels from index `start` on into `colour` (and `linear`
-    /// where given); pixels that hit nothing stay as they are (black).
-    fn chunk(&self, start: usize, hits: &'a [Pixel], colour: &mut [[u8; 3]], mut linear: Option<&mut [[f32; 3]]>) {
+    /// Shades the hits of `chunk` into its planes; pixels that hit nothing stay as they are
+    /// (black). Two phases: a pixel on a textured face only joins its face's run, and a full
+    /// run (or one the next textured face ends) is shaded in lanes from its pixels' hits,
+    /// coordinates to encoding.
+    fn chunk(&self, mut chunk: Chunk<'_>) {
         let appearance = self.appearance;
-        let mut batch: Option<Batch<'a>> = None;
-        // The last textured face seen, and what shading it needs besides the hit: neighbouring
-        // pixels mostly see the same face.
-        let mut last: Option<Face<'a>> = None;
+        let mut run: Option<Run<'a, '_>> = None;
+        // Set up afresh for each run's lanes, in place.
+        let mut lookups = Lookups::empty();
+        // The last untextured face seen, looked up once for its pixels.
+        let mut untextured: Option<Untextured<'a>> = None;
+        // The ids of the run's face and of that untextured face ([`NO_FACE`] for none), kept
+        // apart: comparing through the `Option`s cost about 30 instructions a pixel.
+        let (mut run_face, mut untextured_face) = (NO_FACE, NO_FACE);
+        let hits = chunk.hits;
         for (slot, hit) in hits.iter().enumerate() {
             if !hit.is_hit() {
                 continue;
             }
-            let face = match last {
-                Some(face) if face.id == hit.face => face,
-                _ => {
+            // Neighbouring pixels mostly see the same face.
+            if hit.face != run_face {
+                if hit.face != untextured_face {
                     let surface = appearance.surfaces.of(hit.face);
-                    let Some(face) = surface.and_then(|surface| Face::of(appearance, self.view, hit, surface)) else {
-                        // As `mod.rs` shades it: no texture, so no footprint.
-                        let flat = (appearance.lighting.is_none() && surface.is_none())
-                            .then(|| appearance.face_colours[hit.face as usize]);
-                        let shaded = || {
-                            shade_on(
-                                appearance,
-                                hit,
-                                surface,
-                                || Footprint::POINT,
-                                |_| self.lux[start + slot],
-                            )
-                        };
-                        let linear = linear.as_deref_mut().map(|linear| &mut linear[slot]);
-                        write_pixel(flat, shaded, &mut colour[slot], linear);
-                        continue;
-                    };
-                    *last.insert(face)
+                    if let Some(face) =
+                        surface.and_then(|surface| Face::of(appearance, self.levels, self.view, hit, surface))
+                    {
+                        if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
+                            self.finish(&mut chunk, ended, &mut lookups);
+                        }
+                        run = Some(Run {
+                            face,
+                            len: 0,
+                            slot: [slot; LANES],
+                            hit: [hit; LANES],
+                        });
+                        run_face = hit.face;
+                    } else {
+                        untextured = Some(Untextured {
+                            surface,
+                            flat: (appearance.lighting.is_none() && surface.is_none())
+                                .then(|| appearance.face_colours[hit.face as usize]),
+                        });
+                        untextured_face = hit.face;
+                    }
                 }
-            };
-            let (surface, map, texture) = (face.surface, face.map, face.texture);
-            let scale = face.texels_per_metre_squared;
-            let (uv, lod) = texture_coordinates(hit, surface.anchor, map, scale, face.normal, || {
-                (self.footprint_of)(start + slot)
-            });
-            let base = face.base.unwrap_or_else(|| untextured_albedo(appearance, hit, surface));
-            let batch = match &mut batch {
-                Some(batch) => batch,
-                // Every lane starts as this pixel's.
-                None => batch.insert(Batch {
-                    len: 0,
-                    slot: [slot; LANES],
-                    surface: [surface; LANES],
-                    base: [base; LANES],
-                    lookups: Lookups::filled(texture, face.wraps, uv, lod),
-                }),
-            };
-            if batch.len == LANES {
-                self.finish(start, batch, colour, linear.as_deref_mut());
-                batch.len = 0;
+                if let Some(Untextured { surface, flat, .. }) = untextured
+                    && hit.face == untextured_face
+                {
+                    // As `mod.rs` shades it: no texture, so no footprint.
+                    let shaded = || {
+                        shade_on(
+                            appearance,
+                            hit,
+                            surface,
+                            || Footprint::POINT,
+                            |_| self.lux[chunk.start + slot],
+                        )
+                    };
+                    let linear = chunk.linear.as_deref_mut().map(|linear| &mut linear[slot]);
+                    write_pixel(flat, shaded, &mut chunk.colour[slot], linear);
+                    continue;
+                }
             }
-            let lane = batch.len;
-            batch.slot[lane] = slot;
-            batch.surface[lane] = surface;
-            batch.base[lane] = base;
-            batch.lookups.set(lane, texture, face.wraps, uv, lod);
-            batch.len += 1;
+            // The pixel's face is the run's (just started, where it was another's).
+            let Some(run) = run.as_mut() else { continue };
+            run.slot[run.len] = slot;
+            run.hit[run.len] = hit;
+            run.len += 1;
+            if run.len == LANES {
+                self.finish(&mut chunk, run, &mut lookups);
+                run.len = 0;
+            }
         }
-        // Lanes past the last batch's length hold earlier pixels' look-ups (or copies of its
-        // first): filtered, and not written.
-        if let Some(batch) = &batch {
-            self.finish(start, batch, colour, linear);
+        if let Some(run) = run.as_ref().filter(|run| run.len > 0) {
+            self.finish(&mut chunk, run, &mut lookups);
         }
     }
 
-    /// Filters a batch's textures and writes the colours of its pixels (of a chunk from pixel
-    /// index `start` on), encoding the batch's eight colours at once.
-    fn finish(&self, start: usize, batch: &Batch<'_>, colour: &mut [[u8; 3]], mut linear: Option<&mut [[f32; 3]]>) {
-        let samples = trilinear_lanes(&batch.lookups);
-        // Lanes past the batch's length stay black: encoded, and not written.
+    /// Shades the pixels of `run` in `chunk` and writes their colours, setting up `lookups`
+    /// for their lanes: with AVX2 where the CPU has it (the lanes' gathers, and every stage
+    /// compiled for it), else portably, to the same bits.
+    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a, '_>, lookups: &mut Lookups<'a, LANES>) {
+        match Avx2::detected() {
+            Some(avx2) => avx2.run(|| self.finish_in(chunk, run, lookups, Some(avx2))),
+            None => self.finish_in(chunk, run, lookups, None),
+        }
+    }
+
+    /// [`Shader::finish`]'s work, stage by stage over the run's lanes: texture coordinates
+    /// and levels of detail, the filter, the lighting and the sRGB encoding.
+    #[inline(always)]
+    fn finish_in(
+        &self,
+        chunk: &mut Chunk<'_>,
+        run: &Run<'a, '_>,
+        lookups: &mut Lookups<'a, LANES>,
+        avx2: Option<Avx2>,
+    ) {
+        let start = chunk.start;
+        let face = &run.face;
+        let (surface, map) = (face.surface, face.map);
+        let (mut u, mut v, mut length) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        for k in 0..LANES {
+            let hit = run.hit[k];
+            let uv = Surface::uv_at(map, surface.anchor, hit.point);
+            (u[k], v[k]) = (uv.x, uv.y);
+            length[k] = (self.footprint_of)(start + run.slot[k]).longer_axis(hit.range, face.normal);
+        }
+        let mut lod = [0.0; LANES];
+        for k in 0..LANES {
+            lod[k] = level_of_detail(face.texels_per_metre_squared, length[k]);
+        }
+        lookups.set_face(face.levels, face.wraps, &u, &v, &lod);
+        let samples = trilinear_lanes(lookups, avx2);
+        let appearance = self.appearance;
+        // Every lane, so that the loop has a fixed length: lanes past the run's length (earlier
+        // pixels of the face) are shaded and encoded, and not written.
         let mut shaded = [[0.0; 3]; LANES];
-        for (lane, &slot) in batch.slot.iter().enumerate().take(batch.len) {
-            let sample = DVec3::from_array([0, 1, 2].map(|channel| f64::from(samples[channel][lane])));
-            let albedo = batch.base[lane] * sample;
-            let surface = Some(batch.surface[lane]);
-            let lit_colour = lit(self.appearance, surface, albedo, |_| self.lux[start + slot]);
-            if let Some(linear) = linear.as_deref_mut() {
-                linear[slot] = lit_colour.as_vec3().to_array();
+        for (k, (shaded, &slot)) in shaded.iter_mut().zip(&run.slot).enumerate() {
+            let sample = DVec3::new(
+                f64::from(samples[0][k]),
+                f64::from(samples[1][k]),
+                f64::from(samples[2][k]),
+            );
+            let base = face
+                .base
+                .unwrap_or_else(|| untextured_albedo(appearance, run.hit[k], surface));
+            *shaded = lit(appearance, Some(surface), base * sample, |_| self.lux[start + slot]).to_array();
+        }
+        if let Some(linear) = chunk.linear.as_deref_mut() {
+            for (&slot, &[red, green, blue]) in run.slot.iter().zip(&shaded).take(run.len) {
+                linear[slot] = [red as f32, green as f32, blue as f32];
             }
-            shaded[lane] = lit_colour.to_array();
         }
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded);
-        for (&slot, &encoded) in batch.slot.iter().zip(&encoded).take(batch.len) {
-            colour[slot] = encoded;
+        for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
+            chunk.colour[slot] = encoded;
         }
     }
 }
