@@ -4,9 +4,10 @@
 //! set), then per set `<set>/` with the frame files, the set files (calibration), the layouts
 //! (`tum/`, `mav0/`) and `.frames/` (one entry per done frame, and `set.json`). Every file
 //! is written atomically; a frame is done when its entry exists, so a killed run re-renders
-//! at most the frames it was writing, with the same bytes. Frame files are not synced one by
-//! one: a batch of frames is made durable in one pass (`syncfs` on Linux), and only then are
-//! their entries written, so an entry never names a file a crash could lose. `merge` checks every file's hash
+//! at most the frames it was writing, with the same bytes. Frame files and set files are not
+//! synced one by one: a batch of frames is made durable in one pass (`syncfs` on Linux) on a
+//! thread of its own while later frames render, and only then are their entries written, so
+//! an entry never names a file a crash could lose. `merge` checks every file's hash
 //! and writes the layouts' index files and `manifest.json`; the merge that ends an unsharded
 //! run checks only the sizes of the frames that run wrote itself (it hashed them as it wrote
 //! them, so a file changed during the run without changing size goes unnoticed until the
@@ -25,12 +26,12 @@ use super::manifest::{FileKind, file_entry, to_json};
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan};
-use crate::files::{ENTRIES, SET_ENTRY, io, write_file};
+use crate::files::{ENTRIES, SET_ENTRY, io};
 use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
 use crate::merge::assemble;
 use crate::write::{RenderedFrame, WrittenFrame};
 use omnisim::frame::{Frame, Plane};
-use omnisim::output::atomic::{Durability, DurableFolder, write_bytes_atomically};
+use omnisim::output::atomic::{Durability, DurableFolder, Unsynced, write_bytes_atomically};
 use omnisim::output::{PlainFolder, SegmentationLegend};
 use omnisim::{PreparedScene, Renderer};
 
@@ -195,17 +196,22 @@ impl Heard<'_, '_> {
 }
 
 /// Frames of a batch: written, their files not yet durable, their entries not yet written.
-/// A batch is made durable at once when it holds [`Pending::FRAMES`] frames or
+/// A batch goes to be made durable when it holds [`Pending::FRAMES`] frames or
 /// [`Pending::BYTES`], or its first frame has waited [`Pending::AGE`] (at most that much
 /// finished work is lost to a crash, and rendered again by the next run).
 struct Pending {
-    /// The data-set folder, opened before the first frame is written.
-    folder: DurableFolder,
     frames: Vec<WrittenFrame>,
     bytes: u64,
     since: Option<Instant>,
-    /// Entries written since the last sync (the next one makes them durable too).
-    entries: Vec<PathBuf>,
+    /// Files written outside the batch's frames and not yet durable: the set files, and the
+    /// entries written since the last batch left (the next sync makes them durable too).
+    unsynced: Vec<PathBuf>,
+}
+
+/// A batch on its way to the disk: its frames in frame order, and every file its sync covers.
+struct Batch {
+    frames: Vec<WrittenFrame>,
+    files: Vec<PathBuf>,
 }
 
 impl Pending {
@@ -213,13 +219,12 @@ impl Pending {
     const BYTES: u64 = 64 << 20;
     const AGE: Duration = Duration::from_secs(1);
 
-    fn new(folder: DurableFolder) -> Self {
+    fn new(unsynced: Vec<PathBuf>) -> Self {
         Self {
-            folder,
             frames: Vec::new(),
             bytes: 0,
             since: None,
-            entries: Vec::new(),
+            unsynced,
         }
     }
 
@@ -235,22 +240,30 @@ impl Pending {
             || self.since.is_some_and(|since| since.elapsed() >= Self::AGE)
     }
 
-    /// Makes the batch's files durable, then writes each frame's entry and tells `heard`,
-    /// frame by frame: once the run stops, no further entry is written (those frames are
-    /// rendered again by a later run). Entries are themselves synced by the next batch, or
-    /// by the end of the run.
-    fn commit(&mut self, out: &Path, heard: &mut Heard) {
+    /// Takes the batch, frames in frame order whatever order the writers finished in (a
+    /// stopped run has done the first frames of its batch), with the files written outside
+    /// it that are not yet durable; `None` if it holds no frame.
+    fn take(&mut self) -> Option<Batch> {
         let mut frames = std::mem::take(&mut self.frames);
         (self.bytes, self.since) = (0, None);
-        // In frame order, whatever order the writers finished in: a stopped run has done the
-        // first frames of its batch.
+        if frames.is_empty() {
+            return None;
+        }
         frames.sort_by_key(|frame| (frame.set, frame.index));
-        if frames.is_empty() || heard.stopped {
+        let mut files = std::mem::take(&mut self.unsynced);
+        files.extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
+        Some(Batch { frames, files })
+    }
+
+    /// Once a batch's files are durable (`synced`), writes each frame's entry and tells
+    /// `heard`, frame by frame: once the run stops, no further entry is written (those frames
+    /// are rendered again by a later run). Entries are themselves synced by the next batch,
+    /// or by the end of the run.
+    fn write_entries(&mut self, out: &Path, heard: &mut Heard, (frames, synced): Synced) {
+        if heard.stopped {
             return;
         }
-        let mut files = std::mem::take(&mut self.entries);
-        files.extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
-        if let Err(error) = self.folder.make_durable(&files) {
+        if let Err(error) = synced {
             heard.frame(frames[0].set, frames[0].index, Err(io(out)(error)));
             return;
         }
@@ -262,21 +275,15 @@ impl Pending {
                 .map(|()| Outcome::Written(frame.bytes))
                 .map_err(io(&frame.entry_path));
             if written.is_ok() {
-                self.entries.push(frame.entry_path);
+                self.unsynced.push(frame.entry_path);
             }
             heard.frame(frame.set, frame.index, written);
         }
     }
-
-    /// Makes the entries written since the last sync durable.
-    fn sync_entries(&mut self, out: &Path) -> Result<(), DatasetError> {
-        let entries = std::mem::take(&mut self.entries);
-        if entries.is_empty() {
-            return Ok(());
-        }
-        self.folder.make_durable(&entries).map_err(io(out))
-    }
 }
+
+/// What the syncing thread says of a batch: its frames, and whether their files are durable.
+type Synced = (Vec<WrittenFrame>, std::io::Result<()>);
 
 /// A set's prepared scene, with its per-set occluders, kept while its frames render.
 struct SetScene {
@@ -304,8 +311,11 @@ impl Dataset {
             notes,
             ..RunSummary::default()
         };
+        // Opened before the first file it makes durable is written.
+        let folder = DurableFolder::open(out).map_err(io(out))?;
+        let mut set_files = Vec::new();
         for set in &self.sets {
-            self.prepare_set(out, set)?;
+            set_files.extend(self.prepare_set(out, set)?);
         }
         let frames: Vec<(usize, usize)> = self
             .sets
@@ -338,8 +348,20 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
-        let mut pending = Pending::new(DurableFolder::open(out).map_err(io(out))?);
+        let mut pending = Pending::new(set_files);
+        // Batches are made durable on a thread of their own, so that rendering and writing go
+        // on while the disk catches up; one more batch may wait for it.
+        let (to_sync, batches) = mpsc::sync_channel::<Batch>(1);
+        let (synced_report, synced) = mpsc::channel::<Synced>();
         std::thread::scope(|scope| {
+            let folder = &folder;
+            scope.spawn(move || {
+                for Batch { frames, files } in batches {
+                    if synced_report.send((frames, folder.make_durable(&files))).is_err() {
+                        break;
+                    }
+                }
+            });
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
                 scope.spawn(move || {
@@ -364,11 +386,17 @@ impl Dataset {
                 while let Ok(report) = written.try_recv() {
                     hear(&mut heard, &mut pending, report);
                 }
-                if pending.due() {
-                    pending.commit(out, &mut heard);
+                while let Ok(batch) = synced.try_recv() {
+                    pending.write_entries(out, &mut heard, batch);
                 }
                 if heard.stopped {
                     break;
+                }
+                if pending.due()
+                    && let Some(batch) = pending.take()
+                    && to_sync.send(batch).is_err()
+                {
+                    break; // the syncing thread has ended: the scope reports why
                 }
                 let outcome = if let Some(bytes) = is_done(out, &out.join(&self.sets[s].spec.name), index) {
                     Ok(Outcome::Resumed(bytes))
@@ -396,13 +424,25 @@ impl Dataset {
             for report in written {
                 hear(&mut heard, &mut pending, report);
             }
-            pending.commit(out, &mut heard);
+            if !heard.stopped
+                && let Some(batch) = pending.take()
+            {
+                // A failed send means the syncing thread has ended: the scope reports why.
+                let _ = to_sync.send(batch);
+            }
+            drop(to_sync);
+            for batch in synced {
+                pending.write_entries(out, &mut heard, batch);
+            }
         });
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
         if let Some(failure) = failure {
             return Err(failure);
         }
-        pending.sync_entries(out)?;
+        // The last entries, and the set files where no batch made them durable.
+        if !pending.unsynced.is_empty() {
+            folder.make_durable(&pending.unsynced).map_err(io(out))?;
+        }
         summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
             assemble(out, &[], &written)?;
@@ -411,8 +451,10 @@ impl Dataset {
         Ok(summary)
     }
 
-    /// Creates a set's folders and writes its set files and `set.json`.
-    fn prepare_set(&self, out: &Path, set: &SetPlan) -> Result<(), DatasetError> {
+    /// Creates a set's folders and writes its set files and `set.json`, not yet durable:
+    /// returns their paths, for the first batch (or the end of the run) to make durable
+    /// before anything vouches for them. Every run writes them again.
+    fn prepare_set(&self, out: &Path, set: &SetPlan) -> Result<Vec<PathBuf>, DatasetError> {
         let set_dir = out.join(&set.spec.name);
         let views = self.rig.views().len();
         prepare_subdir(out, &set_dir)?;
@@ -423,12 +465,16 @@ impl Dataset {
             }
         }
         let scene = occluders::with_occluders(&self.scene, &set.occluders);
-        let files = (self.spec.outputs)
-            .write_set_files(&mut PlainFolder(set_dir.clone()), &scene, &self.rig)?
+        let mut paths =
+            (self.spec.outputs).write_set_files(&mut PlainFolder(set_dir.clone()), &mut Unsynced, &scene, &self.rig)?;
+        let files = paths
             .iter()
             .map(|path| file_entry(out, path, FileKind::Set))
             .collect::<Result<_, _>>()?;
-        write_file(&set_dir.join(ENTRIES).join(SET_ENTRY), &to_json(&set_entry(set, files)))
+        let own = set_dir.join(ENTRIES).join(SET_ENTRY);
+        write_bytes_atomically(&own, Durability::Deferred, &to_json(&set_entry(set, files))).map_err(io(&own))?;
+        paths.push(own);
+        Ok(paths)
     }
 
     /// The scene of set `s` with its per-set occluders, prepared.

@@ -42,7 +42,16 @@ pub fn write_atomically(
     path: &Path,
     fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
-    write_temporary(path, Durability::Now, |file| {
+    write_buffered(path, Durability::Now, fill)
+}
+
+/// Writes `path` through `fill` in [`WRITE_BUFFER`] calls, synced as `durability` says.
+fn write_buffered(
+    path: &Path,
+    durability: Durability,
+    fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    write_temporary(path, durability, |file| {
         let mut out = BufWriter::with_capacity(WRITE_BUFFER, file);
         fill(&mut out)?;
         out.into_inner().map_err(std::io::IntoInnerError::into_error)
@@ -216,6 +225,18 @@ pub trait FileStore {
 pub struct Synced;
 
 impl FileStore for Synced {}
+
+/// Each file written straight to its temporary and renamed into place unsynced
+/// ([`Durability::Deferred`]): the caller makes it durable later, with
+/// [`DurableFolder::make_durable`], before anything that vouches for it is written.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Unsynced;
+
+impl FileStore for Unsynced {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        write_buffered(path, Durability::Deferred, |out| fill(out))
+    }
+}
 
 /// How this process's temporaries are named: [`TEMPORARY_PREFIX`], the process id, `@`, the host
 /// name, `@`, then a random part. A shared folder (shards on a cluster file system) holds
