@@ -30,38 +30,40 @@ impl RleEncoder {
     }
 }
 
-/// `OpenEXR`'s predictor, in one pass over the block: its even bytes, then its odd ones, each
-/// replaced by its difference from the byte before it in that order plus 128, wrapping; the
-/// first byte is kept. The byte before an odd byte is the odd byte two places back in the
-/// block, except for the first odd byte, which follows the last even one.
+/// `OpenEXR`'s predictor, in `predicted` alone: the block's even bytes, then its odd ones,
+/// each then replaced by its difference from the one before plus 128, wrapping (the first
+/// byte is kept). The differences are taken in place from the end back, a vector of
+/// [`LANES`] at a time: each step reads bytes no later step has changed.
 fn predict(block_le: &[u8], predicted: &mut Vec<u8>) {
     let delta = |current: u8, previous: u8| current.wrapping_sub(previous).wrapping_add(128);
     let n = block_le.len();
     predicted.clear();
     predicted.resize(n, 0);
-    if n == 0 {
-        return;
+    let (even, odd) = predicted.split_at_mut(n.div_ceil(2));
+    for ((e, o), pair) in even.iter_mut().zip(odd.iter_mut()).zip(block_le.chunks_exact(2)) {
+        *e = pair[0];
+        *o = pair[1];
     }
-    let half = n.div_ceil(2);
-    let last_even = block_le[2 * (half - 1)];
-    let (even, odd) = predicted.split_at_mut(half);
-    even[0] = block_le[0];
-    if let Some(first_odd) = odd.first_mut() {
-        *first_odd = delta(block_le[1], last_even);
+    if n % 2 == 1 {
+        even[n / 2] = block_le[n - 1];
     }
-    let pairs = block_le.chunks_exact(2);
-    for (((e, o), pair), before) in (even.iter_mut().skip(1))
-        .zip(odd.iter_mut().skip(1))
-        .zip(pairs.clone().skip(1))
-        .zip(pairs)
-    {
-        *e = delta(pair[0], before[0]);
-        *o = delta(pair[1], before[1]);
+    let mut end = n;
+    while end > LANES {
+        let start = end - LANES;
+        let current: [u8; LANES] = predicted[start..end].try_into().expect("a whole vector");
+        let before: [u8; LANES] = predicted[start - 1..end - 1].try_into().expect("a whole vector");
+        for ((out, c), b) in predicted[start..end].iter_mut().zip(current).zip(before) {
+            *out = delta(c, b);
+        }
+        end = start;
     }
-    if n % 2 == 1 && n >= 3 {
-        even[half - 1] = delta(block_le[n - 1], block_le[n - 3]);
+    for i in (1..end).rev() {
+        predicted[i] = delta(predicted[i], predicted[i - 1]);
     }
 }
+
+/// Bytes [`predict`] differences at once.
+const LANES: usize = 32;
 
 /// Greedy tokens, as `OpenEXR` and `exr` make them: at each position a run of at least
 /// [`MIN_RUN`] equal bytes (at most [`MAX_RUN`]) becomes a count and the byte; otherwise the
