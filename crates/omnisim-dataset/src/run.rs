@@ -259,12 +259,21 @@ impl Pending {
     /// `heard`, frame by frame: once the run stops, no further entry is written (those frames
     /// are rendered again by a later run). Entries are themselves synced by the next batch,
     /// or by the end of the run.
+    /// A failed sync is the run's error even once it has stopped (a later sync of the same
+    /// handle reports the lost write-back no more).
     fn write_entries(&mut self, out: &Path, heard: &mut Heard, (frames, synced): Synced) {
-        if heard.stopped {
+        if let Err(error) = synced {
+            let named: Vec<String> = (frames.iter())
+                .map(|frame| format!("{} {}", heard.names[frame.set], frame.index))
+                .collect();
+            let context = format!("making the files of frames {} durable: {error}", named.join(", "));
+            heard
+                .failure
+                .get_or_insert(io(out)(std::io::Error::new(error.kind(), context)));
+            heard.stop();
             return;
         }
-        if let Err(error) = synced {
-            heard.frame(frames[0].set, frames[0].index, Err(io(out)(error)));
+        if heard.stopped {
             return;
         }
         for frame in frames {
@@ -574,5 +583,56 @@ impl Dataset {
             placed: placed.into_iter().zip(segments).collect(),
             record,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A batch whose sync failed after the run had stopped (the callback asked, or an error
+    /// came first) is still the run's error, naming its frames, and gets no entries.
+    #[test]
+    fn a_failed_sync_heard_after_a_stop_is_the_runs_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let stop = AtomicBool::new(false);
+        let mut summary = RunSummary::default();
+        let mut on_frame = |_: &FrameDone| ControlFlow::Break(());
+        let mut heard = Heard {
+            names: vec!["map", "test"],
+            summary: &mut summary,
+            on_frame: &mut on_frame,
+            done: 0,
+            total: 4,
+            failure: None,
+            stopped: false,
+            stop: &stop,
+            written: HashSet::new(),
+        };
+        heard.stop();
+        let frame = |set: usize, index: usize| WrittenFrame {
+            set,
+            index,
+            bytes: 1,
+            files: Vec::new(),
+            entry_path: dir.path().join(format!("{set}-{index}.json")),
+            entry: b"{}".to_vec(),
+        };
+        let lost = std::io::Error::other("write-back failed");
+        let mut pending = Pending::new(Vec::new());
+        pending.write_entries(dir.path(), &mut heard, (vec![frame(0, 1), frame(1, 0)], Err(lost)));
+        let failure = heard.failure.take().expect("the failed sync is the run's error");
+        let message = failure.to_string();
+        assert!(
+            message.contains("frames map 1, test 0") && message.contains("write-back failed"),
+            "{message}"
+        );
+        assert!(heard.stopped && stop.load(Ordering::Relaxed));
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "no entry was written"
+        );
+        assert!(pending.unsynced.is_empty());
     }
 }
