@@ -197,8 +197,9 @@ impl Heard<'_, '_> {
 
 /// Frames of a batch: written, their files not yet durable, their entries not yet written.
 /// A batch goes to be made durable when it holds [`Pending::FRAMES`] frames or
-/// [`Pending::BYTES`], or its first frame has waited [`Pending::AGE`] (at most that much
-/// finished work is lost to a crash, and rendered again by the next run).
+/// [`Pending::BYTES`], or its first frame has waited [`Pending::AGE`]. A crash loses up to
+/// three batches of finished work (one being synced, one queued for the syncing thread, the
+/// one pending), which the next run renders again.
 struct Pending {
     frames: Vec<WrittenFrame>,
     bytes: u64,
