@@ -26,12 +26,12 @@ use super::manifest::{FileKind, file_entry, to_json};
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan};
-use crate::files::{ENTRIES, SET_ENTRY, io};
+use crate::files::{ENTRIES, SET_ENTRY, SetFiles, io};
 use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
 use crate::merge::assemble;
 use crate::write::{RenderedFrame, WrittenFrame};
 use omnisim::frame::{Frame, Plane};
-use omnisim::output::atomic::{Durability, DurableFolder, Unsynced, write_bytes_atomically};
+use omnisim::output::atomic::{Durability, DurableFolder, write_bytes_atomically};
 use omnisim::output::{PlainFolder, SegmentationLegend};
 use omnisim::{PreparedScene, Renderer};
 
@@ -323,9 +323,13 @@ impl Dataset {
         };
         // Opened before the first file it makes durable is written.
         let folder = DurableFolder::open(out).map_err(io(out))?;
-        let mut set_files = Vec::new();
+        let mut set_files = SetFiles::default();
         for set in &self.sets {
-            set_files.extend(self.prepare_set(out, set)?);
+            if let Err(error) = self.prepare_set(out, set, &mut set_files) {
+                // Best effort: the error is what the user hears.
+                let _ = folder.make_durable(&set_files.paths);
+                return Err(error);
+            }
         }
         let frames: Vec<(usize, usize)> = self
             .sets
@@ -358,7 +362,7 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
-        let mut pending = Pending::new(set_files);
+        let mut pending = Pending::new(set_files.paths);
         // Batches are made durable on a thread of their own, so that rendering and writing go
         // on while the disk catches up; one more batch may wait for it.
         let (to_sync, batches) = mpsc::sync_channel::<Batch>(1);
@@ -447,6 +451,8 @@ impl Dataset {
         });
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
         if let Some(failure) = failure {
+            // Best effort: the set files and entries written stay sound for the next run.
+            let _ = folder.make_durable(&pending.unsynced);
             return Err(failure);
         }
         // The last entries, and the set files where no batch made them durable.
@@ -461,10 +467,10 @@ impl Dataset {
         Ok(summary)
     }
 
-    /// Creates a set's folders and writes its set files and `set.json`, not yet durable:
-    /// returns their paths, for the first batch (or the end of the run) to make durable
-    /// before anything vouches for them. Every run writes them again.
-    fn prepare_set(&self, out: &Path, set: &SetPlan) -> Result<Vec<PathBuf>, DatasetError> {
+    /// Creates a set's folders and writes its set files and `set.json` through `store`
+    /// (unchanged ones left alone, new ones not yet durable), which keeps their paths for the
+    /// first batch (or the end of the run) to make durable before anything vouches for them.
+    fn prepare_set(&self, out: &Path, set: &SetPlan, store: &mut SetFiles) -> Result<(), DatasetError> {
         let set_dir = out.join(&set.spec.name);
         let views = self.rig.views().len();
         prepare_subdir(out, &set_dir)?;
@@ -475,16 +481,13 @@ impl Dataset {
             }
         }
         let scene = occluders::with_occluders(&self.scene, &set.occluders);
-        let mut paths =
-            (self.spec.outputs).write_set_files(&mut PlainFolder(set_dir.clone()), &mut Unsynced, &scene, &self.rig)?;
+        let paths = (self.spec.outputs).write_set_files(&mut PlainFolder(set_dir.clone()), store, &scene, &self.rig)?;
         let files = paths
             .iter()
             .map(|path| file_entry(out, path, FileKind::Set))
             .collect::<Result<_, _>>()?;
         let own = set_dir.join(ENTRIES).join(SET_ENTRY);
-        write_bytes_atomically(&own, Durability::Deferred, &to_json(&set_entry(set, files))).map_err(io(&own))?;
-        paths.push(own);
-        Ok(paths)
+        store.write(&own, &to_json(&set_entry(set, files))).map_err(io(&own))
     }
 
     /// The scene of set `s` with its per-set occluders, prepared.

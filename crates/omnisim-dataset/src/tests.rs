@@ -1474,3 +1474,44 @@ fn a_stereo_fisheye_pair_writes_each_cameras_lens_and_no_disparity() {
         drop(dir);
     }
 }
+
+/// A run over a done folder replaces none of the files its manifest vouches for: the set
+/// files and `set.json` keep their inodes (an unsynced rename over them could leave, after a
+/// power cut, cut-short files under names the manifest vouches for).
+#[cfg(unix)]
+#[test]
+fn a_run_over_a_done_folder_leaves_the_set_files_in_place() {
+    use std::os::unix::fs::MetadataExt;
+    let (dir, spec) = project(&small_spec());
+    let dataset = Dataset::load(&spec).unwrap();
+    let out = dir.path().join("out");
+    run(&dataset, &out, RunOptions::default(), None);
+    let set_files = |out: &Path| -> BTreeMap<PathBuf, (u64, Vec<u8>)> {
+        let mut files = BTreeMap::new();
+        for set in ["map", "test", "night"] {
+            let own = out.join(set).join(files::ENTRIES).join(files::SET_ENTRY);
+            let entry: manifest::SetEntry = files::read_json(&own).unwrap();
+            let paths = entry.files.iter().map(|file| out.join(&file.path));
+            for path in paths.chain([own.clone()]) {
+                files.insert(
+                    path.clone(),
+                    (std::fs::metadata(&path).unwrap().ino(), std::fs::read(&path).unwrap()),
+                );
+            }
+        }
+        files
+    };
+    let before = set_files(&out);
+    assert!(before.keys().any(|path| path.ends_with("map/segmentation.json")));
+    let again = run(&dataset, &out, RunOptions::default(), None);
+    assert_eq!((again.rendered, again.resumed, again.merged), (0, 4, true));
+    assert_eq!(set_files(&out), before, "a set file was replaced");
+    // A changed set file is replaced (synced, with the same bytes as before).
+    let calibration = (before.keys())
+        .find(|path| !path.ends_with(files::SET_ENTRY))
+        .unwrap()
+        .clone();
+    std::fs::write(&calibration, "edited").unwrap();
+    run(&dataset, &out, RunOptions::default(), None);
+    assert_eq!(std::fs::read(&calibration).unwrap(), before[&calibration].1);
+}

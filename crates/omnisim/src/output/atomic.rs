@@ -226,18 +226,6 @@ pub struct Synced;
 
 impl FileStore for Synced {}
 
-/// Each file written straight to its temporary and renamed into place unsynced
-/// ([`Durability::Deferred`]): the caller makes it durable later, with
-/// [`DurableFolder::make_durable`], before anything that vouches for it is written.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Unsynced;
-
-impl FileStore for Unsynced {
-    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        write_buffered(path, Durability::Deferred, |out| fill(out))
-    }
-}
-
 /// How this process's temporaries are named: [`TEMPORARY_PREFIX`], the process id, `@`, the host
 /// name, `@`, then a random part. A shared folder (shards on a cluster file system) holds
 /// other machines' temporaries too, whose process ids mean nothing here.
