@@ -195,12 +195,42 @@ impl Heard<'_, '_> {
     }
 }
 
+/// How a run makes files durable, and when a batch goes: [`Syncing::DISK`] for every run;
+/// tests put in failing syncs and one-frame batches.
+#[derive(Clone, Copy)]
+pub(crate) struct Syncing<'s> {
+    /// Makes files durable: [`DurableFolder::make_durable`].
+    pub(crate) make_durable: &'s (dyn Fn(&DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
+    pub(crate) batches: BatchLimits,
+}
+
+impl Syncing<'static> {
+    /// The folder's own sync, and batches of up to 32 frames, 64 MiB or a second's work.
+    pub(crate) const DISK: Self = Syncing {
+        make_durable: &DurableFolder::make_durable,
+        batches: BatchLimits {
+            frames: 32,
+            bytes: 64 << 20,
+            age: Duration::from_secs(1),
+        },
+    };
+}
+
+/// When a batch goes to be made durable: once it holds `frames` frames or `bytes` bytes, or
+/// its first frame has waited `age`.
+#[derive(Clone, Copy)]
+pub(crate) struct BatchLimits {
+    pub(crate) frames: usize,
+    pub(crate) bytes: u64,
+    pub(crate) age: Duration,
+}
+
 /// Frames of a batch: written, their files not yet durable, their entries not yet written.
-/// A batch goes to be made durable when it holds [`Pending::FRAMES`] frames or
-/// [`Pending::BYTES`], or its first frame has waited [`Pending::AGE`]. A crash loses up to
-/// three batches of finished work (one being synced, one queued for the syncing thread, the
-/// one pending), which the next run renders again.
+/// A batch goes to be made durable as its [`BatchLimits`] say. A crash loses up to three
+/// batches of finished work (one being synced, one queued for the syncing thread, the one
+/// pending), which the next run renders again.
 struct Pending {
+    limits: BatchLimits,
     frames: Vec<WrittenFrame>,
     bytes: u64,
     since: Option<Instant>,
@@ -216,12 +246,9 @@ struct Batch {
 }
 
 impl Pending {
-    const FRAMES: usize = 32;
-    const BYTES: u64 = 64 << 20;
-    const AGE: Duration = Duration::from_secs(1);
-
-    fn new(unsynced: Vec<PathBuf>) -> Self {
+    fn new(limits: BatchLimits, unsynced: Vec<PathBuf>) -> Self {
         Self {
+            limits,
             frames: Vec::new(),
             bytes: 0,
             since: None,
@@ -236,9 +263,9 @@ impl Pending {
     }
 
     fn due(&self) -> bool {
-        self.frames.len() >= Self::FRAMES
-            || self.bytes >= Self::BYTES
-            || self.since.is_some_and(|since| since.elapsed() >= Self::AGE)
+        self.frames.len() >= self.limits.frames
+            || self.bytes >= self.limits.bytes
+            || self.since.is_some_and(|since| since.elapsed() >= self.limits.age)
     }
 
     /// Takes the batch, frames in frame order whatever order the writers finished in (a
@@ -315,6 +342,19 @@ impl Dataset {
         options: &RunOptions,
         on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
     ) -> Result<RunSummary, DatasetError> {
+        self.run_syncing(renderer, out, options, on_frame, &Syncing::DISK)
+    }
+
+    /// [`Dataset::run`], making files durable and batching frames as `syncing` says.
+    pub(crate) fn run_syncing(
+        &self,
+        renderer: &Renderer,
+        out: &Path,
+        options: &RunOptions,
+        on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+        syncing: &Syncing,
+    ) -> Result<RunSummary, DatasetError> {
+        let make_durable = syncing.make_durable;
         // Held until the run returns, its final merge included.
         let (notes, _held) = open_folder(out, &self.stamp(renderer), options.overwrite)?;
         let mut summary = RunSummary {
@@ -327,7 +367,7 @@ impl Dataset {
         for set in &self.sets {
             if let Err(error) = self.prepare_set(out, set, &mut set_files) {
                 // Best effort: the error is what the user hears.
-                let _ = folder.make_durable(&set_files.paths);
+                let _ = make_durable(&folder, &set_files.paths);
                 return Err(error);
             }
         }
@@ -362,7 +402,7 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
-        let mut pending = Pending::new(set_files.paths);
+        let mut pending = Pending::new(syncing.batches, set_files.paths);
         // Batches are made durable on a thread of their own, so that rendering and writing go
         // on while the disk catches up; one more batch may wait for it.
         let (to_sync, batches) = mpsc::sync_channel::<Batch>(1);
@@ -371,7 +411,7 @@ impl Dataset {
             let folder = &folder;
             scope.spawn(move || {
                 for Batch { frames, files } in batches {
-                    if synced_report.send((frames, folder.make_durable(&files))).is_err() {
+                    if synced_report.send((frames, make_durable(folder, &files))).is_err() {
                         break;
                     }
                 }
@@ -452,12 +492,12 @@ impl Dataset {
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
         if let Some(failure) = failure {
             // Best effort: the set files and entries written stay sound for the next run.
-            let _ = folder.make_durable(&pending.unsynced);
+            let _ = make_durable(&folder, &pending.unsynced);
             return Err(failure);
         }
         // The last entries, and the set files where no batch made them durable.
         if !pending.unsynced.is_empty() {
-            folder.make_durable(&pending.unsynced).map_err(io(out))?;
+            make_durable(&folder, &pending.unsynced).map_err(io(out))?;
         }
         summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
@@ -623,7 +663,7 @@ mod tests {
             entry: b"{}".to_vec(),
         };
         let lost = std::io::Error::other("write-back failed");
-        let mut pending = Pending::new(Vec::new());
+        let mut pending = Pending::new(Syncing::DISK.batches, Vec::new());
         pending.write_entries(dir.path(), &mut heard, (vec![frame(0, 1), frame(1, 0)], Err(lost)));
         let failure = heard.failure.take().expect("the failed sync is the run's error");
         let message = failure.to_string();
