@@ -11,9 +11,12 @@ data set recorded (.frames/*.json: position and world-from-body quaternion).
 omnisim's rate is its own summary line ("... (N frames/s) ..."): frames rendered and written,
 each file hashed (SHA-256) and fsynced, entries and manifest. The pipeline's rate is frames
 over the loop's wall time; --fsync makes it fsync each file too (omnisim's durability).
-Rounds alternate the two; each side's best round is kept. Prints JSON lines and a summary.
+Rounds alternate the two (and --baseline, another omnisim build, where given); each side's
+best round is kept. Before each side's round the file system is synced (`os.sync`, not timed):
+otherwise the pipeline's unsynced 100 MB would be written back during the next omnisim round,
+whose batch syncs (`syncfs`) wait for them. Prints JSON lines and a summary.
 
-Usage: python_pipeline.py --omnisim BIN --spec SPEC --work DIR [--rounds 3] [--fsync]
+Usage: python_pipeline.py --omnisim BIN --spec SPEC --work DIR [--rounds 3] [--fsync] [--baseline BIN]
 From the repository root, e.g. with the reader venv:
   target/readers-venv/bin/python bench/python_pipeline.py --omnisim target/release/omnisim \\
       --spec scenes/env1-speed-dataset.ron --work /tmp/pipeline
@@ -31,6 +34,7 @@ import OpenEXR  # noqa: E402
 def omnisim_dataset(omnisim, spec, out):
     """Runs the data set; returns omnisim's frames/s and the set folders it wrote."""
     shutil.rmtree(out, ignore_errors=True)
+    os.sync()
     p = subprocess.run([omnisim, 'dataset', spec, '--out', out, '--backend', 'cpu'],
                        check=True, capture_output=True, text=True)
     rate = re.search(r'\(([0-9.]+) frames/s\)', p.stdout + p.stderr)
@@ -94,6 +98,7 @@ def pipeline(inputs, out, compression):
     v, t, colours, origin, direction, has_ray, (width, height), poses = inputs
     shutil.rmtree(out, ignore_errors=True)
     os.makedirs(out)
+    os.sync()
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(v), o3d.core.Tensor(t))
     o_body, d_body = origin[has_ray], direction[has_ray]
@@ -129,6 +134,7 @@ def main():
     ap.add_argument('--work', required=True)
     ap.add_argument('--rounds', type=int, default=3)
     ap.add_argument('--fsync', action='store_true', help='fsync every file the pipeline writes')
+    ap.add_argument('--baseline', help='another omnisim binary, run in each round after --omnisim')
     a = ap.parse_args()
     FSYNC = a.fsync
     os.makedirs(a.work, exist_ok=True)
@@ -136,15 +142,19 @@ def main():
     _, sets = omnisim_dataset(a.omnisim, a.spec, omnisim_out)
     inputs = load_inputs(a.omnisim, a.spec, sets[0], a.work)
     compression = exr_compression(a.spec)
-    best_python = best_omnisim = 0.0
+    best_python = best_omnisim = best_baseline = 0.0
     for round_ in range(a.rounds):
         python = pipeline(inputs, os.path.join(a.work, 'python'), compression)
         omnisim, _ = omnisim_dataset(a.omnisim, a.spec, omnisim_out)
+        baseline = omnisim_dataset(a.baseline, a.spec, omnisim_out)[0] if a.baseline else None
         best_python, best_omnisim = max(best_python, python), max(best_omnisim, omnisim)
+        best_baseline = max(best_baseline, baseline or 0.0)
         print(json.dumps(dict(round=round_, python_frames_per_s=python, omnisim_frames_per_s=omnisim,
-                              fsync=a.fsync, frames=len(inputs[-1]))), flush=True)
+                              baseline_frames_per_s=baseline, fsync=a.fsync, frames=len(inputs[-1]))), flush=True)
     print(f'best of {a.rounds}: python {best_python:.1f} frames/s, omnisim {best_omnisim:.1f} frames/s, '
           f'ratio {best_omnisim / best_python:.2f}x ({len(inputs[-1])} frames, python fsync: {a.fsync})')
+    if a.baseline:
+        print(f'baseline {best_baseline:.1f} frames/s, ratio {best_baseline / best_python:.2f}x')
 
 
 FSYNC = False

@@ -5,9 +5,9 @@
         target/release/omnisim dataset scenes/env1-speed-dataset.ron --out /tmp/speed --backend cpu
     python3 bench/writing_profile.py writing.data 100
 
-A sample is writing when its stack holds the frame writer or the batch commit; each such
-sample goes to the first part below that its stack names (SHA-256 first, so the hashing of
-each file is not counted as its encoder's). At 1 kHz a sample is one core-ms.
+A sample is writing when its stack holds the frame writer, an atomic write (entries), the batch
+sync or the writing of entries; each such sample goes to the first part below that its stack names (SHA-256 first,
+so the hashing of each file is not counted as its encoder's). At 1 kHz a sample is one core-ms.
 """
 
 import collections
@@ -27,7 +27,7 @@ PARTS = [
     ("write system calls", ("ksys_write", "__x64_sys_write", "vfs_write"), ()),
     ("rename", ("rename",), ()),
 ]
-WRITING = ("write_frame", "Pending::commit", "make_durable")
+WRITING = ("write_frame", "write_bytes_atomically", "Pending::commit", "Pending::write_entries", "make_durable")
 
 
 def main():

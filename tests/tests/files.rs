@@ -413,7 +413,7 @@ fn every_file_is_byte_reproducible() {
         output::write_axial_depth_exr(&mut Synced, &path("z.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_disparity_exr(&mut Synced, &path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_tum_depth_png(&mut Synced, &path("z.png"), size, &depth).unwrap();
-        output::write_ray_map_exrs(&path("origin.exr"), &path("direction.exr"), &camera).unwrap();
+        output::write_ray_map_exrs(&mut Synced, &path("origin.exr"), &path("direction.exr"), &camera).unwrap();
         output::write_normal_exr(&mut Synced, &path("n.exr"), &frame, ExrCompression::Zip).unwrap();
         output::write_point_cloud_ply(&mut Synced, &path("p.ply"), &frame, "test").unwrap();
         [

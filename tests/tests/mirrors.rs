@@ -480,7 +480,7 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
     let dir = tempfile::tempdir().unwrap();
     let [origin_name, direction_name] = output::ray_map_names("");
     let (origin_path, direction_path) = (dir.path().join(origin_name), dir.path().join(direction_name));
-    output::write_ray_map_exrs(&origin_path, &direction_path, &camera).unwrap();
+    output::write_ray_map_exrs(&mut output::atomic::Synced, &origin_path, &direction_path, &camera).unwrap();
     let (origin, quantity) = common::read_xyz_exr(&origin_path);
     assert_eq!(quantity, "ray origin");
     let (direction, quantity) = common::read_xyz_exr(&direction_path);

@@ -1,10 +1,11 @@
 //! The names of a data-set folder's bookkeeping files, and their JSON and atomic I/O: the
 //! leaf every other part of the folder code reads.
 
+use std::io::{Cursor, Write};
 use std::path::{Path, PathBuf};
 
 use super::DatasetError;
-use omnisim::output::atomic;
+use omnisim::output::atomic::{self, Durability, FileStore, Sink, write_bytes_atomically};
 
 /// The stamp's file name in a data-set folder.
 pub(crate) const STAMP: &str = ".omnisim-dataset.json";
@@ -37,6 +38,51 @@ pub(crate) fn io(path: &Path) -> impl Fn(std::io::Error) -> DatasetError + '_ {
 /// Writes `bytes` to `path` atomically (never half a file, never through a link).
 pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
     atomic::write_atomically(path, |out| std::io::Write::write_all(out, bytes)).map_err(io(path))
+}
+
+/// How a run writes a set's files and `set.json`, which a finished data set's manifest
+/// already vouches for. A file that holds exactly the new bytes is left alone (outputs are
+/// deterministic, so a run over a done folder replaces nothing); one holding other bytes is
+/// replaced synced (an unsynced rename over it could leave, after a power cut, a cut-short
+/// file under a name the manifest vouches for); a new one is written unsynced, for the run
+/// to make durable before anything vouches for it. Keeps every path, unchanged ones
+/// included (a killed run may have left one not yet on disk).
+#[derive(Default)]
+pub(crate) struct SetFiles {
+    /// Every file written or found unchanged, to be made durable.
+    pub(crate) paths: Vec<PathBuf>,
+    /// Reused by each file.
+    buffer: Vec<u8>,
+}
+
+impl SetFiles {
+    /// Writes `bytes` to `path` as the type says.
+    pub(crate) fn write(&mut self, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+        match std::fs::symlink_metadata(path) {
+            // Read only a regular file of the right size: a link is replaced, never read through.
+            Ok(found) if found.is_file() && found.len() == bytes.len() as u64 && std::fs::read(path)? == bytes => {}
+            Ok(_) => write_bytes_atomically(path, Durability::Now, bytes)?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                write_bytes_atomically(path, Durability::Deferred, bytes)?;
+            }
+            Err(e) => return Err(e),
+        }
+        self.paths.push(path.to_path_buf());
+        Ok(())
+    }
+}
+
+impl FileStore for SetFiles {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        let mut encoded = Cursor::new(std::mem::take(&mut self.buffer));
+        encoded.get_mut().clear();
+        fill(&mut encoded)?;
+        encoded.flush()?;
+        let bytes = encoded.into_inner();
+        let written = self.write(path, &bytes);
+        self.buffer = bytes;
+        written
+    }
 }
 
 /// Frame entry files of a set (`NNNNNN.json`), sorted; none if the folder is missing.

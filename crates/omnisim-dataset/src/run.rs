@@ -4,9 +4,10 @@
 //! set), then per set `<set>/` with the frame files, the set files (calibration), the layouts
 //! (`tum/`, `mav0/`) and `.frames/` (one entry per done frame, and `set.json`). Every file
 //! is written atomically; a frame is done when its entry exists, so a killed run re-renders
-//! at most the frames it was writing, with the same bytes. Frame files are not synced one by
-//! one: a batch of frames is made durable in one pass (`syncfs` on Linux), and only then are
-//! their entries written, so an entry never names a file a crash could lose. `merge` checks every file's hash
+//! at most the frames it was writing, with the same bytes. Frame files and set files are not
+//! synced one by one: a batch of frames is made durable in one pass (`syncfs` on Linux) on a
+//! thread of its own while later frames render, and only then are their entries written, so
+//! an entry never names a file a crash could lose. `merge` checks every file's hash
 //! and writes the layouts' index files and `manifest.json`; the merge that ends an unsharded
 //! run checks only the sizes of the frames that run wrote itself (it hashed them as it wrote
 //! them, so a file changed during the run without changing size goes unnoticed until the
@@ -25,7 +26,7 @@ use super::manifest::{FileKind, file_entry, to_json};
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan};
-use crate::files::{ENTRIES, SET_ENTRY, io, write_file};
+use crate::files::{ENTRIES, SET_ENTRY, SetFiles, io};
 use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
 use crate::merge::assemble;
 use crate::write::{RenderedFrame, WrittenFrame};
@@ -194,32 +195,64 @@ impl Heard<'_, '_> {
     }
 }
 
+/// How a run makes files durable, and when a batch goes: [`Syncing::DISK`] for every run;
+/// tests put in failing syncs and one-frame batches.
+#[derive(Clone, Copy)]
+pub(crate) struct Syncing<'s> {
+    /// Makes files durable: [`DurableFolder::make_durable`].
+    pub(crate) make_durable: &'s (dyn Fn(&DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
+    pub(crate) batches: BatchLimits,
+}
+
+impl Syncing<'static> {
+    /// The folder's own sync, and batches of up to 32 frames, 64 MiB or a second's work.
+    pub(crate) const DISK: Self = Syncing {
+        make_durable: &DurableFolder::make_durable,
+        batches: BatchLimits {
+            frames: 32,
+            bytes: 64 << 20,
+            age: Duration::from_secs(1),
+        },
+    };
+}
+
+/// When a batch goes to be made durable: once it holds `frames` frames or `bytes` bytes, or
+/// its first frame has waited `age`.
+#[derive(Clone, Copy)]
+pub(crate) struct BatchLimits {
+    pub(crate) frames: usize,
+    pub(crate) bytes: u64,
+    pub(crate) age: Duration,
+}
+
 /// Frames of a batch: written, their files not yet durable, their entries not yet written.
-/// A batch is made durable at once when it holds [`Pending::FRAMES`] frames or
-/// [`Pending::BYTES`], or its first frame has waited [`Pending::AGE`] (at most that much
-/// finished work is lost to a crash, and rendered again by the next run).
+/// A batch goes to be made durable as its [`BatchLimits`] say. A crash loses up to three
+/// batches of finished work (one being synced, one queued for the syncing thread, the one
+/// pending), which the next run renders again.
 struct Pending {
-    /// The data-set folder, opened before the first frame is written.
-    folder: DurableFolder,
+    limits: BatchLimits,
     frames: Vec<WrittenFrame>,
     bytes: u64,
     since: Option<Instant>,
-    /// Entries written since the last sync (the next one makes them durable too).
-    entries: Vec<PathBuf>,
+    /// Files written outside the batch's frames and not yet durable: the set files, and the
+    /// entries written since the last batch left (the next sync makes them durable too).
+    unsynced: Vec<PathBuf>,
+}
+
+/// A batch on its way to the disk: its frames in frame order, and every file its sync covers.
+struct Batch {
+    frames: Vec<WrittenFrame>,
+    files: Vec<PathBuf>,
 }
 
 impl Pending {
-    const FRAMES: usize = 32;
-    const BYTES: u64 = 64 << 20;
-    const AGE: Duration = Duration::from_secs(1);
-
-    fn new(folder: DurableFolder) -> Self {
+    fn new(limits: BatchLimits, unsynced: Vec<PathBuf>) -> Self {
         Self {
-            folder,
+            limits,
             frames: Vec::new(),
             bytes: 0,
             since: None,
-            entries: Vec::new(),
+            unsynced,
         }
     }
 
@@ -230,28 +263,45 @@ impl Pending {
     }
 
     fn due(&self) -> bool {
-        self.frames.len() >= Self::FRAMES
-            || self.bytes >= Self::BYTES
-            || self.since.is_some_and(|since| since.elapsed() >= Self::AGE)
+        self.frames.len() >= self.limits.frames
+            || self.bytes >= self.limits.bytes
+            || self.since.is_some_and(|since| since.elapsed() >= self.limits.age)
     }
 
-    /// Makes the batch's files durable, then writes each frame's entry and tells `heard`,
-    /// frame by frame: once the run stops, no further entry is written (those frames are
-    /// rendered again by a later run). Entries are themselves synced by the next batch, or
-    /// by the end of the run.
-    fn commit(&mut self, out: &Path, heard: &mut Heard) {
+    /// Takes the batch, frames in frame order whatever order the writers finished in (a
+    /// stopped run has done the first frames of its batch), with the files written outside
+    /// it that are not yet durable; `None` if it holds no frame.
+    fn take(&mut self) -> Option<Batch> {
         let mut frames = std::mem::take(&mut self.frames);
         (self.bytes, self.since) = (0, None);
-        // In frame order, whatever order the writers finished in: a stopped run has done the
-        // first frames of its batch.
+        if frames.is_empty() {
+            return None;
+        }
         frames.sort_by_key(|frame| (frame.set, frame.index));
-        if frames.is_empty() || heard.stopped {
+        let mut files = std::mem::take(&mut self.unsynced);
+        files.extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
+        Some(Batch { frames, files })
+    }
+
+    /// Once a batch's files are durable (`synced`), writes each frame's entry and tells
+    /// `heard`, frame by frame: once the run stops, no further entry is written (those frames
+    /// are rendered again by a later run). Entries are themselves synced by the next batch,
+    /// or by the end of the run.
+    /// A failed sync is the run's error even once it has stopped (a later sync of the same
+    /// handle reports the lost write-back no more).
+    fn write_entries(&mut self, out: &Path, heard: &mut Heard, (frames, synced): Synced) {
+        if let Err(error) = synced {
+            let named: Vec<String> = (frames.iter())
+                .map(|frame| format!("{} {}", heard.names[frame.set], frame.index))
+                .collect();
+            let context = format!("making the files of frames {} durable: {error}", named.join(", "));
+            heard
+                .failure
+                .get_or_insert(io(out)(std::io::Error::new(error.kind(), context)));
+            heard.stop();
             return;
         }
-        let mut files = std::mem::take(&mut self.entries);
-        files.extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
-        if let Err(error) = self.folder.make_durable(&files) {
-            heard.frame(frames[0].set, frames[0].index, Err(io(out)(error)));
+        if heard.stopped {
             return;
         }
         for frame in frames {
@@ -262,21 +312,15 @@ impl Pending {
                 .map(|()| Outcome::Written(frame.bytes))
                 .map_err(io(&frame.entry_path));
             if written.is_ok() {
-                self.entries.push(frame.entry_path);
+                self.unsynced.push(frame.entry_path);
             }
             heard.frame(frame.set, frame.index, written);
         }
     }
-
-    /// Makes the entries written since the last sync durable.
-    fn sync_entries(&mut self, out: &Path) -> Result<(), DatasetError> {
-        let entries = std::mem::take(&mut self.entries);
-        if entries.is_empty() {
-            return Ok(());
-        }
-        self.folder.make_durable(&entries).map_err(io(out))
-    }
 }
+
+/// What the syncing thread says of a batch: its frames, and whether their files are durable.
+type Synced = (Vec<WrittenFrame>, std::io::Result<()>);
 
 /// A set's prepared scene, with its per-set occluders, kept while its frames render.
 struct SetScene {
@@ -298,14 +342,34 @@ impl Dataset {
         options: &RunOptions,
         on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
     ) -> Result<RunSummary, DatasetError> {
+        self.run_syncing(renderer, out, options, on_frame, &Syncing::DISK)
+    }
+
+    /// [`Dataset::run`], making files durable and batching frames as `syncing` says.
+    pub(crate) fn run_syncing(
+        &self,
+        renderer: &Renderer,
+        out: &Path,
+        options: &RunOptions,
+        on_frame: &mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+        syncing: &Syncing,
+    ) -> Result<RunSummary, DatasetError> {
+        let make_durable = syncing.make_durable;
         // Held until the run returns, its final merge included.
         let (notes, _held) = open_folder(out, &self.stamp(renderer), options.overwrite)?;
         let mut summary = RunSummary {
             notes,
             ..RunSummary::default()
         };
+        // Opened before the first file it makes durable is written.
+        let folder = DurableFolder::open(out).map_err(io(out))?;
+        let mut set_files = SetFiles::default();
         for set in &self.sets {
-            self.prepare_set(out, set)?;
+            if let Err(error) = self.prepare_set(out, set, &mut set_files) {
+                // Best effort: the error is what the user hears.
+                let _ = make_durable(&folder, &set_files.paths);
+                return Err(error);
+            }
         }
         let frames: Vec<(usize, usize)> = self
             .sets
@@ -338,8 +402,20 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
-        let mut pending = Pending::new(DurableFolder::open(out).map_err(io(out))?);
+        let mut pending = Pending::new(syncing.batches, set_files.paths);
+        // Batches are made durable on a thread of their own, so that rendering and writing go
+        // on while the disk catches up; one more batch may wait for it.
+        let (to_sync, batches) = mpsc::sync_channel::<Batch>(1);
+        let (synced_report, synced) = mpsc::channel::<Synced>();
         std::thread::scope(|scope| {
+            let folder = &folder;
+            scope.spawn(move || {
+                for Batch { frames, files } in batches {
+                    if synced_report.send((frames, make_durable(folder, &files))).is_err() {
+                        break;
+                    }
+                }
+            });
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
                 scope.spawn(move || {
@@ -364,11 +440,17 @@ impl Dataset {
                 while let Ok(report) = written.try_recv() {
                     hear(&mut heard, &mut pending, report);
                 }
-                if pending.due() {
-                    pending.commit(out, &mut heard);
+                while let Ok(batch) = synced.try_recv() {
+                    pending.write_entries(out, &mut heard, batch);
                 }
                 if heard.stopped {
                     break;
+                }
+                if pending.due()
+                    && let Some(batch) = pending.take()
+                    && to_sync.send(batch).is_err()
+                {
+                    break; // the syncing thread has ended: the scope reports why
                 }
                 let outcome = if let Some(bytes) = is_done(out, &out.join(&self.sets[s].spec.name), index) {
                     Ok(Outcome::Resumed(bytes))
@@ -396,13 +478,27 @@ impl Dataset {
             for report in written {
                 hear(&mut heard, &mut pending, report);
             }
-            pending.commit(out, &mut heard);
+            if !heard.stopped
+                && let Some(batch) = pending.take()
+            {
+                // A failed send means the syncing thread has ended: the scope reports why.
+                let _ = to_sync.send(batch);
+            }
+            drop(to_sync);
+            for batch in synced {
+                pending.write_entries(out, &mut heard, batch);
+            }
         });
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
         if let Some(failure) = failure {
+            // Best effort: the set files and entries written stay sound for the next run.
+            let _ = make_durable(&folder, &pending.unsynced);
             return Err(failure);
         }
-        pending.sync_entries(out)?;
+        // The last entries, and the set files where no batch made them durable.
+        if !pending.unsynced.is_empty() {
+            make_durable(&folder, &pending.unsynced).map_err(io(out))?;
+        }
         summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
             assemble(out, &[], &written)?;
@@ -411,8 +507,10 @@ impl Dataset {
         Ok(summary)
     }
 
-    /// Creates a set's folders and writes its set files and `set.json`.
-    fn prepare_set(&self, out: &Path, set: &SetPlan) -> Result<(), DatasetError> {
+    /// Creates a set's folders and writes its set files and `set.json` through `store`
+    /// (unchanged ones left alone, new ones not yet durable), which keeps their paths for the
+    /// first batch (or the end of the run) to make durable before anything vouches for them.
+    fn prepare_set(&self, out: &Path, set: &SetPlan, store: &mut SetFiles) -> Result<(), DatasetError> {
         let set_dir = out.join(&set.spec.name);
         let views = self.rig.views().len();
         prepare_subdir(out, &set_dir)?;
@@ -423,12 +521,13 @@ impl Dataset {
             }
         }
         let scene = occluders::with_occluders(&self.scene, &set.occluders);
-        let files = (self.spec.outputs)
-            .write_set_files(&mut PlainFolder(set_dir.clone()), &scene, &self.rig)?
+        let paths = (self.spec.outputs).write_set_files(&mut PlainFolder(set_dir.clone()), store, &scene, &self.rig)?;
+        let files = paths
             .iter()
             .map(|path| file_entry(out, path, FileKind::Set))
             .collect::<Result<_, _>>()?;
-        write_file(&set_dir.join(ENTRIES).join(SET_ENTRY), &to_json(&set_entry(set, files)))
+        let own = set_dir.join(ENTRIES).join(SET_ENTRY);
+        store.write(&own, &to_json(&set_entry(set, files))).map_err(io(&own))
     }
 
     /// The scene of set `s` with its per-set occluders, prepared.
@@ -528,5 +627,56 @@ impl Dataset {
             placed: placed.into_iter().zip(segments).collect(),
             record,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A batch whose sync failed after the run had stopped (the callback asked, or an error
+    /// came first) is still the run's error, naming its frames, and gets no entries.
+    #[test]
+    fn a_failed_sync_heard_after_a_stop_is_the_runs_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let stop = AtomicBool::new(false);
+        let mut summary = RunSummary::default();
+        let mut on_frame = |_: &FrameDone| ControlFlow::Break(());
+        let mut heard = Heard {
+            names: vec!["map", "test"],
+            summary: &mut summary,
+            on_frame: &mut on_frame,
+            done: 0,
+            total: 4,
+            failure: None,
+            stopped: false,
+            stop: &stop,
+            written: HashSet::new(),
+        };
+        heard.stop();
+        let frame = |set: usize, index: usize| WrittenFrame {
+            set,
+            index,
+            bytes: 1,
+            files: Vec::new(),
+            entry_path: dir.path().join(format!("{set}-{index}.json")),
+            entry: b"{}".to_vec(),
+        };
+        let lost = std::io::Error::other("write-back failed");
+        let mut pending = Pending::new(Syncing::DISK.batches, Vec::new());
+        pending.write_entries(dir.path(), &mut heard, (vec![frame(0, 1), frame(1, 0)], Err(lost)));
+        let failure = heard.failure.take().expect("the failed sync is the run's error");
+        let message = failure.to_string();
+        assert!(
+            message.contains("frames map 1, test 0") && message.contains("write-back failed"),
+            "{message}"
+        );
+        assert!(heard.stopped && stop.load(Ordering::Relaxed));
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "no entry was written"
+        );
+        assert!(pending.unsynced.is_empty());
     }
 }

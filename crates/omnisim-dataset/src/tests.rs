@@ -3,6 +3,7 @@
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::{DMat3, DQuat, DVec2, dvec3};
 
@@ -1473,4 +1474,236 @@ fn a_stereo_fisheye_pair_writes_each_cameras_lens_and_no_disparity() {
         );
         drop(dir);
     }
+}
+
+/// [`small_spec`]'s data set, and the folder it was run into to the end.
+fn done_small_data_set() -> (tempfile::TempDir, Dataset, PathBuf) {
+    let (dir, spec) = project(&small_spec());
+    let dataset = Dataset::load(&spec).unwrap();
+    let out = dir.path().join("out");
+    run(&dataset, &out, RunOptions::default(), None);
+    (dir, dataset, out)
+}
+
+/// A run over a done folder replaces none of the files its manifest vouches for: the set
+/// files and `set.json` keep their inodes (an unsynced rename over them could leave, after a
+/// power cut, cut-short files under names the manifest vouches for).
+#[cfg(unix)]
+#[test]
+fn a_run_over_a_done_folder_leaves_the_set_files_in_place() {
+    use std::os::unix::fs::MetadataExt;
+    let (_dir, dataset, out) = done_small_data_set();
+    let set_files = |out: &Path| -> BTreeMap<PathBuf, (u64, Vec<u8>)> {
+        let mut files = BTreeMap::new();
+        for set in ["map", "test", "night"] {
+            let own = out.join(set).join(files::ENTRIES).join(files::SET_ENTRY);
+            let entry: manifest::SetEntry = files::read_json(&own).unwrap();
+            let paths = entry.files.iter().map(|file| out.join(&file.path));
+            for path in paths.chain([own.clone()]) {
+                files.insert(
+                    path.clone(),
+                    (std::fs::metadata(&path).unwrap().ino(), std::fs::read(&path).unwrap()),
+                );
+            }
+        }
+        files
+    };
+    let before = set_files(&out);
+    assert!(before.keys().any(|path| path.ends_with("map/segmentation.json")));
+    let again = run(&dataset, &out, RunOptions::default(), None);
+    assert_eq!((again.rendered, again.resumed, again.merged), (0, 4, true));
+    assert_eq!(set_files(&out), before, "a set file was replaced");
+    // A changed set file is replaced (synced, with the same bytes as before).
+    let calibration = (before.keys())
+        .find(|path| !path.ends_with(files::SET_ENTRY))
+        .unwrap()
+        .clone();
+    std::fs::write(&calibration, "edited").unwrap();
+    run(&dataset, &out, RunOptions::default(), None);
+    assert_eq!(std::fs::read(&calibration).unwrap(), before[&calibration].1);
+}
+
+/// Syncing through `sync` (the folder's own sync unless it returns an error) in one-frame
+/// batches, so that tests can fail a batch or hold it while the run goes on.
+fn one_frame_batches<'s>(
+    sync: &'s (dyn Fn(&omnisim::output::atomic::DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
+) -> run::Syncing<'s> {
+    run::Syncing {
+        make_durable: sync,
+        batches: run::BatchLimits {
+            frames: 1,
+            ..run::Syncing::DISK.batches
+        },
+    }
+}
+
+/// Makes frame `index` of `set` not done and its files gone, as if no run had written it;
+/// returns its files.
+fn forget(out: &Path, set: &str, index: usize) -> Vec<PathBuf> {
+    let entry_path = files::entry_path(&out.join(set), index);
+    let entry: manifest::FrameEntry = files::read_json(&entry_path).unwrap();
+    std::fs::remove_file(entry_path).unwrap();
+    let paths: Vec<PathBuf> = entry.files.iter().map(|file| out.join(&file.path)).collect();
+    for path in &paths {
+        std::fs::remove_file(path).unwrap();
+    }
+    paths
+}
+
+/// Waits (up to 10 s) until `ready`; whether it became so.
+fn wait_until(ready: impl Fn() -> bool) -> bool {
+    let start = std::time::Instant::now();
+    while !ready() {
+        if start.elapsed() > std::time::Duration::from_secs(10) {
+            return false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    true
+}
+
+/// Every frame file some entry of `out` vouches for.
+fn vouched_files(out: &Path) -> Vec<PathBuf> {
+    let mut vouched = Vec::new();
+    for set in ["map", "test", "night"] {
+        for path in files::read_entry_paths(&out.join(set).join(files::ENTRIES)).unwrap() {
+            let entry: manifest::FrameEntry = files::read_json(&path).unwrap();
+            vouched.extend(entry.files.iter().map(|file| out.join(&file.path)));
+        }
+    }
+    vouched
+}
+
+/// A failed sync of the first batch is the run's error, no entry vouches for its files, and
+/// the next run renders its frames again into the same bytes.
+#[test]
+fn a_failed_batch_sync_is_an_error_and_vouches_for_nothing() {
+    let (dir, dataset, reference) = done_small_data_set();
+    let out = dir.path().join("again");
+    let failed = std::sync::Mutex::new(Vec::new());
+    let sync = |folder: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+        let mut failed = failed.lock().unwrap();
+        if failed.is_empty() {
+            failed.extend_from_slice(files);
+            // Like Linux's syncfs: a lost write-back is reported once.
+            return Err(std::io::Error::other("write-back failed"));
+        }
+        folder.make_durable(files)
+    };
+    let result = dataset.run_syncing(
+        &cpu(),
+        &out,
+        &RunOptions::default(),
+        &mut |_| ControlFlow::Continue(()),
+        &one_frame_batches(&sync),
+    );
+    let error = result.expect_err("the failed sync is the run's error").to_string();
+    assert!(
+        error.contains("durable") && error.contains("write-back failed"),
+        "{error}"
+    );
+    let failed = failed.into_inner().unwrap();
+    assert!(
+        failed.iter().any(|path| path.ends_with("map/.frames/set.json")),
+        "the set files go with the first batch"
+    );
+    let vouched = vouched_files(&out);
+    assert!(
+        failed.iter().all(|path| !vouched.contains(path)),
+        "an entry vouches for a file whose sync failed"
+    );
+    let again = run(&dataset, &out, RunOptions::default(), None);
+    assert!(again.merged && again.rendered >= 1);
+    assert_same(&snapshot(&reference), &snapshot(&out));
+}
+
+/// A batch whose sync fails after the callback stopped the run is still the run's error
+/// (the end-of-run sync of the same handle would not report it again).
+#[test]
+fn a_failed_batch_sync_after_a_stop_is_still_an_error() {
+    let (_dir, dataset, out) = done_small_data_set();
+    // Frames in order: map 0 (rendered), map 1, test 0 (resumed), night 0 (rendered).
+    let first = forget(&out, "map", 0);
+    let last = forget(&out, "night", 0);
+    let all_exist = |paths: &[PathBuf]| paths.iter().all(|path| path.exists());
+    // map 0's batch is held until night 0 is written, so that night 0's batch goes (at the
+    // end of the render loop) before map 0's entry is heard of and stops the run.
+    let sync = |folder: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+        if files.iter().any(|path| last.contains(path)) {
+            return Err(std::io::Error::other("write-back failed"));
+        }
+        if files.iter().any(|path| first.contains(path)) {
+            wait_until(|| all_exist(&last));
+        }
+        folder.make_durable(files)
+    };
+    let result = dataset.run_syncing(
+        &cpu(),
+        &out,
+        &RunOptions::default(),
+        &mut |frame| {
+            if !frame.rendered && frame.set == "test" {
+                // map 0 written and heard of before night 0's turn: its batch goes first.
+                wait_until(|| all_exist(&first));
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            if frame.rendered {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        },
+        &one_frame_batches(&sync),
+    );
+    let error = result.expect_err("the failed sync is the run's error").to_string();
+    assert!(
+        error.contains("night 0") && error.contains("write-back failed"),
+        "{error}"
+    );
+    assert!(!files::entry_path(&out.join("night"), 0).exists());
+}
+
+/// The callback stops the run while a batch is being synced: the batch gets no entries, the
+/// run says it stopped, and the next run renders its frame again into the same bytes.
+#[test]
+fn a_stop_while_a_batch_is_synced_leaves_its_frames_to_the_next_run() {
+    let (_dir, dataset, out) = done_small_data_set();
+    let reference = snapshot(&out);
+    let first = forget(&out, "map", 0);
+    let (syncing, stopped) = (AtomicBool::new(false), AtomicBool::new(false));
+    let sync = |folder: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+        if files.iter().any(|path| first.contains(path)) {
+            syncing.store(true, Ordering::SeqCst);
+            wait_until(|| stopped.load(Ordering::SeqCst));
+        }
+        folder.make_durable(files)
+    };
+    let summary = dataset
+        .run_syncing(
+            &cpu(),
+            &out,
+            &RunOptions::default(),
+            &mut |frame| match (frame.set, frame.index) {
+                // map 0 written and heard of, so its batch goes at the next frame's turn.
+                ("map", 1) => {
+                    wait_until(|| first.iter().all(|path| path.exists()));
+                    std::thread::sleep(std::time::Duration::from_millis(50));
+                    ControlFlow::Continue(())
+                }
+                ("night", 0) => {
+                    wait_until(|| syncing.load(Ordering::SeqCst));
+                    stopped.store(true, Ordering::SeqCst);
+                    ControlFlow::Break(())
+                }
+                _ => ControlFlow::Continue(()),
+            },
+            &one_frame_batches(&sync),
+        )
+        .unwrap();
+    assert!(summary.stopped && !summary.merged);
+    assert_eq!((summary.rendered, summary.resumed), (0, 3));
+    assert!(!files::entry_path(&out.join("map"), 0).exists());
+    let again = run(&dataset, &out, RunOptions::default(), None);
+    assert_eq!((again.rendered, again.resumed, again.merged), (1, 3, true));
+    assert_same(&reference, &snapshot(&out));
 }

@@ -31,7 +31,7 @@ use glam::DVec2;
 
 use crate::camera::Camera;
 use crate::frame::Frame;
-use atomic::{FileStore, Synced};
+use atomic::FileStore;
 
 /// The channel of single-value EXRs (range, depth, disparity).
 pub const VALUE_CHANNEL: &str = "Y";
@@ -404,7 +404,12 @@ pub fn ray_map_names(suffix: &str) -> [String; 2] {
 /// every EXR reader opens: the origins at `origin_path`, the unit directions at
 /// `direction_path`; NaN where the pixel sees nothing. Non-central cameras need them to
 /// rebuild points from range.
-pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Camera) -> Result<(), OutputError> {
+pub fn write_ray_map_exrs(
+    store: &mut impl FileStore,
+    origin_path: &Path,
+    direction_path: &Path,
+    camera: &Camera,
+) -> Result<(), OutputError> {
     let (width, height) = camera.size();
     let pixels = width as usize * height as usize;
     let mut origin: [Vec<f32>; 3] = std::array::from_fn(|_| Vec::with_capacity(pixels));
@@ -423,7 +428,7 @@ pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Ca
     }
     let size = (width, height);
     write_xyz_exr(
-        &mut Synced,
+        store,
         origin_path,
         size,
         "ray origin",
@@ -432,7 +437,7 @@ pub fn write_ray_map_exrs(origin_path: &Path, direction_path: &Path, camera: &Ca
         ExrCompression::Zip,
     )?;
     write_xyz_exr(
-        &mut Synced,
+        store,
         direction_path,
         size,
         "ray direction",

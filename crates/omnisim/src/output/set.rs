@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::atomic::{FileStore, write_atomically};
+use super::atomic::{FileStore, Synced, write_atomically};
 use super::folder::RunFolder;
 use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed};
 use crate::calibration;
@@ -332,31 +332,34 @@ impl OutputSet {
         Ok(FrameMetadata::new(target.index, target.stem(), target.pose, files))
     }
 
-    /// Writes the files of a set of frames that are not per frame, claimed in `folder`:
-    /// calibration in the formats robotics tools read, the ray maps of each view (origin and
-    /// direction files) and the segmentation
-    /// legend (if asked for). Returns their paths.
+    /// Writes the files of a set of frames that are not per frame, claimed in `folder` and
+    /// written through `store`: calibration in the formats robotics tools read, the ray maps
+    /// of each view (origin and direction files) and the segmentation legend (if asked for).
+    /// Returns their paths.
     pub fn write_set_files(
         &self,
         folder: &mut impl Destination,
+        store: &mut impl FileStore,
         scene: &Scene,
         rig: &Rig,
     ) -> Result<Vec<PathBuf>, OutputError> {
         let mut written = Vec::new();
         for (name, text) in calibration_files(rig) {
             let path = folder.claim(name)?;
-            write_atomically(&path, |file| file.write_all(text.as_bytes())).map_err(failed(&path))?;
+            store
+                .store(&path, |file| file.write_all(text.as_bytes()))
+                .map_err(failed(&path))?;
             written.push(path);
         }
         for view in rig.views() {
             let [origin, direction] = super::ray_map_names(view.suffix);
             let (origin, direction) = (folder.claim(origin)?, folder.claim(direction)?);
-            super::write_ray_map_exrs(&origin, &direction, &view.camera)?;
+            super::write_ray_map_exrs(store, &origin, &direction, &view.camera)?;
             written.extend([origin, direction]);
         }
         if self.segmentation {
             let legend_path = folder.claim("segmentation.json".into())?;
-            write_json(&legend_path, &super::SegmentationLegend::of(scene))?;
+            write_json(store, &legend_path, &super::SegmentationLegend::of(scene))?;
             written.push(legend_path);
         }
         Ok(written)
@@ -371,7 +374,7 @@ impl OutputSet {
         rig: &Rig,
         metadata: &RenderMetadata,
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let mut written = self.write_set_files(folder, scene, rig)?;
+        let mut written = self.write_set_files(folder, &mut Synced, scene, rig)?;
         let poses_path = Destination::claim(folder, "poses.txt".into())?;
         write_atomically(&poses_path, |out| {
             writeln!(
@@ -388,7 +391,7 @@ impl OutputSet {
         .map_err(failed(&poses_path))?;
         written.push(poses_path);
         let metadata_path = Destination::claim(folder, "render.json".into())?;
-        write_json(&metadata_path, metadata)?;
+        write_json(&mut Synced, &metadata_path, metadata)?;
         written.push(metadata_path);
         Ok(written)
     }
@@ -417,12 +420,13 @@ fn calibration_files(rig: &Rig) -> Vec<(String, String)> {
     files.into_iter().map(|(name, text)| (name.to_owned(), text)).collect()
 }
 
-/// Pretty-printed JSON of `value`, written atomically.
-fn write_json(path: &Path, value: &impl Serialize) -> Result<(), OutputError> {
-    write_atomically(path, |out| {
-        serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)
-    })
-    .map_err(failed(path))
+/// Pretty-printed JSON of `value`, written through `store`.
+fn write_json(store: &mut impl FileStore, path: &Path, value: &impl Serialize) -> Result<(), OutputError> {
+    store
+        .store(path, |out| {
+            serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)
+        })
+        .map_err(failed(path))
 }
 
 fn describe_pose(pose: &Pose) -> String {
