@@ -273,17 +273,24 @@ impl WideBvh {
                 }
                 continue;
             }
+            // The batches that hold rays of the entry, found once for the leaf's triangles.
+            let mut batches_in = 0u32;
+            for b in 0..BATCHES {
+                batches_in |= u32::from((mask >> (8 * b)) as u8 != 0) << b;
+            }
+            // Whether a ray's bound moved (else the packet's bound `far` stands).
+            let mut moved = false;
             for group in self.leaf_groups(entry) {
                 let mut lanes = group.lanes;
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
                     let triangle = group.broadcast::<W>(lane);
-                    for b in 0..BATCHES {
+                    let mut batches = batches_in;
+                    while batches != 0 {
+                        let b = batches.trailing_zeros() as usize;
+                        batches &= batches - 1;
                         let rays_in = (mask >> (8 * b)) as u32 & 0xff;
-                        if rays_in == 0 {
-                            continue;
-                        }
                         let bound = W::load(&t_hi[8 * b..]);
                         let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
                         while candidates != 0 {
@@ -291,19 +298,25 @@ impl WideBvh {
                             candidates &= candidates - 1;
                             match visit(r, group.triangle[lane] as usize) {
                                 Visit::Miss => {}
-                                Visit::Closer(t) => t_hi[r] = t_hi[r].min(t),
+                                Visit::Closer(t) => {
+                                    t_hi[r] = t_hi[r].min(t);
+                                    moved = true;
+                                }
                                 Visit::Stop => {
                                     t_hi[r] = STOPPED;
                                     mask &= !(1 << r);
+                                    moved = true;
                                 }
                             }
                         }
                     }
                 }
             }
-            far = farthest(t_hi);
-            if far == STOPPED {
-                break;
+            if moved {
+                far = farthest(t_hi);
+                if far == STOPPED {
+                    break;
+                }
             }
         }
         for (r, bound) in bounds.iter_mut().enumerate() {
