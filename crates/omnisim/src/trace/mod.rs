@@ -394,6 +394,16 @@ pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
     CpuTracer::Reference.trace(bvh, camera, pose)
 }
 
+/// Scene `name` (say "env1") of the repository's `scenes/` folder, loaded, and its BVH: the
+/// geometry the trace tests walk.
+#[cfg(test)]
+pub(crate) fn test_scene(name: &str) -> (crate::scene::Scene, SceneBvh) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.ron"));
+    let scene = crate::scene::Scene::load(&path).unwrap();
+    let bvh = SceneBvh::build(&scene);
+    (scene, bvh)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -405,8 +415,7 @@ mod tests {
     /// own starting key, (0, 0, 0).
     #[test]
     fn origin_cache_turns_each_origin_as_the_pose_does() {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"));
-        let bvh = SceneBvh::build(&crate::scene::Scene::load(path).unwrap());
+        let (_, bvh) = test_scene("env1");
         let mut rng = StdRng::seed_from_u64(5);
         let pose = Pose::new(DVec3::new(1.5, -0.25, 0.4), DVec3::new(0.2, -0.35, 3.5));
         let local = LocalPose::new(&bvh, &pose);
@@ -466,9 +475,7 @@ mod tests {
     /// own. Packets whose rays are all blocked (a patch behind a wall) end the walk early.
     #[test]
     fn shadow_packets_give_each_rays_own_answer() {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env2.ron"));
-        let scene = crate::scene::Scene::load(path).unwrap();
-        let bvh = SceneBvh::build(&scene);
+        let (scene, bvh) = test_scene("env2");
         let (lo, hi) = scene.bounds().unwrap();
         let mut rng = StdRng::seed_from_u64(21);
         let point = |rng: &mut StdRng| DVec3::from_array(std::array::from_fn(|k| rng.random_range(lo[k]..hi[k])));
