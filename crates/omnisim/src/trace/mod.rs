@@ -394,6 +394,16 @@ pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
     CpuTracer::Reference.trace(bvh, camera, pose)
 }
 
+/// Scene `name` (say "env1") of the repository's `scenes/` folder, loaded, and its BVH: the
+/// geometry the trace tests walk.
+#[cfg(test)]
+pub(crate) fn test_scene(name: &str) -> (crate::scene::Scene, SceneBvh) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.ron"));
+    let scene = crate::scene::Scene::load(&path).unwrap();
+    let bvh = SceneBvh::build(&scene);
+    (scene, bvh)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -405,8 +415,7 @@ mod tests {
     /// own starting key, (0, 0, 0).
     #[test]
     fn origin_cache_turns_each_origin_as_the_pose_does() {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"));
-        let bvh = SceneBvh::build(&crate::scene::Scene::load(path).unwrap());
+        let (_, bvh) = test_scene("env1");
         let mut rng = StdRng::seed_from_u64(5);
         let pose = Pose::new(DVec3::new(1.5, -0.25, 0.4), DVec3::new(0.2, -0.35, 3.5));
         let local = LocalPose::new(&bvh, &pose);
@@ -460,18 +469,17 @@ mod tests {
         }
     }
 
-    /// Packets of shadow rays give every ray [`occluded`]'s answer, on each tracer: rays from
-    /// one small patch and from all over the room, towards one lamp or along one sun
-    /// direction, some rays left out, each skipping a face of its own.
+    /// Packets of shadow rays give every ray the answer of the f64 test of every triangle
+    /// (no BVH), on each tracer: rays from one small patch and from all over the room, towards
+    /// one lamp or along one sun direction, some rays left out, each skipping a face of its
+    /// own. Packets whose rays are all blocked (a patch behind a wall) end the walk early.
     #[test]
     fn shadow_packets_give_each_rays_own_answer() {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env2.ron"));
-        let scene = crate::scene::Scene::load(path).unwrap();
-        let bvh = SceneBvh::build(&scene);
+        let (scene, bvh) = test_scene("env2");
         let (lo, hi) = scene.bounds().unwrap();
         let mut rng = StdRng::seed_from_u64(21);
         let point = |rng: &mut StdRng| DVec3::from_array(std::array::from_fn(|k| rng.random_range(lo[k]..hi[k])));
-        let (mut blocked_rays, mut rays_cast) = (0, 0);
+        let (mut blocked_rays, mut rays_cast, mut all_blocked) = (0, 0, 0);
         for _ in 0..300 {
             let patch = rng.random_bool(0.5);
             let centre = point(&mut rng);
@@ -504,22 +512,31 @@ mod tests {
             } else {
                 rng.random::<u64>()
             };
+            // Blocked: some triangle of another face than the ray skips lies strictly between
+            // 0 and its `t_max`, by the f64 test alone.
+            let blocked_by_any = |r: usize| {
+                let (origin, direction, _) = shadows.rays[r];
+                bvh.triangles.iter().enumerate().any(|(triangle, corners)| {
+                    bvh.face[triangle] != shadows.skip_face[r]
+                        && triangle::intersect(corners, origin, direction)
+                            .is_some_and(|t| t > 0.0 && t < shadows.t_max[r])
+                })
+            };
             let want = (0..PACKET)
                 .filter(|&r| active & (1 << r) != 0)
-                .filter(|&r| {
-                    let (origin, direction, _) = shadows.rays[r];
-                    occluded(&bvh, origin, direction, shadows.t_max[r], shadows.skip_face[r])
-                })
+                .filter(|&r| blocked_by_any(r))
                 .fold(0u64, |bits, r| bits | 1 << r);
             for tracer in [CpuTracer::Fast, CpuTracer::FastPortable, CpuTracer::Reference] {
                 assert_eq!(tracer.occluded_rays(&bvh, &shadows, active), want, "{tracer:?}");
             }
             blocked_rays += want.count_ones();
             rays_cast += active.count_ones();
+            all_blocked += usize::from(active != 0 && want == active);
         }
         assert!(
             blocked_rays > rays_cast / 20 && blocked_rays < rays_cast * 19 / 20,
             "{blocked_rays} of {rays_cast} rays blocked: a poor test"
         );
+        assert!(all_blocked >= 10, "{all_blocked} packets wholly blocked: a poor test");
     }
 }

@@ -146,8 +146,7 @@ mod tests {
 
     #[test]
     fn frames_from_ray_tables_equal_frames_from_the_camera_and_tables_follow_the_camera() {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"));
-        let bvh = SceneBvh::build(&crate::scene::Scene::load(path).unwrap());
+        let (_, bvh) = crate::trace::test_scene("env1");
         let cache = RayCache::default();
         let cameras = [
             Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)),

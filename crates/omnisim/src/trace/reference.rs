@@ -174,11 +174,6 @@ mod tests {
     use super::*;
     use crate::trace::counts::TraversalCounts;
 
-    fn env1() -> SceneBvh {
-        let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron"));
-        SceneBvh::build(&crate::scene::Scene::load(path).unwrap())
-    }
-
     /// Subnormal lanes among the box-test operands of `values`, every lane counted.
     fn subnormal_lanes(values: impl IntoIterator<Item = Vec3A>) -> usize {
         let values: Vec<Vec3A> = values.into_iter().collect();
@@ -192,7 +187,7 @@ mod tests {
     /// box test multiply subnormals, 1.5–2.5× slower with the same work.
     #[test]
     fn box_tests_see_no_subnormal_for_a_camera_at_the_scene_centre() {
-        let bvh = env1();
+        let (_, bvh) = crate::trace::test_scene("env1");
         let directions = [DVec3::new(0.3, -0.5, 0.8), -DVec3::X, DVec3::new(0.0, 0.6, -0.8)];
         for direction in directions {
             let ray = BoxRay::new(DVec3::ZERO, direction.normalize());
@@ -215,7 +210,7 @@ mod tests {
 
     #[test]
     fn counts_every_box_and_primitive_test() {
-        let bvh = env1();
+        let (_, bvh) = crate::trace::test_scene("env1");
         let ray = BoxRay::new(DVec3::ZERO, DVec3::new(0.3, -0.5, 0.8).normalize());
         let mut counts = TraversalCounts::default();
         let mut visited = 0;

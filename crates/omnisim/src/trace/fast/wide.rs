@@ -119,6 +119,11 @@ const SMALL_BOX: f32 = 4.0;
 /// 260 M throughout (docs/benchmarks.md).
 const FEW_RAYS: u32 = 24;
 
+/// The bound of a ray that takes no further part in a packet walk (outside the packet, or
+/// stopped by [`Visit::Stop`]): below every entry distance, so [`reaching`] drops it from
+/// every entry. When every ray's bound is this, the walk ends at once.
+const STOPPED: f32 = f32::NEG_INFINITY;
+
 /// Rays traced together by [`WideBvh::traverse_interval`]: a tile of 8×8 pixels (faster than 4×4 on the clock: docs/benchmarks.md).
 pub(crate) const PACKET: usize = 64;
 
@@ -128,7 +133,9 @@ impl WideBvh {
     /// the whole packet against the bounds of its origins and inverse directions (admitting
     /// every box some ray enters, maybe more), and each leaf triangle is filtered against
     /// eight rays at a time. `visit(r, triangle)` sees, for each ray, every triangle the
-    /// single-ray walk would show it, and perhaps a few more the f64 test then rejects.
+    /// single-ray walk would show it, and perhaps a few more the f64 test then rejects; a ray
+    /// whose `visit` answers [`Visit::Stop`] (an any-hit query answered) sees nothing more,
+    /// and the walk ends once every ray has stopped (its bound is left at −∞).
     /// The rays must share their directions' signs (`rays.bounds.same_signs()`: the interval
     /// test and the per-ray box tests pick each axis's near plane by that sign); entries of
     /// `bounds` outside `active` are left alone.
@@ -172,8 +179,9 @@ impl WideBvh {
         corners: &[[DVec3; 3]],
         mut visit: impl FnMut(usize, usize) -> Visit,
     ) {
-        // The rays' bounds, −∞ for rays outside the packet (so they count in no maximum).
-        let mut t_hi = [f32::NEG_INFINITY; PACKET];
+        // The rays' bounds, −∞ (`STOPPED`) for rays outside the packet, so they count in no
+        // maximum.
+        let mut t_hi = [STOPPED; PACKET];
         for (r, t_hi) in t_hi.iter_mut().enumerate() {
             if active & (1 << r) != 0 {
                 *t_hi = bounds[r];
@@ -198,9 +206,9 @@ impl WideBvh {
                 continue;
             }
             // Of its rays, those whose bound still reaches where the packet enters it: a ray
-            // that found a closer hit (or a blocked shadow ray, bound −∞) since the entry was
-            // pushed leaves it, and counts towards no subtree's `FEW_RAYS`.
-            let mask = reaching::<W>(t_hi, t_enter, mask);
+            // that found a closer hit (or stopped, bound −∞) since the entry was pushed leaves
+            // it, and counts towards no subtree's `FEW_RAYS`.
+            let mut mask = reaching::<W>(t_hi, t_enter, mask);
             if mask == 0 {
                 continue;
             }
@@ -224,8 +232,10 @@ impl WideBvh {
                         #[inline(always)]
                         |triangle| {
                             let result = visit(r, triangle);
-                            if let Visit::Closer(t) = result {
-                                bound = bound.min(t);
+                            match result {
+                                Visit::Miss => {}
+                                Visit::Closer(t) => bound = bound.min(t),
+                                Visit::Stop => bound = STOPPED,
                             }
                             result
                         },
@@ -233,6 +243,9 @@ impl WideBvh {
                     t_hi[r] = bound;
                 }
                 far = farthest(t_hi);
+                if far == STOPPED {
+                    break;
+                }
                 continue;
             }
             if entry & LEAF == 0 {
@@ -260,30 +273,51 @@ impl WideBvh {
                 }
                 continue;
             }
+            // The batches that hold rays of the entry, found once for the leaf's triangles.
+            let mut batches_in = 0u32;
+            for b in 0..BATCHES {
+                batches_in |= u32::from((mask >> (8 * b)) as u8 != 0) << b;
+            }
+            // Whether a ray's bound moved (else the packet's bound `far` stands).
+            let mut moved = false;
             for group in self.leaf_groups(entry) {
                 let mut lanes = group.lanes;
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
                     lanes &= lanes - 1;
                     let triangle = group.broadcast::<W>(lane);
-                    for b in 0..BATCHES {
+                    let mut batches = batches_in;
+                    while batches != 0 {
+                        let b = batches.trailing_zeros() as usize;
+                        batches &= batches - 1;
                         let rays_in = (mask >> (8 * b)) as u32 & 0xff;
-                        if rays_in == 0 {
-                            continue;
-                        }
                         let bound = W::load(&t_hi[8 * b..]);
                         let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
                         while candidates != 0 {
                             let r = 8 * b + candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
-                            if let Visit::Closer(t) = visit(r, group.triangle[lane] as usize) {
-                                t_hi[r] = t_hi[r].min(t);
+                            match visit(r, group.triangle[lane] as usize) {
+                                Visit::Miss => {}
+                                Visit::Closer(t) => {
+                                    t_hi[r] = t_hi[r].min(t);
+                                    moved = true;
+                                }
+                                Visit::Stop => {
+                                    t_hi[r] = STOPPED;
+                                    mask &= !(1 << r);
+                                    moved = true;
+                                }
                             }
                         }
                     }
                 }
             }
-            far = farthest(t_hi);
+            if moved {
+                far = farthest(t_hi);
+                if far == STOPPED {
+                    break;
+                }
+            }
         }
         for (r, bound) in bounds.iter_mut().enumerate() {
             if active & (1 << r) != 0 {
