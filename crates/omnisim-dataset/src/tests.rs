@@ -1629,6 +1629,12 @@ fn a_failed_batch_sync_is_an_error_and_vouches_for_nothing() {
         failed.iter().any(|path| path.ends_with("map/.frames/set.json")),
         "the set files go with the first batch"
     );
+    // Gone, so that the next run writes them anew (their bytes may sit in clean pages).
+    let set_files = set_file_paths(&reference);
+    for path in &set_files {
+        let here = out.join(path.strip_prefix(&reference).unwrap());
+        assert!(failed.contains(&here) && !here.exists(), "{}", here.display());
+    }
     let vouched = vouched_files(&out);
     assert!(
         failed.iter().all(|path| !vouched.contains(path)),
@@ -1738,3 +1744,31 @@ fn a_stop_while_a_batch_is_synced_leaves_its_frames_to_the_next_run() {
     assert_same(&reference, &snapshot(&out));
 }
 
+/// A failed end-of-run sync (no batch: every frame done) is the run's error and removes the
+/// set files it covered, so that the next run writes them anew instead of finding their bytes
+/// in pages a failed write-back left clean.
+#[test]
+fn a_failed_sync_of_the_set_files_removes_them() {
+    let (_dir, dataset, out) = done_small_data_set();
+    let reference = snapshot(&out);
+    let set_files = set_file_paths(&out);
+    let sync = |_: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+        assert!(set_files.iter().all(|path| files.contains(path)));
+        Err(std::io::Error::other("write-back failed"))
+    };
+    let result = dataset.run_syncing(
+        &cpu(),
+        &out,
+        &RunOptions::default(),
+        &mut |_| ControlFlow::Continue(()),
+        &one_frame_batches(&sync),
+    );
+    let error = result.expect_err("the failed sync is the run's error").to_string();
+    assert!(error.contains("write-back failed"), "{error}");
+    for path in &set_files {
+        assert!(!path.exists(), "{} is left", path.display());
+    }
+    let again = run(&dataset, &out, RunOptions::default(), None);
+    assert_eq!((again.rendered, again.resumed, again.merged), (0, 4, true));
+    assert_same(&reference, &snapshot(&out));
+}
