@@ -324,16 +324,18 @@ impl Pending {
     /// are rendered again by a later run). Entries are themselves synced by the next batch,
     /// or by the end of the run.
     /// A failed sync is the run's error even once it has stopped (a later sync of the same
-    /// handle reports the lost write-back no more).
+    /// handle reports the lost write-back no more); after an earlier error, it takes its place
+    /// and says it.
     fn write_entries(&mut self, out: &Path, heard: &mut Heard, (frames, synced): Synced) {
         if let Err(error) = synced {
             let named: Vec<String> = (frames.iter())
                 .map(|frame| format!("{} {}", heard.names[frame.set], frame.index))
                 .collect();
-            let context = format!("making the files of frames {} durable: {error}", named.join(", "));
-            heard
-                .failure
-                .get_or_insert(io(out)(std::io::Error::new(error.kind(), context)));
+            let mut context = format!("making the files of frames {} durable: {error}", named.join(", "));
+            if let Some(earlier) = heard.failure.take() {
+                context.push_str(&format!(" (after an earlier error: {earlier})"));
+            }
+            heard.failure = Some(io(out)(std::io::Error::new(error.kind(), context)));
             heard.stop();
             return;
         }
@@ -727,5 +729,40 @@ mod tests {
             "no entry was written"
         );
         assert!(pending.unsynced.is_empty());
+    }
+
+    /// A failed sync heard after an earlier error (a full disk) is not dropped: it is the
+    /// run's error and says the earlier one.
+    #[test]
+    fn a_failed_sync_after_an_error_says_both() {
+        let dir = tempfile::tempdir().unwrap();
+        let stop = AtomicBool::new(false);
+        let mut summary = RunSummary::default();
+        let mut on_frame = |_: &FrameDone| ControlFlow::Continue(());
+        let full = std::io::Error::other("no space left");
+        let mut heard = Heard {
+            names: vec!["map"],
+            summary: &mut summary,
+            on_frame: &mut on_frame,
+            done: 0,
+            total: 2,
+            failure: Some(io(&dir.path().join("map/000001.png"))(full)),
+            stopped: false,
+            stop: &stop,
+            written: HashSet::new(),
+        };
+        heard.stop();
+        let lost = std::io::Error::other("write-back failed");
+        let mut pending = Pending::new(Syncing::DISK.batches, Vec::new());
+        pending.write_entries(dir.path(), &mut heard, (vec![frame(dir.path(), 0, 0)], Err(lost)));
+        let message = heard.failure.take().expect("an error").to_string();
+        assert!(
+            message.contains("frames map 0") && message.contains("write-back failed"),
+            "{message}"
+        );
+        assert!(
+            message.contains("000001.png") && message.contains("no space left"),
+            "{message}"
+        );
     }
 }
