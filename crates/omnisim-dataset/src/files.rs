@@ -1,7 +1,7 @@
 //! The names of a data-set folder's bookkeeping files, and their JSON and atomic I/O: the
 //! leaf every other part of the folder code reads.
 
-use std::io::{Cursor, Write};
+use std::io::{Cursor, Read, Write};
 use std::path::{Path, PathBuf};
 
 use super::DatasetError;
@@ -58,17 +58,59 @@ pub(crate) struct SetFiles {
 impl SetFiles {
     /// Writes `bytes` to `path` as the type says.
     pub(crate) fn write(&mut self, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-        match std::fs::symlink_metadata(path) {
-            // Read only a regular file of the right size: a link is replaced, never read through.
-            Ok(found) if found.is_file() && found.len() == bytes.len() as u64 && std::fs::read(path)? == bytes => {}
-            Ok(_) => write_bytes_atomically(path, Durability::Now, bytes)?,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                write_bytes_atomically(path, Durability::Deferred, bytes)?;
-            }
-            Err(e) => return Err(e),
+        match found(path, bytes)? {
+            Found::Same => {}
+            Found::Other => write_bytes_atomically(path, Durability::Now, bytes)?,
+            Found::Missing => write_bytes_atomically(path, Durability::Deferred, bytes)?,
         }
         self.paths.push(path.to_path_buf());
         Ok(())
+    }
+}
+
+/// What sits at a set file's path, against the bytes a run would write there.
+#[derive(Debug, PartialEq, Eq)]
+enum Found {
+    /// Nothing.
+    Missing,
+    /// A regular file holding exactly those bytes.
+    Same,
+    /// Anything else: other bytes, a link, a folder, a device, a FIFO.
+    Other,
+}
+
+/// Bytes compared per read.
+const COMPARE_CHUNK: usize = 64 * 1024;
+
+/// What sits at `path`, against `bytes`. Only a regular file is read, never through a link
+/// and never past one byte beyond `bytes`' length: it is opened without following a link or
+/// waiting for a FIFO's writer and checked on the opened handle, so a FIFO or a device at the
+/// path (or swapped in) neither hangs the run nor is read without bound.
+fn found(path: &Path, bytes: &[u8]) -> std::io::Result<Found> {
+    let file = match open_unfollowed(path) {
+        Ok(Some(file)) => file,
+        Ok(None) => return Ok(Found::Other),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Found::Missing),
+        Err(e) => return Err(e),
+    };
+    let meta = file.metadata()?;
+    if !meta.is_file() || meta.len() != bytes.len() as u64 {
+        return Ok(Found::Other);
+    }
+    let mut reader = file.take(bytes.len() as u64 + 1);
+    let mut chunk = vec![0; COMPARE_CHUNK.min(bytes.len() + 1)];
+    let mut rest = bytes;
+    loop {
+        let read = match reader.read(&mut chunk) {
+            Ok(0) => return Ok(if rest.is_empty() { Found::Same } else { Found::Other }),
+            Ok(read) => read,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        match rest.split_at_checked(read) {
+            Some((head, tail)) if head == &chunk[..read] => rest = tail,
+            _ => return Ok(Found::Other),
+        }
     }
 }
 
@@ -83,6 +125,29 @@ impl FileStore for SetFiles {
         self.buffer = bytes;
         written
     }
+}
+
+/// Opens `path` to read without following a link (`None`: a link) or waiting for a FIFO's
+/// writer (`O_NOFOLLOW | O_NONBLOCK`).
+#[cfg(unix)]
+fn open_unfollowed(path: &Path) -> std::io::Result<Option<std::fs::File>> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NOFOLLOW | libc::O_NONBLOCK);
+    match options.open(path) {
+        Err(e) if e.raw_os_error() == Some(libc::ELOOP) => Ok(None),
+        opened => opened.map(Some),
+    }
+}
+
+/// Opens `path` to read unless it is a link (`None`); without `O_NOFOLLOW`, a link swapped in
+/// between the look and the open is followed.
+#[cfg(not(unix))]
+fn open_unfollowed(path: &Path) -> std::io::Result<Option<std::fs::File>> {
+    if std::fs::symlink_metadata(path)?.is_symlink() {
+        return Ok(None);
+    }
+    std::fs::File::open(path).map(Some)
 }
 
 /// Frame entry files of a set (`NNNNNN.json`), sorted; none if the folder is missing.
@@ -116,4 +181,65 @@ pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T
         entry: path.to_path_buf(),
         problem: format!("unreadable: {e}"),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_regular_file_with_the_same_bytes_is_the_same() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("calibration.yaml");
+        let bytes = b"the calibration";
+        assert_eq!(found(&path, bytes).unwrap(), Found::Missing);
+        std::fs::write(&path, bytes).unwrap();
+        assert_eq!(found(&path, bytes).unwrap(), Found::Same);
+        std::fs::write(&path, b"the calibratioN").unwrap();
+        assert_eq!(found(&path, bytes).unwrap(), Found::Other, "same length, other bytes");
+        std::fs::write(&path, b"the calibration!").unwrap();
+        assert_eq!(found(&path, bytes).unwrap(), Found::Other, "longer");
+        std::fs::write(&path, b"").unwrap();
+        assert_eq!(found(&path, b"").unwrap(), Found::Same);
+        assert_eq!(found(&path, bytes).unwrap(), Found::Other, "shorter");
+        // A file longer than one chunk, differing in its last byte.
+        let long: Vec<u8> = (0..COMPARE_CHUNK * 2 + 7).map(|i| (i % 251) as u8).collect();
+        std::fs::write(&path, &long).unwrap();
+        assert_eq!(found(&path, &long).unwrap(), Found::Same);
+        let mut other = long.clone();
+        *other.last_mut().unwrap() ^= 1;
+        assert_eq!(found(&path, &other).unwrap(), Found::Other);
+        std::fs::remove_file(&path).unwrap();
+        std::fs::create_dir(&path).unwrap();
+        assert_eq!(found(&path, bytes).unwrap(), Found::Other, "a folder");
+    }
+
+    /// A link is never read through: one to a regular file with the same bytes is other.
+    #[cfg(unix)]
+    #[test]
+    fn a_link_to_the_same_bytes_is_other() {
+        let dir = tempfile::tempdir().unwrap();
+        let (target, path) = (dir.path().join("outside"), dir.path().join("calibration.yaml"));
+        std::fs::write(&target, b"the calibration").unwrap();
+        std::os::unix::fs::symlink(&target, &path).unwrap();
+        assert_eq!(found(&path, b"the calibration").unwrap(), Found::Other);
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero")).unwrap();
+        assert_eq!(found(&dir.path().join("zero"), &[0; 8]).unwrap(), Found::Other);
+    }
+
+    /// A FIFO with no writer is other at once (an open waiting for a writer would hang).
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_is_other_without_waiting() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("calibration.yaml");
+        let made = std::process::Command::new("mkfifo").arg(&path).status().unwrap();
+        assert!(made.success());
+        let (told, heard) = std::sync::mpsc::channel();
+        let looked = path.clone();
+        // A thread, so that a hang fails the test instead of stalling it.
+        std::thread::spawn(move || told.send(found(&looked, b"").map_err(|e| e.to_string())));
+        let answer = heard.recv_timeout(std::time::Duration::from_secs(10));
+        assert_eq!(answer, Ok(Ok(Found::Other)));
+    }
 }

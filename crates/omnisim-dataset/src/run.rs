@@ -195,12 +195,14 @@ impl Heard<'_, '_> {
     }
 }
 
+/// Makes files durable: [`DurableFolder::make_durable`], or a test's.
+pub(crate) type MakeDurable<'s> = &'s (dyn Fn(&DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync);
+
 /// How a run makes files durable, and when a batch goes: [`Syncing::DISK`] for every run;
 /// tests put in failing syncs and one-frame batches.
 #[derive(Clone, Copy)]
 pub(crate) struct Syncing<'s> {
-    /// Makes files durable: [`DurableFolder::make_durable`].
-    pub(crate) make_durable: &'s (dyn Fn(&DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
+    pub(crate) make_durable: MakeDurable<'s>,
     pub(crate) batches: BatchLimits,
 }
 
@@ -236,23 +238,57 @@ struct Pending {
     since: Option<Instant>,
     /// Files written outside the batch's frames and not yet durable: the set files, and the
     /// entries written since the last batch left (the next sync makes them durable too).
-    unsynced: Vec<PathBuf>,
+    unsynced: Unsynced,
+}
+
+/// Files for one sync to make durable.
+#[derive(Default)]
+struct Unsynced {
+    /// The set files and `set.json`s (only until the first sync takes them).
+    set_files: Vec<PathBuf>,
+    /// Any other: entries, frame files.
+    others: Vec<PathBuf>,
+}
+
+impl Unsynced {
+    fn is_empty(&self) -> bool {
+        self.set_files.is_empty() && self.others.is_empty()
+    }
+
+    /// Makes every file durable. Should that fail, removes the set files, best effort: after a
+    /// failed write-back the kernel may keep their new bytes in pages marked clean, so the
+    /// next run would find them holding its bytes, leave them, and vouch for files never on
+    /// disk (its own sync, on a new handle, hears nothing of the old error); gone, they are
+    /// written anew and synced before anything vouches for them.
+    fn make_durable(&self, make_durable: MakeDurable, folder: &DurableFolder) -> std::io::Result<()> {
+        let files: Vec<PathBuf> = self.set_files.iter().chain(&self.others).cloned().collect();
+        let synced = make_durable(folder, &files);
+        if synced.is_err() {
+            for path in &self.set_files {
+                let _ = std::fs::remove_file(path);
+            }
+        }
+        synced
+    }
 }
 
 /// A batch on its way to the disk: its frames in frame order, and every file its sync covers.
 struct Batch {
     frames: Vec<WrittenFrame>,
-    files: Vec<PathBuf>,
+    files: Unsynced,
 }
 
 impl Pending {
-    fn new(limits: BatchLimits, unsynced: Vec<PathBuf>) -> Self {
+    fn new(limits: BatchLimits, set_files: Vec<PathBuf>) -> Self {
         Self {
             limits,
             frames: Vec::new(),
             bytes: 0,
             since: None,
-            unsynced,
+            unsynced: Unsynced {
+                set_files,
+                others: Vec::new(),
+            },
         }
     }
 
@@ -279,7 +315,7 @@ impl Pending {
         }
         frames.sort_by_key(|frame| (frame.set, frame.index));
         let mut files = std::mem::take(&mut self.unsynced);
-        files.extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
+        (files.others).extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
         Some(Batch { frames, files })
     }
 
@@ -288,16 +324,18 @@ impl Pending {
     /// are rendered again by a later run). Entries are themselves synced by the next batch,
     /// or by the end of the run.
     /// A failed sync is the run's error even once it has stopped (a later sync of the same
-    /// handle reports the lost write-back no more).
+    /// handle reports the lost write-back no more); after an earlier error, it takes its place
+    /// and says it.
     fn write_entries(&mut self, out: &Path, heard: &mut Heard, (frames, synced): Synced) {
         if let Err(error) = synced {
             let named: Vec<String> = (frames.iter())
                 .map(|frame| format!("{} {}", heard.names[frame.set], frame.index))
                 .collect();
-            let context = format!("making the files of frames {} durable: {error}", named.join(", "));
-            heard
-                .failure
-                .get_or_insert(io(out)(std::io::Error::new(error.kind(), context)));
+            let mut context = format!("making the files of frames {} durable: {error}", named.join(", "));
+            if let Some(earlier) = heard.failure.take() {
+                context.push_str(&format!(" (after an earlier error: {earlier})"));
+            }
+            heard.failure = Some(io(out)(std::io::Error::new(error.kind(), context)));
             heard.stop();
             return;
         }
@@ -312,7 +350,7 @@ impl Pending {
                 .map(|()| Outcome::Written(frame.bytes))
                 .map_err(io(&frame.entry_path));
             if written.is_ok() {
-                self.unsynced.push(frame.entry_path);
+                self.unsynced.others.push(frame.entry_path);
             }
             heard.frame(frame.set, frame.index, written);
         }
@@ -367,7 +405,11 @@ impl Dataset {
         for set in &self.sets {
             if let Err(error) = self.prepare_set(out, set, &mut set_files) {
                 // Best effort: the error is what the user hears.
-                let _ = make_durable(&folder, &set_files.paths);
+                let written = Unsynced {
+                    set_files: set_files.paths,
+                    others: Vec::new(),
+                };
+                let _ = written.make_durable(make_durable, &folder);
                 return Err(error);
             }
         }
@@ -411,7 +453,10 @@ impl Dataset {
             let folder = &folder;
             scope.spawn(move || {
                 for Batch { frames, files } in batches {
-                    if synced_report.send((frames, make_durable(folder, &files))).is_err() {
+                    if synced_report
+                        .send((frames, files.make_durable(make_durable, folder)))
+                        .is_err()
+                    {
                         break;
                     }
                 }
@@ -491,13 +536,14 @@ impl Dataset {
         });
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
         if let Some(failure) = failure {
-            // Best effort: the set files and entries written stay sound for the next run.
-            let _ = make_durable(&folder, &pending.unsynced);
+            // Best effort, for the next run: the entries written since the last batch, and the
+            // set files where no batch took them (not the frames of a pending or failed batch).
+            let _ = pending.unsynced.make_durable(make_durable, &folder);
             return Err(failure);
         }
         // The last entries, and the set files where no batch made them durable.
         if !pending.unsynced.is_empty() {
-            make_durable(&folder, &pending.unsynced).map_err(io(out))?;
+            pending.unsynced.make_durable(make_durable, &folder).map_err(io(out))?;
         }
         summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
@@ -634,6 +680,18 @@ impl Dataset {
 mod tests {
     use super::*;
 
+    /// A frame of set `set` whose entry would go in `dir`.
+    fn frame(dir: &Path, set: usize, index: usize) -> WrittenFrame {
+        WrittenFrame {
+            set,
+            index,
+            bytes: 1,
+            files: Vec::new(),
+            entry_path: dir.join(format!("{set}-{index}.json")),
+            entry: b"{}".to_vec(),
+        }
+    }
+
     /// A batch whose sync failed after the run had stopped (the callback asked, or an error
     /// came first) is still the run's error, naming its frames, and gets no entries.
     #[test]
@@ -654,17 +712,10 @@ mod tests {
             written: HashSet::new(),
         };
         heard.stop();
-        let frame = |set: usize, index: usize| WrittenFrame {
-            set,
-            index,
-            bytes: 1,
-            files: Vec::new(),
-            entry_path: dir.path().join(format!("{set}-{index}.json")),
-            entry: b"{}".to_vec(),
-        };
+        let frames = vec![frame(dir.path(), 0, 1), frame(dir.path(), 1, 0)];
         let lost = std::io::Error::other("write-back failed");
         let mut pending = Pending::new(Syncing::DISK.batches, Vec::new());
-        pending.write_entries(dir.path(), &mut heard, (vec![frame(0, 1), frame(1, 0)], Err(lost)));
+        pending.write_entries(dir.path(), &mut heard, (frames, Err(lost)));
         let failure = heard.failure.take().expect("the failed sync is the run's error");
         let message = failure.to_string();
         assert!(
@@ -678,5 +729,40 @@ mod tests {
             "no entry was written"
         );
         assert!(pending.unsynced.is_empty());
+    }
+
+    /// A failed sync heard after an earlier error (a full disk) is not dropped: it is the
+    /// run's error and says the earlier one.
+    #[test]
+    fn a_failed_sync_after_an_error_says_both() {
+        let dir = tempfile::tempdir().unwrap();
+        let stop = AtomicBool::new(false);
+        let mut summary = RunSummary::default();
+        let mut on_frame = |_: &FrameDone| ControlFlow::Continue(());
+        let full = std::io::Error::other("no space left");
+        let mut heard = Heard {
+            names: vec!["map"],
+            summary: &mut summary,
+            on_frame: &mut on_frame,
+            done: 0,
+            total: 2,
+            failure: Some(io(&dir.path().join("map/000001.png"))(full)),
+            stopped: false,
+            stop: &stop,
+            written: HashSet::new(),
+        };
+        heard.stop();
+        let lost = std::io::Error::other("write-back failed");
+        let mut pending = Pending::new(Syncing::DISK.batches, Vec::new());
+        pending.write_entries(dir.path(), &mut heard, (vec![frame(dir.path(), 0, 0)], Err(lost)));
+        let message = heard.failure.take().expect("an error").to_string();
+        assert!(
+            message.contains("frames map 0") && message.contains("write-back failed"),
+            "{message}"
+        );
+        assert!(
+            message.contains("000001.png") && message.contains("no space left"),
+            "{message}"
+        );
     }
 }

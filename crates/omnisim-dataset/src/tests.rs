@@ -1492,35 +1492,57 @@ fn done_small_data_set() -> (tempfile::TempDir, Dataset, PathBuf) {
 #[test]
 fn a_run_over_a_done_folder_leaves_the_set_files_in_place() {
     use std::os::unix::fs::MetadataExt;
-    let (_dir, dataset, out) = done_small_data_set();
+    let (dir, dataset, out) = done_small_data_set();
     let set_files = |out: &Path| -> BTreeMap<PathBuf, (u64, Vec<u8>)> {
-        let mut files = BTreeMap::new();
-        for set in ["map", "test", "night"] {
-            let own = out.join(set).join(files::ENTRIES).join(files::SET_ENTRY);
-            let entry: manifest::SetEntry = files::read_json(&own).unwrap();
-            let paths = entry.files.iter().map(|file| out.join(&file.path));
-            for path in paths.chain([own.clone()]) {
-                files.insert(
-                    path.clone(),
-                    (std::fs::metadata(&path).unwrap().ino(), std::fs::read(&path).unwrap()),
-                );
-            }
-        }
-        files
+        let paths = set_file_paths(out);
+        let found = |path: &PathBuf| (std::fs::metadata(path).unwrap().ino(), std::fs::read(path).unwrap());
+        paths.into_iter().map(|path| (path.clone(), found(&path))).collect()
     };
     let before = set_files(&out);
     assert!(before.keys().any(|path| path.ends_with("map/segmentation.json")));
     let again = run(&dataset, &out, RunOptions::default(), None);
     assert_eq!((again.rendered, again.resumed, again.merged), (0, 4, true));
     assert_eq!(set_files(&out), before, "a set file was replaced");
-    // A changed set file is replaced (synced, with the same bytes as before).
-    let calibration = (before.keys())
-        .find(|path| !path.ends_with(files::SET_ENTRY))
-        .unwrap()
-        .clone();
-    std::fs::write(&calibration, "edited").unwrap();
+    // Changed set files are replaced (synced, with the same bytes as before): one edited,
+    // one edited to other bytes of the same length, one a link to a file outside the folder
+    // with the same bytes (replaced by a regular file; the file outside untouched).
+    let mut calibrations = (before.keys()).filter(|path| !path.ends_with(files::SET_ENTRY));
+    let (edited, same_length, linked) = (
+        calibrations.next().unwrap(),
+        calibrations.next().unwrap(),
+        calibrations.next().unwrap(),
+    );
+    std::fs::write(edited, "edited").unwrap();
+    let mut flipped = before[same_length].1.clone();
+    flipped[0] ^= 1;
+    std::fs::write(same_length, flipped).unwrap();
+    let outside = dir.path().join("outside");
+    std::fs::write(&outside, &before[linked].1).unwrap();
+    let outside_inode = std::fs::metadata(&outside).unwrap().ino();
+    std::fs::remove_file(linked).unwrap();
+    std::os::unix::fs::symlink(&outside, linked).unwrap();
     run(&dataset, &out, RunOptions::default(), None);
-    assert_eq!(std::fs::read(&calibration).unwrap(), before[&calibration].1);
+    for path in [edited, same_length, linked] {
+        assert_eq!(std::fs::read(path).unwrap(), before[path].1, "{}", path.display());
+    }
+    assert!(
+        std::fs::symlink_metadata(linked).unwrap().is_file(),
+        "the link is replaced"
+    );
+    assert_eq!(std::fs::read(&outside).unwrap(), before[linked].1);
+    assert_eq!(std::fs::metadata(&outside).unwrap().ino(), outside_inode);
+}
+
+/// Every set file of `out` (as its sets' `set.json` name them), and the `set.json`s.
+fn set_file_paths(out: &Path) -> Vec<PathBuf> {
+    let mut paths = Vec::new();
+    for set in ["map", "test", "night"] {
+        let own = out.join(set).join(files::ENTRIES).join(files::SET_ENTRY);
+        let entry: manifest::SetEntry = files::read_json(&own).unwrap();
+        paths.extend(entry.files.iter().map(|file| out.join(&file.path)));
+        paths.push(own);
+    }
+    paths
 }
 
 /// Syncing through `sync` (the folder's own sync unless it returns an error) in one-frame
@@ -1607,6 +1629,12 @@ fn a_failed_batch_sync_is_an_error_and_vouches_for_nothing() {
         failed.iter().any(|path| path.ends_with("map/.frames/set.json")),
         "the set files go with the first batch"
     );
+    // Gone, so that the next run writes them anew (their bytes may sit in clean pages).
+    let set_files = set_file_paths(&reference);
+    for path in &set_files {
+        let here = out.join(path.strip_prefix(&reference).unwrap());
+        assert!(failed.contains(&here) && !here.exists(), "{}", here.display());
+    }
     let vouched = vouched_files(&out);
     assert!(
         failed.iter().all(|path| !vouched.contains(path)),
@@ -1633,7 +1661,7 @@ fn a_failed_batch_sync_after_a_stop_is_still_an_error() {
             return Err(std::io::Error::other("write-back failed"));
         }
         if files.iter().any(|path| first.contains(path)) {
-            wait_until(|| all_exist(&last));
+            assert!(wait_until(|| all_exist(&last)), "night 0 was never written");
         }
         folder.make_durable(files)
     };
@@ -1644,7 +1672,7 @@ fn a_failed_batch_sync_after_a_stop_is_still_an_error() {
         &mut |frame| {
             if !frame.rendered && frame.set == "test" {
                 // map 0 written and heard of before night 0's turn: its batch goes first.
-                wait_until(|| all_exist(&first));
+                assert!(wait_until(|| all_exist(&first)), "map 0 was never written");
                 std::thread::sleep(std::time::Duration::from_millis(50));
             }
             if frame.rendered {
@@ -1657,10 +1685,12 @@ fn a_failed_batch_sync_after_a_stop_is_still_an_error() {
     );
     let error = result.expect_err("the failed sync is the run's error").to_string();
     assert!(
-        error.contains("night 0") && error.contains("write-back failed"),
+        error.contains("night 0") && error.contains("write-back failed") && !error.contains("map 0"),
         "{error}"
     );
     assert!(!files::entry_path(&out.join("night"), 0).exists());
+    // map 0's entry, which stopped the run, came before the failure was heard.
+    assert!(files::entry_path(&out.join("map"), 0).exists());
 }
 
 /// The callback stops the run while a batch is being synced: the batch gets no entries, the
@@ -1674,7 +1704,7 @@ fn a_stop_while_a_batch_is_synced_leaves_its_frames_to_the_next_run() {
     let sync = |folder: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
         if files.iter().any(|path| first.contains(path)) {
             syncing.store(true, Ordering::SeqCst);
-            wait_until(|| stopped.load(Ordering::SeqCst));
+            assert!(wait_until(|| stopped.load(Ordering::SeqCst)), "the run never stopped");
         }
         folder.make_durable(files)
     };
@@ -1686,12 +1716,18 @@ fn a_stop_while_a_batch_is_synced_leaves_its_frames_to_the_next_run() {
             &mut |frame| match (frame.set, frame.index) {
                 // map 0 written and heard of, so its batch goes at the next frame's turn.
                 ("map", 1) => {
-                    wait_until(|| first.iter().all(|path| path.exists()));
+                    assert!(
+                        wait_until(|| first.iter().all(|path| path.exists())),
+                        "map 0 was never written"
+                    );
                     std::thread::sleep(std::time::Duration::from_millis(50));
                     ControlFlow::Continue(())
                 }
                 ("night", 0) => {
-                    wait_until(|| syncing.load(Ordering::SeqCst));
+                    assert!(
+                        wait_until(|| syncing.load(Ordering::SeqCst)),
+                        "map 0's batch never went"
+                    );
                     stopped.store(true, Ordering::SeqCst);
                     ControlFlow::Break(())
                 }
@@ -1705,5 +1741,34 @@ fn a_stop_while_a_batch_is_synced_leaves_its_frames_to_the_next_run() {
     assert!(!files::entry_path(&out.join("map"), 0).exists());
     let again = run(&dataset, &out, RunOptions::default(), None);
     assert_eq!((again.rendered, again.resumed, again.merged), (1, 3, true));
+    assert_same(&reference, &snapshot(&out));
+}
+
+/// A failed end-of-run sync (no batch: every frame done) is the run's error and removes the
+/// set files it covered, so that the next run writes them anew instead of finding their bytes
+/// in pages a failed write-back left clean.
+#[test]
+fn a_failed_sync_of_the_set_files_removes_them() {
+    let (_dir, dataset, out) = done_small_data_set();
+    let reference = snapshot(&out);
+    let set_files = set_file_paths(&out);
+    let sync = |_: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+        assert!(set_files.iter().all(|path| files.contains(path)));
+        Err(std::io::Error::other("write-back failed"))
+    };
+    let result = dataset.run_syncing(
+        &cpu(),
+        &out,
+        &RunOptions::default(),
+        &mut |_| ControlFlow::Continue(()),
+        &one_frame_batches(&sync),
+    );
+    let error = result.expect_err("the failed sync is the run's error").to_string();
+    assert!(error.contains("write-back failed"), "{error}");
+    for path in &set_files {
+        assert!(!path.exists(), "{} is left", path.display());
+    }
+    let again = run(&dataset, &out, RunOptions::default(), None);
+    assert_eq!((again.rendered, again.resumed, again.merged), (0, 4, true));
     assert_same(&reference, &snapshot(&out));
 }
