@@ -186,6 +186,55 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     assert_eq!(gpu.renderer.gpu_stages().unwrap().shade_pass, None);
 }
 
+/// Frames of one prepared scene rendered and re-shaded from many poses at once on a rayon pool
+/// equal the frames rendered one by one. A frame's own rayon work (the ray table, the upload,
+/// the readback) may run another frame on the same thread (rayon issue #592): that frame must
+/// not wait for a lock the first one holds, or the pool deadlocks. The frames are queued on
+/// the pool from outside, a few milliseconds apart, so that a thread waiting inside a frame's
+/// tasks finds the next frame queued; two lens cameras alternate, so that each frame builds
+/// its ray table on the pool.
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn frames_rendered_in_parallel_equal_frames_rendered_one_by_one() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let gpu = std::sync::Arc::new(common::gpu_tracer(&scene, &bvh));
+    let cameras = [common::cameras()[2].clone(), common::cameras()[3].clone()];
+    assert!(cameras.iter().all(Camera::has_lens_model));
+    let jobs: Vec<(Camera, Pose)> = (0..48)
+        .map(|i| {
+            let pose = Pose::from_degrees(
+                dvec3(0.05 * f64::from(i), 0.0, 0.4),
+                dvec3(0.0, 0.0, 7.5 * f64::from(i)),
+            );
+            (cameras[i as usize % 2].clone(), pose)
+        })
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(8).build().unwrap();
+    let (sender, receiver) = std::sync::mpsc::channel();
+    for (index, (camera, pose)) in jobs.iter().cloned().enumerate() {
+        let (gpu, sender) = (std::sync::Arc::clone(&gpu), sender.clone());
+        pool.spawn(move || {
+            let mut frame = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
+            let rendered = frame.clone();
+            gpu.renderer
+                .reshade(&gpu.scene, &camera, &pose, &mut frame, Planes::ALL)
+                .unwrap();
+            let _ = sender.send((index, rendered, frame));
+        });
+        std::thread::sleep(std::time::Duration::from_millis(3));
+    }
+    for _ in &jobs {
+        let (index, rendered, reshaded) = receiver
+            .recv_timeout(std::time::Duration::from_secs(300))
+            .expect("every frame finishes: a frame's rayon work ran another frame that waited for it (deadlock)");
+        let (camera, pose) = &jobs[index];
+        let serial = gpu.render_planes(camera, pose, Planes::ALL).unwrap();
+        assert!(serial.hit_count() > 1000);
+        assert!(rendered == serial && reshaded == serial, "frame {index}");
+    }
+}
+
 /// A NaN ray hits nothing on the GPU, as on the CPU: a pose of NaN position or angles (the
 /// library takes poses unchecked) makes every camera ray NaN, and every pixel is a miss in
 /// both; a finite pose's frame still has its hits. A correctness test, one frame per pose: the

@@ -198,8 +198,9 @@ impl GpuRenderer {
             return Ok(Arc::clone(&self.no_rays));
         }
         let key = table_key(camera);
-        let mut cache = self.rays.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some((cached, buffer)) = cache.as_ref()
+        // The lock is held only to look and to store: the table is built on the rayon pool,
+        // which may run another frame on this thread meanwhile (rayon issue #592).
+        if let Some((cached, buffer)) = self.rays.lock().unwrap_or_else(PoisonError::into_inner).as_ref()
             && *cached == key
         {
             return Ok(Arc::clone(buffer));
@@ -238,7 +239,7 @@ impl GpuRenderer {
                     usage: wgpu::BufferUsages::STORAGE,
                 }),
         );
-        *cache = Some((key, Arc::clone(&buffer)));
+        *self.rays.lock().unwrap_or_else(PoisonError::into_inner) = Some((key, Arc::clone(&buffer)));
         Ok(buffer)
     }
 
@@ -265,22 +266,56 @@ impl GpuRenderer {
             return Err(GpuError::ImageTooWide { width, height });
         }
         // Band 1's submit stage includes the bind groups and the ray table's first upload.
-        let mut submit_start = Instant::now();
-        let mut params = camera_params(camera, pose, scene.offset);
+        let submit_start = Instant::now();
+        let params = camera_params(camera, pose, scene.offset);
         let rays = self.camera_rays(camera)?;
-        let trace = matches!(source, HitSource::Trace);
-        let shade = planes.needs_shading();
-        // Consecutive frames of one size (trajectories, grids) reuse their buffers.
-        let mut cache = scene.band.lock().unwrap_or_else(PoisonError::into_inner);
-        if cache.as_ref().is_some_and(|b| (b.rows, b.width) != (band_rows, width)) {
-            *cache = None;
-        }
-        let buffers = cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
+        // Consecutive frames of one size (trajectories, grids) reuse their buffers. They are
+        // taken out of the scene for the frame, not locked through it: the frame's rayon work
+        // may run another frame of this scene on the same thread (rayon issue #592), which
+        // then makes its own set. A frame that fails or panics drops its set.
+        let cached = scene.band.lock().unwrap_or_else(PoisonError::into_inner).take();
+        let mut buffers = cached
+            .filter(|b| (b.rows, b.width) == (band_rows, width))
+            .unwrap_or_else(|| self.band_buffers(band_rows, width));
         if matches!(source, HitSource::Upload(_)) && buffers.upload.is_none() {
             let usage = wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC;
             buffers.upload = Some(self.buffer("hits upload", buffers.hits.size(), usage));
         }
-        let buffers = &*buffers;
+        let output = self.trace_bands(
+            scene,
+            &buffers,
+            camera,
+            params,
+            &rays,
+            band_rows,
+            planes,
+            source,
+            submit_start,
+        )?;
+        *scene.band.lock().unwrap_or_else(PoisonError::into_inner) = Some(buffers);
+        Ok(output)
+    }
+
+    /// The bands of one frame, on `buffers` (bands of `band_rows` rows of the camera's width).
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one frame's state, split from `run_bands` for its buffers' lifetime"
+    )]
+    fn trace_bands(
+        &self,
+        scene: &GpuScene,
+        buffers: &BandBuffers,
+        camera: &Camera,
+        mut params: CameraParams,
+        rays: &wgpu::Buffer,
+        band_rows: u32,
+        planes: Planes,
+        source: HitSource,
+        mut submit_start: Instant,
+    ) -> Result<BandOutput, GpuError> {
+        let (width, height) = camera.size();
+        let trace = matches!(source, HitSource::Trace);
+        let shade = planes.needs_shading();
         let clock = buffers.clock.as_ref();
         let trace_group = self.bind_group(
             &self.trace,
@@ -289,7 +324,7 @@ impl GpuRenderer {
                 (NODES, &scene.nodes),
                 (TRIANGLES, &scene.triangles),
                 (HITS, &buffers.hits),
-                (CAMERA_RAYS, &rays),
+                (CAMERA_RAYS, rays),
             ],
         );
         let shade_group = self.bind_group(
@@ -303,7 +338,7 @@ impl GpuRenderer {
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
                 (SHADED, &buffers.shaded),
-                (CAMERA_RAYS, &rays),
+                (CAMERA_RAYS, rays),
                 (SURFACES, &scene.surfaces),
                 (TEXTURES, &scene.textures),
             ],
