@@ -400,6 +400,8 @@ impl GpuRenderer {
             stages.submit += submit_start.elapsed();
             let wait_start = Instant::now();
             self.map_buffers(&to_map, wgpu::MapMode::Read)?;
+            // Declared before the views, so dropped after them, on every exit.
+            let unmap = Unmap(to_map.iter().map(|&(buffer, _)| buffer).collect());
             let read_start = Instant::now();
             stages.wait += read_start - wait_start;
             let hits_view = trace.then(|| mapped(&buffers.hits_readback, hit_bytes)).transpose()?;
@@ -466,9 +468,7 @@ impl GpuRenderer {
                     first_band,
                 );
             }
-            for (buffer, _) in to_map {
-                buffer.unmap();
-            }
+            drop(unmap);
             stages.readback += read_start.elapsed();
             stages.bands += 1;
             row += rows;
@@ -653,9 +653,20 @@ impl GpuRenderer {
     /// The first `bytes` of `buffer` (after the GPU work that writes it was submitted).
     fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
         self.map_buffers(&[(buffer, bytes)], wgpu::MapMode::Read)?;
-        let values = mapped(buffer, bytes).map(|view| bytemuck::cast_slice::<u8, T>(&view).to_vec());
-        buffer.unmap();
-        values
+        let _unmap = Unmap(vec![buffer]);
+        mapped(buffer, bytes).map(|view| bytemuck::cast_slice::<u8, T>(&view).to_vec())
+    }
+}
+
+/// Unmaps its buffers when dropped, on every exit of the code that mapped them (errors and
+/// panics included), so that the next frame can map them again.
+struct Unmap<'a>(Vec<&'a wgpu::Buffer>);
+
+impl Drop for Unmap<'_> {
+    fn drop(&mut self) {
+        for buffer in &self.0 {
+            buffer.unmap();
+        }
     }
 }
 
