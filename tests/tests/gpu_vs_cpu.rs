@@ -186,6 +186,38 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     assert_eq!(gpu.renderer.gpu_stages().unwrap().shade_pass, None);
 }
 
+/// A frame re-shaded with a camera of another size is refused with an error that names both
+/// sizes, and leaves nothing behind: the next re-shade, with the right camera, equals the render.
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn a_reshade_of_a_frame_of_another_size_is_an_error_and_the_next_reshade_works() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let gpu = common::gpu_tracer(&scene, &bvh);
+    let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
+    let camera = common::cameras()[4].clone();
+    let smaller = common::cameras()[0].clone();
+    let rendered = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
+    gpu.renderer
+        .reshade(&gpu.scene, &camera, &pose, &mut rendered.clone(), Planes::ALL)
+        .unwrap();
+    let mut small = gpu.render_planes(&smaller, &pose, Planes::ALL).unwrap();
+    let error = gpu
+        .renderer
+        .reshade(&gpu.scene, &camera, &pose, &mut small, Planes::ALL)
+        .unwrap_err();
+    assert!(matches!(error, omnisim::RenderError::FrameSize { .. }), "{error:?}");
+    assert!(
+        error.to_string().contains("320×240") && error.to_string().contains("512×256"),
+        "{error}"
+    );
+    let mut frame = rendered.clone();
+    gpu.renderer
+        .reshade(&gpu.scene, &camera, &pose, &mut frame, Planes::ALL)
+        .unwrap();
+    assert_eq!(frame, rendered);
+}
+
 /// Frames of one prepared scene rendered and re-shaded from many poses at once on a rayon pool
 /// equal the frames rendered one by one. A frame's own rayon work (the ray table, the upload,
 /// the readback) may run another frame on the same thread (rayon issue #592): that frame must

@@ -51,6 +51,23 @@ pub enum RenderError {
         /// Faces of the scene.
         faces: usize,
     },
+    /// A frame to re-shade that another camera made.
+    #[error(
+        "the frame to re-shade is {frame_width}×{frame_height} with {pixels} pixels, but the camera makes \
+         {camera_width}×{camera_height} images: re-shade a frame with the camera that rendered it"
+    )]
+    FrameSize {
+        /// The frame's width.
+        frame_width: u32,
+        /// The frame's height.
+        frame_height: u32,
+        /// The frame's pixel count.
+        pixels: usize,
+        /// The camera's image width.
+        camera_width: u32,
+        /// The camera's image height.
+        camera_height: u32,
+    },
     /// A camera that cannot make an image.
     #[error("the camera cannot make an image: {0}")]
     Camera(#[from] crate::camera::CameraError),
@@ -295,6 +312,19 @@ impl Renderer {
         frame: &mut Frame,
         planes: Planes,
     ) -> Result<(), RenderError> {
+        let (camera_width, camera_height) = camera.size();
+        let pixels = frame.pixels().len();
+        if (frame.width, frame.height) != (camera_width, camera_height)
+            || pixels != camera_width as usize * camera_height as usize
+        {
+            return Err(RenderError::FrameSize {
+                frame_width: frame.width,
+                frame_height: frame.height,
+                pixels,
+                camera_width,
+                camera_height,
+            });
+        }
         match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,

@@ -273,7 +273,15 @@ impl GpuRenderer {
         // taken out of the scene for the frame, not locked through it: the frame's rayon work
         // may run another frame of this scene on the same thread (rayon issue #592), which
         // then makes its own set. A frame that fails or panics drops its set.
-        let cached = scene.band.lock().unwrap_or_else(PoisonError::into_inner).take();
+        let cached = match scene.band.lock() {
+            Ok(mut cache) => cache.take(),
+            // A frame that panicked with the lock held: its buffers may be mapped, so none are reused.
+            Err(poisoned) => {
+                drop(poisoned.into_inner().take());
+                scene.band.clear_poison();
+                None
+            }
+        };
         let mut buffers = cached
             .filter(|b| (b.rows, b.width) == (band_rows, width))
             .unwrap_or_else(|| self.band_buffers(band_rows, width));
@@ -364,12 +372,15 @@ impl GpuRenderer {
             let shaded_bytes = pixels * size_of::<ShadedPixel>();
             let mut encoder = self.context.device.create_command_encoder(&Default::default());
             if let (HitSource::Upload(hits), Some(upload)) = (source, &buffers.upload) {
+                // Sliced before mapping: nothing that can panic runs while the buffer is mapped.
+                let band_hits = &hits[range.clone()];
                 self.map_buffers(&[(upload, hit_bytes)], wgpu::MapMode::Write)?;
-                let written = upload
+                let unmap = Unmap(vec![upload]);
+                upload
                     .get_mapped_range_mut(..hit_bytes)
-                    .map(|mut view| write_gpu_hits(view.slice(..), &hits[range.clone()], scene.offset));
-                upload.unmap();
-                written.map_err(|e| GpuError::Readback(e.to_string()))?;
+                    .map(|mut view| write_gpu_hits(view.slice(..), band_hits, scene.offset))
+                    .map_err(|e| GpuError::Readback(e.to_string()))?;
+                drop(unmap);
                 copy(&mut encoder, upload, &buffers.hits, hit_bytes);
             }
             let groups = [
