@@ -202,6 +202,7 @@ fn a_reshade_of_a_frame_of_another_size_is_an_error_and_the_next_reshade_works()
         .reshade(&gpu.scene, &camera, &pose, &mut rendered.clone(), Planes::ALL)
         .unwrap();
     let mut small = gpu.render_planes(&smaller, &pose, Planes::ALL).unwrap();
+    assert!(gpu.renderer.gpu_stages().is_some());
     let error = gpu
         .renderer
         .reshade(&gpu.scene, &camera, &pose, &mut small, Planes::ALL)
@@ -211,11 +212,17 @@ fn a_reshade_of_a_frame_of_another_size_is_an_error_and_the_next_reshade_works()
         error.to_string().contains("320×240") && error.to_string().contains("512×256"),
         "{error}"
     );
+    assert_eq!(gpu.renderer.gpu_stages(), None, "a frame that failed has no GPU stages");
     let mut frame = rendered.clone();
     gpu.renderer
         .reshade(&gpu.scene, &camera, &pose, &mut frame, Planes::ALL)
         .unwrap();
     assert_eq!(frame, rendered);
+    assert_eq!(
+        gpu.renderer.gpu_stages().map(|s| s.trace_pass),
+        Some(None),
+        "a re-shade traces nothing"
+    );
 }
 
 /// Frames of one prepared scene rendered and re-shaded from many poses at once on a rayon pool

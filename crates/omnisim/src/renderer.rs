@@ -228,6 +228,7 @@ impl Renderer {
         pose: &Pose,
         planes: Planes,
     ) -> Result<Frame, RenderError> {
+        self.forget_gpu_stages();
         camera.validate()?;
         let mut frame = match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
@@ -312,6 +313,7 @@ impl Renderer {
         frame: &mut Frame,
         planes: Planes,
     ) -> Result<(), RenderError> {
+        self.forget_gpu_stages();
         let (camera_width, camera_height) = camera.size();
         let pixels = frame.pixels().len();
         if (frame.width, frame.height) != (camera_width, camera_height)
@@ -360,13 +362,22 @@ impl Renderer {
         None
     }
 
-    /// Where the GPU backend's last frame (render or re-shade) spent its time; `None` on the
-    /// CPU backend.
+    /// Where the last frame (render or re-shade) spent its time on the GPU; `None` where it
+    /// failed or ran on the CPU (the CPU backend, or a scene `auto` traces on the CPU).
     #[cfg(feature = "gpu")]
     pub fn gpu_stages(&self) -> Option<crate::gpu::GpuStages> {
         match &self.backend {
-            Backend::Gpu(renderer) => Some(renderer.last_stages()),
+            Backend::Gpu(renderer) => renderer.last_stages(),
             Backend::Cpu => None,
+        }
+    }
+
+    /// Forgets the last frame's GPU stages as a frame starts, so that none are reported for a
+    /// frame that fails or runs on the CPU.
+    fn forget_gpu_stages(&self) {
+        #[cfg(feature = "gpu")]
+        if let Backend::Gpu(renderer) = &self.backend {
+            renderer.forget_stages();
         }
     }
 

@@ -40,8 +40,9 @@ pub struct GpuRenderer {
     /// camera and kept under [`table_key`]; other cameras bind `no_rays`.
     rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
     no_rays: Arc<wgpu::Buffer>,
-    /// Where the last frame's time went, for `omnisim bench`.
-    stages: Mutex<GpuStages>,
+    /// Where the last frame spent its time, for `omnisim bench`; `None` once a frame starts,
+    /// until it finishes on the GPU.
+    stages: Mutex<Option<GpuStages>>,
 }
 
 /// What a camera's ray table depends on: the camera without its place. The table holds
@@ -125,7 +126,7 @@ impl GpuRenderer {
             max_band_rows: None,
             rays: Mutex::new(None),
             no_rays,
-            stages: Mutex::new(GpuStages::default()),
+            stages: Mutex::new(None),
         }
     }
 
@@ -152,9 +153,15 @@ impl GpuRenderer {
         &self.context
     }
 
-    /// Where the last frame (render or re-shade) spent its time.
-    pub fn last_stages(&self) -> GpuStages {
+    /// Where the last frame (render or re-shade) spent its time; `None` if it failed or did
+    /// not run here.
+    pub fn last_stages(&self) -> Option<GpuStages> {
         *self.stages.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Forgets the last frame's stages, as a frame starts.
+    pub(crate) fn forget_stages(&self) {
+        *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = None;
     }
 
     /// Traces a frame and shades the planes `planes` asks for.
@@ -485,7 +492,7 @@ impl GpuRenderer {
             row += rows;
             submit_start = Instant::now();
         }
-        *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = stages;
+        *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = Some(stages);
         Ok(output)
     }
 
