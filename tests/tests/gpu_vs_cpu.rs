@@ -167,8 +167,17 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
         bands > 2 && camera.size().1 % 7 != 0,
         "full bands and a shorter last one"
     );
+    let untimed = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
+    let stages = gpu.renderer.gpu_stages().unwrap();
+    assert_eq!(
+        (stages.trace_pass, stages.shade_pass),
+        (None, None),
+        "passes are timed only when asked"
+    );
+    gpu.renderer.gpu_renderer().unwrap().time_passes(true);
     let mut banded = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
     assert_eq!(whole, banded);
+    assert_eq!(untimed, banded);
     // Each band's stages are summed; pass times come in pairs where the adapter has timestamps.
     let stages = gpu.renderer.gpu_stages().unwrap();
     assert_eq!(stages.bands, bands);

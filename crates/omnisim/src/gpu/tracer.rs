@@ -36,6 +36,8 @@ pub struct GpuRenderer {
     shade: Pipeline,
     refine: Pipeline,
     max_band_rows: Option<u32>,
+    /// Whether frames time their passes by timestamp queries (`omnisim bench`; off by default).
+    time_passes: bool,
     /// The ray table of the last lens camera traced (`camera_table.wgsl`), uploaded once per
     /// camera and kept under [`table_key`]; other cameras bind `no_rays`.
     rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
@@ -124,6 +126,7 @@ impl GpuRenderer {
             refine: pipeline_for(&bindings::REFINE),
             context,
             max_band_rows: None,
+            time_passes: false,
             rays: Mutex::new(None),
             no_rays,
             stages: Mutex::new(None),
@@ -141,6 +144,19 @@ impl GpuRenderer {
     /// limit: for adapters that struggle with large buffers, and to test the banding.
     pub fn limit_band_rows(&mut self, rows: u32) {
         self.max_band_rows = Some(rows.max(1));
+    }
+
+    /// Times each pass of the next frames on the GPU ([`GpuStages::trace_pass`] and
+    /// [`GpuStages::shade_pass`]), where the device has timestamp queries: for `omnisim
+    /// bench`. Off by default, so that other frames write and read back no timestamps.
+    pub fn time_passes(&mut self, on: bool) {
+        self.time_passes = on;
+    }
+
+    /// Whether the device has timestamp queries, so that [`GpuRenderer::time_passes`] times
+    /// the passes.
+    pub fn has_pass_clock(&self) -> bool {
+        self.context.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
     }
 
     /// The device in use.
@@ -296,6 +312,9 @@ impl GpuRenderer {
             let usage = wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC;
             buffers.upload = Some(self.buffer("hits upload", buffers.hits.size(), usage));
         }
+        if self.time_passes && buffers.clock.is_none() {
+            buffers.clock = PassClock::new(&self.context.device, &self.context.queue);
+        }
         let output = self.trace_bands(
             scene,
             &buffers,
@@ -331,7 +350,7 @@ impl GpuRenderer {
         let (width, height) = camera.size();
         let trace = matches!(source, HitSource::Trace);
         let shade = planes.needs_shading();
-        let clock = buffers.clock.as_ref();
+        let clock = buffers.clock.as_ref().filter(|_| self.time_passes);
         let trace_group = self.bind_group(
             &self.trace,
             &[
@@ -601,7 +620,7 @@ impl GpuRenderer {
                 size_of::<CameraParams>(),
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            clock: PassClock::new(&self.context.device, &self.context.queue),
+            clock: None,
             upload: None,
         }
     }
