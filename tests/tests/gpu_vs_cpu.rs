@@ -164,7 +164,7 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     gpu.renderer.gpu_renderer().unwrap().limit_band_rows(7);
     let bands = camera.size().1.div_ceil(7);
     assert!(
-        bands > 2 && camera.size().1 % 7 != 0,
+        bands > 2 && !camera.size().1.is_multiple_of(7),
         "full bands and a shorter last one"
     );
     let untimed = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
