@@ -164,15 +164,29 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     gpu.renderer.gpu_renderer().unwrap().limit_band_rows(7);
     let bands = camera.size().1.div_ceil(7);
     assert!(
-        bands > 2 && camera.size().1 % 7 != 0,
+        bands > 2 && !camera.size().1.is_multiple_of(7),
         "full bands and a shorter last one"
     );
+    let untimed = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
+    let stages = gpu.renderer.gpu_stages().unwrap();
+    assert_eq!(
+        (stages.trace_pass, stages.shade_pass),
+        (None, None),
+        "passes are timed only when asked"
+    );
+    let clock = gpu.renderer.gpu_renderer().unwrap().has_pass_clock();
+    gpu.renderer.gpu_renderer().unwrap().time_passes(true);
     let mut banded = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
     assert_eq!(whole, banded);
-    // Each band's stages are summed; pass times come in pairs where the adapter has timestamps.
+    assert_eq!(untimed, banded);
+    // Each band's stages are summed; both passes are timed where the device has timestamps.
     let stages = gpu.renderer.gpu_stages().unwrap();
+    eprintln!("timestamp queries: {clock}; stages {stages:?}");
     assert_eq!(stages.bands, bands);
-    assert_eq!(stages.trace_pass.is_some(), stages.shade_pass.is_some());
+    assert_eq!(
+        (stages.trace_pass.is_some(), stages.shade_pass.is_some()),
+        (clock, clock)
+    );
     // A re-shade in bands uploads each band's hits and shades them to the same planes, tracing nothing.
     gpu.renderer
         .reshade(&gpu.scene, &camera, &pose, &mut banded, Planes::ALL)
@@ -180,10 +194,98 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
     assert_eq!(whole, banded);
     let reshaded = gpu.renderer.gpu_stages().unwrap();
     assert_eq!((reshaded.bands, reshaded.trace_pass), (bands, None));
-    assert_eq!(reshaded.shade_pass.is_some(), stages.shade_pass.is_some());
+    assert_eq!(reshaded.shade_pass.is_some(), clock);
     let hits = gpu.render_planes(&camera, &pose, Planes::HITS).unwrap();
     assert_eq!(hits.pixels(), whole.pixels());
     assert_eq!(gpu.renderer.gpu_stages().unwrap().shade_pass, None);
+}
+
+/// A frame re-shaded with a camera of another size is refused with an error that names both
+/// sizes, and leaves nothing behind: the next re-shade, with the right camera, equals the render.
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn a_reshade_of_a_frame_of_another_size_is_an_error_and_the_next_reshade_works() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let gpu = common::gpu_tracer(&scene, &bvh);
+    let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
+    let camera = common::cameras()[4].clone();
+    let smaller = common::cameras()[0].clone();
+    let rendered = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
+    gpu.renderer
+        .reshade(&gpu.scene, &camera, &pose, &mut rendered.clone(), Planes::ALL)
+        .unwrap();
+    let mut small = gpu.render_planes(&smaller, &pose, Planes::ALL).unwrap();
+    assert!(gpu.renderer.gpu_stages().is_some());
+    let error = gpu
+        .renderer
+        .reshade(&gpu.scene, &camera, &pose, &mut small, Planes::ALL)
+        .unwrap_err();
+    assert!(matches!(error, omnisim::RenderError::FrameSize { .. }), "{error:?}");
+    assert!(
+        error.to_string().contains("320×240") && error.to_string().contains("512×256"),
+        "{error}"
+    );
+    assert_eq!(gpu.renderer.gpu_stages(), None, "a frame that failed has no GPU stages");
+    let mut frame = rendered.clone();
+    gpu.renderer
+        .reshade(&gpu.scene, &camera, &pose, &mut frame, Planes::ALL)
+        .unwrap();
+    assert_eq!(frame, rendered);
+    assert_eq!(
+        gpu.renderer.gpu_stages().map(|s| s.trace_pass),
+        Some(None),
+        "a re-shade traces nothing"
+    );
+}
+
+/// Frames of one prepared scene rendered and re-shaded from many poses at once on a rayon pool
+/// equal the frames rendered one by one. A frame's own rayon work (the ray table, the upload,
+/// the readback) may run another frame on the same thread (rayon issue #592): that frame must
+/// not wait for a lock the first one holds, or the pool deadlocks. The frames are queued on
+/// the pool from outside, a few milliseconds apart, so that a thread waiting inside a frame's
+/// tasks finds the next frame queued; two lens cameras alternate, so that each frame builds
+/// its ray table on the pool.
+#[test]
+#[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
+fn frames_rendered_in_parallel_equal_frames_rendered_one_by_one() {
+    let scene = common::load("env1.ron");
+    let bvh = SceneBvh::build(&scene);
+    let gpu = std::sync::Arc::new(common::gpu_tracer(&scene, &bvh));
+    let cameras = [common::cameras()[2].clone(), common::cameras()[3].clone()];
+    assert!(cameras.iter().all(Camera::has_lens_model));
+    let jobs: Vec<(Camera, Pose)> = (0..48)
+        .map(|i| {
+            let pose = Pose::from_degrees(
+                dvec3(0.05 * f64::from(i), 0.0, 0.4),
+                dvec3(0.0, 0.0, 7.5 * f64::from(i)),
+            );
+            (cameras[i as usize % 2].clone(), pose)
+        })
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(8).build().unwrap();
+    let (sender, receiver) = std::sync::mpsc::channel();
+    for (index, (camera, pose)) in jobs.iter().cloned().enumerate() {
+        let (gpu, sender) = (std::sync::Arc::clone(&gpu), sender.clone());
+        pool.spawn(move || {
+            let mut frame = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
+            let rendered = frame.clone();
+            gpu.renderer
+                .reshade(&gpu.scene, &camera, &pose, &mut frame, Planes::ALL)
+                .unwrap();
+            let _ = sender.send((index, rendered, frame));
+        });
+        std::thread::sleep(std::time::Duration::from_millis(3));
+    }
+    for _ in &jobs {
+        let (index, rendered, reshaded) = receiver
+            .recv_timeout(std::time::Duration::from_secs(300))
+            .expect("every frame finishes: a frame's rayon work ran another frame that waited for it (deadlock)");
+        let (camera, pose) = &jobs[index];
+        let serial = gpu.render_planes(camera, pose, Planes::ALL).unwrap();
+        assert!(serial.hit_count() > 1000);
+        assert!(rendered == serial && reshaded == serial, "frame {index}");
+    }
 }
 
 /// A NaN ray hits nothing on the GPU, as on the CPU: a pose of NaN position or angles (the

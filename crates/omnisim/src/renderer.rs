@@ -51,6 +51,23 @@ pub enum RenderError {
         /// Faces of the scene.
         faces: usize,
     },
+    /// A frame to re-shade that another camera made.
+    #[error(
+        "the frame to re-shade is {frame_width}×{frame_height} with {pixels} pixels, but the camera makes \
+         {camera_width}×{camera_height} images: re-shade a frame with the camera that rendered it"
+    )]
+    FrameSize {
+        /// The frame's width.
+        frame_width: u32,
+        /// The frame's height.
+        frame_height: u32,
+        /// The frame's pixel count.
+        pixels: usize,
+        /// The camera's image width.
+        camera_width: u32,
+        /// The camera's image height.
+        camera_height: u32,
+    },
     /// A camera that cannot make an image.
     #[error("the camera cannot make an image: {0}")]
     Camera(#[from] crate::camera::CameraError),
@@ -211,6 +228,7 @@ impl Renderer {
         pose: &Pose,
         planes: Planes,
     ) -> Result<Frame, RenderError> {
+        self.forget_gpu_stages();
         camera.validate()?;
         let mut frame = match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
@@ -295,6 +313,20 @@ impl Renderer {
         frame: &mut Frame,
         planes: Planes,
     ) -> Result<(), RenderError> {
+        self.forget_gpu_stages();
+        let (camera_width, camera_height) = camera.size();
+        let pixels = frame.pixels().len();
+        if (frame.width, frame.height) != (camera_width, camera_height)
+            || pixels != camera_width as usize * camera_height as usize
+        {
+            return Err(RenderError::FrameSize {
+                frame_width: frame.width,
+                frame_height: frame.height,
+                pixels,
+                camera_width,
+                camera_height,
+            });
+        }
         match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.reshade(gpu, camera, pose, frame, planes)?,
@@ -330,13 +362,22 @@ impl Renderer {
         None
     }
 
-    /// Where the GPU backend's last frame (render or re-shade) spent its time; `None` on the
-    /// CPU backend.
+    /// Where the last frame (render or re-shade) spent its time on the GPU; `None` where it
+    /// failed or ran on the CPU (the CPU backend, or a scene `auto` traces on the CPU).
     #[cfg(feature = "gpu")]
     pub fn gpu_stages(&self) -> Option<crate::gpu::GpuStages> {
         match &self.backend {
-            Backend::Gpu(renderer) => Some(renderer.last_stages()),
+            Backend::Gpu(renderer) => renderer.last_stages(),
             Backend::Cpu => None,
+        }
+    }
+
+    /// Forgets the last frame's GPU stages as a frame starts, so that none are reported for a
+    /// frame that fails or runs on the CPU.
+    fn forget_gpu_stages(&self) {
+        #[cfg(feature = "gpu")]
+        if let Backend::Gpu(renderer) = &self.backend {
+            renderer.forget_stages();
         }
     }
 

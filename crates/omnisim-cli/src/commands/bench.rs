@@ -109,6 +109,9 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
     for choice in choices {
         let opened = Renderer::new(choice).and_then(|mut renderer| {
             renderer.set_cpu_tracer(args.tracer.into());
+            if let Some(gpu) = renderer.gpu_renderer() {
+                gpu.time_passes(true);
+            }
             let prepared = renderer.prepare(&scene)?;
             Ok((renderer, prepared))
         });

@@ -106,7 +106,8 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("omnisim"),
             required_limits: limits.clone(),
-            // For `omnisim bench`'s pass times (`timing.rs`), where the adapter has them.
+            // Where the adapter has them, so that `omnisim bench` can time the passes
+            // (`timing.rs`); frames write timestamps only when asked to (`GpuRenderer::time_passes`).
             required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
             ..Default::default()
         }))

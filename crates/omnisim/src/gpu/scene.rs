@@ -28,7 +28,8 @@ pub(super) struct BandBuffers {
     pub(super) camera: wgpu::Buffer,
     /// Host-visible hits a re-shade writes (made by the first re-shade of this band size).
     pub(super) upload: Option<wgpu::Buffer>,
-    /// Timestamps of the passes, where the device has timestamp queries.
+    /// Timestamps of the passes, where the device has timestamp queries (made by the first
+    /// frame that times its passes, [`super::GpuRenderer::time_passes`]).
     pub(super) clock: Option<PassClock>,
 }
 

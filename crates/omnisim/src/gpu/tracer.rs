@@ -36,12 +36,15 @@ pub struct GpuRenderer {
     shade: Pipeline,
     refine: Pipeline,
     max_band_rows: Option<u32>,
+    /// Whether frames time their passes by timestamp queries (`omnisim bench`; off by default).
+    time_passes: bool,
     /// The ray table of the last lens camera traced (`camera_table.wgsl`), uploaded once per
     /// camera and kept under [`table_key`]; other cameras bind `no_rays`.
     rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
     no_rays: Arc<wgpu::Buffer>,
-    /// Where the last frame's time went, for `omnisim bench`.
-    stages: Mutex<GpuStages>,
+    /// Where the last frame spent its time, for `omnisim bench`; `None` once a frame starts,
+    /// until it finishes on the GPU.
+    stages: Mutex<Option<GpuStages>>,
 }
 
 /// What a camera's ray table depends on: the camera without its place. The table holds
@@ -123,9 +126,10 @@ impl GpuRenderer {
             refine: pipeline_for(&bindings::REFINE),
             context,
             max_band_rows: None,
+            time_passes: false,
             rays: Mutex::new(None),
             no_rays,
-            stages: Mutex::new(GpuStages::default()),
+            stages: Mutex::new(None),
         }
     }
 
@@ -142,6 +146,19 @@ impl GpuRenderer {
         self.max_band_rows = Some(rows.max(1));
     }
 
+    /// Times each pass of the next frames on the GPU ([`GpuStages::trace_pass`] and
+    /// [`GpuStages::shade_pass`]), where the device has timestamp queries: for `omnisim
+    /// bench`. Off by default, so that other frames write and read back no timestamps.
+    pub fn time_passes(&mut self, on: bool) {
+        self.time_passes = on;
+    }
+
+    /// Whether the device has timestamp queries, so that [`GpuRenderer::time_passes`] times
+    /// the passes.
+    pub fn has_pass_clock(&self) -> bool {
+        self.context.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
     /// The device in use.
     /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
     pub fn is_software(&self) -> bool {
@@ -152,9 +169,15 @@ impl GpuRenderer {
         &self.context
     }
 
-    /// Where the last frame (render or re-shade) spent its time.
-    pub fn last_stages(&self) -> GpuStages {
+    /// Where the last frame (render or re-shade) spent its time; `None` if it failed or did
+    /// not run here.
+    pub fn last_stages(&self) -> Option<GpuStages> {
         *self.stages.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Forgets the last frame's stages, as a frame starts.
+    pub(crate) fn forget_stages(&self) {
+        *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = None;
     }
 
     /// Traces a frame and shades the planes `planes` asks for.
@@ -198,8 +221,9 @@ impl GpuRenderer {
             return Ok(Arc::clone(&self.no_rays));
         }
         let key = table_key(camera);
-        let mut cache = self.rays.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some((cached, buffer)) = cache.as_ref()
+        // The lock is held only to look and to store: the table is built on the rayon pool,
+        // which may run another frame on this thread meanwhile (rayon issue #592).
+        if let Some((cached, buffer)) = self.rays.lock().unwrap_or_else(PoisonError::into_inner).as_ref()
             && *cached == key
         {
             return Ok(Arc::clone(buffer));
@@ -238,7 +262,7 @@ impl GpuRenderer {
                     usage: wgpu::BufferUsages::STORAGE,
                 }),
         );
-        *cache = Some((key, Arc::clone(&buffer)));
+        *self.rays.lock().unwrap_or_else(PoisonError::into_inner) = Some((key, Arc::clone(&buffer)));
         Ok(buffer)
     }
 
@@ -265,23 +289,68 @@ impl GpuRenderer {
             return Err(GpuError::ImageTooWide { width, height });
         }
         // Band 1's submit stage includes the bind groups and the ray table's first upload.
-        let mut submit_start = Instant::now();
-        let mut params = camera_params(camera, pose, scene.offset);
+        let submit_start = Instant::now();
+        let params = camera_params(camera, pose, scene.offset);
         let rays = self.camera_rays(camera)?;
-        let trace = matches!(source, HitSource::Trace);
-        let shade = planes.needs_shading();
-        // Consecutive frames of one size (trajectories, grids) reuse their buffers.
-        let mut cache = scene.band.lock().unwrap_or_else(PoisonError::into_inner);
-        if cache.as_ref().is_some_and(|b| (b.rows, b.width) != (band_rows, width)) {
-            *cache = None;
-        }
-        let buffers = cache.get_or_insert_with(|| self.band_buffers(band_rows, width));
+        // Consecutive frames of one size (trajectories, grids) reuse their buffers. They are
+        // taken out of the scene for the frame, not locked through it: the frame's rayon work
+        // may run another frame of this scene on the same thread (rayon issue #592), which
+        // then makes its own set. A frame that fails or panics drops its set.
+        let cached = match scene.band.lock() {
+            Ok(mut cache) => cache.take(),
+            // A frame that panicked with the lock held: its buffers may be mapped, so none are reused.
+            Err(poisoned) => {
+                drop(poisoned.into_inner().take());
+                scene.band.clear_poison();
+                None
+            }
+        };
+        let mut buffers = cached
+            .filter(|b| (b.rows, b.width) == (band_rows, width))
+            .unwrap_or_else(|| self.band_buffers(band_rows, width));
         if matches!(source, HitSource::Upload(_)) && buffers.upload.is_none() {
             let usage = wgpu::BufferUsages::MAP_WRITE | wgpu::BufferUsages::COPY_SRC;
             buffers.upload = Some(self.buffer("hits upload", buffers.hits.size(), usage));
         }
-        let buffers = &*buffers;
-        let clock = buffers.clock.as_ref();
+        if self.time_passes && buffers.clock.is_none() {
+            buffers.clock = PassClock::new(&self.context.device, &self.context.queue);
+        }
+        let output = self.trace_bands(
+            scene,
+            &buffers,
+            camera,
+            params,
+            &rays,
+            band_rows,
+            planes,
+            source,
+            submit_start,
+        )?;
+        *scene.band.lock().unwrap_or_else(PoisonError::into_inner) = Some(buffers);
+        Ok(output)
+    }
+
+    /// The bands of one frame, on `buffers` (bands of `band_rows` rows of the camera's width).
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one frame's state, split from `run_bands` for its buffers' lifetime"
+    )]
+    fn trace_bands(
+        &self,
+        scene: &GpuScene,
+        buffers: &BandBuffers,
+        camera: &Camera,
+        mut params: CameraParams,
+        rays: &wgpu::Buffer,
+        band_rows: u32,
+        planes: Planes,
+        source: HitSource,
+        mut submit_start: Instant,
+    ) -> Result<BandOutput, GpuError> {
+        let (width, height) = camera.size();
+        let trace = matches!(source, HitSource::Trace);
+        let shade = planes.needs_shading();
+        let clock = buffers.clock.as_ref().filter(|_| self.time_passes);
         let trace_group = self.bind_group(
             &self.trace,
             &[
@@ -289,7 +358,7 @@ impl GpuRenderer {
                 (NODES, &scene.nodes),
                 (TRIANGLES, &scene.triangles),
                 (HITS, &buffers.hits),
-                (CAMERA_RAYS, &rays),
+                (CAMERA_RAYS, rays),
             ],
         );
         let shade_group = self.bind_group(
@@ -303,7 +372,7 @@ impl GpuRenderer {
                 (LIGHTS, &scene.lights),
                 (SHADING, &scene.shading),
                 (SHADED, &buffers.shaded),
-                (CAMERA_RAYS, &rays),
+                (CAMERA_RAYS, rays),
                 (SURFACES, &scene.surfaces),
                 (TEXTURES, &scene.textures),
             ],
@@ -329,12 +398,15 @@ impl GpuRenderer {
             let shaded_bytes = pixels * size_of::<ShadedPixel>();
             let mut encoder = self.context.device.create_command_encoder(&Default::default());
             if let (HitSource::Upload(hits), Some(upload)) = (source, &buffers.upload) {
+                // Sliced before mapping: nothing that can panic runs while the buffer is mapped.
+                let band_hits = &hits[range.clone()];
                 self.map_buffers(&[(upload, hit_bytes)], wgpu::MapMode::Write)?;
-                let written = upload
+                let unmap = Unmap(vec![upload]);
+                upload
                     .get_mapped_range_mut(..hit_bytes)
-                    .map(|mut view| write_gpu_hits(view.slice(..), &hits[range.clone()], scene.offset));
-                upload.unmap();
-                written.map_err(|e| GpuError::Readback(e.to_string()))?;
+                    .map(|mut view| write_gpu_hits(view.slice(..), band_hits, scene.offset))
+                    .map_err(|e| GpuError::Readback(e.to_string()))?;
+                drop(unmap);
                 copy(&mut encoder, upload, &buffers.hits, hit_bytes);
             }
             let groups = [
@@ -365,6 +437,8 @@ impl GpuRenderer {
             stages.submit += submit_start.elapsed();
             let wait_start = Instant::now();
             self.map_buffers(&to_map, wgpu::MapMode::Read)?;
+            // Declared before the views, so dropped after them, on every exit.
+            let unmap = Unmap(to_map.iter().map(|&(buffer, _)| buffer).collect());
             let read_start = Instant::now();
             stages.wait += read_start - wait_start;
             let hits_view = trace.then(|| mapped(&buffers.hits_readback, hit_bytes)).transpose()?;
@@ -431,15 +505,13 @@ impl GpuRenderer {
                     first_band,
                 );
             }
-            for (buffer, _) in to_map {
-                buffer.unmap();
-            }
+            drop(unmap);
             stages.readback += read_start.elapsed();
             stages.bands += 1;
             row += rows;
             submit_start = Instant::now();
         }
-        *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = stages;
+        *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = Some(stages);
         Ok(output)
     }
 
@@ -548,7 +620,7 @@ impl GpuRenderer {
                 size_of::<CameraParams>(),
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            clock: PassClock::new(&self.context.device, &self.context.queue),
+            clock: None,
             upload: None,
         }
     }
@@ -618,9 +690,20 @@ impl GpuRenderer {
     /// The first `bytes` of `buffer` (after the GPU work that writes it was submitted).
     fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, GpuError> {
         self.map_buffers(&[(buffer, bytes)], wgpu::MapMode::Read)?;
-        let values = mapped(buffer, bytes).map(|view| bytemuck::cast_slice::<u8, T>(&view).to_vec());
-        buffer.unmap();
-        values
+        let _unmap = Unmap(vec![buffer]);
+        mapped(buffer, bytes).map(|view| bytemuck::cast_slice::<u8, T>(&view).to_vec())
+    }
+}
+
+/// Unmaps its buffers when dropped, on every exit of the code that mapped them (errors and
+/// panics included), so that the next frame can map them again.
+struct Unmap<'a>(Vec<&'a wgpu::Buffer>);
+
+impl Drop for Unmap<'_> {
+    fn drop(&mut self) {
+        for buffer in &self.0 {
+            buffer.unmap();
+        }
     }
 }
 
