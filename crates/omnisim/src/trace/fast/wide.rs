@@ -773,6 +773,103 @@ mod tests {
         );
     }
 
+    /// The packet walk of env1's BVH with the visit of [`stop_walk`], on lanes `W`: each ray's
+    /// bound afterwards and how often the visit was called for it (infinite bounds at first).
+    #[inline(always)]
+    fn stop_walk<W: Wide>(
+        bvh: &crate::accel::SceneBvh,
+        packet: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        stopping: u64,
+    ) -> ([f32; PACKET], [u32; PACKET]) {
+        let rays = PacketRays::<W>::new(packet, active, bvh.wide.extent);
+        let mut bounds = [f32::INFINITY; PACKET];
+        let mut visits = [0u32; PACKET];
+        bvh.wide
+            .traverse_interval(&rays, &mut bounds, active, &bvh.triangles, |r, _| {
+                let stops = stopping >> r & 1 != 0;
+                assert!(!stops || visits[r] == 0, "ray {r} visited again after it stopped");
+                visits[r] += 1;
+                if stops { Visit::Stop } else { Visit::Miss }
+            });
+        (bounds, visits)
+    }
+
+    /// [`stop_walk`] on the AVX lanes the AVX2 packet walk runs.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn stop_walk_avx(
+        bvh: &crate::accel::SceneBvh,
+        packet: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        stopping: u64,
+    ) -> ([f32; PACKET], [u32; PACKET]) {
+        stop_walk::<crate::trace::fast::lanes::Avx8>(bvh, packet, active, stopping)
+    }
+
+    /// A ray whose visit answers [`Visit::Stop`] is never shown another triangle and leaves
+    /// the walk with bound −∞; the other rays (answering `Miss`) keep theirs; and a packet
+    /// whose rays all stop asks one visit of each. Two packets from env1's centre towards a
+    /// wall, both in one octant: all 64 rays in a narrow cone (they reach the leaves
+    /// together: the packet's leaf loop) and 20 rays in a wide one (at most `FEW_RAYS` from the
+    /// root on: each ray's own walk); every third ray stopping, then all. Portable lanes
+    /// and, where the CPU has AVX2, the AVX lanes.
+    #[test]
+    fn a_stopped_ray_leaves_the_packet_walk() {
+        let (_, bvh) = crate::trace::test_scene("env1");
+        let (low, high) = bvh
+            .triangles
+            .iter()
+            .flatten()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(low, high), &p| {
+                (low.min(p), high.max(p))
+            });
+        let centre = (low + high) / 2.0;
+        let mut rng = StdRng::seed_from_u64(3);
+        let axis = DVec3::new(1.0, 0.3, 0.2).normalize();
+        let few: u64 = (1 << 20) - 1;
+        assert!(few.count_ones() <= FEW_RAYS);
+        for (active, cone) in [(u64::MAX, 0.01), (few, 0.15)] {
+            let packet: [(DVec3, DVec3, f64); PACKET] =
+                std::array::from_fn(|_| (centre, (axis + unit(&mut rng) * cone).normalize(), 0.0));
+            assert!(
+                packet.iter().all(|(_, d, _)| d.min_element() > 0.0),
+                "rays of one octant"
+            );
+            for stopping in [0x4924_9249_2492_4924_u64 & active, active] {
+                let mut results = vec![(
+                    "portable",
+                    stop_walk::<crate::trace::fast::lanes::Lanes8>(&bvh, &packet, active, stopping),
+                )];
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: called only where the CPU has AVX2.
+                    results.push(("AVX", unsafe { stop_walk_avx(&bvh, &packet, active, stopping) }));
+                }
+                for (lanes, (bounds, visits)) in results {
+                    for r in (0..PACKET).filter(|r| active >> r & 1 != 0) {
+                        if stopping >> r & 1 != 0 {
+                            assert_eq!(visits[r], 1, "{lanes}: ray {r} never reached a triangle");
+                            assert_eq!(
+                                bounds[r],
+                                f32::NEG_INFINITY,
+                                "{lanes}: ray {r} stopped, bound {}",
+                                bounds[r]
+                            );
+                        } else {
+                            assert!(visits[r] > 0, "{lanes}: ray {r} never reached a triangle");
+                            assert_eq!(bounds[r], f32::INFINITY, "{lanes}: ray {r} only missed");
+                        }
+                    }
+                    if stopping == active {
+                        let total: u32 = visits.iter().sum();
+                        assert_eq!(total, active.count_ones(), "{lanes}: visits of an all-stopping packet");
+                    }
+                }
+            }
+        }
+    }
+
     /// The popped-entry narrowing at an exact tie: a ray whose bound equals where the packet
     /// enters the entry stays in it (a triangle there may tie its best hit and win on a lower
     /// face id), one whose bound is the next f32 below leaves, a NaN bound stays, and rays
