@@ -71,10 +71,9 @@ impl WideBvh {
                             let lane = candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
                             counter.exact_test();
-                            match visit(group.triangle[lane] as usize) {
-                                Visit::Miss => {}
-                                Visit::Closer(t) => t_hi = t_hi.min(t),
-                                Visit::Stop => return,
+                            t_hi = narrowed(t_hi, &visit(group.triangle[lane] as usize));
+                            if t_hi == STOPPED {
+                                return;
                             }
                         }
                     }
@@ -119,9 +118,22 @@ const SMALL_BOX: f32 = 4.0;
 /// 260 M throughout (docs/benchmarks.md).
 const FEW_RAYS: u32 = 24;
 
+/// A ray's bound once `visit` has answered `answer` for it, in both walks: unchanged by a
+/// miss, the nearer of the two after a closer hit, [`STOPPED`] once an any-hit query is
+/// answered (the walk then shows the ray nothing more).
+#[inline(always)]
+fn narrowed(bound: f32, answer: &Visit) -> f32 {
+    match answer {
+        Visit::Miss => bound,
+        Visit::Closer(t) => bound.min(*t),
+        Visit::Stop => STOPPED,
+    }
+}
+
 /// The bound of a ray that takes no further part in a packet walk (outside the packet, or
-/// stopped by [`Visit::Stop`]): below every entry distance, so [`reaching`] drops it from
-/// every entry. When every ray's bound is this, the walk ends at once.
+/// stopped by [`Visit::Stop`]): below every child's entry distance (≥ 0), so [`reaching`]
+/// drops it from every entry below the root. When every ray's bound is this, the walk ends at
+/// once.
 const STOPPED: f32 = f32::NEG_INFINITY;
 
 /// Rays traced together by [`WideBvh::traverse_interval`]: a tile of 8×8 pixels (faster than 4×4 on the clock: docs/benchmarks.md).
@@ -138,7 +150,9 @@ impl WideBvh {
     /// and the walk ends once every ray has stopped (its bound is left at −∞).
     /// The rays must share their directions' signs (`rays.bounds.same_signs()`: the interval
     /// test and the per-ray box tests pick each axis's near plane by that sign); entries of
-    /// `bounds` outside `active` are left alone.
+    /// `bounds` outside `active` are left alone; those inside must not be NaN (the packet's
+    /// bound, a maximum of four-lane maxima, may drop a finite bound beside a NaN one: the
+    /// SSE maximum returns its second operand on NaN).
     /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
     /// subtrees few rays enter (`FEW_RAYS`) are walked by each of them alone
     /// ([`PacketRays::single`]), with `corners` as [`WideBvh::traverse`] takes them.
@@ -151,6 +165,10 @@ impl WideBvh {
         corners: &[[DVec3; 3]],
         visit: impl FnMut(usize, usize) -> Visit,
     ) {
+        debug_assert!(
+            (0..PACKET).all(|r| active >> r & 1 == 0 || !bounds[r].is_nan()),
+            "a NaN bound in the packet walk"
+        );
         if self.nodes.is_empty() || active == 0 {
             return;
         }
@@ -231,13 +249,9 @@ impl WideBvh {
                         corners,
                         #[inline(always)]
                         |triangle| {
-                            let result = visit(r, triangle);
-                            match result {
-                                Visit::Miss => {}
-                                Visit::Closer(t) => bound = bound.min(t),
-                                Visit::Stop => bound = STOPPED,
-                            }
-                            result
+                            let answer = visit(r, triangle);
+                            bound = narrowed(bound, &answer);
+                            answer
                         },
                     );
                     t_hi[r] = bound;
@@ -296,17 +310,11 @@ impl WideBvh {
                         while candidates != 0 {
                             let r = 8 * b + candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
-                            match visit(r, group.triangle[lane] as usize) {
-                                Visit::Miss => {}
-                                Visit::Closer(t) => {
-                                    t_hi[r] = t_hi[r].min(t);
-                                    moved = true;
-                                }
-                                Visit::Stop => {
-                                    t_hi[r] = STOPPED;
-                                    mask &= !(1 << r);
-                                    moved = true;
-                                }
+                            let before = t_hi[r];
+                            t_hi[r] = narrowed(before, &visit(r, group.triangle[lane] as usize));
+                            moved |= t_hi[r] != before;
+                            if t_hi[r] == STOPPED {
+                                mask &= !(1 << r);
                             }
                         }
                     }
@@ -327,8 +335,9 @@ impl WideBvh {
     }
 }
 
-/// The rays of `mask` whose bound `t_hi` is not below `t_enter`, eight at a time (a NaN bound
-/// or entry keeps the ray: the compare is ordered, so the test only ever keeps too many).
+/// The rays of `mask` whose bound `t_hi` is not below `t_enter`, eight at a time. The compare
+/// is ordered, so a NaN would keep the ray (the test only ever keeps too many), though the
+/// walk never holds a NaN bound ([`WideBvh::traverse_interval`] rules them out).
 #[inline(always)]
 fn reaching<W: Wide>(t_hi: &[f32; PACKET], t_enter: f32, mask: u64) -> u64 {
     let entering = W::splat(t_enter);
