@@ -71,9 +71,9 @@ impl WideBvh {
                             let lane = candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
                             counter.exact_test();
-                            t_hi = narrowed(t_hi, &visit(group.triangle[lane] as usize));
-                            if t_hi == STOPPED {
-                                return;
+                            match visit(group.triangle[lane] as usize) {
+                                Visit::Stop => return,
+                                answer => t_hi = narrowed(t_hi, &answer),
                             }
                         }
                     }
@@ -310,10 +310,13 @@ impl WideBvh {
                         while candidates != 0 {
                             let r = 8 * b + candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
-                            let before = t_hi[r];
-                            t_hi[r] = narrowed(before, &visit(r, group.triangle[lane] as usize));
-                            moved |= t_hi[r] != before;
-                            if t_hi[r] == STOPPED {
+                            let answer = visit(r, group.triangle[lane] as usize);
+                            if matches!(answer, Visit::Miss) {
+                                continue;
+                            }
+                            t_hi[r] = narrowed(t_hi[r], &answer);
+                            moved = true;
+                            if matches!(answer, Visit::Stop) {
                                 mask &= !(1 << r);
                             }
                         }
