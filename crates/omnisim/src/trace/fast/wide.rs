@@ -72,9 +72,8 @@ impl WideBvh {
                             candidates &= candidates - 1;
                             counter.exact_test();
                             match visit(group.triangle[lane] as usize) {
-                                Visit::Miss => {}
-                                Visit::Closer(t) => t_hi = t_hi.min(t),
                                 Visit::Stop => return,
+                                answer => t_hi = narrowed(t_hi, &answer),
                             }
                         }
                     }
@@ -119,9 +118,22 @@ const SMALL_BOX: f32 = 4.0;
 /// 260 M throughout (docs/benchmarks.md).
 const FEW_RAYS: u32 = 24;
 
+/// A ray's bound once `visit` has answered `answer` for it, in both walks: unchanged by a
+/// miss, the nearer of the two after a closer hit, [`STOPPED`] once an any-hit query is
+/// answered (the walk then shows the ray nothing more).
+#[inline(always)]
+fn narrowed(bound: f32, answer: &Visit) -> f32 {
+    match answer {
+        Visit::Miss => bound,
+        Visit::Closer(t) => bound.min(*t),
+        Visit::Stop => STOPPED,
+    }
+}
+
 /// The bound of a ray that takes no further part in a packet walk (outside the packet, or
-/// stopped by [`Visit::Stop`]): below every entry distance, so [`reaching`] drops it from
-/// every entry. When every ray's bound is this, the walk ends at once.
+/// stopped by [`Visit::Stop`]): below every child's entry distance (≥ 0), so [`reaching`]
+/// drops it from every entry below the root. When every ray's bound is this, the walk ends at
+/// once.
 const STOPPED: f32 = f32::NEG_INFINITY;
 
 /// Rays traced together by [`WideBvh::traverse_interval`]: a tile of 8×8 pixels (faster than 4×4 on the clock: docs/benchmarks.md).
@@ -138,7 +150,9 @@ impl WideBvh {
     /// and the walk ends once every ray has stopped (its bound is left at −∞).
     /// The rays must share their directions' signs (`rays.bounds.same_signs()`: the interval
     /// test and the per-ray box tests pick each axis's near plane by that sign); entries of
-    /// `bounds` outside `active` are left alone.
+    /// `bounds` outside `active` are left alone; those inside must not be NaN (the packet's
+    /// bound, a maximum of four-lane maxima, may drop a finite bound beside a NaN one: the
+    /// SSE maximum returns its second operand on NaN).
     /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
     /// subtrees few rays enter (`FEW_RAYS`) are walked by each of them alone
     /// ([`PacketRays::single`]), with `corners` as [`WideBvh::traverse`] takes them.
@@ -151,6 +165,10 @@ impl WideBvh {
         corners: &[[DVec3; 3]],
         visit: impl FnMut(usize, usize) -> Visit,
     ) {
+        debug_assert!(
+            (0..PACKET).all(|r| active >> r & 1 == 0 || !bounds[r].is_nan()),
+            "a NaN bound in the packet walk"
+        );
         if self.nodes.is_empty() || active == 0 {
             return;
         }
@@ -231,13 +249,9 @@ impl WideBvh {
                         corners,
                         #[inline(always)]
                         |triangle| {
-                            let result = visit(r, triangle);
-                            match result {
-                                Visit::Miss => {}
-                                Visit::Closer(t) => bound = bound.min(t),
-                                Visit::Stop => bound = STOPPED,
-                            }
-                            result
+                            let answer = visit(r, triangle);
+                            bound = narrowed(bound, &answer);
+                            answer
                         },
                     );
                     t_hi[r] = bound;
@@ -296,17 +310,14 @@ impl WideBvh {
                         while candidates != 0 {
                             let r = 8 * b + candidates.trailing_zeros() as usize;
                             candidates &= candidates - 1;
-                            match visit(r, group.triangle[lane] as usize) {
-                                Visit::Miss => {}
-                                Visit::Closer(t) => {
-                                    t_hi[r] = t_hi[r].min(t);
-                                    moved = true;
-                                }
-                                Visit::Stop => {
-                                    t_hi[r] = STOPPED;
-                                    mask &= !(1 << r);
-                                    moved = true;
-                                }
+                            let answer = visit(r, group.triangle[lane] as usize);
+                            if matches!(answer, Visit::Miss) {
+                                continue;
+                            }
+                            t_hi[r] = narrowed(t_hi[r], &answer);
+                            moved = true;
+                            if matches!(answer, Visit::Stop) {
+                                mask &= !(1 << r);
                             }
                         }
                     }
@@ -327,8 +338,9 @@ impl WideBvh {
     }
 }
 
-/// The rays of `mask` whose bound `t_hi` is not below `t_enter`, eight at a time (a NaN bound
-/// or entry keeps the ray: the compare is ordered, so the test only ever keeps too many).
+/// The rays of `mask` whose bound `t_hi` is not below `t_enter`, eight at a time. The compare
+/// is ordered, so a NaN would keep the ray (the test only ever keeps too many), though the
+/// walk never holds a NaN bound ([`WideBvh::traverse_interval`] rules them out).
 #[inline(always)]
 fn reaching<W: Wide>(t_hi: &[f32; PACKET], t_enter: f32, mask: u64) -> u64 {
     let entering = W::splat(t_enter);
@@ -771,6 +783,103 @@ mod tests {
             admitted_extra * 2 < entered,
             "{admitted_extra} boxes admitted that no ray enters, against {entered} entered"
         );
+    }
+
+    /// The packet walk of env1's BVH with the visit of [`stop_walk`], on lanes `W`: each ray's
+    /// bound afterwards and how often the visit was called for it (infinite bounds at first).
+    #[inline(always)]
+    fn stop_walk<W: Wide>(
+        bvh: &crate::accel::SceneBvh,
+        packet: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        stopping: u64,
+    ) -> ([f32; PACKET], [u32; PACKET]) {
+        let rays = PacketRays::<W>::new(packet, active, bvh.wide.extent);
+        let mut bounds = [f32::INFINITY; PACKET];
+        let mut visits = [0u32; PACKET];
+        bvh.wide
+            .traverse_interval(&rays, &mut bounds, active, &bvh.triangles, |r, _| {
+                let stops = stopping >> r & 1 != 0;
+                assert!(!stops || visits[r] == 0, "ray {r} visited again after it stopped");
+                visits[r] += 1;
+                if stops { Visit::Stop } else { Visit::Miss }
+            });
+        (bounds, visits)
+    }
+
+    /// [`stop_walk`] on the AVX lanes the AVX2 packet walk runs.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn stop_walk_avx(
+        bvh: &crate::accel::SceneBvh,
+        packet: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        stopping: u64,
+    ) -> ([f32; PACKET], [u32; PACKET]) {
+        stop_walk::<crate::trace::fast::lanes::Avx8>(bvh, packet, active, stopping)
+    }
+
+    /// A ray whose visit answers [`Visit::Stop`] is never shown another triangle and leaves
+    /// the walk with bound −∞; the other rays (answering `Miss`) keep theirs; and a packet
+    /// whose rays all stop asks one visit of each. Two packets from env1's centre towards a
+    /// wall, both in one octant: all 64 rays in a narrow cone (they reach the leaves
+    /// together: the packet's leaf loop) and 20 rays in a wide one (at most `FEW_RAYS` from the
+    /// root on: each ray's own walk); every third ray stopping, then all. Portable lanes
+    /// and, where the CPU has AVX2, the AVX lanes.
+    #[test]
+    fn a_stopped_ray_leaves_the_packet_walk() {
+        let (_, bvh) = crate::trace::test_scene("env1");
+        let (low, high) = bvh
+            .triangles
+            .iter()
+            .flatten()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(low, high), &p| {
+                (low.min(p), high.max(p))
+            });
+        let centre = (low + high) / 2.0;
+        let mut rng = StdRng::seed_from_u64(3);
+        let axis = DVec3::new(1.0, 0.3, 0.2).normalize();
+        let few: u64 = (1 << 20) - 1;
+        assert!(few.count_ones() <= FEW_RAYS);
+        for (active, cone) in [(u64::MAX, 0.01), (few, 0.15)] {
+            let packet: [(DVec3, DVec3, f64); PACKET] =
+                std::array::from_fn(|_| (centre, (axis + unit(&mut rng) * cone).normalize(), 0.0));
+            assert!(
+                packet.iter().all(|(_, d, _)| d.min_element() > 0.0),
+                "rays of one octant"
+            );
+            for stopping in [0x4924_9249_2492_4924_u64 & active, active] {
+                let mut results = vec![(
+                    "portable",
+                    stop_walk::<crate::trace::fast::lanes::Lanes8>(&bvh, &packet, active, stopping),
+                )];
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: called only where the CPU has AVX2.
+                    results.push(("AVX", unsafe { stop_walk_avx(&bvh, &packet, active, stopping) }));
+                }
+                for (lanes, (bounds, visits)) in results {
+                    for r in (0..PACKET).filter(|r| active >> r & 1 != 0) {
+                        if stopping >> r & 1 != 0 {
+                            assert_eq!(visits[r], 1, "{lanes}: ray {r} never reached a triangle");
+                            assert_eq!(
+                                bounds[r],
+                                f32::NEG_INFINITY,
+                                "{lanes}: ray {r} stopped, bound {}",
+                                bounds[r]
+                            );
+                        } else {
+                            assert!(visits[r] > 0, "{lanes}: ray {r} never reached a triangle");
+                            assert_eq!(bounds[r], f32::INFINITY, "{lanes}: ray {r} only missed");
+                        }
+                    }
+                    if stopping == active {
+                        let total: u32 = visits.iter().sum();
+                        assert_eq!(total, active.count_ones(), "{lanes}: visits of an all-stopping packet");
+                    }
+                }
+            }
+        }
     }
 
     /// The popped-entry narrowing at an exact tie: a ray whose bound equals where the packet
