@@ -27,7 +27,7 @@ PARTS = [
     ("write system calls", ("ksys_write", "__x64_sys_write", "vfs_write"), ()),
     ("rename", ("rename",), ()),
 ]
-WRITING = ("write_frame", "write_bytes_atomically", "Pending::commit", "Pending::write_entries", "make_durable")
+WRITING = ("write_frame", "write_bytes_atomically", "Pending::write_entries", "make_durable")
 
 
 def main():

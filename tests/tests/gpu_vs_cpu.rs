@@ -10,7 +10,7 @@ mod common;
 
 use glam::{DVec2, dvec3};
 use omnisim::advanced::SceneBvh;
-use omnisim::{Camera, Planes, Pose, advanced as trace};
+use omnisim::{Camera, Frame, Planes, Pose, advanced as trace};
 
 /// Whether the camera's ray for this pixel meets the mirror within 5° of grazing.
 fn grazes_the_mirror(camera: &Camera, pixel: DVec2) -> bool {
@@ -267,20 +267,33 @@ fn frames_rendered_in_parallel_equal_frames_rendered_one_by_one() {
     let (sender, receiver) = std::sync::mpsc::channel();
     for (index, (camera, pose)) in jobs.iter().cloned().enumerate() {
         let (gpu, sender) = (std::sync::Arc::clone(&gpu), sender.clone());
+        // A job's failure is sent back as this test's failure: a panic in a spawned job would
+        // abort the whole test binary.
         pool.spawn(move || {
-            let mut frame = gpu.render_planes(&camera, &pose, Planes::ALL).unwrap();
-            let rendered = frame.clone();
-            gpu.renderer
-                .reshade(&gpu.scene, &camera, &pose, &mut frame, Planes::ALL)
-                .unwrap();
-            let _ = sender.send((index, rendered, frame));
+            let job = || -> Result<(Frame, Frame), String> {
+                let mut frame = gpu
+                    .render_planes(&camera, &pose, Planes::ALL)
+                    .map_err(|e| e.to_string())?;
+                let rendered = frame.clone();
+                gpu.renderer
+                    .reshade(&gpu.scene, &camera, &pose, &mut frame, Planes::ALL)
+                    .map_err(|e| e.to_string())?;
+                Ok((rendered, frame))
+            };
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(job))
+                .unwrap_or_else(|_| Err("the frame panicked".into()));
+            let _ = sender.send((index, result));
         });
         std::thread::sleep(std::time::Duration::from_millis(3));
     }
+    // One deadline for all the frames: a deadlock fails after it, not after one wait a frame.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(300);
     for _ in &jobs {
-        let (index, rendered, reshaded) = receiver
-            .recv_timeout(std::time::Duration::from_secs(300))
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        let (index, result) = receiver
+            .recv_timeout(left)
             .expect("every frame finishes: a frame's rayon work ran another frame that waited for it (deadlock)");
+        let (rendered, reshaded) = result.unwrap_or_else(|e| panic!("frame {index}: {e}"));
         let (camera, pose) = &jobs[index];
         let serial = gpu.render_planes(camera, pose, Planes::ALL).unwrap();
         assert!(serial.hit_count() > 1000);

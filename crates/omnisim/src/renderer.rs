@@ -363,7 +363,8 @@ impl Renderer {
     }
 
     /// Where the last frame (render or re-shade) spent its time on the GPU; `None` where it
-    /// failed or ran on the CPU (the CPU backend, or a scene `auto` traces on the CPU).
+    /// failed or ran on the CPU (the CPU backend, or a scene `auto` traces on the CPU). One
+    /// slot for all frames: meaningful when frames run one at a time, as `omnisim bench`'s do.
     #[cfg(feature = "gpu")]
     pub fn gpu_stages(&self) -> Option<crate::gpu::GpuStages> {
         match &self.backend {

@@ -7,6 +7,7 @@ use std::time::Duration;
 
 /// The time of the GPU backend's last frame (a render or a re-shade), summed over its bands.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[non_exhaustive]
 pub struct GpuStages {
     /// Bands the image was traced in (one where the adapter binds the whole image).
     pub bands: u32,

@@ -42,8 +42,9 @@ pub struct GpuRenderer {
     /// camera and kept under [`table_key`]; other cameras bind `no_rays`.
     rays: Mutex<Option<(Camera, Arc<wgpu::Buffer>)>>,
     no_rays: Arc<wgpu::Buffer>,
-    /// Where the last frame spent its time, for `omnisim bench`; `None` once a frame starts,
-    /// until it finishes on the GPU.
+    /// Where the last frame spent its time, for `omnisim bench`; [`crate::Renderer`] clears it
+    /// as a frame starts, and a frame that finishes on the GPU sets it. One slot: meaningful
+    /// when frames run one at a time.
     stages: Mutex<Option<GpuStages>>,
 }
 
@@ -159,7 +160,6 @@ impl GpuRenderer {
         self.context.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
     }
 
-    /// The device in use.
     /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
     pub fn is_software(&self) -> bool {
         self.context.is_software()
@@ -170,8 +170,8 @@ impl GpuRenderer {
     }
 
     /// Where the last frame (render or re-shade) spent its time; `None` if it failed or did
-    /// not run here.
-    pub fn last_stages(&self) -> Option<GpuStages> {
+    /// not run here. Meaningful when frames run one at a time (one slot for all frames).
+    pub(crate) fn last_stages(&self) -> Option<GpuStages> {
         *self.stages.lock().unwrap_or_else(PoisonError::into_inner)
     }
 

@@ -42,16 +42,7 @@ pub fn write_atomically(
     path: &Path,
     fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
-    write_buffered(path, Durability::Now, fill)
-}
-
-/// Writes `path` through `fill` in [`WRITE_BUFFER`] calls, synced as `durability` says.
-fn write_buffered(
-    path: &Path,
-    durability: Durability,
-    fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
-) -> std::io::Result<()> {
-    write_temporary(path, durability, |file| {
+    write_temporary(path, Durability::Now, |file| {
         let mut out = BufWriter::with_capacity(WRITE_BUFFER, file);
         fill(&mut out)?;
         out.into_inner().map_err(std::io::IntoInnerError::into_error)
