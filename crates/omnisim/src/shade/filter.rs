@@ -267,7 +267,7 @@ fn neighbours<const L: usize>(
 
 /// Which indices [`neighbours_by`] takes: each lane's by its `clamp`, or every lane's repeated
 /// or clamped ones.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 enum Taken {
     ByLane,
     Repeated,

@@ -195,7 +195,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                         untextured_face = hit.face;
                     }
                 }
-                if let Some(Untextured { surface, flat, .. }) = untextured
+                if let Some(Untextured { surface, flat }) = untextured
                     && hit.face == untextured_face
                 {
                     // As `mod.rs` shades it: no texture, so no footprint.
@@ -213,8 +213,11 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                     continue;
                 }
             }
-            // The pixel's face is the run's (just started, where it was another's).
-            let Some(run) = run.as_mut() else { continue };
+            // The pixel's face is the run's (just started, where it was another's): `run_face`
+            // is only ever set with `run`.
+            let Some(run) = run.as_mut() else {
+                unreachable!("face {run_face} names a run, and none is held")
+            };
             run.slot[run.len] = slot;
             run.hit[run.len] = hit;
             run.len += 1;
