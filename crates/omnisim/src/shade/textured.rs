@@ -236,7 +236,12 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     /// compiled for it), else portably, to the same bits.
     fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a, '_>, lookups: &mut Lookups<'a, LANES>) {
         match Avx2::detected() {
-            Some(avx2) => avx2.run(|| self.finish_in(chunk, run, lookups, Some(avx2))),
+            // Inlined into the AVX2 body, as `Avx2::run` needs, so that every stage is compiled
+            // for AVX2.
+            Some(avx2) => avx2.run(
+                #[inline(always)]
+                || self.finish_in(chunk, run, lookups, Some(avx2)),
+            ),
             None => self.finish_in(chunk, run, lookups, None),
         }
     }
