@@ -12,7 +12,9 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::filter::{LANES, Level, Lookups, Wraps, level_of_detail, trilinear_lanes};
-use super::{Appearance, Footprint, View, lit, shade_on, texture_of, untextured_albedo, write_pixel};
+use super::{
+    Appearance, Footprint, View, is_flat, lit, shade_on, texture_of, texture_point, untextured_albedo, write_pixel,
+};
 use crate::avx2::Avx2;
 use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
 use crate::scene::lighting::linear_to_srgb3_lanes;
@@ -189,8 +191,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                     } else {
                         untextured = Some(Untextured {
                             surface,
-                            flat: (appearance.lighting.is_none() && surface.is_none())
-                                .then(|| appearance.face_colours[hit.face as usize]),
+                            flat: is_flat(appearance, surface).then(|| appearance.face_colours[hit.face as usize]),
                         });
                         untextured_face = hit.face;
                     }
@@ -261,10 +262,10 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         let (surface, map) = (face.surface, face.map);
         let (mut u, mut v, mut length) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for k in 0..LANES {
-            let hit = run.hit[k];
-            let uv = Surface::uv_at(map, surface.anchor, hit.point);
+            let footprint = || (self.footprint_of)(start + run.slot[k]);
+            let uv;
+            (uv, length[k]) = texture_point(run.hit[k], surface.anchor, map, face.normal, footprint);
             (u[k], v[k]) = (uv.x, uv.y);
-            length[k] = (self.footprint_of)(start + run.slot[k]).longer_axis(hit.range, face.normal);
         }
         let mut lod = [0.0; LANES];
         for k in 0..LANES {
