@@ -363,11 +363,9 @@ impl<'a> View<'a> {
         move |index| match (table, &cone_table) {
             (Some((rays, cones)), _) => with_cone(cones[index], rays[index].as_ref()),
             (None, Some(cone_table)) => with_cone(cone_table.cones[index], self.camera.pixel_ray(index).as_ref()),
-            (None, None) => Footprint::around(
-                DVec2::new((index % width) as f64, (index / width) as f64),
-                DMat3::IDENTITY,
-                self.camera,
-            ),
+            (None, None) => {
+                Footprint::in_body_around(DVec2::new((index % width) as f64, (index / width) as f64), self.camera)
+            }
         }
     }
 }
