@@ -215,10 +215,10 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                 }
             }
             // The pixel's face is the run's (just started, where it was another's): `run_face`
-            // is only ever set with `run`.
-            let Some(run) = run.as_mut() else {
-                unreachable!("face {run_face} names a run, and none is held")
-            };
+            // is only ever set with `run`, so the `else` never runs (`unreachable!` there cost
+            // 0.24 M instructions an omni frame and 1.15 M an equirect one, callgrind).
+            debug_assert!(run.is_some(), "face {run_face} names a run, and none is held");
+            let Some(run) = run.as_mut() else { continue };
             run.slot[run.len] = slot;
             run.hit[run.len] = hit;
             run.len += 1;
