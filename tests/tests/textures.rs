@@ -983,44 +983,68 @@ fn an_obj_and_a_ply_written_by_trimesh_keep_their_uvs_and_colours() {
 /// Textured frames are shaded in chunks of pixels and batches of eight lanes (`shade/textured.rs`)
 /// and lit from the frame's shadow-ray packets; each pixel must still be, bit for bit, what
 /// shading its hit alone gives with its own footprint (`shade`, `Footprint::of_pixel`), linear
-/// and 8-bit. Odd image sizes put chunk and batch ends mid-row; the lit textured room has
-/// textured, plain and unlit faces and misses. The pose turns nothing, so the frame's
-/// body-frame footprints and `of_pixel`'s world-frame ones are the same numbers.
+/// and 8-bit, with the linear plane and without it (8-bit only). Odd image sizes put chunk and
+/// batch ends mid-row; the lit textured room has textured, plain and unlit faces and misses, the
+/// unlit one textured and plain faces, and the PLY's crate textured faces with vertex colours.
+/// The poses turn nothing, so the frame's body-frame footprints and `of_pixel`'s world-frame
+/// ones are the same numbers.
 #[test]
 fn a_textured_frame_is_each_pixel_shaded_alone_bit_for_bit() {
-    let scene = common::load("env1-textured-lit.ron");
-    let bvh = SceneBvh::build(&scene);
-    let mut tracer = common::cpu_tracer(&scene, &bvh);
-    let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), DVec3::ZERO);
+    let cases = [
+        ("env1-textured-lit.ron", dvec3(1.5, 0.0, 0.4)),
+        ("env1-textured.ron", dvec3(1.5, 0.0, 0.4)),
+        ("textured-ply.ron", dvec3(-0.6, -0.3, 0.6)),
+    ];
     let cameras = [
         Camera::Pinhole(Pinhole::with_horizontal_fov(37, 29, 80f64.to_radians())),
         Camera::Catadioptric(common::paper_omni()),
     ];
-    for cpu in [CpuTracer::Fast, CpuTracer::Reference] {
-        tracer.renderer.set_cpu_tracer(cpu);
-        for camera in &cameras {
-            let frame = tracer
-                .render_planes(camera, &pose, Planes::COLOUR.with(Plane::LinearColour))
-                .expect("render");
-            let (linear, colour) = (frame.linear_colour().unwrap(), frame.colour().unwrap());
-            let width = frame.width as usize;
-            let mut textured = 0;
-            for (index, hit) in frame.pixels().iter().enumerate() {
-                let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
-                let footprint = Footprint::of_pixel(camera, &pose, pixel);
-                let alone = advanced::shade(cpu, tracer.scene.geometry(), tracer.scene.appearance(), hit, &footprint);
-                let name = common::describe(camera);
-                assert_eq!(
-                    linear[index],
-                    alone.as_vec3().to_array(),
-                    "{name} {cpu:?} pixel {index}"
-                );
-                if hit.is_hit() {
-                    assert_eq!(colour[index], advanced::encode(alone), "{name} {cpu:?} pixel {index}");
-                    textured += usize::from(tracer.scene.appearance().needs_footprint(hit.face));
+    for (scene, position) in cases {
+        let pose = Pose::from_degrees(position, DVec3::ZERO);
+        let loaded = common::load(scene);
+        let bvh = SceneBvh::build(&loaded);
+        let mut tracer = common::cpu_tracer(&loaded, &bvh);
+        let appearance = tracer.scene.appearance();
+        assert_eq!(appearance.lighting.is_some(), scene.contains("-lit"), "{scene}");
+        let surface_of = |face: u32| appearance.surfaces.of(face);
+        let textured = |face: u32| surface_of(face).is_some_and(|surface| surface.uv.is_some());
+        let coloured = |face: u32| textured(face) && surface_of(face).is_some_and(|surface| surface.colours.is_some());
+        for cpu in [CpuTracer::Fast, CpuTracer::Reference] {
+            tracer.renderer.set_cpu_tracer(cpu);
+            for camera in &cameras {
+                for planes in [Planes::COLOUR.with(Plane::LinearColour), Planes::COLOUR] {
+                    let frame = tracer.render_planes(camera, &pose, planes).expect("render");
+                    let (linear, colour) = (frame.linear_colour(), frame.colour().unwrap());
+                    assert_eq!(linear.is_some(), planes.contains(Plane::LinearColour));
+                    let width = frame.width as usize;
+                    let (mut textured_pixels, mut coloured_pixels) = (0, 0);
+                    let name = format!("{scene} {} {cpu:?} {planes:?}", common::describe(camera));
+                    for (index, hit) in frame.pixels().iter().enumerate() {
+                        let pixel = DVec2::new((index % width) as f64, (index / width) as f64);
+                        let footprint = Footprint::of_pixel(camera, &pose, pixel);
+                        let alone =
+                            advanced::shade(cpu, tracer.scene.geometry(), tracer.scene.appearance(), hit, &footprint);
+                        if let Some(linear) = linear {
+                            assert_eq!(linear[index], alone.as_vec3().to_array(), "{name} pixel {index}");
+                        }
+                        if hit.is_hit() {
+                            assert_eq!(colour[index], advanced::encode(alone), "{name} pixel {index}");
+                            textured_pixels += usize::from(textured(hit.face));
+                            coloured_pixels += usize::from(coloured(hit.face));
+                        }
+                    }
+                    assert!(
+                        textured_pixels > frame.pixels().len() / 10,
+                        "{name}: {textured_pixels} textured pixels"
+                    );
+                    if scene == "textured-ply.ron" {
+                        assert!(
+                            coloured_pixels > 100,
+                            "{name}: {coloured_pixels} vertex-coloured textured pixels"
+                        );
+                    }
                 }
             }
-            assert!(textured > frame.pixels().len() / 10, "{textured} textured pixels");
         }
     }
 }

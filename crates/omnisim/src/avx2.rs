@@ -21,8 +21,10 @@ impl Avx2 {
 }
 
 impl Avx2 {
-    /// `work()` compiled with AVX2 (it is inlined into [`run_avx2`]), which the token proves
-    /// the CPU has: wider vectors and gathers for the lanes `work` runs.
+    /// `work()` compiled with AVX2, which the token proves the CPU has: wider vectors and
+    /// gathers for the lanes `work` runs. Only where `work` is inlined into [`run_avx2`], so
+    /// callers mark the closure `#[inline(always)]`: left out of line (LLVM's choice
+    /// otherwise), it is compiled without AVX2.
     #[inline(always)]
     pub(crate) fn run<R>(self, work: impl FnOnce() -> R) -> R {
         #[cfg(target_arch = "x86_64")]

@@ -267,7 +267,7 @@ fn neighbours<const L: usize>(
 
 /// Which indices [`neighbours_by`] takes: each lane's by its `clamp`, or every lane's repeated
 /// or clamped ones.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 enum Taken {
     ByLane,
     Repeated,
@@ -578,8 +578,15 @@ mod tests {
     /// The lanes as textured frames run them: compiled for AVX2 and gathering where the CPU
     /// has it, else portable.
     fn with_avx2_where_detected(lookups: &Lookups<'_, LANES>) -> [[f32; LANES]; 3] {
-        match Avx2::detected() {
-            Some(avx2) => avx2.run(|| trilinear_lanes(lookups, Some(avx2))),
+        let detected = Avx2::detected();
+        if detected.is_none() {
+            eprintln!("no AVX2 on this CPU: the portable lanes are checked against themselves");
+        }
+        match detected {
+            Some(avx2) => avx2.run(
+                #[inline(always)]
+                || trilinear_lanes(lookups, Some(avx2)),
+            ),
             None => trilinear_lanes(lookups, None),
         }
     }
@@ -682,6 +689,39 @@ mod tests {
                     .map(f32::to_bits);
                 assert_eq!(one, [0, 1, 2].map(|c| together[c][k]), "lane {k} of a face");
             }
+        }
+    }
+
+    /// A lane set alone after a face's lanes were set together (one level, so they share its
+    /// slice, and one wrap): it samples its own texture with its own wrap, as the one-lane
+    /// sample does, with and without AVX2; the others keep the face's samples.
+    #[test]
+    fn a_lane_set_after_a_face_reads_its_own_texture_and_wrap() {
+        let face_texture = ramp();
+        let texels: Vec<[u8; 3]> = (0..15u8).map(|i| [17 * i, 255 - 13 * i, 40 + 9 * i]).collect();
+        let own_texture = Texture::from_rgb(5, 3, &texels);
+        let face_wrap = [Wrap::Repeat; 2];
+        let lanes_in: [DVec2; LANES] = std::array::from_fn(|k| DVec2::new(k as f64 / 5.0 - 0.3, 0.5));
+        let mut lookups = Lookups::<LANES>::empty();
+        lookups.set_face(
+            &Level::all(&face_texture),
+            Wraps::of(face_wrap),
+            &lanes_in.map(|uv| uv.x),
+            &lanes_in.map(|uv| uv.y),
+            &[0.0; LANES],
+        );
+        assert_eq!(lookups.shared, [true; 2]);
+        // Outside the texture, where clamping and repeating differ.
+        let (lane, own_wrap, own_uv, own_lod) = (3, [Wrap::Clamp, Wrap::Mirror], DVec2::new(1.3, -0.4), 0.6);
+        lookups.set(lane, &own_texture, Wraps::of(own_wrap), own_uv, own_lod);
+        let portable = trilinear_lanes(&lookups, None);
+        assert_eq!(with_avx2_where_detected(&lookups), portable);
+        for (k, &uv) in lanes_in.iter().enumerate() {
+            let one = match k == lane {
+                true => trilinear(&own_texture, own_wrap, own_uv, own_lod),
+                false => trilinear(&face_texture, face_wrap, uv, 0.0),
+            };
+            assert_eq!(one.to_array(), [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
         }
     }
 

@@ -47,12 +47,22 @@ impl Footprint {
     /// [`Footprint::of_pixel`] with the pose's rotation `world_from_body`, from the camera's
     /// own rays.
     pub(crate) fn around(pixel: DVec2, world_from_body: DMat3, camera: &Camera) -> Footprint {
+        Self::from_rays(pixel, camera, |cone, ray| Footprint::new(cone, world_from_body, ray))
+    }
+
+    /// The footprint of pixel `pixel` of `camera` in the camera body's frame
+    /// ([`Footprint::in_body`]), from the camera's own rays: [`Footprint::around`] without
+    /// multiplying each ray by a rotation (the identity there).
+    pub(crate) fn in_body_around(pixel: DVec2, camera: &Camera) -> Footprint {
+        Self::from_rays(pixel, camera, Footprint::in_body)
+    }
+
+    /// The footprint `footprint` makes of pixel `pixel`'s cone and ray, from `camera`'s own
+    /// rays; [`Footprint::POINT`] where the pixel has no ray.
+    #[inline(always)]
+    fn from_rays(pixel: DVec2, camera: &Camera, footprint: impl FnOnce(Cone, &CameraRay) -> Footprint) -> Footprint {
         match camera.ray(pixel) {
-            Some(ray) => Footprint::new(
-                Cone::around(pixel, camera.size(), &ray, |p| camera.ray(p)),
-                world_from_body,
-                &ray,
-            ),
+            Some(ray) => footprint(Cone::around(pixel, camera.size(), &ray, |p| camera.ray(p)), &ray),
             None => Footprint::POINT,
         }
     }

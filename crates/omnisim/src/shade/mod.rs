@@ -85,7 +85,8 @@ fn albedo(
         None => base,
         Some(map) => {
             let (texture, scale) = texture_of(appearance, map);
-            let (uv, lod) = texture_coordinates(hit, surface.anchor, map, scale, hit.normal, footprint);
+            let (uv, length) = texture_point(hit, surface.anchor, map, hit.normal, footprint);
+            let lod = filter::level_of_detail(scale, length);
             base * filter::trilinear(texture, map.wrap, uv, lod).as_dvec3()
         }
     }
@@ -111,21 +112,20 @@ fn texture_of<'a>(appearance: &'a Appearance, map: &UvMap) -> (&'a Texture, f32)
     (texture, map.texels_per_metre_squared(texture.size()) as f32)
 }
 
-/// The texture coordinates and level of detail of a hit on a face whose surface is anchored at
-/// `anchor` and textured by `map`, of `texels_per_metre_squared` ([`texture_of`]), seen through
-/// the pixel's footprint, laid on the face's `normal` (in the footprint's frame).
+/// Where a hit on a face whose surface is anchored at `anchor` and textured by `map` lies on
+/// the texture, and the longer axis of the pixel's footprint (asked of `footprint`) laid on
+/// the face's `normal` (in the footprint's frame), which [`filter::level_of_detail`] takes: the
+/// first stage of texturing a pixel, here and in the lanes of `textured.rs`.
 #[inline(always)]
-fn texture_coordinates(
+fn texture_point(
     hit: &Pixel,
     anchor: DVec3,
     map: &UvMap,
-    texels_per_metre_squared: f32,
     normal: Vec3,
     footprint: impl FnOnce() -> Footprint,
 ) -> (DVec2, f32) {
     let uv = Surface::uv_at(map, anchor, hit.point);
-    let length = footprint().longer_axis(hit.range, normal);
-    (uv, filter::level_of_detail(texels_per_metre_squared, length))
+    (uv, footprint().longer_axis(hit.range, normal))
 }
 
 /// Linear colour of one hit (1.0 = full scale); black where nothing is hit. `tracer` traces
@@ -363,11 +363,9 @@ impl<'a> View<'a> {
         move |index| match (table, &cone_table) {
             (Some((rays, cones)), _) => with_cone(cones[index], rays[index].as_ref()),
             (None, Some(cone_table)) => with_cone(cone_table.cones[index], self.camera.pixel_ray(index).as_ref()),
-            (None, None) => Footprint::around(
-                DVec2::new((index % width) as f64, (index / width) as f64),
-                DMat3::IDENTITY,
-                self.camera,
-            ),
+            (None, None) => {
+                Footprint::in_body_around(DVec2::new((index % width) as f64, (index / width) as f64), self.camera)
+            }
         }
     }
 }
@@ -413,8 +411,7 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
     let linear = |index: usize, hit: &Pixel, surface: Option<&Surface>| {
         shade_on(appearance, hit, surface, || Footprint::POINT, |_| lux[index])
     };
-    // Unlit faces without a surface take their face's byte directly.
-    let flat = |surface: Option<&Surface>| appearance.lighting.is_none() && surface.is_none();
+    let flat = |surface: Option<&Surface>| is_flat(appearance, surface);
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
@@ -455,6 +452,13 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
         })
         .unzip();
     frame.set_shading(planes, linear, colour);
+}
+
+/// Whether a hit on a face with `surface` is flat: unlit and without a surface, so its 8-bit
+/// colour is its face's byte directly ([`eight_bit`]).
+#[inline(always)]
+fn is_flat(appearance: &Appearance, surface: Option<&Surface>) -> bool {
+    appearance.lighting.is_none() && surface.is_none()
 }
 
 /// Writes a hit pixel's 8-bit colour into `colour`: `flat` where it is a flat face's byte (as
