@@ -980,11 +980,11 @@ fn an_obj_and_a_ply_written_by_trimesh_keep_their_uvs_and_colours() {
     check_fan_colours(folder.path(), corners, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
 }
 
-/// Textured frames are shaded in chunks of pixels and batches of eight lanes (`shade/textured.rs`)
+/// Textured frames are shaded in chunks of pixels and runs of eight pixels of one face (`shade/textured.rs`)
 /// and lit from the frame's shadow-ray packets; each pixel must still be, bit for bit, what
 /// shading its hit alone gives with its own footprint (`shade`, `Footprint::of_pixel`), linear
 /// and 8-bit, with the linear plane and without it (8-bit only). Odd image sizes put chunk and
-/// batch ends mid-row; the lit textured room has textured, plain and unlit faces and misses, the
+/// run ends mid-row; the lit textured room has textured, plain and unlit faces and misses, the
 /// unlit one textured and plain faces, and the PLY's crate textured faces with vertex colours.
 /// The poses turn nothing, so the frame's body-frame footprints and `of_pixel`'s world-frame
 /// ones are the same numbers.

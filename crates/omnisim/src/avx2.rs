@@ -1,6 +1,7 @@
 //! A proof that the CPU has AVX2, passed to code that runs AVX2 instructions (the texture
 //! filter's and sRGB encoding's gathers), so that their `unsafe` rests on a value only the
-//! feature check makes, not on which caller instantiates them.
+//! feature check makes, not on which caller instantiates them; and [`Avx2::run`], which
+//! compiles a closure's work for AVX2 (the textured runs' lanes).
 
 /// Zero-sized proof that the running CPU has AVX2: its field is private, so one exists only
 /// where [`Avx2::detected`] found the feature.
@@ -18,9 +19,7 @@ impl Avx2 {
         }
         None
     }
-}
 
-impl Avx2 {
     /// `work()` compiled with AVX2, which the token proves the CPU has: wider vectors and
     /// gathers for the lanes `work` runs. Only where `work` is inlined into [`run_avx2`], so
     /// callers mark the closure `#[inline(always)]`: left out of line (LLVM's choice

@@ -14,7 +14,7 @@ use crate::scene::texture::{MipLevel, Texture, Wrap};
 static DECODING: std::sync::LazyLock<[f32; 256]> =
     std::sync::LazyLock::new(|| std::array::from_fn(|b| srgb_to_linear(b as u8) as f32));
 
-/// How many pixels one batch filters together: the f32 lanes of an AVX2 register.
+/// How many pixels one run filters together: the f32 lanes of an AVX2 register.
 pub(crate) const LANES: usize = 8;
 
 /// The texture look-ups of `L` pixels, one a lane, laid out for filtering in lanes: each lane's
@@ -37,10 +37,11 @@ pub(crate) struct Lookups<'a, const L: usize> {
     /// Each level's weight, by level, lane.
     share: [[f32; L]; 2],
     /// Whether every lane reads the same slice of a level, by level (then one gather from
-    /// its base fetches a tap), and each axis's wrap where every lane has the same (then the
-    /// lanes work out only that one): known where the lanes were set up together
+    /// its base fetches a tap): known where the lanes were set up together
     /// ([`Lookups::set_face`]), else taken as not.
     shared: [bool; 2],
+    /// Each axis's wrap where every lane has the same (then, for repeat or clamp, the lanes
+    /// work out only that one; mirror is worked out lane by lane): known as `shared` is.
     wrap: [Option<Wrap>; 2],
 }
 
@@ -249,7 +250,8 @@ fn texel_index(n: f64) -> i32 {
 /// texels, wrapped with period `periods` sizes or clamped (`clamp`), as the two neighbouring
 /// texel indices (integers in f64) and the weight of the second; NaN or infinite reads
 /// coordinate 0 (for repeat, the mean of the last and the first texel). Where every lane
-/// has the same `wrap`, only that wrap's indices are worked out (the same values).
+/// has the same `wrap` and it is repeat or clamp, only that wrap's indices are worked out (the
+/// same values); mirror is worked out lane by lane.
 #[inline(always)]
 fn neighbours<const L: usize>(
     t: &[f64; L],
@@ -809,7 +811,8 @@ mod tests {
             for size in [1, 3, 4] {
                 let size64 = f64::from(size);
                 let periods = if wrap == Wrap::Mirror { 2.0 } else { 1.0 };
-                // Lane by lane, and as every lane's one wrap: the same indices.
+                // Lane by lane, and as every lane's one wrap: the same indices (a test of the
+                // one-wrap paths of repeat and clamp; mirror takes the lane-by-lane path both ways).
                 let axis = |t: f64| {
                     let by_lane = neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp], None);
                     let uniform = neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp], Some(wrap));

@@ -357,8 +357,8 @@ impl<'a> View<'a> {
         let width = self.camera.size().0.max(1) as usize;
         let with_cone =
             |cone: Cone, ray: Option<&CameraRay>| ray.map_or(Footprint::POINT, |ray| Footprint::in_body(cone, ray));
-        // Inlined into the textured lanes' set-up (compiled for AVX2), where a call cost a
-        // textured pixel about 10 instructions.
+        // Inlined into the textured lanes' set-up (compiled for AVX2): left out of line it cost
+        // an equirect frame 13.5 M instructions, about 29 a textured pixel (docs/benchmarks.md).
         #[inline(always)]
         move |index| match (table, &cone_table) {
             (Some((rays, cones)), _) => with_cone(cones[index], rays[index].as_ref()),
