@@ -48,6 +48,11 @@ pub struct GpuRenderer {
     stages: Mutex<Option<GpuStages>>,
 }
 
+/// How long a frame waits, after the GPU finished its work, for its buffers' map callbacks that
+/// another thread's poll is running: far beyond the milliseconds that takes, and a bound where a
+/// callback never comes.
+const CALLBACK_WAIT: std::time::Duration = std::time::Duration::from_secs(30);
+
 /// What a camera's ray table depends on: the camera without its place. The table holds
 /// directions only (origins come from `lens_origin`), so the two cameras of a stereo pair
 /// share one upload.
@@ -669,11 +674,22 @@ impl GpuRenderer {
         let polled = self.context.device.poll(wgpu::PollType::wait_indefinitely());
         let mut failure = polled.err().map(|e| e.to_string());
         let mut mapped = Vec::with_capacity(buffers.len());
-        // After a failed poll some callbacks may never run: take only those that did.
-        for (index, result) in receiver.try_iter() {
-            match result {
-                Ok(()) => mapped.push(index),
-                Err(e) => failure = Some(e.to_string()),
+        // A map callback runs on whichever thread polls the device: with frames traced at once
+        // (one prepared scene on several threads), another thread's poll may have taken ours
+        // and be running it as this wait returns (seen on an NVIDIA H200: "did not map"). So
+        // once the GPU is done, wait for them a while, polling again without blocking; after a
+        // failed poll some may never run, so take only those that did.
+        let waited = Instant::now();
+        while failure.is_none() && mapped.len() < buffers.len() {
+            match receiver.recv_timeout(std::time::Duration::from_millis(2)) {
+                Ok((index, Ok(()))) => mapped.push(index),
+                Ok((_, Err(e))) => failure = Some(e.to_string()),
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) if waited.elapsed() < CALLBACK_WAIT => {
+                    if let Err(e) = self.context.device.poll(wgpu::PollType::Poll) {
+                        failure = Some(e.to_string());
+                    }
+                }
+                Err(_) => break,
             }
         }
         if mapped.len() < buffers.len() {
