@@ -1559,6 +1559,22 @@ fn one_frame_batches<'s>(
     }
 }
 
+/// The error of a run over `out` in one-frame batches made durable by `sync`, which must fail it.
+fn failed_run(
+    dataset: &Dataset,
+    out: &Path,
+    sync: &(dyn Fn(&omnisim::output::atomic::DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
+) -> String {
+    let result = dataset.run_syncing(
+        &cpu(),
+        out,
+        &RunOptions::default(),
+        &mut |_| ControlFlow::Continue(()),
+        &one_frame_batches(sync),
+    );
+    result.expect_err("the failed sync is the run's error").to_string()
+}
+
 /// Makes frame `index` of `set` not done and its files gone, as if no run had written it;
 /// returns its files.
 fn forget(out: &Path, set: &str, index: usize) -> Vec<PathBuf> {
@@ -1612,14 +1628,7 @@ fn a_failed_batch_sync_is_an_error_and_vouches_for_nothing() {
         }
         folder.make_durable(files)
     };
-    let result = dataset.run_syncing(
-        &cpu(),
-        &out,
-        &RunOptions::default(),
-        &mut |_| ControlFlow::Continue(()),
-        &one_frame_batches(&sync),
-    );
-    let error = result.expect_err("the failed sync is the run's error").to_string();
+    let error = failed_run(&dataset, &out, &sync);
     assert!(
         error.contains("durable") && error.contains("write-back failed"),
         "{error}"
@@ -1756,14 +1765,7 @@ fn a_failed_sync_of_the_set_files_removes_them() {
         assert!(set_files.iter().all(|path| files.contains(path)));
         Err(std::io::Error::other("write-back failed"))
     };
-    let result = dataset.run_syncing(
-        &cpu(),
-        &out,
-        &RunOptions::default(),
-        &mut |_| ControlFlow::Continue(()),
-        &one_frame_batches(&sync),
-    );
-    let error = result.expect_err("the failed sync is the run's error").to_string();
+    let error = failed_run(&dataset, &out, &sync);
     assert!(error.contains("write-back failed"), "{error}");
     for path in &set_files {
         assert!(!path.exists(), "{} is left", path.display());
