@@ -93,18 +93,13 @@ fn gpu_triangle(bvh: &SceneBvh, index: usize) -> Triangle {
 mod tests {
     use super::*;
 
-    fn scene_bvh(name: &str) -> SceneBvh {
-        let path = format!("{}/../../scenes/{name}.ron", env!("CARGO_MANIFEST_DIR"));
-        SceneBvh::build(&crate::scene::Scene::load(std::path::Path::new(&path)).unwrap())
-    }
-
     /// Each GPU node holds its CPU twin's boxes where the shader reads them and its inner
     /// children; each GPU leaf is a run of exactly the CPU leaf's triangles (its groups' lanes,
     /// in order), each as the scene's own triangle; every triangle lies in exactly one leaf.
     #[test]
     fn gpu_nodes_and_leaves_are_the_wide_bvh() {
         for name in ["env1", "env2"] {
-            let bvh = scene_bvh(name);
+            let (_, bvh) = crate::trace::test_scene(name);
             let (nodes, triangles) = gpu_bvh(&bvh);
             assert_eq!(nodes.len(), bvh.wide.nodes.len(), "{name}");
             assert_eq!(triangles.len(), bvh.triangles.len(), "{name}");

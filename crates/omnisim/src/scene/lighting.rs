@@ -109,10 +109,12 @@ pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
 /// in vector lanes, the bucket and step look-ups gathered, to the same bytes (tested).
 /// Textured pixels are encoded eight at a time (`shade/textured.rs`), where one channel
 /// after another cost about 56 instructions a pixel (docs/benchmarks.md, "ninth pass").
-pub fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8]) -> [[u8; 3]; 8] {
+/// `avx2` is the caller's proof of AVX2 (`None`: the scalar encoder), so that a caller that
+/// holds one does not check the CPU again for every eight pixels.
+pub(crate) fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8], avx2: Option<crate::avx2::Avx2>) -> [[u8; 3]; 8] {
     let encoding = &*ENCODING;
     #[cfg(target_arch = "x86_64")]
-    if let Some(avx2) = crate::avx2::Avx2::detected() {
+    if let Some(avx2) = avx2 {
         let mut bytes = [[0; 3]; 8];
         // SAFETY: `avx2` proves the CPU has AVX2, which `bytes_avx2` is compiled for.
         unsafe { encoding.bytes_avx2(avx2, linear, &mut bytes) };
@@ -327,7 +329,8 @@ mod tests {
         for colours in shifted.chunks_exact(24) {
             let colours: [[f64; 3]; 8] = std::array::from_fn(|k| std::array::from_fn(|c| colours[3 * k + c]));
             let want = colours.map(linear_to_srgb3);
-            assert_eq!(linear_to_srgb3_lanes(&colours), want, "{colours:?}");
+            assert_eq!(linear_to_srgb3_lanes(&colours, None), want, "{colours:?}");
+            assert_eq!(linear_to_srgb3_lanes(&colours, avx2), want, "{colours:?}");
             #[cfg(target_arch = "x86_64")]
             if let Some(avx2) = avx2 {
                 let mut bytes = [[0; 3]; 8];

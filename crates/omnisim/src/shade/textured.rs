@@ -301,7 +301,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             }
         }
         // A textured pixel is never flat: its colour is always encoded.
-        let encoded = linear_to_srgb3_lanes(&shaded);
+        let encoded = linear_to_srgb3_lanes(&shaded, avx2);
         for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
             chunk.colour[slot] = encoded;
         }
