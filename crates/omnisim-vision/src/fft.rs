@@ -7,6 +7,7 @@
 use std::cell::RefCell;
 use std::sync::Arc;
 
+use realfft::{RealFftPlanner, RealToComplex};
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftDirection, FftPlanner};
 
@@ -19,9 +20,34 @@ thread_local! {
     static PLANNER: RefCell<FftPlanner<f64>> = RefCell::new(FftPlanner::new());
 }
 
+thread_local! {
+    /// The same for transforms of real samples, which `realfft` computes as a complex transform
+    /// of half the length: half the work of a complex transform of the samples.
+    static REAL_PLANNER: RefCell<RealFftPlanner<f64>> = RefCell::new(RealFftPlanner::new());
+}
+
 /// The plan for `len` samples in `direction`, from this thread's planner.
 fn plan(len: usize, direction: FftDirection) -> Arc<dyn Fft<f64>> {
     PLANNER.with(|planner| planner.borrow_mut().plan_fft(len, direction))
+}
+
+/// The first `keep` (at most `width / 2 + 1`) forward DFT coefficients of every row of the
+/// row-major real `width`-wide `values`, row after row: coefficients k ≤ width/2 of a real row
+/// are all its spectrum holds (the rest are their conjugates), so a real transform gives them
+/// for half a complex one's work.
+pub fn real_rows(values: &[f32], width: usize, keep: usize) -> Vec<C64> {
+    let plan: Arc<dyn RealToComplex<f64>> = REAL_PLANNER.with(|planner| planner.borrow_mut().plan_fft_forward(width));
+    let mut row = plan.make_input_vec();
+    let mut spectrum = plan.make_output_vec();
+    let mut scratch = plan.make_scratch_vec();
+    let mut kept = Vec::with_capacity(values.len() / width.max(1) * keep);
+    for samples in values.chunks_exact(width) {
+        row.iter_mut().zip(samples).for_each(|(r, &s)| *r = f64::from(s));
+        plan.process_with_scratch(&mut row, &mut spectrum, &mut scratch)
+            .expect("the row, spectrum and scratch lengths are the plan's own");
+        kept.extend_from_slice(&spectrum[..keep]);
+    }
+    kept
 }
 
 /// Transforms every row of the row-major `width`-wide `data` in place.
@@ -97,6 +123,30 @@ mod tests {
         fft2(&mut data, w, h, FftDirection::Inverse);
         for (a, b) in data.iter().zip(&input) {
             assert!((a - b).norm() < 1e-12);
+        }
+    }
+
+    /// The real transform's kept coefficients are the complex transform's, for even and odd
+    /// widths, up to the Nyquist bin.
+    #[test]
+    fn real_rows_match_the_complex_transform() {
+        for (width, height) in [(512, 3), (45, 2), (1, 4), (2, 1)] {
+            let values: Vec<f32> = (0..width * height)
+                .map(|i| ((i * 37 % 101) as f32 / 7.0).sin())
+                .collect();
+            let keep = width / 2 + 1;
+            let kept = real_rows(&values, width, keep);
+            let mut full = complex(&values);
+            rows(&mut full, width, FftDirection::Forward);
+            assert_eq!(kept.len(), height * keep);
+            for (row, expected) in kept.chunks(keep).zip(full.chunks(width)) {
+                for (k, (a, b)) in row.iter().zip(expected).enumerate() {
+                    assert!(
+                        (a - b).norm() < 1e-12 * width as f64,
+                        "{width}×{height}, k = {k}: {a} vs {b}"
+                    );
+                }
+            }
         }
     }
 

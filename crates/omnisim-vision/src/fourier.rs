@@ -36,6 +36,9 @@ impl FourierParams {
     /// Checks everything, for a `width × height` panorama: also k ≤ width/2 + 1.
     pub fn fits(&self, width: usize, _height: usize) -> Result<(), VisionError> {
         self.validate()?;
+        require(width >= 1, "width", || {
+            "needs a panorama at least 1 column wide, got 0".to_string()
+        })?;
         let k = self.coefficients;
         require(k <= width / 2 + 1, "coefficients", || {
             format!("needs 1 ≤ k ≤ width/2 + 1 = {}, got {k}", width / 2 + 1)
@@ -64,12 +67,7 @@ impl FourierSignature {
         })?;
         params.fits(panorama.width, panorama.height)?;
         let k = params.coefficients;
-        let mut spectrum = fft::complex(&panorama.data);
-        fft::rows(&mut spectrum, panorama.width, FftDirection::Forward);
-        let values = spectrum
-            .chunks(panorama.width)
-            .flat_map(|row| row[..k].iter().copied())
-            .collect();
+        let values = fft::real_rows(&panorama.data, panorama.width, k);
         Ok(Self {
             rows: panorama.height,
             coefficients: k,
