@@ -23,7 +23,7 @@ out):
 | block-hog          | `skimage.feature.hog`: 9 bins, 8 × 8 cells, 2 × 2 blocks, L2-Hys   |
 | hog (panorama)     | `skimage.feature.hog`: 8 bins, 16 cells of the full width, 1 × 1   |
 |                    | blocks, L2 (the same 16 × 8 histogram)                             |
-| fourier (panorama) | `np.fft.fft` of every row, first 16 coefficients, magnitude, phase |
+| fourier (panorama) | `np.fft.rfft` of every row, first 16 coefficients, magnitude, phase |
 | radon              | `skimage.transform.radon` over 360 angles, `circle=True`           |
 | gist               | none (LMgist's own code is MATLAB)                                 |
 
@@ -149,7 +149,8 @@ def peers(work, name):
                                              cells_per_block=(1, 1), block_norm='L2'))
 
     def fourier():
-        spectrum = np.fft.fft(pano, axis=1)[:, :16]
+        # rfft: the real-input transform a numpy user would call on an image (2× np.fft.fft's speed).
+        spectrum = np.fft.rfft(pano, axis=1)[:, :16]
         return np.abs(spectrum), np.angle(spectrum)
     found['fourier'] = timed(fourier)
     angles = np.arange(360, dtype=np.float64)
