@@ -692,18 +692,30 @@ fn upsample(image: &Raster) -> Raster {
             ([clamp(i), clamp(i + 1)], [0.75, 0.25])
         }
     };
-    let columns: Vec<([usize; 2], [f64; 2])> = (0..w).map(|x| taps(x, image.width)).collect();
     let mut out = Raster::from_vec(w, h, 1, buffers::take(w * h)).expect("sized");
     out.data.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         let ([ya, yb], [wya, wyb]) = taps(y, image.height);
         let (above, below) = (image.row(ya), image.row(yb));
-        for (o, &([xa, xb], [wxa, wxb])) in row.iter_mut().zip(&columns) {
+        // The four weights of a column, above then below: fixed for each row and parity.
+        let weights = |[wxa, wxb]: [f64; 2]| [wxa * wya, wxb * wya, wxa * wyb, wxb * wyb].map(|v| v as f32);
+        let sum = |[ca, cb, cc, cd]: [f32; 4], [xa, xb]: [usize; 2]| {
             let mut value = 0.0f32;
-            value += (wxa * wya) as f32 * above[xa];
-            value += (wxb * wya) as f32 * above[xb];
-            value += (wxa * wyb) as f32 * below[xa];
-            value += (wxb * wyb) as f32 * below[xb];
-            *o = value;
+            value += ca * above[xa];
+            value += cb * above[xb];
+            value += cc * below[xa];
+            value += cd * below[xb];
+            value
+        };
+        // Odd column 2i + 1 and even column 2i + 2 both read input columns i and i + 1; the
+        // first and last columns are clamped.
+        let (odd, even) = (weights([0.75, 0.25]), weights([0.25, 0.75]));
+        for (i, pair) in row[1..w - 1].chunks_exact_mut(2).enumerate() {
+            pair[0] = sum(odd, [i, i + 1]);
+            pair[1] = sum(even, [i, i + 1]);
+        }
+        for x in [0, w - 1] {
+            let (columns, column_weights) = taps(x, image.width);
+            row[x] = sum(weights(column_weights), columns);
         }
     });
     out
@@ -769,16 +781,17 @@ mod tests {
     /// included, on odd and even sides.
     #[test]
     fn upsample_equals_bilinear_sampling() {
-        let (w, h) = (7, 4);
-        let data = (0..w * h).map(|i| ((i * 37 % 11) as f32).sin()).collect();
-        let image = Raster::from_vec(w, h, 1, data).unwrap();
-        let doubled = upsample(&image);
-        let mut value = [0.0];
-        for y in 0..2 * h {
-            for x in 0..2 * w {
-                let (u, v) = ((x as f64 + 0.5) / 2.0 - 0.5, (y as f64 + 0.5) / 2.0 - 0.5);
-                image.sample(u, v, crate::Interpolation::Bilinear, &mut value);
-                assert_eq!(doubled.at(x, y).to_bits(), value[0].to_bits(), "({x}, {y})");
+        for (w, h) in [(7, 4), (1, 3), (2, 1)] {
+            let data = (0..w * h).map(|i| ((i * 37 % 11) as f32).sin()).collect();
+            let image = Raster::from_vec(w, h, 1, data).unwrap();
+            let doubled = upsample(&image);
+            let mut value = [0.0];
+            for y in 0..2 * h {
+                for x in 0..2 * w {
+                    let (u, v) = ((x as f64 + 0.5) / 2.0 - 0.5, (y as f64 + 0.5) / 2.0 - 0.5);
+                    image.sample(u, v, crate::Interpolation::Bilinear, &mut value);
+                    assert_eq!(doubled.at(x, y).to_bits(), value[0].to_bits(), "{w}×{h} at ({x}, {y})");
+                }
             }
         }
     }
