@@ -35,12 +35,20 @@ fn plan(len: usize, direction: FftDirection) -> Arc<dyn Fft<f64>> {
 /// row-major real `width`-wide `values`, row after row: coefficients k ≤ width/2 of a real row
 /// are all its spectrum holds (the rest are their conjugates), so a real transform gives them
 /// for half a complex one's work.
+///
+/// # Panics
+/// If `width` is 0, `keep` exceeds `width / 2 + 1`, or `values` is not whole rows.
 pub fn real_rows(values: &[f32], width: usize, keep: usize) -> Vec<C64> {
+    assert!(
+        width >= 1 && keep <= width / 2 + 1 && values.len().is_multiple_of(width),
+        "real_rows needs width ≥ 1, keep ≤ width/2 + 1 and whole rows: width {width}, keep {keep}, {} values",
+        values.len()
+    );
     let plan: Arc<dyn RealToComplex<f64>> = REAL_PLANNER.with(|planner| planner.borrow_mut().plan_fft_forward(width));
     let mut row = plan.make_input_vec();
     let mut spectrum = plan.make_output_vec();
     let mut scratch = plan.make_scratch_vec();
-    let mut kept = Vec::with_capacity(values.len() / width.max(1) * keep);
+    let mut kept = Vec::with_capacity(values.len() / width * keep);
     for samples in values.chunks_exact(width) {
         row.iter_mut().zip(samples).for_each(|(r, &s)| *r = f64::from(s));
         plan.process_with_scratch(&mut row, &mut spectrum, &mut scratch)

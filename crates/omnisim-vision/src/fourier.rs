@@ -81,9 +81,14 @@ impl FourierSignature {
         self.values.iter().map(|v| v.norm() as f32).collect()
     }
 
-    /// arg A[n][k] in (−π, π], row-major.
+    /// arg A[n][k] in (−π, π], row-major; 0 for a coefficient that is exactly zero, whatever
+    /// the signs of its zeros (the real transform leaves −0 where a complex one left +0, and
+    /// `atan2(−0, +0)` is −0).
     pub fn phases(&self) -> Vec<f32> {
-        self.values.iter().map(|v| v.arg() as f32).collect()
+        self.values
+            .iter()
+            .map(|v| if *v == C64::default() { 0.0 } else { v.arg() as f32 })
+            .collect()
     }
 
     /// The rotation that best takes this panorama to `other` (`steps` = columns by which
@@ -161,5 +166,30 @@ mod tests {
             let sum: f32 = panorama.row(n).iter().sum();
             assert!((value.re - f64::from(sum)).abs() < 1e-4 && value.im.abs() < 1e-9);
         }
+    }
+
+    /// A black row has only zero coefficients, up to the Nyquist bin k = W/2 + 1: every phase
+    /// is +0.0 (the bits a complex transform gave), not the −0.0 of `atan2(−0, +0)`.
+    #[test]
+    fn phases_of_zero_coefficients_are_positive_zero() {
+        let (width, height) = (16, 3);
+        let mut panorama = texture(width, height);
+        panorama.data[width..2 * width].fill(0.0);
+        let params = FourierParams {
+            coefficients: width / 2 + 1,
+        };
+        let signature = FourierSignature::new(&panorama, params).unwrap();
+        let phases = signature.phases();
+        let black = &phases[params.coefficients..2 * params.coefficients];
+        assert!(black.iter().all(|p| p.to_bits() == 0.0f32.to_bits()), "{black:?}");
+        assert!(phases[..params.coefficients].iter().any(|p| *p != 0.0));
+    }
+
+    /// A panorama without columns is refused by name, not a panic in the transform.
+    #[test]
+    fn zero_width_is_refused() {
+        let empty = Raster::from_vec(0, 3, 1, vec![]).unwrap();
+        let error = FourierSignature::new(&empty, FourierParams { coefficients: 1 }).unwrap_err();
+        assert!(error.to_string().contains("width"), "{error}");
     }
 }

@@ -118,7 +118,11 @@ fn has_avx2() -> bool {
 fn convolve(source: &[f32], starts: &[usize], taps: &[f32], out: &mut [f32], avx2: bool) {
     let length = out.len().div_ceil(RUN) * RUN;
     assert!(
-        starts.len() == taps.len() && taps.len() % 2 == 1 && starts.iter().all(|&start| start + length <= source.len()),
+        starts.len() == taps.len()
+            && taps.len() % 2 == 1
+            && starts
+                .iter()
+                .all(|&start| source.len().checked_sub(length).is_some_and(|last| start <= last)),
         "every line of the blur lies inside its source"
     );
     #[cfg(target_arch = "x86_64")]
@@ -190,11 +194,12 @@ mod tests {
 
     /// Against the direct 2-D sum Σ k(i)·k(j)·f(reflect(x + i), reflect(y + j)) in f64, on
     /// seeded images whose sides are not multiples of the vector width, the task's rows or
-    /// [`RUN`] (150: two runs and a partial one), and shorter than the kernel (mirrored more than
-    /// once); the AVX2 and portable builds agree bit for bit.
+    /// [`RUN`] (150: two runs and a partial one), exactly one run wide (64), one column or one
+    /// row, and shorter than the kernel (mirrored more than once); the AVX2 and portable builds
+    /// agree bit for bit.
     #[test]
     fn blur_equals_the_direct_sum_with_mirrored_borders() {
-        for (w, h) in [(37, 13), (13, 70), (150, 9)] {
+        for (w, h) in [(37, 13), (13, 70), (150, 9), (64, 5), (1, 9), (9, 1)] {
             let data: Vec<f32> = (0..w * h).map(|i| ((i * 7919 % 103) as f32) / 103.0).collect();
             let image = Raster::from_vec(w, h, 1, data).unwrap();
             for sigma in [0.8f32, 1.6, 3.1] {
