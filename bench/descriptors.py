@@ -23,7 +23,7 @@ out):
 | block-hog          | `skimage.feature.hog`: 9 bins, 8 × 8 cells, 2 × 2 blocks, L2-Hys   |
 | hog (panorama)     | `skimage.feature.hog`: 8 bins, 16 cells of the full width, 1 × 1   |
 |                    | blocks, L2 (the same 16 × 8 histogram)                             |
-| fourier (panorama) | `np.fft.rfft` of every row, first 16 coefficients, magnitude, phase |
+| fourier (panorama) | `np.fft.rfft` of each row, first 16 coefficients, magnitude, phase |
 | radon              | `skimage.transform.radon` over 360 angles, `circle=True`           |
 | gist               | none (LMgist's own code is MATLAB)                                 |
 
