@@ -164,6 +164,7 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
             "scene": scene.name,
             "triangles": prepared.geometry().triangles().len(),
             "bvh_build_ms": prepared.geometry().build_time().as_secs_f64() * 1e3,
+            "bvh_bytes": prepared.geometry().heap_bytes(),
             "lit": scene.lighting.is_some(),
             "lights_on": lights_on,
             "reshade_median_ms": median(&mut reshade_times) * 1e3,

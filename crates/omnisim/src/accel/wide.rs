@@ -74,13 +74,15 @@ impl WideBvh {
         };
         // A root that is (or fits) one leaf is the single child of a node of its own.
         let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
-            vec![0]
+            Children::one(0)
         } else {
             builder.open(0)
         };
         wide.nodes.push(empty_node());
         let mut leaves = Vec::new();
-        builder.fill(&mut wide, &mut leaves, 0, &root, 0);
+        builder.fill(&mut wide, &mut leaves, 0, root.as_slice(), 0);
+        // Grown by doubling; a shrink in place gives back up to half the list.
+        wide.nodes.shrink_to_fit();
         // The groups' f32 lanes on all threads, once the tree has placed them.
         wide.groups = super::map_indices(leaves.len(), |k| {
             let (indices, count) = &leaves[k];
@@ -178,6 +180,27 @@ fn half_area(node: &Bvh2Node) -> f32 {
     size.x * size.y + size.y * size.z + size.z * size.x
 }
 
+/// Up to `WIDTH` BVH2 nodes, the children of one wide node (on the stack).
+struct Children {
+    index: [usize; WIDTH],
+    len: usize,
+}
+
+impl Children {
+    fn one(index: usize) -> Self {
+        let mut children = Self {
+            index: [0; WIDTH],
+            len: 1,
+        };
+        children.index[0] = index;
+        children
+    }
+
+    fn as_slice(&self) -> &[usize] {
+        &self.index[..self.len]
+    }
+}
+
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
     counts: &'a [u32],
@@ -205,16 +228,17 @@ impl Builder<'_> {
             }
             node.lanes |= 1 << lane;
             if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
-                let mut leaf = Vec::new();
-                self.gather(index, &mut leaf);
-                let groups = leaf.len().div_ceil(4);
+                let count = self.counts[index] as usize;
+                let groups = count.div_ceil(4);
                 assert!(
                     groups <= MAX_LEAF_GROUPS && leaves.len() < GROUP_INDEX as usize,
-                    "BVH2 leaf of {} triangles, or over 2^28 groups",
-                    leaf.len()
+                    "BVH2 leaf of {count} triangles, or over 2^28 groups"
                 );
+                // On the stack: one heap list per leaf was a third of the collapse's cost.
+                let mut leaf = [0u32; 4 * MAX_LEAF_GROUPS];
+                self.gather(index, &mut leaf, &mut 0);
                 node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | leaves.len() as u32;
-                leaves.extend(leaf.chunks(4).map(|chunk| {
+                leaves.extend(leaf[..count].chunks(4).map(|chunk| {
                     let mut indices = [0; 4];
                     indices[..chunk.len()].copy_from_slice(chunk);
                     (indices, chunk.len())
@@ -228,40 +252,69 @@ impl Builder<'_> {
         for (lane, &index) in children.iter().enumerate() {
             if node.child[lane] & LEAF == 0 {
                 let grandchildren = self.open(index);
-                self.fill(wide, leaves, node.child[lane] as usize, &grandchildren, depth + 1);
+                self.fill(
+                    wide,
+                    leaves,
+                    node.child[lane] as usize,
+                    grandchildren.as_slice(),
+                    depth + 1,
+                );
             }
         }
     }
 
     /// The up to `WIDTH` BVH2 nodes that replace inner node `index`: its two children, then
     /// repeatedly the two children of the largest inner one among them.
-    fn open(&self, index: usize) -> Vec<usize> {
+    fn open(&self, index: usize) -> Children {
         let first = self.nodes[index].first_index as usize;
-        let mut children = vec![first, first + 1];
-        while children.len() < WIDTH {
-            let openable = children
-                .iter()
-                .enumerate()
-                .filter(|&(_, &c)| !self.nodes[c].is_leaf() && self.counts[c] > LEAF_TRIANGLES)
-                .max_by(|a, b| half_area(&self.nodes[*a.1]).total_cmp(&half_area(&self.nodes[*b.1])));
-            let Some((position, &chosen)) = openable else {
+        let mut children = Children {
+            index: [0; WIDTH],
+            len: 2,
+        };
+        children.index[..2].copy_from_slice(&[first, first + 1]);
+        // Each child's area once (`None` where it cannot be opened), not once per step.
+        let openable_area = |c: usize| {
+            let node = &self.nodes[c];
+            (!node.is_leaf() && self.counts[c] > LEAF_TRIANGLES).then(|| half_area(node))
+        };
+        let mut area = [None; WIDTH];
+        area[0] = openable_area(first);
+        area[1] = openable_area(first + 1);
+        while children.len < WIDTH {
+            // The last of the largest, as `Iterator::max_by` picks.
+            let mut chosen: Option<(usize, f32)> = None;
+            for (position, &candidate) in area[..children.len].iter().enumerate() {
+                if let Some(a) = candidate
+                    && chosen.is_none_or(|(_, best)| a.total_cmp(&best).is_ge())
+                {
+                    chosen = Some((position, a));
+                }
+            }
+            let Some((position, _)) = chosen else {
                 break;
             };
-            let first = self.nodes[chosen].first_index as usize;
-            children[position] = first;
-            children.push(first + 1);
+            let first = self.nodes[children.index[position]].first_index as usize;
+            let last = children.len;
+            children.index[position] = first;
+            children.index[last] = first + 1;
+            children.len += 1;
+            area[position] = openable_area(first);
+            area[last] = openable_area(first + 1);
         }
         children
     }
 
-    /// Triangle indices (leaf order) below BVH2 node `index`.
-    fn gather(&self, index: usize, into: &mut Vec<u32>) {
+    /// Triangle indices (leaf order) below BVH2 node `index`, written from `into[*len]` on.
+    fn gather(&self, index: usize, into: &mut [u32], len: &mut usize) {
         let node = &self.nodes[index];
         if node.is_leaf() {
-            into.extend(node.first_index..node.first_index + node.prim_count);
+            for triangle in node.first_index..node.first_index + node.prim_count {
+                into[*len] = triangle;
+                *len += 1;
+            }
         } else {
-            self.gather(node.first_index as usize, into);
-            self.gather(node.first_index as usize + 1, into);
+            self.gather(node.first_index as usize, into, len);
+            self.gather(node.first_index as usize + 1, into, len);
         }
     }
 }
