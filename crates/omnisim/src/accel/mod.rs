@@ -34,6 +34,12 @@ const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::medium_build()
 };
 
+// The wide BVH's leaves span at most `wide::MAX_LEAF_GROUPS` groups of four triangles.
+const _: () = assert!(
+    BUILD_PARAMS.max_prims_per_leaf as usize <= 4 * wide::MAX_LEAF_GROUPS
+        && LARGE_BUILD_PARAMS.max_prims_per_leaf as usize <= 4 * wide::MAX_LEAF_GROUPS
+);
+
 /// Scenes with more triangles than this get `LARGE_BUILD_PARAMS`: from 50k triangles the fast
 /// build takes about half the medium build's time for 3–8 % more box tests per ray, below it
 /// 20–40 % more (issue 18, `bench/bvh_build.py` scenes; docs/benchmarks.md, "BVH build").
@@ -128,7 +134,8 @@ impl SceneBvh {
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         // Indexed collects: each list is allocated once, by this thread.
         // Only the BVH2's nodes are walked after the build (the reference tracer): its leaf order
-        // lives on in `corners` and `face`, and its parents list goes too (8 bytes a triangle).
+        // lives on in `corners` and `face`, and its parents list (4 bytes a BVH2 node, about 5 a
+        // triangle) goes too: the two lists together were 8-9 bytes a triangle.
         let order = std::mem::take(&mut bvh.primitive_indices);
         bvh.parents = Vec::new();
         let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| corners_of(order[k] as usize));
@@ -170,6 +177,8 @@ impl SceneBvh {
         }
         bytes(&self.bvh.nodes)
             + bytes(&self.bvh.primitive_indices)
+            + bytes(&self.bvh.primitive_indices_freelist)
+            + bytes(&self.bvh.primitives_to_nodes)
             + bytes(&self.bvh.parents)
             + bytes(&self.triangles)
             + bytes(&self.face)
@@ -195,13 +204,15 @@ fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
 
 #[cfg(test)]
 mod tests {
-    use super::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, LEAF};
+    use super::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, LEAF, WIDTH};
     use super::*;
     use crate::scene::Face;
 
-    /// env1 plus a bumpy grid of `2 * cells²` triangles.
-    fn grid_scene(cells: usize) -> Scene {
-        let (mut scene, _) = crate::trace::test_scene("env1");
+    /// env1 plus a bumpy grid of `2 * cells²` triangles (as `omnisim bench
+    /// --synthetic-triangles` adds one, `add_height_field` in the CLI, which this crate cannot call).
+    pub(super) fn grid_scene(cells: usize) -> Scene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/env1.ron");
+        let mut scene = Scene::load(&path).unwrap();
         let point = |i: usize, j: usize| {
             let (s, t) = (i as f64 / cells as f64, j as f64 / cells as f64);
             DVec3::new(
@@ -226,8 +237,9 @@ mod tests {
     }
 
     /// Below and above `PARALLEL_FROM`: the wide BVH's groups hold every triangle exactly once,
-    /// its children point inside it, and the built BVH keeps under 250 bytes a triangle
-    /// (237 measured at 1 M triangles; docs/benchmarks.md) with the BVH2's build lists freed.
+    /// its children point inside it, each node is full unless all its children are leaves, and
+    /// the built BVH keeps under 250 bytes a triangle (229 measured at 1 M triangles, 225 at
+    /// 10k; docs/benchmarks.md) with the BVH2's build lists freed.
     #[test]
     fn wide_bvh_holds_every_triangle_once_in_bounded_memory() {
         for cells in [50, 160] {
@@ -243,6 +255,15 @@ mod tests {
             }
             assert!(seen.iter().all(|&n| n == 1), "{cells}: a triangle missing or repeated");
             for node in &bvh.wide.nodes {
+                // `open` stops short of eight children only when none of them can be opened.
+                let all_leaves = node.child[..node.lanes.count_ones() as usize]
+                    .iter()
+                    .all(|&child| child & LEAF != 0);
+                assert!(
+                    node.lanes == (1 << WIDTH) - 1 || all_leaves,
+                    "{cells}: {:b}",
+                    node.lanes
+                );
                 for lane in 0..node.lanes.count_ones() as usize {
                     let child = node.child[lane];
                     if child & LEAF == 0 {

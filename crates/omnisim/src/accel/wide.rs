@@ -17,8 +17,8 @@ pub(crate) const LEAF: u32 = 1 << 31;
 pub(crate) const GROUP_INDEX: u32 = (1 << 28) - 1;
 /// A leaf's group count minus one sits in bits 28–30.
 pub(crate) const GROUP_COUNT_SHIFT: u32 = 28;
-/// Groups a leaf may span (BVH2 leaves of up to 28 triangles; `accel/mod.rs` makes at most two).
-const MAX_LEAF_GROUPS: usize = 8;
+/// Groups a leaf may span (BVH2 leaves of up to 32 triangles; `accel/mod.rs` makes at most two).
+pub(super) const MAX_LEAF_GROUPS: usize = 8;
 
 /// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
 /// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
@@ -190,10 +190,21 @@ impl Children {
     fn one(index: usize) -> Self {
         let mut children = Self {
             index: [0; WIDTH],
-            len: 1,
+            len: 0,
         };
-        children.index[0] = index;
+        children.push(index);
         children
+    }
+
+    fn two(first: usize, second: usize) -> Self {
+        let mut children = Self::one(first);
+        children.push(second);
+        children
+    }
+
+    fn push(&mut self, index: usize) {
+        self.index[self.len] = index;
+        self.len += 1;
     }
 
     fn as_slice(&self) -> &[usize] {
@@ -267,11 +278,7 @@ impl Builder<'_> {
     /// repeatedly the two children of the largest inner one among them.
     fn open(&self, index: usize) -> Children {
         let first = self.nodes[index].first_index as usize;
-        let mut children = Children {
-            index: [0; WIDTH],
-            len: 2,
-        };
-        children.index[..2].copy_from_slice(&[first, first + 1]);
+        let mut children = Children::two(first, first + 1);
         // Each child's area once (`None` where it cannot be opened), not once per step.
         let openable_area = |c: usize| {
             let node = &self.nodes[c];
@@ -281,7 +288,7 @@ impl Builder<'_> {
         area[0] = openable_area(first);
         area[1] = openable_area(first + 1);
         while children.len < WIDTH {
-            // The last of the largest, as `Iterator::max_by` picks.
+            // The last of the largest: ties go to the last, as before, so that the tree is unchanged.
             let mut chosen: Option<(usize, f32)> = None;
             for (position, &candidate) in area[..children.len].iter().enumerate() {
                 if let Some(a) = candidate
@@ -296,8 +303,7 @@ impl Builder<'_> {
             let first = self.nodes[children.index[position]].first_index as usize;
             let last = children.len;
             children.index[position] = first;
-            children.index[last] = first + 1;
-            children.len += 1;
+            children.push(first + 1);
             area[position] = openable_area(first);
             area[last] = openable_area(first + 1);
         }
@@ -315,6 +321,58 @@ impl Builder<'_> {
         } else {
             self.gather(node.first_index as usize, into, len);
             self.gather(node.first_index as usize + 1, into, len);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::SceneBvh;
+    use crate::accel::tests::grid_scene;
+
+    /// `open` replaces each openable BVH2 node by a cut of its subtree: every path down from the
+    /// node meets exactly one child, the children hold the node's triangles, there are eight of
+    /// them unless none can be opened, and no child left unopened is larger than a node opened
+    /// below the first level (the largest goes first; a child's box lies in its parent's).
+    #[test]
+    fn open_replaces_a_node_by_its_largest_full_cut() {
+        for cells in [50, 160] {
+            let bvh = SceneBvh::build(&grid_scene(cells));
+            let nodes = &bvh.bvh.nodes;
+            let counts = subtree_triangles(nodes);
+            let builder = Builder { nodes, counts: &counts };
+            let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;
+            let mut opened_nodes = 0;
+            for parent in (0..nodes.len()).filter(|&index| openable(index)) {
+                let children = builder.open(parent);
+                let children = children.as_slice();
+                let total: u32 = children.iter().map(|&child| counts[child]).sum();
+                assert_eq!(total, counts[parent], "{cells}: node {parent}'s children {children:?}");
+                assert!(
+                    children.len() == WIDTH || !children.iter().any(|&child| openable(child)),
+                    "{cells}: node {parent} stopped at {children:?}"
+                );
+                // Walk down from the node's children: a node not in the cut was opened.
+                let mut opened_areas = Vec::new();
+                let first = nodes[parent].first_index as usize;
+                let mut pending = vec![first, first + 1];
+                while let Some(index) = pending.pop() {
+                    if children.contains(&index) {
+                        continue;
+                    }
+                    assert!(openable(index), "{cells}: node {parent}'s cut misses node {index}");
+                    opened_areas.push(half_area(&nodes[index]));
+                    let below = nodes[index].first_index as usize;
+                    pending.extend([below, below + 1]);
+                }
+                let smallest_opened = opened_areas.iter().copied().fold(f32::INFINITY, f32::min);
+                for &child in children.iter().filter(|&&child| openable(child)) {
+                    assert!(half_area(&nodes[child]) <= smallest_opened, "{cells}: node {parent}");
+                }
+                opened_nodes += opened_areas.len();
+            }
+            assert!(opened_nodes > 0, "{cells}: no node opened below its first level");
         }
     }
 }
