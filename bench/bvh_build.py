@@ -7,7 +7,8 @@ one ray (Embree builds lazily, on the first query); omnisim's is the `bvh_build_
 `omnisim bench` reports (obvhs's BVH2 and the 8-wide BVH collapsed from it). Best of
 --rounds for each, rounds alternating the two. Also prints omnisim's peak resident memory
 per triangle (the difference between the largest and the smallest scene, so the fixed cost
-of the program drops out).
+of the program drops out) and the bytes a triangle that the built BVH holds (`bvh_bytes`; nan from
+binaries older than it).
 
 Usage: bvh_build.py --omnisim BIN --work DIR [--sizes 10000,100000,300000,1000000] [--rounds 3]
 Needs open3d-cpu and numpy (same_rays.sh's venv, or BENCH_PYTHON's).
@@ -53,7 +54,7 @@ def omnisim_build(binary, ron):
     p = subprocess.run([binary, 'bench', ron, '--camera', 'pinhole', '--size', '8x8', '--pose', '3,2,1.5',
                         '--backend', 'cpu', '--runs', '1', '--warmup', '0'], check=True, capture_output=True, text=True)
     js = json.loads(p.stdout.splitlines()[0])
-    return js['bvh_build_ms'] / 1e3, js['peak_rss_mb'], js['triangles']
+    return js['bvh_build_ms'] / 1e3, js['peak_rss_mb'], js['triangles'], js.get('bvh_bytes')
 
 
 def main():
@@ -72,16 +73,17 @@ def main():
         rss = triangles = None
         for _ in range(a.rounds):
             best_o3d = min(best_o3d, open3d_build(v, t))
-            seconds, rss, triangles = omnisim_build(a.omnisim, ron)
+            seconds, rss, triangles, bvh_bytes = omnisim_build(a.omnisim, ron)
             best_om = min(best_om, seconds)
         row = dict(triangles=triangles, open3d_ms=1e3 * best_o3d, omnisim_ms=1e3 * best_om,
-                   ratio=best_o3d / best_om, omnisim_peak_rss_mb=rss)
+                   ratio=best_o3d / best_om, omnisim_peak_rss_mb=rss,
+                   omnisim_bvh_bytes_per_triangle=bvh_bytes / triangles if bvh_bytes else float('nan'))
         rows.append(row)
         print(json.dumps(row), flush=True)
-    print(f"\n{'triangles':>10} {'open3d ms':>10} {'omnisim ms':>10} {'ratio':>6} {'peak MB':>8}")
+    print(f"\n{'triangles':>10} {'open3d ms':>10} {'omnisim ms':>10} {'ratio':>6} {'peak MB':>8} {'BVH B/tri':>9}")
     for r in rows:
         print(f"{r['triangles']:10d} {r['open3d_ms']:10.1f} {r['omnisim_ms']:10.1f} {r['ratio']:5.2f}x "
-              f"{r['omnisim_peak_rss_mb']:8.1f}")
+              f"{r['omnisim_peak_rss_mb']:8.1f} {r['omnisim_bvh_bytes_per_triangle']:9.0f}")
     if len(rows) > 1:
         lo, hi = rows[0], rows[-1]
         per = (hi['omnisim_peak_rss_mb'] - lo['omnisim_peak_rss_mb']) * 1e6 / (hi['triangles'] - lo['triangles'])

@@ -1139,6 +1139,7 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     // At least the root and its two children per ray; every ray hits a wall of the room.
     assert!(record["node_tests_per_ray"].as_f64().unwrap() >= 3.0, "{record}");
     assert!(record["triangle_tests_per_ray"].as_f64().unwrap() >= 1.0, "{record}");
+    assert!(record["bvh_bytes"].as_u64().unwrap() > 0, "{record}");
     if cfg!(target_os = "linux") {
         assert!(record["peak_rss_mb"].as_f64().unwrap() > 0.0, "{record}");
     }

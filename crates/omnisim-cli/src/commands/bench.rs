@@ -30,8 +30,9 @@ const WARM_UP_TIME: std::time::Duration = std::time::Duration::from_millis(500);
 /// Measure tracing speed: median time per image over --runs after --warmup renders.
 ///
 /// Prints one JSON object per backend on stdout: Mrays/s (primary rays, one per pixel, from
-/// the median), median/min/max ms per image, BVH build ms, triangle count, backend, adapter,
-/// the process's peak resident memory and, for the CPU, box and triangle tests per ray
+/// the median), median/min/max ms per image, BVH build ms, the built BVH's heap bytes
+/// (`bvh_bytes`), triangle count, backend, adapter, the process's peak resident memory and,
+/// for the CPU, box and triangle tests per ray
 /// (counted in one extra, untimed pass; the fast tracer's triangle tests are f32 lanes, and
 /// its f64 tests are counted apart). For the GPU, `gpu_stages_ms` and `reshade_gpu_stages_ms`
 /// split the medians: host submit, wait for the GPU (passes and copies), host readback into
@@ -164,6 +165,7 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
             "scene": scene.name,
             "triangles": prepared.geometry().triangles().len(),
             "bvh_build_ms": prepared.geometry().build_time().as_secs_f64() * 1e3,
+            "bvh_bytes": prepared.geometry().heap_bytes(),
             "lit": scene.lighting.is_some(),
             "lights_on": lights_on,
             "reshade_median_ms": median(&mut reshade_times) * 1e3,

@@ -34,6 +34,12 @@ const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::medium_build()
 };
 
+// The wide BVH's leaves span at most `wide::MAX_LEAF_GROUPS` groups of four triangles.
+const _: () = assert!(
+    BUILD_PARAMS.max_prims_per_leaf as usize <= 4 * wide::MAX_LEAF_GROUPS
+        && LARGE_BUILD_PARAMS.max_prims_per_leaf as usize <= 4 * wide::MAX_LEAF_GROUPS
+);
+
 /// Scenes with more triangles than this get `LARGE_BUILD_PARAMS`: from 50k triangles the fast
 /// build takes about half the medium build's time for 3–8 % more box tests per ray, below it
 /// 20–40 % more (issue 18, `bench/bvh_build.py` scenes; docs/benchmarks.md, "BVH build").
@@ -114,7 +120,7 @@ impl SceneBvh {
         let corners_of = |i: usize| read_once.get(i).copied().unwrap_or_else(|| local(&triangles[i]));
         let boxes: Vec<Aabb> = map_indices(triangles.len(), |i| padded_aabb(&corners_of(i)));
         let mut core_time = Duration::ZERO;
-        let bvh = if boxes.is_empty() {
+        let mut bvh = if boxes.is_empty() {
             Bvh2::default()
         } else {
             let params = if boxes.len() > LARGE_SCENE {
@@ -127,10 +133,14 @@ impl SceneBvh {
         drop(boxes);
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         // Indexed collects: each list is allocated once, by this thread.
-        let order = &bvh.primitive_indices;
+        // Only the BVH2's nodes are walked after the build (the reference tracer): its leaf order
+        // lives on in `corners` and `face`, and its parents list (4 bytes a BVH2 node, about 5 a
+        // triangle) goes too: the two lists together were 8-9 bytes a triangle.
+        let order = std::mem::take(&mut bvh.primitive_indices);
+        bvh.parents = Vec::new();
         let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| corners_of(order[k] as usize));
         let face: Vec<u32> = map_indices(order.len(), |k| triangles[order[k] as usize].face);
-        drop((triangles, read_once));
+        drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
         Self {
@@ -159,6 +169,24 @@ impl SceneBvh {
         self.build_time
     }
 
+    /// Heap bytes this BVH holds once built (both tracers' trees, the f64 corners, faces and
+    /// face normals), for memory per triangle (`omnisim bench`'s `bvh_bytes`).
+    pub fn heap_bytes(&self) -> usize {
+        fn bytes<T>(list: &Vec<T>) -> usize {
+            list.capacity() * std::mem::size_of::<T>()
+        }
+        bytes(&self.bvh.nodes)
+            + bytes(&self.bvh.primitive_indices)
+            + bytes(&self.bvh.primitive_indices_freelist)
+            + bytes(&self.bvh.primitives_to_nodes)
+            + bytes(&self.bvh.parents)
+            + bytes(&self.triangles)
+            + bytes(&self.face)
+            + bytes(&self.face_normals)
+            + bytes(&self.wide.nodes)
+            + bytes(&self.wide.groups)
+    }
+
     /// Scene face of triangle `triangle` (an index in BVH leaf order, as in [`crate::trace::Hit`]).
     pub fn triangle_face(&self, triangle: usize) -> u32 {
         self.face[triangle]
@@ -172,4 +200,86 @@ fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
     let hi = corners[0].max(corners[1]).max(corners[2]);
     let pad = 1e-5 * (1.0 + lo.abs().max(hi.abs()).max_element());
     Aabb::new(Vec3A::from((lo - pad).as_vec3()), Vec3A::from((hi + pad).as_vec3()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, LEAF, WIDTH};
+    use super::*;
+    use crate::scene::Face;
+
+    /// env1 plus a bumpy grid of `2 * cells²` triangles (as `omnisim bench
+    /// --synthetic-triangles` adds one, `add_height_field` in the CLI, which this crate cannot call).
+    pub(super) fn grid_scene(cells: usize) -> Scene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/env1.ron");
+        let mut scene = Scene::load(&path).unwrap();
+        let point = |i: usize, j: usize| {
+            let (s, t) = (i as f64 / cells as f64, j as f64 / cells as f64);
+            DVec3::new(
+                s * 3.0 - 1.5,
+                t * 3.0 - 1.5,
+                0.1 + 0.05 * (s * 40.0).sin() * (t * 33.0).cos(),
+            )
+        };
+        for i in 0..cells {
+            for j in 0..cells {
+                let (a, b, c, d) = (point(i, j), point(i + 1, j), point(i + 1, j + 1), point(i, j + 1));
+                for vertices in [[a, b, c], [a, c, d]] {
+                    scene.faces.push(Face {
+                        vertices: vertices.into(),
+                        colour: [200, 200, 200],
+                        object: 0,
+                    });
+                }
+            }
+        }
+        scene
+    }
+
+    /// Below and above `PARALLEL_FROM`: the wide BVH's groups hold every triangle exactly once,
+    /// its children point inside it, each node is full unless all its children are leaves, and
+    /// the built BVH keeps under 250 bytes a triangle (229 measured at 1 M triangles, 225 at
+    /// 10k; docs/benchmarks.md) with the BVH2's build lists freed.
+    #[test]
+    fn wide_bvh_holds_every_triangle_once_in_bounded_memory() {
+        for cells in [50, 160] {
+            let scene = grid_scene(cells);
+            let bvh = SceneBvh::build(&scene);
+            let count = bvh.triangles.len();
+            assert!(count > 2 * cells * cells);
+            let mut seen = vec![0u32; count];
+            for group in &bvh.wide.groups {
+                for lane in 0..group.lanes.count_ones() as usize {
+                    seen[group.triangle[lane] as usize] += 1;
+                }
+            }
+            assert!(seen.iter().all(|&n| n == 1), "{cells}: a triangle missing or repeated");
+            for node in &bvh.wide.nodes {
+                // `open` stops short of eight children only when none of them can be opened.
+                let all_leaves = node.child[..node.lanes.count_ones() as usize]
+                    .iter()
+                    .all(|&child| child & LEAF != 0);
+                assert!(
+                    node.lanes == (1 << WIDTH) - 1 || all_leaves,
+                    "{cells}: {:b}",
+                    node.lanes
+                );
+                for lane in 0..node.lanes.count_ones() as usize {
+                    let child = node.child[lane];
+                    if child & LEAF == 0 {
+                        assert!((child as usize) < bvh.wide.nodes.len());
+                    } else {
+                        let groups = ((child & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+                        assert!((child & GROUP_INDEX) as usize + groups <= bvh.wide.groups.len());
+                    }
+                }
+            }
+            assert!(bvh.bvh.primitive_indices.is_empty() && bvh.bvh.parents.is_empty());
+            let per_triangle = bvh.heap_bytes() as f64 / count as f64;
+            assert!(
+                (100.0..250.0).contains(&per_triangle),
+                "{cells}: {per_triangle} bytes a triangle"
+            );
+        }
+    }
 }

@@ -17,8 +17,8 @@ pub(crate) const LEAF: u32 = 1 << 31;
 pub(crate) const GROUP_INDEX: u32 = (1 << 28) - 1;
 /// A leaf's group count minus one sits in bits 28–30.
 pub(crate) const GROUP_COUNT_SHIFT: u32 = 28;
-/// Groups a leaf may span (BVH2 leaves of up to 28 triangles; `accel/mod.rs` makes at most two).
-const MAX_LEAF_GROUPS: usize = 8;
+/// Groups a leaf may span (BVH2 leaves of up to 32 triangles; `accel/mod.rs` makes at most two).
+pub(super) const MAX_LEAF_GROUPS: usize = 8;
 
 /// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
 /// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
@@ -74,13 +74,15 @@ impl WideBvh {
         };
         // A root that is (or fits) one leaf is the single child of a node of its own.
         let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
-            vec![0]
+            Children::one(0)
         } else {
             builder.open(0)
         };
         wide.nodes.push(empty_node());
         let mut leaves = Vec::new();
-        builder.fill(&mut wide, &mut leaves, 0, &root, 0);
+        builder.fill(&mut wide, &mut leaves, 0, root.as_slice(), 0);
+        // Grown by doubling; a shrink in place gives back up to half the list.
+        wide.nodes.shrink_to_fit();
         // The groups' f32 lanes on all threads, once the tree has placed them.
         wide.groups = super::map_indices(leaves.len(), |k| {
             let (indices, count) = &leaves[k];
@@ -178,6 +180,38 @@ fn half_area(node: &Bvh2Node) -> f32 {
     size.x * size.y + size.y * size.z + size.z * size.x
 }
 
+/// Up to `WIDTH` BVH2 nodes, the children of one wide node (on the stack).
+struct Children {
+    index: [usize; WIDTH],
+    len: usize,
+}
+
+impl Children {
+    fn one(index: usize) -> Self {
+        let mut children = Self {
+            index: [0; WIDTH],
+            len: 0,
+        };
+        children.push(index);
+        children
+    }
+
+    fn two(first: usize, second: usize) -> Self {
+        let mut children = Self::one(first);
+        children.push(second);
+        children
+    }
+
+    fn push(&mut self, index: usize) {
+        self.index[self.len] = index;
+        self.len += 1;
+    }
+
+    fn as_slice(&self) -> &[usize] {
+        &self.index[..self.len]
+    }
+}
+
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
     counts: &'a [u32],
@@ -205,16 +239,17 @@ impl Builder<'_> {
             }
             node.lanes |= 1 << lane;
             if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
-                let mut leaf = Vec::new();
-                self.gather(index, &mut leaf);
-                let groups = leaf.len().div_ceil(4);
+                let count = self.counts[index] as usize;
+                let groups = count.div_ceil(4);
                 assert!(
                     groups <= MAX_LEAF_GROUPS && leaves.len() < GROUP_INDEX as usize,
-                    "BVH2 leaf of {} triangles, or over 2^28 groups",
-                    leaf.len()
+                    "BVH2 leaf of {count} triangles, or over 2^28 groups"
                 );
+                // On the stack: one heap list per leaf was a third of the collapse's cost.
+                let mut leaf = [0u32; 4 * MAX_LEAF_GROUPS];
+                self.gather(index, &mut leaf, &mut 0);
                 node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | leaves.len() as u32;
-                leaves.extend(leaf.chunks(4).map(|chunk| {
+                leaves.extend(leaf[..count].chunks(4).map(|chunk| {
                     let mut indices = [0; 4];
                     indices[..chunk.len()].copy_from_slice(chunk);
                     (indices, chunk.len())
@@ -228,40 +263,116 @@ impl Builder<'_> {
         for (lane, &index) in children.iter().enumerate() {
             if node.child[lane] & LEAF == 0 {
                 let grandchildren = self.open(index);
-                self.fill(wide, leaves, node.child[lane] as usize, &grandchildren, depth + 1);
+                self.fill(
+                    wide,
+                    leaves,
+                    node.child[lane] as usize,
+                    grandchildren.as_slice(),
+                    depth + 1,
+                );
             }
         }
     }
 
     /// The up to `WIDTH` BVH2 nodes that replace inner node `index`: its two children, then
     /// repeatedly the two children of the largest inner one among them.
-    fn open(&self, index: usize) -> Vec<usize> {
+    fn open(&self, index: usize) -> Children {
         let first = self.nodes[index].first_index as usize;
-        let mut children = vec![first, first + 1];
-        while children.len() < WIDTH {
-            let openable = children
-                .iter()
-                .enumerate()
-                .filter(|&(_, &c)| !self.nodes[c].is_leaf() && self.counts[c] > LEAF_TRIANGLES)
-                .max_by(|a, b| half_area(&self.nodes[*a.1]).total_cmp(&half_area(&self.nodes[*b.1])));
-            let Some((position, &chosen)) = openable else {
+        let mut children = Children::two(first, first + 1);
+        // Each child's area once (`None` where it cannot be opened), not once per step.
+        let openable_area = |c: usize| {
+            let node = &self.nodes[c];
+            (!node.is_leaf() && self.counts[c] > LEAF_TRIANGLES).then(|| half_area(node))
+        };
+        let mut area = [None; WIDTH];
+        area[0] = openable_area(first);
+        area[1] = openable_area(first + 1);
+        while children.len < WIDTH {
+            // The last of the largest: ties go to the last, as before, so that the tree is unchanged.
+            let mut chosen: Option<(usize, f32)> = None;
+            for (position, &candidate) in area[..children.len].iter().enumerate() {
+                if let Some(a) = candidate
+                    && chosen.is_none_or(|(_, best)| a.total_cmp(&best).is_ge())
+                {
+                    chosen = Some((position, a));
+                }
+            }
+            let Some((position, _)) = chosen else {
                 break;
             };
-            let first = self.nodes[chosen].first_index as usize;
-            children[position] = first;
+            let first = self.nodes[children.index[position]].first_index as usize;
+            let last = children.len;
+            children.index[position] = first;
             children.push(first + 1);
+            area[position] = openable_area(first);
+            area[last] = openable_area(first + 1);
         }
         children
     }
 
-    /// Triangle indices (leaf order) below BVH2 node `index`.
-    fn gather(&self, index: usize, into: &mut Vec<u32>) {
+    /// Triangle indices (leaf order) below BVH2 node `index`, written from `into[*len]` on.
+    fn gather(&self, index: usize, into: &mut [u32], len: &mut usize) {
         let node = &self.nodes[index];
         if node.is_leaf() {
-            into.extend(node.first_index..node.first_index + node.prim_count);
+            for triangle in node.first_index..node.first_index + node.prim_count {
+                into[*len] = triangle;
+                *len += 1;
+            }
         } else {
-            self.gather(node.first_index as usize, into);
-            self.gather(node.first_index as usize + 1, into);
+            self.gather(node.first_index as usize, into, len);
+            self.gather(node.first_index as usize + 1, into, len);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::SceneBvh;
+    use crate::accel::tests::grid_scene;
+
+    /// `open` replaces each openable BVH2 node by a cut of its subtree: every path down from the
+    /// node meets exactly one child, the children hold the node's triangles, there are eight of
+    /// them unless none can be opened, and no child left unopened is larger than a node opened
+    /// below the first level (the largest goes first; a child's box lies in its parent's).
+    #[test]
+    fn open_replaces_a_node_by_its_largest_full_cut() {
+        for cells in [50, 160] {
+            let bvh = SceneBvh::build(&grid_scene(cells));
+            let nodes = &bvh.bvh.nodes;
+            let counts = subtree_triangles(nodes);
+            let builder = Builder { nodes, counts: &counts };
+            let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;
+            let mut opened_nodes = 0;
+            for parent in (0..nodes.len()).filter(|&index| openable(index)) {
+                let children = builder.open(parent);
+                let children = children.as_slice();
+                let total: u32 = children.iter().map(|&child| counts[child]).sum();
+                assert_eq!(total, counts[parent], "{cells}: node {parent}'s children {children:?}");
+                assert!(
+                    children.len() == WIDTH || !children.iter().any(|&child| openable(child)),
+                    "{cells}: node {parent} stopped at {children:?}"
+                );
+                // Walk down from the node's children: a node not in the cut was opened.
+                let mut opened_areas = Vec::new();
+                let first = nodes[parent].first_index as usize;
+                let mut pending = vec![first, first + 1];
+                while let Some(index) = pending.pop() {
+                    if children.contains(&index) {
+                        continue;
+                    }
+                    assert!(openable(index), "{cells}: node {parent}'s cut misses node {index}");
+                    opened_areas.push(half_area(&nodes[index]));
+                    let below = nodes[index].first_index as usize;
+                    pending.extend([below, below + 1]);
+                }
+                let smallest_opened = opened_areas.iter().copied().fold(f32::INFINITY, f32::min);
+                for &child in children.iter().filter(|&&child| openable(child)) {
+                    assert!(half_area(&nodes[child]) <= smallest_opened, "{cells}: node {parent}");
+                }
+                opened_nodes += opened_areas.len();
+            }
+            assert!(opened_nodes > 0, "{cells}: no node opened below its first level");
         }
     }
 }
