@@ -12,7 +12,9 @@ omnisim's rate is its own summary line ("... (N frames/s) ..."): frames rendered
 each file hashed (SHA-256) and fsynced, entries and manifest. The pipeline's rate is frames
 over the loop's wall time; --fsync makes it fsync each file too (omnisim's durability).
 Rounds alternate the two (and --baseline, another omnisim build, where given); each side's
-best round is kept. Before each side's round the file system is synced (`os.sync`, not timed):
+best round is kept, and with --baseline the median of the rounds' omnisim / baseline ratios
+(builds compare by those pairs, not by best rounds). Before each side's round the file system
+is synced (`os.sync`, not timed):
 otherwise the pipeline's unsynced 100 MB would be written back during the next omnisim round,
 whose batch syncs (`syncfs`) wait for them. Prints JSON lines and a summary.
 
@@ -22,7 +24,7 @@ From the repository root, e.g. with the reader venv:
       --spec scenes/env1-speed-dataset.ron --work /tmp/pipeline
 Needs open3d-cpu, numpy, OpenEXR, opencv-python (tests/readers/requirements.txt has them).
 """
-import argparse, glob, json, os, re, shutil, subprocess, time
+import argparse, glob, json, os, re, shutil, statistics, subprocess, time
 
 os.environ.setdefault('OPENCV_IO_ENABLE_OPENEXR', '1')
 import cv2  # noqa: E402
@@ -143,18 +145,26 @@ def main():
     inputs = load_inputs(a.omnisim, a.spec, sets[0], a.work)
     compression = exr_compression(a.spec)
     best_python = best_omnisim = best_baseline = 0.0
+    omnisim_over_baseline = []
     for round_ in range(a.rounds):
         python = pipeline(inputs, os.path.join(a.work, 'python'), compression)
         omnisim, _ = omnisim_dataset(a.omnisim, a.spec, omnisim_out)
         baseline = omnisim_dataset(a.baseline, a.spec, omnisim_out)[0] if a.baseline else None
         best_python, best_omnisim = max(best_python, python), max(best_omnisim, omnisim)
         best_baseline = max(best_baseline, baseline or 0.0)
+        if baseline:
+            omnisim_over_baseline.append(omnisim / baseline)
         print(json.dumps(dict(round=round_, python_frames_per_s=python, omnisim_frames_per_s=omnisim,
                               baseline_frames_per_s=baseline, fsync=a.fsync, frames=len(inputs[-1]))), flush=True)
     print(f'best of {a.rounds}: python {best_python:.1f} frames/s, omnisim {best_omnisim:.1f} frames/s, '
           f'ratio {best_omnisim / best_python:.2f}x ({len(inputs[-1])} frames, python fsync: {a.fsync})')
     if a.baseline:
         print(f'baseline {best_baseline:.1f} frames/s, ratio {best_baseline / best_python:.2f}x')
+        # A build against a build by the rounds' pairs: one lucky round moves a best-of figure by
+        # 10-30 % on a loaded machine (docs/benchmarks.md, 2026-11-26 data, third turn).
+        ahead = sum(r > 1 for r in omnisim_over_baseline)
+        print(f'omnisim / baseline per round: median {statistics.median(omnisim_over_baseline):.2f}, '
+              f'omnisim ahead in {ahead} of {len(omnisim_over_baseline)} rounds')
 
 
 FSYNC = False
