@@ -7,6 +7,7 @@
 
 use std::sync::{Arc, Mutex, OnceLock};
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::accel::SceneBvh;
@@ -19,8 +20,8 @@ use crate::trace::CpuTracer;
 /// without recomputing.
 const CAMERAS: usize = 2;
 
-/// Largest image whose rays are kept (64 bytes a pixel, 80 with the cones: 80 MB); larger ones are computed
-/// per frame.
+/// Largest image whose rays are kept (32 bytes a pixel for a camera whose rays share one origin,
+/// else 64; 16 more with the cones: at most 80 MB); larger ones are computed per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
 /// Largest image whose ray cones are kept where its rays are not (16 bytes a pixel: 64 MB): a
@@ -32,15 +33,102 @@ const MAX_CONE_PIXELS: usize = 1 << 22;
 /// is shaded through it, every pixel's ray cone (the texture footprint, `shade/footprint.rs`).
 pub(crate) struct RayTable {
     camera: Camera,
-    pub(crate) rays: Vec<Option<CameraRay>>,
+    rays: Rays,
     cones: OnceLock<Vec<Cone>>,
 }
 
+/// A ray table's rays, held in the smallest form that gives every ray back bit for bit.
+enum Rays {
+    /// Rays that all start at `origin` (a central camera's: pinhole, equirect, cylindrical, an
+    /// aligned hyperbolic mirror): each pixel's direction and `t_min`, half the bytes of a
+    /// [`CameraRay`] in an `Option`. The tile loop reads a frame's table once a frame; at
+    /// 1000² a 64-byte entry made that 64 MB of memory traffic.
+    Central { origin: DVec3, entries: Vec<CentralRay> },
+    /// Rays of their own origins (a non-central camera's: the spherical mirror's start at
+    /// their mirror points).
+    Any(Vec<Option<CameraRay>>),
+}
+
+/// One pixel's ray of [`Rays::Central`]: `t_min` NaN where the pixel has no ray (a ray's
+/// `t_min` never is: the table is made central only where none is). Aligned so that an entry
+/// never straddles two cache lines.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct CentralRay {
+    direction: DVec3,
+    t_min: f64,
+}
+
+impl CentralRay {
+    /// The camera ray this entry holds, from the table's shared `origin`.
+    #[inline(always)]
+    fn ray(self, origin: DVec3) -> Option<CameraRay> {
+        (!self.t_min.is_nan()).then_some(CameraRay {
+            origin,
+            direction: self.direction,
+            t_min: self.t_min,
+        })
+    }
+}
+
+impl Rays {
+    /// `rays` in the central form where every ray starts at the same origin (bit for bit)
+    /// and none has a NaN `t_min`, else as they are.
+    fn of(rays: Vec<Option<CameraRay>>) -> Self {
+        let Some(origin) = rays.iter().flatten().next().map(|ray| ray.origin) else {
+            return Self::Any(rays);
+        };
+        let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+        let central = rays
+            .par_iter()
+            .flatten()
+            .all(|ray| bits(ray.origin) == bits(origin) && !ray.t_min.is_nan());
+        if !central {
+            return Self::Any(rays);
+        }
+        let none = CentralRay {
+            direction: DVec3::ZERO,
+            t_min: f64::NAN,
+        };
+        let entries = rays
+            .par_iter()
+            .map(|ray| {
+                ray.map_or(none, |ray| CentralRay {
+                    direction: ray.direction,
+                    t_min: ray.t_min,
+                })
+            })
+            .collect();
+        Self::Central { origin, entries }
+    }
+}
+
 impl RayTable {
+    /// The body-frame ray of pixel `index` (row by row), as the camera gives it.
+    #[inline(always)]
+    pub(crate) fn ray(&self, index: usize) -> Option<CameraRay> {
+        match &self.rays {
+            Rays::Central { origin, entries } => entries[index].ray(*origin),
+            Rays::Any(rays) => rays[index],
+        }
+    }
+
     /// Every pixel's ray cone, made on first use from the table's rays.
     pub(crate) fn cones(&self) -> &[Cone] {
         self.cones
-            .get_or_init(|| Cone::of_image(&self.camera, |index| self.rays[index]))
+            .get_or_init(|| Cone::of_image(&self.camera, |index| self.ray(index)))
+    }
+
+    /// Traces one frame with `tracer` from this table's rays: the layout is matched once, not
+    /// once a ray.
+    fn trace(&self, tracer: CpuTracer, bvh: &SceneBvh, pose: &Pose) -> Frame {
+        let size = self.camera.size();
+        match &self.rays {
+            Rays::Central { origin, entries } => {
+                tracer.trace_rays(bvh, size, pose, |index| entries[index].ray(*origin))
+            }
+            Rays::Any(rays) => tracer.trace_rays(bvh, size, pose, |index| rays[index]),
+        }
     }
 }
 
@@ -90,7 +178,7 @@ pub(crate) fn trace_frame(
     table: Option<&RayTable>,
 ) -> Frame {
     match table {
-        Some(table) => tracer.trace_rays(bvh, camera.size(), pose, |index| table.rays[index]),
+        Some(table) => table.trace(tracer, bvh, pose),
         None => tracer.trace(bvh, camera, pose),
     }
 }
@@ -109,10 +197,12 @@ impl RayCache {
             |table| &table.camera,
             || RayTable {
                 camera: camera.clone(),
-                rays: (0..pixels)
-                    .into_par_iter()
-                    .map(|index| camera.pixel_ray(index))
-                    .collect(),
+                rays: Rays::of(
+                    (0..pixels)
+                        .into_par_iter()
+                        .map(|index| camera.pixel_ray(index))
+                        .collect(),
+                ),
                 cones: OnceLock::new(),
             },
         ))
@@ -143,6 +233,51 @@ mod tests {
     use super::*;
     use crate::camera::{Equirectangular, Pinhole};
     use glam::dvec3;
+
+    /// Each camera's table gives back every pixel's ray bit for bit, in the central form where
+    /// all rays share an origin (pinhole, equirect, the hyperbolic mirror with its rays' own
+    /// `t_min`) and as they are where they do not (the spherical mirror's mirror points).
+    #[test]
+    fn a_table_gives_back_every_ray_and_is_central_only_where_the_rays_share_an_origin() {
+        use crate::camera::Catadioptric;
+        let bits = |ray: Option<CameraRay>| {
+            ray.map(|ray| {
+                [ray.origin, ray.direction]
+                    .map(|v| v.to_array().map(f64::to_bits))
+                    .concat()
+                    .into_iter()
+                    .chain([ray.t_min.to_bits()])
+                    .collect::<Vec<_>>()
+            })
+        };
+        let cameras = [
+            (Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)), true),
+            (Camera::Equirectangular(Equirectangular { width: 48, height: 24 }), true),
+            (
+                Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
+                true,
+            ),
+            (Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)), false),
+        ];
+        let cache = RayCache::default();
+        for (index, (camera, central)) in cameras.iter().enumerate() {
+            let table = cache.table(camera).expect("a small image has a table");
+            assert_eq!(matches!(table.rays, Rays::Central { .. }), *central, "camera {index}");
+            let pixels = camera.size().0 as usize * camera.size().1 as usize;
+            let mut missing = 0;
+            for pixel in 0..pixels {
+                let want = camera.pixel_ray(pixel);
+                missing += usize::from(want.is_none());
+                assert_eq!(bits(table.ray(pixel)), bits(want), "camera {index}, pixel {pixel}");
+            }
+            if index >= 2 {
+                assert!(
+                    missing > 0,
+                    "camera {index}: the mirror's image circle leaves pixels without rays"
+                );
+            }
+        }
+    }
 
     #[test]
     fn frames_from_ray_tables_equal_frames_from_the_camera_and_tables_follow_the_camera() {
