@@ -234,33 +234,52 @@ mod tests {
     use crate::camera::{Equirectangular, Pinhole};
     use glam::dvec3;
 
+    /// Every field of `ray` as bits, so that a comparison tells `0.0` from `-0.0` and NaN
+    /// equals itself.
+    fn bits(ray: Option<CameraRay>) -> Option<Vec<u64>> {
+        ray.map(|ray| {
+            [ray.origin, ray.direction]
+                .map(|v| v.to_array().map(f64::to_bits))
+                .concat()
+                .into_iter()
+                .chain([ray.t_min.to_bits()])
+                .collect()
+        })
+    }
+
     /// Each camera's table gives back every pixel's ray bit for bit, in the central form where
-    /// all rays share an origin (pinhole, equirect, the hyperbolic mirror with its rays' own
-    /// `t_min`) and as they are where they do not (the spherical mirror's mirror points).
+    /// all rays share an origin (pinhole, also away from the body origin as a stereo rig's
+    /// right camera, equirect, the hyperbolic mirror with its rays' own `t_min`) and as they
+    /// are where they do not (the spherical mirror's mirror points).
     #[test]
     fn a_table_gives_back_every_ray_and_is_central_only_where_the_rays_share_an_origin() {
         use crate::camera::Catadioptric;
-        let bits = |ray: Option<CameraRay>| {
-            ray.map(|ray| {
-                [ray.origin, ray.direction]
-                    .map(|v| v.to_array().map(f64::to_bits))
-                    .concat()
-                    .into_iter()
-                    .chain([ray.t_min.to_bits()])
-                    .collect::<Vec<_>>()
-            })
+        let right = Pinhole {
+            position: dvec3(0.0, -0.05, 0.0),
+            ..Pinhole::with_horizontal_fov(40, 30, 1.2)
         };
+        // (camera, central, has pixels without rays)
         let cameras = [
-            (Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)), true),
-            (Camera::Equirectangular(Equirectangular { width: 48, height: 24 }), true),
+            (Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)), true, false),
+            (Camera::Pinhole(right), true, false),
+            (
+                Camera::Equirectangular(Equirectangular { width: 48, height: 24 }),
+                true,
+                false,
+            ),
             (
                 Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
                 true,
+                true,
             ),
-            (Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)), false),
+            (
+                Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
+                false,
+                true,
+            ),
         ];
         let cache = RayCache::default();
-        for (index, (camera, central)) in cameras.iter().enumerate() {
+        for (index, (camera, central, has_holes)) in cameras.iter().enumerate() {
             let table = cache.table(camera).expect("a small image has a table");
             assert_eq!(matches!(table.rays, Rays::Central { .. }), *central, "camera {index}");
             let pixels = camera.size().0 as usize * camera.size().1 as usize;
@@ -270,24 +289,58 @@ mod tests {
                 missing += usize::from(want.is_none());
                 assert_eq!(bits(table.ray(pixel)), bits(want), "camera {index}, pixel {pixel}");
             }
-            if index >= 2 {
-                assert!(
-                    missing > 0,
-                    "camera {index}: the mirror's image circle leaves pixels without rays"
-                );
+            assert_eq!(missing > 0, *has_holes, "camera {index}: pixels without rays");
+        }
+    }
+
+    /// The form `Rays::of` picks for made-up rays the cameras do not give: a NaN `t_min` (which
+    /// the central form would read back as no ray), origins `0.0` and `-0.0` (equal as numbers,
+    /// not bit for bit), no ray at all, and an infinite `t_min` beside a pixel without a ray
+    /// (central: infinity is not NaN). Every ray comes back bit for bit.
+    #[test]
+    fn rays_fall_back_to_their_own_origins_unless_every_ray_comes_back_bit_for_bit() {
+        let ray = |origin: DVec3, t_min: f64| {
+            Some(CameraRay {
+                origin,
+                direction: dvec3(0.0, 0.6, -0.8),
+                t_min,
+            })
+        };
+        let origin = dvec3(0.0, -0.05, 0.1);
+        let cases = [
+            (vec![ray(origin, f64::NAN), None], false),
+            (vec![ray(DVec3::ZERO, 0.0), ray(dvec3(0.0, -0.0, 0.0), 0.0)], false),
+            (vec![None, None], false),
+            (vec![ray(origin, f64::INFINITY), None, ray(origin, 0.25)], true),
+        ];
+        for (index, (rays, central)) in cases.into_iter().enumerate() {
+            let table = RayTable {
+                camera: Camera::Equirectangular(Equirectangular { width: 1, height: 1 }),
+                rays: Rays::of(rays.clone()),
+                cones: OnceLock::new(),
+            };
+            assert_eq!(matches!(table.rays, Rays::Central { .. }), central, "case {index}");
+            for (pixel, want) in rays.into_iter().enumerate() {
+                assert_eq!(bits(table.ray(pixel)), bits(want), "case {index}, pixel {pixel}");
             }
         }
     }
 
+    /// Frames traced from tables (both forms; the mirrors' with pixels without rays) equal
+    /// frames traced from the camera, and the cache keeps the last `CAMERAS` cameras' tables.
     #[test]
     fn frames_from_ray_tables_equal_frames_from_the_camera_and_tables_follow_the_camera() {
+        use crate::camera::Catadioptric;
         let (_, bvh) = crate::trace::test_scene("env1");
         let cache = RayCache::default();
         let cameras = [
             Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)),
             Camera::Equirectangular(Equirectangular { width: 48, height: 24 }),
             Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 0.6)),
+            Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
+            Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
         ];
+        let mut central = Vec::new();
         for round in 0..2 {
             for (index, camera) in cameras.iter().enumerate() {
                 let pose = Pose::new(
@@ -295,10 +348,17 @@ mod tests {
                     dvec3(0.0, 0.1, index as f64),
                 );
                 let direct = CpuTracer::Fast.trace(&bvh, camera, &pose);
-                let cached = trace_frame(CpuTracer::Fast, &bvh, camera, &pose, cache.table(camera).as_deref());
+                let table = cache.table(camera).expect("a small image has a table");
+                central.push(matches!(table.rays, Rays::Central { .. }));
+                let cached = trace_frame(CpuTracer::Fast, &bvh, camera, &pose, Some(&table));
                 assert_eq!(direct.pixels(), cached.pixels(), "camera {index}, round {round}");
             }
         }
+        assert_eq!(
+            central,
+            [true, true, true, true, false].repeat(2),
+            "both forms are traced"
+        );
         let tables = cache.tables.lock().unwrap();
         assert_eq!(tables.len(), CAMERAS);
         assert!(
