@@ -21,7 +21,8 @@ use crate::trace::CpuTracer;
 const CAMERAS: usize = 2;
 
 /// Largest image whose rays are kept (32 bytes a pixel for a camera whose rays share one origin,
-/// else 64; 16 more with the cones: at most 80 MB); larger ones are computed per frame.
+/// else 64; 16 more with the cones: at most 80 MB kept, 96 MB at the peak while a central table
+/// is made from the 64-byte rays); larger ones are computed per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
 /// Largest image whose ray cones are kept where its rays are not (16 bytes a pixel: 64 MB): a
@@ -39,14 +40,15 @@ pub(crate) struct RayTable {
 
 /// A ray table's rays, held in the smallest form that gives every ray back bit for bit.
 enum Rays {
-    /// Rays that all start at `origin` (a central camera's: pinhole, equirect, cylindrical, an
-    /// aligned hyperbolic mirror): each pixel's direction and `t_min`, half the bytes of a
-    /// [`CameraRay`] in an `Option`. The tile loop reads a frame's table once a frame; at
-    /// 1000² a 64-byte entry made that 64 MB of memory traffic.
+    /// Rays that all start at `origin` (every camera whose rays share one origin: all but the
+    /// spherical and misaligned mirrors; checked on the rays, not the camera type): each
+    /// pixel's direction and `t_min`, half the bytes of a [`CameraRay`] in an `Option`. The
+    /// tile loop reads a frame's table once a frame; at 1000² a 64-byte entry made that 64 MB
+    /// of memory traffic.
     Central { origin: DVec3, entries: Vec<CentralRay> },
     /// Rays of their own origins (a non-central camera's: the spherical mirror's start at
     /// their mirror points).
-    Any(Vec<Option<CameraRay>>),
+    OwnOrigins(Vec<Option<CameraRay>>),
 }
 
 /// One pixel's ray of [`Rays::Central`]: `t_min` NaN where the pixel has no ray (a ray's
@@ -58,6 +60,8 @@ struct CentralRay {
     direction: DVec3,
     t_min: f64,
 }
+
+const _: () = assert!(size_of::<CentralRay>() == 32);
 
 impl CentralRay {
     /// The camera ray this entry holds, from the table's shared `origin`.
@@ -76,7 +80,7 @@ impl Rays {
     /// and none has a NaN `t_min`, else as they are.
     fn of(rays: Vec<Option<CameraRay>>) -> Self {
         let Some(origin) = rays.iter().flatten().next().map(|ray| ray.origin) else {
-            return Self::Any(rays);
+            return Self::OwnOrigins(rays);
         };
         let bits = |v: DVec3| v.to_array().map(f64::to_bits);
         let central = rays
@@ -84,7 +88,7 @@ impl Rays {
             .flatten()
             .all(|ray| bits(ray.origin) == bits(origin) && !ray.t_min.is_nan());
         if !central {
-            return Self::Any(rays);
+            return Self::OwnOrigins(rays);
         }
         let none = CentralRay {
             direction: DVec3::ZERO,
@@ -109,7 +113,7 @@ impl RayTable {
     pub(crate) fn ray(&self, index: usize) -> Option<CameraRay> {
         match &self.rays {
             Rays::Central { origin, entries } => entries[index].ray(*origin),
-            Rays::Any(rays) => rays[index],
+            Rays::OwnOrigins(rays) => rays[index],
         }
     }
 
@@ -119,15 +123,15 @@ impl RayTable {
             .get_or_init(|| Cone::of_image(&self.camera, |index| self.ray(index)))
     }
 
-    /// Traces one frame with `tracer` from this table's rays: the layout is matched once, not
-    /// once a ray.
+    /// Traces one frame with `tracer` from this table's rays: when tracing, the layout is matched
+    /// once a frame, not once a ray.
     fn trace(&self, tracer: CpuTracer, bvh: &SceneBvh, pose: &Pose) -> Frame {
         let size = self.camera.size();
         match &self.rays {
             Rays::Central { origin, entries } => {
                 tracer.trace_rays(bvh, size, pose, |index| entries[index].ray(*origin))
             }
-            Rays::Any(rays) => tracer.trace_rays(bvh, size, pose, |index| rays[index]),
+            Rays::OwnOrigins(rays) => tracer.trace_rays(bvh, size, pose, |index| rays[index]),
         }
     }
 }
