@@ -276,8 +276,7 @@ impl Renderer {
         if planes.needs_shading() && samples_per_axis > 1 {
             let outline = prepared.outline.get_or_init(|| Outline::of(&prepared.geometry));
             let table = self.rays.table(camera);
-            let rays = table.as_deref().map(|t| t.rays.as_slice());
-            let edges = coverage::pixels_to_refine(&frame, &prepared.geometry, outline, camera, pose, rays);
+            let edges = coverage::pixels_to_refine(&frame, &prepared.geometry, outline, camera, pose, table.as_deref());
             // The GPU's lens rays are a table of pixel centres: their sub-pixel samples are
             // traced by the CPU, exactly.
             let gpu = self.gpu(prepared).filter(|_| !camera.has_lens_model());

@@ -18,9 +18,10 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::accel::SceneBvh;
-use crate::camera::{Camera, CameraRay};
+use crate::camera::Camera;
 use crate::frame::Frame;
 use crate::pose::Pose;
+use crate::trace::ray_table::RayTable;
 
 /// Largest distance, pixels, between consecutive projected samples of an outline.
 pub(crate) const STEP_PX: f64 = 0.25;
@@ -91,7 +92,7 @@ pub(crate) fn pixels_to_refine(
     outline: &Outline,
     camera: &Camera,
     pose: &Pose,
-    rays: Option<&[Option<CameraRay>]>,
+    rays: Option<&RayTable>,
 ) -> Vec<usize> {
     let (width, height) = (frame.width as usize, frame.height as usize);
     let mut refine = vec![false; width * height];
@@ -133,7 +134,7 @@ pub(crate) fn pixels_to_refine(
                 let hit = &frame.pixels()[index];
                 let visible = !hit.is_hit()
                     || rays
-                        .map_or_else(|| camera.ray(DVec2::new(column, row)), |rays| rays[index])
+                        .map_or_else(|| camera.ray(DVec2::new(column, row)), |rays| rays.ray(index))
                         .is_none_or(|ray| point.distance(ray.origin) <= f64::from(hit.range) * (1.0 + HIDDEN_MARGIN));
                 if visible {
                     found.push(index);

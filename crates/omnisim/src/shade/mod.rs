@@ -349,7 +349,7 @@ impl<'a> View<'a> {
     /// cones where there is one (the cones made on first use), else from a cone table and the
     /// pixel's own camera ray, else from the camera's rays alone (three a pixel).
     fn footprints(&self) -> impl Fn(usize) -> Footprint + Sync + '_ {
-        let table = self.table.map(|table| (table.rays.as_slice(), table.cones()));
+        let table = self.table.map(|table| (table, table.cones()));
         let cone_table = match table {
             Some(_) => None,
             None => self.cache.and_then(|cache| cache.cone_table(self.camera)),
@@ -361,7 +361,7 @@ impl<'a> View<'a> {
         // an equirect frame 13.5 M instructions, about 29 a textured pixel (docs/benchmarks.md).
         #[inline(always)]
         move |index| match (table, &cone_table) {
-            (Some((rays, cones)), _) => with_cone(cones[index], rays[index].as_ref()),
+            (Some((table, cones)), _) => with_cone(cones[index], table.ray(index).as_ref()),
             (None, Some(cone_table)) => with_cone(cone_table.cones[index], self.camera.pixel_ray(index).as_ref()),
             (None, None) => {
                 Footprint::in_body_around(DVec2::new((index % width) as f64, (index / width) as f64), self.camera)

@@ -7,6 +7,7 @@
 
 use std::sync::{Arc, Mutex, OnceLock};
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::accel::SceneBvh;
@@ -19,8 +20,9 @@ use crate::trace::CpuTracer;
 /// without recomputing.
 const CAMERAS: usize = 2;
 
-/// Largest image whose rays are kept (64 bytes a pixel, 80 with the cones: 80 MB); larger ones are computed
-/// per frame.
+/// Largest image whose rays are kept (32 bytes a pixel for a camera whose rays share one origin,
+/// else 64; 16 more with the cones: at most 80 MB kept, 96 MB at the peak while a central table
+/// is made from the 64-byte rays); larger ones are computed per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
 /// Largest image whose ray cones are kept where its rays are not (16 bytes a pixel: 64 MB): a
@@ -32,15 +34,105 @@ const MAX_CONE_PIXELS: usize = 1 << 22;
 /// is shaded through it, every pixel's ray cone (the texture footprint, `shade/footprint.rs`).
 pub(crate) struct RayTable {
     camera: Camera,
-    pub(crate) rays: Vec<Option<CameraRay>>,
+    rays: Rays,
     cones: OnceLock<Vec<Cone>>,
 }
 
+/// A ray table's rays, held in the smallest form that gives every ray back bit for bit.
+enum Rays {
+    /// Rays that all start at `origin` (every camera whose rays share one origin: all but the
+    /// spherical and misaligned mirrors; checked on the rays, not the camera type): each
+    /// pixel's direction and `t_min`, half the bytes of a [`CameraRay`] in an `Option`. The
+    /// tile loop reads a frame's table once a frame; at 1000² a 64-byte entry made that 64 MB
+    /// of memory traffic.
+    Central { origin: DVec3, entries: Vec<CentralRay> },
+    /// Rays of their own origins (a non-central camera's: the spherical mirror's start at
+    /// their mirror points).
+    OwnOrigins(Vec<Option<CameraRay>>),
+}
+
+/// One pixel's ray of [`Rays::Central`]: `t_min` NaN where the pixel has no ray (a ray's
+/// `t_min` never is: the table is made central only where none is). Aligned so that an entry
+/// never straddles two cache lines.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct CentralRay {
+    direction: DVec3,
+    t_min: f64,
+}
+
+const _: () = assert!(size_of::<CentralRay>() == 32);
+
+impl CentralRay {
+    /// The camera ray this entry holds, from the table's shared `origin`.
+    #[inline(always)]
+    fn ray(self, origin: DVec3) -> Option<CameraRay> {
+        (!self.t_min.is_nan()).then_some(CameraRay {
+            origin,
+            direction: self.direction,
+            t_min: self.t_min,
+        })
+    }
+}
+
+impl Rays {
+    /// `rays` in the central form where every ray starts at the same origin (bit for bit)
+    /// and none has a NaN `t_min`, else as they are.
+    fn of(rays: Vec<Option<CameraRay>>) -> Self {
+        let Some(origin) = rays.iter().flatten().next().map(|ray| ray.origin) else {
+            return Self::OwnOrigins(rays);
+        };
+        let bits = |v: DVec3| v.to_array().map(f64::to_bits);
+        let central = rays
+            .par_iter()
+            .flatten()
+            .all(|ray| bits(ray.origin) == bits(origin) && !ray.t_min.is_nan());
+        if !central {
+            return Self::OwnOrigins(rays);
+        }
+        let none = CentralRay {
+            direction: DVec3::ZERO,
+            t_min: f64::NAN,
+        };
+        let entries = rays
+            .par_iter()
+            .map(|ray| {
+                ray.map_or(none, |ray| CentralRay {
+                    direction: ray.direction,
+                    t_min: ray.t_min,
+                })
+            })
+            .collect();
+        Self::Central { origin, entries }
+    }
+}
+
 impl RayTable {
+    /// The body-frame ray of pixel `index` (row by row), as the camera gives it.
+    #[inline(always)]
+    pub(crate) fn ray(&self, index: usize) -> Option<CameraRay> {
+        match &self.rays {
+            Rays::Central { origin, entries } => entries[index].ray(*origin),
+            Rays::OwnOrigins(rays) => rays[index],
+        }
+    }
+
     /// Every pixel's ray cone, made on first use from the table's rays.
     pub(crate) fn cones(&self) -> &[Cone] {
         self.cones
-            .get_or_init(|| Cone::of_image(&self.camera, |index| self.rays[index]))
+            .get_or_init(|| Cone::of_image(&self.camera, |index| self.ray(index)))
+    }
+
+    /// Traces one frame with `tracer` from this table's rays: when tracing, the layout is matched
+    /// once a frame, not once a ray.
+    fn trace(&self, tracer: CpuTracer, bvh: &SceneBvh, pose: &Pose) -> Frame {
+        let size = self.camera.size();
+        match &self.rays {
+            Rays::Central { origin, entries } => {
+                tracer.trace_rays(bvh, size, pose, |index| entries[index].ray(*origin))
+            }
+            Rays::OwnOrigins(rays) => tracer.trace_rays(bvh, size, pose, |index| rays[index]),
+        }
     }
 }
 
@@ -90,7 +182,7 @@ pub(crate) fn trace_frame(
     table: Option<&RayTable>,
 ) -> Frame {
     match table {
-        Some(table) => tracer.trace_rays(bvh, camera.size(), pose, |index| table.rays[index]),
+        Some(table) => table.trace(tracer, bvh, pose),
         None => tracer.trace(bvh, camera, pose),
     }
 }
@@ -109,10 +201,12 @@ impl RayCache {
             |table| &table.camera,
             || RayTable {
                 camera: camera.clone(),
-                rays: (0..pixels)
-                    .into_par_iter()
-                    .map(|index| camera.pixel_ray(index))
-                    .collect(),
+                rays: Rays::of(
+                    (0..pixels)
+                        .into_par_iter()
+                        .map(|index| camera.pixel_ray(index))
+                        .collect(),
+                ),
                 cones: OnceLock::new(),
             },
         ))
@@ -144,15 +238,113 @@ mod tests {
     use crate::camera::{Equirectangular, Pinhole};
     use glam::dvec3;
 
+    /// Every field of `ray` as bits, so that a comparison tells `0.0` from `-0.0` and NaN
+    /// equals itself.
+    fn bits(ray: Option<CameraRay>) -> Option<Vec<u64>> {
+        ray.map(|ray| {
+            [ray.origin, ray.direction]
+                .map(|v| v.to_array().map(f64::to_bits))
+                .concat()
+                .into_iter()
+                .chain([ray.t_min.to_bits()])
+                .collect()
+        })
+    }
+
+    /// Each camera's table gives back every pixel's ray bit for bit, in the central form where
+    /// all rays share an origin (pinhole, also away from the body origin as a stereo rig's
+    /// right camera, equirect, the hyperbolic mirror with its rays' own `t_min`) and as they
+    /// are where they do not (the spherical mirror's mirror points).
+    #[test]
+    fn a_table_gives_back_every_ray_and_is_central_only_where_the_rays_share_an_origin() {
+        use crate::camera::Catadioptric;
+        let right = Pinhole {
+            position: dvec3(0.0, -0.05, 0.0),
+            ..Pinhole::with_horizontal_fov(40, 30, 1.2)
+        };
+        // (camera, central, has pixels without rays)
+        let cameras = [
+            (Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)), true, false),
+            (Camera::Pinhole(right), true, false),
+            (
+                Camera::Equirectangular(Equirectangular { width: 48, height: 24 }),
+                true,
+                false,
+            ),
+            (
+                Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
+                true,
+                true,
+            ),
+            (
+                Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
+                false,
+                true,
+            ),
+        ];
+        let cache = RayCache::default();
+        for (index, (camera, central, has_holes)) in cameras.iter().enumerate() {
+            let table = cache.table(camera).expect("a small image has a table");
+            assert_eq!(matches!(table.rays, Rays::Central { .. }), *central, "camera {index}");
+            let pixels = camera.size().0 as usize * camera.size().1 as usize;
+            let mut missing = 0;
+            for pixel in 0..pixels {
+                let want = camera.pixel_ray(pixel);
+                missing += usize::from(want.is_none());
+                assert_eq!(bits(table.ray(pixel)), bits(want), "camera {index}, pixel {pixel}");
+            }
+            assert_eq!(missing > 0, *has_holes, "camera {index}: pixels without rays");
+        }
+    }
+
+    /// The form `Rays::of` picks for made-up rays the cameras do not give: a NaN `t_min` (which
+    /// the central form would read back as no ray), origins `0.0` and `-0.0` (equal as numbers,
+    /// not bit for bit), no ray at all, and an infinite `t_min` beside a pixel without a ray
+    /// (central: infinity is not NaN). Every ray comes back bit for bit.
+    #[test]
+    fn rays_fall_back_to_their_own_origins_unless_every_ray_comes_back_bit_for_bit() {
+        let ray = |origin: DVec3, t_min: f64| {
+            Some(CameraRay {
+                origin,
+                direction: dvec3(0.0, 0.6, -0.8),
+                t_min,
+            })
+        };
+        let origin = dvec3(0.0, -0.05, 0.1);
+        let cases = [
+            (vec![ray(origin, f64::NAN), None], false),
+            (vec![ray(DVec3::ZERO, 0.0), ray(dvec3(0.0, -0.0, 0.0), 0.0)], false),
+            (vec![None, None], false),
+            (vec![ray(origin, f64::INFINITY), None, ray(origin, 0.25)], true),
+        ];
+        for (index, (rays, central)) in cases.into_iter().enumerate() {
+            let table = RayTable {
+                camera: Camera::Equirectangular(Equirectangular { width: 1, height: 1 }),
+                rays: Rays::of(rays.clone()),
+                cones: OnceLock::new(),
+            };
+            assert_eq!(matches!(table.rays, Rays::Central { .. }), central, "case {index}");
+            for (pixel, want) in rays.into_iter().enumerate() {
+                assert_eq!(bits(table.ray(pixel)), bits(want), "case {index}, pixel {pixel}");
+            }
+        }
+    }
+
+    /// Frames traced from tables (both forms; the mirrors' with pixels without rays) equal
+    /// frames traced from the camera, and the cache keeps the last `CAMERAS` cameras' tables.
     #[test]
     fn frames_from_ray_tables_equal_frames_from_the_camera_and_tables_follow_the_camera() {
+        use crate::camera::Catadioptric;
         let (_, bvh) = crate::trace::test_scene("env1");
         let cache = RayCache::default();
         let cameras = [
             Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 1.2)),
             Camera::Equirectangular(Equirectangular { width: 48, height: 24 }),
             Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 0.6)),
+            Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
+            Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
         ];
+        let mut central = Vec::new();
         for round in 0..2 {
             for (index, camera) in cameras.iter().enumerate() {
                 let pose = Pose::new(
@@ -160,10 +352,17 @@ mod tests {
                     dvec3(0.0, 0.1, index as f64),
                 );
                 let direct = CpuTracer::Fast.trace(&bvh, camera, &pose);
-                let cached = trace_frame(CpuTracer::Fast, &bvh, camera, &pose, cache.table(camera).as_deref());
+                let table = cache.table(camera).expect("a small image has a table");
+                central.push(matches!(table.rays, Rays::Central { .. }));
+                let cached = trace_frame(CpuTracer::Fast, &bvh, camera, &pose, Some(&table));
                 assert_eq!(direct.pixels(), cached.pixels(), "camera {index}, round {round}");
             }
         }
+        assert_eq!(
+            central,
+            [true, true, true, true, false].repeat(2),
+            "both forms are traced"
+        );
         let tables = cache.tables.lock().unwrap();
         assert_eq!(tables.len(), CAMERAS);
         assert!(
