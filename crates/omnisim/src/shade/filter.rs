@@ -302,11 +302,11 @@ fn reduced<const L: usize>(t: &[f64; L], periods: &[f64; L], clamp: &[bool; L], 
 fn reduced_by<const L: usize>(t: &[f64; L], periods: &[f64; L], clamp: &[bool; L], taken: Taken) -> [f64; L] {
     let mut reduced = [0.0f64; L];
     for k in 0..L {
-        let t = if t[k].is_finite() {
-            higher(lower(t[k], FAR), -FAR)
-        } else {
-            0.0
-        };
+        // Non-finite (NaN and ±∞, where the comparison fails) masked to +0: as a branch per
+        // lane (`is_finite`, or a select LLVM turned into one) it kept this loop one lane at
+        // a time (docs/benchmarks.md, 2026-11-26 (tex)).
+        let finite = u64::from(t[k].abs() <= f64::MAX).wrapping_neg();
+        let t = f64::from_bits(higher(lower(t[k], FAR), -FAR).to_bits() & finite);
         let clamped = higher(lower(t, 2.0), -1.0);
         // Exact: the period is 1 or 2, so the quotient and the product are scalings by powers
         // of two, and the remainder needs no bits below t's last.
@@ -647,23 +647,26 @@ pub(crate) fn trilinear(texture: &Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32)
 /// 0.004 levels between them), as GPUs' own level selection approximates it, and
 /// `shaders/texture.wgsl` computes the same formula: libm's `log2f` cost a textured pixel about
 /// 30 instructions (docs/benchmarks.md, "eighth pass").
+///
+/// Written as selects of values all worked out (the log2 of any bits is harmless), so that the
+/// textured runs' loop over their lanes vectorises: its branches (or a select LLVM made one)
+/// kept it one lane at a time (docs/benchmarks.md, 2026-11-26 (tex)).
+#[inline(always)]
 pub(crate) fn level_of_detail(texels_per_metre_squared: f32, length: f32) -> f32 {
     let squared = texels_per_metre_squared * length * length;
+    // 0 where the square is at most 1 (magnified textures: most of a room's pixels), whose
+    // log2 by bits is at most 0 (increasing, exact at 1; -0 and below read as +0), else its
+    // half log2.
+    let lod = higher(0.5 * log2_by_bits(higher(squared, 0.0)), 0.0);
     // As the GPU's `squared < FAR`.
-    if squared.is_nan() {
-        f32::INFINITY
-    } else if squared <= 1.0 {
-        // log2 of 1: magnified textures (most of a room's pixels).
-        0.0
-    } else {
-        0.5 * log2_by_bits(squared)
-    }
+    if squared.is_nan() { f32::INFINITY } else { lod }
 }
 
-/// log2 of `x` (positive, normal or infinite) from its f32 bits: for x = 2^e · (1 + f),
-/// 0 ≤ f < 1, the exponent e plus log2(1 + f) ≈ f + c · f · (1 − f), the quadratic through
-/// both ends with the least largest error (c = 0.34655: within 0.0077 of log2, where f alone
-/// is 0.086 off). Exact at powers of two, continuous and increasing (slope at least 1 − c).
+/// log2 of `x` (positive, normal or infinite; +0 and subnormals read below −126) from its f32
+/// bits: for x = 2^e · (1 + f), 0 ≤ f < 1, the exponent e plus log2(1 + f) ≈ f + c · f ·
+/// (1 − f), the quadratic through both ends with the least largest error (c = 0.34655: within
+/// 0.0077 of log2, where f alone is 0.086 off). Exact at powers of two, continuous and
+/// increasing (slope at least 1 − c).
 #[inline(always)]
 fn log2_by_bits(x: f32) -> f32 {
     let bits = x.to_bits();
