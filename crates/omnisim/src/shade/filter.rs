@@ -25,11 +25,14 @@ pub(crate) const LANES: usize = 8;
 pub(crate) struct Lookups<'a, const L: usize> {
     u: [f64; L],
     v: [f64; L],
-    /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]).
+    /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]). Level 1's fields here
+    /// and in `last` and `size` hold only where some lane's `share[1]` is not zero
+    /// ([`Lookups::set_face`] leaves them as they were otherwise).
     texels: [[&'a [u32]; L]; 2],
     /// The index of the last of those texels, by level, lane: fetches are clamped to it.
     last: [[u32; L]; 2],
-    /// Width and height by level, axis, lane (texels; at most `MAX_TEXTURE_SIDE`, exact in f32).
+    /// Width and height by level, axis, lane (texels; at most `MAX_TEXTURE_SIDE`, which the
+    /// renderer enforces, exact in f32).
     size: [[[f32; L]; 2]; 2],
     /// The wrap's period in sizes by axis, lane: 1, or 2 for mirror.
     periods: [[f64; L]; 2],
@@ -162,10 +165,16 @@ impl<'a, const L: usize> Lookups<'a, L> {
 #[inline(always)]
 fn level_below(lod: f32, count: usize) -> (u32, f32) {
     let last = (count - 1) as f32;
-    let lod = if lod.is_nan() { last } else { lod.clamp(0.0, last) };
-    // `lod` lies in 0..=last (below 2^23): its floor's bits give the index, where `as u32`
+    // As `clamp`, but -0 reads +0 (where [`floor`] gives +0 for -0), so that the fraction
+    // there is +0, as it was with `f32::floor`.
+    let lod = if lod.is_nan() {
+        last
+    } else {
+        higher(lower(lod, last), 0.0)
+    };
+    // `lod` lies in 0..=last (below 2^22): its floor's bits give the index, where `as u32`
     // costs a saturating conversion.
-    let fine = lod.floor();
+    let fine = floor(lod);
     (texel_index(fine) as u32, lod - fine)
 }
 
@@ -193,7 +202,8 @@ impl<'a> Level<'a> {
             // Within u32: a level holds at most 2^28 texels in a loaded texture; a larger one
             // built by hand reads only its first 2^32.
             last: u32::try_from(texels.len() - 1).unwrap_or(u32::MAX),
-            // Exact: a loaded texture's sides are at most `MAX_TEXTURE_SIDE` (2^14).
+            // Exact: sides are at most `MAX_TEXTURE_SIDE` (2^14): the file loader enforces it,
+            // and the renderer refuses larger textures built by hand (`Texture::oversized`).
             size: [level.width as f32, level.height as f32],
         }
     }
@@ -229,20 +239,37 @@ impl Wraps {
     }
 }
 
-/// 1.5 · 2^52: adding and subtracting it rounds any |x| ≤ 2^51 to an integer (the ulp there is
-/// one), which [`floor`] needs and every SIMD width has, where `f64::floor` is a libm call
-/// without SSE4.1.
-const ROUNDING: f64 = 6_755_399_441_055_744.0;
+/// A float type [`floor`] works in: the constant whose addition and subtraction round it to
+/// an integer.
+trait Rounding: Copy + PartialOrd + std::ops::Add<Output = Self> + std::ops::Sub<Output = Self> {
+    /// 1.5 · 2^(mantissa bits): adding and subtracting it rounds any |x| up to half of it
+    /// (2^51 in f64, 2^22 in f32) to an integer (the ulp there is one), which every SIMD width
+    /// has, where `f64::floor` and `f32::floor` are libm calls without SSE4.1.
+    const ROUNDING: Self;
+    /// One.
+    const ONE: Self;
+}
+
+impl Rounding for f64 {
+    const ROUNDING: f64 = 6_755_399_441_055_744.0;
+    const ONE: f64 = 1.0;
+}
+
+impl Rounding for f32 {
+    const ROUNDING: f32 = 12_582_912.0;
+    const ONE: f32 = 1.0;
+}
 
 /// Texture coordinates are clamped to ±2^51 before they are reduced by their period: within
 /// it [`floor`], and with it the reduction, is exact.
 const FAR: f64 = 2_251_799_813_685_248.0;
 
-/// floor(x) for |x| ≤ 2^51, exactly, in operations that vectorise.
+/// floor(x) for |x| ≤ 2^51 in f64, 2^22 in f32, exactly (but +0 for -0), in operations that
+/// vectorise.
 #[inline(always)]
-fn floor(x: f64) -> f64 {
-    let nearest = (x + ROUNDING) - ROUNDING;
-    if nearest > x { nearest - 1.0 } else { nearest }
+fn floor<T: Rounding>(x: T) -> T {
+    let nearest = (x + T::ROUNDING) - T::ROUNDING;
+    if nearest > x { nearest - T::ONE } else { nearest }
 }
 
 /// The lesser of `a` and `b` as a select (no NaN reaches it), which vectorises.
@@ -260,7 +287,8 @@ fn higher<T: PartialOrd>(a: T, b: T) -> T {
 /// 2^23: added to an integer n in 0..2^23 held in f32, it leaves n as the low mantissa bits.
 const INDEX_BIAS: f32 = 8_388_608.0;
 
-/// The integer `n` in 0..2^23 held in f32 (a texel's column or row, or a level's width), as
+/// The integer `n` in 0..2^23 held in f32 (a texel's column or row, a level's width, or a
+/// level index), as
 /// `n as i32` gives it: read off the bits of n + 2^23, an add and an integer subtract in lanes,
 /// where `as i32`'s saturating checks cost about 70 instructions a pixel (docs/benchmarks.md).
 #[inline(always)]
@@ -279,10 +307,11 @@ enum Taken {
 
 /// Each lane's texture coordinate `t` on an axis, reduced (in f64, exactly) to one its wrap
 /// reads the same: for repeat and mirror, t less a whole number of periods (`periods` texture
-/// sizes: 1, or 2 for mirror), in 0..period, with which the wrapped texels repeat; for clamp,
-/// t clamped to -1..=2 (beyond either end both texels are the edge's, as they were). NaN or
-/// infinite reads coordinate 0 (for repeat, the mean of the last and the first texel), beyond
-/// ±2^51 ±2^51. Each level then works in f32 from it ([`neighbours`]): f32 holds a reduced
+/// sizes: 1, or 2 for mirror), in 0..=period, with which the wrapped texels repeat (exact for
+/// |t| ≥ 1; nearer 0 within one rounding of t, which the wraps read the same); for clamp, t
+/// clamped to -1..=2 (beyond either end both texels are the edge's, as they were). NaN or
+/// infinite reads coordinate 0 (for repeat, the mean of the last and the first texel); a
+/// finite coordinate beyond ±2^51 reads as ±2^51. Each level then works in f32 from it ([`neighbours`]): f32 holds a reduced
 /// texel position, at most 2^15 (a mirrored side of `MAX_TEXTURE_SIDE`), within 2^-9 texel,
 /// where the f64 floors and wraps of far positions were most of the filter's cost
 /// (docs/benchmarks.md, 2026-11-26 (tex)). Where every lane has the same `wrap` and it is
@@ -370,11 +399,12 @@ fn neighbours_by<const L: usize>(
     let (mut first, mut second, mut weight) = ([0.0; L], [0.0; L], [0.0; L]);
     for k in 0..L {
         let size = size[k];
-        let i = x[k].floor();
+        // Exact: |x| is at most 2^15 + 1, within the f32 floor's 2^22.
+        let i = floor(x[k]);
         weight[k] = x[k] - i;
         let last = size - 1.0;
         let (clamped0, clamped1) = (higher(lower(i, last), 0.0), higher(lower(i + 1.0, last), 0.0));
-        // The reduced coordinate lies in 0..period, so i in -1..period: -1 is the period's
+        // The reduced coordinate lies in 0..=period, so i in -1..period: -1 is the period's
         // last texel, and i + 1 wraps to the first at the period.
         let period = match taken {
             Taken::Repeated => size,
@@ -706,6 +736,36 @@ mod tests {
         Texture::from_rgb(4, 1, &[[0; 3], [85; 3], [170; 3], [255; 3]])
     }
 
+    /// The rounding trick's floor is the library's within its range, in f32 and in f64, at
+    /// and around integers, halves and both ends (only -0 differs: it gives +0).
+    #[test]
+    fn floor_by_rounding_is_the_library_floor_within_its_range() {
+        let (f32_end, f64_end) = (4_194_304.0f32, 2_251_799_813_685_248.0f64);
+        let mut f32_points = vec![0.0f32, f32_end, -f32_end, f32_end - 0.5, 1.0 - f32::EPSILON / 2.0];
+        let mut f64_points = vec![0.0f64, f64_end, -f64_end, f64_end - 0.5, 1.0 - f64::EPSILON / 2.0];
+        for i in -70_000..70_000 {
+            let x = i as f32 / 4.0;
+            f32_points.extend([x, x.next_up(), x.next_down()]);
+            let x = f64::from(i) / 4.0;
+            f64_points.extend([x, x.next_up(), x.next_down()]);
+        }
+        for x in f32_points
+            .into_iter()
+            .flat_map(|x| [x, -x])
+            .filter(|x| x.abs() <= f32_end)
+        {
+            assert_eq!(floor(x), x.floor() + 0.0, "{x}");
+        }
+        for x in f64_points
+            .into_iter()
+            .flat_map(|x| [x, -x])
+            .filter(|x| x.abs() <= f64_end)
+        {
+            assert_eq!(floor(x), x.floor() + 0.0, "{x}");
+        }
+        assert_eq!(floor(-0.0f32).to_bits(), 0.0f32.to_bits());
+    }
+
     #[test]
     fn bilinear_hits_texel_centres_and_interpolates_between() {
         let t = ramp();
@@ -791,7 +851,7 @@ mod tests {
             let (u, v) = (lanes_in.map(|lane| lane.2.x), lanes_in.map(|lane| lane.2.y));
             lookups.set_face(&levels, Wraps::of(wrap), &u, &v, &lod);
             // The finer level's lanes share its slice (the coarser is set up only where weighed).
-            assert!(!one_level || lookups.shared[0]);
+            assert!(!one_level || (lookups.shared[0] && (lookups.share[1] == [0.0; LANES] || lookups.shared[1])));
             let together = bits(trilinear_lanes(&lookups, None));
             assert_eq!(bits(with_avx2_where_detected(&lookups)), together);
             for k in 0..LANES {
@@ -947,7 +1007,7 @@ mod tests {
                     assert_eq!((f64::from(first[0]), f64::from(second[0])), want, "{wrap:?} {size} {i}");
                     // Clamp's far coordinates are reduced to -1..=2, which moves the weight
                     // between two texels that are both the edge's (it reads nothing there).
-                    if want.0 != want.1 || wrap != Wrap::Clamp {
+                    if wrap != Wrap::Clamp || (-1.0..=2.0).contains(&t) {
                         assert!((weight[0] - 0.25).abs() < 1e-3, "{wrap:?} {size} {i}: {}", weight[0]);
                     }
                 }
