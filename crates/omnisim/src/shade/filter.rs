@@ -83,7 +83,7 @@ impl<'a, const L: usize> Lookups<'a, L> {
     #[inline(always)]
     pub(crate) fn set(&mut self, lane: usize, texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) {
         let levels: &'a [MipLevel] = &texture.levels;
-        let (fine, fraction) = level_below(lod, levels.len());
+        let (fine, fraction) = level_below(lod, levels.len(), None);
         let coarse = fine + u32::from(fraction > 0.0);
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
@@ -103,12 +103,21 @@ impl<'a, const L: usize> Lookups<'a, L> {
     /// [`Lookups::set`] sets each: the lanes of a run of pixels on one face. The uniform parts
     /// are stored once, the level choice runs in lanes, and whether each level's lanes read
     /// one slice is found from their level indices (the pointer comparisons it replaces cost
-    /// about 7 M instructions an equirect frame, docs/benchmarks.md, "tenth pass").
+    /// about 7 M instructions an equirect frame, docs/benchmarks.md, "tenth pass"). `avx2`
+    /// as [`floor_f32`] takes it.
     #[inline(always)]
-    pub(crate) fn set_face(&mut self, levels: &[Level<'a>], wraps: Wraps, u: &[f64; L], v: &[f64; L], lod: &[f32; L]) {
+    pub(crate) fn set_face(
+        &mut self,
+        levels: &[Level<'a>],
+        wraps: Wraps,
+        u: &[f64; L],
+        v: &[f64; L],
+        lod: &[f32; L],
+        avx2: Option<Avx2>,
+    ) {
         let (mut fine, mut coarse, mut fraction) = ([0u32; L], [0u32; L], [0.0f32; L]);
         for k in 0..L {
-            (fine[k], fraction[k]) = level_below(lod[k], levels.len());
+            (fine[k], fraction[k]) = level_below(lod[k], levels.len(), avx2);
             coarse[k] = fine[k] + u32::from(fraction[k] > 0.0);
         }
         self.u = *u;
@@ -161,9 +170,9 @@ impl<'a, const L: usize> Lookups<'a, L> {
 
 /// The finer of the two levels of a pyramid of `count` levels around level of detail `lod`
 /// (clamped to the pyramid; NaN the coarsest), and the weight of the level after it (zero at
-/// a whole level, which then repeats).
+/// a whole level, which then repeats); `avx2` as [`floor_f32`] takes it.
 #[inline(always)]
-fn level_below(lod: f32, count: usize) -> (u32, f32) {
+fn level_below(lod: f32, count: usize, avx2: Option<Avx2>) -> (u32, f32) {
     let last = (count - 1) as f32;
     // As `clamp`, but -0 reads +0 (where [`floor`] gives +0 for -0), so that the fraction
     // there is +0, as it was with `f32::floor`.
@@ -174,7 +183,7 @@ fn level_below(lod: f32, count: usize) -> (u32, f32) {
     };
     // `lod` lies in 0..=last (below 2^22): its floor's bits give the index, where `as u32`
     // costs a saturating conversion.
-    let fine = floor(lod);
+    let fine = floor_f32(lod, avx2);
     (texel_index(fine) as u32, lod - fine)
 }
 
@@ -270,6 +279,15 @@ const FAR: f64 = 2_251_799_813_685_248.0;
 fn floor<T: Rounding>(x: T) -> T {
     let nearest = (x + T::ROUNDING) - T::ROUNDING;
     if nearest > x { nearest - T::ONE } else { nearest }
+}
+
+/// floor(x) for |x| ≤ 2^22: with `avx2` `f32::floor`, one rounding instruction in code compiled
+/// for AVX2 (the lanes', [`Avx2::run`]), where [`floor`]'s four cost about 2.9 M instructions an
+/// equirect textured frame (docs/benchmarks.md); without, [`floor`], where `f32::floor` is a
+/// libm call.
+#[inline(always)]
+fn floor_f32(x: f32, avx2: Option<Avx2>) -> f32 {
+    if avx2.is_some() { x.floor() } else { floor(x) }
 }
 
 /// The lesser of `a` and `b` as a select (no NaN reaches it), which vectorises.
@@ -374,11 +392,12 @@ fn neighbours<const L: usize>(
     periods: &[f64; L],
     clamp: &[bool; L],
     wrap: Option<Wrap>,
+    avx2: Option<Avx2>,
 ) -> Neighbours<L> {
     match wrap {
-        Some(Wrap::Repeat) => neighbours_by(reduced, size, periods, clamp, Taken::Repeated),
-        Some(Wrap::Clamp) => neighbours_by(reduced, size, periods, clamp, Taken::Clamped),
-        _ => neighbours_by(reduced, size, periods, clamp, Taken::ByLane),
+        Some(Wrap::Repeat) => neighbours_by(reduced, size, periods, clamp, Taken::Repeated, avx2),
+        Some(Wrap::Clamp) => neighbours_by(reduced, size, periods, clamp, Taken::Clamped, avx2),
+        _ => neighbours_by(reduced, size, periods, clamp, Taken::ByLane, avx2),
     }
 }
 
@@ -390,6 +409,7 @@ fn neighbours_by<const L: usize>(
     periods: &[f64; L],
     clamp: &[bool; L],
     taken: Taken,
+    avx2: Option<Avx2>,
 ) -> Neighbours<L> {
     // Rounded to f32 once, from f64.
     let mut x = [0.0f32; L];
@@ -399,8 +419,8 @@ fn neighbours_by<const L: usize>(
     let (mut first, mut second, mut weight) = ([0.0; L], [0.0; L], [0.0; L]);
     for k in 0..L {
         let size = size[k];
-        // Exact: |x| is at most 2^15 + 1, within the f32 floor's 2^22.
-        let i = floor(x[k]);
+        // |x| is at most 2^15 + 1, within [`floor`]'s 2^22: the same floor either way.
+        let i = floor_f32(x[k], avx2);
         weight[k] = x[k] - i;
         let last = size - 1.0;
         let (clamped0, clamped1) = (higher(lower(i, last), 0.0), higher(lower(i + 1.0, last), 0.0));
@@ -625,8 +645,9 @@ fn weighted_taps<const L: usize>(
     avx2: Option<Avx2>,
 ) -> [[[f32; L]; 4]; 3] {
     let [width, height] = &lookups.size[level];
-    let (x0, x1, fx) = neighbours(uv[0], width, &lookups.periods[0], &lookups.clamp[0], lookups.wrap[0]);
-    let (y0, y1, fy) = neighbours(uv[1], height, &lookups.periods[1], &lookups.clamp[1], lookups.wrap[1]);
+    let (periods, clamp, wrap) = (&lookups.periods, &lookups.clamp, lookups.wrap);
+    let (x0, x1, fx) = neighbours(uv[0], width, &periods[0], &clamp[0], wrap[0], avx2);
+    let (y0, y1, fy) = neighbours(uv[1], height, &periods[1], &clamp[1], wrap[1], avx2);
     // Texel indices (below 2^28, the texel limit: exact in i32) and weights by tap.
     let (mut indices, mut weights) = ([[0i32; L]; 4], [[0.0f32; L]; 4]);
     for k in 0..L {
@@ -849,7 +870,7 @@ mod tests {
             let one_level = next() % 3 == 0;
             let lod: [f32; LANES] = std::array::from_fn(|k| if one_level { lod } else { lanes_in[k].3 });
             let (u, v) = (lanes_in.map(|lane| lane.2.x), lanes_in.map(|lane| lane.2.y));
-            lookups.set_face(&levels, Wraps::of(wrap), &u, &v, &lod);
+            lookups.set_face(&levels, Wraps::of(wrap), &u, &v, &lod, Avx2::detected());
             // The finer level's lanes share its slice (the coarser is set up only where weighed).
             assert!(!one_level || (lookups.shared[0] && (lookups.share[1] == [0.0; LANES] || lookups.shared[1])));
             let together = bits(trilinear_lanes(&lookups, None));
@@ -880,6 +901,7 @@ mod tests {
             &lanes_in.map(|uv| uv.x),
             &lanes_in.map(|uv| uv.y),
             &[0.0; LANES],
+            None,
         );
         assert!(lookups.shared[0]);
         // Outside the texture, where clamping and repeating differ.
@@ -951,6 +973,7 @@ mod tests {
             &lanes_in.map(|uv| uv.x),
             &lanes_in.map(|uv| uv.y),
             &[0.0; LANES],
+            None,
         );
         assert!(shared_texels(&lookups, 0).is_some_and(|texels| texels.len() == 3));
         let portable = trilinear_lanes(&lookups, None);
@@ -991,6 +1014,7 @@ mod tests {
                             &[periods],
                             &clamp,
                             wrap,
+                            None,
                         )
                     };
                     let (uniform, by_lane) = (by_lane(Some(wrap)), by_lane(None));
