@@ -67,7 +67,7 @@ fn bilinear(levels_at: u32, level: u32, uv: vec2<f32>, wrap_u: u32, wrap_v: u32)
     let header = levels_at + 3u * level;
     let first = textures[header];
     let size = vec2<i32>(i32(textures[header + 1u]), i32(textures[header + 2u]));
-    // NaN or infinite reads coordinate 0, as on the CPU (`filter.rs`, `neighbours`).
+    // NaN or infinite reads coordinate 0, as on the CPU (`filter.rs`, `reduced`).
     let safe = select(vec2<f32>(0.0), uv, abs(uv) <= vec2<f32>(3.4028235e38));
     let t = safe * vec2<f32>(size) - 0.5;
     let t0 = floor(t);

@@ -71,6 +71,34 @@ pub enum RenderError {
     /// A camera that cannot make an image.
     #[error("the camera cannot make an image: {0}")]
     Camera(#[from] crate::camera::CameraError),
+    /// A texture the renderer cannot filter (one built by hand, too large).
+    #[error("texture {index} ({source_name}): {message}")]
+    Texture {
+        /// Its index in the scene's textures.
+        index: usize,
+        /// Where it came from (the scene's texture sources), or "built by hand".
+        source_name: String,
+        /// What is wrong and how to fix it.
+        message: String,
+    },
+}
+
+/// Refuses an appearance with a texture the filter cannot read ([`Texture::oversized`]).
+///
+/// [`Texture::oversized`]: crate::scene::texture::Texture::oversized
+fn check_textures(appearance: &Appearance) -> Result<(), RenderError> {
+    let surfaces = &appearance.surfaces;
+    for (index, texture) in surfaces.textures.iter().enumerate() {
+        if let Some(message) = texture.oversized() {
+            let source_name = surfaces.sources.get(index).map_or("built by hand", String::as_str);
+            return Err(RenderError::Texture {
+                index,
+                source_name: source_name.to_owned(),
+                message,
+            });
+        }
+    }
+    Ok(())
 }
 
 enum Backend {
@@ -174,6 +202,7 @@ impl Renderer {
     /// [`SceneBvh::build_with_offset`]); `geometry` must have been built from `scene`.
     pub fn prepare_with(&self, scene: &Scene, geometry: SceneBvh) -> Result<PreparedScene, RenderError> {
         let appearance = Appearance::of(scene);
+        check_textures(&appearance)?;
         #[cfg(feature = "gpu")]
         let (gpu, fallback) = match &self.backend {
             Backend::Cpu => (None, None),
@@ -212,6 +241,7 @@ impl Renderer {
                 faces,
             });
         }
+        check_textures(&appearance)?;
         #[cfg(feature = "gpu")]
         if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
             gpu.set_appearance(renderer.context(), &appearance);
@@ -462,6 +492,49 @@ impl PreparedScene {
     /// Why `auto` traces this scene on the CPU although a GPU is open, if it does.
     pub fn fallback(&self) -> Option<&str> {
         self.fallback.as_deref()
+    }
+}
+
+#[cfg(test)]
+mod texture_tests {
+    use super::*;
+    use crate::scene::texture::{MipLevel, Texture};
+
+    /// A texture built by hand with a side past what the f32 filter holds exactly is refused
+    /// with its index and source, on preparing and on a new appearance, not filtered wrong.
+    #[test]
+    fn a_texture_wider_than_the_filter_reads_is_refused_where_it_is_named() {
+        let (mut scene, _) = crate::trace::test_scene("env1-textured");
+        let renderer = Renderer::new(BackendChoice::Cpu).unwrap();
+        let mut prepared = renderer
+            .prepare(&scene)
+            .expect("the scene's own textures are within the limit");
+        let surfaces = std::sync::Arc::make_mut(&mut scene.surfaces);
+        let index = surfaces.textures.len() - 1;
+        // Texels left empty: the side alone is refused, before any is read.
+        surfaces.textures[index] = Texture {
+            levels: vec![MipLevel {
+                width: (1 << 23) + 1,
+                height: 1,
+                texels: Vec::new(),
+            }],
+        };
+        let source = surfaces.sources[index].clone();
+        for error in [
+            renderer.prepare(&scene).err(),
+            renderer.set_appearance(&mut prepared, Appearance::of(&scene)).err(),
+        ] {
+            let error = error.expect("an oversized texture is refused");
+            let text = error.to_string();
+            assert!(
+                matches!(error, RenderError::Texture { index: i, .. } if i == index),
+                "{text}"
+            );
+            assert!(
+                text.contains(&source) && text.contains("8388609×1") && text.contains("16384"),
+                "{text}"
+            );
+        }
     }
 }
 

@@ -106,6 +106,22 @@ impl Texture {
     pub fn bytes(&self) -> usize {
         self.levels.iter().map(|l| l.texels.len() * 4).sum()
     }
+
+    /// Why the renderer cannot filter this texture, if it cannot: a level with a side above
+    /// [`MAX_TEXTURE_SIDE`], which only a texture built by hand can have (the filter holds
+    /// texel positions and sides in f32, exact up to 2^23 only).
+    pub(crate) fn oversized(&self) -> Option<String> {
+        let (at, level) = self
+            .levels
+            .iter()
+            .enumerate()
+            .find(|(_, level)| level.width.max(level.height) > MAX_TEXTURE_SIDE)?;
+        Some(format!(
+            "its mip level {at} is {}×{} texels, but omnisim filters textures of at most {MAX_TEXTURE_SIDE} \
+             texels a side: scale the image down",
+            level.width, level.height
+        ))
+    }
 }
 
 /// The next mip level: each texel the mean, in linear light, of the 2×2 texels above it (the

@@ -1,8 +1,9 @@
 //! Texture filtering: bilinear within a mip level, trilinear across two, at a level of detail
-//! chosen from the pixel's footprint in texels. One definition: texture coordinates and texel
-//! positions in f64 here, weights and colours in f32 (the issue's "f64 coordinates, f32
+//! chosen from the pixel's footprint in texels. One definition: texture coordinates in f64 here,
+//! reduced by their wrap's period in f64 (exactly, so that far coordinates keep their texels),
+//! then texel positions, weights and colours in f32 (the issue's "f64 coordinates, f32
 //! filtering"); `shaders/texture.wgsl` is its f32 twin (same texel centres, wrap rules, level
-//! choice).
+//! choice; its coordinates are f32 from the start).
 
 use glam::{DVec2, Vec3A};
 
@@ -24,12 +25,15 @@ pub(crate) const LANES: usize = 8;
 pub(crate) struct Lookups<'a, const L: usize> {
     u: [f64; L],
     v: [f64; L],
-    /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]).
+    /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]). Level 1's fields here
+    /// and in `last` and `size` hold only where some lane's `share[1]` is not zero
+    /// ([`Lookups::set_face`] leaves them as they were otherwise).
     texels: [[&'a [u32]; L]; 2],
     /// The index of the last of those texels, by level, lane: fetches are clamped to it.
     last: [[u32; L]; 2],
-    /// Width and height by level, axis, lane (texels).
-    size: [[[f64; L]; 2]; 2],
+    /// Width and height by level, axis, lane (texels; at most `MAX_TEXTURE_SIDE`, which the
+    /// renderer enforces, exact in f32).
+    size: [[[f32; L]; 2]; 2],
     /// The wrap's period in sizes by axis, lane: 1, or 2 for mirror.
     periods: [[f64; L]; 2],
     /// Whether the axis clamps, by axis, lane.
@@ -79,14 +83,11 @@ impl<'a, const L: usize> Lookups<'a, L> {
     #[inline(always)]
     pub(crate) fn set(&mut self, lane: usize, texture: &'a Texture, wraps: Wraps, uv: DVec2, lod: f32) {
         let levels: &'a [MipLevel] = &texture.levels;
-        let (fine, fraction) = level_below(lod, levels.len());
+        let (fine, fraction) = level_below(lod, levels.len(), None);
         let coarse = fine + u32::from(fraction > 0.0);
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
-        for axis in 0..2 {
-            self.clamp[axis][lane] = wraps.clamp[axis];
-            self.periods[axis][lane] = wraps.periods[axis];
-        }
+        self.set_wraps(lane, wraps);
         for (which, at) in [fine, coarse].into_iter().enumerate() {
             self.set_level(which, lane, Level::of(&levels[at as usize]));
         }
@@ -102,22 +103,33 @@ impl<'a, const L: usize> Lookups<'a, L> {
     /// [`Lookups::set`] sets each: the lanes of a run of pixels on one face. The uniform parts
     /// are stored once, the level choice runs in lanes, and whether each level's lanes read
     /// one slice is found from their level indices (the pointer comparisons it replaces cost
-    /// about 7 M instructions an equirect frame, docs/benchmarks.md, "tenth pass").
+    /// about 7 M instructions an equirect frame, docs/benchmarks.md, "tenth pass"). `avx2`
+    /// as [`floor_f32`] takes it.
     #[inline(always)]
-    pub(crate) fn set_face(&mut self, levels: &[Level<'a>], wraps: Wraps, u: &[f64; L], v: &[f64; L], lod: &[f32; L]) {
+    pub(crate) fn set_face(
+        &mut self,
+        levels: &[Level<'a>],
+        wraps: Wraps,
+        u: &[f64; L],
+        v: &[f64; L],
+        lod: &[f32; L],
+        avx2: Option<Avx2>,
+    ) {
         let (mut fine, mut coarse, mut fraction) = ([0u32; L], [0u32; L], [0.0f32; L]);
         for k in 0..L {
-            (fine[k], fraction[k]) = level_below(lod[k], levels.len());
+            (fine[k], fraction[k]) = level_below(lod[k], levels.len(), avx2);
             coarse[k] = fine[k] + u32::from(fraction[k] > 0.0);
         }
         self.u = *u;
         self.v = *v;
-        for axis in 0..2 {
-            self.clamp[axis] = [wraps.clamp[axis]; L];
-            self.periods[axis] = [wraps.periods[axis]; L];
-            self.wrap[axis] = Some(wraps.wrap[axis]);
+        for lane in 0..L {
+            self.set_wraps(lane, wraps);
         }
-        for (which, at) in [fine, coarse].iter().enumerate() {
+        self.wrap = wraps.wrap.map(Some);
+        // The coarser level is read only where some lane weighs it (`trilinear_lanes`): else
+        // its fields are left as they were.
+        let coarser = fraction.iter().any(|&fraction| fraction != 0.0);
+        for (which, at) in [fine, coarse].iter().enumerate().take(1 + usize::from(coarser)) {
             let shared = at.iter().all(|&level| level == at[0]);
             self.shared[which] = shared;
             if shared {
@@ -137,6 +149,15 @@ impl<'a, const L: usize> Lookups<'a, L> {
         }
     }
 
+    /// Sets lane `lane`'s wrap of each axis to `wraps`'s.
+    #[inline(always)]
+    fn set_wraps(&mut self, lane: usize, wraps: Wraps) {
+        for axis in 0..2 {
+            self.clamp[axis][lane] = wraps.clamp[axis];
+            self.periods[axis][lane] = wraps.periods[axis];
+        }
+    }
+
     /// Sets lane `lane`'s level `which` (0 finer, 1 coarser) to `level`.
     #[inline(always)]
     fn set_level(&mut self, which: usize, lane: usize, level: Level<'a>) {
@@ -149,14 +170,21 @@ impl<'a, const L: usize> Lookups<'a, L> {
 
 /// The finer of the two levels of a pyramid of `count` levels around level of detail `lod`
 /// (clamped to the pyramid; NaN the coarsest), and the weight of the level after it (zero at
-/// a whole level, which then repeats).
+/// a whole level, which then repeats); `avx2` as [`floor_f32`] takes it.
 #[inline(always)]
-fn level_below(lod: f32, count: usize) -> (u32, f32) {
+fn level_below(lod: f32, count: usize, avx2: Option<Avx2>) -> (u32, f32) {
     let last = (count - 1) as f32;
-    let lod = if lod.is_nan() { last } else { lod.clamp(0.0, last) };
-    // Through i32: `lod` lies in 0..=last, and `as u32` costs a saturating conversion.
-    let fine = lod as i32;
-    (fine as u32, lod - fine as f32)
+    // As `clamp`, but -0 reads +0 (where [`floor`] gives +0 for -0), so that the fraction
+    // there is +0, as it was with `f32::floor`.
+    let lod = if lod.is_nan() {
+        last
+    } else {
+        higher(lower(lod, last), 0.0)
+    };
+    // `lod` lies in 0..=last (below 2^22): its floor's bits give the index, where `as u32`
+    // costs a saturating conversion.
+    let fine = floor_f32(lod, avx2);
+    (texel_index(fine) as u32, lod - fine)
 }
 
 /// A mip level as the lanes read it: its texels (never empty: an empty level, which only a
@@ -166,7 +194,7 @@ fn level_below(lod: f32, count: usize) -> (u32, f32) {
 pub(crate) struct Level<'a> {
     texels: &'a [u32],
     last: u32,
-    size: [f64; 2],
+    size: [f32; 2],
 }
 
 impl<'a> Level<'a> {
@@ -183,7 +211,9 @@ impl<'a> Level<'a> {
             // Within u32: a level holds at most 2^28 texels in a loaded texture; a larger one
             // built by hand reads only its first 2^32.
             last: u32::try_from(texels.len() - 1).unwrap_or(u32::MAX),
-            size: [f64::from(level.width), f64::from(level.height)],
+            // Exact: sides are at most `MAX_TEXTURE_SIDE` (2^14): the file loader enforces it,
+            // and the renderer refuses larger textures built by hand (`Texture::oversized`).
+            size: [level.width as f32, level.height as f32],
         }
     }
 
@@ -218,57 +248,74 @@ impl Wraps {
     }
 }
 
-/// 1.5 · 2^52: adding and subtracting it rounds any |x| ≤ 2^51 to an integer (the ulp there is
-/// one), which [`floor`] needs and every SIMD width has, where `f64::floor` is a libm call
-/// without SSE4.1.
-const ROUNDING: f64 = 6_755_399_441_055_744.0;
+/// A float type [`floor`] works in: the constant whose addition and subtraction round it to
+/// an integer.
+trait Rounding: Copy + PartialOrd + std::ops::Add<Output = Self> + std::ops::Sub<Output = Self> {
+    /// 1.5 · 2^(mantissa bits): adding and subtracting it rounds any |x| up to half of it
+    /// (2^51 in f64, 2^22 in f32) to an integer (the ulp there is one), which every SIMD width
+    /// has, where `f64::floor` and `f32::floor` are libm calls without SSE4.1.
+    const ROUNDING: Self;
+    /// One.
+    const ONE: Self;
+}
 
-/// Texel coordinates are clamped to ±2^51 (2^40 repeats of a 2048-texel image): within it
-/// [`floor`] and the wraps' remainders are exact in f64, as the integer floor and remainder
-/// were.
+impl Rounding for f64 {
+    const ROUNDING: f64 = 6_755_399_441_055_744.0;
+    const ONE: f64 = 1.0;
+}
+
+impl Rounding for f32 {
+    const ROUNDING: f32 = 12_582_912.0;
+    const ONE: f32 = 1.0;
+}
+
+/// Texture coordinates are clamped to ±2^51 before they are reduced by their period: within
+/// it [`floor`], and with it the reduction, is exact.
 const FAR: f64 = 2_251_799_813_685_248.0;
 
-/// floor(x) for |x| ≤ 2^51, exactly, in operations that vectorise.
+/// floor(x) for |x| ≤ 2^51 in f64, 2^22 in f32, exactly (but +0 for -0), in operations that
+/// vectorise.
 #[inline(always)]
-fn floor(x: f64) -> f64 {
-    let nearest = (x + ROUNDING) - ROUNDING;
-    if nearest > x { nearest - 1.0 } else { nearest }
+fn floor<T: Rounding>(x: T) -> T {
+    let nearest = (x + T::ROUNDING) - T::ROUNDING;
+    if nearest > x { nearest - T::ONE } else { nearest }
 }
 
-/// 2^52: added to an integer n in 0..2^52 held in f64, it leaves n as the low mantissa bits.
-const INDEX_BIAS: f64 = 4_503_599_627_370_496.0;
-
-/// The texel index `n` (an integer in 0..2^28, the texel limit), as `n as i32` gives it: read
-/// off the bits of n + 2^52, one add and a shuffle in lanes where `as i32`'s saturating checks
-/// cost about 70 instructions a pixel (docs/benchmarks.md).
+/// floor(x) for |x| ≤ 2^22: with `avx2` `f32::floor`, one rounding instruction in code compiled
+/// for AVX2 (the lanes', [`Avx2::run`]), where [`floor`]'s four cost about 2.9 M instructions an
+/// equirect textured frame (docs/benchmarks.md); without, [`floor`], where `f32::floor` is a
+/// libm call.
 #[inline(always)]
-fn texel_index(n: f64) -> i32 {
-    (n + INDEX_BIAS).to_bits() as u32 as i32
+fn floor_f32(x: f32, avx2: Option<Avx2>) -> f32 {
+    if avx2.is_some() { x.floor() } else { floor(x) }
 }
 
-/// Each lane's texel coordinate `t` (texel centres at integer + 0.5) on an axis of `size`
-/// texels, wrapped with period `periods` sizes or clamped (`clamp`), as the two neighbouring
-/// texel indices (integers in f64) and the weight of the second; NaN or infinite reads
-/// coordinate 0 (for repeat, the mean of the last and the first texel). Where every lane
-/// has the same `wrap` and it is repeat or clamp, only that wrap's indices are worked out (the
-/// same values); mirror is worked out lane by lane.
+/// The lesser of `a` and `b` as a select (no NaN reaches it), which vectorises.
 #[inline(always)]
-fn neighbours<const L: usize>(
-    t: &[f64; L],
-    size: &[f64; L],
-    periods: &[f64; L],
-    clamp: &[bool; L],
-    wrap: Option<Wrap>,
-) -> ([f64; L], [f64; L], [f32; L]) {
-    match wrap {
-        Some(Wrap::Repeat) => neighbours_by(t, size, periods, clamp, Taken::Repeated),
-        Some(Wrap::Clamp) => neighbours_by(t, size, periods, clamp, Taken::Clamped),
-        _ => neighbours_by(t, size, periods, clamp, Taken::ByLane),
-    }
+fn lower<T: PartialOrd>(a: T, b: T) -> T {
+    if a < b { a } else { b }
 }
 
-/// Which indices [`neighbours_by`] takes: each lane's by its `clamp`, or every lane's repeated
-/// or clamped ones.
+/// The greater of `a` and `b`, as [`lower`].
+#[inline(always)]
+fn higher<T: PartialOrd>(a: T, b: T) -> T {
+    if a > b { a } else { b }
+}
+
+/// 2^23: added to an integer n in 0..2^23 held in f32, it leaves n as the low mantissa bits.
+const INDEX_BIAS: f32 = 8_388_608.0;
+
+/// The integer `n` in 0..2^23 held in f32 (a texel's column or row, a level's width, or a
+/// level index), as
+/// `n as i32` gives it: read off the bits of n + 2^23, an add and an integer subtract in lanes,
+/// where `as i32`'s saturating checks cost about 70 instructions a pixel (docs/benchmarks.md).
+#[inline(always)]
+fn texel_index(n: f32) -> i32 {
+    (n + INDEX_BIAS).to_bits().wrapping_sub(INDEX_BIAS.to_bits()) as i32
+}
+
+/// What [`reduced_by`] and [`neighbours_by`] work out: each lane's wrap by its `clamp`, or
+/// every lane's repeated or clamped ones.
 #[derive(Clone, Copy)]
 enum Taken {
     ByLane,
@@ -276,47 +323,126 @@ enum Taken {
     Clamped,
 }
 
-/// [`neighbours`], taking the indices `taken` says (a constant where it is inlined, so the
+/// Each lane's texture coordinate `t` on an axis, reduced (in f64, exactly) to one its wrap
+/// reads the same: for repeat and mirror, t less a whole number of periods (`periods` texture
+/// sizes: 1, or 2 for mirror), in 0..=period, with which the wrapped texels repeat (exact for
+/// |t| ≥ 1; nearer 0 within one rounding of t, which the wraps read the same); for clamp, t
+/// clamped to -1..=2 (beyond either end both texels are the edge's, as they were). NaN or
+/// infinite reads coordinate 0 (for repeat, the mean of the last and the first texel); a
+/// finite coordinate beyond ±2^51 reads as ±2^51. Each level then works in f32 from it ([`neighbours`]): f32 holds a reduced
+/// texel position, at most 2^15 (a mirrored side of `MAX_TEXTURE_SIDE`), within 2^-9 texel,
+/// where the f64 floors and wraps of far positions were most of the filter's cost
+/// (docs/benchmarks.md, 2026-11-26 (tex)). Where every lane has the same `wrap` and it is
+/// repeat or clamp, only that wrap's reduction is worked out (the same values).
+#[inline(always)]
+fn reduced<const L: usize>(t: &[f64; L], periods: &[f64; L], clamp: &[bool; L], wrap: Option<Wrap>) -> [f64; L] {
+    match wrap {
+        Some(Wrap::Repeat) => reduced_by(t, periods, clamp, Taken::Repeated),
+        Some(Wrap::Clamp) => reduced_by(t, periods, clamp, Taken::Clamped),
+        _ => reduced_by(t, periods, clamp, Taken::ByLane),
+    }
+}
+
+/// [`reduced`], taking the reduction `taken` says (a constant where it is inlined, so the
 /// others are never worked out).
 #[inline(always)]
+fn reduced_by<const L: usize>(t: &[f64; L], periods: &[f64; L], clamp: &[bool; L], taken: Taken) -> [f64; L] {
+    let mut reduced = [0.0f64; L];
+    for k in 0..L {
+        // Non-finite (NaN and ±∞, where the comparison fails) masked to +0: as a branch per
+        // lane (`is_finite`, or a select LLVM turned into one) it kept this loop one lane at
+        // a time (docs/benchmarks.md, 2026-11-26 (tex)).
+        let finite = u64::from(t[k].abs() <= f64::MAX).wrapping_neg();
+        let t = f64::from_bits(higher(lower(t[k], FAR), -FAR).to_bits() & finite);
+        let clamped = higher(lower(t, 2.0), -1.0);
+        // Exact: the period is 1 or 2, so the quotient and the product are scalings by powers
+        // of two, and the remainder needs no bits below t's last.
+        let period = match taken {
+            Taken::Repeated => 1.0,
+            _ => periods[k],
+        };
+        let wrapped = t - period * floor(t / period);
+        reduced[k] = match taken {
+            Taken::Clamped => clamped,
+            Taken::Repeated => wrapped,
+            Taken::ByLane => {
+                if clamp[k] {
+                    clamped
+                } else {
+                    wrapped
+                }
+            }
+        };
+    }
+    reduced
+}
+
+/// Each lane's two neighbouring texels on an axis (indices, integers in f32) and the weight
+/// of the second.
+type Neighbours<const L: usize> = ([f32; L], [f32; L], [f32; L]);
+
+/// Each lane's [`Neighbours`] at its reduced coordinate `reduced` ([`reduced`]) on an axis of
+/// `size` texels (texel centres at integer + 0.5), wrapped with period `periods` sizes or
+/// clamped (`clamp`): as [`reduced`], only `wrap`'s where every lane has that one and it is
+/// repeat or clamp.
+#[inline(always)]
+fn neighbours<const L: usize>(
+    reduced: &[f64; L],
+    size: &[f32; L],
+    periods: &[f64; L],
+    clamp: &[bool; L],
+    wrap: Option<Wrap>,
+    avx2: Option<Avx2>,
+) -> Neighbours<L> {
+    match wrap {
+        Some(Wrap::Repeat) => neighbours_by(reduced, size, periods, clamp, Taken::Repeated, avx2),
+        Some(Wrap::Clamp) => neighbours_by(reduced, size, periods, clamp, Taken::Clamped, avx2),
+        _ => neighbours_by(reduced, size, periods, clamp, Taken::ByLane, avx2),
+    }
+}
+
+/// [`neighbours`], taking the texels `taken` says.
+#[inline(always)]
 fn neighbours_by<const L: usize>(
-    t: &[f64; L],
-    size: &[f64; L],
+    reduced: &[f64; L],
+    size: &[f32; L],
     periods: &[f64; L],
     clamp: &[bool; L],
     taken: Taken,
-) -> ([f64; L], [f64; L], [f32; L]) {
-    // Minimum and maximum as selects (no NaN reaches them), which vectorise.
-    let lower = |a: f64, b: f64| if a < b { a } else { b };
-    let higher = |a: f64, b: f64| if a > b { a } else { b };
+    avx2: Option<Avx2>,
+) -> Neighbours<L> {
+    // Rounded to f32 once, from f64.
+    let mut x = [0.0f32; L];
+    for k in 0..L {
+        x[k] = (reduced[k] * f64::from(size[k]) - 0.5) as f32;
+    }
     let (mut first, mut second, mut weight) = ([0.0; L], [0.0; L], [0.0; L]);
     for k in 0..L {
         let size = size[k];
-        let x = if t[k].is_finite() { t[k] * size - 0.5 } else { -0.5 };
-        let x = higher(lower(x, FAR), -FAR);
-        let i = floor(x);
-        weight[k] = (x - i) as f32;
+        // |x| is at most 2^15 + 1, within [`floor`]'s 2^22: the same floor either way.
+        let i = floor_f32(x[k], avx2);
+        weight[k] = x[k] - i;
         let last = size - 1.0;
-        let clamped = || (higher(lower(i, last), 0.0), higher(lower(i + 1.0, last), 0.0));
-        // i mod period and i + 1 mod period, exact (see FAR; the factor is 1 or 2).
-        let wrapped = || {
-            let period = periods[k] * size;
-            let m = i - period * floor(i / period);
-            let n = if m + 1.0 == period { 0.0 } else { m + 1.0 };
-            (m, n)
+        let (clamped0, clamped1) = (higher(lower(i, last), 0.0), higher(lower(i + 1.0, last), 0.0));
+        // The reduced coordinate lies in 0..=period, so i in -1..period: -1 is the period's
+        // last texel, and i + 1 wraps to the first at the period.
+        let period = match taken {
+            Taken::Repeated => size,
+            _ => periods[k] as f32 * size,
         };
+        let wrapped0 = if i < 0.0 { period - 1.0 } else { i };
+        let wrapped1 = if i + 1.0 == period { 0.0 } else { i + 1.0 };
         (first[k], second[k]) = match taken {
-            Taken::Clamped => clamped(),
+            Taken::Clamped => (clamped0, clamped1),
             // Repeat's period is one size, so both lie below it: the fold leaves them.
-            Taken::Repeated => wrapped(),
+            Taken::Repeated => (wrapped0, wrapped1),
             Taken::ByLane => {
                 // Mirror's second half runs backwards; repeat never reaches it.
-                let fold = |j: f64| if j < size { j } else { 2.0 * size - 1.0 - j };
-                let ((m, n), (clamped0, clamped1)) = (wrapped(), clamped());
+                let fold = |j: f32| if j < size { j } else { 2.0 * size - 1.0 - j };
                 if clamp[k] {
                     (clamped0, clamped1)
                 } else {
-                    (fold(m), fold(n))
+                    (fold(wrapped0), fold(wrapped1))
                 }
             }
         };
@@ -475,54 +601,84 @@ unsafe fn decode_avx2(_: Avx2, texels: &[u32; 8], shift: u32, decoding: &[f32; 2
 /// ([`Avx2::run`]) so that their coordinates, wraps, weights and mixing run in vector lanes.
 #[inline(always)]
 pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32; L]; 3] {
-    // Texel indices (integers below 2^28, the texel limit: exact in f64, and in i32) and
-    // weights by tap.
-    let mut indices = [[0i32; L]; 8];
-    let mut weights = [[0.0f32; L]; 8];
-    for level in 0..2 {
-        let [width, height] = &lookups.size[level];
-        let [x_periods, y_periods] = &lookups.periods;
-        let (x0, x1, fx) = neighbours(&lookups.u, width, x_periods, &lookups.clamp[0], lookups.wrap[0]);
-        let (y0, y1, fy) = neighbours(&lookups.v, height, y_periods, &lookups.clamp[1], lookups.wrap[1]);
-        let tap = 4 * level;
-        for k in 0..L {
-            let (row0, row1) = (y0[k] * width[k], y1[k] * width[k]);
-            indices[tap][k] = texel_index(row0 + x0[k]);
-            indices[tap + 1][k] = texel_index(row0 + x1[k]);
-            indices[tap + 2][k] = texel_index(row1 + x0[k]);
-            indices[tap + 3][k] = texel_index(row1 + x1[k]);
-            let share = lookups.share[level][k];
-            let (top, bottom) = (share * (1.0 - fy[k]), share * fy[k]);
-            weights[tap][k] = top * (1.0 - fx[k]);
-            weights[tap + 1][k] = top * fx[k];
-            weights[tap + 2][k] = bottom * (1.0 - fx[k]);
-            weights[tap + 3][k] = bottom * fx[k];
-        }
-    }
+    let u = reduced(&lookups.u, &lookups.periods[0], &lookups.clamp[0], lookups.wrap[0]);
+    let v = reduced(&lookups.v, &lookups.periods[1], &lookups.clamp[1], lookups.wrap[1]);
     // Whether each level's lanes read one slice, found once for its four taps.
     let shared = match avx2 {
         Some(_) => [shared_texels(lookups, 0), shared_texels(lookups, 1)],
         None => [None; 2],
     };
-    let mut texels = [[0u32; L]; 8];
-    for (tap, texels) in texels.iter_mut().enumerate() {
-        *texels = fetched(lookups, tap / 4, shared[tap / 4], &indices[tap], avx2);
-    }
     let decoding = &*DECODING;
+    let finer = weighted_taps(lookups, 0, [&u, &v], shared[0], decoding, avx2);
     let mut sums = [[0.0f32; L]; 3];
-    for (sum, shift) in sums.iter_mut().zip([0, 8, 16]) {
-        let mut v = [[0.0f32; L]; 8];
-        for tap in 0..8 {
-            let decoded = decoded(&texels[tap], shift, decoding, avx2);
+    // Where every lane's coarser level weighs zero (a whole level of detail: magnified, or at
+    // either end of the pyramid), its taps would add zeros (every weighted tap is at least
+    // +0): they are left out, the same bits.
+    if lookups.share[1].iter().any(|&share| share != 0.0) {
+        let coarser = weighted_taps(lookups, 1, [&u, &v], shared[1], decoding, avx2);
+        for ((sum, f), c) in sums.iter_mut().zip(&finer).zip(&coarser) {
             for k in 0..L {
-                v[tap][k] = weights[tap][k] * decoded[k];
+                sum[k] = ((f[0][k] + c[0][k]) + (f[2][k] + c[2][k])) + ((f[1][k] + c[1][k]) + (f[3][k] + c[3][k]));
             }
         }
-        for k in 0..L {
-            sum[k] = ((v[0][k] + v[4][k]) + (v[2][k] + v[6][k])) + ((v[1][k] + v[5][k]) + (v[3][k] + v[7][k]));
+    } else {
+        for (sum, f) in sums.iter_mut().zip(&finer) {
+            for k in 0..L {
+                sum[k] = (f[0][k] + f[2][k]) + (f[1][k] + f[3][k]);
+            }
         }
     }
     sums
+}
+
+/// The four taps of level `level` (0 finer, 1 coarser) of each lane at its reduced
+/// coordinates `uv` ([`reduced`]), each decoded channel times its weight (its bilinear weight
+/// times the level's share), by channel (red, green, blue), tap (corners (x0, y0), (x1, y0),
+/// (x0, y1), (x1, y1)), lane; `shared` as [`fetched`] takes it.
+#[inline(always)]
+fn weighted_taps<const L: usize>(
+    lookups: &Lookups<'_, L>,
+    level: usize,
+    uv: [&[f64; L]; 2],
+    shared: Option<&[u32]>,
+    decoding: &[f32; 256],
+    avx2: Option<Avx2>,
+) -> [[[f32; L]; 4]; 3] {
+    let [width, height] = &lookups.size[level];
+    let (periods, clamp, wrap) = (&lookups.periods, &lookups.clamp, lookups.wrap);
+    let (x0, x1, fx) = neighbours(uv[0], width, &periods[0], &clamp[0], wrap[0], avx2);
+    let (y0, y1, fy) = neighbours(uv[1], height, &periods[1], &clamp[1], wrap[1], avx2);
+    // Texel indices (below 2^28, the texel limit: exact in i32) and weights by tap.
+    let (mut indices, mut weights) = ([[0i32; L]; 4], [[0.0f32; L]; 4]);
+    for k in 0..L {
+        let width = texel_index(width[k]);
+        let (row0, row1) = (
+            texel_index(y0[k]).wrapping_mul(width),
+            texel_index(y1[k]).wrapping_mul(width),
+        );
+        let (x0, x1) = (texel_index(x0[k]), texel_index(x1[k]));
+        indices[0][k] = row0.wrapping_add(x0);
+        indices[1][k] = row0.wrapping_add(x1);
+        indices[2][k] = row1.wrapping_add(x0);
+        indices[3][k] = row1.wrapping_add(x1);
+        let share = lookups.share[level][k];
+        let (top, bottom) = (share * (1.0 - fy[k]), share * fy[k]);
+        weights[0][k] = top * (1.0 - fx[k]);
+        weights[1][k] = top * fx[k];
+        weights[2][k] = bottom * (1.0 - fx[k]);
+        weights[3][k] = bottom * fx[k];
+    }
+    let mut weighted = [[[0.0f32; L]; 4]; 3];
+    for tap in 0..4 {
+        let texels = fetched(lookups, level, shared, &indices[tap], avx2);
+        for (channel, shift) in [0, 8, 16].into_iter().enumerate() {
+            let decoded = decoded(&texels, shift, decoding, avx2);
+            for k in 0..L {
+                weighted[channel][tap][k] = weights[tap][k] * decoded[k];
+            }
+        }
+    }
+    weighted
 }
 
 /// Trilinear sample at level of detail `lod` (0 = finest; clamped to the pyramid): the two
@@ -542,23 +698,26 @@ pub(crate) fn trilinear(texture: &Texture, wrap: [Wrap; 2], uv: DVec2, lod: f32)
 /// 0.004 levels between them), as GPUs' own level selection approximates it, and
 /// `shaders/texture.wgsl` computes the same formula: libm's `log2f` cost a textured pixel about
 /// 30 instructions (docs/benchmarks.md, "eighth pass").
+///
+/// Written as selects of values all worked out (the log2 of any bits is harmless), so that the
+/// textured runs' loop over their lanes vectorises: its branches (or a select LLVM made one)
+/// kept it one lane at a time (docs/benchmarks.md, 2026-11-26 (tex)).
+#[inline(always)]
 pub(crate) fn level_of_detail(texels_per_metre_squared: f32, length: f32) -> f32 {
     let squared = texels_per_metre_squared * length * length;
+    // 0 where the square is at most 1 (magnified textures: most of a room's pixels), whose
+    // log2 by bits is at most 0 (increasing, exact at 1; -0 and below read as +0), else its
+    // half log2.
+    let lod = higher(0.5 * log2_by_bits(higher(squared, 0.0)), 0.0);
     // As the GPU's `squared < FAR`.
-    if squared.is_nan() {
-        f32::INFINITY
-    } else if squared <= 1.0 {
-        // log2 of 1: magnified textures (most of a room's pixels).
-        0.0
-    } else {
-        0.5 * log2_by_bits(squared)
-    }
+    if squared.is_nan() { f32::INFINITY } else { lod }
 }
 
-/// log2 of `x` (positive, normal or infinite) from its f32 bits: for x = 2^e · (1 + f),
-/// 0 ≤ f < 1, the exponent e plus log2(1 + f) ≈ f + c · f · (1 − f), the quadratic through
-/// both ends with the least largest error (c = 0.34655: within 0.0077 of log2, where f alone
-/// is 0.086 off). Exact at powers of two, continuous and increasing (slope at least 1 − c).
+/// log2 of `x` (positive, normal or infinite; +0 and subnormals read below −126) from its f32
+/// bits: for x = 2^e · (1 + f), 0 ≤ f < 1, the exponent e plus log2(1 + f) ≈ f + c · f ·
+/// (1 − f), the quadratic through both ends with the least largest error (c = 0.34655: within
+/// 0.0077 of log2, where f alone is 0.086 off). Exact at powers of two, continuous and
+/// increasing (slope at least 1 − c).
 #[inline(always)]
 fn log2_by_bits(x: f32) -> f32 {
     let bits = x.to_bits();
@@ -596,6 +755,36 @@ mod tests {
     fn ramp() -> Texture {
         // 4×1 texels 0, 85, 170, 255 in sRGB.
         Texture::from_rgb(4, 1, &[[0; 3], [85; 3], [170; 3], [255; 3]])
+    }
+
+    /// The rounding trick's floor is the library's within its range, in f32 and in f64, at
+    /// and around integers, halves and both ends (only -0 differs: it gives +0).
+    #[test]
+    fn floor_by_rounding_is_the_library_floor_within_its_range() {
+        let (f32_end, f64_end) = (4_194_304.0f32, 2_251_799_813_685_248.0f64);
+        let mut f32_points = vec![0.0f32, f32_end, -f32_end, f32_end - 0.5, 1.0 - f32::EPSILON / 2.0];
+        let mut f64_points = vec![0.0f64, f64_end, -f64_end, f64_end - 0.5, 1.0 - f64::EPSILON / 2.0];
+        for i in -70_000..70_000 {
+            let x = i as f32 / 4.0;
+            f32_points.extend([x, x.next_up(), x.next_down()]);
+            let x = f64::from(i) / 4.0;
+            f64_points.extend([x, x.next_up(), x.next_down()]);
+        }
+        for x in f32_points
+            .into_iter()
+            .flat_map(|x| [x, -x])
+            .filter(|x| x.abs() <= f32_end)
+        {
+            assert_eq!(floor(x), x.floor() + 0.0, "{x}");
+        }
+        for x in f64_points
+            .into_iter()
+            .flat_map(|x| [x, -x])
+            .filter(|x| x.abs() <= f64_end)
+        {
+            assert_eq!(floor(x), x.floor() + 0.0, "{x}");
+        }
+        assert_eq!(floor(-0.0f32).to_bits(), 0.0f32.to_bits());
     }
 
     #[test]
@@ -681,8 +870,9 @@ mod tests {
             let one_level = next() % 3 == 0;
             let lod: [f32; LANES] = std::array::from_fn(|k| if one_level { lod } else { lanes_in[k].3 });
             let (u, v) = (lanes_in.map(|lane| lane.2.x), lanes_in.map(|lane| lane.2.y));
-            lookups.set_face(&levels, Wraps::of(wrap), &u, &v, &lod);
-            assert!(!one_level || lookups.shared == [true; 2]);
+            lookups.set_face(&levels, Wraps::of(wrap), &u, &v, &lod, Avx2::detected());
+            // The finer level's lanes share its slice (the coarser is set up only where weighed).
+            assert!(!one_level || (lookups.shared[0] && (lookups.share[1] == [0.0; LANES] || lookups.shared[1])));
             let together = bits(trilinear_lanes(&lookups, None));
             assert_eq!(bits(with_avx2_where_detected(&lookups)), together);
             for k in 0..LANES {
@@ -711,8 +901,9 @@ mod tests {
             &lanes_in.map(|uv| uv.x),
             &lanes_in.map(|uv| uv.y),
             &[0.0; LANES],
+            None,
         );
-        assert_eq!(lookups.shared, [true; 2]);
+        assert!(lookups.shared[0]);
         // Outside the texture, where clamping and repeating differ.
         let (lane, own_wrap, own_uv, own_lod) = (3, [Wrap::Clamp, Wrap::Mirror], DVec2::new(1.3, -0.4), 0.6);
         lookups.set(lane, &own_texture, Wraps::of(own_wrap), own_uv, own_lod);
@@ -782,6 +973,7 @@ mod tests {
             &lanes_in.map(|uv| uv.x),
             &lanes_in.map(|uv| uv.y),
             &[0.0; LANES],
+            None,
         );
         assert!(shared_texels(&lookups, 0).is_some_and(|texels| texels.len() == 3));
         let portable = trilinear_lanes(&lookups, None);
@@ -809,14 +1001,24 @@ mod tests {
         };
         for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
             for size in [1, 3, 4] {
-                let size64 = f64::from(size);
+                let side = size as f32;
                 let periods = if wrap == Wrap::Mirror { 2.0 } else { 1.0 };
                 // Lane by lane, and as every lane's one wrap: the same indices (a test of the
                 // one-wrap paths of repeat and clamp; mirror takes the lane-by-lane path both ways).
                 let axis = |t: f64| {
-                    let by_lane = neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp], None);
-                    let uniform = neighbours(&[t], &[size64], &[periods], &[wrap == Wrap::Clamp], Some(wrap));
-                    let bits = |(first, second, weight): ([f64; 1], [f64; 1], [f32; 1])| {
+                    let clamp = [wrap == Wrap::Clamp];
+                    let by_lane = |wrap| {
+                        neighbours(
+                            &reduced(&[t], &[periods], &clamp, wrap),
+                            &[side],
+                            &[periods],
+                            &clamp,
+                            wrap,
+                            None,
+                        )
+                    };
+                    let (uniform, by_lane) = (by_lane(Some(wrap)), by_lane(None));
+                    let bits = |(first, second, weight): Neighbours<1>| {
                         (first[0].to_bits(), second[0].to_bits(), weight[0].to_bits())
                     };
                     assert_eq!(bits(by_lane), bits(uniform), "{wrap:?} {size} {t}");
@@ -826,14 +1028,18 @@ mod tests {
                     let t = (i as f64 + 0.75) / f64::from(size);
                     let (first, second, weight) = axis(t);
                     let want = (folded(wrap, size, i), folded(wrap, size, i + 1));
-                    assert_eq!((first[0], second[0]), want, "{wrap:?} {size} {i}");
-                    assert!((weight[0] - 0.25).abs() < 1e-3, "{wrap:?} {size} {i}: {}", weight[0]);
+                    assert_eq!((f64::from(first[0]), f64::from(second[0])), want, "{wrap:?} {size} {i}");
+                    // Clamp's far coordinates are reduced to -1..=2, which moves the weight
+                    // between two texels that are both the edge's (it reads nothing there).
+                    if wrap != Wrap::Clamp || (-1.0..=2.0).contains(&t) {
+                        assert!((weight[0] - 0.25).abs() < 1e-3, "{wrap:?} {size} {i}: {}", weight[0]);
+                    }
                 }
                 // Coordinates beyond 2^51 texels, infinite or NaN still read texels of the image.
                 for t in [1e300, -1e300, f64::INFINITY, f64::NAN] {
                     let (first, second, _) = axis(t);
-                    assert!(first[0] >= 0.0 && first[0] < f64::from(size), "{wrap:?} {t}");
-                    assert!(second[0] >= 0.0 && second[0] < f64::from(size), "{wrap:?} {t}");
+                    assert!(first[0] >= 0.0 && first[0] < side, "{wrap:?} {t}");
+                    assert!(second[0] >= 0.0 && second[0] < side, "{wrap:?} {t}");
                 }
             }
         }

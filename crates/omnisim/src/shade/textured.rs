@@ -278,7 +278,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         for k in 0..LANES {
             lod[k] = level_of_detail(face.texels_per_metre_squared, length[k]);
         }
-        lookups.set_face(face.levels, face.wraps, &u, &v, &lod);
+        lookups.set_face(face.levels, face.wraps, &u, &v, &lod, avx2);
         let samples = trilinear_lanes(lookups, avx2);
         let appearance = self.appearance;
         // Every lane, so that the loop has a fixed length: lanes past the run's length (earlier
