@@ -290,7 +290,8 @@ fn floor_f32(x: f32, avx2: Option<Avx2>) -> f32 {
     if avx2.is_some() { x.floor() } else { floor(x) }
 }
 
-/// The lesser of `a` and `b` as a select (no NaN reaches it), which vectorises.
+/// The lesser of `a` and `b` as a select, which vectorises. A NaN `a` gives `b`; where a NaN
+/// can arrive ([`reduced_by`]'s mask, [`level_of_detail`]'s NaN choice) the result is thrown away.
 #[inline(always)]
 fn lower<T: PartialOrd>(a: T, b: T) -> T {
     if a < b { a } else { b }
@@ -717,7 +718,8 @@ pub(crate) fn level_of_detail(texels_per_metre_squared: f32, length: f32) -> f32
 /// bits: for x = 2^e · (1 + f), 0 ≤ f < 1, the exponent e plus log2(1 + f) ≈ f + c · f ·
 /// (1 − f), the quadratic through both ends with the least largest error (c = 0.34655: within
 /// 0.0077 of log2, where f alone is 0.086 off). Exact at powers of two, continuous and
-/// increasing (slope at least 1 − c).
+/// increasing in exact arithmetic (slope at least 1 − c); in f32 it never decreases, which is
+/// what [`level_of_detail`] needs.
 #[inline(always)]
 fn log2_by_bits(x: f32) -> f32 {
     let bits = x.to_bits();
@@ -1042,6 +1044,48 @@ mod tests {
                     assert!(second[0] >= 0.0 && second[0] < side, "{wrap:?} {t}");
                 }
             }
+        }
+    }
+
+    /// What a coordinate no texel position can hold reduces to, for every wrap, as every lane's
+    /// wrap and lane by lane: +0 (bits) for NaN of any sign or payload and ±∞, -1 and 2 for clamp
+    /// of ±f64::MAX, and -0 kept by every reduction (its floor is -0, and -0 - 0 is -0).
+    #[test]
+    fn coordinates_beyond_f64_reduce_to_plus_zero() {
+        let odd_nan = f64::from_bits(0x7ff0_0000_0000_0001);
+        for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror] {
+            let period = if wrap == Wrap::Mirror { 2.0 } else { 1.0 };
+            let clamp = wrap == Wrap::Clamp;
+            for every_lane in [Some(wrap), None] {
+                let reduce = |t: f64| reduced(&[t], &[period], &[clamp], every_lane)[0];
+                for t in [f64::NAN, -f64::NAN, odd_nan, f64::INFINITY, f64::NEG_INFINITY] {
+                    assert_eq!(reduce(t).to_bits(), 0, "{wrap:?} {every_lane:?} {t}");
+                }
+                assert_eq!(reduce(-0.0).to_bits(), (-0.0f64).to_bits(), "{wrap:?} {every_lane:?}");
+                if clamp {
+                    assert_eq!(reduce(f64::MAX), 2.0);
+                    assert_eq!(reduce(-f64::MAX), -1.0);
+                }
+            }
+        }
+    }
+
+    /// The level of a square at most 1 is +0 exactly (bits), below and at 1, for negative,
+    /// -0 and subnormal squares too (whose sign and exponent bits would read as a level near
+    /// 64 or 127 if they reached the log unclamped).
+    #[test]
+    fn magnified_and_degenerate_footprints_take_level_plus_zero() {
+        let subnormal = f32::from_bits(1);
+        for (scale, length) in [
+            (-0.0, 1.0),
+            (-1.0, 1.0),
+            (1.0, 1.0),
+            (0.999_999_94, 1.0),
+            (subnormal, 1.0),
+            (1.0, 0.0),
+        ] {
+            let lod = level_of_detail(scale, length);
+            assert_eq!(lod.to_bits(), 0, "scale {scale}, length {length}: {lod}");
         }
     }
 
