@@ -1049,7 +1049,7 @@ mod tests {
 
     /// What a coordinate no texel position can hold reduces to, for every wrap, as every lane's
     /// wrap and lane by lane: +0 (bits) for NaN of any sign or payload and ±∞, -1 and 2 for clamp
-    /// of ±f64::MAX, and -0 kept by every reduction (its floor is -0, and -0 - 0 is -0).
+    /// of ±`f64::MAX`, and -0 kept by every reduction.
     #[test]
     fn coordinates_beyond_f64_reduce_to_plus_zero() {
         let odd_nan = f64::from_bits(0x7ff0_0000_0000_0001);
