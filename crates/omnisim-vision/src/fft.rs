@@ -1,4 +1,5 @@
-//! Row-wise and 2-D discrete Fourier transforms of images, on rustfft.
+//! Row-wise and 2-D discrete Fourier transforms of images, on rustfft (and realfft, its
+//! maintainer's real-input transform, for rows of real values).
 //!
 //! rustfft transforms 1-D buffers only; the 2-D transform is its row transform, a transpose and
 //! the row transform again (what FFTW's and numpy's `fft2` compute, unnormalised forward,

@@ -137,6 +137,16 @@ pub fn sift(image: &Raster, params: &SiftParams) -> Result<Features, VisionError
 fn features(image: &Raster, params: &SiftParams) -> Features {
     let grey = image.to_grey();
     let s = params.scales_per_octave;
+    let smallest_octave = 2 * params.border + 3;
+    let nothing = || Features {
+        keypoints: Vec::new(),
+        length: descriptor_length(params),
+        descriptors: Vec::new(),
+    };
+    // An empty image has no row to blur (rayon's chunks of a zero-width row would panic).
+    if grey.width == 0 || grey.height == 0 {
+        return nothing();
+    }
     let first_octave = if params.upsample { -1 } else { 0 };
     let (base, input_sigma) = if params.upsample {
         (upsample(&grey), 2.0 * params.input_sigma)
@@ -145,13 +155,8 @@ fn features(image: &Raster, params: &SiftParams) -> Features {
     };
     let mut base = gaussian_blur(&base, (params.sigma.powi(2) - input_sigma.powi(2)).max(0.01).sqrt());
     let shortest = base.width.min(base.height);
-    let smallest_octave = 2 * params.border + 3;
     if shortest < smallest_octave {
-        return Features {
-            keypoints: Vec::new(),
-            length: descriptor_length(params),
-            descriptors: Vec::new(),
-        };
+        return nothing();
     }
     // OpenCV's count (log2 of the side − 2), then only octaves that leave room inside the border.
     let octaves = ((shortest as f32).log2() - 2.0).round().max(1.0) as usize;
@@ -744,6 +749,26 @@ fn difference(a: &Raster, b: &Raster) -> Raster {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Images with no pixels, or too few for one octave, give no features, not a panic.
+    #[test]
+    fn empty_and_tiny_images_give_no_features() {
+        for (width, height) in [(0, 3), (3, 0), (0, 0), (1, 1), (4, 9)] {
+            for upsample in [true, false] {
+                let image = Raster::from_vec(width, height, 1, vec![0.5; width * height]).unwrap();
+                let params = SiftParams {
+                    upsample,
+                    ..SiftParams::default()
+                };
+                let features = sift(&image, &params).unwrap();
+                assert!(
+                    features.keypoints.is_empty() && features.descriptors.is_empty(),
+                    "{width}×{height}"
+                );
+                assert_eq!(features.length, descriptor_length(&params));
+            }
+        }
+    }
 
     /// A Gaussian blob of σ₀ on a flat ground: the scale-normalised Laplacian of the scale
     /// space peaks at σ = σ₀ at its centre (Lindeberg 1998), so SIFT's strongest keypoint is

@@ -9,6 +9,7 @@ use glam::{DVec3, Vec4};
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::node::Bvh2Node;
 use rayon::prelude::*;
+use smallvec::{SmallVec, smallvec};
 
 /// Marks a child index as a leaf (the rest is its first triangle group).
 pub(crate) const LEAF: u32 = 1 << 31;
@@ -74,7 +75,7 @@ impl WideBvh {
         };
         // A root that is (or fits) one leaf is the single child of a node of its own.
         let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
-            Children::one(0)
+            smallvec![0]
         } else {
             builder.open(0)
         };
@@ -180,37 +181,9 @@ fn half_area(node: &Bvh2Node) -> f32 {
     size.x * size.y + size.y * size.z + size.z * size.x
 }
 
-/// Up to `WIDTH` BVH2 nodes, the children of one wide node (on the stack).
-struct Children {
-    index: [usize; WIDTH],
-    len: usize,
-}
-
-impl Children {
-    fn one(index: usize) -> Self {
-        let mut children = Self {
-            index: [0; WIDTH],
-            len: 0,
-        };
-        children.push(index);
-        children
-    }
-
-    fn two(first: usize, second: usize) -> Self {
-        let mut children = Self::one(first);
-        children.push(second);
-        children
-    }
-
-    fn push(&mut self, index: usize) {
-        self.index[self.len] = index;
-        self.len += 1;
-    }
-
-    fn as_slice(&self) -> &[usize] {
-        &self.index[..self.len]
-    }
-}
+/// Up to `WIDTH` BVH2 nodes, the children of one wide node (on the stack: one heap list per
+/// node was part of the collapse's cost).
+type Children = SmallVec<[usize; WIDTH]>;
 
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
@@ -263,13 +236,7 @@ impl Builder<'_> {
         for (lane, &index) in children.iter().enumerate() {
             if node.child[lane] & LEAF == 0 {
                 let grandchildren = self.open(index);
-                self.fill(
-                    wide,
-                    leaves,
-                    node.child[lane] as usize,
-                    grandchildren.as_slice(),
-                    depth + 1,
-                );
+                self.fill(wide, leaves, node.child[lane] as usize, &grandchildren, depth + 1);
             }
         }
     }
@@ -278,7 +245,7 @@ impl Builder<'_> {
     /// repeatedly the two children of the largest inner one among them.
     fn open(&self, index: usize) -> Children {
         let first = self.nodes[index].first_index as usize;
-        let mut children = Children::two(first, first + 1);
+        let mut children: Children = smallvec![first, first + 1];
         // Each child's area once (`None` where it cannot be opened), not once per step.
         let openable_area = |c: usize| {
             let node = &self.nodes[c];
@@ -287,10 +254,10 @@ impl Builder<'_> {
         let mut area = [None; WIDTH];
         area[0] = openable_area(first);
         area[1] = openable_area(first + 1);
-        while children.len < WIDTH {
+        while children.len() < WIDTH {
             // The last of the largest: ties go to the last, as before, so that the tree is unchanged.
             let mut chosen: Option<(usize, f32)> = None;
-            for (position, &candidate) in area[..children.len].iter().enumerate() {
+            for (position, &candidate) in area[..children.len()].iter().enumerate() {
                 if let Some(a) = candidate
                     && chosen.is_none_or(|(_, best)| a.total_cmp(&best).is_ge())
                 {
@@ -300,9 +267,9 @@ impl Builder<'_> {
             let Some((position, _)) = chosen else {
                 break;
             };
-            let first = self.nodes[children.index[position]].first_index as usize;
-            let last = children.len;
-            children.index[position] = first;
+            let first = self.nodes[children[position]].first_index as usize;
+            let last = children.len();
+            children[position] = first;
             children.push(first + 1);
             area[position] = openable_area(first);
             area[last] = openable_area(first + 1);

@@ -108,8 +108,9 @@ impl Texture {
     }
 
     /// Why the renderer cannot filter this texture, if it cannot: a level with a side above
-    /// [`MAX_TEXTURE_SIDE`], which only a texture built by hand can have (the filter holds
-    /// texel positions and sides in f32, exact up to 2^23 only).
+    /// [`MAX_TEXTURE_SIDE`], which only a texture built by hand can have (the filter holds a
+    /// reduced texel position in f32, within 2^-9 texel at a mirrored side of that limit: see
+    /// `shade::filter`'s `reduced`).
     pub(crate) fn oversized(&self) -> Option<String> {
         let (at, level) = self
             .levels

@@ -330,8 +330,8 @@ enum Taken {
 /// |t| ≥ 1; nearer 0 within one rounding of t, which the wraps read the same); for clamp, t
 /// clamped to -1..=2 (beyond either end both texels are the edge's, as they were). NaN or
 /// infinite reads coordinate 0 (for repeat, the mean of the last and the first texel); a
-/// finite coordinate beyond ±2^51 reads as ±2^51. Each level then works in f32 from it ([`neighbours`]): f32 holds a reduced
-/// texel position, at most 2^15 (a mirrored side of `MAX_TEXTURE_SIDE`), within 2^-9 texel,
+/// finite coordinate beyond ±2^51 reads as ±2^51. Each level then works in f32 from it
+/// ([`neighbours`]): f32 holds a reduced texel position, at most 2^15 (a mirrored side of `MAX_TEXTURE_SIDE`), within 2^-9 texel,
 /// where the f64 floors and wraps of far positions were most of the filter's cost
 /// (docs/benchmarks.md, 2026-11-26 (tex)). Where every lane has the same `wrap` and it is
 /// repeat or clamp, only that wrap's reduction is worked out (the same values).

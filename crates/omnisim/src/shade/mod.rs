@@ -130,7 +130,9 @@ fn texture_point(
 
 /// Linear colour of one hit (1.0 = full scale); black where nothing is hit. `tracer` traces
 /// the shadow rays (both tracers give the same answer); `footprint` is the pixel's, for
-/// textured faces ([`Footprint::POINT`] samples textures at their finest level).
+/// textured faces ([`Footprint::POINT`] samples textures at their finest level). Textures with a
+/// side above `MAX_TEXTURE_SIDE` (only hand-built ones can have it) filter wrong here; the
+/// renderer refuses them (`RenderError::Texture`).
 pub fn shade(
     tracer: CpuTracer,
     geometry: &SceneBvh,
