@@ -49,10 +49,16 @@ pub(super) struct PassClock {
     period_ns: f64,
 }
 
+/// Whether `device` was opened with timestamp queries (the one test of it: the renderer's
+/// `has_pass_clock` and [`PassClock::new`] must agree).
+pub(super) fn has_timestamps(device: &wgpu::Device) -> bool {
+    device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+}
+
 impl PassClock {
     /// A clock on `device`, or `None` where the device was opened without timestamp queries.
     pub(super) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Option<Self> {
-        if !device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+        if !has_timestamps(device) {
             return None;
         }
         let buffer = |label, usage| {

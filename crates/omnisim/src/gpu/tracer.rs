@@ -162,7 +162,7 @@ impl GpuRenderer {
     /// Whether the device has timestamp queries, so that [`GpuRenderer::time_passes`] times
     /// the passes.
     pub fn has_pass_clock(&self) -> bool {
-        self.context.device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+        timing::has_timestamps(&self.context.device)
     }
 
     /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
@@ -300,16 +300,10 @@ impl GpuRenderer {
         // Consecutive frames of one size (trajectories, grids) reuse their buffers. They are
         // taken out of the scene for the frame, not locked through it: the frame's rayon work
         // may run another frame of this scene on the same thread (rayon issue #592), which
-        // then makes its own set. A frame that fails or panics drops its set.
-        let cached = match scene.band.lock() {
-            Ok(mut cache) => cache.take(),
-            // A frame that panicked with the lock held: its buffers may be mapped, so none are reused.
-            Err(poisoned) => {
-                drop(poisoned.into_inner().take());
-                scene.band.clear_poison();
-                None
-            }
-        };
+        // then makes its own set. A frame that fails or panics drops its set. The lock is held
+        // only to take or put back a set, which cannot panic, so a poisoned lock holds no
+        // mapped buffers.
+        let cached = scene.band.lock().unwrap_or_else(PoisonError::into_inner).take();
         let mut buffers = cached
             .filter(|b| (b.rows, b.width) == (band_rows, width))
             .unwrap_or_else(|| self.band_buffers(band_rows, width));
