@@ -155,7 +155,28 @@ struct Heard<'a, 'b> {
     written: HashSet<(&'a str, usize)>,
 }
 
-impl Heard<'_, '_> {
+impl<'a, 'b> Heard<'a, 'b> {
+    /// Nothing heard yet of the `total` frames of the sets `names`.
+    fn new(
+        names: Vec<&'a str>,
+        total: usize,
+        summary: &'b mut RunSummary,
+        on_frame: &'b mut dyn FnMut(&FrameDone) -> ControlFlow<()>,
+        stop: &'b AtomicBool,
+    ) -> Self {
+        Self {
+            names,
+            summary,
+            on_frame,
+            done: 0,
+            total,
+            failure: None,
+            stopped: false,
+            stop,
+            written: HashSet::new(),
+        }
+    }
+
     /// Counts frame `index` of set `s` and tells `on_frame`.
     fn frame(&mut self, s: usize, index: usize, outcome: Result<Outcome, DatasetError>) {
         let (rendered, bytes) = match outcome {
@@ -423,17 +444,8 @@ impl Dataset {
             .map(|(_, frame)| frame)
             .collect();
         let stop = AtomicBool::new(false);
-        let mut heard = Heard {
-            names: self.sets.iter().map(|s| s.spec.name.as_str()).collect(),
-            summary: &mut summary,
-            on_frame,
-            done: 0,
-            total: frames.len(),
-            failure: None,
-            stopped: false,
-            stop: &stop,
-            written: HashSet::new(),
-        };
+        let names = self.sets.iter().map(|s| s.spec.name.as_str()).collect();
+        let mut heard = Heard::new(names, frames.len(), &mut summary, on_frame, &stop);
         // Frames render here, one after another (the renderer is not shared), while writer
         // threads encode and write the frames before them; a bounded queue keeps at most a
         // few rendered frames in memory. Each frame's entry is its last file, so whatever
@@ -700,17 +712,7 @@ mod tests {
         let stop = AtomicBool::new(false);
         let mut summary = RunSummary::default();
         let mut on_frame = |_: &FrameDone| ControlFlow::Break(());
-        let mut heard = Heard {
-            names: vec!["map", "test"],
-            summary: &mut summary,
-            on_frame: &mut on_frame,
-            done: 0,
-            total: 4,
-            failure: None,
-            stopped: false,
-            stop: &stop,
-            written: HashSet::new(),
-        };
+        let mut heard = Heard::new(vec!["map", "test"], 4, &mut summary, &mut on_frame, &stop);
         heard.stop();
         let frames = vec![frame(dir.path(), 0, 1), frame(dir.path(), 1, 0)];
         let lost = std::io::Error::other("write-back failed");
@@ -740,17 +742,8 @@ mod tests {
         let mut summary = RunSummary::default();
         let mut on_frame = |_: &FrameDone| ControlFlow::Continue(());
         let full = std::io::Error::other("no space left");
-        let mut heard = Heard {
-            names: vec!["map"],
-            summary: &mut summary,
-            on_frame: &mut on_frame,
-            done: 0,
-            total: 2,
-            failure: Some(io(&dir.path().join("map/000001.png"))(full)),
-            stopped: false,
-            stop: &stop,
-            written: HashSet::new(),
-        };
+        let mut heard = Heard::new(vec!["map"], 2, &mut summary, &mut on_frame, &stop);
+        heard.failure = Some(io(&dir.path().join("map/000001.png"))(full));
         heard.stop();
         let lost = std::io::Error::other("write-back failed");
         let mut pending = Pending::new(Syncing::DISK.batches, Vec::new());
