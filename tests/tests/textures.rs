@@ -1048,3 +1048,43 @@ fn a_textured_frame_is_each_pixel_shaded_alone_bit_for_bit() {
         }
     }
 }
+
+/// As [`a_textured_frame_is_each_pixel_shaded_alone_bit_for_bit`], for images too large for a
+/// ray table, whose footprints come from a cone table (above 2^20 pixels) or from the
+/// camera's rays alone (above 2^22): every 61st pixel, linear and 8-bit.
+#[test]
+fn a_textured_frame_too_large_for_a_ray_table_is_each_pixel_shaded_alone_bit_for_bit() {
+    let loaded = common::load("env1-textured.ron");
+    let bvh = SceneBvh::build(&loaded);
+    let mut tracer = common::cpu_tracer(&loaded, &bvh);
+    tracer.renderer.set_cpu_tracer(CpuTracer::Fast);
+    let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), DVec3::ZERO);
+    let appearance = tracer.scene.appearance();
+    for (width, height) in [(1100, 1000), (4200, 1000)] {
+        let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(width, height, 80f64.to_radians()));
+        let frame = tracer
+            .render_planes(&camera, &pose, Planes::COLOUR.with(Plane::LinearColour))
+            .expect("render");
+        let (linear, colour) = (frame.linear_colour().unwrap(), frame.colour().unwrap());
+        let mut textured_pixels = 0;
+        for index in (0..frame.pixels().len()).step_by(61) {
+            let hit = &frame.pixels()[index];
+            let pixel = DVec2::new((index % width as usize) as f64, (index / width as usize) as f64);
+            let footprint = Footprint::of_pixel(&camera, &pose, pixel);
+            let alone = advanced::shade(CpuTracer::Fast, tracer.scene.geometry(), appearance, hit, &footprint);
+            assert_eq!(
+                linear[index],
+                alone.as_vec3().to_array(),
+                "{width}×{height} pixel {index}"
+            );
+            if hit.is_hit() {
+                assert_eq!(colour[index], advanced::encode(alone), "{width}×{height} pixel {index}");
+            }
+            textured_pixels += usize::from(appearance.needs_footprint(hit.face));
+        }
+        assert!(
+            textured_pixels > 1000,
+            "{width}×{height}: {textured_pixels} textured pixels"
+        );
+    }
+}

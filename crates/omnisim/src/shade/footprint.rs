@@ -15,10 +15,13 @@
 //! intersecting the two neighbours' rays with the face's plane cost about 300 instructions
 //! (docs/benchmarks.md).
 
+use std::sync::Arc;
+
 use glam::{DMat3, DVec2, Vec3};
 
 use crate::camera::{Camera, CameraRay, Cone};
 use crate::pose::Pose;
+use crate::trace::ray_table::{ConeTable, RayTable};
 
 /// A pixel's footprint: its ray cone and its ray's direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -103,4 +106,49 @@ impl Footprint {
     pub fn longer_axis(&self, range: f32, normal: Vec3) -> f32 {
         self.width(range) / self.direction.dot(normal).abs().max(f32::MIN_POSITIVE)
     }
+}
+
+/// Where the footprints of a frame's pixels come from, chosen once a frame
+/// (`View::footprints`): all in the camera body's frame ([`Footprint::in_body`]).
+pub(crate) enum Footprints<'a> {
+    /// The ray table's rays and cones.
+    Table { table: &'a RayTable, cones: &'a [Cone] },
+    /// A cone table, and the camera's own ray of each pixel (an image too large for a ray
+    /// table).
+    Cones { table: Arc<ConeTable>, camera: &'a Camera },
+    /// The camera's rays alone, three a pixel.
+    Camera(&'a Camera),
+}
+
+impl Footprints<'_> {
+    /// The longer axis ([`Footprint::longer_axis`]) of each pixel `index[k]`'s footprint
+    /// (pixels row by row) at range `range[k]` on a face with unit normal `normal` (in the
+    /// camera body's frame): the source matched once for the lanes, each lane's footprint
+    /// read, then their axes worked out together. Matched for each pixel, with its axis worked
+    /// out then, this cost a textured equirect frame about 30 instructions a pixel
+    /// (docs/benchmarks.md, 2026-11-26 afternoon (tex)).
+    #[inline(always)]
+    pub(crate) fn longer_axes<const L: usize>(&self, index: &[usize; L], range: &[f32; L], normal: Vec3) -> [f32; L] {
+        let footprints: [Footprint; L] = match self {
+            Footprints::Table { table, cones } => {
+                std::array::from_fn(|k| with_cone(cones[index[k]], table.ray(index[k])))
+            }
+            Footprints::Cones { table, camera } => {
+                std::array::from_fn(|k| with_cone(table.cones[index[k]], camera.pixel_ray(index[k])))
+            }
+            Footprints::Camera(camera) => std::array::from_fn(|k| {
+                let width = camera.size().0.max(1) as usize;
+                let pixel = DVec2::new((index[k] % width) as f64, (index[k] / width) as f64);
+                Footprint::in_body_around(pixel, camera)
+            }),
+        };
+        std::array::from_fn(|k| footprints[k].longer_axis(range[k], normal))
+    }
+}
+
+/// The footprint in the camera body's frame of a pixel whose cone is `cone` and ray `ray`;
+/// [`Footprint::POINT`] where it has no ray.
+#[inline(always)]
+fn with_cone(cone: Cone, ray: Option<CameraRay>) -> Footprint {
+    ray.map_or(Footprint::POINT, |ray| Footprint::in_body(cone, &ray))
 }

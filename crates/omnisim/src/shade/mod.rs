@@ -22,7 +22,7 @@ use std::sync::Arc;
 use glam::{DMat3, DVec2, Vec3};
 
 use crate::accel::SceneBvh;
-use crate::camera::{Camera, CameraRay, Cone};
+use crate::camera::Camera;
 use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::pose::Pose;
 use crate::scene::Scene;
@@ -115,7 +115,7 @@ fn texture_of<'a>(appearance: &'a Appearance, map: &UvMap) -> (&'a Texture, f32)
 /// Where a hit on a face whose surface is anchored at `anchor` and textured by `map` lies on
 /// the texture, and the longer axis of the pixel's footprint (asked of `footprint`) laid on
 /// the face's `normal` (in the footprint's frame), which [`filter::level_of_detail`] takes: the
-/// first stage of texturing a pixel, here and in the lanes of `textured.rs`.
+/// first stage of texturing a pixel (`textured.rs` works out the same in lanes).
 #[inline(always)]
 fn texture_point(
     hit: &Pixel,
@@ -346,28 +346,23 @@ impl<'a> View<'a> {
         (self.world_from_body.transpose() * normal.as_dvec3()).as_vec3()
     }
 
-    /// The footprint of each pixel by index (row by row), in the camera body's frame
-    /// ([`Footprint::in_body`], laid on [`View::body_normal`]s): from the ray table's rays and
-    /// cones where there is one (the cones made on first use), else from a cone table and the
-    /// pixel's own camera ray, else from the camera's rays alone (three a pixel).
-    fn footprints(&self) -> impl Fn(usize) -> Footprint + Sync + '_ {
-        let table = self.table.map(|table| (table, table.cones()));
-        let cone_table = match table {
-            Some(_) => None,
-            None => self.cache.and_then(|cache| cache.cone_table(self.camera)),
-        };
-        let width = self.camera.size().0.max(1) as usize;
-        let with_cone =
-            |cone: Cone, ray: Option<&CameraRay>| ray.map_or(Footprint::POINT, |ray| Footprint::in_body(cone, ray));
-        // Inlined into the textured lanes' set-up (compiled for AVX2): left out of line it cost
-        // an equirect frame 13.5 M instructions, about 29 a textured pixel (docs/benchmarks.md).
-        #[inline(always)]
-        move |index| match (table, &cone_table) {
-            (Some((table, cones)), _) => with_cone(cones[index], table.ray(index).as_ref()),
-            (None, Some(cone_table)) => with_cone(cone_table.cones[index], self.camera.pixel_ray(index).as_ref()),
-            (None, None) => {
-                Footprint::in_body_around(DVec2::new((index % width) as f64, (index / width) as f64), self.camera)
-            }
+    /// Where the footprints of the frame's pixels lie, in the camera body's frame
+    /// ([`Footprint::in_body`], laid on [`View::body_normal`]s): the ray table's rays and
+    /// cones where there is one (the cones made on first use), else a cone table and each
+    /// pixel's own camera ray, else the camera's rays alone (three a pixel).
+    fn footprints(&self) -> footprint::Footprints<'_> {
+        if let Some(table) = self.table {
+            return footprint::Footprints::Table {
+                table,
+                cones: table.cones(),
+            };
+        }
+        match self.cache.and_then(|cache| cache.cone_table(self.camera)) {
+            Some(table) => footprint::Footprints::Cones {
+                table,
+                camera: self.camera,
+            },
+            None => footprint::Footprints::Camera(self.camera),
         }
     }
 }

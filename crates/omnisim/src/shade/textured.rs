@@ -8,13 +8,14 @@
 //! f32 rounding may differ, and with it, rarely, a pixel's level of detail: a linear colour's
 //! last bits, or now and then an 8-bit byte.
 
+use std::ops::Range;
+
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::filter::{LANES, Level, Lookups, Wraps, level_of_detail, trilinear_lanes};
-use super::{
-    Appearance, Footprint, View, is_flat, lit, shade_on, texture_of, texture_point, untextured_albedo, write_pixel,
-};
+use super::footprint::Footprints;
+use super::{Appearance, Footprint, View, is_flat, lit, shade_on, texture_of, untextured_albedo, write_pixel};
 use crate::avx2::Avx2;
 use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
 use crate::scene::lighting::linear_to_srgb3_lanes;
@@ -28,14 +29,14 @@ const CHUNK: usize = 512;
 /// `shade_frame` does, lit by `lux` (by pixel index; empty for an unlit scene), filling the
 /// planes `planes` asks for.
 pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_>, frame: &mut Frame, planes: Planes) {
-    let footprint_of = view.footprints();
+    let footprints = view.footprints();
     let pixels = frame.pixels();
     let levels: Vec<Vec<Level<'_>>> = appearance.surfaces.textures.iter().map(Level::all).collect();
     let shader = Shader {
         appearance,
         lux,
         view: &view,
-        footprint_of: &footprint_of,
+        footprints: &footprints,
         levels: &levels,
     };
     let mut colour = vec![BACKGROUND; pixels.len()];
@@ -67,14 +68,14 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
 }
 
 /// What shading a chunk reads.
-struct Shader<'a, F> {
+struct Shader<'a> {
     appearance: &'a Appearance,
     /// The illuminance of each lit pixel by its index in the frame (empty unlit).
     lux: &'a [DVec3],
     /// The camera and pose the frame was traced with.
     view: &'a View<'a>,
-    /// The footprint of a pixel by its index in the frame, in the camera body's frame.
-    footprint_of: &'a F,
+    /// Where the frame's footprints lie, in the camera body's frame.
+    footprints: &'a Footprints<'a>,
     /// Each texture's levels as the lanes read them ([`Level::all`]), by texture index.
     levels: &'a [Vec<Level<'a>>],
 }
@@ -141,24 +142,42 @@ struct Chunk<'c> {
     linear: Option<&'c mut [[f32; 3]]>,
 }
 
-/// Textured pixels of one face in a chunk waiting for their lanes: the face, where each pixel
-/// goes and its hit (held, so that the lanes read it without a bounds check; lanes past `len`
-/// repeat earlier pixels of the face: shaded, and not written).
-struct Run<'a, 'c> {
+/// Textured pixels of one face in a chunk waiting for their lanes: the face, and where each
+/// pixel lies in the chunk (lanes past `len` repeat earlier pixels of the face: shaded, and
+/// not written).
+struct Run<'a> {
     face: Face<'a>,
     len: usize,
     slot: [usize; LANES],
-    hit: [&'c Pixel; LANES],
 }
 
-impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
+impl Run<'_> {
+    /// Moves the first pixels of `span` into the run's free lanes (as many as fit); whether
+    /// the run is then full.
+    #[inline(always)]
+    fn take(&mut self, span: &mut Range<usize>) -> bool {
+        let taken = (LANES - self.len).min(span.len());
+        for (lane, slot) in self.slot[self.len..][..taken].iter_mut().zip(span.start..) {
+            *lane = slot;
+        }
+        span.start += taken;
+        self.len += taken;
+        self.len == LANES
+    }
+}
+
+impl<'a> Shader<'a> {
     /// Shades the hits of `chunk` into its planes; pixels that hit nothing stay as they are
-    /// (black). Two phases: a pixel on a textured face only joins its face's run, and a full
-    /// run (or one the next textured face ends) is shaded in lanes from its pixels' hits,
-    /// coordinates to encoding.
+    /// (black). The chunk is taken in spans of neighbouring pixels that see one face (most
+    /// do), so that a face is compared once a pixel and looked up once a span. An untextured
+    /// span is shaded pixel by pixel; a textured one joins its face's run, and a full run (or
+    /// one the next textured face ends) is shaded in lanes, coordinates to encoding. Pixel by
+    /// pixel, with the run's face, its pixels' hits and slots and the untextured face held
+    /// through the loop, this bookkeeping cost about 79 instructions a pixel (41 M an equirect
+    /// frame, docs/benchmarks.md, 2026-11-26 afternoon (tex)).
     fn chunk(&self, mut chunk: Chunk<'_>) {
         let appearance = self.appearance;
-        let mut run: Option<Run<'a, '_>> = None;
+        let mut run: Option<Run<'a>> = None;
         // Set up afresh for each run's lanes, in place.
         let mut lookups = Lookups::empty();
         // The last untextured face seen, looked up once for its pixels.
@@ -167,38 +186,46 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         // apart: comparing through the `Option`s cost about 30 instructions a pixel.
         let (mut run_face, mut untextured_face) = (NO_FACE, NO_FACE);
         let hits = chunk.hits;
-        for (slot, hit) in hits.iter().enumerate() {
-            if !hit.is_hit() {
+        let mut start = 0;
+        while let Some(first) = hits.get(start) {
+            let face = first.face;
+            // As a count of `take_while` this cost about twice the instructions.
+            let mut end = start + 1;
+            while hits.get(end).is_some_and(|hit| hit.face == face) {
+                end += 1;
+            }
+            let span = start..end;
+            start = end;
+            if face == NO_FACE {
                 continue;
             }
-            // Neighbouring pixels mostly see the same face.
-            if hit.face != run_face {
-                if hit.face != untextured_face {
-                    let surface = appearance.surfaces.of(hit.face);
-                    if let Some(face) =
-                        surface.and_then(|surface| Face::of(appearance, self.levels, self.view, hit, surface))
-                    {
-                        if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
-                            self.finish(&mut chunk, ended, &mut lookups);
-                        }
-                        run = Some(Run {
-                            face,
-                            len: 0,
-                            slot: [slot; LANES],
-                            hit: [hit; LANES],
-                        });
-                        run_face = hit.face;
-                    } else {
-                        untextured = Some(Untextured {
-                            surface,
-                            flat: is_flat(appearance, surface).then(|| appearance.face_colours[hit.face as usize]),
-                        });
-                        untextured_face = hit.face;
-                    }
-                }
-                if let Some(Untextured { surface, flat }) = untextured
-                    && hit.face == untextured_face
+            if face != run_face && face != untextured_face {
+                let surface = appearance.surfaces.of(face);
+                if let Some(face) =
+                    surface.and_then(|surface| Face::of(appearance, self.levels, self.view, first, surface))
                 {
+                    if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
+                        self.finish(&mut chunk, ended, &mut lookups);
+                    }
+                    run = Some(Run {
+                        face,
+                        len: 0,
+                        slot: [span.start; LANES],
+                    });
+                    run_face = first.face;
+                } else {
+                    untextured = Some(Untextured {
+                        surface,
+                        flat: is_flat(appearance, surface).then(|| appearance.face_colours[face as usize]),
+                    });
+                    untextured_face = face;
+                }
+            }
+            if face == untextured_face
+                && let Some(Untextured { surface, flat }) = untextured
+            {
+                for slot in span {
+                    let hit = &hits[slot];
                     // As `mod.rs` shades it: no texture, so no footprint.
                     let shaded = || {
                         shade_on(
@@ -211,18 +238,16 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
                     };
                     let linear = chunk.linear.as_deref_mut().map(|linear| &mut linear[slot]);
                     write_pixel(flat, shaded, &mut chunk.colour[slot], linear);
-                    continue;
                 }
+                continue;
             }
-            // The pixel's face is the run's (just started, where it was another's): `run_face`
+            // The span's face is the run's (just started, where it was another's): `run_face`
             // is only ever set with `run`, so the `else` never runs (`unreachable!` there cost
             // 0.24 M instructions an omni frame and 1.15 M an equirect one, callgrind).
             debug_assert!(run.is_some(), "face {run_face} names a run, and none is held");
             let Some(run) = run.as_mut() else { continue };
-            run.slot[run.len] = slot;
-            run.hit[run.len] = hit;
-            run.len += 1;
-            if run.len == LANES {
+            let mut span = span;
+            while run.take(&mut span) {
                 self.finish(&mut chunk, run, &mut lookups);
                 run.len = 0;
             }
@@ -235,7 +260,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     /// Shades the pixels of `run` in `chunk` and writes their colours, setting up `lookups`
     /// for their lanes: with AVX2 where the CPU has it (the lanes' gathers, and every stage
     /// compiled for it), else portably, to the same bits.
-    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a, '_>, lookups: &mut Lookups<'a, LANES>) {
+    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>) {
         match Avx2::detected() {
             // Inlined into the AVX2 body, as `Avx2::run` needs, so that every stage is compiled
             // for AVX2.
@@ -250,30 +275,34 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
     /// [`Shader::finish`]'s work, stage by stage over the run's lanes: texture coordinates
     /// and levels of detail, the filter, the lighting and the sRGB encoding.
     #[inline(always)]
-    fn finish_in(
-        &self,
-        chunk: &mut Chunk<'_>,
-        run: &Run<'a, '_>,
-        lookups: &mut Lookups<'a, LANES>,
-        avx2: Option<Avx2>,
-    ) {
+    fn finish_in(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>, avx2: Option<Avx2>) {
         let start = chunk.start;
+        // A full run of neighbouring pixels (most runs): its hits are read, and its colours
+        // written, as one slice, where a look-up and a store a pixel cost an equirect frame
+        // about 5 M instructions (docs/benchmarks.md, 2026-11-26 afternoon (tex)). Slots rise
+        // within a run, so its last is 7 past its first only where they are neighbours.
+        let first = run.slot[0];
+        let neighbours = run.len == LANES && run.slot[LANES - 1] == first + (LANES - 1);
+        let hit: [&Pixel; LANES] = match neighbours {
+            true => {
+                let hits = &chunk.hits[first..first + LANES];
+                std::array::from_fn(|k| &hits[k])
+            }
+            false => std::array::from_fn(|k| &chunk.hits[run.slot[k]]),
+        };
         let face = &run.face;
         let (surface, map) = (face.surface, face.map);
-        let (mut u, mut v, mut length) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        // As `texture_point` works them out for one pixel.
+        let (mut u, mut v) = ([0.0; LANES], [0.0; LANES]);
         for k in 0..LANES {
-            let uv;
-            (uv, length[k]) = texture_point(
-                run.hit[k],
-                surface.anchor,
-                map,
-                face.normal,
-                // Left out of line, its call cost a textured omni frame 1.8 M instructions.
-                #[inline(always)]
-                || (self.footprint_of)(start + run.slot[k]),
-            );
+            let uv = Surface::uv_at(map, surface.anchor, hit[k].point);
             (u[k], v[k]) = (uv.x, uv.y);
         }
+        let length = self.footprints.longer_axes(
+            &run.slot.map(|slot| start + slot),
+            &hit.map(|hit| hit.range),
+            face.normal,
+        );
         let mut lod = [0.0; LANES];
         for k in 0..LANES {
             lod[k] = level_of_detail(face.texels_per_metre_squared, length[k]);
@@ -292,7 +321,7 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
             );
             let base = face
                 .base
-                .unwrap_or_else(|| untextured_albedo(appearance, run.hit[k], surface));
+                .unwrap_or_else(|| untextured_albedo(appearance, hit[k], surface));
             *shaded = lit(appearance, Some(surface), base * sample, |_| self.lux[start + slot]).to_array();
         }
         if let Some(linear) = chunk.linear.as_deref_mut() {
@@ -302,8 +331,12 @@ impl<'a, F: Fn(usize) -> Footprint + Sync> Shader<'a, F> {
         }
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded, avx2);
-        for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
-            chunk.colour[slot] = encoded;
+        if neighbours {
+            chunk.colour[first..first + LANES].copy_from_slice(&encoded);
+        } else {
+            for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
+                chunk.colour[slot] = encoded;
+            }
         }
     }
 }
