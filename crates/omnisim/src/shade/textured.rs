@@ -171,10 +171,10 @@ impl<'a> Shader<'a> {
     /// (black). The chunk is taken in spans of neighbouring pixels that see one face (most
     /// do), so that a face is compared once a pixel and looked up once a span. An untextured
     /// span is shaded pixel by pixel; a textured one joins its face's run, and a full run (or
-    /// one the next textured face ends) is shaded in lanes, coordinates to encoding. Pixel by
-    /// pixel, with the run's face, its pixels' hits and slots and the untextured face held
-    /// through the loop, this bookkeeping cost about 79 instructions a pixel (41 M an equirect
-    /// frame, docs/benchmarks.md, 2026-11-26 afternoon (tex)).
+    /// one the next textured face ends) is shaded in lanes, coordinates to encoding. Taken
+    /// pixel by pixel, with the run's face, its pixels' hits and slots and the untextured face
+    /// held through the loop, an equirect frame cost 9.5 M instructions more (callgrind,
+    /// docs/benchmarks.md, 2026-11-26 afternoon (tex)).
     fn chunk(&self, mut chunk: Chunk<'_>) {
         let appearance = self.appearance;
         let mut run: Option<Run<'a>> = None;
