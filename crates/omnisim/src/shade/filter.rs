@@ -337,10 +337,21 @@ enum Taken {
 /// repeat or clamp, only that wrap's reduction is worked out (the same values).
 #[inline(always)]
 fn reduced<const L: usize>(t: &[f64; L], periods: &[f64; L], clamp: &[bool; L], wrap: Option<Wrap>) -> [f64; L] {
+    by_wrap(
+        wrap,
+        #[inline(always)]
+        |taken| reduced_by(t, periods, clamp, taken),
+    )
+}
+
+/// `work` with what every lane takes where they share `wrap` (repeat or clamp), else each its
+/// own: one call a constant, inlined, so that only that wrap's lanes are worked out.
+#[inline(always)]
+fn by_wrap<R>(wrap: Option<Wrap>, work: impl Fn(Taken) -> R) -> R {
     match wrap {
-        Some(Wrap::Repeat) => reduced_by(t, periods, clamp, Taken::Repeated),
-        Some(Wrap::Clamp) => reduced_by(t, periods, clamp, Taken::Clamped),
-        _ => reduced_by(t, periods, clamp, Taken::ByLane),
+        Some(Wrap::Repeat) => work(Taken::Repeated),
+        Some(Wrap::Clamp) => work(Taken::Clamped),
+        _ => work(Taken::ByLane),
     }
 }
 
@@ -395,11 +406,11 @@ fn neighbours<const L: usize>(
     wrap: Option<Wrap>,
     avx2: Option<Avx2>,
 ) -> Neighbours<L> {
-    match wrap {
-        Some(Wrap::Repeat) => neighbours_by(reduced, size, periods, clamp, Taken::Repeated, avx2),
-        Some(Wrap::Clamp) => neighbours_by(reduced, size, periods, clamp, Taken::Clamped, avx2),
-        _ => neighbours_by(reduced, size, periods, clamp, Taken::ByLane, avx2),
-    }
+    by_wrap(
+        wrap,
+        #[inline(always)]
+        |taken| neighbours_by(reduced, size, periods, clamp, taken, avx2),
+    )
 }
 
 /// [`neighbours`], taking the texels `taken` says.
