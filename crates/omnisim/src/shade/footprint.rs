@@ -14,6 +14,10 @@
 //! camera body's frame, on the face's normal turned there once per face), where
 //! intersecting the two neighbours' rays with the face's plane cost about 300 instructions
 //! (docs/benchmarks.md).
+//!
+//! It also holds where a frame's footprints come from ([`Footprints`]: the ray table, a cone
+//! table, or the camera's rays), chosen once a frame, so that textured runs read their lanes'
+//! footprints without asking per pixel.
 
 use std::sync::Arc;
 
@@ -116,8 +120,8 @@ pub(crate) enum Footprints<'a> {
     /// A cone table, and the camera's own ray of each pixel (an image too large for a ray
     /// table).
     Cones { table: Arc<ConeTable>, camera: &'a Camera },
-    /// The camera's rays alone, three a pixel.
-    Camera(&'a Camera),
+    /// The camera's rays alone, three a pixel; `width` is the image's (pixels are row by row).
+    Camera { camera: &'a Camera, width: usize },
 }
 
 impl Footprints<'_> {
@@ -125,8 +129,9 @@ impl Footprints<'_> {
     /// (pixels row by row) at range `range[k]` on a face with unit normal `normal` (in the
     /// camera body's frame): the source matched once for the lanes, each lane's footprint
     /// read, then their axes worked out together. Matched for each pixel, with its axis worked
-    /// out then, this cost a textured equirect frame about 30 instructions a pixel
-    /// (docs/benchmarks.md, 2026-11-26 afternoon (tex)).
+    /// out then, this (measured together with the chunk's span scan and `Run::take`, not
+    /// alone) cost a textured equirect frame 6.5 M instructions more (docs/benchmarks.md,
+    /// 2026-11-26 afternoon (tex)).
     #[inline(always)]
     pub(crate) fn longer_axes<const L: usize>(&self, index: &[usize; L], range: &[f32; L], normal: Vec3) -> [f32; L] {
         let footprints: [Footprint; L] = match self {
@@ -136,8 +141,7 @@ impl Footprints<'_> {
             Footprints::Cones { table, camera } => {
                 std::array::from_fn(|k| with_cone(table.cones[index[k]], camera.pixel_ray(index[k])))
             }
-            Footprints::Camera(camera) => std::array::from_fn(|k| {
-                let width = camera.size().0.max(1) as usize;
+            Footprints::Camera { camera, width } => std::array::from_fn(|k| {
                 let pixel = DVec2::new((index[k] % width) as f64, (index[k] / width) as f64);
                 Footprint::in_body_around(pixel, camera)
             }),

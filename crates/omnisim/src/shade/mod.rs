@@ -362,7 +362,10 @@ impl<'a> View<'a> {
                 table,
                 camera: self.camera,
             },
-            None => footprint::Footprints::Camera(self.camera),
+            None => footprint::Footprints::Camera {
+                camera: self.camera,
+                width: self.camera.size().0.max(1) as usize,
+            },
         }
     }
 }

@@ -143,8 +143,9 @@ struct Chunk<'c> {
 }
 
 /// Textured pixels of one face in a chunk waiting for their lanes: the face, and where each
-/// pixel lies in the chunk (lanes past `len` repeat earlier pixels of the face: shaded, and
-/// not written).
+/// pixel lies in the chunk, in rising order (`slot[..len]` rises strictly: [`Run::take`] fills
+/// the free lanes with later pixels, and a run is emptied only once shaded); lanes past `len`
+/// repeat earlier pixels of the face: shaded, and not written.
 struct Run<'a> {
     face: Face<'a>,
     len: usize,
@@ -188,40 +189,41 @@ impl<'a> Shader<'a> {
         let hits = chunk.hits;
         let mut start = 0;
         while let Some(first) = hits.get(start) {
-            let face = first.face;
-            // As a count of `take_while` this cost about twice the instructions.
+            let face_id = first.face;
+            // As a count of `take_while` this cost about ten instructions a pixel instead of
+            // six (profile, docs/benchmarks.md, 2026-11-26 afternoon (tex)).
             let mut end = start + 1;
-            while hits.get(end).is_some_and(|hit| hit.face == face) {
+            while hits.get(end).is_some_and(|hit| hit.face == face_id) {
                 end += 1;
             }
-            let span = start..end;
+            let mut span = start..end;
             start = end;
-            if face == NO_FACE {
+            if face_id == NO_FACE {
                 continue;
             }
-            if face != run_face && face != untextured_face {
-                let surface = appearance.surfaces.of(face);
-                if let Some(face) =
+            if face_id != run_face && face_id != untextured_face {
+                let surface = appearance.surfaces.of(face_id);
+                if let Some(textured) =
                     surface.and_then(|surface| Face::of(appearance, self.levels, self.view, first, surface))
                 {
                     if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
                         self.finish(&mut chunk, ended, &mut lookups);
                     }
                     run = Some(Run {
-                        face,
+                        face: textured,
                         len: 0,
                         slot: [span.start; LANES],
                     });
-                    run_face = first.face;
+                    run_face = face_id;
                 } else {
                     untextured = Some(Untextured {
                         surface,
-                        flat: is_flat(appearance, surface).then(|| appearance.face_colours[face as usize]),
+                        flat: is_flat(appearance, surface).then(|| appearance.face_colours[face_id as usize]),
                     });
-                    untextured_face = face;
+                    untextured_face = face_id;
                 }
             }
-            if face == untextured_face
+            if face_id == untextured_face
                 && let Some(Untextured { surface, flat }) = untextured
             {
                 for slot in span {
@@ -246,7 +248,6 @@ impl<'a> Shader<'a> {
             // 0.24 M instructions an omni frame and 1.15 M an equirect one, callgrind).
             debug_assert!(run.is_some(), "face {run_face} names a run, and none is held");
             let Some(run) = run.as_mut() else { continue };
-            let mut span = span;
             while run.take(&mut span) {
                 self.finish(&mut chunk, run, &mut lookups);
                 run.len = 0;
@@ -276,6 +277,11 @@ impl<'a> Shader<'a> {
     /// and levels of detail, the filter, the lighting and the sRGB encoding.
     #[inline(always)]
     fn finish_in(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>, avx2: Option<Avx2>) {
+        debug_assert!(
+            run.slot[..run.len].is_sorted_by(|a, b| a < b),
+            "a run's slots rise strictly (the slices below rely on it): {:?}",
+            &run.slot[..run.len]
+        );
         let start = chunk.start;
         // A full run of neighbouring pixels (most runs): its hits are read, and its colours
         // written, as one slice, where a look-up and a store a pixel cost an equirect frame
@@ -283,12 +289,11 @@ impl<'a> Shader<'a> {
         // within a run, so its last is 7 past its first only where they are neighbours.
         let first = run.slot[0];
         let neighbours = run.len == LANES && run.slot[LANES - 1] == first + (LANES - 1);
-        let hit: [&Pixel; LANES] = match neighbours {
-            true => {
-                let hits = &chunk.hits[first..first + LANES];
-                std::array::from_fn(|k| &hits[k])
-            }
-            false => std::array::from_fn(|k| &chunk.hits[run.slot[k]]),
+        let hit: [&Pixel; LANES] = if neighbours {
+            let hits = &chunk.hits[first..first + LANES];
+            std::array::from_fn(|k| &hits[k])
+        } else {
+            std::array::from_fn(|k| &chunk.hits[run.slot[k]])
         };
         let face = &run.face;
         let (surface, map) = (face.surface, face.map);
