@@ -102,6 +102,22 @@ pub struct UnifiedModel {
     pub cy: f64,
 }
 
+/// What every ray of one catadioptric camera shares ([`Catadioptric::setup`]).
+struct MirrorSetup {
+    /// The camera's misalignment tilt.
+    tilt: DMat3,
+    /// Where the camera sits in S, misaligned.
+    centre: DVec3,
+    /// The mirror surface in S.
+    quadric: Quadric,
+    /// S to the body frame.
+    body_from_mirror: DMat3,
+    /// The body origin in S.
+    body_origin: DVec3,
+    /// Whether every ray passes through the body origin.
+    central: bool,
+}
+
 /// A quadric x·diag·x + linear·x + constant = 0 with a diagonal quadratic part.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Quadric {
@@ -355,8 +371,13 @@ impl Catadioptric {
     /// The camera's ray for `pixel` in S, before the mirror: (origin, unit direction); `None`
     /// beyond the field of view of the camera's lens.
     pub fn camera_ray_in_mirror(&self, pixel: DVec2) -> Option<(DVec3, DVec3)> {
-        let tilt = rotation_xyz(self.misalignment.tilt);
-        let centre = self.nominal_camera_in_mirror() + self.misalignment.offset;
+        self.camera_ray_in_mirror_with(&self.setup(), pixel)
+    }
+
+    /// [`Catadioptric::camera_ray_in_mirror`] with the camera's `setup` worked out already.
+    #[inline(always)]
+    fn camera_ray_in_mirror_with(&self, setup: &MirrorSetup, pixel: DVec2) -> Option<(DVec3, DVec3)> {
+        let (tilt, centre) = (setup.tilt, setup.centre);
         let offset = (pixel - dvec2(self.cx, self.cy)) / self.focal;
         Some(if self.is_perspective() {
             let towards = match &self.lens {
@@ -371,23 +392,55 @@ impl Catadioptric {
         })
     }
 
+    /// What every pixel's ray shares, worked out by the calls [`Catadioptric::ray`] would
+    /// otherwise make for each pixel (the tilt's sines and cosines, `hypot`s): a ray table
+    /// works it out once, to the same bits.
+    fn setup(&self) -> MirrorSetup {
+        MirrorSetup {
+            tilt: rotation_xyz(self.misalignment.tilt),
+            centre: self.nominal_camera_in_mirror() + self.misalignment.offset,
+            quadric: self.quadric(),
+            body_from_mirror: self.body_from_mirror(),
+            body_origin: self.body_origin_in_mirror(),
+            central: self.is_central(),
+        }
+    }
+
     /// Traces pixel (u, v) to the mirror and off it. `None` where the pixel sees the camera
     /// body, misses the mirror, or hits it past the rim.
     pub fn ray(&self, pixel: DVec2) -> Option<CameraRay> {
+        self.ray_with(&self.setup(), pixel)
+    }
+
+    /// Every pixel centre's ray, row by row, bit for bit as [`Catadioptric::ray`] gives them,
+    /// with the camera's setup worked out once: per pixel it cost an omni 1000² ray table
+    /// about 300 instructions of its ~1,090 a pixel (docs/benchmarks.md).
+    pub(crate) fn pixel_rays(&self) -> Vec<Option<CameraRay>> {
+        use rayon::prelude::*;
+        let setup = self.setup();
+        (0..self.width as usize * self.height as usize)
+            .into_par_iter()
+            .map(|index| self.ray_with(&setup, super::pixel_centre(index, self.width)))
+            .collect()
+    }
+
+    /// [`Catadioptric::ray`] with the camera's `setup` worked out already.
+    #[inline(always)]
+    fn ray_with(&self, setup: &MirrorSetup, pixel: DVec2) -> Option<CameraRay> {
         let centre = pixel - dvec2(self.cx, self.cy);
         if centre.length_squared() < self.hidden_centre_px * self.hidden_centre_px {
             return None;
         }
-        let (origin, d) = self.camera_ray_in_mirror(pixel)?;
-        let quadric = self.quadric();
+        let (origin, d) = self.camera_ray_in_mirror_with(setup, pixel)?;
+        let quadric = &setup.quadric;
         let q = origin + quadric.first_hit(origin, d)? * d;
         if let Some(rim) = self.rim_radius
             && q.x * q.x + q.y * q.y > rim * rim
         {
             return None;
         }
-        let body_from_mirror = self.body_from_mirror();
-        let q_body = body_from_mirror * (q - self.body_origin_in_mirror());
+        let body_from_mirror = setup.body_from_mirror;
+        let q_body = body_from_mirror * (q - setup.body_origin);
         let normal = quadric.gradient(q).normalize();
         let reflected = body_from_mirror * (d - 2.0 * d.dot(normal) * normal).normalize();
         Some(match self.rays {
@@ -396,7 +449,7 @@ impl Catadioptric {
                 direction: q_body.normalize(),
                 t_min: q_body.length(),
             },
-            MirrorRays::Reflect if self.is_central() => CameraRay {
+            MirrorRays::Reflect if setup.central => CameraRay {
                 origin: DVec3::ZERO,
                 direction: reflected,
                 t_min: q_body.length(),

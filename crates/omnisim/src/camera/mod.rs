@@ -34,6 +34,38 @@ pub use spec::{
 pub use stereo::{NO_DISPARITY, StereoRig};
 pub use validate::{CameraError, MAX_PIXELS};
 
+/// The centre of pixel `index` (row by row) of an image `width` pixels wide.
+#[inline(always)]
+fn pixel_centre(index: usize, width: u32) -> DVec2 {
+    let row_length = width.max(1) as usize;
+    DVec2::new((index % row_length) as f64, (index / row_length) as f64)
+}
+
+/// Cosine and sine of `angle`: the one place the panoramas take them, so that a ray table's
+/// per-column values and a single pixel's ray are the same calls on the same inputs.
+#[inline(always)]
+fn cos_sin(angle: f64) -> (f64, f64) {
+    (angle.cos(), angle.sin())
+}
+
+/// The rays of a `width`×`height` image, row by row, whose ray at pixel (u, v) is
+/// `ray(column(u), row(v))`: `column` and `row` are called once per column and row.
+fn separable_rays<C: Copy + Sync, R: Copy + Sync>(
+    (width, height): (u32, u32),
+    column: impl Fn(f64) -> C,
+    row: impl Fn(f64) -> R,
+    ray: impl Fn(C, R) -> CameraRay + Sync,
+) -> Vec<Option<CameraRay>> {
+    use rayon::prelude::*;
+    let columns: Vec<C> = (0..width).map(|u| column(f64::from(u))).collect();
+    let rows: Vec<R> = (0..height).map(|v| row(f64::from(v))).collect();
+    let row_length = width.max(1) as usize;
+    (0..width as usize * height as usize)
+        .into_par_iter()
+        .map(|index| Some(ray(columns[index % row_length], rows[index / row_length])))
+        .collect()
+}
+
 /// A ray of a camera in its body frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraRay {
@@ -86,8 +118,28 @@ impl Camera {
     /// The ray through the centre of pixel `index`, counted row by row from the top left:
     /// how whole frames and ray tables enumerate an image.
     pub fn pixel_ray(&self, index: usize) -> Option<CameraRay> {
-        let row_length = self.size().0.max(1) as usize;
-        self.ray(DVec2::new((index % row_length) as f64, (index / row_length) as f64))
+        self.ray(pixel_centre(index, self.size().0))
+    }
+
+    /// Every pixel centre's ray, row by row: [`Camera::pixel_ray`] of each index, bit for bit.
+    /// The panoramas' rays are products of a column's and a row's sines and cosines, computed
+    /// once per column and row (per pixel, libm's sine and cosine cost an equirect 1024² ray
+    /// table more than tracing a frame, docs/benchmarks.md); other cameras' rays are computed
+    /// pixel by pixel, a mirror's with what its rays share worked out once.
+    pub(crate) fn pixel_rays(&self) -> Vec<Option<CameraRay>> {
+        use rayon::prelude::*;
+        match self {
+            Camera::Equirectangular(c) => c.pixel_rays(),
+            Camera::Cylindrical(c) => c.pixel_rays(),
+            Camera::Catadioptric(c) => c.pixel_rays(),
+            _ => {
+                let (width, height) = self.size();
+                (0..width as usize * height as usize)
+                    .into_par_iter()
+                    .map(|index| self.pixel_ray(index))
+                    .collect()
+            }
+        }
     }
 
     /// The ray seen at pixel (u, v), or `None` where the pixel sees nothing of the scene
@@ -156,6 +208,65 @@ impl Camera {
                 MirrorShape::Spherical { .. } => "spherical-catadioptric",
             },
             Camera::Lens(c) => c.model.name(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every field of `ray` as bits, so that `0.0` and `-0.0` differ.
+    fn bits(ray: Option<CameraRay>) -> Option<[u64; 7]> {
+        ray.map(|ray| {
+            let [ox, oy, oz] = ray.origin.to_array().map(f64::to_bits);
+            let [dx, dy, dz] = ray.direction.to_array().map(f64::to_bits);
+            [ox, oy, oz, dx, dy, dz, ray.t_min.to_bits()]
+        })
+    }
+
+    /// `pixel_rays` gives every pixel's ray bit for bit as `Camera::ray` does, for the
+    /// panoramas made from per-column and per-row values (odd and even sizes, one column, one
+    /// row, a tall cylinder with a wide field of view), for mirrors with their shared values
+    /// worked out once (central, non-central, a tilted and shifted camera, pixels without
+    /// rays) and for a camera computed pixel by pixel.
+    #[test]
+    fn pixel_rays_equal_each_pixels_own_ray_bit_for_bit() {
+        let misaligned = Catadioptric {
+            misalignment: Misalignment {
+                offset: DVec3::new(0.002, -0.001, 0.003),
+                tilt: DVec3::new(0.01, -0.02, 0.3),
+            },
+            ..Catadioptric::parabolic(72, 60, 0.05, 0.02, 15f64.to_radians())
+        };
+        let cameras = [
+            Camera::Equirectangular(Equirectangular {
+                width: 1024,
+                height: 512,
+            }),
+            Camera::Equirectangular(Equirectangular {
+                width: 333,
+                height: 171,
+            }),
+            Camera::Equirectangular(Equirectangular { width: 1, height: 7 }),
+            Camera::Equirectangular(Equirectangular { width: 9, height: 1 }),
+            Camera::Cylindrical(Cylindrical::with_vertical_fov(1024, 256, 90f64.to_radians())),
+            Camera::Cylindrical(Cylindrical::with_vertical_fov(77, 301, 170f64.to_radians())),
+            Camera::Cylindrical(Cylindrical::with_vertical_fov(1, 1, 1.0)),
+            Camera::Pinhole(Pinhole::with_horizontal_fov(41, 29, 1.3)),
+            Camera::Catadioptric(Catadioptric::hyperbolic(96, 80, 0.04, 0.16, Some(20f64.to_radians()))),
+            Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
+            Camera::Catadioptric(misaligned),
+        ];
+        for camera in &cameras {
+            let (width, height) = camera.size();
+            let rays = camera.pixel_rays();
+            assert_eq!(rays.len(), width as usize * height as usize, "{camera:?}");
+            for (index, ray) in rays.into_iter().enumerate() {
+                let (u, v) = (index % width as usize, index / width as usize);
+                let want = camera.ray(DVec2::new(u as f64, v as f64));
+                assert_eq!(bits(ray), bits(want), "{camera:?}, pixel ({u}, {v})");
+            }
         }
     }
 }

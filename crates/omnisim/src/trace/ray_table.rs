@@ -201,12 +201,7 @@ impl RayCache {
             |table| &table.camera,
             || RayTable {
                 camera: camera.clone(),
-                rays: Rays::of(
-                    (0..pixels)
-                        .into_par_iter()
-                        .map(|index| camera.pixel_ray(index))
-                        .collect(),
-                ),
+                rays: Rays::of(camera.pixel_rays()),
                 cones: OnceLock::new(),
             },
         ))
