@@ -2,7 +2,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::{DVec2, DVec3, dvec2, dvec3};
 
-use super::{CameraRay, cos_sin, separable_rays};
+use super::{CameraRay, panorama_azimuth, separable_rays};
 
 /// A 360° cylindrical panorama around the body z axis.
 ///
@@ -34,7 +34,7 @@ impl Cylindrical {
 
     /// The ray of pixel (u, v), from the body origin.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
-        Self::ray_between(self.azimuth(pixel.x), self.rise(pixel.y))
+        Self::ray_between(panorama_azimuth(pixel.x, self.width), self.rise(pixel.y))
     }
 
     /// Every pixel centre's ray, row by row, bit for bit as [`Cylindrical::ray`] gives them: a
@@ -42,16 +42,10 @@ impl Cylindrical {
     pub(crate) fn pixel_rays(&self) -> Vec<Option<CameraRay>> {
         separable_rays(
             (self.width, self.height),
-            |u| self.azimuth(u),
+            |u| panorama_azimuth(u, self.width),
             |v| self.rise(v),
             Self::ray_between,
         )
-    }
-
-    /// Cosine and sine of the azimuth of column `u`.
-    #[inline(always)]
-    fn azimuth(&self, u: f64) -> (f64, f64) {
-        cos_sin(PI - TAU * (u + 0.5) / f64::from(self.width))
     }
 
     /// How far the rays of row `v` rise per unit of horizontal distance.

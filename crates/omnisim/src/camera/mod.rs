@@ -17,6 +17,8 @@ pub mod spec;
 mod stereo;
 mod validate;
 
+use std::f64::consts::{PI, TAU};
+
 use glam::{DVec2, DVec3};
 
 pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Mount, UnifiedModel};
@@ -46,6 +48,13 @@ fn pixel_centre(index: usize, width: u32) -> DVec2 {
 #[inline(always)]
 fn cos_sin(angle: f64) -> (f64, f64) {
     (angle.cos(), angle.sin())
+}
+
+/// Cosine and sine of the azimuth of column `u` of a 360° panorama `width` pixels wide,
+/// φ = π − 2π(u + ½)/W: the equirect and cylindrical panoramas' columns.
+#[inline(always)]
+fn panorama_azimuth(u: f64, width: u32) -> (f64, f64) {
+    cos_sin(PI - TAU * (u + 0.5) / f64::from(width))
 }
 
 /// The rays of a `width`×`height` image, row by row, whose ray at pixel (u, v) is
