@@ -418,22 +418,32 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
         // In chunks whose loop inlines the pixel's work: as a rayon `map` each pixel was a call
-        // (perf, env1 omni colour: 7 % of a frame).
+        // (perf, env1 omni colour: 7 % of a frame). Every pixel is written once, misses too,
+        // with no fill before: a fill cost 5 instructions a pixel (docs/benchmarks.md,
+        // "2026-11-26 afternoon (pixel)").
         const CHUNK: usize = 4096;
-        let mut colour = vec![BACKGROUND; frame.pixels().len()];
-        colour
+        let pixels = frame.pixels().len();
+        let mut colour = Vec::with_capacity(pixels);
+        colour.spare_capacity_mut()[..pixels]
             .par_chunks_mut(CHUNK)
             .zip(frame.pixels().par_chunks(CHUNK))
             .enumerate()
             .for_each(|(chunk, (colour, hits))| {
                 for (offset, (colour, hit)) in colour.iter_mut().zip(hits).enumerate() {
-                    if hit.is_hit() {
-                        let surface = surface_of(hit);
-                        let index = chunk * CHUNK + offset;
-                        *colour = eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface));
-                    }
+                    colour.write(match hit.is_hit() {
+                        true => {
+                            let surface = surface_of(hit);
+                            let index = chunk * CHUNK + offset;
+                            eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
+                        }
+                        false => BACKGROUND,
+                    });
                 }
             });
+        // SAFETY: the loop above wrote each of the first `pixels` entries: the chunks cover
+        // them, and each chunk's loop writes every pixel of it. A panic there unwinds past
+        // this line, leaving the length 0.
+        unsafe { colour.set_len(pixels) };
         frame.set_shading(planes, Vec::new(), colour);
         return;
     }
@@ -496,4 +506,52 @@ fn eight_bit(appearance: &Appearance, hit: &Pixel, flat: bool, linear: impl FnOn
 /// 8-bit sRGB of a linear colour.
 pub fn encode(linear: DVec3) -> [u8; 3] {
     linear_to_srgb3(linear.to_array())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Equirectangular;
+    use crate::frame::NO_FACE;
+
+    /// The colour plane shaded without the linear plane (written once a pixel, misses too, with
+    /// no fill before) equals, byte for byte, the one shaded beside it: lit and unlit, from
+    /// inside the room (every pixel a hit) and from outside it (misses among the hits).
+    #[test]
+    fn colour_alone_equals_colour_beside_the_linear_plane() {
+        let camera = Camera::Equirectangular(Equirectangular {
+            width: 203,
+            height: 101,
+        });
+        for name in ["env1", "env1-lit"] {
+            let (scene, bvh) = crate::trace::test_scene(name);
+            let appearance = Appearance::of(&scene);
+            for position in [DVec3::new(0.3, -0.2, 0.4), DVec3::new(9.0, 4.0, 1.0)] {
+                let pose = Pose::new(position, DVec3::new(0.1, -0.2, 0.7));
+                let traced = CpuTracer::Fast.trace(&bvh, &camera, &pose);
+                let shaded = |planes| {
+                    let mut frame = traced.clone();
+                    let view = View::new(&camera, &pose, None, None);
+                    shade_frame(CpuTracer::Fast, &bvh, &appearance, view, &mut frame, planes);
+                    frame.colour().expect("colour was asked for").to_vec()
+                };
+                let alone = shaded(Planes::COLOUR);
+                assert_eq!(alone, shaded(Planes::ALL), "{name} from {position}");
+                let misses = traced.pixels().iter().filter(|hit| hit.face == NO_FACE).count();
+                assert_eq!(misses > 0, position.x > 3.0, "{name} from {position}: {misses} misses");
+                let flat = traced
+                    .pixels()
+                    .iter()
+                    .zip(&alone)
+                    .filter(|(hit, colour)| hit.is_hit() && **colour == appearance.face_colours[hit.face as usize])
+                    .count();
+                let hits = traced.pixels().len() - misses;
+                // Unlit, every hit is its face's colour; lit, almost none is.
+                match appearance.lighting {
+                    None => assert_eq!(flat, hits, "{name}"),
+                    Some(_) => assert!(flat < hits / 10, "{name}: {flat} of {hits} hits flat"),
+                }
+            }
+        }
+    }
 }
