@@ -252,8 +252,13 @@ fn frame_illuminance(
     is_lit: impl Fn(&Pixel) -> bool + Sync,
 ) -> Vec<DVec3> {
     let row_length = frame.width.max(1) as usize;
-    let mut lux = vec![DVec3::ZERO; frame.pixels().len()];
-    lux.par_chunks_mut(row_length * 8)
+    // Each pixel's sum is made in the tile's own array and written once, with no fill of the
+    // frame's before: a fill and a sum kept in the frame's array cost a lit equirect 1024²
+    // frame about 25 instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
+    let pixels = frame.pixels().len();
+    let mut lux = Vec::with_capacity(pixels);
+    lux.spare_capacity_mut()[..pixels]
+        .par_chunks_mut(row_length * 8)
         .zip(frame.pixels().par_chunks(row_length * 8))
         .for_each(|(lux, hits)| {
             let rows = hits.len() / row_length;
@@ -262,20 +267,23 @@ fn frame_illuminance(
                 t_max: [0.0; PACKET],
                 skip_face: [0; PACKET],
             };
-            // Per ray of the tile: scene-local point and turned normal, and its light's lux.
+            // Per ray of the tile: scene-local point and turned normal, its light's lux, and
+            // its illuminance so far.
             let mut starts = [(DVec3::ZERO, DVec3::ZERO); PACKET];
             let mut light_lux = [DVec3::ZERO; PACKET];
+            let mut tile_lux = [DVec3::ZERO; PACKET];
             for column in (0..row_length).step_by(8) {
                 let tile = crate::trace::tile(row_length, rows, column);
                 let mut active = 0u64;
                 for (r, offset) in tile.clone().enumerate() {
                     let hit = &hits[offset];
+                    tile_lux[r] = DVec3::ZERO;
                     if hit.is_hit() && is_lit(hit) {
                         let (local, normal, origin) = shadow_start(geometry, hit);
                         starts[r] = (local, normal);
                         shadows.rays[r].0 = origin;
                         shadows.skip_face[r] = hit.face;
-                        lux[offset] = DVec3::splat(lighting.ambient);
+                        tile_lux[r] = DVec3::splat(lighting.ambient);
                         active |= 1 << r;
                     }
                 }
@@ -295,15 +303,22 @@ fn frame_illuminance(
                     if cast == 0 {
                         continue;
                     }
-                    let reached = cast & !tracer.occluded_rays(geometry, &shadows, cast);
-                    for (r, offset) in tile.clone().enumerate() {
-                        if reached & (1 << r) != 0 {
-                            lux[offset] += light_lux[r];
-                        }
+                    let mut reached = cast & !tracer.occluded_rays(geometry, &shadows, cast);
+                    while reached != 0 {
+                        let r = reached.trailing_zeros() as usize;
+                        reached &= reached - 1;
+                        tile_lux[r] += light_lux[r];
                     }
+                }
+                for (r, offset) in tile.enumerate() {
+                    lux[offset].write(tile_lux[r]);
                 }
             }
         });
+    // SAFETY: the loop above wrote each of the first `pixels` entries: the bands cover the
+    // frame, and a band's tiles cover every pixel of it. A panic there unwinds past this line,
+    // leaving the length 0.
+    unsafe { lux.set_len(pixels) };
     lux
 }
 
