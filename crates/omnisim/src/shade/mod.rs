@@ -254,7 +254,7 @@ fn frame_illuminance(
     let row_length = frame.width.max(1) as usize;
     // Each pixel's sum is made in the tile's own array and written once, with no fill of the
     // frame's before: a fill and a sum kept in the frame's array cost a lit equirect 1024²
-    // frame about 25 instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
+    // frame about 11 instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
     let pixels = frame.pixels().len();
     let mut lux = Vec::with_capacity(pixels);
     lux.spare_capacity_mut()[..pixels]
