@@ -108,19 +108,23 @@ impl CpuTracer {
 
     /// Traces one frame's hit planes on all CPU threads.
     pub fn trace(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
-        self.trace_rays(bvh, camera.size(), pose, |index| camera.pixel_ray(index))
+        self.trace_rays(bvh, camera.size(), pose, None, |index| camera.pixel_ray(index))
     }
 
     /// Traces a `size` frame whose pixel `index` (row by row) has the body-frame ray
-    /// `ray(index)`, on all CPU threads.
+    /// `ray(index)`, on all CPU threads. `shared_origin`, where given, is every ray's origin,
+    /// bit for bit (a central ray table's): it is turned once a frame, and no ray's origin is
+    /// compared with the last one turned (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
     pub(crate) fn trace_rays(
         self,
         bvh: &SceneBvh,
         (width, height): (u32, u32),
         pose: &Pose,
+        shared_origin: Option<DVec3>,
         ray: impl Fn(usize) -> Option<CameraRay> + Sync,
     ) -> Frame {
-        let local = LocalPose::new(bvh, pose);
+        let mut local = LocalPose::new(bvh, pose);
+        local.shared_origin = shared_origin.map(|origin| local.turn_origin(origin));
         // Every pixel is written once, by the thread that traces it, with no fill before: the
         // first touch of a large buffer's pages (fresh from the kernel for every frame, unless
         // the allocator keeps freed memory as the `omnisim` binary asks glibc to) costs about
@@ -252,7 +256,10 @@ fn trace_band_in(
         for offsets in rows_of_tile.clone() {
             for offset in offsets {
                 if let Some(ray) = ray(first_pixel + offset) {
-                    let origin = origins.turn(local, ray.origin);
+                    let origin = match local.shared_origin {
+                        Some(origin) => origin,
+                        None => origins.turn(local, ray.origin),
+                    };
                     rays[r] = (origin, local.turn_direction(ray.direction), ray.t_min);
                     active |= 1 << r;
                 }
@@ -361,6 +368,8 @@ fn pixel(bvh: &SceneBvh, origin: DVec3, direction: DVec3, hit: Hit) -> Pixel {
 pub(crate) struct LocalPose {
     world_from_body: DMat3,
     origin: DVec3,
+    /// Every ray's origin turned, where the rays share one ([`CpuTracer::trace_rays`]).
+    shared_origin: Option<DVec3>,
 }
 
 impl LocalPose {
@@ -368,6 +377,7 @@ impl LocalPose {
         Self {
             world_from_body: pose.world_from_body_rotation(),
             origin: pose.position - bvh.offset,
+            shared_origin: None,
         }
     }
 
@@ -456,6 +466,7 @@ mod tests {
         let at_negative_zero = LocalPose {
             world_from_body: DMat3::IDENTITY,
             origin: DVec3::splat(-0.0),
+            shared_origin: None,
         };
         let mut cache = OriginCache::new(&at_negative_zero);
         for origin in [DVec3::ZERO, DVec3::splat(-0.0), DVec3::ZERO, DVec3::splat(-0.0)] {

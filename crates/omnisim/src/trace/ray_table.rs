@@ -129,9 +129,9 @@ impl RayTable {
         let size = self.camera.size();
         match &self.rays {
             Rays::Central { origin, entries } => {
-                tracer.trace_rays(bvh, size, pose, |index| entries[index].ray(*origin))
+                tracer.trace_rays(bvh, size, pose, Some(*origin), |index| entries[index].ray(*origin))
             }
-            Rays::OwnOrigins(rays) => tracer.trace_rays(bvh, size, pose, |index| rays[index]),
+            Rays::OwnOrigins(rays) => tracer.trace_rays(bvh, size, pose, None, |index| rays[index]),
         }
     }
 }
