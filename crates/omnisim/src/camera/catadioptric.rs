@@ -102,12 +102,10 @@ pub struct UnifiedModel {
     pub cy: f64,
 }
 
-/// What every ray of one catadioptric camera shares ([`Catadioptric::setup`]).
-struct MirrorSetup {
-    /// The camera's misalignment tilt.
-    tilt: DMat3,
-    /// Where the camera sits in S, misaligned.
-    centre: DVec3,
+/// What every ray of one catadioptric camera shares ([`Catadioptric::ray_constants`]).
+pub(crate) struct RayConstants {
+    /// Where the camera sits in S and how it is tilted.
+    camera: CameraPlace,
     /// The mirror surface in S.
     quadric: Quadric,
     /// S to the body frame.
@@ -116,6 +114,13 @@ struct MirrorSetup {
     body_origin: DVec3,
     /// Whether every ray passes through the body origin.
     central: bool,
+}
+
+/// The misaligned camera's place in S: its tilt, and its centre.
+#[derive(Clone, Copy)]
+struct CameraPlace {
+    tilt: DMat3,
+    centre: DVec3,
 }
 
 /// A quadric x·diag·x + linear·x + constant = 0 with a diagonal quadratic part.
@@ -371,13 +376,21 @@ impl Catadioptric {
     /// The camera's ray for `pixel` in S, before the mirror: (origin, unit direction); `None`
     /// beyond the field of view of the camera's lens.
     pub fn camera_ray_in_mirror(&self, pixel: DVec2) -> Option<(DVec3, DVec3)> {
-        self.camera_ray_in_mirror_with(&self.setup(), pixel)
+        self.camera_ray_in_mirror_with(self.camera_place(), pixel)
     }
 
-    /// [`Catadioptric::camera_ray_in_mirror`] with the camera's `setup` worked out already.
+    /// Where the misaligned camera sits in S and how it is tilted.
+    fn camera_place(&self) -> CameraPlace {
+        CameraPlace {
+            tilt: rotation_xyz(self.misalignment.tilt),
+            centre: self.nominal_camera_in_mirror() + self.misalignment.offset,
+        }
+    }
+
+    /// [`Catadioptric::camera_ray_in_mirror`] from the camera's `place`.
     #[inline(always)]
-    fn camera_ray_in_mirror_with(&self, setup: &MirrorSetup, pixel: DVec2) -> Option<(DVec3, DVec3)> {
-        let (tilt, centre) = (setup.tilt, setup.centre);
+    fn camera_ray_in_mirror_with(&self, place: CameraPlace, pixel: DVec2) -> Option<(DVec3, DVec3)> {
+        let CameraPlace { tilt, centre } = place;
         let offset = (pixel - dvec2(self.cx, self.cy)) / self.focal;
         Some(if self.is_perspective() {
             let towards = match &self.lens {
@@ -392,13 +405,12 @@ impl Catadioptric {
         })
     }
 
-    /// What every pixel's ray shares, worked out by the calls [`Catadioptric::ray`] would
-    /// otherwise make for each pixel (the tilt's sines and cosines, `hypot`s): a ray table
-    /// works it out once, to the same bits.
-    fn setup(&self) -> MirrorSetup {
-        MirrorSetup {
-            tilt: rotation_xyz(self.misalignment.tilt),
-            centre: self.nominal_camera_in_mirror() + self.misalignment.offset,
+    /// What every pixel's ray shares, worked out by the calls [`Catadioptric::ray`] makes for
+    /// each pixel (the tilt's sines and cosines, `hypot`s): a camera's ray source
+    /// (`camera/ray_source.rs`) works it out once, to the same bits.
+    pub(crate) fn ray_constants(&self) -> RayConstants {
+        RayConstants {
+            camera: self.camera_place(),
             quadric: self.quadric(),
             body_from_mirror: self.body_from_mirror(),
             body_origin: self.body_origin_in_mirror(),
@@ -406,41 +418,50 @@ impl Catadioptric {
         }
     }
 
+    /// Every ray's origin where all rays start at the body origin (a central mirror, or the
+    /// shortcut's rays), else `None`: as [`Catadioptric::ray`] gives them, bit for bit.
+    pub(crate) fn shared_origin(&self, constants: &RayConstants) -> Option<DVec3> {
+        (self.rays == MirrorRays::Shortcut || constants.central).then_some(DVec3::ZERO)
+    }
+
     /// Traces pixel (u, v) to the mirror and off it. `None` where the pixel sees the camera
     /// body, misses the mirror, or hits it past the rim.
     pub fn ray(&self, pixel: DVec2) -> Option<CameraRay> {
-        self.ray_with(&self.setup(), pixel)
-    }
-
-    /// Every pixel centre's ray, row by row, bit for bit as [`Catadioptric::ray`] gives them,
-    /// with the camera's setup worked out once: per pixel it cost an omni 1000² ray table
-    /// about 300 instructions of its ~1,090 a pixel (docs/benchmarks.md).
-    pub(crate) fn pixel_rays(&self) -> Vec<Option<CameraRay>> {
-        use rayon::prelude::*;
-        let setup = self.setup();
-        (0..self.width as usize * self.height as usize)
-            .into_par_iter()
-            .map(|index| self.ray_with(&setup, super::pixel_centre(index, self.width)))
-            .collect()
-    }
-
-    /// [`Catadioptric::ray`] with the camera's `setup` worked out already.
-    #[inline(always)]
-    fn ray_with(&self, setup: &MirrorSetup, pixel: DVec2) -> Option<CameraRay> {
-        let centre = pixel - dvec2(self.cx, self.cy);
-        if centre.length_squared() < self.hidden_centre_px * self.hidden_centre_px {
+        if self.sees_camera_body(pixel) {
             return None;
         }
-        let (origin, d) = self.camera_ray_in_mirror_with(setup, pixel)?;
-        let quadric = &setup.quadric;
+        self.ray_beside_the_body(&self.ray_constants(), pixel)
+    }
+
+    /// [`Catadioptric::ray`] with the camera's `constants` worked out already.
+    #[inline(always)]
+    pub(crate) fn ray_with(&self, constants: &RayConstants, pixel: DVec2) -> Option<CameraRay> {
+        if self.sees_camera_body(pixel) {
+            return None;
+        }
+        self.ray_beside_the_body(constants, pixel)
+    }
+
+    /// Whether `pixel` lies in the hidden centre, where the camera sees its own body.
+    #[inline(always)]
+    fn sees_camera_body(&self, pixel: DVec2) -> bool {
+        let centre = pixel - dvec2(self.cx, self.cy);
+        centre.length_squared() < self.hidden_centre_px * self.hidden_centre_px
+    }
+
+    /// [`Catadioptric::ray_with`] of a pixel outside the hidden centre.
+    #[inline(always)]
+    fn ray_beside_the_body(&self, constants: &RayConstants, pixel: DVec2) -> Option<CameraRay> {
+        let (origin, d) = self.camera_ray_in_mirror_with(constants.camera, pixel)?;
+        let quadric = &constants.quadric;
         let q = origin + quadric.first_hit(origin, d)? * d;
         if let Some(rim) = self.rim_radius
             && q.x * q.x + q.y * q.y > rim * rim
         {
             return None;
         }
-        let body_from_mirror = setup.body_from_mirror;
-        let q_body = body_from_mirror * (q - setup.body_origin);
+        let body_from_mirror = constants.body_from_mirror;
+        let q_body = body_from_mirror * (q - constants.body_origin);
         let normal = quadric.gradient(q).normalize();
         let reflected = body_from_mirror * (d - 2.0 * d.dot(normal) * normal).normalize();
         Some(match self.rays {
@@ -449,7 +470,7 @@ impl Catadioptric {
                 direction: q_body.normalize(),
                 t_min: q_body.length(),
             },
-            MirrorRays::Reflect if setup.central => CameraRay {
+            MirrorRays::Reflect if constants.central => CameraRay {
                 origin: DVec3::ZERO,
                 direction: reflected,
                 t_min: q_body.length(),

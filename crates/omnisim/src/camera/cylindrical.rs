@@ -2,7 +2,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::{DVec2, DVec3, dvec2, dvec3};
 
-use super::{CameraRay, panorama_azimuth, separable_rays};
+use super::{CameraRay, panorama_azimuth};
 
 /// A 360° cylindrical panorama around the body z axis.
 ///
@@ -37,26 +37,15 @@ impl Cylindrical {
         Self::ray_between(panorama_azimuth(pixel.x, self.width), self.rise(pixel.y))
     }
 
-    /// Every pixel centre's ray, row by row, bit for bit as [`Cylindrical::ray`] gives them: a
-    /// column's azimuth is turned into a sine and a cosine once.
-    pub(crate) fn pixel_rays(&self) -> Vec<Option<CameraRay>> {
-        separable_rays(
-            (self.width, self.height),
-            |u| panorama_azimuth(u, self.width),
-            |v| self.rise(v),
-            Self::ray_between,
-        )
-    }
-
     /// How far the rays of row `v` rise per unit of horizontal distance.
     #[inline(always)]
-    fn rise(&self, v: f64) -> f64 {
+    pub(super) fn rise(&self, v: f64) -> f64 {
         (self.cy - v) / self.fy
     }
 
     /// The ray at azimuth (cosine, sine) rising `rise`.
     #[inline(always)]
-    fn ray_between((cos_azimuth, sin_azimuth): (f64, f64), rise: f64) -> CameraRay {
+    pub(super) fn ray_between((cos_azimuth, sin_azimuth): (f64, f64), rise: f64) -> CameraRay {
         CameraRay {
             origin: DVec3::ZERO,
             direction: dvec3(cos_azimuth, sin_azimuth, rise).normalize(),

@@ -2,7 +2,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::{DVec2, DVec3, dvec2, dvec3};
 
-use super::{CameraRay, cos_sin, panorama_azimuth, separable_rays};
+use super::{CameraRay, cos_sin, panorama_azimuth};
 
 /// A full-sphere equirectangular panorama around the body z axis.
 ///
@@ -23,26 +23,18 @@ impl Equirectangular {
         Self::ray_between(panorama_azimuth(pixel.x, self.width), self.elevation(pixel.y))
     }
 
-    /// Every pixel centre's ray, row by row, bit for bit as [`Equirectangular::ray`] gives
-    /// them: a column's azimuth and a row's elevation are turned into sines and cosines once.
-    pub(crate) fn pixel_rays(&self) -> Vec<Option<CameraRay>> {
-        separable_rays(
-            (self.width, self.height),
-            |u| panorama_azimuth(u, self.width),
-            |v| self.elevation(v),
-            Self::ray_between,
-        )
-    }
-
     /// Cosine and sine of the elevation of row `v`.
     #[inline(always)]
-    fn elevation(&self, v: f64) -> (f64, f64) {
+    pub(super) fn elevation(&self, v: f64) -> (f64, f64) {
         cos_sin(PI / 2.0 - PI * (v + 0.5) / f64::from(self.height))
     }
 
     /// The ray at azimuth and elevation given as (cosine, sine).
     #[inline(always)]
-    fn ray_between((cos_azimuth, sin_azimuth): (f64, f64), (cos_elevation, sin_elevation): (f64, f64)) -> CameraRay {
+    pub(super) fn ray_between(
+        (cos_azimuth, sin_azimuth): (f64, f64),
+        (cos_elevation, sin_elevation): (f64, f64),
+    ) -> CameraRay {
         CameraRay {
             origin: DVec3::ZERO,
             direction: dvec3(cos_elevation * cos_azimuth, cos_elevation * sin_azimuth, sin_elevation),

@@ -12,6 +12,7 @@ mod equirect;
 pub mod lens;
 mod lens_camera;
 pub(crate) mod pinhole;
+mod ray_source;
 mod solve;
 pub mod spec;
 mod stereo;
@@ -29,6 +30,7 @@ pub use equirect::Equirectangular;
 pub use lens::{KannalaBrandt, LensModel, Scaramuzza};
 pub use lens_camera::LensCamera;
 pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
+pub(crate) use ray_source::RaySource;
 pub use spec::{
     FisheyeSpec, LensSpec, MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec,
     RigSpecError, StereoSpec,
@@ -38,7 +40,7 @@ pub use validate::{CameraError, MAX_PIXELS};
 
 /// The centre of pixel `index` (row by row) of an image `width` pixels wide.
 #[inline(always)]
-fn pixel_centre(index: usize, width: u32) -> DVec2 {
+pub(crate) fn pixel_centre(index: usize, width: u32) -> DVec2 {
     let row_length = width.max(1) as usize;
     DVec2::new((index % row_length) as f64, (index / row_length) as f64)
 }
@@ -55,24 +57,6 @@ fn cos_sin(angle: f64) -> (f64, f64) {
 #[inline(always)]
 fn panorama_azimuth(u: f64, width: u32) -> (f64, f64) {
     cos_sin(PI - TAU * (u + 0.5) / f64::from(width))
-}
-
-/// The rays of a `width`×`height` image, row by row, whose ray at pixel (u, v) is
-/// `ray(column(u), row(v))`: `column` and `row` are called once per column and row.
-fn separable_rays<C: Copy + Sync, R: Copy + Sync>(
-    (width, height): (u32, u32),
-    column: impl Fn(f64) -> C,
-    row: impl Fn(f64) -> R,
-    ray: impl Fn(C, R) -> CameraRay + Sync,
-) -> Vec<Option<CameraRay>> {
-    use rayon::prelude::*;
-    let columns: Vec<C> = (0..width).map(|u| column(f64::from(u))).collect();
-    let rows: Vec<R> = (0..height).map(|v| row(f64::from(v))).collect();
-    let row_length = width.max(1) as usize;
-    (0..width as usize * height as usize)
-        .into_par_iter()
-        .map(|index| Some(ray(columns[index % row_length], rows[index / row_length])))
-        .collect()
 }
 
 /// A ray of a camera in its body frame.
@@ -130,25 +114,11 @@ impl Camera {
         self.ray(pixel_centre(index, self.size().0))
     }
 
-    /// Every pixel centre's ray, row by row: [`Camera::pixel_ray`] of each index, bit for bit.
-    /// The panoramas' rays are products of a column's and a row's sines and cosines, computed
-    /// once per column and row (per pixel, libm's sine and cosine cost an equirect 1024² ray
-    /// table more than tracing a frame, docs/benchmarks.md); other cameras' rays are computed
-    /// pixel by pixel, a mirror's with what its rays share worked out once.
-    pub(crate) fn pixel_rays(&self) -> Vec<Option<CameraRay>> {
-        use rayon::prelude::*;
-        match self {
-            Camera::Equirectangular(c) => c.pixel_rays(),
-            Camera::Cylindrical(c) => c.pixel_rays(),
-            Camera::Catadioptric(c) => c.pixel_rays(),
-            _ => {
-                let (width, height) = self.size();
-                (0..width as usize * height as usize)
-                    .into_par_iter()
-                    .map(|index| self.pixel_ray(index))
-                    .collect()
-            }
-        }
+    /// Every pixel centre's ray, bit for bit as [`Camera::pixel_ray`] gives it, with what the
+    /// rays share (a panorama's columns and rows, a mirror's constants) worked out once: how
+    /// ray tables and frames too large for one get their rays.
+    pub(crate) fn ray_source(&self) -> RaySource<'_> {
+        RaySource::new(self)
     }
 
     /// The ray seen at pixel (u, v), or `None` where the pixel sees nothing of the scene
@@ -234,13 +204,16 @@ mod tests {
         })
     }
 
-    /// `pixel_rays` gives every pixel's ray bit for bit as `Camera::ray` does, for the
-    /// panoramas made from per-column and per-row values (odd and even sizes, one column, one
-    /// row, a tall cylinder with a wide field of view), for mirrors with their shared values
-    /// worked out once (central, non-central, a tilted and shifted camera, pixels without
-    /// rays) and for a camera computed pixel by pixel.
+    /// A camera's ray source gives every pixel's ray bit for bit as `Camera::ray` does, and
+    /// its shared origin where it names one is every ray's: the panoramas made from
+    /// per-column and per-row values (odd and even sizes, one column, one row, a tall cylinder
+    /// with a wide field of view), mirrors with their constants worked out once (central,
+    /// non-central, a tilted and shifted camera, one seen through a distorted lens, pixels
+    /// without rays), and cameras computed pixel by pixel (a pinhole, a fisheye beyond 180°).
+    /// Ray tables, frames too large for one, cone tables and `omnisim bench`'s counting pass
+    /// all read rays from it.
     #[test]
-    fn pixel_rays_equal_each_pixels_own_ray_bit_for_bit() {
+    fn ray_sources_equal_each_pixels_own_ray_bit_for_bit() {
         let misaligned = Catadioptric {
             misalignment: Misalignment {
                 offset: DVec3::new(0.002, -0.001, 0.003),
@@ -248,6 +221,20 @@ mod tests {
             },
             ..Catadioptric::parabolic(72, 60, 0.05, 0.02, 15f64.to_radians())
         };
+        let mut lensed = misaligned.clone();
+        lensed.lens = Some(Box::new(LensModel::Perspective(
+            BrownConrady::new(&[-0.12, 0.03, 1e-3, -2e-3, 0.004]).expect("radtan"),
+        )));
+        let fisheye = Camera::with_lens(
+            Pinhole {
+                fx: 10.0,
+                fy: 10.0,
+                ..Pinhole::with_horizontal_fov(64, 48, 1.0)
+            },
+            Some(LensModel::KannalaBrandt(
+                KannalaBrandt::new([0.0; 4]).expect("equidistant"),
+            )),
+        );
         let cameras = [
             Camera::Equirectangular(Equirectangular {
                 width: 1024,
@@ -266,15 +253,26 @@ mod tests {
             Camera::Catadioptric(Catadioptric::hyperbolic(96, 80, 0.04, 0.16, Some(20f64.to_radians()))),
             Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
             Camera::Catadioptric(misaligned),
+            Camera::Catadioptric(lensed),
+            fisheye,
         ];
         for camera in &cameras {
             let (width, height) = camera.size();
-            let rays = camera.pixel_rays();
+            let source = camera.ray_source();
+            let rays = source.all();
             assert_eq!(rays.len(), width as usize * height as usize, "{camera:?}");
+            let mut without = 0;
             for (index, ray) in rays.into_iter().enumerate() {
                 let (u, v) = (index % width as usize, index / width as usize);
                 let want = camera.ray(DVec2::new(u as f64, v as f64));
+                without += usize::from(want.is_none());
                 assert_eq!(bits(ray), bits(want), "{camera:?}, pixel ({u}, {v})");
+                if let (Some(origin), Some(ray)) = (source.shared_origin(), ray) {
+                    assert_eq!(bits(Some(CameraRay { origin, ..ray })), bits(Some(ray)), "{camera:?}");
+                }
+            }
+            if let Camera::Catadioptric(_) | Camera::Lens(_) = camera {
+                assert!(without > 0, "{camera:?}: the case has pixels without rays");
             }
         }
     }

@@ -316,8 +316,9 @@ fn frame_illuminance(
             }
         });
     // SAFETY: the loop above wrote each of the first `pixels` entries: the bands cover the
-    // frame, and a band's tiles cover every pixel of it. A panic there unwinds past this line,
-    // leaving the length 0.
+    // frame, and a band's tiles cover every pixel of it, since `pixels` is width·height
+    // (asserted in `Frame::from_hits`) and so every band is whole rows (a partial last row
+    // would leave entries unwritten). A panic there unwinds past this line, leaving the length 0.
     unsafe { lux.set_len(pixels) };
     lux
 }
@@ -445,19 +446,19 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
             .enumerate()
             .for_each(|(chunk, (colour, hits))| {
                 for (offset, (colour, hit)) in colour.iter_mut().zip(hits).enumerate() {
-                    colour.write(match hit.is_hit() {
-                        true => {
-                            let surface = surface_of(hit);
-                            let index = chunk * CHUNK + offset;
-                            eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
-                        }
-                        false => BACKGROUND,
+                    colour.write(if hit.is_hit() {
+                        let surface = surface_of(hit);
+                        let index = chunk * CHUNK + offset;
+                        eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
+                    } else {
+                        BACKGROUND
                     });
                 }
             });
-        // SAFETY: the loop above wrote each of the first `pixels` entries: the chunks cover
-        // them, and each chunk's loop writes every pixel of it. A panic there unwinds past
-        // this line, leaving the length 0.
+        // SAFETY: the loop above wrote each of the first `pixels` entries: the colour chunks
+        // are zipped with the frame's pixel chunks of the same size and count (both hold
+        // `pixels` entries), and each chunk's loop writes every pixel of it. A panic there
+        // unwinds past this line, leaving the length 0.
         unsafe { colour.set_len(pixels) };
         frame.set_shading(planes, Vec::new(), colour);
         return;
