@@ -11,7 +11,7 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::catadioptric::RayConstants;
-use super::{Camera, CameraRay, Catadioptric, Cylindrical, Equirectangular, pixel_centre};
+use super::{Camera, CameraRay, Catadioptric, Cylindrical, Equirectangular};
 
 /// A camera's pixel rays ([`Camera::ray_source`]).
 pub(crate) struct RaySource<'a> {
@@ -47,11 +47,10 @@ impl<C: Copy, R: Copy> Grid<C, R> {
         }
     }
 
-    /// The column's and the row's values of pixel `index`.
+    /// The values of `column` and of `row`.
     #[inline(always)]
-    fn at(&self, index: usize) -> (C, R) {
-        let row_length = self.columns.len().max(1);
-        (self.columns[index % row_length], self.rows[index / row_length])
+    fn at(&self, column: u32, row: u32) -> (C, R) {
+        (self.columns[column as usize], self.rows[row as usize])
     }
 }
 
@@ -74,20 +73,31 @@ impl<'a> RaySource<'a> {
         Self { size, rays }
     }
 
-    /// The ray through the centre of pixel `index`, counted row by row from the top left.
+    /// The ray through the centre of pixel `index` (below width·height), counted row by row
+    /// from the top left.
     #[inline(always)]
     pub(crate) fn ray(&self, index: usize) -> Option<CameraRay> {
+        let row_length = self.size.0.max(1) as usize;
+        // Both fit in u32: the column is below the width, the row below the height.
+        self.ray_at((index % row_length) as u32, (index / row_length) as u32)
+    }
+
+    /// The ray through the centre of the pixel in `column` and `row`.
+    #[inline(always)]
+    pub(crate) fn ray_at(&self, column: u32, row: u32) -> Option<CameraRay> {
+        // From u32 to f64 is one instruction (from usize about a dozen), the same values.
+        let pixel = || DVec2::new(f64::from(column), f64::from(row));
         match &self.rays {
             Rays::Equirect(grid) => {
-                let (azimuth, elevation) = grid.at(index);
+                let (azimuth, elevation) = grid.at(column, row);
                 Some(Equirectangular::ray_between(azimuth, elevation))
             }
             Rays::Cylindrical(grid) => {
-                let (azimuth, rise) = grid.at(index);
+                let (azimuth, rise) = grid.at(column, row);
                 Some(Cylindrical::ray_between(azimuth, rise))
             }
-            Rays::Mirror(c, constants) => c.ray_with(constants, self.pixel(index)),
-            Rays::EachPixel(camera) => camera.ray(self.pixel(index)),
+            Rays::Mirror(c, constants) => c.ray_with(constants, pixel()),
+            Rays::EachPixel(camera) => camera.ray(pixel()),
         }
     }
 
@@ -110,11 +120,5 @@ impl<'a> RaySource<'a> {
             .into_par_iter()
             .map(|index| self.ray(index))
             .collect()
-    }
-
-    /// The centre of pixel `index`.
-    #[inline(always)]
-    fn pixel(&self, index: usize) -> DVec2 {
-        pixel_centre(index, self.size.0)
     }
 }

@@ -167,15 +167,15 @@ impl CpuTracer {
     /// Box and triangle tests of one frame's primary rays, summed: what [`CpuTracer::trace`]
     /// does, counted (for `omnisim bench`; `trace` itself counts nothing).
     pub fn count_tests(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> TraversalCounts {
-        let row_length = camera.size().0 as usize;
+        let (width, height) = camera.size();
         let local = LocalPose::new(bvh, pose);
         let source = camera.ray_source();
-        (0..camera.size().1 as usize)
+        (0..height)
             .into_par_iter()
             .map(|row| {
                 let mut counts = TraversalCounts::default();
-                for index in row * row_length..(row + 1) * row_length {
-                    self.trace_ray(bvh, &local, source.ray(index), &mut counts);
+                for column in 0..width {
+                    self.trace_ray(bvh, &local, source.ray_at(column, row), &mut counts);
                 }
                 counts
             })
@@ -236,7 +236,10 @@ fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
     work()
 }
 
-/// [`trace_band`]'s work, `portable` as there.
+/// [`trace_band`]'s work, `portable` as there: the band's tiles compiled once for rays of a
+/// shared origin, turned once a frame, and once for rays of their own origins, turned through
+/// an [`OriginCache`]. A test per ray of which it is cost the equirect 1024² frame ~4
+/// instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
 #[inline(always)]
 fn trace_band_in(
     bvh: &SceneBvh,
@@ -246,11 +249,32 @@ fn trace_band_in(
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
 ) {
+    let band = (row_length, band);
+    if let Some(origin) = local.shared_origin {
+        trace_tiles(bvh, local, band, pixels, portable, |_| origin);
+    } else {
+        let mut cache = OriginCache::new(&local.pose);
+        trace_tiles(bvh, local, band, pixels, portable, |origin| {
+            cache.turn(&local.pose, origin)
+        });
+    }
+}
+
+/// [`trace_band_in`]'s tiles, each ray's scene-local origin given by `turn_origin` of its
+/// body-frame one.
+#[inline(always)]
+fn trace_tiles(
+    bvh: &SceneBvh,
+    local: &LocalRays<impl Fn(usize) -> Option<CameraRay>>,
+    (row_length, band): (usize, usize),
+    pixels: &mut [MaybeUninit<Pixel>],
+    portable: bool,
+    mut turn_origin: impl FnMut(DVec3) -> DVec3,
+) {
     let rows = pixels.len() / row_length;
     // One packet array per band: entries outside a tile's `active` rays are never read, so
     // they need no clearing between tiles.
     let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); PACKET];
-    let mut origins = BandOrigins::new(local);
     let pose = &local.pose;
     let first_pixel = band * 8 * row_length;
     for column in (0..row_length).step_by(8) {
@@ -262,8 +286,7 @@ fn trace_band_in(
         for offsets in rows_of_tile.clone() {
             for offset in offsets {
                 if let Some(ray) = (local.ray)(first_pixel + offset) {
-                    let origin = origins.turn(pose, ray.origin);
-                    rays[r] = (origin, pose.turn_direction(ray.direction), ray.t_min);
+                    rays[r] = (turn_origin(ray.origin), pose.turn_direction(ray.direction), ray.t_min);
                     active |= 1 << r;
                 }
                 r += 1;
@@ -326,31 +349,6 @@ struct LocalRays<'a, F> {
     pose: LocalPose,
     shared_origin: Option<DVec3>,
     ray: &'a F,
-}
-
-/// Where a band's rays start in the scene-local frame: the frame's shared origin, turned
-/// already, or each ray's own origin turned through an [`OriginCache`].
-enum BandOrigins {
-    Shared(DVec3),
-    Cached(OriginCache),
-}
-
-impl BandOrigins {
-    fn new<F>(local: &LocalRays<F>) -> Self {
-        match local.shared_origin {
-            Some(origin) => Self::Shared(origin),
-            None => Self::Cached(OriginCache::new(&local.pose)),
-        }
-    }
-
-    /// The scene-local origin of a ray from body-frame `origin`.
-    #[inline(always)]
-    fn turn(&mut self, pose: &LocalPose, origin: DVec3) -> DVec3 {
-        match self {
-            Self::Shared(origin) => *origin,
-            Self::Cached(cache) => cache.turn(pose, origin),
-        }
-    }
 }
 
 /// The last body-frame ray origin turned into the scene-local frame: a central camera's rays
