@@ -32,7 +32,7 @@ enum Rays<'a> {
     EachPixel(&'a Camera),
 }
 
-/// Values of each column and each row of an image, row by row.
+/// Values worked out once per column and once per row of an image.
 struct Grid<C, R> {
     columns: Vec<C>,
     rows: Vec<R>,
