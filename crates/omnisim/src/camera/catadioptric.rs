@@ -102,6 +102,27 @@ pub struct UnifiedModel {
     pub cy: f64,
 }
 
+/// What every ray of one catadioptric camera shares ([`Catadioptric::ray_constants`]).
+pub(crate) struct RayConstants {
+    /// Where the camera sits in S and how it is tilted.
+    camera: CameraPlace,
+    /// The mirror surface in S.
+    quadric: Quadric,
+    /// S to the body frame.
+    body_from_mirror: DMat3,
+    /// The body origin in S.
+    body_origin: DVec3,
+    /// Whether every ray passes through the body origin.
+    central: bool,
+}
+
+/// The misaligned camera's place in S: its tilt, and its centre.
+#[derive(Clone, Copy)]
+struct CameraPlace {
+    tilt: DMat3,
+    centre: DVec3,
+}
+
 /// A quadric x·diag·x + linear·x + constant = 0 with a diagonal quadratic part.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Quadric {
@@ -355,8 +376,21 @@ impl Catadioptric {
     /// The camera's ray for `pixel` in S, before the mirror: (origin, unit direction); `None`
     /// beyond the field of view of the camera's lens.
     pub fn camera_ray_in_mirror(&self, pixel: DVec2) -> Option<(DVec3, DVec3)> {
-        let tilt = rotation_xyz(self.misalignment.tilt);
-        let centre = self.nominal_camera_in_mirror() + self.misalignment.offset;
+        self.camera_ray_in_mirror_with(self.camera_place(), pixel)
+    }
+
+    /// Where the misaligned camera sits in S and how it is tilted.
+    fn camera_place(&self) -> CameraPlace {
+        CameraPlace {
+            tilt: rotation_xyz(self.misalignment.tilt),
+            centre: self.nominal_camera_in_mirror() + self.misalignment.offset,
+        }
+    }
+
+    /// [`Catadioptric::camera_ray_in_mirror`] from the camera's `place`.
+    #[inline(always)]
+    fn camera_ray_in_mirror_with(&self, place: CameraPlace, pixel: DVec2) -> Option<(DVec3, DVec3)> {
+        let CameraPlace { tilt, centre } = place;
         let offset = (pixel - dvec2(self.cx, self.cy)) / self.focal;
         Some(if self.is_perspective() {
             let towards = match &self.lens {
@@ -371,23 +405,63 @@ impl Catadioptric {
         })
     }
 
+    /// What every pixel's ray shares, worked out by the calls [`Catadioptric::ray`] makes for
+    /// each pixel (the tilt's sines and cosines, `hypot`s): a camera's ray source
+    /// (`camera/ray_source.rs`) works it out once, to the same bits.
+    pub(crate) fn ray_constants(&self) -> RayConstants {
+        RayConstants {
+            camera: self.camera_place(),
+            quadric: self.quadric(),
+            body_from_mirror: self.body_from_mirror(),
+            body_origin: self.body_origin_in_mirror(),
+            central: self.is_central(),
+        }
+    }
+
+    /// Every ray's origin where all rays start at the body origin (a central mirror, or the
+    /// shortcut's rays), else `None`: as [`Catadioptric::ray`] gives them, bit for bit.
+    pub(crate) fn shared_origin(&self, constants: &RayConstants) -> Option<DVec3> {
+        (self.rays == MirrorRays::Shortcut || constants.central).then_some(DVec3::ZERO)
+    }
+
     /// Traces pixel (u, v) to the mirror and off it. `None` where the pixel sees the camera
     /// body, misses the mirror, or hits it past the rim.
     pub fn ray(&self, pixel: DVec2) -> Option<CameraRay> {
-        let centre = pixel - dvec2(self.cx, self.cy);
-        if centre.length_squared() < self.hidden_centre_px * self.hidden_centre_px {
+        if self.sees_camera_body(pixel) {
             return None;
         }
-        let (origin, d) = self.camera_ray_in_mirror(pixel)?;
-        let quadric = self.quadric();
+        self.ray_beside_the_body(&self.ray_constants(), pixel)
+    }
+
+    /// [`Catadioptric::ray`] with the camera's `constants` worked out already.
+    #[inline(always)]
+    pub(crate) fn ray_with(&self, constants: &RayConstants, pixel: DVec2) -> Option<CameraRay> {
+        if self.sees_camera_body(pixel) {
+            return None;
+        }
+        self.ray_beside_the_body(constants, pixel)
+    }
+
+    /// Whether `pixel` lies in the hidden centre, where the camera sees its own body.
+    #[inline(always)]
+    fn sees_camera_body(&self, pixel: DVec2) -> bool {
+        let centre = pixel - dvec2(self.cx, self.cy);
+        centre.length_squared() < self.hidden_centre_px * self.hidden_centre_px
+    }
+
+    /// [`Catadioptric::ray_with`] of a pixel outside the hidden centre.
+    #[inline(always)]
+    fn ray_beside_the_body(&self, constants: &RayConstants, pixel: DVec2) -> Option<CameraRay> {
+        let (origin, d) = self.camera_ray_in_mirror_with(constants.camera, pixel)?;
+        let quadric = &constants.quadric;
         let q = origin + quadric.first_hit(origin, d)? * d;
         if let Some(rim) = self.rim_radius
             && q.x * q.x + q.y * q.y > rim * rim
         {
             return None;
         }
-        let body_from_mirror = self.body_from_mirror();
-        let q_body = body_from_mirror * (q - self.body_origin_in_mirror());
+        let body_from_mirror = constants.body_from_mirror;
+        let q_body = body_from_mirror * (q - constants.body_origin);
         let normal = quadric.gradient(q).normalize();
         let reflected = body_from_mirror * (d - 2.0 * d.dot(normal) * normal).normalize();
         Some(match self.rays {
@@ -396,7 +470,7 @@ impl Catadioptric {
                 direction: q_body.normalize(),
                 t_min: q_body.length(),
             },
-            MirrorRays::Reflect if self.is_central() => CameraRay {
+            MirrorRays::Reflect if constants.central => CameraRay {
                 origin: DVec3::ZERO,
                 direction: reflected,
                 t_min: q_body.length(),

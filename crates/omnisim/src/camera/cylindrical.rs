@@ -2,7 +2,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::{DVec2, DVec3, dvec2, dvec3};
 
-use super::CameraRay;
+use super::{CameraRay, panorama_azimuth};
 
 /// A 360° cylindrical panorama around the body z axis.
 ///
@@ -34,11 +34,21 @@ impl Cylindrical {
 
     /// The ray of pixel (u, v), from the body origin.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
-        let azimuth = PI - TAU * (pixel.x + 0.5) / f64::from(self.width);
-        let rise = (self.cy - pixel.y) / self.fy;
+        Self::ray_between(panorama_azimuth(pixel.x, self.width), self.rise(pixel.y))
+    }
+
+    /// How far the rays of row `v` rise per unit of horizontal distance.
+    #[inline(always)]
+    pub(super) fn rise(&self, v: f64) -> f64 {
+        (self.cy - v) / self.fy
+    }
+
+    /// The ray at azimuth (cosine, sine) rising `rise`.
+    #[inline(always)]
+    pub(super) fn ray_between((cos_azimuth, sin_azimuth): (f64, f64), rise: f64) -> CameraRay {
         CameraRay {
             origin: DVec3::ZERO,
-            direction: dvec3(azimuth.cos(), azimuth.sin(), rise).normalize(),
+            direction: dvec3(cos_azimuth, sin_azimuth, rise).normalize(),
             t_min: 0.0,
         }
     }

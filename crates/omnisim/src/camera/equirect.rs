@@ -2,7 +2,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::{DVec2, DVec3, dvec2, dvec3};
 
-use super::CameraRay;
+use super::{CameraRay, cos_sin, panorama_azimuth};
 
 /// A full-sphere equirectangular panorama around the body z axis.
 ///
@@ -20,15 +20,24 @@ pub struct Equirectangular {
 impl Equirectangular {
     /// The ray of pixel (u, v), from the body origin.
     pub fn ray(&self, pixel: DVec2) -> CameraRay {
-        let azimuth = PI - TAU * (pixel.x + 0.5) / f64::from(self.width);
-        let elevation = PI / 2.0 - PI * (pixel.y + 0.5) / f64::from(self.height);
+        Self::ray_between(panorama_azimuth(pixel.x, self.width), self.elevation(pixel.y))
+    }
+
+    /// Cosine and sine of the elevation of row `v`.
+    #[inline(always)]
+    pub(super) fn elevation(&self, v: f64) -> (f64, f64) {
+        cos_sin(PI / 2.0 - PI * (v + 0.5) / f64::from(self.height))
+    }
+
+    /// The ray at azimuth and elevation given as (cosine, sine).
+    #[inline(always)]
+    pub(super) fn ray_between(
+        (cos_azimuth, sin_azimuth): (f64, f64),
+        (cos_elevation, sin_elevation): (f64, f64),
+    ) -> CameraRay {
         CameraRay {
             origin: DVec3::ZERO,
-            direction: dvec3(
-                elevation.cos() * azimuth.cos(),
-                elevation.cos() * azimuth.sin(),
-                elevation.sin(),
-            ),
+            direction: dvec3(cos_elevation * cos_azimuth, cos_elevation * sin_azimuth, sin_elevation),
             t_min: 0.0,
         }
     }

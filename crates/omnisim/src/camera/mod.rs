@@ -12,10 +12,13 @@ mod equirect;
 pub mod lens;
 mod lens_camera;
 pub(crate) mod pinhole;
+mod ray_source;
 mod solve;
 pub mod spec;
 mod stereo;
 mod validate;
+
+use std::f64::consts::{PI, TAU};
 
 use glam::{DVec2, DVec3};
 
@@ -27,12 +30,34 @@ pub use equirect::Equirectangular;
 pub use lens::{KannalaBrandt, LensModel, Scaramuzza};
 pub use lens_camera::LensCamera;
 pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
+pub(crate) use ray_source::RaySource;
 pub use spec::{
     FisheyeSpec, LensSpec, MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec,
     RigSpecError, StereoSpec,
 };
 pub use stereo::{NO_DISPARITY, StereoRig};
 pub use validate::{CameraError, MAX_PIXELS};
+
+/// The centre of pixel `index` (row by row) of an image `width` pixels wide.
+#[inline(always)]
+pub(crate) fn pixel_centre(index: usize, width: u32) -> DVec2 {
+    let row_length = width.max(1) as usize;
+    DVec2::new((index % row_length) as f64, (index / row_length) as f64)
+}
+
+/// Cosine and sine of `angle`: the one place the panoramas take them, so that a ray table's
+/// per-column values and a single pixel's ray are the same calls on the same inputs.
+#[inline(always)]
+fn cos_sin(angle: f64) -> (f64, f64) {
+    (angle.cos(), angle.sin())
+}
+
+/// Cosine and sine of the azimuth of column `u` of a 360° panorama `width` pixels wide,
+/// φ = π − 2π(u + ½)/W: the equirect and cylindrical panoramas' columns.
+#[inline(always)]
+fn panorama_azimuth(u: f64, width: u32) -> (f64, f64) {
+    cos_sin(PI - TAU * (u + 0.5) / f64::from(width))
+}
 
 /// A ray of a camera in its body frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,8 +111,14 @@ impl Camera {
     /// The ray through the centre of pixel `index`, counted row by row from the top left:
     /// how whole frames and ray tables enumerate an image.
     pub fn pixel_ray(&self, index: usize) -> Option<CameraRay> {
-        let row_length = self.size().0.max(1) as usize;
-        self.ray(DVec2::new((index % row_length) as f64, (index / row_length) as f64))
+        self.ray(pixel_centre(index, self.size().0))
+    }
+
+    /// Every pixel centre's ray, bit for bit as [`Camera::pixel_ray`] gives it, with what the
+    /// rays share (a panorama's columns and rows, a mirror's constants) worked out once: how
+    /// ray tables and frames too large for one get their rays.
+    pub(crate) fn ray_source(&self) -> RaySource<'_> {
+        RaySource::new(self)
     }
 
     /// The ray seen at pixel (u, v), or `None` where the pixel sees nothing of the scene
@@ -156,6 +187,93 @@ impl Camera {
                 MirrorShape::Spherical { .. } => "spherical-catadioptric",
             },
             Camera::Lens(c) => c.model.name(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every field of `ray` as bits, so that `0.0` and `-0.0` differ.
+    fn bits(ray: Option<CameraRay>) -> Option<[u64; 7]> {
+        ray.map(|ray| {
+            let [ox, oy, oz] = ray.origin.to_array().map(f64::to_bits);
+            let [dx, dy, dz] = ray.direction.to_array().map(f64::to_bits);
+            [ox, oy, oz, dx, dy, dz, ray.t_min.to_bits()]
+        })
+    }
+
+    /// A camera's ray source gives every pixel's ray bit for bit as `Camera::ray` does, and
+    /// its shared origin where it names one is every ray's: the panoramas made from
+    /// per-column and per-row values (odd and even sizes, one column, one row, a tall cylinder
+    /// with a wide field of view), mirrors with their constants worked out once (central,
+    /// non-central, a tilted and shifted camera, one seen through a distorted lens, pixels
+    /// without rays), and cameras computed pixel by pixel (a pinhole, a fisheye beyond 180°).
+    /// Ray tables, frames too large for one, cone tables and `omnisim bench`'s counting pass
+    /// all read rays from it.
+    #[test]
+    fn ray_sources_equal_each_pixels_own_ray_bit_for_bit() {
+        let misaligned = Catadioptric {
+            misalignment: Misalignment {
+                offset: DVec3::new(0.002, -0.001, 0.003),
+                tilt: DVec3::new(0.01, -0.02, 0.3),
+            },
+            ..Catadioptric::parabolic(72, 60, 0.05, 0.02, 15f64.to_radians())
+        };
+        let mut lensed = misaligned.clone();
+        lensed.lens = Some(Box::new(LensModel::Perspective(
+            BrownConrady::new(&[-0.12, 0.03, 1e-3, -2e-3, 0.004]).expect("radtan"),
+        )));
+        let fisheye = Camera::with_lens(
+            Pinhole {
+                fx: 10.0,
+                fy: 10.0,
+                ..Pinhole::with_horizontal_fov(64, 48, 1.0)
+            },
+            Some(LensModel::KannalaBrandt(
+                KannalaBrandt::new([0.0; 4]).expect("equidistant"),
+            )),
+        );
+        let cameras = [
+            Camera::Equirectangular(Equirectangular {
+                width: 1024,
+                height: 512,
+            }),
+            Camera::Equirectangular(Equirectangular {
+                width: 333,
+                height: 171,
+            }),
+            Camera::Equirectangular(Equirectangular { width: 1, height: 7 }),
+            Camera::Equirectangular(Equirectangular { width: 9, height: 1 }),
+            Camera::Cylindrical(Cylindrical::with_vertical_fov(1024, 256, 90f64.to_radians())),
+            Camera::Cylindrical(Cylindrical::with_vertical_fov(77, 301, 170f64.to_radians())),
+            Camera::Cylindrical(Cylindrical::with_vertical_fov(1, 1, 1.0)),
+            Camera::Pinhole(Pinhole::with_horizontal_fov(41, 29, 1.3)),
+            Camera::Catadioptric(Catadioptric::hyperbolic(96, 80, 0.04, 0.16, Some(20f64.to_radians()))),
+            Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
+            Camera::Catadioptric(misaligned),
+            Camera::Catadioptric(lensed),
+            fisheye,
+        ];
+        for camera in &cameras {
+            let (width, height) = camera.size();
+            let source = camera.ray_source();
+            let rays = source.all();
+            assert_eq!(rays.len(), width as usize * height as usize, "{camera:?}");
+            let mut without = 0;
+            for (index, ray) in rays.into_iter().enumerate() {
+                let (u, v) = (index % width as usize, index / width as usize);
+                let want = camera.ray(DVec2::new(u as f64, v as f64));
+                without += usize::from(want.is_none());
+                assert_eq!(bits(ray), bits(want), "{camera:?}, pixel ({u}, {v})");
+                if let (Some(origin), Some(ray)) = (source.shared_origin(), ray) {
+                    assert_eq!(bits(Some(CameraRay { origin, ..ray })), bits(Some(ray)), "{camera:?}");
+                }
+            }
+            if let Camera::Catadioptric(_) | Camera::Lens(_) = camera {
+                assert!(without > 0, "{camera:?}: the case has pixels without rays");
+            }
         }
     }
 }

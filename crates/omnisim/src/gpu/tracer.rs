@@ -244,14 +244,13 @@ impl GpuRenderer {
                 limit,
             });
         }
-        let row = width.max(1) as usize;
         let table: Vec<[f32; 4]> = (0..pixels)
             .into_par_iter()
             .map(|index| {
                 let direction = match camera {
                     // The mirror's camera: its lens's direction, before the tilt and the mirror.
                     Camera::Catadioptric(c) => c
-                        .lens_ray(glam::dvec2((index % row) as f64, (index / row) as f64))
+                        .lens_ray(crate::camera::pixel_centre(index, width))
                         .map(|(_, direction)| direction),
                     _ => camera.pixel_ray(index).map(|ray| ray.direction),
                 };

@@ -252,8 +252,13 @@ fn frame_illuminance(
     is_lit: impl Fn(&Pixel) -> bool + Sync,
 ) -> Vec<DVec3> {
     let row_length = frame.width.max(1) as usize;
-    let mut lux = vec![DVec3::ZERO; frame.pixels().len()];
-    lux.par_chunks_mut(row_length * 8)
+    // Each pixel's sum is made in the tile's own array and written once, with no fill of the
+    // frame's before: a fill and a sum kept in the frame's array cost a lit equirect 1024²
+    // frame about 11 instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
+    let pixels = frame.pixels().len();
+    let mut lux = Vec::with_capacity(pixels);
+    lux.spare_capacity_mut()[..pixels]
+        .par_chunks_mut(row_length * 8)
         .zip(frame.pixels().par_chunks(row_length * 8))
         .for_each(|(lux, hits)| {
             let rows = hits.len() / row_length;
@@ -262,20 +267,23 @@ fn frame_illuminance(
                 t_max: [0.0; PACKET],
                 skip_face: [0; PACKET],
             };
-            // Per ray of the tile: scene-local point and turned normal, and its light's lux.
+            // Per ray of the tile: scene-local point and turned normal, its light's lux, and
+            // its illuminance so far.
             let mut starts = [(DVec3::ZERO, DVec3::ZERO); PACKET];
             let mut light_lux = [DVec3::ZERO; PACKET];
+            let mut tile_lux = [DVec3::ZERO; PACKET];
             for column in (0..row_length).step_by(8) {
                 let tile = crate::trace::tile(row_length, rows, column);
                 let mut active = 0u64;
                 for (r, offset) in tile.clone().enumerate() {
                     let hit = &hits[offset];
+                    tile_lux[r] = DVec3::ZERO;
                     if hit.is_hit() && is_lit(hit) {
                         let (local, normal, origin) = shadow_start(geometry, hit);
                         starts[r] = (local, normal);
                         shadows.rays[r].0 = origin;
                         shadows.skip_face[r] = hit.face;
-                        lux[offset] = DVec3::splat(lighting.ambient);
+                        tile_lux[r] = DVec3::splat(lighting.ambient);
                         active |= 1 << r;
                     }
                 }
@@ -295,15 +303,23 @@ fn frame_illuminance(
                     if cast == 0 {
                         continue;
                     }
-                    let reached = cast & !tracer.occluded_rays(geometry, &shadows, cast);
-                    for (r, offset) in tile.clone().enumerate() {
-                        if reached & (1 << r) != 0 {
-                            lux[offset] += light_lux[r];
-                        }
+                    let mut reached = cast & !tracer.occluded_rays(geometry, &shadows, cast);
+                    while reached != 0 {
+                        let r = reached.trailing_zeros() as usize;
+                        reached &= reached - 1;
+                        tile_lux[r] += light_lux[r];
                     }
+                }
+                for (r, offset) in tile.enumerate() {
+                    lux[offset].write(tile_lux[r]);
                 }
             }
         });
+    // SAFETY: the loop above wrote each of the first `pixels` entries: the bands cover the
+    // frame, and a band's tiles cover every pixel of it, since `pixels` is width·height
+    // (asserted in `Frame::from_hits`) and so every band is whole rows (a partial last row
+    // would leave entries unwritten). A panic there unwinds past this line, leaving the length 0.
+    unsafe { lux.set_len(pixels) };
     lux
 }
 
@@ -416,22 +432,32 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
         // In chunks whose loop inlines the pixel's work: as a rayon `map` each pixel was a call
-        // (perf, env1 omni colour: 7 % of a frame).
+        // (perf, env1 omni colour: 7 % of a frame). Every pixel is written once, misses too,
+        // with no fill before: a fill cost 5 instructions a pixel (docs/benchmarks.md,
+        // "2026-11-26 afternoon (pixel)").
         const CHUNK: usize = 4096;
-        let mut colour = vec![BACKGROUND; frame.pixels().len()];
-        colour
+        let pixels = frame.pixels().len();
+        let mut colour = Vec::with_capacity(pixels);
+        colour.spare_capacity_mut()[..pixels]
             .par_chunks_mut(CHUNK)
             .zip(frame.pixels().par_chunks(CHUNK))
             .enumerate()
             .for_each(|(chunk, (colour, hits))| {
                 for (offset, (colour, hit)) in colour.iter_mut().zip(hits).enumerate() {
-                    if hit.is_hit() {
+                    colour.write(if hit.is_hit() {
                         let surface = surface_of(hit);
                         let index = chunk * CHUNK + offset;
-                        *colour = eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface));
-                    }
+                        eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
+                    } else {
+                        BACKGROUND
+                    });
                 }
             });
+        // SAFETY: the loop above wrote each of the first `pixels` entries: the colour chunks
+        // are zipped with the frame's pixel chunks of the same size and count (both hold
+        // `pixels` entries), and each chunk's loop writes every pixel of it. A panic there
+        // unwinds past this line, leaving the length 0.
+        unsafe { colour.set_len(pixels) };
         frame.set_shading(planes, Vec::new(), colour);
         return;
     }
@@ -494,4 +520,52 @@ fn eight_bit(appearance: &Appearance, hit: &Pixel, flat: bool, linear: impl FnOn
 /// 8-bit sRGB of a linear colour.
 pub fn encode(linear: DVec3) -> [u8; 3] {
     linear_to_srgb3(linear.to_array())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Equirectangular;
+    use crate::frame::NO_FACE;
+
+    /// The colour plane shaded without the linear plane (written once a pixel, misses too, with
+    /// no fill before) equals, byte for byte, the one shaded beside it: lit and unlit, from
+    /// inside the room (every pixel a hit) and from outside it (misses among the hits).
+    #[test]
+    fn colour_alone_equals_colour_beside_the_linear_plane() {
+        let camera = Camera::Equirectangular(Equirectangular {
+            width: 203,
+            height: 101,
+        });
+        for name in ["env1", "env1-lit"] {
+            let (scene, bvh) = crate::trace::test_scene(name);
+            let appearance = Appearance::of(&scene);
+            for position in [DVec3::new(0.3, -0.2, 0.4), DVec3::new(9.0, 4.0, 1.0)] {
+                let pose = Pose::new(position, DVec3::new(0.1, -0.2, 0.7));
+                let traced = CpuTracer::Fast.trace(&bvh, &camera, &pose);
+                let shaded = |planes| {
+                    let mut frame = traced.clone();
+                    let view = View::new(&camera, &pose, None, None);
+                    shade_frame(CpuTracer::Fast, &bvh, &appearance, view, &mut frame, planes);
+                    frame.colour().expect("colour was asked for").to_vec()
+                };
+                let alone = shaded(Planes::COLOUR);
+                assert_eq!(alone, shaded(Planes::ALL), "{name} from {position}");
+                let misses = traced.pixels().iter().filter(|hit| hit.face == NO_FACE).count();
+                assert_eq!(misses > 0, position.x > 3.0, "{name} from {position}: {misses} misses");
+                let flat = traced
+                    .pixels()
+                    .iter()
+                    .zip(&alone)
+                    .filter(|(hit, colour)| hit.is_hit() && **colour == appearance.face_colours[hit.face as usize])
+                    .count();
+                let hits = traced.pixels().len() - misses;
+                // Unlit, every hit is its face's colour; lit, almost none is.
+                match appearance.lighting {
+                    None => assert_eq!(flat, hits, "{name}"),
+                    Some(_) => assert!(flat < hits / 10, "{name}: {flat} of {hits} hits flat"),
+                }
+            }
+        }
+    }
 }

@@ -106,21 +106,32 @@ impl CpuTracer {
         }
     }
 
-    /// Traces one frame's hit planes on all CPU threads.
+    /// Traces one frame's hit planes on all CPU threads, with the camera's rays computed for
+    /// this frame (what its rays share worked out once: [`Camera::ray_source`]).
     pub fn trace(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
-        self.trace_rays(bvh, camera.size(), pose, |index| camera.pixel_ray(index))
+        let source = camera.ray_source();
+        let rays = FrameRays {
+            size: camera.size(),
+            shared_origin: source.shared_origin(),
+            ray: |index| source.ray(index),
+        };
+        self.trace_rays(bvh, pose, &rays)
     }
 
-    /// Traces a `size` frame whose pixel `index` (row by row) has the body-frame ray
-    /// `ray(index)`, on all CPU threads.
+    /// Traces the frame of `rays` on all CPU threads.
     pub(crate) fn trace_rays(
         self,
         bvh: &SceneBvh,
-        (width, height): (u32, u32),
         pose: &Pose,
-        ray: impl Fn(usize) -> Option<CameraRay> + Sync,
+        rays: &FrameRays<impl Fn(usize) -> Option<CameraRay> + Sync>,
     ) -> Frame {
-        let local = LocalPose::new(bvh, pose);
+        let (width, height) = rays.size;
+        let pose = LocalPose::new(bvh, pose);
+        let local = LocalRays {
+            shared_origin: rays.shared_origin.map(|origin| pose.turn_origin(origin)),
+            pose,
+            ray: &rays.ray,
+        };
         // Every pixel is written once, by the thread that traces it, with no fill before: the
         // first touch of a large buffer's pages (fresh from the kernel for every frame, unless
         // the allocator keeps freed memory as the `omnisim` binary asks glibc to) costs about
@@ -138,11 +149,11 @@ impl CpuTracer {
             frame
                 .par_chunks_mut(row_length * 8)
                 .enumerate()
-                .for_each(|(band, pixels)| trace_band(bvh, &local, row_length, band, pixels, &ray, portable));
+                .for_each(|(band, pixels)| trace_band(bvh, &local, row_length, band, pixels, portable));
         } else {
             frame.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
                 for (column, pixel) in pixels.iter_mut().enumerate() {
-                    pixel.write(self.trace_ray(bvh, &local, ray(row * row_length + column), &mut ()));
+                    pixel.write(self.trace_ray(bvh, &local.pose, (local.ray)(row * row_length + column), &mut ()));
                 }
             });
         }
@@ -158,13 +169,13 @@ impl CpuTracer {
     pub fn count_tests(self, bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> TraversalCounts {
         let (width, height) = camera.size();
         let local = LocalPose::new(bvh, pose);
+        let source = camera.ray_source();
         (0..height)
             .into_par_iter()
             .map(|row| {
                 let mut counts = TraversalCounts::default();
                 for column in 0..width {
-                    let ray = camera.ray(DVec2::new(f64::from(column), f64::from(row)));
-                    self.trace_ray(bvh, &local, ray, &mut counts);
+                    self.trace_ray(bvh, &local, source.ray_at(column, row), &mut counts);
                 }
                 counts
             })
@@ -196,11 +207,10 @@ impl CpuTracer {
 /// pixel writes) was a quarter of env1's omni frame, in SSE2 code (docs/benchmarks.md).
 fn trace_band(
     bvh: &SceneBvh,
-    local: &LocalPose,
+    local: &LocalRays<impl Fn(usize) -> Option<CameraRay> + Sync>,
     row_length: usize,
     band: usize,
     pixels: &mut [MaybeUninit<Pixel>],
-    ray: &(impl Fn(usize) -> Option<CameraRay> + Sync),
     portable: bool,
 ) {
     #[cfg(target_arch = "x86_64")]
@@ -209,12 +219,12 @@ fn trace_band(
         unsafe {
             with_avx2(
                 #[inline(always)]
-                || trace_band_in(bvh, local, row_length, band, pixels, ray, false),
+                || trace_band_in(bvh, local, row_length, band, pixels, false),
             );
         }
         return;
     }
-    trace_band_in(bvh, local, row_length, band, pixels, ray, portable);
+    trace_band_in(bvh, local, row_length, band, pixels, portable);
 }
 
 /// `work()` compiled with AVX2 (it is inlined here): VEX encoding and wider vectors. The f64
@@ -226,22 +236,46 @@ fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
     work()
 }
 
-/// [`trace_band`]'s work, `portable` as there.
+/// [`trace_band`]'s work, `portable` as there: the band's tiles compiled once for rays of a
+/// shared origin, turned once a frame, and once for rays of their own origins, turned through
+/// an [`OriginCache`]. A test per ray of which it is cost the equirect 1024² frame ~4
+/// instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
 #[inline(always)]
 fn trace_band_in(
     bvh: &SceneBvh,
-    local: &LocalPose,
+    local: &LocalRays<impl Fn(usize) -> Option<CameraRay>>,
     row_length: usize,
     band: usize,
     pixels: &mut [MaybeUninit<Pixel>],
-    ray: &impl Fn(usize) -> Option<CameraRay>,
     portable: bool,
+) {
+    let band = (row_length, band);
+    if let Some(origin) = local.shared_origin {
+        trace_tiles(bvh, local, band, pixels, portable, |_| origin);
+    } else {
+        let mut cache = OriginCache::new(&local.pose);
+        trace_tiles(bvh, local, band, pixels, portable, |origin| {
+            cache.turn(&local.pose, origin)
+        });
+    }
+}
+
+/// [`trace_band_in`]'s tiles, each ray's scene-local origin given by `turn_origin` of its
+/// body-frame one.
+#[inline(always)]
+fn trace_tiles(
+    bvh: &SceneBvh,
+    local: &LocalRays<impl Fn(usize) -> Option<CameraRay>>,
+    (row_length, band): (usize, usize),
+    pixels: &mut [MaybeUninit<Pixel>],
+    portable: bool,
+    mut turn_origin: impl FnMut(DVec3) -> DVec3,
 ) {
     let rows = pixels.len() / row_length;
     // One packet array per band: entries outside a tile's `active` rays are never read, so
     // they need no clearing between tiles.
     let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); PACKET];
-    let mut origins = OriginCache::new(local);
+    let pose = &local.pose;
     let first_pixel = band * 8 * row_length;
     for column in (0..row_length).step_by(8) {
         // The tile's rows as ranges of the band, walked by plain loops: [`tile`]'s flat
@@ -251,9 +285,8 @@ fn trace_band_in(
         let mut r = 0;
         for offsets in rows_of_tile.clone() {
             for offset in offsets {
-                if let Some(ray) = ray(first_pixel + offset) {
-                    let origin = origins.turn(local, ray.origin);
-                    rays[r] = (origin, local.turn_direction(ray.direction), ray.t_min);
+                if let Some(ray) = (local.ray)(first_pixel + offset) {
+                    rays[r] = (turn_origin(ray.origin), pose.turn_direction(ray.direction), ray.t_min);
                     active |= 1 << r;
                 }
                 r += 1;
@@ -299,6 +332,24 @@ fn fetch_faces_ahead(bvh: &SceneBvh, found: &[Option<Hit>; PACKET]) {
 /// Triangles from which [`fetch_faces_ahead`] reads ahead: below this the BVH's faces and
 /// normals stay in cache and the extra pass would only cost.
 const FETCH_FACES_FROM: usize = 1 << 16;
+
+/// A frame's body-frame rays: pixel `index`'s ray (row by row) is `ray(index)`, and
+/// `shared_origin`, where given, is every ray's origin bit for bit (a central ray table's, a
+/// panorama's): it is turned once a frame, and no ray's origin is compared with the last one
+/// turned (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
+pub(crate) struct FrameRays<F> {
+    pub(crate) size: (u32, u32),
+    pub(crate) shared_origin: Option<DVec3>,
+    pub(crate) ray: F,
+}
+
+/// [`FrameRays`] made ready for tracing at one pose: the shared origin, if any, turned into
+/// the scene-local frame.
+struct LocalRays<'a, F> {
+    pose: LocalPose,
+    shared_origin: Option<DVec3>,
+    ray: &'a F,
+}
 
 /// The last body-frame ray origin turned into the scene-local frame: a central camera's rays
 /// share one origin, so the turn is made once per band instead of once per ray. Keyed by

@@ -14,7 +14,7 @@ use crate::accel::SceneBvh;
 use crate::camera::{Camera, CameraRay, Cone};
 use crate::frame::Frame;
 use crate::pose::Pose;
-use crate::trace::CpuTracer;
+use crate::trace::{CpuTracer, FrameRays};
 
 /// Cameras whose rays are kept: two, so a stereo rig's left and right views alternate
 /// without recomputing.
@@ -129,9 +129,21 @@ impl RayTable {
         let size = self.camera.size();
         match &self.rays {
             Rays::Central { origin, entries } => {
-                tracer.trace_rays(bvh, size, pose, |index| entries[index].ray(*origin))
+                let rays = FrameRays {
+                    size,
+                    shared_origin: Some(*origin),
+                    ray: |index: usize| entries[index].ray(*origin),
+                };
+                tracer.trace_rays(bvh, pose, &rays)
             }
-            Rays::OwnOrigins(rays) => tracer.trace_rays(bvh, size, pose, |index| rays[index]),
+            Rays::OwnOrigins(rays) => {
+                let rays = FrameRays {
+                    size,
+                    shared_origin: None,
+                    ray: |index: usize| rays[index],
+                };
+                tracer.trace_rays(bvh, pose, &rays)
+            }
         }
     }
 }
@@ -201,12 +213,7 @@ impl RayCache {
             |table| &table.camera,
             || RayTable {
                 camera: camera.clone(),
-                rays: Rays::of(
-                    (0..pixels)
-                        .into_par_iter()
-                        .map(|index| camera.pixel_ray(index))
-                        .collect(),
-                ),
+                rays: Rays::of(camera.ray_source().all()),
                 cones: OnceLock::new(),
             },
         ))
@@ -226,7 +233,10 @@ impl RayCache {
             |table| &table.camera,
             || ConeTable {
                 camera: camera.clone(),
-                cones: Cone::of_image(camera, |index| camera.pixel_ray(index)),
+                cones: {
+                    let source = camera.ray_source();
+                    Cone::of_image(camera, |index| source.ray(index))
+                },
             },
         ))
     }
@@ -235,7 +245,7 @@ impl RayCache {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::{Equirectangular, Pinhole};
+    use crate::camera::{Cylindrical, Equirectangular, Pinhole};
     use glam::dvec3;
 
     /// Every field of `ray` as bits, so that a comparison tells `0.0` from `-0.0` and NaN
@@ -331,7 +341,9 @@ mod tests {
     }
 
     /// Frames traced from tables (both forms; the mirrors' with pixels without rays) equal
-    /// frames traced from the camera, and the cache keeps the last `CAMERAS` cameras' tables.
+    /// frames traced from the camera's ray source (how frames too large for a table are
+    /// traced), which equal frames traced from each pixel's own ray; and the cache keeps the
+    /// last `CAMERAS` cameras' tables.
     #[test]
     fn frames_from_ray_tables_equal_frames_from_the_camera_and_tables_follow_the_camera() {
         use crate::camera::Catadioptric;
@@ -343,6 +355,7 @@ mod tests {
             Camera::Pinhole(Pinhole::with_horizontal_fov(40, 30, 0.6)),
             Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
             Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
+            Camera::Cylindrical(Cylindrical::with_vertical_fov(48, 20, 1.5)),
         ];
         let mut central = Vec::new();
         for round in 0..2 {
@@ -352,6 +365,16 @@ mod tests {
                     dvec3(0.0, 0.1, index as f64),
                 );
                 let direct = CpuTracer::Fast.trace(&bvh, camera, &pose);
+                // A frame too large for a table is traced as `direct` is (its camera's ray
+                // source, with its shared origin where it names one): equal to each pixel's
+                // own ray turned on its own.
+                let each_pixel = FrameRays {
+                    size: camera.size(),
+                    shared_origin: None,
+                    ray: |index: usize| camera.pixel_ray(index),
+                };
+                let own = CpuTracer::Fast.trace_rays(&bvh, &pose, &each_pixel);
+                assert_eq!(direct.pixels(), own.pixels(), "camera {index}, round {round}");
                 let table = cache.table(camera).expect("a small image has a table");
                 central.push(matches!(table.rays, Rays::Central { .. }));
                 let cached = trace_frame(CpuTracer::Fast, &bvh, camera, &pose, Some(&table));
@@ -360,7 +383,7 @@ mod tests {
         }
         assert_eq!(
             central,
-            [true, true, true, true, false].repeat(2),
+            [true, true, true, true, false, true].repeat(2),
             "both forms are traced"
         );
         let tables = cache.tables.lock().unwrap();
