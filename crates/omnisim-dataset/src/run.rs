@@ -31,7 +31,7 @@ use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
 use crate::merge::assemble;
 use crate::write::{RenderedFrame, WrittenFrame};
 use omnisim::frame::{Frame, Plane};
-use omnisim::output::atomic::{Durability, DurableFolder, EncodeBuffer, write_bytes_atomically};
+use omnisim::output::atomic::{Durability, DurableFolder, write_bytes_atomically};
 use omnisim::output::{PlainFolder, SegmentationLegend};
 use omnisim::{PreparedScene, Renderer};
 
@@ -475,17 +475,12 @@ impl Dataset {
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
                 scope.spawn(move || {
-                    // Each file of each frame this thread writes is encoded into it.
-                    let mut buffer = EncodeBuffer::default();
                     while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
                         if stop.load(Ordering::Relaxed) {
                             continue;
                         }
                         let (set, index) = (frame.set, frame.index);
-                        if report
-                            .send((set, index, self.write_frame(out, frame, &mut buffer)))
-                            .is_err()
-                        {
+                        if report.send((set, index, self.write_frame(out, frame))).is_err() {
                             break;
                         }
                     }

@@ -21,14 +21,8 @@ use omnisim::output::{self, Destination, FrameTarget, OutputError, SegmentObject
 impl Dataset {
     /// Writes a rendered frame's files (ground truth, noisy copies, layouts), not yet
     /// durable, and returns the entry to write once they are. Runs on a writer thread while
-    /// later frames render, encoding each file into `buffer` (the thread's own, kept from
-    /// frame to frame: a fresh one grew and faulted in about 1 MB a frame).
-    pub(crate) fn write_frame(
-        &self,
-        out: &Path,
-        rendered: RenderedFrame,
-        buffer: &mut EncodeBuffer,
-    ) -> Result<WrittenFrame, DatasetError> {
+    /// later frames render.
+    pub(crate) fn write_frame(&self, out: &Path, rendered: RenderedFrame) -> Result<WrittenFrame, DatasetError> {
         let RenderedFrame {
             set: s,
             index,
@@ -50,7 +44,7 @@ impl Dataset {
             pose,
         };
         let stem = target.stem();
-        let mut folder = FrameFiles::new(out, &set_dir, buffer);
+        let mut folder = FrameFiles::new(out, &set_dir);
         (self.spec.outputs).write_frame_files(&mut folder, &target, &self.rig, &frames)?;
         folder.kind = FileKind::Noisy;
         // Noisy copies, each view's colour then depth, then disparity: one stream, fixed order.
@@ -189,19 +183,19 @@ struct FrameFiles<'a> {
     dir: &'a Path,
     /// What the files written next are.
     kind: FileKind,
-    /// Reused by each file.
-    buffer: &'a mut EncodeBuffer,
+    /// Reused by each file of the frame.
+    buffer: EncodeBuffer,
     files: Vec<FileEntry>,
     paths: Vec<PathBuf>,
 }
 
 impl<'a> FrameFiles<'a> {
-    fn new(root: &'a Path, dir: &'a Path, buffer: &'a mut EncodeBuffer) -> Self {
+    fn new(root: &'a Path, dir: &'a Path) -> Self {
         Self {
             root,
             dir,
             kind: FileKind::GroundTruth,
-            buffer,
+            buffer: EncodeBuffer::default(),
             files: Vec::new(),
             paths: Vec::new(),
         }
