@@ -12,8 +12,8 @@ Each image is rendered COPIES times (the same pose). Each round runs `omnisim de
 per image folder with every descriptor (each descriptor's time per image is the `seconds` its
 sidecar records for each frame: the descriptor alone, not the image's reading nor the
 panorama's resampling; the first frame is left out), then the peers on the same image, each
-called COPIES times and timed around its one call (reading and converting the image left
-out):
+called COPIES times and timed around its one call, the first call left out as omnisim's first
+frame is (reading and converting the image left out):
 
 | omnisim            | peer                                                              |
 |--------------------|-------------------------------------------------------------------|
@@ -122,13 +122,13 @@ def describe(omnisim, work, name, threads):
 
 
 def timed(call):
-    """Seconds of each of COPIES calls."""
+    """Seconds of each of COPIES calls but the first (cold, like omnisim's first frame)."""
     seconds = []
     for _ in range(COPIES):
         start = time.perf_counter()
         call()
         seconds.append(time.perf_counter() - start)
-    return seconds
+    return seconds[1:]
 
 
 def peers(work, name, wanted):

@@ -62,7 +62,8 @@ impl SetFiles {
     }
 }
 
-/// Writes `bytes` to `path` as [`SetFiles`] says, and keeps the path in `paths`.
+/// Writes `bytes` to `path` as [`SetFiles`] says, and keeps the path in `paths`. A free
+/// function so that `store` can borrow the path list and the encode buffer apart.
 fn write_kept(paths: &mut Vec<PathBuf>, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     match found(path, bytes)? {
         Found::Same => {}

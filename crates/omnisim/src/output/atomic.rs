@@ -216,8 +216,8 @@ impl<T: FileStore> FileStore for &mut T {
     }
 }
 
-/// Memory a store encodes each file into before writing it in one call (and hashing it
-/// there), reused from one file to the next.
+/// Memory a store encodes each file into before writing it in one call (and hashing or
+/// comparing it there), reused from one file to the next.
 #[derive(Debug, Default)]
 pub struct EncodeBuffer(Vec<u8>);
 

@@ -342,8 +342,9 @@ impl OutputSet {
         Ok(FrameMetadata::new(target.index, target.stem(), target.pose, files))
     }
 
-    /// Writes the files of a set of frames that are not per frame into `folder`: calibration in the formats robotics tools read, the ray maps
-    /// of each view (origin and direction files) and the segmentation legend (if asked for).
+    /// Writes the files of a set of frames that are not per frame into `folder`: calibration
+    /// in the formats robotics tools read, the ray maps of each view (origin and direction
+    /// files) and the segmentation legend (if asked for).
     /// Returns their paths.
     pub fn write_set_files(
         &self,
