@@ -108,7 +108,7 @@ fn failed(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {
 /// every row. Per-frame encoding competes with the tracer for the same cores in data sets, so
 /// speed wins over size: fast deflate encodes a 250×250 omni frame in 0.3 ms instead of 9 ms
 /// for 1.5× the bytes, and Sub instead of trying all five filters a row (adaptive) takes
-/// 0.05–0.15 ms instead of 0.12–0.23 for 10–25 % more bytes (docs/benchmarks.md).
+/// 0.05–0.15 ms instead of 0.12–0.23 for 9–25 % more bytes (docs/benchmarks.md).
 pub(crate) fn png_encoder<W: std::io::Write>(out: W) -> image::codecs::png::PngEncoder<W> {
     image::codecs::png::PngEncoder::new_with_quality(
         out,
