@@ -12,8 +12,8 @@ Each image is rendered COPIES times (the same pose). Each round runs `omnisim de
 per image folder with every descriptor (each descriptor's time per image is the `seconds` its
 sidecar records for each frame: the descriptor alone, not the image's reading nor the
 panorama's resampling; the first frame is left out), then the peers on the same image, each
-called COPIES times and timed around its one call (reading and converting the image left
-out):
+called COPIES times and timed around its one call, the first call left out as omnisim's first
+frame is (reading and converting the image left out):
 
 | omnisim            | peer                                                              |
 |--------------------|-------------------------------------------------------------------|
@@ -35,7 +35,12 @@ median) of all timed calls in ms, the ratio peer / omnisim (above 1: omnisim is 
 
 --baseline BIN times a second omnisim build (an earlier commit's) in the same rounds.
 
+--images and --descriptors keep only those (comma-separated slugs such as omni-250 and names such
+as sift): `--images omni-250 --descriptors sift --copies 40` times omni SIFT alone, 39 calls a
+round each, and the median over rounds of peer median / omnisim median is printed too.
+
 Usage: descriptors.py --omnisim target/release/omnisim --work /tmp/descriptors [--baseline OLD_BIN] [--rounds 5] [--threads 1]
+       [--images omni-250,...] [--descriptors sift,...] [--copies 4]
 Needs OpenCV, numpy and scikit-image (tests/readers/requirements.txt).
 """
 import argparse, json, os, shutil, statistics, subprocess, sys, time
@@ -117,68 +122,86 @@ def describe(omnisim, work, name, threads):
 
 
 def timed(call):
-    """Seconds of each of COPIES calls."""
+    """Seconds of each of COPIES calls but the first (cold, like omnisim's first frame)."""
     seconds = []
     for _ in range(COPIES):
         start = time.perf_counter()
         call()
         seconds.append(time.perf_counter() - start)
-    return seconds
+    return seconds[1:]
 
 
-def peers(work, name):
-    """Seconds of each peer on this image (None: no peer)."""
+def peers(work, name, wanted):
+    """Seconds of each peer of a `wanted` descriptor on this image (None: no peer)."""
     grey8 = cv2.imread(png(folder(work, name)), cv2.IMREAD_GRAYSCALE)
     grey = grey8.astype(np.float64) / 255.0
     if name == 'omni 250²':
         pano = cv2.imread(png(os.path.join(work, 'omni-panorama'), '-panorama'), cv2.IMREAD_GRAYSCALE) / 255.0
     else:
         pano = grey
-    found = {}
     sift = cv2.SIFT_create()
-    found['sift'] = timed(lambda: sift.detectAndCompute(grey8, None))
-    try:
-        surf = cv2.xfeatures2d.SURF_create(100)
-        found['surf'] = timed(lambda: surf.detectAndCompute(grey8, None))
-    except (AttributeError, cv2.error):
-        found['surf'] = None
-    found['block-hog'] = timed(lambda: skimage_hog(grey, orientations=9, pixels_per_cell=(8, 8),
-                                                   cells_per_block=(2, 2), block_norm='L2-Hys'))
+
+    def surf():
+        try:
+            surf = cv2.xfeatures2d.SURF_create(100)
+        except (AttributeError, cv2.error):
+            return None
+        return timed(lambda: surf.detectAndCompute(grey8, None))
     rows = pano.shape[0] // 16
-    found['hog'] = timed(lambda: skimage_hog(pano, orientations=8, pixels_per_cell=(rows, pano.shape[1]),
-                                             cells_per_block=(1, 1), block_norm='L2'))
 
     def fourier():
         # rfft: the real-input transform a numpy user would call on an image (2× np.fft.fft's speed).
         spectrum = np.fft.rfft(pano, axis=1)[:, :16]
         return np.abs(spectrum), np.angle(spectrum)
-    found['fourier'] = timed(fourier)
     angles = np.arange(360, dtype=np.float64)
-    found['radon'] = timed(lambda: skimage_radon(grey, theta=angles, circle=True))
-    found['gist'] = None
-    return found
+    calls = {
+        'sift': lambda: timed(lambda: sift.detectAndCompute(grey8, None)),
+        'surf': surf,
+        'block-hog': lambda: timed(lambda: skimage_hog(grey, orientations=9, pixels_per_cell=(8, 8),
+                                                       cells_per_block=(2, 2), block_norm='L2-Hys')),
+        'hog': lambda: timed(lambda: skimage_hog(pano, orientations=8, pixels_per_cell=(rows, pano.shape[1]),
+                                                 cells_per_block=(1, 1), block_norm='L2')),
+        'fourier': lambda: timed(fourier),
+        'radon': lambda: timed(lambda: skimage_radon(grey, theta=angles, circle=True)),
+        'gist': lambda: None,
+    }
+    return {d: calls[d]() for d in wanted}
 
 
 def main():
+    global COPIES
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--omnisim', required=True)
     parser.add_argument('--work', required=True)
     parser.add_argument('--rounds', type=int, default=5)
     parser.add_argument('--threads', type=int, default=1)
     parser.add_argument('--baseline', help='another omnisim binary, timed in the same rounds')
+    parser.add_argument('--images', help='comma-separated image slugs to keep (omni-250, pinhole-512, ...)')
+    parser.add_argument('--descriptors', help='comma-separated descriptors to keep (sift, hog, ...)')
+    parser.add_argument('--copies', type=int, default=COPIES, help='renders of each image, calls per round')
     args = parser.parse_args()
+    COPIES = args.copies
+    for name in list(IMAGES):
+        options, pose, descriptors = IMAGES.pop(name)
+        kept = [d for d in descriptors if not args.descriptors or d in args.descriptors.split(',')]
+        if kept and (not args.images or slug(name) in args.images.split(',')):
+            IMAGES[name] = (options, pose, kept)
     os.makedirs(args.work, exist_ok=True)
     cv2.setNumThreads(args.threads)
     render(args.omnisim, args.work)
     times = {}  # (image, descriptor) -> {'omnisim': [...], 'baseline': [...], 'peer': [...]}
     loads = []
+    round_ratios = {}  # (image, descriptor) -> per round, peer median / omnisim median
     for _ in range(args.rounds):
         loads.append(os.getloadavg()[0])
         for name, (_, _, descriptors) in IMAGES.items():
             baseline = describe(args.baseline, args.work, name, args.threads) if args.baseline else {}
             ours = describe(args.omnisim, args.work, name, args.threads)
-            theirs = peers(args.work, name)
+            theirs = peers(args.work, name, descriptors)
             for d in descriptors:
+                if theirs[d]:
+                    ratio = statistics.median(theirs[d]) / statistics.median(ours[d])
+                    round_ratios.setdefault((name, d), []).append(ratio)
                 entry = times.setdefault((name, d), {'omnisim': [], 'baseline': [], 'peer': []})
                 entry['omnisim'] += ours[d]
                 entry['baseline'] += baseline.get(d, [])
@@ -201,6 +224,9 @@ def main():
         ratio = f'{min(theirs) / min(entry["omnisim"]):.2f}×' if theirs else ''
         print(f'| {name} | {d} | {cell(entry["baseline"])} | {cell(entry["omnisim"])} | '
               f'{peer_names[d] if theirs else "none"} | {cell(theirs)} | {ratio} |')
+    for (name, d), ratios in round_ratios.items():
+        print(f'# {name} {d}: peer / omnisim by round (medians) {" ".join(f"{r:.2f}" for r in ratios)}; '
+              f'median {statistics.median(ratios):.2f}×')
 
 
 if __name__ == '__main__':

@@ -54,6 +54,11 @@ def main():
             "other writing",
         )
         counts[part] += 1
+        # Across the parts: page faults, and ext4's skipping of recently deleted inodes (a file
+        # system without a journal checks each free inode's deletion time before reusing it).
+        for name, label in (("exc_page_fault", "(page faults, any part)"), ("recently_deleted", "(recently_deleted)")):
+            if name in stack:
+                counts[label] += 1
     for part, samples in counts.most_common():
         print(f"{part:24s} {samples:6d} samples {samples / frames:6.2f} core-ms/frame")
 

@@ -1,11 +1,11 @@
 //! The names of a data-set folder's bookkeeping files, and their JSON and atomic I/O: the
 //! leaf every other part of the folder code reads.
 
-use std::io::{Cursor, Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::DatasetError;
-use omnisim::output::atomic::{self, Durability, FileStore, Sink, write_bytes_atomically};
+use omnisim::output::atomic::{self, Durability, EncodeBuffer, FileStore, Sink, write_bytes_atomically};
 
 /// The stamp's file name in a data-set folder.
 pub(crate) const STAMP: &str = ".omnisim-dataset.json";
@@ -52,20 +52,26 @@ pub(crate) struct SetFiles {
     /// Every file written or found unchanged, to be made durable.
     pub(crate) paths: Vec<PathBuf>,
     /// Reused by each file.
-    buffer: Vec<u8>,
+    buffer: EncodeBuffer,
 }
 
 impl SetFiles {
     /// Writes `bytes` to `path` as the type says.
     pub(crate) fn write(&mut self, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-        match found(path, bytes)? {
-            Found::Same => {}
-            Found::Other => write_bytes_atomically(path, Durability::Now, bytes)?,
-            Found::Missing => write_bytes_atomically(path, Durability::Deferred, bytes)?,
-        }
-        self.paths.push(path.to_path_buf());
-        Ok(())
+        write_kept(&mut self.paths, path, bytes)
     }
+}
+
+/// Writes `bytes` to `path` as [`SetFiles`] says, and keeps the path in `paths`. A free
+/// function so that `store` can borrow the path list and the encode buffer apart.
+fn write_kept(paths: &mut Vec<PathBuf>, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    match found(path, bytes)? {
+        Found::Same => {}
+        Found::Other => write_bytes_atomically(path, Durability::Now, bytes)?,
+        Found::Missing => write_bytes_atomically(path, Durability::Deferred, bytes)?,
+    }
+    paths.push(path.to_path_buf());
+    Ok(())
 }
 
 /// What sits at a set file's path, against the bytes a run would write there.
@@ -116,14 +122,7 @@ fn found(path: &Path, bytes: &[u8]) -> std::io::Result<Found> {
 
 impl FileStore for SetFiles {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        let mut encoded = Cursor::new(std::mem::take(&mut self.buffer));
-        encoded.get_mut().clear();
-        fill(&mut encoded)?;
-        encoded.flush()?;
-        let bytes = encoded.into_inner();
-        let written = self.write(path, &bytes);
-        self.buffer = bytes;
-        written
+        write_kept(&mut self.paths, path, self.buffer.encode(fill)?)
     }
 }
 

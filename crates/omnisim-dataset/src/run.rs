@@ -265,15 +265,20 @@ struct Pending {
 /// Files for one sync to make durable.
 #[derive(Default)]
 struct Unsynced {
-    /// The set files and `set.json`s (only until the first sync takes them).
-    set_files: Vec<PathBuf>,
-    /// Any other: entries, frame files.
-    others: Vec<PathBuf>,
+    /// Every file: first the set files and `set.json`s (until the first sync takes them),
+    /// then entries and frame files.
+    paths: Vec<PathBuf>,
+    /// How many of `paths` are set files.
+    set_files: usize,
 }
 
 impl Unsynced {
-    fn is_empty(&self) -> bool {
-        self.set_files.is_empty() && self.others.is_empty()
+    /// The set files and `set.json`s, to be made durable before anything vouches for them.
+    fn of_set_files(paths: Vec<PathBuf>) -> Self {
+        Self {
+            set_files: paths.len(),
+            paths,
+        }
     }
 
     /// Makes every file durable. Should that fail, removes the set files, best effort: after a
@@ -282,10 +287,9 @@ impl Unsynced {
     /// disk (its own sync, on a new handle, hears nothing of the old error); gone, they are
     /// written anew and synced before anything vouches for them.
     fn make_durable(&self, make_durable: MakeDurable, folder: &DurableFolder) -> std::io::Result<()> {
-        let files: Vec<PathBuf> = self.set_files.iter().chain(&self.others).cloned().collect();
-        let synced = make_durable(folder, &files);
+        let synced = make_durable(folder, &self.paths);
         if synced.is_err() {
-            for path in &self.set_files {
+            for path in &self.paths[..self.set_files] {
                 let _ = std::fs::remove_file(path);
             }
         }
@@ -306,10 +310,7 @@ impl Pending {
             frames: Vec::new(),
             bytes: 0,
             since: None,
-            unsynced: Unsynced {
-                set_files,
-                others: Vec::new(),
-            },
+            unsynced: Unsynced::of_set_files(set_files),
         }
     }
 
@@ -336,7 +337,9 @@ impl Pending {
         }
         frames.sort_by_key(|frame| (frame.set, frame.index));
         let mut files = std::mem::take(&mut self.unsynced);
-        (files.others).extend(frames.iter().flat_map(|frame| frame.files.iter().cloned()));
+        for frame in &mut frames {
+            files.paths.append(&mut frame.files);
+        }
         Some(Batch { frames, files })
     }
 
@@ -371,7 +374,7 @@ impl Pending {
                 .map(|()| Outcome::Written(frame.bytes))
                 .map_err(io(&frame.entry_path));
             if written.is_ok() {
-                self.unsynced.others.push(frame.entry_path);
+                self.unsynced.paths.push(frame.entry_path);
             }
             heard.frame(frame.set, frame.index, written);
         }
@@ -426,11 +429,7 @@ impl Dataset {
         for set in &self.sets {
             if let Err(error) = self.prepare_set(out, set, &mut set_files) {
                 // Best effort: the error is what the user hears.
-                let written = Unsynced {
-                    set_files: set_files.paths,
-                    others: Vec::new(),
-                };
-                let _ = written.make_durable(make_durable, &folder);
+                let _ = Unsynced::of_set_files(set_files.paths).make_durable(make_durable, &folder);
                 return Err(error);
             }
         }
@@ -547,16 +546,18 @@ impl Dataset {
             }
         });
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
+        // The entries written since the last batch, and the set files where no batch took
+        // them (not the frames of a pending or failed batch); after a failure, best effort
+        // for the next run, and the failure is what the user hears.
+        let synced = if pending.unsynced.paths.is_empty() {
+            Ok(())
+        } else {
+            pending.unsynced.make_durable(make_durable, &folder)
+        };
         if let Some(failure) = failure {
-            // Best effort, for the next run: the entries written since the last batch, and the
-            // set files where no batch took them (not the frames of a pending or failed batch).
-            let _ = pending.unsynced.make_durable(make_durable, &folder);
             return Err(failure);
         }
-        // The last entries, and the set files where no batch made them durable.
-        if !pending.unsynced.is_empty() {
-            pending.unsynced.make_durable(make_durable, &folder).map_err(io(out))?;
-        }
+        synced.map_err(io(out))?;
         summary.stopped = done < frames.len();
         if options.shard.is_none() && !summary.stopped {
             assemble(out, &[], &written)?;
@@ -579,7 +580,11 @@ impl Dataset {
             }
         }
         let scene = occluders::with_occluders(&self.scene, &set.occluders);
-        let paths = (self.spec.outputs).write_set_files(&mut PlainFolder(set_dir.clone()), store, &scene, &self.rig)?;
+        let mut folder = PlainFolder {
+            dir: set_dir.clone(),
+            store: &mut *store,
+        };
+        let paths = (self.spec.outputs).write_set_files(&mut folder, &scene, &self.rig)?;
         let files = paths
             .iter()
             .map(|path| file_entry(out, path, FileKind::Set))
@@ -730,7 +735,7 @@ mod tests {
             0,
             "no entry was written"
         );
-        assert!(pending.unsynced.is_empty());
+        assert!(pending.unsynced.paths.is_empty());
     }
 
     /// A failed sync heard after an earlier error (a full disk) is not dropped: it is the

@@ -1654,6 +1654,25 @@ fn a_failed_batch_sync_is_an_error_and_vouches_for_nothing() {
     assert_same(&snapshot(&reference), &snapshot(&out));
 }
 
+/// A run whose only batch fails its sync makes no other sync call: that batch took the set
+/// files and nothing was written after it (before, the failure path made one more call with
+/// an empty list: a `syncfs` of the whole file system on Linux).
+#[test]
+fn a_failed_run_with_nothing_left_unsynced_makes_no_more_sync_calls() {
+    let (_dir, dataset, out) = done_small_data_set();
+    // The last frame, so that its batch is the run's only one.
+    forget(&out, "night", 0);
+    let calls = std::sync::Mutex::new(Vec::new());
+    let sync = |_: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+        calls.lock().unwrap().push(files.len());
+        Err(std::io::Error::other("write-back failed"))
+    };
+    let error = failed_run(&dataset, &out, &sync);
+    assert!(error.contains("write-back failed"), "{error}");
+    let calls = calls.into_inner().unwrap();
+    assert!(calls.len() == 1 && calls[0] > 0, "files per sync call: {calls:?}");
+}
+
 /// A batch whose sync fails after the callback stopped the run is still the run's error
 /// (the end-of-run sync of the same handle would not report it again).
 #[test]

@@ -2,7 +2,6 @@
 //! it done once the run has made its files durable (`run.rs` does so for a batch of frames,
 //! then writes their entries).
 
-use std::io::{Cursor, Write};
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
@@ -16,7 +15,7 @@ use super::{Dataset, DatasetError, noise};
 use crate::files::entry_path;
 use omnisim::Rig;
 use omnisim::frame::Frame;
-use omnisim::output::atomic::{Durability, FileStore, Sink, write_bytes_atomically};
+use omnisim::output::atomic::{Durability, EncodeBuffer, FileStore, Sink, write_bytes_atomically};
 use omnisim::output::{self, Destination, FrameTarget, OutputError, SegmentObject};
 
 impl Dataset {
@@ -185,7 +184,7 @@ struct FrameFiles<'a> {
     /// What the files written next are.
     kind: FileKind,
     /// Reused by each file of the frame.
-    buffer: Vec<u8>,
+    buffer: EncodeBuffer,
     files: Vec<FileEntry>,
     paths: Vec<PathBuf>,
 }
@@ -196,7 +195,7 @@ impl<'a> FrameFiles<'a> {
             root,
             dir,
             kind: FileKind::GroundTruth,
-            buffer: Vec::new(),
+            buffer: EncodeBuffer::default(),
             files: Vec::new(),
             paths: Vec::new(),
         }
@@ -205,21 +204,15 @@ impl<'a> FrameFiles<'a> {
 
 impl FileStore for FrameFiles<'_> {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        let mut buffer = std::mem::take(&mut self.buffer);
-        buffer.clear();
-        let mut encoded = Cursor::new(buffer);
-        fill(&mut encoded)?;
-        encoded.flush()?;
-        let bytes = encoded.into_inner();
-        write_bytes_atomically(path, Durability::Deferred, &bytes)?;
+        let bytes = self.buffer.encode(fill)?;
+        write_bytes_atomically(path, Durability::Deferred, bytes)?;
         self.files.push(FileEntry {
             path: relative(self.root, path),
             kind: self.kind,
             bytes: bytes.len() as u64,
-            sha256: sha256_hex(&bytes),
+            sha256: sha256_hex(bytes),
         });
         self.paths.push(path.to_path_buf());
-        self.buffer = bytes;
         Ok(())
     }
 }

@@ -81,13 +81,13 @@ impl FourierSignature {
         self.values.iter().map(|v| v.norm() as f32).collect()
     }
 
-    /// arg A[n][k] in (−π, π], row-major; 0 for a coefficient that is exactly zero, whatever
-    /// the signs of its zeros (the real transform leaves −0 where a complex one left +0, and
-    /// `atan2(−0, +0)` is −0).
+    /// arg A[n][k] in (−π, π], row-major, whatever the signs of a coefficient's zeros (the
+    /// real transform leaves −0 where a complex one left +0): a real negative coefficient has
+    /// phase +π (`atan2(−0, x < 0)` is −π), and one that is exactly zero has +0.
     pub fn phases(&self) -> Vec<f32> {
-        self.values
-            .iter()
-            .map(|v| if *v == C64::default() { 0.0 } else { v.arg() as f32 })
+        // Adding +0 turns −0 into +0 and leaves every other value as it is.
+        (self.values.iter())
+            .map(|v| (v.im + 0.0).atan2(v.re + 0.0) as f32)
             .collect()
     }
 
@@ -136,6 +136,29 @@ mod tests {
             })
             .collect();
         Raster::from_vec(width, height, 1, data).unwrap()
+    }
+
+    /// A real negative coefficient has phase +π whatever its imaginary zero's sign: −π lies
+    /// outside (−π, π]. Built by hand: the real transform left +0 in the one case tried (the
+    /// Nyquist bin of a row alternating 0, 1), which gave +π before the fix too.
+    #[test]
+    fn phases_of_negative_real_coefficients_are_plus_pi() {
+        let pi = std::f32::consts::PI;
+        let signature = FourierSignature {
+            rows: 1,
+            coefficients: 4,
+            width: 6,
+            values: vec![
+                C64::new(-2.0, -0.0),
+                C64::new(-2.0, 0.0),
+                C64::new(-0.0, -0.0),
+                C64::new(0.0, -1.0),
+            ],
+        };
+        let phases = signature.phases();
+        assert_eq!(phases[..2], [pi, pi]);
+        assert_eq!(phases[2].to_bits(), 0.0f32.to_bits());
+        assert_eq!(phases[3], -pi / 2.0, "a nonzero imaginary part keeps its sign");
     }
 
     /// Whole-column shifts keep the magnitudes and are recovered exactly from the phases.

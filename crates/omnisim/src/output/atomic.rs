@@ -9,7 +9,7 @@
 //! that shards on other machines, sharing the folder, are writing.
 
 use std::fs::File;
-use std::io::{BufWriter, Seek, Write};
+use std::io::{BufWriter, Cursor, Seek, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
@@ -207,6 +207,26 @@ pub trait FileStore {
     /// before it is renamed into place ([`write_atomically`]).
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
         write_atomically(path, |out| fill(out))
+    }
+}
+
+impl<T: FileStore> FileStore for &mut T {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        (**self).store(path, fill)
+    }
+}
+
+/// Memory a store encodes each file into before writing it in one call (and hashing or
+/// comparing it there), reused from one file to the next.
+#[derive(Debug, Default)]
+pub struct EncodeBuffer(Vec<u8>);
+
+impl EncodeBuffer {
+    /// The bytes `fill` writes, in this buffer (emptied first).
+    pub fn encode(&mut self, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<&[u8]> {
+        self.0.clear();
+        fill(&mut Cursor::new(&mut self.0))?;
+        Ok(&self.0)
     }
 }
 

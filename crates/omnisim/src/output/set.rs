@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::atomic::{FileStore, Synced, write_atomically};
+use super::atomic::{FileStore, Sink, Synced, write_atomically};
 use super::folder::RunFolder;
 use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed};
 use crate::calibration;
@@ -113,9 +113,10 @@ impl FrameTarget<'_> {
 }
 
 /// Where an output set writes: a render's [`RunFolder`], which records each file before it is
-/// written, or a [`PlainFolder`] whose owner keeps its own records; each syncs every file as
-/// it writes it. A data set's frames go to a store of its own (hashing each file as it is
-/// written, syncing a batch of frames at once).
+/// written and syncs it as it writes it, or a [`PlainFolder`] whose store keeps its own
+/// records (a data set's set files: unchanged ones left alone, a batch synced at once). A
+/// data set's frames go to a destination of its own (hashing each file as it is written,
+/// syncing a batch of frames at once).
 pub trait Destination: FileStore {
     /// The folder the files go to.
     fn dir(&self) -> &Path;
@@ -135,19 +136,28 @@ impl Destination for RunFolder {
     }
 }
 
-/// A folder files are written into as they are named.
-#[derive(Debug, Clone)]
-pub struct PlainFolder(pub PathBuf);
+/// A folder files are written into as they are named, through `store`.
+#[derive(Debug)]
+pub struct PlainFolder<S> {
+    /// The folder.
+    pub dir: PathBuf,
+    /// What writes each file (and keeps what its owner records of it).
+    pub store: S,
+}
 
-impl FileStore for PlainFolder {}
+impl<S: FileStore> FileStore for PlainFolder<S> {
+    fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
+        self.store.store(path, fill)
+    }
+}
 
-impl Destination for PlainFolder {
+impl<S: FileStore> Destination for PlainFolder<S> {
     fn dir(&self) -> &Path {
-        &self.0
+        &self.dir
     }
 
     fn claim(&mut self, name: String) -> Result<PathBuf, OutputError> {
-        Ok(self.0.join(name))
+        Ok(self.dir.join(name))
     }
 }
 
@@ -332,21 +342,20 @@ impl OutputSet {
         Ok(FrameMetadata::new(target.index, target.stem(), target.pose, files))
     }
 
-    /// Writes the files of a set of frames that are not per frame, claimed in `folder` and
-    /// written through `store`: calibration in the formats robotics tools read, the ray maps
-    /// of each view (origin and direction files) and the segmentation legend (if asked for).
+    /// Writes the files of a set of frames that are not per frame into `folder`: calibration
+    /// in the formats robotics tools read, the ray maps of each view (origin and direction
+    /// files) and the segmentation legend (if asked for).
     /// Returns their paths.
     pub fn write_set_files(
         &self,
         folder: &mut impl Destination,
-        store: &mut impl FileStore,
         scene: &Scene,
         rig: &Rig,
     ) -> Result<Vec<PathBuf>, OutputError> {
         let mut written = Vec::new();
         for (name, text) in calibration_files(rig) {
             let path = folder.claim(name)?;
-            store
+            folder
                 .store(&path, |file| file.write_all(text.as_bytes()))
                 .map_err(failed(&path))?;
             written.push(path);
@@ -354,12 +363,12 @@ impl OutputSet {
         for view in rig.views() {
             let [origin, direction] = super::ray_map_names(view.suffix);
             let (origin, direction) = (folder.claim(origin)?, folder.claim(direction)?);
-            super::write_ray_map_exrs(store, &origin, &direction, &view.camera)?;
+            super::write_ray_map_exrs(folder, &origin, &direction, &view.camera)?;
             written.extend([origin, direction]);
         }
         if self.segmentation {
             let legend_path = folder.claim("segmentation.json".into())?;
-            write_json(store, &legend_path, &super::SegmentationLegend::of(scene))?;
+            write_json(folder, &legend_path, &super::SegmentationLegend::of(scene))?;
             written.push(legend_path);
         }
         Ok(written)
@@ -374,7 +383,7 @@ impl OutputSet {
         rig: &Rig,
         metadata: &RenderMetadata,
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let mut written = self.write_set_files(folder, &mut Synced, scene, rig)?;
+        let mut written = self.write_set_files(folder, scene, rig)?;
         let poses_path = Destination::claim(folder, "poses.txt".into())?;
         write_atomically(&poses_path, |out| {
             writeln!(
