@@ -143,6 +143,12 @@ pub(crate) trait Wide: Lanes {
     fn load(values: &[f32]) -> Self;
     /// Lane `k` (below eight).
     fn lane(self, k: usize) -> f32;
+    /// The eight lanes in order.
+    fn to_array(self) -> [f32; 8];
+    /// Lane i from `self` where bit i of `lanes` is set, else from `other`.
+    fn keep(self, lanes: u32, other: Self) -> Self;
+    /// The lanes whose sign bit is set (−0 included), bit i for lane i.
+    fn sign_bits(self) -> u32;
 }
 
 impl Wide for Lanes8 {
@@ -154,6 +160,23 @@ impl Wide for Lanes8 {
     #[inline(always)]
     fn lane(self, k: usize) -> f32 {
         self.0[k / 4][k % 4]
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f32; 8] {
+        let ([a, b, c, d], [e, f, g, h]) = (self.0[0].to_array(), self.0[1].to_array());
+        [a, b, c, d, e, f, g, h]
+    }
+    #[inline(always)]
+    fn keep(self, lanes: u32, other: Self) -> Self {
+        let half = |h: usize| {
+            let bit = |k: usize| lanes >> (4 * h + k) & 1 != 0;
+            Vec4::select(glam::BVec4A::new(bit(0), bit(1), bit(2), bit(3)), self.0[h], other.0[h])
+        };
+        Self([half(0), half(1)])
+    }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        self.0[0].is_negative_bitmask() | self.0[1].is_negative_bitmask() << 4
     }
 }
 
@@ -170,8 +193,9 @@ mod avx {
 
     use std::arch::x86_64::{
         __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtss_f32, _mm256_add_ps, _mm256_and_ps,
-        _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
-        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_and_si256, _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_castsi256_ps, _mm256_cmp_ps,
+        _mm256_cmpeq_epi32, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps,
+        _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_storeu_ps,
         _mm256_sub_ps, _mm256_xor_ps,
     };
     use std::ops::{Add, Mul, Neg, Sub};
@@ -248,6 +272,25 @@ mod avx {
                 let picked = _mm256_permutevar8x32_ps(self.0, _mm256_set1_epi32(k as i32));
                 _mm_cvtss_f32(_mm256_castps256_ps128(picked))
             }
+        }
+        #[inline(always)]
+        fn to_array(self) -> [f32; 8] {
+            let mut values = [0.0; 8];
+            unsafe { _mm256_storeu_ps(values.as_mut_ptr(), self.0) };
+            values
+        }
+        #[inline(always)]
+        fn keep(self, lanes: u32, other: Self) -> Self {
+            // Lane i's bit of `lanes` spread to a whole-lane mask: (lanes & 2^i) == 2^i.
+            unsafe {
+                let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let chosen = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(lanes as i32), bits), bits);
+                Self(_mm256_blendv_ps(other.0, self.0, _mm256_castsi256_ps(chosen)))
+            }
+        }
+        #[inline(always)]
+        fn sign_bits(self) -> u32 {
+            unsafe { _mm256_movemask_ps(self.0) as u32 }
         }
     }
 }

@@ -66,6 +66,9 @@ pub(crate) struct PacketRays<W> {
     /// Per axis, whether some ray's direction has its sign bit set: all of them do where the
     /// packet's rays share their signs, as the walk asks (`PacketBounds::same_signs`).
     pub(crate) negative: [bool; 3],
+    /// Per axis, the rays given to [`PacketRays::new`] whose f32 direction has its sign bit
+    /// set (−0 included), bit r for ray r.
+    negative_rays: [u64; 3],
     pub(crate) bounds: PacketBounds,
 }
 
@@ -91,7 +94,9 @@ impl PacketBounds {
 
 impl<W: Wide> PacketRays<W> {
     /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`, at
-    /// least one (the others are zero and must stay masked); `scene_extent` as for [`LaneRay::new`].
+    /// least one (the others are zero and must stay masked), their bounds those of all of
+    /// `active` (narrowed to fewer rays by [`PacketRays::narrow_to`]); `scene_extent` as for
+    /// [`LaneRay::new`].
     /// Always inlined: called from the walk compiled with AVX2, it must be compiled there too
     /// (out of line it is built for the baseline CPU, its lane intrinsics become calls, and an
     /// env1 omni image took 7 % more instructions).
@@ -104,10 +109,9 @@ impl<W: Wide> PacketRays<W> {
         let mut error = [0.0f32; PACKET];
         let mut t_lo = [0.0f32; PACKET];
         let mut inverse_lanes = [[0.0f32; PACKET]; 3];
-        let (mut origin_min, mut origin_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        let (mut direction_min, mut direction_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        // Per axis, whether some direction has its sign bit set, and whether some has it clear.
-        let (mut negative, mut positive) = ([false; 3], [false; 3]);
+        // Each ray converted once, whatever octants the packet spans; its bounds, signs and
+        // octants are then found eight lanes at a time (`narrow_to`, `octants`): per ray and
+        // axis they cost more than the conversion (callgrind: docs/benchmarks.md).
         let mut rest = active;
         while rest != 0 {
             let r = rest.trailing_zeros() as usize;
@@ -122,15 +126,87 @@ impl<W: Wide> PacketRays<W> {
             }
             error[r] = position_error(o, scene_extent);
             t_lo[r] = self::t_lo(t_min);
-            origin_min = origin_min.min(o);
-            origin_max = origin_max.max(o);
-            direction_min = direction_min.min(d);
-            direction_max = direction_max.max(d);
+        }
+        // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
+        // loads became calls, and the arrays were copied: callgrind, env1-lit omni).
+        let zero = W::splat(0.0);
+        let mut batches = [RayLanes {
+            origin: [zero; 3],
+            direction: [zero; 3],
+            position_error: zero,
+        }; BATCHES];
+        let (mut t_lo_lanes, mut inverse) = ([zero; BATCHES], [[zero; 3]; BATCHES]);
+        let mut sign_bits = [0u64; 3];
+        for b in 0..BATCHES {
+            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
             for axis in 0..3 {
-                negative[axis] |= d[axis].is_sign_negative();
-                positive[axis] |= !d[axis].is_sign_negative();
+                batches[b].origin[axis] = batch(&origin[axis]);
+                batches[b].direction[axis] = batch(&direction[axis]);
+                inverse[b][axis] = batch(&inverse_lanes[axis]);
+                sign_bits[axis] |= u64::from(batches[b].direction[axis].sign_bits()) << (8 * b);
+            }
+            batches[b].position_error = batch(&error);
+            t_lo_lanes[b] = batch(&t_lo);
+        }
+        let mut packet = Self {
+            batches,
+            t_lo: t_lo_lanes,
+            inverse,
+            negative_rays: sign_bits.map(|bits| bits & active),
+            origin_radius: 0.0,
+            spread: 0.0,
+            negative: [false; 3],
+            bounds: PacketBounds {
+                origin_min: Vec3::ZERO,
+                origin_max: Vec3::ZERO,
+                inverse_min: Vec3::ZERO,
+                inverse_max: Vec3::ZERO,
+            },
+        };
+        packet.narrow_to(active);
+        packet
+    }
+
+    /// The rays given to [`PacketRays::new`] by the octant of their f32 direction (sign bits,
+    /// −0 negative): bit r of entry k where ray r's x, y, z signs are k's bits 0, 1, 2.
+    #[inline(always)]
+    pub(crate) fn octants(&self, active: u64) -> [u64; 8] {
+        let [x, y, z] = self.negative_rays;
+        let mut octants = [0u64; 8];
+        for (k, octant) in octants.iter_mut().enumerate() {
+            let side = |negative: u64, bit: usize| if k >> bit & 1 != 0 { negative } else { !negative };
+            *octant = active & side(x, 0) & side(y, 1) & side(z, 2);
+        }
+        octants
+    }
+
+    /// Sets the packet's bounds, footprint and signs to those of the rays of `rays_in` (some
+    /// of those given to [`PacketRays::new`], at least one): the rays a walk takes part in.
+    #[inline(always)]
+    pub(crate) fn narrow_to(&mut self, rays_in: u64) {
+        debug_assert!(rays_in != 0, "a packet without rays");
+        let (low, high) = (W::splat(f32::INFINITY), W::splat(f32::NEG_INFINITY));
+        let (mut origin_min, mut origin_max) = ([low; 3], [high; 3]);
+        let (mut direction_min, mut direction_max) = ([low; 3], [high; 3]);
+        for b in 0..BATCHES {
+            let lanes = (rays_in >> (8 * b)) as u32 & 0xff;
+            if lanes == 0 {
+                continue;
+            }
+            let batch = &self.batches[b];
+            for axis in 0..3 {
+                let (o, d) = (batch.origin[axis], batch.direction[axis]);
+                origin_min[axis] = origin_min[axis].min(o.keep(lanes, low));
+                origin_max[axis] = origin_max[axis].max(o.keep(lanes, high));
+                direction_min[axis] = direction_min[axis].min(d.keep(lanes, low));
+                direction_max[axis] = direction_max[axis].max(d.keep(lanes, high));
             }
         }
+        let (origin_min, origin_max) = (across(&origin_min, f32::min), across(&origin_max, f32::max));
+        let (direction_min, direction_max) = (across(&direction_min, f32::min), across(&direction_max, f32::max));
+        // Per axis, whether some direction has its sign bit set, and whether some has it clear.
+        let negative = self.negative_rays.map(|bits| bits & rays_in != 0);
+        let positive = self.negative_rays.map(|bits| !bits & rays_in != 0);
         // `safe_inverse` does not increase over either sign's directions (±0 included), so on
         // an axis where all share a sign the extreme directions give the extreme inverses
         // without a division per ray; with both signs, every inverse obvhs can return.
@@ -145,44 +221,19 @@ impl<W: Wide> PacketRays<W> {
         // The directions' box, half its diagonal: at least the chord from its centre to any
         // direction, so about the sine of the packet's half-angle (only a heuristic reads it).
         let chord = (direction_max - direction_min).length() / 2.0;
-        let spread = if chord < 0.99 {
+        self.spread = if chord < 0.99 {
             chord / (1.0 - chord * chord).sqrt()
         } else {
             f32::INFINITY
         };
-        // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
-        // loads became calls, and the arrays were copied: callgrind, env1-lit omni).
-        let zero = W::splat(0.0);
-        let mut batches = [RayLanes {
-            origin: [zero; 3],
-            direction: [zero; 3],
-            position_error: zero,
-        }; BATCHES];
-        let (mut t_lo_lanes, mut inverse) = ([zero; BATCHES], [[zero; 3]; BATCHES]);
-        for b in 0..BATCHES {
-            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
-            for axis in 0..3 {
-                batches[b].origin[axis] = batch(&origin[axis]);
-                batches[b].direction[axis] = batch(&direction[axis]);
-                inverse[b][axis] = batch(&inverse_lanes[axis]);
-            }
-            batches[b].position_error = batch(&error);
-            t_lo_lanes[b] = batch(&t_lo);
-        }
-        Self {
-            batches,
-            t_lo: t_lo_lanes,
-            inverse,
-            origin_radius: (origin_max - origin_min).length() / 2.0,
-            spread,
-            negative,
-            bounds: PacketBounds {
-                origin_min,
-                origin_max,
-                inverse_min,
-                inverse_max,
-            },
-        }
+        self.origin_radius = (origin_max - origin_min).length() / 2.0;
+        self.negative = negative;
+        self.bounds = PacketBounds {
+            origin_min,
+            origin_max,
+            inverse_min,
+            inverse_max,
+        };
     }
 
     /// Ray r as [`LaneRay::new`] and [`t_lo`] make it, for a single-ray walk of a subtree: the
@@ -203,6 +254,18 @@ impl<W: Wide> PacketRays<W> {
         };
         (ray, self.t_lo[b].lane(k))
     }
+}
+
+/// Per axis, `pick` over the eight lanes (the minimum or maximum of a packet's rays). A
+/// function, not a closure or `array::map`, for the reason given at [`splat_lane`].
+#[inline(always)]
+fn across<W: Wide>(axes: &[W; 3], pick: fn(f32, f32) -> f32) -> Vec3 {
+    let reduce = |lanes: [f32; 8]| lanes.into_iter().reduce(pick).unwrap_or_default();
+    Vec3::new(
+        reduce(axes[0].to_array()),
+        reduce(axes[1].to_array()),
+        reduce(axes[2].to_array()),
+    )
 }
 
 /// Lane k of each axis, spread over a single ray's four lanes. A function, not a closure or
@@ -233,27 +296,129 @@ mod tests {
             .collect()
     }
 
+    use rand::{Rng, SeedableRng, rngs::StdRng};
+
+    /// A packet of random rays: directions with signed-zero and tiny components, origins up
+    /// to 1,500 from the origin (beyond the extents the tests draw, 1 to 1,000).
+    fn random_rays(rng: &mut StdRng) -> [(DVec3, DVec3, f64); PACKET] {
+        std::array::from_fn(|_| {
+            let mut direction = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0)));
+            match rng.random_range(0..8) {
+                0 => direction[rng.random_range(0..3)] = 0.0,
+                1 => direction[rng.random_range(0..3)] = -0.0,
+                2 => direction[rng.random_range(0..3)] = -1e-9,
+                3 => direction[rng.random_range(0..3)] = 1e-9,
+                _ => {}
+            }
+            let origin = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1500.0..1500.0)));
+            (origin, direction.normalize(), rng.random_range(0.0..0.01))
+        })
+    }
+
+    /// What a packet narrowed to the rays of `rays_in` says of them: its bounds, footprint,
+    /// signs, as bits.
+    fn narrowed_bits<W: Wide>(packet: &mut PacketRays<W>, rays_in: u64) -> Vec<u32> {
+        packet.narrow_to(rays_in);
+        let b = &packet.bounds;
+        [b.origin_min, b.origin_max, b.inverse_min, b.inverse_max]
+            .iter()
+            .flat_map(Vec3::to_array)
+            .chain([packet.spread, packet.origin_radius])
+            .map(f32::to_bits)
+            .chain(packet.negative.map(u32::from))
+            .collect()
+    }
+
+    /// A packet's octants and, narrowed to each, its bounds: [`narrowed_bits`] of the packet
+    /// made of all of `active`, then of a packet made of the octant's rays alone.
+    #[inline(always)]
+    fn octant_bounds<W: Wide>(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        let mut packet = PacketRays::<W>::new(rays, active, 10.0);
+        let octants = packet.octants(active);
+        octants
+            .into_iter()
+            .filter(|&rays_in| rays_in != 0)
+            .map(|rays_in| {
+                let alone = narrowed_bits(&mut PacketRays::<W>::new(rays, rays_in, 10.0), rays_in);
+                (rays_in, narrowed_bits(&mut packet, rays_in), alone)
+            })
+            .collect()
+    }
+
+    /// [`octant_bounds`] on the AVX lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn octant_bounds_avx(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        octant_bounds::<crate::trace::fast::lanes::Avx8>(rays, active)
+    }
+
+    /// A packet's octants hold each of its rays once, by the sign bits of its f32 direction
+    /// (−0 negative); narrowed to an octant, the packet's origin and inverse-direction bounds
+    /// are the extremes of those rays' own (`LaneRay::new`'s), its signs theirs, and all it
+    /// says (footprint included) is what a packet of those rays alone says. Portable lanes
+    /// and, where the CPU has AVX2, AVX ones (the same answers).
+    #[test]
+    fn a_packet_narrowed_to_an_octant_bounds_its_rays_alone() {
+        let mut rng = StdRng::seed_from_u64(9);
+        let mut split = 0;
+        for _ in 0..300 {
+            let rays = random_rays(&mut rng);
+            let active = rng.random::<u64>() | 1;
+            let portable = octant_bounds::<crate::trace::fast::lanes::Lanes8>(&rays, active);
+            assert_eq!(portable.iter().fold(0, |all, (rays_in, ..)| all | rays_in), active);
+            assert_eq!(
+                portable.iter().map(|(rays_in, ..)| rays_in.count_ones()).sum::<u32>(),
+                active.count_ones()
+            );
+            split += usize::from(portable.len() > 1);
+            for (rays_in, narrowed, alone) in &portable {
+                assert_eq!(narrowed, alone, "octant {rays_in:#x}");
+                let singles: Vec<_> = (0..PACKET)
+                    .filter(|r| rays_in >> r & 1 == 1)
+                    .map(|r| {
+                        (
+                            rays[r].0.as_vec3(),
+                            rays[r].1.as_vec3(),
+                            LaneRay::new(rays[r].0, rays[r].1, 10.0),
+                        )
+                    })
+                    .collect();
+                let inverse = |(_, _, ray): &(Vec3, Vec3, LaneRay)| Vec3::from_array(ray.inv_direction.map(|v| v.x));
+                let extreme = |values: Vec<Vec3>| {
+                    let low = values.iter().fold(Vec3::INFINITY, |m, &v| m.min(v));
+                    let high = values.iter().fold(Vec3::NEG_INFINITY, |m, &v| m.max(v));
+                    [low, high].iter().flat_map(Vec3::to_array).collect::<Vec<_>>()
+                };
+                let origins = extreme(singles.iter().map(|s| s.0).collect());
+                let inverses = extreme(singles.iter().map(inverse).collect());
+                let got = |k: usize| f32::from_bits(narrowed[k]);
+                for axis in 0..3 {
+                    let signs: Vec<bool> = singles.iter().map(|s| s.1[axis].is_sign_negative()).collect();
+                    assert!(signs.iter().all(|&n| n == signs[0]), "octant {rays_in:#x}: mixed signs");
+                    assert_eq!(narrowed[14 + axis], u32::from(signs[0]), "octant {rays_in:#x}: sign");
+                    assert_eq!(got(axis), origins[axis], "origin min");
+                    assert_eq!(got(3 + axis), origins[3 + axis], "origin max");
+                    assert_eq!(got(6 + axis), inverses[axis], "inverse min");
+                    assert_eq!(got(9 + axis), inverses[3 + axis], "inverse max");
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: called only where the CPU has AVX2.
+                assert_eq!(unsafe { octant_bounds_avx(&rays, active) }, portable, "AVX lanes");
+            }
+        }
+        assert!(split > 250, "{split} packets over several octants");
+    }
+
     /// Ray r taken from a packet's lanes is the ray `LaneRay::new` and `t_lo` make, bit for
     /// bit: every lane of every batch, rays left out of the packet around it, signed-zero and
     /// tiny direction components, origins beyond the extent, on the portable lanes and (where the CPU has AVX2) the AVX ones.
     #[test]
     fn a_ray_taken_from_the_packet_is_the_single_rays_own() {
-        use rand::{Rng, SeedableRng, rngs::StdRng};
         let mut rng = StdRng::seed_from_u64(3);
         for _ in 0..200 {
-            let rays: [(DVec3, DVec3, f64); PACKET] = std::array::from_fn(|_| {
-                let mut direction = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0)));
-                match rng.random_range(0..8) {
-                    0 => direction[rng.random_range(0..3)] = 0.0,
-                    1 => direction[rng.random_range(0..3)] = -0.0,
-                    2 => direction[rng.random_range(0..3)] = -1e-9,
-                    3 => direction[rng.random_range(0..3)] = 1e-9,
-                    _ => {}
-                }
-                // Origins reach 1,500 against extents of 1 to 1,000: some lie beyond the extent.
-                let origin = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1500.0..1500.0)));
-                (origin, direction.normalize(), rng.random_range(0.0..0.01))
-            });
+            let rays = random_rays(&mut rng);
             let active = rng.random::<u64>() | 1;
             let extent = rng.random_range(1.0..1000.0);
             let portable = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&rays, active, extent);
