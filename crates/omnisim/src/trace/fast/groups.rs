@@ -37,6 +37,13 @@ pub(crate) fn position_error(origin: glam::Vec3, scene_extent: f32) -> f32 {
     ERROR_ULPS * (1.0 + origin.abs().max_element().max(scene_extent))
 }
 
+/// [`position_error`] of eight rays from `origin` at once (the same operations lane by lane).
+#[inline(always)]
+pub(crate) fn position_errors<L: Lanes>(origin: &[L; 3], scene_extent: f32) -> L {
+    let largest = origin[0].abs().max(origin[1].abs()).max(origin[2].abs());
+    L::splat(ERROR_ULPS) * (L::splat(1.0) + largest.max(L::splat(scene_extent)))
+}
+
 impl TriangleGroup {
     /// Lanes whose triangle the f64 test might hit at a distance in (`t_lo`, `t_hi`) along
     /// `ray` (broadcast to four lanes): [`filter`] for four triangles.

@@ -5,15 +5,17 @@
 //! same IEEE single-precision operations in the same order either way, so a (ray, triangle)
 //! pair gets the same answer bit for bit, whichever way it was batched.
 
-use std::ops::{Add, Mul, Neg, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use glam::Vec4;
 
 /// Lane-wise f32 arithmetic and comparisons returning bit masks (bit i for lane i).
 pub(crate) trait Lanes:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
     fn splat(value: f32) -> Self;
+    /// The absolute value (the sign bit cleared), as `f32::abs`.
+    fn abs(self) -> Self;
     /// 1 for positive (+0 included), −1 for negative (−0 included), as `f32::signum`.
     fn signum(self) -> Self;
     /// Lanes where `self > other` (ordered: false where either is NaN).
@@ -36,6 +38,10 @@ impl Lanes for Vec4 {
     #[inline(always)]
     fn signum(self) -> Self {
         Vec4::signum(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec4::abs(self)
     }
     #[inline(always)]
     fn greater(self, other: Self) -> u32 {
@@ -94,6 +100,7 @@ macro_rules! binary_op {
 binary_op!(Lanes8, Add, add, |a, b| a.zip(b, |x, y| x + y));
 binary_op!(Lanes8, Sub, sub, |a, b| a.zip(b, |x, y| x - y));
 binary_op!(Lanes8, Mul, mul, |a, b| a.zip(b, |x, y| x * y));
+binary_op!(Lanes8, Div, div, |a, b| a.zip(b, |x, y| x / y));
 
 impl Neg for Lanes8 {
     type Output = Self;
@@ -111,6 +118,10 @@ impl Lanes for Lanes8 {
     #[inline(always)]
     fn signum(self) -> Self {
         Self([self.0[0].signum(), self.0[1].signum()])
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Self([self.0[0].abs(), self.0[1].abs()])
     }
     #[inline(always)]
     fn greater(self, other: Self) -> u32 {
@@ -193,12 +204,12 @@ mod avx {
 
     use std::arch::x86_64::{
         __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtss_f32, _mm256_add_ps, _mm256_and_ps,
-        _mm256_and_si256, _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_castsi256_ps, _mm256_cmp_ps,
-        _mm256_cmpeq_epi32, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps,
-        _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_storeu_ps,
-        _mm256_sub_ps, _mm256_xor_ps,
+        _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_castsi256_ps,
+        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
+        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32, _mm256_set1_ps,
+        _mm256_setr_epi32, _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
     };
-    use std::ops::{Add, Mul, Neg, Sub};
+    use std::ops::{Add, Div, Mul, Neg, Sub};
 
     use super::{Lanes, Wide};
 
@@ -211,6 +222,7 @@ mod avx {
     binary_op!(Avx8, Add, add, |a, b| Avx8(unsafe { _mm256_add_ps(a.0, b.0) }));
     binary_op!(Avx8, Sub, sub, |a, b| Avx8(unsafe { _mm256_sub_ps(a.0, b.0) }));
     binary_op!(Avx8, Mul, mul, |a, b| Avx8(unsafe { _mm256_mul_ps(a.0, b.0) }));
+    binary_op!(Avx8, Div, div, |a, b| Avx8(unsafe { _mm256_div_ps(a.0, b.0) }));
 
     impl Neg for Avx8 {
         type Output = Self;
@@ -233,6 +245,10 @@ mod avx {
                 let nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(self.0, self.0);
                 Self(_mm256_blendv_ps(one, self.0, nan))
             }
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            Self(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
         }
         #[inline(always)]
         fn greater(self, other: Self) -> u32 {

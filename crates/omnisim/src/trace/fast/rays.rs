@@ -6,7 +6,7 @@ use glam::{DVec3, Vec3, Vec3A, Vec4};
 use obvhs::ray::safe_inverse;
 
 use super::PACKET;
-use super::groups::{RayLanes, position_error};
+use super::groups::{RayLanes, position_error, position_errors};
 use super::lanes::Wide;
 
 /// A ray broadcast to four lanes, for the single-ray walk.
@@ -46,6 +46,13 @@ fn inverse(direction: Vec3) -> Vec3 {
     Vec3::from(Vec3A::select(tiny, d.signum() / f32::EPSILON, Vec3A::ONE / d))
 }
 
+/// [`inverse`] of eight direction components at once (the same operations lane by lane).
+#[inline(always)]
+fn inverses<W: Wide>(d: W) -> W {
+    let tiny = d.abs().not_greater(W::splat(f32::EPSILON));
+    (d.signum() / W::splat(f32::EPSILON)).keep(tiny, W::splat(1.0) / d)
+}
+
 /// Batches of eight rays in a packet.
 pub(crate) const BATCHES: usize = PACKET / 8;
 
@@ -69,6 +76,9 @@ pub(crate) struct PacketRays<W> {
     /// Per axis, the rays given to [`PacketRays::new`] whose f32 direction has its sign bit
     /// set (−0 included), bit r for ray r.
     negative_rays: [u64; 3],
+    /// The rays given to [`PacketRays::new`] (the other lanes hold zero origins and
+    /// directions).
+    given: u64,
     pub(crate) bounds: PacketBounds,
 }
 
@@ -106,25 +116,21 @@ impl<W: Wide> PacketRays<W> {
         debug_assert!(active != 0, "a packet without rays");
         let mut origin = [[0.0f32; PACKET]; 3];
         let mut direction = [[0.0f32; PACKET]; 3];
-        let mut error = [0.0f32; PACKET];
         let mut t_lo = [0.0f32; PACKET];
-        let mut inverse_lanes = [[0.0f32; PACKET]; 3];
-        // Each ray converted once, whatever octants the packet spans; its bounds, signs and
-        // octants are then found eight lanes at a time (`narrow_to`, `octants`): per ray and
-        // axis they cost more than the conversion (callgrind: docs/benchmarks.md).
+        // Each ray converted once, whatever octants the packet spans; all else (inverses,
+        // error bounds, and the bounds, signs and octants of `narrow_to` and `octants`) is
+        // found eight lanes at a time: per ray and axis it cost more than the conversion
+        // (callgrind: docs/benchmarks.md).
         let mut rest = active;
         while rest != 0 {
             let r = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let (o, d, t_min) = rays[r];
             let (o, d) = (o.as_vec3(), d.as_vec3());
-            let inv = inverse(d);
             for axis in 0..3 {
                 origin[axis][r] = o[axis];
                 direction[axis][r] = d[axis];
-                inverse_lanes[axis][r] = inv[axis];
             }
-            error[r] = position_error(o, scene_extent);
             t_lo[r] = self::t_lo(t_min);
         }
         // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
@@ -142,10 +148,10 @@ impl<W: Wide> PacketRays<W> {
             for axis in 0..3 {
                 batches[b].origin[axis] = batch(&origin[axis]);
                 batches[b].direction[axis] = batch(&direction[axis]);
-                inverse[b][axis] = batch(&inverse_lanes[axis]);
+                inverse[b][axis] = inverses(batches[b].direction[axis]);
                 sign_bits[axis] |= u64::from(batches[b].direction[axis].sign_bits()) << (8 * b);
             }
-            batches[b].position_error = batch(&error);
+            batches[b].position_error = position_errors(&batches[b].origin, scene_extent);
             t_lo_lanes[b] = batch(&t_lo);
         }
         let mut packet = Self {
@@ -153,6 +159,7 @@ impl<W: Wide> PacketRays<W> {
             t_lo: t_lo_lanes,
             inverse,
             negative_rays: sign_bits.map(|bits| bits & active),
+            given: active,
             origin_radius: 0.0,
             spread: 0.0,
             negative: [false; 3],
@@ -243,7 +250,7 @@ impl<W: Wide> PacketRays<W> {
     pub(crate) fn single(&self, r: usize) -> (LaneRay, f32) {
         let (b, k) = (r / 8, r % 8);
         let batch = &self.batches[b];
-        debug_assert!(self.inverse[b][0].lane(k) != 0.0, "ray {r} is not in the packet");
+        debug_assert!(self.given >> r & 1 != 0, "ray {r} is not in the packet");
         let ray = LaneRay {
             lanes: RayLanes {
                 origin: splat_lane(&batch.origin, k),
