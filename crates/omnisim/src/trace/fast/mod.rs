@@ -170,7 +170,7 @@ fn walk_packet<W: Wide>(
     // Each ray is converted once (`PacketRays::new`); a packet of several octants is narrowed
     // to each in turn.
     let mut packet = PacketRays::<W>::new(rays, active, bvh.wide.extent);
-    for rays_in in packet.octants(active).into_iter().filter(|&rays_in| rays_in != 0) {
+    for rays_in in packet.octants().into_iter().filter(|&rays_in| rays_in != 0) {
         if rays_in != active {
             packet.narrow_to(rays_in);
         }

@@ -104,7 +104,7 @@ impl PacketBounds {
 
 impl<W: Wide> PacketRays<W> {
     /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`, at
-    /// least one (the others are zero and must stay masked), their bounds those of all of
+    /// least one (the other lanes hold zero rays and must stay masked), their bounds those of all of
     /// `active` (narrowed to fewer rays by [`PacketRays::narrow_to`]); `scene_extent` as for
     /// [`LaneRay::new`].
     /// Always inlined: called from the walk compiled with AVX2, it must be compiled there too
@@ -177,12 +177,12 @@ impl<W: Wide> PacketRays<W> {
     /// The rays given to [`PacketRays::new`] by the octant of their f32 direction (sign bits,
     /// −0 negative): bit r of entry k where ray r's x, y, z signs are k's bits 0, 1, 2.
     #[inline(always)]
-    pub(crate) fn octants(&self, active: u64) -> [u64; 8] {
+    pub(crate) fn octants(&self) -> [u64; 8] {
         let [x, y, z] = self.negative_rays;
         let mut octants = [0u64; 8];
         for (k, octant) in octants.iter_mut().enumerate() {
             let side = |negative: u64, bit: usize| if k >> bit & 1 != 0 { negative } else { !negative };
-            *octant = active & side(x, 0) & side(y, 1) & side(z, 2);
+            *octant = self.given & side(x, 0) & side(y, 1) & side(z, 2);
         }
         octants
     }
@@ -341,7 +341,7 @@ mod tests {
     #[inline(always)]
     fn octant_bounds<W: Wide>(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
         let mut packet = PacketRays::<W>::new(rays, active, 10.0);
-        let octants = packet.octants(active);
+        let octants = packet.octants();
         octants
             .into_iter()
             .filter(|&rays_in| rays_in != 0)

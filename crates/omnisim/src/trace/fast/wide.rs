@@ -731,7 +731,7 @@ mod tests {
             // The walk takes one octant of directions at a time (`closest_hits`): the most
             // populous one here.
             let active = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, drawn, 30.0)
-                .octants(drawn)
+                .octants()
                 .into_iter()
                 .max_by_key(|rays_in| rays_in.count_ones())
                 .unwrap_or(0);
