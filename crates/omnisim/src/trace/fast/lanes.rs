@@ -199,8 +199,10 @@ mod avx {
     //! SAFETY, for every `unsafe` block here: `Avx8` values are made and used only inside
     //! the fast tracer's functions compiled with `#[target_feature(enable = "avx2")]`, which
     //! run after `is_x86_feature_detected!("avx2")` (`fast/mod.rs`); every method is
-    //! `#[inline(always)]`, so its intrinsics are compiled into such a function. Loads read
-    //! exactly eight f32s from slices checked to hold them.
+    //! `#[inline(always)]`, so its intrinsics are compiled into such a function (in tests too:
+    //! AVX2 test helpers are `#[target_feature]` functions called after the same detection).
+    //! Loads read exactly eight f32s from slices checked to hold them; the store (`to_array`)
+    //! writes an `[f32; 8]`.
 
     use std::arch::x86_64::{
         __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtss_f32, _mm256_add_ps, _mm256_and_ps,

@@ -167,18 +167,15 @@ fn walk_packet<W: Wide>(
     // The interval walk is tight only for rays whose directions share their signs, so a
     // packet that straddles an axis plane is walked once per octant it spans (callgrind, omni
     // images: 13 % fewer instructions than walking such packets ray by ray; docs/benchmarks.md).
-    // Each ray is converted once (`PacketRays::new`); a packet of several octants is narrowed
-    // to each in turn.
+    // Each ray is converted once (`PacketRays::new`); the packet is narrowed to each octant
+    // in turn (its bounds found once per walk).
     let mut packet = PacketRays::<W>::new(rays, active, bvh.wide.extent);
     for rays_in in packet.octants().into_iter().filter(|&rays_in| rays_in != 0) {
-        if rays_in != active {
-            packet.narrow_to(rays_in);
-        }
+        packet.narrow_to(rays_in);
         debug_assert!(packet.bounds.same_signs());
         bvh.wide.traverse_interval::<W>(
             &packet,
             t_hi,
-            rays_in,
             &bvh.triangles,
             #[inline(always)]
             |r, triangle| visit(r, triangle),

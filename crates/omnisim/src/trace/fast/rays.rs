@@ -40,13 +40,16 @@ pub(crate) fn t_lo(t_min: f64) -> f32 {
 
 /// The f32 inverse of a direction, finite everywhere: obvhs's `safe_inverse` on each axis
 /// (±2²³ for components within `f32::EPSILON` of zero, ±0 included), three lanes at once.
+/// Keep in step with its eight-ray twin [`inverses`]: a packet's rays must be the single
+/// rays' own, bit for bit (tested by `a_ray_taken_from_the_packet_is_the_single_rays_own`).
 fn inverse(direction: Vec3) -> Vec3 {
     let d = Vec3A::from(direction);
     let tiny = d.abs().cmple(Vec3A::splat(f32::EPSILON));
     Vec3::from(Vec3A::select(tiny, d.signum() / f32::EPSILON, Vec3A::ONE / d))
 }
 
-/// [`inverse`] of eight direction components at once (the same operations lane by lane).
+/// [`inverse`] of eight direction components at once (the same operations lane by lane; keep
+/// the two in step).
 #[inline(always)]
 fn inverses<W: Wide>(d: W) -> W {
     let tiny = d.abs().not_greater(W::splat(f32::EPSILON));
@@ -79,6 +82,10 @@ pub(crate) struct PacketRays<W> {
     /// The rays given to [`PacketRays::new`] (the other lanes hold zero origins and
     /// directions).
     given: u64,
+    /// The rays `bounds`, `origin_radius`, `spread` and `negative` are those of, set by
+    /// [`PacketRays::narrow_to`] (none before): the rays a walk of the packet takes part in
+    /// (`WideBvh::traverse_interval` reads them here, so bounds and walk cannot disagree).
+    bounded: u64,
     pub(crate) bounds: PacketBounds,
 }
 
@@ -104,9 +111,12 @@ impl PacketBounds {
 
 impl<W: Wide> PacketRays<W> {
     /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`, at
-    /// least one (the other lanes hold zero rays and must stay masked), their bounds those of all of
-    /// `active` (narrowed to fewer rays by [`PacketRays::narrow_to`]); `scene_extent` as for
-    /// [`LaneRay::new`].
+    /// least one (the other lanes hold zero rays and must stay masked); `scene_extent` as for
+    /// [`LaneRay::new`]. Bounds none of them until [`PacketRays::narrow_to`] picks the rays a
+    /// walk takes (an octant of a packet over several is all some walk needs, so `new` does
+    /// not find the whole packet's bounds only to have them replaced).
+    /// Origins and directions must be finite (as ray tables and shadow rays make them): the
+    /// eight-lane minima and maxima keep or drop a NaN by lane order, unlike `f32::min`.
     /// Always inlined: called from the walk compiled with AVX2, it must be compiled there too
     /// (out of line it is built for the baseline CPU, its lane intrinsics become calls, and an
     /// env1 omni image took 7 % more instructions).
@@ -126,6 +136,7 @@ impl<W: Wide> PacketRays<W> {
             let r = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let (o, d, t_min) = rays[r];
+            debug_assert!(o.is_finite() && d.is_finite(), "ray {r} is not finite: {o}, {d}");
             let (o, d) = (o.as_vec3(), d.as_vec3());
             for axis in 0..3 {
                 origin[axis][r] = o[axis];
@@ -154,12 +165,14 @@ impl<W: Wide> PacketRays<W> {
             batches[b].position_error = position_errors(&batches[b].origin, scene_extent);
             t_lo_lanes[b] = batch(&t_lo);
         }
-        let mut packet = Self {
+        Self {
             batches,
             t_lo: t_lo_lanes,
             inverse,
             negative_rays: sign_bits.map(|bits| bits & active),
             given: active,
+            // No rays bounded yet: a walk before `narrow_to` walks none.
+            bounded: 0,
             origin_radius: 0.0,
             spread: 0.0,
             negative: [false; 3],
@@ -169,9 +182,14 @@ impl<W: Wide> PacketRays<W> {
                 inverse_min: Vec3::ZERO,
                 inverse_max: Vec3::ZERO,
             },
-        };
-        packet.narrow_to(active);
-        packet
+        }
+    }
+
+    /// The rays the packet's bounds are those of ([`PacketRays::narrow_to`]'s last `rays_in`;
+    /// none before): the rays a walk of the packet takes part in.
+    #[inline(always)]
+    pub(crate) fn bounded(&self) -> u64 {
+        self.bounded
     }
 
     /// The rays given to [`PacketRays::new`] by the octant of their f32 direction (sign bits,
@@ -192,6 +210,7 @@ impl<W: Wide> PacketRays<W> {
     #[inline(always)]
     pub(crate) fn narrow_to(&mut self, rays_in: u64) {
         debug_assert!(rays_in != 0, "a packet without rays");
+        debug_assert_eq!(rays_in & !self.given, 0, "rays not given to the packet");
         let (low, high) = (W::splat(f32::INFINITY), W::splat(f32::NEG_INFINITY));
         let (mut origin_min, mut origin_max) = ([low; 3], [high; 3]);
         let (mut direction_min, mut direction_max) = ([low; 3], [high; 3]);
@@ -235,6 +254,7 @@ impl<W: Wide> PacketRays<W> {
         };
         self.origin_radius = (origin_max - origin_min).length() / 2.0;
         self.negative = negative;
+        self.bounded = rays_in;
         self.bounds = PacketBounds {
             origin_min,
             origin_max,
@@ -245,12 +265,13 @@ impl<W: Wide> PacketRays<W> {
 
     /// Ray r as [`LaneRay::new`] and [`t_lo`] make it, for a single-ray walk of a subtree: the
     /// same f32 values, taken from the packet's lanes instead of converted and inverted again.
-    /// r must be one of the rays `new` was given in `active`: another lane holds a zero ray.
+    /// r must be one of the rays the packet is narrowed to (the walk's): another lane holds a
+    /// zero ray or one of another octant.
     #[inline(always)]
     pub(crate) fn single(&self, r: usize) -> (LaneRay, f32) {
         let (b, k) = (r / 8, r % 8);
         let batch = &self.batches[b];
-        debug_assert!(self.given >> r & 1 != 0, "ray {r} is not in the packet");
+        debug_assert!(self.bounded >> r & 1 != 0, "ray {r} is not in the walk");
         let ray = LaneRay {
             lanes: RayLanes {
                 origin: splat_lane(&batch.origin, k),
@@ -263,16 +284,21 @@ impl<W: Wide> PacketRays<W> {
     }
 }
 
-/// Per axis, `pick` over the eight lanes (the minimum or maximum of a packet's rays). A
-/// function, not a closure or `array::map`, for the reason given at [`splat_lane`].
+/// Per axis, `pick` over the eight lanes in lane order (the minimum or maximum of a packet's
+/// rays). Loops, not closures, iterators or `array::map`, for the reason given at
+/// [`splat_lane`]; `pick` is a constant at each (always inlined) call.
 #[inline(always)]
 fn across<W: Wide>(axes: &[W; 3], pick: fn(f32, f32) -> f32) -> Vec3 {
-    let reduce = |lanes: [f32; 8]| lanes.into_iter().reduce(pick).unwrap_or_default();
-    Vec3::new(
-        reduce(axes[0].to_array()),
-        reduce(axes[1].to_array()),
-        reduce(axes[2].to_array()),
-    )
+    let mut picked = Vec3::ZERO;
+    for axis in 0..3 {
+        let lanes = axes[axis].to_array();
+        let mut value = lanes[0];
+        for &lane in &lanes[1..] {
+            value = pick(value, lane);
+        }
+        picked[axis] = value;
+    }
+    picked
 }
 
 /// Lane k of each axis, spread over a single ray's four lanes. A function, not a closure or
@@ -323,7 +349,9 @@ mod tests {
     }
 
     /// What a packet narrowed to the rays of `rays_in` says of them: its bounds, footprint,
-    /// signs, as bits.
+    /// signs, as bits. Always inlined, so that on AVX lanes it is compiled into the AVX2
+    /// function that calls it (`octant_bounds_avx`).
+    #[inline(always)]
     fn narrowed_bits<W: Wide>(packet: &mut PacketRays<W>, rays_in: u64) -> Vec<u32> {
         packet.narrow_to(rays_in);
         let b = &packet.bounds;
@@ -341,15 +369,16 @@ mod tests {
     #[inline(always)]
     fn octant_bounds<W: Wide>(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
         let mut packet = PacketRays::<W>::new(rays, active, 10.0);
-        let octants = packet.octants();
-        octants
-            .into_iter()
-            .filter(|&rays_in| rays_in != 0)
-            .map(|rays_in| {
+        let mut found = Vec::new();
+        // A loop, not a closure: every `W` operation stays in the caller (AVX2 where it is).
+        for rays_in in packet.octants() {
+            if rays_in != 0 {
                 let alone = narrowed_bits(&mut PacketRays::<W>::new(rays, rays_in, 10.0), rays_in);
-                (rays_in, narrowed_bits(&mut packet, rays_in), alone)
-            })
-            .collect()
+                found.push((rays_in, narrowed_bits(&mut packet, rays_in), alone));
+                assert_eq!(packet.bounded(), rays_in);
+            }
+        }
+        found
     }
 
     /// [`octant_bounds`] on the AVX lanes.
@@ -361,8 +390,9 @@ mod tests {
 
     /// A packet's octants hold each of its rays once, by the sign bits of its f32 direction
     /// (−0 negative); narrowed to an octant, the packet's origin and inverse-direction bounds
-    /// are the extremes of those rays' own (`LaneRay::new`'s), its signs theirs, and all it
-    /// says (footprint included) is what a packet of those rays alone says. Portable lanes
+    /// are the extremes of those rays' own (`LaneRay::new`'s), its signs theirs, its footprint
+    /// (`origin_radius`, `spread`) the half-diagonals of their origins' and directions' boxes,
+    /// and all it says is what a packet of those rays alone says. Portable lanes
     /// and, where the CPU has AVX2, AVX ones (the same answers).
     #[test]
     fn a_packet_narrowed_to_an_octant_bounds_its_rays_alone() {
@@ -398,7 +428,29 @@ mod tests {
                 };
                 let origins = extreme(singles.iter().map(|s| s.0).collect());
                 let inverses = extreme(singles.iter().map(inverse).collect());
+                let directions = extreme(singles.iter().map(|s| s.1).collect());
                 let got = |k: usize| f32::from_bits(narrowed[k]);
+                // Half-diagonals of the boxes of the rays' origins and directions; the spread is
+                // the tangent whose sine is the directions' (∞ from 0.99 on).
+                let half_diagonal = |low_high: &[f32]| {
+                    (Vec3::from_slice(&low_high[3..]) - Vec3::from_slice(&low_high[..3])).length() / 2.0
+                };
+                let chord = half_diagonal(&directions);
+                let spread = if chord < 0.99 {
+                    (chord.asin()).tan()
+                } else {
+                    f32::INFINITY
+                };
+                let (got_spread, got_radius) = (got(12), got(13));
+                assert_eq!(
+                    got_radius,
+                    half_diagonal(&origins),
+                    "octant {rays_in:#x}: origin radius"
+                );
+                assert!(
+                    got_spread == spread || (got_spread - spread).abs() <= 1e-4 * spread.max(1.0),
+                    "octant {rays_in:#x}: spread {got_spread}, want {spread}"
+                );
                 for axis in 0..3 {
                     let signs: Vec<bool> = singles.iter().map(|s| s.1[axis].is_sign_negative()).collect();
                     assert!(signs.iter().all(|&n| n == signs[0]), "octant {rays_in:#x}: mixed signs");
@@ -428,7 +480,8 @@ mod tests {
             let rays = random_rays(&mut rng);
             let active = rng.random::<u64>() | 1;
             let extent = rng.random_range(1.0..1000.0);
-            let portable = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&rays, active, extent);
+            let mut portable = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&rays, active, extent);
+            portable.narrow_to(active);
             #[cfg(target_arch = "x86_64")]
             // SAFETY: called only where the CPU has AVX2.
             let avx =
@@ -449,7 +502,8 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn avx_singles(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, extent: f32) -> Vec<Vec<u32>> {
-        let packet = PacketRays::<crate::trace::fast::lanes::Avx8>::new(rays, active, extent);
+        let mut packet = PacketRays::<crate::trace::fast::lanes::Avx8>::new(rays, active, extent);
+        packet.narrow_to(active);
         (0..PACKET)
             .map(|r| {
                 if active >> r & 1 == 1 {

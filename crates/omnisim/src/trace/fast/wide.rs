@@ -140,8 +140,8 @@ const STOPPED: f32 = f32::NEG_INFINITY;
 pub(crate) const PACKET: usize = 64;
 
 impl WideBvh {
-    /// [`WideBvh::traverse`] for up to [`PACKET`] rays at once (bit r of `active` set where
-    /// ray r takes part), by interval arithmetic: a node's eight boxes are tested once for
+    /// [`WideBvh::traverse`] for up to [`PACKET`] rays at once (the rays `rays` is narrowed to,
+    /// [`PacketRays::bounded`]: bit r set where ray r takes part), by interval arithmetic: a node's eight boxes are tested once for
     /// the whole packet against the bounds of its origins and inverse directions (admitting
     /// every box some ray enters, maybe more), and each leaf triangle is filtered against
     /// eight rays at a time. `visit(r, triangle)` sees, for each ray, every triangle the
@@ -150,7 +150,7 @@ impl WideBvh {
     /// and the walk ends once every ray has stopped (its bound is left at −∞).
     /// The rays must share their directions' signs (`rays.bounds.same_signs()`: the interval
     /// test and the per-ray box tests pick each axis's near plane by that sign); entries of
-    /// `bounds` outside `active` are left alone; those inside must not be NaN (the packet's
+    /// `bounds` outside the walk's rays are left alone; those inside must not be NaN (the packet's
     /// bound, a maximum of four-lane maxima, may drop a finite bound beside a NaN one: the
     /// SSE maximum returns its second operand on NaN).
     /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
@@ -161,10 +161,11 @@ impl WideBvh {
         &self,
         rays: &PacketRays<W>,
         bounds: &mut [f32; PACKET],
-        active: u64,
         corners: &[[DVec3; 3]],
         visit: impl FnMut(usize, usize) -> Visit,
     ) {
+        let active = rays.bounded();
+        debug_assert!(active != 0, "a packet walk before `PacketRays::narrow_to`");
         debug_assert!(
             (0..PACKET).all(|r| active >> r & 1 == 0 || !bounds[r].is_nan()),
             "a NaN bound in the packet walk"
@@ -735,7 +736,9 @@ mod tests {
                 .into_iter()
                 .max_by_key(|rays_in| rays_in.count_ones())
                 .unwrap_or(0);
-            let bounds = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, active, 30.0).bounds;
+            let mut narrowed = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, active, 30.0);
+            narrowed.narrow_to(active);
+            let bounds = narrowed.bounds;
             let t_hi: Vec<f32> = (0..PACKET)
                 .map(|_| {
                     if rng.random_bool(0.3) {
@@ -795,16 +798,16 @@ mod tests {
         active: u64,
         stopping: u64,
     ) -> ([f32; PACKET], [u32; PACKET]) {
-        let rays = PacketRays::<W>::new(packet, active, bvh.wide.extent);
+        let mut rays = PacketRays::<W>::new(packet, active, bvh.wide.extent);
+        rays.narrow_to(active);
         let mut bounds = [f32::INFINITY; PACKET];
         let mut visits = [0u32; PACKET];
-        bvh.wide
-            .traverse_interval(&rays, &mut bounds, active, &bvh.triangles, |r, _| {
-                let stops = stopping >> r & 1 != 0;
-                assert!(!stops || visits[r] == 0, "ray {r} visited again after it stopped");
-                visits[r] += 1;
-                if stops { Visit::Stop } else { Visit::Miss }
-            });
+        bvh.wide.traverse_interval(&rays, &mut bounds, &bvh.triangles, |r, _| {
+            let stops = stopping >> r & 1 != 0;
+            assert!(!stops || visits[r] == 0, "ray {r} visited again after it stopped");
+            visits[r] += 1;
+            if stops { Visit::Stop } else { Visit::Miss }
+        });
         (bounds, visits)
     }
 
