@@ -88,7 +88,25 @@ impl WideBvh {
                         enter(node, ray, t_hi)
                     };
                     if hits != 0 {
-                        // The nearest child entered is visited next without a push.
+                        // The nearest child entered is visited next without a push. One or two
+                        // children (most nodes of a single ray's walk) are ordered by one compare,
+                        // as Embree does, in the order the insertion sort gives: a lower lane
+                        // first only where it is strictly nearer.
+                        let first = hits.trailing_zeros() as usize;
+                        let rest = hits & (hits - 1);
+                        if rest == 0 {
+                            current = (node.child[first], near[first]);
+                            continue;
+                        }
+                        if rest & (rest - 1) == 0 {
+                            let second = rest.trailing_zeros() as usize;
+                            let (a, b) = ((node.child[first], near[first]), (node.child[second], near[second]));
+                            let (next, later) = if a.1 < b.1 { (a, b) } else { (b, a) };
+                            stack[len] = later;
+                            len += 1;
+                            current = next;
+                            continue;
+                        }
                         len = push_children(stack, len, node, hits, &near) - 1;
                         current = stack[len];
                         continue;
