@@ -32,9 +32,19 @@ pub(crate) struct RayLanes<L> {
 }
 
 /// The error bound of positions along a ray from `origin` (f32, scene-local) in a scene whose
-/// largest absolute coordinate is `scene_extent`.
+/// largest absolute coordinate is `scene_extent`. Keep in step with its eight-ray twin
+/// [`position_errors`]: a packet's rays must be the single rays' own, bit for bit (tested by
+/// `a_ray_taken_from_the_packet_is_the_single_rays_own`).
 pub(crate) fn position_error(origin: glam::Vec3, scene_extent: f32) -> f32 {
     ERROR_ULPS * (1.0 + origin.abs().max_element().max(scene_extent))
+}
+
+/// [`position_error`] of eight rays from `origin` at once (the same operations lane by lane;
+/// keep the two in step).
+#[inline(always)]
+pub(crate) fn position_errors<L: Lanes>(origin: &[L; 3], scene_extent: f32) -> L {
+    let largest = origin[0].abs().max(origin[1].abs()).max(origin[2].abs());
+    L::splat(ERROR_ULPS) * (L::splat(1.0) + largest.max(L::splat(scene_extent)))
 }
 
 impl TriangleGroup {

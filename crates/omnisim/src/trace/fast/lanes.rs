@@ -5,15 +5,17 @@
 //! same IEEE single-precision operations in the same order either way, so a (ray, triangle)
 //! pair gets the same answer bit for bit, whichever way it was batched.
 
-use std::ops::{Add, Mul, Neg, Sub};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use glam::Vec4;
 
 /// Lane-wise f32 arithmetic and comparisons returning bit masks (bit i for lane i).
 pub(crate) trait Lanes:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
     fn splat(value: f32) -> Self;
+    /// The absolute value (the sign bit cleared), as `f32::abs`.
+    fn abs(self) -> Self;
     /// 1 for positive (+0 included), −1 for negative (−0 included), as `f32::signum`.
     fn signum(self) -> Self;
     /// Lanes where `self > other` (ordered: false where either is NaN).
@@ -36,6 +38,10 @@ impl Lanes for Vec4 {
     #[inline(always)]
     fn signum(self) -> Self {
         Vec4::signum(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec4::abs(self)
     }
     #[inline(always)]
     fn greater(self, other: Self) -> u32 {
@@ -94,6 +100,7 @@ macro_rules! binary_op {
 binary_op!(Lanes8, Add, add, |a, b| a.zip(b, |x, y| x + y));
 binary_op!(Lanes8, Sub, sub, |a, b| a.zip(b, |x, y| x - y));
 binary_op!(Lanes8, Mul, mul, |a, b| a.zip(b, |x, y| x * y));
+binary_op!(Lanes8, Div, div, |a, b| a.zip(b, |x, y| x / y));
 
 impl Neg for Lanes8 {
     type Output = Self;
@@ -111,6 +118,10 @@ impl Lanes for Lanes8 {
     #[inline(always)]
     fn signum(self) -> Self {
         Self([self.0[0].signum(), self.0[1].signum()])
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Self([self.0[0].abs(), self.0[1].abs()])
     }
     #[inline(always)]
     fn greater(self, other: Self) -> u32 {
@@ -143,6 +154,12 @@ pub(crate) trait Wide: Lanes {
     fn load(values: &[f32]) -> Self;
     /// Lane `k` (below eight).
     fn lane(self, k: usize) -> f32;
+    /// The eight lanes in order.
+    fn to_array(self) -> [f32; 8];
+    /// Lane i from `self` where bit i of `lanes` is set, else from `other`.
+    fn keep(self, lanes: u32, other: Self) -> Self;
+    /// The lanes whose sign bit is set (−0 included), bit i for lane i.
+    fn sign_bits(self) -> u32;
 }
 
 impl Wide for Lanes8 {
@@ -155,6 +172,23 @@ impl Wide for Lanes8 {
     fn lane(self, k: usize) -> f32 {
         self.0[k / 4][k % 4]
     }
+    #[inline(always)]
+    fn to_array(self) -> [f32; 8] {
+        let ([a, b, c, d], [e, f, g, h]) = (self.0[0].to_array(), self.0[1].to_array());
+        [a, b, c, d, e, f, g, h]
+    }
+    #[inline(always)]
+    fn keep(self, lanes: u32, other: Self) -> Self {
+        let half = |h: usize| {
+            let bit = |k: usize| lanes >> (4 * h + k) & 1 != 0;
+            Vec4::select(glam::BVec4A::new(bit(0), bit(1), bit(2), bit(3)), self.0[h], other.0[h])
+        };
+        Self([half(0), half(1)])
+    }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        self.0[0].is_negative_bitmask() | self.0[1].is_negative_bitmask() << 4
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -165,16 +199,19 @@ mod avx {
     //! SAFETY, for every `unsafe` block here: `Avx8` values are made and used only inside
     //! the fast tracer's functions compiled with `#[target_feature(enable = "avx2")]`, which
     //! run after `is_x86_feature_detected!("avx2")` (`fast/mod.rs`); every method is
-    //! `#[inline(always)]`, so its intrinsics are compiled into such a function. Loads read
-    //! exactly eight f32s from slices checked to hold them.
+    //! `#[inline(always)]`, so its intrinsics are compiled into such a function (in tests too:
+    //! AVX2 test helpers are `#[target_feature]` functions called after the same detection).
+    //! Loads read exactly eight f32s from slices checked to hold them; the store (`to_array`)
+    //! writes an `[f32; 8]`.
 
     use std::arch::x86_64::{
         __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtss_f32, _mm256_add_ps, _mm256_and_ps,
-        _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
+        _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_castsi256_ps,
+        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
         _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32, _mm256_set1_ps,
-        _mm256_sub_ps, _mm256_xor_ps,
+        _mm256_setr_epi32, _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
     };
-    use std::ops::{Add, Mul, Neg, Sub};
+    use std::ops::{Add, Div, Mul, Neg, Sub};
 
     use super::{Lanes, Wide};
 
@@ -187,6 +224,7 @@ mod avx {
     binary_op!(Avx8, Add, add, |a, b| Avx8(unsafe { _mm256_add_ps(a.0, b.0) }));
     binary_op!(Avx8, Sub, sub, |a, b| Avx8(unsafe { _mm256_sub_ps(a.0, b.0) }));
     binary_op!(Avx8, Mul, mul, |a, b| Avx8(unsafe { _mm256_mul_ps(a.0, b.0) }));
+    binary_op!(Avx8, Div, div, |a, b| Avx8(unsafe { _mm256_div_ps(a.0, b.0) }));
 
     impl Neg for Avx8 {
         type Output = Self;
@@ -209,6 +247,10 @@ mod avx {
                 let nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(self.0, self.0);
                 Self(_mm256_blendv_ps(one, self.0, nan))
             }
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            Self(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
         }
         #[inline(always)]
         fn greater(self, other: Self) -> u32 {
@@ -248,6 +290,25 @@ mod avx {
                 let picked = _mm256_permutevar8x32_ps(self.0, _mm256_set1_epi32(k as i32));
                 _mm_cvtss_f32(_mm256_castps256_ps128(picked))
             }
+        }
+        #[inline(always)]
+        fn to_array(self) -> [f32; 8] {
+            let mut values = [0.0; 8];
+            unsafe { _mm256_storeu_ps(values.as_mut_ptr(), self.0) };
+            values
+        }
+        #[inline(always)]
+        fn keep(self, lanes: u32, other: Self) -> Self {
+            // Lane i's bit of `lanes` spread to a whole-lane mask: (lanes & 2^i) == 2^i.
+            unsafe {
+                let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let chosen = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(lanes as i32), bits), bits);
+                Self(_mm256_blendv_ps(other.0, self.0, _mm256_castsi256_ps(chosen)))
+            }
+        }
+        #[inline(always)]
+        fn sign_bits(self) -> u32 {
+            unsafe { _mm256_movemask_ps(self.0) as u32 }
         }
     }
 }

@@ -167,13 +167,15 @@ fn walk_packet<W: Wide>(
     // The interval walk is tight only for rays whose directions share their signs, so a
     // packet that straddles an axis plane is walked once per octant it spans (callgrind, omni
     // images: 13 % fewer instructions than walking such packets ray by ray; docs/benchmarks.md).
-    for rays_in in octants(rays, active).into_iter().filter(|&rays_in| rays_in != 0) {
-        let packet = PacketRays::<W>::new(rays, rays_in, bvh.wide.extent);
+    // Each ray is converted once (`PacketRays::new`); the packet is narrowed to each octant
+    // in turn (its bounds found once per walk).
+    let mut packet = PacketRays::<W>::new(rays, active, bvh.wide.extent);
+    for rays_in in packet.octants().into_iter().filter(|&rays_in| rays_in != 0) {
+        packet.narrow_to(rays_in);
         debug_assert!(packet.bounds.same_signs());
         bvh.wide.traverse_interval::<W>(
             &packet,
             t_hi,
-            rays_in,
             &bvh.triangles,
             #[inline(always)]
             |r, triangle| visit(r, triangle),
@@ -240,23 +242,6 @@ fn occluded_rays_in<W: Wide>(bvh: &SceneBvh, shadows: &ShadowRays, active: u64) 
         Visit::Stop
     });
     blocked
-}
-
-/// The rays of `active` by the octant of their f32 direction (sign bits, −0 negative, as
-/// `PacketRays` reads them): bit r of entry k where ray r's x, y, z signs are k's bits 0, 1, 2.
-fn octants(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [u64; 8] {
-    let mut octants = [0u64; 8];
-    let mut rest = active;
-    while rest != 0 {
-        let r = rest.trailing_zeros() as usize;
-        rest &= rest - 1;
-        let d = rays[r].1.as_vec3();
-        let octant = usize::from(d.x.is_sign_negative())
-            | usize::from(d.y.is_sign_negative()) << 1
-            | usize::from(d.z.is_sign_negative()) << 2;
-        octants[octant] |= 1 << r;
-    }
-    octants
 }
 
 /// Whether anything but face `skip_face` lies on the ray strictly between 0 and `t_max`:

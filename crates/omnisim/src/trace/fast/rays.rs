@@ -6,7 +6,7 @@ use glam::{DVec3, Vec3, Vec3A, Vec4};
 use obvhs::ray::safe_inverse;
 
 use super::PACKET;
-use super::groups::{RayLanes, position_error};
+use super::groups::{RayLanes, position_error, position_errors};
 use super::lanes::Wide;
 
 /// A ray broadcast to four lanes, for the single-ray walk.
@@ -40,10 +40,20 @@ pub(crate) fn t_lo(t_min: f64) -> f32 {
 
 /// The f32 inverse of a direction, finite everywhere: obvhs's `safe_inverse` on each axis
 /// (±2²³ for components within `f32::EPSILON` of zero, ±0 included), three lanes at once.
+/// Keep in step with its eight-ray twin [`inverses`]: a packet's rays must be the single
+/// rays' own, bit for bit (tested by `a_ray_taken_from_the_packet_is_the_single_rays_own`).
 fn inverse(direction: Vec3) -> Vec3 {
     let d = Vec3A::from(direction);
     let tiny = d.abs().cmple(Vec3A::splat(f32::EPSILON));
     Vec3::from(Vec3A::select(tiny, d.signum() / f32::EPSILON, Vec3A::ONE / d))
+}
+
+/// [`inverse`] of eight direction components at once (the same operations lane by lane; keep
+/// the two in step).
+#[inline(always)]
+fn inverses<W: Wide>(d: W) -> W {
+    let tiny = d.abs().not_greater(W::splat(f32::EPSILON));
+    (d.signum() / W::splat(f32::EPSILON)).keep(tiny, W::splat(1.0) / d)
 }
 
 /// Batches of eight rays in a packet.
@@ -66,6 +76,16 @@ pub(crate) struct PacketRays<W> {
     /// Per axis, whether some ray's direction has its sign bit set: all of them do where the
     /// packet's rays share their signs, as the walk asks (`PacketBounds::same_signs`).
     pub(crate) negative: [bool; 3],
+    /// Per axis, the rays given to [`PacketRays::new`] whose f32 direction has its sign bit
+    /// set (−0 included), bit r for ray r.
+    negative_rays: [u64; 3],
+    /// The rays given to [`PacketRays::new`] (the other lanes hold zero origins and
+    /// directions).
+    given: u64,
+    /// The rays `bounds`, `origin_radius`, `spread` and `negative` are those of, set by
+    /// [`PacketRays::narrow_to`] (none before): the rays a walk of the packet takes part in
+    /// (`WideBvh::traverse_interval` reads them here, so bounds and walk cannot disagree).
+    bounded: u64,
     pub(crate) bounds: PacketBounds,
 }
 
@@ -91,7 +111,12 @@ impl PacketBounds {
 
 impl<W: Wide> PacketRays<W> {
     /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`, at
-    /// least one (the others are zero and must stay masked); `scene_extent` as for [`LaneRay::new`].
+    /// least one (the other lanes hold zero rays and must stay masked); `scene_extent` as for
+    /// [`LaneRay::new`]. Bounds none of them until [`PacketRays::narrow_to`] picks the rays a
+    /// walk takes (an octant of a packet over several is all some walk needs, so `new` does
+    /// not find the whole packet's bounds only to have them replaced).
+    /// Origins and directions must be finite (as ray tables and shadow rays make them): the
+    /// eight-lane minima and maxima keep or drop a NaN by lane order, unlike `f32::min`.
     /// Always inlined: called from the walk compiled with AVX2, it must be compiled there too
     /// (out of line it is built for the baseline CPU, its lane intrinsics become calls, and an
     /// env1 omni image took 7 % more instructions).
@@ -101,36 +126,113 @@ impl<W: Wide> PacketRays<W> {
         debug_assert!(active != 0, "a packet without rays");
         let mut origin = [[0.0f32; PACKET]; 3];
         let mut direction = [[0.0f32; PACKET]; 3];
-        let mut error = [0.0f32; PACKET];
         let mut t_lo = [0.0f32; PACKET];
-        let mut inverse_lanes = [[0.0f32; PACKET]; 3];
-        let (mut origin_min, mut origin_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        let (mut direction_min, mut direction_max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        // Per axis, whether some direction has its sign bit set, and whether some has it clear.
-        let (mut negative, mut positive) = ([false; 3], [false; 3]);
+        // Each ray converted once, whatever octants the packet spans; all else (inverses,
+        // error bounds, and the bounds, signs and octants of `narrow_to` and `octants`) is
+        // found eight lanes at a time: per ray and axis it cost more than the conversion
+        // (callgrind: docs/benchmarks.md).
         let mut rest = active;
         while rest != 0 {
             let r = rest.trailing_zeros() as usize;
             rest &= rest - 1;
             let (o, d, t_min) = rays[r];
+            debug_assert!(o.is_finite() && d.is_finite(), "ray {r} is not finite: {o}, {d}");
             let (o, d) = (o.as_vec3(), d.as_vec3());
-            let inv = inverse(d);
             for axis in 0..3 {
                 origin[axis][r] = o[axis];
                 direction[axis][r] = d[axis];
-                inverse_lanes[axis][r] = inv[axis];
             }
-            error[r] = position_error(o, scene_extent);
             t_lo[r] = self::t_lo(t_min);
-            origin_min = origin_min.min(o);
-            origin_max = origin_max.max(o);
-            direction_min = direction_min.min(d);
-            direction_max = direction_max.max(d);
+        }
+        // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
+        // loads became calls, and the arrays were copied: callgrind, env1-lit omni).
+        let zero = W::splat(0.0);
+        let mut batches = [RayLanes {
+            origin: [zero; 3],
+            direction: [zero; 3],
+            position_error: zero,
+        }; BATCHES];
+        let (mut t_lo_lanes, mut inverse) = ([zero; BATCHES], [[zero; 3]; BATCHES]);
+        let mut sign_bits = [0u64; 3];
+        for b in 0..BATCHES {
+            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
             for axis in 0..3 {
-                negative[axis] |= d[axis].is_sign_negative();
-                positive[axis] |= !d[axis].is_sign_negative();
+                batches[b].origin[axis] = batch(&origin[axis]);
+                batches[b].direction[axis] = batch(&direction[axis]);
+                inverse[b][axis] = inverses(batches[b].direction[axis]);
+                sign_bits[axis] |= u64::from(batches[b].direction[axis].sign_bits()) << (8 * b);
+            }
+            batches[b].position_error = position_errors(&batches[b].origin, scene_extent);
+            t_lo_lanes[b] = batch(&t_lo);
+        }
+        Self {
+            batches,
+            t_lo: t_lo_lanes,
+            inverse,
+            negative_rays: sign_bits.map(|bits| bits & active),
+            given: active,
+            // No rays bounded yet: a walk before `narrow_to` walks none.
+            bounded: 0,
+            origin_radius: 0.0,
+            spread: 0.0,
+            negative: [false; 3],
+            bounds: PacketBounds {
+                origin_min: Vec3::ZERO,
+                origin_max: Vec3::ZERO,
+                inverse_min: Vec3::ZERO,
+                inverse_max: Vec3::ZERO,
+            },
+        }
+    }
+
+    /// The rays the packet's bounds are those of ([`PacketRays::narrow_to`]'s last `rays_in`;
+    /// none before): the rays a walk of the packet takes part in.
+    #[inline(always)]
+    pub(crate) fn bounded(&self) -> u64 {
+        self.bounded
+    }
+
+    /// The rays given to [`PacketRays::new`] by the octant of their f32 direction (sign bits,
+    /// −0 negative): bit r of entry k where ray r's x, y, z signs are k's bits 0, 1, 2.
+    #[inline(always)]
+    pub(crate) fn octants(&self) -> [u64; 8] {
+        let [x, y, z] = self.negative_rays;
+        let mut octants = [0u64; 8];
+        for (k, octant) in octants.iter_mut().enumerate() {
+            let side = |negative: u64, bit: usize| if k >> bit & 1 != 0 { negative } else { !negative };
+            *octant = self.given & side(x, 0) & side(y, 1) & side(z, 2);
+        }
+        octants
+    }
+
+    /// Sets the packet's bounds, footprint and signs to those of the rays of `rays_in` (some
+    /// of those given to [`PacketRays::new`], at least one): the rays a walk takes part in.
+    #[inline(always)]
+    pub(crate) fn narrow_to(&mut self, rays_in: u64) {
+        debug_assert!(rays_in != 0, "a packet without rays");
+        debug_assert_eq!(rays_in & !self.given, 0, "rays not given to the packet");
+        let (low, high) = (W::splat(f32::INFINITY), W::splat(f32::NEG_INFINITY));
+        let (mut origin_min, mut origin_max) = ([low; 3], [high; 3]);
+        let (mut direction_min, mut direction_max) = ([low; 3], [high; 3]);
+        for b in 0..BATCHES {
+            let lanes = (rays_in >> (8 * b)) as u32 & 0xff;
+            if lanes == 0 {
+                continue;
+            }
+            let batch = &self.batches[b];
+            for axis in 0..3 {
+                let (o, d) = (batch.origin[axis], batch.direction[axis]);
+                origin_min[axis] = origin_min[axis].min(o.keep(lanes, low));
+                origin_max[axis] = origin_max[axis].max(o.keep(lanes, high));
+                direction_min[axis] = direction_min[axis].min(d.keep(lanes, low));
+                direction_max[axis] = direction_max[axis].max(d.keep(lanes, high));
             }
         }
+        let (origin_min, origin_max) = (across(&origin_min, f32::min), across(&origin_max, f32::max));
+        let (direction_min, direction_max) = (across(&direction_min, f32::min), across(&direction_max, f32::max));
+        // Per axis, whether some direction has its sign bit set, and whether some has it clear.
+        let negative = self.negative_rays.map(|bits| bits & rays_in != 0);
+        let positive = self.negative_rays.map(|bits| !bits & rays_in != 0);
         // `safe_inverse` does not increase over either sign's directions (±0 included), so on
         // an axis where all share a sign the extreme directions give the extreme inverses
         // without a division per ray; with both signs, every inverse obvhs can return.
@@ -145,54 +247,31 @@ impl<W: Wide> PacketRays<W> {
         // The directions' box, half its diagonal: at least the chord from its centre to any
         // direction, so about the sine of the packet's half-angle (only a heuristic reads it).
         let chord = (direction_max - direction_min).length() / 2.0;
-        let spread = if chord < 0.99 {
+        self.spread = if chord < 0.99 {
             chord / (1.0 - chord * chord).sqrt()
         } else {
             f32::INFINITY
         };
-        // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
-        // loads became calls, and the arrays were copied: callgrind, env1-lit omni).
-        let zero = W::splat(0.0);
-        let mut batches = [RayLanes {
-            origin: [zero; 3],
-            direction: [zero; 3],
-            position_error: zero,
-        }; BATCHES];
-        let (mut t_lo_lanes, mut inverse) = ([zero; BATCHES], [[zero; 3]; BATCHES]);
-        for b in 0..BATCHES {
-            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
-            for axis in 0..3 {
-                batches[b].origin[axis] = batch(&origin[axis]);
-                batches[b].direction[axis] = batch(&direction[axis]);
-                inverse[b][axis] = batch(&inverse_lanes[axis]);
-            }
-            batches[b].position_error = batch(&error);
-            t_lo_lanes[b] = batch(&t_lo);
-        }
-        Self {
-            batches,
-            t_lo: t_lo_lanes,
-            inverse,
-            origin_radius: (origin_max - origin_min).length() / 2.0,
-            spread,
-            negative,
-            bounds: PacketBounds {
-                origin_min,
-                origin_max,
-                inverse_min,
-                inverse_max,
-            },
-        }
+        self.origin_radius = (origin_max - origin_min).length() / 2.0;
+        self.negative = negative;
+        self.bounded = rays_in;
+        self.bounds = PacketBounds {
+            origin_min,
+            origin_max,
+            inverse_min,
+            inverse_max,
+        };
     }
 
     /// Ray r as [`LaneRay::new`] and [`t_lo`] make it, for a single-ray walk of a subtree: the
     /// same f32 values, taken from the packet's lanes instead of converted and inverted again.
-    /// r must be one of the rays `new` was given in `active`: another lane holds a zero ray.
+    /// r must be one of the rays the packet is narrowed to (the walk's): another lane holds a
+    /// zero ray or one of another octant.
     #[inline(always)]
     pub(crate) fn single(&self, r: usize) -> (LaneRay, f32) {
         let (b, k) = (r / 8, r % 8);
         let batch = &self.batches[b];
-        debug_assert!(self.inverse[b][0].lane(k) != 0.0, "ray {r} is not in the packet");
+        debug_assert!(self.bounded >> r & 1 != 0, "ray {r} is not in the walk");
         let ray = LaneRay {
             lanes: RayLanes {
                 origin: splat_lane(&batch.origin, k),
@@ -203,6 +282,23 @@ impl<W: Wide> PacketRays<W> {
         };
         (ray, self.t_lo[b].lane(k))
     }
+}
+
+/// Per axis, `pick` over the eight lanes in lane order (the minimum or maximum of a packet's
+/// rays). Loops, not closures, iterators or `array::map`, for the reason given at
+/// [`splat_lane`]; `pick` is a constant at each (always inlined) call.
+#[inline(always)]
+fn across<W: Wide>(axes: &[W; 3], pick: fn(f32, f32) -> f32) -> Vec3 {
+    let mut picked = Vec3::ZERO;
+    for axis in 0..3 {
+        let lanes = axes[axis].to_array();
+        let mut value = lanes[0];
+        for &lane in &lanes[1..] {
+            value = pick(value, lane);
+        }
+        picked[axis] = value;
+    }
+    picked
 }
 
 /// Lane k of each axis, spread over a single ray's four lanes. A function, not a closure or
@@ -233,30 +329,159 @@ mod tests {
             .collect()
     }
 
+    use rand::{Rng, SeedableRng, rngs::StdRng};
+
+    /// A packet of random rays: directions with signed-zero and tiny components, origins up
+    /// to 1,500 from the origin (beyond the extents the tests draw, 1 to 1,000).
+    fn random_rays(rng: &mut StdRng) -> [(DVec3, DVec3, f64); PACKET] {
+        std::array::from_fn(|_| {
+            let mut direction = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0)));
+            match rng.random_range(0..8) {
+                0 => direction[rng.random_range(0..3)] = 0.0,
+                1 => direction[rng.random_range(0..3)] = -0.0,
+                2 => direction[rng.random_range(0..3)] = -1e-9,
+                3 => direction[rng.random_range(0..3)] = 1e-9,
+                _ => {}
+            }
+            let origin = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1500.0..1500.0)));
+            (origin, direction.normalize(), rng.random_range(0.0..0.01))
+        })
+    }
+
+    /// What a packet narrowed to the rays of `rays_in` says of them: its bounds, footprint,
+    /// signs, as bits. Always inlined, so that on AVX lanes it is compiled into the AVX2
+    /// function that calls it (`octant_bounds_avx`).
+    #[inline(always)]
+    fn narrowed_bits<W: Wide>(packet: &mut PacketRays<W>, rays_in: u64) -> Vec<u32> {
+        packet.narrow_to(rays_in);
+        let b = &packet.bounds;
+        [b.origin_min, b.origin_max, b.inverse_min, b.inverse_max]
+            .iter()
+            .flat_map(Vec3::to_array)
+            .chain([packet.spread, packet.origin_radius])
+            .map(f32::to_bits)
+            .chain(packet.negative.map(u32::from))
+            .collect()
+    }
+
+    /// A packet's octants and, narrowed to each, its bounds: [`narrowed_bits`] of the packet
+    /// made of all of `active`, then of a packet made of the octant's rays alone.
+    #[inline(always)]
+    fn octant_bounds<W: Wide>(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        let mut packet = PacketRays::<W>::new(rays, active, 10.0);
+        let mut found = Vec::new();
+        // A loop, not a closure: every `W` operation stays in the caller (AVX2 where it is).
+        for rays_in in packet.octants() {
+            if rays_in != 0 {
+                let alone = narrowed_bits(&mut PacketRays::<W>::new(rays, rays_in, 10.0), rays_in);
+                found.push((rays_in, narrowed_bits(&mut packet, rays_in), alone));
+                assert_eq!(packet.bounded(), rays_in);
+            }
+        }
+        found
+    }
+
+    /// [`octant_bounds`] on the AVX lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn octant_bounds_avx(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        octant_bounds::<crate::trace::fast::lanes::Avx8>(rays, active)
+    }
+
+    /// A packet's octants hold each of its rays once, by the sign bits of its f32 direction
+    /// (−0 negative); narrowed to an octant, the packet's origin and inverse-direction bounds
+    /// are the extremes of those rays' own (`LaneRay::new`'s), its signs theirs, its footprint
+    /// (`origin_radius`, `spread`) the half-diagonals of their origins' and directions' boxes,
+    /// and all it says is what a packet of those rays alone says. Portable lanes
+    /// and, where the CPU has AVX2, AVX ones (the same answers).
+    #[test]
+    fn a_packet_narrowed_to_an_octant_bounds_its_rays_alone() {
+        let mut rng = StdRng::seed_from_u64(9);
+        let mut split = 0;
+        for _ in 0..300 {
+            let rays = random_rays(&mut rng);
+            let active = rng.random::<u64>() | 1;
+            let portable = octant_bounds::<crate::trace::fast::lanes::Lanes8>(&rays, active);
+            assert_eq!(portable.iter().fold(0, |all, (rays_in, ..)| all | rays_in), active);
+            assert_eq!(
+                portable.iter().map(|(rays_in, ..)| rays_in.count_ones()).sum::<u32>(),
+                active.count_ones()
+            );
+            split += usize::from(portable.len() > 1);
+            for (rays_in, narrowed, alone) in &portable {
+                assert_eq!(narrowed, alone, "octant {rays_in:#x}");
+                let singles: Vec<_> = (0..PACKET)
+                    .filter(|r| rays_in >> r & 1 == 1)
+                    .map(|r| {
+                        (
+                            rays[r].0.as_vec3(),
+                            rays[r].1.as_vec3(),
+                            LaneRay::new(rays[r].0, rays[r].1, 10.0),
+                        )
+                    })
+                    .collect();
+                let inverse = |(_, _, ray): &(Vec3, Vec3, LaneRay)| Vec3::from_array(ray.inv_direction.map(|v| v.x));
+                let extreme = |values: Vec<Vec3>| {
+                    let low = values.iter().fold(Vec3::INFINITY, |m, &v| m.min(v));
+                    let high = values.iter().fold(Vec3::NEG_INFINITY, |m, &v| m.max(v));
+                    [low, high].iter().flat_map(Vec3::to_array).collect::<Vec<_>>()
+                };
+                let origins = extreme(singles.iter().map(|s| s.0).collect());
+                let inverses = extreme(singles.iter().map(inverse).collect());
+                let directions = extreme(singles.iter().map(|s| s.1).collect());
+                let got = |k: usize| f32::from_bits(narrowed[k]);
+                // Half-diagonals of the boxes of the rays' origins and directions; the spread is
+                // the tangent whose sine is the directions' (∞ from 0.99 on).
+                let half_diagonal = |low_high: &[f32]| {
+                    (Vec3::from_slice(&low_high[3..]) - Vec3::from_slice(&low_high[..3])).length() / 2.0
+                };
+                let chord = half_diagonal(&directions);
+                let spread = if chord < 0.99 {
+                    (chord.asin()).tan()
+                } else {
+                    f32::INFINITY
+                };
+                let (got_spread, got_radius) = (got(12), got(13));
+                assert_eq!(
+                    got_radius,
+                    half_diagonal(&origins),
+                    "octant {rays_in:#x}: origin radius"
+                );
+                assert!(
+                    got_spread == spread || (got_spread - spread).abs() <= 1e-4 * spread.max(1.0),
+                    "octant {rays_in:#x}: spread {got_spread}, want {spread}"
+                );
+                for axis in 0..3 {
+                    let signs: Vec<bool> = singles.iter().map(|s| s.1[axis].is_sign_negative()).collect();
+                    assert!(signs.iter().all(|&n| n == signs[0]), "octant {rays_in:#x}: mixed signs");
+                    assert_eq!(narrowed[14 + axis], u32::from(signs[0]), "octant {rays_in:#x}: sign");
+                    assert_eq!(got(axis), origins[axis], "origin min");
+                    assert_eq!(got(3 + axis), origins[3 + axis], "origin max");
+                    assert_eq!(got(6 + axis), inverses[axis], "inverse min");
+                    assert_eq!(got(9 + axis), inverses[3 + axis], "inverse max");
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: called only where the CPU has AVX2.
+                assert_eq!(unsafe { octant_bounds_avx(&rays, active) }, portable, "AVX lanes");
+            }
+        }
+        assert!(split > 250, "{split} packets over several octants");
+    }
+
     /// Ray r taken from a packet's lanes is the ray `LaneRay::new` and `t_lo` make, bit for
     /// bit: every lane of every batch, rays left out of the packet around it, signed-zero and
     /// tiny direction components, origins beyond the extent, on the portable lanes and (where the CPU has AVX2) the AVX ones.
     #[test]
     fn a_ray_taken_from_the_packet_is_the_single_rays_own() {
-        use rand::{Rng, SeedableRng, rngs::StdRng};
         let mut rng = StdRng::seed_from_u64(3);
         for _ in 0..200 {
-            let rays: [(DVec3, DVec3, f64); PACKET] = std::array::from_fn(|_| {
-                let mut direction = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0)));
-                match rng.random_range(0..8) {
-                    0 => direction[rng.random_range(0..3)] = 0.0,
-                    1 => direction[rng.random_range(0..3)] = -0.0,
-                    2 => direction[rng.random_range(0..3)] = -1e-9,
-                    3 => direction[rng.random_range(0..3)] = 1e-9,
-                    _ => {}
-                }
-                // Origins reach 1,500 against extents of 1 to 1,000: some lie beyond the extent.
-                let origin = DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1500.0..1500.0)));
-                (origin, direction.normalize(), rng.random_range(0.0..0.01))
-            });
+            let rays = random_rays(&mut rng);
             let active = rng.random::<u64>() | 1;
             let extent = rng.random_range(1.0..1000.0);
-            let portable = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&rays, active, extent);
+            let mut portable = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&rays, active, extent);
+            portable.narrow_to(active);
             #[cfg(target_arch = "x86_64")]
             // SAFETY: called only where the CPU has AVX2.
             let avx =
@@ -277,7 +502,8 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn avx_singles(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, extent: f32) -> Vec<Vec<u32>> {
-        let packet = PacketRays::<crate::trace::fast::lanes::Avx8>::new(rays, active, extent);
+        let mut packet = PacketRays::<crate::trace::fast::lanes::Avx8>::new(rays, active, extent);
+        packet.narrow_to(active);
         (0..PACKET)
             .map(|r| {
                 if active >> r & 1 == 1 {

@@ -88,7 +88,25 @@ impl WideBvh {
                         enter(node, ray, t_hi)
                     };
                     if hits != 0 {
-                        // The nearest child entered is visited next without a push.
+                        // The nearest child entered is visited next without a push. One or two
+                        // children (most nodes of a single ray's walk) are ordered by one compare,
+                        // as Embree does, in the order the insertion sort gives: a lower lane
+                        // first only where it is strictly nearer.
+                        let first = hits.trailing_zeros() as usize;
+                        let rest = hits & (hits - 1);
+                        if rest == 0 {
+                            current = (node.child[first], near[first]);
+                            continue;
+                        }
+                        if rest & (rest - 1) == 0 {
+                            let second = rest.trailing_zeros() as usize;
+                            let (a, b) = ((node.child[first], near[first]), (node.child[second], near[second]));
+                            let (next, later) = if a.1 < b.1 { (a, b) } else { (b, a) };
+                            stack[len] = later;
+                            len += 1;
+                            current = next;
+                            continue;
+                        }
                         len = push_children(stack, len, node, hits, &near) - 1;
                         current = stack[len];
                         continue;
@@ -140,8 +158,8 @@ const STOPPED: f32 = f32::NEG_INFINITY;
 pub(crate) const PACKET: usize = 64;
 
 impl WideBvh {
-    /// [`WideBvh::traverse`] for up to [`PACKET`] rays at once (bit r of `active` set where
-    /// ray r takes part), by interval arithmetic: a node's eight boxes are tested once for
+    /// [`WideBvh::traverse`] for up to [`PACKET`] rays at once (the rays `rays` is narrowed to,
+    /// [`PacketRays::bounded`]: bit r set where ray r takes part), by interval arithmetic: a node's eight boxes are tested once for
     /// the whole packet against the bounds of its origins and inverse directions (admitting
     /// every box some ray enters, maybe more), and each leaf triangle is filtered against
     /// eight rays at a time. `visit(r, triangle)` sees, for each ray, every triangle the
@@ -150,7 +168,7 @@ impl WideBvh {
     /// and the walk ends once every ray has stopped (its bound is left at −∞).
     /// The rays must share their directions' signs (`rays.bounds.same_signs()`: the interval
     /// test and the per-ray box tests pick each axis's near plane by that sign); entries of
-    /// `bounds` outside `active` are left alone; those inside must not be NaN (the packet's
+    /// `bounds` outside the walk's rays are left alone; those inside must not be NaN (the packet's
     /// bound, a maximum of four-lane maxima, may drop a finite bound beside a NaN one: the
     /// SSE maximum returns its second operand on NaN).
     /// `W` is the eight-lane type the leaf filter runs on (the same answers whichever);
@@ -161,10 +179,11 @@ impl WideBvh {
         &self,
         rays: &PacketRays<W>,
         bounds: &mut [f32; PACKET],
-        active: u64,
         corners: &[[DVec3; 3]],
         visit: impl FnMut(usize, usize) -> Visit,
     ) {
+        let active = rays.bounded();
+        debug_assert!(active != 0, "a packet walk before `PacketRays::narrow_to`");
         debug_assert!(
             (0..PACKET).all(|r| active >> r & 1 == 0 || !bounds[r].is_nan()),
             "a NaN bound in the packet walk"
@@ -730,11 +749,14 @@ mod tests {
             };
             // The walk takes one octant of directions at a time (`closest_hits`): the most
             // populous one here.
-            let active = super::super::octants(&packet, drawn)
+            let active = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, drawn, 30.0)
+                .octants()
                 .into_iter()
                 .max_by_key(|rays_in| rays_in.count_ones())
                 .unwrap_or(0);
-            let bounds = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, active, 30.0).bounds;
+            let mut narrowed = PacketRays::<crate::trace::fast::lanes::Lanes8>::new(&packet, active, 30.0);
+            narrowed.narrow_to(active);
+            let bounds = narrowed.bounds;
             let t_hi: Vec<f32> = (0..PACKET)
                 .map(|_| {
                     if rng.random_bool(0.3) {
@@ -794,16 +816,16 @@ mod tests {
         active: u64,
         stopping: u64,
     ) -> ([f32; PACKET], [u32; PACKET]) {
-        let rays = PacketRays::<W>::new(packet, active, bvh.wide.extent);
+        let mut rays = PacketRays::<W>::new(packet, active, bvh.wide.extent);
+        rays.narrow_to(active);
         let mut bounds = [f32::INFINITY; PACKET];
         let mut visits = [0u32; PACKET];
-        bvh.wide
-            .traverse_interval(&rays, &mut bounds, active, &bvh.triangles, |r, _| {
-                let stops = stopping >> r & 1 != 0;
-                assert!(!stops || visits[r] == 0, "ray {r} visited again after it stopped");
-                visits[r] += 1;
-                if stops { Visit::Stop } else { Visit::Miss }
-            });
+        bvh.wide.traverse_interval(&rays, &mut bounds, &bvh.triangles, |r, _| {
+            let stops = stopping >> r & 1 != 0;
+            assert!(!stops || visits[r] == 0, "ray {r} visited again after it stopped");
+            visits[r] += 1;
+            if stops { Visit::Stop } else { Visit::Miss }
+        });
         (bounds, visits)
     }
 
