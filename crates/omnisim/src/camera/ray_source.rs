@@ -17,6 +17,8 @@ use super::{Camera, CameraRay, Catadioptric, Cylindrical, Equirectangular};
 pub(crate) struct RaySource<'a> {
     size: (u32, u32),
     rays: Rays<'a>,
+    /// What [`Self::shared_origin`] gives.
+    shared_origin: Option<DVec3>,
 }
 
 /// How a [`RaySource`] makes a pixel's ray.
@@ -58,19 +60,28 @@ impl<'a> RaySource<'a> {
     /// `camera`'s rays, with what they share worked out now.
     pub(crate) fn new(camera: &'a Camera) -> Self {
         let size = camera.size();
-        let rays = match camera {
-            Camera::Equirectangular(c) => Rays::Equirect(Grid::new(
-                size,
-                |u| super::panorama_azimuth(u, c.width),
-                |v| c.elevation(v),
-            )),
-            Camera::Cylindrical(c) => {
-                Rays::Cylindrical(Grid::new(size, |u| super::panorama_azimuth(u, c.width), |v| c.rise(v)))
+        let (rays, shared_origin) = match camera {
+            Camera::Equirectangular(c) => {
+                let grid = Grid::new(size, |u| super::panorama_azimuth(u, c.width), |v| c.elevation(v));
+                (Rays::Equirect(grid), Some(DVec3::ZERO))
             }
-            Camera::Catadioptric(c) => Rays::Mirror(c, Box::new(c.ray_constants())),
-            Camera::Pinhole(_) | Camera::Lens(_) => Rays::EachPixel(camera),
+            Camera::Cylindrical(c) => {
+                let grid = Grid::new(size, |u| super::panorama_azimuth(u, c.width), |v| c.rise(v));
+                (Rays::Cylindrical(grid), Some(DVec3::ZERO))
+            }
+            Camera::Catadioptric(c) => {
+                let constants = Box::new(c.ray_constants());
+                let origin = c.shared_origin(&constants);
+                (Rays::Mirror(c, constants), origin)
+            }
+            Camera::Pinhole(c) => (Rays::EachPixel(camera), Some(c.position)),
+            Camera::Lens(c) => (Rays::EachPixel(camera), Some(c.intrinsics.position)),
         };
-        Self { size, rays }
+        Self {
+            size,
+            rays,
+            shared_origin,
+        }
     }
 
     /// The ray through the centre of pixel `index` (below width·height), counted row by row
@@ -105,13 +116,7 @@ impl<'a> RaySource<'a> {
     /// knows without computing them: the panoramas' and a central mirror's body origin, a
     /// pinhole's or lens camera's position. `None` for non-central mirrors.
     pub(crate) fn shared_origin(&self) -> Option<DVec3> {
-        match &self.rays {
-            Rays::Equirect(_) | Rays::Cylindrical(_) => Some(DVec3::ZERO),
-            Rays::Mirror(c, constants) => c.shared_origin(constants),
-            Rays::EachPixel(Camera::Pinhole(c)) => Some(c.position),
-            Rays::EachPixel(Camera::Lens(c)) => Some(c.intrinsics.position),
-            Rays::EachPixel(_) => None,
-        }
+        self.shared_origin
     }
 
     /// Every pixel's ray, row by row, on all threads.

@@ -106,9 +106,10 @@ fn failed(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {
 
 /// The PNG encoder of every per-frame image: fast deflate (fdeflate) with the Sub filter on
 /// every row. Per-frame encoding competes with the tracer for the same cores in data sets, so
-/// speed wins over size: fast deflate encodes a 250×250 omni frame in 0.3 ms instead of 9 ms
-/// for 1.5× the bytes, and Sub instead of trying all five filters a row (adaptive) takes
-/// 0.05–0.15 ms instead of 0.12–0.23 for 9–25 % more bytes (docs/benchmarks.md).
+/// speed wins over size: fast deflate took a 250×250 omni frame about 30× less time than
+/// default deflate for 1.5× the bytes (first measured when it was chosen), and Sub instead of
+/// trying all five filters a row (adaptive) now takes 0.05–0.15 ms instead of 0.12–0.23 for
+/// 9–25 % more bytes (docs/benchmarks.md, "2026-11-26 afternoon (data)").
 pub(crate) fn png_encoder<W: std::io::Write>(out: W) -> image::codecs::png::PngEncoder<W> {
     image::codecs::png::PngEncoder::new_with_quality(
         out,

@@ -256,6 +256,15 @@ fn frame_illuminance(
     // frame's before: a fill and a sum kept in the frame's array cost a lit equirect 1024²
     // frame about 11 instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
     let pixels = frame.pixels().len();
+    // The writes below cover whole rows only: a frame whose public size fields no longer
+    // match its pixels would leave entries unwritten (once a frame, free).
+    assert_eq!(
+        pixels,
+        frame.width as usize * frame.height as usize,
+        "frame size {}x{} against {pixels} pixels",
+        frame.width,
+        frame.height
+    );
     let mut lux = Vec::with_capacity(pixels);
     lux.spare_capacity_mut()[..pixels]
         .par_chunks_mut(row_length * 8)
@@ -317,7 +326,7 @@ fn frame_illuminance(
         });
     // SAFETY: the loop above wrote each of the first `pixels` entries: the bands cover the
     // frame, and a band's tiles cover every pixel of it, since `pixels` is width·height
-    // (asserted in `Frame::from_hits`) and so every band is whole rows (a partial last row
+    // (asserted at the top) and so every band is whole rows (a partial last row
     // would leave entries unwritten). A panic there unwinds past this line, leaving the length 0.
     unsafe { lux.set_len(pixels) };
     lux

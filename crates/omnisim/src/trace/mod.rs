@@ -237,8 +237,8 @@ fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
 }
 
 /// [`trace_band`]'s work, `portable` as there: the band's tiles compiled once for rays of a
-/// shared origin, turned once a frame, and once for rays of their own origins, turned through
-/// an [`OriginCache`]. A test per ray of which it is cost the equirect 1024² frame ~4
+/// shared origin, turned once a frame, and once for rays of their own origins (non-central
+/// mirrors), each turned. A test per ray of which it is cost the equirect 1024² frame ~4
 /// instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
 #[inline(always)]
 fn trace_band_in(
@@ -253,9 +253,8 @@ fn trace_band_in(
     if let Some(origin) = local.shared_origin {
         trace_tiles(bvh, local, band, pixels, portable, |_| origin);
     } else {
-        let mut cache = OriginCache::new(&local.pose);
         trace_tiles(bvh, local, band, pixels, portable, |origin| {
-            cache.turn(&local.pose, origin)
+            local.pose.turn_origin(origin)
         });
     }
 }
@@ -269,7 +268,7 @@ fn trace_tiles(
     (row_length, band): (usize, usize),
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
-    mut turn_origin: impl FnMut(DVec3) -> DVec3,
+    turn_origin: impl Fn(DVec3) -> DVec3,
 ) {
     let rows = pixels.len() / row_length;
     // One packet array per band: entries outside a tile's `active` rays are never read, so
@@ -351,37 +350,6 @@ struct LocalRays<'a, F> {
     ray: &'a F,
 }
 
-/// The last body-frame ray origin turned into the scene-local frame: a central camera's rays
-/// share one origin, so the turn is made once per band instead of once per ray. Keyed by
-/// the origin's bits, so a reused result is exactly what [`LocalPose::ray`] would give. The
-/// bits are compared one word at a time: a whole-array compare was loaded across the words'
-/// separate stores, a store-forwarding stall per ray (perf, env1 omni).
-struct OriginCache {
-    body: (u64, u64, u64),
-    local: DVec3,
-}
-
-impl OriginCache {
-    /// The cache holding the camera's centre, (0, 0, 0), turned by `pose`.
-    fn new(pose: &LocalPose) -> Self {
-        Self {
-            body: (0, 0, 0),
-            local: pose.turn_origin(DVec3::ZERO),
-        }
-    }
-
-    /// `origin` turned by `pose` ([`LocalPose::turn_origin`]).
-    #[inline(always)]
-    fn turn(&mut self, pose: &LocalPose, origin: DVec3) -> DVec3 {
-        let bits = (origin.x.to_bits(), origin.y.to_bits(), origin.z.to_bits());
-        if bits != self.body {
-            self.body = bits;
-            self.local = pose.turn_origin(origin);
-        }
-        self.local
-    }
-}
-
 /// The pixels of the 8×8 tile at `column` of a band of `rows` ≤ 8 rows of `row_length` pixels,
 /// as offsets into the band: ray r of the tile's packet is pixel (column + r % columns, row
 /// r / columns), with min(8, `row_length` − column) columns.
@@ -459,66 +427,6 @@ pub(crate) fn test_scene(name: &str) -> (crate::scene::Scene, SceneBvh) {
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng, rngs::StdRng};
-
-    /// The band's origin cache gives, bit for bit, the per-ray turn of every origin it is
-    /// asked for: repeated origins (a central camera), origins that change from ray to ray
-    /// (a non-central mirror), signed zeros (equal as numbers, not as bits) and the cache's
-    /// own starting key, (0, 0, 0).
-    #[test]
-    fn origin_cache_turns_each_origin_as_the_pose_does() {
-        let (_, bvh) = test_scene("env1");
-        let mut rng = StdRng::seed_from_u64(5);
-        let pose = Pose::new(DVec3::new(1.5, -0.25, 0.4), DVec3::new(0.2, -0.35, 3.5));
-        let local = LocalPose::new(&bvh, &pose);
-        let mut cache = OriginCache::new(&local);
-        let picks = [DVec3::ZERO, DVec3::new(-0.0, 0.0, -0.0), DVec3::new(0.01, -0.02, 0.03)];
-        let (mut reused, mut turned) = (0, 0);
-        for _ in 0..2000 {
-            let origin = match rng.random_range(0..4) {
-                3 => DVec3::new(
-                    rng.random_range(-0.1..0.1),
-                    rng.random_range(-0.1..0.1),
-                    rng.random_range(-0.1..0.1),
-                ),
-                k => picks[k],
-            };
-            let before = cache.body;
-            let got = cache.turn(&local, origin);
-            let want = local.turn_origin(origin);
-            assert_eq!(
-                got.to_array().map(f64::to_bits),
-                want.to_array().map(f64::to_bits),
-                "{origin:?}"
-            );
-            if before == cache.body {
-                reused += 1;
-            } else {
-                turned += 1;
-            }
-        }
-        assert!(
-            reused > 200 && turned > 200,
-            "{reused} reused, {turned} turned: a poor test"
-        );
-
-        // Signed zeros that the turn keeps apart: with no rotation and a viewpoint at −0, the
-        // centre (0, 0, 0) turns to +0 and (−0, −0, −0) to −0, which a cache keyed by value
-        // would mix up. The fresh cache's own key comes first.
-        let at_negative_zero = LocalPose {
-            world_from_body: DMat3::IDENTITY,
-            origin: DVec3::splat(-0.0),
-        };
-        let mut cache = OriginCache::new(&at_negative_zero);
-        for origin in [DVec3::ZERO, DVec3::splat(-0.0), DVec3::ZERO, DVec3::splat(-0.0)] {
-            let want = at_negative_zero.turn_origin(origin).to_array().map(f64::to_bits);
-            assert_eq!(
-                origin.to_array().map(f64::to_bits),
-                want,
-                "the case needs the zeros kept"
-            );
-            assert_eq!(cache.turn(&at_negative_zero, origin).to_array().map(f64::to_bits), want);
-        }
-    }
 
     /// Packets of shadow rays give every ray the answer of the f64 test of every triangle
     /// (no BVH), on each tracer: rays from one small patch and from all over the room, towards
