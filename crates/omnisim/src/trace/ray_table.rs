@@ -78,8 +78,8 @@ impl CentralRay {
 /// A ray table's ray directions, read straight from its storage: what a textured run's
 /// footprints need of each lane's ray (`shade/footprint.rs`), the storage's kind matched once
 /// a run. Matched per lane, with each lane's whole ray built ([`RayTable::ray`]), this cost a
-/// textured equirect 1024×512 frame ~7 M instructions more (docs/benchmarks.md, 2026-11-26
-/// afternoon (tex), third turn).
+/// textured equirect 1024×512 frame 4.7 M instructions more (callgrind; docs/benchmarks.md,
+/// 2026-11-26 afternoon (tex), third turn).
 #[derive(Clone, Copy)]
 pub(crate) enum Directions<'a> {
     /// A central table's entries.
