@@ -21,11 +21,11 @@
 
 use std::sync::Arc;
 
-use glam::{DMat3, DVec2, Vec3};
+use glam::{DMat3, DVec2, DVec3, Vec3};
 
-use crate::camera::{Camera, CameraRay, Cone};
+use crate::camera::{Camera, CameraRay, Cone, RaySource};
 use crate::pose::Pose;
-use crate::trace::ray_table::{ConeTable, RayTable};
+use crate::trace::ray_table::{ConeTable, Directions};
 
 /// A pixel's footprint: its ray cone and its ray's direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,7 +61,7 @@ impl Footprint {
     /// ([`Footprint::in_body`]), from the camera's own rays: [`Footprint::around`] without
     /// multiplying each ray by a rotation (the identity there).
     pub(crate) fn in_body_around(pixel: DVec2, camera: &Camera) -> Footprint {
-        Self::from_rays(pixel, camera, Footprint::in_body)
+        Self::from_rays(pixel, camera, |cone, ray| Footprint::in_body(cone, ray.direction))
     }
 
     /// The footprint `footprint` makes of pixel `pixel`'s cone and ray, from `camera`'s own
@@ -84,14 +84,15 @@ impl Footprint {
         }
     }
 
-    /// The footprint of the pixel whose cone is `cone` and body-frame ray `ray`, in the body
-    /// frame: laid on normals turned into the body frame, so a frame's textured pixels turn
-    /// their face's normal once per face rather than each ray into the world.
+    /// The footprint of the pixel whose cone is `cone` and body-frame ray direction
+    /// `direction`, in the body frame: laid on normals turned into the body frame, so a
+    /// frame's textured pixels turn their face's normal once per face rather than each ray
+    /// into the world.
     #[inline]
-    pub(crate) fn in_body(cone: Cone, ray: &CameraRay) -> Footprint {
+    pub(crate) fn in_body(cone: Cone, direction: DVec3) -> Footprint {
         Footprint {
             cone,
-            direction: ray.direction.as_vec3(),
+            direction: direction.as_vec3(),
         }
     }
 
@@ -115,11 +116,14 @@ impl Footprint {
 /// Where the footprints of a frame's pixels come from, chosen once a frame
 /// (`View::footprints`): all in the camera body's frame ([`Footprint::in_body`]).
 pub(crate) enum Footprints<'a> {
-    /// The ray table's rays and cones.
-    Table { table: &'a RayTable, cones: &'a [Cone] },
-    /// A cone table, and the camera's own ray of each pixel (an image too large for a ray
-    /// table).
-    Cones { table: Arc<ConeTable>, camera: &'a Camera },
+    /// The ray table's ray directions and cones.
+    Table {
+        directions: Directions<'a>,
+        cones: &'a [Cone],
+    },
+    /// A cone table, and each pixel's own ray from the camera's ray source (an image too
+    /// large for a ray table).
+    Cones { table: Arc<ConeTable>, rays: RaySource<'a> },
     /// The camera's rays alone, three a pixel; `width` is the image's (pixels are row by row).
     Camera { camera: &'a Camera, width: usize },
 }
@@ -135,11 +139,11 @@ impl Footprints<'_> {
     #[inline(always)]
     pub(crate) fn longer_axes<const L: usize>(&self, index: &[usize; L], range: &[f32; L], normal: Vec3) -> [f32; L] {
         let footprints: [Footprint; L] = match self {
-            Footprints::Table { table, cones } => {
-                std::array::from_fn(|k| with_cone(cones[index[k]], table.ray(index[k])))
+            Footprints::Table { directions, cones } => {
+                directions.lanes(index, |k, direction| with_cone(cones[index[k]], direction))
             }
-            Footprints::Cones { table, camera } => {
-                std::array::from_fn(|k| with_cone(table.cones[index[k]], camera.pixel_ray(index[k])))
+            Footprints::Cones { table, rays } => {
+                std::array::from_fn(|k| with_cone(table.cones[index[k]], rays.ray(index[k]).map(|ray| ray.direction)))
             }
             Footprints::Camera { camera, width } => std::array::from_fn(|k| {
                 let pixel = DVec2::new((index[k] % width) as f64, (index[k] / width) as f64);
@@ -150,9 +154,9 @@ impl Footprints<'_> {
     }
 }
 
-/// The footprint in the camera body's frame of a pixel whose cone is `cone` and ray `ray`;
-/// [`Footprint::POINT`] where it has no ray.
+/// The footprint in the camera body's frame of a pixel whose cone is `cone` and ray
+/// direction `direction`; [`Footprint::POINT`] where it has no ray.
 #[inline(always)]
-fn with_cone(cone: Cone, ray: Option<CameraRay>) -> Footprint {
-    ray.map_or(Footprint::POINT, |ray| Footprint::in_body(cone, &ray))
+fn with_cone(cone: Cone, direction: Option<DVec3>) -> Footprint {
+    direction.map_or(Footprint::POINT, |direction| Footprint::in_body(cone, direction))
 }

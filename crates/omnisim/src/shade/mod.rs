@@ -374,18 +374,19 @@ impl<'a> View<'a> {
     /// Where the footprints of the frame's pixels lie, in the camera body's frame
     /// ([`Footprint::in_body`], laid on [`View::body_normal`]s): the ray table's rays and
     /// cones where there is one (the cones made on first use), else a cone table and each
-    /// pixel's own camera ray, else the camera's rays alone (three a pixel).
+    /// pixel's own ray from the camera's ray source, else the camera's rays alone (three a
+    /// pixel).
     fn footprints(&self) -> footprint::Footprints<'_> {
         if let Some(table) = self.table {
             return footprint::Footprints::Table {
-                table,
+                directions: table.directions(),
                 cones: table.cones(),
             };
         }
         match self.cache.and_then(|cache| cache.cone_table(self.camera)) {
             Some(table) => footprint::Footprints::Cones {
                 table,
-                camera: self.camera,
+                rays: self.camera.ray_source(),
             },
             None => footprint::Footprints::Camera {
                 camera: self.camera,

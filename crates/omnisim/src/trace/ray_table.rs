@@ -56,7 +56,7 @@ enum Rays {
 /// never straddles two cache lines.
 #[derive(Clone, Copy)]
 #[repr(C, align(32))]
-struct CentralRay {
+pub(crate) struct CentralRay {
     direction: DVec3,
     t_min: f64,
 }
@@ -72,6 +72,41 @@ impl CentralRay {
             direction: self.direction,
             t_min: self.t_min,
         })
+    }
+}
+
+/// A ray table's ray directions, read straight from its storage: what a textured run's
+/// footprints need of each lane's ray (`shade/footprint.rs`), the storage's kind matched once
+/// a run. Matched per lane, with each lane's whole ray built ([`RayTable::ray`]), this cost a
+/// textured equirect 1024×512 frame 4.7 M instructions more (callgrind; docs/benchmarks.md,
+/// 2026-11-26 afternoon (tex), third turn).
+#[derive(Clone, Copy)]
+pub(crate) enum Directions<'a> {
+    /// A central table's entries.
+    Central(&'a [CentralRay]),
+    /// Rays of their own origins.
+    OwnOrigins(&'a [Option<CameraRay>]),
+}
+
+impl Directions<'_> {
+    /// `lane(k, direction)` for each lane k, `direction` the body-frame ray direction of pixel
+    /// `index[k]` (row by row), `None` where the pixel has no ray: one pass over the lanes, no
+    /// array of directions copied between.
+    #[inline(always)]
+    pub(crate) fn lanes<const L: usize, T>(
+        self,
+        index: &[usize; L],
+        lane: impl Fn(usize, Option<DVec3>) -> T,
+    ) -> [T; L] {
+        match self {
+            Directions::Central(entries) => std::array::from_fn(|k| {
+                let entry = &entries[index[k]];
+                lane(k, (!entry.t_min.is_nan()).then_some(entry.direction))
+            }),
+            Directions::OwnOrigins(rays) => {
+                std::array::from_fn(|k| lane(k, rays[index[k]].as_ref().map(|ray| ray.direction)))
+            }
+        }
     }
 }
 
@@ -114,6 +149,14 @@ impl RayTable {
         match &self.rays {
             Rays::Central { origin, entries } => entries[index].ray(*origin),
             Rays::OwnOrigins(rays) => rays[index],
+        }
+    }
+
+    /// Every pixel's ray direction, as the table holds them.
+    pub(crate) fn directions(&self) -> Directions<'_> {
+        match &self.rays {
+            Rays::Central { entries, .. } => Directions::Central(entries),
+            Rays::OwnOrigins(rays) => Directions::OwnOrigins(rays),
         }
     }
 
