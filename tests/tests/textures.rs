@@ -1100,7 +1100,8 @@ fn assert_encoded_alone(colour: [u8; 3], alone: DVec3, exact: bool, name: &str) 
 /// ray table, whose footprints come from a cone table (above 2^20 pixels) or from the
 /// camera's rays alone (above 2^22): every 61st pixel, linear and 8-bit, unturned (bit for
 /// bit) and turned ([`TURNED`]). The sizes are forced by the ray table's limits (`MAX_PIXELS`,
-/// `MAX_CONE_PIXELS` in `trace/ray_table.rs`).
+/// `MAX_CONE_PIXELS` in `trace/ray_table.rs`); the equirect panorama's rays come from its
+/// per-column and per-row ray source there, a pinhole's pixel by pixel.
 #[test]
 fn a_textured_frame_too_large_for_a_ray_table_is_each_pixel_shaded_alone_bit_for_bit() {
     let loaded = common::load("env1-textured.ron");
@@ -1108,20 +1109,31 @@ fn a_textured_frame_too_large_for_a_ray_table_is_each_pixel_shaded_alone_bit_for
     let mut tracer = common::cpu_tracer(&loaded, &bvh);
     tracer.renderer.set_cpu_tracer(CpuTracer::Fast);
     let appearance = tracer.scene.appearance();
-    let sizes = [(1100, 1000), (4200, 1000)];
-    for ((width, height), angles) in sizes.into_iter().flat_map(|size| [(size, DVec3::ZERO), (size, TURNED)]) {
+    let pinhole = |width, height| Camera::Pinhole(Pinhole::with_horizontal_fov(width, height, 80f64.to_radians()));
+    let cameras = [
+        pinhole(1100, 1000),
+        pinhole(4200, 1000),
+        Camera::Equirectangular(Equirectangular {
+            width: 1450,
+            height: 725,
+        }),
+    ];
+    for (camera, angles) in cameras
+        .iter()
+        .flat_map(|camera| [(camera, DVec3::ZERO), (camera, TURNED)])
+    {
+        let (width, height) = camera.size();
         let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), angles);
         let exact = angles == DVec3::ZERO;
-        let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(width, height, 80f64.to_radians()));
         let frame = tracer
-            .render_planes(&camera, &pose, Planes::COLOUR.with(Plane::LinearColour))
+            .render_planes(camera, &pose, Planes::COLOUR.with(Plane::LinearColour))
             .expect("render");
         let (linear, colour) = (frame.linear_colour().unwrap(), frame.colour().unwrap());
         let mut textured_pixels = 0;
         for index in (0..frame.pixels().len()).step_by(61) {
             let hit = &frame.pixels()[index];
             let pixel = DVec2::new((index % width as usize) as f64, (index / width as usize) as f64);
-            let footprint = Footprint::of_pixel(&camera, &pose, pixel);
+            let footprint = Footprint::of_pixel(camera, &pose, pixel);
             let alone = advanced::shade(CpuTracer::Fast, tracer.scene.geometry(), appearance, hit, &footprint);
             let name = format!("{width}×{height} {angles} pixel {index}");
             assert_shaded_alone(linear[index], alone, exact, &name);
