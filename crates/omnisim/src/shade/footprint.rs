@@ -125,7 +125,7 @@ pub(crate) enum Footprints<'a> {
     /// large for a ray table).
     Cones { table: Arc<ConeTable>, rays: RaySource<'a> },
     /// The camera's rays alone, three a pixel; `width` is the image's (pixels are row by row).
-    Camera { camera: &'a Camera, width: usize },
+    Camera { camera: &'a Camera, width: u32 },
 }
 
 impl Footprints<'_> {
@@ -146,8 +146,7 @@ impl Footprints<'_> {
                 std::array::from_fn(|k| with_cone(table.cones[index[k]], rays.ray(index[k]).map(|ray| ray.direction)))
             }
             Footprints::Camera { camera, width } => std::array::from_fn(|k| {
-                let pixel = DVec2::new((index[k] % width) as f64, (index[k] / width) as f64);
-                Footprint::in_body_around(pixel, camera)
+                Footprint::in_body_around(crate::camera::pixel_centre(index[k], *width), camera)
             }),
         };
         std::array::from_fn(|k| footprints[k].longer_axis(range[k], normal))

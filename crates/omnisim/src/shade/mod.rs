@@ -390,7 +390,7 @@ impl<'a> View<'a> {
             },
             None => footprint::Footprints::Camera {
                 camera: self.camera,
-                width: self.camera.size().0.max(1) as usize,
+                width: self.camera.size().0,
             },
         }
     }
