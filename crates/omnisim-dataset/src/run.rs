@@ -287,6 +287,11 @@ impl Unsynced {
     /// disk (its own sync, on a new handle, hears nothing of the old error); gone, they are
     /// written anew and synced before anything vouches for them.
     fn make_durable(&self, make_durable: MakeDurable, folder: &DurableFolder) -> std::io::Result<()> {
+        // Nothing written, nothing to make durable (on Linux the call would sync the whole
+        // file system for no file).
+        if self.paths.is_empty() {
+            return Ok(());
+        }
         let synced = make_durable(folder, &self.paths);
         if synced.is_err() {
             for path in &self.paths[..self.set_files] {
@@ -549,11 +554,7 @@ impl Dataset {
         // The entries written since the last batch, and the set files where no batch took
         // them (not the frames of a pending or failed batch); after a failure, best effort
         // for the next run, and the failure is what the user hears.
-        let synced = if pending.unsynced.paths.is_empty() {
-            Ok(())
-        } else {
-            pending.unsynced.make_durable(make_durable, &folder)
-        };
+        let synced = pending.unsynced.make_durable(make_durable, &folder);
         if let Some(failure) = failure {
             return Err(failure);
         }

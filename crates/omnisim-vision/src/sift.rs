@@ -138,14 +138,16 @@ fn features(image: &Raster, params: &SiftParams) -> Features {
     let grey = image.to_grey();
     let s = params.scales_per_octave;
     let smallest_octave = 2 * params.border + 3;
-    let nothing = || Features {
-        keypoints: Vec::new(),
-        length: descriptor_length(params),
-        descriptors: Vec::new(),
-    };
-    // An empty image has no row to blur (rayon's chunks of a zero-width row would panic).
-    if grey.width == 0 || grey.height == 0 {
-        return nothing();
+    // Too small for one octave inside the border (the blur keeps the size, the upsampling
+    // doubles it): no features, and nothing to blur. An empty image is among them (rayon's
+    // chunks of a zero-width row would panic).
+    let upsampling = if params.upsample { 2 } else { 1 };
+    if grey.width.min(grey.height) * upsampling < smallest_octave {
+        return Features {
+            keypoints: Vec::new(),
+            length: descriptor_length(params),
+            descriptors: Vec::new(),
+        };
     }
     let first_octave = if params.upsample { -1 } else { 0 };
     let (base, input_sigma) = if params.upsample {
@@ -155,9 +157,6 @@ fn features(image: &Raster, params: &SiftParams) -> Features {
     };
     let mut base = gaussian_blur(&base, (params.sigma.powi(2) - input_sigma.powi(2)).max(0.01).sqrt());
     let shortest = base.width.min(base.height);
-    if shortest < smallest_octave {
-        return nothing();
-    }
     // OpenCV's count (log2 of the side − 2), then only octaves that leave room inside the border.
     let octaves = ((shortest as f32).log2() - 2.0).round().max(1.0) as usize;
     let octaves = (0..octaves).take_while(|o| shortest >> o >= smallest_octave).count();
