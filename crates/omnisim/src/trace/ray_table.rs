@@ -67,11 +67,17 @@ impl CentralRay {
     /// The camera ray this entry holds, from the table's shared `origin`.
     #[inline(always)]
     fn ray(self, origin: DVec3) -> Option<CameraRay> {
-        (!self.t_min.is_nan()).then_some(CameraRay {
+        self.direction().map(|direction| CameraRay {
             origin,
-            direction: self.direction,
+            direction,
             t_min: self.t_min,
         })
+    }
+
+    /// The entry's direction, `None` for a pixel without a ray (marked by a NaN `t_min`).
+    #[inline(always)]
+    fn direction(self) -> Option<DVec3> {
+        (!self.t_min.is_nan()).then_some(self.direction)
     }
 }
 
@@ -99,10 +105,7 @@ impl Directions<'_> {
         lane: impl Fn(usize, Option<DVec3>) -> T,
     ) -> [T; L] {
         match self {
-            Directions::Central(entries) => std::array::from_fn(|k| {
-                let entry = &entries[index[k]];
-                lane(k, (!entry.t_min.is_nan()).then_some(entry.direction))
-            }),
+            Directions::Central(entries) => std::array::from_fn(|k| lane(k, entries[index[k]].direction())),
             Directions::OwnOrigins(rays) => {
                 std::array::from_fn(|k| lane(k, rays[index[k]].as_ref().map(|ray| ray.direction)))
             }
