@@ -180,6 +180,8 @@ def main():
     parser.add_argument('--descriptors', help='comma-separated descriptors to keep (sift, hog, ...)')
     parser.add_argument('--copies', type=int, default=COPIES, help='renders of each image, calls per round')
     args = parser.parse_args()
+    if args.copies < 2:
+        parser.error('--copies must be at least 2: the first (cold) call of each round is not timed')
     COPIES = args.copies
     for name in list(IMAGES):
         options, pose, descriptors = IMAGES.pop(name)
