@@ -1,5 +1,7 @@
 //! Finding an adapter and opening a device, saying plainly which one and why.
 
+use std::sync::{Arc, Mutex};
+
 /// Why the GPU backend is unavailable or failed.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -70,6 +72,14 @@ pub enum GpuError {
     NoGpuCamera(&'static str),
 }
 
+/// The process's one GPU context: opened once and never dropped. Renderers made and dropped on
+/// several threads at once (tests, a library user's workers) each opened and closed their own
+/// Vulkan instance and device before; on an NVIDIA H100 (driver 580.159.04) one thread's
+/// `vkDestroyDevice` and another's `vkDestroyInstance` then deadlocked inside the driver and
+/// the Vulkan loader (5 runs of `tests/tests/stability.rs` in 16 hung). One device also spares each
+/// renderer the adapter's start-up.
+static SHARED: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);
+
 /// The adapter and device in use, and the limits every buffer is checked against.
 pub(crate) struct GpuContext {
     pub(crate) device: wgpu::Device,
@@ -82,18 +92,38 @@ impl GpuContext {
     /// Opens the adapter chosen by `WGPU_BACKEND` / `WGPU_ADAPTER_NAME` / `WGPU_POWER_PREF`
     /// when set, else the best Vulkan, Metal or DX12 adapter. OpenGL is used only when asked
     /// for (`WGPU_BACKEND=gl`), so a missing Vulkan driver is reported, not papered over.
-    pub(crate) fn new() -> Result<Self, GpuError> {
-        Self::open(false)
+    ///
+    /// The process has one context, opened by the first caller and shared by every renderer
+    /// after it (see [`SHARED`]).
+    pub(crate) fn new() -> Result<Arc<Self>, GpuError> {
+        Self::shared(false)
     }
 
     /// As [`GpuContext::new`], but refuses a software adapter (llvmpipe, lavapipe, WARP: wgpu's
     /// `DeviceType::Cpu`): the `auto` backend's choice. wgpu ranks hardware adapters first, so
     /// a software one means there is no other.
-    pub(crate) fn new_hardware() -> Result<Self, GpuError> {
-        Self::open(true)
+    pub(crate) fn new_hardware() -> Result<Arc<Self>, GpuError> {
+        Self::shared(true)
     }
 
-    fn open(hardware_only: bool) -> Result<Self, GpuError> {
+    /// The process's context, opened on first use; an open that fails is tried again next time.
+    fn shared(hardware_only: bool) -> Result<Arc<Self>, GpuError> {
+        // Poisoned only if an open panicked; the slot is still a valid `Option`.
+        let mut slot = SHARED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let context = match &*slot {
+            Some(context) => Arc::clone(context),
+            None => Arc::clone(slot.insert(Arc::new(Self::open()?))),
+        };
+        if hardware_only && context.is_software() {
+            return Err(GpuError::SoftwareAdapter(format!(
+                "{} ({:?})",
+                context.adapter.name, context.adapter.backend
+            )));
+        }
+        Ok(context)
+    }
+
+    fn open() -> Result<Self, GpuError> {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if wgpu::Backends::from_env().is_none() {
             descriptor.backends = wgpu::Backends::PRIMARY;
@@ -115,19 +145,12 @@ impl GpuContext {
             adapter: info.name.clone(),
             source,
         })?;
-        let context = Self {
+        Ok(Self {
             device,
             queue,
             adapter: info,
             limits,
-        };
-        if hardware_only && context.is_software() {
-            return Err(GpuError::SoftwareAdapter(format!(
-                "{} ({:?})",
-                context.adapter.name, context.adapter.backend
-            )));
-        }
-        Ok(context)
+        })
     }
 
     /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).

@@ -31,7 +31,7 @@ static PIPELINES_BUILT: AtomicUsize = AtomicUsize::new(0);
 
 /// The GPU backend: device, queue and the three compute pipelines.
 pub struct GpuRenderer {
-    context: GpuContext,
+    context: Arc<GpuContext>,
     trace: Pipeline,
     shade: Pipeline,
     refine: Pipeline,
@@ -89,7 +89,7 @@ struct BandOutput {
 
 impl GpuRenderer {
     /// Compiles the WGSL program and its pipelines on `context`'s device.
-    pub(crate) fn new(context: GpuContext) -> Self {
+    pub(crate) fn new(context: Arc<GpuContext>) -> Self {
         let device = &context.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("omnisim"),
