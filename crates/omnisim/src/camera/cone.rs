@@ -156,11 +156,14 @@ impl ConePlanes {
         use rayon::prelude::*;
         let cones = Cone::of_image(camera, &ray_of);
         let plane = |number: &(dyn Fn(usize, &Cone) -> f32 + Sync)| -> Vec<f32> {
-            cones.par_iter().enumerate().map(|(index, cone)| number(index, cone)).collect()
+            cones
+                .par_iter()
+                .enumerate()
+                .map(|(index, cone)| number(index, cone))
+                .collect()
         };
-        let direction = |component: usize| {
-            plane(&|index, _| ray_of(index).map_or(0.0, |ray| ray.direction[component] as f32))
-        };
+        let direction =
+            |component: usize| plane(&|index, _| ray_of(index).map_or(0.0, |ray| ray.direction[component] as f32));
         ConePlanes {
             at_origin: [0, 1].map(|axis| plane(&|_, cone| cone.0[axis].at_origin)),
             spread: [0, 1].map(|axis| plane(&|_, cone| cone.0[axis].spread)),
@@ -184,16 +187,18 @@ impl ConePlanes {
         let planes = [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z];
         // Plane by plane, not by `map` over the array of planes: LLVM kept such a call out of
         // line (about 400 instructions a run).
-        let in_place = |plane: &Vec<f32>| plane.get(index[0]..index[0] + L)?.try_into().ok();
+        fn in_place<const L: usize>(plane: &[f32], start: usize) -> Option<&Lanes<L>> {
+            plane.get(start..start + L)?.try_into().ok()
+        }
         if neighbours
             && let (Some(a), Some(b), Some(c), Some(d), Some(e), Some(f), Some(g)) = (
-                in_place(at_origin_x),
-                in_place(spread_x),
-                in_place(at_origin_y),
-                in_place(spread_y),
-                in_place(x),
-                in_place(y),
-                in_place(z),
+                in_place(at_origin_x, index[0]),
+                in_place(spread_x, index[0]),
+                in_place(at_origin_y, index[0]),
+                in_place(spread_y, index[0]),
+                in_place(x, index[0]),
+                in_place(y, index[0]),
+                in_place(z, index[0]),
             )
         {
             return each_lane([a, b, c, d, e, f, g], lane);

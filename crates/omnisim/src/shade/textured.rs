@@ -342,7 +342,10 @@ impl<'a> Shader<'a> {
         // Lit where the lights shine on the face (`lit` leaves the albedo as it is elsewhere).
         if appearance.lighting.is_some() && lit_by_lights(Some(surface)) {
             for (shaded, &slot) in shaded.iter_mut().zip(&run.slot) {
-                *shaded = lit(appearance, Some(surface), DVec3::from_array(*shaded), |_| self.lux[start + slot]).to_array();
+                *shaded = lit(appearance, Some(surface), DVec3::from_array(*shaded), |_| {
+                    self.lux[start + slot]
+                })
+                .to_array();
             }
         }
         if let Some(linear) = chunk.linear.as_deref_mut() {
