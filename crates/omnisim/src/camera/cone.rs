@@ -20,7 +20,7 @@
 //! mirror's reflected rays included); the GPU (`cone_axis` in `shaders/texture.wgsl`) computes
 //! the same from the camera's WGSL rays.
 
-use glam::{DVec2, DVec3};
+use glam::{DVec2, DVec3, Vec3};
 
 use super::{Camera, CameraRay};
 
@@ -127,6 +127,108 @@ impl Cone {
             .abs()
             .max((y.at_origin + range * y.spread).abs())
     }
+}
+
+/// Every pixel's ray cone and ray direction (f32, as a footprint holds it), row by row, one
+/// plane a number: what a ray table keeps for textured frames (`shade/footprint.rs`), so that
+/// a run of neighbouring pixels reads each number of its eight footprints as one vector. Read
+/// pixel by pixel from the table's 32-byte rays and 16-byte cones (the NaN test, the f64
+/// direction's conversion, the cone's copy a lane), an equirect 1024×512 textured frame's
+/// footprints cost about 19 M instructions more (docs/benchmarks.md, 2026-11-26 evening (tex)).
+/// A pixel without a ray holds zeros: [`Cone::ZERO`] and a zero direction, the point footprint.
+pub(crate) struct ConePlanes {
+    /// [`ConeAxis::at_origin`] by image axis, pixel.
+    at_origin: [Vec<f32>; 2],
+    /// [`ConeAxis::spread`] by image axis, pixel.
+    spread: [Vec<f32>; 2],
+    /// The ray's unit direction in the camera body's frame (f64 rounded to f32), by
+    /// component, pixel.
+    direction: [Vec<f32>; 3],
+}
+
+/// One number of each lane's pixel: a plane's values at the pixels of [`ConePlanes::lanes`].
+type Lanes<const L: usize> = [f32; L];
+
+impl ConePlanes {
+    /// The planes of every pixel of `camera`, with `ray_of` giving the ray of the pixel at an
+    /// index, as [`Cone::of_image`] takes it.
+    pub(crate) fn of_image(camera: &Camera, ray_of: impl Fn(usize) -> Option<CameraRay> + Sync) -> ConePlanes {
+        use rayon::prelude::*;
+        let cones = Cone::of_image(camera, &ray_of);
+        let plane = |number: &(dyn Fn(usize, &Cone) -> f32 + Sync)| -> Vec<f32> {
+            cones
+                .par_iter()
+                .enumerate()
+                .map(|(index, cone)| number(index, cone))
+                .collect()
+        };
+        let direction =
+            |component: usize| plane(&|index, _| ray_of(index).map_or(0.0, |ray| ray.direction[component] as f32));
+        ConePlanes {
+            at_origin: [0, 1].map(|axis| plane(&|_, cone| cone.0[axis].at_origin)),
+            spread: [0, 1].map(|axis| plane(&|_, cone| cone.0[axis].spread)),
+            direction: [0, 1, 2].map(direction),
+        }
+    }
+
+    /// `lane(k, cone, direction)` with pixel `index[k]`'s cone and ray direction for each lane k:
+    /// where the pixels are `neighbours` (`index[k]` is `index[0] + k`) every lane's `lane` in
+    /// one loop over the planes in place (vector loads), else over copies of the lanes' numbers.
+    #[inline(always)]
+    pub(crate) fn lanes<const L: usize>(
+        &self,
+        index: &[usize; L],
+        neighbours: bool,
+        lane: impl Fn(usize, Cone, Vec3) -> f32,
+    ) -> [f32; L] {
+        let [at_origin_x, at_origin_y] = &self.at_origin;
+        let [spread_x, spread_y] = &self.spread;
+        let [x, y, z] = &self.direction;
+        let planes = [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z];
+        // Plane by plane, not by `map` over the array of planes: LLVM kept such a call out of
+        // line (about 400 instructions a run).
+        fn in_place<const L: usize>(plane: &[f32], start: usize) -> Option<&Lanes<L>> {
+            plane.get(start..start + L)?.try_into().ok()
+        }
+        if neighbours
+            && let (Some(a), Some(b), Some(c), Some(d), Some(e), Some(f), Some(g)) = (
+                in_place(at_origin_x, index[0]),
+                in_place(spread_x, index[0]),
+                in_place(at_origin_y, index[0]),
+                in_place(spread_y, index[0]),
+                in_place(x, index[0]),
+                in_place(y, index[0]),
+                in_place(z, index[0]),
+            )
+        {
+            return each_lane([a, b, c, d, e, f, g], lane);
+        }
+        let copies: [Lanes<L>; 7] = std::array::from_fn(|p| std::array::from_fn(|k| planes[p][index[k]]));
+        let [a, b, c, d, e, f, g] = &copies;
+        each_lane([a, b, c, d, e, f, g], lane)
+    }
+}
+
+/// `lane(k, cone, direction)` for each lane k of the numbers `planes` ([`ConePlanes`]' order:
+/// the two axes' width at the origin and spread, then the direction's x, y and z), in one loop.
+#[inline(always)]
+fn each_lane<const L: usize>(planes: [&Lanes<L>; 7], lane: impl Fn(usize, Cone, Vec3) -> f32) -> [f32; L] {
+    let [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z] = planes;
+    let mut out = [0.0; L];
+    for (k, out) in out.iter_mut().enumerate() {
+        let cone = Cone([
+            ConeAxis {
+                at_origin: at_origin_x[k],
+                spread: spread_x[k],
+            },
+            ConeAxis {
+                at_origin: at_origin_y[k],
+                spread: spread_y[k],
+            },
+        ]);
+        *out = lane(k, cone, Vec3::new(x[k], y[k], z[k]));
+    }
+    out
 }
 
 #[cfg(test)]

@@ -23,7 +23,7 @@ use std::f64::consts::{PI, TAU};
 use glam::{DVec2, DVec3};
 
 pub use catadioptric::{Catadioptric, MirrorRays, MirrorShape, Misalignment, Mount, UnifiedModel};
-pub(crate) use cone::Cone;
+pub(crate) use cone::{Cone, ConePlanes};
 pub use cylindrical::Cylindrical;
 pub use distortion::BrownConrady;
 pub use equirect::Equirectangular;

@@ -27,7 +27,11 @@ pub(crate) struct Lookups<'a, const L: usize> {
     v: [f64; L],
     /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]). Level 1's fields here
     /// and in `last` and `size` hold only where some lane's `share[1]` is not zero
-    /// ([`Lookups::set_face`] leaves them as they were otherwise).
+    /// ([`Lookups::set_face`] leaves them as they were otherwise). Where `shared[level]`, lane
+    /// 0's slice is every lane's and the others' may be stale ([`Lookups::texels_of`] reads
+    /// them; [`Lookups::set`] fills them in before it sets a lane alone): storing eight fat
+    /// pointers a level cost about 30 instructions a run (docs/benchmarks.md, 2026-11-26
+    /// evening (tex)).
     texels: [[&'a [u32]; L]; 2],
     /// The index of the last of those texels, by level, lane: fetches are clamped to it.
     last: [[u32; L]; 2],
@@ -85,6 +89,12 @@ impl<'a, const L: usize> Lookups<'a, L> {
         let levels: &'a [MipLevel] = &texture.levels;
         let (fine, fraction) = level_below(lod, levels.len(), None);
         let coarse = fine + u32::from(fraction > 0.0);
+        // The other lanes read their own slices from now on: a shared one is theirs too.
+        for which in 0..2 {
+            if self.shared[which] {
+                self.texels[which] = [self.texels[which][0]; L];
+            }
+        }
         self.u[lane] = uv.x;
         self.v[lane] = uv.y;
         self.set_wraps(lane, wraps);
@@ -122,19 +132,23 @@ impl<'a, const L: usize> Lookups<'a, L> {
         }
         self.u = *u;
         self.v = *v;
-        for lane in 0..L {
-            self.set_wraps(lane, wraps);
-        }
+        // Each axis's wrap stored as whole lanes, where [`Lookups::set_wraps`] lane by lane cost
+        // about 25 instructions a run (docs/benchmarks.md, 2026-11-26 evening (tex)).
+        let [clamp_u, clamp_v] = wraps.clamp;
+        let [period_u, period_v] = wraps.periods;
+        self.clamp = [[clamp_u; L], [clamp_v; L]];
+        self.periods = [[period_u; L], [period_v; L]];
         self.wrap = wraps.wrap.map(Some);
         // The coarser level is read only where some lane weighs it (`trilinear_lanes`): else
         // its fields are left as they were.
-        let coarser = fraction.iter().any(|&fraction| fraction != 0.0);
+        let coarser = any_nonzero(&fraction);
         for (which, at) in [fine, coarse].iter().enumerate().take(1 + usize::from(coarser)) {
-            let shared = at.iter().all(|&level| level == at[0]);
+            // One OR over the lanes, where `all`'s early exit was a branch a lane.
+            let shared = at.iter().fold(0, |differs, &level| differs | (level ^ at[0])) == 0;
             self.shared[which] = shared;
             if shared {
                 let level = levels[at[0] as usize];
-                self.texels[which] = [level.texels; L];
+                self.texels[which][0] = level.texels;
                 self.last[which] = [level.last; L];
                 self.size[which] = [[level.size[0]; L], [level.size[1]; L]];
             } else {
@@ -147,6 +161,13 @@ impl<'a, const L: usize> Lookups<'a, L> {
             self.share[0][k] = 1.0 - fraction;
             self.share[1][k] = fraction;
         }
+    }
+
+    /// Lane `lane`'s texels of level `level` (0 finer, 1 coarser): lane 0's where the lanes
+    /// share the level's slice.
+    #[inline(always)]
+    fn texels_of(&self, level: usize, lane: usize) -> &'a [u32] {
+        self.texels[level][if self.shared[level] { 0 } else { lane }]
     }
 
     /// Sets lane `lane`'s wrap of each axis to `wraps`'s.
@@ -166,6 +187,13 @@ impl<'a, const L: usize> Lookups<'a, L> {
         self.size[which][0][lane] = level.size[0];
         self.size[which][1][lane] = level.size[1];
     }
+}
+
+/// Whether any of `values` is not zero (of either sign; NaN is not zero), as `!= 0.0` says:
+/// one OR over the lanes' bits less the sign, where `any`'s early exit was a branch a lane.
+#[inline(always)]
+fn any_nonzero<const L: usize>(values: &[f32; L]) -> bool {
+    values.iter().fold(0, |bits, value| bits | (value.to_bits() << 1)) != 0
 }
 
 /// The finer of the two levels of a pyramid of `count` levels around level of detail `lod`
@@ -515,21 +543,23 @@ fn fetched<const L: usize>(
             // `shared_texels`); `out` holds eight u32 (L = 8, as `eight` shows).
             unsafe { gather_avx2(avx2, texels, &index, out.as_mut_ptr()) };
         } else {
-            let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
+            let last = &lookups.last[level];
             let addresses: [u64; 8] = std::array::from_fn(|k| {
                 let index = (eight[k] as u32).min(last[k]);
-                texels[k].as_ptr().expose_provenance() as u64 + 4 * u64::from(index)
+                lookups.texels_of(level, k).as_ptr().expose_provenance() as u64 + 4 * u64::from(index)
             });
-            // SAFETY: each address is that of a texel of its lane's slice, whose provenance
-            // was exposed just above: `Lookups` keeps `last` the index of the last of
-            // `texels` (never empty), and the index is clamped to it; `out` holds eight u32.
+            // SAFETY: each address is that of a texel of its lane's slice (`texels_of`), whose
+            // provenance was exposed just above: `Lookups` keeps `last` the index of the last
+            // of that slice (never empty), and the index is clamped to it; `out` holds eight
+            // u32.
             unsafe { gather_exposed_avx2(avx2, &addresses, out.as_mut_ptr()) };
         }
         return out;
     }
-    let (texels, last) = (&lookups.texels[level], &lookups.last[level]);
+    let last = &lookups.last[level];
     std::array::from_fn(|k| {
-        texels[k]
+        lookups
+            .texels_of(level, k)
             .get((index[k] as u32).min(last[k]) as usize)
             .copied()
             .unwrap_or_default()

@@ -23,9 +23,9 @@ use std::sync::Arc;
 
 use glam::{DMat3, DVec2, DVec3, Vec3};
 
-use crate::camera::{Camera, CameraRay, Cone, RaySource};
+use crate::camera::{Camera, CameraRay, Cone, ConePlanes, RaySource};
 use crate::pose::Pose;
-use crate::trace::ray_table::{ConeTable, Directions};
+use crate::trace::ray_table::ConeTable;
 
 /// A pixel's footprint: its ray cone and its ray's direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -116,11 +116,8 @@ impl Footprint {
 /// Where the footprints of a frame's pixels come from, chosen once a frame
 /// (`View::footprints`): all in the camera body's frame ([`Footprint::in_body`]).
 pub(crate) enum Footprints<'a> {
-    /// The ray table's ray directions and cones.
-    Table {
-        directions: Directions<'a>,
-        cones: &'a [Cone],
-    },
+    /// The ray table's cones and ray directions.
+    Table(&'a ConePlanes),
     /// A cone table, and each pixel's own ray from the camera's ray source (an image too
     /// large for a ray table).
     Cones { table: Arc<ConeTable>, rays: RaySource<'a> },
@@ -130,17 +127,23 @@ pub(crate) enum Footprints<'a> {
 
 impl Footprints<'_> {
     /// The longer axis ([`Footprint::longer_axis`]) of each pixel `index[k]`'s footprint
-    /// (pixels row by row) at range `range[k]` on a face with unit normal `normal` (in the
-    /// camera body's frame): the source matched once for the lanes, each lane's footprint
-    /// read, then their axes worked out together. Matched for each pixel, with its axis worked
-    /// out then, this (measured together with the chunk's span scan and `Run::take`, not
-    /// alone) cost a textured equirect frame 6.5 M instructions more (docs/benchmarks.md,
-    /// 2026-11-26 afternoon (tex)).
+    /// (pixels row by row; `neighbours` where `index[k]` is `index[0] + k`) at range `range[k]`
+    /// on a face with unit normal `normal` (in the camera body's frame): the source matched
+    /// once for the lanes; from a ray table, each number of the lanes' footprints read as
+    /// one vector where they are neighbours ([`ConePlanes::lanes`]).
     #[inline(always)]
-    pub(crate) fn longer_axes<const L: usize>(&self, index: &[usize; L], range: &[f32; L], normal: Vec3) -> [f32; L] {
+    pub(crate) fn longer_axes<const L: usize>(
+        &self,
+        index: &[usize; L],
+        neighbours: bool,
+        range: &[f32; L],
+        normal: Vec3,
+    ) -> [f32; L] {
         let footprints: [Footprint; L] = match self {
-            Footprints::Table { directions, cones } => {
-                directions.lanes(index, |k, direction| with_cone(cones[index[k]], direction))
+            Footprints::Table(cones) => {
+                return cones.lanes(index, neighbours, |k, cone, direction| {
+                    Footprint { cone, direction }.longer_axis(range[k], normal)
+                });
             }
             Footprints::Cones { table, rays } => {
                 std::array::from_fn(|k| with_cone(table.cones[index[k]], rays.ray(index[k]).map(|ray| ray.direction)))

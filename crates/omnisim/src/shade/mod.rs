@@ -378,10 +378,7 @@ impl<'a> View<'a> {
     /// pixel).
     fn footprints(&self) -> footprint::Footprints<'_> {
         if let Some(table) = self.table {
-            return footprint::Footprints::Table {
-                directions: table.directions(),
-                cones: table.cones(),
-            };
+            return footprint::Footprints::Table(table.cones());
         }
         match self.cache.and_then(|cache| cache.cone_table(self.camera)) {
             Some(table) => footprint::Footprints::Cones {

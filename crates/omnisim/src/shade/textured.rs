@@ -15,7 +15,9 @@ use rayon::prelude::*;
 
 use super::filter::{LANES, Level, Lookups, Wraps, level_of_detail, trilinear_lanes};
 use super::footprint::Footprints;
-use super::{Appearance, Footprint, View, is_flat, lit, shade_on, texture_of, untextured_albedo, write_pixel};
+use super::{
+    Appearance, Footprint, View, is_flat, lit, lit_by_lights, shade_on, texture_of, untextured_albedo, write_pixel,
+};
 use crate::avx2::Avx2;
 use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
 use crate::scene::lighting::linear_to_srgb3_lanes;
@@ -305,6 +307,7 @@ impl<'a> Shader<'a> {
         }
         let length = self.footprints.longer_axes(
             &run.slot.map(|slot| start + slot),
+            neighbours,
             &hit.map(|hit| hit.range),
             face.normal,
         );
@@ -315,19 +318,35 @@ impl<'a> Shader<'a> {
         lookups.set_face(face.levels, face.wraps, &u, &v, &lod, avx2);
         let samples = trilinear_lanes(lookups, avx2);
         let appearance = self.appearance;
-        // Every lane, so that the loop has a fixed length: lanes past the run's length (earlier
-        // pixels of the face) are shaded and encoded, and not written.
+        // Every lane, so that the loops have a fixed length: lanes past the run's length
+        // (earlier pixels of the face) are shaded and encoded, and not written. The albedo
+        // times the sample channel by channel over the lanes where the face's albedo is the
+        // same all over (the usual case), where a `DVec3` a lane cost an equirect frame about
+        // 6 M instructions more (docs/benchmarks.md, 2026-11-26 evening (tex)).
         let mut shaded = [[0.0; 3]; LANES];
-        for (k, (shaded, &slot)) in shaded.iter_mut().zip(&run.slot).enumerate() {
-            let sample = DVec3::new(
-                f64::from(samples[0][k]),
-                f64::from(samples[1][k]),
-                f64::from(samples[2][k]),
-            );
-            let base = face
-                .base
-                .unwrap_or_else(|| untextured_albedo(appearance, hit[k], surface));
-            *shaded = lit(appearance, Some(surface), base * sample, |_| self.lux[start + slot]).to_array();
+        match face.base {
+            Some(base) => {
+                for (channel, samples) in samples.iter().enumerate() {
+                    for (shaded, &sample) in shaded.iter_mut().zip(samples) {
+                        shaded[channel] = base[channel] * f64::from(sample);
+                    }
+                }
+            }
+            None => {
+                for (k, shaded) in shaded.iter_mut().enumerate() {
+                    let sample = DVec3::from_array(samples.map(|channel| f64::from(channel[k])));
+                    *shaded = (untextured_albedo(appearance, hit[k], surface) * sample).to_array();
+                }
+            }
+        }
+        // Lit where the lights shine on the face (`lit` leaves the albedo as it is elsewhere).
+        if appearance.lighting.is_some() && lit_by_lights(Some(surface)) {
+            for (shaded, &slot) in shaded.iter_mut().zip(&run.slot) {
+                *shaded = lit(appearance, Some(surface), DVec3::from_array(*shaded), |_| {
+                    self.lux[start + slot]
+                })
+                .to_array();
+            }
         }
         if let Some(linear) = chunk.linear.as_deref_mut() {
             for (&slot, &[red, green, blue]) in run.slot.iter().zip(&shaded).take(run.len) {

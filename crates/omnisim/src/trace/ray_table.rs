@@ -11,7 +11,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::accel::SceneBvh;
-use crate::camera::{Camera, CameraRay, Cone};
+use crate::camera::{Camera, CameraRay, Cone, ConePlanes};
 use crate::frame::Frame;
 use crate::pose::Pose;
 use crate::trace::{CpuTracer, FrameRays};
@@ -21,8 +21,9 @@ use crate::trace::{CpuTracer, FrameRays};
 const CAMERAS: usize = 2;
 
 /// Largest image whose rays are kept (32 bytes a pixel for a camera whose rays share one origin,
-/// else 64; 16 more with the cones: at most 80 MB kept, 96 MB at the peak while a central table
-/// is made from the 64-byte rays); larger ones are computed per frame.
+/// else 64; 28 more with the cones and f32 directions of textured frames, [`ConePlanes`]: at
+/// most 92 MB kept, 96 MB at the peak while a central table is made from the 64-byte rays or
+/// 16 MB above what is kept while the cones are); larger ones are computed per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
 /// Largest image whose ray cones are kept where its rays are not (16 bytes a pixel: 64 MB): a
@@ -31,11 +32,12 @@ const MAX_PIXELS: usize = 1 << 20;
 const MAX_CONE_PIXELS: usize = 1 << 22;
 
 /// Every pixel centre's body-frame ray of one camera, row by row, and, once a textured face
-/// is shaded through it, every pixel's ray cone (the texture footprint, `shade/footprint.rs`).
+/// is shaded through it, every pixel's ray cone and f32 direction (the texture footprint,
+/// `shade/footprint.rs`).
 pub(crate) struct RayTable {
     camera: Camera,
     rays: Rays,
-    cones: OnceLock<Vec<Cone>>,
+    cones: OnceLock<ConePlanes>,
 }
 
 /// A ray table's rays, held in the smallest form that gives every ray back bit for bit.
@@ -81,38 +83,6 @@ impl CentralRay {
     }
 }
 
-/// A ray table's ray directions, read straight from its storage: what a textured run's
-/// footprints need of each lane's ray (`shade/footprint.rs`), the storage's kind matched once
-/// a run. Matched per lane, with each lane's whole ray built ([`RayTable::ray`]), this cost a
-/// textured equirect 1024×512 frame 4.7 M instructions more (callgrind; docs/benchmarks.md,
-/// 2026-11-26 afternoon (tex), third turn).
-#[derive(Clone, Copy)]
-pub(crate) enum Directions<'a> {
-    /// A central table's entries.
-    Central(&'a [CentralRay]),
-    /// Rays of their own origins.
-    OwnOrigins(&'a [Option<CameraRay>]),
-}
-
-impl Directions<'_> {
-    /// `lane(k, direction)` for each lane k, `direction` the body-frame ray direction of pixel
-    /// `index[k]` (row by row), `None` where the pixel has no ray: one pass over the lanes, no
-    /// array of directions copied between.
-    #[inline(always)]
-    pub(crate) fn lanes<const L: usize, T>(
-        self,
-        index: &[usize; L],
-        lane: impl Fn(usize, Option<DVec3>) -> T,
-    ) -> [T; L] {
-        match self {
-            Directions::Central(entries) => std::array::from_fn(|k| lane(k, entries[index[k]].direction())),
-            Directions::OwnOrigins(rays) => {
-                std::array::from_fn(|k| lane(k, rays[index[k]].as_ref().map(|ray| ray.direction)))
-            }
-        }
-    }
-}
-
 impl Rays {
     /// `rays` in the central form where every ray starts at the same origin (bit for bit)
     /// and none has a NaN `t_min`, else as they are.
@@ -155,18 +125,10 @@ impl RayTable {
         }
     }
 
-    /// Every pixel's ray direction, as the table holds them.
-    pub(crate) fn directions(&self) -> Directions<'_> {
-        match &self.rays {
-            Rays::Central { entries, .. } => Directions::Central(entries),
-            Rays::OwnOrigins(rays) => Directions::OwnOrigins(rays),
-        }
-    }
-
-    /// Every pixel's ray cone, made on first use from the table's rays.
-    pub(crate) fn cones(&self) -> &[Cone] {
+    /// Every pixel's ray cone and ray direction, made on first use from the table's rays.
+    pub(crate) fn cones(&self) -> &ConePlanes {
         self.cones
-            .get_or_init(|| Cone::of_image(&self.camera, |index| self.ray(index)))
+            .get_or_init(|| ConePlanes::of_image(&self.camera, |index| self.ray(index)))
     }
 
     /// Traces one frame with `tracer` from this table's rays: when tracing, the layout is matched
