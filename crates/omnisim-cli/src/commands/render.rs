@@ -291,9 +291,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// Bytes of the BVH built for each face of a mesh, after the scene is loaded: what
-/// `SceneBvh::heap_bytes` (`omnisim bench`'s `bvh_bytes`) measures, 225–229 a triangle from 10k
-/// to 1 M (docs/benchmarks.md, 2026-11-26 (build)), rounded up.
-const BVH_BYTES_PER_FACE: u64 = 230;
+/// `SceneBvh::heap_bytes` (`omnisim bench`'s `bvh_bytes`) measures, 283–286 a triangle from 10k
+/// to 1 M with leaves of two triangles (docs/benchmarks.md, 2026-11-26 evening (small)), rounded
+/// up.
+const BVH_BYTES_PER_FACE: u64 = 290;
 
 /// Refuses, before the output folder is touched, a render whose frames and writers (and the
 /// scene's BVH, still to be built) would not fit the memory this process may use

@@ -238,8 +238,8 @@ mod tests {
 
     /// Below and above `PARALLEL_FROM`: the wide BVH's groups hold every triangle exactly once,
     /// its children point inside it, each node is full unless all its children are leaves, and
-    /// the built BVH keeps under 250 bytes a triangle (229 measured at 1 M triangles, 225 at
-    /// 10k; docs/benchmarks.md) with the BVH2's build lists freed.
+    /// the built BVH keeps under 300 bytes a triangle (283 measured at 1 M triangles, 286 at
+    /// 10k, with leaves of two triangles; docs/benchmarks.md) with the BVH2's build lists freed.
     #[test]
     fn wide_bvh_holds_every_triangle_once_in_bounded_memory() {
         for cells in [50, 160] {
@@ -277,7 +277,7 @@ mod tests {
             assert!(bvh.bvh.primitive_indices.is_empty() && bvh.bvh.parents.is_empty());
             let per_triangle = bvh.heap_bytes() as f64 / count as f64;
             assert!(
-                (100.0..250.0).contains(&per_triangle),
+                (100.0..300.0).contains(&per_triangle),
                 "{cells}: {per_triangle} bytes a triangle"
             );
         }

@@ -27,8 +27,12 @@ pub(super) const MAX_LEAF_GROUPS: usize = 8;
 pub(crate) const HALVES: usize = 2;
 pub(crate) const WIDTH: usize = 4 * HALVES;
 
-/// Subtrees of at most this many triangles become one leaf (one group of four lanes).
-const LEAF_TRIANGLES: u32 = 4;
+/// Subtrees of at most this many triangles become one leaf (one group of four lanes). Two, not
+/// four: the packet walk tests a leaf's boxes once a packet but its triangles once a ray, so
+/// tighter leaves cut the (ray, triangle) pairs it filters; callgrind, env1 omni 250², one
+/// frame 28.45 → 22.50 M (packet walk 19.52 → 13.57 M), env1-lit 135.3 → 107.9 M
+/// (docs/benchmarks.md, "2026-11-26 evening (small)").
+const LEAF_TRIANGLES: u32 = 2;
 
 /// Eight children's boxes, lane i = child i.
 #[derive(Debug, Clone, Copy)]
