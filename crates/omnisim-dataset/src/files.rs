@@ -5,6 +5,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::DatasetError;
+use super::manifest::{FileEntry, FileKind, file_entry, relative, sha256_hex};
 use omnisim::output::atomic::{self, Durability, EncodeBuffer, FileStore, Sink, write_bytes_atomically};
 
 /// The stamp's file name in a data-set folder.
@@ -47,10 +48,13 @@ pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> 
 /// file under a name the manifest vouches for); a new one is written unsynced, for the run
 /// to make durable before anything vouches for it. Keeps every path, unchanged ones
 /// included (a killed run may have left one not yet on disk).
+/// Keeps each file's size and SHA-256, taken from the bytes in memory, for `set.json`.
 #[derive(Default)]
 pub(crate) struct SetFiles {
     /// Every file written or found unchanged, to be made durable.
     pub(crate) paths: Vec<PathBuf>,
+    /// Each of `paths`' size and SHA-256 (lowercase hex).
+    hashes: Vec<(u64, String)>,
     /// Reused by each file.
     buffer: EncodeBuffer,
 }
@@ -58,19 +62,40 @@ pub(crate) struct SetFiles {
 impl SetFiles {
     /// Writes `bytes` to `path` as the type says.
     pub(crate) fn write(&mut self, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-        write_kept(&mut self.paths, path, bytes)
+        write_kept(&mut self.paths, &mut self.hashes, path, bytes)
+    }
+
+    /// The entry of `path`, a file of the set folder's under `root`: its size and SHA-256 as
+    /// written or found here (not read back); a file this store did not write is read.
+    pub(crate) fn entry(&self, root: &Path, path: &Path, kind: FileKind) -> Result<FileEntry, DatasetError> {
+        match self.paths.iter().rposition(|kept| kept == path) {
+            Some(i) => Ok(FileEntry {
+                path: relative(root, path),
+                kind,
+                bytes: self.hashes[i].0,
+                sha256: self.hashes[i].1.clone(),
+            }),
+            None => file_entry(root, path, kind),
+        }
     }
 }
 
-/// Writes `bytes` to `path` as [`SetFiles`] says, and keeps the path in `paths`. A free
-/// function so that `store` can borrow the path list and the encode buffer apart.
-fn write_kept(paths: &mut Vec<PathBuf>, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+/// Writes `bytes` to `path` as [`SetFiles`] says, and keeps the path in `paths` and its size
+/// and hash in `hashes`. A free function so that `store` can borrow the lists and the encode
+/// buffer apart.
+fn write_kept(
+    paths: &mut Vec<PathBuf>,
+    hashes: &mut Vec<(u64, String)>,
+    path: &Path,
+    bytes: &[u8],
+) -> std::io::Result<()> {
     match found(path, bytes)? {
         Found::Same => {}
         Found::Other => write_bytes_atomically(path, Durability::Now, bytes)?,
         Found::Missing => write_bytes_atomically(path, Durability::Deferred, bytes)?,
     }
     paths.push(path.to_path_buf());
+    hashes.push((bytes.len() as u64, sha256_hex(bytes)));
     Ok(())
 }
 
@@ -122,7 +147,7 @@ fn found(path: &Path, bytes: &[u8]) -> std::io::Result<Found> {
 
 impl FileStore for SetFiles {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        write_kept(&mut self.paths, path, self.buffer.encode(fill)?)
+        write_kept(&mut self.paths, &mut self.hashes, path, self.buffer.encode(fill)?)
     }
 }
 
@@ -211,6 +236,35 @@ mod tests {
         std::fs::remove_file(&path).unwrap();
         std::fs::create_dir(&path).unwrap();
         assert_eq!(found(&path, bytes).unwrap(), Found::Other, "a folder");
+    }
+
+    /// A set file's entry comes from the bytes written or found unchanged, and equals the
+    /// file's own hash; a file the store did not write is read.
+    #[test]
+    fn set_file_entries_are_the_files_hashes_without_reading_them_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let (new, same, other) = (
+            dir.path().join("a.yaml"),
+            dir.path().join("b.yaml"),
+            dir.path().join("c.txt"),
+        );
+        std::fs::write(&same, b"unchanged").unwrap();
+        std::fs::write(&other, b"not the store's").unwrap();
+        let mut store = SetFiles::default();
+        store.write(&new, b"new bytes").unwrap();
+        store.write(&same, b"unchanged").unwrap();
+        for path in [&new, &same, &other] {
+            let entry = store.entry(dir.path(), path, FileKind::Set).unwrap();
+            assert_eq!(
+                entry,
+                file_entry(dir.path(), path, FileKind::Set).unwrap(),
+                "{}",
+                path.display()
+            );
+        }
+        // The kept entry is the bytes', not the file's as it is now.
+        std::fs::write(&new, b"changed since").unwrap();
+        assert_eq!(store.entry(dir.path(), &new, FileKind::Set).unwrap().bytes, 9);
     }
 
     /// A link is never read through: one to a regular file with the same bytes is other.

@@ -271,7 +271,7 @@ pub fn geometry_sha256(scene: &omnisim::scene::Scene) -> String {
     hex(&hash.finalize())
 }
 
-fn hex(bytes: &[u8]) -> String {
+pub(crate) fn hex(bytes: &[u8]) -> String {
     bytes
         .iter()
         .fold(String::with_capacity(2 * bytes.len()), |mut text, b| {

@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use super::appearance::frame_appearance;
 use super::layout::{self};
-use super::manifest::{FileKind, file_entry, to_json};
+use super::manifest::{FileKind, to_json};
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan};
@@ -124,6 +124,10 @@ fn writer_threads(asked: Option<usize>) -> usize {
             .clamp(2, 4),
     }
 }
+
+/// Frames a writer hashes the files of together: two hash in the time of about one and a
+/// half (`sha256::digests`), and a frame waits on the writer for the next one at most.
+const HASHED_TOGETHER: usize = 2;
 
 /// What a writer thread says of a frame: its set and index, and the frame written or why not.
 type WriterReport = (usize, usize, Result<WrittenFrame, DatasetError>);
@@ -480,14 +484,32 @@ impl Dataset {
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
                 scope.spawn(move || {
+                    // Frames written, their files not yet hashed: a writer hashes two frames'
+                    // files together (`WrittenFrame::hashed`), and the last frame alone.
+                    let mut unhashed = Vec::with_capacity(HASHED_TOGETHER);
                     while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
                         if stop.load(Ordering::Relaxed) {
                             continue;
                         }
                         let (set, index) = (frame.set, frame.index);
-                        if report.send((set, index, self.write_frame(out, frame))).is_err() {
-                            break;
+                        match self.write_frame(out, frame) {
+                            Ok(frame) => unhashed.push(frame),
+                            Err(error) => {
+                                if report.send((set, index, Err(error))).is_err() {
+                                    return;
+                                }
+                            }
                         }
+                        if unhashed.len() == HASHED_TOGETHER {
+                            for frame in WrittenFrame::hashed(std::mem::take(&mut unhashed)) {
+                                if report.send((frame.set, frame.index, Ok(frame))).is_err() {
+                                    return;
+                                }
+                            }
+                        }
+                    }
+                    for frame in WrittenFrame::hashed(unhashed) {
+                        let _ = report.send((frame.set, frame.index, Ok(frame)));
                     }
                 });
             }
@@ -588,7 +610,7 @@ impl Dataset {
         let paths = (self.spec.outputs).write_set_files(&mut folder, &scene, &self.rig)?;
         let files = paths
             .iter()
-            .map(|path| file_entry(out, path, FileKind::Set))
+            .map(|path| store.entry(out, path, FileKind::Set))
             .collect::<Result<_, _>>()?;
         let own = set_dir.join(ENTRIES).join(SET_ENTRY);
         store.write(&own, &to_json(&set_entry(set, files))).map_err(io(&own))
