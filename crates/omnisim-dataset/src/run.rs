@@ -125,10 +125,6 @@ fn writer_threads(asked: Option<usize>) -> usize {
     }
 }
 
-/// Frames a writer hashes the files of together: two hash in the time of about one and a
-/// half (`sha256::digests`), and a frame waits on the writer for the next one at most.
-const HASHED_TOGETHER: usize = 2;
-
 /// What a writer thread says of a frame: its set and index, and the frame written or why not.
 type WriterReport = (usize, usize, Result<WrittenFrame, DatasetError>);
 
@@ -484,32 +480,32 @@ impl Dataset {
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
                 scope.spawn(move || {
-                    // Frames written, their files not yet hashed: a writer hashes two frames'
-                    // files together (`WrittenFrame::hashed`), and the last frame alone.
-                    let mut unhashed = Vec::with_capacity(HASHED_TOGETHER);
-                    while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
-                        if stop.load(Ordering::Relaxed) {
-                            continue;
-                        }
-                        let (set, index) = (frame.set, frame.index);
-                        match self.write_frame(out, frame) {
-                            Ok(frame) => unhashed.push(frame),
-                            Err(error) => {
-                                if report.send((set, index, Err(error))).is_err() {
-                                    return;
+                    // A frame, and the next one where it is already queued, are written and
+                    // then their files hashed together (`WrittenFrame::hashed`). A writer never
+                    // waits for the second: not for a frame not yet rendered, nor for the lock,
+                    // which a writer waiting for a frame holds (the queue is then empty).
+                    while let Some(first) = queue.lock().ok().and_then(|q| q.recv().ok()) {
+                        let next = queue.try_lock().ok().and_then(|q| q.try_recv().ok());
+                        let mut unhashed = Vec::with_capacity(2);
+                        for frame in std::iter::once(first).chain(next) {
+                            if stop.load(Ordering::Relaxed) {
+                                continue;
+                            }
+                            let (set, index) = (frame.set, frame.index);
+                            match self.write_frame(out, frame) {
+                                Ok(frame) => unhashed.push(frame),
+                                Err(error) => {
+                                    if report.send((set, index, Err(error))).is_err() {
+                                        return;
+                                    }
                                 }
                             }
                         }
-                        if unhashed.len() == HASHED_TOGETHER {
-                            for frame in WrittenFrame::hashed(std::mem::take(&mut unhashed)) {
-                                if report.send((frame.set, frame.index, Ok(frame))).is_err() {
-                                    return;
-                                }
+                        for frame in WrittenFrame::hashed(unhashed) {
+                            if report.send((frame.set, frame.index, Ok(frame))).is_err() {
+                                return;
                             }
                         }
-                    }
-                    for frame in WrittenFrame::hashed(unhashed) {
-                        let _ = report.send((frame.set, frame.index, Ok(frame)));
                     }
                 });
             }
