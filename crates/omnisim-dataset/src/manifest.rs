@@ -301,17 +301,6 @@ pub fn hash_file(path: &Path) -> Result<(u64, String), DatasetError> {
     Ok((bytes, hex(&hash.finalize())))
 }
 
-/// The entry of a written file: `path` under `root`.
-pub(crate) fn file_entry(root: &Path, path: &Path, kind: FileKind) -> Result<FileEntry, DatasetError> {
-    let (bytes, sha256) = hash_file(path)?;
-    Ok(FileEntry {
-        path: relative(root, path),
-        kind,
-        bytes,
-        sha256,
-    })
-}
-
 /// `path` relative to `root`, `/`-separated.
 pub(crate) fn relative(root: &Path, path: &Path) -> String {
     let inside = path.strip_prefix(root).unwrap_or(path);

@@ -434,7 +434,7 @@ impl Dataset {
         for set in &self.sets {
             if let Err(error) = self.prepare_set(out, set, &mut set_files) {
                 // Best effort: the error is what the user hears.
-                let _ = Unsynced::of_set_files(set_files.paths).make_durable(make_durable, &folder);
+                let _ = Unsynced::of_set_files(set_files.into_paths()).make_durable(make_durable, &folder);
                 return Err(error);
             }
         }
@@ -451,8 +451,11 @@ impl Dataset {
         let names = self.sets.iter().map(|s| s.spec.name.as_str()).collect();
         let mut heard = Heard::new(names, frames.len(), &mut summary, on_frame, &stop);
         // Frames render here, one after another (the renderer is not shared), while writer
-        // threads encode and write the frames before them; a bounded queue keeps at most a
-        // few rendered frames in memory. Each frame's entry is its last file, so whatever
+        // threads encode and write the frames before them; a bounded queue (a frame per
+        // writer) keeps at most 3 x writers + 1 rendered frames in memory: one being rendered,
+        // the queued ones, and two each writer holds, with their encoded files (about 2 MB at
+        // 250² with PLY, tens of MB at large panoramas), when it pairs a frame with the next
+        // (`WrittenFrame::hashed`). Each frame's entry is its last file, so whatever
         // moment a run is killed at, a frame is done exactly when its entry exists.
         let writers = writer_threads(options.writers);
         let (to_write, queue) = mpsc::sync_channel::<RenderedFrame>(writers);
@@ -460,7 +463,7 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
-        let mut pending = Pending::new(syncing.batches, set_files.paths);
+        let mut pending = Pending::new(syncing.batches, set_files.into_paths());
         // Batches are made durable on a thread of their own, so that rendering and writing go
         // on while the disk catches up; one more batch may wait for it.
         let (to_sync, batches) = mpsc::sync_channel::<Batch>(1);
@@ -609,7 +612,9 @@ impl Dataset {
             .map(|path| store.entry(out, path, FileKind::Set))
             .collect::<Result<_, _>>()?;
         let own = set_dir.join(ENTRIES).join(SET_ENTRY);
-        store.write(&own, &to_json(&set_entry(set, files))).map_err(io(&own))
+        store
+            .write_unlisted(&own, &to_json(&set_entry(set, files)))
+            .map_err(io(&own))
     }
 
     /// The scene of set `s` with its per-set occluders, prepared.

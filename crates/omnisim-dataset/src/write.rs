@@ -183,7 +183,11 @@ impl WrittenFrame {
         let mut digests = sha256::digests(&messages).into_iter();
         (frames.into_iter())
             .map(|mut frame| {
-                for (file, digest) in frame.entry.files.iter_mut().zip(digests.by_ref()) {
+                // Each frame takes as many digests as it has files' bytes, so one frame's
+                // slip cannot shift its hashes into the next frame's entry.
+                debug_assert_eq!(frame.entry.files.len(), frame.contents.len());
+                let own = digests.by_ref().take(frame.contents.len());
+                for (file, digest) in frame.entry.files.iter_mut().zip(own) {
                     file.sha256 = hex(&digest);
                 }
                 WrittenFrame {
@@ -307,4 +311,57 @@ pub(crate) struct OccluderRecord<'a> {
     /// set's `segmentation.json` lists the scene's objects and the set-wide occluders).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(crate) segment: Option<&'a SegmentObject>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::manifest::sha256_hex;
+
+    /// A frame of `files` (name, bytes) stored through [`FrameFiles`] in `dir`.
+    fn unhashed(dir: &Path, index: usize, files: &[(&str, &[u8])]) -> UnhashedFrame {
+        let mut folder = FrameFiles::new(dir, dir);
+        for (name, bytes) in files {
+            folder.store(&dir.join(name), |sink| sink.write_all(bytes)).unwrap();
+        }
+        UnhashedFrame {
+            set: 0,
+            index,
+            files: folder.paths,
+            contents: folder.contents,
+            entry_path: entry_path(dir, index),
+            entry: FrameEntry {
+                index,
+                stem: format!("{index:06}"),
+                pose: PoseEntry::of(&omnisim::Pose::new(Default::default(), Default::default())),
+                perturbations: serde_json::Value::Null,
+                files: folder.files,
+            },
+        }
+    }
+
+    /// Frames hashed together (3 files and 2, one empty, one over a block pair) each get
+    /// their own files' SHA-256 and sizes, in order.
+    #[test]
+    fn frames_hashed_together_get_their_own_files_hashes() {
+        let dir = tempfile::tempdir().unwrap();
+        let long: Vec<u8> = (0..1000u32).map(|i| (i * 7) as u8).collect();
+        let first: [(&str, &[u8]); 3] = [("a.png", b"first frame"), ("b.exr", b""), ("c.ply", &long)];
+        let second: [(&str, &[u8]); 2] = [("d.png", &long[..200]), ("e.exr", b"second frame")];
+        let frames = vec![unhashed(dir.path(), 0, &first), unhashed(dir.path(), 1, &second)];
+        let written = WrittenFrame::hashed(frames);
+        assert_eq!(written.len(), 2);
+        for (frame, files) in written.iter().zip([&first[..], &second[..]]) {
+            let entry: FrameEntry = serde_json::from_slice(&frame.entry).unwrap();
+            assert_eq!(entry.files.len(), files.len(), "frame {}", frame.index);
+            for (file, (name, bytes)) in entry.files.iter().zip(files) {
+                assert_eq!(file.path, *name);
+                assert_eq!(file.sha256, sha256_hex(bytes), "{name}");
+                assert_eq!(file.bytes, bytes.len() as u64, "{name}");
+                assert_eq!(std::fs::read(dir.path().join(name)).unwrap(), *bytes, "{name}");
+            }
+            let total: usize = files.iter().map(|(_, bytes)| bytes.len()).sum();
+            assert_eq!(frame.bytes, total as u64, "frame {}", frame.index);
+        }
+    }
 }
