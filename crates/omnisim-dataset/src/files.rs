@@ -5,6 +5,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use super::DatasetError;
+use super::manifest::{FileEntry, FileKind, relative, sha256_hex};
 use omnisim::output::atomic::{self, Durability, EncodeBuffer, FileStore, Sink, write_bytes_atomically};
 
 /// The stamp's file name in a data-set folder.
@@ -47,30 +48,66 @@ pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> 
 /// file under a name the manifest vouches for); a new one is written unsynced, for the run
 /// to make durable before anything vouches for it. Keeps every path, unchanged ones
 /// included (a killed run may have left one not yet on disk).
+/// Keeps each file's size and SHA-256, taken from the bytes in memory, for `set.json`.
 #[derive(Default)]
 pub(crate) struct SetFiles {
-    /// Every file written or found unchanged, to be made durable.
-    pub(crate) paths: Vec<PathBuf>,
+    /// Every file written or found unchanged, to be made durable, with its size and SHA-256:
+    /// one list, so a path and its hash cannot get out of step.
+    kept: Vec<KeptFile>,
     /// Reused by each file.
     buffer: EncodeBuffer,
 }
 
+/// A set file [`SetFiles`] wrote or found unchanged.
+struct KeptFile {
+    path: PathBuf,
+    bytes: u64,
+    /// Lowercase hex; none for a file no entry lists (`set.json`), which is not hashed.
+    sha256: Option<String>,
+}
+
 impl SetFiles {
-    /// Writes `bytes` to `path` as the type says.
-    pub(crate) fn write(&mut self, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-        write_kept(&mut self.paths, path, bytes)
+    /// Writes `bytes` to `path` as the type says, without hashing them: for `set.json`,
+    /// which no entry lists.
+    pub(crate) fn write_unlisted(&mut self, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+        write_kept(&mut self.kept, path, bytes, false)
+    }
+
+    /// The paths of every file written or found unchanged, to be made durable.
+    pub(crate) fn into_paths(self) -> Vec<PathBuf> {
+        self.kept.into_iter().map(|kept| kept.path).collect()
+    }
+
+    /// The entry of `path`, a file of the set folder's under `root`: its size and SHA-256 as
+    /// written or found here (never read back). Every set file is written through this store,
+    /// so a path it did not keep is a slip in the code, reported as an error on that path.
+    pub(crate) fn entry(&self, root: &Path, path: &Path, kind: FileKind) -> Result<FileEntry, DatasetError> {
+        let kept = self.kept.iter().rev().find(|kept| kept.path == path);
+        let (bytes, sha256) = (kept.and_then(|kept| Some((kept.bytes, kept.sha256.clone()?))))
+            .ok_or_else(|| io(path)(std::io::Error::other("a set file not written through the run's store")))?;
+        Ok(FileEntry {
+            path: relative(root, path),
+            kind,
+            bytes,
+            sha256,
+        })
     }
 }
 
-/// Writes `bytes` to `path` as [`SetFiles`] says, and keeps the path in `paths`. A free
-/// function so that `store` can borrow the path list and the encode buffer apart.
-fn write_kept(paths: &mut Vec<PathBuf>, path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+/// Writes `bytes` to `path` as [`SetFiles`] says, and keeps the path, size and (if `hash`)
+/// SHA-256 in `kept`. A free function so that `store` can borrow the list and the encode
+/// buffer apart.
+fn write_kept(kept: &mut Vec<KeptFile>, path: &Path, bytes: &[u8], hash: bool) -> std::io::Result<()> {
     match found(path, bytes)? {
         Found::Same => {}
         Found::Other => write_bytes_atomically(path, Durability::Now, bytes)?,
         Found::Missing => write_bytes_atomically(path, Durability::Deferred, bytes)?,
     }
-    paths.push(path.to_path_buf());
+    kept.push(KeptFile {
+        path: path.to_path_buf(),
+        bytes: bytes.len() as u64,
+        sha256: hash.then(|| sha256_hex(bytes)),
+    });
     Ok(())
 }
 
@@ -122,7 +159,7 @@ fn found(path: &Path, bytes: &[u8]) -> std::io::Result<Found> {
 
 impl FileStore for SetFiles {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        write_kept(&mut self.paths, path, self.buffer.encode(fill)?)
+        write_kept(&mut self.kept, path, self.buffer.encode(fill)?, true)
     }
 }
 
@@ -185,6 +222,7 @@ pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::manifest::hash_file;
 
     #[test]
     fn only_a_regular_file_with_the_same_bytes_is_the_same() {
@@ -211,6 +249,41 @@ mod tests {
         std::fs::remove_file(&path).unwrap();
         std::fs::create_dir(&path).unwrap();
         assert_eq!(found(&path, bytes).unwrap(), Found::Other, "a folder");
+    }
+
+    /// A set file's entry comes from the bytes written or found unchanged, and equals the
+    /// file's own hash; a file the store did not write, or wrote unhashed, has none (an error).
+    #[test]
+    fn set_file_entries_are_the_files_hashes_without_reading_them_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let [new, same, other, unlisted] = ["a.yaml", "b.yaml", "c.txt", "set.json"].map(|name| dir.path().join(name));
+        std::fs::write(&same, b"unchanged").unwrap();
+        std::fs::write(&other, b"not the store's").unwrap();
+        let mut store = SetFiles::default();
+        for (path, bytes) in [(&new, b"new bytes"), (&same, b"unchanged")] {
+            store.store(path, |sink| sink.write_all(bytes)).unwrap();
+        }
+        store.write_unlisted(&unlisted, b"{}").unwrap();
+        for path in [&new, &same] {
+            let entry = store.entry(dir.path(), path, FileKind::Set).unwrap();
+            assert_eq!(
+                (entry.bytes, entry.sha256),
+                hash_file(path).unwrap(),
+                "{}",
+                path.display()
+            );
+        }
+        for path in [&other, &unlisted] {
+            assert!(
+                store.entry(dir.path(), path, FileKind::Set).is_err(),
+                "{}",
+                path.display()
+            );
+        }
+        // The kept entry is the bytes', not the file's as it is now.
+        std::fs::write(&new, b"changed since").unwrap();
+        assert_eq!(store.entry(dir.path(), &new, FileKind::Set).unwrap().bytes, 9);
+        assert_eq!(store.into_paths(), [new, same, unlisted]);
     }
 
     /// A link is never read through: one to a regular file with the same bytes is other.

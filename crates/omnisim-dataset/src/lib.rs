@@ -43,6 +43,7 @@ pub mod occluders;
 pub mod preview;
 pub mod rng;
 mod run;
+mod sha256;
 pub mod spec;
 #[cfg(test)]
 mod tests;

@@ -271,7 +271,7 @@ pub fn geometry_sha256(scene: &omnisim::scene::Scene) -> String {
     hex(&hash.finalize())
 }
 
-fn hex(bytes: &[u8]) -> String {
+pub(crate) fn hex(bytes: &[u8]) -> String {
     bytes
         .iter()
         .fold(String::with_capacity(2 * bytes.len()), |mut text, b| {
@@ -299,17 +299,6 @@ pub fn hash_file(path: &Path) -> Result<(u64, String), DatasetError> {
         bytes += n as u64;
     }
     Ok((bytes, hex(&hash.finalize())))
-}
-
-/// The entry of a written file: `path` under `root`.
-pub(crate) fn file_entry(root: &Path, path: &Path, kind: FileKind) -> Result<FileEntry, DatasetError> {
-    let (bytes, sha256) = hash_file(path)?;
-    Ok(FileEntry {
-        path: relative(root, path),
-        kind,
-        bytes,
-        sha256,
-    })
 }
 
 /// `path` relative to `root`, `/`-separated.

@@ -22,7 +22,7 @@ use std::time::{Duration, Instant};
 
 use super::appearance::frame_appearance;
 use super::layout::{self};
-use super::manifest::{FileKind, file_entry, to_json};
+use super::manifest::{FileKind, to_json};
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan};
@@ -434,7 +434,7 @@ impl Dataset {
         for set in &self.sets {
             if let Err(error) = self.prepare_set(out, set, &mut set_files) {
                 // Best effort: the error is what the user hears.
-                let _ = Unsynced::of_set_files(set_files.paths).make_durable(make_durable, &folder);
+                let _ = Unsynced::of_set_files(set_files.into_paths()).make_durable(make_durable, &folder);
                 return Err(error);
             }
         }
@@ -451,8 +451,11 @@ impl Dataset {
         let names = self.sets.iter().map(|s| s.spec.name.as_str()).collect();
         let mut heard = Heard::new(names, frames.len(), &mut summary, on_frame, &stop);
         // Frames render here, one after another (the renderer is not shared), while writer
-        // threads encode and write the frames before them; a bounded queue keeps at most a
-        // few rendered frames in memory. Each frame's entry is its last file, so whatever
+        // threads encode and write the frames before them; a bounded queue (a frame per
+        // writer) keeps at most 3 x writers + 1 rendered frames in memory: one being rendered,
+        // the queued ones, and two each writer holds, with their encoded files (about 2 MB at
+        // 250² with PLY, tens of MB at large panoramas), when it pairs a frame with the next
+        // (`WrittenFrame::hashed`). Each frame's entry is its last file, so whatever
         // moment a run is killed at, a frame is done exactly when its entry exists.
         let writers = writer_threads(options.writers);
         let (to_write, queue) = mpsc::sync_channel::<RenderedFrame>(writers);
@@ -460,7 +463,7 @@ impl Dataset {
         // the renderer's next send fails instead of waiting for ever.
         let queue = Arc::new(Mutex::new(queue));
         let (report, written) = mpsc::channel();
-        let mut pending = Pending::new(syncing.batches, set_files.paths);
+        let mut pending = Pending::new(syncing.batches, set_files.into_paths());
         // Batches are made durable on a thread of their own, so that rendering and writing go
         // on while the disk catches up; one more batch may wait for it.
         let (to_sync, batches) = mpsc::sync_channel::<Batch>(1);
@@ -480,13 +483,31 @@ impl Dataset {
             for _ in 0..writers {
                 let (queue, report, stop) = (Arc::clone(&queue), report.clone(), &stop);
                 scope.spawn(move || {
-                    while let Some(frame) = queue.lock().ok().and_then(|q| q.recv().ok()) {
-                        if stop.load(Ordering::Relaxed) {
-                            continue;
+                    // A frame, and the next one where it is already queued, are written and
+                    // then their files hashed together (`WrittenFrame::hashed`). A writer never
+                    // waits for the second: not for a frame not yet rendered, nor for the lock,
+                    // which a writer waiting for a frame holds (the queue is then empty).
+                    while let Some(first) = queue.lock().ok().and_then(|q| q.recv().ok()) {
+                        let next = queue.try_lock().ok().and_then(|q| q.try_recv().ok());
+                        let mut unhashed = Vec::with_capacity(2);
+                        for frame in std::iter::once(first).chain(next) {
+                            if stop.load(Ordering::Relaxed) {
+                                continue;
+                            }
+                            let (set, index) = (frame.set, frame.index);
+                            match self.write_frame(out, frame) {
+                                Ok(frame) => unhashed.push(frame),
+                                Err(error) => {
+                                    if report.send((set, index, Err(error))).is_err() {
+                                        return;
+                                    }
+                                }
+                            }
                         }
-                        let (set, index) = (frame.set, frame.index);
-                        if report.send((set, index, self.write_frame(out, frame))).is_err() {
-                            break;
+                        for frame in WrittenFrame::hashed(unhashed) {
+                            if report.send((frame.set, frame.index, Ok(frame))).is_err() {
+                                return;
+                            }
                         }
                     }
                 });
@@ -588,10 +609,12 @@ impl Dataset {
         let paths = (self.spec.outputs).write_set_files(&mut folder, &scene, &self.rig)?;
         let files = paths
             .iter()
-            .map(|path| file_entry(out, path, FileKind::Set))
+            .map(|path| store.entry(out, path, FileKind::Set))
             .collect::<Result<_, _>>()?;
         let own = set_dir.join(ENTRIES).join(SET_ENTRY);
-        store.write(&own, &to_json(&set_entry(set, files))).map_err(io(&own))
+        store
+            .write_unlisted(&own, &to_json(&set_entry(set, files)))
+            .map_err(io(&own))
     }
 
     /// The scene of set `s` with its per-set occluders, prepared.

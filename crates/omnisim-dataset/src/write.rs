@@ -8,9 +8,10 @@ use serde::Serialize;
 
 use super::appearance::AppearanceRecord;
 use super::layout::{self, Image};
-use super::manifest::{FileEntry, FileKind, FrameEntry, PoseEntry, relative, sha256_hex, to_json};
+use super::manifest::{FileEntry, FileKind, FrameEntry, PoseEntry, hex, relative, to_json};
 use super::occluders::Occluder;
 use super::rng::{Purpose, stream};
+use super::sha256;
 use super::{Dataset, DatasetError, noise};
 use crate::files::entry_path;
 use omnisim::Rig;
@@ -20,9 +21,9 @@ use omnisim::output::{self, Destination, FrameTarget, OutputError, SegmentObject
 
 impl Dataset {
     /// Writes a rendered frame's files (ground truth, noisy copies, layouts), not yet
-    /// durable, and returns the entry to write once they are. Runs on a writer thread while
-    /// later frames render.
-    pub(crate) fn write_frame(&self, out: &Path, rendered: RenderedFrame) -> Result<WrittenFrame, DatasetError> {
+    /// durable, and returns them with their entry, yet to be hashed ([`WrittenFrame::hashed`]).
+    /// Runs on a writer thread while later frames render.
+    pub(crate) fn write_frame(&self, out: &Path, rendered: RenderedFrame) -> Result<UnhashedFrame, DatasetError> {
         let RenderedFrame {
             set: s,
             index,
@@ -148,14 +149,57 @@ impl Dataset {
             perturbations: serde_json::to_value(&perturbations).unwrap_or_default(),
             files: folder.files,
         };
-        Ok(WrittenFrame {
+        Ok(UnhashedFrame {
             set: s,
             index,
-            bytes: entry.files.iter().map(|f| f.bytes).sum(),
             files: folder.paths,
+            contents: folder.contents,
             entry_path: entry_path(&set_dir, index),
-            entry: to_json(&entry),
+            entry,
         })
+    }
+}
+
+/// A frame whose files are written, not yet durable, with their bytes, kept for their
+/// SHA-256 that its entry still lacks.
+pub(crate) struct UnhashedFrame {
+    set: usize,
+    index: usize,
+    files: Vec<PathBuf>,
+    /// Each file's bytes, in the entry's order.
+    contents: Vec<Vec<u8>>,
+    entry_path: PathBuf,
+    entry: FrameEntry,
+}
+
+impl WrittenFrame {
+    /// `frames` with their entries complete: their files hashed all together, two at a
+    /// time where the CPU can ([`sha256::digests`]), so a writer hashes two frames' files
+    /// in the time of about one and a half.
+    pub(crate) fn hashed(frames: Vec<UnhashedFrame>) -> Vec<WrittenFrame> {
+        let messages: Vec<&[u8]> = (frames.iter())
+            .flat_map(|frame| frame.contents.iter().map(Vec::as_slice))
+            .collect();
+        let mut digests = sha256::digests(&messages).into_iter();
+        (frames.into_iter())
+            .map(|mut frame| {
+                // Each frame takes as many digests as it has files' bytes, so one frame's
+                // slip cannot shift its hashes into the next frame's entry.
+                debug_assert_eq!(frame.entry.files.len(), frame.contents.len());
+                let own = digests.by_ref().take(frame.contents.len());
+                for (file, digest) in frame.entry.files.iter_mut().zip(own) {
+                    file.sha256 = hex(&digest);
+                }
+                WrittenFrame {
+                    set: frame.set,
+                    index: frame.index,
+                    bytes: frame.entry.files.iter().map(|f| f.bytes).sum(),
+                    files: frame.files,
+                    entry_path: frame.entry_path,
+                    entry: to_json(&frame.entry),
+                }
+            })
+            .collect()
     }
 }
 
@@ -172,10 +216,10 @@ pub(crate) struct WrittenFrame {
     pub(crate) entry: Vec<u8>,
 }
 
-/// A frame's files as a data set writes them: each encoded into memory, hashed there (not
-/// read back), written in one call and renamed into place unsynced
-/// ([`Durability::Deferred`]); the run makes a batch of frames durable before it writes
-/// their entries. Records each file's entry as it goes.
+/// A frame's files as a data set writes them: each encoded into memory, written in one call
+/// and renamed into place unsynced ([`Durability::Deferred`]); the run makes a batch of
+/// frames durable before it writes their entries. Records each file's entry as it goes and
+/// keeps its bytes, to be hashed there (not read back) once the frame is written.
 struct FrameFiles<'a> {
     /// The data-set folder (entries name files relative to it).
     root: &'a Path,
@@ -183,10 +227,10 @@ struct FrameFiles<'a> {
     dir: &'a Path,
     /// What the files written next are.
     kind: FileKind,
-    /// Reused by each file of the frame.
-    buffer: EncodeBuffer,
+    /// Their entries, still without SHA-256.
     files: Vec<FileEntry>,
     paths: Vec<PathBuf>,
+    contents: Vec<Vec<u8>>,
 }
 
 impl<'a> FrameFiles<'a> {
@@ -195,24 +239,26 @@ impl<'a> FrameFiles<'a> {
             root,
             dir,
             kind: FileKind::GroundTruth,
-            buffer: EncodeBuffer::default(),
             files: Vec::new(),
             paths: Vec::new(),
+            contents: Vec::new(),
         }
     }
 }
 
 impl FileStore for FrameFiles<'_> {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
-        let bytes = self.buffer.encode(fill)?;
-        write_bytes_atomically(path, Durability::Deferred, bytes)?;
+        let mut buffer = EncodeBuffer::default();
+        write_bytes_atomically(path, Durability::Deferred, buffer.encode(fill)?)?;
+        let bytes = buffer.into_bytes();
         self.files.push(FileEntry {
             path: relative(self.root, path),
             kind: self.kind,
             bytes: bytes.len() as u64,
-            sha256: sha256_hex(bytes),
+            sha256: String::new(),
         });
         self.paths.push(path.to_path_buf());
+        self.contents.push(bytes);
         Ok(())
     }
 }
@@ -265,4 +311,57 @@ pub(crate) struct OccluderRecord<'a> {
     /// set's `segmentation.json` lists the scene's objects and the set-wide occluders).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(crate) segment: Option<&'a SegmentObject>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::manifest::sha256_hex;
+
+    /// A frame of `files` (name, bytes) stored through [`FrameFiles`] in `dir`.
+    fn unhashed(dir: &Path, index: usize, files: &[(&str, &[u8])]) -> UnhashedFrame {
+        let mut folder = FrameFiles::new(dir, dir);
+        for (name, bytes) in files {
+            folder.store(&dir.join(name), |sink| sink.write_all(bytes)).unwrap();
+        }
+        UnhashedFrame {
+            set: 0,
+            index,
+            files: folder.paths,
+            contents: folder.contents,
+            entry_path: entry_path(dir, index),
+            entry: FrameEntry {
+                index,
+                stem: format!("{index:06}"),
+                pose: PoseEntry::of(&omnisim::Pose::new(Default::default(), Default::default())),
+                perturbations: serde_json::Value::Null,
+                files: folder.files,
+            },
+        }
+    }
+
+    /// Frames hashed together (3 files and 2, one empty, one over a block pair) each get
+    /// their own files' SHA-256 and sizes, in order.
+    #[test]
+    fn frames_hashed_together_get_their_own_files_hashes() {
+        let dir = tempfile::tempdir().unwrap();
+        let long: Vec<u8> = (0..1000u32).map(|i| (i * 7) as u8).collect();
+        let first: [(&str, &[u8]); 3] = [("a.png", b"first frame"), ("b.exr", b""), ("c.ply", &long)];
+        let second: [(&str, &[u8]); 2] = [("d.png", &long[..200]), ("e.exr", b"second frame")];
+        let frames = vec![unhashed(dir.path(), 0, &first), unhashed(dir.path(), 1, &second)];
+        let written = WrittenFrame::hashed(frames);
+        assert_eq!(written.len(), 2);
+        for (frame, files) in written.iter().zip([&first[..], &second[..]]) {
+            let entry: FrameEntry = serde_json::from_slice(&frame.entry).unwrap();
+            assert_eq!(entry.files.len(), files.len(), "frame {}", frame.index);
+            for (file, (name, bytes)) in entry.files.iter().zip(files) {
+                assert_eq!(file.path, *name);
+                assert_eq!(file.sha256, sha256_hex(bytes), "{name}");
+                assert_eq!(file.bytes, bytes.len() as u64, "{name}");
+                assert_eq!(std::fs::read(dir.path().join(name)).unwrap(), *bytes, "{name}");
+            }
+            let total: usize = files.iter().map(|(_, bytes)| bytes.len()).sum();
+            assert_eq!(frame.bytes, total as u64, "frame {}", frame.index);
+        }
+    }
 }

@@ -228,6 +228,11 @@ impl EncodeBuffer {
         fill(&mut Cursor::new(&mut self.0))?;
         Ok(&self.0)
     }
+
+    /// The bytes encoded last, kept.
+    pub fn into_bytes(self) -> Vec<u8> {
+        self.0
+    }
 }
 
 /// Each file written straight to its temporary and synced before it is renamed into place:
