@@ -1,4 +1,4 @@
-//! Finding an adapter and opening a device, saying plainly which one and why.
+//! Finding an adapter and opening a device once a process, saying plainly which one and why.
 
 use std::sync::{Arc, Mutex};
 
@@ -107,6 +107,7 @@ impl GpuContext {
     }
 
     /// The process's context, opened on first use; an open that fails is tried again next time.
+    /// A software adapter that `new_hardware` refuses stays open for a later `new`.
     fn shared(hardware_only: bool) -> Result<Arc<Self>, GpuError> {
         // Poisoned only if an open panicked; the slot is still a valid `Option`.
         let mut slot = SHARED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);

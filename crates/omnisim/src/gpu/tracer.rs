@@ -29,7 +29,8 @@ use crate::pose::{Pose, rotation_xyz};
 /// colours or lights compiles nothing.
 static PIPELINES_BUILT: AtomicUsize = AtomicUsize::new(0);
 
-/// The GPU backend: device, queue and the three compute pipelines.
+/// The GPU backend: the process's shared context (`context.rs`) and this renderer's three
+/// compute pipelines.
 pub struct GpuRenderer {
     context: Arc<GpuContext>,
     trace: Pipeline,
@@ -667,8 +668,8 @@ impl GpuRenderer {
         let polled = self.context.device.poll(wgpu::PollType::wait_indefinitely());
         let mut failure = polled.err().map(|e| e.to_string());
         let mut mapped = Vec::with_capacity(buffers.len());
-        // A map callback runs on whichever thread polls the device: with frames traced at once
-        // (one prepared scene on several threads), another thread's poll may have taken ours
+        // A map callback runs on whichever thread polls the device: with the process's one
+        // device shared by every renderer, any other thread's poll may have taken ours
         // and be running it as this wait returns (seen on an NVIDIA H200: "did not map"). So
         // once the GPU is done, wait for them a while, polling again without blocking; after a
         // failed poll some may never run, so take only those that did.

@@ -22,8 +22,8 @@ const CAMERAS: usize = 2;
 
 /// Largest image whose rays are kept (32 bytes a pixel for a camera whose rays share one origin,
 /// else 64; 28 more with the cones and f32 directions of textured frames, [`ConePlanes`]: at
-/// most 92 MB kept, 96 MB at the peak while a central table is made from the 64-byte rays or
-/// 16 MB above what is kept while the cones are); larger ones are computed per frame.
+/// most 92 MB kept a camera, and up to 108 MB at the peak while the cones of rays with their
+/// own origins are made, 64 + 16 + 28 bytes a pixel); larger ones are computed per frame.
 const MAX_PIXELS: usize = 1 << 20;
 
 /// Largest image whose ray cones are kept where its rays are not (16 bytes a pixel: 64 MB): a
