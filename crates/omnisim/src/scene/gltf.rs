@@ -135,7 +135,7 @@ fn load_buffer(buffer: &gltf::Buffer, blob: Option<&[u8]>, textures: &MeshTextur
     let what = format!("buffer {}", buffer.index());
     let data = match buffer.source() {
         gltf::buffer::Source::Bin => blob
-            .ok_or(format!("{what} is the GLB binary chunk, but the file has none"))?
+            .ok_or_else(|| format!("{what} is the GLB binary chunk, but the file has none"))?
             .to_vec(),
         gltf::buffer::Source::Uri(uri) => {
             if let Some(encoded) = data_uri(uri) {
@@ -180,9 +180,9 @@ fn check_accessor(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), 
     if accessor.sparse().is_some() {
         return Err(format!("{what} is sparse, which omnisim does not read"));
     }
-    let view = accessor.view().ok_or(format!(
-        "{what} has no buffer view (all zeros), which omnisim does not read"
-    ))?;
+    let view = accessor
+        .view()
+        .ok_or_else(|| format!("{what} has no buffer view (all zeros), which omnisim does not read"))?;
     let count = accessor.count();
     if count == 0 {
         return Err(format!("{what} has no elements"));
@@ -263,7 +263,7 @@ fn load_image(image: &gltf::Image, buffers: &[Vec<u8>], textures: &mut MeshTextu
                 .offset()
                 .checked_add(view.length())
                 .and_then(|end| buffer.get(view.offset()..end))
-                .ok_or(format!("{what}: its buffer view reaches beyond the buffer"))?;
+                .ok_or_else(|| format!("{what}: its buffer view reaches beyond the buffer"))?;
             textures
                 .bank
                 .get_or_add(key, || super::texture::decode_bytes(bytes, &what))
@@ -324,9 +324,7 @@ fn read_primitive(
         Some((_, _, set, transform)) => Some(
             reader
                 .read_tex_coords(*set)
-                .ok_or(format!(
-                    "its material's texture reads TEXCOORD_{set}, which it does not have"
-                ))?
+                .ok_or_else(|| format!("its material's texture reads TEXCOORD_{set}, which it does not have"))?
                 .into_f32()
                 .enumerate()
                 .map(|(i, uv)| {

@@ -362,10 +362,12 @@ fn load_ply(reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<Mes
     let mut triangles = Vec::with_capacity(faces.len());
     for (f, face) in faces.iter().enumerate() {
         let corner = |i: i64| {
-            usize::try_from(i).ok().and_then(|i| vertices.get(i)).ok_or(format!(
-                "face {f} refers to vertex {i}, but there are {} vertices",
-                vertices.len()
-            ))
+            usize::try_from(i).ok().and_then(|i| vertices.get(i)).ok_or_else(|| {
+                format!(
+                    "face {f} refers to vertex {i}, but there are {} vertices",
+                    vertices.len()
+                )
+            })
         };
         let corners = face.indices.iter().map(|&i| corner(i)).collect::<Result<Vec<_>, _>>()?;
         if corners.len() < 3 {
