@@ -352,9 +352,8 @@ fn coincident_faces_resolve_to_the_lower_face_id_on_the_gpu() {
 }
 
 /// A dense scene, whose wide BVH is several levels deep (the walk's stack of child groups
-/// several entries high) and whose leaves hold up to two triangles (below `LARGE_SCENE`; the
-/// conversion of leaves of four is `gpu::wide`'s unit test): env1 with 30,000 small random
-/// triangles strewn through the room. Faces agree with the f64 reference as in the rooms; ranges within
+/// several entries high) and whose leaves hold up to four triangles: env1 with 30,000 small random triangles
+/// strewn through the room. Faces agree with the f64 reference as in the rooms; ranges within
 /// 5e-5, not 1e-5: strewn triangles lie centimetres from the viewpoint, where the f32 test's
 /// rounding (relative to the room's coordinates, not to the range) is a larger part of the
 /// range. From inside the clutter and from a corner.

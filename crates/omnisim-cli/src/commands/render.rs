@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use omnisim::advanced::{CpuTracer, SceneBvh};
+use omnisim::advanced::CpuTracer;
 use omnisim::metadata::BackendMetadata;
 use omnisim::output::ExrCompression;
 use omnisim::output::FrameTarget;
@@ -290,6 +290,12 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Bytes of the BVH built for each face of a mesh, after the scene is loaded: what
+/// `SceneBvh::heap_bytes` (`omnisim bench`'s `bvh_bytes`) measures, 283–286 a triangle from 10k
+/// to 1 M with leaves of two triangles (docs/benchmarks.md, 2026-11-26 evening (small)), rounded
+/// up.
+const BVH_BYTES_PER_FACE: u64 = 290;
+
 /// Refuses, before the output folder is touched, a render whose frames and writers (and the
 /// scene's BVH, still to be built) would not fit the memory this process may use
 /// (`memory::check`).
@@ -297,8 +303,7 @@ fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene) -> anyhow::Result
     let parts = outputs.bytes_per_pixel(rig);
     let per_pixel: usize = parts.iter().map(|(_, bytes)| bytes).sum();
     let (width, height) = rig.first_camera().size();
-    // The BVH still to be built, one triangle a face counted.
-    let besides = crate::memory::FIXED_BYTES + SceneBvh::heap_bytes_bound(scene.faces.len());
+    let besides = crate::memory::FIXED_BYTES + scene.faces.len() as u64 * BVH_BYTES_PER_FACE;
     let resident = u64::from(width) * u64::from(height) * per_pixel as u64 + besides;
     let parts: Vec<String> = parts.iter().map(|(name, bytes)| format!("{name} {bytes}")).collect();
     let what = format!(

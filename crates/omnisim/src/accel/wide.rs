@@ -27,20 +27,12 @@ pub(super) const MAX_LEAF_GROUPS: usize = 8;
 pub(crate) const HALVES: usize = 2;
 pub(crate) const WIDTH: usize = 4 * HALVES;
 
-/// Triangles a leaf may hold in the wide BVH of a scene of `triangle_count` triangles: subtrees
-/// of at most this many become one leaf (one group of four lanes).
-///
-/// Two up to [`super::LARGE_SCENE`]: the packet walk tests a leaf's boxes once a packet but its
-/// triangles once a ray, so tighter leaves cut the (ray, triangle) pairs it filters (callgrind,
-/// one frame's packet walk, leaves of two against four: env1 omni 250² −30 %, generated scenes
-/// of 5k–50k triangles −0.1 to −13 % but for scan 20k omni +3 %). Four above, with the fast
-/// build, where build time and memory count: leaves of two cost 5–12 % more build
-/// instructions and 25–33 % more bytes a triangle (1 M triangles: peak 375 → 470 MB) for a
-/// walk that gains in some scenes (boxes 100k–300k −14 %) and none in others (scan 100k
-/// omni +1 %, equirect −1 %) (docs/benchmarks.md, "2026-11-26 night (small)").
-pub(super) fn leaf_triangles(triangle_count: usize) -> u32 {
-    if triangle_count > super::LARGE_SCENE { 4 } else { 2 }
-}
+/// Subtrees of at most this many triangles become one leaf (one group of four lanes). Two, not
+/// four: the packet walk tests a leaf's boxes once a packet but its triangles once a ray, so
+/// tighter leaves cut the (ray, triangle) pairs it filters; callgrind, env1 omni 250², one
+/// frame 28.45 → 22.50 M (packet walk 19.52 → 13.57 M), env1-lit 135.3 → 107.9 M
+/// (docs/benchmarks.md, "2026-11-26 evening (small)").
+const LEAF_TRIANGLES: u32 = 2;
 
 /// Eight children's boxes, lane i = child i.
 #[derive(Debug, Clone, Copy)]
@@ -62,8 +54,6 @@ pub(crate) struct WideBvh {
     pub(crate) depth: usize,
     /// Largest absolute coordinate of any triangle (scene-local), for the f32 error bound.
     pub(crate) extent: f32,
-    /// Most triangles a leaf holds, chosen by the scene's triangle count (`leaf_triangles`).
-    pub(crate) leaf_triangles: u32,
 }
 
 impl WideBvh {
@@ -77,7 +67,6 @@ impl WideBvh {
         } as f32;
         let mut wide = Self {
             extent,
-            leaf_triangles: leaf_triangles(triangles.len()),
             ..Self::default()
         };
         if bvh.nodes.is_empty() {
@@ -87,10 +76,9 @@ impl WideBvh {
         let builder = Builder {
             nodes: &bvh.nodes,
             counts: &counts,
-            leaf_triangles: wide.leaf_triangles,
         };
         // A root that is (or fits) one leaf is the single child of a node of its own.
-        let root = if bvh.nodes[0].is_leaf() || counts[0] <= wide.leaf_triangles {
+        let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
             smallvec![0]
         } else {
             builder.open(0)
@@ -204,8 +192,6 @@ type Children = SmallVec<[usize; WIDTH]>;
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
     counts: &'a [u32],
-    /// Subtrees of at most this many triangles become leaves.
-    leaf_triangles: u32,
 }
 
 impl Builder<'_> {
@@ -229,7 +215,7 @@ impl Builder<'_> {
                 node.max[axis][lane / 4][lane % 4] = source.max[axis];
             }
             node.lanes |= 1 << lane;
-            if self.counts[index] <= self.leaf_triangles || source.is_leaf() {
+            if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
                 let count = self.counts[index] as usize;
                 let groups = count.div_ceil(4);
                 assert!(
@@ -267,7 +253,7 @@ impl Builder<'_> {
         // Each child's area once (`None` where it cannot be opened), not once per step.
         let openable_area = |c: usize| {
             let node = &self.nodes[c];
-            (!node.is_leaf() && self.counts[c] > self.leaf_triangles).then(|| half_area(node))
+            (!node.is_leaf() && self.counts[c] > LEAF_TRIANGLES).then(|| half_area(node))
         };
         let mut area = [None; WIDTH];
         area[0] = openable_area(first);
@@ -322,16 +308,12 @@ mod tests {
     /// below the first level (the largest goes first; a child's box lies in its parent's).
     #[test]
     fn open_replaces_a_node_by_its_largest_full_cut() {
-        for (cells, leaf_triangles) in [(50, 2), (50, 4), (160, 2), (160, 4)] {
+        for cells in [50, 160] {
             let bvh = SceneBvh::build(&grid_scene(cells));
             let nodes = &bvh.bvh.nodes;
             let counts = subtree_triangles(nodes);
-            let builder = Builder {
-                nodes,
-                counts: &counts,
-                leaf_triangles,
-            };
-            let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > leaf_triangles;
+            let builder = Builder { nodes, counts: &counts };
+            let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;
             let mut opened_nodes = 0;
             for parent in (0..nodes.len()).filter(|&index| openable(index)) {
                 let children = builder.open(parent);
