@@ -145,19 +145,31 @@ impl<W: Wide> PacketRays<W> {
             t_lo[r] = self::t_lo(t_min);
         }
         // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
-        // loads became calls, and the arrays were copied: callgrind, env1-lit omni). The
-        // batches are filled in the packet itself: filled in lists of their own and moved in,
-        // they were copied once a packet (docs/benchmarks.md, "2026-11-26 night (small)").
+        // loads became calls, and the arrays were copied: callgrind, env1-lit omni).
         let zero = W::splat(0.0);
-        let mut packet = Self {
-            batches: [RayLanes {
-                origin: [zero; 3],
-                direction: [zero; 3],
-                position_error: zero,
-            }; BATCHES],
-            t_lo: [zero; BATCHES],
-            inverse: [[zero; 3]; BATCHES],
-            negative_rays: [0; 3],
+        let mut batches = [RayLanes {
+            origin: [zero; 3],
+            direction: [zero; 3],
+            position_error: zero,
+        }; BATCHES];
+        let (mut t_lo_lanes, mut inverse) = ([zero; BATCHES], [[zero; 3]; BATCHES]);
+        let mut sign_bits = [0u64; 3];
+        for b in 0..BATCHES {
+            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
+            for axis in 0..3 {
+                batches[b].origin[axis] = batch(&origin[axis]);
+                batches[b].direction[axis] = batch(&direction[axis]);
+                inverse[b][axis] = inverses(batches[b].direction[axis]);
+                sign_bits[axis] |= u64::from(batches[b].direction[axis].sign_bits()) << (8 * b);
+            }
+            batches[b].position_error = position_errors(&batches[b].origin, scene_extent);
+            t_lo_lanes[b] = batch(&t_lo);
+        }
+        Self {
+            batches,
+            t_lo: t_lo_lanes,
+            inverse,
+            negative_rays: sign_bits.map(|bits| bits & active),
             given: active,
             // No rays bounded yet: a walk before `narrow_to` walks none.
             bounded: 0,
@@ -170,23 +182,7 @@ impl<W: Wide> PacketRays<W> {
                 inverse_min: Vec3::ZERO,
                 inverse_max: Vec3::ZERO,
             },
-        };
-        for b in 0..BATCHES {
-            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
-            let lanes = &mut packet.batches[b];
-            for axis in 0..3 {
-                lanes.origin[axis] = batch(&origin[axis]);
-                lanes.direction[axis] = batch(&direction[axis]);
-                packet.inverse[b][axis] = inverses(lanes.direction[axis]);
-                packet.negative_rays[axis] |= u64::from(lanes.direction[axis].sign_bits()) << (8 * b);
-            }
-            lanes.position_error = position_errors(&lanes.origin, scene_extent);
-            packet.t_lo[b] = batch(&t_lo);
         }
-        for bits in &mut packet.negative_rays {
-            *bits &= active;
-        }
-        packet
     }
 
     /// The rays the packet's bounds are those of ([`PacketRays::narrow_to`]'s last `rays_in`;
