@@ -251,16 +251,24 @@ fn trace_band_in(
 ) {
     let band = (row_length, band);
     if let Some(origin) = local.shared_origin {
-        trace_tiles(bvh, local, band, pixels, portable, |_| origin);
+        let world_origin = bvh.offset + origin;
+        trace_tiles(bvh, local, band, pixels, portable, |_| origin, |_| world_origin);
     } else {
-        trace_tiles(bvh, local, band, pixels, portable, |origin| {
-            local.pose.turn_origin(origin)
-        });
+        trace_tiles(
+            bvh,
+            local,
+            band,
+            pixels,
+            portable,
+            |origin| local.pose.turn_origin(origin),
+            |origin| bvh.offset + origin,
+        );
     }
 }
 
 /// [`trace_band_in`]'s tiles, each ray's scene-local origin given by `turn_origin` of its
-/// body-frame one.
+/// body-frame one, and its world position by `world_origin` of the scene-local one (the
+/// shared origin's once a frame: callgrind, docs/benchmarks.md, "2026-11-26 night (small)").
 #[inline(always)]
 fn trace_tiles(
     bvh: &SceneBvh,
@@ -269,11 +277,14 @@ fn trace_tiles(
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
     turn_origin: impl Fn(DVec3) -> DVec3,
+    world_origin: impl Fn(DVec3) -> DVec3,
 ) {
     let rows = pixels.len() / row_length;
     // One packet array per band: entries outside a tile's `active` rays are never read, so
     // they need no clearing between tiles.
     let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); PACKET];
+    // The packet's hits, every entry written by each tile.
+    let mut found = [None; PACKET];
     let pose = &local.pose;
     let first_pixel = band * 8 * row_length;
     for column in (0..row_length).step_by(8) {
@@ -292,17 +303,17 @@ fn trace_tiles(
             }
         }
         // A tile outside the image circle of a mirror or fisheye has no rays.
-        let found = match active {
-            0 => [None; PACKET],
-            _ => fast::closest_hits(bvh, &rays, active, portable),
-        };
+        match active {
+            0 => found = [None; PACKET],
+            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found),
+        }
         fetch_faces_ahead(bvh, &found);
         for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
             let rays_of_row = first_ray..first_ray + columns;
             let row_rays = rays[rays_of_row.clone()].iter().zip(&found[rays_of_row]);
             for (pixel_out, (&(origin, direction, _), found)) in pixels[offsets].iter_mut().zip(row_rays) {
                 pixel_out.write(match *found {
-                    Some(hit) => pixel(bvh, origin, direction, hit),
+                    Some(hit) => pixel_from(bvh, world_origin(origin), direction, hit),
                     None => Pixel::MISS,
                 });
             }
@@ -366,12 +377,19 @@ fn tile_rows(row_length: usize, rows: usize, column: usize) -> (usize, impl Iter
 
 /// The hit planes of `hit` on the ray from `origin` (scene-local) along `direction`.
 fn pixel(bvh: &SceneBvh, origin: DVec3, direction: DVec3, hit: Hit) -> Pixel {
+    pixel_from(bvh, bvh.offset + origin, direction, hit)
+}
+
+/// [`pixel`] of the ray whose origin is at `world_origin` (`bvh.offset` + its scene-local
+/// origin, the same bits).
+#[inline(always)]
+fn pixel_from(bvh: &SceneBvh, world_origin: DVec3, direction: DVec3, hit: Hit) -> Pixel {
     let face = bvh.face[hit.triangle];
     let normal = bvh.face_normals[face as usize];
     Pixel {
         face,
         range: hit.t as f32,
-        point: bvh.offset + origin + hit.t * direction,
+        point: world_origin + hit.t * direction,
         normal: if normal.dot(direction) > 0.0 { -normal } else { normal }.as_vec3(),
     }
 }

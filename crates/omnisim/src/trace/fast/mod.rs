@@ -106,25 +106,33 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
 }
 
 /// A packet of up to [`PACKET`] rays (bit r of `active` where ray r exists): each ray's
-/// [`closest_hit`], found by interval walks of the packet (`portable` as there).
+/// [`closest_hit`] written to `found[r]` (`None` for rays outside `active`), found by interval
+/// walks of the packet (`portable` as there). Written into the caller's array, not returned:
+/// the returned array was copied once a packet (docs/benchmarks.md, "2026-11-26 night (small)").
 pub(crate) fn closest_hits(
     bvh: &SceneBvh,
     rays: &[(DVec3, DVec3, f64); PACKET],
     active: u64,
     portable: bool,
-) -> [Option<Hit>; PACKET] {
+    found: &mut [Option<Hit>; PACKET],
+) {
     by_cpu!(
         portable,
-        closest_hits_avx2(bvh, rays, active),
-        closest_hits_in::<Lanes8>(bvh, rays, active)
-    )
+        closest_hits_avx2(bvh, rays, active, found),
+        closest_hits_in::<Lanes8>(bvh, rays, active, found)
+    );
 }
 
 /// [`closest_hits_in`] compiled with AVX2, its leaf filter eight lanes in one register.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn closest_hits_avx2(bvh: &SceneBvh, rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> [Option<Hit>; PACKET] {
-    closest_hits_in::<lanes::Avx8>(bvh, rays, active)
+fn closest_hits_avx2(
+    bvh: &SceneBvh,
+    rays: &[(DVec3, DVec3, f64); PACKET],
+    active: u64,
+    found: &mut [Option<Hit>; PACKET],
+) {
+    closest_hits_in::<lanes::Avx8>(bvh, rays, active, found);
 }
 
 #[inline(always)]
@@ -132,9 +140,10 @@ fn closest_hits_in<W: Wide>(
     bvh: &SceneBvh,
     rays: &[(DVec3, DVec3, f64); PACKET],
     active: u64,
-) -> [Option<Hit>; PACKET] {
+    found: &mut [Option<Hit>; PACKET],
+) {
     let mut t_hi = [f32::INFINITY; PACKET];
-    let mut best = [None; PACKET];
+    *found = [None; PACKET];
     walk_packet::<W>(
         bvh,
         rays,
@@ -143,10 +152,9 @@ fn closest_hits_in<W: Wide>(
         #[inline(always)]
         |r, triangle| {
             let (origin, direction, t_min) = rays[r];
-            triangle::nearer(bvh, origin, direction, t_min, &mut best[r], triangle)
+            triangle::nearer(bvh, origin, direction, t_min, &mut found[r], triangle)
         },
     );
-    best
 }
 
 /// The interval walk of the rays of `active` (each within its f32 bound `t_hi`, which
