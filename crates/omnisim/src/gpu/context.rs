@@ -1,6 +1,8 @@
-//! Finding an adapter and opening a device once a process, saying plainly which one and why.
+//! Finding an adapter and opening a device, saying plainly which one and why; one device a
+//! process, opened again in its place when it is lost.
 
-use std::sync::{Arc, Mutex};
+use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 
 /// Why the GPU backend is unavailable or failed.
 #[derive(Debug, thiserror::Error)]
@@ -59,6 +61,9 @@ pub enum GpuError {
     /// Mapping a result buffer failed.
     #[error("reading results back from the GPU failed: {0}")]
     Readback(String),
+    /// Mapping a new buffer to fill it failed.
+    #[error("writing the {0} to the GPU failed: {1}")]
+    Upload(String, String),
     /// Even a band of one row is too large for the adapter.
     #[error("the image is {width}×{height}: one row alone exceeds the adapter's storage limit")]
     ImageTooWide {
@@ -70,15 +75,40 @@ pub enum GpuError {
     /// A camera model with no GPU ray generation.
     #[error("the GPU backend has no rays for the {0} lens; render it with --backend cpu")]
     NoGpuCamera(&'static str),
+    /// The device was lost (a driver reset or GPU timeout, a GPU fault, or destroyed): this
+    /// renderer's frames all fail, and the next renderer made opens a fresh device.
+    #[error(
+        "the GPU device on '{adapter}' was lost ({reason}); a renderer made from now on opens it again \
+         (rerun the command; a data set resumes), or use --backend cpu"
+    )]
+    DeviceLost {
+        /// The adapter: its name, backend and device type.
+        adapter: String,
+        /// What wgpu said: why, and its message.
+        reason: String,
+    },
 }
 
-/// The process's one GPU context: opened once and never dropped. Renderers made and dropped on
-/// several threads at once (tests, a library user's workers) each opened and closed their own
-/// Vulkan instance and device before; on an NVIDIA H100 (driver 580.159.04) one thread's
-/// `vkDestroyDevice` and another's `vkDestroyInstance` then deadlocked inside the driver and
-/// the Vulkan loader (5 runs of `tests/tests/stability.rs` in 16 hung). One device also spares each
-/// renderer the adapter's start-up.
-static SHARED: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);
+/// The process's GPU context, opened on first use and never dropped. Renderers made and
+/// dropped on several threads at once (tests, a library user's workers) each opened and closed
+/// their own Vulkan instance and device before; on an NVIDIA H100 (driver 580.159.04) one
+/// thread's `vkDestroyDevice` and another's `vkDestroyInstance` then deadlocked inside the
+/// driver and the Vulkan loader (5 runs of `tests/tests/stability.rs` in 16 hung). One device
+/// also spares each renderer the adapter's start-up.
+static SHARED: Mutex<Contexts> = Mutex::new(Contexts {
+    current: None,
+    lost: Vec::new(),
+});
+
+/// The context renderers get, and the lost ones it replaced.
+struct Contexts {
+    current: Option<Arc<GpuContext>>,
+    /// Contexts whose device was lost, kept for the process: dropped when their last renderer
+    /// is, they would destroy their device and instance while other threads' renderers open or
+    /// use the fresh one, the teardown that deadlocked (see [`SHARED`]). Each holds what a
+    /// destroyed device keeps (wgpu frees its buffers when it is lost); one a loss.
+    lost: Vec<Arc<GpuContext>>,
+}
 
 /// The adapter and device in use, and the limits every buffer is checked against.
 pub(crate) struct GpuContext {
@@ -86,6 +116,9 @@ pub(crate) struct GpuContext {
     pub(crate) queue: wgpu::Queue,
     pub(crate) adapter: wgpu::AdapterInfo,
     pub(crate) limits: wgpu::Limits,
+    /// Set, with what wgpu said, by the device-lost callback. wgpu runs it where the driver
+    /// reports the loss, or on the first poll after `Device::destroy` once the queue is idle.
+    lost: Arc<OnceLock<String>>,
 }
 
 impl GpuContext {
@@ -106,14 +139,18 @@ impl GpuContext {
         Self::shared(true)
     }
 
-    /// The process's context, opened on first use; an open that fails is tried again next time.
-    /// A software adapter that `new_hardware` refuses stays open for a later `new`.
+    /// The process's context, opened on first use and again after its device was lost; an open
+    /// that fails is tried again next time. A software adapter that `new_hardware` refuses
+    /// stays open for a later `new`.
     fn shared(hardware_only: bool) -> Result<Arc<Self>, GpuError> {
-        // Poisoned only if an open panicked; the slot is still a valid `Option`.
-        let mut slot = SHARED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let context = match &*slot {
+        // Poisoned only if an open panicked; the slot is still valid.
+        let mut slot = SHARED.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(current) = slot.current.take_if(|current| current.check_alive(true).is_err()) {
+            slot.lost.push(current);
+        }
+        let context = match &slot.current {
             Some(context) => Arc::clone(context),
-            None => Arc::clone(slot.insert(Arc::new(Self::open()?))),
+            None => Arc::clone(slot.current.insert(Arc::new(Self::open()?))),
         };
         if hardware_only && context.is_software() {
             return Err(GpuError::SoftwareAdapter(format!(
@@ -146,12 +183,94 @@ impl GpuContext {
             adapter: info.name.clone(),
             source,
         })?;
+        let lost = Arc::new(OnceLock::new());
+        let flag = Arc::clone(&lost);
+        device.set_device_lost_callback(move |reason, message| {
+            let _ = flag.set(match message.as_str() {
+                "" => format!("{reason:?}"),
+                message => format!("{reason:?}: {message}"),
+            });
+        });
+        let flag = Arc::clone(&lost);
+        device.on_uncaptured_error(Arc::new(move |error| {
+            // wgpu's own handler panics on every error, as this one does while the device
+            // lives. Once it is lost, its resources are freed and using one is an error: the
+            // frame then fails with the loss (`blame`), not a panic.
+            assert!(flag.get().is_some(), "wgpu error: {error}");
+        }));
         Ok(Self {
             device,
             queue,
             adapter: info,
             limits,
+            lost,
         })
+    }
+
+    /// [`GpuError::DeviceLost`] once the device is lost. With `poll`, polls the device first
+    /// (without waiting), which runs the callback of a destroyed device whose work is done.
+    pub(crate) fn check_alive(&self, poll: bool) -> Result<(), GpuError> {
+        if poll {
+            // A poll that fails says why; only a loss counts here.
+            let _ = self.poll(wgpu::PollType::Poll);
+        }
+        match self.lost.get() {
+            Some(reason) => Err(GpuError::DeviceLost {
+                adapter: self.describe(),
+                reason: reason.clone(),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// `error`, or [`GpuError::DeviceLost`] in its place where the device was lost: whatever
+    /// failed in a frame on a lost device (a map, a read) failed because of the loss.
+    pub(crate) fn blame(&self, error: GpuError) -> GpuError {
+        match self.check_alive(true) {
+            Err(lost) => lost,
+            Ok(()) => error,
+        }
+    }
+
+    /// A buffer holding `contents`: wgpu's `DeviceExt::create_buffer_init`, which panics where
+    /// the device is lost (a lost device's buffer cannot be mapped), with that as an error.
+    pub(crate) fn buffer_init(
+        &self,
+        label: &str,
+        contents: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        // wgpu's rule for a mapped buffer: a multiple of 4 bytes, at least 4.
+        let align = wgpu::COPY_BUFFER_ALIGNMENT;
+        let size = (contents.len() as u64).next_multiple_of(align).max(align);
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: true,
+        });
+        buffer
+            .get_mapped_range_mut(..)
+            .map(|mut view| view.slice(..contents.len()).copy_from_slice(contents))
+            .map_err(|e| self.blame(GpuError::Upload(label.to_owned(), e.to_string())))?;
+        buffer.unmap();
+        Ok(buffer)
+    }
+
+    /// Polls the device. wgpu panics where the driver reports the device lost while it waits
+    /// (`Device::poll` treats every error but a timeout as fatal), after running the device-lost
+    /// callback: that panic is caught here and becomes [`GpuError::DeviceLost`] (the panic
+    /// hook has printed it). Any other panic goes on.
+    pub(crate) fn poll(&self, poll_type: wgpu::PollType) -> Result<(), GpuError> {
+        self.check_alive(false)?;
+        match catch_unwind(AssertUnwindSafe(|| self.device.poll(poll_type))) {
+            Ok(Ok(_)) => Ok(()),
+            Ok(Err(error)) => Err(GpuError::Readback(error.to_string())),
+            Err(panic) => {
+                self.check_alive(false)?;
+                resume_unwind(panic)
+            }
+        }
     }
 
     /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
