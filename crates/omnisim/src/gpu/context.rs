@@ -293,3 +293,53 @@ impl GpuContext {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A context of this test's own, not the process's: destroying it touches no other test's
+    /// frames. `None` (said loudly) where no adapter opens and `CI` is not set; where it is,
+    /// a missing adapter fails the test (README, "Tests").
+    fn own_context() -> Option<GpuContext> {
+        match GpuContext::open() {
+            Ok(context) => Some(context),
+            Err(error) if std::env::var_os("CI").is_none() => {
+                eprintln!("SKIPPED: no GPU adapter opens ({error}); CI=true runs this test");
+                None
+            }
+            Err(error) => panic!("no GPU adapter opens ({error}): install a Vulkan driver (README, Tests)"),
+        }
+    }
+
+    /// Once the device is lost, wgpu frees its buffers, and using one (here: unmapping) is an
+    /// error wgpu hands to the device's handler: the loss is what the caller hears, not a
+    /// panic. While the device lives, such an error still panics, as wgpu's own handler does.
+    #[test]
+    fn errors_on_a_lost_device_are_the_loss_and_not_a_panic() {
+        let Some(context) = own_context() else { return };
+        let usage = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        let unmapped = context.buffer_init("unmapped", &[1, 2, 3], usage).unwrap();
+        let unmapped_twice = catch_unwind(AssertUnwindSafe(|| unmapped.unmap()));
+        assert!(unmapped_twice.is_err(), "a wgpu error on a live device panics");
+
+        let mapped = context.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("mapped"),
+            size: 16,
+            usage,
+            mapped_at_creation: true,
+        });
+        context.device.destroy();
+        let lost = |result: Result<(), GpuError>| {
+            let text = result.map_or_else(|e| e.to_string(), |()| "no error".into());
+            assert!(text.contains("was lost (Destroyed)"), "{text}");
+        };
+        // The first poll runs the callback, and frees the buffers.
+        lost(context.check_alive(true));
+        lost(context.poll(wgpu::PollType::wait_indefinitely()));
+        mapped.unmap();
+        lost(context.buffer_init("late", &[1], usage).map(drop));
+        // Kept, never dropped: a device torn down beside other threads' could deadlock (SHARED).
+        std::mem::forget(context);
+    }
+}
