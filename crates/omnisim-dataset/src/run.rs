@@ -631,17 +631,16 @@ impl Dataset {
     /// is that set's. Where the GPU device was lost (a driver reset, a GPU fault), the frame is
     /// rendered once more on a renderer reopened on a fresh device, kept for the rest of the
     /// run: a long run goes on where the loss passes, and stops (resumably) where it does not.
-    /// Only a renderer that renders the same bytes (`renders_with`, the folder's stamp) takes
-    /// over: `auto` that finds no GPU now stops the run instead of mixing backends.
+    /// Only a renderer that renders the same bytes (`Renderer::reopen`: the folder's stamp)
+    /// takes over: `auto` that finds no GPU now stops the run instead of mixing backends.
     fn render_reopening(&self, on: &mut Reopening, s: usize, index: usize) -> Result<RenderedFrame, DatasetError> {
         let renderer = on.fresh.as_ref().unwrap_or(on.renderer);
         let lost = match self.render_on(renderer, on.current, s, index) {
             Err(DatasetError::Render(lost)) if lost.is_device_lost() => lost,
             other => return other,
         };
-        let fresh = match renderer.reopen() {
-            Ok(fresh) if fresh.renders_with() == renderer.renders_with() => fresh,
-            _ => return Err(lost.into()),
+        let Some(fresh) = renderer.reopen() else {
+            return Err(lost.into());
         };
         on.notes.push(format!(
             "set '{}', frame {index}: {lost}; rendered again on the device opened in its place",

@@ -174,16 +174,17 @@ impl Renderer {
 
     /// A renderer as this one was asked for (backend choice, CPU tracer, and the GPU's band
     /// limit and pass timing), opened now: after a lost device ([`RenderError::is_device_lost`])
-    /// it opens a fresh one, on which scenes must be prepared again. `auto` may choose another
-    /// backend than before ([`Renderer::renders_with`] says).
-    pub fn reopen(&self) -> Result<Self, RenderError> {
-        let mut fresh = Self::new(self.choice)?;
+    /// it opens a fresh one, on which scenes must be prepared again. `None` where it would not
+    /// render the same bytes as this one ([`Renderer::renders_with`]: `auto` that finds no GPU
+    /// now, another adapter) or none opens.
+    pub fn reopen(&self) -> Option<Self> {
+        let mut fresh = Self::new(self.choice).ok()?;
         fresh.cpu_tracer = self.cpu_tracer;
         #[cfg(feature = "gpu")]
         if let (Backend::Gpu(fresh), Backend::Gpu(old)) = (&mut fresh.backend, &self.backend) {
             fresh.keep_settings(old);
         }
-        Ok(fresh)
+        (fresh.renders_with() == self.renders_with()).then_some(fresh)
     }
 
     /// Destroys the GPU device this renderer uses (`wgpu::Device::destroy`), as a driver reset
