@@ -105,8 +105,8 @@ struct Contexts {
     current: Option<Arc<GpuContext>>,
     /// Contexts whose device was lost, kept for the process: dropped when their last renderer
     /// is, they would destroy their device and instance while other threads' renderers open or
-    /// use the fresh one, the teardown that deadlocked (see [`SHARED`]). Each holds what a
-    /// destroyed device keeps (wgpu frees its buffers when it is lost); one a loss.
+    /// use the fresh one, the teardown that deadlocked (see [`SHARED`]). One a loss, each
+    /// holding what wgpu keeps of a lost device (it frees the device's buffers).
     lost: Vec<Arc<GpuContext>>,
 }
 
