@@ -48,6 +48,8 @@ fn a_lost_device_fails_its_renderer_and_the_next_renderer_opens_a_fresh_one() {
     let mut old = common::gpu_tracer(&scene, &bvh);
     let adapter = old.renderer.device_name();
     let before = old.render(&camera, &pose).expect("a frame before the loss");
+    // `auto` on the same device (on lavapipe, `auto` itself would choose the CPU).
+    let auto = omnisim::Renderer::new(omnisim::BackendChoice::Gpu).unwrap().as_auto();
     old.renderer.destroy_device();
 
     // The first frame finds the loss as it runs (wgpu learns of it on its poll); the next
@@ -68,6 +70,8 @@ fn a_lost_device_fails_its_renderer_and_the_next_renderer_opens_a_fresh_one() {
     let appearance = old.renderer.set_appearance(&mut old.scene, Appearance::of(&scene));
     assert_device_lost(&appearance.unwrap_err(), &adapter);
     assert_device_lost(&old.renderer.prepare(&scene).err().unwrap(), &adapter);
+    // Not a scene too large for the GPU, which `auto` would trace on the CPU instead.
+    assert_device_lost(&auto.prepare(&scene).err().unwrap(), &adapter);
 
     // A renderer made now opens a fresh device, as does reopening the lost one; their frames
     // are the frame made before the loss, byte for byte, on the same adapter.

@@ -187,6 +187,15 @@ impl Renderer {
         (fresh.renders_with() == self.renders_with()).then_some(fresh)
     }
 
+    /// This renderer as `auto` would have opened it (on the GPU it already has): for tests of
+    /// what `auto` does with a lost device, where the only adapter is a software one.
+    #[cfg(all(feature = "gpu", feature = "test-counters"))]
+    #[doc(hidden)]
+    pub fn as_auto(mut self) -> Self {
+        self.choice = BackendChoice::Auto;
+        self
+    }
+
     /// Destroys the GPU device this renderer uses (`wgpu::Device::destroy`), as a driver reset
     /// loses it: for tests of a lost device. Every renderer on it then fails its frames with
     /// [`GpuError::DeviceLost`], and the next renderer made opens a fresh device.
@@ -244,7 +253,9 @@ impl Renderer {
             Backend::Cpu => (None, None),
             Backend::Gpu(renderer) => match GpuScene::new(renderer.context(), &geometry, &appearance) {
                 Ok(gpu) => (Some(gpu), None),
-                Err(e) if self.choice == BackendChoice::Auto => (
+                // A lost device is no scene too large: it fails the frame, whose caller may
+                // reopen the renderer (`auto` falling back here would mix backends silently).
+                Err(e) if self.choice == BackendChoice::Auto && !e.is_device_failure() => (
                     None,
                     Some(format!(
                         "auto: the GPU cannot hold this scene ({e}); using the CPU tracer"

@@ -62,8 +62,13 @@ pub enum GpuError {
     #[error("reading results back from the GPU failed: {0}")]
     Readback(String),
     /// Mapping a new buffer to fill it failed.
-    #[error("writing the {0} to the GPU failed: {1}")]
-    Upload(String, String),
+    #[error("writing the {buffer} to the GPU failed: {reason}")]
+    Upload {
+        /// Which buffer.
+        buffer: String,
+        /// What wgpu said.
+        reason: String,
+    },
     /// Even a band of one row is too large for the adapter.
     #[error("the image is {width}×{height}: one row alone exceeds the adapter's storage limit")]
     ImageTooWide {
@@ -76,7 +81,10 @@ pub enum GpuError {
     #[error("the GPU backend has no rays for the {0} lens; render it with --backend cpu")]
     NoGpuCamera(&'static str),
     /// The device was lost (a driver reset or GPU timeout, a GPU fault, or destroyed): this
-    /// renderer's frames all fail, and the next renderer made opens a fresh device.
+    /// renderer's frames all fail, and the next renderer made opens a fresh device. Where the
+    /// driver reports the loss while wgpu waits, wgpu panics and omnisim catches it (this needs
+    /// `panic = "unwind"`, Rust's default): the panic hook's line "Error in Device::poll:
+    /// Parent device is lost" may come before this error.
     #[error(
         "the GPU device on '{adapter}' was lost ({reason}); a renderer made from now on opens it again \
          (rerun the command; a data set resumes), or use --backend cpu"
@@ -87,6 +95,14 @@ pub enum GpuError {
         /// What wgpu said: why, and its message.
         reason: String,
     },
+}
+
+impl GpuError {
+    /// Whether the device failed (lost, or a new buffer would not map), not the scene: no
+    /// reason for `auto` to trace the scene on the CPU instead.
+    pub(crate) fn is_device_failure(&self) -> bool {
+        matches!(self, Self::DeviceLost { .. } | Self::Upload { .. })
+    }
 }
 
 /// The process's GPU context, opened on first use and never dropped. Renderers made and
@@ -145,7 +161,7 @@ impl GpuContext {
     fn shared(hardware_only: bool) -> Result<Arc<Self>, GpuError> {
         // Poisoned only if an open panicked; the slot is still valid.
         let mut slot = SHARED.lock().unwrap_or_else(PoisonError::into_inner);
-        if let Some(current) = slot.current.take_if(|current| current.check_alive(true).is_err()) {
+        if let Some(current) = slot.current.take_if(|current| current.poll_loss().is_err()) {
             slot.lost.push(current);
         }
         let context = match &slot.current {
@@ -185,6 +201,7 @@ impl GpuContext {
         })?;
         let lost = Arc::new(OnceLock::new());
         let flag = Arc::clone(&lost);
+        // Must not call wgpu nor take `SHARED`: wgpu runs it under its own locks.
         device.set_device_lost_callback(move |reason, message| {
             let _ = flag.set(match message.as_str() {
                 "" => format!("{reason:?}"),
@@ -207,13 +224,16 @@ impl GpuContext {
         })
     }
 
-    /// [`GpuError::DeviceLost`] once the device is lost. With `poll`, polls the device first
-    /// (without waiting), which runs the callback of a destroyed device whose work is done.
-    pub(crate) fn check_alive(&self, poll: bool) -> Result<(), GpuError> {
-        if poll {
-            // A poll that fails says why; only a loss counts here.
-            let _ = self.poll(wgpu::PollType::Poll);
-        }
+    /// [`GpuError::DeviceLost`] after a poll (without waiting), which runs the callback of a
+    /// destroyed device whose work is done.
+    pub(crate) fn poll_loss(&self) -> Result<(), GpuError> {
+        // A poll that fails says why; only a loss counts here.
+        let _ = self.poll(wgpu::PollType::Poll);
+        self.known_loss()
+    }
+
+    /// [`GpuError::DeviceLost`] once the device is known to be lost.
+    pub(crate) fn known_loss(&self) -> Result<(), GpuError> {
         match self.lost.get() {
             Some(reason) => Err(GpuError::DeviceLost {
                 adapter: self.describe(),
@@ -226,7 +246,7 @@ impl GpuContext {
     /// `error`, or [`GpuError::DeviceLost`] in its place where the device was lost: whatever
     /// failed in a frame on a lost device (a map, a read) failed because of the loss.
     pub(crate) fn blame(&self, error: GpuError) -> GpuError {
-        match self.check_alive(true) {
+        match self.poll_loss() {
             Err(lost) => lost,
             Ok(()) => error,
         }
@@ -252,25 +272,35 @@ impl GpuContext {
         buffer
             .get_mapped_range_mut(..)
             .map(|mut view| view.slice(..contents.len()).copy_from_slice(contents))
-            .map_err(|e| self.blame(GpuError::Upload(label.to_owned(), e.to_string())))?;
+            .map_err(|e| {
+                self.blame(GpuError::Upload {
+                    buffer: label.to_owned(),
+                    reason: e.to_string(),
+                })
+            })?;
         buffer.unmap();
         Ok(buffer)
     }
 
-    /// Polls the device. wgpu panics where the driver reports the device lost while it waits
-    /// (`Device::poll` treats every error but a timeout as fatal), after running the device-lost
-    /// callback: that panic is caught here and becomes [`GpuError::DeviceLost`] (the panic
-    /// hook has printed it). Any other panic goes on.
+    /// Polls the device; see [`GpuContext::catch_loss`].
     pub(crate) fn poll(&self, poll_type: wgpu::PollType) -> Result<(), GpuError> {
-        self.check_alive(false)?;
-        match catch_unwind(AssertUnwindSafe(|| self.device.poll(poll_type))) {
-            Ok(Ok(_)) => Ok(()),
-            Ok(Err(error)) => Err(GpuError::Readback(error.to_string())),
-            Err(panic) => {
-                self.check_alive(false)?;
-                resume_unwind(panic)
-            }
-        }
+        self.known_loss()?;
+        self.catch_loss(|| self.device.poll(poll_type))?
+            .map(drop)
+            .map_err(|error| GpuError::Readback(error.to_string()))
+    }
+
+    /// Runs `work`, a call into wgpu. wgpu panics where the driver reports the device lost while
+    /// it waits (`Device::poll` treats every error but a timeout as fatal), after running the
+    /// device-lost callback: that panic becomes [`GpuError::DeviceLost`] here (the panic hook
+    /// has printed it). Any other panic goes on.
+    fn catch_loss<T>(&self, work: impl FnOnce() -> T) -> Result<T, GpuError> {
+        // wgpu panics after its poll returned and ran its callbacks: no lock held, no state
+        // half updated.
+        catch_unwind(AssertUnwindSafe(work)).or_else(|panic| {
+            self.known_loss()?;
+            resume_unwind(panic)
+        })
     }
 
     /// Whether the adapter is a software rasteriser on the CPU (llvmpipe, lavapipe, WARP).
@@ -299,29 +329,29 @@ mod tests {
     use super::*;
 
     /// A context of this test's own, not the process's: destroying it touches no other test's
-    /// frames. `None` (said loudly) where no adapter opens and `CI` is not set; where it is,
-    /// a missing adapter fails the test (README, "Tests").
-    fn own_context() -> Option<GpuContext> {
-        match GpuContext::open() {
-            Ok(context) => Some(context),
-            Err(error) if std::env::var_os("CI").is_none() => {
-                eprintln!("SKIPPED: no GPU adapter opens ({error}); CI=true runs this test");
-                None
-            }
-            Err(error) => panic!("no GPU adapter opens ({error}): install a Vulkan driver (README, Tests)"),
-        }
+    /// frames. Never dropped, even where the test fails: a device torn down beside other
+    /// threads' could deadlock (see [`SHARED`]).
+    fn own_context() -> std::mem::ManuallyDrop<GpuContext> {
+        std::mem::ManuallyDrop::new(
+            GpuContext::open().unwrap_or_else(|error| {
+                panic!("no GPU adapter opens ({error}): install a Vulkan driver (README, Tests)")
+            }),
+        )
     }
 
     /// Once the device is lost, wgpu frees its buffers, and using one (here: unmapping) is an
     /// error wgpu hands to the device's handler: the loss is what the caller hears, not a
     /// panic. While the device lives, such an error still panics, as wgpu's own handler does.
     #[test]
+    #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
     fn errors_on_a_lost_device_are_the_loss_and_not_a_panic() {
-        let Some(context) = own_context() else { return };
+        let context = own_context();
         let usage = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
         let unmapped = context.buffer_init("unmapped", &[1, 2, 3], usage).unwrap();
         let unmapped_twice = catch_unwind(AssertUnwindSafe(|| unmapped.unmap()));
         assert!(unmapped_twice.is_err(), "a wgpu error on a live device panics");
+        let live_panic = catch_unwind(AssertUnwindSafe(|| context.catch_loss(|| panic!("a bug"))));
+        assert!(live_panic.is_err(), "a panic on a live device goes on");
 
         let mapped = context.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("mapped"),
@@ -335,11 +365,11 @@ mod tests {
             assert!(text.contains("was lost (Destroyed)"), "{text}");
         };
         // The first poll runs the callback, and frees the buffers.
-        lost(context.check_alive(true));
+        lost(context.poll_loss());
         lost(context.poll(wgpu::PollType::wait_indefinitely()));
         mapped.unmap();
         lost(context.buffer_init("late", &[1], usage).map(drop));
-        // Kept, never dropped: a device torn down beside other threads' could deadlock (SHARED).
-        std::mem::forget(context);
+        // wgpu's panic where the driver reports the loss as it waits.
+        lost(context.catch_loss(|| panic!("Error in Device::poll: Parent device is lost")));
     }
 }

@@ -90,7 +90,7 @@ impl GpuScene {
                 limit,
             });
         }
-        context.check_alive(false)?;
+        context.known_loss()?;
         let storage = |label: &str, contents: &[u8]| {
             context.buffer_init(
                 label,
@@ -120,7 +120,7 @@ impl GpuScene {
     /// Rewrites the materials, lights and shading uniform in place (the lights buffer is
     /// replaced only when it must grow). Fails only where the device was lost.
     pub(crate) fn set_appearance(&mut self, context: &GpuContext, appearance: &Appearance) -> Result<(), GpuError> {
-        context.check_alive(false)?;
+        context.known_loss()?;
         debug_assert_eq!(appearance.face_colours.len(), self.faces);
         let (materials, lights, shading) = appearance_data(self.offset, appearance);
         let queue = &context.queue;

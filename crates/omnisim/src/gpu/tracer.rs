@@ -194,7 +194,7 @@ impl GpuRenderer {
     /// Runs a frame's GPU work: refused at once where the device is known to be lost, and any
     /// failure on a device lost meanwhile reported as that loss ([`GpuError::DeviceLost`]).
     fn on_device<T>(&self, work: impl FnOnce() -> Result<T, GpuError>) -> Result<T, GpuError> {
-        self.context.check_alive(false)?;
+        self.context.known_loss()?;
         work().map_err(|error| self.context.blame(error))
     }
 
