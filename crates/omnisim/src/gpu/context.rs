@@ -83,8 +83,8 @@ pub enum GpuError {
     /// The device was lost (a driver reset or GPU timeout, a GPU fault, or destroyed): this
     /// renderer's frames all fail, and the next renderer made opens a fresh device. Where the
     /// driver reports the loss while wgpu waits, wgpu panics and omnisim catches it (this needs
-    /// `panic = "unwind"`, Rust's default): the panic hook's line "Error in Device::poll:
-    /// Parent device is lost" may come before this error.
+    /// `panic = "unwind"`, Rust's default): the panic hook's line `Error in Device::poll:
+    /// Parent device is lost` may come before this error.
     #[error(
         "the GPU device on '{adapter}' was lost ({reason}); a renderer made from now on opens it again \
          (rerun the command; a data set resumes), or use --backend cpu"
