@@ -389,6 +389,15 @@ impl Pending {
 /// What the syncing thread says of a batch: its frames, and whether their files are durable.
 type Synced = (Vec<WrittenFrame>, std::io::Result<()>);
 
+/// The renderer a run was given, the one reopened in its place after a lost device, the set
+/// scene prepared on the one in use, and the notes each reopening leaves.
+struct Reopening<'a> {
+    renderer: &'a Renderer,
+    fresh: &'a mut Option<Renderer>,
+    current: &'a mut Option<SetScene>,
+    notes: &'a mut Vec<String>,
+}
+
 /// A set's prepared scene, with its per-set occluders, kept while its frames render.
 struct SetScene {
     set: usize,
@@ -448,6 +457,7 @@ impl Dataset {
             .map(|(_, frame)| frame)
             .collect();
         let stop = AtomicBool::new(false);
+        let mut reopenings = Vec::new();
         let names = self.sets.iter().map(|s| s.spec.name.as_str()).collect();
         let mut heard = Heard::new(names, frames.len(), &mut summary, on_frame, &stop);
         // Frames render here, one after another (the renderer is not shared), while writer
@@ -514,6 +524,8 @@ impl Dataset {
             }
             drop((report, queue));
             let mut current: Option<SetScene> = None;
+            // The renderer reopened in `renderer`'s place after its device was lost.
+            let mut fresh: Option<Renderer> = None;
             let hear = |heard: &mut Heard, pending: &mut Pending, (set, index, result): WriterReport| match result {
                 Ok(frame) => pending.push(frame),
                 Err(error) => heard.frame(set, index, Err(error)),
@@ -537,16 +549,13 @@ impl Dataset {
                 let outcome = if let Some(bytes) = is_done(out, &out.join(&self.sets[s].spec.name), index) {
                     Ok(Outcome::Resumed(bytes))
                 } else {
-                    let scene = match current.take() {
-                        Some(scene) if scene.set == s => Ok(scene),
-                        _ => self.set_scene(renderer, s),
+                    let mut on = Reopening {
+                        renderer,
+                        fresh: &mut fresh,
+                        current: &mut current,
+                        notes: &mut reopenings,
                     };
-                    let rendered = scene.and_then(|mut scene| {
-                        let frame = self.render_frame(renderer, &mut scene, index);
-                        current = Some(scene);
-                        frame
-                    });
-                    match rendered {
+                    match self.render_reopening(&mut on, s, index) {
                         Ok(frame) => match to_write.send(frame) {
                             Ok(()) => continue,
                             Err(_) => break, // every writer has ended: the scope reports why
@@ -572,6 +581,7 @@ impl Dataset {
             }
         });
         let (failure, done, written) = (heard.failure, heard.done, heard.written);
+        summary.notes.append(&mut reopenings);
         // The entries written since the last batch, and the set files where no batch took
         // them (not the frames of a pending or failed batch); after a failure, best effort
         // for the next run, and the failure is what the user hears.
@@ -615,6 +625,49 @@ impl Dataset {
         store
             .write_unlisted(&own, &to_json(&set_entry(set, files)))
             .map_err(io(&own))
+    }
+
+    /// Renders frame `index` of set `s` on the renderer in use, with `current`'s scene where it
+    /// is that set's. Where the GPU device was lost (a driver reset, a GPU fault), the frame is
+    /// rendered once more on a renderer reopened on a fresh device, kept for the rest of the
+    /// run: a long run goes on where the loss passes, and stops (resumably) where it does not.
+    /// Only a renderer that renders the same bytes (`Renderer::reopen`: the folder's stamp)
+    /// takes over: `auto` that finds no GPU now stops the run instead of mixing backends.
+    fn render_reopening(&self, on: &mut Reopening, s: usize, index: usize) -> Result<RenderedFrame, DatasetError> {
+        let renderer = on.fresh.as_ref().unwrap_or(on.renderer);
+        let lost = match self.render_on(renderer, on.current, s, index) {
+            Err(DatasetError::Render(lost)) if lost.is_device_lost() => lost,
+            other => return other,
+        };
+        let Some(fresh) = renderer.reopen() else {
+            return Err(lost.into());
+        };
+        on.notes.push(format!(
+            "set '{}', frame {index}: {lost}; rendered again on the device opened in its place",
+            self.sets[s].spec.name
+        ));
+        // Its prepared scene lives on the lost device.
+        *on.current = None;
+        let fresh = on.fresh.insert(fresh);
+        self.render_on(fresh, on.current, s, index)
+    }
+
+    /// Renders frame `index` of set `s` on `renderer`, with `current`'s scene where it is that
+    /// set's (else the set's scene, prepared now), which `current` then holds.
+    fn render_on(
+        &self,
+        renderer: &Renderer,
+        current: &mut Option<SetScene>,
+        s: usize,
+        index: usize,
+    ) -> Result<RenderedFrame, DatasetError> {
+        let mut scene = match current.take() {
+            Some(scene) if scene.set == s => scene,
+            _ => self.set_scene(renderer, s)?,
+        };
+        let frame = self.render_frame(renderer, &mut scene, index);
+        *current = Some(scene);
+        frame
     }
 
     /// The scene of set `s` with its per-set occluders, prepared.

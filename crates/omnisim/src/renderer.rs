@@ -83,6 +83,18 @@ pub enum RenderError {
     },
 }
 
+impl RenderError {
+    /// Whether the GPU device was lost (a driver reset, a GPU fault; [`GpuError::DeviceLost`]):
+    /// the renderer's frames all fail, and a renderer made now ([`Renderer::reopen`]) opens a
+    /// fresh device.
+    pub fn is_device_lost(&self) -> bool {
+        #[cfg(feature = "gpu")]
+        return matches!(self, Self::Gpu(GpuError::DeviceLost { .. }));
+        #[cfg(not(feature = "gpu"))]
+        false
+    }
+}
+
 /// Refuses an appearance with a texture the filter cannot read ([`Texture::oversized`]).
 ///
 /// [`Texture::oversized`]: crate::scene::texture::Texture::oversized
@@ -110,7 +122,6 @@ enum Backend {
 /// The backend, opened once and used for any number of scenes and frames.
 pub struct Renderer {
     backend: Backend,
-    #[cfg(feature = "gpu")]
     choice: BackendChoice,
     /// Why this backend was chosen, for the user.
     reason: String,
@@ -153,13 +164,47 @@ impl Renderer {
         };
         Ok(Self {
             backend,
-            #[cfg(feature = "gpu")]
             choice,
             reason,
             cpu_tracer: CpuTracer::default(),
             rays: RayCache::default(),
             geometry_builds: AtomicUsize::new(0),
         })
+    }
+
+    /// A renderer as this one was asked for (backend choice, CPU tracer, and the GPU's band
+    /// limit and pass timing), opened now: after a lost device ([`RenderError::is_device_lost`])
+    /// it opens a fresh one, on which scenes must be prepared again. `None` where it would not
+    /// render the same bytes as this one ([`Renderer::renders_with`]: `auto` that finds no GPU
+    /// now, another adapter) or none opens.
+    pub fn reopen(&self) -> Option<Self> {
+        let mut fresh = Self::new(self.choice).ok()?;
+        fresh.cpu_tracer = self.cpu_tracer;
+        #[cfg(feature = "gpu")]
+        if let (Backend::Gpu(fresh), Backend::Gpu(old)) = (&mut fresh.backend, &self.backend) {
+            fresh.keep_settings(old);
+        }
+        (fresh.renders_with() == self.renders_with()).then_some(fresh)
+    }
+
+    /// This renderer as `auto` would have opened it (on the GPU it already has): for tests of
+    /// what `auto` does with a lost device, where the only adapter is a software one.
+    #[cfg(all(feature = "gpu", feature = "test-counters"))]
+    #[doc(hidden)]
+    pub fn as_auto(mut self) -> Self {
+        self.choice = BackendChoice::Auto;
+        self
+    }
+
+    /// Destroys the GPU device this renderer uses (`wgpu::Device::destroy`), as a driver reset
+    /// loses it: for tests of a lost device. Every renderer on it then fails its frames with
+    /// [`GpuError::DeviceLost`], and the next renderer made opens a fresh device.
+    #[cfg(all(feature = "gpu", feature = "test-counters"))]
+    #[doc(hidden)]
+    pub fn destroy_device(&self) {
+        if let Backend::Gpu(renderer) = &self.backend {
+            renderer.context().device.destroy();
+        }
     }
 
     /// Chooses the tracer of the CPU backend (default [`CpuTracer::Fast`]); scenes the GPU
@@ -208,7 +253,9 @@ impl Renderer {
             Backend::Cpu => (None, None),
             Backend::Gpu(renderer) => match GpuScene::new(renderer.context(), &geometry, &appearance) {
                 Ok(gpu) => (Some(gpu), None),
-                Err(e) if self.choice == BackendChoice::Auto => (
+                // A lost device is no scene too large: it fails the frame, whose caller may
+                // reopen the renderer (`auto` falling back here would mix backends silently).
+                Err(e) if self.choice == BackendChoice::Auto && !e.is_device_failure() => (
                     None,
                     Some(format!(
                         "auto: the GPU cannot hold this scene ({e}); using the CPU tracer"
@@ -244,7 +291,7 @@ impl Renderer {
         check_textures(&appearance)?;
         #[cfg(feature = "gpu")]
         if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
-            gpu.set_appearance(renderer.context(), &appearance);
+            gpu.set_appearance(renderer.context(), &appearance)?;
         }
         prepared.appearance = appearance;
         Ok(())

@@ -9,7 +9,7 @@ use omnisim::advanced::CpuTracer;
 use omnisim::metadata::BackendMetadata;
 use omnisim::output::ExrCompression;
 use omnisim::output::FrameTarget;
-use omnisim::{BackendChoice, OutputSet, Pose, RenderMetadata, Renderer, Rig, Scene};
+use omnisim::{BackendChoice, OutputSet, Pose, PreparedScene, RenderMetadata, Renderer, Rig, Scene};
 
 use crate::camera_args::CameraArgs;
 use crate::poses::{parse_pose, read_pose_file};
@@ -194,7 +194,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut run = crate::run_folder::open(&args.out, &identity, args.overwrite)?;
     let mut renderer = Renderer::new(args.backend.into())?;
     renderer.set_cpu_tracer(args.tracer.into());
-    let prepared = renderer.prepare(&scene)?;
+    let mut prepared = renderer.prepare(&scene)?;
     crate::streams::stderr(format_args!(
         "scene '{}': {} faces, {} triangles (BVH built in {:.1} ms)",
         scene.name,
@@ -237,20 +237,33 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let render_started = Instant::now();
     let stem = scene.file_stem();
     for (index, pose) in poses.iter().enumerate() {
-        let frames = views
-            .iter()
-            .map(|view| {
-                renderer
-                    .render_antialiased(
-                        &prepared,
-                        &view.camera,
-                        pose,
-                        outputs.planes(),
-                        args.edge_samples.isqrt(),
-                    )
-                    .with_context(|| format!("rendering pose {index}"))
-            })
-            .collect::<anyhow::Result<Vec<_>>>()?;
+        let render = |renderer: &Renderer, prepared: &PreparedScene| {
+            views
+                .iter()
+                .map(|view| {
+                    let samples = args.edge_samples.isqrt();
+                    renderer.render_antialiased(prepared, &view.camera, pose, outputs.planes(), samples)
+                })
+                .collect::<Result<Vec<_>, _>>()
+        };
+        // A lost GPU device (a driver reset, a GPU fault): the pose once more on the device
+        // opened in its place, which renders the rest with the same bytes (`reopen`). A render
+        // folder does not resume, so a long trajectory goes on rather than start again.
+        let frames = match render(&renderer, &prepared) {
+            Err(lost) if lost.is_device_lost() => match renderer.reopen() {
+                Some(fresh) => {
+                    crate::streams::stderr(format_args!(
+                        "pose {index}: {lost}; rendering it again on the device opened in its place"
+                    ))?;
+                    prepared = fresh.prepare_with(&scene, prepared.geometry().clone())?;
+                    renderer = fresh;
+                    render(&renderer, &prepared)
+                }
+                None => Err(lost),
+            },
+            other => other,
+        }
+        .with_context(|| format!("rendering pose {index}"))?;
         for (view, frame) in views.iter().zip(&frames) {
             crate::warnings::empty_frame(index, view.suffix, frame)?;
         }

@@ -6,7 +6,6 @@ use std::sync::Mutex;
 
 use bytemuck::Zeroable;
 use glam::DVec3;
-use wgpu::util::DeviceExt;
 
 use super::context::{GpuContext, GpuError};
 use super::layout::{GpuLight, GpuMaterial, GpuSurface, SURFACE_COLOURS, SURFACE_UNLIT, ShadingParams};
@@ -91,51 +90,50 @@ impl GpuScene {
                 limit,
             });
         }
-        let device = &context.device;
+        context.known_loss()?;
         let storage = |label: &str, contents: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
+            context.buffer_init(
+                label,
                 contents,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            })
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            )
         };
         let (materials, lights, shading) = appearance_data(bvh.offset, appearance);
         Ok(Self {
             offset: bvh.offset,
-            nodes: storage("bvh nodes", bytemuck::cast_slice(&nodes)),
-            triangles: storage("triangles", bytemuck::cast_slice(&triangles)),
-            materials: storage("materials", bytemuck::cast_slice(&materials)),
-            lights: storage("lights", bytemuck::cast_slice(&lights)),
-            shading: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("shading"),
-                contents: bytemuck::bytes_of(&shading),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            }),
-            surfaces: storage("surfaces", bytemuck::cast_slice(&surfaces)),
-            textures: storage("textures", bytemuck::cast_slice(&textures)),
+            nodes: storage("bvh nodes", bytemuck::cast_slice(&nodes))?,
+            triangles: storage("triangles", bytemuck::cast_slice(&triangles))?,
+            materials: storage("materials", bytemuck::cast_slice(&materials))?,
+            lights: storage("lights", bytemuck::cast_slice(&lights))?,
+            shading: context.buffer_init(
+                "shading",
+                bytemuck::bytes_of(&shading),
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            )?,
+            surfaces: storage("surfaces", bytemuck::cast_slice(&surfaces))?,
+            textures: storage("textures", bytemuck::cast_slice(&textures))?,
             band: Mutex::new(None),
             faces: bvh.face_normals.len(),
         })
     }
 
     /// Rewrites the materials, lights and shading uniform in place (the lights buffer is
-    /// replaced only when it must grow).
-    pub(crate) fn set_appearance(&mut self, context: &GpuContext, appearance: &Appearance) {
+    /// replaced only when it must grow). Fails only where the device was lost.
+    pub(crate) fn set_appearance(&mut self, context: &GpuContext, appearance: &Appearance) -> Result<(), GpuError> {
+        context.known_loss()?;
         debug_assert_eq!(appearance.face_colours.len(), self.faces);
         let (materials, lights, shading) = appearance_data(self.offset, appearance);
         let queue = &context.queue;
         queue.write_buffer(&self.materials, 0, bytemuck::cast_slice(&materials));
         let bytes: &[u8] = bytemuck::cast_slice(&lights);
         if bytes.len() as u64 > self.lights.size() {
-            self.lights = context.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("lights"),
-                contents: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            });
+            let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+            self.lights = context.buffer_init("lights", bytes, usage)?;
         } else {
             queue.write_buffer(&self.lights, 0, bytes);
         }
         queue.write_buffer(&self.shading, 0, bytemuck::bytes_of(&shading));
+        Ok(())
     }
 }
 

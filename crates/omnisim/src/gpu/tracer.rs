@@ -10,7 +10,6 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use glam::{DMat3, DVec3, Vec3};
-use wgpu::util::DeviceExt;
 
 use super::bindings::{
     self, Binding, CAMERA, CAMERA_RAYS, EDGE_COLOURS, EDGE_PIXELS, HITS, LIGHTS, MATERIALS, NODES, SHADED, SHADING,
@@ -140,6 +139,12 @@ impl GpuRenderer {
         }
     }
 
+    /// Takes `old`'s band limit and pass timing: a renderer reopened in its place.
+    pub(crate) fn keep_settings(&mut self, old: &GpuRenderer) {
+        self.max_band_rows = old.max_band_rows;
+        self.time_passes = old.time_passes;
+    }
+
     /// Compute pipelines compiled by this process so far (every `GpuRenderer` adds three): a
     /// test counter.
     #[cfg(feature = "test-counters")]
@@ -186,6 +191,13 @@ impl GpuRenderer {
         *self.stages.lock().unwrap_or_else(PoisonError::into_inner) = None;
     }
 
+    /// Runs a frame's GPU work: refused at once where the device is known to be lost, and any
+    /// failure on a device lost meanwhile reported as that loss ([`GpuError::DeviceLost`]).
+    fn on_device<T>(&self, work: impl FnOnce() -> Result<T, GpuError>) -> Result<T, GpuError> {
+        self.context.known_loss()?;
+        work().map_err(|error| self.context.blame(error))
+    }
+
     /// Traces a frame and shades the planes `planes` asks for.
     pub(crate) fn render(
         &self,
@@ -195,7 +207,7 @@ impl GpuRenderer {
         planes: Planes,
     ) -> Result<Frame, GpuError> {
         let (width, height) = camera.size();
-        let output = self.run_bands(scene, camera, pose, planes, HitSource::Trace)?;
+        let output = self.on_device(|| self.run_bands(scene, camera, pose, planes, HitSource::Trace))?;
         let mut frame = Frame::from_hits(width, height, output.hits);
         if planes.needs_shading() {
             frame.set_shading(planes, output.linear, output.colour);
@@ -212,7 +224,8 @@ impl GpuRenderer {
         frame: &mut Frame,
         planes: Planes,
     ) -> Result<(), GpuError> {
-        let output = self.run_bands(scene, camera, pose, planes, HitSource::Upload(frame.pixels()))?;
+        let source = HitSource::Upload(frame.pixels());
+        let output = self.on_device(|| self.run_bands(scene, camera, pose, planes, source))?;
         if planes.needs_shading() {
             frame.set_shading(planes, output.linear, output.colour);
         }
@@ -258,15 +271,11 @@ impl GpuRenderer {
                 direction.map_or([0.0; 4], |d| d.as_vec3().extend(1.0).to_array())
             })
             .collect();
-        let buffer = Arc::new(
-            self.context
-                .device
-                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("camera rays"),
-                    contents: bytemuck::cast_slice(&table),
-                    usage: wgpu::BufferUsages::STORAGE,
-                }),
-        );
+        let buffer = Arc::new(self.context.buffer_init(
+            "camera rays",
+            bytemuck::cast_slice(&table),
+            wgpu::BufferUsages::STORAGE,
+        )?);
         *self.rays.lock().unwrap_or_else(PoisonError::into_inner) = Some((key, Arc::clone(&buffer)));
         Ok(buffer)
     }
@@ -526,78 +535,74 @@ impl GpuRenderer {
         samples_per_axis: u32,
         edges: &[usize],
     ) -> Result<usize, GpuError> {
-        let edges: Vec<u32> = edges.iter().map(|&i| i as u32).collect();
-        if samples_per_axis <= 1 || edges.is_empty() {
-            return Ok(0);
-        }
-        if camera.has_lens_model() {
-            // The table holds pixel centres only; the renderer refines lens cameras on the CPU.
-            return Err(GpuError::NoGpuCamera(camera.model_name()));
-        }
-        let device = &self.context.device;
-        let mut params = camera_params(camera, pose, scene.offset);
-        params.frame.samples_per_axis = samples_per_axis;
-        let bytes = edges.len() as u64 * size_of::<ShadedPixel>();
-        let init = |label, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
-        let uniform = init("camera", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
-        let pixels = init("edge pixels", bytemuck::cast_slice(&edges), wgpu::BufferUsages::STORAGE);
-        let colours = self.buffer(
-            "edge colours",
-            bytes,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let readback = self.buffer(
-            "edge colours readback",
-            bytes,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-        let bind_group = self.bind_group(
-            &self.refine,
-            &[
-                (CAMERA, &uniform),
-                (NODES, &scene.nodes),
-                (TRIANGLES, &scene.triangles),
-                (MATERIALS, &scene.materials),
-                (EDGE_PIXELS, &pixels),
-                (EDGE_COLOURS, &colours),
-                (LIGHTS, &scene.lights),
-                (SHADING, &scene.shading),
-                (CAMERA_RAYS, &self.no_rays),
-                (SURFACES, &scene.surfaces),
-                (TEXTURES, &scene.textures),
-            ],
-        );
-        let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
-        let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
-        let mut encoder = device.create_command_encoder(&Default::default());
-        dispatch(
-            &mut encoder,
-            &self.refine,
-            &bind_group,
-            [columns, groups.div_ceil(columns)],
-            None,
-        );
-        copy(&mut encoder, &colours, &readback, bytes);
-        self.context.queue.submit([encoder.finish()]);
-        let refined: Vec<ShadedPixel> = self.read(&readback, bytes)?;
-        let (colour, linear) = frame.shading_mut();
-        if let Some(colour) = colour {
-            for (&index, s) in edges.iter().zip(&refined) {
-                colour[index as usize] = unpack(s.colour);
+        self.on_device(|| {
+            let edges: Vec<u32> = edges.iter().map(|&i| i as u32).collect();
+            if samples_per_axis <= 1 || edges.is_empty() {
+                return Ok(0);
             }
-        }
-        if let Some(linear) = linear {
-            for (&index, s) in edges.iter().zip(&refined) {
-                linear[index as usize] = s.linear;
+            if camera.has_lens_model() {
+                // The table holds pixel centres only; the renderer refines lens cameras on the CPU.
+                return Err(GpuError::NoGpuCamera(camera.model_name()));
             }
-        }
-        Ok(edges.len())
+            let mut params = camera_params(camera, pose, scene.offset);
+            params.frame.samples_per_axis = samples_per_axis;
+            let bytes = edges.len() as u64 * size_of::<ShadedPixel>();
+            let context = &self.context;
+            let uniform = context.buffer_init("camera", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM)?;
+            let pixels =
+                context.buffer_init("edge pixels", bytemuck::cast_slice(&edges), wgpu::BufferUsages::STORAGE)?;
+            let colours = self.buffer(
+                "edge colours",
+                bytes,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            );
+            let readback = self.buffer(
+                "edge colours readback",
+                bytes,
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            );
+            let bind_group = self.bind_group(
+                &self.refine,
+                &[
+                    (CAMERA, &uniform),
+                    (NODES, &scene.nodes),
+                    (TRIANGLES, &scene.triangles),
+                    (MATERIALS, &scene.materials),
+                    (EDGE_PIXELS, &pixels),
+                    (EDGE_COLOURS, &colours),
+                    (LIGHTS, &scene.lights),
+                    (SHADING, &scene.shading),
+                    (CAMERA_RAYS, &self.no_rays),
+                    (SURFACES, &scene.surfaces),
+                    (TEXTURES, &scene.textures),
+                ],
+            );
+            let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
+            let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
+            let mut encoder = context.device.create_command_encoder(&Default::default());
+            dispatch(
+                &mut encoder,
+                &self.refine,
+                &bind_group,
+                [columns, groups.div_ceil(columns)],
+                None,
+            );
+            copy(&mut encoder, &colours, &readback, bytes);
+            self.context.queue.submit([encoder.finish()]);
+            let refined: Vec<ShadedPixel> = self.read(&readback, bytes)?;
+            let (colour, linear) = frame.shading_mut();
+            if let Some(colour) = colour {
+                for (&index, s) in edges.iter().zip(&refined) {
+                    colour[index as usize] = unpack(s.colour);
+                }
+            }
+            if let Some(linear) = linear {
+                for (&index, s) in edges.iter().zip(&refined) {
+                    linear[index as usize] = s.linear;
+                }
+            }
+            Ok(edges.len())
+        })
     }
 
     /// Hit, shaded and readback buffers for bands of `rows` × `width` pixels.
@@ -665,8 +670,7 @@ impl GpuRenderer {
             });
         }
         drop(sender);
-        let polled = self.context.device.poll(wgpu::PollType::wait_indefinitely());
-        let mut failure = polled.err().map(|e| e.to_string());
+        let mut failure = self.context.poll(wgpu::PollType::wait_indefinitely()).err();
         let mut mapped = Vec::with_capacity(buffers.len());
         // A map callback runs on whichever thread polls the device: with the process's one
         // device shared by every renderer, any other thread's poll may have taken ours
@@ -677,11 +681,9 @@ impl GpuRenderer {
         while failure.is_none() && mapped.len() < buffers.len() {
             match receiver.recv_timeout(std::time::Duration::from_millis(2)) {
                 Ok((index, Ok(()))) => mapped.push(index),
-                Ok((_, Err(e))) => failure = Some(e.to_string()),
+                Ok((_, Err(e))) => failure = Some(GpuError::Readback(e.to_string())),
                 Err(std::sync::mpsc::RecvTimeoutError::Timeout) if waited.elapsed() < CALLBACK_WAIT => {
-                    if let Err(e) = self.context.device.poll(wgpu::PollType::Poll) {
-                        failure = Some(e.to_string());
-                    }
+                    failure = self.context.poll(wgpu::PollType::Poll).err();
                 }
                 Err(_) => break,
             }
@@ -690,9 +692,7 @@ impl GpuRenderer {
             for index in mapped {
                 buffers[index].0.unmap();
             }
-            return Err(GpuError::Readback(
-                failure.unwrap_or_else(|| "the GPU did not map a result buffer".into()),
-            ));
+            return Err(failure.unwrap_or_else(|| GpuError::Readback("the GPU did not map a result buffer".into())));
         }
         Ok(())
     }
