@@ -1,8 +1,8 @@
 //! Textures as shading reads them: a mip pyramid of 8-bit sRGB texels, decoded once at load.
 //!
 //! Texels are 8-bit sRGB (4 bytes each, packed `r | g << 8 | b << 16` as the GPU reads them),
-//! and the texture holds every level's decoded to linear light too (three f32, 12 bytes a
-//! texel, all levels in one array), as the CPU's filter (`shade/filter.rs`) reads them: decoding each fetched texel there cost about
+//! and each level holds them decoded to linear light too (three f32, 12 bytes a texel), as the
+//! CPU's filter (`shade/filter.rs`) reads them: decoding each fetched texel there cost about
 //! 150 instructions a run of eight pixels (docs/benchmarks.md, 2026-11-27 (tex)). Filtering
 //! happens in linear light, and each mip level is the box filter (2×2 mean, in linear light)
 //! of the one above it, encoded back to 8-bit sRGB.
@@ -47,7 +47,7 @@ impl Wrap {
 }
 
 /// One level of a mip pyramid.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone)]
 pub struct MipLevel {
     /// Width, texels.
     pub width: u32,
@@ -55,7 +55,19 @@ pub struct MipLevel {
     pub height: u32,
     /// Row-major 8-bit sRGB texels packed `r | g << 8 | b << 16`, row 0 at the top (v = 0).
     pub texels: Vec<u32>,
+    /// Red, green and blue of each of `texels` in linear light, interleaved ([`DECODING`]'s
+    /// values): made with them ([`MipLevel::new`]), so always three to a texel.
+    linear: Vec<f32>,
 }
+
+/// Equal where sizes and texels are: the linear values follow from the texels.
+impl PartialEq for MipLevel {
+    fn eq(&self, other: &Self) -> bool {
+        (self.width, self.height, &self.texels) == (other.width, other.height, &other.texels)
+    }
+}
+
+impl Eq for MipLevel {}
 
 /// Linear value of each sRGB byte, f32: what the filter reads of a texel's channel.
 static DECODING: std::sync::LazyLock<[f32; 256]> =
@@ -65,6 +77,34 @@ static DECODING: std::sync::LazyLock<[f32; 256]> =
 const DECODE_CHUNK: usize = 1 << 14;
 
 impl MipLevel {
+    /// A level of `width` × `height` texels packed as [`MipLevel::texels`] (a level built by
+    /// hand may hold fewer or more), with their linear values.
+    pub fn new(width: u32, height: u32, texels: Vec<u32>) -> MipLevel {
+        let mut linear = vec![0.0; 3 * texels.len()];
+        let decoding = &*DECODING;
+        linear
+            .par_chunks_mut(3 * DECODE_CHUNK)
+            .zip(texels.par_chunks(DECODE_CHUNK))
+            .for_each(|(linear, texels)| {
+                for (linear, &texel) in linear.chunks_exact_mut(3).zip(texels) {
+                    for (value, byte) in linear.iter_mut().zip(unpack(texel)) {
+                        *value = decoding[usize::from(byte)];
+                    }
+                }
+            });
+        MipLevel {
+            width,
+            height,
+            texels,
+            linear,
+        }
+    }
+
+    /// Red, green and blue of each texel in linear light, interleaved (three f32 a texel).
+    pub(crate) fn linear(&self) -> &[f32] {
+        &self.linear
+    }
+
     /// The sRGB colour of texel (x, y).
     pub fn texel(&self, x: u32, y: u32) -> [u8; 3] {
         unpack(self.texels[y as usize * self.width as usize + x as usize])
@@ -73,25 +113,11 @@ impl MipLevel {
 
 /// A mip-mapped texture: level 0 is the image, each next level half as wide and high (at least
 /// one texel), down to 1×1.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Texture {
     /// Finest first.
     pub levels: Vec<MipLevel>,
-    /// Every level's texels in linear light ([`DECODING`]'s values), red, green, blue
-    /// interleaved, finest level first, then one black texel (what an empty level reads):
-    /// made with the levels ([`Texture::new`]). One array, so that a run of pixels whose
-    /// lanes read different levels gathers from one base.
-    linear: Vec<f32>,
 }
-
-/// Equal where the levels are: the linear values follow from them.
-impl PartialEq for Texture {
-    fn eq(&self, other: &Self) -> bool {
-        self.levels == other.levels
-    }
-}
-
-impl Eq for Texture {}
 
 /// Packs 8-bit sRGB as the GPU reads it.
 pub(crate) fn pack(rgb: [u8; 3]) -> u32 {
@@ -112,41 +138,11 @@ impl Texture {
     /// The texture of `width` × `height` row-major texels packed as [`MipLevel::texels`].
     fn from_packed(width: u32, height: u32, texels: Vec<u32>) -> Texture {
         assert_eq!(texels.len(), width as usize * height as usize, "texel count");
-        let mut levels = vec![MipLevel { width, height, texels }];
+        let mut levels = vec![MipLevel::new(width, height, texels)];
         while let Some(above) = levels.last().filter(|l| l.width > 1 || l.height > 1) {
             levels.push(half(above));
         }
-        Texture::new(levels)
-    }
-
-    /// The texture of `levels` (finest first; a level built by hand may hold fewer or more
-    /// texels than its size says, or none), with their linear values.
-    pub fn new(levels: Vec<MipLevel>) -> Texture {
-        let texels: usize = levels.iter().map(|level| level.texels.len()).sum();
-        // The black texel at the end stays zero.
-        let mut linear = vec![0.0; 3 * (texels + 1)];
-        let decoding = &*DECODING;
-        let mut rest = linear.as_mut_slice();
-        for level in &levels {
-            let (this, after) = rest.split_at_mut(3 * level.texels.len());
-            this.par_chunks_mut(3 * DECODE_CHUNK)
-                .zip(level.texels.par_chunks(DECODE_CHUNK))
-                .for_each(|(linear, texels)| {
-                    for (linear, &texel) in linear.chunks_exact_mut(3).zip(texels) {
-                        for (value, byte) in linear.iter_mut().zip(unpack(texel)) {
-                            *value = decoding[usize::from(byte)];
-                        }
-                    }
-                });
-            rest = after;
-        }
-        Texture { levels, linear }
-    }
-
-    /// Every level's texels in linear light, three f32 a texel, finest first, then one black
-    /// texel.
-    pub(crate) fn linear(&self) -> &[f32] {
-        &self.linear
+        Texture { levels }
     }
 
     /// Size of the finest level.
@@ -154,10 +150,12 @@ impl Texture {
         (self.levels[0].width, self.levels[0].height)
     }
 
-    /// Bytes the texels of every level take, packed and linear (16 a texel, and the black
-    /// texel).
+    /// Bytes the texels of every level take, packed and linear (16 a texel).
     pub fn bytes(&self) -> usize {
-        self.levels.iter().map(|l| l.texels.len() * 4).sum::<usize>() + self.linear.len() * 4
+        self.levels
+            .iter()
+            .map(|l| l.texels.len() * 4 + l.linear.len() * 4)
+            .sum()
     }
 
     /// Why the renderer cannot filter this texture, if it cannot: a level with a side above
@@ -210,7 +208,7 @@ fn half(above: &MipLevel) -> MipLevel {
             })
         })
         .collect();
-    MipLevel { width, height, texels }
+    MipLevel::new(width, height, texels)
 }
 
 /// Decodes a PNG or JPEG file (`path` a regular file of at most [`TEXTURE_FILE_LIMIT`] bytes)
@@ -300,21 +298,23 @@ mod tests {
         }
     }
 
-    /// The texture holds every level's texels in linear light as the filter read them when
-    /// it decoded each fetch (the f32 of `srgb_to_linear` of each byte, red, green, blue),
-    /// finest first, then one black texel.
+    /// Each level holds its texels in linear light as the filter read them when it decoded
+    /// each fetch: the f32 of `srgb_to_linear` of each byte, red, green, blue.
     #[test]
-    fn levels_are_held_in_linear_light() {
+    fn levels_hold_their_texels_in_linear_light() {
         let pixels: Vec<[u8; 3]> = (0..=255u8).map(|b| [b, b.wrapping_mul(7), 255 - b]).collect();
         let texture = Texture::from_rgb(16, 16, &pixels);
-        let texels: Vec<u32> = texture.levels.iter().flat_map(|level| level.texels.clone()).collect();
-        assert_eq!(texture.linear().len(), 3 * (texels.len() + 1));
-        for (linear, &texel) in texture.linear().chunks_exact(3).zip(&texels) {
-            let want = unpack(texel).map(|b| (srgb_to_linear(b) as f32).to_bits());
-            assert_eq!(linear.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), want);
+        for level in &texture.levels {
+            assert_eq!(level.linear().len(), 3 * level.texels.len());
+            for (linear, &texel) in level.linear().chunks_exact(3).zip(&level.texels) {
+                let want = unpack(texel).map(|b| (srgb_to_linear(b) as f32).to_bits());
+                assert_eq!(linear.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), want);
+            }
         }
-        assert_eq!(texture.linear()[3 * texels.len()..], [0.0; 3]);
-        assert_eq!(texture.bytes(), 16 * texels.len() + 12);
+        assert_eq!(
+            texture.bytes(),
+            16 * texture.levels.iter().map(|l| l.texels.len()).sum::<usize>()
+        );
     }
 
     #[test]

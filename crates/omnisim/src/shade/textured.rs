@@ -13,7 +13,7 @@ use std::ops::Range;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::filter::{LANES, Levels, Lookups, Wraps, level_of_detail, trilinear_lanes};
+use super::filter::{LANES, Level, Lookups, Wraps, level_of_detail, trilinear_lanes};
 use super::footprint::Footprints;
 use super::{
     Appearance, Footprint, View, is_flat, lit, lit_by_lights, shade_on, texture_of, untextured_albedo, write_pixel,
@@ -33,7 +33,7 @@ const CHUNK: usize = 512;
 pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_>, frame: &mut Frame, planes: Planes) {
     let footprints = view.footprints();
     let pixels = frame.pixels();
-    let levels: Vec<Levels<'_>> = appearance.surfaces.textures.iter().map(Levels::of).collect();
+    let levels: Vec<Vec<Level<'_>>> = appearance.surfaces.textures.iter().map(Level::all).collect();
     let shader = Shader {
         appearance,
         lux,
@@ -78,8 +78,8 @@ struct Shader<'a> {
     view: &'a View<'a>,
     /// Where the frame's footprints lie, in the camera body's frame.
     footprints: &'a Footprints<'a>,
-    /// Each texture's levels as the lanes read them ([`Levels::of`]), by texture index.
-    levels: &'a [Levels<'a>],
+    /// Each texture's levels as the lanes read them ([`Level::all`]), by texture index.
+    levels: &'a [Vec<Level<'a>>],
 }
 
 /// A textured face, and what shading its pixels reads besides their hits.
@@ -88,7 +88,7 @@ struct Face<'a> {
     surface: &'a Surface,
     map: &'a UvMap,
     /// Its texture's levels, as the lanes read them.
-    levels: &'a Levels<'a>,
+    levels: &'a [Level<'a>],
     /// Its map's wrap, as the lanes read it.
     wraps: Wraps,
     /// Its texture's squared texels per metre (`texture_of`).
@@ -105,7 +105,7 @@ impl<'a> Face<'a> {
     /// texture (whose levels are `levels[map.texture]`).
     fn of(
         appearance: &'a Appearance,
-        levels: &'a [Levels<'a>],
+        levels: &'a [Vec<Level<'a>>],
         view: &View<'_>,
         hit: &Pixel,
         surface: &'a Surface,
