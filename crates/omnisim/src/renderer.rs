@@ -560,7 +560,11 @@ mod texture_tests {
         let index = surfaces.textures.len() - 1;
         // Texels left empty: the side alone is refused, before any is read.
         surfaces.textures[index] = Texture {
-            levels: vec![MipLevel::new((1 << 23) + 1, 1, Vec::new())],
+            levels: vec![MipLevel {
+                width: (1 << 23) + 1,
+                height: 1,
+                texels: Vec::new(),
+            }],
         };
         let source = surfaces.sources[index].clone();
         for error in [

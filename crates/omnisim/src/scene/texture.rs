@@ -1,11 +1,10 @@
 //! Textures as shading reads them: a mip pyramid of 8-bit sRGB texels, decoded once at load.
 //!
-//! Texels are 8-bit sRGB (4 bytes each, packed `r | g << 8 | b << 16` as the GPU reads them),
-//! and each level holds them decoded to linear light too (three f32, 12 bytes a texel), as the
-//! CPU's filter (`shade/filter.rs`) reads them: decoding each fetched texel there cost about
-//! 150 instructions a run of eight pixels (docs/benchmarks.md, 2026-11-27 (tex)). Filtering
-//! happens in linear light, and each mip level is the box filter (2×2 mean, in linear light)
-//! of the one above it, encoded back to 8-bit sRGB.
+//! Texels stay 8-bit sRGB (4 bytes each, packed `r | g << 8 | b << 16` as the GPU reads them):
+//! a quarter of linear f32 RGBA, so 50 MB of JPEG textures fit in memory on both backends.
+//! Filtering happens in linear light (`shade/filter.rs` decodes each fetched texel), and each
+//! mip level is the box filter (2×2 mean, in linear light) of the one above it, encoded back to
+//! 8-bit sRGB.
 
 use std::path::Path;
 
@@ -47,7 +46,7 @@ impl Wrap {
 }
 
 /// One level of a mip pyramid.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MipLevel {
     /// Width, texels.
     pub width: u32,
@@ -55,56 +54,9 @@ pub struct MipLevel {
     pub height: u32,
     /// Row-major 8-bit sRGB texels packed `r | g << 8 | b << 16`, row 0 at the top (v = 0).
     pub texels: Vec<u32>,
-    /// Red, green and blue of each of `texels` in linear light, interleaved ([`DECODING`]'s
-    /// values): made with them ([`MipLevel::new`]), so always three to a texel.
-    linear: Vec<f32>,
 }
-
-/// Equal where sizes and texels are: the linear values follow from the texels.
-impl PartialEq for MipLevel {
-    fn eq(&self, other: &Self) -> bool {
-        (self.width, self.height, &self.texels) == (other.width, other.height, &other.texels)
-    }
-}
-
-impl Eq for MipLevel {}
-
-/// Linear value of each sRGB byte, f32: what the filter reads of a texel's channel.
-static DECODING: std::sync::LazyLock<[f32; 256]> =
-    std::sync::LazyLock::new(|| std::array::from_fn(|b| srgb_to_linear(b as u8) as f32));
-
-/// Texels a task decodes to linear light.
-const DECODE_CHUNK: usize = 1 << 14;
 
 impl MipLevel {
-    /// A level of `width` × `height` texels packed as [`MipLevel::texels`] (a level built by
-    /// hand may hold fewer or more), with their linear values.
-    pub fn new(width: u32, height: u32, texels: Vec<u32>) -> MipLevel {
-        let mut linear = vec![0.0; 3 * texels.len()];
-        let decoding = &*DECODING;
-        linear
-            .par_chunks_mut(3 * DECODE_CHUNK)
-            .zip(texels.par_chunks(DECODE_CHUNK))
-            .for_each(|(linear, texels)| {
-                for (linear, &texel) in linear.chunks_exact_mut(3).zip(texels) {
-                    for (value, byte) in linear.iter_mut().zip(unpack(texel)) {
-                        *value = decoding[usize::from(byte)];
-                    }
-                }
-            });
-        MipLevel {
-            width,
-            height,
-            texels,
-            linear,
-        }
-    }
-
-    /// Red, green and blue of each texel in linear light, interleaved (three f32 a texel).
-    pub(crate) fn linear(&self) -> &[f32] {
-        &self.linear
-    }
-
     /// The sRGB colour of texel (x, y).
     pub fn texel(&self, x: u32, y: u32) -> [u8; 3] {
         unpack(self.texels[y as usize * self.width as usize + x as usize])
@@ -138,7 +90,7 @@ impl Texture {
     /// The texture of `width` × `height` row-major texels packed as [`MipLevel::texels`].
     fn from_packed(width: u32, height: u32, texels: Vec<u32>) -> Texture {
         assert_eq!(texels.len(), width as usize * height as usize, "texel count");
-        let mut levels = vec![MipLevel::new(width, height, texels)];
+        let mut levels = vec![MipLevel { width, height, texels }];
         while let Some(above) = levels.last().filter(|l| l.width > 1 || l.height > 1) {
             levels.push(half(above));
         }
@@ -150,12 +102,9 @@ impl Texture {
         (self.levels[0].width, self.levels[0].height)
     }
 
-    /// Bytes the texels of every level take, packed and linear (16 a texel).
+    /// Bytes the texels of every level take.
     pub fn bytes(&self) -> usize {
-        self.levels
-            .iter()
-            .map(|l| l.texels.len() * 4 + l.linear.len() * 4)
-            .sum()
+        self.levels.iter().map(|l| l.texels.len() * 4).sum()
     }
 
     /// Why the renderer cannot filter this texture, if it cannot: a level with a side above
@@ -208,7 +157,7 @@ fn half(above: &MipLevel) -> MipLevel {
             })
         })
         .collect();
-    MipLevel::new(width, height, texels)
+    MipLevel { width, height, texels }
 }
 
 /// Decodes a PNG or JPEG file (`path` a regular file of at most [`TEXTURE_FILE_LIMIT`] bytes)
@@ -296,25 +245,6 @@ mod tests {
         for level in &texture.levels[1..] {
             assert!(level.texels.iter().all(|&t| unpack(t) == [188; 3]));
         }
-    }
-
-    /// Each level holds its texels in linear light as the filter read them when it decoded
-    /// each fetch: the f32 of `srgb_to_linear` of each byte, red, green, blue.
-    #[test]
-    fn levels_hold_their_texels_in_linear_light() {
-        let pixels: Vec<[u8; 3]> = (0..=255u8).map(|b| [b, b.wrapping_mul(7), 255 - b]).collect();
-        let texture = Texture::from_rgb(16, 16, &pixels);
-        for level in &texture.levels {
-            assert_eq!(level.linear().len(), 3 * level.texels.len());
-            for (linear, &texel) in level.linear().chunks_exact(3).zip(&level.texels) {
-                let want = unpack(texel).map(|b| (srgb_to_linear(b) as f32).to_bits());
-                assert_eq!(linear.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), want);
-            }
-        }
-        assert_eq!(
-            texture.bytes(),
-            16 * texture.levels.iter().map(|l| l.texels.len()).sum::<usize>()
-        );
     }
 
     #[test]

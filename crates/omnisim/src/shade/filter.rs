@@ -8,7 +8,12 @@
 use glam::{DVec2, Vec3A};
 
 use crate::avx2::Avx2;
+use crate::scene::lighting::srgb_to_linear;
 use crate::scene::texture::{MipLevel, Texture, Wrap};
+
+/// Linear value of each sRGB byte, f32: a texel's three look-ups.
+static DECODING: std::sync::LazyLock<[f32; 256]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|b| srgb_to_linear(b as u8) as f32));
 
 /// How many pixels one run filters together: the f32 lanes of an AVX2 register.
 pub(crate) const LANES: usize = 8;
@@ -20,15 +25,14 @@ pub(crate) const LANES: usize = 8;
 pub(crate) struct Lookups<'a, const L: usize> {
     u: [f64; L],
     v: [f64; L],
-    /// By level, lane, each level's linear texels (`MipLevel::linear`, three f32 a texel):
-    /// never empty (an empty level reads [`NO_TEXELS`]). Level 1's fields here
+    /// By level, lane: never empty (an empty level reads [`NO_TEXELS`]). Level 1's fields here
     /// and in `last` and `size` hold only where some lane's `share[1]` is not zero
     /// ([`Lookups::set_face`] leaves them as they were otherwise). Where `shared[level]`, lane
     /// 0's slice is every lane's and the others' may be stale ([`Lookups::texels_of`] reads
     /// them; [`Lookups::set`] fills them in before it sets a lane alone): storing eight fat
     /// pointers a level cost about 30 instructions a run (docs/benchmarks.md, 2026-11-26
     /// evening (tex)).
-    texels: [[&'a [f32]; L]; 2],
+    texels: [[&'a [u32]; L]; 2],
     /// The index of the last of those texels, by level, lane: fetches are clamped to it.
     last: [[u32; L]; 2],
     /// Width and height by level, axis, lane (texels; at most `MAX_TEXTURE_SIDE`, which the
@@ -162,7 +166,7 @@ impl<'a, const L: usize> Lookups<'a, L> {
     /// Lane `lane`'s texels of level `level` (0 finer, 1 coarser): lane 0's where the lanes
     /// share the level's slice.
     #[inline(always)]
-    fn texels_of(&self, level: usize, lane: usize) -> &'a [f32] {
+    fn texels_of(&self, level: usize, lane: usize) -> &'a [u32] {
         self.texels[level][if self.shared[level] { 0 } else { lane }]
     }
 
@@ -211,12 +215,12 @@ fn level_below(lod: f32, count: usize, avx2: Option<Avx2>) -> (u32, f32) {
     (texel_index(fine) as u32, lod - fine)
 }
 
-/// A mip level as the lanes read it: its linear texels (`MipLevel::linear`, three f32 a texel;
-/// never empty: an empty level, which only a `Texture` built by hand can have, reads
-/// [`NO_TEXELS`]), the index of the last texel, and its width and height.
+/// A mip level as the lanes read it: its texels (never empty: an empty level, which only a
+/// `Texture` built by hand can have, reads [`NO_TEXELS`]), the index of the last of them, and
+/// its width and height.
 #[derive(Clone, Copy)]
 pub(crate) struct Level<'a> {
-    texels: &'a [f32],
+    texels: &'a [u32],
     last: u32,
     size: [f32; 2],
 }
@@ -225,16 +229,16 @@ impl<'a> Level<'a> {
     /// The lanes' form of `level`.
     #[inline(always)]
     fn of(level: &'a MipLevel) -> Self {
-        let texels: &[f32] = if level.linear().is_empty() {
+        let texels: &[u32] = if level.texels.is_empty() {
             &NO_TEXELS
         } else {
-            level.linear()
+            &level.texels
         };
         Level {
             texels,
             // Within u32: a level holds at most 2^28 texels in a loaded texture; a larger one
             // built by hand reads only its first 2^32.
-            last: u32::try_from(texels.len() / 3 - 1).unwrap_or(u32::MAX),
+            last: u32::try_from(texels.len() - 1).unwrap_or(u32::MAX),
             // Exact: sides are at most `MAX_TEXTURE_SIDE` (2^14): the file loader enforces it,
             // and the renderer refuses larger textures built by hand (`Texture::oversized`).
             size: [level.width as f32, level.height as f32],
@@ -250,7 +254,7 @@ impl<'a> Level<'a> {
 }
 
 /// What an empty mip level (a `Texture` built by hand) reads: one black texel.
-static NO_TEXELS: [f32; 3] = [0.0; 3];
+static NO_TEXELS: [u32; 1] = [0];
 
 /// A texture's wrap of u and v as the lanes read it, worked out once per face: whether each
 /// axis clamps, and its period in texture sizes (2 for mirror, else 1).
@@ -486,123 +490,147 @@ fn neighbours_by<const L: usize>(
     (first, second, weight)
 }
 
+/// Each lane's decoded channel (shift 0, 8 or 16 of the packed texel) through `decoding`: with
+/// `avx2` (and eight lanes) one gather.
+#[inline(always)]
+fn decoded<const L: usize>(texels: &[u32; L], shift: u32, decoding: &[f32; 256], avx2: Option<Avx2>) -> [f32; L] {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = avx2
+        && let Ok(eight) = <&[u32; 8]>::try_from(&texels[..])
+    {
+        let mut out = [0.0; L];
+        // SAFETY: `out` holds eight f32 (L = 8, as `eight` shows).
+        unsafe { decode_avx2(avx2, eight, shift, decoding, out.as_mut_ptr()) };
+        return out;
+    }
+    std::array::from_fn(|k| decoding[((texels[k] >> shift) & 0xff) as usize])
+}
+
 /// The slice every lane reads of level `level` (0 finer, 1 coarser), where `lookups` knows
 /// that they read one (a run of pixels on one face, at one level: the usual case) and it
-/// holds at most `i32::MAX` values, so that one gather from its base reaches each lane's texel.
+/// holds at most `i32::MAX` texels, so that one gather from its base reaches each lane's texel.
 #[inline(always)]
-fn shared_texels<'a, const L: usize>(lookups: &Lookups<'a, L>, level: usize) -> Option<&'a [f32]> {
+fn shared_texels<'a, const L: usize>(lookups: &Lookups<'a, L>, level: usize) -> Option<&'a [u32]> {
     let first = *lookups.texels[level].first()?;
     (lookups.shared[level] && first.len() <= i32::MAX as usize).then_some(first)
 }
 
 /// Each lane's texel `index` of its level `level` (0 finer, 1 coarser) of `lookups`, clamped
-/// to the level's last texel (what a consistent level's indices already are), in linear
-/// light, by channel (red, green, blue), lane: with `avx2` (and eight lanes) where every lane
-/// reads `shared` ([`shared_texels`]), three gathers from its base; where the lanes' slices
-/// differ, gathers of their texels' exposed addresses, where a bounds-checked look-up per lane
-/// cost 3.3 M instructions more an equirect textured frame (docs/benchmarks.md, "eighth pass"
-/// and "tenth pass").
+/// to the level's last texel (what a consistent level's indices already are): with `avx2`
+/// (and eight lanes) where every lane reads `shared` ([`shared_texels`]), one gather from its
+/// base; where the lanes' slices differ, two gathers of their texels' exposed addresses,
+/// where a bounds-checked look-up per lane cost 3.3 M instructions more an equirect textured
+/// frame (docs/benchmarks.md, "eighth pass" and "tenth pass").
 #[inline(always)]
 fn fetched<const L: usize>(
     lookups: &Lookups<'_, L>,
     level: usize,
-    shared: Option<&[f32]>,
+    shared: Option<&[u32]>,
     index: &[i32; L],
     avx2: Option<Avx2>,
-) -> [[f32; L]; 3] {
-    let mut out = [[0.0; L]; 3];
+) -> [u32; L] {
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = avx2
         && let Ok(eight) = <&[i32; 8]>::try_from(&index[..])
     {
+        let mut out = [0; L];
         if let Some(texels) = shared {
             // Clamped to the shared slice's own last texel (`Lookups::last` holds the same
-            // index), so the bound the gathers need is checked here: its last value's index
-            // below its length, in i32.
-            let last = (texels.len() / 3 - 1) as u32;
-            let first: [u32; 8] = std::array::from_fn(|k| 3 * (eight[k] as u32).min(last));
-            // SAFETY: every texel's first value's index is at most 3 · `last`, so its three
-            // values lie inside `texels`, within i32 (see `shared_texels`); `out` holds three
-            // channels of eight f32 (L = 8, as `eight` shows).
-            unsafe { gather_avx2(avx2, texels, &first, out.as_mut_ptr().cast()) };
+            // index), so the bound the gather needs is checked here: below its length, in i32.
+            let last = (texels.len() - 1) as u32;
+            let index: [u32; 8] = std::array::from_fn(|k| (eight[k] as u32).min(last));
+            // SAFETY: every index is at most `last`, inside `texels` and within i32 (see
+            // `shared_texels`); `out` holds eight u32 (L = 8, as `eight` shows).
+            unsafe { gather_avx2(avx2, texels, &index, out.as_mut_ptr()) };
         } else {
             let last = &lookups.last[level];
             let addresses: [u64; 8] = std::array::from_fn(|k| {
                 let index = (eight[k] as u32).min(last[k]);
-                lookups.texels_of(level, k).as_ptr().expose_provenance() as u64 + 12 * u64::from(index)
+                lookups.texels_of(level, k).as_ptr().expose_provenance() as u64 + 4 * u64::from(index)
             });
-            // SAFETY: each address is that of a texel's first value in its lane's slice
-            // (`texels_of`, three f32 a texel), whose provenance was exposed just above:
-            // `Lookups` keeps `last` the index of the last texel of that slice (never empty),
-            // and the index is clamped to it; `out` holds three channels of eight f32.
-            unsafe { gather_exposed_avx2(avx2, &addresses, out.as_mut_ptr().cast()) };
+            // SAFETY: each address is that of a texel of its lane's slice (`texels_of`), whose
+            // provenance was exposed just above: `Lookups` keeps `last` the index of the last
+            // of that slice (never empty), and the index is clamped to it; `out` holds eight
+            // u32.
+            unsafe { gather_exposed_avx2(avx2, &addresses, out.as_mut_ptr()) };
         }
         return out;
     }
     let last = &lookups.last[level];
-    for k in 0..L {
-        let first = 3 * (index[k] as u32).min(last[k]) as usize;
-        if let Some(texel) = lookups.texels_of(level, k).get(first..first + 3) {
-            for (channel, &value) in out.iter_mut().zip(texel) {
-                channel[k] = value;
-            }
-        }
-    }
-    out
+    std::array::from_fn(|k| {
+        lookups
+            .texels_of(level, k)
+            .get((index[k] as u32).min(last[k]) as usize)
+            .copied()
+            .unwrap_or_default()
+    })
 }
 
-/// [`fetched`] for eight lanes that read one slice: the three values from `texels[first[k]]`
-/// on for each lane k, gathered from the slice's base, written to `out` by channel, lane. The
+/// [`fetched`] for eight lanes that read one slice: `texels[index[k]]` for each lane k,
+/// gathered from the slice's base, written to `out`. The token proves the CPU has AVX2.
+///
+/// # Safety
+/// Every index must be below `texels.len()` and at most `i32::MAX`; `out` must be valid for
+/// eight u32 writes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gather_avx2(_: Avx2, texels: &[u32], index: &[u32; 8], out: *mut u32) {
+    use std::arch::x86_64::{__m256i, _mm256_i32gather_epi32, _mm256_loadu_si256, _mm256_storeu_si256};
+    // SAFETY: the load reads the eight indices; each gathered u32 is `texels[index]`, inside
+    // the slice (the caller's promise; as i32 the indices keep their value); the store writes
+    // the eight u32 of `out`.
+    unsafe {
+        let lanes = _mm256_loadu_si256(index.as_ptr().cast::<__m256i>());
+        let gathered = _mm256_i32gather_epi32::<4>(texels.as_ptr().cast::<i32>(), lanes);
+        _mm256_storeu_si256(out.cast::<__m256i>(), gathered);
+    }
+}
+
+/// [`fetched`] for eight lanes that read different slices: the u32 at each of `addresses`,
+/// written to `out`, gathered as offsets from a base of address 0 that takes its provenance
+/// from [`std::ptr::with_exposed_provenance`] (so each access has the exposed provenance of
+/// the slice holding it). The token proves the CPU has AVX2.
+///
+/// # Safety
+/// Every address must be that of a u32 inside an allocation whose provenance was exposed
+/// (`expose_provenance`) and which is readable for the call; `out` must be valid for eight
+/// u32 writes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn gather_exposed_avx2(_: Avx2, addresses: &[u64; 8], out: *mut u32) {
+    use std::arch::x86_64::{__m128i, __m256i, _mm_storeu_si128, _mm256_i64gather_epi32, _mm256_loadu_si256};
+    let base = std::ptr::with_exposed_provenance::<i32>(0);
+    // SAFETY: the loads read the eight addresses; the gathers read the u32 the caller promised
+    // (address 0 plus each address, with exposed provenance); the stores write the eight u32
+    // of `out`.
+    unsafe {
+        for (half, first) in [0, 4].into_iter().enumerate() {
+            let lanes = _mm256_loadu_si256(addresses[first..].as_ptr().cast::<__m256i>());
+            let gathered = _mm256_i64gather_epi32::<1>(base, lanes);
+            _mm_storeu_si128(out.add(4 * half).cast::<__m128i>(), gathered);
+        }
+    }
+}
+
+/// [`decoded`] for eight lanes: one gather from the table, written to `out` (eight f32). The
 /// token proves the CPU has AVX2.
 ///
 /// # Safety
-/// Every index plus 2 must be below `texels.len()` and at most `i32::MAX`; `out` must be valid
-/// for 24 f32 writes.
+/// `out` must be valid for eight f32 writes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn gather_avx2(_: Avx2, texels: &[f32], first: &[u32; 8], out: *mut f32) {
-    use std::arch::x86_64::{__m256i, _mm256_i32gather_ps, _mm256_loadu_si256, _mm256_storeu_ps};
-    // SAFETY: the load reads the eight indices; each gathered f32 is `texels[first + channel]`,
-    // inside the slice (the caller's promise; as i32 the indices keep their value); the stores
-    // write the 24 f32 of `out`.
-    unsafe {
-        let lanes = _mm256_loadu_si256(first.as_ptr().cast::<__m256i>());
-        for channel in 0..3 {
-            let gathered = _mm256_i32gather_ps::<4>(texels.as_ptr().add(channel), lanes);
-            _mm256_storeu_ps(out.add(8 * channel), gathered);
-        }
-    }
-}
-
-/// [`fetched`] for eight lanes that read different slices: the three f32 from each of
-/// `addresses` on, written to `out` by channel, lane, gathered as offsets from a base of
-/// address 0 that takes its provenance from [`std::ptr::with_exposed_provenance`] (so each
-/// access has the exposed provenance of the slice holding it). The token proves the CPU has
-/// AVX2.
-///
-/// # Safety
-/// Every address must be that of the first of three f32 inside an allocation whose provenance
-/// was exposed (`expose_provenance`) and which is readable for the call; `out` must be valid
-/// for 24 f32 writes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn gather_exposed_avx2(_: Avx2, addresses: &[u64; 8], out: *mut f32) {
+unsafe fn decode_avx2(_: Avx2, texels: &[u32; 8], shift: u32, decoding: &[f32; 256], out: *mut f32) {
     use std::arch::x86_64::{
-        __m256i, _mm_storeu_ps, _mm256_add_epi64, _mm256_i64gather_ps, _mm256_loadu_si256, _mm256_set1_epi64x,
+        __m256i, _mm_cvtsi32_si128, _mm256_and_si256, _mm256_i32gather_ps, _mm256_loadu_si256, _mm256_set1_epi32,
+        _mm256_srl_epi32, _mm256_storeu_ps,
     };
-    let base = std::ptr::with_exposed_provenance::<f32>(0);
-    // SAFETY: the loads read the eight addresses; the gathers read the f32 the caller promised
-    // (address 0 plus each address and its channel's offset, with exposed provenance); the
-    // stores write the 24 f32 of `out`.
+    // SAFETY: the load reads the eight texels; every gather index is masked to 0..=255, inside
+    // the 256-entry table; the store writes the eight f32 the caller promised.
     unsafe {
-        let halves = [0, 4].map(|first| _mm256_loadu_si256(addresses[first..].as_ptr().cast::<__m256i>()));
-        for channel in 0..3 {
-            let offset = _mm256_set1_epi64x(4 * channel as i64);
-            for (half, &lanes) in halves.iter().enumerate() {
-                let gathered = _mm256_i64gather_ps::<1>(base, _mm256_add_epi64(lanes, offset));
-                _mm_storeu_ps(out.add(8 * channel + 4 * half), gathered);
-            }
-        }
+        let texels = _mm256_loadu_si256(texels.as_ptr().cast::<__m256i>());
+        let shifted = _mm256_srl_epi32(texels, _mm_cvtsi32_si128(shift as i32));
+        let indices = _mm256_and_si256(shifted, _mm256_set1_epi32(0xff));
+        _mm256_storeu_ps(out, _mm256_i32gather_ps::<4>(decoding.as_ptr(), indices));
     }
 }
 
@@ -611,7 +639,7 @@ unsafe fn gather_exposed_avx2(_: Avx2, addresses: &[u64; 8], out: *mut f32) {
 /// of the coarser) mixed as one weighted sum per channel, summed in one order: taps k and
 /// k + 4, then those sums' 0 + 2 and 1 + 3, then the two. The same operations in every lane, so
 /// any lane count, with `avx2` or without, gives the same bits (tested). With `avx2` the
-/// fetches of the linear texels are gathered; the caller compiles the lanes for AVX2
+/// fetches and the sRGB decoding are gathered; the caller compiles the lanes for AVX2
 /// ([`Avx2::run`]) so that their coordinates, wraps, weights and mixing run in vector lanes.
 #[inline(always)]
 pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32; L]; 3] {
@@ -622,13 +650,14 @@ pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Op
         Some(_) => [shared_texels(lookups, 0), shared_texels(lookups, 1)],
         None => [None; 2],
     };
-    let finer = weighted_taps(lookups, 0, [&u, &v], shared[0], avx2);
+    let decoding = &*DECODING;
+    let finer = weighted_taps(lookups, 0, [&u, &v], shared[0], decoding, avx2);
     let mut sums = [[0.0f32; L]; 3];
     // Where every lane's coarser level weighs zero (a whole level of detail: magnified, or at
     // either end of the pyramid), its taps would add zeros (every weighted tap is at least
     // +0): they are left out, the same bits.
     if lookups.share[1].iter().any(|&share| share != 0.0) {
-        let coarser = weighted_taps(lookups, 1, [&u, &v], shared[1], avx2);
+        let coarser = weighted_taps(lookups, 1, [&u, &v], shared[1], decoding, avx2);
         for ((sum, f), c) in sums.iter_mut().zip(&finer).zip(&coarser) {
             for k in 0..L {
                 sum[k] = ((f[0][k] + c[0][k]) + (f[2][k] + c[2][k])) + ((f[1][k] + c[1][k]) + (f[3][k] + c[3][k]));
@@ -645,7 +674,7 @@ pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Op
 }
 
 /// The four taps of level `level` (0 finer, 1 coarser) of each lane at its reduced
-/// coordinates `uv` ([`reduced`]), each linear channel times its weight (its bilinear weight
+/// coordinates `uv` ([`reduced`]), each decoded channel times its weight (its bilinear weight
 /// times the level's share), by channel (red, green, blue), tap (corners (x0, y0), (x1, y0),
 /// (x0, y1), (x1, y1)), lane; `shared` as [`fetched`] takes it.
 #[inline(always)]
@@ -653,7 +682,8 @@ fn weighted_taps<const L: usize>(
     lookups: &Lookups<'_, L>,
     level: usize,
     uv: [&[f64; L]; 2],
-    shared: Option<&[f32]>,
+    shared: Option<&[u32]>,
+    decoding: &[f32; 256],
     avx2: Option<Avx2>,
 ) -> [[[f32; L]; 4]; 3] {
     let [width, height] = &lookups.size[level];
@@ -683,9 +713,10 @@ fn weighted_taps<const L: usize>(
     let mut weighted = [[[0.0f32; L]; 4]; 3];
     for tap in 0..4 {
         let texels = fetched(lookups, level, shared, &indices[tap], avx2);
-        for (weighted, values) in weighted.iter_mut().zip(&texels) {
+        for (channel, shift) in [0, 8, 16].into_iter().enumerate() {
+            let decoded = decoded(&texels, shift, decoding, avx2);
             for k in 0..L {
-                weighted[tap][k] = weights[tap][k] * values[k];
+                weighted[channel][tap][k] = weights[tap][k] * decoded[k];
             }
         }
     }
@@ -745,7 +776,6 @@ const LOG2_BEND: f32 = 0.34655;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::lighting::srgb_to_linear;
     use crate::scene::surface::UvMap;
     use glam::DVec3;
 
@@ -939,12 +969,16 @@ mod tests {
         let texel = |rgb: [u8; 3]| crate::scene::texture::pack(rgb);
         let texture = Texture {
             levels: vec![
-                MipLevel::new(
-                    4,
-                    4,
-                    vec![texel([10, 20, 30]), texel([200, 100, 50]), texel([255, 255, 255])],
-                ),
-                MipLevel::new(2, 2, Vec::new()),
+                MipLevel {
+                    width: 4,
+                    height: 4,
+                    texels: vec![texel([10, 20, 30]), texel([200, 100, 50]), texel([255, 255, 255])],
+                },
+                MipLevel {
+                    width: 2,
+                    height: 2,
+                    texels: Vec::new(),
+                },
             ],
         };
         let white = f64::from(srgb_to_linear(255) as f32);
@@ -984,7 +1018,7 @@ mod tests {
             &[0.0; LANES],
             None,
         );
-        assert!(shared_texels(&lookups, 0).is_some_and(|texels| texels.len() == 3 * 3));
+        assert!(shared_texels(&lookups, 0).is_some_and(|texels| texels.len() == 3));
         let portable = trilinear_lanes(&lookups, None);
         assert_eq!(with_avx2_where_detected(&lookups), portable);
         for (k, &uv) in lanes_in.iter().enumerate() {
