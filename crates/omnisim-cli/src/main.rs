@@ -61,6 +61,7 @@ fn main() -> std::process::ExitCode {
     keep_freed_memory();
     report_file_size_limits();
     let _runtime_dir = quiet_wayland_probe();
+    start_thread_pool();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => commands::render::run(&args),
@@ -99,6 +100,12 @@ fn keep_freed_memory() {
         libc::mallopt(libc::M_MMAP_MAX, 0);
         libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX);
     }
+}
+
+/// Starts rayon's threads now, while the command reads its scene, rather than at the first
+/// parallel call (the BVH build's, whose time would include the threads' start).
+fn start_thread_pool() {
+    rayon::spawn(|| {});
 }
 
 /// A write past the process's file-size limit (`ulimit -f`) raises SIGXFSZ, which kills the

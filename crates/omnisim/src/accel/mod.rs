@@ -16,7 +16,6 @@ use obvhs::bvh2::Bvh2;
 use rayon::prelude::*;
 
 use crate::scene::Scene;
-use crate::scene::triangulate::TriangleIndex;
 use wide::WideBvh;
 
 /// obvhs's medium build with leaves of at most two triangles instead of eight, and without its
@@ -52,8 +51,8 @@ const LARGE_BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::fast_build()
 };
 
-/// Below this many triangles the build's per-triangle passes (boxes, leaf order, the wide
-/// BVH's groups, face normals) stay on the calling thread: at 10k triangles handing them to
+/// Below this many triangles the build's per-triangle passes (corners, boxes, leaf order, the
+/// wide BVH's subtrees and groups, face normals) stay on the calling thread: at 10k triangles handing them to
 /// rayon's pool, which a fresh process must start first, cost more than the work
 /// (docs/benchmarks.md, "BVH build at small sizes").
 const PARALLEL_FROM: usize = 50_000;
@@ -100,25 +99,24 @@ impl SceneBvh {
     /// Builds the BVH with the local origin at `offset` (world metres). `build` picks the
     /// scene's centre; other offsets exist to measure what that choice buys (docs/accuracy.md).
     ///
-    /// Peak memory is what limits scene size, so the order matters: triangles are held by
-    /// reference (16 bytes each) while obvhs builds, and their f64 corners (72 bytes) and the
-    /// face normals are made only once the builder's working set is freed.
+    /// Peak memory is what limits scene size, so the order matters: the face normals and the
+    /// wide BVH are made only once the builder's working set is freed. The corners in face
+    /// order (72 bytes a triangle) are held while obvhs builds, for a faster leaf order: at 1M
+    /// triangles that raised the process's peak from 626 to 669 MB for 29 ms less build
+    /// (docs/benchmarks.md, "2026-11-27 (build)").
     pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
         // Timed from the scene's faces, as Open3D's build is timed from its triangle arrays:
         // triangulation, boxes, obvhs, leaf order, the wide BVH and face normals.
         let start = Instant::now();
         let triangles = scene.triangle_indices();
-        let local = |t: &TriangleIndex| t.corners(scene).map(|p| p - offset);
-        // Small scenes read each triangle's corners from its face once, for the boxes and the
-        // leaf order both; large ones read them twice rather than hold 72 bytes a triangle
-        // while obvhs builds.
-        let read_once: Vec<[DVec3; 3]> = if triangles.len() < PARALLEL_FROM {
-            triangles.iter().map(local).collect()
-        } else {
-            Vec::new()
-        };
-        let corners_of = |i: usize| read_once.get(i).copied().unwrap_or_else(|| local(&triangles[i]));
-        let boxes: Vec<Aabb> = map_indices(triangles.len(), |i| padded_aabb(&corners_of(i)));
+        // Each triangle's corners read from its face once, in face order (on all threads from
+        // `PARALLEL_FROM`), for the boxes and the leaf order both. Read again from the faces in
+        // leaf order instead, each triangle cost two scattered reads (its index, then its face)
+        // where it now costs one: at 1M triangles the leaf order took 96 ms on two threads
+        // against 51, for 16 ms more in the boxes' pass (docs/benchmarks.md, "2026-11-27 (build)").
+        let read_once: Vec<[DVec3; 3]> =
+            map_indices(triangles.len(), |i| triangles[i].corners(scene).map(|p| p - offset));
+        let boxes: Vec<Aabb> = map_indices(read_once.len(), |i| padded_aabb(&read_once[i]));
         let mut core_time = Duration::ZERO;
         let mut bvh = if boxes.is_empty() {
             Bvh2::default()
@@ -138,7 +136,7 @@ impl SceneBvh {
         // triangle) goes too: the two lists together were 8-9 bytes a triangle.
         let order = std::mem::take(&mut bvh.primitive_indices);
         bvh.parents = Vec::new();
-        let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| corners_of(order[k] as usize));
+        let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| read_once[order[k] as usize]);
         let face: Vec<u32> = map_indices(order.len(), |k| triangles[order[k] as usize].face);
         drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners);

@@ -72,25 +72,67 @@ impl WideBvh {
         if bvh.nodes.is_empty() {
             return wide;
         }
-        let counts = subtree_triangles(&bvh.nodes);
-        let builder = Builder {
-            nodes: &bvh.nodes,
-            counts: &counts,
-        };
+        let builder = Builder { nodes: &bvh.nodes };
         // A root that is (or fits) one leaf is the single child of a node of its own.
-        let root = if bvh.nodes[0].is_leaf() || counts[0] <= LEAF_TRIANGLES {
+        let root = if !builder.openable(0) {
             smallvec![0]
         } else {
             builder.open(0)
         };
-        wide.nodes.push(empty_node());
-        let mut leaves = Vec::new();
-        builder.fill(&mut wide, &mut leaves, 0, root.as_slice(), 0);
-        // Grown by doubling; a shrink in place gives back up to half the list.
-        wide.nodes.shrink_to_fit();
+        // The top levels on this thread; the subtrees below them, each a part of its own, on
+        // all threads; then every part's nodes and groups are copied into place on all threads.
+        let parallel = triangles.len() >= super::PARALLEL_FROM;
+        let mut top = Part::default();
+        top.nodes.push(empty_node());
+        let defer_at = if parallel { SPLIT_DEPTH } else { usize::MAX };
+        builder.fill(&mut top, 0, root.as_slice(), 0, defer_at);
+        let deferred = std::mem::take(&mut top.deferred);
+        let mut parts = vec![top];
+        parts.par_extend(deferred.par_iter().map(|&(_, _, index, depth)| {
+            let mut part = Part::default();
+            part.nodes.push(empty_node());
+            builder.fill(&mut part, 0, &builder.open(index), depth, usize::MAX);
+            part
+        }));
+        // Where each part's nodes (groups) start in the whole list, and the whole list's length.
+        let starts = |len: fn(&Part) -> usize| {
+            let mut next = 0;
+            let starts: Vec<usize> = parts
+                .iter()
+                .map(|part| {
+                    let start = next;
+                    next += len(part);
+                    start
+                })
+                .collect();
+            (starts, next)
+        };
+        let (node_starts, total_nodes) = starts(|part| part.nodes.len());
+        let (group_starts, total_groups) = starts(|part| part.leaves.len());
+        assert!(total_groups <= GROUP_INDEX as usize, "over 2^28 triangle groups");
+        // The part holding item `k` of a list whose parts start at `starts` (the last part
+        // starting at or before it: an empty part shares its start with the next).
+        let part_of = |starts: &[usize], k: usize| starts.partition_point(|&start| start <= k) - 1;
+        wide.nodes = super::map_indices(total_nodes, |k| {
+            let p = part_of(&node_starts, k);
+            let mut node = parts[p].nodes[k - node_starts[p]];
+            for child in &mut node.child[..node.lanes.count_ones() as usize] {
+                *child += if *child & LEAF == 0 {
+                    node_starts[p]
+                } else {
+                    group_starts[p]
+                } as u32;
+            }
+            node
+        });
+        for (&(slot, lane, _, _), &start) in deferred.iter().zip(&node_starts[1..]) {
+            wide.nodes[slot].child[lane] = start as u32;
+        }
+        wide.depth = parts.iter().map(|part| part.depth).max().unwrap_or(0);
         // The groups' f32 lanes on all threads, once the tree has placed them.
-        wide.groups = super::map_indices(leaves.len(), |k| {
-            let (indices, count) = &leaves[k];
+        wide.groups = super::map_indices(total_groups, |k| {
+            let p = part_of(&group_starts, k);
+            let (indices, count) = &parts[p].leaves[k - group_starts[p]];
             TriangleGroup::new(triangles, &indices[..*count])
         });
         wide
@@ -154,31 +196,6 @@ pub(crate) fn empty_node() -> WideNode {
     }
 }
 
-/// Triangles below each BVH2 node.
-fn subtree_triangles(nodes: &[Bvh2Node]) -> Vec<u32> {
-    let mut counts = vec![0u32; nodes.len()];
-    // Children before parents: a reverse pre-order walk.
-    let mut order = Vec::with_capacity(nodes.len());
-    let mut pending = vec![0usize];
-    while let Some(index) = pending.pop() {
-        order.push(index);
-        let node = &nodes[index];
-        if !node.is_leaf() {
-            pending.push(node.first_index as usize);
-            pending.push(node.first_index as usize + 1);
-        }
-    }
-    for &index in order.iter().rev() {
-        let node = &nodes[index];
-        counts[index] = if node.is_leaf() {
-            node.prim_count
-        } else {
-            counts[node.first_index as usize] + counts[node.first_index as usize + 1]
-        };
-    }
-    counts
-}
-
 /// Half the surface area of a BVH2 node's box: which child to open first.
 fn half_area(node: &Bvh2Node) -> f32 {
     let size = node.max - node.min;
@@ -189,24 +206,58 @@ fn half_area(node: &Bvh2Node) -> f32 {
 /// node was part of the collapse's cost).
 type Children = SmallVec<[usize; WIDTH]>;
 
+/// Wide nodes and their groups' triangles (indices, count), with child indices counted from
+/// the part's first node and first group.
+#[derive(Default)]
+struct Part {
+    nodes: Vec<WideNode>,
+    leaves: Vec<([u32; 4], usize)>,
+    /// Deepest level below the whole tree's root.
+    depth: usize,
+    /// Inner children left for parts of their own: (node, lane, BVH2 node, depth), in order.
+    deferred: Vec<(usize, usize, usize, usize)>,
+}
+
+/// Wide levels built on one thread before the subtrees below them are built in parallel
+/// (up to 8² subtrees).
+const SPLIT_DEPTH: usize = 2;
+
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
-    counts: &'a [u32],
 }
 
 impl Builder<'_> {
-    /// Fills wide node `slot` with the BVH2 nodes `children` (at most `WIDTH`), opening each
-    /// child that needs a node of its own; `depth` is the slot's depth.
-    /// Groups are listed in `leaves` (triangle indices, count) and made afterwards.
-    fn fill(
-        &self,
-        wide: &mut WideBvh,
-        leaves: &mut Vec<([u32; 4], usize)>,
-        slot: usize,
-        children: &[usize],
-        depth: usize,
-    ) {
-        wide.depth = wide.depth.max(depth);
+    /// Whether BVH2 node `index` gets a wide node of its own: it is an inner node holding more
+    /// than `LEAF_TRIANGLES` triangles (a BVH2 leaf, whatever its size, is one wide leaf).
+    fn openable(&self, index: usize) -> bool {
+        !self.nodes[index].is_leaf() && self.triangles_up_to(index, LEAF_TRIANGLES) > LEAF_TRIANGLES
+    }
+
+    /// Triangles below BVH2 node `index`, or `limit + 1` where there are more: an inner node
+    /// holds at least one triangle on each side, so no more than `limit + 1` nodes are read
+    /// (a whole count was a walk over every node, on one thread).
+    fn triangles_up_to(&self, index: usize, limit: u32) -> u32 {
+        let node = &self.nodes[index];
+        if node.is_leaf() {
+            return node.prim_count;
+        }
+        if limit < 2 {
+            return limit + 1;
+        }
+        let first = node.first_index as usize;
+        let left = self.triangles_up_to(first, limit - 1);
+        if left > limit - 1 {
+            return limit + 1;
+        }
+        (left + self.triangles_up_to(first + 1, limit - left)).min(limit + 1)
+    }
+
+    /// Fills wide node `slot` of `part` with the BVH2 nodes `children` (at most `WIDTH`),
+    /// opening each child that needs a node of its own; `depth` is the slot's depth. Inner
+    /// children at depth `defer_at` are listed in `part.deferred` instead of filled.
+    /// Groups are listed in `part.leaves` (triangle indices, count) and made afterwards.
+    fn fill(&self, part: &mut Part, slot: usize, children: &[usize], depth: usize, defer_at: usize) {
+        part.depth = part.depth.max(depth);
         let mut node = empty_node();
         for (lane, &index) in children.iter().enumerate() {
             let source = &self.nodes[index];
@@ -215,32 +266,37 @@ impl Builder<'_> {
                 node.max[axis][lane / 4][lane % 4] = source.max[axis];
             }
             node.lanes |= 1 << lane;
-            if self.counts[index] <= LEAF_TRIANGLES || source.is_leaf() {
-                let count = self.counts[index] as usize;
-                let groups = count.div_ceil(4);
-                assert!(
-                    groups <= MAX_LEAF_GROUPS && leaves.len() < GROUP_INDEX as usize,
-                    "BVH2 leaf of {count} triangles, or over 2^28 groups"
-                );
+            if !self.openable(index) {
                 // On the stack: one heap list per leaf was a third of the collapse's cost.
                 let mut leaf = [0u32; 4 * MAX_LEAF_GROUPS];
-                self.gather(index, &mut leaf, &mut 0);
-                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | leaves.len() as u32;
-                leaves.extend(leaf[..count].chunks(4).map(|chunk| {
+                let mut count = 0;
+                self.gather(index, &mut leaf, &mut count);
+                let groups = count.div_ceil(4);
+                assert!(
+                    groups <= MAX_LEAF_GROUPS && part.leaves.len() < GROUP_INDEX as usize,
+                    "BVH2 leaf of {count} triangles, or over 2^28 groups"
+                );
+                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | part.leaves.len() as u32;
+                part.leaves.extend(leaf[..count].chunks(4).map(|chunk| {
                     let mut indices = [0; 4];
                     indices[..chunk.len()].copy_from_slice(chunk);
                     (indices, chunk.len())
                 }));
+            } else if depth + 1 == defer_at {
+                part.deferred.push((slot, lane, index, depth + 1));
             } else {
-                node.child[lane] = wide.nodes.len() as u32;
-                wide.nodes.push(empty_node());
+                node.child[lane] = part.nodes.len() as u32;
+                part.nodes.push(empty_node());
             }
         }
-        wide.nodes[slot] = node;
+        part.nodes[slot] = node;
+        if depth + 1 == defer_at {
+            return;
+        }
         for (lane, &index) in children.iter().enumerate() {
             if node.child[lane] & LEAF == 0 {
                 let grandchildren = self.open(index);
-                self.fill(wide, leaves, node.child[lane] as usize, &grandchildren, depth + 1);
+                self.fill(part, node.child[lane] as usize, &grandchildren, depth + 1, defer_at);
             }
         }
     }
@@ -251,10 +307,7 @@ impl Builder<'_> {
         let first = self.nodes[index].first_index as usize;
         let mut children: Children = smallvec![first, first + 1];
         // Each child's area once (`None` where it cannot be opened), not once per step.
-        let openable_area = |c: usize| {
-            let node = &self.nodes[c];
-            (!node.is_leaf() && self.counts[c] > LEAF_TRIANGLES).then(|| half_area(node))
-        };
+        let openable_area = |c: usize| self.openable(c).then(|| half_area(&self.nodes[c]));
         let mut area = [None; WIDTH];
         area[0] = openable_area(first);
         area[1] = openable_area(first + 1);
@@ -302,6 +355,31 @@ mod tests {
     use crate::accel::SceneBvh;
     use crate::accel::tests::grid_scene;
 
+    /// Triangles below each BVH2 node.
+    fn subtree_triangles(nodes: &[Bvh2Node]) -> Vec<u32> {
+        let mut counts = vec![0u32; nodes.len()];
+        // Children before parents: a reverse pre-order walk.
+        let mut order = Vec::with_capacity(nodes.len());
+        let mut pending = vec![0usize];
+        while let Some(index) = pending.pop() {
+            order.push(index);
+            let node = &nodes[index];
+            if !node.is_leaf() {
+                pending.push(node.first_index as usize);
+                pending.push(node.first_index as usize + 1);
+            }
+        }
+        for &index in order.iter().rev() {
+            let node = &nodes[index];
+            counts[index] = if node.is_leaf() {
+                node.prim_count
+            } else {
+                counts[node.first_index as usize] + counts[node.first_index as usize + 1]
+            };
+        }
+        counts
+    }
+
     /// `open` replaces each openable BVH2 node by a cut of its subtree: every path down from the
     /// node meets exactly one child, the children hold the node's triangles, there are eight of
     /// them unless none can be opened, and no child left unopened is larger than a node opened
@@ -312,8 +390,10 @@ mod tests {
             let bvh = SceneBvh::build(&grid_scene(cells));
             let nodes = &bvh.bvh.nodes;
             let counts = subtree_triangles(nodes);
-            let builder = Builder { nodes, counts: &counts };
+            let builder = Builder { nodes };
             let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;
+            // The count that stops early agrees with the whole count on every node.
+            assert!((0..nodes.len()).all(|index| builder.openable(index) == openable(index)));
             let mut opened_nodes = 0;
             for parent in (0..nodes.len()).filter(|&index| openable(index)) {
                 let children = builder.open(parent);
