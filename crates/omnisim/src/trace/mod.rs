@@ -145,11 +145,15 @@ impl CpuTracer {
         if let Self::Fast | Self::FastPortable = self {
             // Tiles of 8×8 pixels, each traced as one packet (`fast::closest_hits`), whose
             // rays are tested one by one against boxes small against the packet's footprint.
+            // A packet room (`fast::PacketRoom`) per rayon job, not per band: made per band, its
+            // zeroing was ~0.4 % of env1's omni 250² frame (callgrind).
             let portable = self == Self::FastPortable;
             frame
                 .par_chunks_mut(row_length * 8)
                 .enumerate()
-                .for_each(|(band, pixels)| trace_band(bvh, &local, row_length, band, pixels, portable));
+                .for_each_init(fast::PacketRoom::default, |room, (band, pixels)| {
+                    trace_band(bvh, &local, (row_length, band), pixels, portable, room)
+                });
         } else {
             frame.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
                 for (column, pixel) in pixels.iter_mut().enumerate() {
@@ -201,17 +205,17 @@ impl CpuTracer {
     }
 }
 
-/// Traces band `band` (≤ 8 rows of `row_length` pixels, `pixels`) tile by tile with the fast
-/// tracer, writing every pixel once: built with AVX2 ([`with_avx2`]) where the CPU has it and
+/// Traces band b of `band` = (`row_length`, b) (≤ 8 rows of `row_length` pixels, `pixels`)
+/// tile by tile with the fast tracer, its packets made in `room`, writing every pixel once: built with AVX2 ([`with_avx2`]) where the CPU has it and
 /// the portable path was not asked for: the tile loop (ray table, the pose's f64 turn, the
 /// pixel writes) was a quarter of env1's omni frame, in SSE2 code (docs/benchmarks.md).
 fn trace_band(
     bvh: &SceneBvh,
     local: &LocalRays<impl Fn(usize) -> Option<CameraRay> + Sync>,
-    row_length: usize,
-    band: usize,
+    band: (usize, usize),
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
+    room: &mut fast::PacketRoom,
 ) {
     #[cfg(target_arch = "x86_64")]
     if fast::use_avx2(portable) {
@@ -219,12 +223,12 @@ fn trace_band(
         unsafe {
             with_avx2(
                 #[inline(always)]
-                || trace_band_in(bvh, local, row_length, band, pixels, false),
+                || trace_band_in(bvh, local, band, pixels, false, room),
             );
         }
         return;
     }
-    trace_band_in(bvh, local, row_length, band, pixels, portable);
+    trace_band_in(bvh, local, band, pixels, portable, room);
 }
 
 /// `work()` compiled with AVX2 (it is inlined here): VEX encoding and wider vectors. The f64
@@ -244,22 +248,21 @@ fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
 fn trace_band_in(
     bvh: &SceneBvh,
     local: &LocalRays<impl Fn(usize) -> Option<CameraRay>>,
-    row_length: usize,
-    band: usize,
+    band: (usize, usize),
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
+    room: &mut fast::PacketRoom,
 ) {
-    let band = (row_length, band);
     if let Some(origin) = local.shared_origin {
         let world_origin = bvh.offset + origin;
-        trace_tiles(bvh, local, band, pixels, portable, |_| origin, |_| world_origin);
+        trace_tiles(bvh, local, band, pixels, (portable, room), |_| origin, |_| world_origin);
     } else {
         trace_tiles(
             bvh,
             local,
             band,
             pixels,
-            portable,
+            (portable, room),
             |origin| local.pose.turn_origin(origin),
             |origin| bvh.offset + origin,
         );
@@ -269,13 +272,15 @@ fn trace_band_in(
 /// [`trace_band_in`]'s tiles, each ray's scene-local origin given by `turn_origin` of its
 /// body-frame one, and its world position by `world_origin` of the scene-local one (the
 /// shared origin's once a frame: callgrind, docs/benchmarks.md, "2026-11-26 night (small)").
+/// Each ray is converted to f32 into `room` as it is turned, and its packet made there in
+/// place (docs/benchmarks.md, "2026-11-27 (walk)").
 #[inline(always)]
 fn trace_tiles(
     bvh: &SceneBvh,
     local: &LocalRays<impl Fn(usize) -> Option<CameraRay>>,
     (row_length, band): (usize, usize),
     pixels: &mut [MaybeUninit<Pixel>],
-    portable: bool,
+    (portable, room): (bool, &mut fast::PacketRoom),
     turn_origin: impl Fn(DVec3) -> DVec3,
     world_origin: impl Fn(DVec3) -> DVec3,
 ) {
@@ -296,16 +301,24 @@ fn trace_tiles(
         for offsets in rows_of_tile.clone() {
             for offset in offsets {
                 if let Some(ray) = (local.ray)(first_pixel + offset) {
-                    rays[r] = (turn_origin(ray.origin), pose.turn_direction(ray.direction), ray.t_min);
+                    let (origin, direction) = (turn_origin(ray.origin), pose.turn_direction(ray.direction));
+                    rays[r] = (origin, direction, ray.t_min);
+                    room.staged.set(r, origin, direction, ray.t_min);
                     active |= 1 << r;
+                } else {
+                    room.staged.clear(r);
                 }
                 r += 1;
             }
         }
+        // A tile at the frame's right or bottom edge has fewer rays: the rest are zero rays.
+        for r in r..PACKET {
+            room.staged.clear(r);
+        }
         // A tile outside the image circle of a mirror or fisheye has no rays.
         match active {
             0 => found = [None; PACKET],
-            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found),
+            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found, room),
         }
         fetch_faces_ahead(bvh, &found);
         for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
