@@ -145,15 +145,11 @@ impl CpuTracer {
         if let Self::Fast | Self::FastPortable = self {
             // Tiles of 8×8 pixels, each traced as one packet (`fast::closest_hits`), whose
             // rays are tested one by one against boxes small against the packet's footprint.
-            // A packet room (`fast::PacketRoom`) per rayon job, not per band: made per band, its
-            // zeroing was ~0.4 % of env1's omni 250² frame (callgrind).
             let portable = self == Self::FastPortable;
             frame
                 .par_chunks_mut(row_length * 8)
                 .enumerate()
-                .for_each_init(fast::PacketRoom::default, |room, (band, pixels)| {
-                    trace_band(bvh, &local, (row_length, band), pixels, portable, room)
-                });
+                .for_each(|(band, pixels)| trace_band(bvh, &local, row_length, band, pixels, portable));
         } else {
             frame.par_chunks_mut(row_length).enumerate().for_each(|(row, pixels)| {
                 for (column, pixel) in pixels.iter_mut().enumerate() {
@@ -205,17 +201,17 @@ impl CpuTracer {
     }
 }
 
-/// Traces band b of `band` = (`row_length`, b) (≤ 8 rows of `row_length` pixels, `pixels`)
-/// tile by tile with the fast tracer, its packets made in `room`, writing every pixel once: built with AVX2 ([`with_avx2`]) where the CPU has it and
+/// Traces band `band` (≤ 8 rows of `row_length` pixels, `pixels`) tile by tile with the fast
+/// tracer, writing every pixel once: built with AVX2 ([`with_avx2`]) where the CPU has it and
 /// the portable path was not asked for: the tile loop (ray table, the pose's f64 turn, the
 /// pixel writes) was a quarter of env1's omni frame, in SSE2 code (docs/benchmarks.md).
 fn trace_band(
     bvh: &SceneBvh,
     local: &LocalRays<impl Fn(usize) -> Option<CameraRay> + Sync>,
-    band: (usize, usize),
+    row_length: usize,
+    band: usize,
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
-    room: &mut fast::PacketRoom,
 ) {
     #[cfg(target_arch = "x86_64")]
     if fast::use_avx2(portable) {
@@ -223,12 +219,12 @@ fn trace_band(
         unsafe {
             with_avx2(
                 #[inline(always)]
-                || trace_band_in(bvh, local, band, pixels, false, room),
+                || trace_band_in(bvh, local, row_length, band, pixels, false),
             );
         }
         return;
     }
-    trace_band_in(bvh, local, band, pixels, portable, room);
+    trace_band_in(bvh, local, row_length, band, pixels, portable);
 }
 
 /// `work()` compiled with AVX2 (it is inlined here): VEX encoding and wider vectors. The f64
@@ -248,21 +244,22 @@ fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
 fn trace_band_in(
     bvh: &SceneBvh,
     local: &LocalRays<impl Fn(usize) -> Option<CameraRay>>,
-    band: (usize, usize),
+    row_length: usize,
+    band: usize,
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
-    room: &mut fast::PacketRoom,
 ) {
+    let band = (row_length, band);
     if let Some(origin) = local.shared_origin {
         let world_origin = bvh.offset + origin;
-        trace_tiles(bvh, local, band, pixels, (portable, room), |_| origin, |_| world_origin);
+        trace_tiles(bvh, local, band, pixels, portable, |_| origin, |_| world_origin);
     } else {
         trace_tiles(
             bvh,
             local,
             band,
             pixels,
-            (portable, room),
+            portable,
             |origin| local.pose.turn_origin(origin),
             |origin| bvh.offset + origin,
         );
@@ -280,7 +277,7 @@ fn trace_tiles(
     local: &LocalRays<impl Fn(usize) -> Option<CameraRay>>,
     (row_length, band): (usize, usize),
     pixels: &mut [MaybeUninit<Pixel>],
-    (portable, room): (bool, &mut fast::PacketRoom),
+    portable: bool,
     turn_origin: impl Fn(DVec3) -> DVec3,
     world_origin: impl Fn(DVec3) -> DVec3,
 ) {
@@ -292,6 +289,10 @@ fn trace_tiles(
     let mut found = [None; PACKET];
     let pose = &local.pose;
     let first_pixel = band * 8 * row_length;
+    // One packet room per band: each tile's rays converted to f32 as they are turned, and its
+    // packet made from them in place (made once a rayon job instead, it measured 0.1–0.4 %
+    // more: docs/benchmarks.md, "2026-11-27 (walk)").
+    let mut room = fast::PacketRoom::default();
     for column in (0..row_length).step_by(8) {
         // The tile's rows as ranges of the band, walked by plain loops: [`tile`]'s flat
         // iterator cost 15 instructions a ray.
@@ -318,7 +319,7 @@ fn trace_tiles(
         // A tile outside the image circle of a mirror or fisheye has no rays.
         match active {
             0 => found = [None; PACKET],
-            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found, room),
+            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found, &mut room),
         }
         fetch_faces_ahead(bvh, &found);
         for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
