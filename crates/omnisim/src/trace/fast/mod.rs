@@ -210,7 +210,7 @@ fn walk_packet<W: Wide>(
         packet.narrow_to(rays_in);
         debug_assert!(packet.bounds.same_signs());
         bvh.wide.traverse_interval::<W>(
-            &packet,
+            packet,
             t_hi,
             &bvh.triangles,
             #[inline(always)]

@@ -143,6 +143,11 @@ impl StagedRays {
         self.t_lo[r] = t_lo(t_min);
     }
 
+    /// Whether ray r is a zero ray (what [`PacketRays::fill`] asks of the rays it leaves out).
+    fn is_zero(&self, r: usize) -> bool {
+        (0..3).all(|axis| self.origin[axis][r] == 0.0 && self.direction[axis][r] == 0.0) && self.t_lo[r] == 0.0
+    }
+
     /// Ray r made a zero ray (a pixel without a ray).
     #[inline(always)]
     pub(crate) fn clear(&mut self, r: usize) {
@@ -226,6 +231,10 @@ impl<W: Wide> PacketRays<W> {
     pub(crate) fn fill(&mut self, staged: &StagedRays, active: u64, scene_extent: f32) {
         // Every caller skips empty packets (their boxes would be empty: infinite bounds).
         debug_assert!(active != 0, "a packet without rays");
+        debug_assert!(
+            (0..PACKET).all(|r| active >> r & 1 != 0 || staged.is_zero(r)),
+            "a staged ray outside the packet is not a zero ray"
+        );
         // Each ray was converted once (`StagedRays::set`), whatever octants the packet spans;
         // all else (inverses, error bounds, and the bounds, signs and octants of `narrow_to`
         // and `octants`) is found eight lanes at a time: per ray and axis it cost more than
@@ -435,10 +444,18 @@ mod tests {
     }
 
     /// A packet's octants and, narrowed to each, its bounds: [`narrowed_bits`] of the packet
-    /// made of all of `active`, then of a packet made of the octant's rays alone.
+    /// made of all of `active`, then of a packet made of the octant's rays alone. The first
+    /// is refilled ([`PacketRays::fill`]) after a walk of every ray of `earlier`, as a tile's
+    /// packet follows the one before it: nothing of those may remain.
     #[inline(always)]
-    fn octant_bounds<W: Wide>(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
-        let mut packet = PacketRays::<W>::new(rays, active, 10.0);
+    fn octant_bounds<W: Wide>(
+        rays: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        earlier: &[(DVec3, DVec3, f64); PACKET],
+    ) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        let mut packet = PacketRays::<W>::new(earlier, u64::MAX, 10.0);
+        packet.narrow_to(u64::MAX);
+        packet.fill(&StagedRays::of(rays, active), active, 10.0);
         let mut found = Vec::new();
         // A loop, not a closure: every `W` operation stays in the caller (AVX2 where it is).
         for rays_in in packet.octants() {
@@ -454,24 +471,30 @@ mod tests {
     /// [`octant_bounds`] on the AVX lanes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn octant_bounds_avx(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
-        octant_bounds::<crate::trace::fast::lanes::Avx8>(rays, active)
+    fn octant_bounds_avx(
+        rays: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        earlier: &[(DVec3, DVec3, f64); PACKET],
+    ) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        octant_bounds::<crate::trace::fast::lanes::Avx8>(rays, active, earlier)
     }
 
     /// A packet's octants hold each of its rays once, by the sign bits of its f32 direction
     /// (−0 negative); narrowed to an octant, the packet's origin and inverse-direction bounds
     /// are the extremes of those rays' own (`LaneRay::new`'s), its signs theirs, its footprint
     /// (`origin_radius`, `spread`) the half-diagonals of their origins' and directions' boxes,
-    /// and all it says is what a packet of those rays alone says. Portable lanes
-    /// and, where the CPU has AVX2, AVX ones (the same answers).
+    /// and all it says is what a packet of those rays alone says, though the packet was
+    /// refilled after other rays. Portable lanes and, where the CPU has AVX2, AVX ones (the
+    /// same answers).
     #[test]
     fn a_packet_narrowed_to_an_octant_bounds_its_rays_alone() {
         let mut rng = StdRng::seed_from_u64(9);
         let mut split = 0;
         for _ in 0..300 {
             let rays = random_rays(&mut rng);
+            let earlier = random_rays(&mut rng);
             let active = rng.random::<u64>() | 1;
-            let portable = octant_bounds::<crate::trace::fast::lanes::Lanes8>(&rays, active);
+            let portable = octant_bounds::<crate::trace::fast::lanes::Lanes8>(&rays, active, &earlier);
             assert_eq!(portable.iter().fold(0, |all, (rays_in, ..)| all | rays_in), active);
             assert_eq!(
                 portable.iter().map(|(rays_in, ..)| rays_in.count_ones()).sum::<u32>(),
@@ -534,7 +557,11 @@ mod tests {
             #[cfg(target_arch = "x86_64")]
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: called only where the CPU has AVX2.
-                assert_eq!(unsafe { octant_bounds_avx(&rays, active) }, portable, "AVX lanes");
+                assert_eq!(
+                    unsafe { octant_bounds_avx(&rays, active, &earlier) },
+                    portable,
+                    "AVX lanes"
+                );
             }
         }
         assert!(split > 250, "{split} packets over several octants");
