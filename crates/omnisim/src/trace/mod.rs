@@ -269,6 +269,8 @@ fn trace_band_in(
 /// [`trace_band_in`]'s tiles, each ray's scene-local origin given by `turn_origin` of its
 /// body-frame one, and its world position by `world_origin` of the scene-local one (the
 /// shared origin's once a frame: callgrind, docs/benchmarks.md, "2026-11-26 night (small)").
+/// Each ray is converted to f32 into `room` as it is turned, and its packet made there in
+/// place (docs/benchmarks.md, "2026-11-27 (walk)").
 #[inline(always)]
 fn trace_tiles(
     bvh: &SceneBvh,
@@ -287,6 +289,10 @@ fn trace_tiles(
     let mut found = [None; PACKET];
     let pose = &local.pose;
     let first_pixel = band * 8 * row_length;
+    // One packet room per band: each tile's rays converted to f32 as they are turned, and its
+    // packet made from them in place (made once a rayon job instead, it measured 0.1–0.4 %
+    // more: docs/benchmarks.md, "2026-11-27 (walk)").
+    let mut room = fast::PacketRoom::default();
     for column in (0..row_length).step_by(8) {
         // The tile's rows as ranges of the band, walked by plain loops: [`tile`]'s flat
         // iterator cost 15 instructions a ray.
@@ -296,16 +302,24 @@ fn trace_tiles(
         for offsets in rows_of_tile.clone() {
             for offset in offsets {
                 if let Some(ray) = (local.ray)(first_pixel + offset) {
-                    rays[r] = (turn_origin(ray.origin), pose.turn_direction(ray.direction), ray.t_min);
+                    let (origin, direction) = (turn_origin(ray.origin), pose.turn_direction(ray.direction));
+                    rays[r] = (origin, direction, ray.t_min);
+                    room.staged.set(r, origin, direction, ray.t_min);
                     active |= 1 << r;
+                } else {
+                    room.staged.clear(r);
                 }
                 r += 1;
             }
         }
+        // A tile at the frame's right or bottom edge has fewer rays: the rest are zero rays.
+        for r in r..PACKET {
+            room.staged.clear(r);
+        }
         // A tile outside the image circle of a mirror or fisheye has no rays.
         match active {
             0 => found = [None; PACKET],
-            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found),
+            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found, &mut room),
         }
         fetch_faces_ahead(bvh, &found);
         for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {

@@ -21,7 +21,7 @@ use crate::accel::SceneBvh;
 use crate::trace::counts::Counter;
 use crate::trace::triangle::{self, Hit, Visit};
 use lanes::{Lanes8, Wide};
-use rays::{LaneRay, PacketRays};
+use rays::{LaneRay, PacketRays, StagedRays};
 
 /// `avx` (a call of a build compiled with AVX2) where [`use_avx2`], else `plain`: the
 /// dispatch of every walk here, an expression (`portable` read once). Its calls take plain
@@ -109,18 +109,40 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
 /// [`closest_hit`] written to `found[r]` (`None` for rays outside `active`), found by interval
 /// walks of the packet (`portable` as there). Written into the caller's array, not returned:
 /// the returned array was copied once a packet (docs/benchmarks.md, "2026-11-26 night (small)").
+/// `room.staged` must hold the same rays ([`PacketRoom`]).
 pub(crate) fn closest_hits(
     bvh: &SceneBvh,
     rays: &[(DVec3, DVec3, f64); PACKET],
     active: u64,
     portable: bool,
     found: &mut [Option<Hit>; PACKET],
+    room: &mut PacketRoom,
 ) {
     by_cpu!(
         portable,
-        closest_hits_avx2(bvh, rays, active, found),
-        closest_hits_in::<Lanes8>(bvh, rays, active, found)
+        closest_hits_avx2(bvh, rays, active, found, room),
+        closest_hits_in::<Lanes8>(
+            bvh,
+            rays,
+            active,
+            found,
+            room.portable.get_or_insert_with(PacketRays::empty),
+            &room.staged
+        )
     );
+}
+
+/// Room for the packets of [`closest_hits`], made once (for a band of tiles) and refilled for
+/// each packet: a packet made anew each time was copied whole (~400 instructions a packet;
+/// docs/benchmarks.md, "2026-11-27 (walk)"). `staged` holds the next packet's rays, set by
+/// the caller as it makes them (every ray of the packet: a zero ray where there is none);
+/// each lane type's packet is made on first use, in the walk compiled for it.
+#[derive(Default)]
+pub(crate) struct PacketRoom {
+    pub(crate) staged: StagedRays,
+    #[cfg(target_arch = "x86_64")]
+    avx: Option<PacketRays<lanes::Avx8>>,
+    portable: Option<PacketRays<Lanes8>>,
 }
 
 /// [`closest_hits_in`] compiled with AVX2, its leaf filter eight lanes in one register.
@@ -131,8 +153,10 @@ fn closest_hits_avx2(
     rays: &[(DVec3, DVec3, f64); PACKET],
     active: u64,
     found: &mut [Option<Hit>; PACKET],
+    room: &mut PacketRoom,
 ) {
-    closest_hits_in::<lanes::Avx8>(bvh, rays, active, found);
+    let packet = room.avx.get_or_insert_with(PacketRays::empty);
+    closest_hits_in::<lanes::Avx8>(bvh, rays, active, found, packet, &room.staged);
 }
 
 #[inline(always)]
@@ -141,12 +165,15 @@ fn closest_hits_in<W: Wide>(
     rays: &[(DVec3, DVec3, f64); PACKET],
     active: u64,
     found: &mut [Option<Hit>; PACKET],
+    packet: &mut PacketRays<W>,
+    staged: &StagedRays,
 ) {
     let mut t_hi = [f32::INFINITY; PACKET];
     *found = [None; PACKET];
     walk_packet::<W>(
         bvh,
-        rays,
+        packet,
+        staged,
         active,
         &mut t_hi,
         #[inline(always)]
@@ -167,7 +194,8 @@ fn closest_hits_in<W: Wide>(
 )]
 fn walk_packet<W: Wide>(
     bvh: &SceneBvh,
-    rays: &[(DVec3, DVec3, f64); PACKET],
+    packet: &mut PacketRays<W>,
+    staged: &StagedRays,
     active: u64,
     t_hi: &mut [f32; PACKET],
     mut visit: impl FnMut(usize, usize) -> Visit,
@@ -175,14 +203,14 @@ fn walk_packet<W: Wide>(
     // The interval walk is tight only for rays whose directions share their signs, so a
     // packet that straddles an axis plane is walked once per octant it spans (callgrind, omni
     // images: 13 % fewer instructions than walking such packets ray by ray; docs/benchmarks.md).
-    // Each ray is converted once (`PacketRays::new`); the packet is narrowed to each octant
-    // in turn (its bounds found once per walk).
-    let mut packet = PacketRays::<W>::new(rays, active, bvh.wide.extent);
+    // Each ray was converted once (`staged`); the packet is narrowed to each octant in turn
+    // (its bounds found once per walk).
+    packet.fill(staged, active, bvh.wide.extent);
     for rays_in in packet.octants().into_iter().filter(|&rays_in| rays_in != 0) {
         packet.narrow_to(rays_in);
         debug_assert!(packet.bounds.same_signs());
         bvh.wide.traverse_interval::<W>(
-            &packet,
+            packet,
             t_hi,
             &bvh.triangles,
             #[inline(always)]
@@ -230,7 +258,9 @@ fn occluded_rays_in<W: Wide>(bvh: &SceneBvh, shadows: &ShadowRays, active: u64) 
         "shadow rays start at t = 0"
     );
     let mut blocked = 0u64;
-    walk_packet::<W>(bvh, &shadows.rays, active, &mut t_hi, |r, triangle| {
+    let mut packet = PacketRays::<W>::empty();
+    let staged = StagedRays::of(&shadows.rays, active);
+    walk_packet::<W>(bvh, &mut packet, &staged, active, &mut t_hi, |r, triangle| {
         let (origin, direction, _) = shadows.rays[r];
         let mut hit = false;
         triangle::blocks(

@@ -76,10 +76,10 @@ pub(crate) struct PacketRays<W> {
     /// Per axis, whether some ray's direction has its sign bit set: all of them do where the
     /// packet's rays share their signs, as the walk asks (`PacketBounds::same_signs`).
     pub(crate) negative: [bool; 3],
-    /// Per axis, the rays given to [`PacketRays::new`] whose f32 direction has its sign bit
+    /// Per axis, the rays given to [`PacketRays::fill`] whose f32 direction has its sign bit
     /// set (−0 included), bit r for ray r.
     negative_rays: [u64; 3],
-    /// The rays given to [`PacketRays::new`] (the other lanes hold zero origins and
+    /// The rays given to [`PacketRays::fill`] (the other lanes hold zero origins and
     /// directions).
     given: u64,
     /// The rays `bounds`, `origin_radius`, `spread` and `negative` are those of, set by
@@ -87,6 +87,76 @@ pub(crate) struct PacketRays<W> {
     /// (`WideBvh::traverse_interval` reads them here, so bounds and walk cannot disagree).
     bounded: u64,
     pub(crate) bounds: PacketBounds,
+}
+
+/// A packet's rays converted to f32 axis by axis, as [`PacketRays::fill`] reads them: ray r
+/// at index r, a zero ray where there is none. The tile loop converts each ray here as it
+/// turns it (read back from the f64 rays and converted in `fill`, a ray cost ~10 instructions
+/// more: docs/benchmarks.md, "2026-11-27 (walk)").
+pub(crate) struct StagedRays {
+    origin: [[f32; PACKET]; 3],
+    direction: [[f32; PACKET]; 3],
+    t_lo: [f32; PACKET],
+}
+
+impl Default for StagedRays {
+    /// Zero rays only.
+    fn default() -> Self {
+        Self {
+            origin: [[0.0; PACKET]; 3],
+            direction: [[0.0; PACKET]; 3],
+            t_lo: [0.0; PACKET],
+        }
+    }
+}
+
+impl StagedRays {
+    /// The rays of `active` (scene-local origin, unit direction, `t_min`), zero rays for the
+    /// others.
+    #[inline(always)]
+    pub(crate) fn of(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Self {
+        let mut staged = Self::default();
+        let mut rest = active;
+        while rest != 0 {
+            let r = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let (origin, direction, t_min) = rays[r];
+            staged.set(r, origin, direction, t_min);
+        }
+        staged
+    }
+
+    /// Ray r: its origin and direction as f32 and its [`t_lo`]. Origins and directions must
+    /// be finite (as ray tables and shadow rays make them): the eight-lane minima and maxima
+    /// keep or drop a NaN by lane order, unlike `f32::min`.
+    #[inline(always)]
+    pub(crate) fn set(&mut self, r: usize, origin: DVec3, direction: DVec3, t_min: f64) {
+        debug_assert!(
+            origin.is_finite() && direction.is_finite(),
+            "ray {r} is not finite: {origin}, {direction}"
+        );
+        let (o, d) = (origin.as_vec3(), direction.as_vec3());
+        for axis in 0..3 {
+            self.origin[axis][r] = o[axis];
+            self.direction[axis][r] = d[axis];
+        }
+        self.t_lo[r] = t_lo(t_min);
+    }
+
+    /// Whether ray r is a zero ray (what [`PacketRays::fill`] asks of the rays it leaves out).
+    fn is_zero(&self, r: usize) -> bool {
+        (0..3).all(|axis| self.origin[axis][r] == 0.0 && self.direction[axis][r] == 0.0) && self.t_lo[r] == 0.0
+    }
+
+    /// Ray r made a zero ray (a pixel without a ray).
+    #[inline(always)]
+    pub(crate) fn clear(&mut self, r: usize) {
+        for axis in 0..3 {
+            self.origin[axis][r] = 0.0;
+            self.direction[axis][r] = 0.0;
+        }
+        self.t_lo[r] = 0.0;
+    }
 }
 
 /// Per axis, bounds of the f32 origin coordinates and inverse directions of a packet's rays:
@@ -110,68 +180,23 @@ impl PacketBounds {
 }
 
 impl<W: Wide> PacketRays<W> {
-    /// The rays (scene-local origin, unit direction, `t_min`) whose bit is set in `active`, at
-    /// least one (the other lanes hold zero rays and must stay masked); `scene_extent` as for
-    /// [`LaneRay::new`]. Bounds none of them until [`PacketRays::narrow_to`] picks the rays a
-    /// walk takes (an octant of a packet over several is all some walk needs, so `new` does
-    /// not find the whole packet's bounds only to have them replaced).
-    /// Origins and directions must be finite (as ray tables and shadow rays make them): the
-    /// eight-lane minima and maxima keep or drop a NaN by lane order, unlike `f32::min`.
-    /// Always inlined: called from the walk compiled with AVX2, it must be compiled there too
-    /// (out of line it is built for the baseline CPU, its lane intrinsics become calls, and an
-    /// env1 omni image took 7 % more instructions).
+    /// A packet of no rays, to be [`PacketRays::fill`]ed: made once and refilled for each
+    /// packet, since a packet made anew each time was copied whole out of its constructor
+    /// (callgrind, env1 omni 250²: ~400 instructions a packet; docs/benchmarks.md,
+    /// "2026-11-27 (walk)").
     #[inline(always)]
-    pub(crate) fn new(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, scene_extent: f32) -> Self {
-        // Every caller skips empty packets (their boxes would be empty: infinite bounds).
-        debug_assert!(active != 0, "a packet without rays");
-        let mut origin = [[0.0f32; PACKET]; 3];
-        let mut direction = [[0.0f32; PACKET]; 3];
-        let mut t_lo = [0.0f32; PACKET];
-        // Each ray converted once, whatever octants the packet spans; all else (inverses,
-        // error bounds, and the bounds, signs and octants of `narrow_to` and `octants`) is
-        // found eight lanes at a time: per ray and axis it cost more than the conversion
-        // (callgrind: docs/benchmarks.md).
-        let mut rest = active;
-        while rest != 0 {
-            let r = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let (o, d, t_min) = rays[r];
-            debug_assert!(o.is_finite() && d.is_finite(), "ray {r} is not finite: {o}, {d}");
-            let (o, d) = (o.as_vec3(), d.as_vec3());
-            for axis in 0..3 {
-                origin[axis][r] = o[axis];
-                direction[axis][r] = d[axis];
-            }
-            t_lo[r] = self::t_lo(t_min);
-        }
-        // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
-        // loads became calls, and the arrays were copied: callgrind, env1-lit omni).
+    pub(crate) fn empty() -> Self {
         let zero = W::splat(0.0);
-        let mut batches = [RayLanes {
-            origin: [zero; 3],
-            direction: [zero; 3],
-            position_error: zero,
-        }; BATCHES];
-        let (mut t_lo_lanes, mut inverse) = ([zero; BATCHES], [[zero; 3]; BATCHES]);
-        let mut sign_bits = [0u64; 3];
-        for b in 0..BATCHES {
-            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
-            for axis in 0..3 {
-                batches[b].origin[axis] = batch(&origin[axis]);
-                batches[b].direction[axis] = batch(&direction[axis]);
-                inverse[b][axis] = inverses(batches[b].direction[axis]);
-                sign_bits[axis] |= u64::from(batches[b].direction[axis].sign_bits()) << (8 * b);
-            }
-            batches[b].position_error = position_errors(&batches[b].origin, scene_extent);
-            t_lo_lanes[b] = batch(&t_lo);
-        }
         Self {
-            batches,
-            t_lo: t_lo_lanes,
-            inverse,
-            negative_rays: sign_bits.map(|bits| bits & active),
-            given: active,
-            // No rays bounded yet: a walk before `narrow_to` walks none.
+            batches: [RayLanes {
+                origin: [zero; 3],
+                direction: [zero; 3],
+                position_error: zero,
+            }; BATCHES],
+            t_lo: [zero; BATCHES],
+            inverse: [[zero; 3]; BATCHES],
+            negative_rays: [0; 3],
+            given: 0,
             bounded: 0,
             origin_radius: 0.0,
             spread: 0.0,
@@ -185,6 +210,60 @@ impl<W: Wide> PacketRays<W> {
         }
     }
 
+    /// The packet of `rays` and `active` as [`PacketRays::fill`] makes it from their
+    /// [`StagedRays::of`].
+    #[cfg(test)]
+    pub(crate) fn new(rays: &[(DVec3, DVec3, f64); PACKET], active: u64, scene_extent: f32) -> Self {
+        let mut packet = Self::empty();
+        packet.fill(&StagedRays::of(rays, active), active, scene_extent);
+        packet
+    }
+
+    /// Makes the packet that of the rays of `staged` whose bit is set in `active`, at least
+    /// one (the other rays of `staged` must be zero rays, and stay masked); `scene_extent` as
+    /// for [`LaneRay::new`]. Bounds none of them until [`PacketRays::narrow_to`] picks the rays
+    /// a walk takes (an octant of a packet over several is all some walk needs, so `fill` does
+    /// not find the whole packet's bounds only to have them replaced).
+    /// Always inlined: called from the walk compiled with AVX2, it must be compiled there too
+    /// (out of line it is built for the baseline CPU, its lane intrinsics become calls, and an
+    /// env1 omni image took 7 % more instructions).
+    #[inline(always)]
+    pub(crate) fn fill(&mut self, staged: &StagedRays, active: u64, scene_extent: f32) {
+        // Every caller skips empty packets (their boxes would be empty: infinite bounds).
+        debug_assert!(active != 0, "a packet without rays");
+        debug_assert!(
+            (0..PACKET).all(|r| active >> r & 1 != 0 || staged.is_zero(r)),
+            "a staged ray outside the packet is not a zero ray"
+        );
+        // Each ray was converted once (`StagedRays::set`), whatever octants the packet spans;
+        // all else (inverses, error bounds, and the bounds, signs and octants of `narrow_to`
+        // and `octants`) is found eight lanes at a time: per ray and axis it cost more than
+        // the conversion (callgrind: docs/benchmarks.md).
+        // Loops, not `array::from_fn`, whose closures are compiled outside the AVX2 walk (their
+        // loads became calls, and the arrays were copied: callgrind, env1-lit omni). The
+        // batches are filled in the packet itself: filled in lists of their own and moved in,
+        // they were copied once a packet (docs/benchmarks.md, "2026-11-26 night (small)").
+        self.negative_rays = [0; 3];
+        for b in 0..BATCHES {
+            let batch = |values: &[f32; PACKET]| W::load(&values[8 * b..]);
+            let lanes = &mut self.batches[b];
+            for axis in 0..3 {
+                lanes.origin[axis] = batch(&staged.origin[axis]);
+                lanes.direction[axis] = batch(&staged.direction[axis]);
+                self.inverse[b][axis] = inverses(lanes.direction[axis]);
+                self.negative_rays[axis] |= u64::from(lanes.direction[axis].sign_bits()) << (8 * b);
+            }
+            lanes.position_error = position_errors(&lanes.origin, scene_extent);
+            self.t_lo[b] = batch(&staged.t_lo);
+        }
+        for bits in &mut self.negative_rays {
+            *bits &= active;
+        }
+        self.given = active;
+        // No rays bounded yet: a walk before `narrow_to` walks none.
+        self.bounded = 0;
+    }
+
     /// The rays the packet's bounds are those of ([`PacketRays::narrow_to`]'s last `rays_in`;
     /// none before): the rays a walk of the packet takes part in.
     #[inline(always)]
@@ -192,7 +271,7 @@ impl<W: Wide> PacketRays<W> {
         self.bounded
     }
 
-    /// The rays given to [`PacketRays::new`] by the octant of their f32 direction (sign bits,
+    /// The rays given to [`PacketRays::fill`] by the octant of their f32 direction (sign bits,
     /// −0 negative): bit r of entry k where ray r's x, y, z signs are k's bits 0, 1, 2.
     #[inline(always)]
     pub(crate) fn octants(&self) -> [u64; 8] {
@@ -206,7 +285,7 @@ impl<W: Wide> PacketRays<W> {
     }
 
     /// Sets the packet's bounds, footprint and signs to those of the rays of `rays_in` (some
-    /// of those given to [`PacketRays::new`], at least one): the rays a walk takes part in.
+    /// of those given to [`PacketRays::fill`], at least one): the rays a walk takes part in.
     #[inline(always)]
     pub(crate) fn narrow_to(&mut self, rays_in: u64) {
         debug_assert!(rays_in != 0, "a packet without rays");
@@ -365,10 +444,18 @@ mod tests {
     }
 
     /// A packet's octants and, narrowed to each, its bounds: [`narrowed_bits`] of the packet
-    /// made of all of `active`, then of a packet made of the octant's rays alone.
+    /// made of all of `active`, then of a packet made of the octant's rays alone. The first
+    /// is refilled ([`PacketRays::fill`]) after a walk of every ray of `earlier`, as a tile's
+    /// packet follows the one before it: nothing of those may remain.
     #[inline(always)]
-    fn octant_bounds<W: Wide>(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
-        let mut packet = PacketRays::<W>::new(rays, active, 10.0);
+    fn octant_bounds<W: Wide>(
+        rays: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        earlier: &[(DVec3, DVec3, f64); PACKET],
+    ) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        let mut packet = PacketRays::<W>::new(earlier, u64::MAX, 10.0);
+        packet.narrow_to(u64::MAX);
+        packet.fill(&StagedRays::of(rays, active), active, 10.0);
         let mut found = Vec::new();
         // A loop, not a closure: every `W` operation stays in the caller (AVX2 where it is).
         for rays_in in packet.octants() {
@@ -384,24 +471,30 @@ mod tests {
     /// [`octant_bounds`] on the AVX lanes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn octant_bounds_avx(rays: &[(DVec3, DVec3, f64); PACKET], active: u64) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
-        octant_bounds::<crate::trace::fast::lanes::Avx8>(rays, active)
+    fn octant_bounds_avx(
+        rays: &[(DVec3, DVec3, f64); PACKET],
+        active: u64,
+        earlier: &[(DVec3, DVec3, f64); PACKET],
+    ) -> Vec<(u64, Vec<u32>, Vec<u32>)> {
+        octant_bounds::<crate::trace::fast::lanes::Avx8>(rays, active, earlier)
     }
 
     /// A packet's octants hold each of its rays once, by the sign bits of its f32 direction
     /// (−0 negative); narrowed to an octant, the packet's origin and inverse-direction bounds
     /// are the extremes of those rays' own (`LaneRay::new`'s), its signs theirs, its footprint
     /// (`origin_radius`, `spread`) the half-diagonals of their origins' and directions' boxes,
-    /// and all it says is what a packet of those rays alone says. Portable lanes
-    /// and, where the CPU has AVX2, AVX ones (the same answers).
+    /// and all it says is what a packet of those rays alone says, though the packet was
+    /// refilled after other rays. Portable lanes and, where the CPU has AVX2, AVX ones (the
+    /// same answers).
     #[test]
     fn a_packet_narrowed_to_an_octant_bounds_its_rays_alone() {
         let mut rng = StdRng::seed_from_u64(9);
         let mut split = 0;
         for _ in 0..300 {
             let rays = random_rays(&mut rng);
+            let earlier = random_rays(&mut rng);
             let active = rng.random::<u64>() | 1;
-            let portable = octant_bounds::<crate::trace::fast::lanes::Lanes8>(&rays, active);
+            let portable = octant_bounds::<crate::trace::fast::lanes::Lanes8>(&rays, active, &earlier);
             assert_eq!(portable.iter().fold(0, |all, (rays_in, ..)| all | rays_in), active);
             assert_eq!(
                 portable.iter().map(|(rays_in, ..)| rays_in.count_ones()).sum::<u32>(),
@@ -464,7 +557,11 @@ mod tests {
             #[cfg(target_arch = "x86_64")]
             if std::arch::is_x86_feature_detected!("avx2") {
                 // SAFETY: called only where the CPU has AVX2.
-                assert_eq!(unsafe { octant_bounds_avx(&rays, active) }, portable, "AVX lanes");
+                assert_eq!(
+                    unsafe { octant_bounds_avx(&rays, active, &earlier) },
+                    portable,
+                    "AVX lanes"
+                );
             }
         }
         assert!(split > 250, "{split} packets over several octants");
