@@ -168,6 +168,12 @@ fn closest_hits_in<W: Wide>(
     packet: &mut PacketRays<W>,
     staged: &StagedRays,
 ) {
+    // The walk picks nodes and triangles by the staged f32 rays and decides hits by the f64
+    // ones: the two must be the same rays.
+    debug_assert!(
+        staged.same_bits(&StagedRays::of(rays, active)),
+        "the staged rays are not the packet's"
+    );
     let mut t_hi = [f32::INFINITY; PACKET];
     *found = [None; PACKET];
     walk_packet::<W>(
