@@ -205,6 +205,7 @@ mod tests {
     use super::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, LEAF, WIDTH};
     use super::*;
     use crate::scene::Face;
+    use glam::{Vec3, Vec4};
 
     /// env1 plus a bumpy grid of `2 * cells²` triangles (as `omnisim bench
     /// --synthetic-triangles` adds one, `add_height_field` in the CLI, which this crate cannot call).
@@ -234,8 +235,8 @@ mod tests {
         scene
     }
 
-    /// Below and above `PARALLEL_FROM`: the wide BVH's groups hold every triangle exactly once,
-    /// its children point inside it, each node is full unless all its children are leaves, and
+    /// Below and above `PARALLEL_FROM`: the wide BVH, walked from its root, reaches every
+    /// triangle exactly once, inside its lane's box, its children point inside it, each node is full unless all its children are leaves, and
     /// the built BVH keeps under 300 bytes a triangle (283 measured at 1 M triangles, 286 at
     /// 10k, with leaves of two triangles; docs/benchmarks.md) with the BVH2's build lists freed.
     #[test]
@@ -245,12 +246,57 @@ mod tests {
             let bvh = SceneBvh::build(&scene);
             let count = bvh.triangles.len();
             assert!(count > 2 * cells * cells);
+            // Walked from the root (above `PARALLEL_FROM` the subtrees are built apart and
+            // joined): every node, group and triangle reached once, each triangle and each
+            // child's boxes inside the box of the lane that leads to them, no node deeper than
+            // `depth`.
+            let wide = &bvh.wide;
+            let (mut nodes_seen, mut groups_seen) = (vec![0u32; wide.nodes.len()], vec![0u32; wide.groups.len()]);
             let mut seen = vec![0u32; count];
-            for group in &bvh.wide.groups {
-                for lane in 0..group.lanes.count_ones() as usize {
-                    seen[group.triangle[lane] as usize] += 1;
+            let everywhere = [Vec3::NEG_INFINITY, Vec3::INFINITY];
+            let mut pending = vec![(0usize, 0usize, everywhere)];
+            while let Some((index, depth, [parent_lo, parent_hi])) = pending.pop() {
+                nodes_seen[index] += 1;
+                assert!(depth <= wide.depth, "{cells}: node {index} {depth} levels down");
+                let node = &wide.nodes[index];
+                for (lane, &child) in node.child[..node.lanes.count_ones() as usize].iter().enumerate() {
+                    let corner = |bound: &[[Vec4; 2]; 3]| {
+                        Vec3::from_array([0, 1, 2].map(|axis| bound[axis][lane / 4][lane % 4]))
+                    };
+                    let (lo, hi) = (corner(&node.min), corner(&node.max));
+                    assert!(
+                        lo.cmpge(parent_lo).all() && hi.cmple(parent_hi).all(),
+                        "{cells}: node {index}"
+                    );
+                    if child & LEAF == 0 {
+                        pending.push((child as usize, depth + 1, [lo, hi]));
+                        continue;
+                    }
+                    let first = (child & GROUP_INDEX) as usize;
+                    let groups = ((child & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+                    for group in first..first + groups {
+                        groups_seen[group] += 1;
+                        let group = &wide.groups[group];
+                        for &triangle in &group.triangle[..group.lanes.count_ones() as usize] {
+                            seen[triangle as usize] += 1;
+                            for point in bvh.triangles[triangle as usize].map(DVec3::as_vec3) {
+                                assert!(
+                                    point.cmpge(lo).all() && point.cmple(hi).all(),
+                                    "{cells}: triangle {triangle}"
+                                );
+                            }
+                        }
+                    }
                 }
             }
+            assert!(
+                nodes_seen.iter().all(|&n| n == 1),
+                "{cells}: a node unreached or repeated"
+            );
+            assert!(
+                groups_seen.iter().all(|&n| n == 1),
+                "{cells}: a group unreached or repeated"
+            );
             assert!(seen.iter().all(|&n| n == 1), "{cells}: a triangle missing or repeated");
             for node in &bvh.wide.nodes {
                 // `open` stops short of eight children only when none of them can be opened.
