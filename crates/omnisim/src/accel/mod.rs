@@ -274,9 +274,12 @@ mod tests {
                     }
                     let first = (child & GROUP_INDEX) as usize;
                     let groups = ((child & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                    for group in first..first + groups {
-                        groups_seen[group] += 1;
-                        let group = &wide.groups[group];
+                    let lane_groups = first..first + groups;
+                    for (reached, group) in groups_seen[lane_groups.clone()]
+                        .iter_mut()
+                        .zip(&wide.groups[lane_groups])
+                    {
+                        *reached += 1;
                         for &triangle in &group.triangle[..group.lanes.count_ones() as usize] {
                             seen[triangle as usize] += 1;
                             for point in bvh.triangles[triangle as usize].map(DVec3::as_vec3) {
