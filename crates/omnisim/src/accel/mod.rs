@@ -52,9 +52,9 @@ const LARGE_BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
 };
 
 /// Below this many triangles the build's per-triangle passes (corners, boxes, leaf order, the
-/// wide BVH's subtrees and groups, face normals) stay on the calling thread: at 10k triangles handing them to
-/// rayon's pool, which a fresh process must start first, cost more than the work
-/// (docs/benchmarks.md, "BVH build at small sizes").
+/// wide BVH's subtrees and groups, face normals) stay on the calling thread: at 10k triangles
+/// handing them to rayon's pool cost more than the work, even once the CLI starts the pool
+/// early (docs/benchmarks.md, "BVH build at small sizes", "2026-11-27 (lead)").
 const PARALLEL_FROM: usize = 50_000;
 
 /// `f` of each of `0..count`, in order: on all threads from [`PARALLEL_FROM`] items, else on
@@ -236,9 +236,10 @@ mod tests {
     }
 
     /// Below and above `PARALLEL_FROM`: the wide BVH, walked from its root, reaches every
-    /// triangle exactly once, inside its lane's box, its children point inside it, each node is full unless all its children are leaves, and
-    /// the built BVH keeps under 300 bytes a triangle (283 measured at 1 M triangles, 286 at
-    /// 10k, with leaves of two triangles; docs/benchmarks.md) with the BVH2's build lists freed.
+    /// triangle exactly once, inside its lane's box, its children point inside it, each node
+    /// is full unless all its children are leaves, and the built BVH keeps under 300 bytes a
+    /// triangle (283 measured at 1 M triangles, 286 at 10k, with leaves of two triangles;
+    /// docs/benchmarks.md) with the BVH2's build lists freed.
     #[test]
     fn wide_bvh_holds_every_triangle_once_in_bounded_memory() {
         for cells in [50, 160] {

@@ -282,16 +282,13 @@ fn trace_tiles(
     world_origin: impl Fn(DVec3) -> DVec3,
 ) {
     let rows = pixels.len() / row_length;
-    // One packet array per band: entries outside a tile's `active` rays are never read, so
-    // they need no clearing between tiles.
-    let mut rays = [(DVec3::ZERO, DVec3::X, 0.0); PACKET];
     // The packet's hits, every entry written by each tile.
     let mut found = [None; PACKET];
     let pose = &local.pose;
     let first_pixel = band * 8 * row_length;
-    // One packet room per band: each tile's rays converted to f32 as they are turned, and its
-    // packet made from them in place (made once a rayon job instead, it measured 0.1–0.4 %
-    // more: docs/benchmarks.md, "2026-11-27 (walk)").
+    // One packet room per band (made once a rayon job instead, it measured 0.1–0.4 % more:
+    // docs/benchmarks.md, "2026-11-27 (walk)"): each tile's rays kept in f64 and converted to
+    // f32 as they are turned, and its packet made from them in place.
     let mut room = fast::PacketRoom::default();
     for column in (0..row_length).step_by(8) {
         // The tile's rows as ranges of the band, walked by plain loops: [`tile`]'s flat
@@ -302,29 +299,32 @@ fn trace_tiles(
         for offsets in rows_of_tile.clone() {
             for offset in offsets {
                 if let Some(ray) = (local.ray)(first_pixel + offset) {
-                    let (origin, direction) = (turn_origin(ray.origin), pose.turn_direction(ray.direction));
-                    rays[r] = (origin, direction, ray.t_min);
-                    room.staged.set(r, origin, direction, ray.t_min);
+                    room.set(
+                        r,
+                        turn_origin(ray.origin),
+                        pose.turn_direction(ray.direction),
+                        ray.t_min,
+                    );
                     active |= 1 << r;
                 } else {
-                    room.staged.clear(r);
+                    room.clear(r);
                 }
                 r += 1;
             }
         }
         // A tile at the frame's right or bottom edge has fewer rays: the rest are zero rays.
         for r in r..PACKET {
-            room.staged.clear(r);
+            room.clear(r);
         }
         // A tile outside the image circle of a mirror or fisheye has no rays.
         match active {
             0 => found = [None; PACKET],
-            _ => fast::closest_hits(bvh, &rays, active, portable, &mut found, &mut room),
+            _ => fast::closest_hits(bvh, active, portable, &mut found, &mut room),
         }
         fetch_faces_ahead(bvh, &found);
         for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
             let rays_of_row = first_ray..first_ray + columns;
-            let row_rays = rays[rays_of_row.clone()].iter().zip(&found[rays_of_row]);
+            let row_rays = room.rays[rays_of_row.clone()].iter().zip(&found[rays_of_row]);
             for (pixel_out, (&(origin, direction, _), found)) in pixels[offsets].iter_mut().zip(row_rays) {
                 pixel_out.write(match *found {
                     Some(hit) => pixel_from(bvh, world_origin(origin), direction, hit),

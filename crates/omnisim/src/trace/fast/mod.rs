@@ -109,10 +109,9 @@ fn closest_hit_in<const AVX: bool, C: Counter>(
 /// [`closest_hit`] written to `found[r]` (`None` for rays outside `active`), found by interval
 /// walks of the packet (`portable` as there). Written into the caller's array, not returned:
 /// the returned array was copied once a packet (docs/benchmarks.md, "2026-11-26 night (small)").
-/// `room.staged` must hold the same rays ([`PacketRoom`]).
+/// The rays are those [`PacketRoom::set`] put in `room`.
 pub(crate) fn closest_hits(
     bvh: &SceneBvh,
-    rays: &[(DVec3, DVec3, f64); PACKET],
     active: u64,
     portable: bool,
     found: &mut [Option<Hit>; PACKET],
@@ -120,10 +119,10 @@ pub(crate) fn closest_hits(
 ) {
     by_cpu!(
         portable,
-        closest_hits_avx2(bvh, rays, active, found, room),
+        closest_hits_avx2(bvh, active, found, room),
         closest_hits_in::<Lanes8>(
             bvh,
-            rays,
+            &room.rays,
             active,
             found,
             room.portable.get_or_insert_with(PacketRays::empty),
@@ -134,29 +133,53 @@ pub(crate) fn closest_hits(
 
 /// Room for the packets of [`closest_hits`], made once (for a band of tiles) and refilled for
 /// each packet: a packet made anew each time was copied whole (~400 instructions a packet;
-/// docs/benchmarks.md, "2026-11-27 (walk)"). `staged` holds the next packet's rays, set by
-/// the caller as it makes them (every ray of the packet: a zero ray where there is none);
-/// each lane type's packet is made on first use, in the walk compiled for it.
-#[derive(Default)]
+/// docs/benchmarks.md, "2026-11-27 (walk)"). The caller sets the next packet's rays as it
+/// makes them ([`PacketRoom::set`], [`PacketRoom::clear`]): each in f64, which decides hits,
+/// and in f32 (`staged`), which the walk takes nodes by, written together so that they are
+/// the same rays. Each lane type's packet is made on first use, in the walk compiled for it.
 pub(crate) struct PacketRoom {
-    pub(crate) staged: StagedRays,
+    /// The packet's rays (scene-local origin, unit direction, `t_min`); entries of pixels
+    /// without a ray are never read.
+    pub(crate) rays: [(DVec3, DVec3, f64); PACKET],
+    staged: StagedRays,
     #[cfg(target_arch = "x86_64")]
     avx: Option<PacketRays<lanes::Avx8>>,
     portable: Option<PacketRays<Lanes8>>,
 }
 
+impl Default for PacketRoom {
+    fn default() -> Self {
+        Self {
+            rays: [(DVec3::ZERO, DVec3::X, 0.0); PACKET],
+            staged: StagedRays::default(),
+            #[cfg(target_arch = "x86_64")]
+            avx: None,
+            portable: None,
+        }
+    }
+}
+
+impl PacketRoom {
+    /// Ray r of the next packet.
+    #[inline(always)]
+    pub(crate) fn set(&mut self, r: usize, origin: DVec3, direction: DVec3, t_min: f64) {
+        self.rays[r] = (origin, direction, t_min);
+        self.staged.set(r, origin, direction, t_min);
+    }
+
+    /// No ray r in the next packet (a pixel without a ray, a lane past a tile's edge).
+    #[inline(always)]
+    pub(crate) fn clear(&mut self, r: usize) {
+        self.staged.clear(r);
+    }
+}
+
 /// [`closest_hits_in`] compiled with AVX2, its leaf filter eight lanes in one register.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn closest_hits_avx2(
-    bvh: &SceneBvh,
-    rays: &[(DVec3, DVec3, f64); PACKET],
-    active: u64,
-    found: &mut [Option<Hit>; PACKET],
-    room: &mut PacketRoom,
-) {
+fn closest_hits_avx2(bvh: &SceneBvh, active: u64, found: &mut [Option<Hit>; PACKET], room: &mut PacketRoom) {
     let packet = room.avx.get_or_insert_with(PacketRays::empty);
-    closest_hits_in::<lanes::Avx8>(bvh, rays, active, found, packet, &room.staged);
+    closest_hits_in::<lanes::Avx8>(bvh, &room.rays, active, found, packet, &room.staged);
 }
 
 #[inline(always)]
@@ -168,12 +191,6 @@ fn closest_hits_in<W: Wide>(
     packet: &mut PacketRays<W>,
     staged: &StagedRays,
 ) {
-    // The walk picks nodes and triangles by the staged f32 rays and decides hits by the f64
-    // ones: the two must be the same rays.
-    debug_assert!(
-        staged.same_bits(&StagedRays::of(rays, active)),
-        "the staged rays are not the packet's"
-    );
     let mut t_hi = [f32::INFINITY; PACKET];
     *found = [None; PACKET];
     walk_packet::<W>(

@@ -126,16 +126,6 @@ impl StagedRays {
         staged
     }
 
-    /// Whether `self` holds `other`'s rays bit for bit (a debug check that the staged rays are
-    /// the packet's f64 ones).
-    pub(crate) fn same_bits(&self, other: &Self) -> bool {
-        let bits = |staged: &Self| {
-            let lists = staged.origin.iter().chain(&staged.direction).chain([&staged.t_lo]);
-            lists.flat_map(|list| list.map(f32::to_bits)).collect::<Vec<_>>()
-        };
-        bits(self) == bits(other)
-    }
-
     /// Ray r: its origin and direction as f32 and its [`t_lo`]. Origins and directions must
     /// be finite (as ray tables and shadow rays make them): the eight-lane minima and maxima
     /// keep or drop a NaN by lane order, unlike `f32::min`.
