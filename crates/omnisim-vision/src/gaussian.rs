@@ -99,8 +99,8 @@ pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
     }
 }
 
-/// Whether this CPU runs the AVX2 builds of the passes.
-fn has_avx2() -> bool {
+/// Whether this CPU runs the AVX2 builds of the passes (and of SIFT's extremum scan).
+pub(crate) fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     return std::arch::is_x86_feature_detected!("avx2");
     #[cfg(not(target_arch = "x86_64"))]
