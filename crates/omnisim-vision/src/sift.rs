@@ -1052,6 +1052,41 @@ mod tests {
         assert!(total >= 10, "{total} extrema");
     }
 
+    /// The descriptor compiled for AVX2 equals the portable build's bit for bit, for keypoints
+    /// whose windows lie inside the image and ones clipped by each of its edges.
+    #[test]
+    fn the_wide_descriptor_equals_the_portable_one() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
+        let (w, h) = (70, 53);
+        let noise = (0..w * h).map(|_| rng.random_range(0.0..1.0)).collect();
+        let image = gaussian_blur(&Raster::from_vec(w, h, 1, noise).unwrap(), 1.2);
+        let params = SiftParams::default();
+        let length = descriptor_length(&params);
+        let keypoints = [
+            (34.6, 25.2, 0.0, 2.0),
+            (30.1, 20.9, 137.5, 3.3),
+            (2.4, 26.0, 301.0, 2.6),
+            (66.8, 3.1, 45.0, 1.9),
+            (10.0, 51.5, 200.0, 4.4),
+        ];
+        for (x, y, angle, sigma) in keypoints {
+            let (mut portable, mut wide) = (vec![0.0; length], vec![0.0; length]);
+            let mut scratch = Scratch::default();
+            with_avx2(false, || {
+                descriptor(&image, (x, y), angle, sigma, &params, &mut scratch, &mut portable)
+            });
+            with_avx2(
+                has_avx2(),
+                #[inline(always)]
+                || descriptor(&image, (x, y), angle, sigma, &params, &mut scratch, &mut wide),
+            );
+            assert!(portable.iter().any(|&v| v > 0.0), "({x}, {y})");
+            let bits = |values: &[f32]| values.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&portable), bits(&wide), "({x}, {y})");
+        }
+    }
+
     #[test]
     fn bad_parameters_are_refused() {
         let image = Raster::new(64, 64, 1);
