@@ -1005,7 +1005,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "a block's neighbours lie inside its layers")]
     fn a_block_at_the_layer_edge_is_refused() {
-        let layer = vec![0.5f32; 9 * 3];
+        let layer = [0.5f32; 9 * 3];
         block_candidates([&layer[..], &layer[..], &layer[..]], 9, 1, 1, 0.1, has_avx2());
     }
 
@@ -1072,7 +1072,7 @@ mod tests {
             let (mut portable, mut wide) = (vec![0.0; length], vec![0.0; length]);
             let mut scratch = Scratch::default();
             with_avx2(false, || {
-                descriptor(&image, (x, y), angle, sigma, &params, &mut scratch, &mut portable)
+                descriptor(&image, (x, y), angle, sigma, &params, &mut scratch, &mut portable);
             });
             with_avx2(
                 has_avx2(),
