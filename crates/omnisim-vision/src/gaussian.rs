@@ -99,12 +99,31 @@ pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
     }
 }
 
-/// Whether this CPU runs the AVX2 builds of the passes.
-fn has_avx2() -> bool {
+/// Whether this CPU runs the AVX2 builds of the passes (and of SIFT's loops).
+pub(crate) fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     return std::arch::is_x86_feature_detected!("avx2");
     #[cfg(not(target_arch = "x86_64"))]
     false
+}
+
+/// `work()`, compiled for AVX2 where `avx2` is true (only where [`has_avx2`] is): its loops
+/// then run eight lanes wide, with the same results (the same operations in the same order,
+/// no fused multiply-add). Only where `work` is inlined here, so callers mark the closure
+/// `#[inline(always)]`: left out of line, it is compiled without AVX2.
+#[inline(always)]
+pub(crate) fn with_avx2<R>(avx2: bool, work: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        #[target_feature(enable = "avx2")]
+        fn wide<R>(work: impl FnOnce() -> R) -> R {
+            work()
+        }
+        // SAFETY: callers pass `avx2` true only where `has_avx2` found AVX2.
+        return unsafe { wide(work) };
+    }
+    let _ = avx2; // read only on x86-64
+    work()
 }
 
 /// One output line of either pass: `out[x]` = centre·line(0)[x] + Σ taps[j]·(line(−d)[x] +
@@ -125,17 +144,11 @@ fn convolve(source: &[f32], starts: &[usize], taps: &[f32], out: &mut [f32], avx
                 .all(|&start| source.len().checked_sub(length).is_some_and(|last| start <= last)),
         "every line of the blur lies inside its source"
     );
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        #[target_feature(enable = "avx2")]
-        fn wide(source: &[f32], starts: &[usize], taps: &[f32], out: &mut [f32]) {
-            convolve_in(source, starts, taps, out);
-        }
-        // SAFETY: the caller passes `avx2` true only where `has_avx2` found AVX2.
-        return unsafe { wide(source, starts, taps, out) };
-    }
-    let _ = avx2; // read only on x86-64
-    convolve_in(source, starts, taps, out);
+    with_avx2(
+        avx2,
+        #[inline(always)]
+        || convolve_in(source, starts, taps, out),
+    );
 }
 
 /// Outputs [`convolve_in`] sums over every tap before storing them: a run this long stays in
