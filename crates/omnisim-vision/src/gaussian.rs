@@ -14,6 +14,7 @@
 //! border, which would move SIFT's keypoints away from `OpenCV`'s; a recursive (IIR) Gaussian
 //! is faster for wide kernels but does not give `OpenCV`'s values.
 
+use omnisim::avx2::Avx2;
 use rayon::prelude::*;
 
 use crate::{Raster, buffers};
@@ -60,7 +61,7 @@ pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
     // Lines the passes read are whole runs long (`convolve`): the horizontal pass's padded row
     // and the intermediate rows end in columns past the image's, which no output keeps.
     let stride = w.div_ceil(RUN) * RUN;
-    let avx2 = has_avx2();
+    let avx2 = Avx2::detected();
     let mut rows = buffers::take(stride * h);
     // The horizontal pass's lines are the padded row from each tap's offset: the same for
     // every row.
@@ -99,42 +100,27 @@ pub(crate) fn gaussian_blur(image: &Raster, sigma: f32) -> Raster {
     }
 }
 
-/// Whether this CPU runs the AVX2 builds of the passes (and of SIFT's loops).
-pub(crate) fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return std::arch::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
-/// `work()`, compiled for AVX2 where `avx2` is true (only where [`has_avx2`] is): its loops
-/// then run eight lanes wide, with the same results (the same operations in the same order,
-/// no fused multiply-add). Only where `work` is inlined here, so callers mark the closure
+/// `work()`, compiled for AVX2 where `avx2` proves the CPU has it ([`Avx2::detected`]): its
+/// loops then run eight lanes wide, with the same results (the same operations in the same
+/// order, no fused multiply-add). Only where `work` is inlined, so callers mark the closure
 /// `#[inline(always)]`: left out of line, it is compiled without AVX2.
 #[inline(always)]
-pub(crate) fn with_avx2<R>(avx2: bool, work: impl FnOnce() -> R) -> R {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        #[target_feature(enable = "avx2")]
-        fn wide<R>(work: impl FnOnce() -> R) -> R {
-            work()
-        }
-        // SAFETY: callers pass `avx2` true only where `has_avx2` found AVX2.
-        return unsafe { wide(work) };
+pub(crate) fn with_avx2<R>(avx2: Option<Avx2>, work: impl FnOnce() -> R) -> R {
+    match avx2 {
+        Some(proof) => proof.run(work),
+        None => work(),
     }
-    let _ = avx2; // read only on x86-64
-    work()
 }
 
 /// One output line of either pass: `out[x]` = centre·line(0)[x] + Σ taps[j]·(line(−d)[x] +
 /// line(d)[x]) with d = radius − j, line(t) being the input line t taps away, which starts at
 /// `source[starts[radius + t]]` and is `out`'s length rounded up to whole [`RUN`]s long (the
-/// last run's extra sums are not stored). With `avx2` (only where [`has_avx2`] is true) eight
-/// lanes wide.
+/// last run's extra sums are not stored). With `avx2` (a proof the CPU has it) eight lanes
+/// wide.
 ///
 /// # Panics
 /// If a line does not fit in `source`, or `starts` is not one per tap.
-fn convolve(source: &[f32], starts: &[usize], taps: &[f32], out: &mut [f32], avx2: bool) {
+fn convolve(source: &[f32], starts: &[usize], taps: &[f32], out: &mut [f32], avx2: Option<Avx2>) {
     let length = out.len().div_ceil(RUN) * RUN;
     assert!(
         starts.len() == taps.len()
@@ -248,8 +234,8 @@ mod tests {
                 let source: Vec<f32> = padded.concat();
                 let starts: Vec<usize> = (-r..=r).map(|t| reflect(5 + t, h) * stride).collect();
                 let (mut portable, mut wide) = (vec![0.0; w], vec![0.0; w]);
-                convolve(&source, &starts, &taps, &mut portable, false);
-                convolve(&source, &starts, &taps, &mut wide, has_avx2());
+                convolve(&source, &starts, &taps, &mut portable, None);
+                convolve(&source, &starts, &taps, &mut wide, Avx2::detected());
                 assert_eq!(portable, wide);
             }
         }
@@ -267,6 +253,6 @@ mod tests {
         let taps = kernel(1.0);
         let source = vec![0.0; RUN + taps.len() - 2];
         let starts: Vec<usize> = (0..taps.len()).collect();
-        convolve(&source, &starts, &taps, &mut [0.0; 3], has_avx2());
+        convolve(&source, &starts, &taps, &mut [0.0; 3], Avx2::detected());
     }
 }

@@ -24,9 +24,10 @@
 use rayon::prelude::*;
 
 use crate::angle::atan2_degrees;
-use crate::gaussian::{gaussian_blur, has_avx2, with_avx2};
+use crate::gaussian::{gaussian_blur, with_avx2};
 use crate::keypoints::{Features, Keypoint, QuadraticFit, neighbourhood, normalise};
 use crate::{Raster, VisionError, buffers, require};
+use omnisim::avx2::Avx2;
 
 /// SIFT's parameters; `Default` gives Lowe's (and `OpenCV`'s) values.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -184,7 +185,7 @@ fn features(image: &Raster, params: &SiftParams) -> Features {
         .map(|layers| layers.windows(2).map(|pair| difference(&pair[1], &pair[0])).collect())
         .collect();
 
-    let avx2 = has_avx2();
+    let avx2 = Avx2::detected();
     let candidates: Vec<(usize, usize)> = (0..octaves)
         .flat_map(|o| (1..=s).map(move |layer| (o, layer)))
         .collect();
@@ -273,9 +274,9 @@ struct Extremum {
     contrast: f32,
 }
 
-/// Refined extrema of `DoG` layer `layer` of one octave. With `avx2` (only where
-/// [`has_avx2`] is true) the scan's block tests run eight lanes wide; the extrema are the same.
-fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams, avx2: bool) -> Vec<Extremum> {
+/// Refined extrema of `DoG` layer `layer` of one octave. With `avx2` (a proof the CPU has it)
+/// the scan's block tests run eight lanes wide; the extrema are the same.
+fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams, avx2: Option<Avx2>) -> Vec<Extremum> {
     with_avx2(
         avx2,
         #[inline(always)]
@@ -287,7 +288,7 @@ fn extrema(dogs: &[Raster], layer: usize, params: &SiftParams, avx2: bool) -> Ve
 /// once by [`block_candidates`], and only the samples it keeps (few: a fiftieth on a 250² omni
 /// image) by the exact test; the partial block at a row's end is tested sample by sample.
 #[inline(always)]
-fn extrema_in(dogs: &[Raster], layer: usize, params: &SiftParams, avx2: bool) -> Vec<Extremum> {
+fn extrema_in(dogs: &[Raster], layer: usize, params: &SiftParams, avx2: Option<Avx2>) -> Vec<Extremum> {
     let s = params.scales_per_octave;
     let (w, h) = (dogs[layer].width, dogs[layer].height);
     let b = params.border;
@@ -337,7 +338,7 @@ const SCAN_BLOCK: usize = 8;
 /// [`extrema`]'s exact test (a NaN neighbour may be passed over here, which the exact test
 /// refuses after; a NaN sample fails both), made for [`SCAN_BLOCK`] samples at once. Blocks
 /// whose samples are all within the threshold, then blocks where none beats its own layer's 8
-/// neighbours, stop early (most of them). With `avx2` (only where [`has_avx2`] is true) in
+/// neighbours, stop early (most of them). With `avx2` (a proof the CPU has it) in
 /// AVX2 vectors, with the same result: LLVM's own vectors of the portable code spent most of
 /// their instructions moving lanes about (callgrind, omni 250² image). Testing the samples
 /// above the threshold one by one, then 8 at once against their own layer alone, was a third
@@ -346,12 +347,11 @@ const SCAN_BLOCK: usize = 8;
 /// # Panics
 /// If the block and its neighbours do not lie inside the layers ([`block_corner`]).
 #[inline(always)]
-fn block_candidates(layers: [&[f32]; 3], w: usize, start: usize, y: usize, threshold: f32, avx2: bool) -> u32 {
+fn block_candidates(layers: [&[f32]; 3], w: usize, start: usize, y: usize, threshold: f32, avx2: Option<Avx2>) -> u32 {
     let corner = block_corner(layers, w, start, y);
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: the caller passes `avx2` true only where `has_avx2` found AVX2, and
-        // `block_corner` checked every read.
+    if avx2.is_some() {
+        // SAFETY: `avx2` proves the CPU has AVX2, and `block_corner` checked every read.
         return unsafe { block_candidates_avx2(layers, w, corner, threshold) };
     }
     let _ = avx2; // read only on x86-64
@@ -977,8 +977,8 @@ mod tests {
             let slices = [&layers[0][..], &layers[1][..], &layers[2][..]];
             for y in 1..h - 1 {
                 for start in (1..w - SCAN_BLOCK).step_by(3) {
-                    let bits = block_candidates(slices, w, start, y, threshold, false);
-                    assert_eq!(bits, block_candidates(slices, w, start, y, threshold, has_avx2()));
+                    let bits = block_candidates(slices, w, start, y, threshold, None);
+                    assert_eq!(bits, block_candidates(slices, w, start, y, threshold, Avx2::detected()));
                     for i in 0..SCAN_BLOCK {
                         let x = start + i;
                         let value = layers[1][y * w + x];
@@ -1006,7 +1006,7 @@ mod tests {
     #[should_panic(expected = "a block's neighbours lie inside its layers")]
     fn a_block_at_the_layer_edge_is_refused() {
         let layer = [0.5f32; 9 * 3];
-        block_candidates([&layer[..], &layer[..], &layer[..]], 9, 1, 1, 0.1, has_avx2());
+        block_candidates([&layer[..], &layer[..], &layer[..]], 9, 1, 1, 0.1, Avx2::detected());
     }
 
     /// The AVX2 build of the extremum scan finds the same extrema as the portable one, bit for
@@ -1038,11 +1038,11 @@ mod tests {
         };
         let mut total = 0;
         for layer in 1..=params.scales_per_octave {
-            let portable = key(extrema(&dogs, layer, &params, false));
+            let portable = key(extrema(&dogs, layer, &params, None));
             total += portable.len();
             assert_eq!(
                 portable,
-                key(extrema(&dogs, layer, &params, has_avx2())),
+                key(extrema(&dogs, layer, &params, Avx2::detected())),
                 "layer {layer}"
             );
         }
@@ -1071,11 +1071,11 @@ mod tests {
         for (x, y, angle, sigma) in keypoints {
             let (mut portable, mut wide) = (vec![0.0; length], vec![0.0; length]);
             let mut scratch = Scratch::default();
-            with_avx2(false, || {
+            with_avx2(None, || {
                 descriptor(&image, (x, y), angle, sigma, &params, &mut scratch, &mut portable);
             });
             with_avx2(
-                has_avx2(),
+                Avx2::detected(),
                 #[inline(always)]
                 || descriptor(&image, (x, y), angle, sigma, &params, &mut scratch, &mut wide),
             );

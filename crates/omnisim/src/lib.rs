@@ -37,7 +37,7 @@
 
 mod accel;
 pub mod advanced;
-mod avx2;
+pub mod avx2;
 pub mod calibration;
 pub mod camera;
 pub mod frame;
