@@ -83,6 +83,46 @@ impl CentralRay {
     }
 }
 
+/// Four entries of a central table side by side, for the tile loop's lane-wise turn: each
+/// axis of their directions and their `t_min`s, entry k in lane k (loaded whole and
+/// transposed: `CentralRay` is one 256-bit row).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct FourRays {
+    pub(crate) direction: [std::arch::x86_64::__m256d; 3],
+    pub(crate) t_min: std::arch::x86_64::__m256d,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl FourRays {
+    /// The first four entries of `entries` (at least four). Compiled only into functions
+    /// built with AVX2 (`#[inline(always)]`; the tile loop's `with_avx2`), which run after the
+    /// CPU was found to have it.
+    #[inline(always)]
+    pub(crate) fn of(entries: &[CentralRay]) -> Self {
+        use std::arch::x86_64::{_mm256_load_pd, _mm256_permute2f128_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd};
+        let entries = &entries[..4];
+        let row = |k: usize| std::ptr::from_ref(&entries[k]).cast::<f64>();
+        // SAFETY: each load reads one `CentralRay`, 32 bytes aligned to 32 (`repr(C)`: its
+        // direction's x, y, z, then `t_min`); AVX as the doc comment says.
+        unsafe {
+            let (a, b) = (_mm256_load_pd(row(0)), _mm256_load_pd(row(1)));
+            let (c, d) = (_mm256_load_pd(row(2)), _mm256_load_pd(row(3)));
+            // [x0 x1 z0 z1], [y0 y1 t0 t1], [x2 x3 z2 z3], [y2 y3 t2 t3].
+            let (xz01, yt01) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+            let (xz23, yt23) = (_mm256_unpacklo_pd(c, d), _mm256_unpackhi_pd(c, d));
+            Self {
+                direction: [
+                    _mm256_permute2f128_pd::<0x20>(xz01, xz23),
+                    _mm256_permute2f128_pd::<0x20>(yt01, yt23),
+                    _mm256_permute2f128_pd::<0x31>(xz01, xz23),
+                ],
+                t_min: _mm256_permute2f128_pd::<0x31>(yt01, yt23),
+            }
+        }
+    }
+}
+
 impl Rays {
     /// `rays` in the central form where every ray starts at the same origin (bit for bit)
     /// and none has a NaN `t_min`, else as they are.
@@ -141,6 +181,7 @@ impl RayTable {
                     size,
                     shared_origin: Some(*origin),
                     ray: |index: usize| entries[index].ray(*origin),
+                    central: Some(entries),
                 };
                 tracer.trace_rays(bvh, pose, &rays)
             }
@@ -149,6 +190,7 @@ impl RayTable {
                     size,
                     shared_origin: None,
                     ray: |index: usize| rays[index],
+                    central: None,
                 };
                 tracer.trace_rays(bvh, pose, &rays)
             }
@@ -380,6 +422,7 @@ mod tests {
                     size: camera.size(),
                     shared_origin: None,
                     ray: |index: usize| camera.pixel_ray(index),
+                    central: None,
                 };
                 let own = CpuTracer::Fast.trace_rays(&bvh, &pose, &each_pixel);
                 assert_eq!(direct.pixels(), own.pixels(), "camera {index}, round {round}");

@@ -143,6 +143,37 @@ impl StagedRays {
         self.t_lo[r] = t_lo(t_min);
     }
 
+    /// Rays r to r + 3: [`StagedRays::set`] of each from `origin` along `direction` (axis by
+    /// axis, ray r + k in lane k) with `t_min`, lane by lane the same conversions (the same
+    /// bits). Compiled only into functions built with AVX2 (the tile loop's).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn set_four(
+        &mut self,
+        r: usize,
+        origin: DVec3,
+        direction: [std::arch::x86_64::__m256d; 3],
+        t_min: std::arch::x86_64::__m256d,
+    ) {
+        use std::arch::x86_64::{_mm_set1_ps, _mm_storeu_ps, _mm256_cvtpd_ps, _mm256_mul_pd, _mm256_set1_pd};
+        // Slices of four checked, then written whole (loops and plain calls, not closures,
+        // which are compiled without AVX).
+        let four = r..r + 4;
+        let origin = origin.as_vec3();
+        for axis in 0..3 {
+            let (origins, directions) = (&mut self.origin[axis][four.clone()], &mut self.direction[axis][four.clone()]);
+            // SAFETY: each store writes its slice's four f32s; AVX as the doc comment says (the
+            // conversion rounds to nearest, as `as f32` does).
+            unsafe {
+                _mm_storeu_ps(origins.as_mut_ptr(), _mm_set1_ps(origin[axis]));
+                _mm_storeu_ps(directions.as_mut_ptr(), _mm256_cvtpd_ps(direction[axis]));
+            }
+        }
+        let t_los = &mut self.t_lo[four];
+        // SAFETY: as above: `t_lo`'s product and conversion, lane by lane.
+        unsafe { _mm_storeu_ps(t_los.as_mut_ptr(), _mm256_cvtpd_ps(_mm256_mul_pd(t_min, _mm256_set1_pd(1.0 - 1e-6)))) };
+    }
+
     /// Whether ray r is a zero ray (what [`PacketRays::fill`] asks of the rays it leaves out).
     fn is_zero(&self, r: usize) -> bool {
         (0..3).all(|axis| self.origin[axis][r] == 0.0 && self.direction[axis][r] == 0.0) && self.t_lo[r] == 0.0
