@@ -26,10 +26,10 @@ use crate::camera::{Camera, CameraRay};
 use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
 use counts::{Counter, TraversalCounts};
+pub(crate) use fast::{PACKET, ShadowRays};
+use ray_table::CentralRay;
 #[cfg(target_arch = "x86_64")]
 use ray_table::FourRays;
-use ray_table::CentralRay;
-pub(crate) use fast::{PACKET, ShadowRays};
 pub use reference::{closest_hit, occluded};
 pub use triangle::Hit;
 
@@ -136,7 +136,7 @@ impl CpuTracer {
             shared_origin: rays.shared_origin.map(|origin| pose.turn_origin(origin)),
             pose,
             ray: &rays.ray,
-            central: rays.central,
+            central: rays.central.filter(|_| self.turns_four_at_a_time()),
         };
         // Every pixel is written once, by the thread that traces it, with no fill before: the
         // first touch of a large buffer's pages (fresh from the kernel for every frame, unless
@@ -168,6 +168,19 @@ impl CpuTracer {
         // unwinds past this line, leaving the length 0 (and `Pixel` is `Copy`: nothing to drop).
         unsafe { hits.set_len(pixels) };
         Frame::from_hits(width, height, hits)
+    }
+
+    /// Whether this tracer's tile loop runs in its AVX2 build ([`with_avx2`], as `trace_band`
+    /// decides), the only one that turns a central table's rays four at a time.
+    fn turns_four_at_a_time(self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self == Self::Fast && fast::use_avx2(false)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
+        }
     }
 
     /// Box and triangle tests of one frame's primary rays, summed: what [`CpuTracer::trace`]
@@ -225,12 +238,12 @@ fn trace_band(
         unsafe {
             with_avx2(
                 #[inline(always)]
-                || trace_band_in(bvh, local, row_length, band, pixels, false, true),
+                || trace_band_in(bvh, local, row_length, band, pixels, false),
             );
         }
         return;
     }
-    trace_band_in(bvh, local, row_length, band, pixels, portable, false);
+    trace_band_in(bvh, local, row_length, band, pixels, portable);
 }
 
 /// `work()` compiled with AVX2 (it is inlined here): VEX encoding and wider vectors. The f64
@@ -245,8 +258,7 @@ fn with_avx2<R>(work: impl FnOnce() -> R) -> R {
 /// [`trace_band`]'s work, `portable` as there: the band's tiles compiled once for rays of a
 /// shared origin, turned once a frame, and once for rays of their own origins (non-central
 /// mirrors), each turned. A test per ray of which it is cost the equirect 1024² frame ~4
-/// instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)"). `avx2`: this
-/// is compiled into [`with_avx2`], so a central table's rays are turned four at a time.
+/// instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
 #[inline(always)]
 fn trace_band_in(
     bvh: &SceneBvh,
@@ -255,13 +267,11 @@ fn trace_band_in(
     band: usize,
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
-    avx2: bool,
 ) {
     let band = (row_length, band);
     if let Some(origin) = local.shared_origin {
         let world_origin = bvh.offset + origin;
-        let central = local.central.filter(|_| avx2);
-        trace_tiles(bvh, local, band, pixels, portable, central, |_| origin, |_| world_origin);
+        trace_tiles(bvh, local, band, pixels, portable, |_| origin, |_| world_origin);
     } else {
         trace_tiles(
             bvh,
@@ -269,7 +279,6 @@ fn trace_band_in(
             band,
             pixels,
             portable,
-            None,
             |origin| local.pose.turn_origin(origin),
             |origin| bvh.offset + origin,
         );
@@ -280,11 +289,10 @@ fn trace_band_in(
 /// body-frame one, and its world position by `world_origin` of the scene-local one (the
 /// shared origin's once a frame: callgrind, docs/benchmarks.md, "2026-11-26 night (small)").
 /// Each ray is converted to f32 into `room` as it is turned, and its packet made there in
-/// place (docs/benchmarks.md, "2026-11-27 (walk)"). `central`, given only inside
-/// [`with_avx2`] and for rays of the shared origin: the frame's rays as a central table's
-/// entries, whose tile rows of eight are turned and converted four rays at a time
-/// ([`LocalPose::turn_four`]; docs/benchmarks.md, "2026-11-27 morning (walk)").
-#[allow(clippy::too_many_arguments)]
+/// place (docs/benchmarks.md, "2026-11-27 (walk)"). Where the rays are a central table's
+/// (`local.central`, given only to the AVX2 build), its tile rows of eight are turned and
+/// converted four rays at a time ([`LocalPose::turn_four`]; docs/benchmarks.md, "2026-11-27
+/// morning (walk)").
 #[inline(always)]
 fn trace_tiles(
     bvh: &SceneBvh,
@@ -292,7 +300,6 @@ fn trace_tiles(
     (row_length, band): (usize, usize),
     pixels: &mut [MaybeUninit<Pixel>],
     portable: bool,
-    central: Option<&[CentralRay]>,
     turn_origin: impl Fn(DVec3) -> DVec3,
     world_origin: impl Fn(DVec3) -> DVec3,
 ) {
@@ -316,7 +323,7 @@ fn trace_tiles(
         let mut r = 0;
         for offsets in rows_of_tile.clone() {
             #[cfg(target_arch = "x86_64")]
-            if let Some(entries) = central
+            if let Some(entries) = local.central
                 && offsets.len() == 8
             {
                 let row = &entries[first_pixel + offsets.start..][..8];
@@ -328,8 +335,6 @@ fn trace_tiles(
                 }
                 continue;
             }
-            #[cfg(not(target_arch = "x86_64"))]
-            let _ = central;
             for offset in offsets {
                 if let Some(ray) = (local.ray)(first_pixel + offset) {
                     room.set(
@@ -357,7 +362,11 @@ fn trace_tiles(
         fetch_faces_ahead(bvh, &found);
         for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
             let rays_of_row = first_ray..first_ray + columns;
-            for ((pixel_out, found), r) in pixels[offsets].iter_mut().zip(&found[rays_of_row.clone()]).zip(rays_of_row) {
+            for ((pixel_out, found), r) in pixels[offsets]
+                .iter_mut()
+                .zip(&found[rays_of_row.clone()])
+                .zip(rays_of_row)
+            {
                 pixel_out.write(match *found {
                     Some(hit) => {
                         let (origin, direction, _) = room.rays.ray(r);
@@ -417,6 +426,7 @@ struct LocalRays<'a, F> {
     pose: LocalPose,
     shared_origin: Option<DVec3>,
     ray: &'a F,
+    /// [`FrameRays::central`] where the tile loop turns them four at a time, else `None`.
     central: Option<&'a [CentralRay]>,
 }
 

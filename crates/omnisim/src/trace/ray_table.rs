@@ -390,6 +390,63 @@ mod tests {
         }
     }
 
+    /// A central table's rays turned four at a time (the tile loop's AVX2 path) are the rays
+    /// turned one by one, bit for bit in f64 and in f32, and the pixel without a ray is left
+    /// out as one by one.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn rays_turned_four_at_a_time_are_the_rays_turned_one_by_one() {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked on the line above).
+            unsafe { turned_four_at_a_time() };
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn turned_four_at_a_time() {
+        use crate::trace::{LocalPose, fast::PacketRoom};
+        let (_, bvh) = crate::trace::test_scene("env1");
+        let pose = LocalPose::new(&bvh, &Pose::new(dvec3(1.5, 0.1, 0.4), dvec3(0.3, -0.2, 1.1)));
+        let entries: Vec<CentralRay> = (0..8)
+            .map(|k| {
+                let angle = 0.7 * f64::from(k) + 0.1;
+                let direction = dvec3(angle.cos(), angle.sin(), 0.3 - 0.1 * f64::from(k)).normalize();
+                match k {
+                    5 => CentralRay {
+                        direction: DVec3::ZERO,
+                        t_min: f64::NAN,
+                    },
+                    _ => CentralRay {
+                        direction,
+                        t_min: 1e-3 * f64::from(k),
+                    },
+                }
+            })
+            .collect();
+        let origin = dvec3(0.25, -1.5, 0.75);
+        let (mut fours, mut ones) = (Box::<PacketRoom>::default(), Box::<PacketRoom>::default());
+        let mut set = 0u64;
+        for first in [0, 4] {
+            let rays = pose.turn_four(FourRays::of(&entries[first..]));
+            set |= u64::from(fours.set_four(first, origin, &rays)) << first;
+        }
+        for (r, entry) in entries.iter().enumerate() {
+            match entry.direction() {
+                Some(direction) => ones.set(r, origin, pose.turn_direction(direction), entry.t_min),
+                None => ones.clear(r),
+            }
+        }
+        assert_eq!(set, 0b1101_1111, "the pixel without a ray is left out");
+        for r in 0..8 {
+            let (four, one) = (fours.bits(r), ones.bits(r));
+            assert_eq!(four.1, one.1, "ray {r}'s f32 staging");
+            if set >> r & 1 != 0 {
+                assert_eq!(four.0, one.0, "ray {r}'s f64 ray");
+            }
+        }
+    }
+
     /// Frames traced from tables (both forms; the mirrors' with pixels without rays) equal
     /// frames traced from the camera's ray source (how frames too large for a table are
     /// traced), which equal frames traced from each pixel's own ray; and the cache keeps the

@@ -213,6 +213,14 @@ impl PacketRoom {
         !missing & 0xf
     }
 
+    /// Ray r as set: its f64 origin, direction and `t_min`, then its f32 staging, as bits.
+    #[cfg(test)]
+    pub(crate) fn bits(&self, r: usize) -> (Vec<u64>, [u32; 7]) {
+        let (origin, direction, t_min) = self.rays.ray(r);
+        let f64s = [origin.to_array(), direction.to_array(), [t_min; 3]].concat();
+        (f64s.into_iter().map(f64::to_bits).collect(), self.staged.bits(r))
+    }
+
     /// No ray r in the next packet (a pixel without a ray, a lane past a tile's edge).
     #[inline(always)]
     pub(crate) fn clear(&mut self, r: usize) {
