@@ -441,8 +441,8 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
         if !SURFACES && appearance.lighting.is_none() {
             // Every hit flat: its face's byte, looked up with the miss folded into the bounds
             // check (`NO_FACE` is past every face), and no lighting asked per pixel (env1 omni
-            // 250²: ~25 → ~14 instructions a hit pixel; docs/benchmarks.md, "2026-11-27
-            // morning (walk)").
+            // 250², the colour pass with its chunk loop: ~22 → ~18 instructions a pixel;
+            // docs/benchmarks.md, "2026-11-27 morning (walk)").
             let colours = &appearance.face_colours;
             eight_bit_frame(frame, planes, |_, hit| {
                 colours.get(hit.face as usize).copied().unwrap_or(BACKGROUND)

@@ -136,7 +136,7 @@ impl CpuTracer {
             shared_origin: rays.shared_origin.map(|origin| pose.turn_origin(origin)),
             pose,
             ray: &rays.ray,
-            central: rays.central.filter(|_| self.turns_four_at_a_time()),
+            central: rays.central,
         };
         // Every pixel is written once, by the thread that traces it, with no fill before: the
         // first touch of a large buffer's pages (fresh from the kernel for every frame, unless
@@ -168,19 +168,6 @@ impl CpuTracer {
         // unwinds past this line, leaving the length 0 (and `Pixel` is `Copy`: nothing to drop).
         unsafe { hits.set_len(pixels) };
         Frame::from_hits(width, height, hits)
-    }
-
-    /// Whether this tracer's tile loop runs in its AVX2 build ([`with_avx2`], as `trace_band`
-    /// decides), the only one that turns a central table's rays four at a time.
-    fn turns_four_at_a_time(self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self == Self::Fast && fast::use_avx2(false)
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
     }
 
     /// Box and triangle tests of one frame's primary rays, summed: what [`CpuTracer::trace`]
@@ -243,6 +230,11 @@ fn trace_band(
         }
         return;
     }
+    // The build without AVX2 never turns rays four at a time: the table is not handed over.
+    let local = &LocalRays {
+        central: None,
+        ..*local
+    };
     trace_band_in(bvh, local, row_length, band, pixels, portable);
 }
 
@@ -290,9 +282,9 @@ fn trace_band_in(
 /// shared origin's once a frame: callgrind, docs/benchmarks.md, "2026-11-26 night (small)").
 /// Each ray is converted to f32 into `room` as it is turned, and its packet made there in
 /// place (docs/benchmarks.md, "2026-11-27 (walk)"). Where the rays are a central table's
-/// (`local.central`, given only to the AVX2 build), its tile rows of eight are turned and
-/// converted four rays at a time ([`LocalPose::turn_four`]; docs/benchmarks.md, "2026-11-27
-/// morning (walk)").
+/// (`local.central`, which `trace_band` hands over to the AVX2 build only) with their shared
+/// origin, its tile rows of eight are turned and converted four rays at a time
+/// ([`LocalPose::turn_four`]; docs/benchmarks.md, "2026-11-27 morning (walk)").
 #[inline(always)]
 fn trace_tiles(
     bvh: &SceneBvh,
@@ -315,6 +307,8 @@ fn trace_tiles(
     // made from them in place. Every tile sets all it reads, so what a room holds is never
     // read by the next band.
     let mut room = ROOM.take().unwrap_or_default();
+    #[cfg(target_arch = "x86_64")]
+    let central = local.central.zip(local.shared_origin);
     for column in (0..row_length).step_by(8) {
         // The tile's rows as ranges of the band, walked by plain loops: [`tile`]'s flat
         // iterator cost 15 instructions a ray.
@@ -323,14 +317,18 @@ fn trace_tiles(
         let mut r = 0;
         for offsets in rows_of_tile.clone() {
             #[cfg(target_arch = "x86_64")]
-            if let Some(entries) = local.central
+            if let Some((entries, origin)) = central
                 && offsets.len() == 8
             {
                 let row = &entries[first_pixel + offsets.start..][..8];
-                let origin = local.shared_origin.unwrap_or_default();
                 for four in [&row[..4], &row[4..]] {
-                    let rays = pose.turn_four(FourRays::of(four));
-                    active |= u64::from(room.set_four(r, origin, &rays)) << r;
+                    // SAFETY: the CPU has AVX2: `local.central` is a table only where
+                    // `trace_band` found AVX2 and runs this in `with_avx2` (its other arm
+                    // hands over none).
+                    unsafe {
+                        let rays = pose.turn_four(FourRays::of(four));
+                        active |= u64::from(room.set_four(r, origin, &rays)) << r;
+                    }
                     r += 4;
                 }
                 continue;
@@ -426,7 +424,11 @@ struct LocalRays<'a, F> {
     pose: LocalPose,
     shared_origin: Option<DVec3>,
     ray: &'a F,
-    /// [`FrameRays::central`] where the tile loop turns them four at a time, else `None`.
+    /// [`FrameRays::central`]; `None` in the tile loop's build without AVX2 (`trace_band`).
+    #[cfg_attr(
+        not(target_arch = "x86_64"),
+        expect(dead_code, reason = "only the x86_64 AVX2 tile loop turns four rays at a time")
+    )]
     central: Option<&'a [CentralRay]>,
 }
 
@@ -464,6 +466,7 @@ fn pixel_from(bvh: &SceneBvh, world_origin: DVec3, direction: DVec3, hit: Hit) -
 }
 
 /// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
+#[derive(Clone, Copy)]
 pub(crate) struct LocalPose {
     world_from_body: DMat3,
     origin: DVec3,
@@ -496,18 +499,20 @@ impl LocalPose {
 
     /// [`LocalPose::turn_direction`] of four rays' directions at once, lane by lane the same
     /// products and sums in the same order (glam's `DMat3 * DVec3`: the x, then y, then z
-    /// column, no fused multiply-add), so the same bits. Compiled only into [`with_avx2`].
+    /// column, no fused multiply-add), so the same bits.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (this is compiled into the tile loop's AVX2 build, [`with_avx2`]).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn turn_four(&self, rays: FourRays) -> FourRays {
+    unsafe fn turn_four(&self, rays: FourRays) -> FourRays {
         use std::arch::x86_64::{_mm256_add_pd, _mm256_mul_pd, _mm256_set1_pd};
         let [x, y, z] = rays.direction;
         let m = &self.world_from_body;
         // A loop, not closures, which are compiled without AVX (their intrinsics calls).
         let mut direction = rays.direction;
         for (k, turned) in direction.iter_mut().enumerate() {
-            // SAFETY: AVX, which `with_avx2` (the only caller, inlined) is compiled with and
-            // checked for.
+            // SAFETY: AVX2 as the caller promises.
             *turned = unsafe {
                 let res = _mm256_mul_pd(_mm256_set1_pd(m.x_axis[k]), x);
                 let res = _mm256_add_pd(res, _mm256_mul_pd(_mm256_set1_pd(m.y_axis[k]), y));

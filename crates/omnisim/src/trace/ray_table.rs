@@ -95,16 +95,17 @@ pub(crate) struct FourRays {
 
 #[cfg(target_arch = "x86_64")]
 impl FourRays {
-    /// The first four entries of `entries` (at least four). Compiled only into functions
-    /// built with AVX2 (`#[inline(always)]`; the tile loop's `with_avx2`), which run after the
-    /// CPU was found to have it.
+    /// The first four entries of `entries` (at least four).
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (this is compiled into the tile loop's AVX2 build, `with_avx2`).
     #[inline(always)]
-    pub(crate) fn of(entries: &[CentralRay]) -> Self {
+    pub(crate) unsafe fn of(entries: &[CentralRay]) -> Self {
         use std::arch::x86_64::{_mm256_load_pd, _mm256_permute2f128_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd};
         let entries = &entries[..4];
         let row = |k: usize| std::ptr::from_ref(&entries[k]).cast::<f64>();
         // SAFETY: each load reads one `CentralRay`, 32 bytes aligned to 32 (`repr(C)`: its
-        // direction's x, y, z, then `t_min`); AVX as the doc comment says.
+        // direction's x, y, z, then `t_min`); AVX2 as the caller promises.
         unsafe {
             let (a, b) = (_mm256_load_pd(row(0)), _mm256_load_pd(row(1)));
             let (c, d) = (_mm256_load_pd(row(2)), _mm256_load_pd(row(3)));
@@ -428,8 +429,11 @@ mod tests {
         let (mut fours, mut ones) = (Box::<PacketRoom>::default(), Box::<PacketRoom>::default());
         let mut set = 0u64;
         for first in [0, 4] {
-            let rays = pose.turn_four(FourRays::of(&entries[first..]));
-            set |= u64::from(fours.set_four(first, origin, &rays)) << first;
+            // SAFETY: this function is built with AVX2 and called only where the CPU has it.
+            unsafe {
+                let rays = pose.turn_four(FourRays::of(&entries[first..]));
+                set |= u64::from(fours.set_four(first, origin, &rays)) << first;
+            }
         }
         for (r, entry) in entries.iter().enumerate() {
             match entry.direction() {
@@ -463,6 +467,8 @@ mod tests {
             Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
             Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
             Camera::Cylindrical(Cylindrical::with_vertical_fov(48, 20, 1.5)),
+            // Rows of 41: a central table's right-edge tiles take the one-by-one turn.
+            Camera::Pinhole(Pinhole::with_horizontal_fov(41, 30, 1.2)),
         ];
         let mut central = Vec::new();
         for round in 0..2 {
@@ -491,7 +497,7 @@ mod tests {
         }
         assert_eq!(
             central,
-            [true, true, true, true, false, true].repeat(2),
+            [true, true, true, true, false, true, true].repeat(2),
             "both forms are traced"
         );
         let tables = cache.tables.lock().unwrap();

@@ -148,10 +148,13 @@ impl StagedRays {
 
     /// Rays r to r + 3: [`StagedRays::set`] of each from `origin` along `direction` (axis by
     /// axis, ray r + k in lane k) with `t_min`, lane by lane the same conversions (the same
-    /// bits). Compiled only into functions built with AVX2 (the tile loop's).
+    /// bits).
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (this is compiled into the tile loop's AVX2 build).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    pub(crate) fn set_four(
+    pub(crate) unsafe fn set_four(
         &mut self,
         r: usize,
         origin: DVec3,
@@ -168,7 +171,7 @@ impl StagedRays {
                 &mut self.origin[axis][four.clone()],
                 &mut self.direction[axis][four.clone()],
             );
-            // SAFETY: each store writes its slice's four f32s; AVX as the doc comment says (the
+            // SAFETY: each store writes its slice's four f32s; AVX2 as the caller promises (the
             // conversion rounds to nearest, as `as f32` does).
             unsafe {
                 _mm_storeu_ps(origins.as_mut_ptr(), _mm_set1_ps(origin[axis]));
@@ -181,8 +184,8 @@ impl StagedRays {
             _mm_storeu_ps(
                 t_los.as_mut_ptr(),
                 _mm256_cvtpd_ps(_mm256_mul_pd(t_min, _mm256_set1_pd(T_LO_FACTOR))),
-            )
-        };
+            );
+        }
     }
 
     /// Ray r's f32 origin, direction and `t_lo`, as bits.
