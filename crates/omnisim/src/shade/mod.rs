@@ -438,34 +438,25 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
     if !planes.contains(Plane::LinearColour) {
         // Without the linear plane, nothing of it is stored (nor computed for unlit scenes):
         // env2's omni images, colour, 811–826 → 959–987 images/s (docs/benchmarks.md).
-        // In chunks whose loop inlines the pixel's work: as a rayon `map` each pixel was a call
-        // (perf, env1 omni colour: 7 % of a frame). Every pixel is written once, misses too,
-        // with no fill before: a fill cost 5 instructions a pixel (docs/benchmarks.md,
-        // "2026-11-26 afternoon (pixel)").
-        const CHUNK: usize = 4096;
-        let pixels = frame.pixels().len();
-        let mut colour = Vec::with_capacity(pixels);
-        colour.spare_capacity_mut()[..pixels]
-            .par_chunks_mut(CHUNK)
-            .zip(frame.pixels().par_chunks(CHUNK))
-            .enumerate()
-            .for_each(|(chunk, (colour, hits))| {
-                for (offset, (colour, hit)) in colour.iter_mut().zip(hits).enumerate() {
-                    colour.write(if hit.is_hit() {
-                        let surface = surface_of(hit);
-                        let index = chunk * CHUNK + offset;
-                        eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
-                    } else {
-                        BACKGROUND
-                    });
+        if !SURFACES && appearance.lighting.is_none() {
+            // Every hit flat: its face's byte, looked up with the miss folded into the bounds
+            // check (`NO_FACE` is past every face), and no lighting asked per pixel (env1 omni
+            // 250², the colour pass with its chunk loop: ~22 → ~18 instructions a pixel;
+            // docs/benchmarks.md, "2026-11-27 morning (walk)").
+            let colours = &appearance.face_colours;
+            eight_bit_frame(frame, planes, |_, hit| {
+                colours.get(hit.face as usize).copied().unwrap_or(BACKGROUND)
+            });
+        } else {
+            eight_bit_frame(frame, planes, |index, hit| {
+                if hit.is_hit() {
+                    let surface = surface_of(hit);
+                    eight_bit(appearance, hit, flat(surface), || linear(index, hit, surface))
+                } else {
+                    BACKGROUND
                 }
             });
-        // SAFETY: the loop above wrote each of the first `pixels` entries: the colour chunks
-        // are zipped with the frame's pixel chunks of the same size and count (both hold
-        // `pixels` entries), and each chunk's loop writes every pixel of it. A panic there
-        // unwinds past this line, leaving the length 0.
-        unsafe { colour.set_len(pixels) };
-        frame.set_shading(planes, Vec::new(), colour);
+        }
         return;
     }
     let (linear, colour) = frame
@@ -485,6 +476,33 @@ fn shade_planes<const SURFACES: bool>(appearance: &Appearance, lux: &[DVec3], fr
         })
         .unzip();
     frame.set_shading(planes, linear, colour);
+}
+
+/// Sets `frame`'s 8-bit colour plane alone (`planes` has no linear colour), pixel `index`'s
+/// colour `colour_of(index, pixel)`, on all CPU threads. In chunks whose loop inlines the
+/// pixel's work: as a rayon `map` each pixel was a call (perf, env1 omni colour: 7 % of a
+/// frame). Every pixel is written once, misses too, with no fill before: a fill cost 5
+/// instructions a pixel (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
+#[inline(always)]
+fn eight_bit_frame(frame: &mut Frame, planes: Planes, colour_of: impl Fn(usize, &Pixel) -> [u8; 3] + Sync) {
+    const CHUNK: usize = 4096;
+    let pixels = frame.pixels().len();
+    let mut colour = Vec::with_capacity(pixels);
+    colour.spare_capacity_mut()[..pixels]
+        .par_chunks_mut(CHUNK)
+        .zip(frame.pixels().par_chunks(CHUNK))
+        .enumerate()
+        .for_each(|(chunk, (colour, hits))| {
+            for (offset, (colour, hit)) in colour.iter_mut().zip(hits).enumerate() {
+                colour.write(colour_of(chunk * CHUNK + offset, hit));
+            }
+        });
+    // SAFETY: the loop above wrote each of the first `pixels` entries: the colour chunks are
+    // zipped with the frame's pixel chunks of the same size and count (both hold `pixels`
+    // entries), and each chunk's loop writes every pixel of it. A panic there unwinds past
+    // this line, leaving the length 0.
+    unsafe { colour.set_len(pixels) };
+    frame.set_shading(planes, Vec::new(), colour);
 }
 
 /// Whether a hit on a face with `surface` is flat: unlit and without a surface, so its 8-bit

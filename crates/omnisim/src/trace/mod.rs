@@ -14,6 +14,7 @@ pub(crate) mod ray_table;
 pub(crate) mod reference;
 pub(crate) mod triangle;
 
+use std::cell::Cell;
 use std::mem::MaybeUninit;
 use std::ops::Range;
 
@@ -26,6 +27,9 @@ use crate::frame::{Frame, Pixel};
 use crate::pose::Pose;
 use counts::{Counter, TraversalCounts};
 pub(crate) use fast::{PACKET, ShadowRays};
+use ray_table::CentralRay;
+#[cfg(target_arch = "x86_64")]
+use ray_table::FourRays;
 pub use reference::{closest_hit, occluded};
 pub use triangle::Hit;
 
@@ -114,6 +118,7 @@ impl CpuTracer {
             size: camera.size(),
             shared_origin: source.shared_origin(),
             ray: |index| source.ray(index),
+            central: None,
         };
         self.trace_rays(bvh, pose, &rays)
     }
@@ -123,7 +128,7 @@ impl CpuTracer {
         self,
         bvh: &SceneBvh,
         pose: &Pose,
-        rays: &FrameRays<impl Fn(usize) -> Option<CameraRay> + Sync>,
+        rays: &FrameRays<'_, impl Fn(usize) -> Option<CameraRay> + Sync>,
     ) -> Frame {
         let (width, height) = rays.size;
         let pose = LocalPose::new(bvh, pose);
@@ -131,6 +136,7 @@ impl CpuTracer {
             shared_origin: rays.shared_origin.map(|origin| pose.turn_origin(origin)),
             pose,
             ray: &rays.ray,
+            central: rays.central,
         };
         // Every pixel is written once, by the thread that traces it, with no fill before: the
         // first touch of a large buffer's pages (fresh from the kernel for every frame, unless
@@ -224,6 +230,11 @@ fn trace_band(
         }
         return;
     }
+    // The build without AVX2 never turns rays four at a time: the table is not handed over.
+    let local = &LocalRays {
+        central: None,
+        ..*local
+    };
     trace_band_in(bvh, local, row_length, band, pixels, portable);
 }
 
@@ -270,7 +281,10 @@ fn trace_band_in(
 /// body-frame one, and its world position by `world_origin` of the scene-local one (the
 /// shared origin's once a frame: callgrind, docs/benchmarks.md, "2026-11-26 night (small)").
 /// Each ray is converted to f32 into `room` as it is turned, and its packet made there in
-/// place (docs/benchmarks.md, "2026-11-27 (walk)").
+/// place (docs/benchmarks.md, "2026-11-27 (walk)"). Where the rays are a central table's
+/// (`local.central`, which `trace_band` hands over to the AVX2 build only) with their shared
+/// origin, its tile rows of eight are turned and converted four rays at a time
+/// ([`LocalPose::turn_four`]; docs/benchmarks.md, "2026-11-27 morning (walk)").
 #[inline(always)]
 fn trace_tiles(
     bvh: &SceneBvh,
@@ -286,10 +300,15 @@ fn trace_tiles(
     let mut found = [None; PACKET];
     let pose = &local.pose;
     let first_pixel = band * 8 * row_length;
-    // One packet room per band (made once a rayon job instead, it measured 0.1–0.4 % more:
-    // docs/benchmarks.md, "2026-11-27 (walk)"): each tile's rays kept in f64 and converted to
-    // f32 as they are turned, and its packet made from them in place.
-    let mut room = fast::PacketRoom::default();
+    // The thread's packet room, taken for the band and given back after it (made afresh per
+    // band, its ~8 kB were zeroed 32 times a 250² frame: docs/benchmarks.md, "2026-11-27
+    // morning (walk)"; once a rayon job, it measured 0.1–0.4 % more, "2026-11-27 (walk)"):
+    // each tile's rays kept in f64 and converted to f32 as they are turned, and its packet
+    // made from them in place. Every tile sets all it reads, so what a room holds is never
+    // read by the next band.
+    let mut room = ROOM.take().unwrap_or_default();
+    #[cfg(target_arch = "x86_64")]
+    let central = local.central.zip(local.shared_origin);
     for column in (0..row_length).step_by(8) {
         // The tile's rows as ranges of the band, walked by plain loops: [`tile`]'s flat
         // iterator cost 15 instructions a ray.
@@ -297,6 +316,23 @@ fn trace_tiles(
         let mut active = 0u64;
         let mut r = 0;
         for offsets in rows_of_tile.clone() {
+            #[cfg(target_arch = "x86_64")]
+            if let Some((entries, origin)) = central
+                && offsets.len() == 8
+            {
+                let row = &entries[first_pixel + offsets.start..][..8];
+                for four in [&row[..4], &row[4..]] {
+                    // SAFETY: the CPU has AVX2: `local.central` is a table only where
+                    // `trace_band` found AVX2 and runs this in `with_avx2` (its other arm
+                    // hands over none).
+                    unsafe {
+                        let rays = pose.turn_four(FourRays::of(four));
+                        active |= u64::from(room.set_four(r, origin, &rays)) << r;
+                    }
+                    r += 4;
+                }
+                continue;
+            }
             for offset in offsets {
                 if let Some(ray) = (local.ray)(first_pixel + offset) {
                     room.set(
@@ -324,15 +360,27 @@ fn trace_tiles(
         fetch_faces_ahead(bvh, &found);
         for (offsets, first_ray) in rows_of_tile.zip((0..PACKET).step_by(columns)) {
             let rays_of_row = first_ray..first_ray + columns;
-            let row_rays = room.rays[rays_of_row.clone()].iter().zip(&found[rays_of_row]);
-            for (pixel_out, (&(origin, direction, _), found)) in pixels[offsets].iter_mut().zip(row_rays) {
+            for ((pixel_out, found), r) in pixels[offsets]
+                .iter_mut()
+                .zip(&found[rays_of_row.clone()])
+                .zip(rays_of_row)
+            {
                 pixel_out.write(match *found {
-                    Some(hit) => pixel_from(bvh, world_origin(origin), direction, hit),
+                    Some(hit) => {
+                        let (origin, direction, _) = room.rays.ray(r);
+                        pixel_from(bvh, world_origin(origin), direction, hit)
+                    }
                     None => Pixel::MISS,
                 });
             }
         }
     }
+    ROOM.set(Some(room));
+}
+
+thread_local! {
+    /// Each thread's packet room between the bands it traces (`trace_tiles`).
+    static ROOM: Cell<Option<Box<fast::PacketRoom>>> = const { Cell::new(None) };
 }
 
 /// Starts reading the faces and face normals of a tile's hits before [`pixel`] needs them: in
@@ -361,10 +409,13 @@ const FETCH_FACES_FROM: usize = 1 << 16;
 /// `shared_origin`, where given, is every ray's origin bit for bit (a central ray table's, a
 /// panorama's): it is turned once a frame, and no ray's origin is compared with the last one
 /// turned (docs/benchmarks.md, "2026-11-26 afternoon (pixel)").
-pub(crate) struct FrameRays<F> {
+pub(crate) struct FrameRays<'a, F> {
     pub(crate) size: (u32, u32),
     pub(crate) shared_origin: Option<DVec3>,
     pub(crate) ray: F,
+    /// The same rays as a central ray table's entries, where they are (`ray` reads them
+    /// too): the tile loop then turns them four at a time (`shared_origin` is the table's).
+    pub(crate) central: Option<&'a [CentralRay]>,
 }
 
 /// [`FrameRays`] made ready for tracing at one pose: the shared origin, if any, turned into
@@ -373,6 +424,12 @@ struct LocalRays<'a, F> {
     pose: LocalPose,
     shared_origin: Option<DVec3>,
     ray: &'a F,
+    /// [`FrameRays::central`]; `None` in the tile loop's build without AVX2 (`trace_band`).
+    #[cfg_attr(
+        not(target_arch = "x86_64"),
+        expect(dead_code, reason = "only the x86_64 AVX2 tile loop turns four rays at a time")
+    )]
+    central: Option<&'a [CentralRay]>,
 }
 
 /// The pixels of the 8×8 tile at `column` of a band of `rows` ≤ 8 rows of `row_length` pixels,
@@ -409,6 +466,7 @@ fn pixel_from(bvh: &SceneBvh, world_origin: DVec3, direction: DVec3, hit: Hit) -
 }
 
 /// A pose made ready for tracing: rotation, and the viewpoint relative to the BVH's offset.
+#[derive(Clone, Copy)]
 pub(crate) struct LocalPose {
     world_from_body: DMat3,
     origin: DVec3,
@@ -437,6 +495,34 @@ impl LocalPose {
     #[inline(always)]
     fn turn_direction(&self, direction: DVec3) -> DVec3 {
         self.world_from_body * direction
+    }
+
+    /// [`LocalPose::turn_direction`] of four rays' directions at once, lane by lane the same
+    /// products and sums in the same order (glam's `DMat3 * DVec3`: the x, then y, then z
+    /// column, no fused multiply-add), so the same bits.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (this is compiled into the tile loop's AVX2 build, [`with_avx2`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn turn_four(&self, rays: FourRays) -> FourRays {
+        use std::arch::x86_64::{_mm256_add_pd, _mm256_mul_pd, _mm256_set1_pd};
+        let [x, y, z] = rays.direction;
+        let m = &self.world_from_body;
+        // A loop, not closures, which are compiled without AVX (their intrinsics calls).
+        let mut direction = rays.direction;
+        for (k, turned) in direction.iter_mut().enumerate() {
+            // SAFETY: AVX2 as the caller promises.
+            *turned = unsafe {
+                let res = _mm256_mul_pd(_mm256_set1_pd(m.x_axis[k]), x);
+                let res = _mm256_add_pd(res, _mm256_mul_pd(_mm256_set1_pd(m.y_axis[k]), y));
+                _mm256_add_pd(res, _mm256_mul_pd(_mm256_set1_pd(m.z_axis[k]), z))
+            };
+        }
+        FourRays {
+            direction,
+            t_min: rays.t_min,
+        }
     }
 }
 

@@ -83,6 +83,47 @@ impl CentralRay {
     }
 }
 
+/// Four entries of a central table side by side, for the tile loop's lane-wise turn: each
+/// axis of their directions and their `t_min`s, entry k in lane k (loaded whole and
+/// transposed: `CentralRay` is one 256-bit row).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct FourRays {
+    pub(crate) direction: [std::arch::x86_64::__m256d; 3],
+    pub(crate) t_min: std::arch::x86_64::__m256d,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl FourRays {
+    /// The first four entries of `entries` (at least four).
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (this is compiled into the tile loop's AVX2 build, `with_avx2`).
+    #[inline(always)]
+    pub(crate) unsafe fn of(entries: &[CentralRay]) -> Self {
+        use std::arch::x86_64::{_mm256_load_pd, _mm256_permute2f128_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd};
+        let entries = &entries[..4];
+        let row = |k: usize| std::ptr::from_ref(&entries[k]).cast::<f64>();
+        // SAFETY: each load reads one `CentralRay`, 32 bytes aligned to 32 (`repr(C)`: its
+        // direction's x, y, z, then `t_min`); AVX2 as the caller promises.
+        unsafe {
+            let (a, b) = (_mm256_load_pd(row(0)), _mm256_load_pd(row(1)));
+            let (c, d) = (_mm256_load_pd(row(2)), _mm256_load_pd(row(3)));
+            // [x0 x1 z0 z1], [y0 y1 t0 t1], [x2 x3 z2 z3], [y2 y3 t2 t3].
+            let (xz01, yt01) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+            let (xz23, yt23) = (_mm256_unpacklo_pd(c, d), _mm256_unpackhi_pd(c, d));
+            Self {
+                direction: [
+                    _mm256_permute2f128_pd::<0x20>(xz01, xz23),
+                    _mm256_permute2f128_pd::<0x20>(yt01, yt23),
+                    _mm256_permute2f128_pd::<0x31>(xz01, xz23),
+                ],
+                t_min: _mm256_permute2f128_pd::<0x31>(yt01, yt23),
+            }
+        }
+    }
+}
+
 impl Rays {
     /// `rays` in the central form where every ray starts at the same origin (bit for bit)
     /// and none has a NaN `t_min`, else as they are.
@@ -141,6 +182,7 @@ impl RayTable {
                     size,
                     shared_origin: Some(*origin),
                     ray: |index: usize| entries[index].ray(*origin),
+                    central: Some(entries),
                 };
                 tracer.trace_rays(bvh, pose, &rays)
             }
@@ -149,6 +191,7 @@ impl RayTable {
                     size,
                     shared_origin: None,
                     ray: |index: usize| rays[index],
+                    central: None,
                 };
                 tracer.trace_rays(bvh, pose, &rays)
             }
@@ -348,6 +391,66 @@ mod tests {
         }
     }
 
+    /// A central table's rays turned four at a time (the tile loop's AVX2 path) are the rays
+    /// turned one by one, bit for bit in f64 and in f32, and the pixel without a ray is left
+    /// out as one by one.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn rays_turned_four_at_a_time_are_the_rays_turned_one_by_one() {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked on the line above).
+            unsafe { turned_four_at_a_time() };
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn turned_four_at_a_time() {
+        use crate::trace::{LocalPose, fast::PacketRoom};
+        let (_, bvh) = crate::trace::test_scene("env1");
+        let pose = LocalPose::new(&bvh, &Pose::new(dvec3(1.5, 0.1, 0.4), dvec3(0.3, -0.2, 1.1)));
+        let entries: Vec<CentralRay> = (0..8)
+            .map(|k| {
+                let angle = 0.7 * f64::from(k) + 0.1;
+                let direction = dvec3(angle.cos(), angle.sin(), 0.3 - 0.1 * f64::from(k)).normalize();
+                match k {
+                    5 => CentralRay {
+                        direction: DVec3::ZERO,
+                        t_min: f64::NAN,
+                    },
+                    _ => CentralRay {
+                        direction,
+                        t_min: 1e-3 * f64::from(k),
+                    },
+                }
+            })
+            .collect();
+        let origin = dvec3(0.25, -1.5, 0.75);
+        let (mut fours, mut ones) = (Box::<PacketRoom>::default(), Box::<PacketRoom>::default());
+        let mut set = 0u64;
+        for first in [0, 4] {
+            // SAFETY: this function is built with AVX2 and called only where the CPU has it.
+            unsafe {
+                let rays = pose.turn_four(FourRays::of(&entries[first..]));
+                set |= u64::from(fours.set_four(first, origin, &rays)) << first;
+            }
+        }
+        for (r, entry) in entries.iter().enumerate() {
+            match entry.direction() {
+                Some(direction) => ones.set(r, origin, pose.turn_direction(direction), entry.t_min),
+                None => ones.clear(r),
+            }
+        }
+        assert_eq!(set, 0b1101_1111, "the pixel without a ray is left out");
+        for r in 0..8 {
+            let (four, one) = (fours.bits(r), ones.bits(r));
+            assert_eq!(four.1, one.1, "ray {r}'s f32 staging");
+            if set >> r & 1 != 0 {
+                assert_eq!(four.0, one.0, "ray {r}'s f64 ray");
+            }
+        }
+    }
+
     /// Frames traced from tables (both forms; the mirrors' with pixels without rays) equal
     /// frames traced from the camera's ray source (how frames too large for a table are
     /// traced), which equal frames traced from each pixel's own ray; and the cache keeps the
@@ -364,6 +467,8 @@ mod tests {
             Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians()))),
             Camera::Catadioptric(Catadioptric::spherical(64, 64, 0.05, 0.3)),
             Camera::Cylindrical(Cylindrical::with_vertical_fov(48, 20, 1.5)),
+            // Rows of 41: a central table's right-edge tiles take the one-by-one turn.
+            Camera::Pinhole(Pinhole::with_horizontal_fov(41, 30, 1.2)),
         ];
         let mut central = Vec::new();
         for round in 0..2 {
@@ -380,6 +485,7 @@ mod tests {
                     size: camera.size(),
                     shared_origin: None,
                     ray: |index: usize| camera.pixel_ray(index),
+                    central: None,
                 };
                 let own = CpuTracer::Fast.trace_rays(&bvh, &pose, &each_pixel);
                 assert_eq!(direct.pixels(), own.pixels(), "camera {index}, round {round}");
@@ -391,7 +497,7 @@ mod tests {
         }
         assert_eq!(
             central,
-            [true, true, true, true, false, true].repeat(2),
+            [true, true, true, true, false, true, true].repeat(2),
             "both forms are traced"
         );
         let tables = cache.tables.lock().unwrap();

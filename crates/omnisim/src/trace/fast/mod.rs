@@ -131,16 +131,16 @@ pub(crate) fn closest_hits(
     );
 }
 
-/// Room for the packets of [`closest_hits`], made once (for a band of tiles) and refilled for
-/// each packet: a packet made anew each time was copied whole (~400 instructions a packet;
-/// docs/benchmarks.md, "2026-11-27 (walk)"). The caller sets the next packet's rays as it
-/// makes them ([`PacketRoom::set`], [`PacketRoom::clear`]): each in f64, which decides hits,
-/// and in f32 (`staged`), which the walk takes nodes by, written together so that they are
-/// the same rays. Each lane type's packet is made on first use, in the walk compiled for it.
+/// Room for the packets of [`closest_hits`], made once (a thread's, kept between its bands
+/// of tiles) and refilled for each packet: a packet made anew each time was copied whole
+/// (~400 instructions a packet; docs/benchmarks.md, "2026-11-27 (walk)"). The caller sets the
+/// next packet's rays as it makes them ([`PacketRoom::set`], [`PacketRoom::clear`], four at a
+/// time [`PacketRoom::set_four`]): each in f64, which decides hits, and in f32 (`staged`),
+/// which the walk takes nodes by, written together so that they are the same rays. Each lane
+/// type's packet is made on first use, in the walk compiled for it.
 pub(crate) struct PacketRoom {
-    /// The packet's rays (scene-local origin, unit direction, `t_min`); entries of pixels
-    /// without a ray are never read.
-    pub(crate) rays: [(DVec3, DVec3, f64); PACKET],
+    /// The packet's rays in f64; entries of pixels without a ray are never read.
+    pub(crate) rays: ExactRays,
     staged: StagedRays,
     #[cfg(target_arch = "x86_64")]
     avx: Option<PacketRays<lanes::Avx8>>,
@@ -150,7 +150,13 @@ pub(crate) struct PacketRoom {
 impl Default for PacketRoom {
     fn default() -> Self {
         Self {
-            rays: [(DVec3::ZERO, DVec3::X, 0.0); PACKET],
+            rays: ExactRays {
+                origin: [DVec3::ZERO; PACKET],
+                along: [Along {
+                    direction: DVec3::X,
+                    t_min: 0.0,
+                }; PACKET],
+            },
             staged: StagedRays::default(),
             #[cfg(target_arch = "x86_64")]
             avx: None,
@@ -163,14 +169,94 @@ impl PacketRoom {
     /// Ray r of the next packet.
     #[inline(always)]
     pub(crate) fn set(&mut self, r: usize, origin: DVec3, direction: DVec3, t_min: f64) {
-        self.rays[r] = (origin, direction, t_min);
+        self.rays.origin[r] = origin;
+        self.rays.along[r] = Along { direction, t_min };
         self.staged.set(r, origin, direction, t_min);
+    }
+
+    /// Rays r to r + 3 of the next packet, [`PacketRoom::set`] lane by lane (the same bits),
+    /// from `origin` along `rays`' directions: those whose `t_min` is NaN (pixels without a
+    /// ray in a central table) [`PacketRoom::clear`]ed. Returns the rays set, bit k for ray
+    /// r + k.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (this is compiled into the tile loop's AVX2 build).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn set_four(&mut self, r: usize, origin: DVec3, rays: &crate::trace::ray_table::FourRays) -> u32 {
+        use std::arch::x86_64::{
+            _CMP_UNORD_Q, _mm256_cmp_pd, _mm256_movemask_pd, _mm256_permute2f128_pd, _mm256_store_pd,
+            _mm256_unpackhi_pd, _mm256_unpacklo_pd,
+        };
+        let [x, y, z] = rays.direction;
+        let along = self.rays.along[r..r + 4].as_mut_ptr();
+        // SAFETY: each store writes one `Along` of the four checked above (`row(k)`, k < 4), 32
+        // bytes aligned to 32 (`repr(C)`: direction x, y, z, then `t_min`); AVX2 as the caller
+        // promises.
+        unsafe {
+            let row = |k: usize| along.add(k).cast::<f64>();
+            // [x0 y0 x2 y2], [x1 y1 x3 y3], [z0 t0 z2 t2], [z1 t1 z3 t3]: back to one ray a row.
+            let (xy02, xy13) = (_mm256_unpacklo_pd(x, y), _mm256_unpackhi_pd(x, y));
+            let (zt02, zt13) = (_mm256_unpacklo_pd(z, rays.t_min), _mm256_unpackhi_pd(z, rays.t_min));
+            _mm256_store_pd(row(0), _mm256_permute2f128_pd::<0x20>(xy02, zt02));
+            _mm256_store_pd(row(1), _mm256_permute2f128_pd::<0x20>(xy13, zt13));
+            _mm256_store_pd(row(2), _mm256_permute2f128_pd::<0x31>(xy02, zt02));
+            _mm256_store_pd(row(3), _mm256_permute2f128_pd::<0x31>(xy13, zt13));
+        }
+        self.rays.origin[r..r + 4].fill(origin);
+        // SAFETY: AVX2 as the caller promises.
+        unsafe { self.staged.set_four(r, origin, rays.direction, rays.t_min) };
+        // SAFETY: AVX2 as the caller promises.
+        let missing = unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(rays.t_min, rays.t_min)) } as u32;
+        let mut rest = missing;
+        while rest != 0 {
+            self.clear(r + rest.trailing_zeros() as usize);
+            rest &= rest - 1;
+        }
+        !missing & 0xf
+    }
+
+    /// Ray r as set: its f64 origin, direction and `t_min`, then its f32 staging, as bits.
+    #[cfg(test)]
+    pub(crate) fn bits(&self, r: usize) -> ([u64; 7], [u32; 7]) {
+        let ([ox, oy, oz], [dx, dy, dz], t_min) = {
+            let (origin, direction, t_min) = self.rays.ray(r);
+            (origin.to_array(), direction.to_array(), t_min)
+        };
+        ([ox, oy, oz, dx, dy, dz, t_min].map(f64::to_bits), self.staged.bits(r))
     }
 
     /// No ray r in the next packet (a pixel without a ray, a lane past a tile's edge).
     #[inline(always)]
     pub(crate) fn clear(&mut self, r: usize) {
         self.staged.clear(r);
+    }
+}
+
+/// A packet's rays in f64: ray r's scene-local origin, and its unit direction and `t_min`
+/// side by side (one 256-bit row, so the tile loop writes four rays' in four stores).
+pub(crate) struct ExactRays {
+    origin: [DVec3; PACKET],
+    along: [Along; PACKET],
+}
+
+/// A ray's direction and `t_min`: one 256-bit row, the layout of a central ray table's
+/// entries (`CentralRay`), which `set_four` stores its rows in.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct Along {
+    direction: DVec3,
+    t_min: f64,
+}
+
+const _: () = assert!(size_of::<Along>() == 32 && align_of::<Along>() == 32);
+
+impl ExactRays {
+    /// Ray r: origin, direction, `t_min`.
+    #[inline(always)]
+    pub(crate) fn ray(&self, r: usize) -> (DVec3, DVec3, f64) {
+        let Along { direction, t_min } = self.along[r];
+        (self.origin[r], direction, t_min)
     }
 }
 
@@ -185,7 +271,7 @@ fn closest_hits_avx2(bvh: &SceneBvh, active: u64, found: &mut [Option<Hit>; PACK
 #[inline(always)]
 fn closest_hits_in<W: Wide>(
     bvh: &SceneBvh,
-    rays: &[(DVec3, DVec3, f64); PACKET],
+    rays: &ExactRays,
     active: u64,
     found: &mut [Option<Hit>; PACKET],
     packet: &mut PacketRays<W>,
@@ -201,7 +287,7 @@ fn closest_hits_in<W: Wide>(
         &mut t_hi,
         #[inline(always)]
         |r, triangle| {
-            let (origin, direction, t_min) = rays[r];
+            let (origin, direction, t_min) = rays.ray(r);
             triangle::nearer(bvh, origin, direction, t_min, &mut found[r], triangle)
         },
     );

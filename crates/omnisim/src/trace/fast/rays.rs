@@ -35,8 +35,11 @@ impl LaneRay {
 /// A ray's `t_min` as the f32 filter's lower bound, rounded down so that the filter never
 /// drops a triangle just beyond it.
 pub(crate) fn t_lo(t_min: f64) -> f32 {
-    (t_min * (1.0 - 1e-6)) as f32
+    (t_min * T_LO_FACTOR) as f32
 }
+
+/// [`t_lo`]'s factor (shared with its four-lane twin, `StagedRays::set_four`).
+const T_LO_FACTOR: f64 = 1.0 - 1e-6;
 
 /// The f32 inverse of a direction, finite everywhere: obvhs's `safe_inverse` on each axis
 /// (±2²³ for components within `f32::EPSILON` of zero, ±0 included), three lanes at once.
@@ -141,6 +144,56 @@ impl StagedRays {
             self.direction[axis][r] = d[axis];
         }
         self.t_lo[r] = t_lo(t_min);
+    }
+
+    /// Rays r to r + 3: [`StagedRays::set`] of each from `origin` along `direction` (axis by
+    /// axis, ray r + k in lane k) with `t_min`, lane by lane the same conversions (the same
+    /// bits).
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (this is compiled into the tile loop's AVX2 build).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn set_four(
+        &mut self,
+        r: usize,
+        origin: DVec3,
+        direction: [std::arch::x86_64::__m256d; 3],
+        t_min: std::arch::x86_64::__m256d,
+    ) {
+        use std::arch::x86_64::{_mm_set1_ps, _mm_storeu_ps, _mm256_cvtpd_ps, _mm256_mul_pd, _mm256_set1_pd};
+        // Slices of four checked, then written whole (loops and plain calls, not closures,
+        // which are compiled without AVX).
+        let four = r..r + 4;
+        let origin = origin.as_vec3();
+        for axis in 0..3 {
+            let (origins, directions) = (
+                &mut self.origin[axis][four.clone()],
+                &mut self.direction[axis][four.clone()],
+            );
+            // SAFETY: each store writes its slice's four f32s; AVX2 as the caller promises (the
+            // conversion rounds to nearest, as `as f32` does).
+            unsafe {
+                _mm_storeu_ps(origins.as_mut_ptr(), _mm_set1_ps(origin[axis]));
+                _mm_storeu_ps(directions.as_mut_ptr(), _mm256_cvtpd_ps(direction[axis]));
+            }
+        }
+        let t_los = &mut self.t_lo[four];
+        // SAFETY: as above: `t_lo`'s product and conversion, lane by lane.
+        unsafe {
+            _mm_storeu_ps(
+                t_los.as_mut_ptr(),
+                _mm256_cvtpd_ps(_mm256_mul_pd(t_min, _mm256_set1_pd(T_LO_FACTOR))),
+            );
+        }
+    }
+
+    /// Ray r's f32 origin, direction and `t_lo`, as bits.
+    #[cfg(test)]
+    pub(crate) fn bits(&self, r: usize) -> [u32; 7] {
+        let axes = |values: &[[f32; PACKET]; 3]| [0, 1, 2].map(|axis| values[axis][r].to_bits());
+        let ([ox, oy, oz], [dx, dy, dz]) = (axes(&self.origin), axes(&self.direction));
+        [ox, oy, oz, dx, dy, dz, self.t_lo[r].to_bits()]
     }
 
     /// Whether ray r is a zero ray (what [`PacketRays::fill`] asks of the rays it leaves out).
