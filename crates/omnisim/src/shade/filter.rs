@@ -923,13 +923,9 @@ mod tests {
             assert_eq!(bits(with_avx2_where_detected(&lookups)), together);
             // The face's lanes in AVX2 registers throughout, where the CPU has AVX2: the bits of
             // the lanes set up together (on one level they read one slice, else each lane's).
-            let face = samples(
-                Avx2::detected(),
-                &Levels::of(texture),
-                Wraps::of(wrap),
-                [&u, &v],
-                Detail::Levels(&lod),
-            );
+            let face_levels = Levels::of(texture);
+            let face_samples = |detail| samples(Avx2::detected(), &face_levels, Wraps::of(wrap), [&u, &v], detail);
+            let face = face_samples(Detail::Levels(&lod));
             assert!(face.is_some() || Avx2::detected().is_none());
             assert_eq!(face.map(bits).unwrap_or(together), together);
             // From footprints' longer axes (the levels of detail worked out in the lanes too):
@@ -942,20 +938,8 @@ mod tests {
                 _ => (next() % 10_000) as f32 / 1e5,
             });
             let of_lengths = length.map(|length| level_of_detail(scale, length));
-            let from_levels = samples(
-                Avx2::detected(),
-                &Levels::of(texture),
-                Wraps::of(wrap),
-                [&u, &v],
-                Detail::Levels(&of_lengths),
-            );
-            let from_lengths = samples(
-                Avx2::detected(),
-                &Levels::of(texture),
-                Wraps::of(wrap),
-                [&u, &v],
-                Detail::Lengths(&length, scale),
-            );
+            let from_levels = face_samples(Detail::Levels(&of_lengths));
+            let from_lengths = face_samples(Detail::Lengths(&length, scale));
             assert_eq!(from_lengths.map(bits), from_levels.map(bits));
             for k in 0..LANES {
                 let one = trilinear(texture, wrap, DVec2::new(u[k], v[k]), lod[k])

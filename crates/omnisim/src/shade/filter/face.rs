@@ -2,9 +2,10 @@
 //! levels of detail to the sums: [`Lookups::set_face`] then [`trilinear_lanes`] (with AVX2),
 //! the same operations in the same order, so the same bits (tested against the portable
 //! lanes). Written in intrinsics because LLVM's code for those two, inlined into the run's
-//! body, went through the look-ups' arrays in memory between its loops, chose each wrap's
-//! code lane by lane and set up each run's levels one field at a time: about 800 instructions
-//! a run of the textured frame's 1,300 (docs/benchmarks.md, 2026-11-27 morning (tex)).
+//! body, went through the look-ups' arrays in memory between its loops and set up each run's
+//! levels one field at a time: with the levels of detail about 870 instructions a run of eight
+//! (docs/benchmarks.md, 2026-11-26 night (tex)), about 650 here with the footprints
+//! (2026-11-27 morning (tex)).
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::{
@@ -248,8 +249,9 @@ impl<'a> LevelLanes<'a> {
         let first = _mm_cvtsi128_si32(_mm256_castsi256_si128(at));
         let same = _mm256_cmpeq_epi32(at, _mm256_set1_epi32(first));
         let shared = _mm256_movemask_ps(_mm256_castsi256_ps(same)) == 0xff;
-        // SAFETY: every index in `at` is a level's, below the tables' lengths (one entry a
-        // level).
+        // SAFETY: every index in `at` is below the number of levels, the tables' length (one
+        // entry a level): the level of detail is clamped to the coarsest, and the coarser level
+        // is one up only where the fraction is not zero, so below the coarsest.
         let (width, height, last) = unsafe {
             (
                 _mm256_i32gather_ps::<4>(table.width.as_ptr(), at),
