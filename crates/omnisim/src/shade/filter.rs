@@ -1052,6 +1052,7 @@ mod tests {
             [&u, &v],
             Detail::Levels(&[0.0; LANES]),
         );
+        assert!(face.is_some() || Avx2::detected().is_none());
         assert_eq!(face.unwrap_or(portable), portable);
         for (k, &uv) in lanes_in.iter().enumerate() {
             let one = trilinear(&texture, [Wrap::Repeat; 2], uv, 0.0).to_array();
@@ -1068,7 +1069,20 @@ mod tests {
             [&u, &v],
             Detail::Levels(&lod),
         );
+        assert!(face.is_some() || Avx2::detected().is_none());
         assert_eq!(face.unwrap_or(portable), portable);
+        // A texture without levels has no tables: the lanes are not asked.
+        let no_levels = Texture { levels: Vec::new() };
+        assert!(
+            samples(
+                Avx2::detected(),
+                &Levels::of(&no_levels),
+                wraps,
+                [&u, &v],
+                Detail::Levels(&lod)
+            )
+            .is_none()
+        );
     }
 
     /// The wraps' texel pairs, in lanes: each index i (its coordinate a quarter texel past i's

@@ -430,3 +430,31 @@ fn tinted_avx2(_: Avx2, base: DVec3, samples: &[[f32; LANES]; 3]) -> [[f64; 3]; 
     }
     shaded
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The albedo times the samples in AVX2 registers, moved into lane order: the bits of the
+    /// channel-by-channel loop, lane by lane, at zero, subnormal, small and large samples.
+    #[test]
+    fn tinted_in_registers_is_the_loops_bits() {
+        let values = [0.0, f32::from_bits(1), 1e-30, 0.25, 0.731_2, 1.0, 3.5e20];
+        for turn in 0..values.len() {
+            let samples: [[f32; LANES]; 3] =
+                std::array::from_fn(|channel| std::array::from_fn(|k| values[(k * 3 + channel + turn) % values.len()]));
+            let base = DVec3::new(0.83, 0.131, 1.7e-3 * (turn as f64 + 1.0));
+            let lanes = tinted(base, &samples, Avx2::detected());
+            let by_lane = tinted(base, &samples, None);
+            assert_eq!(
+                lanes.map(|rgb| rgb.map(f64::to_bits)),
+                by_lane.map(|rgb| rgb.map(f64::to_bits))
+            );
+            for (k, rgb) in by_lane.iter().enumerate() {
+                for channel in 0..3 {
+                    assert_eq!(rgb[channel], base[channel] * f64::from(samples[channel][k]), "lane {k}");
+                }
+            }
+        }
+    }
+}

@@ -31,8 +31,8 @@ use crate::avx2::Avx2;
 /// the index of its last, its width and its height.
 pub(crate) struct Levels<'a> {
     each: Vec<Level<'a>>,
-    /// `None` where a level holds more than `i32::MAX` texels (only a texture built by hand
-    /// can): the lanes index texels in i32.
+    /// `None` where the texture has no levels, or a level holds more than `i32::MAX` texels
+    /// (only a texture built by hand can): the lanes index texels in i32.
     table: Option<LevelTable>,
 }
 
@@ -48,18 +48,17 @@ impl<'a> Levels<'a> {
     /// The levels of `texture`, finest first.
     pub(crate) fn of(texture: &'a super::Texture) -> Self {
         let each = Level::all(texture);
-        let table = each
-            .iter()
-            .all(|level| level.last <= i32::MAX as u32)
-            .then(|| LevelTable {
-                address: each
-                    .iter()
-                    .map(|level| level.texels.as_ptr().expose_provenance() as u64)
-                    .collect(),
-                last: each.iter().map(|level| level.last).collect(),
-                width: each.iter().map(|level| level.size[0]).collect(),
-                height: each.iter().map(|level| level.size[1]).collect(),
-            });
+        // A texture without levels (only one built by hand) has no tables: the lanes' level
+        // indices are below the number of levels, which must not be zero.
+        let table = (!each.is_empty() && each.iter().all(|level| level.last <= i32::MAX as u32)).then(|| LevelTable {
+            address: each
+                .iter()
+                .map(|level| level.texels.as_ptr().expose_provenance() as u64)
+                .collect(),
+            last: each.iter().map(|level| level.last).collect(),
+            width: each.iter().map(|level| level.size[0]).collect(),
+            height: each.iter().map(|level| level.size[1]).collect(),
+        });
         Levels { each, table }
     }
 
@@ -436,5 +435,67 @@ impl Wrap {
             }
         };
         (first, second, weight)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shade::filter::level_of_detail;
+
+    /// The levels of detail of eight lanes in registers are `level_of_detail`'s bits, across
+    /// the log2's range and at zero, -0, subnormal, infinite and NaN lengths and scales.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn levels_of_detail_in_registers_are_level_of_detail_bits() {
+        let Some(avx2) = Avx2::detected() else {
+            eprintln!("no AVX2 on this CPU: nothing to compare");
+            return;
+        };
+        let subnormal = f32::from_bits(1);
+        let mut lengths: Vec<f32> = (0..=100_000).map(|k| (1.0 + k as f32 * 0.000_63) / 256.0).collect();
+        lengths.extend([
+            0.0,
+            -0.0,
+            subnormal,
+            -1.0,
+            1e-20,
+            1e20,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NAN,
+        ]);
+        for scale in [
+            65_536.0,
+            1.0,
+            0.999_999_94,
+            -0.0,
+            -1.0,
+            subnormal,
+            f32::INFINITY,
+            f32::NAN,
+        ] {
+            for eight in lengths.chunks(8) {
+                let length: [f32; 8] = std::array::from_fn(|k| eight[k % eight.len()]);
+                // SAFETY: `avx2` proves the CPU has AVX2; the load reads the eight lengths, the
+                // store writes the eight levels.
+                let lanes = unsafe { levels_of_detail_of(avx2, scale, &length) };
+                let want = length.map(|length| level_of_detail(scale, length).to_bits());
+                assert_eq!(lanes.map(f32::to_bits), want, "scale {scale}, lengths {length:?}");
+            }
+        }
+    }
+
+    /// [`levels_of_detail`] of `length`, through memory.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn levels_of_detail_of(_: Avx2, scale: f32, length: &[f32; 8]) -> [f32; 8] {
+        let mut out = [0.0; 8];
+        // SAFETY: the load reads the eight f32 of `length`, the store writes those of `out`.
+        unsafe {
+            let levels = levels_of_detail(scale, _mm256_loadu_ps(length.as_ptr()));
+            _mm256_storeu_ps(out.as_mut_ptr(), levels);
+        }
+        out
     }
 }
