@@ -181,31 +181,39 @@ impl ConePlanes {
         neighbours: bool,
         lane: impl Fn(usize, Cone, Vec3) -> f32,
     ) -> [f32; L] {
+        if neighbours && let Some(planes) = self.in_place(index[0]) {
+            return each_lane(planes, lane);
+        }
         let [at_origin_x, at_origin_y] = &self.at_origin;
         let [spread_x, spread_y] = &self.spread;
         let [x, y, z] = &self.direction;
         let planes = [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z];
-        // Plane by plane, not by `map` over the array of planes: LLVM kept such a call out of
-        // line (about 400 instructions a run).
-        fn in_place<const L: usize>(plane: &[f32], start: usize) -> Option<&Lanes<L>> {
-            plane.get(start..start + L)?.try_into().ok()
-        }
-        if neighbours
-            && let (Some(a), Some(b), Some(c), Some(d), Some(e), Some(f), Some(g)) = (
-                in_place(at_origin_x, index[0]),
-                in_place(spread_x, index[0]),
-                in_place(at_origin_y, index[0]),
-                in_place(spread_y, index[0]),
-                in_place(x, index[0]),
-                in_place(y, index[0]),
-                in_place(z, index[0]),
-            )
-        {
-            return each_lane([a, b, c, d, e, f, g], lane);
-        }
         let copies: [Lanes<L>; 7] = std::array::from_fn(|p| std::array::from_fn(|k| planes[p][index[k]]));
         let [a, b, c, d, e, f, g] = &copies;
         each_lane([a, b, c, d, e, f, g], lane)
+    }
+
+    /// The numbers of the `L` neighbouring pixels from `start` ([`each_lane`]'s planes), read
+    /// in place, where they all lie in the table.
+    #[inline(always)]
+    pub(crate) fn in_place<const L: usize>(&self, start: usize) -> Option<[&Lanes<L>; 7]> {
+        let [at_origin_x, at_origin_y] = &self.at_origin;
+        let [spread_x, spread_y] = &self.spread;
+        let [x, y, z] = &self.direction;
+        // Plane by plane, not by `map` over the array of planes: LLVM kept such a call out of
+        // line (about 400 instructions a run).
+        fn lanes<const L: usize>(plane: &[f32], start: usize) -> Option<&Lanes<L>> {
+            plane.get(start..start + L)?.try_into().ok()
+        }
+        Some([
+            lanes(at_origin_x, start)?,
+            lanes(spread_x, start)?,
+            lanes(at_origin_y, start)?,
+            lanes(spread_y, start)?,
+            lanes(x, start)?,
+            lanes(y, start)?,
+            lanes(z, start)?,
+        ])
     }
 }
 

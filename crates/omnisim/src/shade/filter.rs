@@ -11,6 +11,9 @@ use crate::avx2::Avx2;
 use crate::scene::lighting::srgb_to_linear;
 use crate::scene::texture::{MipLevel, Texture, Wrap};
 
+mod face;
+pub(crate) use face::{Detail, Levels, samples};
+
 /// Linear value of each sRGB byte, f32: a texel's three look-ups.
 static DECODING: std::sync::LazyLock<[f32; 256]> =
     std::sync::LazyLock::new(|| std::array::from_fn(|b| srgb_to_linear(b as u8) as f32));
@@ -918,6 +921,26 @@ mod tests {
             assert!(!one_level || (lookups.shared[0] && (lookups.share[1] == [0.0; LANES] || lookups.shared[1])));
             let together = bits(trilinear_lanes(&lookups, None));
             assert_eq!(bits(with_avx2_where_detected(&lookups)), together);
+            // The face's lanes in AVX2 registers throughout, where the CPU has AVX2: the bits of
+            // the lanes set up together (on one level they read one slice, else each lane's).
+            let face_levels = Levels::of(texture);
+            let face_samples = |detail| samples(Avx2::detected(), &face_levels, Wraps::of(wrap), [&u, &v], detail);
+            let face = face_samples(Detail::Levels(&lod));
+            assert!(face.is_some() || Avx2::detected().is_none());
+            assert_eq!(face.map(bits).unwrap_or(together), together);
+            // From footprints' longer axes (the levels of detail worked out in the lanes too):
+            // the bits of their levels of detail, at lengths near, far, zero, infinite and NaN.
+            let scale = (next() % 100_000) as f32 + 0.5;
+            let length: [f32; LANES] = std::array::from_fn(|_| match next() % 8 {
+                0 => f32::NAN,
+                1 => f32::INFINITY,
+                2 => 0.0,
+                _ => (next() % 10_000) as f32 / 1e5,
+            });
+            let of_lengths = length.map(|length| level_of_detail(scale, length));
+            let from_levels = face_samples(Detail::Levels(&of_lengths));
+            let from_lengths = face_samples(Detail::Lengths(&length, scale));
+            assert_eq!(from_lengths.map(bits), from_levels.map(bits));
             for k in 0..LANES {
                 let one = trilinear(texture, wrap, DVec2::new(u[k], v[k]), lod[k])
                     .to_array()
@@ -1021,10 +1044,45 @@ mod tests {
         assert!(shared_texels(&lookups, 0).is_some_and(|texels| texels.len() == 3));
         let portable = trilinear_lanes(&lookups, None);
         assert_eq!(with_avx2_where_detected(&lookups), portable);
+        let (u, v) = (lanes_in.map(|uv| uv.x), lanes_in.map(|uv| uv.y));
+        let face = samples(
+            Avx2::detected(),
+            &Levels::of(&texture),
+            wraps,
+            [&u, &v],
+            Detail::Levels(&[0.0; LANES]),
+        );
+        assert!(face.is_some() || Avx2::detected().is_none());
+        assert_eq!(face.unwrap_or(portable), portable);
         for (k, &uv) in lanes_in.iter().enumerate() {
             let one = trilinear(&texture, [Wrap::Repeat; 2], uv, 0.0).to_array();
             assert_eq!(one, [0, 1, 2].map(|c| portable[c][k]), "lane {k}");
         }
+        // Lanes between the short level and the empty one, some on each: each lane's own.
+        let lod: [f32; LANES] = std::array::from_fn(|k| k as f32 / 5.0);
+        lookups.set_face(&levels, wraps, &u, &v, &lod, None);
+        let portable = trilinear_lanes(&lookups, None);
+        let face = samples(
+            Avx2::detected(),
+            &Levels::of(&texture),
+            wraps,
+            [&u, &v],
+            Detail::Levels(&lod),
+        );
+        assert!(face.is_some() || Avx2::detected().is_none());
+        assert_eq!(face.unwrap_or(portable), portable);
+        // A texture without levels has no tables: the lanes are not asked.
+        let no_levels = Texture { levels: Vec::new() };
+        assert!(
+            samples(
+                Avx2::detected(),
+                &Levels::of(&no_levels),
+                wraps,
+                [&u, &v],
+                Detail::Levels(&lod)
+            )
+            .is_none()
+        );
     }
 
     /// The wraps' texel pairs, in lanes: each index i (its coordinate a quarter texel past i's

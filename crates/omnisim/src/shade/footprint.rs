@@ -23,6 +23,7 @@ use std::sync::Arc;
 
 use glam::{DMat3, DVec2, DVec3, Vec3};
 
+use crate::avx2::Avx2;
 use crate::camera::{Camera, CameraRay, Cone, ConePlanes, RaySource};
 use crate::pose::Pose;
 use crate::trace::ray_table::ConeTable;
@@ -156,9 +157,112 @@ impl Footprints<'_> {
     }
 }
 
+impl Footprints<'_> {
+    /// [`Footprints::longer_axes`] of the eight neighbouring pixels from `start` at ranges
+    /// `range` on a face with unit normal `normal`, in AVX2 registers where `avx2` is there
+    /// and they come from a ray table: the same operations in the same order, so the same
+    /// bits (tested). `None` otherwise. LLVM's code for the lanes of `longer_axes` took
+    /// about ten instructions a lane (docs/benchmarks.md, 2026-11-26 night (tex)).
+    #[inline(always)]
+    pub(crate) fn neighbours_longer_axes(
+        &self,
+        avx2: Option<Avx2>,
+        start: usize,
+        range: &[f32; 8],
+        normal: Vec3,
+    ) -> Option<[f32; 8]> {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(avx2), Footprints::Table(cones)) = (avx2, self)
+            && let Some(planes) = cones.in_place::<8>(start)
+        {
+            // SAFETY: `avx2` proves the CPU has AVX2, which `longer_axes_avx2` is compiled for.
+            return Some(unsafe { longer_axes_avx2(avx2, planes, range, normal) });
+        }
+        None
+    }
+}
+
+/// [`Footprint::longer_axis`] of eight lanes whose cones and directions are `planes`
+/// ([`ConePlanes::in_place`]), at ranges `range`, on a face with unit normal `normal`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn longer_axes_avx2(_: Avx2, planes: [&[f32; 8]; 7], range: &[f32; 8], normal: Vec3) -> [f32; 8] {
+    use std::arch::x86_64::{
+        __m256, _CMP_UNORD_Q, _mm256_add_ps, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_cmp_ps, _mm256_div_ps,
+        _mm256_loadu_ps, _mm256_max_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_storeu_ps,
+    };
+    // SAFETY: each load reads the eight f32 of its array.
+    let load = |lanes: &[f32; 8]| unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
+    let [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z] = planes.map(load);
+    let range = load(range);
+    let magnitude = |value: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), value);
+    // `f32::max`: the other where one is NaN (`max_ps` gives its second operand where either
+    // is).
+    let max = |a: __m256, b: __m256| _mm256_blendv_ps(_mm256_max_ps(a, b), a, _mm256_cmp_ps::<_CMP_UNORD_Q>(b, b));
+    // `Cone::width`.
+    let width = max(
+        magnitude(_mm256_add_ps(at_origin_x, _mm256_mul_ps(range, spread_x))),
+        magnitude(_mm256_add_ps(at_origin_y, _mm256_mul_ps(range, spread_y))),
+    );
+    // `Vec3::dot`, then the width over its magnitude (at least the least normal f32).
+    let cos = _mm256_add_ps(
+        _mm256_add_ps(
+            _mm256_mul_ps(x, _mm256_set1_ps(normal.x)),
+            _mm256_mul_ps(y, _mm256_set1_ps(normal.y)),
+        ),
+        _mm256_mul_ps(z, _mm256_set1_ps(normal.z)),
+    );
+    let length = _mm256_div_ps(width, _mm256_max_ps(magnitude(cos), _mm256_set1_ps(f32::MIN_POSITIVE)));
+    let mut out = [0.0; 8];
+    // SAFETY: the store writes the eight f32 of `out`.
+    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), length) };
+    out
+}
+
 /// The footprint in the camera body's frame of a pixel whose cone is `cone` and ray
 /// direction `direction`; [`Footprint::POINT`] where it has no ray.
 #[inline(always)]
 fn with_cone(cone: Cone, direction: Option<DVec3>) -> Footprint {
     direction.map_or(Footprint::POINT, |direction| Footprint::in_body(cone, direction))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Pinhole;
+
+    /// The longer axes of eight neighbouring pixels from a ray table, in AVX2 registers where
+    /// the CPU has them: the bits of the lanes as `longer_axes` works them out, at ranges and on
+    /// normals near, far, zero, infinite and NaN, for every run of eight that fits in the image.
+    #[test]
+    fn neighbours_longer_axes_in_registers_are_the_lanes_bits() {
+        let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(13, 5, 1.3));
+        let planes = ConePlanes::of_image(&camera, |index| camera.pixel_ray(index));
+        let footprints = Footprints::Table(&planes);
+        let ranges = [0.0, 0.3, 1.7, 40.0, 1e30, f32::INFINITY, f32::NAN, f32::MIN_POSITIVE];
+        let normals = [
+            Vec3::Z,
+            Vec3::new(0.6, 0.0, -0.8),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::ZERO,
+            Vec3::splat(f32::NAN),
+        ];
+        let pixels = 13 * 5;
+        for start in 0..pixels + 2 {
+            for (turn, &normal) in normals.iter().enumerate() {
+                let range: [f32; 8] = std::array::from_fn(|k| ranges[(k + turn + start) % ranges.len()]);
+                let index: [usize; 8] = std::array::from_fn(|k| start + k);
+                let in_registers = footprints.neighbours_longer_axes(Avx2::detected(), start, &range, normal);
+                if start + 8 > pixels || Avx2::detected().is_none() {
+                    assert_eq!(in_registers, None);
+                    continue;
+                }
+                let lanes = footprints.longer_axes(&index, true, &range, normal);
+                assert_eq!(
+                    in_registers.map(|axes| axes.map(f32::to_bits)),
+                    Some(lanes.map(f32::to_bits))
+                );
+            }
+        }
+    }
 }

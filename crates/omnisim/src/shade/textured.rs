@@ -13,7 +13,7 @@ use std::ops::Range;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::filter::{LANES, Level, Lookups, Wraps, level_of_detail, trilinear_lanes};
+use super::filter::{Detail, LANES, Levels, Lookups, Wraps, level_of_detail, samples, trilinear_lanes};
 use super::footprint::Footprints;
 use super::{
     Appearance, Footprint, View, is_flat, lit, lit_by_lights, shade_on, texture_of, untextured_albedo, write_pixel,
@@ -33,7 +33,7 @@ const CHUNK: usize = 512;
 pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_>, frame: &mut Frame, planes: Planes) {
     let footprints = view.footprints();
     let pixels = frame.pixels();
-    let levels: Vec<Vec<Level<'_>>> = appearance.surfaces.textures.iter().map(Level::all).collect();
+    let levels: Vec<Levels<'_>> = appearance.surfaces.textures.iter().map(Levels::of).collect();
     let shader = Shader {
         appearance,
         lux,
@@ -78,8 +78,8 @@ struct Shader<'a> {
     view: &'a View<'a>,
     /// Where the frame's footprints lie, in the camera body's frame.
     footprints: &'a Footprints<'a>,
-    /// Each texture's levels as the lanes read them ([`Level::all`]), by texture index.
-    levels: &'a [Vec<Level<'a>>],
+    /// Each texture's levels as the lanes read them ([`Levels::of`]), by texture index.
+    levels: &'a [Levels<'a>],
 }
 
 /// A textured face, and what shading its pixels reads besides their hits.
@@ -88,7 +88,7 @@ struct Face<'a> {
     surface: &'a Surface,
     map: &'a UvMap,
     /// Its texture's levels, as the lanes read them.
-    levels: &'a [Level<'a>],
+    levels: &'a Levels<'a>,
     /// Its map's wrap, as the lanes read it.
     wraps: Wraps,
     /// Its texture's squared texels per metre (`texture_of`).
@@ -105,7 +105,7 @@ impl<'a> Face<'a> {
     /// texture (whose levels are `levels[map.texture]`).
     fn of(
         appearance: &'a Appearance,
-        levels: &'a [Vec<Level<'a>>],
+        levels: &'a [Levels<'a>],
         view: &View<'_>,
         hit: &Pixel,
         surface: &'a Surface,
@@ -305,18 +305,38 @@ impl<'a> Shader<'a> {
             let uv = Surface::uv_at(map, surface.anchor, hit[k].point);
             (u[k], v[k]) = (uv.x, uv.y);
         }
-        let length = self.footprints.longer_axes(
-            &run.slot.map(|slot| start + slot),
-            neighbours,
-            &hit.map(|hit| hit.range),
-            face.normal,
+        let range = hit.map(|hit| hit.range);
+        // In AVX2 registers from the footprints to the samples where the CPU has it and the
+        // footprints are a ray table's neighbours (most runs).
+        let in_registers = neighbours
+            .then(|| {
+                self.footprints
+                    .neighbours_longer_axes(avx2, start + first, &range, face.normal)
+            })
+            .flatten()
+            .and_then(|length| {
+                let detail = Detail::Lengths(&length, face.texels_per_metre_squared);
+                samples(avx2, face.levels, face.wraps, [&u, &v], detail)
+            });
+        let samples = in_registers.unwrap_or_else(
+            #[inline(always)]
+            || {
+                let length =
+                    self.footprints
+                        .longer_axes(&run.slot.map(|slot| start + slot), neighbours, &range, face.normal);
+                let mut lod = [0.0; LANES];
+                for k in 0..LANES {
+                    lod[k] = level_of_detail(face.texels_per_metre_squared, length[k]);
+                }
+                samples(avx2, face.levels, face.wraps, [&u, &v], Detail::Levels(&lod)).unwrap_or_else(
+                    #[inline(always)]
+                    || {
+                        lookups.set_face(face.levels.each(), face.wraps, &u, &v, &lod, avx2);
+                        trilinear_lanes(lookups, avx2)
+                    },
+                )
+            },
         );
-        let mut lod = [0.0; LANES];
-        for k in 0..LANES {
-            lod[k] = level_of_detail(face.texels_per_metre_squared, length[k]);
-        }
-        lookups.set_face(face.levels, face.wraps, &u, &v, &lod, avx2);
-        let samples = trilinear_lanes(lookups, avx2);
         let appearance = self.appearance;
         // Every lane, so that the loops have a fixed length: lanes past the run's length
         // (earlier pixels of the face) are shaded and encoded, and not written. The albedo
@@ -325,13 +345,7 @@ impl<'a> Shader<'a> {
         // 6 M instructions more (docs/benchmarks.md, 2026-11-26 evening (tex)).
         let mut shaded = [[0.0; 3]; LANES];
         match face.base {
-            Some(base) => {
-                for (channel, samples) in samples.iter().enumerate() {
-                    for (shaded, &sample) in shaded.iter_mut().zip(samples) {
-                        shaded[channel] = base[channel] * f64::from(sample);
-                    }
-                }
-            }
+            Some(base) => shaded = tinted(base, &samples, avx2),
             None => {
                 for (k, shaded) in shaded.iter_mut().enumerate() {
                     let sample = DVec3::from_array(samples.map(|channel| f64::from(channel[k])));
@@ -360,6 +374,86 @@ impl<'a> Shader<'a> {
         } else {
             for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
                 chunk.colour[slot] = encoded;
+            }
+        }
+    }
+}
+
+/// The albedo `base` times each lane's sample (`samples` red, green, blue by lane), by lane:
+/// with `avx2` four lanes at a time and moved into lane order in registers, where LLVM's code
+/// for the loop below multiplied lane by lane (about 70 instructions a run, docs/benchmarks.md,
+/// 2026-11-27 morning (tex)); the same products either way.
+#[inline(always)]
+fn tinted(base: DVec3, samples: &[[f32; LANES]; 3], avx2: Option<Avx2>) -> [[f64; 3]; LANES] {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = avx2 {
+        // SAFETY: `avx2` proves the CPU has AVX2, which `tinted_avx2` is compiled for.
+        return unsafe { tinted_avx2(avx2, base, samples) };
+    }
+    let mut shaded = [[0.0; 3]; LANES];
+    for (channel, samples) in samples.iter().enumerate() {
+        for (shaded, &sample) in shaded.iter_mut().zip(samples) {
+            shaded[channel] = base[channel] * f64::from(sample);
+        }
+    }
+    shaded
+}
+
+/// [`tinted`] with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn tinted_avx2(_: Avx2, base: DVec3, samples: &[[f32; LANES]; 3]) -> [[f64; 3]; LANES] {
+    use std::arch::x86_64::{
+        _mm_loadu_ps, _mm256_cvtps_pd, _mm256_mul_pd, _mm256_permute2f128_pd, _mm256_set1_pd, _mm256_storeu_pd,
+        _mm256_unpackhi_pd, _mm256_unpacklo_pd,
+    };
+    let mut shaded = [[0.0; 3]; LANES];
+    for (half, out) in shaded.as_flattened_mut().chunks_exact_mut(12).enumerate() {
+        // SAFETY: each load reads four f32 of a channel's eight.
+        let [red, green, blue] = [0, 1, 2].map(|channel| {
+            let four = unsafe { _mm_loadu_ps(samples[channel][4 * half..].as_ptr()) };
+            _mm256_mul_pd(_mm256_set1_pd(base[channel]), _mm256_cvtps_pd(four))
+        });
+        let red_green_even = _mm256_unpacklo_pd(red, green); // r0 g0 r2 g2
+        let red_green_odd = _mm256_unpackhi_pd(red, green); // r1 g1 r3 g3
+        let blue_red = _mm256_unpacklo_pd(blue, red_green_odd); // b0 r1 b2 r3
+        let green_blue = _mm256_unpackhi_pd(red_green_odd, blue); // g1 b1 g3 b3
+        let lanes = [
+            _mm256_permute2f128_pd::<0x20>(red_green_even, blue_red), // r0 g0 b0 r1
+            _mm256_permute2f128_pd::<0x30>(green_blue, red_green_even), // g1 b1 r2 g2
+            _mm256_permute2f128_pd::<0x31>(blue_red, green_blue),     // b2 r3 g3 b3
+        ];
+        for (out, lanes) in out.chunks_exact_mut(4).zip(lanes) {
+            // SAFETY: the store writes four f64 of the twelve of these four lanes.
+            unsafe { _mm256_storeu_pd(out.as_mut_ptr(), lanes) };
+        }
+    }
+    shaded
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The albedo times the samples in AVX2 registers, moved into lane order: the bits of the
+    /// channel-by-channel loop, lane by lane, at zero, subnormal, small and large samples.
+    #[test]
+    fn tinted_in_registers_is_the_loops_bits() {
+        let values = [0.0, f32::from_bits(1), 1e-30, 0.25, 0.731_2, 1.0, 3.5e20];
+        for turn in 0..values.len() {
+            let samples: [[f32; LANES]; 3] =
+                std::array::from_fn(|channel| std::array::from_fn(|k| values[(k * 3 + channel + turn) % values.len()]));
+            let base = DVec3::new(0.83, 0.131, 1.7e-3 * (turn as f64 + 1.0));
+            let lanes = tinted(base, &samples, Avx2::detected());
+            let by_lane = tinted(base, &samples, None);
+            assert_eq!(
+                lanes.map(|rgb| rgb.map(f64::to_bits)),
+                by_lane.map(|rgb| rgb.map(f64::to_bits))
+            );
+            for (k, rgb) in by_lane.iter().enumerate() {
+                for channel in 0..3 {
+                    assert_eq!(rgb[channel], base[channel] * f64::from(samples[channel][k]), "lane {k}");
+                }
             }
         }
     }
