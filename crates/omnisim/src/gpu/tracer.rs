@@ -535,85 +535,74 @@ impl GpuRenderer {
         samples_per_axis: u32,
         edges: &[usize],
     ) -> Result<usize, GpuError> {
-        self.on_device(|| self.refine_edges_on_device(scene, camera, pose, frame, samples_per_axis, edges))
-    }
-
-    /// [`GpuRenderer::refine_edges`]' work, which `on_device` runs (and whose failures it blames
-    /// on a device lost meanwhile).
-    fn refine_edges_on_device(
-        &self,
-        scene: &GpuScene,
-        camera: &Camera,
-        pose: &Pose,
-        frame: &mut Frame,
-        samples_per_axis: u32,
-        edges: &[usize],
-    ) -> Result<usize, GpuError> {
-        let edges: Vec<u32> = edges.iter().map(|&i| i as u32).collect();
-        if samples_per_axis <= 1 || edges.is_empty() {
-            return Ok(0);
-        }
-        if camera.has_lens_model() {
-            // The table holds pixel centres only; the renderer refines lens cameras on the CPU.
-            return Err(GpuError::NoGpuCamera(camera.model_name()));
-        }
-        let mut params = camera_params(camera, pose, scene.offset);
-        params.frame.samples_per_axis = samples_per_axis;
-        let bytes = edges.len() as u64 * size_of::<ShadedPixel>();
-        let context = &self.context;
-        let uniform = context.buffer_init("camera", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM)?;
-        let pixels = context.buffer_init("edge pixels", bytemuck::cast_slice(&edges), wgpu::BufferUsages::STORAGE)?;
-        let colours = self.buffer(
-            "edge colours",
-            bytes,
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        );
-        let readback = self.buffer(
-            "edge colours readback",
-            bytes,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-        let bind_group = self.bind_group(
-            &self.refine,
-            &[
-                (CAMERA, &uniform),
-                (NODES, &scene.nodes),
-                (TRIANGLES, &scene.triangles),
-                (MATERIALS, &scene.materials),
-                (EDGE_PIXELS, &pixels),
-                (EDGE_COLOURS, &colours),
-                (LIGHTS, &scene.lights),
-                (SHADING, &scene.shading),
-                (CAMERA_RAYS, &self.no_rays),
-                (SURFACES, &scene.surfaces),
-                (TEXTURES, &scene.textures),
-            ],
-        );
-        let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
-        let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
-        let mut encoder = context.device.create_command_encoder(&Default::default());
-        dispatch(
-            &mut encoder,
-            &self.refine,
-            &bind_group,
-            [columns, groups.div_ceil(columns)],
-            None,
-        );
-        copy(&mut encoder, &colours, &readback, bytes);
-        self.context.queue.submit([encoder.finish()]);
-        let refined: Vec<ShadedPixel> = self.read(&readback, bytes)?;
-        let (colour, linear) = frame.shading_mut();
-        if let Some(colour) = colour {
-            for (&index, s) in edges.iter().zip(&refined) {
-                colour[index as usize] = unpack(s.colour);
+        self.on_device(|| {
+            let edges: Vec<u32> = edges.iter().map(|&i| i as u32).collect();
+            if samples_per_axis <= 1 || edges.is_empty() {
+                return Ok(0);
             }
-        }
-        if let Some(linear) = linear {
-            for (&index, s) in edges.iter().zip(&refined) {
-                linear[index as usize] = s.linear;
+            if camera.has_lens_model() {
+                // The table holds pixel centres only; the renderer refines lens cameras on the CPU.
+                return Err(GpuError::NoGpuCamera(camera.model_name()));
             }
-        }
-        Ok(edges.len())
+            let mut params = camera_params(camera, pose, scene.offset);
+            params.frame.samples_per_axis = samples_per_axis;
+            let bytes = edges.len() as u64 * size_of::<ShadedPixel>();
+            let context = &self.context;
+            let uniform = context.buffer_init("camera", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM)?;
+            let pixels =
+                context.buffer_init("edge pixels", bytemuck::cast_slice(&edges), wgpu::BufferUsages::STORAGE)?;
+            let colours = self.buffer(
+                "edge colours",
+                bytes,
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            );
+            let readback = self.buffer(
+                "edge colours readback",
+                bytes,
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            );
+            let bind_group = self.bind_group(
+                &self.refine,
+                &[
+                    (CAMERA, &uniform),
+                    (NODES, &scene.nodes),
+                    (TRIANGLES, &scene.triangles),
+                    (MATERIALS, &scene.materials),
+                    (EDGE_PIXELS, &pixels),
+                    (EDGE_COLOURS, &colours),
+                    (LIGHTS, &scene.lights),
+                    (SHADING, &scene.shading),
+                    (CAMERA_RAYS, &self.no_rays),
+                    (SURFACES, &scene.surfaces),
+                    (TEXTURES, &scene.textures),
+                ],
+            );
+            let groups = (edges.len() as u32).div_ceil(shader::REFINE_WORKGROUP_SIZE);
+            let columns = groups.min(self.context.limits.max_compute_workgroups_per_dimension);
+            let mut encoder = context.device.create_command_encoder(&Default::default());
+            dispatch(
+                &mut encoder,
+                &self.refine,
+                &bind_group,
+                [columns, groups.div_ceil(columns)],
+                None,
+            );
+            copy(&mut encoder, &colours, &readback, bytes);
+            self.context.queue.submit([encoder.finish()]);
+            let refined: Vec<ShadedPixel> = self.read(&readback, bytes)?;
+            let (colour, linear) = frame.shading_mut();
+            if let Some(colour) = colour {
+                for (&index, s) in edges.iter().zip(&refined) {
+                    colour[index as usize] = unpack(s.colour);
+                }
+            }
+            if let Some(linear) = linear {
+                for (&index, s) in edges.iter().zip(&refined) {
+                    linear[index as usize] = s.linear;
+                }
+            }
+            Ok(edges.len())
+        })
     }
 
     /// Hit, shaded and readback buffers for bands of `rows` × `width` pixels.
