@@ -133,9 +133,8 @@ fn samples_avx2(
     let weighs = _mm256_cmp_ps::<_CMP_GT_OQ>(fraction, _mm256_setzero_ps());
     let coarse = _mm256_sub_epi32(fine, _mm256_castps_si256(weighs));
     let decoding = &*DECODING;
-    // The rest with the face's wraps, as constants where both axes repeat (most faces), so
-    // that only repeat's code is worked out there.
-    let sums = |wraps: Wraps| {
+    // The rest with the face's wraps.
+    let sums = {
         let u = wraps.wrap[0].reduce(u, wraps.periods[0]);
         let v = wraps.wrap[1].reduce(v, wraps.periods[1]);
         let finer = LevelLanes::new(levels, table, fine, _mm256_sub_ps(_mm256_set1_ps(1.0), fraction));
@@ -151,10 +150,6 @@ fn samples_avx2(
                 [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
             })
         }
-    };
-    let sums = match wraps.wrap {
-        [Wrap::Repeat, Wrap::Repeat] => sums(Wraps::of([Wrap::Repeat; 2])),
-        _ => sums(wraps),
     };
     let mut out = [[0.0f32; 8]; 3];
     for (out, sum) in out.iter_mut().zip(sums) {
