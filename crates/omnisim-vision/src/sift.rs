@@ -350,11 +350,12 @@ const SCAN_BLOCK: usize = 8;
 fn block_candidates(layers: [&[f32]; 3], w: usize, start: usize, y: usize, threshold: f32, avx2: Option<Avx2>) -> u32 {
     let corner = block_corner(layers, w, start, y);
     #[cfg(target_arch = "x86_64")]
-    if avx2.is_some() {
+    if let Some(avx2) = avx2 {
         // SAFETY: `avx2` proves the CPU has AVX2, and `block_corner` checked every read.
-        return unsafe { block_candidates_avx2(layers, w, corner, threshold) };
+        return unsafe { block_candidates_avx2(avx2, layers, w, corner, threshold) };
     }
-    let _ = avx2; // read only on x86-64
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx2;
     let at = |layer: &[f32], (dy, dx): (usize, usize)| -> Lanes {
         layer[corner + dy * w + dx..][..SCAN_BLOCK]
             .try_into()
@@ -397,10 +398,10 @@ fn block_candidates(layers: [&[f32]; 3], w: usize, start: usize, y: usize, thres
 /// [`block_candidates`] in AVX2 vectors, from the block's top-left neighbour `corner`.
 ///
 /// # Safety
-/// The CPU must have AVX2, and `corner` must be [`block_corner`]'s for these layers.
+/// `corner` must be [`block_corner`]'s for these layers (the `Avx2` proof holds the rest).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn block_candidates_avx2(layers: [&[f32]; 3], w: usize, corner: usize, threshold: f32) -> u32 {
+unsafe fn block_candidates_avx2(_: Avx2, layers: [&[f32]; 3], w: usize, corner: usize, threshold: f32) -> u32 {
     use std::arch::x86_64::{
         _CMP_GT_OQ, _CMP_LT_OQ, _mm256_and_ps, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
         _mm256_movemask_ps, _mm256_or_ps, _mm256_set1_ps,
