@@ -152,8 +152,12 @@ pub(crate) trait Wide: Lanes {
     const AVX: bool;
     /// The first eight values of `values`.
     fn load(values: &[f32]) -> Self;
-    /// Lane `k` (below eight).
-    fn lane(self, k: usize) -> f32;
+    /// The eight values of two `Vec4`s (a wide node's coordinate, `accel/wide.rs`), lanes
+    /// 0–3 then 4–7.
+    fn from_halves(halves: &[Vec4; 2]) -> Self;
+    /// Lane `k` (below eight), read where the lanes lie: a packet's rays are in memory, and a
+    /// lane read from there is one load (a single ray taken from the packet: `rays.rs`).
+    fn lane(&self, k: usize) -> f32;
     /// The eight lanes in order.
     fn to_array(self) -> [f32; 8];
     /// Lane i from `self` where bit i of `lanes` is set, else from `other`.
@@ -169,7 +173,11 @@ impl Wide for Lanes8 {
         Lanes8::load(values)
     }
     #[inline(always)]
-    fn lane(self, k: usize) -> f32 {
+    fn from_halves(halves: &[Vec4; 2]) -> Self {
+        Self(*halves)
+    }
+    #[inline(always)]
+    fn lane(&self, k: usize) -> f32 {
         self.0[k / 4][k % 4]
     }
     #[inline(always)]
@@ -201,17 +209,18 @@ mod avx {
     //! run after `is_x86_feature_detected!("avx2")` (`fast/mod.rs`); every method is
     //! `#[inline(always)]`, so its intrinsics are compiled into such a function (in tests too:
     //! AVX2 test helpers are `#[target_feature]` functions called after the same detection).
-    //! Loads read exactly eight f32s from slices checked to hold them; the store (`to_array`)
-    //! writes an `[f32; 8]`.
+    //! Loads read exactly eight f32s from slices checked to hold them or from two `Vec4`s;
+    //! the store (`to_array`) writes an `[f32; 8]`; `lane` reads one of the register's own.
 
     use std::arch::x86_64::{
-        __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtss_f32, _mm256_add_ps, _mm256_and_ps,
-        _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castps256_ps128, _mm256_castsi256_ps,
-        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
-        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32, _mm256_set1_ps,
-        _mm256_setr_epi32, _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
+        __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256,
+        _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps,
+        _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
     };
     use std::ops::{Add, Div, Mul, Neg, Sub};
+
+    use glam::Vec4;
 
     use super::{Lanes, Wide};
 
@@ -219,6 +228,7 @@ mod avx {
     /// instruction each instead of two SSE ones, with the same IEEE results (signum and
     /// negation as glam computes them).
     #[derive(Debug, Clone, Copy)]
+    #[repr(transparent)]
     pub(crate) struct Avx8(__m256);
 
     binary_op!(Avx8, Add, add, |a, b| Avx8(unsafe { _mm256_add_ps(a.0, b.0) }));
@@ -282,14 +292,16 @@ mod avx {
             Self(unsafe { _mm256_loadu_ps(values.as_ptr()) })
         }
         #[inline(always)]
-        fn lane(self, k: usize) -> f32 {
-            debug_assert!(k < 8);
-            // Lane k read by a permute of the index's low three bits (LLVM may choose another
-            // sequence for it: the 07:00 release build has no `vpermps`), no store.
-            unsafe {
-                let picked = _mm256_permutevar8x32_ps(self.0, _mm256_set1_epi32(k as i32));
-                _mm_cvtss_f32(_mm256_castps256_ps128(picked))
-            }
+        fn from_halves(halves: &[Vec4; 2]) -> Self {
+            // Two `Vec4`s are 32 contiguous bytes (16 each, no padding).
+            Self(unsafe { _mm256_loadu_ps(halves.as_ptr().cast::<f32>()) })
+        }
+        #[inline(always)]
+        fn lane(&self, k: usize) -> f32 {
+            // The register's bytes as eight f32s (`Avx8` is a transparent `__m256`, 32 bytes),
+            // indexed with a bounds check (none where k is known below eight).
+            let lanes = unsafe { &*std::ptr::from_ref(self).cast::<[f32; 8]>() };
+            lanes[k]
         }
         #[inline(always)]
         fn to_array(self) -> [f32; 8] {
