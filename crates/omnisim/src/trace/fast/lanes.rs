@@ -293,7 +293,8 @@ mod avx {
         }
         #[inline(always)]
         fn from_halves(halves: &[Vec4; 2]) -> Self {
-            // Two `Vec4`s are 32 contiguous bytes (16 each, no padding).
+            // Two `Vec4`s are 32 contiguous bytes (16 each, no padding): checked here.
+            const { assert!(size_of::<[Vec4; 2]>() == 32) };
             Self(unsafe { _mm256_loadu_ps(halves.as_ptr().cast::<f32>()) })
         }
         #[inline(always)]
