@@ -8,6 +8,7 @@
 //! f32 rounding may differ, and with it, rarely, a pixel's level of detail: a linear colour's
 //! last bits, or now and then an 8-bit byte.
 
+use std::mem::MaybeUninit;
 use std::ops::Range;
 
 use glam::{DVec3, Vec3};
@@ -16,7 +17,7 @@ use rayon::prelude::*;
 use super::filter::{Detail, LANES, Levels, Lookups, Wraps, level_of_detail, samples, trilinear_lanes};
 use super::footprint::Footprints;
 use super::{
-    Appearance, Footprint, View, is_flat, lit, lit_by_lights, shade_on, texture_of, untextured_albedo, write_pixel,
+    Appearance, Footprint, View, is_flat, lit, lit_by_lights, pixel_colour, shade_on, texture_of, untextured_albedo,
 };
 use crate::avx2::Avx2;
 use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
@@ -41,9 +42,15 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
         footprints: &footprints,
         levels: &levels,
     };
-    let mut colour = vec![BACKGROUND; pixels.len()];
+    // Every pixel's colour is written once, misses too, with no fill before: a fill cost an
+    // omni 250² frame about 3 instructions a pixel (callgrind, docs/benchmarks.md, 2026-11-27
+    // midday (tex)), as it did the untextured frames (`eight_bit_frame`).
+    let mut colour = Vec::with_capacity(pixels.len());
     let mut linear = Vec::new();
-    let chunks = pixels.par_chunks(CHUNK).zip(colour.par_chunks_mut(CHUNK)).enumerate();
+    let chunks = pixels
+        .par_chunks(CHUNK)
+        .zip(colour.spare_capacity_mut()[..pixels.len()].par_chunks_mut(CHUNK))
+        .enumerate();
     if planes.contains(Plane::LinearColour) {
         linear = vec![[0.0; 3]; pixels.len()];
         chunks
@@ -66,6 +73,11 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
             });
         });
     }
+    // SAFETY: the loops above wrote each of the first `pixels.len()` entries: the colour
+    // chunks are zipped with the frame's pixel chunks of the same size and count, and
+    // `Shader::chunk` writes every pixel of its chunk (see there). A panic there unwinds past
+    // this line, leaving the length 0.
+    unsafe { colour.set_len(pixels.len()) };
     frame.set_shading(planes, linear, colour);
 }
 
@@ -136,11 +148,12 @@ struct Untextured<'a> {
 }
 
 /// A chunk of a frame as shading writes it: the index of its first pixel in the frame, its
-/// hits, and its pixels' 8-bit colours (and linear colours where asked).
+/// hits, and its pixels' 8-bit colours, not yet written (and linear colours where asked,
+/// zero before).
 struct Chunk<'c> {
     start: usize,
     hits: &'c [Pixel],
-    colour: &'c mut [[u8; 3]],
+    colour: &'c mut [MaybeUninit<[u8; 3]>],
     linear: Option<&'c mut [[f32; 3]]>,
 }
 
@@ -170,14 +183,17 @@ impl Run<'_> {
 }
 
 impl<'a> Shader<'a> {
-    /// Shades the hits of `chunk` into its planes; pixels that hit nothing stay as they are
-    /// (black). The chunk is taken in spans of neighbouring pixels that see one face (most
-    /// do), so that a face is compared once a pixel and looked up once a span. An untextured
-    /// span is shaded pixel by pixel; a textured one joins its face's run, and a full run (or
-    /// one the next textured face ends) is shaded in lanes, coordinates to encoding. Taken
-    /// pixel by pixel, with the run's face, its pixels' hits and slots and the untextured face
-    /// held through the loop, an equirect frame cost 9.5 M instructions more (callgrind,
-    /// docs/benchmarks.md, 2026-11-26 afternoon (tex)).
+    /// Shades the hits of `chunk` into its planes, writing every pixel's colour once (pixels
+    /// that hit nothing black, their linear colours left as they are, zero). The chunk is
+    /// taken in spans of neighbouring pixels that see one face (most do), so that a face is
+    /// compared once a pixel and looked up once a span. A span that hits nothing, or a flat
+    /// face where the linear plane is not asked for, is written at once, another untextured
+    /// span pixel by pixel; a textured one joins its face's run, and a full run (or one the
+    /// next textured face or the chunk's end ends) is shaded in lanes, coordinates to
+    /// encoding, and its pixels written. Taken pixel by pixel, with the run's face, its
+    /// pixels' hits and slots and the untextured face held through the loop, an equirect frame
+    /// cost 9.5 M instructions more (callgrind, docs/benchmarks.md, 2026-11-26 afternoon
+    /// (tex)).
     fn chunk(&self, mut chunk: Chunk<'_>) {
         let appearance = self.appearance;
         let mut run: Option<Run<'a>> = None;
@@ -189,18 +205,15 @@ impl<'a> Shader<'a> {
         // apart: comparing through the `Option`s cost about 30 instructions a pixel.
         let (mut run_face, mut untextured_face) = (NO_FACE, NO_FACE);
         let hits = chunk.hits;
+        let avx2 = Avx2::detected();
         let mut start = 0;
         while let Some(first) = hits.get(start) {
             let face_id = first.face;
-            // As a count of `take_while` this cost about ten instructions a pixel instead of
-            // six (profile, docs/benchmarks.md, 2026-11-26 afternoon (tex)).
-            let mut end = start + 1;
-            while hits.get(end).is_some_and(|hit| hit.face == face_id) {
-                end += 1;
-            }
+            let end = span_end(hits, start, avx2);
             let mut span = start..end;
             start = end;
             if face_id == NO_FACE {
+                fill(&mut chunk.colour[span], BACKGROUND);
                 continue;
             }
             if face_id != run_face && face_id != untextured_face {
@@ -228,6 +241,13 @@ impl<'a> Shader<'a> {
             if face_id == untextured_face
                 && let Some(Untextured { surface, flat }) = untextured
             {
+                // A flat face's pixels without the linear plane: its byte, the span at once
+                // (pixel by pixel, as below, about 24 instructions a pixel; omni 250², half the
+                // pixels: docs/benchmarks.md, 2026-11-27 midday (tex)).
+                if let (Some(byte), None) = (flat, &chunk.linear) {
+                    fill(&mut chunk.colour[span], byte);
+                    continue;
+                }
                 for slot in span {
                     let hit = &hits[slot];
                     // As `mod.rs` shades it: no texture, so no footprint.
@@ -241,7 +261,7 @@ impl<'a> Shader<'a> {
                         )
                     };
                     let linear = chunk.linear.as_deref_mut().map(|linear| &mut linear[slot]);
-                    write_pixel(flat, shaded, &mut chunk.colour[slot], linear);
+                    chunk.colour[slot].write(pixel_colour(flat, shaded, linear));
                 }
                 continue;
             }
@@ -370,12 +390,80 @@ impl<'a> Shader<'a> {
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded, avx2);
         if neighbours {
-            chunk.colour[first..first + LANES].copy_from_slice(&encoded);
+            chunk.colour[first..first + LANES].copy_from_slice(&encoded.map(MaybeUninit::new));
         } else {
             for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
-                chunk.colour[slot] = encoded;
+                chunk.colour[slot].write(encoded);
             }
         }
+    }
+}
+
+/// The end of the span of pixels from `start` on (a pixel of `hits`) that see its face: the
+/// first later pixel that sees another, or the end of `hits`. With `avx2` eight faces are
+/// compared at a time, gathered from the pixels, where one pixel at a time cost about six
+/// instructions a pixel (docs/benchmarks.md, 2026-11-27 midday (tex)); the same end either way.
+#[inline(always)]
+fn span_end(hits: &[Pixel], start: usize, avx2: Option<Avx2>) -> usize {
+    let face = hits[start].face;
+    let mut end = start + 1;
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = avx2 {
+        // SAFETY: `avx2` proves the CPU has AVX2, which `span_end_avx2` is compiled for.
+        end = unsafe { span_end_avx2(avx2, hits, end, face) };
+    }
+    while hits.get(end).is_some_and(|hit| hit.face == face) {
+        end += 1;
+    }
+    end
+}
+
+/// [`span_end`]'s eights with AVX2: from `end` on, while eight whole pixels are left, the first
+/// that does not see `face`; else where the last eight that all see it end (the caller goes
+/// on one by one).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn span_end_avx2(_: Avx2, hits: &[Pixel], mut end: usize, face: u32) -> usize {
+    use std::arch::x86_64::{
+        _mm256_castsi256_ps, _mm256_cmpeq_epi32, _mm256_i32gather_epi32, _mm256_movemask_ps, _mm256_set1_epi32,
+        _mm256_setr_epi32,
+    };
+    // The faces of eight neighbouring pixels lie one pixel's size apart, counted in i32s.
+    const STRIDE: usize = size_of::<Pixel>() / size_of::<i32>();
+    const {
+        assert!(size_of::<Pixel>() % size_of::<i32>() == 0 && std::mem::offset_of!(Pixel, face) % 4 == 0);
+    };
+    let step = STRIDE as i32;
+    let offsets = _mm256_setr_epi32(0, step, 2 * step, 3 * step, 4 * step, 5 * step, 6 * step, 7 * step);
+    let wanted = _mm256_set1_epi32(face as i32);
+    while let Some(eight) = hits.get(end..end + 8) {
+        // SAFETY: the gather reads the face of each of the eight pixels of `eight`, from the
+        // slice's own pointer.
+        let faces = unsafe {
+            let first = eight.as_ptr().byte_add(std::mem::offset_of!(Pixel, face)).cast::<i32>();
+            _mm256_i32gather_epi32::<4>(first, offsets)
+        };
+        let same = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(faces, wanted)));
+        if same != 0xff {
+            return end + same.trailing_ones() as usize;
+        }
+        end += 8;
+    }
+    end
+}
+
+/// Writes `byte` into each of `colour`'s pixels, eight at a time (one 24-byte copy), where
+/// LLVM's loop for one pixel at a time took seven instructions a pixel (docs/benchmarks.md,
+/// 2026-11-27 midday (tex)).
+#[inline(always)]
+fn fill(colour: &mut [MaybeUninit<[u8; 3]>], byte: [u8; 3]) {
+    let eight = [MaybeUninit::new(byte); 8];
+    let mut eights = colour.chunks_exact_mut(8);
+    for pixels in &mut eights {
+        pixels.copy_from_slice(&eight);
+    }
+    for pixel in eights.into_remainder() {
+        pixel.write(byte);
     }
 }
 
