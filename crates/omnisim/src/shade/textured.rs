@@ -222,7 +222,7 @@ impl<'a> Shader<'a> {
                     surface.and_then(|surface| Face::of(appearance, self.levels, self.view, first, surface))
                 {
                     if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
-                        self.finish(&mut chunk, ended, &mut lookups);
+                        self.finish(&mut chunk, ended, &mut lookups, avx2);
                     }
                     run = Some(Run {
                         face: textured,
@@ -271,28 +271,38 @@ impl<'a> Shader<'a> {
             debug_assert!(run.is_some(), "face {run_face} names a run, and none is held");
             let Some(run) = run.as_mut() else { continue };
             while run.take(&mut span) {
-                self.finish(&mut chunk, run, &mut lookups);
+                self.finish(&mut chunk, run, &mut lookups, avx2);
                 run.len = 0;
             }
         }
         if let Some(run) = run.as_ref().filter(|run| run.len > 0) {
-            self.finish(&mut chunk, run, &mut lookups);
+            self.finish(&mut chunk, run, &mut lookups, avx2);
         }
     }
 
     /// Shades the pixels of `run` in `chunk` and writes their colours, setting up `lookups`
-    /// for their lanes: with AVX2 where the CPU has it (the lanes' gathers, and every stage
-    /// compiled for it), else portably, to the same bits.
-    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>) {
-        match Avx2::detected() {
+    /// for their lanes: with AVX2 where `avx2` proves the CPU has it (the lanes' gathers, and
+    /// every stage compiled for it), else portably, to the same bits. Inlined into the chunk's
+    /// loop, which checks the CPU once, with the portable body out of line: a call of its own
+    /// that checked the CPU and saved the registers the portable body needs cost about 33
+    /// instructions a run (docs/benchmarks.md, 2026-11-27 midday (tex)).
+    #[inline(always)]
+    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>, avx2: Option<Avx2>) {
+        match avx2 {
             // Inlined into the AVX2 body, as `Avx2::run` needs, so that every stage is compiled
             // for AVX2.
             Some(avx2) => avx2.run(
                 #[inline(always)]
                 || self.finish_in(chunk, run, lookups, Some(avx2)),
             ),
-            None => self.finish_in(chunk, run, lookups, None),
+            None => self.finish_portably(chunk, run, lookups),
         }
+    }
+
+    /// [`Shader::finish`] without AVX2.
+    #[inline(never)]
+    fn finish_portably(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>) {
+        self.finish_in(chunk, run, lookups, None);
     }
 
     /// [`Shader::finish`]'s work, stage by stage over the run's lanes: texture coordinates
@@ -390,7 +400,7 @@ impl<'a> Shader<'a> {
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded, avx2);
         if neighbours {
-            chunk.colour[first..first + LANES].copy_from_slice(&encoded.map(MaybeUninit::new));
+            chunk.colour[first..first + LANES].write_copy_of_slice(&encoded);
         } else {
             for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
                 chunk.colour[slot].write(encoded);
