@@ -75,8 +75,11 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     }
     // SAFETY: the loops above wrote each of the first `pixels.len()` entries: the colour
     // chunks are zipped with the frame's pixel chunks of the same size and count, and
-    // `Shader::chunk` writes every pixel of its chunk (see there). A panic there unwinds past
-    // this line, leaving the length 0.
+    // `Shader::chunk` writes every pixel of its chunk: each span of it is a miss span
+    // (`fill_by_eights`), a flat span (`fill_by_eights`), another untextured span (pixel by
+    // pixel), or textured pixels taken into a run, which `finish_in` writes (the slice where they
+    // are neighbours, else each of `slot[..len]`) once it is full, ended by the next textured
+    // face, or flushed after the loop. A panic there unwinds past this line, leaving the length 0.
     unsafe { colour.set_len(pixels.len()) };
     frame.set_shading(planes, linear, colour);
 }
@@ -213,7 +216,7 @@ impl<'a> Shader<'a> {
             let mut span = start..end;
             start = end;
             if face_id == NO_FACE {
-                fill(&mut chunk.colour[span], BACKGROUND);
+                fill_by_eights(&mut chunk.colour[span], BACKGROUND);
                 continue;
             }
             if face_id != run_face && face_id != untextured_face {
@@ -245,7 +248,7 @@ impl<'a> Shader<'a> {
                 // (pixel by pixel, as below, about 24 instructions a pixel; omni 250², half the
                 // pixels: docs/benchmarks.md, 2026-11-27 midday (tex)).
                 if let (Some(byte), None) = (flat, &chunk.linear) {
-                    fill(&mut chunk.colour[span], byte);
+                    fill_by_eights(&mut chunk.colour[span], byte);
                     continue;
                 }
                 for slot in span {
@@ -269,7 +272,11 @@ impl<'a> Shader<'a> {
             // is only ever set with `run`, so the `else` never runs (`unreachable!` there cost
             // 0.24 M instructions an omni frame and 1.15 M an equirect one, callgrind).
             debug_assert!(run.is_some(), "face {run_face} names a run, and none is held");
-            let Some(run) = run.as_mut() else { continue };
+            let Some(run) = run.as_mut() else {
+                // Written all the same, so that the chunk's every pixel is.
+                fill_by_eights(&mut chunk.colour[span], BACKGROUND);
+                continue;
+            };
             while run.take(&mut span) {
                 self.finish(&mut chunk, run, &mut lookups, avx2);
                 run.len = 0;
@@ -400,7 +407,14 @@ impl<'a> Shader<'a> {
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded, avx2);
         if neighbours {
-            chunk.colour[first..first + LANES].write_copy_of_slice(&encoded);
+            // One copy of the eight colours, where `copy_from_slice` of the colours mapped to
+            // `MaybeUninit` cost eight 3-byte loads and stores (about 56 instructions a run,
+            // docs/benchmarks.md, 2026-11-27 midday (tex)).
+            let colours = &mut chunk.colour[first..first + LANES];
+            // SAFETY: `MaybeUninit<[u8; 3]>` has the layout of `[u8; 3]`, and the copy writes
+            // the `LANES` colours of `colours`, a slice of that many, which does not overlap
+            // `encoded`, a local.
+            unsafe { std::ptr::copy_nonoverlapping(encoded.as_ptr(), colours.as_mut_ptr().cast::<[u8; 3]>(), LANES) };
         } else {
             for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
                 chunk.colour[slot].write(encoded);
@@ -441,7 +455,10 @@ fn span_end_avx2(_: Avx2, hits: &[Pixel], mut end: usize, face: u32) -> usize {
     // The faces of eight neighbouring pixels lie one pixel's size apart, counted in i32s.
     const STRIDE: usize = size_of::<Pixel>() / size_of::<i32>();
     const {
-        assert!(size_of::<Pixel>() % size_of::<i32>() == 0 && std::mem::offset_of!(Pixel, face) % 4 == 0);
+        assert!(
+            size_of::<Pixel>().is_multiple_of(size_of::<i32>())
+                && std::mem::offset_of!(Pixel, face).is_multiple_of(size_of::<i32>())
+        );
     };
     let step = STRIDE as i32;
     let offsets = _mm256_setr_epi32(0, step, 2 * step, 3 * step, 4 * step, 5 * step, 6 * step, 7 * step);
@@ -466,7 +483,7 @@ fn span_end_avx2(_: Avx2, hits: &[Pixel], mut end: usize, face: u32) -> usize {
 /// LLVM's loop for one pixel at a time took seven instructions a pixel (docs/benchmarks.md,
 /// 2026-11-27 midday (tex)).
 #[inline(always)]
-fn fill(colour: &mut [MaybeUninit<[u8; 3]>], byte: [u8; 3]) {
+fn fill_by_eights(colour: &mut [MaybeUninit<[u8; 3]>], byte: [u8; 3]) {
     let eight = [MaybeUninit::new(byte); 8];
     let mut eights = colour.chunks_exact_mut(8);
     for pixels in &mut eights {
@@ -532,6 +549,29 @@ fn tinted_avx2(_: Avx2, base: DVec3, samples: &[[f32; LANES]; 3]) -> [[f64; 3]; 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// A span's end found eight faces at a time is the end found one pixel at a time, from
+    /// every start, in chunks of spans of random lengths (misses among them), longer and
+    /// shorter than eight.
+    #[test]
+    fn span_ends_in_eights_are_the_pixel_by_pixel_ends() {
+        let mut random = rand_chacha::ChaCha8Rng::seed_from_u64(18);
+        for _ in 0..200 {
+            let mut hits = Vec::new();
+            while hits.len() < 300 {
+                let face = [0, 1, 2, NO_FACE][random.random_range(0..4)];
+                let length = [1, 2, 7, 8, 9, 16, 17, 40][random.random_range(0..8)];
+                hits.extend(std::iter::repeat_n(Pixel { face, ..Pixel::MISS }, length));
+            }
+            for start in 0..hits.len() {
+                let face = hits[start].face;
+                let want = start + hits[start..].iter().take_while(|hit| hit.face == face).count();
+                assert_eq!(span_end(&hits, start, None), want, "from {start}");
+                assert_eq!(span_end(&hits, start, Avx2::detected()), want, "from {start}");
+            }
+        }
+    }
 
     /// The albedo times the samples in AVX2 registers, moved into lane order: the bits of the
     /// channel-by-channel loop, lane by lane, at zero, subnormal, small and large samples.
