@@ -1035,6 +1035,9 @@ fn a_textured_frame_is_each_pixel_shaded_alone_bit_for_bit() {
                             assert_encoded_alone(colour[index], alone, exact, &name);
                             textured_pixels += usize::from(textured(hit.face));
                             coloured_pixels += usize::from(coloured(hit.face));
+                        } else {
+                            // Written as black, with no fill before (`shade/textured.rs`).
+                            assert_eq!(colour[index], [0, 0, 0], "{name}: a miss");
                         }
                     }
                     assert!(

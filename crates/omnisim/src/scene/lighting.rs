@@ -167,22 +167,22 @@ impl SrgbEncoding {
     #[target_feature(enable = "avx2")]
     fn bytes_avx2(&self, _: crate::avx2::Avx2, linear: &[[f64; 3]; 8], bytes: &mut [[u8; 3]; 8]) {
         use std::arch::x86_64::{
-            _CMP_GT_OQ, _CMP_LE_OQ, _mm_and_si128, _mm_cvtsi128_si32, _mm_i32gather_epi32, _mm_set1_epi32,
-            _mm_setr_epi8, _mm_shuffle_epi8, _mm_sub_epi32, _mm256_and_pd, _mm256_castpd_si256, _mm256_castsi256_si128,
-            _mm256_cmp_pd, _mm256_cvttpd_epi32, _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_min_pd, _mm256_mul_pd,
+            _CMP_LE_OQ, _mm_and_si128, _mm_cvtsi128_si32, _mm_i32gather_epi32, _mm_set1_epi32, _mm_setr_epi8,
+            _mm_shuffle_epi8, _mm_sub_epi32, _mm256_castpd_si256, _mm256_castsi256_si128, _mm256_cmp_pd,
+            _mm256_cvttpd_epi32, _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd, _mm256_mul_pd,
             _mm256_permutevar8x32_epi32, _mm256_set1_pd, _mm256_setr_epi32, _mm256_setzero_pd,
         };
         // 24 values, six chunks of four: no remainder is left out.
         let (values, bytes) = (linear.as_flattened(), bytes.as_flattened_mut());
         for (values, bytes) in values.chunks_exact(4).zip(bytes.chunks_exact_mut(4)) {
-            // SAFETY: the load reads the chunk's four values. Each c lies in [0, 1] (a NaN or
-            // a value not above 0 is masked to 0, `min` keeps 1 as the bound), so its bucket
-            // is in 0..=4096, and the four bytes gathered from it lie inside `buckets`
-            // (4100); each guess is a byte, inside `steps` (256).
+            // SAFETY: the load reads the chunk's four values. Each c lies in [0, 1] (`max`
+            // takes a NaN, its first operand, to its second, 0, and anything not above 0 to 0;
+            // `min` keeps 1 as the bound), so its bucket is in 0..=4096, and the four bytes
+            // gathered from it lie inside `buckets` (4100); each guess is a byte, inside
+            // `steps` (256).
             let four = unsafe {
                 let value = _mm256_loadu_pd(values.as_ptr());
-                let positive = _mm256_cmp_pd::<_CMP_GT_OQ>(value, _mm256_setzero_pd());
-                let c = _mm256_and_pd(_mm256_min_pd(value, _mm256_set1_pd(1.0)), positive);
+                let c = _mm256_min_pd(_mm256_max_pd(value, _mm256_setzero_pd()), _mm256_set1_pd(1.0));
                 let bucket = _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64)));
                 let gathered = _mm_i32gather_epi32::<1>(self.buckets.as_ptr().cast::<i32>(), bucket);
                 let guess = _mm_and_si128(gathered, _mm_set1_epi32(0xff));

@@ -512,23 +512,18 @@ fn is_flat(appearance: &Appearance, surface: Option<&Surface>) -> bool {
     appearance.lighting.is_none() && surface.is_none()
 }
 
-/// Writes a hit pixel's 8-bit colour into `colour`: `flat` where it is a flat face's byte (as
-/// [`eight_bit`] takes it), else the linear colour `shaded` gives, encoded; and that linear
-/// colour into `linear` where asked. `shaded` is called only where one of them needs it.
+/// A hit pixel's 8-bit colour: `flat` where it is a flat face's byte (as [`eight_bit`] takes
+/// it), else the linear colour `shaded` gives, encoded; and that linear colour written into
+/// `linear` where asked. `shaded` is called only where one of them needs it.
 #[inline(always)]
-fn write_pixel(
-    flat: Option<[u8; 3]>,
-    shaded: impl FnOnce() -> DVec3,
-    colour: &mut [u8; 3],
-    linear: Option<&mut [f32; 3]>,
-) {
+fn pixel_colour(flat: Option<[u8; 3]>, shaded: impl FnOnce() -> DVec3, linear: Option<&mut [f32; 3]>) -> [u8; 3] {
     match linear {
         Some(linear) => {
             let shaded = shaded();
             *linear = shaded.as_vec3().to_array();
-            *colour = flat.unwrap_or_else(|| encode(shaded));
+            flat.unwrap_or_else(|| encode(shaded))
         }
-        None => *colour = flat.unwrap_or_else(|| encode(shaded())),
+        None => flat.unwrap_or_else(|| encode(shaded())),
     }
 }
 

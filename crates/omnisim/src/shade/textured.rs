@@ -8,6 +8,7 @@
 //! f32 rounding may differ, and with it, rarely, a pixel's level of detail: a linear colour's
 //! last bits, or now and then an 8-bit byte.
 
+use std::mem::MaybeUninit;
 use std::ops::Range;
 
 use glam::{DVec3, Vec3};
@@ -16,7 +17,7 @@ use rayon::prelude::*;
 use super::filter::{Detail, LANES, Levels, Lookups, Wraps, level_of_detail, samples, trilinear_lanes};
 use super::footprint::Footprints;
 use super::{
-    Appearance, Footprint, View, is_flat, lit, lit_by_lights, shade_on, texture_of, untextured_albedo, write_pixel,
+    Appearance, Footprint, View, is_flat, lit, lit_by_lights, pixel_colour, shade_on, texture_of, untextured_albedo,
 };
 use crate::avx2::Avx2;
 use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
@@ -41,9 +42,15 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
         footprints: &footprints,
         levels: &levels,
     };
-    let mut colour = vec![BACKGROUND; pixels.len()];
+    // Every pixel's colour is written once, misses too, with no fill before: a fill cost an
+    // omni 250² frame about 3 instructions a pixel (callgrind, docs/benchmarks.md, 2026-11-27
+    // midday (tex)), as it did the untextured frames (`eight_bit_frame`).
+    let mut colour = Vec::with_capacity(pixels.len());
     let mut linear = Vec::new();
-    let chunks = pixels.par_chunks(CHUNK).zip(colour.par_chunks_mut(CHUNK)).enumerate();
+    let chunks = pixels
+        .par_chunks(CHUNK)
+        .zip(colour.spare_capacity_mut()[..pixels.len()].par_chunks_mut(CHUNK))
+        .enumerate();
     if planes.contains(Plane::LinearColour) {
         linear = vec![[0.0; 3]; pixels.len()];
         chunks
@@ -66,6 +73,14 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
             });
         });
     }
+    // SAFETY: the loops above wrote each of the first `pixels.len()` entries: the colour
+    // chunks are zipped with the frame's pixel chunks of the same size and count, and
+    // `Shader::chunk` writes every pixel of its chunk: each span of it is a miss span
+    // (`fill_by_eights`), a flat span (`fill_by_eights`), another untextured span (pixel by
+    // pixel), or textured pixels taken into a run, which `finish_in` writes (the slice where they
+    // are neighbours, else each of `slot[..len]`) once it is full, ended by the next textured
+    // face, or flushed after the loop. A panic there unwinds past this line, leaving the length 0.
+    unsafe { colour.set_len(pixels.len()) };
     frame.set_shading(planes, linear, colour);
 }
 
@@ -136,11 +151,12 @@ struct Untextured<'a> {
 }
 
 /// A chunk of a frame as shading writes it: the index of its first pixel in the frame, its
-/// hits, and its pixels' 8-bit colours (and linear colours where asked).
+/// hits, and its pixels' 8-bit colours, not yet written (and linear colours where asked,
+/// zero before).
 struct Chunk<'c> {
     start: usize,
     hits: &'c [Pixel],
-    colour: &'c mut [[u8; 3]],
+    colour: &'c mut [MaybeUninit<[u8; 3]>],
     linear: Option<&'c mut [[f32; 3]]>,
 }
 
@@ -170,14 +186,17 @@ impl Run<'_> {
 }
 
 impl<'a> Shader<'a> {
-    /// Shades the hits of `chunk` into its planes; pixels that hit nothing stay as they are
-    /// (black). The chunk is taken in spans of neighbouring pixels that see one face (most
-    /// do), so that a face is compared once a pixel and looked up once a span. An untextured
-    /// span is shaded pixel by pixel; a textured one joins its face's run, and a full run (or
-    /// one the next textured face ends) is shaded in lanes, coordinates to encoding. Taken
-    /// pixel by pixel, with the run's face, its pixels' hits and slots and the untextured face
-    /// held through the loop, an equirect frame cost 9.5 M instructions more (callgrind,
-    /// docs/benchmarks.md, 2026-11-26 afternoon (tex)).
+    /// Shades the hits of `chunk` into its planes, writing every pixel's colour once (pixels
+    /// that hit nothing black, their linear colours left as they are, zero). The chunk is
+    /// taken in spans of neighbouring pixels that see one face (most do), so that a face is
+    /// compared once a pixel and looked up once a span. A span that hits nothing, or a flat
+    /// face where the linear plane is not asked for, is written at once, another untextured
+    /// span pixel by pixel; a textured one joins its face's run, and a full run (or one the
+    /// next textured face or the chunk's end ends) is shaded in lanes, coordinates to
+    /// encoding, and its pixels written. Taken pixel by pixel, with the run's face, its
+    /// pixels' hits and slots and the untextured face held through the loop, an equirect frame
+    /// cost 9.5 M instructions more (callgrind, docs/benchmarks.md, 2026-11-26 afternoon
+    /// (tex)).
     fn chunk(&self, mut chunk: Chunk<'_>) {
         let appearance = self.appearance;
         let mut run: Option<Run<'a>> = None;
@@ -189,18 +208,15 @@ impl<'a> Shader<'a> {
         // apart: comparing through the `Option`s cost about 30 instructions a pixel.
         let (mut run_face, mut untextured_face) = (NO_FACE, NO_FACE);
         let hits = chunk.hits;
+        let avx2 = Avx2::detected();
         let mut start = 0;
         while let Some(first) = hits.get(start) {
             let face_id = first.face;
-            // As a count of `take_while` this cost about ten instructions a pixel instead of
-            // six (profile, docs/benchmarks.md, 2026-11-26 afternoon (tex)).
-            let mut end = start + 1;
-            while hits.get(end).is_some_and(|hit| hit.face == face_id) {
-                end += 1;
-            }
+            let end = span_end(hits, start, avx2);
             let mut span = start..end;
             start = end;
             if face_id == NO_FACE {
+                fill_by_eights(&mut chunk.colour[span], BACKGROUND);
                 continue;
             }
             if face_id != run_face && face_id != untextured_face {
@@ -209,7 +225,7 @@ impl<'a> Shader<'a> {
                     surface.and_then(|surface| Face::of(appearance, self.levels, self.view, first, surface))
                 {
                     if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
-                        self.finish(&mut chunk, ended, &mut lookups);
+                        self.finish(&mut chunk, ended, &mut lookups, avx2);
                     }
                     run = Some(Run {
                         face: textured,
@@ -228,6 +244,13 @@ impl<'a> Shader<'a> {
             if face_id == untextured_face
                 && let Some(Untextured { surface, flat }) = untextured
             {
+                // A flat face's pixels without the linear plane: its byte, the span at once
+                // (pixel by pixel, as below, about 24 instructions a pixel; omni 250², half the
+                // pixels: docs/benchmarks.md, 2026-11-27 midday (tex)).
+                if let (Some(byte), None) = (flat, &chunk.linear) {
+                    fill_by_eights(&mut chunk.colour[span], byte);
+                    continue;
+                }
                 for slot in span {
                     let hit = &hits[slot];
                     // As `mod.rs` shades it: no texture, so no footprint.
@@ -241,7 +264,7 @@ impl<'a> Shader<'a> {
                         )
                     };
                     let linear = chunk.linear.as_deref_mut().map(|linear| &mut linear[slot]);
-                    write_pixel(flat, shaded, &mut chunk.colour[slot], linear);
+                    chunk.colour[slot].write(pixel_colour(flat, shaded, linear));
                 }
                 continue;
             }
@@ -249,30 +272,44 @@ impl<'a> Shader<'a> {
             // is only ever set with `run`, so the `else` never runs (`unreachable!` there cost
             // 0.24 M instructions an omni frame and 1.15 M an equirect one, callgrind).
             debug_assert!(run.is_some(), "face {run_face} names a run, and none is held");
-            let Some(run) = run.as_mut() else { continue };
+            let Some(run) = run.as_mut() else {
+                // Written all the same, so that the chunk's every pixel is.
+                fill_by_eights(&mut chunk.colour[span], BACKGROUND);
+                continue;
+            };
             while run.take(&mut span) {
-                self.finish(&mut chunk, run, &mut lookups);
+                self.finish(&mut chunk, run, &mut lookups, avx2);
                 run.len = 0;
             }
         }
         if let Some(run) = run.as_ref().filter(|run| run.len > 0) {
-            self.finish(&mut chunk, run, &mut lookups);
+            self.finish(&mut chunk, run, &mut lookups, avx2);
         }
     }
 
     /// Shades the pixels of `run` in `chunk` and writes their colours, setting up `lookups`
-    /// for their lanes: with AVX2 where the CPU has it (the lanes' gathers, and every stage
-    /// compiled for it), else portably, to the same bits.
-    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>) {
-        match Avx2::detected() {
+    /// for their lanes: with AVX2 where `avx2` proves the CPU has it (the lanes' gathers, and
+    /// every stage compiled for it), else portably, to the same bits. Inlined into the chunk's
+    /// loop, which checks the CPU once, with the portable body out of line: a call of its own
+    /// that checked the CPU and saved the registers the portable body needs cost about 33
+    /// instructions a run (docs/benchmarks.md, 2026-11-27 midday (tex)).
+    #[inline(always)]
+    fn finish(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>, avx2: Option<Avx2>) {
+        match avx2 {
             // Inlined into the AVX2 body, as `Avx2::run` needs, so that every stage is compiled
             // for AVX2.
             Some(avx2) => avx2.run(
                 #[inline(always)]
                 || self.finish_in(chunk, run, lookups, Some(avx2)),
             ),
-            None => self.finish_in(chunk, run, lookups, None),
+            None => self.finish_portably(chunk, run, lookups),
         }
+    }
+
+    /// [`Shader::finish`] without AVX2.
+    #[inline(never)]
+    fn finish_portably(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>) {
+        self.finish_in(chunk, run, lookups, None);
     }
 
     /// [`Shader::finish`]'s work, stage by stage over the run's lanes: texture coordinates
@@ -370,12 +407,90 @@ impl<'a> Shader<'a> {
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded, avx2);
         if neighbours {
-            chunk.colour[first..first + LANES].copy_from_slice(&encoded);
+            // One copy of the eight colours, where `copy_from_slice` of the colours mapped to
+            // `MaybeUninit` cost eight 3-byte loads and stores (about 56 instructions a run,
+            // docs/benchmarks.md, 2026-11-27 midday (tex)).
+            let colours = &mut chunk.colour[first..first + LANES];
+            // SAFETY: `MaybeUninit<[u8; 3]>` has the layout of `[u8; 3]`, and the copy writes
+            // the `LANES` colours of `colours`, a slice of that many, which does not overlap
+            // `encoded`, a local.
+            unsafe { std::ptr::copy_nonoverlapping(encoded.as_ptr(), colours.as_mut_ptr().cast::<[u8; 3]>(), LANES) };
         } else {
             for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
-                chunk.colour[slot] = encoded;
+                chunk.colour[slot].write(encoded);
             }
         }
+    }
+}
+
+/// The end of the span of pixels from `start` on (a pixel of `hits`) that see its face: the
+/// first later pixel that sees another, or the end of `hits`. With `avx2` eight faces are
+/// compared at a time, gathered from the pixels, where one pixel at a time cost about six
+/// instructions a pixel (docs/benchmarks.md, 2026-11-27 midday (tex)); the same end either way.
+#[inline(always)]
+fn span_end(hits: &[Pixel], start: usize, avx2: Option<Avx2>) -> usize {
+    let face = hits[start].face;
+    let mut end = start + 1;
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = avx2 {
+        // SAFETY: `avx2` proves the CPU has AVX2, which `span_end_avx2` is compiled for.
+        end = unsafe { span_end_avx2(avx2, hits, end, face) };
+    }
+    while hits.get(end).is_some_and(|hit| hit.face == face) {
+        end += 1;
+    }
+    end
+}
+
+/// [`span_end`]'s eights with AVX2: from `end` on, while eight whole pixels are left, the first
+/// that does not see `face`; else where the last eight that all see it end (the caller goes
+/// on one by one).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn span_end_avx2(_: Avx2, hits: &[Pixel], mut end: usize, face: u32) -> usize {
+    use std::arch::x86_64::{
+        _mm256_castsi256_ps, _mm256_cmpeq_epi32, _mm256_i32gather_epi32, _mm256_movemask_ps, _mm256_set1_epi32,
+        _mm256_setr_epi32,
+    };
+    // The faces of eight neighbouring pixels lie one pixel's size apart, counted in i32s.
+    const STRIDE: usize = size_of::<Pixel>() / size_of::<i32>();
+    const {
+        assert!(
+            size_of::<Pixel>().is_multiple_of(size_of::<i32>())
+                && std::mem::offset_of!(Pixel, face).is_multiple_of(size_of::<i32>())
+        );
+    };
+    let step = STRIDE as i32;
+    let offsets = _mm256_setr_epi32(0, step, 2 * step, 3 * step, 4 * step, 5 * step, 6 * step, 7 * step);
+    let wanted = _mm256_set1_epi32(face as i32);
+    while let Some(eight) = hits.get(end..end + 8) {
+        // SAFETY: the gather reads the face of each of the eight pixels of `eight`, from the
+        // slice's own pointer.
+        let faces = unsafe {
+            let first = eight.as_ptr().byte_add(std::mem::offset_of!(Pixel, face)).cast::<i32>();
+            _mm256_i32gather_epi32::<4>(first, offsets)
+        };
+        let same = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(faces, wanted)));
+        if same != 0xff {
+            return end + same.trailing_ones() as usize;
+        }
+        end += 8;
+    }
+    end
+}
+
+/// Writes `byte` into each of `colour`'s pixels, eight at a time (one 24-byte copy), where
+/// LLVM's loop for one pixel at a time took seven instructions a pixel (docs/benchmarks.md,
+/// 2026-11-27 midday (tex)).
+#[inline(always)]
+fn fill_by_eights(colour: &mut [MaybeUninit<[u8; 3]>], byte: [u8; 3]) {
+    let eight = [MaybeUninit::new(byte); 8];
+    let mut eights = colour.chunks_exact_mut(8);
+    for pixels in &mut eights {
+        pixels.copy_from_slice(&eight);
+    }
+    for pixel in eights.into_remainder() {
+        pixel.write(byte);
     }
 }
 
@@ -434,6 +549,29 @@ fn tinted_avx2(_: Avx2, base: DVec3, samples: &[[f32; LANES]; 3]) -> [[f64; 3]; 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// A span's end found eight faces at a time is the end found one pixel at a time, from
+    /// every start, in chunks of spans of random lengths (misses among them), longer and
+    /// shorter than eight.
+    #[test]
+    fn span_ends_in_eights_are_the_pixel_by_pixel_ends() {
+        let mut random = rand_chacha::ChaCha8Rng::seed_from_u64(18);
+        for _ in 0..200 {
+            let mut hits = Vec::new();
+            while hits.len() < 300 {
+                let face = [0, 1, 2, NO_FACE][random.random_range(0..4)];
+                let length = [1, 2, 7, 8, 9, 16, 17, 40][random.random_range(0..8)];
+                hits.extend(std::iter::repeat_n(Pixel { face, ..Pixel::MISS }, length));
+            }
+            for start in 0..hits.len() {
+                let face = hits[start].face;
+                let want = start + hits[start..].iter().take_while(|hit| hit.face == face).count();
+                assert_eq!(span_end(&hits, start, None), want, "from {start}");
+                assert_eq!(span_end(&hits, start, Avx2::detected()), want, "from {start}");
+            }
+        }
+    }
 
     /// The albedo times the samples in AVX2 registers, moved into lane order: the bits of the
     /// channel-by-channel loop, lane by lane, at zero, subnormal, small and large samples.
