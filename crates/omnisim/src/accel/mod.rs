@@ -108,14 +108,24 @@ impl SceneBvh {
         // Timed from the scene's faces, as Open3D's build is timed from its triangle arrays:
         // triangulation, boxes, obvhs, leaf order, the wide BVH and face normals.
         let start = Instant::now();
-        let triangles = scene.triangle_indices();
+        // A mesh's faces are all triangles: triangle i is then face i, and the list of triangle
+        // indices (16 bytes a triangle, made on one thread) is not needed.
+        let triangles = (!every_face_a_triangle(scene)).then(|| scene.triangle_indices());
+        let triangle_count = triangles.as_ref().map_or(scene.faces.len(), Vec::len);
+        let face_of = |i: usize| triangles.as_ref().map_or(i as u32, |list| list[i].face);
         // Each triangle's corners read from its face once, in face order (on all threads from
         // `PARALLEL_FROM`), for the boxes and the leaf order both. Read again from the faces in
         // leaf order instead, each triangle cost two scattered reads (its index, then its face)
         // where it now costs one: at 1M triangles the leaf order took 96 ms on two threads
         // against 51, for 16 ms more in the boxes' pass (docs/benchmarks.md, "2026-11-27 (build)").
-        let read_once: Vec<[DVec3; 3]> =
-            map_indices(triangles.len(), |i| triangles[i].corners(scene).map(|p| p - offset));
+        let corners_of = |i: usize| match &triangles {
+            Some(list) => list[i].corners(scene),
+            None => {
+                let vertices = &scene.faces[i].vertices;
+                [vertices[0], vertices[1], vertices[2]]
+            }
+        };
+        let read_once: Vec<[DVec3; 3]> = map_indices(triangle_count, |i| corners_of(i).map(|p| p - offset));
         let boxes: Vec<Aabb> = map_indices(read_once.len(), |i| padded_aabb(&read_once[i]));
         let mut core_time = Duration::ZERO;
         let mut bvh = if boxes.is_empty() {
@@ -137,7 +147,7 @@ impl SceneBvh {
         let order = std::mem::take(&mut bvh.primitive_indices);
         bvh.parents = Vec::new();
         let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| read_once[order[k] as usize]);
-        let face: Vec<u32> = map_indices(order.len(), |k| triangles[order[k] as usize].face);
+        let face: Vec<u32> = map_indices(order.len(), |k| face_of(order[k] as usize));
         drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
@@ -191,6 +201,16 @@ impl SceneBvh {
     }
 }
 
+/// Whether every face of `scene` is a triangle (on all threads from [`PARALLEL_FROM`] faces).
+fn every_face_a_triangle(scene: &Scene) -> bool {
+    let triangle = |face: &crate::scene::Face| face.vertices.len() == 3;
+    if scene.faces.len() < PARALLEL_FROM {
+        scene.faces.iter().all(triangle)
+    } else {
+        scene.faces.par_iter().all(triangle)
+    }
+}
+
 /// A triangle's f32 box, grown so that f32 box tests never reject a ray the f64 triangle test
 /// would accept (rounding of the box, the ray origin and the inverse direction).
 fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
@@ -233,6 +253,39 @@ mod tests {
             }
         }
         scene
+    }
+
+    /// Each triangle in leaf order keeps its face, with or without the list of triangle indices
+    /// (a mesh of triangles only goes without): its corners are the face's vertices, in the
+    /// face's order where the face is a triangle.
+    #[test]
+    fn leaf_order_keeps_each_triangle_with_its_face() {
+        let mixed = grid_scene(50);
+        let mut triangles_only = mixed.clone();
+        triangles_only.faces.retain(|face| face.vertices.len() == 3);
+        assert!(triangles_only.faces.len() < mixed.faces.len());
+        for scene in [mixed, triangles_only] {
+            let bvh = SceneBvh::build(&scene);
+            assert_eq!(bvh.face.len(), bvh.triangles.len());
+            let mut per_face = vec![0; scene.faces.len()];
+            for (corners, &face) in bvh.triangles.iter().zip(&bvh.face) {
+                per_face[face as usize] += 1;
+                let vertices: Vec<DVec3> = scene.faces[face as usize]
+                    .vertices
+                    .iter()
+                    .map(|&v| v - bvh.offset)
+                    .collect();
+                if vertices.len() == 3 {
+                    assert_eq!(corners.as_slice(), vertices.as_slice(), "face {face}");
+                } else {
+                    assert!(corners.iter().all(|corner| vertices.contains(corner)), "face {face}");
+                }
+            }
+            // A polygon of n vertices is n − 2 triangles.
+            for (face, &count) in per_face.iter().enumerate() {
+                assert_eq!(count, scene.faces[face].vertices.len() - 2, "face {face}");
+            }
+        }
     }
 
     /// Below and above `PARALLEL_FROM`: the wide BVH, walked from its root, reaches every
