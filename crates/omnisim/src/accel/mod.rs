@@ -67,6 +67,18 @@ pub(crate) fn map_indices<U: Send>(count: usize, f: impl Fn(usize) -> U + Sync +
     }
 }
 
+/// `f` of each of `0..count`, in order, as two lists: one pass where two maps would read the
+/// same input twice (on all threads from [`PARALLEL_FROM`] items, else on this one).
+fn map_indices_unzip<A: Send, B: Send>(count: usize, f: impl Fn(usize) -> (A, B) + Sync + Send) -> (Vec<A>, Vec<B>) {
+    if count < PARALLEL_FROM {
+        (0..count).map(f).unzip()
+    } else {
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        (0..count).into_par_iter().map(f).unzip_into_vecs(&mut a, &mut b);
+        (a, b)
+    }
+}
+
 /// A scene's triangles in a BVH, around a local origin: what both tracers traverse. Built once
 /// per geometry ([`crate::Renderer::prepare`]); colours and lights live elsewhere.
 #[derive(Clone)]
@@ -125,8 +137,11 @@ impl SceneBvh {
                 [vertices[0], vertices[1], vertices[2]]
             }
         };
-        let read_once: Vec<[DVec3; 3]> = map_indices(triangle_count, |i| corners_of(i).map(|p| p - offset));
-        let boxes: Vec<Aabb> = map_indices(read_once.len(), |i| padded_aabb(&read_once[i]));
+        // The boxes in the same pass, from the corners while they are at hand.
+        let (read_once, boxes): (Vec<[DVec3; 3]>, Vec<Aabb>) = map_indices_unzip(triangle_count, |i| {
+            let corners = corners_of(i).map(|p| p - offset);
+            (corners, padded_aabb(&corners))
+        });
         let mut core_time = Duration::ZERO;
         let mut bvh = if boxes.is_empty() {
             Bvh2::default()
@@ -146,8 +161,10 @@ impl SceneBvh {
         // triangle) goes too: the two lists together were 8-9 bytes a triangle.
         let order = std::mem::take(&mut bvh.primitive_indices);
         bvh.parents = Vec::new();
-        let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| read_once[order[k] as usize]);
-        let face: Vec<u32> = map_indices(order.len(), |k| face_of(order[k] as usize));
+        let (corners, face): (Vec<[DVec3; 3]>, Vec<u32>) = map_indices_unzip(order.len(), |k| {
+            let triangle = order[k] as usize;
+            (read_once[triangle], face_of(triangle))
+        });
         drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));

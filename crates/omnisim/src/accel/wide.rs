@@ -169,7 +169,9 @@ impl TriangleGroup {
         for (lane, &index) in indices.iter().enumerate() {
             let [a, b, c] = triangles[index as usize];
             let (e1, e2) = (b - a, c - a);
-            let longest = e1.length().max(e2.length()) as f32;
+            // One square root: it is monotonic and correctly rounded, so this is bitwise the
+            // larger of the two lengths.
+            let longest = e1.length_squared().max(e2.length_squared()).sqrt() as f32;
             let [a, e1, e2] = [a, e1, e2].map(glam::DVec3::as_vec3);
             lanes[lane] = [a.x, a.y, a.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, longest];
             triangle[lane] = index;
