@@ -130,9 +130,10 @@ impl SceneBvh {
         // leaf order instead, each triangle cost two scattered reads (its index, then its face)
         // where it now costs one: at 1M triangles the leaf order took 96 ms on two threads
         // against 51, for 16 ms more in the boxes' pass (docs/benchmarks.md, "2026-11-27 (build)").
-        let corners_of = |i: usize| match &triangles {
-            Some(list) => list[i].corners(scene),
-            None => {
+        let corners_of = |i: usize| {
+            if let Some(list) = &triangles {
+                list[i].corners(scene)
+            } else {
                 let vertices = &scene.faces[i].vertices;
                 [vertices[0], vertices[1], vertices[2]]
             }
