@@ -115,7 +115,9 @@ impl SceneBvh {
     /// wide BVH are made only once the builder's working set is freed. The corners in face
     /// order (72 bytes a triangle) are held while obvhs builds, for a faster leaf order: at 1M
     /// triangles that raised the process's peak from 626 to 669 MB for 29 ms less build
-    /// (docs/benchmarks.md, "2026-11-27 (build)").
+    /// (docs/benchmarks.md, "2026-11-27 (build)"). Since then the build's heap high-water at
+    /// 1M is below scene loading's (heaptrack 451 → 440 MB, the loader's; the peak RSS of
+    /// 669 MB is the loader's pages reused; "2026-11-27 midday (build)").
     pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
         // Timed from the scene's faces, as Open3D's build is timed from its triangle arrays:
         // triangulation, boxes, obvhs, leaf order, the wide BVH and face normals.
@@ -278,30 +280,33 @@ mod tests {
     /// face's order where the face is a triangle.
     #[test]
     fn leaf_order_keeps_each_triangle_with_its_face() {
-        let mixed = grid_scene(50);
-        let mut triangles_only = mixed.clone();
-        triangles_only.faces.retain(|face| face.vertices.len() == 3);
-        assert!(triangles_only.faces.len() < mixed.faces.len());
-        for scene in [mixed, triangles_only] {
-            let bvh = SceneBvh::build(&scene);
-            assert_eq!(bvh.face.len(), bvh.triangles.len());
-            let mut per_face = vec![0; scene.faces.len()];
-            for (corners, &face) in bvh.triangles.iter().zip(&bvh.face) {
-                per_face[face as usize] += 1;
-                let vertices: Vec<DVec3> = scene.faces[face as usize]
-                    .vertices
-                    .iter()
-                    .map(|&v| v - bvh.offset)
-                    .collect();
-                if vertices.len() == 3 {
-                    assert_eq!(corners.as_slice(), vertices.as_slice(), "face {face}");
-                } else {
-                    assert!(corners.iter().all(|corner| vertices.contains(corner)), "face {face}");
+        // 160² cells: both scenes at least `PARALLEL_FROM` triangles, where the passes run on all threads.
+        for cells in [50, 160] {
+            let mixed = grid_scene(cells);
+            let mut triangles_only = mixed.clone();
+            triangles_only.faces.retain(|face| face.vertices.len() == 3);
+            assert!(triangles_only.faces.len() < mixed.faces.len());
+            for scene in [mixed, triangles_only] {
+                let bvh = SceneBvh::build(&scene);
+                assert_eq!(bvh.face.len(), bvh.triangles.len());
+                let mut per_face = vec![0; scene.faces.len()];
+                for (corners, &face) in bvh.triangles.iter().zip(&bvh.face) {
+                    per_face[face as usize] += 1;
+                    let vertices: Vec<DVec3> = scene.faces[face as usize]
+                        .vertices
+                        .iter()
+                        .map(|&v| v - bvh.offset)
+                        .collect();
+                    if vertices.len() == 3 {
+                        assert_eq!(corners.as_slice(), vertices.as_slice(), "face {face}");
+                    } else {
+                        assert!(corners.iter().all(|corner| vertices.contains(corner)), "face {face}");
+                    }
                 }
-            }
-            // A polygon of n vertices is n − 2 triangles.
-            for (face, &count) in per_face.iter().enumerate() {
-                assert_eq!(count, scene.faces[face].vertices.len() - 2, "face {face}");
+                // A polygon of n vertices is n − 2 triangles.
+                for (face, &count) in per_face.iter().enumerate() {
+                    assert_eq!(count, scene.faces[face].vertices.len() - 2, "face {face}");
+                }
             }
         }
     }

@@ -74,7 +74,7 @@ impl WideBvh {
         }
         let builder = Builder { nodes: &bvh.nodes };
         // A root that is (or fits) one leaf is the single child of a node of its own.
-        let (root, root_openable) = if !builder.openable(0) {
+        let (root, root_openable_lanes) = if !builder.openable(0) {
             (smallvec![0], 0)
         } else {
             builder.open(0)
@@ -85,14 +85,14 @@ impl WideBvh {
         let mut top = Part::default();
         top.nodes.push(empty_node());
         let defer_at = if parallel { SPLIT_DEPTH } else { usize::MAX };
-        builder.fill(&mut top, 0, &root, root_openable, 0, defer_at);
+        builder.fill(&mut top, 0, &root, root_openable_lanes, 0, defer_at);
         let deferred = std::mem::take(&mut top.deferred);
         let mut parts = vec![top];
         parts.par_extend(deferred.par_iter().map(|&(_, _, index)| {
             let mut part = Part::default();
             part.nodes.push(empty_node());
-            let (children, openable) = builder.open(index);
-            builder.fill(&mut part, 0, &children, openable, SPLIT_DEPTH, usize::MAX);
+            let (children, openable_lanes) = builder.open(index);
+            builder.fill(&mut part, 0, &children, openable_lanes, SPLIT_DEPTH, usize::MAX);
             part
         }));
         // Where each part's nodes (groups) start in the whole list, and the whole list's length.
@@ -262,11 +262,19 @@ impl Builder<'_> {
     }
 
     /// Fills wide node `slot` of `part` with the BVH2 nodes `children` (at most `WIDTH`),
-    /// opening each child that needs a node of its own (bit i of `openable` set for child i, as
-    /// `open` found them); `depth` is the slot's depth. Inner children at depth `defer_at` are
-    /// listed in `part.deferred` instead of filled. Groups are listed in `part.leaves`
+    /// opening each child that needs a node of its own (bit i of `openable_lanes` set for child
+    /// i, as `open` found them); `depth` is the slot's depth. Inner children at depth `defer_at`
+    /// are listed in `part.deferred` instead of filled. Groups are listed in `part.leaves`
     /// (triangle indices, count) and made afterwards.
-    fn fill(&self, part: &mut Part, slot: usize, children: &[usize], openable: u32, depth: usize, defer_at: usize) {
+    fn fill(
+        &self,
+        part: &mut Part,
+        slot: usize,
+        children: &[usize],
+        openable_lanes: u32,
+        depth: usize,
+        defer_at: usize,
+    ) {
         part.depth = part.depth.max(depth);
         let mut node = empty_node();
         for (lane, &index) in children.iter().enumerate() {
@@ -276,7 +284,7 @@ impl Builder<'_> {
                 node.max[axis][lane / 4][lane % 4] = source.max[axis];
             }
             node.lanes |= 1 << lane;
-            if openable & (1 << lane) == 0 {
+            if openable_lanes & (1 << lane) == 0 {
                 // On the stack: one heap list per leaf was a third of the collapse's cost.
                 let mut leaf = [0u32; 4 * MAX_LEAF_GROUPS];
                 let mut count = 0;
@@ -305,12 +313,12 @@ impl Builder<'_> {
         }
         for (lane, &index) in children.iter().enumerate() {
             if node.child[lane] & LEAF == 0 {
-                let (grandchildren, openable) = self.open(index);
+                let (grandchildren, openable_lanes) = self.open(index);
                 self.fill(
                     part,
                     node.child[lane] as usize,
                     &grandchildren,
-                    openable,
+                    openable_lanes,
                     depth + 1,
                     defer_at,
                 );
@@ -349,8 +357,8 @@ impl Builder<'_> {
             area[position] = openable_area(first);
             area[last] = openable_area(first + 1);
         }
-        let openable = (0..children.len()).fold(0, |bits, lane| bits | u32::from(area[lane].is_some()) << lane);
-        (children, openable)
+        let openable_lanes = (0..children.len()).fold(0, |bits, lane| bits | u32::from(area[lane].is_some()) << lane);
+        (children, openable_lanes)
     }
 
     /// Triangle indices (leaf order) below BVH2 node `index`, written from `into[*len]` on.
@@ -415,16 +423,16 @@ mod tests {
             assert!((0..nodes.len()).all(|index| builder.openable(index) == openable(index)));
             let mut opened_nodes = 0;
             for parent in (0..nodes.len()).filter(|&index| openable(index)) {
-                let (children, openable_bits) = builder.open(parent);
+                let (children, openable_lanes) = builder.open(parent);
                 let children = children.as_slice();
                 for (lane, &child) in children.iter().enumerate() {
                     assert_eq!(
-                        openable_bits >> lane & 1 == 1,
+                        openable_lanes >> lane & 1 == 1,
                         openable(child),
                         "{cells}: node {parent}"
                     );
                 }
-                assert_eq!(openable_bits >> children.len(), 0, "{cells}: node {parent}");
+                assert_eq!(openable_lanes >> children.len(), 0, "{cells}: node {parent}");
                 let total: u32 = children.iter().map(|&child| counts[child]).sum();
                 assert_eq!(total, counts[parent], "{cells}: node {parent}'s children {children:?}");
                 assert!(
