@@ -67,6 +67,18 @@ pub(crate) fn map_indices<U: Send>(count: usize, f: impl Fn(usize) -> U + Sync +
     }
 }
 
+/// `f` of each of `0..count`, in order, as two lists: one pass where two maps would read the
+/// same input twice (on all threads from [`PARALLEL_FROM`] items, else on this one).
+fn map_indices_unzip<A: Send, B: Send>(count: usize, f: impl Fn(usize) -> (A, B) + Sync + Send) -> (Vec<A>, Vec<B>) {
+    if count < PARALLEL_FROM {
+        (0..count).map(f).unzip()
+    } else {
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        (0..count).into_par_iter().map(f).unzip_into_vecs(&mut a, &mut b);
+        (a, b)
+    }
+}
+
 /// A scene's triangles in a BVH, around a local origin: what both tracers traverse. Built once
 /// per geometry ([`crate::Renderer::prepare`]); colours and lights live elsewhere.
 #[derive(Clone)]
@@ -103,20 +115,36 @@ impl SceneBvh {
     /// wide BVH are made only once the builder's working set is freed. The corners in face
     /// order (72 bytes a triangle) are held while obvhs builds, for a faster leaf order: at 1M
     /// triangles that raised the process's peak from 626 to 669 MB for 29 ms less build
-    /// (docs/benchmarks.md, "2026-11-27 (build)").
+    /// (docs/benchmarks.md, "2026-11-27 (build)"). Since then the build's heap high-water at
+    /// 1M is below scene loading's (heaptrack 451 → 440 MB, the loader's; the peak RSS of
+    /// 669 MB is the loader's pages reused; "2026-11-27 midday (build)").
     pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
         // Timed from the scene's faces, as Open3D's build is timed from its triangle arrays:
         // triangulation, boxes, obvhs, leaf order, the wide BVH and face normals.
         let start = Instant::now();
-        let triangles = scene.triangle_indices();
+        // A mesh's faces are all triangles: triangle i is then face i, and the list of triangle
+        // indices (16 bytes a triangle, made on one thread) is not needed.
+        let triangles = (!every_face_a_triangle(scene)).then(|| scene.triangle_indices());
+        let triangle_count = triangles.as_ref().map_or(scene.faces.len(), Vec::len);
+        let face_of = |i: usize| triangles.as_ref().map_or(i as u32, |list| list[i].face);
         // Each triangle's corners read from its face once, in face order (on all threads from
         // `PARALLEL_FROM`), for the boxes and the leaf order both. Read again from the faces in
         // leaf order instead, each triangle cost two scattered reads (its index, then its face)
         // where it now costs one: at 1M triangles the leaf order took 96 ms on two threads
         // against 51, for 16 ms more in the boxes' pass (docs/benchmarks.md, "2026-11-27 (build)").
-        let read_once: Vec<[DVec3; 3]> =
-            map_indices(triangles.len(), |i| triangles[i].corners(scene).map(|p| p - offset));
-        let boxes: Vec<Aabb> = map_indices(read_once.len(), |i| padded_aabb(&read_once[i]));
+        let corners_of = |i: usize| {
+            if let Some(list) = &triangles {
+                list[i].corners(scene)
+            } else {
+                let vertices = &scene.faces[i].vertices;
+                [vertices[0], vertices[1], vertices[2]]
+            }
+        };
+        // The boxes in the same pass, from the corners while they are at hand.
+        let (read_once, boxes): (Vec<[DVec3; 3]>, Vec<Aabb>) = map_indices_unzip(triangle_count, |i| {
+            let corners = corners_of(i).map(|p| p - offset);
+            (corners, padded_aabb(&corners))
+        });
         let mut core_time = Duration::ZERO;
         let mut bvh = if boxes.is_empty() {
             Bvh2::default()
@@ -136,8 +164,10 @@ impl SceneBvh {
         // triangle) goes too: the two lists together were 8-9 bytes a triangle.
         let order = std::mem::take(&mut bvh.primitive_indices);
         bvh.parents = Vec::new();
-        let corners: Vec<[DVec3; 3]> = map_indices(order.len(), |k| read_once[order[k] as usize]);
-        let face: Vec<u32> = map_indices(order.len(), |k| triangles[order[k] as usize].face);
+        let (corners, face): (Vec<[DVec3; 3]>, Vec<u32>) = map_indices_unzip(order.len(), |k| {
+            let triangle = order[k] as usize;
+            (read_once[triangle], face_of(triangle))
+        });
         drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
@@ -191,6 +221,16 @@ impl SceneBvh {
     }
 }
 
+/// Whether every face of `scene` is a triangle (on all threads from [`PARALLEL_FROM`] faces).
+fn every_face_a_triangle(scene: &Scene) -> bool {
+    let triangle = |face: &crate::scene::Face| face.vertices.len() == 3;
+    if scene.faces.len() < PARALLEL_FROM {
+        scene.faces.iter().all(triangle)
+    } else {
+        scene.faces.par_iter().all(triangle)
+    }
+}
+
 /// A triangle's f32 box, grown so that f32 box tests never reject a ray the f64 triangle test
 /// would accept (rounding of the box, the ray origin and the inverse direction).
 fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
@@ -233,6 +273,42 @@ mod tests {
             }
         }
         scene
+    }
+
+    /// Each triangle in leaf order keeps its face, with or without the list of triangle indices
+    /// (a mesh of triangles only goes without): its corners are the face's vertices, in the
+    /// face's order where the face is a triangle.
+    #[test]
+    fn leaf_order_keeps_each_triangle_with_its_face() {
+        // 160² cells: both scenes at least `PARALLEL_FROM` triangles, where the passes run on all threads.
+        for cells in [50, 160] {
+            let mixed = grid_scene(cells);
+            let mut triangles_only = mixed.clone();
+            triangles_only.faces.retain(|face| face.vertices.len() == 3);
+            assert!(triangles_only.faces.len() < mixed.faces.len());
+            for scene in [mixed, triangles_only] {
+                let bvh = SceneBvh::build(&scene);
+                assert_eq!(bvh.face.len(), bvh.triangles.len());
+                let mut per_face = vec![0; scene.faces.len()];
+                for (corners, &face) in bvh.triangles.iter().zip(&bvh.face) {
+                    per_face[face as usize] += 1;
+                    let vertices: Vec<DVec3> = scene.faces[face as usize]
+                        .vertices
+                        .iter()
+                        .map(|&v| v - bvh.offset)
+                        .collect();
+                    if vertices.len() == 3 {
+                        assert_eq!(corners.as_slice(), vertices.as_slice(), "face {face}");
+                    } else {
+                        assert!(corners.iter().all(|corner| vertices.contains(corner)), "face {face}");
+                    }
+                }
+                // A polygon of n vertices is n − 2 triangles.
+                for (face, &count) in per_face.iter().enumerate() {
+                    assert_eq!(count, scene.faces[face].vertices.len() - 2, "face {face}");
+                }
+            }
+        }
     }
 
     /// Below and above `PARALLEL_FROM`: the wide BVH, walked from its root, reaches every

@@ -74,8 +74,8 @@ impl WideBvh {
         }
         let builder = Builder { nodes: &bvh.nodes };
         // A root that is (or fits) one leaf is the single child of a node of its own.
-        let root = if !builder.openable(0) {
-            smallvec![0]
+        let (root, root_openable_lanes) = if !builder.openable(0) {
+            (smallvec![0], 0)
         } else {
             builder.open(0)
         };
@@ -85,13 +85,14 @@ impl WideBvh {
         let mut top = Part::default();
         top.nodes.push(empty_node());
         let defer_at = if parallel { SPLIT_DEPTH } else { usize::MAX };
-        builder.fill(&mut top, 0, root.as_slice(), 0, defer_at);
+        builder.fill(&mut top, 0, &root, root_openable_lanes, 0, defer_at);
         let deferred = std::mem::take(&mut top.deferred);
         let mut parts = vec![top];
-        parts.par_extend(deferred.par_iter().map(|&(_, _, index, depth)| {
+        parts.par_extend(deferred.par_iter().map(|&(_, _, index)| {
             let mut part = Part::default();
             part.nodes.push(empty_node());
-            builder.fill(&mut part, 0, &builder.open(index), depth, usize::MAX);
+            let (children, openable_lanes) = builder.open(index);
+            builder.fill(&mut part, 0, &children, openable_lanes, SPLIT_DEPTH, usize::MAX);
             part
         }));
         // Where each part's nodes (groups) start in the whole list, and the whole list's length.
@@ -125,10 +126,15 @@ impl WideBvh {
             }
             node
         });
-        for (&(slot, lane, _, _), &start) in deferred.iter().zip(&node_starts[1..]) {
+        for (&(slot, lane, _), &start) in deferred.iter().zip(&node_starts[1..]) {
             wide.nodes[slot].child[lane] = start as u32;
         }
         wide.depth = parts.iter().map(|part| part.depth).max().unwrap_or(0);
+        // The parts' nodes, copied, are freed before the groups are made: the groups' list is
+        // the largest of the build (118 MB at 1M triangles), made at its peak of memory.
+        for part in &mut parts {
+            part.nodes = Vec::new();
+        }
         // The groups' f32 lanes on all threads, once the tree has placed them.
         wide.groups = super::map_indices(total_groups, |k| {
             let p = part_of(&group_starts, k);
@@ -168,7 +174,9 @@ impl TriangleGroup {
         for (lane, &index) in indices.iter().enumerate() {
             let [a, b, c] = triangles[index as usize];
             let (e1, e2) = (b - a, c - a);
-            let longest = e1.length().max(e2.length()) as f32;
+            // One square root: it is monotonic and correctly rounded, so this is bitwise the
+            // larger of the two lengths.
+            let longest = e1.length_squared().max(e2.length_squared()).sqrt() as f32;
             let [a, e1, e2] = [a, e1, e2].map(glam::DVec3::as_vec3);
             lanes[lane] = [a.x, a.y, a.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, longest];
             triangle[lane] = index;
@@ -214,8 +222,9 @@ struct Part {
     leaves: Vec<([u32; 4], usize)>,
     /// Deepest level below the whole tree's root.
     depth: usize,
-    /// Inner children left for parts of their own: (node, lane, BVH2 node, depth), in order.
-    deferred: Vec<(usize, usize, usize, usize)>,
+    /// Inner children left for parts of their own, each `SPLIT_DEPTH` levels below the root:
+    /// (node, lane, BVH2 node), in order.
+    deferred: Vec<(usize, usize, usize)>,
 }
 
 /// Wide levels built on one thread before the subtrees below them are built in parallel
@@ -253,10 +262,19 @@ impl Builder<'_> {
     }
 
     /// Fills wide node `slot` of `part` with the BVH2 nodes `children` (at most `WIDTH`),
-    /// opening each child that needs a node of its own; `depth` is the slot's depth. Inner
-    /// children at depth `defer_at` are listed in `part.deferred` instead of filled.
-    /// Groups are listed in `part.leaves` (triangle indices, count) and made afterwards.
-    fn fill(&self, part: &mut Part, slot: usize, children: &[usize], depth: usize, defer_at: usize) {
+    /// opening each child that needs a node of its own (bit i of `openable_lanes` set for child
+    /// i, as `open` found them); `depth` is the slot's depth. Inner children at depth `defer_at`
+    /// are listed in `part.deferred` instead of filled. Groups are listed in `part.leaves`
+    /// (triangle indices, count) and made afterwards.
+    fn fill(
+        &self,
+        part: &mut Part,
+        slot: usize,
+        children: &[usize],
+        openable_lanes: u32,
+        depth: usize,
+        defer_at: usize,
+    ) {
         part.depth = part.depth.max(depth);
         let mut node = empty_node();
         for (lane, &index) in children.iter().enumerate() {
@@ -266,7 +284,7 @@ impl Builder<'_> {
                 node.max[axis][lane / 4][lane % 4] = source.max[axis];
             }
             node.lanes |= 1 << lane;
-            if !self.openable(index) {
+            if openable_lanes & (1 << lane) == 0 {
                 // On the stack: one heap list per leaf was a third of the collapse's cost.
                 let mut leaf = [0u32; 4 * MAX_LEAF_GROUPS];
                 let mut count = 0;
@@ -283,7 +301,7 @@ impl Builder<'_> {
                     (indices, chunk.len())
                 }));
             } else if depth + 1 == defer_at {
-                part.deferred.push((slot, lane, index, depth + 1));
+                part.deferred.push((slot, lane, index));
             } else {
                 node.child[lane] = part.nodes.len() as u32;
                 part.nodes.push(empty_node());
@@ -295,15 +313,23 @@ impl Builder<'_> {
         }
         for (lane, &index) in children.iter().enumerate() {
             if node.child[lane] & LEAF == 0 {
-                let grandchildren = self.open(index);
-                self.fill(part, node.child[lane] as usize, &grandchildren, depth + 1, defer_at);
+                let (grandchildren, openable_lanes) = self.open(index);
+                self.fill(
+                    part,
+                    node.child[lane] as usize,
+                    &grandchildren,
+                    openable_lanes,
+                    depth + 1,
+                    defer_at,
+                );
             }
         }
     }
 
     /// The up to `WIDTH` BVH2 nodes that replace inner node `index`: its two children, then
-    /// repeatedly the two children of the largest inner one among them.
-    fn open(&self, index: usize) -> Children {
+    /// repeatedly the two children of the largest inner one among them; and which of them are
+    /// openable themselves (bit i for child i), so that `fill` need not ask again.
+    fn open(&self, index: usize) -> (Children, u32) {
         let first = self.nodes[index].first_index as usize;
         let mut children: Children = smallvec![first, first + 1];
         // Each child's area once (`None` where it cannot be opened), not once per step.
@@ -331,7 +357,8 @@ impl Builder<'_> {
             area[position] = openable_area(first);
             area[last] = openable_area(first + 1);
         }
-        children
+        let openable_lanes = (0..children.len()).fold(0, |bits, lane| bits | u32::from(area[lane].is_some()) << lane);
+        (children, openable_lanes)
     }
 
     /// Triangle indices (leaf order) below BVH2 node `index`, written from `into[*len]` on.
@@ -396,8 +423,16 @@ mod tests {
             assert!((0..nodes.len()).all(|index| builder.openable(index) == openable(index)));
             let mut opened_nodes = 0;
             for parent in (0..nodes.len()).filter(|&index| openable(index)) {
-                let children = builder.open(parent);
+                let (children, openable_lanes) = builder.open(parent);
                 let children = children.as_slice();
+                for (lane, &child) in children.iter().enumerate() {
+                    assert_eq!(
+                        openable_lanes >> lane & 1 == 1,
+                        openable(child),
+                        "{cells}: node {parent}"
+                    );
+                }
+                assert_eq!(openable_lanes >> children.len(), 0, "{cells}: node {parent}");
                 let total: u32 = children.iter().map(|&child| counts[child]).sum();
                 assert_eq!(total, counts[parent], "{cells}: node {parent}'s children {children:?}");
                 assert!(

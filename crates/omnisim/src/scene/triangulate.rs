@@ -37,7 +37,9 @@ pub(super) fn triangulate(scene: &Scene) -> Triangles {
 }
 
 /// A triangle of a scene by reference: its face and three vertex indices into that face.
-/// 16 bytes instead of 76, for the BVH build, which holds every triangle at once.
+/// 16 bytes instead of 76, for the BVH build, which holds every triangle at once. The build
+/// makes this list only for scenes with a face that is not a triangle: in a mesh of triangles,
+/// triangle i is face i (`accel/mod.rs`).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct TriangleIndex {
     pub(crate) face: u32,
