@@ -79,7 +79,8 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     // (`fill_by_eights`), a flat span (`fill_by_eights`), another untextured span (pixel by
     // pixel), or textured pixels taken into a run, which `finish_in` writes (the slice where they
     // are neighbours, else each of `slot[..len]`) once it is full, ended by the next textured
-    // face, or flushed after the loop. A panic there unwinds past this line, leaving the length 0.
+    // face, or flushed after the loop; a span whose face names no run (never: see its
+    // `debug_assert!`) is written black (`fill_by_eights`). A panic there unwinds past this line, leaving the length 0.
     unsafe { colour.set_len(pixels.len()) };
     frame.set_shading(planes, linear, colour);
 }
@@ -431,6 +432,8 @@ impl<'a> Shader<'a> {
 fn span_end(hits: &[Pixel], start: usize, avx2: Option<Avx2>) -> usize {
     let face = hits[start].face;
     let mut end = start + 1;
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx2;
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = avx2 {
         // SAFETY: `avx2` proves the CPU has AVX2, which `span_end_avx2` is compiled for.

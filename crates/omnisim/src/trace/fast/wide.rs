@@ -548,7 +548,7 @@ fn enter_interval<W: Wide>(node: &WideNode, bounds: &PacketBounds, far: f32) -> 
     (near.not_greater(exit) & node.lanes, near)
 }
 
-/// Slab test of a node's eight boxes, two `Vec4` halves (SSE on `x86_64)`: the lanes entered
+/// Slab test of a node's eight boxes, two `Vec4` halves (SSE on `x86_64`): the lanes entered
 /// between 0 and `t_hi`, and where. (Picking each axis's near plane by the direction's sign,
 /// as the packet walk does, cost the single-ray walk 7 % more instructions than this minimum
 /// and maximum: callgrind, clutter; docs/benchmarks.md.)
