@@ -16,6 +16,7 @@ use obvhs::bvh2::Bvh2;
 use rayon::prelude::*;
 
 use crate::scene::Scene;
+use crate::scene::triangulate::TriangleIndex;
 use wide::WideBvh;
 
 /// obvhs's medium build with leaves of at most two triangles instead of eight, and without its
@@ -126,23 +127,19 @@ impl SceneBvh {
         // indices (16 bytes a triangle, made on one thread) is not needed.
         let triangles = (!every_face_a_triangle(scene)).then(|| scene.triangle_indices());
         let triangle_count = triangles.as_ref().map_or(scene.faces.len(), Vec::len);
-        let face_of = |i: usize| triangles.as_ref().map_or(i as u32, |list| list[i].face);
+        let triangle = |i: usize| {
+            triangles
+                .as_ref()
+                .map_or_else(|| TriangleIndex::whole_face(i as u32), |list| list[i])
+        };
         // Each triangle's corners read from its face once, in face order (on all threads from
         // `PARALLEL_FROM`), for the boxes and the leaf order both. Read again from the faces in
         // leaf order instead, each triangle cost two scattered reads (its index, then its face)
         // where it now costs one: at 1M triangles the leaf order took 96 ms on two threads
         // against 51, for 16 ms more in the boxes' pass (docs/benchmarks.md, "2026-11-27 (build)").
-        let corners_of = |i: usize| {
-            if let Some(list) = &triangles {
-                list[i].corners(scene)
-            } else {
-                let vertices = &scene.faces[i].vertices;
-                [vertices[0], vertices[1], vertices[2]]
-            }
-        };
         // The boxes in the same pass, from the corners while they are at hand.
         let (read_once, boxes): (Vec<[DVec3; 3]>, Vec<Aabb>) = map_indices_unzip(triangle_count, |i| {
-            let corners = corners_of(i).map(|p| p - offset);
+            let corners = triangle(i).corners(scene).map(|p| p - offset);
             (corners, padded_aabb(&corners))
         });
         let mut core_time = Duration::ZERO;
@@ -165,8 +162,8 @@ impl SceneBvh {
         let order = std::mem::take(&mut bvh.primitive_indices);
         bvh.parents = Vec::new();
         let (corners, face): (Vec<[DVec3; 3]>, Vec<u32>) = map_indices_unzip(order.len(), |k| {
-            let triangle = order[k] as usize;
-            (read_once[triangle], face_of(triangle))
+            let index = order[k] as usize;
+            (read_once[index], triangle(index).face)
         });
         drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners);

@@ -47,6 +47,14 @@ pub(crate) struct TriangleIndex {
 }
 
 impl TriangleIndex {
+    /// Face `face`, a triangle, whole: its vertices in order.
+    pub(crate) fn whole_face(face: u32) -> Self {
+        Self {
+            face,
+            corners: [0, 1, 2],
+        }
+    }
+
     /// The triangle's corners, world metres.
     pub(crate) fn corners(&self, scene: &Scene) -> [DVec3; 3] {
         let vertices = &scene.faces[self.face as usize].vertices;
@@ -64,7 +72,7 @@ pub(crate) fn triangle_indices(scene: &Scene) -> Vec<TriangleIndex> {
             corners: t.map(|i| i as u32),
         };
         if polygon.vertices.len() == 3 {
-            out.push(corners([0, 1, 2]));
+            out.push(TriangleIndex::whole_face(face as u32));
         } else {
             out.extend(polygon_triangles(&polygon.vertices).into_iter().map(corners));
         }
