@@ -22,7 +22,7 @@ use omnisim_vision::pca::Pca;
 use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
 use omnisim_vision::surf::{SurfParams, surf};
-use omnisim_vision::{Interpolation, Raster, Remap, View, npy};
+use omnisim_vision::{Raster, Remap, RemapTaps, View, npy};
 use serde_json::{Value, json};
 
 use super::project::{InterpolationArg, parse_degrees_range, parse_size};
@@ -597,9 +597,9 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
 
 /// The panorama every image is resampled to, when a descriptor reads one.
 pub(crate) struct Panorama {
-    /// `None`: the images are panoramas already.
-    remap: Option<Remap>,
-    interpolation: Interpolation,
+    /// Each panorama pixel's taps in the omnidirectional image; `None`: the images are
+    /// panoramas already.
+    remap: Option<RemapTaps>,
     pub sidecar: Value,
 }
 
@@ -620,18 +620,13 @@ impl Panorama {
                     "model": "cylindrical: column u at azimuth π − 2π(u + ½)/W, rows uniform in tan(elevation)"
                 });
                 Ok(Some(Self {
-                    remap: Some(remap),
-                    interpolation: args.interpolation.into(),
+                    remap: Some(RemapTaps::new(&remap, args.interpolation.into())),
                     sidecar,
                 }))
             }
             Camera::Cylindrical(_) | Camera::Equirectangular(_) => {
                 let sidecar = json!({ "resampled_from": null, "note": "the images are panoramas" });
-                Ok(Some(Self {
-                    remap: None,
-                    interpolation: args.interpolation.into(),
-                    sidecar,
-                }))
+                Ok(Some(Self { remap: None, sidecar }))
             }
             Camera::Pinhole(_) | Camera::Lens(_) => bail!(
                 "a descriptor reads a panorama, but the images are from a {} camera: use on=image or other descriptors",
@@ -651,7 +646,7 @@ impl Panorama {
         let Some(remap) = &self.remap else {
             return Ok((grey.clone(), 0.0));
         };
-        let panorama = remap.apply(grey, self.interpolation)?;
+        let panorama = remap.apply(grey)?;
         Ok((panorama, clock.elapsed().as_secs_f64()))
     }
 }
@@ -726,11 +721,16 @@ fn write_set(
     args: &DescribeArgs,
 ) -> anyhow::Result<()> {
     let name = &choice.name;
-    let frames: Vec<Value> = set
-        .frames
-        .iter()
-        .zip(&result.seconds)
-        .map(|(f, s)| json!({ "index": f.index, "stem": f.stem, "file": f.path, "seconds": s }))
+    let frames: Vec<Value> = (set.frames.iter().zip(&result.seconds).enumerate())
+        .map(|(i, (f, s))| {
+            let mut frame = json!({ "index": f.index, "stem": f.stem, "file": f.path, "seconds": s });
+            // The panorama's resampling is not in `seconds` (it is shared by every descriptor
+            // that reads the panorama); each frame's is recorded beside it.
+            if let Some(p) = result.panorama_seconds.get(i) {
+                frame["panorama_seconds"] = json!(p);
+            }
+            frame
+        })
         .collect();
     let mean_seconds = result.seconds.iter().sum::<f64>() / result.seconds.len().max(1) as f64;
     let mut sidecar = json!({
