@@ -32,8 +32,10 @@ f32, against `np.fft.rfft` of the f64 panorama with `np.abs` and `np.angle` of t
 | panorama (omni)    | `cv2.remap`, `INTER_CUBIC`, of the f32 grey image to 512 × 128     |
 
 The omni image's descriptors that read the panorama are given one resampled by describe
-(bicubic, from a table of source points made once per run), and each frame's resampling is
-timed apart (`panorama_seconds` in the sidecar's frames): the row "panorama" is that time,
+(bicubic, through a table of each pixel's taps made once per run), and each frame's resampling
+is timed apart (`panorama_seconds` in the sidecar's frames; a --baseline build from before
+2026-11-27 records only the mean over all frames, which its cell then shows for every frame):
+the row "panorama" is that time,
 against `cv2.remap` with the same view's maps (Mei's model from the render's
 calibration-opencv-omnidir.yaml, made once, not timed). The peers' panorama for their Fourier
 signature and HOG is `omnisim project`'s (8-bit), so the signature rows time the transform
