@@ -166,6 +166,13 @@ def panorama_maps(work):
     calibration = cv2.FileStorage(os.path.join(folder(work, 'omni 250²'), 'calibration-opencv-omnidir.yaml'),
                                   cv2.FILE_STORAGE_READ)
     k, xi = calibration.getNode('camera_matrix').mat(), calibration.getNode('xi').real()
+    # The model below reads fx, fy, cx, cy and xi only: it holds for this render's camera (no
+    # skew, no distortion, the mirror frame the body's), which a change of render options
+    # could break without a word.
+    if (k[0, 1] != 0 or np.any(calibration.getNode('distortion_coefficients').mat() != 0)
+            or not np.array_equal(calibration.getNode('body_from_mirror').mat(), np.eye(3))):
+        sys.exit('panorama_maps: the omni render has skew, distortion or a turned mirror; '
+                 'the peer\'s maps model none of these')
     (w, h), (low, high) = PANORAMA, np.radians(ELEVATION)
     fy = h / (np.tan(high) - np.tan(low))
     cy = fy * np.tan(high) - 0.5

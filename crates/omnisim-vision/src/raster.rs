@@ -36,21 +36,29 @@ impl Interpolation {
     /// Written here because neither `image` (bilinear only, no point bicubic) nor a crate that
     /// fits the workspace offers separable bicubic point sampling; imageproc's warp would bring
     /// nalgebra 0.35 (Rust 1.89, above this workspace's 1.87) and its own random/text stack.
-    pub(crate) fn taps(self, x: f64) -> (i64, [f64; 4], usize) {
+    pub(crate) fn taps(self, x: f64) -> (i64, [f64; 4]) {
         self.taps_from(x, floor(x))
     }
 
     /// [`Interpolation::taps`] with `base`, the floor of x, given.
-    fn taps_from(self, x: f64, base: f64) -> (i64, [f64; 4], usize) {
+    fn taps_from(self, x: f64, base: f64) -> (i64, [f64; 4]) {
         let t = x - base;
         match self {
-            Interpolation::Bilinear => (base as i64, [1.0 - t, t, 0.0, 0.0], 2),
+            Interpolation::Bilinear => (base as i64, [1.0 - t, t, 0.0, 0.0]),
             Interpolation::Bicubic => {
                 const A: f64 = -0.5;
                 let near = |s: f64| ((A + 2.0) * s - (A + 3.0)) * s * s + 1.0;
                 let far = |s: f64| ((A * s - 5.0 * A) * s + 8.0 * A) * s - 4.0 * A;
-                (base as i64 - 1, [far(1.0 + t), near(t), near(1.0 - t), far(2.0 - t)], 4)
+                (base as i64 - 1, [far(1.0 + t), near(t), near(1.0 - t), far(2.0 - t)])
             }
+        }
+    }
+
+    /// Pixels the kernel spans along each axis (of the 4 weights [`Interpolation::taps`] gives).
+    pub(crate) fn width(self) -> usize {
+        match self {
+            Interpolation::Bilinear => 2,
+            Interpolation::Bicubic => 4,
         }
     }
 }
@@ -172,43 +180,28 @@ impl Raster {
     /// Interpolated values at (x, y) into `out` (one per channel); pixels beyond the border
     /// repeat the border.
     pub fn sample(&self, x: f64, y: f64, interpolation: Interpolation, out: &mut [f32]) {
-        out.fill(0.0);
-        let channels = self.channels;
-        self.for_each_tap(x, y, interpolation, |weight, pixel| {
-            let values = &self.data[pixel * channels..(pixel + 1) * channels];
-            for (o, v) in out.iter_mut().zip(values) {
-                *o += weight * v;
-            }
-        });
-    }
-
-    /// Calls `add(weight, pixel index)` for every tap of the kernel at (x, y), rows in turn and
-    /// columns within a row, indices clamped to the border.
-    #[inline(always)]
-    fn for_each_tap(&self, x: f64, y: f64, interpolation: Interpolation, add: impl FnMut(f32, usize)) {
-        let (x0, wx, _) = interpolation.taps(x);
-        let (y0, wy, _) = interpolation.taps(y);
         match interpolation {
-            Interpolation::Bilinear => self.for_each_tap_of::<2>((x0, wx), (y0, wy), add),
-            Interpolation::Bicubic => self.for_each_tap_of::<4>((x0, wx), (y0, wy), add),
+            Interpolation::Bilinear => self.sample_of::<2>(x, y, interpolation, out),
+            Interpolation::Bicubic => self.sample_of::<4>(x, y, interpolation, out),
         }
     }
 
-    /// [`Raster::for_each_tap`] for a kernel `TAPS` pixels wide (the loops' length known), from
-    /// each axis's first pixel and weights.
+    /// [`Raster::sample`] for a kernel `TAPS` pixels wide (the loops' length known): the
+    /// columns clamped once, then each tap's weight times its pixel added, rows in turn.
     #[inline(always)]
-    fn for_each_tap_of<const TAPS: usize>(
-        &self,
-        (x0, wx): (i64, [f64; 4]),
-        (y0, wy): (i64, [f64; 4]),
-        mut add: impl FnMut(f32, usize),
-    ) {
+    fn sample_of<const TAPS: usize>(&self, x: f64, y: f64, interpolation: Interpolation, out: &mut [f32]) {
+        let ((x0, wx), (y0, wy)) = (interpolation.taps(x), interpolation.taps(y));
         let (last_column, last_row) = (self.width as i64 - 1, self.height as i64 - 1);
         let columns: [usize; TAPS] = std::array::from_fn(|i| (x0 + i as i64).clamp(0, last_column) as usize);
+        out.fill(0.0);
         for (j, &wyj) in wy[..TAPS].iter().enumerate() {
             let row_start = (y0 + j as i64).clamp(0, last_row) as usize * self.width;
             for (&column, &wxi) in columns.iter().zip(&wx[..TAPS]) {
-                add((wxi * wyj) as f32, row_start + column);
+                let weight = (wxi * wyj) as f32;
+                let start = (row_start + column) * self.channels;
+                for (o, v) in out.iter_mut().zip(&self.data[start..start + self.channels]) {
+                    *o += weight * v;
+                }
             }
         }
     }
@@ -259,7 +252,7 @@ mod tests {
     /// clamped, one channel after another): the reference the faster paths must equal bit for bit.
     fn reference_sample(image: &Raster, x: f64, y: f64, interpolation: Interpolation) -> Vec<f32> {
         let taps = |v: f64| interpolation.taps_from(v, v.floor());
-        let ((x0, wx, n), (y0, wy, _)) = (taps(x), taps(y));
+        let ((x0, wx), (y0, wy), n) = (taps(x), taps(y), interpolation.width());
         let mut out = vec![0.0f32; image.channels];
         for (j, &wyj) in wy[..n].iter().enumerate() {
             let yy = (y0 + j as i64).clamp(0, image.height as i64 - 1) as usize;
