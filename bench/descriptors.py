@@ -13,7 +13,10 @@ per image folder with every descriptor (each descriptor's time per image is the 
 sidecar records for each frame: the descriptor alone, not the image's reading nor the
 panorama's resampling; the first frame is left out), then the peers on the same image, each
 called COPIES times and timed around its one call, the first call left out as omnisim's first
-frame is (reading and converting the image left out):
+frame is (reading and converting the image left out). Each side's time covers the same work:
+the Fourier signature's, for instance, is omnisim's `FourierSignature::new` (rows of the f32
+panorama to f64, `realfft`, the first 16 coefficients kept) with the magnitudes and phases as
+f32, against `np.fft.rfft` of the f64 panorama with `np.abs` and `np.angle` of the first 16.
 
 | omnisim            | peer                                                              |
 |--------------------|-------------------------------------------------------------------|
@@ -26,12 +29,24 @@ frame is (reading and converting the image left out):
 | fourier (panorama) | `np.fft.rfft` of each row, first 16 coefficients, magnitude, phase |
 | radon              | `skimage.transform.radon` over 360 angles, `circle=True`           |
 | gist               | none (LMgist's own code is MATLAB)                                 |
+| panorama (omni)    | `cv2.remap`, `INTER_CUBIC`, of the f32 grey image to 512 × 128     |
+
+The omni image's descriptors that read the panorama are given one resampled by describe
+(bicubic, through a table of each pixel's taps made once per run), and each frame's resampling
+is timed apart (`panorama_seconds` in the sidecar's frames; a --baseline build from before
+2026-11-27 records only the mean over all frames, which its cell then shows for every frame):
+the row "panorama" is that time,
+against `cv2.remap` with the same view's maps (Mei's model from the render's
+calibration-opencv-omnidir.yaml, made once, not timed). The peers' panorama for their Fourier
+signature and HOG is `omnisim project`'s (8-bit), so the signature rows time the transform
+alone on both sides; what a user of describe pays per omni frame for the signature is the
+panorama row plus the signature row.
 
 Threads: `RAYON_NUM_THREADS` for omnisim and `cv2.setNumThreads` for OpenCV are both set to
 --threads; scikit-image and numpy run these on one thread.
 
 Prints one JSON line per (image, descriptor) on stderr and a Markdown table: best (and
-median) of all timed calls in ms, the ratio peer / omnisim (above 1: omnisim is faster) and the load average.
+median) of all timed calls in ms (two decimals under 1 ms), the ratio peer / omnisim (above 1: omnisim is faster) and the load average.
 
 --baseline BIN times a second omnisim build (an earlier commit's) in the same rounds.
 
@@ -71,6 +86,9 @@ IMAGES = {
                   ['sift', 'surf', 'radon', 'fourier', 'hog', 'gist']),
 }
 PANORAMA = (512, 128)  # describe's default for omni images
+ELEVATION = (-45.0, 15.0)  # describe's default band, degrees
+# Descriptors that read the panorama (describe resamples the omni image once for all of them).
+READS_PANORAMA = ('fourier', 'hog', 'gist')
 
 
 def slug(name):
@@ -113,12 +131,22 @@ def describe(omnisim, work, name, threads):
         shutil.rmtree(out)
     args = [omnisim, 'describe', folder(work, name), '--out', out]
     for d in IMAGES[name][2]:
-        args += ['-d', d]
+        if d != 'panorama':
+            args += ['-d', d]
     env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
     subprocess.run(args, check=True, capture_output=True, env=env)
     (set_folder,) = [os.path.join(out, s) for s in os.listdir(out)]
-    frames = {d: json.load(open(os.path.join(set_folder, d + '.json')))['frames'] for d in IMAGES[name][2]}
-    return {d: [f['seconds'] for f in frames[d][1:]] for d in frames}
+    sidecars = {d: json.load(open(os.path.join(set_folder, d + '.json'))) for d in IMAGES[name][2] if d != 'panorama'}
+    seconds = {d: [f['seconds'] for f in sidecar['frames'][1:]] for d, sidecar in sidecars.items()}
+    if 'panorama' in IMAGES[name][2]:
+        # Each frame's resampling, recorded beside any descriptor that reads the panorama;
+        # builds before 2026-11-27 record only the mean over all frames (the first included),
+        # which then stands for every frame.
+        sidecar = next(sidecars[d] for d in READS_PANORAMA if d in sidecars)
+        frames = sidecar['frames'][1:]
+        seconds['panorama'] = ([f['panorama_seconds'] for f in frames] if 'panorama_seconds' in frames[0]
+                               else [sidecar['panorama_seconds_per_image']] * len(frames))
+    return seconds
 
 
 def timed(call):
@@ -129,6 +157,33 @@ def timed(call):
         call()
         seconds.append(time.perf_counter() - start)
     return seconds[1:]
+
+
+def panorama_maps(work):
+    """cv2.remap's maps for describe's panorama of the omni image: column u at azimuth
+    π − 2π(u + ½)/W, row v at tan(elevation) = (cy − v)/fy (the band's edges at the rows' outer
+    edges), projected by Mei's unified model from the render's OpenCV omnidir calibration."""
+    calibration = cv2.FileStorage(os.path.join(folder(work, 'omni 250²'), 'calibration-opencv-omnidir.yaml'),
+                                  cv2.FILE_STORAGE_READ)
+    k, xi = calibration.getNode('camera_matrix').mat(), calibration.getNode('xi').real()
+    # The model below reads fx, fy, cx, cy and xi only: it holds for this render's camera (no
+    # skew, no distortion, the mirror frame the body's), which a change of render options
+    # could break without a word.
+    if (k[0, 1] != 0 or np.any(calibration.getNode('distortion_coefficients').mat() != 0)
+            or not np.array_equal(calibration.getNode('body_from_mirror').mat(), np.eye(3))):
+        sys.exit('panorama_maps: the omni render has skew, distortion or a turned mirror; '
+                 'the peer\'s maps model none of these')
+    (w, h), (low, high) = PANORAMA, np.radians(ELEVATION)
+    fy = h / (np.tan(high) - np.tan(low))
+    cy = fy * np.tan(high) - 0.5
+    azimuth = np.pi - 2 * np.pi * (np.arange(w) + 0.5) / w
+    x, y = np.broadcast_to(np.cos(azimuth), (h, w)), np.broadcast_to(np.sin(azimuth), (h, w))
+    z = np.broadcast_to(((cy - np.arange(h)) / fy)[:, None], (h, w))
+    # The model's camera frame is the mirror frame with z reversed (the calibration's notes).
+    denominator = -z + xi * np.sqrt(x * x + y * y + z * z)
+    map_x = (k[0, 0] * x / denominator + k[0, 2]).astype(np.float32)
+    map_y = (k[1, 1] * y / denominator + k[1, 2]).astype(np.float32)
+    return map_x, map_y
 
 
 def peers(work, name, wanted):
@@ -165,6 +220,11 @@ def peers(work, name, wanted):
         'radon': lambda: timed(lambda: skimage_radon(grey, theta=angles, circle=True)),
         'gist': lambda: None,
     }
+    if 'panorama' in wanted:
+        map_x, map_y = panorama_maps(work)
+        grey32 = grey.astype(np.float32)
+        calls['panorama'] = lambda: timed(lambda: cv2.remap(grey32, map_x, map_y, cv2.INTER_CUBIC,
+                                                            borderMode=cv2.BORDER_REPLICATE))
     return {d: calls[d]() for d in wanted}
 
 
@@ -186,6 +246,8 @@ def main():
     for name in list(IMAGES):
         options, pose, descriptors = IMAGES.pop(name)
         kept = [d for d in descriptors if not args.descriptors or d in args.descriptors.split(',')]
+        if name == 'omni 250²' and any(d in READS_PANORAMA for d in kept):
+            kept.append('panorama')
         if kept and (not args.images or slug(name) in args.images.split(',')):
             IMAGES[name] = (options, pose, kept)
     os.makedirs(args.work, exist_ok=True)
@@ -201,7 +263,7 @@ def main():
             ours = describe(args.omnisim, args.work, name, args.threads)
             theirs = peers(args.work, name, descriptors)
             for d in descriptors:
-                if theirs[d]:
+                if theirs[d] and ours[d]:
                     ratio = statistics.median(theirs[d]) / statistics.median(ours[d])
                     round_ratios.setdefault((name, d), []).append(ratio)
                 entry = times.setdefault((name, d), {'omnisim': [], 'baseline': [], 'peer': []})
@@ -209,7 +271,8 @@ def main():
                 entry['baseline'] += baseline.get(d, [])
                 entry['peer'] += theirs[d] or []
     peer_names = {'sift': f'OpenCV {cv2.__version__}', 'surf': 'OpenCV (non-free)', 'block-hog': 'scikit-image',
-                  'hog': 'scikit-image', 'radon': 'scikit-image', 'fourier': f'numpy {np.__version__}', 'gist': '—'}
+                  'hog': 'scikit-image', 'radon': 'scikit-image', 'fourier': f'numpy {np.__version__}', 'gist': '—',
+                  'panorama': f'OpenCV {cv2.__version__} remap'}
     print(f'# {args.rounds} rounds, {args.threads} thread(s), load average {min(loads):.1f}–{max(loads):.1f}, '
           f'scikit-image {skimage.__version__}')
     print('| image | descriptor | baseline ms | omnisim ms | peer | peer ms | peer / omnisim |')
@@ -217,13 +280,14 @@ def main():
 
     def cell(seconds):
         ms = [1e3 * t for t in seconds]
-        return f'{min(ms):.1f} ({statistics.median(ms):.1f})' if ms else '—'
+        digits = 2 if min(ms, default=0) < 1 else 1
+        return f'{min(ms):.{digits}f} ({statistics.median(ms):.{digits}f})' if ms else '—'
     for (name, d), entry in times.items():
         row = {'image': name, 'descriptor': d, 'threads': args.threads,
                **{f'{k}_ms': [round(1e3 * t, 2) for t in v] for k, v in entry.items()}}
         print(json.dumps(row, ensure_ascii=False), file=sys.stderr)
         theirs = entry['peer']
-        ratio = f'{min(theirs) / min(entry["omnisim"]):.2f}×' if theirs else ''
+        ratio = f'{min(theirs) / min(entry["omnisim"]):.2f}×' if theirs and entry['omnisim'] else ''
         print(f'| {name} | {d} | {cell(entry["baseline"])} | {cell(entry["omnisim"])} | '
               f'{peer_names[d] if theirs else "none"} | {cell(theirs)} | {ratio} |')
     for (name, d), ratios in round_ratios.items():

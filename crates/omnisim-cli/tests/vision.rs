@@ -139,7 +139,11 @@ fn describe_writes_what_numpy_reads_and_the_library_computes() {
     assert_eq!(sidecar["frames"][2]["stem"], "env1-0002");
     assert_eq!(sidecar["pca"]["fitted_on"], "map");
     assert!(sidecar["seconds_per_image"].as_f64().unwrap() > 0.0);
+    // Each frame of a descriptor that reads the panorama records its resampling's seconds;
+    // one that reads the image has none.
+    assert!(sidecar["frames"][2]["panorama_seconds"].as_f64().unwrap() > 0.0);
     let radon_sidecar: Value = serde_json::from_slice(&std::fs::read(out.join("map/radon.json")).unwrap()).unwrap();
+    assert!(radon_sidecar["frames"][2].get("panorama_seconds").is_none());
     assert_eq!(radon_sidecar["parameters"]["radial_step_px"], 2.0);
     assert_eq!(radon_sidecar["parameters"]["centre_px"]["u"], camera().cx);
     assert_eq!(radon_sidecar["parameters"]["centre_px"]["v"], camera().cy);

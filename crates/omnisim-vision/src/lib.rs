@@ -59,7 +59,7 @@ pub mod raster;
 pub mod sift;
 pub mod surf;
 
-pub use projection::{PlaneView, Remap, View};
+pub use projection::{PlaneView, Remap, RemapTaps, View};
 pub use raster::{Interpolation, Raster};
 
 /// A descriptor and its shape (row-major, last axis fastest).

@@ -22,7 +22,7 @@ use omnisim_vision::pca::Pca;
 use omnisim_vision::radon::{Radon, RadonParams};
 use omnisim_vision::sift::{SiftParams, sift};
 use omnisim_vision::surf::{SurfParams, surf};
-use omnisim_vision::{Interpolation, Raster, Remap, View, npy};
+use omnisim_vision::{Interpolation, Raster, Remap, RemapTaps, View, VisionError, npy};
 use serde_json::{Value, json};
 
 use super::project::{InterpolationArg, parse_degrees_range, parse_size};
@@ -448,7 +448,8 @@ impl Choice {
 struct SetResult {
     per_image: Vec<Described>,
     seconds: Vec<f64>,
-    /// Seconds the panorama of each image took, for descriptors that read it.
+    /// Seconds the panorama of each image took, for descriptors that read it (none where the
+    /// images are panoramas).
     panorama_seconds: Vec<f64>,
 }
 
@@ -544,7 +545,7 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
             let grey = image.to_grey();
             let pano = panorama.as_ref().map(|p| p.of(&grey)).transpose()?;
             for (choice, result) in choices.iter().zip(&mut per_choice) {
-                if let (Reads::Panorama, Some((_, seconds))) = (choice.reads, &pano) {
+                if let (Reads::Panorama, Some((_, Some(seconds)))) = (choice.reads, &pano) {
                     result.panorama_seconds.push(*seconds);
                 }
                 let source = choice.source(&image, &grey, pano.as_ref().map(|p| &p.0));
@@ -597,10 +598,42 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
 
 /// The panorama every image is resampled to, when a descriptor reads one.
 pub(crate) struct Panorama {
-    /// `None`: the images are panoramas already.
-    remap: Option<Remap>,
-    interpolation: Interpolation,
+    /// How each omnidirectional image becomes the panorama; `None`: the images are panoramas
+    /// already.
+    resampling: Option<Resampling>,
     pub sidecar: Value,
+}
+
+/// The table an omnidirectional image is resampled through: the same bits either way.
+enum Resampling {
+    /// Each panorama pixel's taps, worked out once (up to `RemapTaps::PIXELS_MAX` pixels).
+    Taps(RemapTaps),
+    /// Each pixel's source point, its taps worked out per image (larger panoramas, for which
+    /// a table of taps would take 68 bytes a pixel).
+    Points(Remap, Interpolation),
+}
+
+impl Resampling {
+    fn new(remap: Remap, interpolation: Interpolation) -> Self {
+        match RemapTaps::new(&remap, interpolation) {
+            Some(taps) => Resampling::Taps(taps),
+            None => Resampling::Points(remap, interpolation),
+        }
+    }
+
+    fn size(&self) -> (usize, usize) {
+        match self {
+            Resampling::Taps(taps) => taps.size(),
+            Resampling::Points(remap, _) => (remap.width, remap.height),
+        }
+    }
+
+    fn apply(&self, grey: &Raster) -> Result<Raster, VisionError> {
+        match self {
+            Resampling::Taps(taps) => taps.apply(grey),
+            Resampling::Points(remap, interpolation) => remap.apply(grey, *interpolation),
+        }
+    }
 }
 
 impl Panorama {
@@ -620,16 +653,14 @@ impl Panorama {
                     "model": "cylindrical: column u at azimuth π − 2π(u + ½)/W, rows uniform in tan(elevation)"
                 });
                 Ok(Some(Self {
-                    remap: Some(remap),
-                    interpolation: args.interpolation.into(),
+                    resampling: Some(Resampling::new(remap, args.interpolation.into())),
                     sidecar,
                 }))
             }
             Camera::Cylindrical(_) | Camera::Equirectangular(_) => {
                 let sidecar = json!({ "resampled_from": null, "note": "the images are panoramas" });
                 Ok(Some(Self {
-                    remap: None,
-                    interpolation: args.interpolation.into(),
+                    resampling: None,
                     sidecar,
                 }))
             }
@@ -642,17 +673,18 @@ impl Panorama {
 
     /// Size of the panorama of an image of `image_size`.
     pub(crate) fn size(&self, image_size: (usize, usize)) -> (usize, usize) {
-        self.remap.as_ref().map_or(image_size, |r| (r.width, r.height))
+        self.resampling.as_ref().map_or(image_size, Resampling::size)
     }
 
-    /// The panorama of a grey image and the seconds its resampling took.
-    pub(crate) fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, f64)> {
+    /// The panorama of a grey image and the seconds its resampling took (`None`: the image is
+    /// the panorama, nothing was resampled).
+    pub(crate) fn of(&self, grey: &Raster) -> anyhow::Result<(Raster, Option<f64>)> {
         let clock = Instant::now();
-        let Some(remap) = &self.remap else {
-            return Ok((grey.clone(), 0.0));
+        let Some(resampling) = &self.resampling else {
+            return Ok((grey.clone(), None));
         };
-        let panorama = remap.apply(grey, self.interpolation)?;
-        Ok((panorama, clock.elapsed().as_secs_f64()))
+        let panorama = resampling.apply(grey)?;
+        Ok((panorama, Some(clock.elapsed().as_secs_f64())))
     }
 }
 
@@ -726,11 +758,16 @@ fn write_set(
     args: &DescribeArgs,
 ) -> anyhow::Result<()> {
     let name = &choice.name;
-    let frames: Vec<Value> = set
-        .frames
-        .iter()
-        .zip(&result.seconds)
-        .map(|(f, s)| json!({ "index": f.index, "stem": f.stem, "file": f.path, "seconds": s }))
+    let frames: Vec<Value> = (set.frames.iter().zip(&result.seconds).enumerate())
+        .map(|(i, (f, s))| {
+            let mut frame = json!({ "index": f.index, "stem": f.stem, "file": f.path, "seconds": s });
+            // The panorama's resampling is not in `seconds` (it is shared by every descriptor
+            // that reads the panorama); each frame's is recorded beside it.
+            if let Some(p) = result.panorama_seconds.get(i) {
+                frame["panorama_seconds"] = json!(p);
+            }
+            frame
+        })
         .collect();
     let mean_seconds = result.seconds.iter().sum::<f64>() / result.seconds.len().max(1) as f64;
     let mut sidecar = json!({
@@ -823,4 +860,31 @@ fn write_set(
     let mut text = serde_json::to_vec_pretty(&sidecar)?;
     text.push(b'\n');
     write_atomically(&path, |out| out.write_all(&text)).with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use omnisim::camera::Catadioptric;
+
+    /// A panorama of up to `RemapTaps::PIXELS_MAX` pixels is resampled through a table of taps,
+    /// a larger one through the source points (a table of taps would take 68 bytes a pixel).
+    #[test]
+    fn large_panoramas_are_resampled_through_the_points() {
+        let camera = Camera::Catadioptric(Catadioptric::hyperbolic(64, 64, 0.04, 0.16, Some(20f64.to_radians())));
+        for (size, taps) in [((512, 128), true), ((2048, 1024), false)] {
+            let args = PanoramaArgs {
+                panorama: size,
+                elevation: (-45.0, 15.0),
+                interpolation: InterpolationArg::Bicubic,
+            };
+            let panorama = Panorama::new(&camera, &args, true).unwrap().unwrap();
+            let resampling = panorama.resampling.as_ref().unwrap();
+            assert_eq!(matches!(resampling, Resampling::Taps(_)), taps, "{size:?}");
+            assert_eq!(panorama.size((64, 64)), (size.0 as usize, size.1 as usize));
+            let (view, seconds) = panorama.of(&Raster::new(64, 64, 1)).unwrap();
+            assert_eq!((view.width, view.height), (size.0 as usize, size.1 as usize));
+            assert!(seconds.is_some());
+        }
+    }
 }

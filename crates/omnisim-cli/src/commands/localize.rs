@@ -499,7 +499,7 @@ fn describe_frame(
                     .with_context(|| format!("{} of {}", d.name, path.display()))?,
             };
             let panorama_seconds = match &pano {
-                Some((_, seconds)) if d.reads_panorama() => *seconds,
+                Some((_, Some(seconds))) if d.reads_panorama() => *seconds,
                 _ => 0.0,
             };
             Ok(FrameDescribed {
