@@ -289,7 +289,7 @@ impl<'a> Shader<'a> {
     }
 
     /// Shades the pixels of `run` in `chunk` and writes their colours, setting up `lookups`
-    /// for their lanes: with AVX2 where `avx2` proves the CPU has it (the lanes' gathers, and
+    /// for their lanes: with AVX2 where `avx2` proves the CPU has it (the lanes in AVX2 registers, and
     /// every stage compiled for it), else portably, to the same bits. Inlined into the chunk's
     /// loop, which checks the CPU once, with the portable body out of line: a call of its own
     /// that checked the CPU and saved the registers the portable body needs cost about 33

@@ -141,17 +141,25 @@ fn samples_avx2(
         let finer = finer.taps([u, v], wraps);
         // Where every lane's coarser level weighs zero its taps are left out, as
         // `trilinear_lanes` leaves them; else each tap is the finer's plus the coarser's.
+        // The taps' closures always inlined: LLVM left them calls of their own (a call a tap
+        // and its saved registers, docs/benchmarks.md, 2026-11-27 afternoon (tex)).
         if _mm256_movemask_ps(weighs) == 0 {
-            summed(|tap| finer.weighted(avx2, tap, decoding))
+            summed(
+                #[inline(always)]
+                |tap| finer.weighted(avx2, tap, decoding),
+            )
         } else {
             let coarser = LevelLanes::new(levels, table, coarse, fraction).taps([u, v], wraps);
-            summed(|tap| {
-                let (finer, coarser) = (
-                    finer.weighted(avx2, tap, decoding),
-                    coarser.weighted(avx2, tap, decoding),
-                );
-                [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
-            })
+            summed(
+                #[inline(always)]
+                |tap| {
+                    let (finer, coarser) = (
+                        finer.weighted(avx2, tap, decoding),
+                        coarser.weighted(avx2, tap, decoding),
+                    );
+                    [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
+                },
+            )
         }
     };
     let mut out = [[0.0f32; 8]; 3];
