@@ -106,7 +106,7 @@ pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
 }
 
 /// [`linear_to_srgb3`] of eight colours: with AVX2 (where the caller's `avx2` proves it) four channels at a time
-/// in vector lanes, the bucket and step look-ups by plain loads, to the same bytes (tested).
+/// in vector lanes, the bucket and step look-ups gathered, to the same bytes (tested).
 /// Textured pixels are encoded eight at a time (`shade/textured.rs`), where one channel
 /// after another cost about 56 instructions a pixel (docs/benchmarks.md, "ninth pass").
 /// `avx2` is the caller's proof of AVX2 (`None`: the scalar encoder), so that a caller that
@@ -125,10 +125,11 @@ pub(crate) fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8], avx2: Option<crate::
 
 /// The steps (then +inf), and the byte at the start of each of 4096 equal buckets of [0, 1]: a
 /// bucket (2.4e-4 wide) is narrower than the smallest step (3.0e-4, 1/(255 · 12.92) at the
-/// dark end), so at most one step follows the guess.
+/// dark end), so at most one step follows the guess. The buckets end with three spare bytes:
+/// the lanes gather four bytes from a bucket's address.
 struct SrgbEncoding {
     steps: [f64; 256],
-    buckets: [u8; BUCKETS + 1],
+    buckets: [u8; BUCKETS + 4],
 }
 
 /// The number of equal buckets of [0, 1] in [`SrgbEncoding`]: a value c's is c · `BUCKETS`,
@@ -140,6 +141,7 @@ static ENCODING: std::sync::LazyLock<SrgbEncoding> = std::sync::LazyLock::new(||
         255 => f64::INFINITY,
         _ => first_value_encoding_to(k as u8 + 1),
     });
+    // The spare bytes past bucket `BUCKETS` are read only to be masked off; they hold 255.
     let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / BUCKETS as f64) as u8);
     SrgbEncoding { steps, buckets }
 });
@@ -165,39 +167,28 @@ impl SrgbEncoding {
     #[target_feature(enable = "avx2")]
     fn bytes_avx2(&self, _: crate::avx2::Avx2, linear: &[[f64; 3]; 8], bytes: &mut [[u8; 3]; 8]) {
         use std::arch::x86_64::{
-            __m128i, _CMP_LE_OQ, _mm_cvtsi128_si32, _mm_setr_epi8, _mm_setr_epi32, _mm_shuffle_epi8, _mm_storeu_si128,
-            _mm_sub_epi32, _mm256_castpd_si256, _mm256_castsi256_si128, _mm256_cmp_pd, _mm256_cvttpd_epi32,
-            _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd, _mm256_mul_pd, _mm256_permutevar8x32_epi32, _mm256_set1_pd,
-            _mm256_setr_epi32, _mm256_setr_pd, _mm256_setzero_pd,
+            _CMP_LE_OQ, _mm_and_si128, _mm_cvtsi128_si32, _mm_i32gather_epi32, _mm_set1_epi32, _mm_setr_epi8,
+            _mm_shuffle_epi8, _mm_sub_epi32, _mm256_castpd_si256, _mm256_castsi256_si128, _mm256_cmp_pd,
+            _mm256_cvttpd_epi32, _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd, _mm256_mul_pd,
+            _mm256_permutevar8x32_epi32, _mm256_set1_pd, _mm256_setr_epi32, _mm256_setzero_pd,
         };
         // 24 values, six chunks of four: no remainder is left out.
         let (values, bytes) = (linear.as_flattened(), bytes.as_flattened_mut());
         for (values, bytes) in values.chunks_exact(4).zip(bytes.chunks_exact_mut(4)) {
             // SAFETY: the load reads the chunk's four values. Each c lies in [0, 1] (`max`
             // takes a NaN, its first operand, to its second, 0, and anything not above 0 to 0;
-            // `min` keeps 1 as the bound), so its bucket is in 0..=4096, inside `buckets`
-            // (4097); each guess is a byte, inside `steps` (256). The store writes the four u32
-            // of `index`.
+            // `min` keeps 1 as the bound), so its bucket is in 0..=4096, and the four bytes
+            // gathered from it lie inside `buckets` (4100); each guess is a byte, inside
+            // `steps` (256).
             let four = unsafe {
                 let value = _mm256_loadu_pd(values.as_ptr());
                 let c = _mm256_min_pd(_mm256_max_pd(value, _mm256_setzero_pd()), _mm256_set1_pd(1.0));
                 let bucket = _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64)));
-                // The buckets' guesses and their steps by plain loads, where two gathers a
-                // chunk cost more than their eight loads (AMD Zen 3, docs/benchmarks.md,
-                // 2026-11-27 afternoon (tex)).
-                let mut index = [0u32; 4];
-                _mm_storeu_si128(index.as_mut_ptr().cast::<__m128i>(), bucket);
-                let [g0, g1, g2, g3] = index.map(|bucket| *self.buckets.get_unchecked(bucket as usize));
-                let steps = &self.steps;
-                let guess = _mm_setr_epi32(i32::from(g0), i32::from(g1), i32::from(g2), i32::from(g3));
-                let step = _mm256_setr_pd(
-                    steps[usize::from(g0)],
-                    steps[usize::from(g1)],
-                    steps[usize::from(g2)],
-                    steps[usize::from(g3)],
-                );
+                let gathered = _mm_i32gather_epi32::<1>(self.buckets.as_ptr().cast::<i32>(), bucket);
+                let guess = _mm_and_si128(gathered, _mm_set1_epi32(0xff));
+                let step = _mm256_i32gather_pd::<8>(self.steps.as_ptr(), guess);
                 // All ones (-1) in each 64-bit lane whose value reaches the next step, its low
-                // halves moved into four i32: the guess minus -1 is the byte, at most 255
+                // halves gathered into four i32: the guess minus -1 is the byte, at most 255
                 // (the step after 255 is +inf). The four bytes packed into one u32, in order,
                 // where a store per byte cost about 10 instructions a textured pixel.
                 let reached = _mm256_castpd_si256(_mm256_cmp_pd::<_CMP_LE_OQ>(step, c));

@@ -213,7 +213,7 @@ impl<'a> Shader<'a> {
         let mut start = 0;
         while let Some(first) = hits.get(start) {
             let face_id = first.face;
-            let end = span_end(hits, start);
+            let end = span_end(hits, start, avx2);
             let mut span = start..end;
             start = end;
             if face_id == NO_FACE {
@@ -289,7 +289,7 @@ impl<'a> Shader<'a> {
     }
 
     /// Shades the pixels of `run` in `chunk` and writes their colours, setting up `lookups`
-    /// for their lanes: with AVX2 where `avx2` proves the CPU has it (the lanes in AVX2 registers, and
+    /// for their lanes: with AVX2 where `avx2` proves the CPU has it (the lanes' gathers, and
     /// every stage compiled for it), else portably, to the same bits. Inlined into the chunk's
     /// loop, which checks the CPU once, with the portable body out of line: a call of its own
     /// that checked the CPU and saved the registers the portable body needs cost about 33
@@ -425,27 +425,59 @@ impl<'a> Shader<'a> {
 }
 
 /// The end of the span of pixels from `start` on (a pixel of `hits`) that see its face: the
-/// first later pixel that sees another, or the end of `hits`. Eight faces are compared at a
-/// time into a mask of those that differ, where one pixel at a time cost about six
-/// instructions a pixel (docs/benchmarks.md, 2026-11-27 midday (tex)), and an AVX2 gather of
-/// the eight faces cost more time than their eight loads (2026-11-27 afternoon (tex)); then
-/// one by one for the last few.
+/// first later pixel that sees another, or the end of `hits`. With `avx2` eight faces are
+/// compared at a time, gathered from the pixels, where one pixel at a time cost about six
+/// instructions a pixel (docs/benchmarks.md, 2026-11-27 midday (tex)); the same end either way.
 #[inline(always)]
-fn span_end(hits: &[Pixel], start: usize) -> usize {
+fn span_end(hits: &[Pixel], start: usize, avx2: Option<Avx2>) -> usize {
     let face = hits[start].face;
     let mut end = start + 1;
-    while let Some(eight) = hits.get(end..end + 8) {
-        let differs = eight
-            .iter()
-            .enumerate()
-            .fold(0u32, |differs, (k, hit)| differs | (u32::from(hit.face != face) << k));
-        if differs != 0 {
-            return end + differs.trailing_zeros() as usize;
-        }
-        end += 8;
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx2;
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = avx2 {
+        // SAFETY: `avx2` proves the CPU has AVX2, which `span_end_avx2` is compiled for.
+        end = unsafe { span_end_avx2(avx2, hits, end, face) };
     }
     while hits.get(end).is_some_and(|hit| hit.face == face) {
         end += 1;
+    }
+    end
+}
+
+/// [`span_end`]'s eights with AVX2: from `end` on, while eight whole pixels are left, the first
+/// that does not see `face`; else where the last eight that all see it end (the caller goes
+/// on one by one).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn span_end_avx2(_: Avx2, hits: &[Pixel], mut end: usize, face: u32) -> usize {
+    use std::arch::x86_64::{
+        _mm256_castsi256_ps, _mm256_cmpeq_epi32, _mm256_i32gather_epi32, _mm256_movemask_ps, _mm256_set1_epi32,
+        _mm256_setr_epi32,
+    };
+    // The faces of eight neighbouring pixels lie one pixel's size apart, counted in i32s.
+    const STRIDE: usize = size_of::<Pixel>() / size_of::<i32>();
+    const {
+        assert!(
+            size_of::<Pixel>().is_multiple_of(size_of::<i32>())
+                && std::mem::offset_of!(Pixel, face).is_multiple_of(size_of::<i32>())
+        );
+    };
+    let step = STRIDE as i32;
+    let offsets = _mm256_setr_epi32(0, step, 2 * step, 3 * step, 4 * step, 5 * step, 6 * step, 7 * step);
+    let wanted = _mm256_set1_epi32(face as i32);
+    while let Some(eight) = hits.get(end..end + 8) {
+        // SAFETY: the gather reads the face of each of the eight pixels of `eight`, from the
+        // slice's own pointer.
+        let faces = unsafe {
+            let first = eight.as_ptr().byte_add(std::mem::offset_of!(Pixel, face)).cast::<i32>();
+            _mm256_i32gather_epi32::<4>(first, offsets)
+        };
+        let same = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(faces, wanted)));
+        if same != 0xff {
+            return end + same.trailing_ones() as usize;
+        }
+        end += 8;
     }
     end
 }
@@ -538,7 +570,8 @@ mod tests {
             for start in 0..hits.len() {
                 let face = hits[start].face;
                 let want = start + hits[start..].iter().take_while(|hit| hit.face == face).count();
-                assert_eq!(span_end(&hits, start), want, "from {start}");
+                assert_eq!(span_end(&hits, start, None), want, "from {start}");
+                assert_eq!(span_end(&hits, start, Avx2::detected()), want, "from {start}");
             }
         }
     }

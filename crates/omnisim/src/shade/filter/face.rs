@@ -10,15 +10,15 @@
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::{
     __m128i, __m256, __m256d, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtsi128_si32,
-    _mm_loadu_si128, _mm256_add_epi32, _mm256_add_epi64, _mm256_add_pd, _mm256_add_ps, _mm256_and_pd, _mm256_and_si256,
+    _mm256_add_epi32, _mm256_add_epi64, _mm256_add_pd, _mm256_add_ps, _mm256_and_pd, _mm256_and_si256,
     _mm256_andnot_pd, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castps256_ps128, _mm256_castsi256_ps,
     _mm256_castsi256_si128, _mm256_cmp_pd, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cvtepi32_ps,
     _mm256_cvtepu32_epi64, _mm256_cvtpd_ps, _mm256_cvtps_pd, _mm256_div_pd, _mm256_extractf128_ps,
     _mm256_extracti128_si256, _mm256_floor_pd, _mm256_floor_ps, _mm256_i32gather_epi32, _mm256_i32gather_epi64,
-    _mm256_i32gather_ps, _mm256_loadu_pd, _mm256_loadu_ps, _mm256_max_pd, _mm256_max_ps, _mm256_min_epu32,
-    _mm256_min_pd, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_pd, _mm256_mul_ps, _mm256_mullo_epi32,
-    _mm256_set_m128, _mm256_set1_epi32, _mm256_set1_pd, _mm256_set1_ps, _mm256_setr_ps, _mm256_setzero_pd,
-    _mm256_setzero_ps, _mm256_slli_epi64, _mm256_srli_epi32, _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi32,
+    _mm256_i32gather_ps, _mm256_i64gather_epi32, _mm256_loadu_pd, _mm256_loadu_ps, _mm256_max_pd, _mm256_max_ps,
+    _mm256_min_epu32, _mm256_min_pd, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_pd, _mm256_mul_ps,
+    _mm256_mullo_epi32, _mm256_set_m128, _mm256_set_m128i, _mm256_set1_epi32, _mm256_set1_pd, _mm256_set1_ps,
+    _mm256_setzero_pd, _mm256_setzero_ps, _mm256_slli_epi64, _mm256_srli_epi32, _mm256_storeu_ps, _mm256_sub_epi32,
     _mm256_sub_pd, _mm256_sub_ps,
 };
 
@@ -101,7 +101,7 @@ pub(crate) enum Detail<'a> {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn samples_avx2(
-    avx2: Avx2,
+    _: Avx2,
     levels: &Levels<'_>,
     wraps: Wraps,
     [u, v]: [&[f64; 8]; 2],
@@ -141,25 +141,14 @@ fn samples_avx2(
         let finer = finer.taps([u, v], wraps);
         // Where every lane's coarser level weighs zero its taps are left out, as
         // `trilinear_lanes` leaves them; else each tap is the finer's plus the coarser's.
-        // The taps' closures always inlined: LLVM left them calls of their own (a call a tap
-        // and its saved registers, docs/benchmarks.md, 2026-11-27 afternoon (tex)).
         if _mm256_movemask_ps(weighs) == 0 {
-            summed(
-                #[inline(always)]
-                |tap| finer.weighted(avx2, tap, decoding),
-            )
+            summed(|tap| finer.weighted(tap, decoding))
         } else {
             let coarser = LevelLanes::new(levels, table, coarse, fraction).taps([u, v], wraps);
-            summed(
-                #[inline(always)]
-                |tap| {
-                    let (finer, coarser) = (
-                        finer.weighted(avx2, tap, decoding),
-                        coarser.weighted(avx2, tap, decoding),
-                    );
-                    [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
-                },
-            )
+            summed(|tap| {
+                let (finer, coarser) = (finer.weighted(tap, decoding), coarser.weighted(tap, decoding));
+                [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
+            })
         }
     };
     let mut out = [[0.0f32; 8]; 3];
@@ -254,9 +243,9 @@ impl<'a> LevelLanes<'a> {
         let first = _mm_cvtsi128_si32(_mm256_castsi256_si128(at));
         let same = _mm256_cmpeq_epi32(at, _mm256_set1_epi32(first));
         let shared = _mm256_movemask_ps(_mm256_castsi256_ps(same)) == 0xff;
-        // Every lane on one level (most runs): its numbers read once and broadcast, where a
-        // gather a number cost as much as eight loads (docs/benchmarks.md, 2026-11-27
-        // afternoon (tex)).
+        // Every lane on one level (most runs): its numbers read once and broadcast, where
+        // gathering them cost more time (AMD Zen 3, same process: docs/benchmarks.md,
+        // 2026-11-27 afternoon (tex)).
         let (width, height, last, texels) = if shared {
             let level = levels.each[first as usize];
             (
@@ -265,8 +254,6 @@ impl<'a> LevelLanes<'a> {
                 _mm256_set1_epi32(level.last as i32),
                 Texels::Shared(level.texels),
             )
-        } else if let Some(two) = two_levels(levels, at) {
-            two
         } else {
             let halves = [_mm256_castsi256_si128(at), _mm256_extracti128_si256::<1>(at)];
             // SAFETY: every index in `at` is below the number of levels, the tables' length
@@ -332,115 +319,48 @@ impl<'a> LevelLanes<'a> {
 
 #[cfg(target_arch = "x86_64")]
 impl Taps<'_> {
-    /// Tap `tap`'s red, green and blue decoded through `decoding` and weighted, by lane. The
-    /// texels are fetched and decoded by plain loads, put into lanes: a gather on this path's
-    /// CPUs costs more than its eight loads and inserts (on an AMD Zen 3, about 1.5× a tap's
-    /// four; docs/benchmarks.md, 2026-11-27 afternoon (tex)). Always inlined into its caller,
-    /// `samples_avx2`, compiled for AVX2: as a call of its own (LLVM's choice for a
-    /// `#[target_feature]` function this size) it cost about 30 instructions a tap in saved
-    /// registers and spills.
-    #[inline(always)]
-    fn weighted(&self, avx2: Avx2, tap: usize, decoding: &[f32; 256]) -> [__m256; 3] {
-        let texels = self.fetched(avx2, self.index[tap]);
-        let weight = self.weight[tap];
-        // SAFETY: `avx2` proves the CPU has AVX2 (and so AVX).
-        unsafe {
-            [
-                _mm256_mul_ps(weight, decoded(avx2, &texels, 0, decoding)),
-                _mm256_mul_ps(weight, decoded(avx2, &texels, 8, decoding)),
-                _mm256_mul_ps(weight, decoded(avx2, &texels, 16, decoding)),
-            ]
-        }
+    /// Tap `tap`'s red, green and blue decoded through `decoding` and weighted, by lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn weighted(&self, tap: usize, decoding: &[f32; 256]) -> [__m256; 3] {
+        let texels = self.fetched(self.index[tap]);
+        let byte = _mm256_set1_epi32(0xff);
+        let bytes = [
+            _mm256_and_si256(texels, byte),
+            _mm256_and_si256(_mm256_srli_epi32::<8>(texels), byte),
+            _mm256_and_si256(_mm256_srli_epi32::<16>(texels), byte),
+        ];
+        // SAFETY: every index is masked to 0..=255, inside the table.
+        bytes.map(|byte| {
+            _mm256_mul_ps(self.weight[tap], unsafe {
+                _mm256_i32gather_ps::<4>(decoding.as_ptr(), byte)
+            })
+        })
     }
 
-    /// Each lane's texel `index` of its level, clamped to the level's last (as `fetched`), by
-    /// plain loads; always inlined, as [`Taps::weighted`].
-    #[inline(always)]
-    fn fetched(&self, _: Avx2, index: __m256i) -> [u32; 8] {
-        // SAFETY (each intrinsic's): the token proves the CPU has AVX2.
-        let index = unsafe { _mm256_min_epu32(index, self.level.last) };
-        let mut lanes = [0u32; 8];
-        // SAFETY: as above; the store writes the eight u32 of `lanes`.
-        unsafe { _mm256_storeu_si256(lanes.as_mut_ptr().cast::<__m256i>(), index) };
+    /// Each lane's texel `index` of its level, clamped to the level's last (as `fetched`).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn fetched(&self, index: __m256i) -> __m256i {
+        let index = _mm256_min_epu32(index, self.level.last);
         match self.level.texels {
-            Texels::Shared(texels) => lanes.map(|index| {
-                // SAFETY: every index is at most the level's last (`last` is the shared level's,
-                // broadcast), inside `texels`.
-                unsafe { *texels.get_unchecked(index as usize) }
-            }),
+            // SAFETY: every index is at most the level's last, inside `texels` and within i32
+            // (`Levels` has tables only where every level's last is).
+            Texels::Shared(texels) => unsafe { _mm256_i32gather_epi32::<4>(texels.as_ptr().cast::<i32>(), index) },
             Texels::Addressed(first) => {
-                let mut address = [0u64; 8];
-                for (half, four) in address.chunks_exact_mut(4).enumerate() {
-                    // SAFETY: the token proves the CPU has AVX2; the loads read four of the
-                    // eight u32 of `lanes`, the store writes the four u64 of `four`.
-                    unsafe {
-                        let index = _mm_loadu_si128(lanes[4 * half..].as_ptr().cast::<__m128i>());
-                        let offset = _mm256_slli_epi64::<2>(_mm256_cvtepu32_epi64(index));
-                        _mm256_storeu_si256(
-                            four.as_mut_ptr().cast::<__m256i>(),
-                            _mm256_add_epi64(first[half], offset),
-                        );
-                    }
-                }
-                address.map(|address| {
-                    // SAFETY: each address is that of texel `index` (at most the level's last,
+                let halves = [_mm256_castsi256_si128(index), _mm256_extracti128_si256::<1>(index)];
+                let base = std::ptr::with_exposed_provenance::<i32>(0);
+                let [low, high]: [__m128i; 2] = std::array::from_fn(|half| {
+                    let offset = _mm256_slli_epi64::<2>(_mm256_cvtepu32_epi64(halves[half]));
+                    // SAFETY: the address is that of texel `index` (at most the level's last,
                     // so inside its texels, never empty) of the lane's level, whose first
                     // texel's address was exposed when the tables were made (`Levels::of`).
-                    unsafe { std::ptr::with_exposed_provenance::<u32>(address as usize).read() }
-                })
+                    unsafe { _mm256_i64gather_epi32::<1>(base, _mm256_add_epi64(first[half], offset)) }
+                });
+                _mm256_set_m128i(high, low)
             }
         }
     }
-}
-
-/// Each lane's channel (shift 0, 8 or 16 of its packed texel `texels[k]`) decoded through
-/// `decoding`: eight loads, put into their lanes; always inlined, as [`Taps::weighted`].
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn decoded(_: Avx2, texels: &[u32; 8], shift: u32, decoding: &[f32; 256]) -> __m256 {
-    let lane = |k: usize| decoding[((texels[k] >> shift) & 0xff) as usize];
-    // SAFETY: the token proves the CPU has AVX2 (and so AVX).
-    unsafe { _mm256_setr_ps(lane(0), lane(1), lane(2), lane(3), lane(4), lane(5), lane(6), lane(7)) }
-}
-
-/// [`LevelLanes::new`]'s numbers and texels where the lanes lie on two neighbouring levels
-/// (a run whose level of detail crosses a whole level), each lane's a blend of the two
-/// levels' broadcast numbers (its texels by address): where gathering them from the tables
-/// cost five gathers a level (docs/benchmarks.md, 2026-11-27 afternoon (tex)). `None` where
-/// the lanes lie on more than two levels, or two that are not neighbours.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn two_levels<'a>(levels: &Levels<'a>, at: __m256i) -> Option<(__m256, __m256, __m256i, Texels<'a>)> {
-    use std::arch::x86_64::{
-        _mm256_blendv_epi8, _mm256_cvtepi32_epi64, _mm256_or_si256, _mm256_permute2x128_si256, _mm256_set1_epi64x,
-        _mm256_shuffle_epi32,
-    };
-    let low = _mm256_min_epu32(at, _mm256_permute2x128_si256::<1>(at, at));
-    let low = _mm256_min_epu32(low, _mm256_shuffle_epi32::<0b01_00_11_10>(low));
-    let low = _mm256_min_epu32(low, _mm256_shuffle_epi32::<0b10_11_00_01>(low));
-    let low = _mm_cvtsi128_si32(_mm256_castsi256_si128(low)) as u32;
-    let above = _mm256_cmpeq_epi32(at, _mm256_set1_epi32(low.wrapping_add(1) as i32));
-    let on_low = _mm256_cmpeq_epi32(at, _mm256_set1_epi32(low as i32));
-    if _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_or_si256(above, on_low))) != 0xff {
-        return None;
-    }
-    let (finer, coarser) = (levels.each[low as usize], *levels.each.get(low as usize + 1)?);
-    let blend = |a: f32, b: f32| _mm256_blendv_ps(_mm256_set1_ps(a), _mm256_set1_ps(b), _mm256_castsi256_ps(above));
-    let halves = [_mm256_castsi256_si128(above), _mm256_extracti128_si256::<1>(above)];
-    let address = |level: Level<'_>| _mm256_set1_epi64x(level.texels.as_ptr().expose_provenance() as i64);
-    Some((
-        blend(finer.size[0], coarser.size[0]),
-        blend(finer.size[1], coarser.size[1]),
-        _mm256_blendv_epi8(
-            _mm256_set1_epi32(finer.last as i32),
-            _mm256_set1_epi32(coarser.last as i32),
-            above,
-        ),
-        Texels::Addressed(
-            halves.map(|half| _mm256_blendv_epi8(address(finer), address(coarser), _mm256_cvtepi32_epi64(half))),
-        ),
-    ))
 }
 
 #[cfg(target_arch = "x86_64")]
