@@ -243,24 +243,33 @@ impl<'a> LevelLanes<'a> {
         let first = _mm_cvtsi128_si32(_mm256_castsi256_si128(at));
         let same = _mm256_cmpeq_epi32(at, _mm256_set1_epi32(first));
         let shared = _mm256_movemask_ps(_mm256_castsi256_ps(same)) == 0xff;
-        // SAFETY: every index in `at` is below the number of levels, the tables' length (one
-        // entry a level): the level of detail is clamped to the coarsest, and the coarser level
-        // is one up only where the fraction is not zero, so below the coarsest.
-        let (width, height, last) = unsafe {
+        // Every lane on one level (most runs): its numbers read once and broadcast, where
+        // gathering them cost more time (AMD Zen 3, same process: docs/benchmarks.md,
+        // 2026-11-27 afternoon (tex)).
+        let (width, height, last, texels) = if shared {
+            let level = levels.each[first as usize];
             (
-                _mm256_i32gather_ps::<4>(table.width.as_ptr(), at),
-                _mm256_i32gather_ps::<4>(table.height.as_ptr(), at),
-                _mm256_i32gather_epi32::<4>(table.last.as_ptr().cast::<i32>(), at),
+                _mm256_set1_ps(level.size[0]),
+                _mm256_set1_ps(level.size[1]),
+                _mm256_set1_epi32(level.last as i32),
+                Texels::Shared(level.texels),
             )
-        };
-        let texels = if shared {
-            Texels::Shared(levels.each[first as usize].texels)
         } else {
             let halves = [_mm256_castsi256_si128(at), _mm256_extracti128_si256::<1>(at)];
-            // SAFETY: as above.
-            Texels::Addressed(
-                halves.map(|half| unsafe { _mm256_i32gather_epi64::<8>(table.address.as_ptr().cast::<i64>(), half) }),
-            )
+            // SAFETY: every index in `at` is below the number of levels, the tables' length
+            // (one entry a level): the level of detail is clamped to the coarsest, and the
+            // coarser level is one up only where the fraction is not zero, so below the
+            // coarsest.
+            unsafe {
+                (
+                    _mm256_i32gather_ps::<4>(table.width.as_ptr(), at),
+                    _mm256_i32gather_ps::<4>(table.height.as_ptr(), at),
+                    _mm256_i32gather_epi32::<4>(table.last.as_ptr().cast::<i32>(), at),
+                    Texels::Addressed(
+                        halves.map(|half| _mm256_i32gather_epi64::<8>(table.address.as_ptr().cast::<i64>(), half)),
+                    ),
+                )
+            }
         };
         LevelLanes {
             width,
