@@ -98,7 +98,7 @@ impl WideBvh {
                         } else {
                             ([group, group], group.candidates(&ray.lanes, t_lo, t_hi))
                         };
-                        for half in 0..2 {
+                        for (half, owner) in pair.into_iter().enumerate() {
                             if half == 1 {
                                 // The partner's triangles only while the ray still reaches its
                                 // box, as its own visit would see them (and count them: as the
@@ -117,7 +117,7 @@ impl WideBvh {
                                 let lane = lanes.trailing_zeros() as usize;
                                 lanes &= lanes - 1;
                                 counter.exact_test();
-                                match visit(pair[half].triangle[lane] as usize) {
+                                match visit(owner.triangle[lane] as usize) {
                                     Visit::Stop => return,
                                     answer => t_hi = narrowed(t_hi, &answer),
                                 }
