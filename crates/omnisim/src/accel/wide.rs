@@ -156,7 +156,10 @@ pub(crate) struct TriangleLanes<L> {
 }
 
 /// Up to four triangles, one per lane, with each lane's triangle index in leaf order.
+/// Aligned to a cache line: its 192 bytes then span three lines, not four (a list's start
+/// the allocator gives is only 16-byte aligned).
 #[derive(Debug, Clone, Copy)]
+#[repr(align(64))]
 pub(crate) struct TriangleGroup {
     pub(crate) lanes4: TriangleLanes<Vec4>,
     /// Triangle index (leaf order) of each lane.

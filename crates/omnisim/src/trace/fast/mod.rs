@@ -30,7 +30,7 @@ use rays::{LaneRay, PacketRays, StagedRays};
 macro_rules! by_cpu {
     ($portable:expr, $avx:expr, $plain:expr) => {
         if use_avx2($portable) {
-            // SAFETY: `use_avx2` is true only where the CPU has AVX2.
+            // SAFETY: `use_avx2` is true only where the CPU has AVX2, POPCNT and BMI1.
             unsafe { $avx }
         } else {
             $plain
@@ -65,18 +65,22 @@ pub(crate) fn closest_hit<C: Counter>(
     )
 }
 
-/// Whether to run the AVX2 build of a walk: the CPU has AVX2 and the portable path was not
-/// asked for (`CpuTracer::FastPortable`).
+/// Whether to run the AVX2 build of a walk: the CPU has AVX2 (and the bit instructions every
+/// AVX2 CPU has, which the walks' builds also use: `popcnt`, `bmi1`) and the portable path was
+/// not asked for (`CpuTracer::FastPortable`).
 #[cfg(target_arch = "x86_64")]
 #[inline]
 pub(crate) fn use_avx2(portable: bool) -> bool {
-    !portable && std::arch::is_x86_feature_detected!("avx2")
+    !portable
+        && std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("popcnt")
+        && std::arch::is_x86_feature_detected!("bmi1")
 }
 
 /// [`closest_hit_in`] compiled with AVX2 (its box tests eight lanes wide, the rest in VEX
 /// encoding). Callgrind, closest-hit search: see docs/benchmarks.md.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt,bmi1")]
 fn closest_hit_avx2<C: Counter>(
     bvh: &SceneBvh,
     origin: DVec3,
@@ -262,7 +266,7 @@ impl ExactRays {
 
 /// [`closest_hits_in`] compiled with AVX2, its leaf filter eight lanes in one register.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt,bmi1")]
 fn closest_hits_avx2(bvh: &SceneBvh, active: u64, found: &mut [Option<Hit>; PACKET], room: &mut PacketRoom) {
     let packet = room.avx.get_or_insert_with(PacketRays::empty);
     closest_hits_in::<lanes::Avx8>(bvh, &room.rays, active, found, packet, &room.staged);
@@ -351,7 +355,7 @@ pub(crate) fn occluded_rays(bvh: &SceneBvh, shadows: &ShadowRays, active: u64, p
 
 /// [`occluded_rays_in`] compiled with AVX2.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt,bmi1")]
 fn occluded_rays_avx2(bvh: &SceneBvh, shadows: &ShadowRays, active: u64) -> u64 {
     occluded_rays_in::<lanes::Avx8>(bvh, shadows, active)
 }
@@ -410,7 +414,7 @@ pub(crate) fn occluded(
 
 /// [`occluded_in`] compiled with AVX2.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,popcnt,bmi1")]
 fn occluded_avx2(bvh: &SceneBvh, origin: DVec3, direction: DVec3, t_max: f64, skip_face: u32) -> bool {
     occluded_in::<true>(bvh, origin, direction, t_max, skip_face)
 }

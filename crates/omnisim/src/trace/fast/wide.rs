@@ -4,10 +4,13 @@
 
 use glam::{DVec3, Vec4};
 
+use super::groups::RayLanes;
 use super::groups::filter;
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
-use crate::accel::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, TriangleGroup, WIDTH, WideBvh, WideNode};
+use crate::accel::wide::{
+    GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode,
+};
 use crate::trace::counts::Counter;
 use crate::trace::triangle::Visit;
 
@@ -61,19 +64,63 @@ impl WideBvh {
             let (entry, t_enter) = current;
             if t_enter <= t_hi {
                 if entry & LEAF != 0 {
-                    prefetch_corners(self.leaf_groups(entry), corners);
-                    for group in self.leaf_groups(entry) {
+                    let groups = self.leaf_groups(entry);
+                    // With AVX the filter tests eight lanes: a one-group leaf (most are) takes
+                    // the next entry along where that is a one-group leaf the ray may reach too
+                    // (a ray's two nearest children at the bottom of the tree often are), its
+                    // triangles in the upper four lanes; else the upper lanes are left out.
+                    let mut partner = None;
+                    if AVX && groups.len() == 1 && len > 0 {
+                        let (next, next_enter) = stack[len - 1];
+                        if next & !GROUP_INDEX == LEAF && next_enter <= t_hi {
+                            len -= 1;
+                            partner = Some((&self.groups[(next & GROUP_INDEX) as usize], next_enter));
+                        }
+                    }
+                    prefetch_corners(groups, corners);
+                    if let Some((other, _)) = partner {
+                        prefetch_corners(std::slice::from_ref(other), corners);
+                    }
+                    for group in groups {
                         for _ in 0..group.lanes.count_ones() {
                             counter.primitive_test();
                         }
-                        let mut candidates = group.candidates(&ray.lanes, t_lo, t_hi);
-                        while candidates != 0 {
-                            let lane = candidates.trailing_zeros() as usize;
-                            candidates &= candidates - 1;
-                            counter.exact_test();
-                            match visit(group.triangle[lane] as usize) {
-                                Visit::Stop => return,
-                                answer => t_hi = narrowed(t_hi, &answer),
+                        let (pair, candidates) = if AVX {
+                            let (upper, upper_lanes) = match partner {
+                                Some((other, _)) => (other, other.lanes),
+                                None => (group, 0),
+                            };
+                            let pair = [group, upper];
+                            (
+                                pair,
+                                pair_candidates::<AVX>(ray, pair, t_lo, t_hi) & (group.lanes | upper_lanes << 4),
+                            )
+                        } else {
+                            ([group, group], group.candidates(&ray.lanes, t_lo, t_hi))
+                        };
+                        for (half, owner) in pair.into_iter().enumerate() {
+                            if half == 1 {
+                                // The partner's triangles only while the ray still reaches its
+                                // box, as its own visit would see them (and count them: as the
+                                // portable walk counts).
+                                match partner {
+                                    Some((other, next_enter)) if next_enter <= t_hi => {
+                                        for _ in 0..other.lanes.count_ones() {
+                                            counter.primitive_test();
+                                        }
+                                    }
+                                    _ => break,
+                                }
+                            }
+                            let mut lanes = candidates >> (4 * half) & 0xf;
+                            while lanes != 0 {
+                                let lane = lanes.trailing_zeros() as usize;
+                                lanes &= lanes - 1;
+                                counter.exact_test();
+                                match visit(owner.triangle[lane] as usize) {
+                                    Visit::Stop => return,
+                                    answer => t_hi = narrowed(t_hi, &answer),
+                                }
                             }
                         }
                     }
@@ -120,6 +167,53 @@ impl WideBvh {
             current = stack[len];
         }
     }
+}
+
+/// The lanes of two triangle groups (`pair[0]` in lanes 0–3, `pair[1]` in 4–7) that
+/// [`filter`] keeps for `ray`, eight lanes at once (one AVX register where `AVX`): the same
+/// answer per lane as [`TriangleGroup::candidates`] (the same operations), before masking
+/// with the groups' lanes.
+#[inline(always)]
+fn pair_candidates<const AVX: bool>(ray: &LaneRay, pair: [&TriangleGroup; 2], t_lo: f32, t_hi: f32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        return candidates_of_pair::<crate::trace::fast::lanes::Avx8>(ray, pair, t_lo, t_hi);
+    }
+    candidates_of_pair::<crate::trace::fast::lanes::Lanes8>(ray, pair, t_lo, t_hi)
+}
+
+/// [`pair_candidates`] on lanes `W`.
+#[inline(always)]
+fn candidates_of_pair<W: Wide>(ray: &LaneRay, pair: [&TriangleGroup; 2], t_lo: f32, t_hi: f32) -> u32 {
+    let (a, b) = (&pair[0].lanes4, &pair[1].lanes4);
+    let rays = RayLanes {
+        origin: splat_axes::<W>(&ray.lanes.origin),
+        direction: splat_axes::<W>(&ray.lanes.direction),
+        position_error: W::splat(ray.lanes.position_error.x),
+    };
+    let triangles = TriangleLanes {
+        corner: joined::<W>(&a.corner, &b.corner),
+        edge1: joined::<W>(&a.edge1, &b.edge1),
+        edge2: joined::<W>(&a.edge2, &b.edge2),
+        longest_edge: W::from_halves(&[a.longest_edge, b.longest_edge]),
+    };
+    filter(&rays, &triangles, W::splat(t_lo), W::splat(t_hi))
+}
+
+/// A single ray's three axes (each the same in its four lanes) in all eight lanes.
+#[inline(always)]
+fn splat_axes<W: Wide>(axes: &[Vec4; 3]) -> [W; 3] {
+    [W::splat(axes[0].x), W::splat(axes[1].x), W::splat(axes[2].x)]
+}
+
+/// Two groups' three axes, `low`'s in lanes 0–3 and `high`'s in 4–7.
+#[inline(always)]
+fn joined<W: Wide>(low: &[Vec4; 3], high: &[Vec4; 3]) -> [W; 3] {
+    [
+        W::from_halves(&[low[0], high[0]]),
+        W::from_halves(&[low[1], high[1]]),
+        W::from_halves(&[low[2], high[2]]),
+    ]
 }
 
 /// A child box narrower than this many times the packet's footprint radius where the packet
@@ -492,12 +586,10 @@ fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &Wid
         box_planes::<W>(node, 1, rays.negative[1], lane),
         box_planes::<W>(node, 2, rays.negative[2], lane),
     ];
+    // Every batch is tested, without a branch on whether it holds rays of `mask` (almost all
+    // do: the entry holds more than `FEW_RAYS` rays): the loop unrolls, its addresses constant.
     let mut entering = 0u64;
     for b in 0..BATCHES {
-        let lanes = (mask >> (8 * b)) as u32 & 0xff;
-        if lanes == 0 {
-            continue;
-        }
         let mut near = W::splat(0.0);
         let mut exit = W::load(&t_hi[8 * b..]);
         for (axis, &(near_plane, far_plane)) in planes.iter().enumerate() {
@@ -506,9 +598,9 @@ fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &Wid
             near = near.max((near_plane - origin) * inverse);
             exit = exit.min((far_plane - origin) * inverse);
         }
-        entering |= u64::from(lanes & near.not_greater(exit)) << (8 * b);
+        entering |= u64::from(near.not_greater(exit)) << (8 * b);
     }
-    entering
+    mask & entering
 }
 
 /// Interval slab test of a node's eight boxes against a packet whose rays share their
@@ -657,6 +749,58 @@ mod tests {
             node.lanes |= 1 << lane;
         }
         node
+    }
+
+    /// The paired filter's promise: each of its eight lanes answers as the four-lane filter of
+    /// its own group does (the single-ray walk's leaves, filtered two at a time with AVX), on
+    /// the portable lanes and, where the CPU has AVX2, in one AVX register. Groups of one to
+    /// four triangles near random rays (hits and near misses), random bounds.
+    #[test]
+    fn a_pair_of_groups_is_filtered_as_each_group_alone() {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn pair_avx(ray: &LaneRay, pair: [&TriangleGroup; 2], t_lo: f32, t_hi: f32) -> u32 {
+            pair_candidates::<true>(ray, pair, t_lo, t_hi)
+        }
+        let mut rng = StdRng::seed_from_u64(17);
+        let (mut kept, mut dropped) = (0, 0);
+        for _ in 0..20_000 {
+            let origin = unit(&mut rng) * rng.random_range(0.0..5.0);
+            let direction = unit(&mut rng);
+            let triangles: Vec<[DVec3; 3]> = (0..8)
+                .map(|_| {
+                    let centre =
+                        origin + direction * rng.random_range(0.1..10.0) + unit(&mut rng) * rng.random_range(0.0..0.5);
+                    std::array::from_fn(|_| centre + unit(&mut rng) * 0.3)
+                })
+                .collect();
+            let first: Vec<u32> = (0..rng.random_range(1..=4)).collect();
+            let second: Vec<u32> = (4..rng.random_range(5..=8)).collect();
+            let groups = [
+                TriangleGroup::new(&triangles, &first),
+                TriangleGroup::new(&triangles, &second),
+            ];
+            let ray = LaneRay::new(origin, direction, 20.0);
+            let (t_lo, t_hi) = (rng.random_range(0.0..1.0), rng.random_range(1.0..12.0));
+            let alone =
+                groups[0].candidates(&ray.lanes, t_lo, t_hi) | groups[1].candidates(&ray.lanes, t_lo, t_hi) << 4;
+            let lanes = groups[0].lanes | groups[1].lanes << 4;
+            let pair = [&groups[0], &groups[1]];
+            assert_eq!(
+                pair_candidates::<false>(&ray, pair, t_lo, t_hi) & lanes,
+                alone,
+                "portable lanes"
+            );
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: called only where the CPU has AVX2.
+                let avx = unsafe { pair_avx(&ray, pair, t_lo, t_hi) };
+                assert_eq!(avx & lanes, alone, "AVX lanes");
+            }
+            kept += alone.count_ones();
+            dropped += (lanes & !alone).count_ones();
+        }
+        assert!(kept > 5_000 && dropped > 5_000, "{kept} kept, {dropped} dropped");
     }
 
     /// The interval test with all four corner products of (plane − origin) × inverse per
