@@ -15,7 +15,8 @@ panorama's resampling; the first frame is left out), then the peers on the same 
 called COPIES times and timed around its one call, the first call left out as omnisim's first
 frame is (reading and converting the image left out). Each side's time covers the same work:
 the Fourier signature's, for instance, is omnisim's `FourierSignature::new` (rows of the f32
-panorama to f64, `realfft`, the first 16 coefficients kept) with the magnitudes and phases as
+panorama to f64, a real FFT — realfft's even-length transform with only the 16 kept bins
+unpacked) with the magnitudes and phases as
 f32, against `np.fft.rfft` of the f64 panorama with `np.abs` and `np.angle` of the first 16.
 
 | omnisim            | peer                                                              |

@@ -230,7 +230,7 @@ fn a_cluttered_room_and_its_shadow_rays_match_the_reference() {
 /// against the bound from before its neighbour's hits). The paper's omni camera in a cluttered room, whose
 /// bottom nodes hold many leaves. (Without AVX2 both run the portable walk.)
 #[test]
-fn the_fast_and_portable_walks_count_the_same_tests() {
+fn the_fast_walk_counts_the_portable_tests_and_a_few_more_f64_tests() {
     let scene = clutter(400, 11);
     let bvh = SceneBvh::build(&scene);
     let camera = Camera::Catadioptric(common::paper_omni());

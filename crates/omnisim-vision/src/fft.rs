@@ -221,7 +221,6 @@ mod tests {
         }
     }
 
-    /// The same size asked twice gets the same cached plan.
     /// Tiled, and sizes that are not whole tiles: every value lands at (x, y) → (y, x).
     #[test]
     fn transpose_moves_every_value() {

@@ -18,7 +18,7 @@
 //! (scikit-image has neither).
 //!
 //! Written here: imageproc's HOG is the block variant only and imageproc would bring
-//! nalgebra 0.35 (Rust 1.89, above this workspace's 1.87).
+//! nalgebra 0.35 (beside the workspace's 0.34).
 
 use crate::angle::atan2_degrees;
 use crate::{Descriptor, Raster, Rotation, VisionError, require};

@@ -296,7 +296,8 @@ pub struct RemapTaps {
 }
 
 impl RemapTaps {
-    /// Most view pixels a table is made for: 1 Mi (68 MB bicubic, besides the `Remap`'s 24 MB);
+    /// Most view pixels a table is made for: 1 Mi (68 MB bicubic, 20 MB bilinear, besides the
+    /// `Remap`'s 24 MB);
     /// larger views are resampled by [`Remap::apply`] (the same bits).
     pub const PIXELS_MAX: usize = 1 << 20;
 
@@ -304,59 +305,58 @@ impl RemapTaps {
     const ELSEWHERE: u32 = u32::MAX;
 
     /// The taps of every pixel of `remap` with `interpolation`'s kernel, a row of the view at a
-    /// time in parallel; `None` for a view of more than [`RemapTaps::PIXELS_MAX`] pixels.
+    /// time in parallel, written in place into tables made once at their full size; `None` for a
+    /// view of more than [`RemapTaps::PIXELS_MAX`] pixels or a `remap` whose `source` is not
+    /// `width × height` long.
     pub fn new(remap: &Remap, interpolation: Interpolation) -> Option<RemapTaps> {
-        if remap.source.len() > Self::PIXELS_MAX {
+        let pixels = remap.source.len();
+        if pixels > Self::PIXELS_MAX || pixels != remap.width * remap.height {
             return None;
         }
         let (source_w, source_h) = remap.source_size;
         let taps = interpolation.width();
         let inside = |start: i64, len: usize| start >= 0 && start as usize + taps <= len;
-        let rows: Vec<_> = (remap.source.par_chunks(remap.width.max(1)))
+        let row_len = remap.width.max(1);
+        let mut first = vec![Self::ELSEWHERE; pixels];
+        let mut weights = vec![0.0; pixels * taps * taps];
+        let border = first
+            .par_chunks_mut(row_len)
+            .zip(weights.par_chunks_mut(row_len * taps * taps))
+            .zip(remap.source.par_chunks(row_len))
             .enumerate()
-            .map(|(row, sources)| {
-                let mut first = Vec::with_capacity(sources.len());
-                let mut weights = Vec::with_capacity(sources.len() * taps * taps);
+            .flat_map_iter(|(row, ((first, weights), sources))| {
                 let mut border = Vec::new();
-                for (column, source) in sources.iter().enumerate() {
-                    let Some(p) = source else {
-                        first.push(Self::ELSEWHERE);
-                        weights.resize(weights.len() + taps * taps, 0.0);
-                        continue;
-                    };
+                let pixels = first.iter_mut().zip(weights.chunks_exact_mut(taps * taps)).zip(sources);
+                for (column, ((first, weights), source)) in pixels.enumerate() {
+                    let Some(p) = source else { continue };
                     let ((x0, wx), (y0, wy)) = (interpolation.taps(p.x), interpolation.taps(p.y));
                     let start = (inside(x0, source_w) && inside(y0, source_h))
                         .then(|| y0 as usize * source_w + x0 as usize)
                         .and_then(|start| u32::try_from(start).ok().filter(|&s| s != Self::ELSEWHERE));
-                    if let Some(start) = start {
-                        first.push(start);
-                        for &wyj in &wy[..taps] {
-                            weights.extend(wx[..taps].iter().map(|&wxi| (wxi * wyj) as f32));
+                    match start {
+                        Some(start) => {
+                            *first = start;
+                            for (row_weights, &wyj) in weights.chunks_exact_mut(taps).zip(&wy[..taps]) {
+                                for (weight, &wxi) in row_weights.iter_mut().zip(&wx[..taps]) {
+                                    *weight = (wxi * wyj) as f32;
+                                }
+                            }
                         }
-                    } else {
-                        first.push(Self::ELSEWHERE);
-                        weights.resize(weights.len() + taps * taps, 0.0);
-                        border.push((row * remap.width + column, *p));
+                        None => border.push((row * remap.width + column, *p)),
                     }
                 }
-                (first, weights, border)
+                border
             })
             .collect();
-        let mut table = RemapTaps {
+        Some(RemapTaps {
             width: remap.width,
             height: remap.height,
             source_size: remap.source_size,
             interpolation,
-            first: Vec::with_capacity(remap.source.len()),
-            weights: Vec::with_capacity(remap.source.len() * taps * taps),
-            border: Vec::new(),
-        };
-        for (first, weights, border) in rows {
-            table.first.extend(first);
-            table.weights.extend(weights);
-            table.border.extend(border);
-        }
-        Some(table)
+            first,
+            weights,
+            border,
+        })
     }
 
     /// Width and height of the view.
@@ -459,7 +459,7 @@ mod tests {
     }
 
     /// No table for a view beyond `PIXELS_MAX` pixels (its caller resamples through the
-    /// `Remap`); one at the limit.
+    /// `Remap`); one at the limit; none for a `Remap` whose source is not `width × height` long.
     #[test]
     fn remap_taps_refuse_large_views() {
         let remap = |width: usize| Remap {
@@ -470,5 +470,16 @@ mod tests {
         };
         assert!(RemapTaps::new(&remap(1024), Interpolation::Bicubic).is_some());
         assert!(RemapTaps::new(&remap(1025), Interpolation::Bicubic).is_none());
+        let mut uneven = remap(4);
+        uneven.source.push(Some(DVec2::new(1.0, 1.0)));
+        assert!(
+            RemapTaps::new(&uneven, Interpolation::Bilinear).is_none(),
+            "source longer than width × height"
+        );
+        uneven.width = 0;
+        assert!(
+            RemapTaps::new(&uneven, Interpolation::Bilinear).is_none(),
+            "no width, some source"
+        );
     }
 }

@@ -35,7 +35,7 @@ impl Interpolation {
     ///
     /// Written here because neither `image` (bilinear only, no point bicubic) nor a crate that
     /// fits the workspace offers separable bicubic point sampling; imageproc's warp would bring
-    /// nalgebra 0.35 (Rust 1.89, above this workspace's 1.87) and its own random/text stack.
+    /// nalgebra 0.35 (beside the workspace's 0.34) and its own random/text stack.
     pub(crate) fn taps(self, x: f64) -> (i64, [f64; 4]) {
         self.taps_from(x, floor(x))
     }

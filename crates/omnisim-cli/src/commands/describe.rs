@@ -609,7 +609,7 @@ enum Resampling {
     /// Each panorama pixel's taps, worked out once (up to `RemapTaps::PIXELS_MAX` pixels).
     Taps(RemapTaps),
     /// Each pixel's source point, its taps worked out per image (larger panoramas, for which
-    /// a table of taps would take 68 bytes a pixel).
+    /// a table of taps would take 68 bytes a pixel bicubic, 20 bilinear).
     Points(Remap, Interpolation),
 }
 
@@ -758,7 +758,11 @@ fn write_set(
     args: &DescribeArgs,
 ) -> anyhow::Result<()> {
     let name = &choice.name;
-    let frames: Vec<Value> = (set.frames.iter().zip(&result.seconds).enumerate())
+    let frames: Vec<Value> = set
+        .frames
+        .iter()
+        .zip(&result.seconds)
+        .enumerate()
         .map(|(i, (f, s))| {
             let mut frame = json!({ "index": f.index, "stem": f.stem, "file": f.path, "seconds": s });
             // The panorama's resampling is not in `seconds` (it is shared by every descriptor

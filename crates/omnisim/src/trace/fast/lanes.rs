@@ -145,7 +145,7 @@ impl Lanes for Lanes8 {
     }
 }
 
-/// Eight-lane types the packet walk runs on: [`Lanes8`] everywhere, [`Avx8`] where the CPU
+/// Eight-lane types the packet walk and the single-ray walk's paired leaf filter run on: [`Lanes8`] everywhere, [`Avx8`] where the CPU
 /// has AVX2.
 pub(crate) trait Wide: Lanes {
     /// Whether code running on this type may use AVX (the box test of the single-ray walk).
@@ -205,8 +205,8 @@ pub(crate) use avx::Avx8;
 #[cfg(target_arch = "x86_64")]
 mod avx {
     //! SAFETY, for every `unsafe` block here: `Avx8` values are made and used only inside
-    //! the fast tracer's functions compiled with `#[target_feature(enable = "avx2")]`, which
-    //! run after `is_x86_feature_detected!("avx2")` (`fast/mod.rs`); every method is
+    //! the fast tracer's functions compiled with AVX2 enabled (`fast/mod.rs`: `avx2,popcnt,bmi1`,
+    //! run only where `use_avx2` detected all three); every method is
     //! `#[inline(always)]`, so its intrinsics are compiled into such a function (in tests too:
     //! AVX2 test helpers are `#[target_feature]` functions called after the same detection).
     //! Loads read exactly eight f32s from slices checked to hold them or from two `Vec4`s;
