@@ -297,8 +297,7 @@ pub struct RemapTaps {
 
 impl RemapTaps {
     /// Most view pixels a table is made for: 1 Mi (68 MB bicubic, 20 MB bilinear, besides the
-    /// `Remap`'s 24 MB);
-    /// larger views are resampled by [`Remap::apply`] (the same bits).
+    /// `Remap`'s 24 MB); larger views are resampled by [`Remap::apply`] (the same bits).
     pub const PIXELS_MAX: usize = 1 << 20;
 
     /// `first` of a pixel that is not read through the table.

@@ -80,7 +80,8 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     // pixel), or textured pixels taken into a run, which `finish_in` writes (the slice where they
     // are neighbours, else each of `slot[..len]`) once it is full, ended by the next textured
     // face, or flushed after the loop; a span whose face names no run (never: see its
-    // `debug_assert!`) is written black (`fill_by_eights`). A panic there unwinds past this line, leaving the length 0.
+    // `debug_assert!`) is written black (`fill_by_eights`). A panic there unwinds past this line,
+    // leaving the length 0.
     unsafe { colour.set_len(pixels.len()) };
     frame.set_shading(planes, linear, colour);
 }

@@ -9,6 +9,20 @@ pub(crate) trait Counter {
     fn primitive_test(&mut self);
     /// One f64 triangle test after an f32 filter let the triangle through (fast tracer).
     fn exact_test(&mut self) {}
+    /// A box test for each lane set in `lanes` (a wide node's eight boxes).
+    #[inline(always)]
+    fn node_tests(&mut self, lanes: u32) {
+        for _ in 0..lanes.count_ones() {
+            self.node_test();
+        }
+    }
+    /// A primitive test for each lane set in `lanes` (a triangle group's four).
+    #[inline(always)]
+    fn primitive_tests(&mut self, lanes: u32) {
+        for _ in 0..lanes.count_ones() {
+            self.primitive_test();
+        }
+    }
 }
 
 impl Counter for () {

@@ -145,8 +145,8 @@ impl Lanes for Lanes8 {
     }
 }
 
-/// Eight-lane types the packet walk and the single-ray walk's paired leaf filter run on: [`Lanes8`] everywhere, [`Avx8`] where the CPU
-/// has AVX2.
+/// Eight-lane types the packet walk and the single-ray walk's paired leaf filter run on:
+/// [`Lanes8`] everywhere, [`Avx8`] where the CPU has AVX2.
 pub(crate) trait Wide: Lanes {
     /// Whether code running on this type may use AVX (the box test of the single-ray walk).
     const AVX: bool;

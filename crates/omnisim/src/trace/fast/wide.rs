@@ -4,8 +4,7 @@
 
 use glam::{DVec3, Vec4};
 
-use super::groups::RayLanes;
-use super::groups::filter;
+use super::groups::{RayLanes, filter};
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
 use crate::accel::wide::{
@@ -18,9 +17,9 @@ impl WideBvh {
     /// Walks the BVH along `ray`, nearest child first, calling `visit` for every triangle
     /// (leaf order) the f32 test cannot reject between `t_lo` and the current bound (`t_hi`
     /// at first, then what `visit` returns; with `AVX`, a paired one-group leaf's triangles
-    /// against the bound from before its neighbour's hits, a superset). `AVX` tests a node's eight boxes with AVX
-    /// instructions (only where the caller was compiled with them: `fast/mod.rs`); the
-    /// results are bit for bit those of the portable test. `corners` are the f64 corners
+    /// against the bound from before its neighbour's hits, a superset). `AVX` tests a node's
+    /// eight boxes with AVX instructions (only where the caller was compiled with them:
+    /// `fast/mod.rs`); the results are bit for bit those of the portable test. `corners` are the f64 corners
     /// `visit` reads (leaf order), fetched ahead as the walk enters a leaf.
     #[inline(always)]
     pub(crate) fn traverse<const AVX: bool, C: Counter>(
@@ -83,9 +82,7 @@ impl WideBvh {
                         prefetch_corners(std::slice::from_ref(other), corners);
                     }
                     for group in groups {
-                        for _ in 0..group.lanes.count_ones() {
-                            counter.primitive_test();
-                        }
+                        counter.primitive_tests(group.lanes);
                         let (pair, candidates) = if AVX {
                             let (upper, upper_lanes) = match partner {
                                 Some((other, _)) => (other, other.lanes),
@@ -106,9 +103,7 @@ impl WideBvh {
                                 // portable walk counts).
                                 match partner {
                                     Some((other, next_enter)) if next_enter <= t_hi => {
-                                        for _ in 0..other.lanes.count_ones() {
-                                            counter.primitive_test();
-                                        }
+                                        counter.primitive_tests(other.lanes);
                                     }
                                     _ => break,
                                 }
@@ -127,9 +122,7 @@ impl WideBvh {
                     }
                 } else {
                     let node = &self.nodes[entry as usize];
-                    for _ in 0..node.lanes.count_ones() {
-                        counter.node_test();
-                    }
+                    counter.node_tests(node.lanes);
                     let (hits, near) = if AVX {
                         enter_avx(node, ray, t_hi)
                     } else {
