@@ -152,15 +152,34 @@ pub fn write_range_exr(
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     let ranges = frame.pixels().iter().map(|p| p.range).collect();
-    write_channel_exr(
-        to,
-        path,
-        (frame.width, frame.height),
-        "range",
-        range_convention(camera),
-        ranges,
-        compression,
-    )
+    write_ranges_exr(to, path, (frame.width, frame.height), ranges, camera, compression)
+}
+
+/// [`write_range_exr`] of a frame's ranges already read from its pixels.
+pub(crate) fn write_ranges_exr(
+    to: &mut impl FileStore,
+    path: &Path,
+    size: (u32, u32),
+    ranges: Vec<f32>,
+    camera: &Camera,
+    compression: ExrCompression,
+) -> Result<(), OutputError> {
+    write_channel_exr(to, path, size, "range", range_convention(camera), ranges, compression)
+}
+
+/// A frame's ranges and how many of its pixels are hits, read in one pass over its 48-byte
+/// pixels: the range EXR needs the one and the point cloud's header the other, and each pass
+/// over a frame whose pixels are no longer cached costs as much as an encoder's own work
+/// (docs/benchmarks.md, "2026-11-27 evening (data)").
+pub(crate) fn ranges_and_hit_count(frame: &Frame) -> (Vec<f32>, usize) {
+    let mut hits = 0;
+    let ranges = (frame.pixels().iter())
+        .map(|p| {
+            hits += usize::from(p.is_hit());
+            p.range
+        })
+        .collect();
+    (ranges, hits)
 }
 
 /// Single-channel f32 EXR of disparity (`quantity` = `disparity`; pixels, `u_left` − `u_right`),
@@ -484,6 +503,18 @@ pub fn write_point_cloud_ply(
     frame: &Frame,
     comment: &str,
 ) -> Result<(), OutputError> {
+    write_counted_point_cloud_ply(to, path, frame, frame.hit_count(), comment)
+}
+
+/// [`write_point_cloud_ply`] of a frame whose hits are already counted (`hits`, its
+/// [`Frame::hit_count`], as [`ranges_and_hit_count`] gives it), without a pass to count them.
+pub(crate) fn write_counted_point_cloud_ply(
+    to: &mut impl FileStore,
+    path: &Path,
+    frame: &Frame,
+    hits: usize,
+    comment: &str,
+) -> Result<(), OutputError> {
     /// Bytes of one point: three f32 and three u8.
     const POINT: usize = 15;
     /// Points encoded before each write: 60 kB blocks.
@@ -498,7 +529,7 @@ pub fn write_point_cloud_ply(
              comment {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
              property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n",
             ascii_line(comment),
-            frame.hit_count()
+            hits
         )?;
         let mut block = vec![0u8; BLOCK * POINT];
         let mut hits = frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit());

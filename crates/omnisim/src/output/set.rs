@@ -241,9 +241,13 @@ impl OutputSet {
             super::write_png(folder, &png, frame)?;
             written.push(png);
         }
+        // Counted with the ranges where the range EXR reads them, for the point cloud's header.
+        let mut hits = None;
         if self.range {
             let exr = target.path(folder, &format!("{suffix}-range.exr"))?;
-            super::write_range_exr(folder, &exr, frame, camera, self.exr_compression)?;
+            let (ranges, count) = super::ranges_and_hit_count(frame);
+            hits = Some(count);
+            super::write_ranges_exr(folder, &exr, size, ranges, camera, self.exr_compression)?;
             written.push(exr);
         }
         if let (true, Some(pinhole)) = (self.depth, camera.depth_frame()) {
@@ -288,7 +292,8 @@ impl OutputSet {
                 camera.model_name(),
                 describe_pose(target.pose)
             );
-            super::write_point_cloud_ply(folder, &ply, frame, &comment)?;
+            let hits = hits.unwrap_or_else(|| frame.hit_count());
+            super::write_counted_point_cloud_ply(folder, &ply, frame, hits, &comment)?;
             written.push(ply);
         }
         Ok(written)
