@@ -20,7 +20,7 @@ SYSTEM_CALLS = ("do_sys_open", "do_filp_open", "ksys_write", "__x64_sys_write", 
 PARTS = [
     ("SHA-256", ("sha2::", "sha256::"), ()),
     ("syncfs / fsync", ("syncfs", "make_durable", "fsync"), ()),
-    ("pixel pass (ranges, hit count)", ("ranges_and_hit_count",), ()),
+    ("pixel pass (ranges, hits, points)", ("PixelPass::read",), ()),
     ("range EXR encoding", ("write_range_exr", "write_ranges_exr", "write_channel_exr", "write_exr"), SYSTEM_CALLS),
     ("PLY encoding", ("point_cloud_ply",), SYSTEM_CALLS),
     ("colour PNG encoding", ("write_png",), SYSTEM_CALLS),
@@ -70,7 +70,7 @@ def main():
             if name in stack:
                 counts[label] += 1
     for part, samples in counts.most_common():
-        print(f"{part:24s} {samples:6d} samples {samples / frames:6.2f} core-ms/frame")
+        print(f"{part:34s} {samples:6d} samples {samples / frames:6.2f} core-ms/frame")
 
 
 if __name__ == "__main__":

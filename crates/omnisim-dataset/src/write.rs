@@ -261,6 +261,10 @@ impl FileStore for FrameFiles<'_> {
         self.contents.push(bytes);
         Ok(())
     }
+
+    fn encodes_in_memory(&self) -> bool {
+        true
+    }
 }
 
 impl Destination for FrameFiles<'_> {

@@ -208,11 +208,23 @@ pub trait FileStore {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
         write_atomically(path, |out| fill(out))
     }
+
+    /// Whether `store` encodes each file whole into memory before writing it: then a writer
+    /// may encode parts of a file ahead (a point cloud's points in the pass that reads the
+    /// range EXR's values) for about the memory the file takes anyway; otherwise writers
+    /// stream. No, by default.
+    fn encodes_in_memory(&self) -> bool {
+        false
+    }
 }
 
 impl<T: FileStore> FileStore for &mut T {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
         (**self).store(path, fill)
+    }
+
+    fn encodes_in_memory(&self) -> bool {
+        (**self).encodes_in_memory()
     }
 }
 

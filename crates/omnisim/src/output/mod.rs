@@ -30,7 +30,7 @@ use image::ImageEncoder;
 use glam::DVec2;
 
 use crate::camera::Camera;
-use crate::frame::Frame;
+use crate::frame::{Frame, Pixel};
 use atomic::FileStore;
 
 /// The channel of single-value EXRs (range, depth, disparity).
@@ -167,19 +167,43 @@ pub(crate) fn write_ranges_exr(
     write_channel_exr(to, path, size, "range", range_convention(camera), ranges, compression)
 }
 
-/// A frame's ranges and how many of its pixels are hits, read in one pass over its 48-byte
-/// pixels: the range EXR needs the one and the point cloud's header the other, and each pass
-/// over a frame whose pixels are no longer cached costs as much as an encoder's own work
-/// (docs/benchmarks.md, "2026-11-27 evening (data)").
-pub(crate) fn ranges_and_hit_count(frame: &Frame) -> (Vec<f32>, usize) {
-    let mut hits = 0;
-    let ranges = (frame.pixels().iter())
-        .map(|p| {
-            hits += usize::from(p.is_hit());
-            p.range
-        })
-        .collect();
-    (ranges, hits)
+/// What the range EXR and the point cloud take from a frame's 48-byte pixels, read in one pass:
+/// each pass over a frame whose pixels are no longer cached costs about as much as an
+/// encoder's own work (docs/benchmarks.md, "2026-11-27 evening (data)").
+pub(crate) struct PixelPass {
+    /// Every pixel's range.
+    pub(crate) ranges: Vec<f32>,
+    /// How many pixels are hits ([`Frame::hit_count`]).
+    pub(crate) hits: usize,
+    /// Where asked for, the point cloud's points as its PLY stores them, hit by hit.
+    pub(crate) points: Option<Vec<u8>>,
+}
+
+impl PixelPass {
+    /// Reads `frame`'s ranges and counts its hits, and encodes its points where `points`.
+    pub(crate) fn read(frame: &Frame, points: bool) -> Self {
+        let pixels = frame.pixels();
+        let colours = frame.colour().unwrap_or_default();
+        let mut encoded = points.then(|| Vec::with_capacity(pixels.len() * PLY_POINT));
+        let mut hits = 0;
+        // Collected from the slice's own length: no capacity check a range.
+        let ranges = (pixels.iter().enumerate())
+            .map(|(index, p)| {
+                if p.is_hit() {
+                    hits += 1;
+                    if let Some(encoded) = encoded.as_mut() {
+                        encoded.extend_from_slice(&ply_point(p, point_colour(colours, index)));
+                    }
+                }
+                p.range
+            })
+            .collect();
+        Self {
+            ranges,
+            hits,
+            points: encoded,
+        }
+    }
 }
 
 /// Single-channel f32 EXR of disparity (`quantity` = `disparity`; pixels, `u_left` − `u_right`),
@@ -503,25 +527,52 @@ pub fn write_point_cloud_ply(
     frame: &Frame,
     comment: &str,
 ) -> Result<(), OutputError> {
-    write_counted_point_cloud_ply(to, path, frame, frame.hit_count(), comment)
+    let hits = frame.hit_count();
+    write_counted_point_cloud_ply(to, path, PlyPoints::Streamed { frame, hits }, comment)
 }
 
-/// [`write_point_cloud_ply`] of a frame whose hits are already counted (`hits`, its
-/// [`Frame::hit_count`], as [`ranges_and_hit_count`] gives it), without a pass to count them.
+/// Where a point cloud's points come from.
+pub(crate) enum PlyPoints<'a> {
+    /// Each hit of `frame`, of which there are `hits` ([`Frame::hit_count`]), encoded a block
+    /// at a time as they are written.
+    Streamed { frame: &'a Frame, hits: usize },
+    /// Encoded already ([`PixelPass::points`]).
+    Encoded(&'a [u8]),
+}
+
+/// Bytes of one point of a point cloud: three f32 and three u8.
+const PLY_POINT: usize = 15;
+
+/// A hit as its point cloud stores it: x y z as little-endian f32, then its colour.
+fn ply_point(p: &Pixel, colour: &[u8; 3]) -> [u8; PLY_POINT] {
+    let mut row = [0; PLY_POINT];
+    row[0..4].copy_from_slice(&(p.point.x as f32).to_le_bytes());
+    row[4..8].copy_from_slice(&(p.point.y as f32).to_le_bytes());
+    row[8..12].copy_from_slice(&(p.point.z as f32).to_le_bytes());
+    row[12..].copy_from_slice(colour);
+    row
+}
+
+/// The colour of pixel `index` in a point cloud: the colour plane's, or grey where the frame
+/// has none (`colours` empty).
+fn point_colour(colours: &[[u8; 3]], index: usize) -> &[u8; 3] {
+    colours.get(index).unwrap_or(&[128; 3])
+}
+
+/// [`write_point_cloud_ply`] of `points`: streamed from a frame whose hits are already counted,
+/// or encoded already, without a pass to count them.
 pub(crate) fn write_counted_point_cloud_ply(
     to: &mut impl FileStore,
     path: &Path,
-    frame: &Frame,
-    hits: usize,
+    points: PlyPoints,
     comment: &str,
 ) -> Result<(), OutputError> {
-    /// Bytes of one point: three f32 and three u8.
-    const POINT: usize = 15;
     /// Points encoded before each write: 60 kB blocks.
     const BLOCK: usize = 4096;
-    const GREY: [u8; 3] = [128; 3];
-    let colours = frame.colour();
-    let colour = |index: usize| colours.map_or(&GREY, |colours| &colours[index]);
+    let hits = match points {
+        PlyPoints::Streamed { hits, .. } => hits,
+        PlyPoints::Encoded(encoded) => encoded.len() / PLY_POINT,
+    };
     to.store(path, |out| {
         write!(
             out,
@@ -531,18 +582,20 @@ pub(crate) fn write_counted_point_cloud_ply(
             ascii_line(comment),
             hits
         )?;
-        let mut block = vec![0u8; BLOCK * POINT];
+        let frame = match points {
+            PlyPoints::Streamed { frame, .. } => frame,
+            PlyPoints::Encoded(encoded) => return out.write_all(encoded),
+        };
+        let colours = frame.colour().unwrap_or_default();
+        let mut block = vec![0u8; BLOCK * PLY_POINT];
         let mut hits = frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit());
         loop {
-            // Each row written in place: x y z as f32, then the colour. `zip` takes a row before
-            // a hit, so no hit is drawn and dropped when the block is full.
+            // Each row written in place. `zip` takes a row before a hit, so no hit is drawn and
+            // dropped when the block is full.
             let mut filled = 0;
-            for (row, (index, p)) in block.chunks_exact_mut(POINT).zip(hits.by_ref()) {
-                row[0..4].copy_from_slice(&(p.point.x as f32).to_le_bytes());
-                row[4..8].copy_from_slice(&(p.point.y as f32).to_le_bytes());
-                row[8..12].copy_from_slice(&(p.point.z as f32).to_le_bytes());
-                row[12..].copy_from_slice(colour(index));
-                filled += POINT;
+            for (row, (index, p)) in block.chunks_exact_mut(PLY_POINT).zip(hits.by_ref()) {
+                row.copy_from_slice(&ply_point(p, point_colour(colours, index)));
+                filled += PLY_POINT;
             }
             out.write_all(&block[..filled])?;
             if filled < block.len() {

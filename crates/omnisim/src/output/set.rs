@@ -149,6 +149,10 @@ impl<S: FileStore> FileStore for PlainFolder<S> {
     fn store(&mut self, path: &Path, fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>) -> std::io::Result<()> {
         self.store.store(path, fill)
     }
+
+    fn encodes_in_memory(&self) -> bool {
+        self.store.encodes_in_memory()
+    }
 }
 
 impl<S: FileStore> Destination for PlainFolder<S> {
@@ -241,13 +245,14 @@ impl OutputSet {
             super::write_png(folder, &png, frame)?;
             written.push(png);
         }
-        // Counted with the ranges where the range EXR reads them, for the point cloud's header.
-        let mut hits = None;
+        // Where the range EXR reads the pixels, the point cloud's hits are counted in the same
+        // pass, and encoded there too where the store holds the whole file in memory anyway.
+        let (mut hits, mut points) = (None, None);
         if self.range {
             let exr = target.path(folder, &format!("{suffix}-range.exr"))?;
-            let (ranges, count) = super::ranges_and_hit_count(frame);
-            hits = Some(count);
-            super::write_ranges_exr(folder, &exr, size, ranges, camera, self.exr_compression)?;
+            let pass = super::PixelPass::read(frame, self.point_cloud && folder.encodes_in_memory());
+            (hits, points) = (Some(pass.hits), pass.points);
+            super::write_ranges_exr(folder, &exr, size, pass.ranges, camera, self.exr_compression)?;
             written.push(exr);
         }
         if let (true, Some(pinhole)) = (self.depth, camera.depth_frame()) {
@@ -292,8 +297,14 @@ impl OutputSet {
                 camera.model_name(),
                 describe_pose(target.pose)
             );
-            let hits = hits.unwrap_or_else(|| frame.hit_count());
-            super::write_counted_point_cloud_ply(folder, &ply, frame, hits, &comment)?;
+            let points = match (&points, hits) {
+                (Some(encoded), _) => super::PlyPoints::Encoded(encoded),
+                (None, hits) => super::PlyPoints::Streamed {
+                    frame,
+                    hits: hits.unwrap_or_else(|| frame.hit_count()),
+                },
+            };
+            super::write_counted_point_cloud_ply(folder, &ply, points, &comment)?;
             written.push(ply);
         }
         Ok(written)
@@ -493,6 +504,94 @@ mod tests {
             ..OutputSet::default()
         };
         assert_eq!(total(&segmented, &omni), 63);
+    }
+
+    /// Keeps each file a writer stores, by path, and tells writers `in_memory`.
+    struct Kept {
+        in_memory: bool,
+        files: Vec<(PathBuf, Vec<u8>)>,
+    }
+
+    impl FileStore for Kept {
+        fn store(
+            &mut self,
+            path: &Path,
+            fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>,
+        ) -> std::io::Result<()> {
+            let mut out = std::io::Cursor::new(Vec::new());
+            fill(&mut out)?;
+            self.files.push((path.to_path_buf(), out.into_inner()));
+            Ok(())
+        }
+
+        fn encodes_in_memory(&self) -> bool {
+            self.in_memory
+        }
+    }
+
+    impl Destination for Kept {
+        fn dir(&self) -> &Path {
+            Path::new("")
+        }
+
+        fn claim(&mut self, name: String) -> Result<PathBuf, OutputError> {
+            Ok(PathBuf::from(name))
+        }
+    }
+
+    /// A point cloud encoded in the pass that reads the ranges (a store encoding in memory) is
+    /// the one streamed from the pixels, byte for byte, with and without a range EXR beside it.
+    #[test]
+    fn point_clouds_encoded_with_the_ranges_are_those_streamed() {
+        let mut pixels = vec![crate::frame::Pixel::MISS; 6];
+        for (index, face, point) in [(1, 3, dvec3(1.0, -2.0, 0.5)), (4, 7, dvec3(-0.5, 0.25, 3.0))] {
+            pixels[index] = crate::frame::Pixel {
+                face,
+                range: point.length() as f32,
+                point,
+                normal: glam::Vec3::Z,
+            };
+        }
+        let frame = Frame::from_hits(3, 2, pixels);
+        let view = Rig::Single(Camera::Pinhole(Pinhole::with_horizontal_fov(3, 2, 1.0))).views()[0].clone();
+        let pose = Pose::new(glam::DVec3::ZERO, glam::DVec3::ZERO);
+        let target = FrameTarget {
+            scene: "s",
+            index: 0,
+            pose: &pose,
+        };
+        let write = |range: bool, in_memory: bool| {
+            let outputs = OutputSet {
+                colour: false,
+                range,
+                depth: false,
+                point_cloud: true,
+                ..OutputSet::default()
+            };
+            let mut kept = Kept {
+                in_memory,
+                files: Vec::new(),
+            };
+            outputs.write_view(&mut kept, &target, &view, &frame).unwrap();
+            kept.files
+        };
+        let streamed = write(true, false);
+        assert_eq!(write(true, true), streamed);
+        let (path, ply) = &streamed[1];
+        assert_eq!(path, Path::new("s-0000.ply"));
+        assert!(ply.windows(16).any(|w| w == b"element vertex 2"));
+        assert!(
+            ply.ends_with(
+                &[
+                    &(-0.5f32).to_le_bytes()[..],
+                    &0.25f32.to_le_bytes(),
+                    &3.0f32.to_le_bytes(),
+                    &[128; 3]
+                ]
+                .concat()
+            )
+        );
+        assert_eq!(write(false, true), streamed[1..]);
     }
 
     #[test]
