@@ -209,10 +209,10 @@ pub trait FileStore {
         write_atomically(path, |out| fill(out))
     }
 
-    /// Whether `store` encodes each file whole into memory before writing it: then a writer
-    /// may encode parts of a file ahead (a point cloud's points in the pass that reads the
-    /// range EXR's values) for about the memory the file takes anyway; otherwise writers
-    /// stream. No, by default.
+    /// Whether writers may encode parts of a file ahead: a point cloud's points in the pass
+    /// that reads the range EXR's values, an extra copy of up to 15 bytes a pixel held from
+    /// the range EXR to the point cloud. Worth it where the store buffers each file whole
+    /// anyway (a data set's frames); otherwise, and by default, writers stream.
     fn encodes_in_memory(&self) -> bool {
         false
     }

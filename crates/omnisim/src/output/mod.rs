@@ -184,9 +184,10 @@ impl PixelPass {
     pub(crate) fn read(frame: &Frame, points: bool) -> Self {
         let pixels = frame.pixels();
         let colours = frame.colour().unwrap_or_default();
+        debug_assert!(colours.is_empty() || colours.len() == pixels.len());
         let mut encoded = points.then(|| Vec::with_capacity(pixels.len() * PLY_POINT));
         let mut hits = 0;
-        // Collected from the slice's own length: no capacity check a range.
+        // One allocation of the pixels' length, no capacity check per range (`TrustedLen`).
         let ranges = (pixels.iter().enumerate())
             .map(|(index, p)| {
                 if p.is_hit() {
@@ -520,7 +521,8 @@ pub(crate) fn write_xyz_exr(
 /// blue (the colour plane, or grey 128 where the frame has none). Readable by `Open3D`,
 /// `CloudCompare`, `MeshLab` and PCL. Streams the points from the frame a block at a time: a
 /// list of the hits would cost 16 bytes a pixel (more while it grows), the largest copy any
-/// writer made.
+/// writer made (a data set's store, which holds each file whole anyway, encodes them with the
+/// ranges instead: `PixelPass`).
 pub fn write_point_cloud_ply(
     to: &mut impl FileStore,
     path: &Path,
@@ -528,10 +530,11 @@ pub fn write_point_cloud_ply(
     comment: &str,
 ) -> Result<(), OutputError> {
     let hits = frame.hit_count();
-    write_counted_point_cloud_ply(to, path, PlyPoints::Streamed { frame, hits }, comment)
+    write_point_cloud_points(to, path, PlyPoints::Streamed { frame, hits }, comment)
 }
 
 /// Where a point cloud's points come from.
+#[derive(Clone, Copy)]
 pub(crate) enum PlyPoints<'a> {
     /// Each hit of `frame`, of which there are `hits` ([`Frame::hit_count`]), encoded a block
     /// at a time as they are written.
@@ -561,7 +564,7 @@ fn point_colour(colours: &[[u8; 3]], index: usize) -> &[u8; 3] {
 
 /// [`write_point_cloud_ply`] of `points`: streamed from a frame whose hits are already counted,
 /// or encoded already, without a pass to count them.
-pub(crate) fn write_counted_point_cloud_ply(
+pub(crate) fn write_point_cloud_points(
     to: &mut impl FileStore,
     path: &Path,
     points: PlyPoints,
@@ -587,13 +590,14 @@ pub(crate) fn write_counted_point_cloud_ply(
             PlyPoints::Encoded(encoded) => return out.write_all(encoded),
         };
         let colours = frame.colour().unwrap_or_default();
+        debug_assert!(colours.is_empty() || colours.len() == frame.pixels().len());
         let mut block = vec![0u8; BLOCK * PLY_POINT];
-        let mut hits = frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit());
+        let mut hit_pixels = frame.pixels().iter().enumerate().filter(|(_, p)| p.is_hit());
         loop {
             // Each row written in place. `zip` takes a row before a hit, so no hit is drawn and
             // dropped when the block is full.
             let mut filled = 0;
-            for (row, (index, p)) in block.chunks_exact_mut(PLY_POINT).zip(hits.by_ref()) {
+            for (row, (index, p)) in block.chunks_exact_mut(PLY_POINT).zip(hit_pixels.by_ref()) {
                 row.copy_from_slice(&ply_point(p, point_colour(colours, index)));
                 filled += PLY_POINT;
             }

@@ -304,7 +304,7 @@ impl OutputSet {
                     hits: hits.unwrap_or_else(|| frame.hit_count()),
                 },
             };
-            super::write_counted_point_cloud_ply(folder, &ply, points, &comment)?;
+            super::write_point_cloud_points(folder, &ply, points, &comment)?;
             written.push(ply);
         }
         Ok(written)
@@ -540,7 +540,8 @@ mod tests {
     }
 
     /// A point cloud encoded in the pass that reads the ranges (a store encoding in memory) is
-    /// the one streamed from the pixels, byte for byte, with and without a range EXR beside it.
+    /// the one streamed from the pixels, byte for byte, with and without a range EXR beside it;
+    /// each point has its own pixel's colour.
     #[test]
     fn point_clouds_encoded_with_the_ranges_are_those_streamed() {
         let mut pixels = vec![crate::frame::Pixel::MISS; 6];
@@ -552,7 +553,9 @@ mod tests {
                 normal: glam::Vec3::Z,
             };
         }
-        let frame = Frame::from_hits(3, 2, pixels);
+        let mut frame = Frame::from_hits(3, 2, pixels);
+        let colour = (0..6).map(|i| [i * 40, 7, 255 - i]).collect();
+        frame.set_shading(Planes::COLOUR, Vec::new(), colour);
         let view = Rig::Single(Camera::Pinhole(Pinhole::with_horizontal_fov(3, 2, 1.0))).views()[0].clone();
         let pose = Pose::new(glam::DVec3::ZERO, glam::DVec3::ZERO);
         let target = FrameTarget {
@@ -586,7 +589,7 @@ mod tests {
                     &(-0.5f32).to_le_bytes()[..],
                     &0.25f32.to_le_bytes(),
                     &3.0f32.to_le_bytes(),
-                    &[128; 3]
+                    &[160, 7, 251]
                 ]
                 .concat()
             )
