@@ -4,9 +4,9 @@
 //! back to 8-bit sRGB; its texels are held as those bytes' linear values in 16 bits a channel
 //! (8 bytes a texel, [`MipLevel::texels`]): half of linear f32 RGBA, so 50 MB of JPEG textures
 //! fit in memory on both backends, and the CPU filter (`shade/filter.rs`) reads linear light with
-//! no decoding (its three table look-ups a texel were the costliest part of a textured pixel:
-//! docs/benchmarks.md, 2026-11-27 evening (tex)). The 8-bit sRGB bytes follow from them exactly
-//! ([`srgb_byte`]): the GPU is given those, as it was.
+//! no decoding (its three table look-ups a texel, gathered, were about a fifth of the textured
+//! shading in one process: docs/benchmarks.md, 2026-11-27 evening (tex)). The 8-bit sRGB bytes
+//! follow from them exactly ([`srgb_byte`]): the GPU is given those, as it was.
 
 use std::path::Path;
 
@@ -55,7 +55,7 @@ pub struct MipLevel {
     /// Height, texels.
     pub height: u32,
     /// Row-major texels, row 0 at the top (v = 0): each channel's 8-bit sRGB byte b held as
-    /// [`linear16`]`(b)`, packed `r | g << 16 | b << 32`.
+    /// [`linear16`]`(b)`, packed `r | g << 16 | b << 32` (bits 48–63 are read as zero).
     pub texels: Vec<u64>,
 }
 
@@ -84,7 +84,7 @@ impl MipLevel {
 /// The linear value of sRGB byte `byte` in 16 bits: round(65535 · its linear value), exactly
 /// as [`srgb_to_linear`] gives it. Consecutive bytes lie at least 19 apart (the dark end's step,
 /// 65535 / (255 · 12.92)), so [`srgb_byte`] gives the byte back.
-pub fn linear16(byte: u8) -> u16 {
+pub(crate) fn linear16(byte: u8) -> u16 {
     LINEAR16[usize::from(byte)]
 }
 
@@ -93,7 +93,7 @@ static LINEAR16: std::sync::LazyLock<[u16; 256]> =
     std::sync::LazyLock::new(|| std::array::from_fn(|b| (srgb_to_linear(b as u8) * 65535.0).round() as u16));
 
 /// The sRGB byte whose [`linear16`] is `linear` (the nearest sRGB encoding of its value).
-pub fn srgb_byte(linear: u16) -> u8 {
+fn srgb_byte(linear: u16) -> u8 {
     linear_to_srgb(f64::from(linear) / 65535.0)
 }
 

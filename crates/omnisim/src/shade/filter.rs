@@ -814,6 +814,14 @@ mod tests {
         let linear = |b: u8| f64::from(filtered(b));
         assert_eq!(at(0.125), linear(0));
         assert_eq!(at(0.375), linear(85));
+        // Within the 16-bit values' rounding (and f32's) of the exact decoding; white is 1.
+        let exact = crate::scene::lighting::srgb_to_linear(85);
+        assert!(
+            (at(0.375) - exact).abs() <= 0.5 / 65535.0 + 1e-7,
+            "{} vs {exact}",
+            at(0.375)
+        );
+        assert_eq!(filtered(255), 1.0);
         let halfway = (linear(85) + linear(170)) / 2.0;
         assert!((at(0.5) - halfway).abs() < 1e-7);
         // Repeat wraps the left edge onto the last texel.
@@ -959,11 +967,12 @@ mod tests {
 
     /// A texture built by hand whose levels hold fewer texels than their sizes say, or none:
     /// fetches are clamped to each level's last texel (an empty level reads black), in lanes
-    /// with and without AVX2 as in one lane, and never read outside the level.
+    /// with and without AVX2 as in one lane, and never read outside the level; a texel's bits
+    /// 48–63, set by hand, are read as zero on every path.
     #[test]
     fn short_and_empty_levels_read_their_last_texel_or_black() {
         let texel = |rgb: [u8; 3]| crate::scene::texture::pack(rgb);
-        let texture = Texture {
+        let mut texture = Texture {
             levels: vec![
                 MipLevel::from_srgb(
                     4,
@@ -977,6 +986,7 @@ mod tests {
                 },
             ],
         };
+        texture.levels[0].texels[1] |= 0xabcd << 48;
         let white = f64::from(filtered(255));
         // Texel (3, 3) of the finest level: index 15, clamped to the last texel, white.
         let corner = trilinear(&texture, [Wrap::Clamp; 2], DVec2::splat(0.99), 0.0);

@@ -329,10 +329,12 @@ impl Taps<'_> {
         // Lane k's low 32 bits (red, green) and high 32 (blue) from its texel in `even` or `odd`.
         let red_green = _mm256_blend_epi32::<0b1010_1010>(even, _mm256_slli_epi64::<32>(odd));
         let blue = _mm256_blend_epi32::<0b1010_1010>(_mm256_srli_epi64::<32>(even), odd);
+        // Masked as the portable lanes' `as u16` (a texel built by hand may set bits 48–63).
+        let channel = _mm256_set1_epi32(0xffff);
         let channels = [
-            _mm256_and_si256(red_green, _mm256_set1_epi32(0xffff)),
+            _mm256_and_si256(red_green, channel),
             _mm256_srli_epi32::<16>(red_green),
-            blue,
+            _mm256_and_si256(blue, channel),
         ];
         channels.map(|channel| _mm256_mul_ps(self.weight[tap], _mm256_cvtepi32_ps(channel)))
     }
