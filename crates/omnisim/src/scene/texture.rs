@@ -92,10 +92,20 @@ pub(crate) fn linear16(byte: u8) -> u16 {
 static LINEAR16: std::sync::LazyLock<[u16; 256]> =
     std::sync::LazyLock::new(|| std::array::from_fn(|b| (srgb_to_linear(b as u8) * 65535.0).round() as u16));
 
-/// The sRGB byte whose [`linear16`] is `linear` (the nearest sRGB encoding of its value).
+/// The sRGB byte whose [`linear16`] is `linear` (the nearest sRGB encoding of its value): one
+/// look-up, as the GPU's upload reads back every texel's three.
 fn srgb_byte(linear: u16) -> u8 {
-    linear_to_srgb(f64::from(linear) / 65535.0)
+    SRGB_BYTES[usize::from(linear)]
 }
+
+/// [`srgb_byte`] of every 16-bit value (64 KiB).
+static SRGB_BYTES: std::sync::LazyLock<Box<[u8; 65536]>> = std::sync::LazyLock::new(|| {
+    let mut bytes = Box::new([0; 65536]);
+    for (linear, byte) in bytes.iter_mut().enumerate() {
+        *byte = linear_to_srgb(linear as f64 / 65535.0);
+    }
+    bytes
+});
 
 /// A texel of [`MipLevel::texels`] from its sRGB colour.
 fn linear_texel(rgb: [u8; 3]) -> u64 {
