@@ -1346,7 +1346,7 @@ fn scene_check_lists_each_texture_with_its_source_size_mips_bytes_and_users() {
     };
     let floor = used_by("floor");
     assert!(
-        floor.contains("512×512 texels, 10 mip levels, 1398100 bytes") && floor.contains("from pattern Wood"),
+        floor.contains("512×512 texels, 10 mip levels, 2796200 bytes") && floor.contains("from pattern Wood"),
         "{floor}"
     );
     // The rug's checker is baked at 192²: levels 192, 96, 48, 24, 12, 6, 3, 1.

@@ -243,7 +243,7 @@ pub fn geometry_sha256(scene: &omnisim::scene::Scene) -> String {
         for level in surfaces.textures.iter().map(|t| &t.levels[0]) {
             hash.update(level.width.to_le_bytes());
             hash.update(level.height.to_le_bytes());
-            level.texels.iter().for_each(|t| hash.update(t.to_le_bytes()));
+            level.srgb_texels().for_each(|t| hash.update(t.to_le_bytes()));
         }
         for index in &surfaces.of_face {
             hash.update(index.to_le_bytes());

@@ -150,7 +150,7 @@ fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32
         for (l, level) in texture.levels.iter().enumerate() {
             let first = textures.len() as u32;
             textures[header + 3 * l..header + 3 * l + 3].copy_from_slice(&[first, level.width, level.height]);
-            textures.extend_from_slice(&level.texels);
+            textures.extend(level.srgb_texels());
         }
     }
     if textures.is_empty() {

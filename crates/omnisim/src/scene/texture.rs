@@ -1,10 +1,12 @@
-//! Textures as shading reads them: a mip pyramid of 8-bit sRGB texels, decoded once at load.
+//! Textures as shading reads them: a mip pyramid of 8-bit sRGB colours, decoded once at load.
 //!
-//! Texels stay 8-bit sRGB (4 bytes each, packed `r | g << 8 | b << 16` as the GPU reads them):
-//! a quarter of linear f32 RGBA, so 50 MB of JPEG textures fit in memory on both backends.
-//! Filtering happens in linear light (`shade/filter.rs` decodes each fetched texel), and each
-//! mip level is the box filter (2×2 mean, in linear light) of the one above it, encoded back to
-//! 8-bit sRGB.
+//! Each mip level is the box filter (2×2 mean, in linear light) of the one above it, encoded
+//! back to 8-bit sRGB; its texels are held as those bytes' linear values in 16 bits a channel
+//! (8 bytes a texel, [`MipLevel::texels`]): half of linear f32 RGBA, so 50 MB of JPEG textures
+//! fit in memory on both backends, and the CPU filter (`shade/filter.rs`) reads linear light with
+//! no decoding (its three table look-ups a texel, gathered, were about a fifth of the textured
+//! shading in one process: docs/benchmarks.md, 2026-11-27 evening (tex)). The 8-bit sRGB bytes
+//! follow from them exactly ([`srgb_byte`]): the GPU is given those, as it was.
 
 use std::path::Path;
 
@@ -12,10 +14,10 @@ use rayon::prelude::*;
 
 use crate::scene::lighting::{linear_to_srgb, srgb_to_linear};
 
-/// Largest texture side, texels: a 16k texture is 1 GiB of texels with its mips already.
+/// Largest texture side, texels: a 16k texture is 2 GiB of texels before its mips.
 pub const MAX_TEXTURE_SIDE: u32 = 16_384;
 
-/// Most texels of one texture's finest level (256 Mi texels, 1 GiB).
+/// Most texels of one texture's finest level (256 Mi texels, 2 GiB).
 pub const MAX_TEXTURE_TEXELS: u64 = 1 << 28;
 
 /// Largest image file read as a texture.
@@ -52,15 +54,67 @@ pub struct MipLevel {
     pub width: u32,
     /// Height, texels.
     pub height: u32,
-    /// Row-major 8-bit sRGB texels packed `r | g << 8 | b << 16`, row 0 at the top (v = 0).
-    pub texels: Vec<u32>,
+    /// Row-major texels, row 0 at the top (v = 0): each channel's 8-bit sRGB byte b held as
+    /// [`linear16`]`(b)`, packed `r | g << 16 | b << 32` (bits 48–63 are read as zero).
+    pub texels: Vec<u64>,
 }
 
 impl MipLevel {
+    /// The level of `width` × `height` row-major 8-bit sRGB texels packed as [`pack`] packs.
+    pub fn from_srgb(width: u32, height: u32, packed: &[u32]) -> MipLevel {
+        MipLevel {
+            width,
+            height,
+            texels: packed.par_iter().map(|&texel| linear_texel(unpack(texel))).collect(),
+        }
+    }
+
     /// The sRGB colour of texel (x, y).
     pub fn texel(&self, x: u32, y: u32) -> [u8; 3] {
-        unpack(self.texels[y as usize * self.width as usize + x as usize])
+        srgb_texel(self.texels[y as usize * self.width as usize + x as usize])
     }
+
+    /// The texels' 8-bit sRGB colours packed as [`pack`] packs (as the GPU reads them), row by
+    /// row.
+    pub fn srgb_texels(&self) -> impl Iterator<Item = u32> + '_ {
+        self.texels.iter().map(|&texel| pack(srgb_texel(texel)))
+    }
+}
+
+/// The linear value of sRGB byte `byte` in 16 bits: round(65535 · its linear value), exactly
+/// as [`srgb_to_linear`] gives it. Consecutive bytes lie at least 19 apart (the dark end's step,
+/// 65535 / (255 · 12.92)), so [`srgb_byte`] gives the byte back.
+pub(crate) fn linear16(byte: u8) -> u16 {
+    LINEAR16[usize::from(byte)]
+}
+
+/// [`linear16`] of every byte.
+static LINEAR16: std::sync::LazyLock<[u16; 256]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|b| (srgb_to_linear(b as u8) * 65535.0).round() as u16));
+
+/// The sRGB byte whose [`linear16`] is `linear` (the nearest sRGB encoding of its value): one
+/// look-up, as the GPU's upload reads back every texel's three.
+fn srgb_byte(linear: u16) -> u8 {
+    SRGB_BYTES[usize::from(linear)]
+}
+
+/// [`srgb_byte`] of every 16-bit value (64 KiB).
+static SRGB_BYTES: std::sync::LazyLock<Box<[u8; 65536]>> = std::sync::LazyLock::new(|| {
+    let mut bytes = Box::new([0; 65536]);
+    for (linear, byte) in bytes.iter_mut().enumerate() {
+        *byte = linear_to_srgb(linear as f64 / 65535.0);
+    }
+    bytes
+});
+
+/// A texel of [`MipLevel::texels`] from its sRGB colour.
+fn linear_texel(rgb: [u8; 3]) -> u64 {
+    u64::from(linear16(rgb[0])) | (u64::from(linear16(rgb[1])) << 16) | (u64::from(linear16(rgb[2])) << 32)
+}
+
+/// The sRGB colour of a texel of [`MipLevel::texels`].
+fn srgb_texel(texel: u64) -> [u8; 3] {
+    [0, 16, 32].map(|shift| srgb_byte((texel >> shift) as u16))
 }
 
 /// A mip-mapped texture: level 0 is the image, each next level half as wide and high (at least
@@ -87,13 +141,19 @@ impl Texture {
         Self::from_packed(width, height, pixels.iter().map(|&p| pack(p)).collect())
     }
 
-    /// The texture of `width` × `height` row-major texels packed as [`MipLevel::texels`].
+    /// The texture of `width` × `height` row-major 8-bit sRGB texels packed as [`pack`] packs.
+    /// The mips are made from the packed bytes, then each level is held in linear light
+    /// ([`MipLevel::from_srgb`]).
     fn from_packed(width: u32, height: u32, texels: Vec<u32>) -> Texture {
         assert_eq!(texels.len(), width as usize * height as usize, "texel count");
-        let mut levels = vec![MipLevel { width, height, texels }];
-        while let Some(above) = levels.last().filter(|l| l.width > 1 || l.height > 1) {
-            levels.push(half(above));
+        let mut packed = vec![Packed { width, height, texels }];
+        while let Some(above) = packed.last().filter(|l| l.width > 1 || l.height > 1) {
+            packed.push(half(above));
         }
+        let levels = packed
+            .into_iter()
+            .map(|level| MipLevel::from_srgb(level.width, level.height, &level.texels))
+            .collect();
         Texture { levels }
     }
 
@@ -104,7 +164,7 @@ impl Texture {
 
     /// Bytes the texels of every level take.
     pub fn bytes(&self) -> usize {
-        self.levels.iter().map(|l| l.texels.len() * 4).sum()
+        self.levels.iter().map(|l| l.texels.len() * 8).sum()
     }
 
     /// Why the renderer cannot filter this texture, if it cannot: a level with a side above
@@ -125,10 +185,17 @@ impl Texture {
     }
 }
 
+/// A mip level of 8-bit sRGB texels packed as [`pack`] packs, as the mips are made.
+struct Packed {
+    width: u32,
+    height: u32,
+    texels: Vec<u32>,
+}
+
 /// The next mip level: each texel the mean, in linear light, of the 2×2 texels above it (the
 /// last row or column of an odd size joins the one before it: a box of 2×1, 1×2 or 3×… never
 /// leaves a texel out).
-fn half(above: &MipLevel) -> MipLevel {
+fn half(above: &Packed) -> Packed {
     let (width, height) = ((above.width / 2).max(1), (above.height / 2).max(1));
     // Source columns of destination column x: 2x, 2x+1, and 2x+2 too for the last one of an
     // odd width.
@@ -146,7 +213,7 @@ fn half(above: &MipLevel) -> MipLevel {
                 let mut count = 0.0;
                 for sy in span(y, above.height, height) {
                     for sx in span(x, above.width, width) {
-                        let c = above.texel(sx, sy);
+                        let c = unpack(above.texels[sy as usize * above.width as usize + sx as usize]);
                         for k in 0..3 {
                             sum[k] += srgb_to_linear(c[k]);
                         }
@@ -157,7 +224,7 @@ fn half(above: &MipLevel) -> MipLevel {
             })
         })
         .collect();
-    MipLevel { width, height, texels }
+    Packed { width, height, texels }
 }
 
 /// Decodes a PNG or JPEG file (`path` a regular file of at most [`TEXTURE_FILE_LIMIT`] bytes)
@@ -243,8 +310,21 @@ mod tests {
         let sizes: Vec<(u32, u32)> = texture.levels.iter().map(|l| (l.width, l.height)).collect();
         assert_eq!(sizes, [(8, 4), (4, 2), (2, 1), (1, 1)]);
         for level in &texture.levels[1..] {
-            assert!(level.texels.iter().all(|&t| unpack(t) == [188; 3]));
+            assert!(level.srgb_texels().all(|t| unpack(t) == [188; 3]));
         }
+    }
+
+    /// Every sRGB byte's 16-bit linear value encodes back to the byte, and increases with it.
+    #[test]
+    fn sixteen_bit_linear_values_give_their_bytes_back() {
+        for byte in 0..=255u8 {
+            assert_eq!(srgb_byte(linear16(byte)), byte);
+            let exact = srgb_to_linear(byte) * 65535.0;
+            assert!((f64::from(linear16(byte)) - exact).abs() <= 0.5, "{byte}");
+        }
+        let texel = [3, 128, 255];
+        assert_eq!(srgb_texel(linear_texel(texel)), texel);
+        assert_eq!(MipLevel::from_srgb(1, 1, &[pack(texel)]).texel(0, 0), texel);
     }
 
     #[test]

@@ -8,15 +8,15 @@
 use glam::{DVec2, Vec3A};
 
 use crate::avx2::Avx2;
-use crate::scene::lighting::srgb_to_linear;
 use crate::scene::texture::{MipLevel, Texture, Wrap};
 
 mod face;
 pub(crate) use face::{Detail, Levels, samples};
 
-/// Linear value of each sRGB byte, f32: a texel's three look-ups.
-static DECODING: std::sync::LazyLock<[f32; 256]> =
-    std::sync::LazyLock::new(|| std::array::from_fn(|b| srgb_to_linear(b as u8) as f32));
+/// The linear value of one step of a texel's 16-bit channel (`MipLevel::texels`), f32: each
+/// level's share is held times it, so that a tap's weight times the channel is its linear
+/// value weighted.
+const UNIT: f32 = 1.0 / 65535.0;
 
 /// How many pixels one run filters together: the f32 lanes of an AVX2 register.
 pub(crate) const LANES: usize = 8;
@@ -35,7 +35,7 @@ pub(crate) struct Lookups<'a, const L: usize> {
     /// them; [`Lookups::set`] fills them in before it sets a lane alone): storing eight fat
     /// pointers a level cost about 30 instructions a run (docs/benchmarks.md, 2026-11-26
     /// evening (tex)).
-    texels: [[&'a [u32]; L]; 2],
+    texels: [[&'a [u64]; L]; 2],
     /// The index of the last of those texels, by level, lane: fetches are clamped to it.
     last: [[u32; L]; 2],
     /// Width and height by level, axis, lane (texels; at most `MAX_TEXTURE_SIDE`, which the
@@ -169,7 +169,7 @@ impl<'a, const L: usize> Lookups<'a, L> {
     /// Lane `lane`'s texels of level `level` (0 finer, 1 coarser): lane 0's where the lanes
     /// share the level's slice.
     #[inline(always)]
-    fn texels_of(&self, level: usize, lane: usize) -> &'a [u32] {
+    fn texels_of(&self, level: usize, lane: usize) -> &'a [u64] {
         self.texels[level][if self.shared[level] { 0 } else { lane }]
     }
 
@@ -223,7 +223,7 @@ fn level_below(lod: f32, count: usize, avx2: Option<Avx2>) -> (u32, f32) {
 /// its width and height.
 #[derive(Clone, Copy)]
 pub(crate) struct Level<'a> {
-    texels: &'a [u32],
+    texels: &'a [u64],
     last: u32,
     size: [f32; 2],
 }
@@ -232,7 +232,7 @@ impl<'a> Level<'a> {
     /// The lanes' form of `level`.
     #[inline(always)]
     fn of(level: &'a MipLevel) -> Self {
-        let texels: &[u32] = if level.texels.is_empty() {
+        let texels: &[u64] = if level.texels.is_empty() {
             &NO_TEXELS
         } else {
             &level.texels
@@ -257,7 +257,7 @@ impl<'a> Level<'a> {
 }
 
 /// What an empty mip level (a `Texture` built by hand) reads: one black texel.
-static NO_TEXELS: [u32; 1] = [0];
+static NO_TEXELS: [u64; 1] = [0];
 
 /// A texture's wrap of u and v as the lanes read it, worked out once per face: whether each
 /// axis clamps, and its period in texture sizes (2 for mirror, else 1).
@@ -493,27 +493,17 @@ fn neighbours_by<const L: usize>(
     (first, second, weight)
 }
 
-/// Each lane's decoded channel (shift 0, 8 or 16 of the packed texel) through `decoding`: with
-/// `avx2` (and eight lanes) one gather.
+/// Each lane's channel (shift 0, 16 or 32 of its texel: a 16-bit linear value), in f32 (exact).
 #[inline(always)]
-fn decoded<const L: usize>(texels: &[u32; L], shift: u32, decoding: &[f32; 256], avx2: Option<Avx2>) -> [f32; L] {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(avx2) = avx2
-        && let Ok(eight) = <&[u32; 8]>::try_from(&texels[..])
-    {
-        let mut out = [0.0; L];
-        // SAFETY: `out` holds eight f32 (L = 8, as `eight` shows).
-        unsafe { decode_avx2(avx2, eight, shift, decoding, out.as_mut_ptr()) };
-        return out;
-    }
-    std::array::from_fn(|k| decoding[((texels[k] >> shift) & 0xff) as usize])
+fn linear_channel<const L: usize>(texels: &[u64; L], shift: u32) -> [f32; L] {
+    std::array::from_fn(|k| f32::from((texels[k] >> shift) as u16))
 }
 
 /// The slice every lane reads of level `level` (0 finer, 1 coarser), where `lookups` knows
 /// that they read one (a run of pixels on one face, at one level: the usual case) and it
 /// holds at most `i32::MAX` texels, so that one gather from its base reaches each lane's texel.
 #[inline(always)]
-fn shared_texels<'a, const L: usize>(lookups: &Lookups<'a, L>, level: usize) -> Option<&'a [u32]> {
+fn shared_texels<'a, const L: usize>(lookups: &Lookups<'a, L>, level: usize) -> Option<&'a [u64]> {
     let first = *lookups.texels[level].first()?;
     (lookups.shared[level] && first.len() <= i32::MAX as usize).then_some(first)
 }
@@ -528,10 +518,10 @@ fn shared_texels<'a, const L: usize>(lookups: &Lookups<'a, L>, level: usize) -> 
 fn fetched<const L: usize>(
     lookups: &Lookups<'_, L>,
     level: usize,
-    shared: Option<&[u32]>,
+    shared: Option<&[u64]>,
     index: &[i32; L],
     avx2: Option<Avx2>,
-) -> [u32; L] {
+) -> [u64; L] {
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = avx2
         && let Ok(eight) = <&[i32; 8]>::try_from(&index[..])
@@ -543,18 +533,18 @@ fn fetched<const L: usize>(
             let last = (texels.len() - 1) as u32;
             let index: [u32; 8] = std::array::from_fn(|k| (eight[k] as u32).min(last));
             // SAFETY: every index is at most `last`, inside `texels` and within i32 (see
-            // `shared_texels`); `out` holds eight u32 (L = 8, as `eight` shows).
+            // `shared_texels`); `out` holds eight u64 (L = 8, as `eight` shows).
             unsafe { gather_avx2(avx2, texels, &index, out.as_mut_ptr()) };
         } else {
             let last = &lookups.last[level];
             let addresses: [u64; 8] = std::array::from_fn(|k| {
                 let index = (eight[k] as u32).min(last[k]);
-                lookups.texels_of(level, k).as_ptr().expose_provenance() as u64 + 4 * u64::from(index)
+                lookups.texels_of(level, k).as_ptr().expose_provenance() as u64 + 8 * u64::from(index)
             });
             // SAFETY: each address is that of a texel of its lane's slice (`texels_of`), whose
             // provenance was exposed just above: `Lookups` keeps `last` the index of the last
             // of that slice (never empty), and the index is clamped to it; `out` holds eight
-            // u32.
+            // u64.
             unsafe { gather_exposed_avx2(avx2, &addresses, out.as_mut_ptr()) };
         }
         return out;
@@ -574,66 +564,46 @@ fn fetched<const L: usize>(
 ///
 /// # Safety
 /// Every index must be below `texels.len()` and at most `i32::MAX`; `out` must be valid for
-/// eight u32 writes.
+/// eight u64 writes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn gather_avx2(_: Avx2, texels: &[u32], index: &[u32; 8], out: *mut u32) {
-    use std::arch::x86_64::{__m256i, _mm256_i32gather_epi32, _mm256_loadu_si256, _mm256_storeu_si256};
-    // SAFETY: the load reads the eight indices; each gathered u32 is `texels[index]`, inside
-    // the slice (the caller's promise; as i32 the indices keep their value); the store writes
-    // the eight u32 of `out`.
+unsafe fn gather_avx2(_: Avx2, texels: &[u64], index: &[u32; 8], out: *mut u64) {
+    use std::arch::x86_64::{__m128i, __m256i, _mm_loadu_si128, _mm256_i32gather_epi64, _mm256_storeu_si256};
+    // SAFETY: the loads read the eight indices; each gathered u64 is `texels[index]`, inside
+    // the slice (the caller's promise; as i32 the indices keep their value); the stores write
+    // the eight u64 of `out`.
     unsafe {
-        let lanes = _mm256_loadu_si256(index.as_ptr().cast::<__m256i>());
-        let gathered = _mm256_i32gather_epi32::<4>(texels.as_ptr().cast::<i32>(), lanes);
-        _mm256_storeu_si256(out.cast::<__m256i>(), gathered);
+        for (half, first) in [0, 4].into_iter().enumerate() {
+            let lanes = _mm_loadu_si128(index[first..].as_ptr().cast::<__m128i>());
+            let gathered = _mm256_i32gather_epi64::<8>(texels.as_ptr().cast::<i64>(), lanes);
+            _mm256_storeu_si256(out.add(4 * half).cast::<__m256i>(), gathered);
+        }
     }
 }
 
-/// [`fetched`] for eight lanes that read different slices: the u32 at each of `addresses`,
+/// [`fetched`] for eight lanes that read different slices: the u64 at each of `addresses`,
 /// written to `out`, gathered as offsets from a base of address 0 that takes its provenance
 /// from [`std::ptr::with_exposed_provenance`] (so each access has the exposed provenance of
 /// the slice holding it). The token proves the CPU has AVX2.
 ///
 /// # Safety
-/// Every address must be that of a u32 inside an allocation whose provenance was exposed
+/// Every address must be that of a u64 inside an allocation whose provenance was exposed
 /// (`expose_provenance`) and which is readable for the call; `out` must be valid for eight
-/// u32 writes.
+/// u64 writes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn gather_exposed_avx2(_: Avx2, addresses: &[u64; 8], out: *mut u32) {
-    use std::arch::x86_64::{__m128i, __m256i, _mm_storeu_si128, _mm256_i64gather_epi32, _mm256_loadu_si256};
-    let base = std::ptr::with_exposed_provenance::<i32>(0);
-    // SAFETY: the loads read the eight addresses; the gathers read the u32 the caller promised
-    // (address 0 plus each address, with exposed provenance); the stores write the eight u32
+unsafe fn gather_exposed_avx2(_: Avx2, addresses: &[u64; 8], out: *mut u64) {
+    use std::arch::x86_64::{__m256i, _mm256_i64gather_epi64, _mm256_loadu_si256, _mm256_storeu_si256};
+    let base = std::ptr::with_exposed_provenance::<i64>(0);
+    // SAFETY: the loads read the eight addresses; the gathers read the u64 the caller promised
+    // (address 0 plus each address, with exposed provenance); the stores write the eight u64
     // of `out`.
     unsafe {
         for (half, first) in [0, 4].into_iter().enumerate() {
             let lanes = _mm256_loadu_si256(addresses[first..].as_ptr().cast::<__m256i>());
-            let gathered = _mm256_i64gather_epi32::<1>(base, lanes);
-            _mm_storeu_si128(out.add(4 * half).cast::<__m128i>(), gathered);
+            let gathered = _mm256_i64gather_epi64::<1>(base, lanes);
+            _mm256_storeu_si256(out.add(4 * half).cast::<__m256i>(), gathered);
         }
-    }
-}
-
-/// [`decoded`] for eight lanes: one gather from the table, written to `out` (eight f32). The
-/// token proves the CPU has AVX2.
-///
-/// # Safety
-/// `out` must be valid for eight f32 writes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn decode_avx2(_: Avx2, texels: &[u32; 8], shift: u32, decoding: &[f32; 256], out: *mut f32) {
-    use std::arch::x86_64::{
-        __m256i, _mm_cvtsi32_si128, _mm256_and_si256, _mm256_i32gather_ps, _mm256_loadu_si256, _mm256_set1_epi32,
-        _mm256_srl_epi32, _mm256_storeu_ps,
-    };
-    // SAFETY: the load reads the eight texels; every gather index is masked to 0..=255, inside
-    // the 256-entry table; the store writes the eight f32 the caller promised.
-    unsafe {
-        let texels = _mm256_loadu_si256(texels.as_ptr().cast::<__m256i>());
-        let shifted = _mm256_srl_epi32(texels, _mm_cvtsi32_si128(shift as i32));
-        let indices = _mm256_and_si256(shifted, _mm256_set1_epi32(0xff));
-        _mm256_storeu_ps(out, _mm256_i32gather_ps::<4>(decoding.as_ptr(), indices));
     }
 }
 
@@ -642,7 +612,7 @@ unsafe fn decode_avx2(_: Avx2, texels: &[u32; 8], shift: u32, decoding: &[f32; 2
 /// of the coarser) mixed as one weighted sum per channel, summed in one order: taps k and
 /// k + 4, then those sums' 0 + 2 and 1 + 3, then the two. The same operations in every lane, so
 /// any lane count, with `avx2` or without, gives the same bits (tested). With `avx2` the
-/// fetches and the sRGB decoding are gathered; the caller compiles the lanes for AVX2
+/// fetches are gathered; the caller compiles the lanes for AVX2
 /// ([`Avx2::run`]) so that their coordinates, wraps, weights and mixing run in vector lanes.
 #[inline(always)]
 pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Option<Avx2>) -> [[f32; L]; 3] {
@@ -653,14 +623,13 @@ pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Op
         Some(_) => [shared_texels(lookups, 0), shared_texels(lookups, 1)],
         None => [None; 2],
     };
-    let decoding = &*DECODING;
-    let finer = weighted_taps(lookups, 0, [&u, &v], shared[0], decoding, avx2);
+    let finer = weighted_taps(lookups, 0, [&u, &v], shared[0], avx2);
     let mut sums = [[0.0f32; L]; 3];
     // Where every lane's coarser level weighs zero (a whole level of detail: magnified, or at
     // either end of the pyramid), its taps would add zeros (every weighted tap is at least
     // +0): they are left out, the same bits.
     if lookups.share[1].iter().any(|&share| share != 0.0) {
-        let coarser = weighted_taps(lookups, 1, [&u, &v], shared[1], decoding, avx2);
+        let coarser = weighted_taps(lookups, 1, [&u, &v], shared[1], avx2);
         for ((sum, f), c) in sums.iter_mut().zip(&finer).zip(&coarser) {
             for k in 0..L {
                 sum[k] = ((f[0][k] + c[0][k]) + (f[2][k] + c[2][k])) + ((f[1][k] + c[1][k]) + (f[3][k] + c[3][k]));
@@ -677,7 +646,7 @@ pub(crate) fn trilinear_lanes<const L: usize>(lookups: &Lookups<'_, L>, avx2: Op
 }
 
 /// The four taps of level `level` (0 finer, 1 coarser) of each lane at its reduced
-/// coordinates `uv` ([`reduced`]), each decoded channel times its weight (its bilinear weight
+/// coordinates `uv` ([`reduced`]), each channel times its weight (its bilinear weight
 /// times the level's share), by channel (red, green, blue), tap (corners (x0, y0), (x1, y0),
 /// (x0, y1), (x1, y1)), lane; `shared` as [`fetched`] takes it.
 #[inline(always)]
@@ -685,8 +654,7 @@ fn weighted_taps<const L: usize>(
     lookups: &Lookups<'_, L>,
     level: usize,
     uv: [&[f64; L]; 2],
-    shared: Option<&[u32]>,
-    decoding: &[f32; 256],
+    shared: Option<&[u64]>,
     avx2: Option<Avx2>,
 ) -> [[[f32; L]; 4]; 3] {
     let [width, height] = &lookups.size[level];
@@ -706,7 +674,7 @@ fn weighted_taps<const L: usize>(
         indices[1][k] = row0.wrapping_add(x1);
         indices[2][k] = row1.wrapping_add(x0);
         indices[3][k] = row1.wrapping_add(x1);
-        let share = lookups.share[level][k];
+        let share = lookups.share[level][k] * UNIT;
         let (top, bottom) = (share * (1.0 - fy[k]), share * fy[k]);
         weights[0][k] = top * (1.0 - fx[k]);
         weights[1][k] = top * fx[k];
@@ -716,10 +684,10 @@ fn weighted_taps<const L: usize>(
     let mut weighted = [[[0.0f32; L]; 4]; 3];
     for tap in 0..4 {
         let texels = fetched(lookups, level, shared, &indices[tap], avx2);
-        for (channel, shift) in [0, 8, 16].into_iter().enumerate() {
-            let decoded = decoded(&texels, shift, decoding, avx2);
+        for (channel, shift) in [0, 16, 32].into_iter().enumerate() {
+            let linear = linear_channel(&texels, shift);
             for k in 0..L {
-                weighted[channel][tap][k] = weights[tap][k] * decoded[k];
+                weighted[channel][tap][k] = weights[tap][k] * linear[k];
             }
         }
     }
@@ -798,6 +766,11 @@ mod tests {
         }
     }
 
+    /// The filter's linear value of sRGB byte `byte` at a texel centre (weight one).
+    fn filtered(byte: u8) -> f32 {
+        UNIT * f32::from(crate::scene::texture::linear16(byte))
+    }
+
     fn ramp() -> Texture {
         // 4×1 texels 0, 85, 170, 255 in sRGB.
         Texture::from_rgb(4, 1, &[[0; 3], [85; 3], [170; 3], [255; 3]])
@@ -838,9 +811,17 @@ mod tests {
         let t = ramp();
         let wrap = [Wrap::Clamp; 2];
         let at = |u: f64| f64::from(trilinear(&t, wrap, DVec2::new(u, 0.5), 0.0).x);
-        let linear = |b: u8| f64::from(srgb_to_linear(b) as f32);
+        let linear = |b: u8| f64::from(filtered(b));
         assert_eq!(at(0.125), linear(0));
         assert_eq!(at(0.375), linear(85));
+        // Within the 16-bit values' rounding (and f32's) of the exact decoding; white is 1.
+        let exact = crate::scene::lighting::srgb_to_linear(85);
+        assert!(
+            (at(0.375) - exact).abs() <= 0.5 / 65535.0 + 1e-7,
+            "{} vs {exact}",
+            at(0.375)
+        );
+        assert_eq!(filtered(255), 1.0);
         let halfway = (linear(85) + linear(170)) / 2.0;
         assert!((at(0.5) - halfway).abs() < 1e-7);
         // Repeat wraps the left edge onto the last texel.
@@ -986,17 +967,18 @@ mod tests {
 
     /// A texture built by hand whose levels hold fewer texels than their sizes say, or none:
     /// fetches are clamped to each level's last texel (an empty level reads black), in lanes
-    /// with and without AVX2 as in one lane, and never read outside the level.
+    /// with and without AVX2 as in one lane, and never read outside the level; a texel's bits
+    /// 48–63, set by hand, are read as zero on every path.
     #[test]
     fn short_and_empty_levels_read_their_last_texel_or_black() {
         let texel = |rgb: [u8; 3]| crate::scene::texture::pack(rgb);
-        let texture = Texture {
+        let mut texture = Texture {
             levels: vec![
-                MipLevel {
-                    width: 4,
-                    height: 4,
-                    texels: vec![texel([10, 20, 30]), texel([200, 100, 50]), texel([255, 255, 255])],
-                },
+                MipLevel::from_srgb(
+                    4,
+                    4,
+                    &[texel([10, 20, 30]), texel([200, 100, 50]), texel([255, 255, 255])],
+                ),
                 MipLevel {
                     width: 2,
                     height: 2,
@@ -1004,7 +986,8 @@ mod tests {
                 },
             ],
         };
-        let white = f64::from(srgb_to_linear(255) as f32);
+        texture.levels[0].texels[1] |= 0xabcd << 48;
+        let white = f64::from(filtered(255));
         // Texel (3, 3) of the finest level: index 15, clamped to the last texel, white.
         let corner = trilinear(&texture, [Wrap::Clamp; 2], DVec2::splat(0.99), 0.0);
         for channel in corner.to_array() {
@@ -1222,7 +1205,7 @@ mod tests {
         // Beyond the pyramid: the 1×1 level, the mean in linear light (its four taps' f32
         // weights sum to 1 within rounding).
         let coarsest = trilinear(&t, [Wrap::Repeat; 2], DVec2::splat(0.3), 99.0).x;
-        let mean = srgb_to_linear(t.levels[2].texel(0, 0)[0]) as f32;
+        let mean = filtered(t.levels[2].texel(0, 0)[0]);
         assert!(
             (coarsest - mean).abs() <= 2.0 * f32::EPSILON * mean,
             "{coarsest} vs {mean}"

@@ -9,20 +9,21 @@
 
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::{
-    __m128i, __m256, __m256d, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtsi128_si32,
+    __m256, __m256d, __m256i, _CMP_EQ_OQ, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_cvtsi128_si32,
     _mm256_add_epi32, _mm256_add_epi64, _mm256_add_pd, _mm256_add_ps, _mm256_and_pd, _mm256_and_si256,
-    _mm256_andnot_pd, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castps256_ps128, _mm256_castsi256_ps,
-    _mm256_castsi256_si128, _mm256_cmp_pd, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cvtepi32_ps,
+    _mm256_andnot_pd, _mm256_blend_epi32, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castps256_ps128,
+    _mm256_castsi256_ps, _mm256_castsi256_si128, _mm256_cmp_pd, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cvtepi32_ps,
     _mm256_cvtepu32_epi64, _mm256_cvtpd_ps, _mm256_cvtps_pd, _mm256_div_pd, _mm256_extractf128_ps,
     _mm256_extracti128_si256, _mm256_floor_pd, _mm256_floor_ps, _mm256_i32gather_epi32, _mm256_i32gather_epi64,
-    _mm256_i32gather_ps, _mm256_i64gather_epi32, _mm256_loadu_pd, _mm256_loadu_ps, _mm256_max_pd, _mm256_max_ps,
+    _mm256_i32gather_ps, _mm256_i64gather_epi64, _mm256_loadu_pd, _mm256_loadu_ps, _mm256_max_pd, _mm256_max_ps,
     _mm256_min_epu32, _mm256_min_pd, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_pd, _mm256_mul_ps,
-    _mm256_mullo_epi32, _mm256_set_m128, _mm256_set_m128i, _mm256_set1_epi32, _mm256_set1_pd, _mm256_set1_ps,
-    _mm256_setzero_pd, _mm256_setzero_ps, _mm256_slli_epi64, _mm256_srli_epi32, _mm256_storeu_ps, _mm256_sub_epi32,
-    _mm256_sub_pd, _mm256_sub_ps,
+    _mm256_mullo_epi32, _mm256_permute4x64_epi64, _mm256_permutevar8x32_epi32, _mm256_set_epi32, _mm256_set_m128,
+    _mm256_set1_epi32, _mm256_set1_pd, _mm256_set1_ps, _mm256_setzero_pd, _mm256_setzero_ps, _mm256_slli_epi64,
+    _mm256_srli_epi32, _mm256_srli_epi64, _mm256_storeu_ps, _mm256_sub_epi32, _mm256_sub_pd, _mm256_sub_ps,
+    _mm256_unpackhi_epi64, _mm256_unpacklo_epi64,
 };
 
-use super::{DECODING, FAR, INDEX_BIAS, LOG2_BEND, Level, Wrap, Wraps};
+use super::{FAR, INDEX_BIAS, LOG2_BEND, Level, UNIT, Wrap, Wraps};
 use crate::avx2::Avx2;
 
 /// A texture's levels as the AVX2 lanes of a face read them: by level index, each level's
@@ -132,7 +133,6 @@ fn samples_avx2(
     // The coarser level is one up where the fraction is not zero (it is never negative).
     let weighs = _mm256_cmp_ps::<_CMP_GT_OQ>(fraction, _mm256_setzero_ps());
     let coarse = _mm256_sub_epi32(fine, _mm256_castps_si256(weighs));
-    let decoding = &*DECODING;
     // The rest with the face's wraps.
     let sums = {
         let u = wraps.wrap[0].reduce(u, wraps.periods[0]);
@@ -142,11 +142,11 @@ fn samples_avx2(
         // Where every lane's coarser level weighs zero its taps are left out, as
         // `trilinear_lanes` leaves them; else each tap is the finer's plus the coarser's.
         if _mm256_movemask_ps(weighs) == 0 {
-            summed(|tap| finer.weighted(tap, decoding))
+            summed(|tap| finer.weighted(tap))
         } else {
             let coarser = LevelLanes::new(levels, table, coarse, fraction).taps([u, v], wraps);
             summed(|tap| {
-                let (finer, coarser) = (finer.weighted(tap, decoding), coarser.weighted(tap, decoding));
+                let (finer, coarser) = (finer.weighted(tap), coarser.weighted(tap));
                 [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
             })
         }
@@ -204,8 +204,8 @@ fn texel_indices(n: __m256) -> __m256i {
     _mm256_sub_epi32(biased, _mm256_set1_epi32(INDEX_BIAS.to_bits() as i32))
 }
 
-/// One level of each lane (its index by lane) as its taps read it: its size, share, and
-/// where its texels lie.
+/// One level of each lane (its index by lane) as its taps read it: its size, share (times
+/// [`UNIT`]), and where its texels lie.
 #[cfg(target_arch = "x86_64")]
 struct LevelLanes<'a> {
     width: __m256,
@@ -219,7 +219,7 @@ struct LevelLanes<'a> {
 #[cfg(target_arch = "x86_64")]
 enum Texels<'a> {
     /// Every lane on one level: its texels (at most `i32::MAX + 1`).
-    Shared(&'a [u32]),
+    Shared(&'a [u64]),
     /// Lanes on different levels: the exposed address of each lane's level's first texel,
     /// lanes 0–3 then 4–7.
     Addressed([__m256i; 2]),
@@ -236,7 +236,8 @@ struct Taps<'a> {
 
 #[cfg(target_arch = "x86_64")]
 impl<'a> LevelLanes<'a> {
-    /// Level `at[k]` of lane k (each below the number of levels), weighing `share[k]`.
+    /// Level `at[k]` of lane k (each below the number of levels), weighing `share[k]` (held
+    /// times [`UNIT`], as `weighted_taps` holds it).
     #[target_feature(enable = "avx2")]
     #[inline]
     fn new(levels: &Levels<'a>, table: &LevelTable, at: __m256i, share: __m256) -> Self {
@@ -275,7 +276,7 @@ impl<'a> LevelLanes<'a> {
             width,
             height,
             last,
-            share,
+            share: _mm256_mul_ps(share, _mm256_set1_ps(UNIT)),
             texels,
         }
     }
@@ -319,45 +320,53 @@ impl<'a> LevelLanes<'a> {
 
 #[cfg(target_arch = "x86_64")]
 impl Taps<'_> {
-    /// Tap `tap`'s red, green and blue decoded through `decoding` and weighted, by lane.
+    /// Tap `tap`'s red, green and blue (16-bit linear values, `MipLevel::texels`) weighted, by
+    /// lane.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn weighted(&self, tap: usize, decoding: &[f32; 256]) -> [__m256; 3] {
-        let texels = self.fetched(self.index[tap]);
-        let byte = _mm256_set1_epi32(0xff);
-        let bytes = [
-            _mm256_and_si256(texels, byte),
-            _mm256_and_si256(_mm256_srli_epi32::<8>(texels), byte),
-            _mm256_and_si256(_mm256_srli_epi32::<16>(texels), byte),
+    fn weighted(&self, tap: usize) -> [__m256; 3] {
+        let [even, odd] = self.fetched(self.index[tap]);
+        // Lane k's low 32 bits (red, green) and high 32 (blue) from its texel in `even` or `odd`.
+        let red_green = _mm256_blend_epi32::<0b1010_1010>(even, _mm256_slli_epi64::<32>(odd));
+        let blue = _mm256_blend_epi32::<0b1010_1010>(_mm256_srli_epi64::<32>(even), odd);
+        // Masked as the portable lanes' `as u16` (a texel built by hand may set bits 48–63).
+        let channel = _mm256_set1_epi32(0xffff);
+        let channels = [
+            _mm256_and_si256(red_green, channel),
+            _mm256_srli_epi32::<16>(red_green),
+            _mm256_and_si256(blue, channel),
         ];
-        // SAFETY: every index is masked to 0..=255, inside the table.
-        bytes.map(|byte| {
-            _mm256_mul_ps(self.weight[tap], unsafe {
-                _mm256_i32gather_ps::<4>(decoding.as_ptr(), byte)
-            })
-        })
+        channels.map(|channel| _mm256_mul_ps(self.weight[tap], _mm256_cvtepi32_ps(channel)))
     }
 
-    /// Each lane's texel `index` of its level, clamped to the level's last (as `fetched`).
+    /// Each lane's texel `index` of its level, clamped to the level's last (as `fetched`): the
+    /// even lanes' four texels, then the odd lanes'.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn fetched(&self, index: __m256i) -> __m256i {
+    fn fetched(&self, index: __m256i) -> [__m256i; 2] {
         let index = _mm256_min_epu32(index, self.level.last);
         match self.level.texels {
-            // SAFETY: every index is at most the level's last, inside `texels` and within i32
-            // (`Levels` has tables only where every level's last is).
-            Texels::Shared(texels) => unsafe { _mm256_i32gather_epi32::<4>(texels.as_ptr().cast::<i32>(), index) },
+            Texels::Shared(texels) => {
+                let index = _mm256_permutevar8x32_epi32(index, _mm256_set_epi32(7, 5, 3, 1, 6, 4, 2, 0));
+                let halves = [_mm256_castsi256_si128(index), _mm256_extracti128_si256::<1>(index)];
+                // SAFETY: every index is at most the level's last, inside `texels` and within
+                // i32 (`Levels` has tables only where every level's last is).
+                halves.map(|half| unsafe { _mm256_i32gather_epi64::<8>(texels.as_ptr().cast::<i64>(), half) })
+            }
             Texels::Addressed(first) => {
                 let halves = [_mm256_castsi256_si128(index), _mm256_extracti128_si256::<1>(index)];
-                let base = std::ptr::with_exposed_provenance::<i32>(0);
-                let [low, high]: [__m128i; 2] = std::array::from_fn(|half| {
-                    let offset = _mm256_slli_epi64::<2>(_mm256_cvtepu32_epi64(halves[half]));
+                let base = std::ptr::with_exposed_provenance::<i64>(0);
+                // Lanes 0–3, then 4–7.
+                let [low, high]: [__m256i; 2] = std::array::from_fn(|half| {
+                    let offset = _mm256_slli_epi64::<3>(_mm256_cvtepu32_epi64(halves[half]));
                     // SAFETY: the address is that of texel `index` (at most the level's last,
                     // so inside its texels, never empty) of the lane's level, whose first
                     // texel's address was exposed when the tables were made (`Levels::of`).
-                    unsafe { _mm256_i64gather_epi32::<1>(base, _mm256_add_epi64(first[half], offset)) }
+                    unsafe { _mm256_i64gather_epi64::<1>(base, _mm256_add_epi64(first[half], offset)) }
                 });
-                _mm256_set_m128i(high, low)
+                // Lanes 0, 4, 2, 6 and 1, 5, 3, 7, each put in order.
+                [_mm256_unpacklo_epi64(low, high), _mm256_unpackhi_epi64(low, high)]
+                    .map(|lanes| _mm256_permute4x64_epi64::<0b11_01_10_00>(lanes))
             }
         }
     }
