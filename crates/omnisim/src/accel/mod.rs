@@ -34,10 +34,10 @@ const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::medium_build()
 };
 
-// The wide BVH's leaves span at most `wide::MAX_LEAF_GROUPS` groups of four triangles.
+// The wide BVH's leaves hold at most `wide::MAX_LEAF_TRIANGLES` triangles.
 const _: () = assert!(
-    BUILD_PARAMS.max_prims_per_leaf as usize <= 4 * wide::MAX_LEAF_GROUPS
-        && LARGE_BUILD_PARAMS.max_prims_per_leaf as usize <= 4 * wide::MAX_LEAF_GROUPS
+    BUILD_PARAMS.max_prims_per_leaf as usize <= wide::MAX_LEAF_TRIANGLES
+        && LARGE_BUILD_PARAMS.max_prims_per_leaf as usize <= wide::MAX_LEAF_TRIANGLES
 );
 
 /// Scenes with more triangles than this get `LARGE_BUILD_PARAMS`: from 50k triangles the fast
@@ -239,7 +239,7 @@ fn padded_aabb(corners: &[DVec3; 3]) -> Aabb {
 
 #[cfg(test)]
 mod tests {
-    use super::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, LEAF, WIDTH};
+    use super::wide::{LEAF, WIDTH, leaf_triangles};
     use super::*;
     use crate::scene::Face;
     use glam::{Vec3, Vec4};
@@ -321,11 +321,10 @@ mod tests {
             let count = bvh.triangles.len();
             assert!(count > 2 * cells * cells);
             // Walked from the root (above `PARALLEL_FROM` the subtrees are built apart and
-            // joined): every node, group and triangle reached once, each triangle and each
-            // child's boxes inside the box of the lane that leads to them, no node deeper than
-            // `depth`.
+            // joined): every node and triangle reached once, each triangle and each child's
+            // boxes inside the box of the lane that leads to them, no node deeper than `depth`.
             let wide = &bvh.wide;
-            let (mut nodes_seen, mut groups_seen) = (vec![0u32; wide.nodes.len()], vec![0u32; wide.groups.len()]);
+            let mut nodes_seen = vec![0u32; wide.nodes.len()];
             let mut seen = vec![0u32; count];
             let everywhere = [Vec3::NEG_INFINITY, Vec3::INFINITY];
             let mut pending = vec![(0usize, 0usize, everywhere)];
@@ -346,22 +345,14 @@ mod tests {
                         pending.push((child as usize, depth + 1, [lo, hi]));
                         continue;
                     }
-                    let first = (child & GROUP_INDEX) as usize;
-                    let groups = ((child & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                    let lane_groups = first..first + groups;
-                    for (reached, group) in groups_seen[lane_groups.clone()]
-                        .iter_mut()
-                        .zip(&wide.groups[lane_groups])
-                    {
-                        *reached += 1;
-                        for &triangle in &group.triangle[..group.lanes.count_ones() as usize] {
-                            seen[triangle as usize] += 1;
-                            for point in bvh.triangles[triangle as usize].map(DVec3::as_vec3) {
-                                assert!(
-                                    point.cmpge(lo).all() && point.cmple(hi).all(),
-                                    "{cells}: triangle {triangle}"
-                                );
-                            }
+                    let (first, triangles) = leaf_triangles(child);
+                    for triangle in first..first + triangles {
+                        seen[triangle] += 1;
+                        for point in bvh.triangles[triangle].map(DVec3::as_vec3) {
+                            assert!(
+                                point.cmpge(lo).all() && point.cmple(hi).all(),
+                                "{cells}: triangle {triangle}"
+                            );
                         }
                     }
                 }
@@ -370,10 +361,7 @@ mod tests {
                 nodes_seen.iter().all(|&n| n == 1),
                 "{cells}: a node unreached or repeated"
             );
-            assert!(
-                groups_seen.iter().all(|&n| n == 1),
-                "{cells}: a group unreached or repeated"
-            );
+            assert_eq!(wide.groups.len(), count.div_ceil(4), "{cells}: four triangles a group");
             assert!(seen.iter().all(|&n| n == 1), "{cells}: a triangle missing or repeated");
             for node in &bvh.wide.nodes {
                 // `open` stops short of eight children only when none of them can be opened.
@@ -390,8 +378,8 @@ mod tests {
                     if child & LEAF == 0 {
                         assert!((child as usize) < bvh.wide.nodes.len());
                     } else {
-                        let groups = ((child & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                        assert!((child & GROUP_INDEX) as usize + groups <= bvh.wide.groups.len());
+                        let (first, triangles) = leaf_triangles(child);
+                        assert!(first + triangles <= count);
                     }
                 }
             }

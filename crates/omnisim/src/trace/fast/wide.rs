@@ -7,16 +7,14 @@ use glam::{DVec3, Vec4};
 use super::groups::{RayLanes, filter};
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
-use crate::accel::wide::{
-    GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode,
-};
+use crate::accel::wide::{HALVES, LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode, leaf_triangles};
 use crate::trace::counts::Counter;
 use crate::trace::triangle::Visit;
 
 impl WideBvh {
     /// Walks the BVH along `ray`, nearest child first, calling `visit` for every triangle
     /// (leaf order) the f32 test cannot reject between `t_lo` and the current bound (`t_hi`
-    /// at first, then what `visit` returns; with `AVX`, a paired one-group leaf's triangles
+    /// at first, then what `visit` returns; with `AVX`, a paired leaf's triangles
     /// against the bound from before its neighbour's hits, a superset). `AVX` tests a node's
     /// eight boxes with AVX instructions (only where the caller was compiled with them:
     /// `fast/mod.rs`); the results are bit for bit those of the portable test. `corners` are the f64 corners
@@ -64,61 +62,81 @@ impl WideBvh {
             let (entry, t_enter) = current;
             if t_enter <= t_hi {
                 if entry & LEAF != 0 {
-                    let groups = self.leaf_groups(entry);
-                    // With AVX the filter tests eight lanes: a one-group leaf (most are) takes
-                    // the next entry along where that is a one-group leaf the ray may reach too
-                    // (a ray's two nearest children at the bottom of the tree often are), its
-                    // triangles in the upper four lanes; else the upper lanes are left out.
+                    let (first, count) = leaf_triangles(entry);
+                    let end = first + count;
+                    // The leaf's triangles a window of groups at a time: with AVX eight lanes,
+                    // groups `low` (lanes 0–3) and `high` (4–7), so a leaf of up to five
+                    // triangles takes one test; else four lanes, group `low`.
+                    let (mut low, last) = (first / 4, (end - 1) / 4);
+                    let mut high = if AVX { last.min(low + 1) } else { low };
+                    // With AVX a leaf takes the next entry along where that is a leaf the ray
+                    // may reach too (a ray's two nearest children at the bottom of the tree
+                    // often are) and the two leaves' triangles lie in at most two groups
+                    // (siblings' triangles are adjacent in leaf order).
                     let mut partner = None;
-                    if AVX && groups.len() == 1 && len > 0 {
+                    if AVX && len > 0 && last <= low + 1 {
                         let (next, next_enter) = stack[len - 1];
-                        if next & !GROUP_INDEX == LEAF && next_enter <= t_hi {
-                            len -= 1;
-                            partner = Some((&self.groups[(next & GROUP_INDEX) as usize], next_enter));
+                        if next & LEAF != 0 && next_enter <= t_hi {
+                            let (other, other_count) = leaf_triangles(next);
+                            let other_end = other + other_count;
+                            let (other_low, other_high) = (other / 4, (other_end - 1) / 4);
+                            let (below, above) = (low.min(other_low), high.max(other_high));
+                            let window = if above - below <= 1 {
+                                Some((below, above))
+                            } else if low == high && other_low == other_high {
+                                Some((low, other_low))
+                            } else {
+                                None
+                            };
+                            if let Some(window) = window {
+                                (low, high) = window;
+                                len -= 1;
+                                partner = Some((window_lanes(other, other_end, low, high), next_enter));
+                                prefetch_corners(corners, other, other_end);
+                            }
                         }
                     }
-                    prefetch_corners(groups, corners);
-                    if let Some((other, _)) = partner {
-                        prefetch_corners(std::slice::from_ref(other), corners);
-                    }
-                    for group in groups {
-                        counter.primitive_tests(group.lanes);
-                        let (pair, candidates) = if AVX {
-                            let (upper, upper_lanes) = match partner {
-                                Some((other, _)) => (other, other.lanes),
-                                None => (group, 0),
-                            };
-                            let pair = [group, upper];
-                            (
-                                pair,
-                                pair_candidates::<AVX>(ray, pair, t_lo, t_hi) & (group.lanes | upper_lanes << 4),
-                            )
+                    prefetch_corners(corners, first, end);
+                    loop {
+                        let own = window_lanes(first, end, low, high);
+                        counter.primitive_tests(own);
+                        let candidates = if AVX {
+                            pair_candidates::<AVX>(ray, [&self.groups[low], &self.groups[high]], t_lo, t_hi)
                         } else {
-                            ([group, group], group.candidates(&ray.lanes, t_lo, t_hi))
+                            self.groups[low].candidates(&ray.lanes, t_lo, t_hi)
                         };
-                        for (half, owner) in pair.into_iter().enumerate() {
-                            if half == 1 {
+                        for set in 0..2 {
+                            let mut lanes = if set == 0 {
+                                own
+                            } else {
                                 // The partner's triangles only while the ray still reaches its
                                 // box, as its own visit would see them (and count them: as the
                                 // portable walk counts).
-                                match partner {
-                                    Some((other, next_enter)) if next_enter <= t_hi => {
-                                        counter.primitive_tests(other.lanes);
+                                match partner.take() {
+                                    Some((lanes, next_enter)) if next_enter <= t_hi => {
+                                        counter.primitive_tests(lanes);
+                                        lanes
                                     }
                                     _ => break,
                                 }
-                            }
-                            let mut lanes = candidates >> (4 * half) & 0xf;
+                            } & candidates;
                             while lanes != 0 {
                                 let lane = lanes.trailing_zeros() as usize;
                                 lanes &= lanes - 1;
                                 counter.exact_test();
-                                match visit(owner.triangle[lane] as usize) {
+                                let triangle = if lane < 4 { 4 * low + lane } else { 4 * high + lane - 4 };
+                                match visit(triangle) {
                                     Visit::Stop => return,
                                     answer => t_hi = narrowed(t_hi, &answer),
                                 }
                             }
                         }
+                        // The partner's group may lie below the leaf's.
+                        low = low.max(high) + 1;
+                        if 4 * low >= end {
+                            break;
+                        }
+                        high = if AVX { last.min(low + 1) } else { low };
                     }
                 } else {
                     let node = &self.nodes[entry as usize];
@@ -166,7 +184,7 @@ impl WideBvh {
 /// The lanes of two triangle groups (`pair[0]` in lanes 0–3, `pair[1]` in 4–7) that
 /// [`filter`] keeps for `ray`, eight lanes at once (one AVX register where `AVX`): the same
 /// answer per lane as [`TriangleGroup::candidates`] (the same operations), before masking
-/// with the groups' lanes.
+/// with the lanes of the leaves they hold.
 #[inline(always)]
 fn pair_candidates<const AVX: bool>(ray: &LaneRay, pair: [&TriangleGroup; 2], t_lo: f32, t_hi: f32) -> u32 {
     #[cfg(target_arch = "x86_64")]
@@ -402,31 +420,27 @@ impl WideBvh {
             }
             // Whether a ray's bound moved (else the packet's bound `far` stands).
             let mut moved = false;
-            for group in self.leaf_groups(entry) {
-                let mut lanes = group.lanes;
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    let triangle = group.broadcast::<W>(lane);
-                    let mut batches = batches_in;
-                    while batches != 0 {
-                        let b = batches.trailing_zeros() as usize;
-                        batches &= batches - 1;
-                        let rays_in = (mask >> (8 * b)) as u32 & 0xff;
-                        let bound = W::load(&t_hi[8 * b..]);
-                        let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
-                        while candidates != 0 {
-                            let r = 8 * b + candidates.trailing_zeros() as usize;
-                            candidates &= candidates - 1;
-                            let answer = visit(r, group.triangle[lane] as usize);
-                            if matches!(answer, Visit::Miss) {
-                                continue;
-                            }
-                            t_hi[r] = narrowed(t_hi[r], &answer);
-                            moved = true;
-                            if matches!(answer, Visit::Stop) {
-                                mask &= !(1 << r);
-                            }
+            let (first, count) = leaf_triangles(entry);
+            for index in first..first + count {
+                let triangle = self.groups[index / 4].broadcast::<W>(index % 4);
+                let mut batches = batches_in;
+                while batches != 0 {
+                    let b = batches.trailing_zeros() as usize;
+                    batches &= batches - 1;
+                    let rays_in = (mask >> (8 * b)) as u32 & 0xff;
+                    let bound = W::load(&t_hi[8 * b..]);
+                    let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
+                    while candidates != 0 {
+                        let r = 8 * b + candidates.trailing_zeros() as usize;
+                        candidates &= candidates - 1;
+                        let answer = visit(r, index);
+                        if matches!(answer, Visit::Miss) {
+                            continue;
+                        }
+                        t_hi[r] = narrowed(t_hi[r], &answer);
+                        moved = true;
+                        if matches!(answer, Visit::Stop) {
+                            mask &= !(1 << r);
                         }
                     }
                 }
@@ -482,43 +496,42 @@ impl WideBvh {
     }
 }
 
-/// Asks the CPU to fetch the f64 corners of `groups`' triangles (the reference test's input,
-/// 72 bytes a triangle, two cache lines) while the f32 filter runs on the groups: in a dense
-/// scene the first load of a triangle's corners was the f64 test's costliest instruction
-/// (`perf`, scan100000 omni 250²: 60 % of its samples). A hint only: nothing is read; `x86_64`
-/// only, a no-op elsewhere.
+/// Asks the CPU to fetch the f64 corners of triangles `first..end` (the reference test's
+/// input, 72 bytes a triangle, two cache lines) while the f32 filter runs on their lanes: in
+/// a dense scene the first load of a triangle's corners was the f64 test's costliest
+/// instruction (`perf`, scan100000 omni 250²: 60 % of its samples). A hint only: nothing is
+/// read; `x86_64` only, a no-op elsewhere.
 #[inline(always)]
-fn prefetch_corners(groups: &[TriangleGroup], corners: &[[DVec3; 3]]) {
+fn prefetch_corners(corners: &[[DVec3; 3]], first: usize, end: usize) {
     #[cfg(target_arch = "x86_64")]
-    for group in groups {
-        let mut lanes = group.lanes;
-        while lanes != 0 {
-            let lane = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            if let Some(triangle) = corners.get(group.triangle[lane] as usize) {
-                let first = std::ptr::from_ref(triangle).cast::<i8>();
-                // SAFETY: prefetching reads nothing and cannot fault; both addresses lie within
-                // `triangle` (its first and last byte).
-                unsafe {
-                    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-                    _mm_prefetch::<_MM_HINT_T0>(first);
-                    _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<[DVec3; 3]>() - 1));
-                }
+    if let Some(run) = corners.get(first..end) {
+        for triangle in run {
+            let first = std::ptr::from_ref(triangle).cast::<i8>();
+            // SAFETY: prefetching reads nothing and cannot fault; both addresses lie within
+            // `triangle` (its first and last byte).
+            unsafe {
+                use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+                _mm_prefetch::<_MM_HINT_T0>(first);
+                _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<[DVec3; 3]>() - 1));
             }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (groups, corners);
+    let _ = (corners, first, end);
 }
 
-impl WideBvh {
-    /// The triangle groups of leaf child `entry`.
-    #[inline(always)]
-    fn leaf_groups(&self, entry: u32) -> &[TriangleGroup] {
-        let first = (entry & GROUP_INDEX) as usize;
-        let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-        &self.groups[first..first + count]
-    }
+/// The lanes of the window of groups `low` (lanes 0–3) and `high` (lanes 4–7; none where it is
+/// `low`) that hold triangles of the run `first..end`.
+#[inline(always)]
+fn window_lanes(first: usize, end: usize, low: usize, high: usize) -> u32 {
+    let in_group = |group: usize| {
+        let (from, to) = (
+            first.saturating_sub(4 * group).min(4),
+            end.saturating_sub(4 * group).min(4),
+        );
+        (1u32 << to) - (1u32 << from)
+    };
+    in_group(low) | if high == low { 0 } else { in_group(high) << 4 }
 }
 
 /// Pushes the children of `node` in `hits` onto `stack` (whose first `len` entries are taken)
@@ -745,6 +758,32 @@ mod tests {
         node
     }
 
+    /// A window's lanes are exactly those whose triangle (`4·low + lane` in lanes 0–3,
+    /// `4·high + lane − 4` in 4–7, none there where `high` is `low`) lies in the run: runs of one
+    /// to eight triangles against windows of one group, two adjacent groups or two apart.
+    #[test]
+    fn a_window_holds_exactly_the_run_s_triangles() {
+        for first in 0..24 {
+            for count in 1..=8 {
+                for low in 0..8 {
+                    for high in low.saturating_sub(2)..low + 3 {
+                        let lanes = window_lanes(first, first + count, low, high);
+                        assert_eq!(lanes >> 8, 0);
+                        for lane in 0..8 {
+                            let triangle = if lane < 4 { 4 * low + lane } else { 4 * high + lane - 4 };
+                            let held = (lane < 4 || high != low) && (first..first + count).contains(&triangle);
+                            assert_eq!(
+                                lanes >> lane & 1 == 1,
+                                held,
+                                "{first}+{count} in ({low}, {high}), lane {lane}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// The paired filter's promise: each of its eight lanes answers as the four-lane filter of
     /// its own group does (the single-ray walk's leaves, filtered two at a time with AVX), on
     /// the portable lanes and, where the CPU has AVX2, in one AVX register. Groups of one to
@@ -768,17 +807,17 @@ mod tests {
                     std::array::from_fn(|_| centre + unit(&mut rng) * 0.3)
                 })
                 .collect();
-            let first: Vec<u32> = (0..rng.random_range(1..=4)).collect();
-            let second: Vec<u32> = (4..rng.random_range(5..=8)).collect();
+            let (first, second) = (rng.random_range(1..=4), rng.random_range(1..=4));
             let groups = [
-                TriangleGroup::new(&triangles, &first),
-                TriangleGroup::new(&triangles, &second),
+                TriangleGroup::new(&triangles[..first]),
+                TriangleGroup::new(&triangles[4..4 + second]),
             ];
             let ray = LaneRay::new(origin, direction, 20.0);
             let (t_lo, t_hi) = (rng.random_range(0.0..1.0), rng.random_range(1.0..12.0));
-            let alone =
-                groups[0].candidates(&ray.lanes, t_lo, t_hi) | groups[1].candidates(&ray.lanes, t_lo, t_hi) << 4;
-            let lanes = groups[0].lanes | groups[1].lanes << 4;
+            let lanes = (1 << first) - 1 | ((1 << second) - 1) << 4;
+            let alone = (groups[0].candidates(&ray.lanes, t_lo, t_hi)
+                | groups[1].candidates(&ray.lanes, t_lo, t_hi) << 4)
+                & lanes;
             let pair = [&groups[0], &groups[1]];
             assert_eq!(
                 pair_candidates::<false>(&ray, pair, t_lo, t_hi) & lanes,
