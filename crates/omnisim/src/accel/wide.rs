@@ -15,10 +15,11 @@ use smallvec::{SmallVec, smallvec};
 pub(crate) const LEAF: u32 = 1 << 31;
 
 /// A leaf's first triangle (leaf order), below its triangle count.
-pub(crate) const FIRST_TRIANGLE: u32 = (1 << 28) - 1;
-/// A leaf's triangle count minus one sits in bits 28–30.
-pub(crate) const TRIANGLE_COUNT_SHIFT: u32 = 28;
-/// Triangles a leaf may hold (BVH2 leaves of up to eight; `accel/mod.rs` makes at most two).
+pub(crate) const FIRST_TRIANGLE: u32 = (1 << 29) - 1;
+/// A leaf's triangle count minus one sits in bits 29–30.
+pub(crate) const TRIANGLE_COUNT_SHIFT: u32 = 29;
+/// Triangles a leaf may hold (BVH2 leaves of up to four; `accel/mod.rs` makes at most two): so
+/// a leaf's triangles lie in one group or two adjacent ones, which the walks rely on.
 pub(super) const MAX_LEAF_TRIANGLES: usize = 1 << (31 - TRIANGLE_COUNT_SHIFT);
 
 /// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
@@ -71,7 +72,7 @@ impl WideBvh {
             extent,
             ..Self::default()
         };
-        assert!(triangles.len() <= FIRST_TRIANGLE as usize + 1, "over 2^28 triangles");
+        assert!(triangles.len() <= FIRST_TRIANGLE as usize + 1, "over 2^29 triangles");
         if bvh.nodes.is_empty() {
             return wide;
         }

@@ -63,80 +63,89 @@ impl WideBvh {
             if t_enter <= t_hi {
                 if entry & LEAF != 0 {
                     let (first, count) = leaf_triangles(entry);
-                    let end = first + count;
-                    // The leaf's triangles a window of groups at a time: with AVX eight lanes,
-                    // groups `low` (lanes 0–3) and `high` (4–7), so a leaf of up to five
-                    // triangles takes one test; else four lanes, group `low`.
-                    let (mut low, last) = (first / 4, (end - 1) / 4);
-                    let mut high = if AVX { last.min(low + 1) } else { low };
-                    // With AVX a leaf takes the next entry along where that is a leaf the ray
+                    let low = first / 4;
+                    // The leaf's lanes counted from group `low`'s first: at most four
+                    // triangles, so its group and perhaps the next.
+                    let run = ((1u32 << count) - 1) << (first % 4);
+                    // With AVX one eight-lane test: groups `lower` (lanes 0–3) and `upper`
+                    // (4–7). The leaf takes the next entry along where that is a leaf the ray
                     // may reach too (a ray's two nearest children at the bottom of the tree
                     // often are) and the two leaves' triangles lie in at most two groups
-                    // (siblings' triangles are adjacent in leaf order).
+                    // (siblings' triangles are adjacent in leaf order). Without AVX, a
+                    // four-lane test for each of the leaf's groups.
+                    let (mut lower, mut upper) = (low, if !AVX || run > 0xf { low + 1 } else { low });
+                    let mut own = run;
                     let mut partner = None;
-                    if AVX && len > 0 && last <= low + 1 {
+                    if AVX && len > 0 {
                         let (next, next_enter) = stack[len - 1];
                         if next & LEAF != 0 && next_enter <= t_hi {
                             let (other, other_count) = leaf_triangles(next);
-                            let other_end = other + other_count;
-                            let (other_low, other_high) = (other / 4, (other_end - 1) / 4);
-                            let (below, above) = (low.min(other_low), high.max(other_high));
+                            let other_low = other / 4;
+                            let other_run = ((1u32 << other_count) - 1) << (other % 4);
+                            let other_upper = if other_run > 0xf { other_low + 1 } else { other_low };
+                            let (below, above) = (lower.min(other_low), upper.max(other_upper));
                             let window = if above - below <= 1 {
                                 Some((below, above))
-                            } else if low == high && other_low == other_high {
-                                Some((low, other_low))
+                            } else if lower == upper && other_low == other_upper {
+                                Some((lower, other_low))
                             } else {
                                 None
                             };
                             if let Some(window) = window {
-                                (low, high) = window;
+                                (lower, upper) = window;
+                                if lower != low {
+                                    own <<= 4;
+                                }
+                                let lanes = if other_low == lower { other_run } else { other_run << 4 };
                                 len -= 1;
-                                partner = Some((window_lanes(other, other_end, low, high), next_enter));
-                                prefetch_corners(corners, other, other_end);
+                                partner = Some((lanes, next_enter));
+                                prefetch_corners(corners, other, other + other_count);
                             }
                         }
                     }
-                    prefetch_corners(corners, first, end);
-                    loop {
-                        let own = window_lanes(first, end, low, high);
-                        counter.primitive_tests(own);
-                        let candidates = if AVX {
-                            pair_candidates::<AVX>(ray, [&self.groups[low], &self.groups[high]], t_lo, t_hi)
-                        } else {
-                            self.groups[low].candidates(&ray.lanes, t_lo, t_hi)
-                        };
-                        for set in 0..2 {
-                            let mut lanes = if set == 0 {
+                    prefetch_corners(corners, first, first + count);
+                    let mut candidates = if AVX {
+                        pair_candidates::<AVX>(ray, [&self.groups[lower], &self.groups[upper]], t_lo, t_hi)
+                    } else {
+                        0
+                    };
+                    for set in 0..2 {
+                        let lanes = if AVX {
+                            if set == 0 {
                                 own
                             } else {
                                 // The partner's triangles only while the ray still reaches its
                                 // box, as its own visit would see them (and count them: as the
                                 // portable walk counts).
-                                match partner.take() {
-                                    Some((lanes, next_enter)) if next_enter <= t_hi => {
-                                        counter.primitive_tests(lanes);
-                                        lanes
-                                    }
+                                match partner {
+                                    Some((lanes, next_enter)) if next_enter <= t_hi => lanes,
                                     _ => break,
                                 }
-                            } & candidates;
-                            while lanes != 0 {
-                                let lane = lanes.trailing_zeros() as usize;
-                                lanes &= lanes - 1;
-                                counter.exact_test();
-                                let triangle = if lane < 4 { 4 * low + lane } else { 4 * high + lane - 4 };
-                                match visit(triangle) {
-                                    Visit::Stop => return,
-                                    answer => t_hi = narrowed(t_hi, &answer),
-                                }
+                            }
+                        } else {
+                            let lanes = run >> (4 * set) & 0xf;
+                            if lanes == 0 {
+                                break;
+                            }
+                            candidates = self.groups[low + set].candidates(&ray.lanes, t_lo, t_hi) << (4 * set);
+                            lanes << (4 * set)
+                        };
+                        counter.primitive_tests(lanes);
+                        let mut lanes = lanes & candidates;
+                        while lanes != 0 {
+                            let lane = lanes.trailing_zeros() as usize;
+                            lanes &= lanes - 1;
+                            counter.exact_test();
+                            let triangle = if lane < 4 {
+                                4 * lower + lane
+                            } else {
+                                4 * upper + lane - 4
+                            };
+                            match visit(triangle) {
+                                Visit::Stop => return,
+                                answer => t_hi = narrowed(t_hi, &answer),
                             }
                         }
-                        // The partner's group may lie below the leaf's.
-                        low = low.max(high) + 1;
-                        if 4 * low >= end {
-                            break;
-                        }
-                        high = if AVX { last.min(low + 1) } else { low };
                     }
                 } else {
                     let node = &self.nodes[entry as usize];
@@ -520,20 +529,6 @@ fn prefetch_corners(corners: &[[DVec3; 3]], first: usize, end: usize) {
     let _ = (corners, first, end);
 }
 
-/// The lanes of the window of groups `low` (lanes 0–3) and `high` (lanes 4–7; none where it is
-/// `low`) that hold triangles of the run `first..end`.
-#[inline(always)]
-fn window_lanes(first: usize, end: usize, low: usize, high: usize) -> u32 {
-    let in_group = |group: usize| {
-        let (from, to) = (
-            first.saturating_sub(4 * group).min(4),
-            end.saturating_sub(4 * group).min(4),
-        );
-        (1u32 << to) - (1u32 << from)
-    };
-    in_group(low) | if high == low { 0 } else { in_group(high) << 4 }
-}
-
 /// Pushes the children of `node` in `hits` onto `stack` (whose first `len` entries are taken)
 /// farthest first, by their entry distances `near` (an insertion sort of at most eight), so
 /// the nearest is popped next; returns the new length.
@@ -758,32 +753,6 @@ mod tests {
         node
     }
 
-    /// A window's lanes are exactly those whose triangle (`4·low + lane` in lanes 0–3,
-    /// `4·high + lane − 4` in 4–7, none there where `high` is `low`) lies in the run: runs of one
-    /// to eight triangles against windows of one group, two adjacent groups or two apart.
-    #[test]
-    fn a_window_holds_exactly_the_run_s_triangles() {
-        for first in 0..24 {
-            for count in 1..=8 {
-                for low in 0..8 {
-                    for high in low.saturating_sub(2)..low + 3 {
-                        let lanes = window_lanes(first, first + count, low, high);
-                        assert_eq!(lanes >> 8, 0);
-                        for lane in 0..8 {
-                            let triangle = if lane < 4 { 4 * low + lane } else { 4 * high + lane - 4 };
-                            let held = (lane < 4 || high != low) && (first..first + count).contains(&triangle);
-                            assert_eq!(
-                                lanes >> lane & 1 == 1,
-                                held,
-                                "{first}+{count} in ({low}, {high}), lane {lane}"
-                            );
-                        }
-                    }
-                }
-            }
-        }
-    }
-
     /// The paired filter's promise: each of its eight lanes answers as the four-lane filter of
     /// its own group does (the single-ray walk's leaves, filtered two at a time with AVX), on
     /// the portable lanes and, where the CPU has AVX2, in one AVX register. Groups of one to
@@ -814,7 +783,7 @@ mod tests {
             ];
             let ray = LaneRay::new(origin, direction, 20.0);
             let (t_lo, t_hi) = (rng.random_range(0.0..1.0), rng.random_range(1.0..12.0));
-            let lanes = (1 << first) - 1 | ((1 << second) - 1) << 4;
+            let lanes = ((1 << first) - 1) | (((1 << second) - 1) << 4);
             let alone = (groups[0].candidates(&ray.lanes, t_lo, t_hi)
                 | groups[1].candidates(&ray.lanes, t_lo, t_hi) << 4)
                 & lanes;
