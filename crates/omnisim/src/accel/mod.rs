@@ -308,6 +308,77 @@ mod tests {
         }
     }
 
+    /// Scenes of one to five triangles, each in both face orders (obvhs leaves BVHs of up to
+    /// three triangles in its builder's order, where a two-triangle subtree need not be a run
+    /// of leaf order): each builds, every wide leaf is a run, and both fast walks find the
+    /// reference's hits on rays from the centre in every direction.
+    #[test]
+    fn tiny_scenes_build_and_trace_as_the_reference() {
+        use crate::trace::CpuTracer;
+        let face = |vertices: &[[f64; 3]]| Face {
+            vertices: vertices.iter().map(|&v| DVec3::from_array(v)).collect(),
+            colour: [200, 200, 200],
+            object: 0,
+        };
+        let quad = [[-1.0, 2.0, -1.0], [1.0, 2.0, -1.0], [1.0, 2.0, 1.0], [-1.0, 2.0, 1.0]];
+        let pentagon = [
+            [-1.0, -2.0, -1.0],
+            [1.0, -2.0, -1.0],
+            [1.5, -2.0, 0.5],
+            [0.0, -2.0, 1.5],
+            [-1.5, -2.0, 0.5],
+        ];
+        let triangle = |x: f64| [[x, -1.0, 3.0], [x + 1.0, -1.0, 3.0], [x, 1.0, 3.0]];
+        let scenes: Vec<Vec<Face>> = vec![
+            vec![face(&triangle(0.0))],
+            vec![face(&quad)],
+            vec![face(&pentagon)],
+            vec![face(&triangle(-2.0)), face(&triangle(1.0))],
+            vec![face(&triangle(-2.0)), face(&triangle(1.0)), face(&triangle(-0.5))],
+            vec![face(&quad), face(&pentagon)],
+        ];
+        let directions: Vec<DVec3> = (0..40)
+            .flat_map(|i| (0..80).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let (polar, azimuth) = (
+                    std::f64::consts::PI * (f64::from(i) + 0.5) / 40.0,
+                    std::f64::consts::TAU * f64::from(j) / 80.0,
+                );
+                DVec3::new(polar.sin() * azimuth.cos(), polar.sin() * azimuth.sin(), polar.cos())
+            })
+            .collect();
+        for (s, faces) in scenes.into_iter().enumerate() {
+            for reversed in [false, true] {
+                let mut faces = faces.clone();
+                if reversed {
+                    faces.reverse();
+                    for face in &mut faces {
+                        face.vertices.reverse();
+                    }
+                }
+                let scene = Scene {
+                    faces,
+                    ..Scene::default()
+                };
+                let bvh = SceneBvh::build(&scene);
+                let mut hits = 0;
+                for &direction in &directions {
+                    let origin = -bvh.offset;
+                    let reference = CpuTracer::Reference.closest_hit(&bvh, origin, direction, 0.0);
+                    hits += usize::from(reference.is_some());
+                    for tracer in [CpuTracer::Fast, CpuTracer::FastPortable] {
+                        assert_eq!(
+                            tracer.closest_hit(&bvh, origin, direction, 0.0),
+                            reference,
+                            "scene {s} {reversed}"
+                        );
+                    }
+                }
+                assert!(hits > 0, "scene {s}: no ray met it");
+            }
+        }
+    }
+
     /// Below and above `PARALLEL_FROM`: the wide BVH, walked from its root, reaches every
     /// triangle exactly once, inside its lane's box, its children point inside it, each node
     /// is full unless all its children are leaves, and the built BVH keeps under 240 bytes a
@@ -361,7 +432,18 @@ mod tests {
                 nodes_seen.iter().all(|&n| n == 1),
                 "{cells}: a node unreached or repeated"
             );
-            assert_eq!(wide.groups.len(), count.div_ceil(4), "{cells}: four triangles a group");
+            // Group k lane j holds triangle 4k + j of leaf order; the last group's spare lanes are zero.
+            for (k, group) in wide.groups.iter().enumerate() {
+                for lane in 0..4 {
+                    let corner = group.lanes4.corner.map(|axis| axis[lane]);
+                    let expected = bvh
+                        .triangles
+                        .get(4 * k + lane)
+                        .map_or([0.0; 3], |t| t[0].as_vec3().to_array());
+                    assert_eq!(corner, expected, "{cells}: group {k} lane {lane}");
+                }
+            }
+            assert_eq!(wide.groups.len(), count.div_ceil(4), "{cells}: a group too many");
             assert!(seen.iter().all(|&n| n == 1), "{cells}: a triangle missing or repeated");
             for node in &bvh.wide.nodes {
                 // `open` stops short of eight children only when none of them can be opened.

@@ -227,9 +227,11 @@ struct Builder<'a> {
 
 impl Builder<'_> {
     /// Whether BVH2 node `index` gets a wide node of its own: it is an inner node holding more
-    /// than `LEAF_TRIANGLES` triangles (a BVH2 leaf, whatever its size, is one wide leaf).
+    /// than `LEAF_TRIANGLES` triangles, or whose triangles are not one run of leaf order (a
+    /// BVH2 leaf, whatever its size, is one wide leaf).
     fn openable(&self, index: usize) -> bool {
-        !self.nodes[index].is_leaf() && self.triangles_up_to(index, LEAF_TRIANGLES) > LEAF_TRIANGLES
+        !self.nodes[index].is_leaf()
+            && (self.triangles_up_to(index, LEAF_TRIANGLES) > LEAF_TRIANGLES || self.triangle_run(index).is_none())
     }
 
     /// Triangles below BVH2 node `index`, or `limit + 1` where there are more: an inner node
@@ -274,7 +276,9 @@ impl Builder<'_> {
             }
             node.lanes |= 1 << lane;
             if openable_lanes & (1 << lane) == 0 {
-                let (first, count) = self.run(index);
+                let (first, count) = self
+                    .triangle_run(index)
+                    .expect("`openable` opens every inner node whose triangles are not one run");
                 assert!(count <= MAX_LEAF_TRIANGLES, "BVH2 leaf of {count} triangles");
                 node.child[lane] = LEAF | ((count as u32 - 1) << TRIANGLE_COUNT_SHIFT) | first;
             } else if depth + 1 == defer_at {
@@ -338,23 +342,19 @@ impl Builder<'_> {
         (children, openable_lanes)
     }
 
-    /// The triangles below BVH2 node `index`: a run of leaf order (first, count). obvhs lays
-    /// leaves out in leaf order as its last step (the leaf collapse: a node's two children are
-    /// adjacent, the first's triangles before the second's), so a subtree below a leaf's size
-    /// is one run, which `WideBvh`'s leaves rely on.
-    fn run(&self, index: usize) -> (u32, usize) {
+    /// The triangles below BVH2 node `index` as a run of leaf order (first, count), or `None`
+    /// where they are not one. obvhs's leaf collapse, its last step, places a node's two
+    /// children's triangles side by side, the first's before the second's, so small subtrees
+    /// are runs; but it skips BVHs of up to three triangles, whose leaves keep the builder's
+    /// order: an inner node there may get a wide node of its own (`openable`).
+    fn triangle_run(&self, index: usize) -> Option<(u32, usize)> {
         let node = &self.nodes[index];
         if node.is_leaf() {
-            return (node.first_index, node.prim_count as usize);
+            return Some((node.first_index, node.prim_count as usize));
         }
-        let (first, count) = self.run(node.first_index as usize);
-        let (second, more) = self.run(node.first_index as usize + 1);
-        assert_eq!(
-            first as usize + count,
-            second as usize,
-            "a BVH2 subtree's triangles not one run"
-        );
-        (first, count + more)
+        let (first, count) = self.triangle_run(node.first_index as usize)?;
+        let (second, more) = self.triangle_run(node.first_index as usize + 1)?;
+        (first as usize + count == second as usize).then_some((first, count + more))
     }
 }
 

@@ -51,9 +51,9 @@ pub(crate) fn gpu_bvh(bvh: &SceneBvh) -> (Vec<GpuWideNode>, Vec<Triangle>) {
                 out.child[lane] = if child & LEAF == 0 {
                     child
                 } else {
-                    let (run, count) = leaf_triangles(child);
+                    let (cpu_first, count) = leaf_triangles(child);
                     let first = triangles.len();
-                    triangles.extend((run..run + count).map(|index| gpu_triangle(bvh, index)));
+                    triangles.extend((cpu_first..cpu_first + count).map(|index| gpu_triangle(bvh, index)));
                     let count = count as u32;
                     debug_assert!((1..=32).contains(&count) && first < GPU_MAX_TRIANGLES);
                     GPU_LEAF | ((count - 1) << GPU_LEAF_COUNT_SHIFT) | first as u32

@@ -515,13 +515,13 @@ fn prefetch_corners(corners: &[[DVec3; 3]], first: usize, end: usize) {
     #[cfg(target_arch = "x86_64")]
     if let Some(run) = corners.get(first..end) {
         for triangle in run {
-            let first = std::ptr::from_ref(triangle).cast::<i8>();
+            let start = std::ptr::from_ref(triangle).cast::<i8>();
             // SAFETY: prefetching reads nothing and cannot fault; both addresses lie within
             // `triangle` (its first and last byte).
             unsafe {
                 use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-                _mm_prefetch::<_MM_HINT_T0>(first);
-                _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<[DVec3; 3]>() - 1));
+                _mm_prefetch::<_MM_HINT_T0>(start);
+                _mm_prefetch::<_MM_HINT_T0>(start.add(size_of::<[DVec3; 3]>() - 1));
             }
         }
     }
