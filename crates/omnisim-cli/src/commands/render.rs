@@ -304,7 +304,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// Bytes of the BVH built for each face of a mesh, after the scene is loaded: what
-/// `SceneBvh::heap_bytes` (`omnisim bench`'s `bvh_bytes`) measures, 213–221 a triangle from 10k
+/// `SceneBvh::heap_bytes` (`omnisim bench`'s `bvh_bytes`) measures, 210–221 a triangle from 10k
 /// to 1 M with triangle groups dense in leaf order (docs/benchmarks.md, 2026-11-27 evening
 /// (walk)), rounded up.
 const BVH_BYTES_PER_FACE: u64 = 225;
