@@ -103,7 +103,8 @@ pub struct SceneBvh {
 }
 
 impl SceneBvh {
-    /// Builds the BVH with the local origin at the centre of the scene's bounds.
+    /// Builds the BVH with the local origin at the centre of the scene's bounds. Panics above
+    /// 2^29 triangles (the wide BVH's leaves address them in 29 bits; about 110 GB of BVH).
     pub fn build(scene: &Scene) -> Self {
         let (lo, hi) = scene.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
         Self::build_with_offset(scene, (lo + hi) / 2.0)
