@@ -11,15 +11,16 @@ use obvhs::bvh2::node::Bvh2Node;
 use rayon::prelude::*;
 use smallvec::{SmallVec, smallvec};
 
-/// Marks a child index as a leaf (the rest is its first triangle group).
+/// Marks a child index as a leaf (the rest is its first triangle, in leaf order, and count).
 pub(crate) const LEAF: u32 = 1 << 31;
 
-/// A leaf's first group, below its group count.
-pub(crate) const GROUP_INDEX: u32 = (1 << 28) - 1;
-/// A leaf's group count minus one sits in bits 28–30.
-pub(crate) const GROUP_COUNT_SHIFT: u32 = 28;
-/// Groups a leaf may span (BVH2 leaves of up to 32 triangles; `accel/mod.rs` makes at most two).
-pub(super) const MAX_LEAF_GROUPS: usize = 8;
+/// A leaf's first triangle (leaf order), below its triangle count.
+pub(crate) const FIRST_TRIANGLE: u32 = (1 << 29) - 1;
+/// A leaf's triangle count minus one sits in bits 29–30.
+pub(crate) const TRIANGLE_COUNT_SHIFT: u32 = 29;
+/// Triangles a leaf may hold (BVH2 leaves of up to four; `accel/mod.rs` makes at most two): so
+/// a leaf's triangles lie in one group or two adjacent ones, which the walks rely on.
+pub(super) const MAX_LEAF_TRIANGLES: usize = 1 << (31 - TRIANGLE_COUNT_SHIFT);
 
 /// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
 /// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
@@ -27,7 +28,7 @@ pub(super) const MAX_LEAF_GROUPS: usize = 8;
 pub(crate) const HALVES: usize = 2;
 pub(crate) const WIDTH: usize = 4 * HALVES;
 
-/// Subtrees of at most this many triangles become one leaf (one group of four lanes). Two, not
+/// Subtrees of at most this many triangles become one leaf (one run of triangles). Two, not
 /// four: the packet walk tests a leaf's boxes once a packet but its triangles once a ray, so
 /// tighter leaves cut the (ray, triangle) pairs it filters; callgrind, env1 omni 250², one
 /// frame 28.45 → 22.50 M (packet walk 19.52 → 13.57 M), env1-lit 135.3 → 107.9 M
@@ -39,13 +40,15 @@ const LEAF_TRIANGLES: u32 = 2;
 pub(crate) struct WideNode {
     pub(crate) min: [[Vec4; HALVES]; 3],
     pub(crate) max: [[Vec4; HALVES]; 3],
-    /// Node index, or `LEAF` | (group count − 1) << `GROUP_COUNT_SHIFT` | first group.
+    /// Node index, or `LEAF` | (triangle count − 1) << `TRIANGLE_COUNT_SHIFT` | first triangle.
     pub(crate) child: [u32; WIDTH],
     /// Bit i set where child i exists.
     pub(crate) lanes: u32,
 }
 
-/// The wide BVH and its triangles, four to a group.
+/// The wide BVH and its triangles, four to a group in leaf order (group k holds triangles
+/// 4k to 4k + 3): a leaf's triangles are a run of leaf order, so its lanes are found from its
+/// first triangle and count, and no lane is left empty but the last group's.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct WideBvh {
     pub(crate) nodes: Vec<WideNode>,
@@ -69,6 +72,7 @@ impl WideBvh {
             extent,
             ..Self::default()
         };
+        assert!(triangles.len() <= FIRST_TRIANGLE as usize + 1, "over 2^29 triangles");
         if bvh.nodes.is_empty() {
             return wide;
         }
@@ -80,7 +84,7 @@ impl WideBvh {
             builder.open(0)
         };
         // The top levels on this thread; the subtrees below them, each a part of its own, on
-        // all threads; then every part's nodes and groups are copied into place on all threads.
+        // all threads; then every part's nodes are copied into place on all threads.
         let parallel = triangles.len() >= super::PARALLEL_FROM;
         let mut top = Part::default();
         top.nodes.push(empty_node());
@@ -95,34 +99,25 @@ impl WideBvh {
             builder.fill(&mut part, 0, &children, openable_lanes, SPLIT_DEPTH, usize::MAX);
             part
         }));
-        // Where each part's nodes (groups) start in the whole list, and the whole list's length.
-        let starts = |len: fn(&Part) -> usize| {
-            let mut next = 0;
-            let starts: Vec<usize> = parts
-                .iter()
-                .map(|part| {
-                    let start = next;
-                    next += len(part);
-                    start
-                })
-                .collect();
-            (starts, next)
-        };
-        let (node_starts, total_nodes) = starts(|part| part.nodes.len());
-        let (group_starts, total_groups) = starts(|part| part.leaves.len());
-        assert!(total_groups <= GROUP_INDEX as usize, "over 2^28 triangle groups");
-        // The part holding item `k` of a list whose parts start at `starts` (the last part
-        // starting at or before it: an empty part shares its start with the next).
-        let part_of = |starts: &[usize], k: usize| starts.partition_point(|&start| start <= k) - 1;
+        // Where each part's nodes start in the whole list, and the whole list's length.
+        let mut total_nodes = 0;
+        let node_starts: Vec<usize> = parts
+            .iter()
+            .map(|part| {
+                let start = total_nodes;
+                total_nodes += part.nodes.len();
+                start
+            })
+            .collect();
         wide.nodes = super::map_indices(total_nodes, |k| {
-            let p = part_of(&node_starts, k);
+            // The part holding node `k` (the last part starting at or before it: an empty part
+            // shares its start with the next).
+            let p = node_starts.partition_point(|&start| start <= k) - 1;
             let mut node = parts[p].nodes[k - node_starts[p]];
             for child in &mut node.child[..node.lanes.count_ones() as usize] {
-                *child += if *child & LEAF == 0 {
-                    node_starts[p]
-                } else {
-                    group_starts[p]
-                } as u32;
+                if *child & LEAF == 0 {
+                    *child += node_starts[p] as u32;
+                }
             }
             node
         });
@@ -130,16 +125,10 @@ impl WideBvh {
             wide.nodes[slot].child[lane] = start as u32;
         }
         wide.depth = parts.iter().map(|part| part.depth).max().unwrap_or(0);
-        // The parts' nodes, copied, are freed before the groups are made: the groups' list is
-        // the largest of the build (118 MB at 1M triangles), made at its peak of memory.
-        for part in &mut parts {
-            part.nodes = Vec::new();
-        }
-        // The groups' f32 lanes on all threads, once the tree has placed them.
-        wide.groups = super::map_indices(total_groups, |k| {
-            let p = part_of(&group_starts, k);
-            let (indices, count) = &parts[p].leaves[k - group_starts[p]];
-            TriangleGroup::new(triangles, &indices[..*count])
+        drop(parts);
+        // The groups' f32 lanes on all threads: four triangles of leaf order each.
+        wide.groups = super::map_indices(triangles.len().div_ceil(4), |k| {
+            TriangleGroup::new(&triangles[4 * k..(4 * k + 4).min(triangles.len())])
         });
         wide
     }
@@ -155,34 +144,27 @@ pub(crate) struct TriangleLanes<L> {
     pub(crate) longest_edge: L,
 }
 
-/// Up to four triangles, one per lane, with each lane's triangle index in leaf order.
-/// Aligned to a cache line: its 192 bytes then span three lines, not four (a list's start
-/// the allocator gives is only 16-byte aligned).
+/// Four consecutive triangles of leaf order, one per lane (the last group's spare lanes zero,
+/// never in a leaf's lanes). 160 bytes, aligned to 32 so that each spans three cache lines,
+/// never four (a list's start the allocator gives is only 16-byte aligned).
 #[derive(Debug, Clone, Copy)]
-#[repr(align(64))]
+#[repr(align(32))]
 pub(crate) struct TriangleGroup {
     pub(crate) lanes4: TriangleLanes<Vec4>,
-    /// Triangle index (leaf order) of each lane.
-    pub(crate) triangle: [u32; 4],
-    /// Bit i set where lane i holds a triangle.
-    pub(crate) lanes: u32,
 }
 
 impl TriangleGroup {
-    /// The group of `indices` (at most four, leaf order) among `triangles`.
-    pub(crate) fn new(triangles: &[[DVec3; 3]], indices: &[u32]) -> Self {
-        debug_assert!(!indices.is_empty() && indices.len() <= 4);
+    /// The group of `triangles` (one to four, in lane order).
+    pub(crate) fn new(triangles: &[[DVec3; 3]]) -> Self {
+        debug_assert!(!triangles.is_empty() && triangles.len() <= 4);
         let mut lanes = [[0.0f32; 10]; 4];
-        let mut triangle = [0u32; 4];
-        for (lane, &index) in indices.iter().enumerate() {
-            let [a, b, c] = triangles[index as usize];
+        for (lane, &[a, b, c]) in triangles.iter().enumerate() {
             let (e1, e2) = (b - a, c - a);
             // One square root: it is monotonic and correctly rounded, so this is bitwise the
             // larger of the two lengths.
             let longest = e1.length_squared().max(e2.length_squared()).sqrt() as f32;
             let [a, e1, e2] = [a, e1, e2].map(glam::DVec3::as_vec3);
             lanes[lane] = [a.x, a.y, a.z, e1.x, e1.y, e1.z, e2.x, e2.y, e2.z, longest];
-            triangle[lane] = index;
         }
         let column = |k: usize| Vec4::new(lanes[0][k], lanes[1][k], lanes[2][k], lanes[3][k]);
         Self {
@@ -192,10 +174,17 @@ impl TriangleGroup {
                 edge2: [column(6), column(7), column(8)],
                 longest_edge: column(9),
             },
-            triangle,
-            lanes: (1u32 << indices.len()) - 1,
         }
     }
+}
+
+/// The first triangle (leaf order) and triangle count of leaf child `entry`.
+#[inline(always)]
+pub(crate) fn leaf_triangles(entry: u32) -> (usize, usize) {
+    (
+        (entry & FIRST_TRIANGLE) as usize,
+        ((entry & !LEAF) >> TRIANGLE_COUNT_SHIFT) as usize + 1,
+    )
 }
 
 pub(crate) fn empty_node() -> WideNode {
@@ -217,12 +206,10 @@ fn half_area(node: &Bvh2Node) -> f32 {
 /// node was part of the collapse's cost).
 type Children = SmallVec<[usize; WIDTH]>;
 
-/// Wide nodes and their groups' triangles (indices, count), with child indices counted from
-/// the part's first node and first group.
+/// Wide nodes, with inner child indices counted from the part's first node.
 #[derive(Default)]
 struct Part {
     nodes: Vec<WideNode>,
-    leaves: Vec<([u32; 4], usize)>,
     /// Deepest level below the whole tree's root.
     depth: usize,
     /// Inner children left for parts of their own, each `SPLIT_DEPTH` levels below the root:
@@ -240,9 +227,11 @@ struct Builder<'a> {
 
 impl Builder<'_> {
     /// Whether BVH2 node `index` gets a wide node of its own: it is an inner node holding more
-    /// than `LEAF_TRIANGLES` triangles (a BVH2 leaf, whatever its size, is one wide leaf).
+    /// than `LEAF_TRIANGLES` triangles, or whose triangles are not one run of leaf order (a
+    /// BVH2 leaf, whatever its size, is one wide leaf).
     fn openable(&self, index: usize) -> bool {
-        !self.nodes[index].is_leaf() && self.triangles_up_to(index, LEAF_TRIANGLES) > LEAF_TRIANGLES
+        !self.nodes[index].is_leaf()
+            && (self.triangles_up_to(index, LEAF_TRIANGLES) > LEAF_TRIANGLES || self.triangle_run(index).is_none())
     }
 
     /// Triangles below BVH2 node `index`, or `limit + 1` where there are more: an inner node
@@ -267,8 +256,7 @@ impl Builder<'_> {
     /// Fills wide node `slot` of `part` with the BVH2 nodes `children` (at most `WIDTH`),
     /// opening each child that needs a node of its own (bit i of `openable_lanes` set for child
     /// i, as `open` found them); `depth` is the slot's depth. Inner children at depth `defer_at`
-    /// are listed in `part.deferred` instead of filled. Groups are listed in `part.leaves`
-    /// (triangle indices, count) and made afterwards.
+    /// are listed in `part.deferred` instead of filled. A leaf child is its run of triangles.
     fn fill(
         &self,
         part: &mut Part,
@@ -288,21 +276,11 @@ impl Builder<'_> {
             }
             node.lanes |= 1 << lane;
             if openable_lanes & (1 << lane) == 0 {
-                // On the stack: one heap list per leaf was a third of the collapse's cost.
-                let mut leaf = [0u32; 4 * MAX_LEAF_GROUPS];
-                let mut count = 0;
-                self.gather(index, &mut leaf, &mut count);
-                let groups = count.div_ceil(4);
-                assert!(
-                    groups <= MAX_LEAF_GROUPS && part.leaves.len() < GROUP_INDEX as usize,
-                    "BVH2 leaf of {count} triangles, or over 2^28 groups"
-                );
-                node.child[lane] = LEAF | ((groups as u32 - 1) << GROUP_COUNT_SHIFT) | part.leaves.len() as u32;
-                part.leaves.extend(leaf[..count].chunks(4).map(|chunk| {
-                    let mut indices = [0; 4];
-                    indices[..chunk.len()].copy_from_slice(chunk);
-                    (indices, chunk.len())
-                }));
+                let (first, count) = self
+                    .triangle_run(index)
+                    .expect("`openable` opens every inner node whose triangles are not one run");
+                assert!(count <= MAX_LEAF_TRIANGLES, "BVH2 leaf of {count} triangles");
+                node.child[lane] = LEAF | ((count as u32 - 1) << TRIANGLE_COUNT_SHIFT) | first;
             } else if depth + 1 == defer_at {
                 part.deferred.push((slot, lane, index));
             } else {
@@ -364,18 +342,19 @@ impl Builder<'_> {
         (children, openable_lanes)
     }
 
-    /// Triangle indices (leaf order) below BVH2 node `index`, written from `into[*len]` on.
-    fn gather(&self, index: usize, into: &mut [u32], len: &mut usize) {
+    /// The triangles below BVH2 node `index` as a run of leaf order (first, count), or `None`
+    /// where they are not one. obvhs's leaf collapse, its last step, places a node's two
+    /// children's triangles side by side, the first's before the second's, so small subtrees
+    /// are runs; but it skips BVHs of up to three triangles, whose leaves keep the builder's
+    /// order: an inner node there may get a wide node of its own (`openable`).
+    fn triangle_run(&self, index: usize) -> Option<(u32, usize)> {
         let node = &self.nodes[index];
         if node.is_leaf() {
-            for triangle in node.first_index..node.first_index + node.prim_count {
-                into[*len] = triangle;
-                *len += 1;
-            }
-        } else {
-            self.gather(node.first_index as usize, into, len);
-            self.gather(node.first_index as usize + 1, into, len);
+            return Some((node.first_index, node.prim_count as usize));
         }
+        let (first, count) = self.triangle_run(node.first_index as usize)?;
+        let (second, more) = self.triangle_run(node.first_index as usize + 1)?;
+        (first as usize + count == second as usize).then_some((first, count + more))
     }
 }
 

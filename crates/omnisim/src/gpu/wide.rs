@@ -1,17 +1,17 @@
 //! The fast CPU tracer's 8-wide BVH (`accel/wide.rs`) as the GPU walks it (`shaders/bvh.wgsl`):
-//! the one place that reads `WideNode` and `TriangleGroup` for the GPU, so a change of the
+//! the one place that reads `WideNode` and its leaves for the GPU, so a change of the
 //! CPU's node layout is met here alone.
 //!
-//! The GPU keeps each node's eight boxes as the CPU does (lane i = child i), but its leaves
-//! are runs of its own triangle list, laid out in the order the wide BVH's leaves reach them,
-//! so a leaf is a first triangle and a count (no group indirection). Each triangle keeps its
-//! index in BVH leaf order for the tie rule (`wins` in `bvh.wgsl`).
+//! The GPU keeps each node's eight boxes as the CPU does (lane i = child i), and its leaves
+//! are runs (a first triangle and a count) as the CPU's are, but of its own triangle list,
+//! laid out in the order the wide BVH's leaves reach them. Each triangle keeps its index in
+//! BVH leaf order for the tie rule (`wins` in `bvh.wgsl`).
 
 use bytemuck::Zeroable;
 
 use super::layout::{GpuWideNode, Triangle};
 use crate::accel::SceneBvh;
-use crate::accel::wide::{GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, WIDTH, WideBvh};
+use crate::accel::wide::{HALVES, LEAF, TRIANGLE_COUNT_SHIFT, WIDTH, WideBvh, leaf_triangles};
 
 /// A GPU child entry with this bit is a leaf (WGSL `LEAF`).
 pub(crate) const GPU_LEAF: u32 = 1 << 31;
@@ -21,8 +21,8 @@ pub(crate) const GPU_LEAF_COUNT_SHIFT: u32 = 26;
 /// `LEAF_FIRST`); larger scenes are refused before conversion.
 pub(crate) const GPU_MAX_TRIANGLES: usize = 1 << GPU_LEAF_COUNT_SHIFT;
 
-// A CPU leaf (at most 2^(31 − GROUP_COUNT_SHIFT) groups of four) fits a GPU leaf's count.
-const _: () = assert!(4 << (31 - GROUP_COUNT_SHIFT) <= 1 << (31 - GPU_LEAF_COUNT_SHIFT));
+// A CPU leaf (at most 2^(31 − TRIANGLE_COUNT_SHIFT) triangles) fits a GPU leaf's count.
+const _: () = assert!(1 << (31 - TRIANGLE_COUNT_SHIFT) <= 1 << (31 - GPU_LEAF_COUNT_SHIFT));
 
 /// Nodes the shader's group entries address (node << 8 | one bit per child).
 pub(crate) const GPU_MAX_NODES: usize = 1 << 24;
@@ -51,15 +51,10 @@ pub(crate) fn gpu_bvh(bvh: &SceneBvh) -> (Vec<GpuWideNode>, Vec<Triangle>) {
                 out.child[lane] = if child & LEAF == 0 {
                     child
                 } else {
-                    let first_group = (child & GROUP_INDEX) as usize;
-                    let groups = ((child & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
+                    let (cpu_first, count) = leaf_triangles(child);
                     let first = triangles.len();
-                    for group in &wide.groups[first_group..first_group + groups] {
-                        for lane in (0..4).filter(|lane| group.lanes & (1 << lane) != 0) {
-                            triangles.push(gpu_triangle(bvh, group.triangle[lane] as usize));
-                        }
-                    }
-                    let count = (triangles.len() - first) as u32;
+                    triangles.extend((cpu_first..cpu_first + count).map(|index| gpu_triangle(bvh, index)));
+                    let count = count as u32;
                     debug_assert!((1..=32).contains(&count) && first < GPU_MAX_TRIANGLES);
                     GPU_LEAF | ((count - 1) << GPU_LEAF_COUNT_SHIFT) | first as u32
                 };
@@ -94,8 +89,8 @@ mod tests {
     use super::*;
 
     /// Each GPU node holds its CPU twin's boxes where the shader reads them and its inner
-    /// children; each GPU leaf is a run of exactly the CPU leaf's triangles (its groups' lanes,
-    /// in order), each as the scene's own triangle; every triangle lies in exactly one leaf.
+    /// children; each GPU leaf is a run of exactly the CPU leaf's triangles, in order, each as
+    /// the scene's own triangle; every triangle lies in exactly one leaf.
     #[test]
     fn gpu_nodes_and_leaves_are_the_wide_bvh() {
         for name in ["env1", "env2"] {
@@ -124,12 +119,8 @@ mod tests {
                         assert_eq!(gpu_child, cpu_child);
                         continue;
                     }
-                    let first_group = (cpu_child & GROUP_INDEX) as usize;
-                    let groups = ((cpu_child & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-                    let expected: Vec<u32> = bvh.wide.groups[first_group..first_group + groups]
-                        .iter()
-                        .flat_map(|g| g.triangle[..g.lanes.count_ones() as usize].to_vec())
-                        .collect();
+                    let (cpu_first, cpu_count) = leaf_triangles(cpu_child);
+                    let expected: Vec<u32> = (cpu_first as u32..(cpu_first + cpu_count) as u32).collect();
                     let first = (gpu_child & (GPU_MAX_TRIANGLES as u32 - 1)) as usize;
                     let count = ((gpu_child & !GPU_LEAF) >> GPU_LEAF_COUNT_SHIFT) as usize + 1;
                     let run = &triangles[first..first + count];

@@ -49,10 +49,11 @@ pub(crate) fn position_errors<L: Lanes>(origin: &[L; 3], scene_extent: f32) -> L
 
 impl TriangleGroup {
     /// Lanes whose triangle the f64 test might hit at a distance in (`t_lo`, `t_hi`) along
-    /// `ray` (broadcast to four lanes): [`filter`] for four triangles.
+    /// `ray` (broadcast to four lanes): [`filter`] for four triangles (spare lanes included:
+    /// callers mask with the lanes their leaf holds).
     #[inline(always)]
     pub(crate) fn candidates(&self, ray: &RayLanes<Vec4>, t_lo: f32, t_hi: f32) -> u32 {
-        filter(ray, &self.lanes4, Vec4::splat(t_lo), Vec4::splat(t_hi)) & self.lanes
+        filter(ray, &self.lanes4, Vec4::splat(t_lo), Vec4::splat(t_hi)) & 0xf
     }
 
     /// The triangle of `lane` in all eight lanes, to filter eight rays against it.
@@ -161,7 +162,7 @@ mod tests {
             };
             let origin = target - direction * distance;
             let extent = corners.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element())) as f32;
-            let group = TriangleGroup::new(&[corners], &[0]);
+            let group = TriangleGroup::new(&[corners]);
             let ray = LaneRay::new(origin, direction, extent);
             let kept = group.candidates(&ray.lanes, 0.0, f32::INFINITY) & 1 == 1;
             match intersect(&corners, origin, direction) {
@@ -235,7 +236,7 @@ mod tests {
                     [a, a + unit(&mut rng), a + unit(&mut rng) * 0.3]
                 })
                 .collect();
-            let group = TriangleGroup::new(&triangles, &[0, 1, 2, 3]);
+            let group = TriangleGroup::new(&triangles);
             let origin = unit(&mut rng) * rng.random_range(0.0..3.0);
             let rays: [(DVec3, DVec3, f64); PACKET] = std::array::from_fn(|_| {
                 let towards = place + unit(&mut rng) * rng.random_range(0.0..2.0);

@@ -7,16 +7,14 @@ use glam::{DVec3, Vec4};
 use super::groups::{RayLanes, filter};
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
-use crate::accel::wide::{
-    GROUP_COUNT_SHIFT, GROUP_INDEX, HALVES, LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode,
-};
+use crate::accel::wide::{HALVES, LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode, leaf_triangles};
 use crate::trace::counts::Counter;
 use crate::trace::triangle::Visit;
 
 impl WideBvh {
     /// Walks the BVH along `ray`, nearest child first, calling `visit` for every triangle
     /// (leaf order) the f32 test cannot reject between `t_lo` and the current bound (`t_hi`
-    /// at first, then what `visit` returns; with `AVX`, a paired one-group leaf's triangles
+    /// at first, then what `visit` returns; with `AVX`, a paired leaf's triangles
     /// against the bound from before its neighbour's hits, a superset). `AVX` tests a node's
     /// eight boxes with AVX instructions (only where the caller was compiled with them:
     /// `fast/mod.rs`); the results are bit for bit those of the portable test. `corners` are the f64 corners
@@ -64,59 +62,88 @@ impl WideBvh {
             let (entry, t_enter) = current;
             if t_enter <= t_hi {
                 if entry & LEAF != 0 {
-                    let groups = self.leaf_groups(entry);
-                    // With AVX the filter tests eight lanes: a one-group leaf (most are) takes
-                    // the next entry along where that is a one-group leaf the ray may reach too
-                    // (a ray's two nearest children at the bottom of the tree often are), its
-                    // triangles in the upper four lanes; else the upper lanes are left out.
+                    let (first, count) = leaf_triangles(entry);
+                    let low = first / 4;
+                    // The leaf's lanes counted from group `low`'s first: at most four
+                    // triangles, so its group and perhaps the next.
+                    let run = ((1u32 << count) - 1) << (first % 4);
+                    // With AVX one eight-lane test: groups `lower` (lanes 0–3) and `upper`
+                    // (4–7). The leaf takes the next entry along where that is a leaf the ray
+                    // may reach too (a ray's two nearest children at the bottom of the tree
+                    // often are) and the two leaves' triangles lie in at most two groups
+                    // (siblings' triangles are adjacent in leaf order). Without AVX, a
+                    // four-lane test for each of the leaf's groups.
+                    let (mut lower, mut upper) = (low, if !AVX || run > 0xf { low + 1 } else { low });
+                    let mut own = run;
                     let mut partner = None;
-                    if AVX && groups.len() == 1 && len > 0 {
+                    if AVX && len > 0 {
                         let (next, next_enter) = stack[len - 1];
-                        if next & !GROUP_INDEX == LEAF && next_enter <= t_hi {
-                            len -= 1;
-                            partner = Some((&self.groups[(next & GROUP_INDEX) as usize], next_enter));
+                        if next & LEAF != 0 && next_enter <= t_hi {
+                            let (other, other_count) = leaf_triangles(next);
+                            let other_low = other / 4;
+                            let other_run = ((1u32 << other_count) - 1) << (other % 4);
+                            let other_upper = if other_run > 0xf { other_low + 1 } else { other_low };
+                            let (below, above) = (lower.min(other_low), upper.max(other_upper));
+                            let window = if above - below <= 1 {
+                                Some((below, above))
+                            } else if lower == upper && other_low == other_upper {
+                                Some((lower, other_low))
+                            } else {
+                                None
+                            };
+                            if let Some(window) = window {
+                                (lower, upper) = window;
+                                if lower != low {
+                                    own <<= 4;
+                                }
+                                let lanes = if other_low == lower { other_run } else { other_run << 4 };
+                                len -= 1;
+                                partner = Some((lanes, next_enter));
+                                prefetch_corners(corners, other, other + other_count);
+                            }
                         }
                     }
-                    prefetch_corners(groups, corners);
-                    if let Some((other, _)) = partner {
-                        prefetch_corners(std::slice::from_ref(other), corners);
-                    }
-                    for group in groups {
-                        counter.primitive_tests(group.lanes);
-                        let (pair, candidates) = if AVX {
-                            let (upper, upper_lanes) = match partner {
-                                Some((other, _)) => (other, other.lanes),
-                                None => (group, 0),
-                            };
-                            let pair = [group, upper];
-                            (
-                                pair,
-                                pair_candidates::<AVX>(ray, pair, t_lo, t_hi) & (group.lanes | upper_lanes << 4),
-                            )
-                        } else {
-                            ([group, group], group.candidates(&ray.lanes, t_lo, t_hi))
-                        };
-                        for (half, owner) in pair.into_iter().enumerate() {
-                            if half == 1 {
+                    prefetch_corners(corners, first, first + count);
+                    let mut candidates = if AVX {
+                        pair_candidates::<AVX>(ray, [&self.groups[lower], &self.groups[upper]], t_lo, t_hi)
+                    } else {
+                        0
+                    };
+                    for set in 0..2 {
+                        let lanes = if AVX {
+                            if set == 0 {
+                                own
+                            } else {
                                 // The partner's triangles only while the ray still reaches its
                                 // box, as its own visit would see them (and count them: as the
                                 // portable walk counts).
                                 match partner {
-                                    Some((other, next_enter)) if next_enter <= t_hi => {
-                                        counter.primitive_tests(other.lanes);
-                                    }
+                                    Some((lanes, next_enter)) if next_enter <= t_hi => lanes,
                                     _ => break,
                                 }
                             }
-                            let mut lanes = candidates >> (4 * half) & 0xf;
-                            while lanes != 0 {
-                                let lane = lanes.trailing_zeros() as usize;
-                                lanes &= lanes - 1;
-                                counter.exact_test();
-                                match visit(owner.triangle[lane] as usize) {
-                                    Visit::Stop => return,
-                                    answer => t_hi = narrowed(t_hi, &answer),
-                                }
+                        } else {
+                            let lanes = run >> (4 * set) & 0xf;
+                            if lanes == 0 {
+                                break;
+                            }
+                            candidates = self.groups[low + set].candidates(&ray.lanes, t_lo, t_hi) << (4 * set);
+                            lanes << (4 * set)
+                        };
+                        counter.primitive_tests(lanes);
+                        let mut lanes = lanes & candidates;
+                        while lanes != 0 {
+                            let lane = lanes.trailing_zeros() as usize;
+                            lanes &= lanes - 1;
+                            counter.exact_test();
+                            let triangle = if lane < 4 {
+                                4 * lower + lane
+                            } else {
+                                4 * upper + lane - 4
+                            };
+                            match visit(triangle) {
+                                Visit::Stop => return,
+                                answer => t_hi = narrowed(t_hi, &answer),
                             }
                         }
                     }
@@ -166,7 +193,7 @@ impl WideBvh {
 /// The lanes of two triangle groups (`pair[0]` in lanes 0–3, `pair[1]` in 4–7) that
 /// [`filter`] keeps for `ray`, eight lanes at once (one AVX register where `AVX`): the same
 /// answer per lane as [`TriangleGroup::candidates`] (the same operations), before masking
-/// with the groups' lanes.
+/// with the lanes of the leaves they hold.
 #[inline(always)]
 fn pair_candidates<const AVX: bool>(ray: &LaneRay, pair: [&TriangleGroup; 2], t_lo: f32, t_hi: f32) -> u32 {
     #[cfg(target_arch = "x86_64")]
@@ -402,31 +429,27 @@ impl WideBvh {
             }
             // Whether a ray's bound moved (else the packet's bound `far` stands).
             let mut moved = false;
-            for group in self.leaf_groups(entry) {
-                let mut lanes = group.lanes;
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    let triangle = group.broadcast::<W>(lane);
-                    let mut batches = batches_in;
-                    while batches != 0 {
-                        let b = batches.trailing_zeros() as usize;
-                        batches &= batches - 1;
-                        let rays_in = (mask >> (8 * b)) as u32 & 0xff;
-                        let bound = W::load(&t_hi[8 * b..]);
-                        let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
-                        while candidates != 0 {
-                            let r = 8 * b + candidates.trailing_zeros() as usize;
-                            candidates &= candidates - 1;
-                            let answer = visit(r, group.triangle[lane] as usize);
-                            if matches!(answer, Visit::Miss) {
-                                continue;
-                            }
-                            t_hi[r] = narrowed(t_hi[r], &answer);
-                            moved = true;
-                            if matches!(answer, Visit::Stop) {
-                                mask &= !(1 << r);
-                            }
+            let (first, count) = leaf_triangles(entry);
+            for index in first..first + count {
+                let triangle = self.groups[index / 4].broadcast::<W>(index % 4);
+                let mut batches = batches_in;
+                while batches != 0 {
+                    let b = batches.trailing_zeros() as usize;
+                    batches &= batches - 1;
+                    let rays_in = (mask >> (8 * b)) as u32 & 0xff;
+                    let bound = W::load(&t_hi[8 * b..]);
+                    let mut candidates = filter(&rays.batches[b], &triangle, rays.t_lo[b], bound) & rays_in;
+                    while candidates != 0 {
+                        let r = 8 * b + candidates.trailing_zeros() as usize;
+                        candidates &= candidates - 1;
+                        let answer = visit(r, index);
+                        if matches!(answer, Visit::Miss) {
+                            continue;
+                        }
+                        t_hi[r] = narrowed(t_hi[r], &answer);
+                        moved = true;
+                        if matches!(answer, Visit::Stop) {
+                            mask &= !(1 << r);
                         }
                     }
                 }
@@ -482,43 +505,28 @@ impl WideBvh {
     }
 }
 
-/// Asks the CPU to fetch the f64 corners of `groups`' triangles (the reference test's input,
-/// 72 bytes a triangle, two cache lines) while the f32 filter runs on the groups: in a dense
-/// scene the first load of a triangle's corners was the f64 test's costliest instruction
-/// (`perf`, scan100000 omni 250²: 60 % of its samples). A hint only: nothing is read; `x86_64`
-/// only, a no-op elsewhere.
+/// Asks the CPU to fetch the f64 corners of triangles `first..end` (the reference test's
+/// input, 72 bytes a triangle, two cache lines) while the f32 filter runs on their lanes: in
+/// a dense scene the first load of a triangle's corners was the f64 test's costliest
+/// instruction (`perf`, scan100000 omni 250²: 60 % of its samples). A hint only: nothing is
+/// read; `x86_64` only, a no-op elsewhere.
 #[inline(always)]
-fn prefetch_corners(groups: &[TriangleGroup], corners: &[[DVec3; 3]]) {
+fn prefetch_corners(corners: &[[DVec3; 3]], first: usize, end: usize) {
     #[cfg(target_arch = "x86_64")]
-    for group in groups {
-        let mut lanes = group.lanes;
-        while lanes != 0 {
-            let lane = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            if let Some(triangle) = corners.get(group.triangle[lane] as usize) {
-                let first = std::ptr::from_ref(triangle).cast::<i8>();
-                // SAFETY: prefetching reads nothing and cannot fault; both addresses lie within
-                // `triangle` (its first and last byte).
-                unsafe {
-                    use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-                    _mm_prefetch::<_MM_HINT_T0>(first);
-                    _mm_prefetch::<_MM_HINT_T0>(first.add(size_of::<[DVec3; 3]>() - 1));
-                }
+    if let Some(run) = corners.get(first..end) {
+        for triangle in run {
+            let start = std::ptr::from_ref(triangle).cast::<i8>();
+            // SAFETY: prefetching reads nothing and cannot fault; both addresses lie within
+            // `triangle` (its first and last byte).
+            unsafe {
+                use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+                _mm_prefetch::<_MM_HINT_T0>(start);
+                _mm_prefetch::<_MM_HINT_T0>(start.add(size_of::<[DVec3; 3]>() - 1));
             }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = (groups, corners);
-}
-
-impl WideBvh {
-    /// The triangle groups of leaf child `entry`.
-    #[inline(always)]
-    fn leaf_groups(&self, entry: u32) -> &[TriangleGroup] {
-        let first = (entry & GROUP_INDEX) as usize;
-        let count = ((entry & !LEAF) >> GROUP_COUNT_SHIFT) as usize + 1;
-        &self.groups[first..first + count]
-    }
+    let _ = (corners, first, end);
 }
 
 /// Pushes the children of `node` in `hits` onto `stack` (whose first `len` entries are taken)
@@ -768,17 +776,17 @@ mod tests {
                     std::array::from_fn(|_| centre + unit(&mut rng) * 0.3)
                 })
                 .collect();
-            let first: Vec<u32> = (0..rng.random_range(1..=4)).collect();
-            let second: Vec<u32> = (4..rng.random_range(5..=8)).collect();
+            let (first, second) = (rng.random_range(1..=4), rng.random_range(1..=4));
             let groups = [
-                TriangleGroup::new(&triangles, &first),
-                TriangleGroup::new(&triangles, &second),
+                TriangleGroup::new(&triangles[..first]),
+                TriangleGroup::new(&triangles[4..4 + second]),
             ];
             let ray = LaneRay::new(origin, direction, 20.0);
             let (t_lo, t_hi) = (rng.random_range(0.0..1.0), rng.random_range(1.0..12.0));
-            let alone =
-                groups[0].candidates(&ray.lanes, t_lo, t_hi) | groups[1].candidates(&ray.lanes, t_lo, t_hi) << 4;
-            let lanes = groups[0].lanes | groups[1].lanes << 4;
+            let lanes = ((1 << first) - 1) | (((1 << second) - 1) << 4);
+            let alone = (groups[0].candidates(&ray.lanes, t_lo, t_hi)
+                | groups[1].candidates(&ray.lanes, t_lo, t_hi) << 4)
+                & lanes;
             let pair = [&groups[0], &groups[1]];
             assert_eq!(
                 pair_candidates::<false>(&ray, pair, t_lo, t_hi) & lanes,
