@@ -22,7 +22,7 @@ PARTS = [
     ("syncfs / fsync", ("syncfs", "make_durable", "fsync"), ()),
     ("pixel pass (ranges, hits, points)", ("PixelPass::read",), ()),
     ("range EXR encoding", ("write_range_exr", "write_ranges_exr", "write_channel_exr", "write_exr"), SYSTEM_CALLS),
-    ("PLY encoding", ("point_cloud_ply",), SYSTEM_CALLS),
+    ("PLY encoding", ("point_cloud_ply", "write_point_cloud_points"), SYSTEM_CALLS),
     ("colour PNG encoding", ("write_png",), SYSTEM_CALLS),
     ("file creation (openat)", ("do_sys_open", "do_filp_open", "openat"), ()),
     ("write system calls", ("ksys_write", "__x64_sys_write", "vfs_write"), ()),

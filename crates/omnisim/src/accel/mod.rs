@@ -311,8 +311,8 @@ mod tests {
 
     /// Scenes of one to five triangles, each in both face orders (obvhs leaves BVHs of up to
     /// three triangles in its builder's order, where a two-triangle subtree need not be a run
-    /// of leaf order): each builds, every wide leaf is a run, and both fast walks find the
-    /// reference's hits on rays from the centre in every direction.
+    /// of leaf order): each builds, and both fast walks find the reference's hits on rays from
+    /// the world origin in every direction.
     #[test]
     fn tiny_scenes_build_and_trace_as_the_reference() {
         use crate::trace::CpuTracer;

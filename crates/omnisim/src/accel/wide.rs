@@ -126,7 +126,8 @@ impl WideBvh {
         }
         wide.depth = parts.iter().map(|part| part.depth).max().unwrap_or(0);
         drop(parts);
-        // The groups' f32 lanes on all threads: four triangles of leaf order each.
+        // The groups' f32 lanes (on all threads from `PARALLEL_FROM` groups): four triangles of
+        // leaf order each.
         wide.groups = super::map_indices(triangles.len().div_ceil(4), |k| {
             TriangleGroup::new(&triangles[4 * k..(4 * k + 4).min(triangles.len())])
         });
@@ -152,6 +153,11 @@ pub(crate) struct TriangleLanes<L> {
 pub(crate) struct TriangleGroup {
     pub(crate) lanes4: TriangleLanes<Vec4>,
 }
+
+const _: () = assert!(
+    std::mem::size_of::<TriangleGroup>() == 160,
+    "a group spans three cache lines"
+);
 
 impl TriangleGroup {
     /// The group of `triangles` (one to four, in lane order).
@@ -401,7 +407,8 @@ mod tests {
             let counts = subtree_triangles(nodes);
             let builder = Builder { nodes };
             let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;
-            // The count that stops early agrees with the whole count on every node.
+            // The count that stops early agrees with the whole count on every node, and every
+            // small subtree is a run of leaf order (`triangle_run`): no node is opened for order.
             assert!((0..nodes.len()).all(|index| builder.openable(index) == openable(index)));
             let mut opened_nodes = 0;
             for parent in (0..nodes.len()).filter(|&index| openable(index)) {

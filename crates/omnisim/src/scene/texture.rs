@@ -55,12 +55,15 @@ pub struct MipLevel {
     /// Height, texels.
     pub height: u32,
     /// Row-major texels, row 0 at the top (v = 0): each channel's 8-bit sRGB byte b held as
-    /// [`linear16`]`(b)`, packed `r | g << 16 | b << 32` (bits 48–63 are read as zero).
+    /// round(65535 · its linear value), packed `r | g << 16 | b << 32` (bits 48–63 are read
+    /// as zero). Build levels with [`MipLevel::from_srgb`]: other 16-bit values are filtered
+    /// as they are on the CPU but reach the GPU as their nearest sRGB byte.
     pub texels: Vec<u64>,
 }
 
 impl MipLevel {
-    /// The level of `width` × `height` row-major 8-bit sRGB texels packed as [`pack`] packs.
+    /// The level of `width` × `height` row-major 8-bit sRGB texels, each packed
+    /// `r | g << 8 | b << 16`.
     pub fn from_srgb(width: u32, height: u32, packed: &[u32]) -> MipLevel {
         MipLevel {
             width,
@@ -74,8 +77,8 @@ impl MipLevel {
         srgb_texel(self.texels[y as usize * self.width as usize + x as usize])
     }
 
-    /// The texels' 8-bit sRGB colours packed as [`pack`] packs (as the GPU reads them), row by
-    /// row.
+    /// The texels' 8-bit sRGB colours packed `r | g << 8 | b << 16` (as the GPU reads them),
+    /// row by row.
     pub fn srgb_texels(&self) -> impl Iterator<Item = u32> + '_ {
         self.texels.iter().map(|&texel| pack(srgb_texel(texel)))
     }
@@ -146,14 +149,19 @@ impl Texture {
     /// ([`MipLevel::from_srgb`]).
     fn from_packed(width: u32, height: u32, texels: Vec<u32>) -> Texture {
         assert_eq!(texels.len(), width as usize * height as usize, "texel count");
-        let mut packed = vec![Packed { width, height, texels }];
-        while let Some(above) = packed.last().filter(|l| l.width > 1 || l.height > 1) {
-            packed.push(half(above));
+        // Each level is held in linear light as soon as the next is made from its bytes, so
+        // the load's peak is one packed level beside the finished ones, not the whole packed
+        // pyramid as well.
+        let mut levels = Vec::new();
+        let mut level = Packed { width, height, texels };
+        loop {
+            let next = (level.width > 1 || level.height > 1).then(|| half(&level));
+            levels.push(MipLevel::from_srgb(level.width, level.height, &level.texels));
+            match next {
+                Some(next) => level = next,
+                None => break,
+            }
         }
-        let levels = packed
-            .into_iter()
-            .map(|level| MipLevel::from_srgb(level.width, level.height, &level.texels))
-            .collect();
         Texture { levels }
     }
 
@@ -289,13 +297,10 @@ fn decode<R: std::io::BufRead + std::io::Seek>(mut reader: image::ImageReader<R>
             "the image is {width}×{height}; omnisim reads at most {MAX_TEXTURE_TEXELS} texels per texture"
         ));
     }
-    // Packed straight from the decoded image: no third copy of a large texture.
-    let rgb = image.into_rgb8();
-    Ok(Texture::from_packed(
-        width,
-        height,
-        rgb.pixels().map(|p| pack(p.0)).collect(),
-    ))
+    // Packed straight from the decoded image, which is dropped before the levels are made:
+    // no third copy of a large texture.
+    let packed = image.into_rgb8().pixels().map(|p| pack(p.0)).collect();
+    Ok(Texture::from_packed(width, height, packed))
 }
 
 #[cfg(test)]
@@ -321,6 +326,9 @@ mod tests {
             assert_eq!(srgb_byte(linear16(byte)), byte);
             let exact = srgb_to_linear(byte) * 65535.0;
             assert!((f64::from(linear16(byte)) - exact).abs() <= 0.5, "{byte}");
+            if byte > 0 {
+                assert!(linear16(byte) >= linear16(byte - 1) + 19, "{byte}");
+            }
         }
         let texel = [3, 128, 255];
         assert_eq!(srgb_texel(linear_texel(texel)), texel);

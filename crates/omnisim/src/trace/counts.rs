@@ -16,7 +16,7 @@ pub(crate) trait Counter {
             self.node_test();
         }
     }
-    /// A primitive test for each lane set in `lanes` (a triangle group's four).
+    /// A primitive test for each lane set in `lanes` (one bit a triangle, up to eight lanes).
     #[inline(always)]
     fn primitive_tests(&mut self, lanes: u32) {
         for _ in 0..lanes.count_ones() {

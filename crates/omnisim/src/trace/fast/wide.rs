@@ -15,7 +15,8 @@ impl WideBvh {
     /// Walks the BVH along `ray`, nearest child first, calling `visit` for every triangle
     /// (leaf order) the f32 test cannot reject between `t_lo` and the current bound (`t_hi`
     /// at first, then what `visit` returns; with `AVX`, a paired leaf's triangles
-    /// against the bound from before its neighbour's hits, a superset). `AVX` tests a node's
+    /// against the bound from before its neighbour's hits, and a leaf's second group against
+    /// the bound from before its first group's hits: supersets). `AVX` tests a node's
     /// eight boxes with AVX instructions (only where the caller was compiled with them:
     /// `fast/mod.rs`); the results are bit for bit those of the portable test. `corners` are the f64 corners
     /// `visit` reads (leaf order), fetched ahead as the walk enters a leaf.
