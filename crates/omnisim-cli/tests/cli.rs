@@ -1335,7 +1335,7 @@ fn a_render_without_a_terminal_reports_progress() {
 #[test]
 fn scene_check_lists_each_texture_with_its_source_size_mips_bytes_and_users() {
     let check = text(&omnisim("scene check scenes/env1-textured.ron").stdout);
-    // Six patterns; the floor's wood is 512² with 10 levels: 4 bytes × (4^10 − 1) / 3 texels.
+    // Six patterns; the floor's wood is 512² with 10 levels: 8 bytes × (4^10 − 1) / 3 texels.
     assert!(check.contains("textures: 6, "), "{check}");
     let used_by = |object: &str| {
         let user = format!("used by {object};");

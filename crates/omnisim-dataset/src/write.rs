@@ -78,20 +78,9 @@ impl Dataset {
                 } else {
                     let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
                     let values = noise::depth(&ranges, model, &mut rng);
-                    let hits = frame
-                        .pixels()
-                        .iter()
-                        .zip(values)
-                        .map(|(p, range)| omnisim::advanced::Pixel { range, ..*p })
-                        .collect();
                     let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
-                    output::write_range_exr(
-                        &mut folder,
-                        &exr,
-                        &Frame::from_hits(size.0, size.1, hits),
-                        camera,
-                        self.spec.outputs.exr_compression,
-                    )?;
+                    let compression = self.spec.outputs.exr_compression;
+                    output::write_ranges_exr(&mut folder, &exr, size, values, camera, compression)?;
                 }
             }
             if sensor_depth.is_none() {

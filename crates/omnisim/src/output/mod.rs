@@ -155,8 +155,8 @@ pub fn write_range_exr(
     write_ranges_exr(to, path, (frame.width, frame.height), ranges, camera, compression)
 }
 
-/// [`write_range_exr`] of a frame's ranges already read from its pixels.
-pub(crate) fn write_ranges_exr(
+/// [`write_range_exr`] of ranges already read from a frame's pixels (or perturbed from them).
+pub fn write_ranges_exr(
     to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
@@ -627,19 +627,35 @@ mod tests {
     use super::*;
     use exr::prelude::WritableImage;
 
-    /// Keeps the bytes a writer stores instead of writing a file.
-    struct Kept(Vec<u8>);
+    /// Keeps each file a writer stores, by path, instead of writing it, and tells writers
+    /// `in_memory` ([`FileStore::encodes_in_memory`]).
+    #[derive(Default)]
+    pub(super) struct Kept {
+        pub(super) in_memory: bool,
+        pub(super) files: Vec<(std::path::PathBuf, Vec<u8>)>,
+    }
+
+    impl Kept {
+        /// The bytes of the last file stored.
+        fn last(&self) -> &[u8] {
+            &self.files.last().expect("a file was stored").1
+        }
+    }
 
     impl FileStore for Kept {
         fn store(
             &mut self,
-            _: &Path,
+            path: &Path,
             fill: impl FnOnce(&mut dyn atomic::Sink) -> std::io::Result<()>,
         ) -> std::io::Result<()> {
             let mut out = std::io::Cursor::new(Vec::new());
             fill(&mut out)?;
-            self.0 = out.into_inner();
+            self.files.push((path.to_path_buf(), out.into_inner()));
             Ok(())
+        }
+
+        fn encodes_in_memory(&self) -> bool {
+            self.in_memory
         }
     }
 
@@ -652,7 +668,7 @@ mod tests {
             .non_parallel()
             .to_buffered(&mut expected)
             .unwrap();
-        let mut kept = Kept(Vec::new());
+        let mut kept = Kept::default();
         write_exr(
             &mut kept,
             Path::new("x.exr"),
@@ -665,7 +681,7 @@ mod tests {
         .unwrap();
         let (width, height) = size;
         assert!(
-            kept.0 == expected.get_ref()[..],
+            kept.last() == &expected.get_ref()[..],
             "{width}x{height} {compression:?}: the bytes differ from exr's"
         );
         use exr::prelude::{ReadChannels, ReadLayers};
@@ -675,7 +691,7 @@ mod tests {
             .all_channels()
             .first_valid_layer()
             .all_attributes()
-            .from_buffered(std::io::Cursor::new(kept.0))
+            .from_buffered(std::io::Cursor::new(kept.last()))
             .unwrap();
         let read: Vec<(String, Vec<u32>)> = (image.layer_data.channel_data.list.iter())
             .map(|c| {

@@ -466,6 +466,7 @@ fn describe_pose(pose: &Pose) -> String {
 mod tests {
     use super::*;
     use crate::camera::{Catadioptric, Pinhole, StereoRig};
+    use crate::output::tests::Kept;
     use crate::scene::{Face, SceneObject};
     use glam::dvec3;
 
@@ -504,29 +505,6 @@ mod tests {
             ..OutputSet::default()
         };
         assert_eq!(total(&segmented, &omni), 63);
-    }
-
-    /// Keeps each file a writer stores, by path, and tells writers `in_memory`.
-    struct Kept {
-        in_memory: bool,
-        files: Vec<(PathBuf, Vec<u8>)>,
-    }
-
-    impl FileStore for Kept {
-        fn store(
-            &mut self,
-            path: &Path,
-            fill: impl FnOnce(&mut dyn Sink) -> std::io::Result<()>,
-        ) -> std::io::Result<()> {
-            let mut out = std::io::Cursor::new(Vec::new());
-            fill(&mut out)?;
-            self.files.push((path.to_path_buf(), out.into_inner()));
-            Ok(())
-        }
-
-        fn encodes_in_memory(&self) -> bool {
-            self.in_memory
-        }
     }
 
     impl Destination for Kept {

@@ -64,26 +64,22 @@ impl WideBvh {
             if t_enter <= t_hi {
                 if entry & LEAF != 0 {
                     let (first, count) = leaf_triangles(entry);
-                    let low = first / 4;
-                    // The leaf's lanes counted from group `low`'s first: at most four
-                    // triangles, so its group and perhaps the next.
-                    let run = ((1u32 << count) - 1) << (first % 4);
+                    let (low, run) = leaf_lanes(first, count);
                     // With AVX one eight-lane test: groups `lower` (lanes 0–3) and `upper`
                     // (4–7). The leaf takes the next entry along where that is a leaf the ray
                     // may reach too (a ray's two nearest children at the bottom of the tree
                     // often are) and the two leaves' triangles lie in at most two groups
                     // (siblings' triangles are adjacent in leaf order). Without AVX, a
                     // four-lane test for each of the leaf's groups.
-                    let (mut lower, mut upper) = (low, if !AVX || run > 0xf { low + 1 } else { low });
+                    let (mut lower, mut upper) = (low, if AVX { last_group(low, run) } else { low + 1 });
                     let mut own = run;
                     let mut partner = None;
                     if AVX && len > 0 {
                         let (next, next_enter) = stack[len - 1];
                         if next & LEAF != 0 && next_enter <= t_hi {
                             let (other, other_count) = leaf_triangles(next);
-                            let other_low = other / 4;
-                            let other_run = ((1u32 << other_count) - 1) << (other % 4);
-                            let other_upper = if other_run > 0xf { other_low + 1 } else { other_low };
+                            let (other_low, other_run) = leaf_lanes(other, other_count);
+                            let other_upper = last_group(other_low, other_run);
                             let (below, above) = (lower.min(other_low), upper.max(other_upper));
                             let window = if above - below <= 1 {
                                 Some((below, above))
@@ -189,6 +185,19 @@ impl WideBvh {
             current = stack[len];
         }
     }
+}
+
+/// A leaf's first group and its lanes counted from that group's first lane: at most four
+/// triangles, so bits 0–3 its group's and bits 4–7 the next group's.
+#[inline(always)]
+fn leaf_lanes(first: usize, count: usize) -> (usize, u32) {
+    (first / 4, ((1u32 << count) - 1) << (first % 4))
+}
+
+/// The last group of a leaf that starts in group `low` with lanes `run` ([`leaf_lanes`]).
+#[inline(always)]
+fn last_group(low: usize, run: u32) -> usize {
+    if run > 0xf { low + 1 } else { low }
 }
 
 /// The lanes of two triangle groups (`pair[0]` in lanes 0–3, `pair[1]` in 4–7) that
