@@ -146,6 +146,9 @@ pub struct PreparedScene {
     fallback: Option<String>,
     /// The faces' outlines, made on the first edge-supersampled render.
     outline: std::sync::OnceLock<Outline>,
+    /// The unlit colours of faces whose surfaces give one colour, made from the appearance's
+    /// surfaces on the first unlit frame that needs them; made again for other surfaces.
+    unlit_colours: std::sync::OnceLock<shade::UnlitColours>,
 }
 
 impl Renderer {
@@ -275,6 +278,7 @@ impl Renderer {
             gpu,
             fallback,
             outline: std::sync::OnceLock::new(),
+            unlit_colours: std::sync::OnceLock::new(),
         })
     }
 
@@ -292,6 +296,11 @@ impl Renderer {
         #[cfg(feature = "gpu")]
         if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
             gpu.set_appearance(renderer.context(), &appearance)?;
+        }
+        // A data set's frames give the scene's own surfaces again (the same `Arc`): their
+        // unlit colours stay.
+        if !std::sync::Arc::ptr_eq(&prepared.appearance.surfaces, &appearance.surfaces) {
+            prepared.unlit_colours = std::sync::OnceLock::new();
         }
         prepared.appearance = appearance;
         Ok(())
@@ -317,7 +326,16 @@ impl Renderer {
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
                     let view = shade::View::new(camera, pose, table.as_deref(), Some(&self.rays));
-                    shade::shade_frame(self.cpu_tracer, geometry, appearance, view, &mut frame, planes);
+                    let unlit_colours = &prepared.unlit_colours;
+                    shade::shade_frame(
+                        self.cpu_tracer,
+                        geometry,
+                        appearance,
+                        unlit_colours,
+                        view,
+                        &mut frame,
+                        planes,
+                    );
                 }
                 frame
             }
@@ -413,6 +431,7 @@ impl Renderer {
                     self.cpu_tracer,
                     &prepared.geometry,
                     &prepared.appearance,
+                    &prepared.unlit_colours,
                     view,
                     frame,
                     planes,

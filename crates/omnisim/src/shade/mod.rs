@@ -17,7 +17,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use glam::{DMat3, DVec2, Vec3};
 
@@ -404,6 +404,7 @@ pub(crate) fn shade_frame(
     tracer: CpuTracer,
     geometry: &SceneBvh,
     appearance: &Appearance,
+    unlit_colours: &OnceLock<UnlitColours>,
     view: View<'_>,
     frame: &mut Frame,
     planes: Planes,
@@ -417,10 +418,78 @@ pub(crate) fn shade_frame(
     if appearance.surfaces.is_empty() {
         shade_planes::<false>(appearance, &lux, frame, planes);
     } else if appearance.surfaces.textures.is_empty() {
+        if appearance.lighting.is_none() && !planes.contains(Plane::LinearColour) {
+            let unlit_colours = unlit_colours.get_or_init(|| UnlitColours::of(&appearance.surfaces));
+            return unlit_surfaces(appearance, unlit_colours, frame, planes);
+        }
         shade_planes::<true>(appearance, &lux, frame, planes);
     } else {
         textured::shade_planes(appearance, &lux, view, frame, planes);
     }
+}
+
+/// The 8-bit colour of each face in an unlit, untextured frame, where its surface gives every
+/// hit one colour: vertex colours equal at its three corners (each face of what `omnisim scene
+/// export` writes, meshes coloured by face) are that colour, and a surface without colours
+/// leaves the face's own. Worked out once a scene's surfaces (`PreparedScene` keeps it), so such
+/// faces are drawn as flat ones are, by a byte looked up, instead of a colour interpolated and
+/// encoded per pixel (env1 exported as a PLY, omni 250²: ~180 instructions a hit;
+/// docs/benchmarks.md, "2026-11-27 night (small)").
+#[derive(Debug)]
+pub(crate) struct UnlitColours {
+    /// Per face, as long as `Surfaces::of_face`: the colour as `0x00RRGGBB`, or
+    /// [`UnlitColours::FACE_COLOUR`] or [`UnlitColours::VARYING`].
+    of_face: Vec<u32>,
+}
+
+impl UnlitColours {
+    /// The face's colour in the appearance (no surface, or one that leaves it).
+    const FACE_COLOUR: u32 = u32::MAX;
+    /// Colours that vary across the face: shaded per pixel.
+    const VARYING: u32 = u32::MAX - 1;
+
+    /// The faces of `surfaces`. A hit's vertex colour is `at_anchor + gradient · (P − anchor)`
+    /// (`Surface::colour_at`): with every gradient zero that sum is `at_anchor` bit for bit
+    /// (each product ±0 at a finite point), clamped and encoded as each pixel would be.
+    pub(crate) fn of(surfaces: &Surfaces) -> Self {
+        let of_face = surfaces
+            .of_face
+            .iter()
+            .map(|&index| match surfaces.list.get(index as usize) {
+                None => Self::FACE_COLOUR,
+                Some(surface) => match (&surface.uv, &surface.colours) {
+                    (None, None) => Self::FACE_COLOUR,
+                    (None, Some(colours)) if colours.gradient == [DVec3::ZERO; 3] => {
+                        let [r, g, b] = encode(colours.at_anchor.clamp(DVec3::ZERO, DVec3::ONE));
+                        u32::from_be_bytes([0, r, g, b])
+                    }
+                    _ => Self::VARYING,
+                },
+            })
+            .collect();
+        Self { of_face }
+    }
+}
+
+/// [`shade_frame`]'s 8-bit colour (without the linear plane) of an unlit, untextured scene
+/// where some face has a surface: each face's byte from `unlit_colours` where it has one, the
+/// rest shaded pixel by pixel.
+fn unlit_surfaces(appearance: &Appearance, unlit_colours: &UnlitColours, frame: &mut Frame, planes: Planes) {
+    let colours = &appearance.face_colours;
+    eight_bit_frame(frame, planes, |_, hit| {
+        match unlit_colours.of_face.get(hit.face as usize) {
+            // A miss (`NO_FACE` is past every face) or a face without a surface.
+            None | Some(&UnlitColours::FACE_COLOUR) => colours.get(hit.face as usize).copied().unwrap_or(BACKGROUND),
+            Some(&UnlitColours::VARYING) => {
+                let surface = appearance.surfaces.of(hit.face);
+                encode(shade_on(appearance, hit, surface, || Footprint::POINT, |_| DVec3::ZERO))
+            }
+            Some(&colour) => {
+                let [_, r, g, b] = colour.to_be_bytes();
+                [r, g, b]
+            }
+        }
+    });
 }
 
 /// [`shade_frame`] for an untextured scene where some face has a surface (vertex colours:
@@ -547,6 +616,126 @@ mod tests {
     use super::*;
     use crate::camera::Equirectangular;
     use crate::frame::NO_FACE;
+    use crate::renderer::{BackendChoice, Renderer};
+    use crate::scene::surface::ColourMap;
+
+    /// env1's faces given surfaces by hand, by face id modulo 4: vertex colours equal at every
+    /// corner (`one_colour` of the face: a zero gradient), vertex colours that vary, a surface
+    /// without colours, and none (and the last faces past the list).
+    fn surfaces_of_every_kind(faces: usize, one_colour: impl Fn(usize) -> [u8; 3]) -> Arc<Surfaces> {
+        let mut surfaces = Surfaces::default();
+        for face in 0..faces - 7 {
+            let colours = match face % 4 {
+                0 => Some(ColourMap {
+                    at_anchor: DVec3::from_array(one_colour(face).map(crate::scene::lighting::srgb_to_linear)),
+                    gradient: [DVec3::ZERO; 3],
+                }),
+                1 => Some(ColourMap {
+                    at_anchor: DVec3::new(0.3, 0.5, 0.7),
+                    gradient: [
+                        DVec3::new(0.2, 0.0, 0.1),
+                        DVec3::new(0.0, -0.3, 0.0),
+                        DVec3::new(0.1, 0.1, 0.4),
+                    ],
+                }),
+                2 => None,
+                _ => continue,
+            };
+            let anchor = DVec3::new(0.5, -0.25, 1.0);
+            let unlit = false;
+            surfaces.push(
+                face,
+                Surface {
+                    anchor,
+                    uv: None,
+                    colours,
+                    unlit,
+                },
+            );
+        }
+        Arc::new(surfaces)
+    }
+
+    /// Unlit faces whose surfaces give one colour are drawn by a byte looked up
+    /// (`UnlitColours`), the rest shaded pixel by pixel: each pixel's 8-bit colour must still
+    /// be what shading its hit alone gives, encoded, for every kind of face, black among the
+    /// colours (`+0` plus a `-0` product), and misses (from outside the room).
+    #[test]
+    fn unlit_colours_looked_up_are_each_hit_shaded_alone() {
+        let camera = Camera::Equirectangular(Equirectangular {
+            width: 203,
+            height: 101,
+        });
+        let (scene, bvh) = crate::trace::test_scene("env1");
+        let mut appearance = Appearance::of(&scene);
+        let faces = scene.faces.len();
+        appearance.surfaces = surfaces_of_every_kind(faces, |face| match face % 8 {
+            0 => [0, 0, 0],
+            _ => [(face * 37 % 256) as u8, 255 - face as u8, 3],
+        });
+        let kinds = UnlitColours::of(&appearance.surfaces).of_face;
+        for kind in [UnlitColours::FACE_COLOUR, UnlitColours::VARYING, 0, 0x00_94_FB_03] {
+            assert!(kinds.contains(&kind), "{kind:#x} among {kinds:x?}");
+        }
+        for position in [DVec3::new(0.3, -0.2, 0.4), DVec3::new(9.0, 4.0, 1.0)] {
+            let pose = Pose::new(position, DVec3::new(0.1, -0.2, 0.7));
+            let mut frame = CpuTracer::Fast.trace(&bvh, &camera, &pose);
+            let view = View::new(&camera, &pose, None, None);
+            let unlit_colours = OnceLock::new();
+            shade_frame(
+                CpuTracer::Fast,
+                &bvh,
+                &appearance,
+                &unlit_colours,
+                view,
+                &mut frame,
+                Planes::COLOUR,
+            );
+            assert!(unlit_colours.get().is_some(), "the look-up was made");
+            let mut drawn = [0; 4];
+            for (hit, colour) in frame.pixels().iter().zip(frame.colour().unwrap()) {
+                let alone = match hit.face {
+                    NO_FACE => BACKGROUND,
+                    face => {
+                        drawn[face as usize % 4] += 1;
+                        encode(shade(CpuTracer::Fast, &bvh, &appearance, hit, &Footprint::POINT))
+                    }
+                };
+                assert_eq!(*colour, alone, "{hit:?} from {position}");
+            }
+            assert!(drawn.iter().all(|&n| n > 100), "{drawn:?} hits of each kind");
+        }
+    }
+
+    /// A prepared scene's unlit colours are made again for a new appearance's surfaces, and
+    /// kept for the same ones.
+    #[test]
+    fn unlit_colours_follow_the_appearances_surfaces() {
+        let (scene, _) = crate::trace::test_scene("env1");
+        let renderer = Renderer::new(BackendChoice::Cpu).unwrap();
+        let mut prepared = renderer.prepare(&scene).unwrap();
+        let camera = Camera::Equirectangular(Equirectangular { width: 64, height: 32 });
+        let pose = Pose::new(DVec3::new(0.3, -0.2, 0.4), DVec3::ZERO);
+        let mut appearance = Appearance::of(&scene);
+        for colour in [[200, 10, 10], [10, 10, 200]] {
+            appearance.surfaces = surfaces_of_every_kind(scene.faces.len(), |_| colour);
+            for _ in 0..2 {
+                renderer.set_appearance(&mut prepared, appearance.clone()).unwrap();
+                let frame = renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
+                let drawn = frame
+                    .pixels()
+                    .iter()
+                    .zip(frame.colour().unwrap())
+                    .filter(|(hit, _)| hit.is_hit() && hit.face % 4 == 0);
+                let (mut hits, mut ok) = (0, 0);
+                for (_, c) in drawn {
+                    hits += 1;
+                    ok += usize::from(*c == colour);
+                }
+                assert!(hits > 0 && ok == hits, "{ok} of {hits} hits {colour:?}");
+            }
+        }
+    }
 
     /// The colour plane shaded without the linear plane (written once a pixel, misses too, with
     /// no fill before) equals, byte for byte, the one shaded beside it: lit and unlit, from
@@ -566,7 +755,15 @@ mod tests {
                 let shaded = |planes| {
                     let mut frame = traced.clone();
                     let view = View::new(&camera, &pose, None, None);
-                    shade_frame(CpuTracer::Fast, &bvh, &appearance, view, &mut frame, planes);
+                    shade_frame(
+                        CpuTracer::Fast,
+                        &bvh,
+                        &appearance,
+                        &OnceLock::new(),
+                        view,
+                        &mut frame,
+                        planes,
+                    );
                     frame.colour().expect("colour was asked for").to_vec()
                 };
                 let alone = shaded(Planes::COLOUR);
