@@ -426,12 +426,11 @@ pub(crate) fn shade_frame(
             let kept = one_colour_faces.get_or_init(|| OneColourFaces::of(surfaces));
             // Kept for other surfaces (a caller's slip) it is made afresh, never read wrong.
             let made;
-            let faces = match Arc::ptr_eq(&kept.surfaces, surfaces) {
-                true => kept,
-                false => {
-                    made = OneColourFaces::of(surfaces);
-                    &made
-                }
+            let faces = if Arc::ptr_eq(&kept.surfaces, surfaces) {
+                kept
+            } else {
+                made = OneColourFaces::of(surfaces);
+                &made
             };
             if !faces.every_face_varies {
                 return shade_one_colour_faces(appearance, faces, frame, planes);
