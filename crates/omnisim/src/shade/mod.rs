@@ -775,6 +775,39 @@ mod tests {
         assert!(drawn.iter().all(|&n| n > 100), "{drawn:?} hits of each kind");
     }
 
+    /// The `same_rays` case end to end: env1 exported by `scene export` as a PLY (each face's
+    /// colour on its three corners) and loaded as one mesh has vertex colours, every face of
+    /// one colour, and the renderer's colour plane of it is each hit shaded alone.
+    #[test]
+    fn an_exported_scene_is_drawn_by_its_faces_bytes() {
+        let folder = tempfile::tempdir().unwrap();
+        let source = crate::trace::test_scene("env1").0;
+        source
+            .export(&folder.path().join("env1.ply"), crate::scene::ExportFormat::Ply)
+            .unwrap();
+        let ron = r#"Scene(name: "env1", objects: [Mesh(name: "env1", path: "env1.ply", colour: (200, 200, 200))])"#;
+        let scene = Scene::from_ron(ron, &folder.path().join("env1.ron")).unwrap();
+        let faces = OneColourFaces::of(&scene.surfaces);
+        assert!(!faces.of_face.is_empty() && !faces.of_face.contains(&OneColourFaces::VARYING));
+        let renderer = Renderer::new(BackendChoice::Cpu).unwrap();
+        let prepared = renderer.prepare(&scene).unwrap();
+        let camera = Camera::Equirectangular(Equirectangular { width: 96, height: 48 });
+        let pose = Pose::new(DVec3::new(1.5, 0.0, 0.4), DVec3::new(0.0, 0.0, 60f64.to_radians()));
+        let frame = renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
+        let appearance = Appearance::of(&scene);
+        for (hit, colour) in frame.pixels().iter().zip(frame.colour().unwrap()) {
+            assert!(hit.is_hit(), "inside the room");
+            let alone = encode(shade(
+                CpuTracer::Fast,
+                prepared.geometry(),
+                &appearance,
+                hit,
+                &Footprint::POINT,
+            ));
+            assert_eq!(*colour, alone, "{hit:?}");
+        }
+    }
+
     /// A prepared scene's one-colour faces are made for a new appearance's surfaces: a frame
     /// after `set_appearance` takes the new colours.
     #[test]
