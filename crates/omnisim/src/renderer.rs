@@ -146,6 +146,10 @@ pub struct PreparedScene {
     fallback: Option<String>,
     /// The faces' outlines, made on the first edge-supersampled render.
     outline: std::sync::OnceLock<Outline>,
+    /// The colours of faces whose surfaces give one colour in a scene without lighting, made
+    /// from the appearance's surfaces on the first frame that needs them; made again for
+    /// other surfaces.
+    one_colour_faces: std::sync::OnceLock<shade::OneColourFaces>,
 }
 
 impl Renderer {
@@ -275,6 +279,7 @@ impl Renderer {
             gpu,
             fallback,
             outline: std::sync::OnceLock::new(),
+            one_colour_faces: std::sync::OnceLock::new(),
         })
     }
 
@@ -292,6 +297,11 @@ impl Renderer {
         #[cfg(feature = "gpu")]
         if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
             gpu.set_appearance(renderer.context(), &appearance)?;
+        }
+        // A data set's frames give the scene's own surfaces again (the same `Arc`): their
+        // one-colour faces stay.
+        if !std::sync::Arc::ptr_eq(&prepared.appearance.surfaces, &appearance.surfaces) {
+            prepared.one_colour_faces = std::sync::OnceLock::new();
         }
         prepared.appearance = appearance;
         Ok(())
@@ -317,7 +327,16 @@ impl Renderer {
                 if planes.needs_shading() {
                     let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
                     let view = shade::View::new(camera, pose, table.as_deref(), Some(&self.rays));
-                    shade::shade_frame(self.cpu_tracer, geometry, appearance, view, &mut frame, planes);
+                    let one_colour_faces = &prepared.one_colour_faces;
+                    shade::shade_frame(
+                        self.cpu_tracer,
+                        geometry,
+                        appearance,
+                        one_colour_faces,
+                        view,
+                        &mut frame,
+                        planes,
+                    );
                 }
                 frame
             }
@@ -413,6 +432,7 @@ impl Renderer {
                     self.cpu_tracer,
                     &prepared.geometry,
                     &prepared.appearance,
+                    &prepared.one_colour_faces,
                     view,
                     frame,
                     planes,
@@ -582,6 +602,39 @@ mod texture_tests {
                 "{text}"
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod appearance_tests {
+    use super::*;
+
+    /// `set_appearance` keeps the one-colour faces for the same surfaces (a data set's frames:
+    /// `Appearance::of` the scene again) and drops them for other ones.
+    #[test]
+    fn one_colour_faces_are_kept_for_the_same_surfaces_only() {
+        let (mut scene, _) = crate::trace::test_scene("env1");
+        let surfaces = std::sync::Arc::make_mut(&mut scene.surfaces);
+        surfaces.list.push(crate::scene::surface::Surface {
+            anchor: glam::DVec3::ZERO,
+            uv: None,
+            colours: None,
+            unlit: false,
+        });
+        surfaces.of_face = vec![0];
+        let renderer = Renderer::new(BackendChoice::Cpu).unwrap();
+        let mut prepared = renderer.prepare(&scene).unwrap();
+        let camera = crate::camera::Camera::Equirectangular(crate::camera::Equirectangular { width: 16, height: 8 });
+        let pose = Pose::new(glam::DVec3::new(0.3, -0.2, 0.4), glam::DVec3::ZERO);
+        renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
+        let made = std::ptr::from_ref(prepared.one_colour_faces.get().expect("made by the frame"));
+        renderer.set_appearance(&mut prepared, Appearance::of(&scene)).unwrap();
+        let kept = prepared.one_colour_faces.get().expect("kept for the same surfaces");
+        assert!(std::ptr::eq(kept, made));
+        let mut other = Appearance::of(&scene);
+        other.surfaces = std::sync::Arc::new((*other.surfaces).clone());
+        renderer.set_appearance(&mut prepared, other).unwrap();
+        assert!(prepared.one_colour_faces.get().is_none(), "dropped for other surfaces");
     }
 }
 

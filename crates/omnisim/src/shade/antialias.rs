@@ -144,6 +144,7 @@ mod tests {
             tracer,
             &bvh,
             &appearance,
+            &std::sync::OnceLock::new(),
             view,
             &mut frame,
             crate::frame::Planes::COLOUR,

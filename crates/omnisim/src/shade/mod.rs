@@ -17,7 +17,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use glam::{DMat3, DVec2, Vec3};
 
@@ -399,11 +399,15 @@ impl<'a> View<'a> {
 /// byte), without the cost of encoding. A scene in which no face has a surface (texture or
 /// vertex colours) is decided once per frame and shaded as before surfaces existed: no
 /// footprints, no surface look-ups per pixel (they cost env1's untextured images about 12
-/// instructions a pixel, docs/benchmarks.md).
+/// instructions a pixel, docs/benchmarks.md). In a scene without lighting or textures whose
+/// faces have surfaces, the 8-bit colour alone takes the faces of one colour from
+/// `one_colour_faces` ([`OneColourFaces`], made on first use; the caller keeps it with the
+/// appearance whose surfaces it was made of).
 pub(crate) fn shade_frame(
     tracer: CpuTracer,
     geometry: &SceneBvh,
     appearance: &Appearance,
+    one_colour_faces: &OnceLock<OneColourFaces>,
     view: View<'_>,
     frame: &mut Frame,
     planes: Planes,
@@ -417,10 +421,100 @@ pub(crate) fn shade_frame(
     if appearance.surfaces.is_empty() {
         shade_planes::<false>(appearance, &lux, frame, planes);
     } else if appearance.surfaces.textures.is_empty() {
+        if appearance.lighting.is_none() && !planes.contains(Plane::LinearColour) {
+            let surfaces = &appearance.surfaces;
+            let kept = one_colour_faces.get_or_init(|| OneColourFaces::of(surfaces));
+            // Kept for other surfaces (a caller's slip) it is made afresh, never read wrong.
+            let made;
+            let faces = if Arc::ptr_eq(&kept.surfaces, surfaces) {
+                kept
+            } else {
+                made = OneColourFaces::of(surfaces);
+                &made
+            };
+            if !faces.every_face_varies {
+                return shade_one_colour_faces(appearance, faces, frame, planes);
+            }
+        }
         shade_planes::<true>(appearance, &lux, frame, planes);
     } else {
         textured::shade_planes(appearance, &lux, view, frame, planes);
     }
+}
+
+/// For scenes without lighting (not faces with `Surface::unlit`), untextured: the 8-bit colour
+/// of each face whose surface gives every hit one colour. Vertex colours equal at its three
+/// corners (each face of what `omnisim scene export` writes, meshes coloured by face) are that
+/// colour, and a surface without colours leaves the face's own. Worked out once for a scene's
+/// surfaces (`PreparedScene` keeps it), so such faces are drawn as flat ones are, by a byte
+/// looked up, instead of a colour interpolated and encoded per pixel (env1 exported as a PLY,
+/// omni 250²: ~185 instructions a hit; docs/benchmarks.md, "2026-11-27 night (small)").
+#[derive(Debug)]
+pub(crate) struct OneColourFaces {
+    /// The surfaces it was made of.
+    surfaces: Arc<Surfaces>,
+    /// Per face, as long as `Surfaces::of_face`: the colour as `0x00RRGGBB`, or
+    /// [`OneColourFaces::FACE_COLOUR`] or [`OneColourFaces::VARYING`].
+    of_face: Vec<u32>,
+    /// Whether every face has colours that vary (a scan's mesh): then nothing is looked up,
+    /// and the frame is shaded as before the table.
+    every_face_varies: bool,
+}
+
+impl OneColourFaces {
+    /// The face's colour in the appearance (no surface, or one that leaves it).
+    const FACE_COLOUR: u32 = u32::MAX;
+    /// Colours that vary across the face: shaded per pixel.
+    const VARYING: u32 = u32::MAX - 1;
+
+    /// The faces of `surfaces`. A hit's vertex colour is `at_anchor + gradient · (P − anchor)`
+    /// (`Surface::colour_at`): with every gradient zero and a finite anchor, each product is
+    /// ±0 at a hit's finite point, so the sum equals `at_anchor` up to the sign of a zero,
+    /// which clamps and encodes alike. A non-finite anchor (only a hand-built surface has one)
+    /// is left to the pixel's own shading.
+    pub(crate) fn of(surfaces: &Arc<Surfaces>) -> Self {
+        let of_face: Vec<u32> = surfaces
+            .of_face
+            .iter()
+            .map(|&index| match surfaces.list.get(index as usize) {
+                None => Self::FACE_COLOUR,
+                Some(surface) => match (&surface.uv, &surface.colours) {
+                    (None, None) => Self::FACE_COLOUR,
+                    (None, Some(colours)) if colours.gradient == [DVec3::ZERO; 3] && surface.anchor.is_finite() => {
+                        let [r, g, b] = encode(colours.at_anchor.clamp(DVec3::ZERO, DVec3::ONE));
+                        u32::from_be_bytes([0, r, g, b])
+                    }
+                    _ => Self::VARYING,
+                },
+            })
+            .collect();
+        Self {
+            surfaces: Arc::clone(surfaces),
+            every_face_varies: !of_face.is_empty() && of_face.iter().all(|&entry| entry == Self::VARYING),
+            of_face,
+        }
+    }
+}
+
+/// [`shade_frame`]'s 8-bit colour (without the linear plane) of a scene without lighting or
+/// textures where some face has a surface: each face's byte from `faces` where it has one, the
+/// rest shaded pixel by pixel.
+fn shade_one_colour_faces(appearance: &Appearance, faces: &OneColourFaces, frame: &mut Frame, planes: Planes) {
+    let colours = &appearance.face_colours;
+    eight_bit_frame(frame, planes, |_, hit| {
+        match faces.of_face.get(hit.face as usize) {
+            // A miss (`NO_FACE` is past every face) or a face without a surface.
+            None | Some(&OneColourFaces::FACE_COLOUR) => colours.get(hit.face as usize).copied().unwrap_or(BACKGROUND),
+            Some(&OneColourFaces::VARYING) => {
+                let surface = appearance.surfaces.of(hit.face);
+                encode(shade_on(appearance, hit, surface, || Footprint::POINT, |_| DVec3::ZERO))
+            }
+            Some(&colour) => {
+                let [_, r, g, b] = colour.to_be_bytes();
+                [r, g, b]
+            }
+        }
+    });
 }
 
 /// [`shade_frame`] for an untextured scene where some face has a surface (vertex colours:
@@ -547,6 +641,203 @@ mod tests {
     use super::*;
     use crate::camera::Equirectangular;
     use crate::frame::NO_FACE;
+    use crate::renderer::{BackendChoice, Renderer};
+    use crate::scene::surface::ColourMap;
+
+    /// The last faces of [`surfaces_of_every_kind`], past its list.
+    const PAST_THE_LIST: usize = 7;
+
+    /// env1's faces given surfaces by hand, by face id modulo 4: vertex colours equal at every
+    /// corner (`one_colour` of the face: a zero gradient), vertex colours that vary, a surface
+    /// without colours, and none (and the last [`PAST_THE_LIST`] faces past the list).
+    fn surfaces_of_every_kind(faces: usize, one_colour: impl Fn(usize) -> [u8; 3]) -> Arc<Surfaces> {
+        let mut surfaces = Surfaces::default();
+        for face in 0..faces - PAST_THE_LIST {
+            let colours = match face % 4 {
+                0 => Some(ColourMap {
+                    at_anchor: DVec3::from_array(one_colour(face).map(crate::scene::lighting::srgb_to_linear)),
+                    gradient: [DVec3::ZERO; 3],
+                }),
+                1 => Some(ColourMap {
+                    at_anchor: DVec3::new(0.3, 0.5, 0.7),
+                    gradient: [
+                        DVec3::new(0.2, 0.0, 0.1),
+                        DVec3::new(0.0, -0.3, 0.0),
+                        DVec3::new(0.1, 0.1, 0.4),
+                    ],
+                }),
+                2 => None,
+                _ => continue,
+            };
+            let anchor = DVec3::new(0.5, -0.25, 1.0);
+            let unlit = false;
+            surfaces.push(
+                face,
+                Surface {
+                    anchor,
+                    uv: None,
+                    colours,
+                    unlit,
+                },
+            );
+        }
+        Arc::new(surfaces)
+    }
+
+    /// Each face's surface: vertex colours that vary, or of one colour with a non-finite
+    /// anchor (hand-built; left to the pixel's own shading).
+    fn surfaces_all_shaded_per_pixel(faces: usize) -> Arc<Surfaces> {
+        let mut surfaces = Surfaces::default();
+        for face in 0..faces {
+            let gradient = match face % 2 {
+                0 => [DVec3::ZERO; 3],
+                _ => [DVec3::new(0.2, 0.0, 0.1), DVec3::Y, DVec3::NEG_Z],
+            };
+            let colours = Some(ColourMap {
+                at_anchor: DVec3::new(0.3, 0.5, 0.7),
+                gradient,
+            });
+            let (anchor, uv, unlit) = (DVec3::NAN, None, false);
+            surfaces.push(
+                face,
+                Surface {
+                    anchor,
+                    uv,
+                    colours,
+                    unlit,
+                },
+            );
+        }
+        Arc::new(surfaces)
+    }
+
+    /// Faces whose surfaces give one colour are drawn by a byte looked up
+    /// ([`OneColourFaces`]), the rest shaded pixel by pixel: each pixel's 8-bit colour must
+    /// still be what shading its hit alone gives, encoded, for every kind of face, black among
+    /// the colours (`+0` plus a `-0` product), misses (from outside the room), a scene whose
+    /// every face is shaded per pixel (no table read), and a table kept for other surfaces.
+    #[test]
+    fn one_colour_faces_looked_up_are_each_hit_shaded_alone() {
+        let camera = Camera::Equirectangular(Equirectangular {
+            width: 203,
+            height: 101,
+        });
+        let (scene, bvh) = crate::trace::test_scene("env1");
+        let faces = scene.faces.len();
+        let mut every_kind = Appearance::of(&scene);
+        every_kind.surfaces = surfaces_of_every_kind(faces, |face| match face % 8 {
+            0 => [0, 0, 0],
+            _ => [(face * 37 % 256) as u8, 255 - face as u8, 3],
+        });
+        let kinds = OneColourFaces::of(&every_kind.surfaces);
+        for kind in [OneColourFaces::FACE_COLOUR, OneColourFaces::VARYING, 0, 0x00_94_FB_03] {
+            assert!(kinds.of_face.contains(&kind), "{kind:#x} among {:x?}", kinds.of_face);
+        }
+        assert!(!kinds.every_face_varies);
+        let per_pixel = Appearance {
+            surfaces: surfaces_all_shaded_per_pixel(faces),
+            ..every_kind.clone()
+        };
+        assert!(OneColourFaces::of(&per_pixel.surfaces).every_face_varies);
+        let other_surfaces = OneColourFaces::of(&surfaces_of_every_kind(faces, |_| [9, 9, 9]));
+        let mut drawn = [0; 4];
+        for (appearance, kept) in [
+            (&every_kind, OnceLock::new()),
+            (&per_pixel, OnceLock::new()),
+            (&every_kind, OnceLock::from(other_surfaces)),
+        ] {
+            for position in [DVec3::new(0.3, -0.2, 0.4), DVec3::new(9.0, 4.0, 1.0)] {
+                let pose = Pose::new(position, DVec3::new(0.1, -0.2, 0.7));
+                let mut frame = CpuTracer::Fast.trace(&bvh, &camera, &pose);
+                let view = View::new(&camera, &pose, None, None);
+                shade_frame(
+                    CpuTracer::Fast,
+                    &bvh,
+                    appearance,
+                    &kept,
+                    view,
+                    &mut frame,
+                    Planes::COLOUR,
+                );
+                assert!(kept.get().is_some(), "the table was made or kept");
+                for (hit, colour) in frame.pixels().iter().zip(frame.colour().unwrap()) {
+                    let alone = match hit.face {
+                        NO_FACE => BACKGROUND,
+                        face => {
+                            drawn[face as usize % 4] += 1;
+                            encode(shade(CpuTracer::Fast, &bvh, appearance, hit, &Footprint::POINT))
+                        }
+                    };
+                    assert_eq!(*colour, alone, "{hit:?} from {position}");
+                }
+            }
+        }
+        assert!(drawn.iter().all(|&n| n > 100), "{drawn:?} hits of each kind");
+    }
+
+    /// The `same_rays` case end to end: env1 exported by `scene export` as a PLY (each face's
+    /// colour on its three corners) and loaded as one mesh has vertex colours, every face of
+    /// one colour, and the renderer's colour plane of it is each hit shaded alone.
+    #[test]
+    fn an_exported_scene_is_drawn_by_its_faces_bytes() {
+        let folder = tempfile::tempdir().unwrap();
+        let source = crate::trace::test_scene("env1").0;
+        source
+            .export(&folder.path().join("env1.ply"), crate::scene::ExportFormat::Ply)
+            .unwrap();
+        let ron = r#"Scene(name: "env1", objects: [Mesh(name: "env1", path: "env1.ply", colour: (200, 200, 200))])"#;
+        let scene = Scene::from_ron(ron, &folder.path().join("env1.ron")).unwrap();
+        let faces = OneColourFaces::of(&scene.surfaces);
+        assert!(!faces.of_face.is_empty() && !faces.of_face.contains(&OneColourFaces::VARYING));
+        let renderer = Renderer::new(BackendChoice::Cpu).unwrap();
+        let prepared = renderer.prepare(&scene).unwrap();
+        let camera = Camera::Equirectangular(Equirectangular { width: 96, height: 48 });
+        let pose = Pose::new(DVec3::new(1.5, 0.0, 0.4), DVec3::new(0.0, 0.0, 60f64.to_radians()));
+        let frame = renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
+        let appearance = Appearance::of(&scene);
+        for (hit, colour) in frame.pixels().iter().zip(frame.colour().unwrap()) {
+            assert!(hit.is_hit(), "inside the room");
+            let alone = encode(shade(
+                CpuTracer::Fast,
+                prepared.geometry(),
+                &appearance,
+                hit,
+                &Footprint::POINT,
+            ));
+            assert_eq!(*colour, alone, "{hit:?}");
+        }
+    }
+
+    /// A prepared scene's one-colour faces are made for a new appearance's surfaces: a frame
+    /// after `set_appearance` takes the new colours.
+    #[test]
+    fn one_colour_faces_follow_the_appearances_surfaces() {
+        let (scene, _) = crate::trace::test_scene("env1");
+        let renderer = Renderer::new(BackendChoice::Cpu).unwrap();
+        let mut prepared = renderer.prepare(&scene).unwrap();
+        let camera = Camera::Equirectangular(Equirectangular { width: 64, height: 32 });
+        let pose = Pose::new(DVec3::new(0.3, -0.2, 0.4), DVec3::ZERO);
+        let mut appearance = Appearance::of(&scene);
+        for colour in [[200, 10, 10], [10, 10, 200]] {
+            appearance.surfaces = surfaces_of_every_kind(scene.faces.len(), |_| colour);
+            for _ in 0..2 {
+                renderer.set_appearance(&mut prepared, appearance.clone()).unwrap();
+                let frame = renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
+                let drawn = frame
+                    .pixels()
+                    .iter()
+                    .zip(frame.colour().unwrap())
+                    .filter(|(hit, _)| hit.is_hit() && hit.face % 4 == 0)
+                    .filter(|(hit, _)| (hit.face as usize) < scene.faces.len() - PAST_THE_LIST);
+                let (mut hits, mut ok) = (0, 0);
+                for (_, c) in drawn {
+                    hits += 1;
+                    ok += usize::from(*c == colour);
+                }
+                assert!(hits > 0 && ok == hits, "{ok} of {hits} hits {colour:?}");
+            }
+        }
+    }
 
     /// The colour plane shaded without the linear plane (written once a pixel, misses too, with
     /// no fill before) equals, byte for byte, the one shaded beside it: lit and unlit, from
@@ -566,7 +857,15 @@ mod tests {
                 let shaded = |planes| {
                     let mut frame = traced.clone();
                     let view = View::new(&camera, &pose, None, None);
-                    shade_frame(CpuTracer::Fast, &bvh, &appearance, view, &mut frame, planes);
+                    shade_frame(
+                        CpuTracer::Fast,
+                        &bvh,
+                        &appearance,
+                        &OnceLock::new(),
+                        view,
+                        &mut frame,
+                        planes,
+                    );
                     frame.colour().expect("colour was asked for").to_vec()
                 };
                 let alone = shaded(Planes::COLOUR);
