@@ -243,7 +243,7 @@ mod tests {
     use super::wide::{LEAF, WIDTH, leaf_triangles};
     use super::*;
     use crate::scene::Face;
-    use glam::{Vec3, Vec4};
+    use glam::Vec3;
 
     /// env1 plus a bumpy grid of `2 * cells²` triangles (as `omnisim bench
     /// --synthetic-triangles` adds one, `add_height_field` in the CLI, which this crate cannot call).
@@ -393,8 +393,8 @@ mod tests {
             let count = bvh.triangles.len();
             assert!(count > 2 * cells * cells);
             // Walked from the root (above `PARALLEL_FROM` the subtrees are built apart and
-            // joined): every node and triangle reached once, each triangle and each child's
-            // boxes inside the box of the lane that leads to them, no node deeper than `depth`.
+            // joined): every node and triangle reached once, each triangle inside the decoded
+            // boxes of every lane that leads to it, no node deeper than `depth`.
             let wide = &bvh.wide;
             let mut nodes_seen = vec![0u32; wide.nodes.len()];
             let mut seen = vec![0u32; count];
@@ -405,14 +405,10 @@ mod tests {
                 assert!(depth <= wide.depth, "{cells}: node {index} {depth} levels down");
                 let node = &wide.nodes[index];
                 for (lane, &child) in node.child[..node.lanes.count_ones() as usize].iter().enumerate() {
-                    let corner = |bound: &[[Vec4; 2]; 3]| {
-                        Vec3::from_array([0, 1, 2].map(|axis| bound[axis][lane / 4][lane % 4]))
-                    };
-                    let (lo, hi) = (corner(&node.min), corner(&node.max));
-                    assert!(
-                        lo.cmpge(parent_lo).all() && hi.cmple(parent_hi).all(),
-                        "{cells}: node {index}"
-                    );
+                    // The decoded box, within every box above it (quantized boxes need not
+                    // nest: each is rounded outward on its own node's steps).
+                    let (lo, hi) = node.child_box(lane);
+                    let (lo, hi) = (Vec3::from_array(lo).max(parent_lo), Vec3::from_array(hi).min(parent_hi));
                     if child & LEAF == 0 {
                         pending.push((child as usize, depth + 1, [lo, hi]));
                         continue;
@@ -452,7 +448,7 @@ mod tests {
                     .iter()
                     .all(|&child| child & LEAF != 0);
                 assert!(
-                    node.lanes == (1 << WIDTH) - 1 || all_leaves,
+                    u32::from(node.lanes) == (1 << WIDTH) - 1 || all_leaves,
                     "{cells}: {:b}",
                     node.lanes
                 );
