@@ -38,7 +38,7 @@ const LEAF_TRIANGLES: u32 = 2;
 
 /// Eight children's boxes, quantized against the node's own box (as Embree's compressed nodes
 /// and CWBVH store them), and their entries: 96 bytes, aligned to 32 so that a node spans two
-/// cache lines (its 240 bytes of f32 boxes spanned four: the nodes were over half the walk's
+/// cache lines (its 240 bytes of f32 boxes spanned four or five: the nodes were over half the walk's
 /// first-level misses in dense scenes, docs/benchmarks.md). A plane is
 /// [`dequantized`]`(origin, step, q)`, rounded outward when built: each decoded box contains
 /// the f32 box it replaces, so the walks only ever admit more candidates than the exact boxes.
@@ -62,8 +62,10 @@ pub(crate) struct WideNode {
 const _: () = assert!(size_of::<WideNode>() == 96, "a node spans two cache lines");
 
 /// A quantized plane's value: `q` steps of `step` from `origin` in f32 (the product is exact,
-/// eight bits times a power of two, so this equals one fused multiply-add). The walks decode
-/// with these operations lane by lane, and the build checks its planes with this function.
+/// eight bits times a power of two, or +∞ at the top exponents: so one rounding, the sum's,
+/// and no fused multiply-add, which could differ where the product overflows). The walks
+/// decode with these operations lane by lane, and the build checks its planes with this
+/// function.
 #[inline(always)]
 pub(crate) fn dequantized(origin: f32, step: f32, q: u8) -> f32 {
     f32::from(q) * step + origin
@@ -100,14 +102,20 @@ impl WideNode {
 
     /// Sets the node's boxes to `boxes` (low and high corners, child i's at i; at most `WIDTH`),
     /// each quantized outward: every decoded plane is checked with [`dequantized`] itself and
-    /// stepped out until the decoded box contains the given one (boxes must be finite: a
-    /// scene's coordinates within f32's range).
+    /// stepped out until the decoded box contains the given one. Planes beyond f32's finite
+    /// range (a scene coordinate past ±3.4e38) are taken as ±`f32::MAX`: an infinite origin
+    /// would decode to NaN planes, which the slab tests drop; every f32 point still lies inside.
     pub(crate) fn set_boxes(&mut self, boxes: &[([f32; 3], [f32; 3])]) {
         debug_assert!(!boxes.is_empty() && boxes.len() <= WIDTH);
         self.lanes = ((1u32 << boxes.len()) - 1) as u8;
+        let finite = |plane: f32| plane.clamp(-f32::MAX, f32::MAX);
+        let boxes: SmallVec<[([f32; 3], [f32; 3]); WIDTH]> = boxes
+            .iter()
+            .map(|(low, high)| (low.map(finite), high.map(finite)))
+            .collect();
         for axis in 0..3 {
             let (mut origin, mut top) = (f32::INFINITY, f32::NEG_INFINITY);
-            for (low, high) in boxes {
+            for (low, high) in &boxes {
                 (origin, top) = (origin.min(low[axis]), top.max(high[axis]));
             }
             let exponent = step_exponent(origin, top);
@@ -138,9 +146,8 @@ impl WideNode {
                 self.high[axis][lane] = q;
             }
             // Lanes past the children: empty boxes at the origin (never entered: `lanes`).
-            for lane in boxes.len()..WIDTH {
-                (self.low[axis][lane], self.high[axis][lane]) = (0, 0);
-            }
+            self.low[axis][boxes.len()..].fill(0);
+            self.high[axis][boxes.len()..].fill(0);
         }
     }
 }
@@ -555,6 +562,26 @@ mod tests {
         check(&[([-huge, -huge, 0.0], [huge, huge, 0.0])], false);
         check(&[([-huge, 1.0, -1.0], [0.0, huge, 1.0]), ([0.0; 3], [1.0; 3])], false);
         check(&[([f32::MIN_POSITIVE; 3], [2.0 * f32::MIN_POSITIVE; 3])], true);
+        // Infinite planes (a coordinate past f32's range) beside finite boxes: no NaN plane, and
+        // the finite boxes still contained (the infinite ones within ±f32::MAX).
+        let infinite = [
+            ([f32::NEG_INFINITY, 1.0, -2.0], [5.0, 2.0, f32::INFINITY]),
+            ([1.0, 0.5, 0.0], [2.0, 3.0, 1.0]),
+        ];
+        let mut node = empty_node();
+        node.set_boxes(&infinite);
+        for lane in 0..2 {
+            let (low, high) = node.child_box(lane);
+            assert!(
+                low.iter().chain(&high).all(|plane| !plane.is_nan()),
+                "lane {lane}: {low:?} {high:?}"
+            );
+        }
+        check(&infinite[1..], true);
+        let (low, high) = node.child_box(1);
+        assert!((0..3).all(|axis| low[axis] <= infinite[1].0[axis] && high[axis] >= infinite[1].1[axis]));
+        let (low, high) = node.child_box(0);
+        assert!(low[0] == -f32::MAX && high[2] >= f32::MAX, "{low:?} {high:?}");
     }
 
     /// Triangles below each BVH2 node.

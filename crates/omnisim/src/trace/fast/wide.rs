@@ -7,7 +7,7 @@ use glam::{DVec3, Vec4};
 use super::groups::{RayLanes, filter};
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
-use crate::accel::wide::{LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode, dequantized, leaf_triangles};
+use crate::accel::wide::{LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode, leaf_triangles};
 use crate::trace::counts::Counter;
 use crate::trace::triangle::Visit;
 
@@ -444,7 +444,7 @@ impl WideBvh {
                     hits &= hits - 1;
                     let child = node.child[lane];
                     let child_mask = if small & (1 << lane) != 0 {
-                        rays_entering(rays, t_hi, node, lane, mask)
+                        rays_entering(rays, t_hi, &planes, lane, mask)
                     } else {
                         mask
                     };
@@ -612,14 +612,20 @@ fn small_boxes<W: Wide>(planes: &[(W, W); 3], near: W, rays: &PacketRays<W>) -> 
 /// own slab test (the single-ray walk's operations, eight rays at a time; the rays share their
 /// directions' signs, so the near and far planes are the same for all).
 #[inline(always)]
-fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &WideNode, lane: usize, mask: u64) -> u64 {
+fn rays_entering<W: Wide>(
+    rays: &PacketRays<W>,
+    t_hi: &[f32; PACKET],
+    planes: &[(W, W); 3],
+    lane: usize,
+    mask: u64,
+) -> u64 {
     debug_assert!(rays.bounds.same_signs());
     // Written out, not `array::map` nor a closure: both were compiled outside the AVX2 walk,
     // a call per axis of every small box.
     let planes = [
-        box_planes::<W>(node, 0, rays.negative[0], lane),
-        box_planes::<W>(node, 1, rays.negative[1], lane),
-        box_planes::<W>(node, 2, rays.negative[2], lane),
+        box_planes(planes[0], rays.negative[0], lane),
+        box_planes(planes[1], rays.negative[1], lane),
+        box_planes(planes[2], rays.negative[2], lane),
     ];
     // Every batch is tested, without a branch on whether it holds rays of `mask` (almost all
     // do: the entry holds more than `FEW_RAYS` rays): the loop unrolls, its addresses constant.
@@ -656,9 +662,9 @@ fn enter_interval<W: Wide>(planes: &[(W, W); 3], lanes: u8, bounds: &PacketBound
     debug_assert!(bounds.same_signs());
     let mut near = W::splat(0.0);
     let mut exit = W::splat(far);
-    for (axis, &planes) in planes.iter().enumerate() {
+    for (axis, &pair) in planes.iter().enumerate() {
         let negative = bounds.inverse_max[axis] < 0.0;
-        let (near_plane, far_plane) = slab_planes(planes, negative);
+        let (near_plane, far_plane) = slab_planes(pair, negative);
         let (inverse_min, inverse_max) = (W::splat(bounds.inverse_min[axis]), W::splat(bounds.inverse_max[axis]));
         let (origin_min, origin_max) = (W::splat(bounds.origin_min[axis]), W::splat(bounds.origin_max[axis]));
         // The plane's smallest and largest (plane − origin) over the packet: the one whose
@@ -675,7 +681,8 @@ fn enter_interval<W: Wide>(planes: &[(W, W); 3], lanes: u8, bounds: &PacketBound
     (near.not_greater(exit) & u32::from(lanes), near)
 }
 
-/// A node's eight low and high planes on each axis, decoded as [`dequantized`] decodes them
+/// A node's eight low and high planes on each axis, decoded as
+/// [`dequantized`](crate::accel::wide::dequantized) decodes them
 /// (the same operations lane by lane, so the same values): eight bytes widened and converted
 /// to f32, times the axis's step, plus its origin.
 #[inline(always)]
@@ -705,12 +712,9 @@ fn axis_planes<W: Wide>(node: &WideNode, axis: usize) -> (W, W) {
 fn enter<W: Wide>(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
     let mut near = W::splat(0.0);
     let mut far = W::splat(t_hi);
-    // A loop over the axes, not an iterator chain (closures compile outside the AVX2 walk).
-    let planes = decoded_planes::<W>(node);
-    for axis in 0..3 {
+    for (axis, &(low, high)) in decoded_planes::<W>(node).iter().enumerate() {
         let origin = W::splat(ray.lanes.origin[axis].x);
         let inverse = W::splat(ray.inv_direction[axis].x);
-        let (low, high) = planes[axis];
         let t1 = (low - origin) * inverse;
         let t2 = (high - origin) * inverse;
         near = near.max(t1.min(t2));
@@ -730,13 +734,11 @@ fn enter_lanes<const AVX: bool>(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u
     enter::<crate::trace::fast::lanes::Lanes8>(node, ray, t_hi)
 }
 
-/// Box `lane`'s near and far planes of [`slab_planes`] (decoded as [`dequantized`] decodes
-/// them), in every lane of `W`.
+/// Box `lane`'s near and far planes of [`slab_planes`] (of an axis's decoded planes), in
+/// every lane of `W`.
 #[inline(always)]
-fn box_planes<W: Wide>(node: &WideNode, axis: usize, negative: bool, lane: usize) -> (W, W) {
-    let (step, origin) = (node.step(axis), node.origin[axis]);
-    let decoded = |planes: &[[u8; WIDTH]; 3]| W::splat(dequantized(origin, step, planes[axis][lane]));
-    slab_planes((decoded(&node.low), decoded(&node.high)), negative)
+fn box_planes<W: Wide>((low, high): (W, W), negative: bool, lane: usize) -> (W, W) {
+    slab_planes((W::splat(low.lane(lane)), W::splat(high.lane(lane))), negative)
 }
 
 /// An axis's near and far planes, of its (low, high) planes, for rays whose directions there
@@ -833,7 +835,7 @@ mod tests {
     /// The single-ray box test on a quantized node admits every box the same test admits on
     /// the f32 boxes the node was built from, entered no later; and on AVX lanes it answers
     /// bit for bit as on portable ones. Random boxes (flat, thin, far; a 1 km offset), rays
-    /// from inside and outside them with zero components, random bounds.
+    /// from inside, outside and on their planes, some with a zero component, random bounds.
     #[test]
     fn decoded_boxes_admit_every_ray_the_f32_boxes_admit() {
         #[cfg(target_arch = "x86_64")]
@@ -866,7 +868,7 @@ mod tests {
                 direction[rng.random_range(0..3)] = 0.0;
             }
             let origin = if rng.random_bool(0.3) {
-                // On a box's corner plane (a zero direction there is the NaN case).
+                // On a box's corner planes (with a zero direction component: a ray along a plane).
                 let (low, _) = boxes[0];
                 DVec3::from_array(low.map(f64::from))
             } else {
@@ -905,6 +907,60 @@ mod tests {
             }
         }
         assert!(admitted > 5_000 && extra > 0, "{admitted} admitted, {extra} more");
+    }
+
+    /// The walks' decoding is the build's: every lane of [`decoded_planes`], portable and (where
+    /// the CPU has AVX2) AVX, is bit for bit the plane [`WideNode::child_box`] decodes, which
+    /// the build checked. Nodes tiny to huge, near and far (1 km, 10^30), flat, and spanning
+    /// all of f32 (where the top step's product overflows to +∞).
+    #[test]
+    fn the_walks_decode_planes_as_the_build_checked_them() {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn decoded_avx(node: &WideNode) -> [[[f32; 8]; 2]; 3] {
+            decoded_planes::<crate::trace::fast::lanes::Avx8>(node).map(|(low, high)| [low.to_array(), high.to_array()])
+        }
+        let mut rng = StdRng::seed_from_u64(29);
+        let huge = f32::MAX;
+        for round in 0..5_000 {
+            let boxes: Vec<([f32; 3], [f32; 3])> = if round == 0 {
+                vec![([-huge, -huge, 0.0], [huge, huge, 0.0]), ([0.0; 3], [1.0; 3])]
+            } else {
+                let offset = [0.0, 1.0e3, -3.0e4, 1.0e30][rng.random_range(0..4)];
+                let size = [0.0, 1e-30, 1e-3, 1.0, 1e20, 1e36][rng.random_range(0..6)];
+                (0..rng.random_range(1..=WIDTH))
+                    .map(|_| {
+                        let low: [f32; 3] =
+                            std::array::from_fn(|_| (offset + rng.random_range(-1.0..1.0) * size) as f32);
+                        let high = std::array::from_fn(|axis| {
+                            ((f64::from(low[axis]) + rng.random_range(0.0..1.0) * size) as f32).max(low[axis])
+                        });
+                        (low, high)
+                    })
+                    .collect()
+            };
+            let mut node = empty_node();
+            node.set_boxes(&boxes);
+            let expected: [[[u32; 8]; 2]; 3] = std::array::from_fn(|axis| {
+                let corner = |side: usize| {
+                    std::array::from_fn(|lane| {
+                        let (low, high) = node.child_box(lane);
+                        [low, high][side][axis].to_bits()
+                    })
+                };
+                [corner(0), corner(1)]
+            });
+            let bits = |planes: [[[f32; 8]; 2]; 3]| planes.map(|sides| sides.map(|lanes| lanes.map(f32::to_bits)));
+            let portable = decoded_planes::<crate::trace::fast::lanes::Lanes8>(&node)
+                .map(|(low, high)| [low.to_array(), high.to_array()]);
+            assert_eq!(bits(portable), expected, "round {round}: portable lanes");
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: called only where the CPU has AVX2.
+                let avx = unsafe { decoded_avx(&node) };
+                assert_eq!(bits(avx), expected, "round {round}: AVX lanes");
+            }
+        }
     }
 
     /// The paired filter's promise: each of its eight lanes answers as the four-lane filter of
