@@ -304,10 +304,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// Bytes of the BVH built for each face of a mesh, after the scene is loaded: what
-/// `SceneBvh::heap_bytes` (`omnisim bench`'s `bvh_bytes`) measures, 187–194 a triangle from 10k
-/// to 1 M with triangle groups dense in leaf order and quantized nodes (docs/benchmarks.md,
-/// 2026-11-27 night (walk)), rounded up.
-const BVH_BYTES_PER_FACE: u64 = 200;
+/// `SceneBvh::heap_bytes` (`omnisim bench`'s `bvh_bytes`) measures, 210–221 a triangle from 10k
+/// to 1 M with triangle groups dense in leaf order (docs/benchmarks.md, 2026-11-27 evening
+/// (walk)), rounded up.
+const BVH_BYTES_PER_FACE: u64 = 225;
 
 /// Refuses, before the output folder is touched, a render whose frames and writers (and the
 /// scene's BVH, still to be built) would not fit the memory this process may use

@@ -1,10 +1,9 @@
 //! The 8-wide BVH the fast tracer walks (`trace/fast/wide.rs`), collapsed from the BVH2.
 //!
-//! Each node holds the boxes of up to eight children as eight-bit planes against the node's own
-//! box (one lane per child), decoded in the walk into eight f32 lanes per plane, so a node visit
-//! is one eight-lane slab test with AVX. A child is an inner node or a leaf of one or more
-//! [`TriangleGroup`]s. The boxes are the BVH2's, padded as `accel/mod.rs` pads them, then
-//! rounded outward, so culling is at least as conservative as the reference tracer's.
+//! Each node holds the boxes of up to eight children as two `Vec4`s per coordinate (one lane per
+//! child), so a node visit is two four-lane slab tests (one eight-lane test with AVX). A child
+//! is an inner node or a leaf of one or more [`TriangleGroup`]s. The boxes are the BVH2's,
+//! padded as `accel/mod.rs` pads them, so culling is as conservative as the reference tracer's.
 
 use glam::{DVec3, Vec4};
 use obvhs::bvh2::Bvh2;
@@ -21,7 +20,7 @@ pub(crate) const FIRST_TRIANGLE: u32 = (1 << 29) - 1;
 pub(crate) const TRIANGLE_COUNT_SHIFT: u32 = 29;
 /// Triangles a leaf may hold (BVH2 leaves of up to four; `accel/mod.rs` makes at most two): so
 /// a leaf's triangles lie in one group or two adjacent ones, which the walks rely on.
-pub(crate) const MAX_LEAF_TRIANGLES: usize = 1 << (31 - TRIANGLE_COUNT_SHIFT);
+pub(super) const MAX_LEAF_TRIANGLES: usize = 1 << (31 - TRIANGLE_COUNT_SHIFT);
 
 /// Children per node: `HALVES` four-lane vectors per box coordinate. Eight children (two
 /// halves) against four: room −6 %, clutter −1 % instructions (callgrind), 5–40 % faster on
@@ -36,145 +35,15 @@ pub(crate) const WIDTH: usize = 4 * HALVES;
 /// (docs/benchmarks.md, "2026-11-26 evening (small)").
 const LEAF_TRIANGLES: u32 = 2;
 
-/// Eight children's boxes, quantized against the node's own box (as Embree's compressed nodes
-/// and CWBVH store them), and their entries: 96 bytes, aligned to 32 so that a node spans two
-/// cache lines (its 240 bytes of f32 boxes spanned four or five: the nodes were over half the walk's
-/// first-level misses in dense scenes, docs/benchmarks.md). A plane is
-/// [`dequantized`]`(origin, step, q)`, rounded outward when built: each decoded box contains
-/// the f32 box it replaces, so the walks only ever admit more candidates than the exact boxes.
+/// Eight children's boxes, lane i = child i.
 #[derive(Debug, Clone, Copy)]
-#[repr(C, align(32))]
 pub(crate) struct WideNode {
-    /// The low corner of the node's box (the least of its children's low planes), per axis.
-    pub(crate) origin: [f32; 3],
-    /// The planes' step per axis as an IEEE single's biased exponent: 2^(e − 127).
-    pub(crate) step_exponent: [u8; 3],
-    /// Bit i set where child i exists.
-    pub(crate) lanes: u8,
-    /// Child i's low plane on each axis, in steps from `origin`.
-    pub(crate) low: [[u8; WIDTH]; 3],
-    /// Child i's high plane on each axis, in steps from `origin`.
-    pub(crate) high: [[u8; WIDTH]; 3],
+    pub(crate) min: [[Vec4; HALVES]; 3],
+    pub(crate) max: [[Vec4; HALVES]; 3],
     /// Node index, or `LEAF` | (triangle count − 1) << `TRIANGLE_COUNT_SHIFT` | first triangle.
     pub(crate) child: [u32; WIDTH],
-}
-
-const _: () = assert!(size_of::<WideNode>() == 96, "a node spans two cache lines");
-
-/// A quantized plane's value: `q` steps of `step` from `origin` in f32 (the product is exact,
-/// eight bits times a power of two, or +∞ at the top exponents: so one rounding, the sum's,
-/// and no fused multiply-add, which could differ where the product overflows). The walks
-/// decode with these operations lane by lane, and the build checks its planes with this
-/// function.
-#[inline(always)]
-pub(crate) fn dequantized(origin: f32, step: f32, q: u8) -> f32 {
-    f32::from(q) * step + origin
-}
-
-/// The smallest and largest biased exponents of a node's step: normal powers of two, so that
-/// every product `q × step` (q ≤ 255) is exact or, at the very top, overflows to +∞ (still an
-/// outward plane).
-const STEP_EXPONENTS: std::ops::RangeInclusive<u8> = 1..=254;
-
-/// The step of biased exponent `exponent`: 2^(exponent − 127).
-#[inline(always)]
-pub(crate) fn step_of(exponent: u8) -> f32 {
-    f32::from_bits(u32::from(exponent) << 23)
-}
-
-impl WideNode {
-    /// Axis `axis`'s step (the planes' quantum).
-    #[inline(always)]
-    pub(crate) fn step(&self, axis: usize) -> f32 {
-        step_of(self.step_exponent[axis])
-    }
-
-    /// Child `lane`'s decoded box: its low and high corners.
-    pub(crate) fn child_box(&self, lane: usize) -> ([f32; 3], [f32; 3]) {
-        let plane = |planes: &[[u8; WIDTH]; 3], axis: usize| {
-            dequantized(self.origin[axis], self.step(axis), planes[axis][lane])
-        };
-        (
-            std::array::from_fn(|axis| plane(&self.low, axis)),
-            std::array::from_fn(|axis| plane(&self.high, axis)),
-        )
-    }
-
-    /// Sets the node's boxes to `boxes` (low and high corners, child i's at i; at most `WIDTH`),
-    /// each quantized outward: every decoded plane is checked with [`dequantized`] itself and
-    /// stepped out until the decoded box contains the given one. Planes beyond f32's finite
-    /// range (a scene coordinate past ±3.4e38) are taken as ±`f32::MAX`: an infinite origin
-    /// would decode to NaN planes, which the slab tests drop; every f32 point still lies inside.
-    pub(crate) fn set_boxes(&mut self, boxes: &[([f32; 3], [f32; 3])]) {
-        debug_assert!(!boxes.is_empty() && boxes.len() <= WIDTH);
-        self.lanes = ((1u32 << boxes.len()) - 1) as u8;
-        let finite = |plane: f32| plane.clamp(-f32::MAX, f32::MAX);
-        let boxes: SmallVec<[([f32; 3], [f32; 3]); WIDTH]> = boxes
-            .iter()
-            .map(|(low, high)| (low.map(finite), high.map(finite)))
-            .collect();
-        for axis in 0..3 {
-            let (mut origin, mut top) = (f32::INFINITY, f32::NEG_INFINITY);
-            for (low, high) in &boxes {
-                (origin, top) = (origin.min(low[axis]), top.max(high[axis]));
-            }
-            let exponent = step_exponent(origin, top);
-            let step = step_of(exponent);
-            self.origin[axis] = origin;
-            self.step_exponent[axis] = exponent;
-            let decoded = |q: u8| dequantized(origin, step, q);
-            // First guesses in steps (`as u8` saturates, NaN to 0), then the checks.
-            let steps = |plane: f32| (plane - origin) / step;
-            for (lane, (low, high)) in boxes.iter().enumerate() {
-                // The highest q whose plane is at or below the box's low plane.
-                let mut q = steps(low[axis]) as u8;
-                while q < u8::MAX && decoded(q + 1) <= low[axis] {
-                    q += 1;
-                }
-                while q > 0 && decoded(q) > low[axis] {
-                    q -= 1;
-                }
-                self.low[axis][lane] = q;
-                // The lowest q whose plane is at or above the box's high plane.
-                let mut q = steps(high[axis]) as u8;
-                while q > 0 && decoded(q - 1) >= high[axis] {
-                    q -= 1;
-                }
-                while q < u8::MAX && decoded(q) < high[axis] {
-                    q += 1;
-                }
-                self.high[axis][lane] = q;
-            }
-            // Lanes past the children: empty boxes at the origin (never entered: `lanes`).
-            self.low[axis][boxes.len()..].fill(0);
-            self.high[axis][boxes.len()..].fill(0);
-        }
-    }
-}
-
-/// The smallest step exponent (biased) whose 255 steps from `origin` reach `top`, checked in
-/// [`dequantized`]'s arithmetic (the least allowed where `top` is `origin`: a flat box).
-fn step_exponent(origin: f32, top: f32) -> u8 {
-    // No finer than the f32 spacing at the box's largest coordinate (finer steps round to the
-    // same planes there): so that each step moves a decoded plane, and the build's checks step
-    // a plane at most twice from its first guess (a tiny box 1 km out took up to 255).
-    let spacing = ((origin.abs().max(top.abs()).to_bits() >> 23) as u8).saturating_sub(23);
-    let (lowest, highest) = (spacing.max(*STEP_EXPONENTS.start()), *STEP_EXPONENTS.end());
-    let reaches = |exponent: u8| dequantized(origin, step_of(exponent), u8::MAX) >= top;
-    // A first guess from the span's own exponent (one above its 255th part's), then the checks.
-    let span = top - origin;
-    let mut exponent = if span > 0.0 {
-        ((span / 255.0).to_bits() >> 23).clamp(u32::from(lowest), u32::from(highest) - 1) as u8 + 1
-    } else {
-        lowest
-    };
-    while exponent > lowest && reaches(exponent - 1) {
-        exponent -= 1;
-    }
-    while exponent < highest && !reaches(exponent) {
-        exponent += 1;
-    }
-    exponent
+    /// Bit i set where child i exists.
+    pub(crate) lanes: u32,
 }
 
 /// The wide BVH and its triangles, four to a group in leaf order (group k holds triangles
@@ -326,12 +195,10 @@ pub(crate) fn leaf_triangles(entry: u32) -> (usize, usize) {
 
 pub(crate) fn empty_node() -> WideNode {
     WideNode {
-        origin: [0.0; 3],
-        step_exponent: [*STEP_EXPONENTS.start(); 3],
-        lanes: 0,
-        low: [[0; WIDTH]; 3],
-        high: [[0; WIDTH]; 3],
+        min: [[Vec4::ZERO; HALVES]; 3],
+        max: [[Vec4::ZERO; HALVES]; 3],
         child: [0; WIDTH],
+        lanes: 0,
     }
 }
 
@@ -407,12 +274,13 @@ impl Builder<'_> {
     ) {
         part.depth = part.depth.max(depth);
         let mut node = empty_node();
-        let boxes: SmallVec<[([f32; 3], [f32; 3]); WIDTH]> = children
-            .iter()
-            .map(|&index| (self.nodes[index].min.to_array(), self.nodes[index].max.to_array()))
-            .collect();
-        node.set_boxes(&boxes);
         for (lane, &index) in children.iter().enumerate() {
+            let source = &self.nodes[index];
+            for axis in 0..3 {
+                node.min[axis][lane / 4][lane % 4] = source.min[axis];
+                node.max[axis][lane / 4][lane % 4] = source.max[axis];
+            }
+            node.lanes |= 1 << lane;
             if openable_lanes & (1 << lane) == 0 {
                 let (first, count) = self
                     .triangle_run(index)
@@ -501,88 +369,6 @@ mod tests {
     use super::*;
     use crate::accel::SceneBvh;
     use crate::accel::tests::grid_scene;
-    use rand::{Rng, SeedableRng, rngs::StdRng};
-
-    /// Every decoded box contains the f32 box it replaces, and each of its planes lies within
-    /// one step (and the f32 rounding there) of the box's: boxes flat (a plane on both sides),
-    /// one ulp thick, tiny far from the origin (a 1 km offset and beyond), huge, across the
-    /// exponent range, and boxes spanning nearly all of f32 (a step that overflows to +∞ at
-    /// the top, still outward).
-    #[test]
-    fn quantized_boxes_contain_their_boxes() {
-        let mut rng = StdRng::seed_from_u64(5);
-        let check = |boxes: &[([f32; 3], [f32; 3])], tight: bool| {
-            let mut node = empty_node();
-            node.set_boxes(boxes);
-            assert_eq!(u32::from(node.lanes), (1 << boxes.len()) - 1);
-            for (lane, &(low, high)) in boxes.iter().enumerate() {
-                let (decoded_low, decoded_high) = node.child_box(lane);
-                for axis in 0..3 {
-                    let (l, h) = (decoded_low[axis], decoded_high[axis]);
-                    assert!(
-                        l <= low[axis] && h >= high[axis],
-                        "{boxes:?} lane {lane} axis {axis}: {l} {h}"
-                    );
-                    if tight {
-                        // The f32 spacing at the largest value involved, decoded ones included.
-                        let largest = [node.origin[axis], low[axis], high[axis], l, h]
-                            .into_iter()
-                            .fold(0.0f32, |m, v| m.max(v.abs()));
-                        let rounding = f64::from(largest) * f64::from(f32::EPSILON);
-                        let slack = f64::from(node.step(axis)) + rounding;
-                        assert!(
-                            f64::from(low[axis]) - f64::from(l) <= slack,
-                            "{boxes:?} lane {lane}: low {l}"
-                        );
-                        assert!(
-                            f64::from(h) - f64::from(high[axis]) <= slack,
-                            "{boxes:?} lane {lane}: high {h}"
-                        );
-                    }
-                }
-            }
-        };
-        for _ in 0..20_000 {
-            let offset = [0.0, 1.0e3, -3.0e4, 1.0e6, 1.0e30][rng.random_range(0..5)];
-            let size = [0.0, 1e-30, 1e-6, 1e-3, 1.0, 1e3, 1e20, 1e36][rng.random_range(0..8)];
-            let boxes: Vec<([f32; 3], [f32; 3])> = (0..rng.random_range(1..=WIDTH))
-                .map(|_| {
-                    let low: [f32; 3] = std::array::from_fn(|_| (offset + rng.random_range(-1.0..1.0) * size) as f32);
-                    let high = std::array::from_fn(|axis| match rng.random_range(0..4) {
-                        0 => low[axis],
-                        1 => low[axis].next_up(),
-                        _ => ((f64::from(low[axis]) + rng.random_range(0.0..1.0) * size) as f32).max(low[axis]),
-                    });
-                    (low, high)
-                })
-                .collect();
-            check(&boxes, true);
-        }
-        let huge = f32::MAX;
-        check(&[([-huge, -huge, 0.0], [huge, huge, 0.0])], false);
-        check(&[([-huge, 1.0, -1.0], [0.0, huge, 1.0]), ([0.0; 3], [1.0; 3])], false);
-        check(&[([f32::MIN_POSITIVE; 3], [2.0 * f32::MIN_POSITIVE; 3])], true);
-        // Infinite planes (a coordinate past f32's range) beside finite boxes: no NaN plane, and
-        // the finite boxes still contained (the infinite ones within ±f32::MAX).
-        let infinite = [
-            ([f32::NEG_INFINITY, 1.0, -2.0], [5.0, 2.0, f32::INFINITY]),
-            ([1.0, 0.5, 0.0], [2.0, 3.0, 1.0]),
-        ];
-        let mut node = empty_node();
-        node.set_boxes(&infinite);
-        for lane in 0..2 {
-            let (low, high) = node.child_box(lane);
-            assert!(
-                low.iter().chain(&high).all(|plane| !plane.is_nan()),
-                "lane {lane}: {low:?} {high:?}"
-            );
-        }
-        check(&infinite[1..], true);
-        let (low, high) = node.child_box(1);
-        assert!((0..3).all(|axis| low[axis] <= infinite[1].0[axis] && high[axis] >= infinite[1].1[axis]));
-        let (low, high) = node.child_box(0);
-        assert!(low[0] == -f32::MAX && high[2] >= f32::MAX, "{low:?} {high:?}");
-    }
 
     /// Triangles below each BVH2 node.
     fn subtree_triangles(nodes: &[Bvh2Node]) -> Vec<u32> {

@@ -37,16 +37,16 @@ pub(crate) fn gpu_bvh(bvh: &SceneBvh) -> (Vec<GpuWideNode>, Vec<Triangle>) {
         .iter()
         .map(|node| {
             let mut out = GpuWideNode {
-                lanes: u32::from(node.lanes),
+                lanes: node.lanes,
                 ..GpuWideNode::zeroed()
             };
-            for lane in (0..WIDTH).filter(|lane| node.lanes & (1 << lane) != 0) {
-                // The boxes the CPU walks decode (each contains the BVH2's f32 box).
-                let (low, high) = node.child_box(lane);
-                for axis in 0..3 {
-                    out.min[HALVES * axis + lane / 4][lane % 4] = low[axis];
-                    out.max[HALVES * axis + lane / 4][lane % 4] = high[axis];
+            for axis in 0..3 {
+                for half in 0..HALVES {
+                    out.min[HALVES * axis + half] = node.min[axis][half].to_array();
+                    out.max[HALVES * axis + half] = node.max[axis][half].to_array();
                 }
+            }
+            for lane in (0..WIDTH).filter(|lane| node.lanes & (1 << lane) != 0) {
                 let child = node.child[lane];
                 out.child[lane] = if child & LEAF == 0 {
                     child
@@ -100,13 +100,18 @@ mod tests {
             assert_eq!(triangles.len(), bvh.triangles.len(), "{name}");
             let mut seen = vec![0; bvh.triangles.len()];
             for (gpu, cpu) in nodes.iter().zip(&bvh.wide.nodes) {
-                assert_eq!(gpu.lanes, u32::from(cpu.lanes));
+                assert_eq!(gpu.lanes, cpu.lanes);
                 for lane in (0..WIDTH).filter(|lane| cpu.lanes & (1 << lane) != 0) {
                     // bvh.wgsl: min[2·axis + half][k] for child 4·half + k.
-                    let (low, high) = cpu.child_box(lane);
                     for axis in 0..3 {
-                        assert_eq!(gpu.min[2 * axis + lane / 4][lane % 4], low[axis]);
-                        assert_eq!(gpu.max[2 * axis + lane / 4][lane % 4], high[axis]);
+                        assert_eq!(
+                            gpu.min[2 * axis + lane / 4][lane % 4],
+                            cpu.min[axis][lane / 4][lane % 4]
+                        );
+                        assert_eq!(
+                            gpu.max[2 * axis + lane / 4][lane % 4],
+                            cpu.max[axis][lane / 4][lane % 4]
+                        );
                     }
                     let (gpu_child, cpu_child) = (gpu.child[lane], cpu.child[lane]);
                     assert_eq!(gpu_child & GPU_LEAF, cpu_child & LEAF);

@@ -155,8 +155,6 @@ pub(crate) trait Wide: Lanes {
     /// The eight values of two `Vec4`s (a wide node's coordinate, `accel/wide.rs`), lanes
     /// 0–3 then 4–7.
     fn from_halves(halves: &[Vec4; 2]) -> Self;
-    /// Eight bytes as f32 lanes (exact: a wide node's quantized planes, `accel/wide.rs`).
-    fn from_bytes(bytes: &[u8; 8]) -> Self;
     /// Lane `k` (below eight), read where the lanes lie: a packet's rays are in memory, and a
     /// lane read from there is one load (a single ray taken from the packet: `rays.rs`).
     fn lane(&self, k: usize) -> f32;
@@ -177,14 +175,6 @@ impl Wide for Lanes8 {
     #[inline(always)]
     fn from_halves(halves: &[Vec4; 2]) -> Self {
         Self(*halves)
-    }
-    #[inline(always)]
-    fn from_bytes(bytes: &[u8; 8]) -> Self {
-        let lane = |k: usize| f32::from(bytes[k]);
-        Self([
-            Vec4::new(lane(0), lane(1), lane(2), lane(3)),
-            Vec4::new(lane(4), lane(5), lane(6), lane(7)),
-        ])
     }
     #[inline(always)]
     fn lane(&self, k: usize) -> f32 {
@@ -219,16 +209,14 @@ mod avx {
     //! run only where `use_avx2` detected all three); every method is
     //! `#[inline(always)]`, so its intrinsics are compiled into such a function (in tests too:
     //! AVX2 test helpers are `#[target_feature]` functions called after the same detection).
-    //! Loads read exactly eight f32s from slices checked to hold them or from two `Vec4`s,
-    //! or eight bytes from an `[u8; 8]`;
+    //! Loads read exactly eight f32s from slices checked to hold them or from two `Vec4`s;
     //! the store (`to_array`) writes an `[f32; 8]`; `lane` reads one of the register's own.
 
     use std::arch::x86_64::{
-        __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm_loadl_epi64, _mm256_add_ps, _mm256_and_ps,
-        _mm256_and_si256, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32,
-        _mm256_cvtepi32_ps, _mm256_cvtepu8_epi32, _mm256_div_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps,
-        _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32,
-        _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
+        __m256, _CMP_GT_OQ, _CMP_LE_OQ, _CMP_LT_OQ, _CMP_UNORD_Q, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256,
+        _mm256_andnot_ps, _mm256_blendv_ps, _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_div_ps,
+        _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_or_ps,
+        _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_epi32, _mm256_storeu_ps, _mm256_sub_ps, _mm256_xor_ps,
     };
     use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -308,11 +296,6 @@ mod avx {
             // Two `Vec4`s are 32 contiguous bytes (16 each, no padding): checked here.
             const { assert!(size_of::<[Vec4; 2]>() == 32) };
             Self(unsafe { _mm256_loadu_ps(halves.as_ptr().cast::<f32>()) })
-        }
-        #[inline(always)]
-        fn from_bytes(bytes: &[u8; 8]) -> Self {
-            // One eight-byte load, widened to eight i32 lanes, converted (exactly) to f32.
-            Self(unsafe { _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(bytes.as_ptr().cast()))) })
         }
         #[inline(always)]
         fn lane(&self, k: usize) -> f32 {

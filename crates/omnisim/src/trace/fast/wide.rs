@@ -7,7 +7,7 @@ use glam::{DVec3, Vec4};
 use super::groups::{RayLanes, filter};
 use super::lanes::Wide;
 use super::rays::{BATCHES, LaneRay, PacketBounds, PacketRays};
-use crate::accel::wide::{LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode, leaf_triangles};
+use crate::accel::wide::{HALVES, LEAF, TriangleGroup, TriangleLanes, WIDTH, WideBvh, WideNode, leaf_triangles};
 use crate::trace::counts::Counter;
 use crate::trace::triangle::Visit;
 
@@ -78,10 +78,24 @@ impl WideBvh {
                         let (next, next_enter) = stack[len - 1];
                         if next & LEAF != 0 && next_enter <= t_hi {
                             let (other, other_count) = leaf_triangles(next);
-                            if let Some(window) = pair_window((first, count), (other, other_count)) {
-                                (lower, upper, own) = (window.groups[0], window.groups[1], window.own);
+                            let (other_low, other_run) = leaf_lanes(other, other_count);
+                            let other_upper = last_group(other_low, other_run);
+                            let (below, above) = (lower.min(other_low), upper.max(other_upper));
+                            let window = if above - below <= 1 {
+                                Some((below, above))
+                            } else if lower == upper && other_low == other_upper {
+                                Some((lower, other_low))
+                            } else {
+                                None
+                            };
+                            if let Some(window) = window {
+                                (lower, upper) = window;
+                                if lower != low {
+                                    own <<= 4;
+                                }
+                                let lanes = if other_low == lower { other_run } else { other_run << 4 };
                                 len -= 1;
-                                partner = Some((window.partner, next_enter));
+                                partner = Some((lanes, next_enter));
                                 prefetch_corners(corners, other, other + other_count);
                             }
                         }
@@ -132,8 +146,12 @@ impl WideBvh {
                     }
                 } else {
                     let node = &self.nodes[entry as usize];
-                    counter.node_tests(u32::from(node.lanes));
-                    let (hits, near) = enter_lanes::<AVX>(node, ray, t_hi);
+                    counter.node_tests(node.lanes);
+                    let (hits, near) = if AVX {
+                        enter_avx(node, ray, t_hi)
+                    } else {
+                        enter(node, ray, t_hi)
+                    };
                     if hits != 0 {
                         // The nearest child entered is visited next without a push. One or two
                         // children (most nodes of a single ray's walk) are ordered by one compare,
@@ -180,46 +198,6 @@ fn leaf_lanes(first: usize, count: usize) -> (usize, u32) {
 #[inline(always)]
 fn last_group(low: usize, run: u32) -> usize {
     if run > 0xf { low + 1 } else { low }
-}
-
-/// Two leaves' triangles in one eight-lane test ([`pair_window`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct PairWindow {
-    /// The groups in lanes 0–3 and 4–7 (the same group twice where one holds both leaves).
-    groups: [usize; 2],
-    /// The leaf's own lanes (lane i < 4: triangle 4 × groups[0] + i; else 4 × groups[1] + i − 4).
-    own: u32,
-    /// The partner leaf's lanes, likewise.
-    partner: u32,
-}
-
-/// Where the single-ray walk's leaf (first triangle and count, leaf order) and the next leaf
-/// along (its partner) fit one eight-lane test: both leaves' triangles lie in at most two
-/// groups (adjacent, or each leaf in a group of its own); else `None`. Leaves of at most four
-/// triangles ([`leaf_lanes`]).
-#[inline(always)]
-fn pair_window((first, count): (usize, usize), (other, other_count): (usize, usize)) -> Option<PairWindow> {
-    let (low, run) = leaf_lanes(first, count);
-    let upper = last_group(low, run);
-    let (other_low, other_run) = leaf_lanes(other, other_count);
-    let other_upper = last_group(other_low, other_run);
-    let (below, above) = (low.min(other_low), upper.max(other_upper));
-    let groups = if above - below <= 1 {
-        [below, above]
-    } else if low == upper && other_low == other_upper {
-        [low, other_low]
-    } else {
-        return None;
-    };
-    Some(PairWindow {
-        groups,
-        own: if groups[0] == low { run } else { run << 4 },
-        partner: if groups[0] == other_low {
-            other_run
-        } else {
-            other_run << 4
-        },
-    })
 }
 
 /// The lanes of two triangle groups (`pair[0]` in lanes 0–3, `pair[1]` in 4–7) that
@@ -430,13 +408,12 @@ impl WideBvh {
             }
             if entry & LEAF == 0 {
                 let node = &self.nodes[entry as usize];
-                let planes = decoded_planes::<W>(node);
-                let (mut hits, near_lanes) = enter_interval::<W>(&planes, node.lanes, &rays.bounds, far);
+                let (mut hits, near_lanes) = enter_interval::<W>(node, &rays.bounds, far);
                 // A box small against the packet's footprint where the packet reaches it is
                 // missed by most of its rays: each ray's own slab test then drops them from
                 // the subtree (the leaf filter runs on the rays left); a larger box passes the
                 // packet's rays on untested.
-                let small = small_boxes(&planes, near_lanes, rays);
+                let small = small_boxes(node, near_lanes, rays);
                 let near = near_lanes.to_array();
                 let base = len;
                 while hits != 0 {
@@ -444,7 +421,7 @@ impl WideBvh {
                     hits &= hits - 1;
                     let child = node.child[lane];
                     let child_mask = if small & (1 << lane) != 0 {
-                        rays_entering(rays, t_hi, &planes, lane, mask)
+                        rays_entering(rays, t_hi, node, lane, mask)
                     } else {
                         mask
                     };
@@ -595,14 +572,14 @@ fn insert_by_distance<T: Copy>(
     len + 1
 }
 
-/// The lanes of a node (its decoded `planes`) whose box is narrower than `SMALL_BOX` times the
-/// packet's footprint radius where the packet enters it (`near`), all eight at once.
+/// The lanes of `node` whose box is narrower than `SMALL_BOX` times the packet's footprint
+/// radius where the packet enters it (`near`), all eight at once.
 #[inline(always)]
-fn small_boxes<W: Wide>(planes: &[(W, W); 3], near: W, rays: &PacketRays<W>) -> u32 {
+fn small_boxes<W: Wide>(node: &WideNode, near: W, rays: &PacketRays<W>) -> u32 {
     // A loop, not a fold: its closure would be compiled outside the AVX2 walk.
     let mut extent = W::splat(0.0);
-    for &(low, high) in planes {
-        extent = extent.max(high - low);
+    for axis in 0..3 {
+        extent = extent.max(W::from_halves(&node.max[axis]) - W::from_halves(&node.min[axis]));
     }
     let footprint = W::splat(rays.origin_radius) + near.max(W::splat(0.0)) * W::splat(rays.spread);
     extent.less(W::splat(SMALL_BOX) * footprint)
@@ -612,20 +589,14 @@ fn small_boxes<W: Wide>(planes: &[(W, W); 3], near: W, rays: &PacketRays<W>) -> 
 /// own slab test (the single-ray walk's operations, eight rays at a time; the rays share their
 /// directions' signs, so the near and far planes are the same for all).
 #[inline(always)]
-fn rays_entering<W: Wide>(
-    rays: &PacketRays<W>,
-    t_hi: &[f32; PACKET],
-    planes: &[(W, W); 3],
-    lane: usize,
-    mask: u64,
-) -> u64 {
+fn rays_entering<W: Wide>(rays: &PacketRays<W>, t_hi: &[f32; PACKET], node: &WideNode, lane: usize, mask: u64) -> u64 {
     debug_assert!(rays.bounds.same_signs());
     // Written out, not `array::map` nor a closure: both were compiled outside the AVX2 walk,
     // a call per axis of every small box.
     let planes = [
-        box_planes(planes[0], rays.negative[0], lane),
-        box_planes(planes[1], rays.negative[1], lane),
-        box_planes(planes[2], rays.negative[2], lane),
+        box_planes::<W>(node, 0, rays.negative[0], lane),
+        box_planes::<W>(node, 1, rays.negative[1], lane),
+        box_planes::<W>(node, 2, rays.negative[2], lane),
     ];
     // Every batch is tested, without a branch on whether it holds rays of `mask` (almost all
     // do: the entry holds more than `FEW_RAYS` rays): the loop unrolls, its addresses constant.
@@ -644,8 +615,7 @@ fn rays_entering<W: Wide>(
     mask & entering
 }
 
-/// Interval slab test of a node's eight boxes (its decoded `planes`, low and high per axis, and
-/// its `lanes`) against a packet whose rays share their
+/// Interval slab test of a node's eight boxes against a packet whose rays share their
 /// directions' signs (`PacketBounds::same_signs`; `closest_hits` walks one octant at a time):
 /// the lanes some ray with origin and inverse direction within `bounds` might enter between 0
 /// and `far`, and a lower bound of where, eight boxes at once in `W`'s lanes (one AVX
@@ -658,13 +628,14 @@ fn rays_entering<W: Wide>(
 /// x × [i₀, i₁] is the lesser of x × i₀ and x × i₁ (one of them, exactly), the upper the
 /// greater.
 #[inline(always)]
-fn enter_interval<W: Wide>(planes: &[(W, W); 3], lanes: u8, bounds: &PacketBounds, far: f32) -> (u32, W) {
+fn enter_interval<W: Wide>(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, W) {
     debug_assert!(bounds.same_signs());
     let mut near = W::splat(0.0);
     let mut exit = W::splat(far);
-    for (axis, &pair) in planes.iter().enumerate() {
+    for axis in 0..3 {
         let negative = bounds.inverse_max[axis] < 0.0;
-        let (near_plane, far_plane) = slab_planes(pair, negative);
+        let (near_plane, far_plane) = slab_planes(node, axis, negative);
+        let (near_plane, far_plane) = (W::from_halves(near_plane), W::from_halves(far_plane));
         let (inverse_min, inverse_max) = (W::splat(bounds.inverse_min[axis]), W::splat(bounds.inverse_max[axis]));
         let (origin_min, origin_max) = (W::splat(bounds.origin_min[axis]), W::splat(bounds.origin_max[axis]));
         // The plane's smallest and largest (plane − origin) over the packet: the one whose
@@ -678,81 +649,94 @@ fn enter_interval<W: Wide>(planes: &[(W, W); 3], lanes: u8, bounds: &PacketBound
         near = near.max((least * inverse_min).min(least * inverse_max));
         exit = exit.min((greatest * inverse_min).max(greatest * inverse_max));
     }
-    (near.not_greater(exit) & u32::from(lanes), near)
+    (near.not_greater(exit) & node.lanes, near)
 }
 
-/// A node's eight low and high planes on each axis, decoded as
-/// [`dequantized`](crate::accel::wide::dequantized) decodes them
-/// (the same operations lane by lane, so the same values): eight bytes widened and converted
-/// to f32, times the axis's step, plus its origin.
+/// Slab test of a node's eight boxes, two `Vec4` halves (SSE on `x86_64`): the lanes entered
+/// between 0 and `t_hi`, and where. (Picking each axis's near plane by the direction's sign,
+/// as the packet walk does, cost the single-ray walk 7 % more instructions than this minimum
+/// and maximum: callgrind, clutter; docs/benchmarks.md.)
 #[inline(always)]
-fn decoded_planes<W: Wide>(node: &WideNode) -> [(W, W); 3] {
-    // Written out, not `array::from_fn`: its closure was compiled outside the AVX2 walk (a
-    // call per node visit).
-    [axis_planes(node, 0), axis_planes(node, 1), axis_planes(node, 2)]
-}
-
-/// [`decoded_planes`] on one axis: (low, high).
-#[inline(always)]
-fn axis_planes<W: Wide>(node: &WideNode, axis: usize) -> (W, W) {
-    let (step, origin) = (W::splat(node.step(axis)), W::splat(node.origin[axis]));
-    (
-        W::from_bytes(&node.low[axis]) * step + origin,
-        W::from_bytes(&node.high[axis]) * step + origin,
-    )
-}
-
-/// Slab test of a node's eight decoded boxes in `W`'s lanes (one AVX register where the walk
-/// runs AVX): the lanes entered between 0 and `t_hi`, and where. (Picking each axis's near
-/// plane by the direction's sign, as the packet walk does, cost the single-ray walk 7 % more
-/// instructions than this minimum and maximum: callgrind, clutter; docs/benchmarks.md.) The
-/// decoded planes lie outside the f32 box's, and f32 subtraction and multiplication round
-/// monotonically, so a ray enters a decoded box no later than the f32 box it contains.
-#[inline(always)]
-fn enter<W: Wide>(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
-    let mut near = W::splat(0.0);
-    let mut far = W::splat(t_hi);
-    for (axis, &(low, high)) in decoded_planes::<W>(node).iter().enumerate() {
-        let origin = W::splat(ray.lanes.origin[axis].x);
-        let inverse = W::splat(ray.inv_direction[axis].x);
-        let t1 = (low - origin) * inverse;
-        let t2 = (high - origin) * inverse;
-        near = near.max(t1.min(t2));
-        far = far.min(t1.max(t2));
+fn enter(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
+    let mut near = [Vec4::ZERO; HALVES];
+    let mut mask = 0;
+    for (half, near) in near.iter_mut().enumerate() {
+        let mut far = Vec4::splat(t_hi);
+        for axis in 0..3 {
+            let t1 = (node.min[axis][half] - ray.lanes.origin[axis]) * ray.inv_direction[axis];
+            let t2 = (node.max[axis][half] - ray.lanes.origin[axis]) * ray.inv_direction[axis];
+            *near = near.max(t1.min(t2));
+            far = far.min(t1.max(t2));
+        }
+        mask |= near.cmple(far).bitmask() << (4 * half);
     }
-    (near.not_greater(far) & u32::from(node.lanes), near.to_array())
+    (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
 }
 
-/// [`enter`] on AVX lanes where `AVX` (only in code compiled with AVX2 enabled: `fast/mod.rs`
-/// checks the CPU first), else on portable ones: the same operations, the same answers.
+/// Box `lane`'s near and far planes of [`slab_planes`], in every lane of `W`.
 #[inline(always)]
-fn enter_lanes<const AVX: bool>(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
+fn box_planes<W: Wide>(node: &WideNode, axis: usize, negative: bool, lane: usize) -> (W, W) {
+    let (near, far) = slab_planes(node, axis, negative);
+    let (half, k) = (lane / 4, lane % 4);
+    (W::splat(near[half][k]), W::splat(far[half][k]))
+}
+
+/// A node's near and far planes on `axis` for rays whose directions there are `negative` or
+/// not: (min, max), or (max, min) (f32 subtraction and multiplication round monotonically,
+/// so the slab distances order as the planes do).
+#[inline(always)]
+fn slab_planes(node: &WideNode, axis: usize, negative: bool) -> (&[Vec4; HALVES], &[Vec4; HALVES]) {
+    if negative {
+        (&node.max[axis], &node.min[axis])
+    } else {
+        (&node.min[axis], &node.max[axis])
+    }
+}
+
+/// [`enter`] with the eight lanes in one 256-bit AVX vector: the same operations in the same
+/// order (IEEE single precision either way), so the same lanes and distances. Reached only
+/// from code compiled with AVX2 enabled (`fast/mod.rs` checks the CPU first); elsewhere the
+/// portable test.
+#[inline(always)]
+fn enter_avx(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
     #[cfg(target_arch = "x86_64")]
-    if AVX {
-        return enter::<crate::trace::fast::lanes::Avx8>(node, ray, t_hi);
+    {
+        use std::arch::x86_64::{
+            _CMP_LE_OQ, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_max_ps, _mm256_min_ps, _mm256_movemask_ps,
+            _mm256_mul_ps, _mm256_set1_ps, _mm256_setzero_ps, _mm256_storeu_ps, _mm256_sub_ps,
+        };
+        const { assert!(WIDTH == 8) };
+        let mut near_lanes = [0.0f32; WIDTH];
+        // SAFETY: `AVX` traversals run only inside `#[target_feature(enable = "avx2")]`
+        // functions called after `is_x86_feature_detected!("avx2")` (`fast/mod.rs`). Each
+        // load and the store reads or writes eight f32s: a coordinate's `[Vec4; 2]` (32
+        // contiguous bytes; unaligned loads) and `near_lanes`.
+        let mask = unsafe {
+            let mut near = _mm256_setzero_ps();
+            let mut far = _mm256_set1_ps(t_hi);
+            for axis in 0..3 {
+                let origin = _mm256_set1_ps(ray.lanes.origin[axis].x);
+                let inverse = _mm256_set1_ps(ray.inv_direction[axis].x);
+                let low = _mm256_loadu_ps(node.min[axis].as_ptr().cast::<f32>());
+                let high = _mm256_loadu_ps(node.max[axis].as_ptr().cast::<f32>());
+                let t1 = _mm256_mul_ps(_mm256_sub_ps(low, origin), inverse);
+                let t2 = _mm256_mul_ps(_mm256_sub_ps(high, origin), inverse);
+                near = _mm256_max_ps(near, _mm256_min_ps(t1, t2));
+                far = _mm256_min_ps(far, _mm256_max_ps(t1, t2));
+            }
+            _mm256_storeu_ps(near_lanes.as_mut_ptr(), near);
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
+        };
+        (mask & node.lanes, near_lanes)
     }
-    enter::<crate::trace::fast::lanes::Lanes8>(node, ray, t_hi)
-}
-
-/// Box `lane`'s near and far planes of [`slab_planes`] (of an axis's decoded planes), in
-/// every lane of `W`.
-#[inline(always)]
-fn box_planes<W: Wide>((low, high): (W, W), negative: bool, lane: usize) -> (W, W) {
-    slab_planes((W::splat(low.lane(lane)), W::splat(high.lane(lane))), negative)
-}
-
-/// An axis's near and far planes, of its (low, high) planes, for rays whose directions there
-/// are `negative` or not: (low, high), or (high, low) (f32 subtraction and multiplication
-/// round monotonically, so the slab distances order as the planes do).
-#[inline(always)]
-fn slab_planes<T>((low, high): (T, T), negative: bool) -> (T, T) {
-    if negative { (high, low) } else { (low, high) }
+    #[cfg(not(target_arch = "x86_64"))]
+    enter(node, ray, t_hi)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::wide::{MAX_LEAF_TRIANGLES, empty_node};
+    use crate::accel::wide::empty_node;
     use glam::{DVec3, Vec3};
     use rand::{Rng, SeedableRng, rngs::StdRng};
 
@@ -760,207 +744,23 @@ mod tests {
         DVec3::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0))).normalize()
     }
 
-    /// The triangles (leaf order) that `lanes` of `groups` hold, in lane order.
-    fn triangles_in(groups: [usize; 2], lanes: u32) -> Vec<usize> {
-        (0..WIDTH)
-            .filter(|lane| lanes >> lane & 1 != 0)
-            .map(|lane| 4 * groups[lane / 4] + lane % 4)
-            .collect()
-    }
-
-    /// Every leaf and pair of leaves the walk can meet among the first sixteen triangles
-    /// (every first triangle, every count of one to four, for both): a leaf alone is its run
-    /// ([`leaf_lanes`], [`last_group`]); [`pair_window`] pairs two leaves exactly where their
-    /// triangles lie in at most two groups, and its lanes then name exactly each leaf's
-    /// triangles.
-    #[test]
-    fn pair_window_pairs_leaves_in_two_groups_with_their_own_lanes() {
-        let groups_of = |(first, count): (usize, usize)| (first / 4..=(first + count - 1) / 4).collect::<Vec<_>>();
-        let mut paired = 0;
-        for first in 0..16 {
-            for count in 1..=MAX_LEAF_TRIANGLES {
-                let leaf = (first, count);
-                let (low, run) = leaf_lanes(first, count);
-                let alone = triangles_in([low, last_group(low, run)], run);
-                assert_eq!(alone, (first..first + count).collect::<Vec<_>>(), "{leaf:?}");
-                for other in 0..16 {
-                    for other_count in 1..=MAX_LEAF_TRIANGLES {
-                        let partner = (other, other_count);
-                        let mut groups = groups_of(leaf);
-                        groups.extend(groups_of(partner));
-                        groups.sort_unstable();
-                        groups.dedup();
-                        let window = pair_window(leaf, partner);
-                        assert_eq!(window.is_some(), groups.len() <= 2, "{leaf:?} {partner:?}: {window:?}");
-                        let Some(window) = window else { continue };
-                        paired += 1;
-                        let mut own = triangles_in(window.groups, window.own);
-                        let mut theirs = triangles_in(window.groups, window.partner);
-                        own.sort_unstable();
-                        theirs.sort_unstable();
-                        assert_eq!(own, (first..first + count).collect::<Vec<_>>(), "{leaf:?} {partner:?}");
-                        assert_eq!(
-                            theirs,
-                            (other..other + other_count).collect::<Vec<_>>(),
-                            "{leaf:?} {partner:?}"
-                        );
-                    }
-                }
-            }
-        }
-        assert!(paired > 1_000, "{paired} pairs");
-    }
-
-    /// Eight random boxes (some flat, some thin, some far), every lane present, quantized.
+    /// Eight random boxes (some flat, some thin, some far), every lane present.
     fn random_node(rng: &mut StdRng) -> WideNode {
-        let boxes: Vec<([f32; 3], [f32; 3])> = (0..WIDTH)
-            .map(|_| {
-                let centre = unit(rng) * rng.random_range(0.0..20.0);
-                let half: [f64; 3] = std::array::from_fn(|_| match rng.random_range(0..4) {
+        let mut node = empty_node();
+        for lane in 0..WIDTH {
+            let centre = unit(rng) * rng.random_range(0.0..20.0);
+            for axis in 0..3 {
+                let half = match rng.random_range(0..4) {
                     0 => 0.0,
                     1 => rng.random_range(0.0..0.01),
                     _ => rng.random_range(0.0..3.0),
-                });
-                (
-                    std::array::from_fn(|axis| (centre[axis] - half[axis]) as f32),
-                    std::array::from_fn(|axis| (centre[axis] + half[axis]) as f32),
-                )
-            })
-            .collect();
-        let mut node = empty_node();
-        node.set_boxes(&boxes);
-        node
-    }
-
-    /// The single-ray box test on a quantized node admits every box the same test admits on
-    /// the f32 boxes the node was built from, entered no later; and on AVX lanes it answers
-    /// bit for bit as on portable ones. Random boxes (flat, thin, far; a 1 km offset), rays
-    /// from inside, outside and on their planes, some with a zero component, random bounds.
-    #[test]
-    fn decoded_boxes_admit_every_ray_the_f32_boxes_admit() {
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2")]
-        fn enter_avx(node: &WideNode, ray: &LaneRay, t_hi: f32) -> (u32, [f32; WIDTH]) {
-            enter::<crate::trace::fast::lanes::Avx8>(node, ray, t_hi)
-        }
-        let mut rng = StdRng::seed_from_u64(23);
-        let (mut admitted, mut extra) = (0, 0);
-        for round in 0..20_000 {
-            let offset = if round % 2 == 0 {
-                DVec3::ZERO
-            } else {
-                DVec3::splat(1_000.0)
-            };
-            let boxes: Vec<([f32; 3], [f32; 3])> = (0..rng.random_range(1..=WIDTH))
-                .map(|_| {
-                    let centre = offset + unit(&mut rng) * rng.random_range(0.0..10.0);
-                    let half: [f64; 3] = std::array::from_fn(|_| [0.0, 1e-4, 0.5][rng.random_range(0..3)]);
-                    (
-                        std::array::from_fn(|axis| (centre[axis] - half[axis]) as f32),
-                        std::array::from_fn(|axis| (centre[axis] + half[axis]) as f32),
-                    )
-                })
-                .collect();
-            let mut node = empty_node();
-            node.set_boxes(&boxes);
-            let mut direction = unit(&mut rng);
-            if rng.random_bool(0.2) {
-                direction[rng.random_range(0..3)] = 0.0;
-            }
-            let origin = if rng.random_bool(0.3) {
-                // On a box's corner planes (with a zero direction component: a ray along a plane).
-                let (low, _) = boxes[0];
-                DVec3::from_array(low.map(f64::from))
-            } else {
-                offset + unit(&mut rng) * rng.random_range(0.0..15.0)
-            };
-            let ray = LaneRay::new(origin, direction, 2_000.0);
-            let t_hi = if rng.random_bool(0.3) {
-                f32::INFINITY
-            } else {
-                rng.random_range(0.0..30.0)
-            };
-            let (hits, near) = enter::<crate::trace::fast::lanes::Lanes8>(&node, &ray, t_hi);
-            for (lane, &(low, high)) in boxes.iter().enumerate() {
-                // The f32 box's test, as `enter` computes it.
-                let (mut box_near, mut box_far) = (Vec4::ZERO, Vec4::splat(t_hi));
-                for axis in 0..3 {
-                    let t1 = (Vec4::splat(low[axis]) - ray.lanes.origin[axis]) * ray.inv_direction[axis];
-                    let t2 = (Vec4::splat(high[axis]) - ray.lanes.origin[axis]) * ray.inv_direction[axis];
-                    box_near = box_near.max(t1.min(t2));
-                    box_far = box_far.min(t1.max(t2));
-                }
-                if box_near.cmple(box_far).bitmask() & 1 != 0 {
-                    admitted += 1;
-                    assert!(hits >> lane & 1 != 0, "round {round}: box {lane} dropped");
-                    assert!(near[lane] <= box_near.x, "round {round}: box {lane} entered later");
-                } else {
-                    extra += hits >> lane & 1;
-                }
-            }
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: called only where the CPU has AVX2.
-                let (avx_hits, avx_near) = unsafe { enter_avx(&node, &ray, t_hi) };
-                assert_eq!(avx_hits, hits, "round {round}");
-                assert_eq!(avx_near.map(f32::to_bits), near.map(f32::to_bits), "round {round}");
-            }
-        }
-        assert!(admitted > 5_000 && extra > 0, "{admitted} admitted, {extra} more");
-    }
-
-    /// The walks' decoding is the build's: every lane of [`decoded_planes`], portable and (where
-    /// the CPU has AVX2) AVX, is bit for bit the plane [`WideNode::child_box`] decodes, which
-    /// the build checked. Nodes tiny to huge, near and far (1 km, 10^30), flat, and spanning
-    /// all of f32 (where the top step's product overflows to +∞).
-    #[test]
-    fn the_walks_decode_planes_as_the_build_checked_them() {
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2")]
-        fn decoded_avx(node: &WideNode) -> [[[f32; 8]; 2]; 3] {
-            decoded_planes::<crate::trace::fast::lanes::Avx8>(node).map(|(low, high)| [low.to_array(), high.to_array()])
-        }
-        let mut rng = StdRng::seed_from_u64(29);
-        let huge = f32::MAX;
-        for round in 0..5_000 {
-            let boxes: Vec<([f32; 3], [f32; 3])> = if round == 0 {
-                vec![([-huge, -huge, 0.0], [huge, huge, 0.0]), ([0.0; 3], [1.0; 3])]
-            } else {
-                let offset = [0.0, 1.0e3, -3.0e4, 1.0e30][rng.random_range(0..4)];
-                let size = [0.0, 1e-30, 1e-3, 1.0, 1e20, 1e36][rng.random_range(0..6)];
-                (0..rng.random_range(1..=WIDTH))
-                    .map(|_| {
-                        let low: [f32; 3] =
-                            std::array::from_fn(|_| (offset + rng.random_range(-1.0..1.0) * size) as f32);
-                        let high = std::array::from_fn(|axis| {
-                            ((f64::from(low[axis]) + rng.random_range(0.0..1.0) * size) as f32).max(low[axis])
-                        });
-                        (low, high)
-                    })
-                    .collect()
-            };
-            let mut node = empty_node();
-            node.set_boxes(&boxes);
-            let expected: [[[u32; 8]; 2]; 3] = std::array::from_fn(|axis| {
-                let corner = |side: usize| {
-                    std::array::from_fn(|lane| {
-                        let (low, high) = node.child_box(lane);
-                        [low, high][side][axis].to_bits()
-                    })
                 };
-                [corner(0), corner(1)]
-            });
-            let bits = |planes: [[[f32; 8]; 2]; 3]| planes.map(|sides| sides.map(|lanes| lanes.map(f32::to_bits)));
-            let portable = decoded_planes::<crate::trace::fast::lanes::Lanes8>(&node)
-                .map(|(low, high)| [low.to_array(), high.to_array()]);
-            assert_eq!(bits(portable), expected, "round {round}: portable lanes");
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: called only where the CPU has AVX2.
-                let avx = unsafe { decoded_avx(&node) };
-                assert_eq!(bits(avx), expected, "round {round}: AVX lanes");
+                node.min[axis][lane / 4][lane % 4] = (centre[axis] - half) as f32;
+                node.max[axis][lane / 4][lane % 4] = (centre[axis] + half) as f32;
             }
+            node.lanes |= 1 << lane;
         }
+        node
     }
 
     /// The paired filter's promise: each of its eight lanes answers as the four-lane filter of
@@ -1018,8 +818,7 @@ mod tests {
     /// The interval test with all four corner products of (plane − origin) × inverse per
     /// plane and both planes per axis: what [`enter_interval`] computes with the signs known.
     fn enter_interval_by_corners(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, [f32; WIDTH]) {
-        let planes = decoded_planes::<crate::trace::fast::lanes::Lanes8>(node);
-        let mut near = [Vec4::ZERO; 2];
+        let mut near = [Vec4::ZERO; HALVES];
         let mut mask = 0;
         for (half, near) in near.iter_mut().enumerate() {
             let mut exit = Vec4::splat(far);
@@ -1034,25 +833,21 @@ mod tests {
                     let high = products[0].max(products[1]).max(products[2].max(products[3]));
                     (low, high)
                 };
-                let (low_min, low_max) = span(planes[axis].0.0[half]);
-                let (high_min, high_max) = span(planes[axis].1.0[half]);
+                let (low_min, low_max) = span(node.min[axis][half]);
+                let (high_min, high_max) = span(node.max[axis][half]);
                 *near = near.max(low_min.min(high_min));
                 exit = exit.min(low_max.max(high_max));
             }
             mask |= near.cmple(exit).bitmask() << (4 * half);
         }
-        (
-            mask & u32::from(node.lanes),
-            std::array::from_fn(|lane| near[lane / 4][lane % 4]),
-        )
+        (mask & node.lanes, std::array::from_fn(|lane| near[lane / 4][lane % 4]))
     }
 
     /// [`enter_interval`] on the AVX lanes the AVX2 packet walk runs.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn enter_interval_avx(node: &WideNode, bounds: &PacketBounds, far: f32) -> (u32, [f32; WIDTH]) {
-        let planes = decoded_planes::<crate::trace::fast::lanes::Avx8>(node);
-        let (admitted, near) = enter_interval(&planes, node.lanes, bounds, far);
+        let (admitted, near) = enter_interval::<crate::trace::fast::lanes::Avx8>(node, bounds, far);
         (admitted, near.to_array())
     }
 
@@ -1072,8 +867,7 @@ mod tests {
             // Aimed at one of the boxes, so that most packets enter some.
             let target = rng.random_range(0..WIDTH);
             let aim = DVec3::from_array(std::array::from_fn(|axis| {
-                let (low, high) = node.child_box(target);
-                f64::from(low[axis] + high[axis]) / 2.0
+                f64::from(node.min[axis][target / 4][target % 4] + node.max[axis][target / 4][target % 4]) / 2.0
             }));
             let axis = (aim - centre + unit(&mut rng) * 0.5).normalize();
             let cone = [1e-4, 0.02, 0.3, 2.0][rng.random_range(0..4)];
@@ -1121,8 +915,7 @@ mod tests {
             let far = (0..PACKET)
                 .filter(|r| active & (1 << r) != 0)
                 .fold(f32::NEG_INFINITY, |m, r| m.max(t_hi[r]));
-            let planes = decoded_planes::<crate::trace::fast::lanes::Lanes8>(&node);
-            let (admitted, near) = enter_interval(&planes, node.lanes, &bounds, far);
+            let (admitted, near) = enter_interval::<crate::trace::fast::lanes::Lanes8>(&node, &bounds, far);
             let near = near.to_array();
             #[cfg(target_arch = "x86_64")]
             if std::arch::is_x86_feature_detected!("avx2") {
@@ -1138,7 +931,7 @@ mod tests {
             let mut any_ray = 0;
             for r in (0..PACKET).filter(|r| active & (1 << r) != 0) {
                 let ray = LaneRay::new(rays[r].0, rays[r].1, 30.0);
-                let (hits, ray_near) = enter::<crate::trace::fast::lanes::Lanes8>(&node, &ray, t_hi[r]);
+                let (hits, ray_near) = enter(&node, &ray, t_hi[r]);
                 assert_eq!(hits & !admitted, 0, "a box ray {r} enters was not admitted");
                 for lane in (0..WIDTH).filter(|lane| hits & (1 << lane) != 0) {
                     assert!(near[lane] <= ray_near[lane], "admitted farther than ray {r} enters");
