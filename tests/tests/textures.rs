@@ -798,6 +798,48 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
 }
 
+/// 51 meshes that share one index accessor of a million triangles (3 MB of the file) are
+/// more than a mesh may hold (50 M triangles): refused from the accessors' counts, at the
+/// placement that passes the cap, before any primitive is read (reading them all would take
+/// about 8 GB).
+#[test]
+fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
+    let corners = 3_000_000usize;
+    let mut bin = vec![0u8; 36];
+    for (k, value) in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0].into_iter().enumerate() {
+        bin[12 + 4 * k..16 + 4 * k].copy_from_slice(&value.to_le_bytes());
+    }
+    bin.resize(36 + corners, 0);
+    let meshes = 51;
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..meshes).collect::<Vec<_>>()}],
+        "nodes": (0..meshes).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
+        "meshes": (0..meshes)
+            .map(|_| serde_json::json!({"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}))
+            .collect::<Vec<_>>(),
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5121, "count": corners, "type": "SCALAR"},
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": corners},
+        ],
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    let error = load_glb(&glb(&json, &bin)).map(|_| ()).unwrap_err().to_string();
+    // The walk pops nodes from a stack: the last node's mesh is placed first.
+    assert!(
+        error.contains("square.glb")
+            && error.contains("glb.ron")
+            && error.contains("mesh 0 primitive 0: more than 50000000 triangles"),
+        "{error}"
+    );
+}
+
 #[test]
 fn the_shipped_crate_looks_the_same_from_obj_and_gltf_and_is_textured_in_ply() {
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(160, 120, 70f64.to_radians()));

@@ -493,7 +493,7 @@ fn a_textured_render_that_cannot_fit_names_its_textures_share() {
     let stderr = text(&big.stderr);
     assert_eq!(big.status.code(), Some(1), "{stderr}");
     assert!(
-        stderr.contains("MB for the program and scene, 7 MB of it the texels of 6 texture(s) with their mips)")
+        stderr.contains("MB for the program and scene, 7.4 MB of it the texels of 6 texture(s) with their mips)")
             && stderr.contains("besides the 0.01 GB already loaded, more than the address space left under ulimit -v")
             && stderr.contains("or scale the scene's textures down (8 bytes a texel, a third more for the mips)"),
         "{stderr}"

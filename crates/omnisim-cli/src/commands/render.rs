@@ -325,8 +325,8 @@ fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene) -> anyhow::Result
     let parts: Vec<String> = parts.iter().map(|(name, bytes)| format!("{name} {bytes}")).collect();
     let texture_share = if texture_bytes > 0 {
         format!(
-            ", {} MB of it the texels of {} texture(s) with their mips",
-            texture_bytes / 1_000_000,
+            ", {:.1} MB of it the texels of {} texture(s) with their mips",
+            texture_bytes as f64 / 1e6,
             textures.len()
         )
     } else {

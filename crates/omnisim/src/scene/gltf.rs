@@ -86,8 +86,27 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
         .map(|buffer| load_buffer(&buffer, gltf.blob.as_deref(), textures))
         .collect::<Result<Vec<_>, _>>()?;
     let placed = placements(document)?;
-    let images = load_images(&placed, document, &buffers, textures)?;
-    // Each primitive once, however many nodes place it, on all threads.
+    // The triangle cap, from the accessors' counts before anything is read: the primitives
+    // are read all at once below, and several may share one large index accessor.
+    let mut placed_triangles = 0usize;
+    for (mesh, _) in &placed {
+        for primitive in mesh.primitives() {
+            let corners = match (primitive.indices(), primitive.get(&gltf::Semantic::Positions)) {
+                (Some(indices), _) | (None, Some(indices)) => indices.count(),
+                (None, None) => 0,
+            };
+            placed_triangles = placed_triangles.saturating_add(corners / 3);
+            if placed_triangles > MAX_MESH_TRIANGLES {
+                return Err(format!(
+                    "mesh {} primitive {}: {}",
+                    mesh.index(),
+                    primitive.index(),
+                    too_many_triangles()
+                ));
+            }
+        }
+    }
+    // Each primitive once, however many nodes place it, in the order first placed.
     let mut primitives: Vec<(usize, gltf::Primitive)> = Vec::new();
     let mut slot_of: HashMap<(usize, usize), usize> = HashMap::new();
     for (mesh, _) in &placed {
@@ -98,6 +117,8 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
             }
         }
     }
+    let images = load_images(&primitives, document, &buffers, textures)?;
+    // On all threads.
     let mut read: Vec<Result<Vec<MeshTriangle>, String>> = primitives
         .par_iter()
         .map(|(mesh, primitive)| {
@@ -118,14 +139,6 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
         for primitive in mesh.primitives() {
             let slot = slot_of[&(mesh.index(), primitive.index())];
             let local = read[slot].as_mut().map_err(|e| e.clone())?;
-            if triangles.len() + local.len() > MAX_MESH_TRIANGLES {
-                return Err(format!(
-                    "mesh {} primitive {}: {}",
-                    mesh.index(),
-                    primitive.index(),
-                    too_many_triangles()
-                ));
-            }
             uses[slot] -= 1;
             let place = |triangle: MeshTriangle| MeshTriangle {
                 vertices: triangle.vertices.map(|vertex| world.transform_point3(vertex)),
@@ -172,24 +185,23 @@ fn placements(document: &gltf::Document) -> Result<Vec<(gltf::Mesh<'_>, DMat4)>,
     Ok(placed)
 }
 
-/// The bank index of each image a placed primitive's base colour shows, by image index: read
-/// from their headers in the order first shown, then decoded on all threads. An error names the
-/// first primitive that shows the image.
+/// The bank index of each image the base colour of one of `primitives` (each with its mesh's
+/// index) shows, by image index: read from their headers in the order first shown, then decoded
+/// on all threads. An error names the first primitive that shows the image.
 fn load_images(
-    placed: &[(gltf::Mesh, DMat4)],
+    primitives: &[(usize, gltf::Primitive)],
     document: &gltf::Document,
     buffers: &[Vec<u8>],
     textures: &mut MeshTextures,
 ) -> Result<Vec<Option<u32>>, String> {
     // Each image shown, with the first primitive that shows it.
     let mut shown: Vec<(gltf::Image, String)> = Vec::new();
-    for (mesh, _) in placed {
-        for primitive in mesh.primitives() {
-            if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
-                let image = info.texture().source();
-                if !shown.iter().any(|(i, _)| i.index() == image.index()) {
-                    shown.push((image, format!("mesh {} primitive {}", mesh.index(), primitive.index())));
-                }
+    let mut is_shown = vec![false; document.images().len()];
+    for (mesh, primitive) in primitives {
+        if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
+            let image = info.texture().source();
+            if !std::mem::replace(&mut is_shown[image.index()], true) {
+                shown.push((image, format!("mesh {mesh} primitive {}", primitive.index())));
             }
         }
     }
@@ -212,7 +224,7 @@ fn load_images(
     let mesh = textures.mesh;
     let added = textures
         .bank
-        .add_images(&keys, |i| open_image(&shown[i].0, buffers, mesh).map_err(shown_by(i)))?;
+        .add_images(&keys, |i| open_image(&shown[i].0, buffers, mesh, &shown[i].1))?;
     let mut images = vec![None; document.images().len()];
     for ((image, _), index) in shown.iter().zip(added) {
         images[image.index()] = Some(index);
@@ -336,9 +348,14 @@ fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
 }
 
 /// Reads the header of image `image` (from a buffer view, a data URI or a file beside the
-/// glTF `mesh`).
-fn open_image<'a>(image: &gltf::Image, buffers: &'a [Vec<u8>], mesh: &Path) -> Result<PendingImage<'a>, String> {
-    let what = format!("image {}", image.index());
+/// glTF `mesh`), which `primitive` shows first (an embedded image is named by both).
+fn open_image<'a>(
+    image: &gltf::Image,
+    buffers: &'a [Vec<u8>],
+    mesh: &Path,
+    primitive: &str,
+) -> Result<PendingImage<'a>, String> {
+    let what = format!("{primitive}: image {}", image.index());
     match image.source() {
         gltf::image::Source::View { view, .. } => {
             let buffer = &buffers[view.buffer().index()];
@@ -351,7 +368,9 @@ fn open_image<'a>(image: &gltf::Image, buffers: &'a [Vec<u8>], mesh: &Path) -> R
         }
         gltf::image::Source::Uri { uri, .. } => match data_uri(uri) {
             Some(bytes) => texture::open_bytes(bytes.map_err(|e| format!("{what}: {e}"))?, &what),
-            None => texture::open_image(&super::library::inside_folder(mesh, uri, "texture")?),
+            None => super::library::inside_folder(mesh, uri, "texture")
+                .and_then(|path| texture::open_image(&path))
+                .map_err(|e| format!("{primitive}: {e}")),
         },
     }
 }

@@ -105,15 +105,19 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         scene.faces.reserve(faces.len());
         // Each face checked on all threads (a million mesh triangles took 1.1 G instructions on
         // one), then kept in order: the first bad face is the one reported.
-        let checks: Vec<Result<Result<(), String>, String>> = faces
+        // Only the failures are kept, with their faces' places, in order.
+        let failures: Vec<(usize, Result<String, String>)> = faces
             .par_iter()
-            .map(|(vertices, _, _)| {
-                validate::check_coordinates(vertices)?;
-                Ok(validate::check_face(vertices))
+            .enumerate()
+            .filter_map(|(k, (vertices, _, _))| match validate::check_coordinates(vertices) {
+                Err(outside) => Some((k, Err(outside))),
+                Ok(()) => validate::check_face(vertices).err().map(|problem| (k, Ok(problem))),
             })
             .collect();
-        for (k, ((vertices, colour, surface), check)) in faces.into_iter().zip(checks).enumerate() {
-            if let Err(problem) = check.map_err(&invalid)? {
+        let mut failures = failures.into_iter().peekable();
+        for (k, (vertices, colour, surface)) in faces.into_iter().enumerate() {
+            let failure = failures.next_if(|(at, _)| *at == k).map(|(_, failure)| failure);
+            if let Some(problem) = failure.transpose().map_err(&invalid)? {
                 if !is_mesh {
                     return Err(invalid(problem));
                 }
@@ -204,9 +208,9 @@ impl TextureBank {
     /// The indices of the images keyed `keys` (a file, a glTF's image: one texture per key);
     /// `open(i)` reads the header of the i-th where its key is new. The new images are counted
     /// against the scene's texel cap in order, from their headers, and only when every header
-    /// has passed are they decoded and mipped, on all threads (four 2048² PNGs took 3.2 G
-    /// instructions one after another: docs/benchmarks.md, 2026-11-27 night (load)). The first
-    /// failure in key order is the error.
+    /// has passed are they decoded and mipped, on all threads (four 2048² PNGs took 3.1 G
+    /// instructions one after another: docs/benchmarks.md, 2026-11-27 night (load)). The error
+    /// is the first header failure in key order, else the first decoding failure in key order.
     pub(super) fn add_images<'a>(
         &mut self,
         keys: &[String],
@@ -221,12 +225,14 @@ impl TextureBank {
                 pending.push((key, image));
             }
         }
-        let decoded = pending
+        // Every result kept, in order (rayon's collect into a `Result` keeps whichever error
+        // came first in time).
+        let decoded: Vec<(&String, Result<Texture, String>)> = pending
             .into_par_iter()
-            .map(|(key, image)| Ok((key, image.decode()?)))
-            .collect::<Result<Vec<_>, String>>()?;
+            .map(|(key, image)| (key, image.decode()))
+            .collect();
         for (key, texture) in decoded {
-            self.insert(key.clone(), texture);
+            self.insert(key.clone(), texture?);
         }
         Ok(keys.iter().map(|key| self.by_key[key]).collect())
     }
