@@ -343,6 +343,48 @@ fn bad_textured_meshes_get_located_errors() {
     }
 }
 
+/// The start of a PNG whose header claims `side` × `side` RGB texels: its header and the first
+/// bytes of its data, no more (it cannot be decoded; a reader that tried would fail).
+fn png_start(side: u32) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut encoder = png::Encoder::new(&mut out, side, side);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().unwrap();
+    writer.write_chunk(png::chunk::IDAT, &[0x78, 0x01]).unwrap();
+    drop(writer);
+    out
+}
+
+/// Three textures of 16384² texels each (the most one texture may have) are more than a scene
+/// may hold (2^29 texels): the third is refused from its header, naming its file, its texels
+/// and the cap, located in the scene file, before any of the three is decoded (decoding them
+/// would fail: their data is cut short).
+#[test]
+fn textures_past_the_scene_cap_are_refused_from_their_headers() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut mtl = String::new();
+    let mut obj = String::from("mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\n");
+    for i in 0..3 {
+        std::fs::write(folder.path().join(format!("big{i}.png")), png_start(16_384)).unwrap();
+        mtl += &format!("newmtl m{i}\nmap_Kd big{i}.png\n");
+        obj += &format!("usemtl m{i}\nf 1/1 2/1 3/1\n");
+    }
+    std::fs::write(folder.path().join("m.mtl"), mtl).unwrap();
+    std::fs::write(folder.path().join("a.obj"), obj).unwrap();
+    let scene = "Scene(name: \"big\", objects: [\n  Mesh(name: \"scan\", path: \"a.obj\", colour: (9, 9, 9))])";
+    let error = Scene::from_ron(scene, &folder.path().join("big.ron"))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("big.ron:2:")
+            && error.contains("big2.png: its 268435456 texels would bring the scene's textures to 805306368 texels")
+            && error.contains("more than omnisim loads (536870912 texels"),
+        "{error}"
+    );
+}
+
 /// A 200 m floor with a 5 mm black-and-white checker, seen at grazing angles by a pinhole
 /// 1 m above it.
 fn fine_checker() -> (Scene, Camera, Pose) {
@@ -754,6 +796,48 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
     json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
     let draco = error(&glb(&json, &good[json_end + 8..]));
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
+}
+
+/// 51 meshes that share one index accessor of a million triangles (3 MB of the file) are
+/// more than a mesh may hold (50 M triangles): refused from the accessors' counts, at the
+/// placement that passes the cap, before any primitive is read (reading them all would take
+/// about 8 GB).
+#[test]
+fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
+    let corners = 3_000_000usize;
+    let mut bin = vec![0u8; 36];
+    for (k, value) in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0].into_iter().enumerate() {
+        bin[12 + 4 * k..16 + 4 * k].copy_from_slice(&value.to_le_bytes());
+    }
+    bin.resize(36 + corners, 0);
+    let meshes = 51;
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..meshes).collect::<Vec<_>>()}],
+        "nodes": (0..meshes).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
+        "meshes": (0..meshes)
+            .map(|_| serde_json::json!({"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}))
+            .collect::<Vec<_>>(),
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5121, "count": corners, "type": "SCALAR"},
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": corners},
+        ],
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    let error = load_glb(&glb(&json, &bin)).map(|_| ()).unwrap_err().to_string();
+    // The walk pops nodes from a stack: the last node's mesh is placed first.
+    assert!(
+        error.contains("square.glb")
+            && error.contains("glb.ron")
+            && error.contains("mesh 0 primitive 0: more than 50000000 triangles"),
+        "{error}"
+    );
 }
 
 #[test]

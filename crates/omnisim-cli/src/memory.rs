@@ -21,6 +21,8 @@ pub(crate) struct Limit {
     pub what: &'static str,
     /// Whether it bounds address space (reserved, not only resident memory).
     pub address_space: bool,
+    /// Whether `bytes` is what is left after this process's present use (else the whole).
+    pub left: bool,
 }
 
 /// The ceilings Linux sets: the address space left under `ulimit -v`, the cgroup's
@@ -41,6 +43,7 @@ pub(crate) fn limits() -> Vec<Limit> {
             bytes: limit.saturating_sub(used),
             what: "the address space left under ulimit -v",
             address_space: true,
+            left: true,
         });
     }
     // cgroup v2: "0::/path" names this process's group.
@@ -54,6 +57,7 @@ pub(crate) fn limits() -> Vec<Limit> {
                 bytes: max.saturating_sub(file("memory.current").unwrap_or(0)),
                 what: "the memory left to its cgroup (memory.max)",
                 address_space: false,
+                left: true,
             });
         }
     }
@@ -64,6 +68,7 @@ pub(crate) fn limits() -> Vec<Limit> {
             bytes: ram + kib_field(&meminfo, "SwapTotal:").unwrap_or(0),
             what: "the memory of this machine (RAM and swap)",
             address_space: false,
+            left: false,
         });
     }
     limits
@@ -82,16 +87,44 @@ fn kib_field(text: &str, name: &str) -> Option<u64> {
     Some(line.split_whitespace().nth(1)?.parse::<u64>().ok()? * 1024)
 }
 
-/// Refuses a render that keeps `resident` bytes (and reserves `address_space(resident)`)
-/// where that exceeds one of `limits`, or where allocating it fails (reserved once, fallibly,
-/// and given back: what would otherwise abort the render part-way). `what` says what needs it.
-pub(crate) fn check(resident: u64, address_space: u64, what: &str, limits: &[Limit]) -> anyhow::Result<()> {
+/// What a render needs, for [`check`].
+pub(crate) struct Need<'a> {
+    /// Bytes it keeps resident, `loaded` included.
+    pub resident: u64,
+    /// Address space it reserves (`address_space(resident)`).
+    pub address_space: u64,
+    /// Of those, bytes already allocated (the scene's textures): a limit that states what is
+    /// left to this process (ulimit -v, the cgroup) has counted them already.
+    pub loaded: u64,
+    /// What needs it, in words.
+    pub what: &'a str,
+    /// How to need less, in words.
+    pub fix: &'a str,
+}
+
+/// Refuses a render whose `need` exceeds one of `limits`, or where allocating what it has not
+/// yet allocated fails (reserved once, fallibly, and given back: what would otherwise abort the
+/// render part-way).
+pub(crate) fn check(need: &Need, limits: &[Limit]) -> anyhow::Result<()> {
+    let Need { what, fix, loaded, .. } = *need;
     for limit in limits {
-        let need = if limit.address_space { address_space } else { resident };
-        if need > limit.bytes {
+        let total = if limit.address_space {
+            need.address_space
+        } else {
+            need.resident
+        };
+        let (bytes, besides) = if limit.left && loaded > 0 {
+            (
+                total - loaded,
+                format!(" besides the {} already loaded", gigabytes(loaded)),
+            )
+        } else {
+            (total, String::new())
+        };
+        if bytes > limit.bytes {
             bail!(
-                "{what} needs about {}{}, more than {} ({}): render a smaller image, fewer outputs or fewer views",
-                gigabytes(need),
+                "{what} needs about {}{}{besides}, more than {} ({}): {fix}",
+                gigabytes(bytes),
                 if limit.address_space { " of address space" } else { "" },
                 limit.what,
                 gigabytes(limit.bytes)
@@ -99,19 +132,21 @@ pub(crate) fn check(resident: u64, address_space: u64, what: &str, limits: &[Lim
         }
     }
     let mut probe: Vec<u8> = Vec::new();
-    if let Err(error) = usize::try_from(resident)
+    if let Err(error) = usize::try_from(need.resident - loaded)
         .map_err(|_| None)
         .and_then(|n| probe.try_reserve_exact(n).map_err(Some))
     {
         bail!(
-            "{what} needs about {}, which this process cannot allocate{}: render a smaller image, fewer outputs \
-             or fewer views",
-            gigabytes(resident),
+            "{what} needs about {}, which this process cannot allocate{}: {fix}",
+            gigabytes(need.resident),
             error.map(|e| format!(" ({e})")).unwrap_or_default()
         );
     }
     Ok(())
 }
+
+/// How to make a render need less memory.
+pub(crate) const SMALLER_RENDER: &str = "render a smaller image, fewer outputs or fewer views";
 
 /// Bytes in GB (10⁹), to two significant decimals for small amounts.
 fn gigabytes(bytes: u64) -> String {
@@ -122,29 +157,45 @@ fn gigabytes(bytes: u64) -> String {
 mod tests {
     use super::*;
 
+    /// A need of `resident` bytes (`address_space` reserved, `loaded` of them allocated).
+    fn need(resident: u64, address_space: u64, loaded: u64) -> Need<'static> {
+        Need {
+            resident,
+            address_space,
+            loaded,
+            what: "a render",
+            fix: SMALLER_RENDER,
+        }
+    }
+
+    const LIMITS: [Limit; 2] = [
+        Limit {
+            bytes: 8_000_000_000,
+            what: "the memory of this machine (RAM and swap)",
+            address_space: false,
+            left: false,
+        },
+        Limit {
+            bytes: 4_000_000_000,
+            what: "the address space left under ulimit -v",
+            address_space: true,
+            left: true,
+        },
+    ];
+
     #[test]
     fn a_need_over_a_limit_is_refused_naming_both() {
-        let limits = [
-            Limit {
-                bytes: 8_000_000_000,
-                what: "the memory of this machine (RAM and swap)",
-                address_space: false,
-            },
-            Limit {
-                bytes: 4_000_000_000,
-                what: "the address space left under ulimit -v",
-                address_space: true,
-            },
-        ];
-        let message = check(3_500_000_000, 4_100_000_000, "a 10000x10000 render", &limits)
-            .unwrap_err()
-            .to_string();
+        let big = Need {
+            what: "a 10000x10000 render",
+            ..need(3_500_000_000, 4_100_000_000, 0)
+        };
+        let message = check(&big, &LIMITS).unwrap_err().to_string();
         assert_eq!(
             message,
             "a 10000x10000 render needs about 4.10 GB of address space, more than the address space left under \
              ulimit -v (4.00 GB): render a smaller image, fewer outputs or fewer views"
         );
-        let message = check(9_000_000_000, 9_000_000_000, "a render", &limits)
+        let message = check(&need(9_000_000_000, 9_000_000_000, 0), &LIMITS)
             .unwrap_err()
             .to_string();
         assert!(
@@ -152,13 +203,39 @@ mod tests {
             "{message}"
         );
         // Resident memory is held against resident limits, address space against address space.
-        assert!(check(3_000_000_000, 3_900_000_000, "a render", &limits).is_ok());
+        assert!(check(&need(3_000_000_000, 3_900_000_000, 0), &LIMITS).is_ok());
+    }
+
+    /// Textures already loaded count against the whole of a limit, not against what a limit
+    /// says is left (which they already use).
+    #[test]
+    fn what_is_loaded_counts_against_whole_limits_only() {
+        // 4.5 GB of address space, 1 GB of it loaded: 3.5 GB more fits the 4 GB left.
+        assert!(check(&need(4_000_000_000, 4_500_000_000, 1_000_000_000), &LIMITS).is_ok());
+        let message = check(&need(4_000_000_000, 5_500_000_000, 1_000_000_000), &LIMITS)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains(
+                "needs about 4.50 GB of address space besides the 1.00 GB already loaded, more than the \
+                              address space left under ulimit -v (4.00 GB)"
+            ),
+            "{message}"
+        );
+        // The machine's whole memory holds the loaded bytes as well.
+        let message = check(&need(8_500_000_000, 3_900_000_000, 1_000_000_000), &LIMITS)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("needs about 8.50 GB, more than the memory of this machine"),
+            "{message}"
+        );
     }
 
     /// Past every stated limit, an allocation that fails is refused up front too.
     #[test]
     fn a_need_that_cannot_be_allocated_is_refused() {
-        let message = check(u64::MAX / 2, u64::MAX / 2, "a render", &[])
+        let message = check(&need(u64::MAX / 2, u64::MAX / 2, 0), &[])
             .unwrap_err()
             .to_string();
         assert!(message.contains("cannot allocate"), "{message}");

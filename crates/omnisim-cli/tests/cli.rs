@@ -476,6 +476,30 @@ fn a_render_that_cannot_fit_its_memory_is_refused_up_front() {
     assert!(small.status.success(), "{}", text(&small.stderr));
 }
 
+/// A textured scene's render is refused naming the share of its textures' texels (env1-textured:
+/// six baked patterns, 7 427 384 bytes with their mips, as `scene check` lists them) and how to
+/// need less.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_textured_render_that_cannot_fit_names_its_textures_share() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = render_limited(
+        4 << 20,
+        &format!(
+            "scenes/env1-textured.ron --camera omni --size 10000x10000 --pose 1.5,0,0.4,0,0,60 --backend cpu --out {}",
+            dir.path().join("big").display()
+        ),
+    );
+    let stderr = text(&big.stderr);
+    assert_eq!(big.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("MB for the program and scene, 7.4 MB of it the texels of 6 texture(s) with their mips)")
+            && stderr.contains("besides the 0.01 GB already loaded, more than the address space left under ulimit -v")
+            && stderr.contains("or scale the scene's textures down (8 bytes a texel, a third more for the mips)"),
+        "{stderr}"
+    );
+}
+
 /// The regular files in `dir` (hidden ones too), sorted.
 fn files_in(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)

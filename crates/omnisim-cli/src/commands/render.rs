@@ -77,8 +77,9 @@ impl From<BackendArg> for BackendChoice {
 /// writer makes of a plane is alive (range 4, pinhole depth 8, segmentation 8, normals or
 /// linear colour 12); a stereo rig holds both views' frames. The default outputs take 55
 /// bytes a pixel (100 megapixels: 5.5 GB, and 0.07 GB besides), stereo 110, every output 79;
-/// under ulimit -v, each thread's allocator arena also reserves 64 MiB of address space. A
-/// render that needs more than this process may use (the address space left under ulimit -v,
+/// under ulimit -v, each thread's allocator arena also reserves 64 MiB of address space. The
+/// scene's textures take 8 bytes a texel and a third more for their mips (a 2048² image 45 MB),
+/// counted too; a scene's textures hold at most 2^29 texels. A render that needs more than this process may use (the address space left under ulimit -v,
 /// its cgroup's memory.max, RAM and swap) is refused before anything is written.
 #[derive(Debug, Clone, Args)]
 #[command(after_help = "Examples:\n  \
@@ -316,18 +317,44 @@ fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene) -> anyhow::Result
     let parts = outputs.bytes_per_pixel(rig);
     let per_pixel: usize = parts.iter().map(|(_, bytes)| bytes).sum();
     let (width, height) = rig.first_camera().size();
-    let besides = crate::memory::FIXED_BYTES + scene.faces.len() as u64 * BVH_BYTES_PER_FACE;
+    // The textures are loaded already: 8 bytes a texel, and their mips (`Texture::bytes`).
+    let textures = &scene.surfaces.textures;
+    let texture_bytes: u64 = textures.iter().map(|t| t.bytes() as u64).sum();
+    let besides = crate::memory::FIXED_BYTES + scene.faces.len() as u64 * BVH_BYTES_PER_FACE + texture_bytes;
     let resident = u64::from(width) * u64::from(height) * per_pixel as u64 + besides;
     let parts: Vec<String> = parts.iter().map(|(name, bytes)| format!("{name} {bytes}")).collect();
+    let texture_share = if texture_bytes > 0 {
+        format!(
+            ", {:.1} MB of it the texels of {} texture(s) with their mips",
+            texture_bytes as f64 / 1e6,
+            textures.len()
+        )
+    } else {
+        String::new()
+    };
     let what = format!(
         "a {width}x{height} render of {} view(s) ({per_pixel} bytes a pixel: {}; and {} MB for the program and \
-         scene)",
+         scene{texture_share})",
         rig.views().len(),
         parts.join(", "),
         besides / 1_000_000
     );
-    let address_space = crate::memory::address_space(resident);
-    crate::memory::check(resident, address_space, &what, &crate::memory::limits())
+    let fix = if texture_bytes > 0 {
+        format!(
+            "{}, or scale the scene's textures down (8 bytes a texel, a third more for the mips)",
+            crate::memory::SMALLER_RENDER
+        )
+    } else {
+        crate::memory::SMALLER_RENDER.to_string()
+    };
+    let need = crate::memory::Need {
+        resident,
+        address_space: crate::memory::address_space(resident),
+        loaded: texture_bytes,
+        what: &what,
+        fix: &fix,
+    };
+    crate::memory::check(&need, &crate::memory::limits())
 }
 
 fn parse_square(text: &str) -> Result<u32, String> {

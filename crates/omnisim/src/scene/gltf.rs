@@ -13,15 +13,17 @@
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
+use std::path::Path;
 
 use base64::Engine as _;
 use glam::{DMat4, DVec2, DVec3, DVec4};
 use gltf::mesh::Mode;
 use gltf::texture::WrappingMode;
+use rayon::prelude::*;
 
 use super::lighting::linear_to_srgb;
 use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshTextures, MeshTriangle};
-use super::texture::Wrap;
+use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
 const SUPPORTED_EXTENSIONS: [&str; 2] = ["KHR_texture_transform", "KHR_materials_unlit"];
@@ -83,15 +85,85 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
         .buffers()
         .map(|buffer| load_buffer(&buffer, gltf.blob.as_deref(), textures))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut images: Vec<Option<u32>> = vec![None; document.images().len()];
-    let mut decoded: HashMap<(usize, usize), Vec<MeshTriangle>> = HashMap::new();
+    let placed = placements(document)?;
+    // The triangle cap, from the accessors' counts before anything is read: the primitives
+    // are read all at once below, and several may share one large index accessor.
+    let mut placed_triangles = 0usize;
+    for (mesh, _) in &placed {
+        for primitive in mesh.primitives() {
+            let corners = match (primitive.indices(), primitive.get(&gltf::Semantic::Positions)) {
+                (Some(indices), _) | (None, Some(indices)) => indices.count(),
+                (None, None) => 0,
+            };
+            placed_triangles = placed_triangles.saturating_add(corners / 3);
+            if placed_triangles > MAX_MESH_TRIANGLES {
+                return Err(format!(
+                    "mesh {} primitive {}: {}",
+                    mesh.index(),
+                    primitive.index(),
+                    too_many_triangles()
+                ));
+            }
+        }
+    }
+    // Each primitive once, however many nodes place it, in the order first placed.
+    let mut primitives: Vec<(usize, gltf::Primitive)> = Vec::new();
+    let mut slot_of: HashMap<(usize, usize), usize> = HashMap::new();
+    for (mesh, _) in &placed {
+        for primitive in mesh.primitives() {
+            if let Entry::Vacant(entry) = slot_of.entry((mesh.index(), primitive.index())) {
+                entry.insert(primitives.len());
+                primitives.push((mesh.index(), primitive));
+            }
+        }
+    }
+    let images = load_images(&primitives, document, &buffers, textures)?;
+    // On all threads.
+    let mut read: Vec<Result<Vec<MeshTriangle>, String>> = primitives
+        .par_iter()
+        .map(|(mesh, primitive)| {
+            read_primitive(primitive, &buffers, &images)
+                .map_err(|e| format!("mesh {mesh} primitive {}: {e}", primitive.index()))
+        })
+        .collect();
+    // How many placements of each primitive are still to come: the last one takes its
+    // triangles instead of copying them (a primitive placed once is never copied).
+    let mut uses = vec![0usize; primitives.len()];
+    for (mesh, _) in &placed {
+        for primitive in mesh.primitives() {
+            uses[slot_of[&(mesh.index(), primitive.index())]] += 1;
+        }
+    }
     let mut triangles = Vec::new();
+    for (mesh, world) in &placed {
+        for primitive in mesh.primitives() {
+            let slot = slot_of[&(mesh.index(), primitive.index())];
+            let local = read[slot].as_mut().map_err(|e| e.clone())?;
+            uses[slot] -= 1;
+            let place = |triangle: MeshTriangle| MeshTriangle {
+                vertices: triangle.vertices.map(|vertex| world.transform_point3(vertex)),
+                ..triangle
+            };
+            if uses[slot] == 0 {
+                triangles.extend(std::mem::take(local).into_iter().map(place));
+            } else {
+                triangles.extend(local.iter().cloned().map(place));
+            }
+        }
+    }
+    Ok(triangles)
+}
+
+/// The meshes of the default scene's node hierarchy (else of the first scene, else of every
+/// node), each with its node's world transform, in the order the hierarchy is walked.
+fn placements(document: &gltf::Document) -> Result<Vec<(gltf::Mesh<'_>, DMat4)>, String> {
     let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         None => document.nodes().collect(),
     };
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots.into_iter().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     let mut visits = 0usize;
+    let mut placed = Vec::new();
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
         if depth > MAX_DEPTH || visits > MAX_NODE_VISITS {
@@ -106,28 +178,58 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
             return Err(format!("node {}: its transform is not finite", node.index()));
         }
         if let Some(mesh) = node.mesh() {
-            for primitive in mesh.primitives() {
-                let what = || format!("mesh {} primitive {}", mesh.index(), primitive.index());
-                // A mesh that several nodes place is decoded and checked once.
-                let local = match decoded.entry((mesh.index(), primitive.index())) {
-                    Entry::Occupied(entry) => entry.into_mut(),
-                    Entry::Vacant(entry) => entry.insert(
-                        read_primitive(&primitive, &buffers, &mut images, textures)
-                            .map_err(|e| format!("{}: {e}", what()))?,
-                    ),
-                };
-                if triangles.len() + local.len() > MAX_MESH_TRIANGLES {
-                    return Err(format!("{}: {}", what(), too_many_triangles()));
-                }
-                triangles.extend(local.iter().map(|triangle| MeshTriangle {
-                    vertices: triangle.vertices.map(|vertex| world.transform_point3(vertex)),
-                    ..triangle.clone()
-                }));
-            }
+            placed.push((mesh, world));
         }
         stack.extend(node.children().map(|child| (child, world, depth + 1)));
     }
-    Ok(triangles)
+    Ok(placed)
+}
+
+/// The bank index of each image the base colour of one of `primitives` (each with its mesh's
+/// index) shows, by image index: read from their headers in the order first shown, then decoded
+/// on all threads. An error names the first primitive that shows the image.
+fn load_images(
+    primitives: &[(usize, gltf::Primitive)],
+    document: &gltf::Document,
+    buffers: &[Vec<u8>],
+    textures: &mut MeshTextures,
+) -> Result<Vec<Option<u32>>, String> {
+    // Each image shown, with the first primitive that shows it.
+    let mut shown: Vec<(gltf::Image, String)> = Vec::new();
+    let mut is_shown = vec![false; document.images().len()];
+    for (mesh, primitive) in primitives {
+        if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
+            let image = info.texture().source();
+            if !std::mem::replace(&mut is_shown[image.index()], true) {
+                shown.push((image, format!("mesh {mesh} primitive {}", primitive.index())));
+            }
+        }
+    }
+    let shown = &shown;
+    let shown_by = |i: usize| move |e: String| format!("{}: {e}", shown[i].1);
+    // A file the glTF names is keyed by its path (shared with any other mesh or object that
+    // shows it); an embedded image by the glTF and its index.
+    let keys = shown
+        .iter()
+        .enumerate()
+        .map(|(i, (image, _))| match image.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+                super::library::inside_folder(textures.mesh, uri, "texture")
+                    .map(|path| format!("image {}", path.display()))
+                    .map_err(shown_by(i))
+            }
+            _ => Ok(format!("image {} inside {}", image.index(), textures.mesh.display())),
+        })
+        .collect::<Result<Vec<String>, String>>()?;
+    let mesh = textures.mesh;
+    let added = textures
+        .bank
+        .add_images(&keys, |i| open_image(&shown[i].0, buffers, mesh, &shown[i].1))?;
+    let mut images = vec![None; document.images().len()];
+    for ((image, _), index) in shown.iter().zip(added) {
+        images[image.index()] = Some(index);
+    }
+    Ok(images)
 }
 
 /// The bytes of a buffer: the GLB's binary chunk, a `data:` URI, or a file beside the glTF.
@@ -211,13 +313,9 @@ fn wrap(mode: WrappingMode) -> Wrap {
     }
 }
 
-/// The look of a primitive's material, its base-colour texture decoded once per image.
-fn look(
-    material: &gltf::Material,
-    buffers: &[Vec<u8>],
-    images: &mut [Option<u32>],
-    textures: &mut MeshTextures,
-) -> Result<Look, String> {
+/// The look of a primitive's material, its base-colour texture one of `images` (by image
+/// index, [`load_images`]).
+fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
     let pbr = material.pbr_metallic_roughness();
     let factor = DVec4::from_array(pbr.base_color_factor().map(f64::from));
     let texture = match pbr.base_color_texture() {
@@ -225,10 +323,7 @@ fn look(
         Some(info) => {
             let texture = info.texture();
             let image = texture.source();
-            let index = image.index();
-            if images[index].is_none() {
-                images[index] = Some(load_image(&image, buffers, textures)?);
-            }
+            let id = images[image.index()].expect("load_images decodes every image a placed primitive shows");
             let sampler = texture.sampler();
             let (set, transform) = match info.texture_transform() {
                 None => (info.tex_coord(), UvTransform::IDENTITY),
@@ -241,21 +336,26 @@ fn look(
                     },
                 ),
             };
-            images[index].map(|id| (id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], set, transform))
+            Some((id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], set, transform))
         }
     };
-    Ok(Look {
+    Look {
         colour: [factor.x, factor.y, factor.z].map(linear_to_srgb),
         factor,
         texture,
         unlit: material.unlit(),
-    })
+    }
 }
 
-/// Decodes image `image` (from a buffer view, a data URI or a file beside the glTF).
-fn load_image(image: &gltf::Image, buffers: &[Vec<u8>], textures: &mut MeshTextures) -> Result<u32, String> {
-    let what = format!("image {}", image.index());
-    let key = format!("image {} inside {}", image.index(), textures.mesh.display());
+/// Reads the header of image `image` (from a buffer view, a data URI or a file beside the
+/// glTF `mesh`), which `primitive` shows first (an embedded image is named by both).
+fn open_image<'a>(
+    image: &gltf::Image,
+    buffers: &'a [Vec<u8>],
+    mesh: &Path,
+    primitive: &str,
+) -> Result<PendingImage<'a>, String> {
+    let what = format!("{primitive}: image {}", image.index());
     match image.source() {
         gltf::image::Source::View { view, .. } => {
             let buffer = &buffers[view.buffer().index()];
@@ -264,18 +364,13 @@ fn load_image(image: &gltf::Image, buffers: &[Vec<u8>], textures: &mut MeshTextu
                 .checked_add(view.length())
                 .and_then(|end| buffer.get(view.offset()..end))
                 .ok_or_else(|| format!("{what}: its buffer view reaches beyond the buffer"))?;
-            textures
-                .bank
-                .get_or_add(key, || super::texture::decode_bytes(bytes, &what))
+            texture::open_bytes(bytes, &what)
         }
         gltf::image::Source::Uri { uri, .. } => match data_uri(uri) {
-            Some(bytes) => {
-                let bytes = bytes.map_err(|e| format!("{what}: {e}"))?;
-                textures
-                    .bank
-                    .get_or_add(key, || super::texture::decode_bytes(&bytes, &what))
-            }
-            None => textures.image(uri),
+            Some(bytes) => texture::open_bytes(bytes.map_err(|e| format!("{what}: {e}"))?, &what),
+            None => super::library::inside_folder(mesh, uri, "texture")
+                .and_then(|path| texture::open_image(&path))
+                .map_err(|e| format!("{primitive}: {e}")),
         },
     }
 }
@@ -284,8 +379,7 @@ fn load_image(image: &gltf::Image, buffers: &[Vec<u8>], textures: &mut MeshTextu
 fn read_primitive(
     primitive: &gltf::Primitive,
     buffers: &[Vec<u8>],
-    images: &mut [Option<u32>],
-    textures: &mut MeshTextures,
+    images: &[Option<u32>],
 ) -> Result<Vec<MeshTriangle>, String> {
     if primitive.mode() != Mode::Triangles {
         return Err(format!(
@@ -293,7 +387,7 @@ fn read_primitive(
             primitive.mode()
         ));
     }
-    let look = look(&primitive.material(), buffers, images, textures)?;
+    let look = look(&primitive.material(), images);
     for (_, accessor) in primitive.attributes() {
         check_accessor(&accessor, buffers)?;
     }

@@ -4,13 +4,14 @@ use std::collections::HashMap;
 use std::path::{Component, Path, PathBuf};
 
 use glam::{DVec2, DVec3, dvec3};
+use rayon::prelude::*;
 
 use super::file::{
     AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, TextureFile,
     WallFile,
 };
 use super::surface::{Surface, Surfaces, UvMap, planar_uv};
-use super::texture::{Texture, Wrap};
+use super::texture::{BYTES_PER_TEXEL_WITH_MIPS, MAX_SCENE_TEXELS, PendingImage, Texture, Wrap, open_image};
 use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};
 use crate::input::locate;
 use crate::pose::rotation_xyz;
@@ -102,9 +103,21 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let is_mesh = matches!(object, ObjectFile::Mesh(_));
         let mut dropped = 0usize;
         scene.faces.reserve(faces.len());
+        // Each face checked on all threads (a million mesh triangles took 1.1 G instructions on
+        // one), then kept in order: the first bad face is the one reported.
+        // Only the failures are kept, with their faces' places, in order.
+        let failures: Vec<(usize, Result<String, String>)> = faces
+            .par_iter()
+            .enumerate()
+            .filter_map(|(k, (vertices, _, _))| match validate::check_coordinates(vertices) {
+                Err(outside) => Some((k, Err(outside))),
+                Ok(()) => validate::check_face(vertices).err().map(|problem| (k, Ok(problem))),
+            })
+            .collect();
+        let mut failures = failures.into_iter().peekable();
         for (k, (vertices, colour, surface)) in faces.into_iter().enumerate() {
-            validate::check_coordinates(&vertices).map_err(&invalid)?;
-            if let Err(problem) = validate::check_face(&vertices) {
+            let failure = failures.next_if(|(at, _)| *at == k).map(|(_, failure)| failure);
+            if let Some(problem) = failure.transpose().map_err(&invalid)? {
                 if !is_mesh {
                     return Err(invalid(problem));
                 }
@@ -161,11 +174,14 @@ pub(super) struct TextureBank {
     /// The source of each texture, which is also its key in `by_key`.
     sources: Vec<String>,
     by_key: HashMap<String, u32>,
+    /// Texels of the finest levels of the textures so far, counted against
+    /// [`MAX_SCENE_TEXELS`] before each is made.
+    texels: u64,
 }
 
 impl TextureBank {
-    /// The index of the texture `source` names (a file, a pattern, a glTF image: one texture
-    /// per source), made by `make` the first time.
+    /// The index of the texture `source` names (a pattern: one texture per source), made by
+    /// `make` the first time (a pattern is small: counted once made).
     pub(super) fn get_or_add(
         &mut self,
         source: String,
@@ -174,11 +190,76 @@ impl TextureBank {
         if let Some(&index) = self.by_key.get(&source) {
             return Ok(index);
         }
+        let texture = make()?;
+        let (width, height) = texture.size();
+        self.count(u64::from(width) * u64::from(height), &source)?;
+        Ok(self.insert(source, texture))
+    }
+
+    /// [`TextureBank::add_images`] of one image.
+    pub(super) fn add_image<'a>(
+        &mut self,
+        key: String,
+        open: impl Fn() -> Result<PendingImage<'a>, String>,
+    ) -> Result<u32, String> {
+        Ok(self.add_images(&[key], |_| open())?[0])
+    }
+
+    /// The indices of the images keyed `keys` (a file, a glTF's image: one texture per key);
+    /// `open(i)` reads the header of the i-th where its key is new. The new images are counted
+    /// against the scene's texel cap in order, from their headers, and only when every header
+    /// has passed are they decoded and mipped, on all threads (four 2048² PNGs took 3.1 G
+    /// instructions one after another: docs/benchmarks.md, 2026-11-27 night (load)). The error
+    /// is the first header failure in key order, else the first decoding failure in key order.
+    pub(super) fn add_images<'a>(
+        &mut self,
+        keys: &[String],
+        open: impl Fn(usize) -> Result<PendingImage<'a>, String>,
+    ) -> Result<Vec<u32>, String> {
+        let mut pending: Vec<(&String, PendingImage)> = Vec::new();
+        for (i, key) in keys.iter().enumerate() {
+            if !self.by_key.contains_key(key) && !pending.iter().any(|(earlier, _)| *earlier == key) {
+                let image = open(i)?;
+                let (width, height) = image.size();
+                self.count(u64::from(width) * u64::from(height), image.name())?;
+                pending.push((key, image));
+            }
+        }
+        // Every result kept, in order (rayon's collect into a `Result` keeps whichever error
+        // came first in time).
+        let decoded: Vec<(&String, Result<Texture, String>)> = pending
+            .into_par_iter()
+            .map(|(key, image)| (key, image.decode()))
+            .collect();
+        for (key, texture) in decoded {
+            self.insert(key.clone(), texture?);
+        }
+        Ok(keys.iter().map(|key| self.by_key[key]).collect())
+    }
+
+    /// Counts `texels` more texels of the texture `name` names, unless that takes the scene
+    /// past [`MAX_SCENE_TEXELS`].
+    fn count(&mut self, texels: u64, name: &str) -> Result<(), String> {
+        let total = self.texels + texels;
+        if total > MAX_SCENE_TEXELS {
+            return Err(format!(
+                "{name}: its {texels} texels would bring the scene's textures to {total} texels, more than omnisim \
+                 loads ({MAX_SCENE_TEXELS} texels, {:.1} GB at {BYTES_PER_TEXEL_WITH_MIPS:.1} bytes a texel with \
+                 mips); scale the textures down or use fewer",
+                MAX_SCENE_TEXELS as f64 * BYTES_PER_TEXEL_WITH_MIPS / 1e9
+            ));
+        }
+        self.texels = total;
+        Ok(())
+    }
+
+    /// Adds `texture` under `source`; its index.
+    fn insert(&mut self, source: String, texture: Texture) -> u32 {
         let index = self.textures.len() as u32;
-        self.textures.push(make()?);
+        self.textures.push(texture);
         self.sources.push(source.clone());
         self.by_key.insert(source, index);
-        Ok(index)
+        index
     }
 }
 
@@ -222,10 +303,8 @@ fn place(
     let texture = match (&file.image, &file.pattern) {
         (Some(image), None) => {
             let path = inside_folder(scene_path, image, "texture image").map_err(|e| ("image", e))?;
-            bank.get_or_add(format!("image {}", path.display()), || {
-                super::texture::load_image(&path)
-            })
-            .map_err(|e| ("image", e))?
+            bank.add_image(format!("image {}", path.display()), || open_image(&path))
+                .map_err(|e| ("image", e))?
         }
         (None, Some(pattern)) => bank
             .get_or_add(format!("pattern {pattern:?} baked to {}² texels", file.texels), || {
@@ -551,13 +630,9 @@ fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path, bank: &mut Texture
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);
     let faces = triangles
-        .into_iter()
+        .into_par_iter()
         .map(|triangle| {
-            let vertices: Vertices = triangle
-                .vertices
-                .iter()
-                .map(|v| position + world_from_object * (*v * m.scale))
-                .collect();
+            let vertices = Vertices::from_buf(triangle.vertices.map(|v| position + world_from_object * (v * m.scale)));
             // A textured triangle without a colour of its own shows its texture untinted.
             let colour = triangle
                 .colour

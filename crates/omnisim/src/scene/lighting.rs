@@ -74,6 +74,12 @@ pub fn srgb_to_linear(value: u8) -> f64 {
     DECODING[value as usize]
 }
 
+/// [`srgb_to_linear`] of every byte, as one table: for loops over many texels (mip building),
+/// which find it once.
+pub(crate) fn srgb_decoding() -> &'static [f64; 256] {
+    &DECODING
+}
+
 /// [`srgb_to_linear`] of every byte.
 static DECODING: std::sync::LazyLock<[f64; 256]> = std::sync::LazyLock::new(|| {
     std::array::from_fn(|i| {

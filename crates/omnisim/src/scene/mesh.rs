@@ -3,7 +3,7 @@
 //! and other tools' scenes can be placed in a scene.
 
 use std::io::{BufRead, BufReader};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3};
 use ply_rs_bw::parser::{Parser, Reader};
@@ -123,12 +123,20 @@ pub(super) struct MeshTextures<'a> {
 }
 
 impl MeshTextures<'_> {
-    /// The bank index of image `name` (relative to the mesh file's folder), decoded once.
+    /// The bank index of each image of `names` (relative to the mesh file's folder), each
+    /// decoded once, the new ones on all threads.
+    pub(super) fn images(&mut self, names: &[&str]) -> Result<Vec<u32>, String> {
+        let paths = names
+            .iter()
+            .map(|name| super::library::inside_folder(self.mesh, name, "texture"))
+            .collect::<Result<Vec<PathBuf>, String>>()?;
+        let keys: Vec<String> = paths.iter().map(|path| format!("image {}", path.display())).collect();
+        self.bank.add_images(&keys, |i| super::texture::open_image(&paths[i]))
+    }
+
+    /// [`MeshTextures::images`] of one image.
     pub(super) fn image(&mut self, name: &str) -> Result<u32, String> {
-        let path = super::library::inside_folder(self.mesh, name, "texture")?;
-        self.bank.get_or_add(format!("image {}", path.display()), || {
-            super::texture::load_image(&path)
-        })
+        Ok(self.images(&[name])?[0])
     }
 }
 

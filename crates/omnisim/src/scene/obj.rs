@@ -54,20 +54,17 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
         return Err(problem);
     }
     // An OBJ without an mtllib has no materials; one whose mtllib failed was refused above.
-    let materials = materials
-        .unwrap_or_default()
+    let materials = materials.unwrap_or_default();
+    // Every material's texture at once: they decode on all threads.
+    let names: Vec<&str> = materials.iter().filter_map(|m| m.diffuse_texture.as_deref()).collect();
+    let mut images = textures.images(&names)?.into_iter();
+    let materials: Vec<Material> = materials
         .iter()
-        .map(|m| {
-            Ok(Material {
-                colour: m.diffuse.map(|kd| kd.map(|k| linear_to_srgb(f64::from(k)))),
-                texture: m
-                    .diffuse_texture
-                    .as_deref()
-                    .map(|name| textures.image(name))
-                    .transpose()?,
-            })
+        .map(|m| Material {
+            colour: m.diffuse.map(|kd| kd.map(|k| linear_to_srgb(f64::from(k)))),
+            texture: m.diffuse_texture.as_ref().and_then(|_| images.next()),
         })
-        .collect::<Result<Vec<_>, String>>()?;
+        .collect();
     let mut triangles = Vec::new();
     for model in models {
         let mesh = &model.mesh;

@@ -12,13 +12,23 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
-use crate::scene::lighting::{linear_to_srgb, srgb_to_linear};
+use crate::scene::lighting::{linear_to_srgb, linear_to_srgb3, srgb_decoding, srgb_to_linear};
 
 /// Largest texture side, texels: a 16k texture is 2 GiB of texels before its mips.
 pub const MAX_TEXTURE_SIDE: u32 = 16_384;
 
 /// Most texels of one texture's finest level (256 Mi texels, 2 GiB).
 pub const MAX_TEXTURE_TEXELS: u64 = 1 << 28;
+
+/// Most texels of a scene's textures together (finest levels; 512 Mi texels: 4 GiB, and a
+/// third more for the mips, at 8 bytes a texel). An image over it is refused from its header,
+/// before it is decoded.
+pub const MAX_SCENE_TEXELS: u64 = 1 << 29;
+
+/// Bytes a texel of a finest level takes in memory with its share of the mips below it (8
+/// bytes a texel, the mips a third more): what [`Texture::bytes`] comes to, for a size read
+/// from a header.
+pub const BYTES_PER_TEXEL_WITH_MIPS: f64 = 8.0 * 4.0 / 3.0;
 
 /// Largest image file read as a texture.
 pub const TEXTURE_FILE_LIMIT: u64 = 512 << 20;
@@ -68,7 +78,13 @@ impl MipLevel {
         MipLevel {
             width,
             height,
-            texels: packed.par_iter().map(|&texel| linear_texel(unpack(texel))).collect(),
+            texels: {
+                let linear = &*LINEAR16;
+                packed
+                    .par_iter()
+                    .map(|&texel| linear_texel(linear, unpack(texel)))
+                    .collect()
+            },
         }
     }
 
@@ -84,18 +100,19 @@ impl MipLevel {
     }
 }
 
-/// The linear value of sRGB byte `byte` in 16 bits: round(65535 · its linear value), exactly
-/// as [`srgb_to_linear`] gives it. Consecutive bytes lie at least 19 apart (the dark end's step,
+/// The linear value of each sRGB byte in 16 bits: round(65535 · its linear value), exactly as
+/// [`srgb_to_linear`] gives it. Consecutive bytes lie at least 19 apart (the dark end's step,
 /// 65535 / (255 · 12.92)), so [`srgb_byte`] gives the byte back.
+static LINEAR16: std::sync::LazyLock<[u16; 256]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|b| (srgb_to_linear(b as u8) * 65535.0).round() as u16));
+
+/// [`LINEAR16`] of `byte`.
+#[cfg(test)]
 pub(crate) fn linear16(byte: u8) -> u16 {
     LINEAR16[usize::from(byte)]
 }
 
-/// [`linear16`] of every byte.
-static LINEAR16: std::sync::LazyLock<[u16; 256]> =
-    std::sync::LazyLock::new(|| std::array::from_fn(|b| (srgb_to_linear(b as u8) * 65535.0).round() as u16));
-
-/// The sRGB byte whose [`linear16`] is `linear` (the nearest sRGB encoding of its value): one
+/// The sRGB byte whose [`LINEAR16`] value is `linear` (the nearest sRGB encoding of its value): one
 /// look-up, as the GPU's upload reads back every texel's three.
 fn srgb_byte(linear: u16) -> u8 {
     SRGB_BYTES[usize::from(linear)]
@@ -110,9 +127,12 @@ static SRGB_BYTES: std::sync::LazyLock<Box<[u8; 65536]>> = std::sync::LazyLock::
     bytes
 });
 
-/// A texel of [`MipLevel::texels`] from its sRGB colour.
-fn linear_texel(rgb: [u8; 3]) -> u64 {
-    u64::from(linear16(rgb[0])) | (u64::from(linear16(rgb[1])) << 16) | (u64::from(linear16(rgb[2])) << 32)
+/// A texel of [`MipLevel::texels`] from its sRGB colour, `linear` the table [`LINEAR16`]
+/// (found once by the caller: a look-up of the lazy table per channel was a fifth of the mip
+/// building).
+fn linear_texel(linear: &[u16; 256], rgb: [u8; 3]) -> u64 {
+    let channel = |k: usize| u64::from(linear[usize::from(rgb[k])]);
+    channel(0) | (channel(1) << 16) | (channel(2) << 32)
 }
 
 /// The sRGB colour of a texel of [`MipLevel::texels`].
@@ -141,30 +161,38 @@ pub(crate) fn unpack(packed: u32) -> [u8; 3] {
 impl Texture {
     /// A texture from row-major 8-bit sRGB pixels (`width × height` of them), with its mips.
     pub fn from_rgb(width: u32, height: u32, pixels: &[[u8; 3]]) -> Texture {
-        Self::from_packed(width, height, pixels.iter().map(|&p| pack(p)).collect())
+        Self::from_srgb_bytes(width, height, pixels.as_flattened())
     }
 
-    /// The texture of `width` × `height` row-major 8-bit sRGB texels packed as [`pack`] packs.
-    /// The mips are made from the packed bytes, then each level is held in linear light
-    /// ([`MipLevel::from_srgb`]).
-    fn from_packed(width: u32, height: u32, texels: Vec<u32>) -> Texture {
-        assert_eq!(texels.len(), width as usize * height as usize, "texel count");
-        // Each level is held in linear light as soon as the next is made from its bytes, so
-        // the load's peak is one packed level beside the finished ones, not the whole packed
-        // pyramid as well.
-        let mut levels = Vec::new();
-        let mut level = Packed { width, height, texels };
-        loop {
-            let next = (level.width > 1 || level.height > 1).then(|| half(&level));
-            levels.push(MipLevel::from_srgb(level.width, level.height, &level.texels));
-            match next {
-                Some(next) => level = next,
-                None => break,
-            }
+    /// The texture of `width` × `height` row-major 8-bit sRGB texels, three bytes each (as
+    /// decoders give them). Each next level is made from the bytes of the one above, and held
+    /// in linear light in the same pass ([`half`]); only the bytes of the level last made are
+    /// kept beside the finished levels.
+    fn from_srgb_bytes(width: u32, height: u32, bytes: &[u8]) -> Texture {
+        assert_eq!(bytes.len(), width as usize * height as usize * 3, "texel count");
+        let linear = &*LINEAR16;
+        let mut texels = vec![0; width as usize * height as usize];
+        // Rows on all threads, a row at a time (a collect texel by texel cost 36 instructions a
+        // texel); an empty image has none (its chunks are 1 wide: chunks of 0 panic).
+        texels
+            .par_chunks_mut(width.max(1) as usize)
+            .zip(bytes.par_chunks(width.max(1) as usize * 3))
+            .for_each(|(texels, bytes)| {
+                for (texel, rgb) in texels.iter_mut().zip(bytes.chunks_exact(3)) {
+                    *texel = linear_texel(linear, [rgb[0], rgb[1], rgb[2]]);
+                }
+            });
+        let mut levels = vec![MipLevel { width, height, texels }];
+        let (mut width, mut height) = (width, height);
+        let mut above: Option<Vec<[u8; 3]>> = None;
+        while width > 1 || height > 1 {
+            let (next_bytes, next) = half(above.as_deref().map_or(bytes, <[[u8; 3]]>::as_flattened), width, height);
+            (width, height) = (next.width, next.height);
+            levels.push(next);
+            above = Some(next_bytes);
         }
         Texture { levels }
     }
-
     /// Size of the finest level.
     pub fn size(&self) -> (u32, u32) {
         (self.levels[0].width, self.levels[0].height)
@@ -193,61 +221,98 @@ impl Texture {
     }
 }
 
-/// A mip level of 8-bit sRGB texels packed as [`pack`] packs, as the mips are made.
-struct Packed {
-    width: u32,
-    height: u32,
-    texels: Vec<u32>,
-}
-
-/// The next mip level: each texel the mean, in linear light, of the 2×2 texels above it (the
-/// last row or column of an odd size joins the one before it: a box of 2×1, 1×2 or 3×… never
-/// leaves a texel out).
-fn half(above: &Packed) -> Packed {
-    let (width, height) = ((above.width / 2).max(1), (above.height / 2).max(1));
+/// The level below the `width` × `height` level of sRGB bytes `above` (three a texel): each
+/// texel the mean, in linear light, of the 2×2 texels above it (the last row or column of an
+/// odd size joins the one before it: a box of 2×1, 1×2 or 3×… never leaves a texel out), as its
+/// sRGB bytes (which make the level after it) and as the level's linear texels.
+fn half(above: &[u8], width: u32, height: u32) -> (Vec<[u8; 3]>, MipLevel) {
+    let (half_width, half_height) = ((width / 2).max(1), (height / 2).max(1));
     // Source columns of destination column x: 2x, 2x+1, and 2x+2 too for the last one of an
     // odd width.
-    let span = |x: u32, size: u32, half: u32| {
+    let span = |x: usize, size: u32, half: u32| {
         let start = 2 * x;
-        let end = if x + 1 == half { size } else { (2 * x + 2).min(size) };
+        let end = if x + 1 == half as usize {
+            size as usize
+        } else {
+            (2 * x + 2).min(size as usize)
+        };
         start..end
     };
-    // Rows on all threads: a 4096² level takes 0.1 s on one.
-    let texels = (0..height)
-        .into_par_iter()
-        .flat_map_iter(|y| {
-            (0..width).map(move |x| {
-                let mut sum = [0.0f64; 3];
-                let mut count = 0.0;
-                for sy in span(y, above.height, height) {
-                    for sx in span(x, above.width, width) {
-                        let c = unpack(above.texels[sy as usize * above.width as usize + sx as usize]);
-                        for k in 0..3 {
-                            sum[k] += srgb_to_linear(c[k]);
+    let (decoding, linear) = (srgb_decoding(), &*LINEAR16);
+    let stride = width as usize * 3;
+    let mut bytes = vec![[0; 3]; half_width as usize * half_height as usize];
+    let mut texels = vec![0; half_width as usize * half_height as usize];
+    // Rows on all threads. Channels are written out, not `array::map`ped: the map was an
+    // out-of-line call per texel (callgrind: 400 M instructions of four 2048² textures).
+    bytes
+        .par_chunks_mut(half_width as usize)
+        .zip(texels.par_chunks_mut(half_width as usize))
+        .enumerate()
+        .for_each(|(y, (row_bytes, row_texels))| {
+            let rows = span(y, height, half_height);
+            for (x, (rgb, texel)) in row_bytes.iter_mut().zip(row_texels).enumerate() {
+                let columns = span(x, width, half_width);
+                let mean = if rows.len() == 2 && columns.len() == 2 {
+                    // The common 2×2 box: the same sums, in the same order, as the loops below.
+                    let top = &above[rows.start * stride + columns.start * 3..][..6];
+                    let bottom = &above[(rows.start + 1) * stride + columns.start * 3..][..6];
+                    let tap = |texels: &[u8], at: usize| decoding[usize::from(texels[at])];
+                    let channel =
+                        |k: usize| (tap(top, k) + tap(top, k + 3) + tap(bottom, k) + tap(bottom, k + 3)) / 4.0;
+                    [channel(0), channel(1), channel(2)]
+                } else {
+                    let mut sum = [0.0f64; 3];
+                    let mut count = 0.0;
+                    for sy in rows.clone() {
+                        let line = &above[sy * stride..];
+                        for sx in columns.clone() {
+                            for k in 0..3 {
+                                sum[k] += decoding[usize::from(line[sx * 3 + k])];
+                            }
+                            count += 1.0;
                         }
-                        count += 1.0;
                     }
-                }
-                pack(sum.map(|s| linear_to_srgb(s / count)))
-            })
-        })
-        .collect();
-    Packed { width, height, texels }
+                    [sum[0] / count, sum[1] / count, sum[2] / count]
+                };
+                *rgb = linear_to_srgb3(mean);
+                *texel = linear_texel(linear, *rgb);
+            }
+        });
+    let level = MipLevel {
+        width: half_width,
+        height: half_height,
+        texels,
+    };
+    (bytes, level)
 }
 
-/// Decodes a PNG or JPEG file (`path` a regular file of at most [`TEXTURE_FILE_LIMIT`] bytes)
-/// into a texture. The size is read from the header and checked against
-/// [`MAX_TEXTURE_SIDE`] and [`MAX_TEXTURE_TEXELS`] before any pixel is decoded, so a file that
-/// claims 100k × 100k texels allocates nothing. Errors name the file, never its bytes.
-pub fn load_image(path: &Path) -> Result<Texture, String> {
-    let file = crate::input::open_regular(path, TEXTURE_FILE_LIMIT).map_err(|e| match e {
-        crate::input::InputError::Io { error, .. } if error.kind() == std::io::ErrorKind::NotFound => format!(
-            "texture {}: file not found; texture paths are relative to the file that names them",
-            path.display()
-        ),
-        other => format!("texture: {other}"),
-    })?;
-    let bad = |what: String| format!("texture {}: {what}", path.display());
+/// An image whose header has been read (its size is known and within the limits) and whose
+/// texels have not: the scene's texel cap is checked between the two
+/// (`TextureBank::add_images`), and the decoding can run on any thread.
+pub(crate) struct PendingImage<'a> {
+    reader: ImageSource<'a>,
+    format: image::ImageFormat,
+    width: u32,
+    height: u32,
+    /// How errors name the image: "texture PATH" or a glTF's "image N".
+    name: String,
+}
+
+/// Where a [`PendingImage`]'s bytes come from.
+enum ImageSource<'a> {
+    /// A file, opened again to be decoded: a mesh's images wait with no file open (a thousand
+    /// of them would pass `ulimit -n`).
+    File(std::path::PathBuf),
+    /// Bytes in memory (a GLB's embedded image, a data URI).
+    Bytes(std::io::Cursor<std::borrow::Cow<'a, [u8]>>),
+}
+
+/// Reads the header of a PNG or JPEG file (`path` a regular file of at most
+/// [`TEXTURE_FILE_LIMIT`] bytes). Its size is checked against [`MAX_TEXTURE_SIDE`] and
+/// [`MAX_TEXTURE_TEXELS`] before any pixel is decoded, so a file that claims 100k × 100k texels
+/// allocates nothing. Errors name the file, never its bytes.
+pub(crate) fn open_image(path: &Path) -> Result<PendingImage<'static>, String> {
+    let name = format!("texture {}", path.display());
     let format = match path
         .extension()
         .and_then(|e| e.to_str())
@@ -256,28 +321,130 @@ pub fn load_image(path: &Path) -> Result<Texture, String> {
     {
         Some("png") => image::ImageFormat::Png,
         Some("jpg" | "jpeg") => image::ImageFormat::Jpeg,
-        _ => return Err(bad("unknown image format; use a .png, .jpg or .jpeg file".into())),
+        _ => return Err(format!("{name}: unknown image format; use a .png, .jpg or .jpeg file")),
     };
-    decode(image::ImageReader::with_format(std::io::BufReader::new(file), format)).map_err(bad)
+    PendingImage::new(ImageSource::File(path.to_path_buf()), Some(format), name)
 }
 
-/// Decodes an image held in memory (a GLB's embedded texture) like [`load_image`].
-pub fn decode_bytes(bytes: &[u8], what: &str) -> Result<Texture, String> {
-    let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| format!("{what}: {e}"))?;
-    decode(reader).map_err(|e| format!("{what}: {e}"))
+/// `path` opened as a texture file: a regular file of at most [`TEXTURE_FILE_LIMIT`] bytes.
+fn open_texture_file(path: &Path) -> Result<std::io::BufReader<std::io::Take<std::fs::File>>, String> {
+    let file = crate::input::open_regular(path, TEXTURE_FILE_LIMIT).map_err(|e| match e {
+        crate::input::InputError::Io { error, .. } if error.kind() == std::io::ErrorKind::NotFound => format!(
+            "texture {}: file not found; texture paths are relative to the file that names them",
+            path.display()
+        ),
+        other => format!("texture: {other}"),
+    })?;
+    Ok(std::io::BufReader::new(file))
 }
 
-/// Decodes under the size limits: the decoder checks the header's size against them before it
-/// allocates anything.
-fn decode<R: std::io::BufRead + std::io::Seek>(mut reader: image::ImageReader<R>) -> Result<Texture, String> {
+/// Reads the header of an image held in memory (a GLB's embedded texture, a data URI; `what`
+/// names it) like [`open_image`].
+pub(crate) fn open_bytes<'a>(
+    bytes: impl Into<std::borrow::Cow<'a, [u8]>>,
+    what: &str,
+) -> Result<PendingImage<'a>, String> {
+    PendingImage::new(
+        ImageSource::Bytes(std::io::Cursor::new(bytes.into())),
+        None,
+        what.to_string(),
+    )
+}
+
+impl<'a> PendingImage<'a> {
+    /// Reads the header of `reader` (of `format`, or guessed from its first bytes), leaving the
+    /// reader at its start.
+    fn new(mut reader: ImageSource<'a>, format: Option<image::ImageFormat>, name: String) -> Result<Self, String> {
+        let header = match &mut reader {
+            ImageSource::File(path) => read_header(&mut open_texture_file(path)?, format),
+            ImageSource::Bytes(bytes) => read_header(bytes, format),
+        };
+        let (format, width, height) = header.map_err(|e| format!("{name}: {e}"))?;
+        Ok(PendingImage {
+            reader,
+            format,
+            width,
+            height,
+            name,
+        })
+    }
+
+    /// Width and height, texels, as the header gives them.
+    pub(crate) fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// How errors name the image.
+    pub(crate) fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Decodes the image and builds its mips.
+    pub(crate) fn decode(self) -> Result<Texture, String> {
+        let decoded = match self.reader {
+            ImageSource::File(path) => decode(open_texture_file(&path)?, self.format),
+            ImageSource::Bytes(bytes) => decode(bytes, self.format),
+        };
+        let name = &self.name;
+        let image = decoded.map_err(|e| format!("{name}: {e}"))?.into_rgb8();
+        if image.dimensions() != (self.width, self.height) {
+            return Err(format!("{name}: the file changed while it was read"));
+        }
+        Ok(Texture::from_srgb_bytes(self.width, self.height, image.as_raw()))
+    }
+}
+
+/// The size limits of a texture, for the decoder: it checks the header's size against them
+/// before it allocates anything.
+fn limits() -> image::Limits {
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_TEXTURE_SIDE);
     limits.max_image_height = Some(MAX_TEXTURE_SIDE);
     limits.max_alloc = Some(MAX_TEXTURE_TEXELS * 8);
-    reader.limits(limits);
-    let image = reader.decode().map_err(|e| match e {
+    limits
+}
+
+/// The format and size of the image `reader` holds (of `format`, or guessed), under the size
+/// limits; the reader is left at its start.
+fn read_header<R: std::io::BufRead + std::io::Seek>(
+    reader: &mut R,
+    format: Option<image::ImageFormat>,
+) -> Result<(image::ImageFormat, u32, u32), String> {
+    let mut header = image::ImageReader::new(&mut *reader);
+    match format {
+        Some(format) => header.set_format(format),
+        None => header = header.with_guessed_format().map_err(|e| e.to_string())?,
+    }
+    let format = header
+        .format()
+        .ok_or("unsupported image: The image format could not be determined")?;
+    header.limits(limits());
+    let (width, height) = header.into_dimensions().map_err(image_error)?;
+    reader.rewind().map_err(|e| e.to_string())?;
+    if width == 0 || height == 0 {
+        return Err("the image has no pixels".into());
+    }
+    if u64::from(width) * u64::from(height) > MAX_TEXTURE_TEXELS {
+        return Err(format!(
+            "the image is {width}×{height}; omnisim reads at most {MAX_TEXTURE_TEXELS} texels per texture"
+        ));
+    }
+    Ok((format, width, height))
+}
+
+/// Decodes the image of `format` that `reader` holds, under the size limits.
+fn decode<R: std::io::BufRead + std::io::Seek>(
+    reader: R,
+    format: image::ImageFormat,
+) -> Result<image::DynamicImage, String> {
+    let mut reader = image::ImageReader::with_format(reader, format);
+    reader.limits(limits());
+    reader.decode().map_err(image_error)
+}
+
+/// What went wrong reading an image, in words.
+fn image_error(error: image::ImageError) -> String {
+    match error {
         image::ImageError::Limits(_) => format!(
             "the image is larger than omnisim reads as a texture (at most {MAX_TEXTURE_SIDE} texels a side and \
              {MAX_TEXTURE_TEXELS} texels); scale it down"
@@ -287,20 +454,7 @@ fn decode<R: std::io::BufRead + std::io::Seek>(mut reader: image::ImageReader<R>
             "not a readable PNG or JPEG image (truncated or corrupt)".to_string()
         }
         other => format!("cannot decode the image: {other}"),
-    })?;
-    let (width, height) = (image.width(), image.height());
-    if width == 0 || height == 0 {
-        return Err("the image has no pixels".into());
     }
-    if u64::from(width) * u64::from(height) > MAX_TEXTURE_TEXELS {
-        return Err(format!(
-            "the image is {width}×{height}; omnisim reads at most {MAX_TEXTURE_TEXELS} texels per texture"
-        ));
-    }
-    // Packed straight from the decoded image, which is dropped before the levels are made:
-    // no third copy of a large texture.
-    let packed = image.into_rgb8().pixels().map(|p| pack(p.0)).collect();
-    Ok(Texture::from_packed(width, height, packed))
 }
 
 #[cfg(test)]
@@ -331,8 +485,56 @@ mod tests {
             }
         }
         let texel = [3, 128, 255];
-        assert_eq!(srgb_texel(linear_texel(texel)), texel);
+        assert_eq!(srgb_texel(linear_texel(&LINEAR16, texel)), texel);
         assert_eq!(MipLevel::from_srgb(1, 1, &[pack(texel)]).texel(0, 0), texel);
+    }
+
+    /// Every level equals the definition, texel for texel: the mean in linear light of the
+    /// box above it (2×2; 3 wide or high at an odd last column or row), summed row by row,
+    /// encoded to sRGB; the level's linear texels are those bytes' [`LINEAR16`] values.
+    #[test]
+    fn every_level_is_the_box_mean_of_the_one_above() {
+        let mut seed = 12345u32;
+        for (width, height) in [(8, 6), (7, 5), (1, 9), (16, 1), (33, 17)] {
+            let pixels: Vec<[u8; 3]> = (0..width * height)
+                .map(|_| {
+                    [0; 3].map(|_| {
+                        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                        (seed >> 24) as u8
+                    })
+                })
+                .collect();
+            let texture = Texture::from_rgb(width, height, &pixels);
+            let finest: Vec<u64> = pixels.iter().map(|&rgb| linear_texel(&LINEAR16, rgb)).collect();
+            assert_eq!(texture.levels[0].texels, finest);
+            let mut above = pixels;
+            let (mut w, mut h) = (width as usize, height as usize);
+            for level in &texture.levels[1..] {
+                let (half_w, half_h) = ((w / 2).max(1), (h / 2).max(1));
+                let span = |i: usize, size: usize, half: usize| 2 * i..if i + 1 == half { size } else { 2 * i + 2 };
+                let mut below = Vec::new();
+                for y in 0..half_h {
+                    for x in 0..half_w {
+                        let mut sum = [0.0; 3];
+                        let mut count = 0.0;
+                        for sy in span(y, h, half_h) {
+                            for sx in span(x, w, half_w) {
+                                for k in 0..3 {
+                                    sum[k] += srgb_to_linear(above[sy * w + sx][k]);
+                                }
+                                count += 1.0;
+                            }
+                        }
+                        below.push(sum.map(|s| linear_to_srgb(s / count)));
+                    }
+                }
+                assert_eq!((level.width as usize, level.height as usize), (half_w, half_h));
+                let expected: Vec<u64> = below.iter().map(|&rgb| linear_texel(&LINEAR16, rgb)).collect();
+                assert_eq!(level.texels, expected, "{width}×{height}, level {half_w}×{half_h}");
+                (above, w, h) = (below, half_w, half_h);
+            }
+            assert_eq!((w, h), (1, 1));
+        }
     }
 
     #[test]
@@ -357,10 +559,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("huge.png");
         std::fs::write(&path, &png).unwrap();
-        let error = load_image(&path).unwrap_err();
+        let error = open_image(&path).err().unwrap();
         assert!(error.contains("huge.png") && error.contains("larger than"), "{error}");
-        let error = decode_bytes(&png, "image 0").unwrap_err();
-        assert!(error.contains("larger than"), "{error}");
+        let error = open_bytes(&png[..], "image 0").err().unwrap();
+        assert!(
+            error.starts_with("image 0: ") && error.contains("larger than"),
+            "{error}"
+        );
     }
 
     /// CRC-32 (PNG's chunk checksum), bit by bit: only the test's one header needs it.

@@ -53,16 +53,26 @@ pub(super) fn check_face(vertices: &[DVec3]) -> Result<(), String> {
             vertices.len()
         ));
     }
-    let local: Vec<DVec3> = vertices.iter().map(|v| *v - vertices[0]).collect();
+    // A triangle is held in an array (meshes check millions: an allocation, or a SmallVec
+    // filled by `collect`, was two thirds of the check).
+    let relative = |v: &DVec3| *v - vertices[0];
+    let (triangle, polygon): ([DVec3; 3], Vec<DVec3>);
+    let local: &[DVec3] = if let [a, b, c] = vertices {
+        triangle = [a, b, c].map(relative);
+        &triangle
+    } else {
+        polygon = vertices.iter().map(relative).collect();
+        &polygon
+    };
     let (lo, hi) = local
         .iter()
         .fold((DVec3::ZERO, DVec3::ZERO), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
     let extent = (hi - lo).length();
     let n = local.len();
-    if let Some((i, j)) = coinciding(&local, 1e-12 * extent) {
+    if let Some((i, j)) = coinciding(local, 1e-12 * extent) {
         return Err(format!("vertices {i} and {j} coincide; a face visits each corner once"));
     }
-    let normal = newell_normal(&local);
+    let normal = newell_normal(local);
     if normal.length() <= 1e-12 * extent * extent {
         return Err(
             "the face is degenerate: it has no area (are its vertices on one line, or does its outline cross itself?)"
@@ -88,7 +98,7 @@ pub(super) fn check_face(vertices: &[DVec3]) -> Result<(), String> {
     if n == 3 {
         return Ok(());
     }
-    if let Some((i, j)) = crossing_edges(&flatten(&local, unit)) {
+    if let Some((i, j)) = crossing_edges(&flatten(local, unit)) {
         return Err(format!(
             "the outline crosses itself: edge {i}–{} meets edge {j}–{}; list the vertices in order around the \
              boundary, or split the face",
@@ -107,7 +117,14 @@ fn coinciding(vertices: &[DVec3], tolerance: f64) -> Option<(usize, usize)> {
         .fold((vertices[0], vertices[0]), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
     let axis = (hi - lo).max_position();
     let key = |i: usize| vertices[i][axis];
-    let mut order: Vec<usize> = (0..vertices.len()).collect();
+    let (mut triangle, mut polygon): ([usize; 3], Vec<usize>);
+    let order: &mut [usize] = if vertices.len() == 3 {
+        triangle = [0, 1, 2];
+        &mut triangle
+    } else {
+        polygon = (0..vertices.len()).collect();
+        &mut polygon
+    };
     order.sort_by(|&a, &b| key(a).total_cmp(&key(b)));
     let mut found: Option<(usize, usize)> = None;
     for (k, &a) in order.iter().enumerate() {
