@@ -283,8 +283,9 @@ impl Renderer {
         })
     }
 
-    /// Replaces the face colours and lights of `prepared`: no BVH build, no pipeline build,
-    /// only the small appearance buffers are rewritten.
+    /// Replaces the appearance (face colours, lights, surfaces) of `prepared`: no BVH build, no
+    /// pipeline build, only the small appearance buffers are rewritten. Other surfaces (another
+    /// `Arc`) drop the one-colour faces, made again on the next CPU frame.
     pub fn set_appearance(&self, prepared: &mut PreparedScene, appearance: Appearance) -> Result<(), RenderError> {
         let faces = prepared.geometry.face_normals.len();
         if appearance.face_colours.len() != faces {

@@ -104,22 +104,23 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         let mut dropped = 0usize;
         scene.faces.reserve(faces.len());
         // Each face checked on all threads (a million mesh triangles took 1.1 G instructions on
-        // one), then kept in order: the first bad face is the one reported.
-        // Only the failures are kept, with their faces' places, in order.
-        let failures: Vec<(usize, Result<String, String>)> = faces
+        // one), then kept in order: the first bad face is the one reported. Only the failing
+        // faces' places are kept (a scan may hold millions of zero-area triangles, and a message
+        // each would cost gigabytes); a failing face is checked again, in order, for its message.
+        let failing: Vec<usize> = faces
             .par_iter()
             .enumerate()
-            .filter_map(|(k, (vertices, _, _))| match validate::check_coordinates(vertices) {
-                Err(outside) => Some((k, Err(outside))),
-                Ok(()) => validate::check_face(vertices).err().map(|problem| (k, Ok(problem))),
+            .filter(|(_, (vertices, _, _))| {
+                validate::check_coordinates(vertices).is_err() || validate::check_face(vertices).is_err()
             })
+            .map(|(k, _)| k)
             .collect();
-        let mut failures = failures.into_iter().peekable();
+        let mut failing = failing.into_iter().peekable();
         for (k, (vertices, colour, surface)) in faces.into_iter().enumerate() {
-            let failure = failures.next_if(|(at, _)| *at == k).map(|(_, failure)| failure);
-            if let Some(problem) = failure.transpose().map_err(&invalid)? {
+            if failing.next_if_eq(&k).is_some() {
+                validate::check_coordinates(&vertices).map_err(&invalid)?;
                 if !is_mesh {
-                    return Err(invalid(problem));
+                    validate::check_face(&vertices).map_err(&invalid)?;
                 }
                 // A zero-area mesh triangle can never be hit; real scans contain many.
                 dropped += 1;

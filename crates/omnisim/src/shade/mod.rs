@@ -503,7 +503,8 @@ fn shade_one_colour_faces(appearance: &Appearance, faces: &OneColourFaces, frame
     let colours = &appearance.face_colours;
     eight_bit_frame(frame, planes, |_, hit| {
         match faces.of_face.get(hit.face as usize) {
-            // A miss (`NO_FACE` is past every face) or a face without a surface.
+            // A miss (`NO_FACE` is past every face), a face without a surface, or one whose
+            // surface leaves the face's colour.
             None | Some(&OneColourFaces::FACE_COLOUR) => colours.get(hit.face as usize).copied().unwrap_or(BACKGROUND),
             Some(&OneColourFaces::VARYING) => {
                 let surface = appearance.surfaces.of(hit.face);
