@@ -321,26 +321,10 @@ impl Renderer {
         let mut frame = match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
-            None => {
-                let table = self.rays.table(camera);
-                let mut frame =
-                    ray_table::trace_frame(self.cpu_tracer, &prepared.geometry, camera, pose, table.as_deref());
-                if planes.needs_shading() {
-                    let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
-                    let view = shade::View::new(camera, pose, table.as_deref(), Some(&self.rays));
-                    let one_colour_faces = &prepared.one_colour_faces;
-                    shade::shade_frame(
-                        self.cpu_tracer,
-                        geometry,
-                        appearance,
-                        one_colour_faces,
-                        view,
-                        &mut frame,
-                        planes,
-                    );
-                }
-                frame
-            }
+            // On one of rayon's threads, handed over once: the trace's and the shading's
+            // parallel loops then start there, not each handed over from the calling thread and
+            // waited for (as `sift` runs; docs/benchmarks.md, "2026-11-27 evening2 (walk)").
+            None => rayon::scope(|_| self.cpu_frame(prepared, camera, pose, planes)),
         };
         if planes.contains(crate::frame::Plane::Object) {
             let objects = frame
@@ -357,6 +341,28 @@ impl Renderer {
             frame.set_object(objects);
         }
         Ok(frame)
+    }
+
+    /// [`Renderer::render`]'s frame on the CPU: traced from `camera`'s ray table (made on first
+    /// use), then shaded where `planes` asks for colour.
+    fn cpu_frame(&self, prepared: &PreparedScene, camera: &Camera, pose: &Pose, planes: Planes) -> Frame {
+        let table = self.rays.table(camera);
+        let mut frame = ray_table::trace_frame(self.cpu_tracer, &prepared.geometry, camera, pose, table.as_deref());
+        if planes.needs_shading() {
+            let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
+            let view = shade::View::new(camera, pose, table.as_deref(), Some(&self.rays));
+            let one_colour_faces = &prepared.one_colour_faces;
+            shade::shade_frame(
+                self.cpu_tracer,
+                geometry,
+                appearance,
+                one_colour_faces,
+                view,
+                &mut frame,
+                planes,
+            );
+        }
+        frame
     }
 
     /// Renders, then refines the shaded planes of pixels on face edges with
