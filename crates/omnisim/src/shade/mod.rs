@@ -769,6 +769,50 @@ mod tests {
         assert!(drawn.iter().all(|&n| n > 100), "{drawn:?} hits of each kind");
     }
 
+    /// The one-colour table is for the 8-bit colour of unlit scenes only ([`shade_frame`]'s
+    /// guards): lit, a face of one vertex colour is shaded (no longer its flat byte), and a
+    /// frame asking for the linear plane gets each hit's interpolated linear colour. Both are
+    /// what shading each hit alone gives.
+    #[test]
+    fn one_colour_faces_are_looked_up_neither_when_lit_nor_for_the_linear_plane() {
+        let camera = Camera::Equirectangular(Equirectangular {
+            width: 203,
+            height: 101,
+        });
+        let pose = Pose::new(DVec3::new(0.3, -0.2, 0.4), DVec3::new(0.1, -0.2, 0.7));
+        let one_colour = [200, 120, 40];
+        for (name, planes) in [
+            ("env1-lit", Planes::COLOUR),
+            ("env1", Planes::COLOUR.with(Plane::LinearColour)),
+        ] {
+            let (scene, bvh) = crate::trace::test_scene(name);
+            let mut appearance = Appearance::of(&scene);
+            appearance.surfaces = surfaces_of_every_kind(scene.faces.len(), |_| one_colour);
+            let mut frame = CpuTracer::Fast.trace(&bvh, &camera, &pose);
+            let view = View::new(&camera, &pose, None, None);
+            shade_frame(CpuTracer::Fast, &bvh, &appearance, view, &mut frame, planes);
+            let colour = frame.colour().unwrap();
+            let linear = frame.linear_colour().unwrap_or_default();
+            if planes.contains(Plane::LinearColour) {
+                assert_eq!(linear.len(), colour.len(), "{name}: the linear plane");
+            }
+            let mut unflat = 0;
+            for (index, hit) in frame.pixels().iter().enumerate() {
+                assert!(hit.is_hit(), "inside the room");
+                let alone = shade(CpuTracer::Fast, &bvh, &appearance, hit, &Footprint::POINT);
+                assert_eq!(colour[index], encode(alone), "{name}: {hit:?}");
+                if let Some(linear) = linear.get(index) {
+                    assert_eq!(*linear, alone.as_vec3().to_array(), "{name}: {hit:?}");
+                }
+                let of_one_colour = hit.face % 4 == 0 && (hit.face as usize) < scene.faces.len() - PAST_THE_LIST;
+                unflat += usize::from(of_one_colour && colour[index] != one_colour);
+            }
+            if appearance.lighting.is_some() {
+                assert!(unflat > 1000, "{name}: {unflat} lit hits of one-colour faces shaded");
+            }
+        }
+    }
+
     /// The `same_rays` case end to end: env1 exported by `scene export` as a PLY (each face's
     /// colour on its three corners) and loaded as one mesh has vertex colours, every face of
     /// one colour, and the renderer's colour plane of it is each hit shaded alone.
