@@ -71,6 +71,10 @@ pub enum RenderError {
     /// A camera that cannot make an image.
     #[error("the camera cannot make an image: {0}")]
     Camera(#[from] crate::camera::CameraError),
+    /// A scene of more triangles than the BVH addresses (one built in code: scene files are
+    /// refused on load).
+    #[error("the scene has {0}")]
+    TooManyTriangles(#[from] crate::scene::TooManyTriangles),
     /// A texture the renderer cannot filter (one built by hand, too large).
     #[error("texture {index} ({source_name}): {message}")]
     Texture {
@@ -238,6 +242,7 @@ impl Renderer {
     /// With `auto`, a scene the adapter cannot hold is traced on the CPU (see
     /// [`PreparedScene::fallback`]).
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene, RenderError> {
+        crate::scene::check_triangle_count(scene.triangle_count())?;
         let geometry = SceneBvh::build(scene);
         self.geometry_builds.fetch_add(1, Ordering::Relaxed);
         self.prepare_with(scene, geometry)
