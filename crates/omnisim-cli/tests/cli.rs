@@ -498,6 +498,23 @@ fn a_textured_render_that_cannot_fit_names_its_textures_share() {
             && stderr.contains("or scale the scene's textures down (8 bytes a texel, a third more for the mips)"),
         "{stderr}"
     );
+    // On the GPU (or `auto`, which may pick it) the upload's host copy of the texels counts too:
+    // 4 bytes a texel and mip, half of the 7.4 MB.
+    let on_gpu = render_limited(
+        4 << 20,
+        &format!(
+            "scenes/env1-textured.ron --camera omni --size 10000x10000 --pose 1.5,0,0.4,0,0,60 --backend gpu --out {}",
+            dir.path().join("gpu").display()
+        ),
+    );
+    let stderr = text(&on_gpu.stderr);
+    assert_eq!(on_gpu.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains(
+            "7.4 MB of it the texels of 6 texture(s) with their mips, 3.7 MB their sRGB copy for the GPU upload)"
+        ),
+        "{stderr}"
+    );
 }
 
 /// The regular files in `dir` (hidden ones too), sorted.
