@@ -798,12 +798,9 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
 }
 
-/// 51 meshes that share one index accessor of a million triangles (3 MB of the file) are
-/// more than a mesh may hold (50 M triangles): refused from the accessors' counts, at the
-/// placement that passes the cap, before any primitive is read (reading them all would take
-/// about 8 GB).
-#[test]
-fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
+/// 51 meshes that share one index accessor of a million triangles' corners (3 MB of the
+/// file), each one primitive of `mode` (4: triangles, 0: points).
+fn shared_indices_glb(mode: u32) -> Vec<u8> {
     let corners = 3_000_000usize;
     let mut bin = vec![0u8; 36];
     for (k, value) in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0].into_iter().enumerate() {
@@ -817,7 +814,7 @@ fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
         "scenes": [{"nodes": (0..meshes).collect::<Vec<_>>()}],
         "nodes": (0..meshes).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
         "meshes": (0..meshes)
-            .map(|_| serde_json::json!({"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}))
+            .map(|_| serde_json::json!({"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "mode": mode}]}))
             .collect::<Vec<_>>(),
         "accessors": [
             {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
@@ -830,7 +827,15 @@ fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
         ],
         "buffers": [{"byteLength": bin.len()}],
     });
-    let error = load_glb(&glb(&json, &bin)).map(|_| ()).unwrap_err().to_string();
+    glb(&json, &bin)
+}
+
+/// The meshes of [`shared_indices_glb`] are more than a mesh may hold (50 M triangles):
+/// refused from the accessors' counts, at the placement that passes the cap, before any
+/// primitive is read (reading them all would take about 8 GB).
+#[test]
+fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
+    let error = load_glb(&shared_indices_glb(4)).map(|_| ()).unwrap_err().to_string();
     // The walk pops nodes from a stack: the last node's mesh is placed first.
     assert!(
         error.contains("square.glb")
@@ -838,6 +843,59 @@ fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
             && error.contains("mesh 0 primitive 0: more than 50000000 triangles"),
         "{error}"
     );
+}
+
+/// Points are refused as points, not counted as triangles against the cap first.
+#[test]
+fn a_gltf_of_points_past_the_triangle_cap_is_refused_for_its_points() {
+    let error = load_glb(&shared_indices_glb(0)).map(|_| ()).unwrap_err().to_string();
+    assert!(
+        error.contains("primitive 0: its mode is Points; omnisim reads triangle primitives only"),
+        "{error}"
+    );
+}
+
+/// One mesh (a triangle) placed by two nodes under one parent (translation and scale), one
+/// translated, the other rotated a quarter turn about z and scaled by ½: both copies are in
+/// the scene at their world corners (by hand: 2·(p + (0, 0, 1)) + (1, 0, 0), and R·p + (1, 0,
+/// 0)), each a face of its own, and both of the mesh file's one object (README: a mesh file is
+/// one object, each of its triangles a face).
+#[test]
+fn a_gltf_mesh_placed_by_two_nodes_is_in_the_scene_twice_as_one_object() {
+    let corners = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let bin: Vec<u8> = corners.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    let half = std::f64::consts::FRAC_1_SQRT_2;
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [
+            {"children": [1, 2], "translation": [1.0, 0.0, 0.0], "scale": [2.0, 2.0, 2.0]},
+            {"mesh": 0, "translation": [0.0, 0.0, 1.0]},
+            {"mesh": 0, "rotation": [0.0, 0.0, half, half], "scale": [0.5, 0.5, 0.5]}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]}
+        ],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}],
+        "buffers": [{"byteLength": bin.len()}]
+    });
+    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let translated = [dvec3(1.0, 0.0, 2.0), dvec3(3.0, 0.0, 2.0), dvec3(1.0, 2.0, 2.0)];
+    let rotated = [dvec3(1.0, 0.0, 0.0), dvec3(1.0, 1.0, 0.0), dvec3(0.0, 0.0, 0.0)];
+    assert_eq!(scene.faces.len(), 2);
+    assert_eq!(scene.objects.len(), 1);
+    let mut found = [false; 2];
+    for face in &scene.faces {
+        assert_eq!(face.object, 0);
+        for (k, expected) in [translated, rotated].iter().enumerate() {
+            // The file's rotation is an f32 quaternion: within 1e-6.
+            let near = face.vertices.iter().zip(expected).all(|(a, b)| a.distance(*b) < 1e-6);
+            found[k] |= near;
+        }
+    }
+    assert_eq!(found, [true, true], "{:?}", scene.faces);
 }
 
 #[test]

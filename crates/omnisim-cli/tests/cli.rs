@@ -483,19 +483,33 @@ fn a_render_that_cannot_fit_its_memory_is_refused_up_front() {
 #[test]
 fn a_textured_render_that_cannot_fit_names_its_textures_share() {
     let dir = tempfile::tempdir().unwrap();
-    let big = render_limited(
-        4 << 20,
-        &format!(
-            "scenes/env1-textured.ron --camera omni --size 10000x10000 --pose 1.5,0,0.4,0,0,60 --backend cpu --out {}",
-            dir.path().join("big").display()
-        ),
-    );
-    let stderr = text(&big.stderr);
-    assert_eq!(big.status.code(), Some(1), "{stderr}");
+    let refused = |backend: &str| {
+        let big = render_limited(
+            4 << 20,
+            &format!(
+                "scenes/env1-textured.ron --camera omni --size 10000x10000 --pose 1.5,0,0.4,0,0,60 --backend {backend} \
+                 --out {}",
+                dir.path().join(backend).display()
+            ),
+        );
+        let stderr = text(&big.stderr);
+        assert_eq!(big.status.code(), Some(1), "{stderr}");
+        stderr
+    };
+    let stderr = refused("cpu");
     assert!(
         stderr.contains("MB for the program and scene, 7.4 MB of it the texels of 6 texture(s) with their mips)")
             && stderr.contains("besides the 0.01 GB already loaded, more than the address space left under ulimit -v")
             && stderr.contains("or scale the scene's textures down (8 bytes a texel, a third more for the mips)"),
+        "{stderr}"
+    );
+    // On the GPU (or `auto`, which may pick it) the upload's host copy of the texels counts too:
+    // 4 bytes a texel and mip, half of the 7.4 MB.
+    let stderr = refused("gpu");
+    assert!(
+        stderr.contains(
+            "7.4 MB of it the texels of 6 texture(s) with their mips, 3.7 MB their sRGB copy for the GPU upload)"
+        ) && stderr.contains("(8 bytes a texel and 4 for the GPU upload, a third more for the mips)"),
         "{stderr}"
     );
 }

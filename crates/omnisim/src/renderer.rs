@@ -71,6 +71,10 @@ pub enum RenderError {
     /// A camera that cannot make an image.
     #[error("the camera cannot make an image: {0}")]
     Camera(#[from] crate::camera::CameraError),
+    /// A scene of more triangles than the BVH addresses (one built in code: scene files are
+    /// refused on load).
+    #[error("the scene has {0}")]
+    TooManyTriangles(#[from] crate::scene::TooManyTriangles),
     /// A texture the renderer cannot filter (one built by hand, too large).
     #[error("texture {index} ({source_name}): {message}")]
     Texture {
@@ -146,10 +150,6 @@ pub struct PreparedScene {
     fallback: Option<String>,
     /// The faces' outlines, made on the first edge-supersampled render.
     outline: std::sync::OnceLock<Outline>,
-    /// The colours of faces whose surfaces give one colour in a scene without lighting, made
-    /// from the appearance's surfaces on the first frame that needs them; made again for
-    /// other surfaces.
-    one_colour_faces: std::sync::OnceLock<shade::OneColourFaces>,
 }
 
 impl Renderer {
@@ -242,6 +242,7 @@ impl Renderer {
     /// With `auto`, a scene the adapter cannot hold is traced on the CPU (see
     /// [`PreparedScene::fallback`]).
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene, RenderError> {
+        crate::scene::check_triangle_count(scene.triangle_count())?;
         let geometry = SceneBvh::build(scene);
         self.geometry_builds.fetch_add(1, Ordering::Relaxed);
         self.prepare_with(scene, geometry)
@@ -279,13 +280,11 @@ impl Renderer {
             gpu,
             fallback,
             outline: std::sync::OnceLock::new(),
-            one_colour_faces: std::sync::OnceLock::new(),
         })
     }
 
     /// Replaces the appearance (face colours, lights, surfaces) of `prepared`: no BVH build, no
-    /// pipeline build, only the small appearance buffers are rewritten. Other surfaces (another
-    /// `Arc`) drop the one-colour faces, made again on the next CPU frame.
+    /// pipeline build, only the small appearance buffers are rewritten.
     pub fn set_appearance(&self, prepared: &mut PreparedScene, appearance: Appearance) -> Result<(), RenderError> {
         let faces = prepared.geometry.face_normals.len();
         if appearance.face_colours.len() != faces {
@@ -298,11 +297,6 @@ impl Renderer {
         #[cfg(feature = "gpu")]
         if let (Backend::Gpu(renderer), Some(gpu)) = (&self.backend, prepared.gpu.as_mut()) {
             gpu.set_appearance(renderer.context(), &appearance)?;
-        }
-        // A data set's frames give the scene's own surfaces again (the same `Arc`): their
-        // one-colour faces stay.
-        if !std::sync::Arc::ptr_eq(&prepared.appearance.surfaces, &appearance.surfaces) {
-            prepared.one_colour_faces = std::sync::OnceLock::new();
         }
         prepared.appearance = appearance;
         Ok(())
@@ -351,16 +345,7 @@ impl Renderer {
         if planes.needs_shading() {
             let (geometry, appearance) = (&prepared.geometry, &prepared.appearance);
             let view = shade::View::new(camera, pose, table.as_deref(), Some(&self.rays));
-            let one_colour_faces = &prepared.one_colour_faces;
-            shade::shade_frame(
-                self.cpu_tracer,
-                geometry,
-                appearance,
-                one_colour_faces,
-                view,
-                &mut frame,
-                planes,
-            );
+            shade::shade_frame(self.cpu_tracer, geometry, appearance, view, &mut frame, planes);
         }
         frame
     }
@@ -439,7 +424,6 @@ impl Renderer {
                     self.cpu_tracer,
                     &prepared.geometry,
                     &prepared.appearance,
-                    &prepared.one_colour_faces,
                     view,
                     frame,
                     planes,
@@ -616,8 +600,9 @@ mod texture_tests {
 mod appearance_tests {
     use super::*;
 
-    /// `set_appearance` keeps the one-colour faces for the same surfaces (a data set's frames:
-    /// `Appearance::of` the scene again) and drops them for other ones.
+    /// The one-colour faces are the surfaces' own: a data set's frames (`Appearance::of` the
+    /// scene again, the same `Arc`) keep the table made by the first frame, and a render with
+    /// other surfaces (a copy, as `Arc::make_mut` makes) starts without one.
     #[test]
     fn one_colour_faces_are_kept_for_the_same_surfaces_only() {
         let (mut scene, _) = crate::trace::test_scene("env1");
@@ -633,15 +618,26 @@ mod appearance_tests {
         let mut prepared = renderer.prepare(&scene).unwrap();
         let camera = crate::camera::Camera::Equirectangular(crate::camera::Equirectangular { width: 16, height: 8 });
         let pose = Pose::new(glam::DVec3::new(0.3, -0.2, 0.4), glam::DVec3::ZERO);
+        let table = |prepared: &PreparedScene| {
+            prepared
+                .appearance
+                .surfaces
+                .one_colour_faces
+                .0
+                .get()
+                .map(std::ptr::from_ref)
+        };
         renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
-        let made = std::ptr::from_ref(prepared.one_colour_faces.get().expect("made by the frame"));
+        let made = table(&prepared).expect("made by the frame");
         renderer.set_appearance(&mut prepared, Appearance::of(&scene)).unwrap();
-        let kept = prepared.one_colour_faces.get().expect("kept for the same surfaces");
-        assert!(std::ptr::eq(kept, made));
+        renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
+        assert_eq!(table(&prepared), Some(made), "kept for the same surfaces");
         let mut other = Appearance::of(&scene);
         other.surfaces = std::sync::Arc::new((*other.surfaces).clone());
         renderer.set_appearance(&mut prepared, other).unwrap();
-        assert!(prepared.one_colour_faces.get().is_none(), "dropped for other surfaces");
+        assert_eq!(table(&prepared), None, "other surfaces start without one");
+        renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();
+        assert!(table(&prepared).is_some_and(|other| other != made), "made for them");
     }
 }
 

@@ -185,7 +185,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     outputs
         .check_scene(&scene)
         .map_err(|message| anyhow::anyhow!("--segmentation: {message}"))?;
-    check_memory(&outputs, &rig, &scene)?;
+    check_memory(&outputs, &rig, &scene, args.backend)?;
     // The output folder is checked before the BVH is built: a refused folder says so at once.
     let chosen = format!(
         "edge_samples={} ply={} segmentation={} normals={} linear={}",
@@ -312,20 +312,35 @@ const BVH_BYTES_PER_FACE: u64 = 225;
 
 /// Refuses, before the output folder is touched, a render whose frames and writers (and the
 /// scene's BVH, still to be built) would not fit the memory this process may use
-/// (`memory::check`).
-fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene) -> anyhow::Result<()> {
+/// (`memory::check`). A backend that may be the GPU counts the host copy of the texels its
+/// upload builds as well.
+fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene, backend: BackendArg) -> anyhow::Result<()> {
     let parts = outputs.bytes_per_pixel(rig);
     let per_pixel: usize = parts.iter().map(|(_, bytes)| bytes).sum();
     let (width, height) = rig.first_camera().size();
     // The textures are loaded already: 8 bytes a texel, and their mips (`Texture::bytes`).
     let textures = &scene.surfaces.textures;
     let texture_bytes: u64 = textures.iter().map(|t| t.bytes() as u64).sum();
-    let besides = crate::memory::FIXED_BYTES + scene.faces.len() as u64 * BVH_BYTES_PER_FACE + texture_bytes;
+    // The GPU upload's sRGB bytes, 4 a texel and mip (omnisim's `gpu/scene.rs`, `surface_data`).
+    let upload_bytes = match backend {
+        BackendArg::Cpu => 0,
+        BackendArg::Auto | BackendArg::Gpu => texture_bytes / 2,
+    };
+    let besides =
+        crate::memory::FIXED_BYTES + scene.faces.len() as u64 * BVH_BYTES_PER_FACE + texture_bytes + upload_bytes;
     let resident = u64::from(width) * u64::from(height) * per_pixel as u64 + besides;
     let parts: Vec<String> = parts.iter().map(|(name, bytes)| format!("{name} {bytes}")).collect();
+    let upload_share = if upload_bytes > 0 {
+        format!(
+            ", {:.1} MB their sRGB copy for the GPU upload",
+            upload_bytes as f64 / 1e6
+        )
+    } else {
+        String::new()
+    };
     let texture_share = if texture_bytes > 0 {
         format!(
-            ", {:.1} MB of it the texels of {} texture(s) with their mips",
+            ", {:.1} MB of it the texels of {} texture(s) with their mips{upload_share}",
             texture_bytes as f64 / 1e6,
             textures.len()
         )
@@ -341,8 +356,13 @@ fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene) -> anyhow::Result
     );
     let fix = if texture_bytes > 0 {
         format!(
-            "{}, or scale the scene's textures down (8 bytes a texel, a third more for the mips)",
-            crate::memory::SMALLER_RENDER
+            "{}, or scale the scene's textures down (8 bytes a texel{}, a third more for the mips)",
+            crate::memory::SMALLER_RENDER,
+            if upload_bytes > 0 {
+                " and 4 for the GPU upload"
+            } else {
+                ""
+            }
         )
     } else {
         crate::memory::SMALLER_RENDER.to_string()

@@ -104,7 +104,8 @@ pub struct SceneBvh {
 
 impl SceneBvh {
     /// Builds the BVH with the local origin at the centre of the scene's bounds. Panics above
-    /// 2^29 triangles (the wide BVH's leaves address them in 29 bits; about 110 GB of BVH).
+    /// 2^29 triangles (the wide BVH's leaves address them in 29 bits; about 110 GB of BVH),
+    /// which scene loading and `Renderer::prepare` refuse ([`crate::scene::check_triangle_count`]).
     pub fn build(scene: &Scene) -> Self {
         let (lo, hi) = scene.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
         Self::build_with_offset(scene, (lo + hi) / 2.0)

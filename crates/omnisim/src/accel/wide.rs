@@ -72,6 +72,7 @@ impl WideBvh {
             extent,
             ..Self::default()
         };
+        // Scene loading and `Renderer::prepare` refuse more (`scene::check_triangle_count`).
         assert!(triangles.len() <= FIRST_TRIANGLE as usize + 1, "over 2^29 triangles");
         if bvh.nodes.is_empty() {
             return wide;

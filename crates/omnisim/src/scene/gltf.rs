@@ -86,6 +86,17 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
         .map(|buffer| load_buffer(&buffer, gltf.blob.as_deref(), textures))
         .collect::<Result<Vec<_>, _>>()?;
     let placed = placements(document)?;
+    // Points and lines first: their accessors' counts are no triangles for the cap below.
+    for (mesh, _) in &placed {
+        if let Some(primitive) = mesh.primitives().find(|primitive| primitive.mode() != Mode::Triangles) {
+            return Err(format!(
+                "mesh {} primitive {}: its mode is {:?}; omnisim reads triangle primitives only",
+                mesh.index(),
+                primitive.index(),
+                primitive.mode()
+            ));
+        }
+    }
     // The triangle cap, from the accessors' counts before anything is read: the primitives
     // are read all at once below, and several may share one large index accessor.
     let mut placed_triangles = 0usize;
@@ -375,18 +386,13 @@ fn open_image<'a>(
     }
 }
 
-/// The triangles of one primitive, in its mesh's own coordinates.
+/// The triangles of one primitive (of triangles: `load_gltf` refuses other modes first), in
+/// its mesh's own coordinates.
 fn read_primitive(
     primitive: &gltf::Primitive,
     buffers: &[Vec<u8>],
     images: &[Option<u32>],
 ) -> Result<Vec<MeshTriangle>, String> {
-    if primitive.mode() != Mode::Triangles {
-        return Err(format!(
-            "its mode is {:?}; omnisim reads triangle primitives only",
-            primitive.mode()
-        ));
-    }
     let look = look(&primitive.material(), images);
     for (_, accessor) in primitive.attributes() {
         check_accessor(&accessor, buffers)?;

@@ -39,6 +39,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
     let mut bank = TextureBank::default();
     // How many objects of each name came before: the n-th of a name is its n-th mention.
     let mut seen: HashMap<&str, usize> = HashMap::new();
+    let mut triangles = 0;
     for object in &file.objects {
         let name = object.name();
         let earlier = *seen.entry(name).and_modify(|n| *n += 1).or_insert(0);
@@ -101,6 +102,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
         }
         .map_err(&invalid)?;
         let is_mesh = matches!(object, ObjectFile::Mesh(_));
+        let first_face = scene.faces.len();
         let mut dropped = 0usize;
         scene.faces.reserve(faces.len());
         // Each face checked on all threads (a million mesh triangles took 1.1 G instructions on
@@ -139,6 +141,9 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 object: index,
             });
         }
+        // The object that passes the cap is named (the BVH's build would panic).
+        triangles += super::triangles_of(&scene.faces[first_face..]);
+        super::check_triangle_count(triangles).map_err(|e| invalid(format!("the scene now has {e}")))?;
         if is_mesh && scene.faces.last().is_none_or(|f| f.object != index) {
             return Err(invalid("the mesh has no usable triangles (all have zero area)".into()));
         }

@@ -29,6 +29,11 @@ pub struct Surfaces {
     /// Index into `list` of each face, [`NO_SURFACE`] for none; shorter than the face list
     /// (empty for a scene without surfaces): faces past its end have none.
     pub of_face: Vec<u32>,
+    /// The faces whose surfaces give one colour, made from these surfaces on the first frame
+    /// without lighting that needs them: another appearance's surfaces are another value, so
+    /// its frames never meet this table. Not part of the value: a clone (`Arc::make_mut` of
+    /// shared surfaces) starts without it, and equality ignores it.
+    pub(crate) one_colour_faces: crate::shade::OneColourCache,
 }
 
 impl Surfaces {
@@ -42,6 +47,7 @@ impl Surfaces {
 
     /// Gives face `face` (the scene's last so far) `surface`.
     pub(crate) fn push(&mut self, face: usize, surface: Surface) {
+        self.one_colour_faces = crate::shade::OneColourCache::default();
         self.of_face.resize(face, NO_SURFACE);
         self.of_face.push(self.list.len() as u32);
         self.list.push(surface);
@@ -50,6 +56,13 @@ impl Surfaces {
     /// Whether no face has a surface.
     pub fn is_empty(&self) -> bool {
         self.list.is_empty()
+    }
+
+    /// The faces of these surfaces that give one colour, made on first use.
+    pub(crate) fn one_colour_faces(&self) -> &crate::shade::OneColourFaces {
+        self.one_colour_faces
+            .0
+            .get_or_init(|| crate::shade::OneColourFaces::of(self))
     }
 }
 

@@ -144,7 +144,6 @@ mod tests {
             tracer,
             &bvh,
             &appearance,
-            &std::sync::OnceLock::new(),
             view,
             &mut frame,
             crate::frame::Planes::COLOUR,

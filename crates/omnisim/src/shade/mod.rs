@@ -400,14 +400,12 @@ impl<'a> View<'a> {
 /// vertex colours) is decided once per frame and shaded as before surfaces existed: no
 /// footprints, no surface look-ups per pixel (they cost env1's untextured images about 12
 /// instructions a pixel, docs/benchmarks.md). In a scene without lighting or textures whose
-/// faces have surfaces, the 8-bit colour alone takes the faces of one colour from
-/// `one_colour_faces` ([`OneColourFaces`], made on first use; the caller keeps it with the
-/// appearance whose surfaces it was made of).
+/// faces have surfaces, the 8-bit colour alone takes the faces of one colour from the
+/// surfaces' own table ([`Surfaces::one_colour_faces`], made on first use).
 pub(crate) fn shade_frame(
     tracer: CpuTracer,
     geometry: &SceneBvh,
     appearance: &Appearance,
-    one_colour_faces: &OnceLock<OneColourFaces>,
     view: View<'_>,
     frame: &mut Frame,
     planes: Planes,
@@ -422,16 +420,7 @@ pub(crate) fn shade_frame(
         shade_planes::<false>(appearance, &lux, frame, planes);
     } else if appearance.surfaces.textures.is_empty() {
         if appearance.lighting.is_none() && !planes.contains(Plane::LinearColour) {
-            let surfaces = &appearance.surfaces;
-            let kept = one_colour_faces.get_or_init(|| OneColourFaces::of(surfaces));
-            // Kept for other surfaces (a caller's slip) it is made afresh, never read wrong.
-            let made;
-            let faces = if Arc::ptr_eq(&kept.surfaces, surfaces) {
-                kept
-            } else {
-                made = OneColourFaces::of(surfaces);
-                &made
-            };
+            let faces = appearance.surfaces.one_colour_faces();
             if !faces.every_face_varies {
                 return shade_one_colour_faces(appearance, faces, frame, planes);
             }
@@ -446,13 +435,11 @@ pub(crate) fn shade_frame(
 /// of each face whose surface gives every hit one colour. Vertex colours equal at its three
 /// corners (each face of what `omnisim scene export` writes, meshes coloured by face) are that
 /// colour, and a surface without colours leaves the face's own. Worked out once for a scene's
-/// surfaces (`PreparedScene` keeps it), so such faces are drawn as flat ones are, by a byte
+/// surfaces (they keep it: [`OneColourCache`]), so such faces are drawn as flat ones are, by a byte
 /// looked up, instead of a colour interpolated and encoded per pixel (env1 exported as a PLY,
 /// omni 250²: ~185 instructions a hit; docs/benchmarks.md, "2026-11-27 night (small)").
 #[derive(Debug)]
 pub(crate) struct OneColourFaces {
-    /// The surfaces it was made of.
-    surfaces: Arc<Surfaces>,
     /// Per face, as long as `Surfaces::of_face`: the colour as `0x00RRGGBB`, or
     /// [`OneColourFaces::FACE_COLOUR`] or [`OneColourFaces::VARYING`].
     of_face: Vec<u32>,
@@ -472,7 +459,7 @@ impl OneColourFaces {
     /// ±0 at a hit's finite point, so the sum equals `at_anchor` up to the sign of a zero,
     /// which clamps and encodes alike. A non-finite anchor (only a hand-built surface has one)
     /// is left to the pixel's own shading.
-    pub(crate) fn of(surfaces: &Arc<Surfaces>) -> Self {
+    pub(crate) fn of(surfaces: &Surfaces) -> Self {
         let of_face: Vec<u32> = surfaces
             .of_face
             .iter()
@@ -489,10 +476,26 @@ impl OneColourFaces {
             })
             .collect();
         Self {
-            surfaces: Arc::clone(surfaces),
             every_face_varies: !of_face.is_empty() && of_face.iter().all(|&entry| entry == Self::VARYING),
             of_face,
         }
+    }
+}
+
+/// [`Surfaces`]' table of [`OneColourFaces`], made on first use: derived from the surfaces, so
+/// a clone starts without it and it never makes two surfaces unequal.
+#[derive(Debug, Default)]
+pub(crate) struct OneColourCache(pub(crate) OnceLock<OneColourFaces>);
+
+impl Clone for OneColourCache {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl PartialEq for OneColourCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
     }
 }
 
@@ -715,8 +718,8 @@ mod tests {
     /// Faces whose surfaces give one colour are drawn by a byte looked up
     /// ([`OneColourFaces`]), the rest shaded pixel by pixel: each pixel's 8-bit colour must
     /// still be what shading its hit alone gives, encoded, for every kind of face, black among
-    /// the colours (`+0` plus a `-0` product), misses (from outside the room), a scene whose
-    /// every face is shaded per pixel (no table read), and a table kept for other surfaces.
+    /// the colours (`+0` plus a `-0` product), misses (from outside the room), and a scene whose
+    /// every face is shaded per pixel (no table read).
     #[test]
     fn one_colour_faces_looked_up_are_each_hit_shaded_alone() {
         let camera = Camera::Equirectangular(Equirectangular {
@@ -740,27 +743,17 @@ mod tests {
             ..every_kind.clone()
         };
         assert!(OneColourFaces::of(&per_pixel.surfaces).every_face_varies);
-        let other_surfaces = OneColourFaces::of(&surfaces_of_every_kind(faces, |_| [9, 9, 9]));
         let mut drawn = [0; 4];
-        for (appearance, kept) in [
-            (&every_kind, OnceLock::new()),
-            (&per_pixel, OnceLock::new()),
-            (&every_kind, OnceLock::from(other_surfaces)),
-        ] {
+        for appearance in [&every_kind, &per_pixel] {
             for position in [DVec3::new(0.3, -0.2, 0.4), DVec3::new(9.0, 4.0, 1.0)] {
                 let pose = Pose::new(position, DVec3::new(0.1, -0.2, 0.7));
                 let mut frame = CpuTracer::Fast.trace(&bvh, &camera, &pose);
                 let view = View::new(&camera, &pose, None, None);
-                shade_frame(
-                    CpuTracer::Fast,
-                    &bvh,
-                    appearance,
-                    &kept,
-                    view,
-                    &mut frame,
-                    Planes::COLOUR,
+                shade_frame(CpuTracer::Fast, &bvh, appearance, view, &mut frame, Planes::COLOUR);
+                assert!(
+                    appearance.surfaces.one_colour_faces.0.get().is_some(),
+                    "made on first use"
                 );
-                assert!(kept.get().is_some(), "the table was made or kept");
                 for (hit, colour) in frame.pixels().iter().zip(frame.colour().unwrap()) {
                     let alone = match hit.face {
                         NO_FACE => BACKGROUND,
@@ -774,6 +767,50 @@ mod tests {
             }
         }
         assert!(drawn.iter().all(|&n| n > 100), "{drawn:?} hits of each kind");
+    }
+
+    /// The one-colour table is for the 8-bit colour of unlit scenes only ([`shade_frame`]'s
+    /// guards): lit, a face of one vertex colour is shaded (no longer its flat byte), and a
+    /// frame asking for the linear plane gets each hit's interpolated linear colour. Both are
+    /// what shading each hit alone gives.
+    #[test]
+    fn one_colour_faces_are_looked_up_neither_when_lit_nor_for_the_linear_plane() {
+        let camera = Camera::Equirectangular(Equirectangular {
+            width: 203,
+            height: 101,
+        });
+        let pose = Pose::new(DVec3::new(0.3, -0.2, 0.4), DVec3::new(0.1, -0.2, 0.7));
+        let one_colour = [200, 120, 40];
+        for (name, planes) in [
+            ("env1-lit", Planes::COLOUR),
+            ("env1", Planes::COLOUR.with(Plane::LinearColour)),
+        ] {
+            let (scene, bvh) = crate::trace::test_scene(name);
+            let mut appearance = Appearance::of(&scene);
+            appearance.surfaces = surfaces_of_every_kind(scene.faces.len(), |_| one_colour);
+            let mut frame = CpuTracer::Fast.trace(&bvh, &camera, &pose);
+            let view = View::new(&camera, &pose, None, None);
+            shade_frame(CpuTracer::Fast, &bvh, &appearance, view, &mut frame, planes);
+            let colour = frame.colour().unwrap();
+            let linear = frame.linear_colour().unwrap_or_default();
+            if planes.contains(Plane::LinearColour) {
+                assert_eq!(linear.len(), colour.len(), "{name}: the linear plane");
+            }
+            let mut unflat = 0;
+            for (index, hit) in frame.pixels().iter().enumerate() {
+                assert!(hit.is_hit(), "inside the room");
+                let alone = shade(CpuTracer::Fast, &bvh, &appearance, hit, &Footprint::POINT);
+                assert_eq!(colour[index], encode(alone), "{name}: {hit:?}");
+                if let Some(linear) = linear.get(index) {
+                    assert_eq!(*linear, alone.as_vec3().to_array(), "{name}: {hit:?}");
+                }
+                let of_one_colour = hit.face % 4 == 0 && (hit.face as usize) < scene.faces.len() - PAST_THE_LIST;
+                unflat += usize::from(of_one_colour && colour[index] != one_colour);
+            }
+            if appearance.lighting.is_some() {
+                assert!(unflat > 1000, "{name}: {unflat} lit hits of one-colour faces shaded");
+            }
+        }
     }
 
     /// The `same_rays` case end to end: env1 exported by `scene export` as a PLY (each face's
@@ -858,15 +895,7 @@ mod tests {
                 let shaded = |planes| {
                     let mut frame = traced.clone();
                     let view = View::new(&camera, &pose, None, None);
-                    shade_frame(
-                        CpuTracer::Fast,
-                        &bvh,
-                        &appearance,
-                        &OnceLock::new(),
-                        view,
-                        &mut frame,
-                        planes,
-                    );
+                    shade_frame(CpuTracer::Fast, &bvh, &appearance, view, &mut frame, planes);
                     frame.colour().expect("colour was asked for").to_vec()
                 };
                 let alone = shaded(Planes::COLOUR);
