@@ -22,7 +22,7 @@ use gltf::texture::WrappingMode;
 use rayon::prelude::*;
 
 use super::lighting::linear_to_srgb;
-use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshTextures, MeshTriangle};
+use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTriangle};
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
@@ -67,8 +67,9 @@ impl UvTransform {
     }
 }
 
-/// Reads a glTF or GLB file's triangles (`bytes` its whole content).
-pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
+/// Reads a glTF or GLB file's triangles (`bytes` its whole content): a part for each
+/// placement of a primitive, in the order the node hierarchy is walked.
+pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<MeshParts, String> {
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
     let document = &gltf.document;
     if let Some(unsupported) = document
@@ -134,24 +135,24 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
             uses[slot_of[&(mesh.index(), primitive.index())]] += 1;
         }
     }
-    let mut triangles = Vec::new();
+    let mut parts = Vec::new();
     for (mesh, world) in &placed {
         for primitive in mesh.primitives() {
             let slot = slot_of[&(mesh.index(), primitive.index())];
             let local = read[slot].as_mut().map_err(|e| e.clone())?;
             uses[slot] -= 1;
-            let place = |triangle: MeshTriangle| MeshTriangle {
-                vertices: triangle.vertices.map(|vertex| world.transform_point3(vertex)),
-                ..triangle
-            };
-            if uses[slot] == 0 {
-                triangles.extend(std::mem::take(local).into_iter().map(place));
+            let mut part = if uses[slot] == 0 {
+                std::mem::take(local)
             } else {
-                triangles.extend(local.iter().cloned().map(place));
-            }
+                local.clone()
+            };
+            part.par_iter_mut().for_each(|triangle| {
+                triangle.vertices = triangle.vertices.map(|vertex| world.transform_point3(vertex))
+            });
+            parts.push(part);
         }
     }
-    Ok(triangles)
+    Ok(parts)
 }
 
 /// The meshes of the default scene's node hierarchy (else of the first scene, else of every
