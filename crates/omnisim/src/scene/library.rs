@@ -618,9 +618,9 @@ impl FaceKeeper<'_> {
     /// Checks `faces` (the object's faces from its `first`) and moves them into the scene,
     /// with their surfaces, leaving `faces` empty; the number of faces dropped. Each face is
     /// checked on all threads (a million mesh triangles took 1.1 G instructions on one), then
-    /// kept in order: the first bad face is the one reported. Only the failing faces' places
-    /// are kept (a scan may hold millions of zero-area triangles, and a message each would cost
-    /// gigabytes); a failing face is checked again, in order, for its message.
+    /// the failing ones in order: the first bad face is the one reported. Only the failing
+    /// faces' places are kept (a scan may hold millions of zero-area triangles, and a message
+    /// each would cost gigabytes); a failing face is checked again, in order, for its message.
     fn keep(
         &self,
         faces: &mut Vec<RawFace>,
@@ -636,38 +636,62 @@ impl FaceKeeper<'_> {
             })
             .map(|(k, _)| k)
             .collect();
-        let mut failing = failing.into_iter().peekable();
-        let mut dropped = 0;
-        scene.faces.reserve(faces.len());
-        for (k, (vertices, colour, surface)) in faces.drain(..).enumerate() {
-            if failing.next_if_eq(&k).is_some() {
-                validate::check_coordinates(&vertices)?;
-                if !self.is_mesh {
-                    validate::check_face(&vertices)?;
-                }
-                // A zero-area mesh triangle can never be hit; real scans contain many.
-                dropped += 1;
-                continue;
+        for &k in &failing {
+            validate::check_coordinates(&faces[k].0)?;
+            if !self.is_mesh {
+                validate::check_face(&faces[k].0)?;
             }
-            let placement = self
+        }
+        // Only a mesh's faces get here failing: a zero-area mesh triangle can never be hit, and
+        // real scans contain many. A mesh has no library textures.
+        if !failing.is_empty() {
+            let (mut failing, mut k) = (failing.iter().peekable(), 0);
+            faces.retain(|_| {
+                k += 1;
+                failing.next_if_eq(&&(k - 1)).is_none()
+            });
+        }
+        for (k, (vertices, _, surface)) in faces.iter_mut().enumerate() {
+            if let Some(placement) = self
                 .face_placements
                 .get(first + k)
                 .and_then(Option::as_ref)
-                .or(self.placement);
-            let surface = match placement {
-                Some(placement) => Some(placement.surface(&vertices)),
-                None => surface,
-            };
-            if let Some(surface) = surface {
-                surfaces.push(scene.faces.len(), surface);
+                .or(self.placement)
+            {
+                *surface = Some(placement.surface(vertices));
             }
-            scene.faces.push(Face {
-                vertices,
-                colour: [colour.0, colour.1, colour.2],
-                object: self.object,
-            });
         }
-        Ok(dropped)
+        let base = scene.faces.len();
+        if self.is_mesh && !faces.is_empty() && faces.iter().all(|(_, _, surface)| surface.is_some()) {
+            // A textured or vertex-coloured mesh's surfaces are moved on all threads, so that
+            // the pages of the list (208 bytes a face) are first touched on all threads too:
+            // moved on one, they were a sixth of a 1 M-triangle render's time (docs/benchmarks.md,
+            // "2026-11-27 evening2 (load)").
+            surfaces.extend(
+                base,
+                faces
+                    .par_iter_mut()
+                    .map(|(_, _, surface)| surface.take().expect("every face here has a surface")),
+            );
+        } else {
+            for (k, (_, _, surface)) in faces.iter_mut().enumerate() {
+                if let Some(surface) = surface.take() {
+                    surfaces.push(base + k, surface);
+                }
+            }
+        }
+        let object = self.object;
+        let face = |(vertices, colour, _): RawFace| Face {
+            vertices,
+            colour: [colour.0, colour.1, colour.2],
+            object,
+        };
+        if self.is_mesh {
+            scene.faces.par_extend(faces.par_drain(..).map(face));
+        } else {
+            scene.faces.extend(faces.drain(..).map(face));
+        }
+        Ok(failing.len())
     }
 }
 
@@ -702,8 +726,8 @@ fn keep_mesh_faces(
         let surface = triangle.surface(&vertices);
         (vertices, colour, surface)
     };
-    // The mesh's faces and surfaces allocated once, at their size (grown by doubling, the
-    // surfaces' list alone touched 400 MB for 200 at 1 M triangles).
+    // The mesh's faces and surfaces allocated once, at their size: grown by doubling, the
+    // surfaces' list of a 1 M-triangle mesh passed through blocks of 436 MB in all for its 208.
     let triangles: usize = parts.iter().map(Vec::len).sum();
     scene.faces.reserve_exact(triangles);
     let with_surface = parts.par_iter().flatten().filter(|t| t.carries_surface()).count();
