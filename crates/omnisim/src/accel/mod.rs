@@ -139,23 +139,22 @@ impl SceneBvh {
         // leaf order instead, each triangle cost two scattered reads (its index, then its face)
         // where it now costs one: at 1M triangles the leaf order took 96 ms on two threads
         // against 51, for 16 ms more in the boxes' pass (docs/benchmarks.md, "2026-11-27 (build)").
-        // The boxes in the same pass, from the corners while they are at hand.
-        let (read_once, boxes): (Vec<[DVec3; 3]>, Vec<Aabb>) = map_indices_unzip(triangle_count, |i| {
-            let corners = triangle(i).corners(scene).map(|p| p - offset);
-            (corners, padded_aabb(&corners))
+        // obvhs reads each triangle's box from the corners once, as it makes its leaves: a list
+        // of boxes (32 bytes a triangle) is never made.
+        let read_once: Vec<Corners> = map_indices(triangle_count, |i| {
+            Corners(triangle(i).corners(scene).map(|p| p - offset))
         });
         let mut core_time = Duration::ZERO;
-        let mut bvh = if boxes.is_empty() {
+        let mut bvh = if read_once.is_empty() {
             Bvh2::default()
         } else {
-            let params = if boxes.len() > LARGE_SCENE {
+            let params = if read_once.len() > LARGE_SCENE {
                 LARGE_BUILD_PARAMS
             } else {
                 BUILD_PARAMS
             };
-            obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut core_time)
+            obvhs::bvh2::builder::build_bvh2(&read_once, params, &mut core_time)
         };
-        drop(boxes);
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         // Indexed collects: each list is allocated once, by this thread.
         // Only the BVH2's nodes are walked after the build (the reference tracer): its leaf order
@@ -165,7 +164,7 @@ impl SceneBvh {
         bvh.parents = Vec::new();
         let (corners, face): (Vec<[DVec3; 3]>, Vec<u32>) = map_indices_unzip(order.len(), |k| {
             let index = order[k] as usize;
-            (read_once[index], triangle(index).face)
+            (read_once[index].0, triangle(index).face)
         });
         drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners);
@@ -227,6 +226,15 @@ fn every_face_a_triangle(scene: &Scene) -> bool {
         scene.faces.iter().all(triangle)
     } else {
         scene.faces.par_iter().all(triangle)
+    }
+}
+
+/// A triangle's corners, which obvhs bounds by their [`padded_aabb`].
+struct Corners([DVec3; 3]);
+
+impl obvhs::Boundable for Corners {
+    fn aabb(&self) -> Aabb {
+        padded_aabb(&self.0)
     }
 }
 

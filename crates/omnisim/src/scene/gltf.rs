@@ -14,6 +14,7 @@
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
 use std::path::Path;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use base64::Engine as _;
 use glam::{DMat4, DVec2, DVec3, DVec4};
@@ -22,7 +23,7 @@ use gltf::texture::WrappingMode;
 use rayon::prelude::*;
 
 use super::lighting::linear_to_srgb;
-use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshTextures, MeshTriangle};
+use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTriangle};
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
@@ -60,6 +61,11 @@ impl UvTransform {
         scale: DVec2::ONE,
     };
 
+    /// The transform's numbers, bit for bit: texture coordinates read under equal bits are equal.
+    fn bits(self) -> [u64; 5] {
+        [self.offset.x, self.offset.y, self.rotation, self.scale.x, self.scale.y].map(f64::to_bits)
+    }
+
     fn apply(self, uv: DVec2) -> DVec2 {
         let s = uv * self.scale;
         let (sin, cos) = self.rotation.sin_cos();
@@ -67,8 +73,9 @@ impl UvTransform {
     }
 }
 
-/// Reads a glTF or GLB file's triangles (`bytes` its whole content).
-pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
+/// Reads a glTF or GLB file's triangles (`bytes` its whole content): a part for each
+/// placement of a primitive, in the order the node hierarchy is walked.
+pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<MeshParts, String> {
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
     let document = &gltf.document;
     if let Some(unsupported) = document
@@ -129,11 +136,12 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
         }
     }
     let images = load_images(&primitives, document, &buffers, textures)?;
+    let shared = SharedReads::default();
     // On all threads.
     let mut read: Vec<Result<Vec<MeshTriangle>, String>> = primitives
         .par_iter()
         .map(|(mesh, primitive)| {
-            read_primitive(primitive, &buffers, &images)
+            read_primitive(primitive, &buffers, &images, &shared)
                 .map_err(|e| format!("mesh {mesh} primitive {}: {e}", primitive.index()))
         })
         .collect();
@@ -145,24 +153,24 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Vec
             uses[slot_of[&(mesh.index(), primitive.index())]] += 1;
         }
     }
-    let mut triangles = Vec::new();
+    let mut parts = Vec::new();
     for (mesh, world) in &placed {
         for primitive in mesh.primitives() {
             let slot = slot_of[&(mesh.index(), primitive.index())];
             let local = read[slot].as_mut().map_err(|e| e.clone())?;
             uses[slot] -= 1;
-            let place = |triangle: MeshTriangle| MeshTriangle {
-                vertices: triangle.vertices.map(|vertex| world.transform_point3(vertex)),
-                ..triangle
-            };
-            if uses[slot] == 0 {
-                triangles.extend(std::mem::take(local).into_iter().map(place));
+            let mut part = if uses[slot] == 0 {
+                std::mem::take(local)
             } else {
-                triangles.extend(local.iter().cloned().map(place));
-            }
+                local.clone()
+            };
+            part.par_iter_mut().for_each(|triangle| {
+                triangle.vertices = triangle.vertices.map(|vertex| world.transform_point3(vertex));
+            });
+            parts.push(part);
         }
     }
-    Ok(triangles)
+    Ok(parts)
 }
 
 /// The meshes of the default scene's node hierarchy (else of the first scene, else of every
@@ -386,12 +394,39 @@ fn open_image<'a>(
     }
 }
 
+/// A list read from an accessor once, whichever primitive asks first.
+type ReadOnce<T> = Arc<OnceLock<T>>;
+
+/// The lists read once, by key.
+type ReadOnceByKey<K, T> = Mutex<HashMap<K, ReadOnce<T>>>;
+
+/// Vertex positions and texture coordinates read once however many primitives share their
+/// accessor: `bench/make_big_gltf.py`'s four primitives share one of each, and reading them for
+/// each primitive was 0.5 G instructions of the file's 2.3 G (docs/benchmarks.md,
+/// "2026-11-27 evening2 (load)").
+#[derive(Default)]
+struct SharedReads {
+    /// By POSITION accessor; `None` where gltf cannot read it.
+    positions: ReadOnceByKey<usize, Option<Vec<DVec3>>>,
+    /// By TEXCOORD accessor and the bits of the `KHR_texture_transform` applied to them.
+    uvs: ReadOnceByKey<(usize, [u64; 5]), Result<Vec<DVec2>, String>>,
+}
+
+impl SharedReads {
+    /// The list of `key` in `lists`, to be read by whichever caller comes first.
+    fn once<K: std::hash::Hash + Eq, T>(lists: &ReadOnceByKey<K, T>, key: K) -> ReadOnce<T> {
+        let mut lists = lists.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        Arc::clone(lists.entry(key).or_default())
+    }
+}
+
 /// The triangles of one primitive (of triangles: `load_gltf` refuses other modes first), in
 /// its mesh's own coordinates.
 fn read_primitive(
     primitive: &gltf::Primitive,
     buffers: &[Vec<u8>],
     images: &[Option<u32>],
+    shared: &SharedReads,
 ) -> Result<Vec<MeshTriangle>, String> {
     let look = look(&primitive.material(), images);
     for (_, accessor) in primitive.attributes() {
@@ -401,11 +436,17 @@ fn read_primitive(
         check_accessor(&indices, buffers)?;
     }
     let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(Vec::as_slice));
-    let positions: Vec<DVec3> = reader
-        .read_positions()
-        .ok_or("it has no POSITION attribute")?
-        .map(|p| DVec3::from_array(p.map(f64::from)))
-        .collect();
+    let no_positions = "it has no POSITION attribute";
+    let accessor = primitive.get(&gltf::Semantic::Positions).ok_or(no_positions)?;
+    let read = SharedReads::once(&shared.positions, accessor.index());
+    let positions: &Vec<DVec3> = read
+        .get_or_init(|| {
+            reader
+                .read_positions()
+                .map(|positions| positions.map(|p| DVec3::from_array(p.map(f64::from))).collect())
+        })
+        .as_ref()
+        .ok_or(no_positions)?;
     let indices: Vec<u32> = match reader.read_indices() {
         Some(indices) => indices.into_u32().collect(),
         None => (0..positions.len() as u32).collect(),
@@ -419,24 +460,39 @@ fn read_primitive(
     if !indices.len().is_multiple_of(3) {
         return Err(format!("{} indices is not a whole number of triangles", indices.len()));
     }
-    let uvs: Option<Vec<DVec2>> = match &look.texture {
+    let uv_list = match &look.texture {
         None => None,
-        Some((_, _, set, transform)) => Some(
-            reader
-                .read_tex_coords(*set)
-                .ok_or_else(|| format!("its material's texture reads TEXCOORD_{set}, which it does not have"))?
-                .into_f32()
-                .enumerate()
-                .map(|(i, uv)| {
-                    let uv = DVec2::from_array(uv.map(f64::from));
-                    if uv.is_finite() {
-                        Ok(transform.apply(uv))
-                    } else {
-                        Err(format!("vertex {i}: texture coordinate {uv} is not finite"))
-                    }
-                })
-                .collect::<Result<_, _>>()?,
-        ),
+        Some((_, _, set, transform)) => {
+            let accessor = primitive.get(&gltf::Semantic::TexCoords(*set));
+            Some((
+                accessor.map(|a| SharedReads::once(&shared.uvs, (a.index(), transform.bits()))),
+                *set,
+                *transform,
+            ))
+        }
+    };
+    let uvs: Option<&Vec<DVec2>> = match &uv_list {
+        None => None,
+        Some((read, set, transform)) => {
+            let no_uvs = || format!("its material's texture reads TEXCOORD_{set}, which it does not have");
+            let read = read.as_ref().ok_or_else(no_uvs)?.get_or_init(|| {
+                reader
+                    .read_tex_coords(*set)
+                    .ok_or_else(no_uvs)?
+                    .into_f32()
+                    .enumerate()
+                    .map(|(i, uv)| {
+                        let uv = DVec2::from_array(uv.map(f64::from));
+                        if uv.is_finite() {
+                            Ok(transform.apply(uv))
+                        } else {
+                            Err(format!("vertex {i}: texture coordinate {uv} is not finite"))
+                        }
+                    })
+                    .collect()
+            });
+            Some(read.as_ref().map_err(Clone::clone)?)
+        }
     };
     if uvs.as_ref().is_some_and(|uvs| uvs.len() < positions.len()) {
         return Err("TEXCOORD has fewer entries than POSITION".into());

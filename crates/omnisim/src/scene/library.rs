@@ -10,6 +10,7 @@ use super::file::{
     AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, TextureFile,
     WallFile,
 };
+use super::mesh::MeshTriangle;
 use super::surface::{Surface, Surfaces, UvMap, planar_uv};
 use super::texture::{BYTES_PER_TEXEL_WITH_MIPS, MAX_SCENE_TEXELS, PendingImage, Texture, Wrap, open_image};
 use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};
@@ -93,54 +94,33 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 .collect::<Result<Vec<_>, _>>()?,
             _ => Vec::new(),
         };
-        let faces = match object {
-            ObjectFile::Box(b) => box_faces(b, angle(b.rotation)),
-            ObjectFile::Wall(w) => wall_face(w),
-            ObjectFile::Floor(f) => Ok(floor_face(f)),
-            ObjectFile::Polygon(p) => Ok(polygon_face(p)),
-            ObjectFile::Mesh(m) => mesh_faces(m, angle(m.rotation), path, &mut bank),
+        let is_mesh = matches!(object, ObjectFile::Mesh(_));
+        let keeping = FaceKeeper {
+            object: index,
+            is_mesh,
+            placement: placement.as_ref(),
+            face_placements: &face_placements,
+        };
+        let keep = |mut faces: Vec<RawFace>, scene: &mut Scene, surfaces: &mut Surfaces| {
+            keeping.keep(&mut faces, 0, scene, surfaces)
+        };
+        let first_face = scene.faces.len();
+        let dropped = match object {
+            ObjectFile::Mesh(m) => keep_mesh_faces(
+                m,
+                angle(m.rotation),
+                path,
+                &mut bank,
+                &keeping,
+                &mut scene,
+                &mut surfaces,
+            ),
+            ObjectFile::Box(b) => box_faces(b, angle(b.rotation)).and_then(|f| keep(f, &mut scene, &mut surfaces)),
+            ObjectFile::Wall(w) => wall_face(w).and_then(|f| keep(f, &mut scene, &mut surfaces)),
+            ObjectFile::Floor(f) => keep(floor_face(f), &mut scene, &mut surfaces),
+            ObjectFile::Polygon(p) => keep(polygon_face(p), &mut scene, &mut surfaces),
         }
         .map_err(&invalid)?;
-        let is_mesh = matches!(object, ObjectFile::Mesh(_));
-        let first_face = scene.faces.len();
-        let mut dropped = 0usize;
-        scene.faces.reserve(faces.len());
-        // Each face checked on all threads (a million mesh triangles took 1.1 G instructions on
-        // one), then kept in order: the first bad face is the one reported. Only the failing
-        // faces' places are kept (a scan may hold millions of zero-area triangles, and a message
-        // each would cost gigabytes); a failing face is checked again, in order, for its message.
-        let failing: Vec<usize> = faces
-            .par_iter()
-            .enumerate()
-            .filter(|(_, (vertices, _, _))| {
-                validate::check_coordinates(vertices).is_err() || validate::check_face(vertices).is_err()
-            })
-            .map(|(k, _)| k)
-            .collect();
-        let mut failing = failing.into_iter().peekable();
-        for (k, (vertices, colour, surface)) in faces.into_iter().enumerate() {
-            if failing.next_if_eq(&k).is_some() {
-                validate::check_coordinates(&vertices).map_err(&invalid)?;
-                if !is_mesh {
-                    validate::check_face(&vertices).map_err(&invalid)?;
-                }
-                // A zero-area mesh triangle can never be hit; real scans contain many.
-                dropped += 1;
-                continue;
-            }
-            let surface = match face_placements.get(k).and_then(Option::as_ref).or(placement.as_ref()) {
-                Some(placement) => Some(placement.surface(&vertices)),
-                None => surface,
-            };
-            if let Some(surface) = surface {
-                surfaces.push(scene.faces.len(), surface);
-            }
-            scene.faces.push(Face {
-                vertices,
-                colour: [colour.0, colour.1, colour.2],
-                object: index,
-            });
-        }
         // The object that passes the cap is named (the BVH's build would panic).
         triangles += super::triangles_of(&scene.faces[first_face..]);
         super::check_triangle_count(triangles).map_err(|e| invalid(format!("the scene now has {e}")))?;
@@ -629,26 +609,149 @@ fn unprintable(name: &str) -> Option<String> {
     }
 }
 
-fn mesh_faces(m: &MeshFile, angles: DVec3, scene_path: &Path, bank: &mut TextureBank) -> Result<Vec<RawFace>, String> {
+/// What keeps an object's faces in the scene: its index, whether it is a mesh (whose faces
+/// without area are dropped, not refused) and the library textures laid on its faces.
+struct FaceKeeper<'a> {
+    object: u32,
+    is_mesh: bool,
+    placement: Option<&'a Placement>,
+    /// A Box's own texture for each of its faces, where it names one.
+    face_placements: &'a [Option<Placement>],
+}
+
+impl FaceKeeper<'_> {
+    /// Checks `faces` (the object's faces from its `first`) and moves them into the scene,
+    /// with their surfaces, leaving `faces` empty; the number of faces dropped. Each face is
+    /// checked on all threads (a million mesh triangles took 1.1 G instructions on one), then
+    /// the failing ones in order: the first bad face is the one reported. Only the failing
+    /// faces' places are kept (a scan may hold millions of zero-area triangles, and a message
+    /// each would cost gigabytes); a failing face is checked again, in order, for its message.
+    fn keep(
+        &self,
+        faces: &mut Vec<RawFace>,
+        first: usize,
+        scene: &mut Scene,
+        surfaces: &mut Surfaces,
+    ) -> Result<usize, String> {
+        let failing: Vec<usize> = faces
+            .par_iter()
+            .enumerate()
+            .filter(|(_, (vertices, _, _))| {
+                validate::check_coordinates(vertices).is_err() || validate::check_face(vertices).is_err()
+            })
+            .map(|(k, _)| k)
+            .collect();
+        for &k in &failing {
+            validate::check_coordinates(&faces[k].0)?;
+            if !self.is_mesh {
+                validate::check_face(&faces[k].0)?;
+            }
+        }
+        // Only a mesh's faces get here failing: a zero-area mesh triangle can never be hit, and
+        // real scans contain many. A mesh has no library textures.
+        if !failing.is_empty() {
+            let (mut failing, mut k) = (failing.iter().peekable(), 0);
+            faces.retain(|_| {
+                k += 1;
+                failing.next_if_eq(&&(k - 1)).is_none()
+            });
+        }
+        for (k, (vertices, _, surface)) in faces.iter_mut().enumerate() {
+            if let Some(placement) = self
+                .face_placements
+                .get(first + k)
+                .and_then(Option::as_ref)
+                .or(self.placement)
+            {
+                *surface = Some(placement.surface(vertices));
+            }
+        }
+        let base = scene.faces.len();
+        if self.is_mesh && !faces.is_empty() && faces.iter().all(|(_, _, surface)| surface.is_some()) {
+            // A textured or vertex-coloured mesh's surfaces are moved on all threads, so that
+            // the pages of the list (208 bytes a face) are first touched on all threads too:
+            // moved on one, they were a sixth of a 1 M-triangle render's time (docs/benchmarks.md,
+            // "2026-11-27 evening2 (load)").
+            surfaces.extend(
+                base,
+                faces
+                    .par_iter_mut()
+                    .map(|(_, _, surface)| surface.take().expect("every face here has a surface")),
+            );
+        } else {
+            for (k, (_, _, surface)) in faces.iter_mut().enumerate() {
+                if let Some(surface) = surface.take() {
+                    surfaces.push(base + k, surface);
+                }
+            }
+        }
+        let object = self.object;
+        let face = |(vertices, colour, _): RawFace| Face {
+            vertices,
+            colour: [colour.0, colour.1, colour.2],
+            object,
+        };
+        if self.is_mesh {
+            scene.faces.par_extend(faces.par_drain(..).map(face));
+        } else {
+            scene.faces.extend(faces.drain(..).map(face));
+        }
+        Ok(failing.len())
+    }
+}
+
+/// Mesh triangles made into faces at a time: the faces being made (about 300 bytes each,
+/// 10 MB) are one list reused for every chunk, where a list for the whole mesh took 300 MB at
+/// 1 M triangles (docs/benchmarks.md, "2026-11-27 evening2 (load)").
+const MESH_CHUNK: usize = 1 << 15;
+
+/// Loads mesh `m` and keeps its faces (through `keeping`), each part of the mesh freed once
+/// kept; the number of faces dropped.
+fn keep_mesh_faces(
+    m: &MeshFile,
+    angles: DVec3,
+    scene_path: &Path,
+    bank: &mut TextureBank,
+    keeping: &FaceKeeper,
+    scene: &mut Scene,
+    surfaces: &mut Surfaces,
+) -> Result<usize, String> {
     positive("scale", m.scale)?;
     let mesh_path = inside_folder(scene_path, &m.path, "mesh")?;
-    let triangles = mesh::load(&mesh_path, bank)?;
+    let parts = mesh::load(&mesh_path, bank)?;
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);
-    let faces = triangles
-        .into_par_iter()
-        .map(|triangle| {
-            let vertices = Vertices::from_buf(triangle.vertices.map(|v| position + world_from_object * (v * m.scale)));
-            // A textured triangle without a colour of its own shows its texture untinted.
-            let colour = triangle
-                .colour
-                .or(triangle.texture.as_ref().map(|_| [255; 3]))
-                .map_or(m.colour, |c| (c[0], c[1], c[2]));
-            let surface = triangle.surface(&vertices);
-            (vertices, colour, surface)
-        })
-        .collect();
-    Ok(faces)
+    let face = |triangle: &MeshTriangle| -> RawFace {
+        let vertices = Vertices::from_buf(triangle.vertices.map(|v| position + world_from_object * (v * m.scale)));
+        // A textured triangle without a colour of its own shows its texture untinted.
+        let colour = triangle
+            .colour
+            .or(triangle.texture.as_ref().map(|_| [255; 3]))
+            .map_or(m.colour, |c| (c[0], c[1], c[2]));
+        let surface = triangle.surface(&vertices);
+        (vertices, colour, surface)
+    };
+    // The mesh's faces and surfaces allocated once, at their size: grown by doubling, the
+    // surfaces' list of a 1 M-triangle mesh passed through blocks of 436 MB in all for its 208.
+    let triangles: usize = parts.iter().map(Vec::len).sum();
+    scene.faces.reserve_exact(triangles);
+    let with_surface = parts.par_iter().flatten().filter(|t| t.carries_surface()).count();
+    if with_surface > 0 {
+        surfaces.list.reserve_exact(with_surface);
+        surfaces
+            .of_face
+            .reserve_exact(scene.faces.len() + triangles - surfaces.of_face.len());
+    }
+    let mut faces = Vec::with_capacity(MESH_CHUNK.min(triangles));
+    let (mut first, mut dropped) = (0, 0);
+    for part in parts {
+        for chunk in part.chunks(MESH_CHUNK) {
+            faces.par_extend(chunk.par_iter().map(face));
+            dropped += keeping.keep(&mut faces, first, scene, surfaces)?;
+            first += chunk.len();
+        }
+    }
+    Ok(dropped)
 }
 
 #[cfg(test)]

@@ -37,10 +37,16 @@ pub(super) struct CornerUvs {
 }
 
 impl MeshTriangle {
+    /// Whether [`MeshTriangle::surface`] can give this triangle a surface: a texture, vertex
+    /// colours or an unlit material.
+    pub(super) fn carries_surface(&self) -> bool {
+        self.texture.is_some() || self.corner_colours.is_some() || self.unlit
+    }
+
     /// The surface of this triangle once placed at `world` corners; `None` without texture or
     /// vertex colours (or for a triangle without area, which is dropped anyway).
     pub(super) fn surface(&self, world: &[DVec3]) -> Option<Surface> {
-        if self.texture.is_none() && self.corner_colours.is_none() && !self.unlit {
+        if !self.carries_surface() {
             return None;
         }
         let corners = [world[0], world[1], world[2]];
@@ -82,9 +88,14 @@ impl MeshTriangle {
 /// enormous header fails at once instead of exhausting memory.
 pub(crate) const MAX_MESH_TRIANGLES: usize = 50_000_000;
 
+/// A mesh's triangles in parts (a glTF's placed primitives; one part for PLY and OBJ), in
+/// order: each part is made into faces and freed before the next, so a mesh's triangles are
+/// never copied into one list (144 bytes a triangle; docs/benchmarks.md, "evening2 (load)").
+pub(super) type MeshParts = Vec<Vec<MeshTriangle>>;
+
 /// Reads a mesh file. `path` must be a regular file of at most [`crate::input::MESH_LIMIT`]
 /// bytes; errors name the file and a position, never the bytes found there.
-pub(super) fn load(path: &Path, bank: &mut TextureBank) -> Result<Vec<MeshTriangle>, String> {
+pub(super) fn load(path: &Path, bank: &mut TextureBank) -> Result<MeshParts, String> {
     let reader = crate::input::open_regular(path, crate::input::MESH_LIMIT).map_err(|e| match e {
         crate::input::InputError::Io { error, .. } if error.kind() == std::io::ErrorKind::NotFound => format!(
             "{}: file not found; mesh paths are relative to the scene file's folder",
@@ -100,8 +111,8 @@ pub(super) fn load(path: &Path, bank: &mut TextureBank) -> Result<Vec<MeshTriang
         .map(str::to_ascii_lowercase)
         .as_deref()
     {
-        Some("ply") => load_ply(reader, textures),
-        Some("obj") => super::obj::load_obj(reader, textures),
+        Some("ply") => load_ply(reader, textures).map(|triangles| vec![triangles]),
+        Some("obj") => super::obj::load_obj(reader, textures).map(|triangles| vec![triangles]),
         Some("gltf" | "glb") => {
             let mut bytes = Vec::new();
             std::io::Read::read_to_end(&mut reader, &mut bytes).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -109,11 +120,11 @@ pub(super) fn load(path: &Path, bank: &mut TextureBank) -> Result<Vec<MeshTriang
         }
         _ => Err("unknown mesh format; use a .ply, .obj, .gltf or .glb file".into()),
     };
-    let triangles = result.map_err(|e| format!("{}: {e}", path.display()))?;
-    if triangles.is_empty() {
+    let parts = result.map_err(|e| format!("{}: {e}", path.display()))?;
+    if parts.iter().all(Vec::is_empty) {
         return Err(format!("{}: the mesh has no triangles", path.display()));
     }
-    Ok(triangles)
+    Ok(parts)
 }
 
 /// The textures a mesh file names, found beside it (and inside the scene's folder).

@@ -9,6 +9,7 @@
 //! need no barycentrics. Faces without a surface are shaded exactly as before.
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 
 use super::texture::{Texture, Wrap};
 
@@ -51,6 +52,15 @@ impl Surfaces {
         self.of_face.resize(face, NO_SURFACE);
         self.of_face.push(self.list.len() as u32);
         self.list.push(surface);
+    }
+
+    /// Gives the faces from `first` (the scene's last so far), one for each of `surfaces`, their
+    /// surfaces, moved on all threads: as [`Surfaces::push`] of each in turn.
+    pub(crate) fn extend(&mut self, first: usize, surfaces: impl IndexedParallelIterator<Item = Surface>) {
+        self.of_face.resize(first, NO_SURFACE);
+        let next = self.list.len() as u32;
+        self.of_face.extend(next..next + surfaces.len() as u32);
+        self.list.par_extend(surfaces);
     }
 
     /// Whether no face has a surface.
