@@ -245,10 +245,10 @@ pub fn geometry_sha256(scene: &omnisim::scene::Scene) -> String {
             hash.update(level.height.to_le_bytes());
             level.srgb_texels().for_each(|t| hash.update(t.to_le_bytes()));
         }
-        for index in &surfaces.of_face {
+        for index in surfaces.of_face() {
             hash.update(index.to_le_bytes());
         }
-        for surface in &surfaces.list {
+        for surface in surfaces.list() {
             let mut numbers = surface.anchor.to_array().to_vec();
             if let Some(uv) = &surface.uv {
                 hash.update(uv.texture.to_le_bytes());

@@ -25,14 +25,16 @@ pub struct Surfaces {
     /// Where each texture came from (an image file, a pattern, a glTF's image), in the order
     /// of `textures`: what `scene check` lists.
     pub sources: Vec<String>,
-    /// Every surface, in face order.
-    pub list: Vec<Surface>,
-    /// Index into `list` of each face, [`NO_SURFACE`] for none; shorter than the face list
-    /// (empty for a scene without surfaces): faces past its end have none.
-    pub of_face: Vec<u32>,
+    /// Every surface, in face order ([`Surfaces::list`]). Read-only outside the crate, as is
+    /// `of_face`: the one-colour table below is made from them once, and loading, the only
+    /// writer, fills them before any frame.
+    pub(crate) list: Vec<Surface>,
+    /// Index into `list` of each face, [`NO_SURFACE`] for none ([`Surfaces::of_face`]).
+    pub(crate) of_face: Vec<u32>,
     /// The faces whose surfaces give one colour, made from these surfaces on the first frame
     /// without lighting that needs them: another appearance's surfaces are another value, so
-    /// its frames never meet this table. Not part of the value: a clone (`Arc::make_mut` of
+    /// its frames never meet this table, and these surfaces cannot change under it (their
+    /// lists are the crate's to write). Not part of the value: a clone (`Arc::make_mut` of
     /// shared surfaces) starts without it, and equality ignores it.
     pub(crate) one_colour_faces: crate::shade::OneColourCache,
 }
@@ -46,9 +48,19 @@ impl Surfaces {
         }
     }
 
+    /// Every surface, in face order.
+    pub fn list(&self) -> &[Surface] {
+        &self.list
+    }
+
+    /// Index into [`Surfaces::list`] of each face, [`NO_SURFACE`] for none; shorter than the
+    /// face list (empty for a scene without surfaces): faces past its end have none.
+    pub fn of_face(&self) -> &[u32] {
+        &self.of_face
+    }
+
     /// Gives face `face` (the scene's last so far) `surface`.
     pub(crate) fn push(&mut self, face: usize, surface: Surface) {
-        self.one_colour_faces = crate::shade::OneColourCache::default();
         self.of_face.resize(face, NO_SURFACE);
         self.of_face.push(self.list.len() as u32);
         self.list.push(surface);

@@ -168,8 +168,15 @@ impl RayTable {
 
     /// Every pixel's ray cone and ray direction, made on first use from the table's rays.
     pub(crate) fn cones(&self) -> &ConePlanes {
-        self.cones
-            .get_or_init(|| ConePlanes::of_image(&self.camera, |index| self.ray(index)))
+        if let Some(cones) = self.cones.get() {
+            return cones;
+        }
+        // Made outside `get_or_init`: making runs parallel loops, and a rayon thread waiting in
+        // them may take up another frame that asks for these cones (CPU frames run on rayon's
+        // threads), which would enter `get_or_init` again on the same thread and never return.
+        // Two threads may both make them; the first kept wins, and both are the same numbers.
+        let made = ConePlanes::of_image(&self.camera, |index| self.ray(index));
+        self.cones.get_or_init(|| made)
     }
 
     /// Traces one frame with `tracer` from this table's rays: when tracing, the layout is matched
@@ -223,11 +230,20 @@ fn cached<T>(
 ) -> Arc<T> {
     // A poisoned lock only means another thread panicked while holding it: the tables are
     // complete or absent, never half made, so they stay usable.
-    let mut list = list.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    if let Some(entry) = list.iter().find(|entry| of(entry) == camera) {
-        return Arc::clone(entry);
+    let lock = || list.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let find = |list: &[Arc<T>]| list.iter().find(|entry| of(entry) == camera).map(Arc::clone);
+    if let Some(entry) = find(&lock()) {
+        return entry;
     }
+    // Made without the lock held: making runs parallel loops, and a rayon thread waiting in
+    // them may take up another frame of this renderer (CPU frames run on rayon's threads) that
+    // asks for a table, which would lock again on the same thread and never return. Two
+    // threads may both make one camera's table; the first kept is used by both.
     let entry = Arc::new(make());
+    let mut list = lock();
+    if let Some(kept) = find(&list) {
+        return kept;
+    }
     if list.len() == CAMERAS {
         list.remove(0);
     }
