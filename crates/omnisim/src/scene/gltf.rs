@@ -383,7 +383,9 @@ fn open_image<'a>(
     }
 }
 
-/// A list read from an accessor once, whichever primitive asks first.
+/// A list read from an accessor once, whichever primitive asks first. Its `get_or_init`
+/// closure must not call rayon: a thread waiting there for its jobs may run another primitive's
+/// read of the same list, re-entering the initialisation, which deadlocks.
 type ReadOnce<T> = Arc<OnceLock<T>>;
 
 /// The lists read once, by key.
