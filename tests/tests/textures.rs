@@ -178,6 +178,92 @@ fn obj_with_mtl_and_ply_with_texcoords_map_their_textures_exactly() {
     }
 }
 
+/// Triangles a mesh is made into faces at a time (`MESH_CHUNK` in omnisim's scene/library.rs).
+const MESH_CHUNK: usize = 1 << 15;
+
+/// A PLY strip of two chunks and a part of triangles, with zero-area triangles in each chunk
+/// (first and last of a chunk among them), textured triangles and, in the second chunk, plain
+/// ones among them (which make the chunk take the one-by-one path): the scene's faces and
+/// surfaces are the closed form's, as one list of the whole mesh would give them.
+#[test]
+fn a_mesh_of_several_chunks_keeps_its_faces_and_surfaces_in_order_and_drops_the_flat_ones() {
+    let triangles = 2 * MESH_CHUNK + 4000;
+    let flat = [
+        3,
+        MESH_CHUNK - 1,
+        MESH_CHUNK,
+        40_001,
+        50_000,
+        2 * MESH_CHUNK + 17,
+        triangles - 1,
+    ];
+    // The second chunk's every fifth triangle is plain, its last one (65,535) among them, so
+    // the third chunk's surfaces follow a face without one.
+    let textured = |t: usize| t / MESH_CHUNK != 1 || !t.is_multiple_of(5);
+    // Triangle t: (t, 0, 0), (t + 1, 0, 0), (t, 1, 0), u = t + x and v = y (v up); a flat one
+    // has its third corner at (t + 2, 0, 0). Vertex 2i is (i, 0, 0), 2i + 1 is (i, 1, 0).
+    let folder = tempfile::tempdir().unwrap();
+    write_texture(folder.path());
+    let vertices = 2 * (triangles + 2);
+    let mut text = format!(
+        "ply\nformat ascii 1.0\ncomment TextureFile tiles.png\nelement vertex {vertices}\nproperty float x\n\
+         property float y\nproperty float z\nelement face {triangles}\nproperty list uchar int vertex_indices\n\
+         property list uchar float texcoord\nend_header\n"
+    );
+    for i in 0..vertices / 2 {
+        text += &format!("{i} 0 0\n{i} 1 0\n");
+    }
+    for t in 0..triangles {
+        let third = if flat.contains(&t) { 2 * t + 4 } else { 2 * t + 1 };
+        text += &format!("3 {} {} {third} ", 2 * t, 2 * t + 2);
+        text += &if textured(t) {
+            format!("6 {t} 0 {} 0 {t} 1\n", t + 1)
+        } else {
+            "0\n".to_string()
+        };
+    }
+    std::fs::write(folder.path().join("strip.ply"), text).unwrap();
+    let scene = Scene::from_ron(
+        r#"Scene(name: "strip", objects: [Mesh(name: "strip", path: "strip.ply", colour: (9, 9, 9))])"#,
+        &folder.path().join("strip.ron"),
+    )
+    .unwrap();
+
+    let kept: Vec<usize> = (0..triangles).filter(|t| !flat.contains(t)).collect();
+    assert_eq!(
+        scene.warnings,
+        vec![format!("mesh 'strip': dropped {} degenerate triangles", flat.len())]
+    );
+    assert_eq!(scene.faces.len(), kept.len());
+    let surfaces = &scene.surfaces;
+    assert_eq!(surfaces.list.len(), kept.iter().filter(|&&t| textured(t)).count());
+    assert!(surfaces.of_face.len() <= scene.faces.len());
+    for (k, (&t, face)) in kept.iter().zip(&scene.faces).enumerate() {
+        let x = t as f64;
+        assert_eq!(
+            face.vertices.as_slice(),
+            [dvec3(x, 0.0, 0.0), dvec3(x + 1.0, 0.0, 0.0), dvec3(x, 1.0, 0.0)],
+            "face {k} is triangle {t}"
+        );
+        let surface = surfaces.of(k as u32);
+        if textured(t) {
+            // A textured triangle without a colour shows its texture untinted.
+            assert_eq!(face.colour, [255; 3], "face {k}");
+            let surface = surface.unwrap_or_else(|| panic!("face {k} (triangle {t}) has no surface"));
+            let uv = surface.uv.as_ref().unwrap();
+            assert_eq!(surface.anchor, dvec3(x, 0.0, 0.0), "face {k}");
+            assert_eq!(
+                (uv.texture, uv.at_anchor, uv.gradient),
+                (0, DVec2::new(x, 1.0), [DVec3::X, -DVec3::Y]),
+                "face {k} (triangle {t})"
+            );
+        } else {
+            assert_eq!(face.colour, [9; 3], "face {k}");
+            assert!(surface.is_none(), "face {k} (plain triangle {t}) has a surface");
+        }
+    }
+}
+
 #[test]
 fn ply_vertex_colours_are_interpolated_across_each_triangle() {
     let folder = tempfile::tempdir().unwrap();
@@ -754,6 +840,105 @@ fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
         .max()
         .unwrap();
     assert!(worst <= 1, "largest difference {worst}/255");
+}
+
+/// Three one-primitive meshes whose primitives share one `TEXCOORD_0` accessor (read once for
+/// each `KHR_texture_transform`): the first and second also share their POSITION accessor and
+/// differ in their materials' transforms; the third has positions of its own and the first's
+/// material. Each node lifts its mesh by its index in z. Every face's texture coordinates at
+/// its corners are its own material's transform of the file's.
+#[test]
+fn primitives_sharing_texture_coordinates_under_different_transforms_each_get_their_own() {
+    let corners = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+    let uvs = [[0.0f32, 0.0], [0.5, 0.0], [0.5, 0.25], [0.0, 0.25]];
+    // The third mesh's own positions: the square stretched twice along x.
+    let stretched = corners.map(|[x, y, z]| [2.0 * x, y, z]);
+    let mut bin: Vec<u8> = corners.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    bin.extend(uvs.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    let stretched_at = bin.len();
+    bin.extend(stretched.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    let png_at = bin.len();
+    let png = image_rgb(4, 3, &TEXELS.iter().flatten().copied().collect::<Vec<u8>>());
+    bin.extend(&png);
+    let transforms = [
+        serde_json::json!({"offset": [0.25, -0.5], "scale": [2.0, 4.0]}),
+        serde_json::json!({"offset": [0.1, 0.2], "rotation": 0.7, "scale": [0.5, 3.0]}),
+    ];
+    let material = |transform: &serde_json::Value| {
+        serde_json::json!({"pbrMetallicRoughness": {"baseColorTexture":
+            {"index": 0, "extensions": {"KHR_texture_transform": transform}}}})
+    };
+    let primitive = |position: u32, material: u32| {
+        serde_json::json!({"primitives": [{"attributes": {"POSITION": position, "TEXCOORD_0": 1},
+            "indices": 2, "material": material}]})
+    };
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_texture_transform"],
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2]}],
+        "nodes": (0..3).map(|m| serde_json::json!({"mesh": m, "translation": [0.0, 0.0, f64::from(m)]}))
+            .collect::<Vec<_>>(),
+        "meshes": [primitive(0, 0), primitive(0, 1), primitive(3, 0)],
+        "materials": transforms.iter().map(material).collect::<Vec<_>>(),
+        "textures": [{"source": 0}],
+        "images": [{"bufferView": 4, "mimeType": "image/png"}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"},
+            {"bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [2.0, 1.0, 0.0]}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+            {"buffer": 0, "byteOffset": stretched_at, "byteLength": 48},
+            {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()}
+        ],
+        "buffers": [{"byteLength": bin.len()}]
+    });
+    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    assert_eq!(scene.faces.len(), 6);
+    // offset + R(rotation)·(scale ⊙ uv), the extension's formula, written out here (its
+    // numbers are read as f32).
+    let transformed = |transform: &serde_json::Value, uv: [f32; 2]| {
+        let number = |v: &serde_json::Value| f64::from(v.as_f64().unwrap() as f32);
+        let rotation = transform.get("rotation").map_or(0.0, number);
+        let (sin, cos) = rotation.sin_cos();
+        let s = DVec2::new(f64::from(uv[0]), f64::from(uv[1]))
+            * DVec2::new(number(&transform["scale"][0]), number(&transform["scale"][1]));
+        DVec2::new(number(&transform["offset"][0]), number(&transform["offset"][1]))
+            + DVec2::new(cos * s.x - sin * s.y, sin * s.x + cos * s.y)
+    };
+    let mut meshes_seen = [0; 3];
+    for (k, face) in scene.faces.iter().enumerate() {
+        let mesh = face.vertices[0].z as usize;
+        meshes_seen[mesh] += 1;
+        let (positions, transform) = match mesh {
+            0 => (corners, &transforms[0]),
+            1 => (corners, &transforms[1]),
+            _ => (stretched, &transforms[0]),
+        };
+        let surface = scene.surfaces.of(k as u32).unwrap();
+        let map = surface.uv.as_ref().unwrap();
+        for vertex in &face.vertices {
+            let corner = positions
+                .iter()
+                .position(|p| DVec3::from_array(p.map(f64::from)) + dvec3(0.0, 0.0, mesh as f64) == *vertex)
+                .unwrap();
+            let (got, expected) = (
+                omnisim::scene::surface::Surface::uv_at(map, surface.anchor, *vertex),
+                transformed(transform, uvs[corner]),
+            );
+            assert!(
+                (got - expected).length() < 1e-9,
+                "mesh {mesh} corner {corner}: uv {got}, its transform gives {expected}"
+            );
+        }
+    }
+    assert_eq!(meshes_seen, [2; 3]);
 }
 
 #[test]

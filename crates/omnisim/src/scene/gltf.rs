@@ -394,15 +394,17 @@ fn open_image<'a>(
     }
 }
 
-/// A list read from an accessor once, whichever primitive asks first.
+/// A list read from an accessor once, whichever primitive asks first. Its `get_or_init`
+/// closure must not call rayon: a thread waiting there for its jobs may run another primitive's
+/// read of the same list, re-entering the initialisation, which deadlocks.
 type ReadOnce<T> = Arc<OnceLock<T>>;
 
 /// The lists read once, by key.
 type ReadOnceByKey<K, T> = Mutex<HashMap<K, ReadOnce<T>>>;
 
 /// Vertex positions and texture coordinates read once however many primitives share their
-/// accessor: `bench/make_big_gltf.py`'s four primitives share one of each, and reading them for
-/// each primitive was 0.5 G instructions of the file's 2.3 G (docs/benchmarks.md,
+/// accessor: `bench/make_big_gltf.py`'s four primitives share one of each, and reading them
+/// once took the file's read from 2.33 G instructions to 1.90 G (docs/benchmarks.md,
 /// "2026-11-27 evening2 (load)").
 #[derive(Default)]
 struct SharedReads {

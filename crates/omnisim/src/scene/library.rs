@@ -102,7 +102,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
             face_placements: &face_placements,
         };
         let keep = |mut faces: Vec<RawFace>, scene: &mut Scene, surfaces: &mut Surfaces| {
-            keeping.keep(&mut faces, 0, scene, surfaces)
+            keeping.keep(&mut faces, scene, surfaces)
         };
         let first_face = scene.faces.len();
         let dropped = match object {
@@ -620,19 +620,14 @@ struct FaceKeeper<'a> {
 }
 
 impl FaceKeeper<'_> {
-    /// Checks `faces` (the object's faces from its `first`) and moves them into the scene,
-    /// with their surfaces, leaving `faces` empty; the number of faces dropped. Each face is
-    /// checked on all threads (a million mesh triangles took 1.1 G instructions on one), then
-    /// the failing ones in order: the first bad face is the one reported. Only the failing
-    /// faces' places are kept (a scan may hold millions of zero-area triangles, and a message
-    /// each would cost gigabytes); a failing face is checked again, in order, for its message.
-    fn keep(
-        &self,
-        faces: &mut Vec<RawFace>,
-        first: usize,
-        scene: &mut Scene,
-        surfaces: &mut Surfaces,
-    ) -> Result<usize, String> {
+    /// Checks `faces` (all of a library object's, or a chunk of a mesh's) and moves them into
+    /// the scene, with their surfaces, leaving `faces` empty; the number of faces dropped.
+    /// Each face is checked on all threads (a million mesh triangles took 1.1 G instructions
+    /// on one), then the failing ones in order: the first bad face is the one reported. Only
+    /// the failing faces' places are kept (a scan may hold millions of zero-area triangles,
+    /// and a message each would cost gigabytes); a failing face is checked again, in order,
+    /// for its message.
+    fn keep(&self, faces: &mut Vec<RawFace>, scene: &mut Scene, surfaces: &mut Surfaces) -> Result<usize, String> {
         let failing: Vec<usize> = faces
             .par_iter()
             .enumerate()
@@ -648,7 +643,8 @@ impl FaceKeeper<'_> {
             }
         }
         // Only a mesh's faces get here failing: a zero-area mesh triangle can never be hit, and
-        // real scans contain many. A mesh has no library textures.
+        // real scans contain many. A mesh has no library textures, so the faces' places in
+        // `face_placements` below are those of a whole object that dropped none.
         if !failing.is_empty() {
             let (mut failing, mut k) = (failing.iter().peekable(), 0);
             faces.retain(|_| {
@@ -657,12 +653,7 @@ impl FaceKeeper<'_> {
             });
         }
         for (k, (vertices, _, surface)) in faces.iter_mut().enumerate() {
-            if let Some(placement) = self
-                .face_placements
-                .get(first + k)
-                .and_then(Option::as_ref)
-                .or(self.placement)
-            {
+            if let Some(placement) = self.face_placements.get(k).and_then(Option::as_ref).or(self.placement) {
                 *surface = Some(placement.surface(vertices));
             }
         }
@@ -700,9 +691,9 @@ impl FaceKeeper<'_> {
     }
 }
 
-/// Mesh triangles made into faces at a time: the faces being made (about 300 bytes each,
-/// 10 MB) are one list reused for every chunk, where a list for the whole mesh took 300 MB at
-/// 1 M triangles (docs/benchmarks.md, "2026-11-27 evening2 (load)").
+/// Mesh triangles made into faces this many at a time: the faces being made (about 300 bytes
+/// each, 10 MB) are one list reused for every chunk, where a list for the whole mesh took
+/// 300 MB at 1 M triangles (docs/benchmarks.md, "2026-11-27 evening2 (load)").
 const MESH_CHUNK: usize = 1 << 15;
 
 /// Loads mesh `m` and keeps its faces (through `keeping`), each part of the mesh freed once
@@ -743,12 +734,11 @@ fn keep_mesh_faces(
             .reserve_exact(scene.faces.len() + triangles - surfaces.of_face.len());
     }
     let mut faces = Vec::with_capacity(MESH_CHUNK.min(triangles));
-    let (mut first, mut dropped) = (0, 0);
+    let mut dropped = 0;
     for part in parts {
         for chunk in part.chunks(MESH_CHUNK) {
             faces.par_extend(chunk.par_iter().map(face));
-            dropped += keeping.keep(&mut faces, first, scene, surfaces)?;
-            first += chunk.len();
+            dropped += keeping.keep(&mut faces, scene, surfaces)?;
         }
     }
     Ok(dropped)

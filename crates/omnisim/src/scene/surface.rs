@@ -226,6 +226,31 @@ mod tests {
         assert!(surfaces.of(2).is_none(), "index 7 lies past the list of one");
     }
 
+    /// Surfaces given from face `first` on, after a face with one and faces without, are the
+    /// same as given one face at a time.
+    #[test]
+    fn extending_equals_pushing_each_surface_in_turn() {
+        let surface = |x: f64| Surface {
+            anchor: DVec3::new(x, 0.0, 0.0),
+            uv: None,
+            colours: None,
+            unlit: x > 3.0,
+        };
+        for (earlier, first) in [(None, 0), (None, 3), (Some(1), 1), (Some(1), 4)] {
+            let (mut pushed, mut extended) = (Surfaces::default(), Surfaces::default());
+            if let Some(face) = earlier {
+                pushed.push(face, surface(-1.0));
+                extended.push(face, surface(-1.0));
+            }
+            for k in 0..5u32 {
+                pushed.push(first + k as usize, surface(f64::from(k)));
+            }
+            extended.extend(first, (0..5u32).into_par_iter().map(|k| surface(f64::from(k))));
+            assert_eq!(extended, pushed, "earlier {earlier:?}, first {first}");
+            assert_eq!(extended.of_face.len(), first + 5);
+        }
+    }
+
     #[test]
     fn triangle_gradients_reproduce_corner_values() {
         let corners = [dvec3(1.0, 2.0, 3.0), dvec3(2.5, 2.0, 3.5), dvec3(1.0, 4.0, 2.0)];
