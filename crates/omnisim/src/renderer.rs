@@ -315,10 +315,11 @@ impl Renderer {
         let mut frame = match self.gpu(prepared) {
             #[cfg(feature = "gpu")]
             Some((renderer, gpu)) => renderer.render(gpu, camera, pose, planes)?,
-            // On one of rayon's threads, handed over once: the trace's and the shading's
-            // parallel loops then start there, not each handed over from the calling thread and
-            // waited for (as `sift` runs; docs/benchmarks.md, "2026-11-27 evening2 (walk)").
-            None => rayon::scope(|_| self.cpu_frame(prepared, camera, pose, planes)),
+            // Not wrapped in `rayon::scope` (one hand-over to rayon for the trace's and the
+            // shading's loops): on a quiet host that cost clutter's cylindrical 1024×256 11 % at two
+            // threads and gained nothing measurable elsewhere (docs/benchmarks.md, "2026-11-27
+            // evening2 (lead)").
+            None => self.cpu_frame(prepared, camera, pose, planes),
         };
         if planes.contains(crate::frame::Plane::Object) {
             let objects = frame
