@@ -236,8 +236,8 @@ fn a_mesh_of_several_chunks_keeps_its_faces_and_surfaces_in_order_and_drops_the_
     );
     assert_eq!(scene.faces.len(), kept.len());
     let surfaces = &scene.surfaces;
-    assert_eq!(surfaces.list.len(), kept.iter().filter(|&&t| textured(t)).count());
-    assert!(surfaces.of_face.len() <= scene.faces.len());
+    assert_eq!(surfaces.list().len(), kept.iter().filter(|&&t| textured(t)).count());
+    assert!(surfaces.of_face().len() <= scene.faces.len());
     for (k, (&t, face)) in kept.iter().zip(&scene.faces).enumerate() {
         let x = t as f64;
         assert_eq!(
