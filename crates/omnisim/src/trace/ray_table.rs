@@ -172,8 +172,9 @@ impl RayTable {
             return cones;
         }
         // Made outside `get_or_init`: making runs parallel loops, and a rayon thread waiting in
-        // them may take up another frame that asks for these cones (CPU frames run on rayon's
-        // threads), which would enter `get_or_init` again on the same thread and never return.
+        // them may take up another frame that asks for these cones (a caller may render from
+        // rayon's threads), which would enter `get_or_init` again on the same thread and never
+        // return.
         // Two threads may both make them; the first kept wins, and both are the same numbers.
         let made = ConePlanes::of_image(&self.camera, |index| self.ray(index));
         self.cones.get_or_init(|| made)
@@ -236,9 +237,10 @@ fn cached<T>(
         return entry;
     }
     // Made without the lock held: making runs parallel loops, and a rayon thread waiting in
-    // them may take up another frame of this renderer (CPU frames run on rayon's threads) that
-    // asks for a table, which would lock again on the same thread and never return. Two
-    // threads may both make one camera's table; the first kept is used by both.
+    // them may take up another frame of this renderer (a caller may render from rayon's
+    // threads) that asks for a table, which would lock again on the same thread and never
+    // return. Two threads may both make one camera's table (a passing peak of two); the first
+    // kept is used by both.
     let entry = Arc::new(make());
     let mut list = lock();
     if let Some(kept) = find(&list) {
