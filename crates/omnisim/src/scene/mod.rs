@@ -37,10 +37,10 @@ pub const MAX_SCENE_TRIANGLES: usize = crate::accel::wide::FIRST_TRIANGLE as usi
 /// Refuses `triangles` over [`MAX_SCENE_TRIANGLES`]: scene loading and `Renderer::prepare` ask
 /// before a BVH is built, whose build would otherwise panic.
 pub fn check_triangle_count(triangles: usize) -> Result<(), TooManyTriangles> {
-    match triangles > MAX_SCENE_TRIANGLES {
-        true => Err(TooManyTriangles { triangles }),
-        false => Ok(()),
+    if triangles > MAX_SCENE_TRIANGLES {
+        return Err(TooManyTriangles { triangles });
     }
+    Ok(())
 }
 
 /// A face's vertices. Most faces of large scenes are mesh triangles, so three are held inline
