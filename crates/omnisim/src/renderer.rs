@@ -624,8 +624,7 @@ mod appearance_tests {
                 .appearance
                 .surfaces
                 .one_colour_faces
-                .0
-                .get()
+                .made()
                 .map(std::ptr::from_ref)
         };
         renderer.render(&prepared, &camera, &pose, Planes::COLOUR).unwrap();

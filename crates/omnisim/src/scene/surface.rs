@@ -82,9 +82,7 @@ impl Surfaces {
 
     /// The faces of these surfaces that give one colour, made on first use.
     pub(crate) fn one_colour_faces(&self) -> &crate::shade::OneColourFaces {
-        self.one_colour_faces
-            .0
-            .get_or_init(|| crate::shade::OneColourFaces::of(self))
+        self.one_colour_faces.of(self)
     }
 }
 

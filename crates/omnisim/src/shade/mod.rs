@@ -485,7 +485,20 @@ impl OneColourFaces {
 /// [`Surfaces`]' table of [`OneColourFaces`], made on first use: derived from the surfaces, so
 /// a clone starts without it and it never makes two surfaces unequal.
 #[derive(Debug, Default)]
-pub(crate) struct OneColourCache(pub(crate) OnceLock<OneColourFaces>);
+pub(crate) struct OneColourCache(OnceLock<OneColourFaces>);
+
+impl OneColourCache {
+    /// The table of `surfaces` (whose cache this is), made on first use.
+    pub(crate) fn of(&self, surfaces: &Surfaces) -> &OneColourFaces {
+        self.0.get_or_init(|| OneColourFaces::of(surfaces))
+    }
+
+    /// The table, if a frame made it.
+    #[cfg(test)]
+    pub(crate) fn made(&self) -> Option<&OneColourFaces> {
+        self.0.get()
+    }
+}
 
 impl Clone for OneColourCache {
     fn clone(&self) -> Self {
@@ -751,7 +764,7 @@ mod tests {
                 let view = View::new(&camera, &pose, None, None);
                 shade_frame(CpuTracer::Fast, &bvh, appearance, view, &mut frame, Planes::COLOUR);
                 assert!(
-                    appearance.surfaces.one_colour_faces.0.get().is_some(),
+                    appearance.surfaces.one_colour_faces.made().is_some(),
                     "made on first use"
                 );
                 for (hit, colour) in frame.pixels().iter().zip(frame.colour().unwrap()) {
