@@ -1,5 +1,5 @@
 //! A proof that the CPU has AVX2, passed to code that runs AVX2 instructions (the texture
-//! filter's, sRGB encoding's and a textured span's face gathers here, SIFT's scan in
+//! filter's and sRGB encoding's here, SIFT's scan in
 //! `omnisim-vision`), so that their `unsafe` rests on a value only the feature check makes,
 //! not on which caller instantiates them; and [`Avx2::run`], which
 //! compiles a closure's work for AVX2 (the textured runs' lanes).

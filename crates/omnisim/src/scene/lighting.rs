@@ -131,11 +131,10 @@ pub(crate) fn linear_to_srgb3_lanes(linear: &[[f64; 3]; 8], avx2: Option<crate::
 
 /// The steps (then +inf), and the byte at the start of each of 4096 equal buckets of [0, 1]: a
 /// bucket (2.4e-4 wide) is narrower than the smallest step (3.0e-4, 1/(255 · 12.92) at the
-/// dark end), so at most one step follows the guess. The buckets end with three spare bytes:
-/// the lanes gather four bytes from a bucket's address.
+/// dark end), so at most one step follows the guess.
 struct SrgbEncoding {
     steps: [f64; 256],
-    buckets: [u8; BUCKETS + 4],
+    buckets: [u8; BUCKETS + 1],
 }
 
 /// The number of equal buckets of [0, 1] in [`SrgbEncoding`]: a value c's is c · `BUCKETS`,
@@ -147,7 +146,6 @@ static ENCODING: std::sync::LazyLock<SrgbEncoding> = std::sync::LazyLock::new(||
         255 => f64::INFINITY,
         _ => first_value_encoding_to(k as u8 + 1),
     });
-    // The spare bytes past bucket `BUCKETS` are read only to be masked off; they hold 255.
     let buckets = std::array::from_fn(|i| steps.partition_point(|&step| step <= i as f64 / BUCKETS as f64) as u8);
     SrgbEncoding { steps, buckets }
 });
@@ -168,31 +166,39 @@ impl SrgbEncoding {
     }
 
     /// [`SrgbEncoding::byte`] of each of `values`, four in a vector: the same clamp, bucket
-    /// and step test, in lanes. The token proves the CPU has AVX2.
+    /// and step test, in lanes, the buckets' guesses and their steps read by plain loads (four
+    /// of each a vector), where two four-lane gathers took about 0.023 ms more of an omni 250²
+    /// textured frame on this AMD EPYC (Zen 4; docs/benchmarks.md, 2026-11-27 night2 (tex)).
+    /// The token proves the CPU has AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn bytes_avx2(&self, _: crate::avx2::Avx2, linear: &[[f64; 3]; 8], bytes: &mut [[u8; 3]; 8]) {
         use std::arch::x86_64::{
-            _CMP_LE_OQ, _mm_and_si128, _mm_cvtsi128_si32, _mm_i32gather_epi32, _mm_set1_epi32, _mm_setr_epi8,
-            _mm_shuffle_epi8, _mm_sub_epi32, _mm256_castpd_si256, _mm256_castsi256_si128, _mm256_cmp_pd,
-            _mm256_cvttpd_epi32, _mm256_i32gather_pd, _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd, _mm256_mul_pd,
-            _mm256_permutevar8x32_epi32, _mm256_set1_pd, _mm256_setr_epi32, _mm256_setzero_pd,
+            _CMP_LE_OQ, _mm_cvtsi128_si32, _mm_setr_epi8, _mm_setr_epi32, _mm_shuffle_epi8, _mm_storeu_si128,
+            _mm_sub_epi32, _mm256_castpd_si256, _mm256_castsi256_si128, _mm256_cmp_pd, _mm256_cvttpd_epi32,
+            _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd, _mm256_mul_pd, _mm256_permutevar8x32_epi32, _mm256_set1_pd,
+            _mm256_setr_epi32, _mm256_setr_pd, _mm256_setzero_pd,
         };
         // 24 values, six chunks of four: no remainder is left out.
         let (values, bytes) = (linear.as_flattened(), bytes.as_flattened_mut());
         for (values, bytes) in values.chunks_exact(4).zip(bytes.chunks_exact_mut(4)) {
-            // SAFETY: the load reads the chunk's four values. Each c lies in [0, 1] (`max`
-            // takes a NaN, its first operand, to its second, 0, and anything not above 0 to 0;
-            // `min` keeps 1 as the bound), so its bucket is in 0..=4096, and the four bytes
-            // gathered from it lie inside `buckets` (4100); each guess is a byte, inside
+            // SAFETY: the load reads the chunk's four values, the store writes the four i32 of
+            // `bucket`. Each c lies in [0, 1] (`max` takes a NaN, its first operand, to its
+            // second, 0, and anything not above 0 to 0; `min` keeps 1 as the bound), so its
+            // bucket is in 0..=4096, inside `buckets` (4097); each guess is a byte, inside
             // `steps` (256).
             let four = unsafe {
                 let value = _mm256_loadu_pd(values.as_ptr());
                 let c = _mm256_min_pd(_mm256_max_pd(value, _mm256_setzero_pd()), _mm256_set1_pd(1.0));
-                let bucket = _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64)));
-                let gathered = _mm_i32gather_epi32::<1>(self.buckets.as_ptr().cast::<i32>(), bucket);
-                let guess = _mm_and_si128(gathered, _mm_set1_epi32(0xff));
-                let step = _mm256_i32gather_pd::<8>(self.steps.as_ptr(), guess);
+                let mut bucket = [0u32; 4];
+                _mm_storeu_si128(
+                    bucket.as_mut_ptr().cast(),
+                    _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64))),
+                );
+                let [g0, g1, g2, g3] = bucket.map(|bucket| *self.buckets.get_unchecked(bucket as usize));
+                let step = |guess: u8| *self.steps.get_unchecked(usize::from(guess));
+                let guess = _mm_setr_epi32(g0.into(), g1.into(), g2.into(), g3.into());
+                let step = _mm256_setr_pd(step(g0), step(g1), step(g2), step(g3));
                 // All ones (-1) in each 64-bit lane whose value reaches the next step, its low
                 // halves gathered into four i32: the guess minus -1 is the byte, at most 255
                 // (the step after 255 is +inf). The four bytes packed into one u32, in order,

@@ -25,8 +25,15 @@ use crate::scene::lighting::linear_to_srgb3_lanes;
 use crate::scene::surface::{Surface, UvMap};
 
 /// Pixels one task shades: enough to fill the lanes many times over, few enough to spread a
-/// 250×250 image over every thread.
-const CHUNK: usize = 512;
+/// 250×250 image over every thread (16 tasks). Each task's end flushes its open runs however
+/// full: at 512 pixels an omni 250² textured frame took about 0.012 ms more on this AMD EPYC
+/// (docs/benchmarks.md, 2026-11-27 night2 (tex)).
+const CHUNK: usize = 4096;
+
+/// Runs a chunk keeps open at once, one a textured face: a row of an omni image crosses the
+/// floor, the rug and the walls in turn, and with one run each change of face shaded the run
+/// it ended however few of its lanes were filled.
+const OPEN_RUNS: usize = 4;
 
 /// Shades every pixel of `frame` (traced through `view`) of a scene with textures, as
 /// `shade_frame` does, lit by `lux` (by pixel index; empty for an unlit scene), filling the
@@ -193,48 +200,55 @@ impl<'a> Shader<'a> {
     /// taken in spans of neighbouring pixels that see one face (most do), so that a face is
     /// compared once a pixel and looked up once a span. A span that hits nothing, or a flat
     /// face where the linear plane is not asked for, is written at once, another untextured
-    /// span pixel by pixel; a textured one joins its face's run, and a full run (or one the
-    /// next textured face or the chunk's end ends) is shaded in lanes, coordinates to
-    /// encoding, and its pixels written. Taken pixel by pixel, with the run's face, its
+    /// span pixel by pixel; a textured one joins its face's run (up to [`OPEN_RUNS`] faces'
+    /// runs are open at once, the oldest face's shaded to make room for a new one), and a full
+    /// run (or one shaded to make room, or at the chunk's end) is shaded in lanes, coordinates
+    /// to encoding, and its pixels written. Taken pixel by pixel, with the run's face, its
     /// pixels' hits and slots and the untextured face held through the loop, an equirect frame
     /// cost 9.5 M instructions more (callgrind, docs/benchmarks.md, 2026-11-26 afternoon
     /// (tex)).
     fn chunk(&self, mut chunk: Chunk<'_>) {
         let appearance = self.appearance;
-        let mut run: Option<Run<'a>> = None;
+        // The open runs, each with its face's id ([`NO_FACE`] for none) kept apart: comparing
+        // through the `Option`s cost about 30 instructions a pixel. `oldest` is the one a new
+        // face's run replaces.
+        let mut runs: [Option<Run<'a>>; OPEN_RUNS] = [const { None }; OPEN_RUNS];
+        let mut run_faces = [NO_FACE; OPEN_RUNS];
+        let mut oldest = 0;
         // Set up afresh for each run's lanes, in place.
         let mut lookups = Lookups::empty();
-        // The last untextured face seen, looked up once for its pixels.
+        // The last untextured face seen, looked up once for its pixels, and its id.
         let mut untextured: Option<Untextured<'a>> = None;
-        // The ids of the run's face and of that untextured face ([`NO_FACE`] for none), kept
-        // apart: comparing through the `Option`s cost about 30 instructions a pixel.
-        let (mut run_face, mut untextured_face) = (NO_FACE, NO_FACE);
+        let mut untextured_face = NO_FACE;
         let hits = chunk.hits;
         let avx2 = Avx2::detected();
         let mut start = 0;
         while let Some(first) = hits.get(start) {
             let face_id = first.face;
-            let end = span_end(hits, start, avx2);
+            let end = span_end(hits, start);
             let mut span = start..end;
             start = end;
             if face_id == NO_FACE {
                 fill_by_eights(&mut chunk.colour[span], BACKGROUND);
                 continue;
             }
-            if face_id != run_face && face_id != untextured_face {
+            let mut open = run_faces.iter().position(|&id| id == face_id);
+            if open.is_none() && face_id != untextured_face {
                 let surface = appearance.surfaces.of(face_id);
                 if let Some(textured) =
                     surface.and_then(|surface| Face::of(appearance, self.levels, self.view, first, surface))
                 {
-                    if let Some(ended) = run.as_ref().filter(|ended| ended.len > 0) {
+                    if let Some(ended) = runs[oldest].as_ref().filter(|ended| ended.len > 0) {
                         self.finish(&mut chunk, ended, &mut lookups, avx2);
                     }
-                    run = Some(Run {
+                    runs[oldest] = Some(Run {
                         face: textured,
                         len: 0,
                         slot: [span.start; LANES],
                     });
-                    run_face = face_id;
+                    run_faces[oldest] = face_id;
+                    open = Some(oldest);
+                    oldest = (oldest + 1) % OPEN_RUNS;
                 } else {
                     untextured = Some(Untextured {
                         surface,
@@ -243,9 +257,18 @@ impl<'a> Shader<'a> {
                     untextured_face = face_id;
                 }
             }
-            if face_id == untextured_face
-                && let Some(Untextured { surface, flat }) = untextured
-            {
+            // The span's face is a run's (just opened, where it had none), or the untextured
+            // face (just looked up, where it was another): `run_faces[k]` is only ever set with
+            // `runs[k]`, and `untextured_face` with `untextured`, so neither `else` below runs
+            // (`unreachable!` there cost 0.24 M instructions an omni frame and 1.15 M an
+            // equirect one, callgrind).
+            let Some(open) = open else {
+                debug_assert!(untextured.is_some(), "face {untextured_face} names no untextured face");
+                let Some(Untextured { surface, flat }) = untextured else {
+                    // Written all the same, so that the chunk's every pixel is.
+                    fill_by_eights(&mut chunk.colour[span], BACKGROUND);
+                    continue;
+                };
                 // A flat face's pixels without the linear plane: its byte, the span at once
                 // (pixel by pixel, as below, about 24 instructions a pixel; omni 250², half the
                 // pixels: docs/benchmarks.md, 2026-11-27 midday (tex)).
@@ -269,12 +292,9 @@ impl<'a> Shader<'a> {
                     chunk.colour[slot].write(pixel_colour(flat, shaded, linear));
                 }
                 continue;
-            }
-            // The span's face is the run's (just started, where it was another's): `run_face`
-            // is only ever set with `run`, so the `else` never runs (`unreachable!` there cost
-            // 0.24 M instructions an omni frame and 1.15 M an equirect one, callgrind).
-            debug_assert!(run.is_some(), "face {run_face} names a run, and none is held");
-            let Some(run) = run.as_mut() else {
+            };
+            debug_assert!(runs[open].is_some(), "face {face_id} names a run, and none is held");
+            let Some(run) = runs[open].as_mut() else {
                 // Written all the same, so that the chunk's every pixel is.
                 fill_by_eights(&mut chunk.colour[span], BACKGROUND);
                 continue;
@@ -284,7 +304,7 @@ impl<'a> Shader<'a> {
                 run.len = 0;
             }
         }
-        if let Some(run) = run.as_ref().filter(|run| run.len > 0) {
+        for run in runs.iter().flatten().filter(|run| run.len > 0) {
             self.finish(&mut chunk, run, &mut lookups, avx2);
         }
     }
@@ -426,59 +446,15 @@ impl<'a> Shader<'a> {
 }
 
 /// The end of the span of pixels from `start` on (a pixel of `hits`) that see its face: the
-/// first later pixel that sees another, or the end of `hits`. With `avx2` eight faces are
-/// compared at a time, gathered from the pixels, where one pixel at a time cost about six
-/// instructions a pixel (docs/benchmarks.md, 2026-11-27 midday (tex)); the same end either way.
+/// first later pixel that sees another, or the end of `hits`. One pixel at a time: eight faces
+/// a gather took about 0.015 ms more of an omni 250² textured frame on this AMD EPYC (Zen 4;
+/// docs/benchmarks.md, 2026-11-27 night2 (tex)), though fewer instructions.
 #[inline(always)]
-fn span_end(hits: &[Pixel], start: usize, avx2: Option<Avx2>) -> usize {
+fn span_end(hits: &[Pixel], start: usize) -> usize {
     let face = hits[start].face;
     let mut end = start + 1;
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = avx2;
-    #[cfg(target_arch = "x86_64")]
-    if let Some(avx2) = avx2 {
-        // SAFETY: `avx2` proves the CPU has AVX2, which `span_end_avx2` is compiled for.
-        end = unsafe { span_end_avx2(avx2, hits, end, face) };
-    }
     while hits.get(end).is_some_and(|hit| hit.face == face) {
         end += 1;
-    }
-    end
-}
-
-/// [`span_end`]'s eights with AVX2: from `end` on, while eight whole pixels are left, the first
-/// that does not see `face`; else where the last eight that all see it end (the caller goes
-/// on one by one).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn span_end_avx2(_: Avx2, hits: &[Pixel], mut end: usize, face: u32) -> usize {
-    use std::arch::x86_64::{
-        _mm256_castsi256_ps, _mm256_cmpeq_epi32, _mm256_i32gather_epi32, _mm256_movemask_ps, _mm256_set1_epi32,
-        _mm256_setr_epi32,
-    };
-    // The faces of eight neighbouring pixels lie one pixel's size apart, counted in i32s.
-    const STRIDE: usize = size_of::<Pixel>() / size_of::<i32>();
-    const {
-        assert!(
-            size_of::<Pixel>().is_multiple_of(size_of::<i32>())
-                && std::mem::offset_of!(Pixel, face).is_multiple_of(size_of::<i32>())
-        );
-    };
-    let step = STRIDE as i32;
-    let offsets = _mm256_setr_epi32(0, step, 2 * step, 3 * step, 4 * step, 5 * step, 6 * step, 7 * step);
-    let wanted = _mm256_set1_epi32(face as i32);
-    while let Some(eight) = hits.get(end..end + 8) {
-        // SAFETY: the gather reads the face of each of the eight pixels of `eight`, from the
-        // slice's own pointer.
-        let faces = unsafe {
-            let first = eight.as_ptr().byte_add(std::mem::offset_of!(Pixel, face)).cast::<i32>();
-            _mm256_i32gather_epi32::<4>(first, offsets)
-        };
-        let same = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(faces, wanted)));
-        if same != 0xff {
-            return end + same.trailing_ones() as usize;
-        }
-        end += 8;
     }
     end
 }
@@ -553,29 +529,6 @@ fn tinted_avx2(_: Avx2, base: DVec3, samples: &[[f32; LANES]; 3]) -> [[f64; 3]; 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::{Rng, SeedableRng};
-
-    /// A span's end found eight faces at a time is the end found one pixel at a time, from
-    /// every start, in chunks of spans of random lengths (misses among them), longer and
-    /// shorter than eight.
-    #[test]
-    fn span_ends_in_eights_are_the_pixel_by_pixel_ends() {
-        let mut random = rand_chacha::ChaCha8Rng::seed_from_u64(18);
-        for _ in 0..200 {
-            let mut hits = Vec::new();
-            while hits.len() < 300 {
-                let face = [0, 1, 2, NO_FACE][random.random_range(0..4)];
-                let length = [1, 2, 7, 8, 9, 16, 17, 40][random.random_range(0..8)];
-                hits.extend(std::iter::repeat_n(Pixel { face, ..Pixel::MISS }, length));
-            }
-            for start in 0..hits.len() {
-                let face = hits[start].face;
-                let want = start + hits[start..].iter().take_while(|hit| hit.face == face).count();
-                assert_eq!(span_end(&hits, start, None), want, "from {start}");
-                assert_eq!(span_end(&hits, start, Avx2::detected()), want, "from {start}");
-            }
-        }
-    }
 
     /// The albedo times the samples in AVX2 registers, moved into lane order: the bits of the
     /// channel-by-channel loop, lane by lane, at zero, subnormal, small and large samples.
