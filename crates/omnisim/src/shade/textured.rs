@@ -85,10 +85,10 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     // `Shader::chunk` writes every pixel of its chunk: each span of it is a miss span
     // (`fill_by_eights`), a flat span (`fill_by_eights`), another untextured span (pixel by
     // pixel), or textured pixels taken into a run, which `finish_in` writes (the slice where they
-    // are neighbours, else each of `slot[..len]`) once it is full, ended by the next textured
-    // face, or flushed after the loop; a span whose face names no run (never: see its
-    // `debug_assert!`) is written black (`fill_by_eights`). A panic there unwinds past this line,
-    // leaving the length 0.
+    // are neighbours, else each of `slot[..len]`) once it is full, replaced by a new face's
+    // run, or flushed after the loop (every open run); a span whose face names no run or
+    // untextured face (never: see the `debug_assert!`s) is written black (`fill_by_eights`). A
+    // panic there unwinds past this line, leaving the length 0.
     unsafe { colour.set_len(pixels.len()) };
     frame.set_shading(planes, linear, colour);
 }
