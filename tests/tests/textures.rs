@@ -1310,9 +1310,11 @@ fn an_obj_and_a_ply_written_by_trimesh_keep_their_uvs_and_colours() {
 /// Textured frames are shaded in chunks of pixels and runs of eight pixels of one face (`shade/textured.rs`)
 /// and lit from the frame's shadow-ray packets; each pixel must still be, bit for bit, what
 /// shading its hit alone gives with its own footprint (`shade`, `Footprint::of_pixel`), linear
-/// and 8-bit, with the linear plane and without it (8-bit only). Odd image sizes put chunk and
-/// run ends mid-row; the lit textured room has textured, plain and unlit faces and misses, the
-/// unlit one textured and plain faces, and the PLY's crate textured faces with vertex colours.
+/// and 8-bit, with the linear plane and without it (8-bit only). The omni image's odd size puts
+/// chunk and run ends mid-row; the lit textured room has textured, plain and unlit faces and
+/// misses, the unlit one textured and plain faces, and the PLY's crate textured faces with vertex
+/// colours: more textured faces in a chunk than it keeps runs open, so a run is replaced by a new
+/// face's (about a hundred times a frame at the omni pose).
 /// The unturned poses give the frame's body-frame footprints and `of_pixel`'s world-frame ones
 /// the same numbers, so those frames must match bit for bit; a turned pose (roll, pitch and the
 /// benchmarks' 60° yaw) rounds a footprint's angle differently in f32, so its pixels must match

@@ -112,7 +112,7 @@ pub fn linear_to_srgb3(linear: [f64; 3]) -> [u8; 3] {
 }
 
 /// [`linear_to_srgb3`] of eight colours: with AVX2 (where the caller's `avx2` proves it) four
-/// channels at a time in vector lanes, the bucket and step look-ups gathered, to the same bytes
+/// channels at a time in vector lanes, the bucket and step look-ups by plain loads, to the same bytes
 /// (tested). Textured pixels are encoded eight at a time (`shade/textured.rs`), where one
 /// channel after another cost about 56 instructions a pixel (docs/benchmarks.md, "ninth pass").
 /// `avx2` is the caller's proof of AVX2 (`None`: the scalar encoder), so that a caller that

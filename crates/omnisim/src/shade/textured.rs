@@ -24,11 +24,22 @@ use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
 use crate::scene::lighting::linear_to_srgb3_lanes;
 use crate::scene::surface::{Surface, UvMap};
 
-/// Pixels one task shades: enough to fill the lanes many times over, few enough to spread a
-/// 250×250 image over every thread (16 tasks). Each task's end flushes its open runs however
-/// full: at 512 pixels an omni 250² textured frame took about 0.012 ms more on this AMD EPYC
-/// (docs/benchmarks.md, 2026-11-27 night2 (tex)).
+/// Pixels one task shades at most: enough to fill the lanes many times over. Each task's end
+/// flushes its open runs however full: at 512 pixels an omni 250² textured frame took about
+/// 0.012 ms more on this AMD EPYC at one thread (docs/benchmarks.md, 2026-11-27 night2 (tex)).
 const CHUNK: usize = 4096;
+
+/// Pixels one task shades at least, where many threads share a small frame.
+const CHUNK_MIN: usize = 512;
+
+/// The pixels a task of a frame of `pixels` shades: [`CHUNK`], or fewer, down to
+/// [`CHUNK_MIN`], so that every thread gets about four tasks (a 250² frame is 16 tasks of
+/// 4096, which would leave most of a 16-thread pool idle, and textured pixels gather in a few
+/// of them). A multiple of the lanes.
+fn chunk_len(pixels: usize) -> usize {
+    let per_task = pixels.div_ceil(rayon::current_num_threads() * 4);
+    per_task.next_multiple_of(LANES).clamp(CHUNK_MIN, CHUNK)
+}
 
 /// Runs a chunk keeps open at once, one a textured face: a row of an omni image crosses the
 /// floor, the rug and the walls in turn, and with one run each change of face shaded the run
@@ -54,17 +65,18 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     // midday (tex)), as it did the untextured frames (`eight_bit_frame`).
     let mut colour = Vec::with_capacity(pixels.len());
     let mut linear = Vec::new();
+    let chunk_len = chunk_len(pixels.len());
     let chunks = pixels
-        .par_chunks(CHUNK)
-        .zip(colour.spare_capacity_mut()[..pixels.len()].par_chunks_mut(CHUNK))
+        .par_chunks(chunk_len)
+        .zip(colour.spare_capacity_mut()[..pixels.len()].par_chunks_mut(chunk_len))
         .enumerate();
     if planes.contains(Plane::LinearColour) {
         linear = vec![[0.0; 3]; pixels.len()];
         chunks
-            .zip(linear.par_chunks_mut(CHUNK))
+            .zip(linear.par_chunks_mut(chunk_len))
             .for_each(|((chunk, (hits, colour)), linear)| {
                 shader.chunk(Chunk {
-                    start: chunk * CHUNK,
+                    start: chunk * chunk_len,
                     hits,
                     colour,
                     linear: Some(linear),
@@ -73,7 +85,7 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     } else {
         chunks.for_each(|(chunk, (hits, colour))| {
             shader.chunk(Chunk {
-                start: chunk * CHUNK,
+                start: chunk * chunk_len,
                 hits,
                 colour,
                 linear: None,
