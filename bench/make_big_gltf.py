@@ -22,15 +22,16 @@ TEXTURE = 2048
 PARTS = 4
 
 
-def noise_png(seed):
+def noise_png(seed, side=TEXTURE):
+    """An RGB PNG of side x side texels of seeded noise."""
     rng = random.Random(seed)
-    row_bytes = TEXTURE * 3
-    raw = b"".join(b"\x00" + rng.randbytes(row_bytes) for _ in range(TEXTURE))
+    row_bytes = side * 3
+    raw = b"".join(b"\x00" + rng.randbytes(row_bytes) for _ in range(side))
 
     def chunk(kind, data):
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
-    header = struct.pack(">IIBBBBB", TEXTURE, TEXTURE, 8, 2, 0, 0, 0)
+    header = struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0)
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 1)) + chunk(b"IEND", b"")
 
 

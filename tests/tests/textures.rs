@@ -1083,6 +1083,179 @@ fn a_gltf_mesh_placed_by_two_nodes_is_in_the_scene_twice_as_one_object() {
     assert_eq!(found, [true, true], "{:?}", scene.faces);
 }
 
+/// A glTF of 3,000 small primitives (24 triangles each, 72,000 in all: three of the loader's
+/// chunks of 32,768, cut inside primitives) in 120 meshes placed by nodes under three group
+/// nodes (translated, one scaled by 2): textured and plain materials alternate, and every
+/// seventh primitive has a triangle without area. Every face is checked in order against the
+/// closed form, the hierarchy walked depth first and a node's last child first (as the loader
+/// walks it): corners, colour, texture coordinates at the corners, no surface on plain faces,
+/// object 0, and the dropped count.
+#[test]
+fn a_gltf_of_thousands_of_primitives_under_a_node_hierarchy_is_read_face_by_face() {
+    const GROUPS: usize = 3;
+    const NODES: usize = 40; // meshes per group
+    const PRIMITIVES: usize = 25; // per mesh
+    const TRIANGLES: usize = 24; // per primitive
+    // A strip of quads a quarter metre wide along x, primitive p at y = p.
+    let local = |p: usize, vertex: u16| {
+        DVec3::new(
+            f64::from(vertex / 2) * 0.25,
+            p as f64 + f64::from(vertex % 2) * 0.25,
+            0.0,
+        )
+    };
+    let triangle = |primitive: usize, t: usize| -> [u16; 3] {
+        let a = (t / 2 * 2) as u16;
+        match (t % 2, t == 5 && primitive % 7 == 0) {
+            (_, true) => [a, a + 3, a + 3],
+            (0, false) => [a, a + 2, a + 3],
+            _ => [a, a + 3, a + 1],
+        }
+    };
+    let vertices = (TRIANGLES / 2 + 1) * 2;
+    let mut bin = Vec::new();
+    let (mut views, mut accessors, mut meshes) = (Vec::new(), Vec::new(), Vec::new());
+    let mut add = |bytes: Vec<u8>, component: u32, kind: &str, count: usize, bounds: Option<[[f64; 3]; 2]>| {
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
+        bin.extend(bytes);
+        bin.resize(bin.len().div_ceil(4) * 4, 0);
+        let mut accessor = serde_json::json!({"bufferView": views.len() - 1, "componentType": component, "count": count, "type": kind});
+        if let Some([min, max]) = bounds {
+            accessor["min"] = serde_json::json!(min);
+            accessor["max"] = serde_json::json!(max);
+        }
+        accessors.push(accessor);
+        accessors.len() - 1
+    };
+    for mesh in 0..GROUPS * NODES {
+        let primitives: Vec<serde_json::Value> = (0..PRIMITIVES)
+            .map(|p| {
+                let corners: Vec<DVec3> = (0..vertices as u16).map(|v| local(p, v)).collect();
+                let position = add(
+                    corners
+                        .iter()
+                        .flat_map(|c| c.to_array().map(|x| x as f32))
+                        .flat_map(f32::to_le_bytes)
+                        .collect(),
+                    5126,
+                    "VEC3",
+                    vertices,
+                    Some([
+                        [0.0, p as f64, 0.0],
+                        [(TRIANGLES / 2) as f64 * 0.25, p as f64 + 0.25, 0.0],
+                    ]),
+                );
+                let uv = add(
+                    corners
+                        .iter()
+                        .flat_map(|c| [c.x as f32, c.y as f32])
+                        .flat_map(f32::to_le_bytes)
+                        .collect(),
+                    5126,
+                    "VEC2",
+                    vertices,
+                    None,
+                );
+                let primitive = mesh * PRIMITIVES + p;
+                let indices: Vec<u8> = (0..TRIANGLES)
+                    .flat_map(|t| triangle(primitive, t))
+                    .flat_map(u16::to_le_bytes)
+                    .collect();
+                let indices = add(indices, 5123, "SCALAR", TRIANGLES * 3, None);
+                serde_json::json!({"attributes": {"POSITION": position, "TEXCOORD_0": uv}, "indices": indices,
+                    "material": primitive % 3})
+            })
+            .collect();
+        meshes.push(serde_json::json!({ "primitives": primitives }));
+    }
+    let png_at = bin.len();
+    let png = image_rgb(4, 3, &TEXELS.iter().flatten().copied().collect::<Vec<u8>>());
+    bin.extend(&png);
+    views.push(serde_json::json!({"buffer": 0, "byteOffset": png_at, "byteLength": png.len()}));
+    // Nodes 0.. place the meshes, a group node holds its NODES, the root the groups.
+    let group_translation = |g: usize| DVec3::new(100.0 * g as f64, 0.0, 0.0);
+    let group_scale = |g: usize| if g == 1 { 2.0 } else { 1.0 };
+    let node_translation = |k: usize| DVec3::new(0.0, 0.0, 3.0 * k as f64);
+    let mut nodes: Vec<serde_json::Value> = (0..GROUPS * NODES)
+        .map(|m| serde_json::json!({"mesh": m, "translation": node_translation(m % NODES).to_array()}))
+        .collect();
+    for g in 0..GROUPS {
+        let scale = [group_scale(g); 3];
+        nodes.push(
+            serde_json::json!({"children": (g * NODES..(g + 1) * NODES).collect::<Vec<_>>(),
+            "translation": group_translation(g).to_array(), "scale": scale}),
+        );
+    }
+    nodes.push(serde_json::json!({"children": (GROUPS * NODES..GROUPS * NODES + GROUPS).collect::<Vec<_>>()}));
+    let textured = |factor: [f64; 4]| serde_json::json!({"pbrMetallicRoughness": {"baseColorFactor": factor, "baseColorTexture": {"index": 0}}});
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [nodes.len() - 1]}],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": [
+            textured([1.0; 4]),
+            {"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.0, 0.0, 1.0]}},
+            textured([0.0, 1.0, 0.0, 1.0])
+        ],
+        "textures": [{"source": 0}],
+        "images": [{"bufferView": views.len() - 1, "mimeType": "image/png"}],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": bin.len()}]
+    });
+    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let mut faces = scene.faces.iter().enumerate();
+    let mut dropped = 0;
+    for g in (0..GROUPS).rev() {
+        for k in (0..NODES).rev() {
+            let mesh = g * NODES + k;
+            for p in 0..PRIMITIVES {
+                let primitive = mesh * PRIMITIVES + p;
+                for t in 0..TRIANGLES {
+                    let corners = triangle(primitive, t);
+                    if corners[1] == corners[2] {
+                        dropped += 1;
+                        continue;
+                    }
+                    let (id, face) = faces.next().expect("a face for every triangle with area");
+                    let what = format!("face {id}: mesh {mesh} primitive {p} triangle {t}");
+                    let world =
+                        corners.map(|v| group_translation(g) + group_scale(g) * (node_translation(k) + local(p, v)));
+                    assert!(
+                        face.vertices.iter().zip(&world).all(|(a, b)| a.distance(*b) < 1e-12),
+                        "{what}: corners {:?}, expected {world:?}",
+                        face.vertices
+                    );
+                    assert_eq!(face.object, 0, "{what}");
+                    let colour = [[255, 255, 255], [255, 0, 0], [0, 255, 0]][primitive % 3];
+                    assert_eq!(face.colour, colour, "{what}");
+                    let surface = scene.surfaces.of(id as u32);
+                    if primitive % 3 == 1 {
+                        assert!(surface.is_none(), "{what}: a plain material's face has a surface");
+                        continue;
+                    }
+                    let surface = surface.unwrap_or_else(|| panic!("{what}: a textured face without a surface"));
+                    let map = surface.uv.as_ref().unwrap();
+                    for (corner, point) in corners.iter().zip(&world) {
+                        let uv = omnisim::scene::surface::Surface::uv_at(map, surface.anchor, *point);
+                        let expected = local(p, *corner).truncate();
+                        assert!(
+                            (uv - expected).length() < 1e-9,
+                            "{what}: uv {uv} at a corner of uv {expected}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(faces.next().is_none(), "more faces than triangles with area");
+    assert_eq!(scene.faces.len(), GROUPS * NODES * PRIMITIVES * TRIANGLES - dropped);
+    let warning = format!("mesh 'square': dropped {dropped} degenerate triangles");
+    assert!(scene.warnings.contains(&warning), "{:?}", scene.warnings);
+}
+
 #[test]
 fn the_shipped_crate_looks_the_same_from_obj_and_gltf_and_is_textured_in_ply() {
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(160, 120, 70f64.to_radians()));

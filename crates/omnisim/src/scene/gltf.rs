@@ -136,7 +136,7 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
         }
     }
     let images = load_images(&primitives, document, &buffers, textures)?;
-    let shared = SharedReads::default();
+    let shared = SharedReads::new(&primitives, document.accessors().len());
     // On all threads.
     let mut read: Vec<Result<Vec<MeshTriangle>, String>> = primitives
         .par_iter()
@@ -159,19 +159,27 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
             let slot = slot_of[&(mesh.index(), primitive.index())];
             let local = read[slot].as_mut().map_err(|e| e.clone())?;
             uses[slot] -= 1;
-            let mut part = if uses[slot] == 0 {
+            let part = if uses[slot] == 0 {
                 std::mem::take(local)
             } else {
                 local.clone()
             };
-            part.par_iter_mut().for_each(|triangle| {
-                triangle.vertices = triangle.vertices.map(|vertex| world.transform_point3(vertex));
-            });
-            parts.push(part);
+            parts.push((part, world));
         }
     }
-    Ok(parts)
+    // Placed in one parallel pass over all parts, not one a part: a file of 200,000 primitives
+    // spent most of its load handing them to the threads one by one (docs/benchmarks.md,
+    // "2026-11-27 night2 (parts)").
+    parts.par_iter_mut().for_each(|(part, world)| {
+        part.par_iter_mut().with_min_len(PLACED_TOGETHER).for_each(|triangle| {
+            triangle.vertices = triangle.vertices.map(|vertex| world.transform_point3(vertex));
+        });
+    });
+    Ok(parts.into_iter().map(|(part, _)| part).collect())
 }
+
+/// Fewest triangles of a part placed by one task: a small primitive's stay on one thread.
+const PLACED_TOGETHER: usize = 4096;
 
 /// The meshes of the default scene's node hierarchy (else of the first scene, else of every
 /// node), each with its node's world transform, in the order the hierarchy is walked.
@@ -297,16 +305,18 @@ fn data_uri(uri: &str) -> Option<Result<Vec<u8>, String>> {
 /// Checks that `accessor` lies inside its view and its view inside its buffer, with checked
 /// arithmetic (a lying file must neither panic the reader nor wrap around).
 fn check_accessor(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
-    let what = format!("accessor {}", accessor.index());
+    // Named only in an error: formatted for every accessor, the name was a twentieth of the
+    // read of a file of 200,000 primitives (docs/benchmarks.md, "2026-11-27 night2 (parts)").
+    let what = || format!("accessor {}", accessor.index());
     if accessor.sparse().is_some() {
-        return Err(format!("{what} is sparse, which omnisim does not read"));
+        return Err(format!("{} is sparse, which omnisim does not read", what()));
     }
     let view = accessor
         .view()
-        .ok_or_else(|| format!("{what} has no buffer view (all zeros), which omnisim does not read"))?;
+        .ok_or_else(|| format!("{} has no buffer view (all zeros), which omnisim does not read", what()))?;
     let count = accessor.count();
     if count == 0 {
-        return Err(format!("{what} has no elements"));
+        return Err(format!("{} has no elements", what()));
     }
     let size = accessor.size();
     let stride = view.stride().unwrap_or(size);
@@ -319,7 +329,8 @@ fn check_accessor(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), 
     match (end, view_end) {
         (Some(end), Some(view_end)) if end <= view.length() && view_end <= buffer.len() => Ok(()),
         _ => Err(format!(
-            "{what} ({count} elements) reaches beyond its buffer view or buffer: the file is truncated or corrupt"
+            "{} ({count} elements) reaches beyond its buffer view or buffer: the file is truncated or corrupt",
+            what()
         )),
     }
 }
@@ -405,20 +416,69 @@ type ReadOnceByKey<K, T> = Mutex<HashMap<K, ReadOnce<T>>>;
 /// Vertex positions and texture coordinates read once however many primitives share their
 /// accessor: `bench/make_big_gltf.py`'s four primitives share one of each, and reading them
 /// once took the file's read from 2.33 G instructions to 1.90 G (docs/benchmarks.md,
-/// "2026-11-27 evening2 (load)").
-#[derive(Default)]
+/// "2026-11-27 evening2 (load)"). An accessor that one primitive reads is read by it alone and
+/// never kept here: kept, the lists of a file of 200,000 small primitives were a tenth of its
+/// read and all held until its end (docs/benchmarks.md, "2026-11-27 night2 (parts)").
 struct SharedReads {
+    /// How many of the primitives read each accessor (by index) as POSITION or TEXCOORD.
+    readers: Vec<u32>,
     /// By POSITION accessor; `None` where gltf cannot read it.
     positions: ReadOnceByKey<usize, Option<Vec<DVec3>>>,
     /// By TEXCOORD accessor and the bits of the `KHR_texture_transform` applied to them.
     uvs: ReadOnceByKey<(usize, [u64; 5]), Result<Vec<DVec2>, String>>,
 }
 
+/// A list one primitive reads: its own, or one kept in [`SharedReads`] for all its readers.
+enum Read<T> {
+    Alone(T),
+    Shared(ReadOnce<T>),
+}
+
+impl<T> Read<T> {
+    fn list(&self) -> &T {
+        match self {
+            Read::Alone(list) => list,
+            Read::Shared(once) => once.get().expect("a shared list is read before it is handed out"),
+        }
+    }
+}
+
 impl SharedReads {
-    /// The list of `key` in `lists`, to be read by whichever caller comes first.
-    fn once<K: std::hash::Hash + Eq, T>(lists: &ReadOnceByKey<K, T>, key: K) -> ReadOnce<T> {
-        let mut lists = lists.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        Arc::clone(lists.entry(key).or_default())
+    /// No lists yet, and how many of `primitives` read each of the file's `accessors`.
+    fn new(primitives: &[(usize, gltf::Primitive)], accessors: usize) -> SharedReads {
+        let mut readers = vec![0u32; accessors];
+        for (_, primitive) in primitives {
+            for (semantic, accessor) in primitive.attributes() {
+                if matches!(semantic, gltf::Semantic::Positions | gltf::Semantic::TexCoords(_)) {
+                    readers[accessor.index()] += 1;
+                }
+            }
+        }
+        SharedReads {
+            readers,
+            positions: Mutex::default(),
+            uvs: Mutex::default(),
+        }
+    }
+
+    /// The list of `accessor` (`key` in `lists`) made by `read`: by this caller alone where it
+    /// is the accessor's only reader, else by whichever of its readers comes first.
+    fn read<K: std::hash::Hash + Eq, T>(
+        &self,
+        lists: &ReadOnceByKey<K, T>,
+        accessor: usize,
+        key: K,
+        read: impl FnOnce() -> T,
+    ) -> Read<T> {
+        if self.readers[accessor] < 2 {
+            return Read::Alone(read());
+        }
+        let once = {
+            let mut lists = lists.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            Arc::clone(lists.entry(key).or_default())
+        };
+        once.get_or_init(read);
+        Read::Shared(once)
     }
 }
 
@@ -440,15 +500,12 @@ fn read_primitive(
     let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(Vec::as_slice));
     let no_positions = "it has no POSITION attribute";
     let accessor = primitive.get(&gltf::Semantic::Positions).ok_or(no_positions)?;
-    let read = SharedReads::once(&shared.positions, accessor.index());
-    let positions: &Vec<DVec3> = read
-        .get_or_init(|| {
-            reader
-                .read_positions()
-                .map(|positions| positions.map(|p| DVec3::from_array(p.map(f64::from))).collect())
-        })
-        .as_ref()
-        .ok_or(no_positions)?;
+    let positions = shared.read(&shared.positions, accessor.index(), accessor.index(), || {
+        reader
+            .read_positions()
+            .map(|positions| positions.map(|p| DVec3::from_array(p.map(f64::from))).collect())
+    });
+    let positions: &Vec<DVec3> = positions.list().as_ref().ok_or(no_positions)?;
     let indices: Vec<u32> = match reader.read_indices() {
         Some(indices) => indices.into_u32().collect(),
         None => (0..positions.len() as u32).collect(),
@@ -465,36 +522,34 @@ fn read_primitive(
     let uv_list = match &look.texture {
         None => None,
         Some((_, _, set, transform)) => {
-            let accessor = primitive.get(&gltf::Semantic::TexCoords(*set));
-            Some((
-                accessor.map(|a| SharedReads::once(&shared.uvs, (a.index(), transform.bits()))),
-                *set,
-                *transform,
+            let no_uvs = || format!("its material's texture reads TEXCOORD_{set}, which it does not have");
+            let accessor = primitive.get(&gltf::Semantic::TexCoords(*set)).ok_or_else(no_uvs)?;
+            Some(shared.read(
+                &shared.uvs,
+                accessor.index(),
+                (accessor.index(), transform.bits()),
+                || {
+                    reader
+                        .read_tex_coords(*set)
+                        .ok_or_else(no_uvs)?
+                        .into_f32()
+                        .enumerate()
+                        .map(|(i, uv)| {
+                            let uv = DVec2::from_array(uv.map(f64::from));
+                            if uv.is_finite() {
+                                Ok(transform.apply(uv))
+                            } else {
+                                Err(format!("vertex {i}: texture coordinate {uv} is not finite"))
+                            }
+                        })
+                        .collect()
+                },
             ))
         }
     };
     let uvs: Option<&Vec<DVec2>> = match &uv_list {
         None => None,
-        Some((read, set, transform)) => {
-            let no_uvs = || format!("its material's texture reads TEXCOORD_{set}, which it does not have");
-            let read = read.as_ref().ok_or_else(no_uvs)?.get_or_init(|| {
-                reader
-                    .read_tex_coords(*set)
-                    .ok_or_else(no_uvs)?
-                    .into_f32()
-                    .enumerate()
-                    .map(|(i, uv)| {
-                        let uv = DVec2::from_array(uv.map(f64::from));
-                        if uv.is_finite() {
-                            Ok(transform.apply(uv))
-                        } else {
-                            Err(format!("vertex {i}: texture coordinate {uv} is not finite"))
-                        }
-                    })
-                    .collect()
-            });
-            Some(read.as_ref().map_err(Clone::clone)?)
-        }
+        Some(read) => Some(read.list().as_ref().map_err(Clone::clone)?),
     };
     if uvs.as_ref().is_some_and(|uvs| uvs.len() < positions.len()) {
         return Err("TEXCOORD has fewer entries than POSITION".into());

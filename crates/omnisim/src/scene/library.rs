@@ -1,6 +1,7 @@
 //! The object library: turns each object of a scene file into planar faces.
 
 use std::collections::HashMap;
+use std::ops::Range;
 use std::path::{Component, Path, PathBuf};
 
 use glam::{DVec2, DVec3, dvec3};
@@ -658,16 +659,25 @@ impl FaceKeeper<'_> {
             }
         }
         let base = scene.faces.len();
-        if self.is_mesh && !faces.is_empty() && faces.iter().all(|(_, _, surface)| surface.is_some()) {
-            // A textured or vertex-coloured mesh's surfaces are moved on all threads, so that
-            // the pages of the list (208 bytes a face) are first touched on all threads too:
-            // moved on one, they were a sixth of a 1 M-triangle render's time (docs/benchmarks.md,
-            // "2026-11-27 evening2 (load)").
+        if self.is_mesh {
+            // A mesh's surfaces are written on all threads, so that the pages of the list (208
+            // bytes a face) are first touched on all threads too: written on one, they were a
+            // sixth of a 1 M-triangle render's time (docs/benchmarks.md, "2026-11-27 evening2
+            // (load)"). A chunk may mix faces with and without (a glTF's primitives of textured
+            // and plain materials, docs/benchmarks.md "2026-11-27 night2 (parts)").
+            let having: Vec<usize> = faces
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, _, surface))| surface.is_some())
+                .map(|(k, _)| base + k)
+                .collect();
+            let faces = &*faces;
             surfaces.extend(
-                base,
-                faces
-                    .par_iter_mut()
-                    .map(|(_, _, surface)| surface.take().expect("every face here has a surface")),
+                &having,
+                having.par_iter().map(|&face| {
+                    let surface = faces[face - base].2.as_ref();
+                    surface.expect("only faces with surfaces are listed").clone()
+                }),
             );
         } else {
             for (k, (_, _, surface)) in faces.iter_mut().enumerate() {
@@ -735,13 +745,100 @@ fn keep_mesh_faces(
     }
     let mut faces = Vec::with_capacity(MESH_CHUNK.min(triangles));
     let mut dropped = 0;
-    for part in parts {
-        for chunk in part.chunks(MESH_CHUNK) {
-            faces.par_extend(chunk.par_iter().map(face));
-            dropped += keeping.keep(&mut faces, scene, surfaces)?;
+    let mut parts = parts;
+    let mut freed = 0;
+    for chunk in chunks_across(parts.iter().map(Vec::len), MESH_CHUNK) {
+        // Where each piece starts in the chunk.
+        let starts: Vec<usize> = chunk
+            .iter()
+            .scan(0, |start, (_, range)| {
+                Some(std::mem::replace(start, *start + range.len()))
+            })
+            .collect();
+        let length = chunk.iter().map(|(_, range)| range.len()).sum::<usize>();
+        let whole = &parts;
+        faces.par_extend((0..length).into_par_iter().map(|k| {
+            let piece = starts.partition_point(|&start| start <= k) - 1;
+            let (part, range) = &chunk[piece];
+            face(&whole[*part][range.start + k - starts[piece]])
+        }));
+        dropped += keeping.keep(&mut faces, scene, surfaces)?;
+        // The parts made whole are freed.
+        let (last, range) = chunk.last().expect("a chunk has a piece");
+        let made = if range.end == parts[*last].len() {
+            last + 1
+        } else {
+            *last
+        };
+        for part in &mut parts[freed..made] {
+            *part = Vec::new();
         }
+        freed = made;
     }
     Ok(dropped)
+}
+
+/// Cuts parts of `lengths` (in order) into chunks of at most `size` items, each chunk its
+/// pieces: (part, range in the part). A chunk spans as many parts as fit, so that a mesh of
+/// many small parts (a glTF of thousands of primitives) pays each parallel pass once a chunk
+/// rather than once a part (docs/benchmarks.md, "2026-11-27 night2 (parts)").
+fn chunks_across(lengths: impl Iterator<Item = usize>, size: usize) -> Vec<Vec<(usize, Range<usize>)>> {
+    assert!(size > 0, "a chunk holds at least one item");
+    let mut chunks = Vec::new();
+    let mut chunk: Vec<(usize, Range<usize>)> = Vec::new();
+    let mut room = size;
+    for (part, length) in lengths.enumerate() {
+        let mut at = 0;
+        while at < length {
+            let taken = (length - at).min(room);
+            chunk.push((part, at..at + taken));
+            at += taken;
+            room -= taken;
+            if room == 0 {
+                chunks.push(std::mem::take(&mut chunk));
+                room = size;
+            }
+        }
+    }
+    if !chunk.is_empty() {
+        chunks.push(chunk);
+    }
+    chunks
+}
+
+#[cfg(test)]
+mod chunk_tests {
+    use super::chunks_across;
+
+    /// Chunks hold `size` items but the last, span parts, skip empty parts and keep the order.
+    #[test]
+    fn chunks_span_parts_in_order() {
+        let chunks = chunks_across([3, 0, 2, 7, 1].into_iter(), 4);
+        assert_eq!(
+            chunks,
+            vec![
+                vec![(0, 0..3), (2, 0..1)],
+                vec![(2, 1..2), (3, 0..3)],
+                vec![(3, 3..7)],
+                vec![(4, 0..1)],
+            ]
+        );
+        assert_eq!(chunks_across([0, 0].into_iter(), 4), Vec::<Vec<_>>::new());
+        assert_eq!(
+            chunks_across([8].into_iter(), 4),
+            vec![vec![(0, 0..4)], vec![(0, 4..8)]]
+        );
+        // A part over three chunks, begun and ended inside them.
+        assert_eq!(
+            chunks_across([1, 10, 2].into_iter(), 4),
+            vec![
+                vec![(0, 0..1), (1, 0..3)],
+                vec![(1, 3..7)],
+                vec![(1, 7..10), (2, 0..1)],
+                vec![(2, 1..2)]
+            ]
+        );
+    }
 }
 
 #[cfg(test)]

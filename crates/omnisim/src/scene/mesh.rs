@@ -89,8 +89,9 @@ impl MeshTriangle {
 pub(crate) const MAX_MESH_TRIANGLES: usize = 50_000_000;
 
 /// A mesh's triangles in parts (a glTF's placed primitives; one part for PLY and OBJ), in
-/// order: each part is made into faces and freed before the next, so a mesh's triangles are
-/// never copied into one list (144 bytes a triangle; docs/benchmarks.md, "evening2 (load)").
+/// order: they are made into faces in chunks that span parts, each part freed once all of it is
+/// made, so a mesh's triangles are never copied into one list (144 bytes a triangle;
+/// docs/benchmarks.md, "evening2 (load)" and "night2 (parts)").
 pub(super) type MeshParts = Vec<Vec<MeshTriangle>>;
 
 /// Reads a mesh file. `path` must be a regular file of at most [`crate::input::MESH_LIMIT`]

@@ -66,12 +66,14 @@ impl Surfaces {
         self.list.push(surface);
     }
 
-    /// Gives the faces from `first` (the scene's last so far), one for each of `surfaces`, their
-    /// surfaces, moved on all threads: as [`Surfaces::push`] of each in turn.
-    pub(crate) fn extend(&mut self, first: usize, surfaces: impl IndexedParallelIterator<Item = Surface>) {
-        self.of_face.resize(first, NO_SURFACE);
-        let next = self.list.len() as u32;
-        self.of_face.extend(next..next + surfaces.len() as u32);
+    /// Gives `faces` (ascending, after the scene's last so far with a surface) their
+    /// `surfaces`, one each, written on all threads: as [`Surfaces::push`] of each in turn.
+    pub(crate) fn extend(&mut self, faces: &[usize], surfaces: impl IndexedParallelIterator<Item = Surface>) {
+        debug_assert_eq!(faces.len(), surfaces.len());
+        for (next, &face) in (self.list.len() as u32..).zip(faces) {
+            self.of_face.resize(face, NO_SURFACE);
+            self.of_face.push(next);
+        }
         self.list.par_extend(surfaces);
     }
 
@@ -224,8 +226,8 @@ mod tests {
         assert!(surfaces.of(2).is_none(), "index 7 lies past the list of one");
     }
 
-    /// Surfaces given from face `first` on, after a face with one and faces without, are the
-    /// same as given one face at a time.
+    /// Surfaces given to faces from `first` on, one face between them without, after a face
+    /// with one and faces without, are the same as given one face at a time.
     #[test]
     fn extending_equals_pushing_each_surface_in_turn() {
         let surface = |x: f64| Surface {
@@ -240,12 +242,16 @@ mod tests {
                 pushed.push(face, surface(-1.0));
                 extended.push(face, surface(-1.0));
             }
-            for k in 0..5u32 {
-                pushed.push(first + k as usize, surface(f64::from(k)));
+            // Five faces with surfaces from `first`, with a face without one between the
+            // second and the third.
+            let faces: Vec<usize> = [0, 1, 3, 4, 5].map(|k| first + k).into();
+            for (k, &face) in faces.iter().enumerate() {
+                pushed.push(face, surface(k as f64));
             }
-            extended.extend(first, (0..5u32).into_par_iter().map(|k| surface(f64::from(k))));
+            extended.extend(&faces, (0..5u32).into_par_iter().map(|k| surface(f64::from(k))));
             assert_eq!(extended, pushed, "earlier {earlier:?}, first {first}");
-            assert_eq!(extended.of_face.len(), first + 5);
+            assert_eq!(extended.of_face.len(), first + 6);
+            assert_eq!(extended.of(first as u32 + 2), None);
         }
     }
 
