@@ -181,7 +181,7 @@ mod tests {
                 assert!(collapse_leaf_pairs(&mut ours));
                 obvhs::bvh2::leaf_collapser::collapse(
                     &mut uncollapsed,
-                    params.max_prims_per_leaf.into(),
+                    params.max_prims_per_leaf,
                     params.collapse_traversal_cost,
                 );
                 let bytes = |nodes: &[Bvh2Node]| bytemuck::cast_slice::<Bvh2Node, u8>(nodes).to_vec();
