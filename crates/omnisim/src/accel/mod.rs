@@ -5,6 +5,7 @@
 //! They are reordered into BVH leaf order, so a leaf's `first_index..first_index+prim_count`
 //! addresses them directly on both CPU and GPU.
 
+mod collapse;
 pub(crate) mod wide;
 
 use std::time::{Duration, Instant};
@@ -34,11 +35,20 @@ const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::medium_build()
 };
 
-// The wide BVH's leaves hold at most `wide::MAX_LEAF_TRIANGLES` triangles.
-const _: () = assert!(
-    BUILD_PARAMS.max_prims_per_leaf as usize <= wide::MAX_LEAF_TRIANGLES
-        && LARGE_BUILD_PARAMS.max_prims_per_leaf as usize <= wide::MAX_LEAF_TRIANGLES
-);
+// The wide BVH's leaves hold at most `wide::MAX_LEAF_TRIANGLES` triangles; both presets collapse
+// leaves as `collapse::collapse_leaf_pairs` does (leaves of `collapse::MAX_LEAF`, a traversal
+// cost of at least that, no reinsertion after the collapse).
+const _: () = {
+    assert!(collapse::MAX_LEAF as usize <= wide::MAX_LEAF_TRIANGLES);
+    let presets = [BUILD_PARAMS, LARGE_BUILD_PARAMS];
+    let mut i = 0;
+    while i < presets.len() {
+        assert!(presets[i].max_prims_per_leaf == collapse::MAX_LEAF);
+        assert!(presets[i].collapse_traversal_cost >= collapse::MAX_LEAF as f32);
+        assert!(presets[i].post_collapse_reinsertion_batch_ratio_multiplier == 0.0);
+        i += 1;
+    }
+};
 
 /// Scenes with more triangles than this get `LARGE_BUILD_PARAMS`: from 50k triangles the fast
 /// build takes about half the medium build's time for 3–8 % more box tests per ray, below it
@@ -52,8 +62,8 @@ const LARGE_BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
     ..BvhBuildParams::fast_build()
 };
 
-/// Below this many triangles the build's per-triangle passes (corners, boxes, leaf order, the
-/// wide BVH's subtrees and groups, face normals) stay on the calling thread: at 10k triangles
+/// Below this many triangles the build's per-triangle passes (corners, boxes, the leaf collapse,
+/// leaf order, the wide BVH's subtrees and groups, face normals) stay on the calling thread: at 10k triangles
 /// handing them to rayon's pool cost more than the work, even once the CLI starts the pool
 /// early (docs/benchmarks.md, "BVH build at small sizes", "2026-11-27 (lead)").
 const PARALLEL_FROM: usize = 50_000;
@@ -144,16 +154,15 @@ impl SceneBvh {
         let read_once: Vec<Corners> = map_indices(triangle_count, |i| {
             Corners(triangle(i).corners(scene).map(|p| p - offset))
         });
-        let mut core_time = Duration::ZERO;
-        let mut bvh = if read_once.is_empty() {
-            Bvh2::default()
+        let (mut bvh, inner_nodes_open) = if read_once.is_empty() {
+            (Bvh2::default(), false)
         } else {
             let params = if read_once.len() > LARGE_SCENE {
                 LARGE_BUILD_PARAMS
             } else {
                 BUILD_PARAMS
             };
-            obvhs::bvh2::builder::build_bvh2(&read_once, params, &mut core_time)
+            build_bvh2(&read_once, params)
         };
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         // Indexed collects: each list is allocated once, by this thread.
@@ -167,7 +176,7 @@ impl SceneBvh {
             (read_once[index].0, triangle(index).face)
         });
         drop((triangles, read_once, order));
-        let wide = WideBvh::build(&bvh, &corners);
+        let wide = WideBvh::build(&bvh, &corners, inner_nodes_open);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
         Self {
             offset,
@@ -217,6 +226,29 @@ impl SceneBvh {
     pub fn triangle_face(&self, triangle: usize) -> u32 {
         self.face[triangle]
     }
+}
+
+/// obvhs's BVH2 over `corners` with `params`: its builder and reinsertion, then its leaf
+/// collapse as [`collapse::collapse_leaf_pairs`] does it (the same tree, on all threads); and
+/// whether every inner node holds more triangles than a leaf (true but for trees of up to three).
+fn build_bvh2(corners: &[Corners], params: BvhBuildParams) -> (Bvh2, bool) {
+    let mut bvh = build_uncollapsed(corners, params);
+    let collapsed = collapse::collapse_leaf_pairs(&mut bvh);
+    (bvh, collapsed)
+}
+
+/// obvhs's BVH2 over `corners` before its leaves are collapsed: PLOC, then reinsertion.
+fn build_uncollapsed(corners: &[Corners], params: BvhBuildParams) -> Bvh2 {
+    let all = (0..corners.len() as u32).collect();
+    let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(corners.len()).build(
+        params.ploc_search_distance,
+        corners,
+        all,
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    obvhs::bvh2::reinsertion::ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
+    bvh
 }
 
 /// Whether every face of `scene` is a triangle (on all threads from [`PARALLEL_FROM`] faces).

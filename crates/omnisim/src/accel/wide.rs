@@ -35,6 +35,9 @@ pub(crate) const WIDTH: usize = 4 * HALVES;
 /// (docs/benchmarks.md, "2026-11-26 evening (small)").
 const LEAF_TRIANGLES: u32 = 2;
 
+// A BVH2 with its leaf pairs collapsed has no inner node of `LEAF_TRIANGLES` or fewer.
+const _: () = assert!(super::collapse::MAX_LEAF >= LEAF_TRIANGLES);
+
 /// Eight children's boxes, lane i = child i.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct WideNode {
@@ -61,7 +64,9 @@ pub(crate) struct WideBvh {
 
 impl WideBvh {
     /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
-    pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
+    /// `inner_nodes_open`: every inner node of `bvh` holds more than `LEAF_TRIANGLES` triangles
+    /// (its leaf pairs collapsed), so each gets a wide node of its own without counting.
+    pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]], inner_nodes_open: bool) -> Self {
         let largest = |t: &[DVec3; 3]| t.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
         let extent = if triangles.len() < super::PARALLEL_FROM {
             triangles.iter().map(largest).fold(0.0, f64::max)
@@ -77,7 +82,10 @@ impl WideBvh {
         if bvh.nodes.is_empty() {
             return wide;
         }
-        let builder = Builder { nodes: &bvh.nodes };
+        let builder = Builder {
+            nodes: &bvh.nodes,
+            inner_nodes_open,
+        };
         // A root that is (or fits) one leaf is the single child of a node of its own.
         let (root, root_openable_lanes) = if !builder.openable(0) {
             (smallvec![0], 0)
@@ -230,6 +238,10 @@ const SPLIT_DEPTH: usize = 2;
 
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
+    /// Every inner node holds more than `LEAF_TRIANGLES` triangles: `openable` need not count.
+    /// Counting read up to three nodes below each child, scattered: at 1M triangles that was
+    /// most of the collapse's time (docs/benchmarks.md, "2026-11-27 night2 (build)").
+    inner_nodes_open: bool,
 }
 
 impl Builder<'_> {
@@ -238,7 +250,9 @@ impl Builder<'_> {
     /// BVH2 leaf, whatever its size, is one wide leaf).
     fn openable(&self, index: usize) -> bool {
         !self.nodes[index].is_leaf()
-            && (self.triangles_up_to(index, LEAF_TRIANGLES) > LEAF_TRIANGLES || self.triangle_run(index).is_none())
+            && (self.inner_nodes_open
+                || self.triangles_up_to(index, LEAF_TRIANGLES) > LEAF_TRIANGLES
+                || self.triangle_run(index).is_none())
     }
 
     /// Triangles below BVH2 node `index`, or `limit + 1` where there are more: an inner node
@@ -406,11 +420,21 @@ mod tests {
             let bvh = SceneBvh::build(&grid_scene(cells));
             let nodes = &bvh.bvh.nodes;
             let counts = subtree_triangles(nodes);
-            let builder = Builder { nodes };
             let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;
             // The count that stops early agrees with the whole count on every node, and every
-            // small subtree is a run of leaf order (`triangle_run`): no node is opened for order.
-            assert!((0..nodes.len()).all(|index| builder.openable(index) == openable(index)));
+            // small subtree is a run of leaf order (`triangle_run`): no node is opened for order;
+            // and the collapsed leaf pairs left no inner node of `LEAF_TRIANGLES` or fewer.
+            for inner_nodes_open in [false, true] {
+                let builder = Builder {
+                    nodes,
+                    inner_nodes_open,
+                };
+                assert!((0..nodes.len()).all(|index| builder.openable(index) == openable(index)));
+            }
+            let builder = Builder {
+                nodes,
+                inner_nodes_open: true,
+            };
             let mut opened_nodes = 0;
             for parent in (0..nodes.len()).filter(|&index| openable(index)) {
                 let (children, openable_lanes) = builder.open(parent);
