@@ -18,6 +18,10 @@ use rayon::prelude::*;
 /// Triangles a collapsed leaf may hold: the presets' `max_prims_per_leaf`.
 pub(super) const MAX_LEAF: u32 = 2;
 
+// The passes hold a collapsed leaf as a pair of one-triangle leaves (`pairs`) and each node's
+// triangles in a byte: both are right for leaves of two only.
+const _: () = assert!(MAX_LEAF == 2);
+
 /// Nodes per part of each pass, from [`super::PARALLEL_FROM`] triangles (one part below).
 const PART_NODES: usize = 1 << 16;
 
@@ -164,7 +168,8 @@ mod tests {
 
     /// The same nodes, bit for bit, and the same leaf order as obvhs's collapse, on trees built
     /// below and above `PARALLEL_FROM` (one part, then many), after obvhs's reinsertion as in a
-    /// scene's build, and on the smallest trees obvhs leaves alone or collapses.
+    /// scene's build, and on the smallest trees (1–6 triangles), which obvhs leaves alone (up to
+    /// three) or collapses.
     #[test]
     fn the_same_tree_as_obvhs_collapse() {
         for cells in [0, 50, 160] {
@@ -174,23 +179,34 @@ mod tests {
                 .iter()
                 .map(|triangle| crate::accel::Corners(triangle.corners(&scene)))
                 .collect();
-            for params in [crate::accel::BUILD_PARAMS, crate::accel::LARGE_BUILD_PARAMS] {
-                let mut uncollapsed = crate::accel::build_uncollapsed(&corners, params);
-                assert!(uncollapsed.nodes.iter().all(|node| node.prim_count <= 1));
-                let mut ours = uncollapsed.clone();
-                assert!(collapse_leaf_pairs(&mut ours));
-                obvhs::bvh2::leaf_collapser::collapse(
-                    &mut uncollapsed,
-                    params.max_prims_per_leaf,
-                    params.collapse_traversal_cost,
-                );
-                let bytes = |nodes: &[Bvh2Node]| bytemuck::cast_slice::<Bvh2Node, u8>(nodes).to_vec();
-                assert_eq!(bytes(&ours.nodes), bytes(&uncollapsed.nodes), "{cells}");
-                assert_eq!(ours.primitive_indices, uncollapsed.primitive_indices, "{cells}");
-                assert!(
-                    ours.nodes.len() < 2 * ours.primitive_indices.len() - 1,
-                    "{cells}: nothing collapsed"
-                );
+            let smallest = (1..=6).map(|n| &corners[..n]);
+            let sizes: Vec<&[crate::accel::Corners]> = if cells == 0 {
+                smallest.chain([&corners[..]]).collect()
+            } else {
+                vec![&corners[..]]
+            };
+            for corners in sizes {
+                let case = format!("{cells} cells, {} triangles", corners.len());
+                for params in [crate::accel::BUILD_PARAMS, crate::accel::LARGE_BUILD_PARAMS] {
+                    let mut uncollapsed = crate::accel::build_uncollapsed(corners, params);
+                    assert!(uncollapsed.nodes.iter().all(|node| node.prim_count <= 1));
+                    let mut ours = uncollapsed.clone();
+                    assert_eq!(collapse_leaf_pairs(&mut ours), corners.len() > 3, "{case}");
+                    obvhs::bvh2::leaf_collapser::collapse(
+                        &mut uncollapsed,
+                        params.max_prims_per_leaf,
+                        params.collapse_traversal_cost,
+                    );
+                    let bytes = |nodes: &[Bvh2Node]| bytemuck::cast_slice::<Bvh2Node, u8>(nodes).to_vec();
+                    assert_eq!(bytes(&ours.nodes), bytes(&uncollapsed.nodes), "{case}");
+                    assert_eq!(ours.primitive_indices, uncollapsed.primitive_indices, "{case}");
+                    if corners.len() > 3 {
+                        assert!(
+                            ours.nodes.len() < 2 * ours.primitive_indices.len() - 1,
+                            "{case}: nothing collapsed"
+                        );
+                    }
+                }
             }
         }
     }

@@ -239,8 +239,8 @@ const SPLIT_DEPTH: usize = 2;
 struct Builder<'a> {
     nodes: &'a [Bvh2Node],
     /// Every inner node holds more than `LEAF_TRIANGLES` triangles: `openable` need not count.
-    /// Counting read up to three nodes below each child, scattered: at 1M triangles that was
-    /// most of the collapse's time (docs/benchmarks.md, "2026-11-27 night2 (build)").
+    /// Counting read up to three nodes below each child, scattered (not timed apart from the
+    /// leaf collapse it shipped with: docs/benchmarks.md, "2026-11-27 night2 (build)").
     inner_nodes_open: bool,
 }
 
@@ -364,7 +364,8 @@ impl Builder<'_> {
     }
 
     /// The triangles below BVH2 node `index` as a run of leaf order (first, count), or `None`
-    /// where they are not one. obvhs's leaf collapse, its last step, places a node's two
+    /// where they are not one. the leaf collapse (`collapse.rs`, obvhs's own as
+    /// passes over sibling pairs), the build's last step, places a node's two
     /// children's triangles side by side, the first's before the second's, so small subtrees
     /// are runs; but it skips BVHs of up to three triangles, whose leaves keep the builder's
     /// order: an inner node there may get a wide node of its own (`openable`).
