@@ -1106,7 +1106,7 @@ fn a_gltf_of_thousands_of_primitives_under_a_node_hierarchy_is_read_face_by_face
     };
     let triangle = |primitive: usize, t: usize| -> [u16; 3] {
         let a = (t / 2 * 2) as u16;
-        match (t % 2, t == 5 && primitive % 7 == 0) {
+        match (t % 2, t == 5 && primitive.is_multiple_of(7)) {
             (_, true) => [a, a + 3, a + 3],
             (0, false) => [a, a + 2, a + 3],
             _ => [a, a + 3, a + 1],
