@@ -747,7 +747,8 @@ fn keep_mesh_faces(
     let mut dropped = 0;
     let mut parts = parts;
     let mut freed = 0;
-    for chunk in chunks_across(parts.iter().map(Vec::len), MESH_CHUNK) {
+    let lengths: Vec<usize> = parts.iter().map(Vec::len).collect();
+    for chunk in chunks_across(lengths, MESH_CHUNK) {
         // Where each piece starts in the chunk.
         let starts: Vec<usize> = chunk
             .iter()
@@ -781,29 +782,34 @@ fn keep_mesh_faces(
 /// Cuts parts of `lengths` (in order) into chunks of at most `size` items, each chunk its
 /// pieces: (part, range in the part). A chunk spans as many parts as fit, so that a mesh of
 /// many small parts (a glTF of thousands of primitives) pays each parallel pass once a chunk
-/// rather than once a part (docs/benchmarks.md, "2026-11-27 night2 (parts)").
-fn chunks_across(lengths: impl Iterator<Item = usize>, size: usize) -> Vec<Vec<(usize, Range<usize>)>> {
+/// rather than once a part (docs/benchmarks.md, "2026-11-27 night2 (parts)"). Chunks are cut as
+/// they are asked for: a file of millions of placed parts holds one chunk's pieces at a time.
+fn chunks_across(
+    lengths: impl IntoIterator<Item = usize>,
+    size: usize,
+) -> impl Iterator<Item = Vec<(usize, Range<usize>)>> {
     assert!(size > 0, "a chunk holds at least one item");
-    let mut chunks = Vec::new();
-    let mut chunk: Vec<(usize, Range<usize>)> = Vec::new();
-    let mut room = size;
-    for (part, length) in lengths.enumerate() {
-        let mut at = 0;
-        while at < length {
+    let mut lengths = lengths.into_iter().enumerate().peekable();
+    // Items of the part `lengths` is at that earlier chunks took.
+    let mut at = 0;
+    std::iter::from_fn(move || {
+        let mut chunk = Vec::new();
+        let mut room = size;
+        while room > 0 {
+            let Some(&(part, length)) = lengths.peek() else { break };
             let taken = (length - at).min(room);
-            chunk.push((part, at..at + taken));
+            if taken > 0 {
+                chunk.push((part, at..at + taken));
+            }
             at += taken;
             room -= taken;
-            if room == 0 {
-                chunks.push(std::mem::take(&mut chunk));
-                room = size;
+            if at == length {
+                lengths.next();
+                at = 0;
             }
         }
-    }
-    if !chunk.is_empty() {
-        chunks.push(chunk);
-    }
-    chunks
+        (!chunk.is_empty()).then_some(chunk)
+    })
 }
 
 #[cfg(test)]
@@ -813,9 +819,9 @@ mod chunk_tests {
     /// Chunks hold `size` items but the last, span parts, skip empty parts and keep the order.
     #[test]
     fn chunks_span_parts_in_order() {
-        let chunks = chunks_across([3, 0, 2, 7, 1].into_iter(), 4);
+        let chunks = |lengths: &[usize], size| chunks_across(lengths.to_vec(), size).collect::<Vec<_>>();
         assert_eq!(
-            chunks,
+            chunks(&[3, 0, 2, 7, 1], 4),
             vec![
                 vec![(0, 0..3), (2, 0..1)],
                 vec![(2, 1..2), (3, 0..3)],
@@ -823,14 +829,11 @@ mod chunk_tests {
                 vec![(4, 0..1)],
             ]
         );
-        assert_eq!(chunks_across([0, 0].into_iter(), 4), Vec::<Vec<_>>::new());
-        assert_eq!(
-            chunks_across([8].into_iter(), 4),
-            vec![vec![(0, 0..4)], vec![(0, 4..8)]]
-        );
+        assert_eq!(chunks(&[0, 0], 4), Vec::<Vec<_>>::new());
+        assert_eq!(chunks(&[8], 4), vec![vec![(0, 0..4)], vec![(0, 4..8)]]);
         // A part over three chunks, begun and ended inside them.
         assert_eq!(
-            chunks_across([1, 10, 2].into_iter(), 4),
+            chunks(&[1, 10, 2], 4),
             vec![
                 vec![(0, 0..1), (1, 0..3)],
                 vec![(1, 3..7)],
