@@ -27,7 +27,8 @@ const PART_NODES: usize = 1 << 16;
 
 /// Collapses `bvh`'s sibling leaves into leaves of at most [`MAX_LEAF`] triangles, as obvhs's
 /// `collapse(bvh, MAX_LEAF, traversal_cost)` does for any `traversal_cost >= MAX_LEAF`. Drops
-/// the parent links (obvhs makes them again; the scene's BVH does not keep them). Returns whether
+/// the parent links (obvhs makes them again; the scene's BVH does not keep them: 4 bytes a
+/// BVH2 node, about 5 a triangle). Returns whether
 /// it collapsed them: every inner node then holds more than `MAX_LEAF` triangles (two leaves of
 /// one would have been collapsed, and a collapsed node is a leaf).
 pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) -> bool {
@@ -84,11 +85,7 @@ pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) -> bool {
                 (kept_nodes + usize::from(kept(j)), triangles + usize::from(*out))
             })
     };
-    let totals: Vec<(usize, usize)> = if parallel {
-        held_by.par_chunks_mut(part_nodes).enumerate().map(totals).collect()
-    } else {
-        vec![totals((0, &mut held_by))]
-    };
+    let totals: Vec<(usize, usize)> = each_part(parallel, held_by.chunks_mut(part_nodes).enumerate().collect(), totals);
     // Where each part starts in the new lists.
     let (mut node_total, mut triangle_total) = (0, 0);
     let starts: Vec<(usize, usize)> = totals
@@ -141,24 +138,26 @@ pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) -> bool {
             next_node += 1;
         }
     };
-    if parallel {
-        jobs.into_par_iter().for_each(copy);
-    } else {
-        jobs.into_iter().for_each(copy);
-    }
-    let renumber = |node: &mut Bvh2Node| {
-        if !node.is_leaf() {
+    each_part(parallel, jobs, copy);
+    let renumber = |part: &mut [Bvh2Node]| {
+        for node in part.iter_mut().filter(|node| !node.is_leaf()) {
             node.first_index = new_index[node.first_index as usize];
         }
     };
-    if parallel {
-        new_nodes.par_iter_mut().with_min_len(PART_NODES / 4).for_each(renumber);
-    } else {
-        new_nodes.iter_mut().for_each(renumber);
-    }
+    each_part(parallel, new_nodes.chunks_mut(part_nodes).collect(), renumber);
     bvh.nodes = new_nodes;
     bvh.primitive_indices = new_order;
     true
+}
+
+/// `f` of each of `parts`, on all threads where `parallel`, else on the calling thread (below
+/// [`super::PARALLEL_FROM`] triangles rayon's hand-offs cost more than the passes).
+fn each_part<T: Send, R: Send>(parallel: bool, parts: Vec<T>, f: impl Fn(T) -> R + Sync + Send) -> Vec<R> {
+    if parallel {
+        parts.into_par_iter().map(f).collect()
+    } else {
+        parts.into_iter().map(f).collect()
+    }
 }
 
 #[cfg(test)]

@@ -167,10 +167,8 @@ impl SceneBvh {
         // Leaf order (obvhs may list a primitive more than once if it splits primitives).
         // Indexed collects: each list is allocated once, by this thread.
         // Only the BVH2's nodes are walked after the build (the reference tracer): its leaf order
-        // lives on in `corners` and `face`, and its parents list (4 bytes a BVH2 node, about 5 a
-        // triangle) goes too: the two lists together were 8-9 bytes a triangle.
+        // lives on in `corners` and `face`; its parents list went in the leaf collapse.
         let order = std::mem::take(&mut bvh.primitive_indices);
-        bvh.parents = Vec::new();
         let (corners, face): (Vec<[DVec3; 3]>, Vec<u32>) = map_indices_unzip(order.len(), |k| {
             let index = order[k] as usize;
             (read_once[index].0, triangle(index).face)

@@ -185,8 +185,7 @@ impl SrgbEncoding {
             // SAFETY: the load reads the chunk's four values, the store writes the four i32 of
             // `bucket`. Each c lies in [0, 1] (`max` takes a NaN, its first operand, to its
             // second, 0, and anything not above 0 to 0; `min` keeps 1 as the bound), so its
-            // bucket is in 0..=4096, inside `buckets` (4097); each guess is a byte, inside
-            // `steps` (256).
+            // bucket is in 0..=4096, inside `buckets` (4097).
             let four = unsafe {
                 let value = _mm256_loadu_pd(values.as_ptr());
                 let c = _mm256_min_pd(_mm256_max_pd(value, _mm256_setzero_pd()), _mm256_set1_pd(1.0));
@@ -196,7 +195,7 @@ impl SrgbEncoding {
                     _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64))),
                 );
                 let [g0, g1, g2, g3] = bucket.map(|bucket| *self.buckets.get_unchecked(bucket as usize));
-                let step = |guess: u8| *self.steps.get_unchecked(usize::from(guess));
+                let step = |guess: u8| self.steps[usize::from(guess)];
                 let guess = _mm_setr_epi32(g0.into(), g1.into(), g2.into(), g3.into());
                 let step = _mm256_setr_pd(step(g0), step(g1), step(g2), step(g3));
                 // All ones (-1) in each 64-bit lane whose value reaches the next step, its low

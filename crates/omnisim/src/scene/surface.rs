@@ -61,6 +61,7 @@ impl Surfaces {
 
     /// Gives face `face` (the scene's last so far) `surface`.
     pub(crate) fn push(&mut self, face: usize, surface: Surface) {
+        self.one_colour_faces = Default::default();
         self.of_face.resize(face, NO_SURFACE);
         self.of_face.push(self.list.len() as u32);
         self.list.push(surface);
@@ -70,6 +71,7 @@ impl Surfaces {
     /// `surfaces`, one each, written on all threads: as [`Surfaces::push`] of each in turn.
     pub(crate) fn extend(&mut self, faces: &[usize], surfaces: impl IndexedParallelIterator<Item = Surface>) {
         debug_assert_eq!(faces.len(), surfaces.len());
+        self.one_colour_faces = Default::default();
         for (next, &face) in (self.list.len() as u32..).zip(faces) {
             self.of_face.resize(face, NO_SURFACE);
             self.of_face.push(next);

@@ -65,18 +65,18 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     // midday (tex)), as it did the untextured frames (`eight_bit_frame`).
     let mut colour = Vec::with_capacity(pixels.len());
     let mut linear = Vec::new();
-    let chunk_len = chunk_len(pixels.len());
+    let per_chunk = chunk_len(pixels.len());
     let chunks = pixels
-        .par_chunks(chunk_len)
-        .zip(colour.spare_capacity_mut()[..pixels.len()].par_chunks_mut(chunk_len))
+        .par_chunks(per_chunk)
+        .zip(colour.spare_capacity_mut()[..pixels.len()].par_chunks_mut(per_chunk))
         .enumerate();
     if planes.contains(Plane::LinearColour) {
         linear = vec![[0.0; 3]; pixels.len()];
         chunks
-            .zip(linear.par_chunks_mut(chunk_len))
+            .zip(linear.par_chunks_mut(per_chunk))
             .for_each(|((chunk, (hits, colour)), linear)| {
                 shader.chunk(Chunk {
-                    start: chunk * chunk_len,
+                    start: chunk * per_chunk,
                     hits,
                     colour,
                     linear: Some(linear),
@@ -85,7 +85,7 @@ pub(super) fn shade_planes(appearance: &Appearance, lux: &[DVec3], view: View<'_
     } else {
         chunks.for_each(|(chunk, (hits, colour))| {
             shader.chunk(Chunk {
-                start: chunk * chunk_len,
+                start: chunk * per_chunk,
                 hits,
                 colour,
                 linear: None,
