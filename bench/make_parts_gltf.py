@@ -46,15 +46,23 @@ def strip(triangles, part):
     return positions, uvs, indices, wide
 
 
+def positive(text):
+    """An argparse type: a whole number of at least 1 (counts divide the parts among them)."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not at least 1")
+    return value
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("out", type=pathlib.Path)
-    parser.add_argument("--primitives", type=int, default=20000)
-    parser.add_argument("--triangles", type=int, default=50, help="triangles per primitive")
-    parser.add_argument("--nodes", type=int, default=2000, help="nodes with a mesh")
-    parser.add_argument("--materials", type=int, default=200)
+    parser.add_argument("--primitives", type=positive, default=20000)
+    parser.add_argument("--triangles", type=positive, default=50, help="triangles per primitive")
+    parser.add_argument("--nodes", type=positive, default=2000, help="nodes with a mesh")
+    parser.add_argument("--materials", type=positive, default=200)
     parser.add_argument("--textures", type=int, default=50)
-    parser.add_argument("--size", type=int, default=256, help="texture side in texels")
+    parser.add_argument("--size", type=positive, default=256, help="texture side in texels")
     parser.add_argument("--merge", action="store_true", help="the same placed triangles as one primitive of material 0")
     args = parser.parse_args()
     out = args.out

@@ -20,14 +20,22 @@ from make_big_gltf import noise_png
 from make_parts_gltf import strip
 
 
+def positive(text):
+    """An argparse type: a whole number of at least 1 (counts divide the parts among them)."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} is not at least 1")
+    return value
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("out", type=pathlib.Path)
-    parser.add_argument("--groups", type=int, default=20000)
-    parser.add_argument("--triangles", type=int, default=50, help="triangles per group")
-    parser.add_argument("--materials", type=int, default=100)
+    parser.add_argument("--groups", type=positive, default=20000)
+    parser.add_argument("--triangles", type=positive, default=50, help="triangles per group")
+    parser.add_argument("--materials", type=positive, default=100)
     parser.add_argument("--textures", type=int, default=100)
-    parser.add_argument("--size", type=int, default=256, help="texture side in texels")
+    parser.add_argument("--size", type=positive, default=256, help="texture side in texels")
     args = parser.parse_args()
     out = args.out
     out.mkdir(parents=True, exist_ok=True)

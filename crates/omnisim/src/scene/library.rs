@@ -719,7 +719,7 @@ fn keep_mesh_faces(
 ) -> Result<usize, String> {
     positive("scale", m.scale)?;
     let mesh_path = inside_folder(scene_path, &m.path, "mesh")?;
-    let parts = mesh::load(&mesh_path, bank)?;
+    let mut parts = mesh::load(&mesh_path, bank)?;
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);
     let face = |triangle: &MeshTriangle| -> RawFace {
@@ -745,36 +745,20 @@ fn keep_mesh_faces(
     }
     let mut faces = Vec::with_capacity(MESH_CHUNK.min(triangles));
     let mut dropped = 0;
-    let mut parts = parts;
-    let mut freed = 0;
     let lengths: Vec<usize> = parts.iter().map(Vec::len).collect();
     for chunk in chunks_across(lengths, MESH_CHUNK) {
-        // Where each piece starts in the chunk.
-        let starts: Vec<usize> = chunk
+        let in_chunk: Vec<&MeshTriangle> = chunk
             .iter()
-            .scan(0, |start, (_, range)| {
-                Some(std::mem::replace(start, *start + range.len()))
-            })
+            .flat_map(|(part, range)| &parts[*part][range.clone()])
             .collect();
-        let length = chunk.iter().map(|(_, range)| range.len()).sum::<usize>();
-        let whole = &parts;
-        faces.par_extend((0..length).into_par_iter().map(|k| {
-            let piece = starts.partition_point(|&start| start <= k) - 1;
-            let (part, range) = &chunk[piece];
-            face(&whole[*part][range.start + k - starts[piece]])
-        }));
+        faces.par_extend(in_chunk.par_iter().map(|triangle| face(triangle)));
         dropped += keeping.keep(&mut faces, scene, surfaces)?;
         // The parts made whole are freed.
-        let (last, range) = chunk.last().expect("a chunk has a piece");
-        let made = if range.end == parts[*last].len() {
-            last + 1
-        } else {
-            *last
-        };
-        for part in &mut parts[freed..made] {
-            *part = Vec::new();
+        for (part, range) in &chunk {
+            if range.end == parts[*part].len() {
+                parts[*part] = Vec::new();
+            }
         }
-        freed = made;
     }
     Ok(dropped)
 }
