@@ -17,15 +17,7 @@ import argparse
 import pathlib
 
 from make_big_gltf import noise_png
-from make_parts_gltf import strip
-
-
-def positive(text):
-    """An argparse type: a whole number of at least 1 (counts divide the parts among them)."""
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is not at least 1")
-    return value
+from make_parts_gltf import positive, strip
 
 
 def main():
