@@ -79,6 +79,14 @@ def read_ray_map(folder, view):
     origin, _ = read_exr(folder / f"raymap{view}-origin.exr", "ray origin", "RGB")
     direction, header = read_exr(folder / f"raymap{view}-direction.exr", "ray direction", "RGB")
     check("body frame" in header.get("comments", ""), f"{folder}: ray map comments")
+    # Both again in one six-channel file, for OpenEXR-based tools: read as ../shared/bench's
+    # same_rays.py reads it (the first raymap* file of the folder by name), bit for bit the same.
+    both = OpenEXR.File(str(folder / f"raymap{view}-all.exr")).channels()
+    first = sorted(p.name for p in folder.iterdir() if p.name.startswith(f"raymap{view}"))[0]
+    check(first == f"raymap{view}-all.exr", f"{folder}: the first ray map by name is {first}")
+    for name, values in (("origin", origin), ("direction", direction)):
+        stored = np.stack([both[f"{name}.{k}"].pixels for k in "XYZ"], axis=-1)
+        check(same_bits(stored, np.ascontiguousarray(values)), f"{folder}{view}: raymap-all's {name} differs")
     rays = np.isfinite(direction).all(axis=-1)
     check(rays.any() and np.array_equal(rays, np.isfinite(origin).all(axis=-1)), f"{folder}{view}: ray pixels")
     check(np.isnan(direction[~rays]).all(), f"{folder}{view}: pixels without a ray are NaN")

@@ -413,7 +413,8 @@ fn every_file_is_byte_reproducible() {
         output::write_axial_depth_exr(&mut Synced, &path("z.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_disparity_exr(&mut Synced, &path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_tum_depth_png(&mut Synced, &path("z.png"), size, &depth).unwrap();
-        output::write_ray_map_exrs(&mut Synced, &path("origin.exr"), &path("direction.exr"), &camera).unwrap();
+        let ray_maps = ["origin.exr", "direction.exr", "all.exr"].map(path);
+        output::write_ray_map_exrs(&mut Synced, ray_maps.each_ref().map(|p| p.as_path()), &camera).unwrap();
         output::write_normal_exr(&mut Synced, &path("n.exr"), &frame, ExrCompression::Zip).unwrap();
         output::write_point_cloud_ply(&mut Synced, &path("p.ply"), &frame, "test").unwrap();
         [
@@ -424,6 +425,7 @@ fn every_file_is_byte_reproducible() {
             "z.png",
             "origin.exr",
             "direction.exr",
+            "all.exr",
             "n.exr",
             "p.ply",
         ]

@@ -478,13 +478,34 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
     let pose = Pose::from_degrees(dvec3(-0.5, 0.2, 0.7), dvec3(0.0, 0.0, 45.0));
     let frame = trace::trace(&bvh, &camera, &pose);
     let dir = tempfile::tempdir().unwrap();
-    let [origin_name, direction_name] = output::ray_map_names("");
-    let (origin_path, direction_path) = (dir.path().join(origin_name), dir.path().join(direction_name));
-    output::write_ray_map_exrs(&mut output::atomic::Synced, &origin_path, &direction_path, &camera).unwrap();
+    let [origin_path, direction_path, all_path] = output::ray_map_names("").map(|name| dir.path().join(name));
+    let paths = [&origin_path, &direction_path, &all_path].map(|path| path.as_path());
+    output::write_ray_map_exrs(&mut output::atomic::Synced, paths, &camera).unwrap();
     let (origin, quantity) = common::read_xyz_exr(&origin_path);
     assert_eq!(quantity, "ray origin");
     let (direction, quantity) = common::read_xyz_exr(&direction_path);
     assert_eq!(quantity, "ray direction");
+    // The six-channel file holds the same values, bit for bit, under the names OpenEXR-based
+    // tools read (origin.X ... direction.Z).
+    let all = common::read_exr(&all_path);
+    let channels = &all.layer_data[0].channel_data.list;
+    let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+    assert_eq!(
+        names,
+        [
+            "direction.X",
+            "direction.Y",
+            "direction.Z",
+            "origin.X",
+            "origin.Y",
+            "origin.Z"
+        ]
+    );
+    for (k, (channel, split)) in channels.iter().zip(direction.iter().chain(&origin)).enumerate() {
+        let stored: Vec<u32> = channel.sample_data.values_as_f32().map(f32::to_bits).collect();
+        let expected: Vec<u32> = split.iter().map(|value| value.to_bits()).collect();
+        assert_eq!(stored, expected, "channel {k} of raymap-all.exr");
+    }
     let rotation = pose.world_from_body_rotation();
     let mut rebuilt = 0;
     for (i, pixel) in frame.pixels().iter().enumerate() {

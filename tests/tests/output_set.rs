@@ -93,6 +93,7 @@ fn frame_entries_and_run_files_account_for_every_file_in_the_folder() {
         "calibration-opencv-stereo.yaml",
         "raymap-right-origin.exr",
         "raymap-right-direction.exr",
+        "raymap-right-all.exr",
         "segmentation.json",
         "poses.txt",
         "render.json",

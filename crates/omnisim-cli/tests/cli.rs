@@ -200,6 +200,8 @@ fn stereo_writes_both_images_disparity_and_calibration() {
         "raymap-left-direction.exr",
         "raymap-right-origin.exr",
         "raymap-right-direction.exr",
+        "raymap-left-all.exr",
+        "raymap-right-all.exr",
     ] {
         assert!(dir.join(name).is_file(), "{name} missing");
     }
@@ -915,7 +917,7 @@ fn outputs_open_in_the_readers_people_use() {
     eprintln!("{}", text(&check.stdout));
     assert!(check.status.success(), "{}", text(&check.stderr));
     // Two poses each: one normal map per view (13 single cameras, 5 stereo rigs), one ray map
-    // (origin and direction) per view.
+    // (origin, direction, and both in one file) per view.
     assert!(
         text(&check.stdout).contains("checks passed in 18 folders (46 normal maps, 23 ray maps)"),
         "{}",

@@ -352,7 +352,7 @@ impl CatadioptricMetadata {
                 unified_model_distortion: c.unified_distortion(),
             }),
             image_azimuth: "a point at body azimuth phi appears at atan2(v - cy, u - cx) = phi with the mirror mounted up, -phi mounted down (u right, v down): the image is mirrored on screen",
-            rays: "see raymap-origin.exr and raymap-direction.exr: per-pixel origin and unit direction in the body frame",
+            rays: "see raymap-origin.exr and raymap-direction.exr (or both in raymap-all.exr): per-pixel origin and unit direction in the body frame",
         }
     }
 }

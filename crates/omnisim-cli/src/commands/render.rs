@@ -66,7 +66,8 @@ impl From<BackendArg> for BackendChoice {
 /// -disparity.exr (rectified ideal pinholes only: a pair with --lens or --distortion writes
 /// each camera's calibration and the extrinsics instead). Once per run: calibration-*.yaml (OpenCV and Kalibr, where the model has a standard form),
 /// raymap-origin.exr and raymap-direction.exr (every pixel's ray in the body frame, R G B = x y z;
-/// stereo: raymap-left-origin.exr ...), poses.txt (TUM: index tx ty tz qx qy qz
+/// stereo: raymap-left-origin.exr ...) and raymap-all.exr (both, channels origin.X … direction.Z,
+/// for OpenEXR-based tools), poses.txt (TUM: index tx ty tz qx qy qz
 /// qw, world_from_body) and render.json (camera, conventions, backend, every pose).
 ///
 /// A folder holds one run: omnisim-run.txt lists the run and its files, a re-run of the same

@@ -434,27 +434,33 @@ fn write_exr_blocks(
 }
 
 /// What the two ray-map files of a view hold, in their headers and in `render.json`.
-pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x forward, y left, z up; metres), two \
-     files per view: raymap-origin.exr (quantity 'ray origin') and raymap-direction.exr (quantity 'ray direction', \
-     unit vectors), channels R, G, B = x, y, z; a hit at range r is origin + r*direction; NaN where the pixel has no ray";
+pub const RAY_MAP_CONVENTION: &str = "per-pixel camera rays in the body frame (x forward, y left, z up; metres): \
+     raymap-origin.exr (quantity 'ray origin') and raymap-direction.exr (quantity 'ray direction', unit vectors), \
+     channels R, G, B = x, y, z, and both in raymap-all.exr (channels origin.X, origin.Y, origin.Z, direction.X, \
+     direction.Y, direction.Z); a hit at range r is origin + r*direction; NaN where the pixel has no ray";
 
 /// The files holding every pixel's ray of a view whose files end in `suffix` (`""`, or a
-/// stereo view's `-left`, `-right`): origin, then direction.
-pub fn ray_map_names(suffix: &str) -> [String; 2] {
+/// stereo view's `-left`, `-right`): origin, direction, then both in one file.
+pub fn ray_map_names(suffix: &str) -> [String; 3] {
     [
         format!("raymap{suffix}-origin.exr"),
         format!("raymap{suffix}-direction.exr"),
+        format!("raymap{suffix}-all.exr"),
     ]
 }
 
 /// Every pixel's ray in the body frame, as two three-channel f32 EXRs (`R G B` = x y z) that
-/// every EXR reader opens: the origins at `origin_path`, the unit directions at
-/// `direction_path`; NaN where the pixel sees nothing. Non-central cameras need them to
-/// rebuild points from range.
+/// every EXR reader opens — the origins at `origin_path`, the unit directions at
+/// `direction_path` — and both in one six-channel EXR at `all_path`; NaN where the pixel sees
+/// nothing. Non-central cameras need them to rebuild points from range.
+///
+/// The six-channel file is the one ray map of omnisim before OpenCV's readers were asked for
+/// (OpenCV and imageio refuse its channel names); it stays for the OpenEXR-based tools that
+/// read it, among them `../shared/bench/same_rays.py`, which takes the first `raymap*` file by
+/// name — so its name sorts first.
 pub fn write_ray_map_exrs(
     store: &mut impl FileStore,
-    origin_path: &Path,
-    direction_path: &Path,
+    [origin_path, direction_path, all_path]: [&Path; 3],
     camera: &Camera,
 ) -> Result<(), OutputError> {
     let (width, height) = camera.size();
@@ -474,6 +480,24 @@ pub fn write_ray_map_exrs(
         }
     }
     let size = (width, height);
+    let [ox, oy, oz] = origin.clone();
+    let [dx, dy, dz] = direction.clone();
+    write_exr(
+        store,
+        all_path,
+        size,
+        "ray origin and direction",
+        RAY_MAP_CONVENTION,
+        vec![
+            ("origin.X", ox),
+            ("origin.Y", oy),
+            ("origin.Z", oz),
+            ("direction.X", dx),
+            ("direction.Y", dy),
+            ("direction.Z", dz),
+        ],
+        ExrCompression::Zip,
+    )?;
     write_xyz_exr(
         store,
         origin_path,

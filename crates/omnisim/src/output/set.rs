@@ -359,8 +359,8 @@ impl OutputSet {
     }
 
     /// Writes the files of a set of frames that are not per frame into `folder`: calibration
-    /// in the formats robotics tools read, the ray maps of each view (origin and direction
-    /// files) and the segmentation legend (if asked for).
+    /// in the formats robotics tools read, the ray maps of each view (origin, direction,
+    /// and both in one file) and the segmentation legend (if asked for).
     /// Returns their paths.
     pub fn write_set_files(
         &self,
@@ -377,10 +377,10 @@ impl OutputSet {
             written.push(path);
         }
         for view in rig.views() {
-            let [origin, direction] = super::ray_map_names(view.suffix);
-            let (origin, direction) = (folder.claim(origin)?, folder.claim(direction)?);
-            super::write_ray_map_exrs(folder, &origin, &direction, &view.camera)?;
-            written.extend([origin, direction]);
+            let [origin, direction, all] = super::ray_map_names(view.suffix);
+            let paths = [folder.claim(origin)?, folder.claim(direction)?, folder.claim(all)?];
+            super::write_ray_map_exrs(folder, paths.each_ref().map(PathBuf::as_path), &view.camera)?;
+            written.extend(paths);
         }
         if self.segmentation {
             let legend_path = folder.claim("segmentation.json".into())?;
