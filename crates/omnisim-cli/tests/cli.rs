@@ -1183,6 +1183,17 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     if cfg!(target_os = "linux") {
         assert!(record["peak_rss_mb"].as_f64().unwrap() > 0.0, "{record}");
     }
+    // `threads` is the pool the CPU backend ran on (RAYON_NUM_THREADS), not the machine's cores.
+    let pooled = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args("bench env1 --camera omni --size 32x32 --backend cpu --runs 1 --warmup 0".split_whitespace())
+        .env("RAYON_NUM_THREADS", "3")
+        .current_dir(workspace())
+        .output()
+        .expect("omnisim runs");
+    assert!(pooled.status.success(), "{}", text(&pooled.stderr));
+    let record: serde_json::Value = serde_json::from_slice(&pooled.stdout).unwrap();
+    assert_eq!(record["threads"], 3, "{record}");
+    assert!(record["device"].as_str().unwrap().ends_with("on 3 threads"), "{record}");
     let unknown = omnisim("bench no-such-anchor --backend cpu --runs 1");
     assert_eq!(unknown.status.code(), Some(1));
     assert!(

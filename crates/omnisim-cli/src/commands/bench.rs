@@ -176,7 +176,8 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<()> {
             "hit_pixels": hits,
             "backend": renderer.backend_name(),
             "device": renderer.device_name(),
-            "threads": rayon_threads(),
+            // The CPU backend's pool (RAYON_NUM_THREADS where set), not the machine's cores.
+            "threads": rayon::current_num_threads(),
             "warmup": warmed,
             "runs": args.runs,
             "median_ms": median_seconds * 1e3,
@@ -263,10 +264,6 @@ fn peak_rss_bytes() -> Option<u64> {
     let line = status.lines().find(|line| line.starts_with("VmHWM:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
-}
-
-fn rayon_threads() -> usize {
-    std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
 }
 
 /// A wavy height field of ~`count` triangles, 10 cm above the scene's floor, over the middle
