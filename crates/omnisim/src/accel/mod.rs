@@ -112,17 +112,42 @@ pub struct SceneBvh {
     pub(crate) build_time: Duration,
 }
 
+/// A scene of more triangles than its BVH addresses ([`SceneBvh::MAX_TRIANGLES`]).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{triangles} triangles, more than the {} (2^29) omnisim traces in one scene (its BVH addresses \
+     triangles in 29 bits): split the scene into several, or simplify its meshes",
+    SceneBvh::MAX_TRIANGLES
+)]
+pub struct TooManyTriangles {
+    /// The scene's triangles (faces split as [`Scene::triangulate`] splits them).
+    pub triangles: usize,
+}
+
 impl SceneBvh {
-    /// Builds the BVH with the local origin at the centre of the scene's bounds. Panics above
-    /// 2^29 triangles (the wide BVH's leaves address them in 29 bits; about 110 GB of BVH),
-    /// which scene loading and `Renderer::prepare` refuse ([`crate::scene::check_triangle_count`]).
-    pub fn build(scene: &Scene) -> Self {
+    /// The most triangles a scene may have: the wide BVH's leaves address them in 29 bits
+    /// (about 110 GB of BVH).
+    pub const MAX_TRIANGLES: usize = wide::FIRST_TRIANGLE as usize + 1;
+
+    /// Refuses `triangles` over [`SceneBvh::MAX_TRIANGLES`], the one check of the cap: the build
+    /// asks it first, and scene loading after each object, to name the object that passes it.
+    pub fn check_triangle_count(triangles: usize) -> Result<(), TooManyTriangles> {
+        if triangles > Self::MAX_TRIANGLES {
+            return Err(TooManyTriangles { triangles });
+        }
+        Ok(())
+    }
+
+    /// Builds the BVH with the local origin at the centre of the scene's bounds; refuses a scene
+    /// of more than [`SceneBvh::MAX_TRIANGLES`] triangles.
+    pub fn build(scene: &Scene) -> Result<Self, TooManyTriangles> {
         let (lo, hi) = scene.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
         Self::build_with_offset(scene, (lo + hi) / 2.0)
     }
 
-    /// Builds the BVH with the local origin at `offset` (world metres). `build` picks the
-    /// scene's centre; other offsets exist to measure what that choice buys (docs/accuracy.md).
+    /// Builds the BVH with the local origin at `offset` (world metres), refusing what `build`
+    /// refuses. `build` picks the scene's centre; other offsets exist to measure what that
+    /// choice buys (docs/accuracy.md).
     ///
     /// Peak memory is what limits scene size, so the order matters: the face normals and the
     /// wide BVH are made only once the builder's working set is freed. The corners in face
@@ -131,13 +156,20 @@ impl SceneBvh {
     /// (docs/benchmarks.md, "2026-11-27 (build)"). Since then the build's heap high-water at
     /// 1M is below scene loading's (heaptrack 451 → 440 MB, the loader's; the peak RSS of
     /// 669 MB is the loader's pages reused; "2026-11-27 midday (build)").
-    pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
+    pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Result<Self, TooManyTriangles> {
         // Timed from the scene's faces, as Open3D's build is timed from its triangle arrays:
         // triangulation, boxes, obvhs, leaf order, the wide BVH and face normals.
         let start = Instant::now();
         // A mesh's faces are all triangles: triangle i is then face i, and the list of triangle
         // indices (16 bytes a triangle, made on one thread) is not needed.
-        let triangles = (!every_face_a_triangle(scene)).then(|| scene.triangle_indices());
+        let all_triangles = every_face_a_triangle(scene);
+        // Counted before anything is made for them.
+        Self::check_triangle_count(if all_triangles {
+            scene.faces.len()
+        } else {
+            scene.triangle_count()
+        })?;
+        let triangles = (!all_triangles).then(|| scene.triangle_indices());
         let triangle_count = triangles.as_ref().map_or(scene.faces.len(), Vec::len);
         let triangle = |i: usize| {
             triangles
@@ -176,7 +208,7 @@ impl SceneBvh {
         drop((triangles, read_once, order));
         let wide = WideBvh::build(&bvh, &corners, inner_nodes_open);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
-        Self {
+        Ok(Self {
             offset,
             triangles: corners,
             face,
@@ -184,7 +216,7 @@ impl SceneBvh {
             bvh,
             wide,
             build_time: start.elapsed(),
-        }
+        })
     }
 
     /// World position of the local origin: triangles and tracing rays are given relative to it.
@@ -284,6 +316,29 @@ mod tests {
     use crate::scene::Face;
     use glam::{Vec3, Vec4};
 
+    /// The cap is the wide BVH's: 2^29 triangles pass, one more is refused naming the count,
+    /// the cap and what to do, and `Renderer::prepare` (the build's refusal) says so (scene
+    /// loading's side: `library`'s `triangle_cap_tests`). A scene's count is what triangulating
+    /// it gives (env1 has polygons of more than three vertices), so no scene of that size is made.
+    #[test]
+    fn a_scene_over_2_pow_29_triangles_is_refused_by_its_count() {
+        assert!(SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES).is_ok());
+        let refusal = SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES + 1).unwrap_err();
+        let message = refusal.to_string();
+        assert_eq!(
+            message,
+            "536870913 triangles, more than the 536870912 (2^29) omnisim traces in one scene (its BVH addresses \
+             triangles in 29 bits): split the scene into several, or simplify its meshes"
+        );
+        assert_eq!(
+            crate::RenderError::from(refusal).to_string(),
+            format!("the scene has {message}")
+        );
+        let (scene, _) = crate::trace::test_scene("env1");
+        assert!(scene.faces.iter().any(|face| face.vertices.len() > 3));
+        assert_eq!(scene.triangle_count(), scene.triangulate().len());
+    }
+
     /// env1 plus a bumpy grid of `2 * cells²` triangles (as `omnisim bench
     /// --synthetic-triangles` adds one, `add_height_field` in the CLI, which this crate cannot call).
     pub(super) fn grid_scene(cells: usize) -> Scene {
@@ -324,7 +379,7 @@ mod tests {
             triangles_only.faces.retain(|face| face.vertices.len() == 3);
             assert!(triangles_only.faces.len() < mixed.faces.len());
             for scene in [mixed, triangles_only] {
-                let bvh = SceneBvh::build(&scene);
+                let bvh = SceneBvh::build(&scene).unwrap();
                 assert_eq!(bvh.face.len(), bvh.triangles.len());
                 let mut per_face = vec![0; scene.faces.len()];
                 for (corners, &face) in bvh.triangles.iter().zip(&bvh.face) {
@@ -400,7 +455,7 @@ mod tests {
                     faces,
                     ..Scene::default()
                 };
-                let bvh = SceneBvh::build(&scene);
+                let bvh = SceneBvh::build(&scene).unwrap();
                 let mut hits = 0;
                 for &direction in &directions {
                     let origin = -bvh.offset;
@@ -428,7 +483,7 @@ mod tests {
     fn wide_bvh_holds_every_triangle_once_in_bounded_memory() {
         for cells in [50, 160] {
             let scene = grid_scene(cells);
-            let bvh = SceneBvh::build(&scene);
+            let bvh = SceneBvh::build(&scene).unwrap();
             let count = bvh.triangles.len();
             assert!(count > 2 * cells * cells);
             // Walked from the root (above `PARALLEL_FROM` the subtrees are built apart and

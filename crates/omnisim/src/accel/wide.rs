@@ -77,7 +77,7 @@ impl WideBvh {
             extent,
             ..Self::default()
         };
-        // Scene loading and `Renderer::prepare` refuse more (`scene::check_triangle_count`).
+        // `SceneBvh::build`, this build's one caller, refuses more before it gets here.
         assert!(triangles.len() <= FIRST_TRIANGLE as usize + 1, "over 2^29 triangles");
         if bvh.nodes.is_empty() {
             return wide;
@@ -418,7 +418,7 @@ mod tests {
     #[test]
     fn open_replaces_a_node_by_its_largest_full_cut() {
         for cells in [50, 160] {
-            let bvh = SceneBvh::build(&grid_scene(cells));
+            let bvh = SceneBvh::build(&grid_scene(cells)).unwrap();
             let nodes = &bvh.bvh.nodes;
             let counts = subtree_triangles(nodes);
             let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;
