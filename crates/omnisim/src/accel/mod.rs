@@ -186,8 +186,8 @@ impl SceneBvh {
         let read_once: Vec<Corners> = map_indices(triangle_count, |i| {
             Corners(triangle(i).corners(scene).map(|p| p - offset))
         });
-        let (mut bvh, inner_nodes_open) = if read_once.is_empty() {
-            (Bvh2::default(), false)
+        let mut bvh = if read_once.is_empty() {
+            Bvh2::default()
         } else {
             let params = if read_once.len() > LARGE_SCENE {
                 LARGE_BUILD_PARAMS
@@ -206,7 +206,7 @@ impl SceneBvh {
             (read_once[index].0, triangle(index).face)
         });
         drop((triangles, read_once, order));
-        let wide = WideBvh::build(&bvh, &corners, inner_nodes_open);
+        let wide = WideBvh::build(&bvh, &corners);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
         Ok(Self {
             offset,
@@ -259,12 +259,11 @@ impl SceneBvh {
 }
 
 /// obvhs's BVH2 over `corners` with `params`: its builder and reinsertion, then its leaf
-/// collapse as [`collapse::collapse_leaf_pairs`] does it (the same tree, on all threads); and
-/// whether every inner node holds more triangles than a leaf (true but for trees of up to three).
-fn build_bvh2(corners: &[Corners], params: BvhBuildParams) -> (Bvh2, bool) {
+/// collapse as [`collapse::collapse_leaf_pairs`] does it (the same tree, on all threads).
+fn build_bvh2(corners: &[Corners], params: BvhBuildParams) -> Bvh2 {
     let mut bvh = build_uncollapsed(corners, params);
-    let collapsed = collapse::collapse_leaf_pairs(&mut bvh);
-    (bvh, collapsed)
+    collapse::collapse_leaf_pairs(&mut bvh);
+    bvh
 }
 
 /// obvhs's BVH2 over `corners` before its leaves are collapsed: PLOC, then reinsertion.
