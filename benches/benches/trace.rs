@@ -38,7 +38,7 @@ fn cameras() -> Vec<(&'static str, Camera)> {
 
 fn benchmarks(c: &mut Criterion) {
     let scene = env1();
-    c.bench_function("bvh build env1", |b| b.iter(|| SceneBvh::build(&scene)));
+    c.bench_function("bvh build env1", |b| b.iter(|| SceneBvh::build(&scene).unwrap()));
     let cpu_tracers: Vec<(&str, Renderer, PreparedScene)> =
         [("cpu fast", CpuTracer::Fast), ("cpu f64", CpuTracer::Reference)]
             .into_iter()

@@ -37,7 +37,7 @@ fn changed(scene: &Scene) -> Scene {
 fn changing_colours_and_lights_rebuilds_nothing_and_equals_a_fresh_render() {
     let scene = common::load("env1-lit.ron");
     let changed = changed(&scene);
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
     let cameras = [
         Camera::Catadioptric(common::paper_omni()),

@@ -52,7 +52,7 @@ fn pinhole_reprojection(far: DVec3) {
     for face in &mut scene.faces {
         face.vertices.iter_mut().for_each(|v| *v += far);
     }
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let pinhole = Pinhole {
         position: DVec3::ZERO,
         width: 160,
@@ -138,7 +138,7 @@ fn equirectangular_rays_have_the_documented_angles() {
 #[test]
 fn turning_a_panorama_about_z_shifts_it_by_whole_columns() {
     let scene = common::load("env2.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let width = 256u32;
     let camera = Camera::Equirectangular(Equirectangular { width, height: 128 });
     let position = dvec3(0.5, -0.3, 0.6);

@@ -42,7 +42,7 @@ fn assert_device_lost(error: &omnisim::RenderError, adapter: &str) {
 fn a_lost_device_fails_its_renderer_and_the_next_renderer_opens_a_fresh_one() {
     let _serial = serial();
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
     let camera = common::cameras()[0].clone();
     let mut old = common::gpu_tracer(&scene, &bvh);

@@ -61,14 +61,14 @@ fn check_strip(tracer: &common::Tracer, camera: &Camera) {
 #[test]
 fn a_strip_thinner_than_a_pixel_between_pixel_centres_shows_at_its_coverage() {
     let (scene, camera) = strip_scene(0.6 - 0.5, 0.9 - 0.5);
-    check_strip(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), &camera);
+    check_strip(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), &camera);
 }
 
 #[test]
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn a_strip_thinner_than_a_pixel_shows_at_its_coverage_on_the_gpu() {
     let (scene, camera) = strip_scene(0.6 - 0.5, 0.9 - 0.5);
-    check_strip(&common::gpu_tracer(&scene, &SceneBvh::build(&scene)), &camera);
+    check_strip(&common::gpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), &camera);
 }
 
 /// The centroid error (pixels) of a black square 3.3 px across on a white wall, turned by
@@ -126,7 +126,7 @@ fn centroid_error(
 
 #[test]
 fn marker_centroid_errors_keep_falling_as_edge_samples_grow() {
-    let cpu = |scene: &Scene| common::cpu_tracer(scene, &SceneBvh::build(scene));
+    let cpu = |scene: &Scene| common::cpu_tracer(scene, &SceneBvh::build(scene).unwrap());
     // Twelve placements: sub-pixel centres and turns (seeded by hand, spread over a pixel).
     let placements: Vec<(DVec2, f64)> = (0..12)
         .map(|k| {

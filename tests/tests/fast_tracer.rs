@@ -149,7 +149,7 @@ fn poses(scene: &Scene) -> [Pose; 2] {
 fn every_camera_model_in_both_rooms_sees_the_reference_faces_and_ranges() {
     for room in common::ROOMS {
         let scene = common::load(room);
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         let mut agreement = Agreement::default();
         for camera in common::cameras() {
             for pose in poses(&scene) {
@@ -189,7 +189,7 @@ fn clutter(boxes: usize, seed: u64) -> Scene {
 #[test]
 fn a_cluttered_room_and_its_shadow_rays_match_the_reference() {
     let scene = clutter(400, 11);
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let camera = Camera::Equirectangular(Equirectangular {
         width: 256,
         height: 128,
@@ -234,7 +234,7 @@ fn a_cluttered_room_and_its_shadow_rays_match_the_reference() {
 #[test]
 fn the_fast_walk_counts_the_portable_tests_and_a_few_more_f64_tests() {
     let scene = clutter(400, 11);
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let camera = Camera::Catadioptric(common::paper_omni());
     for pose in poses(&scene) {
         let fast = CpuTracer::Fast.count_tests(&bvh, &camera, &pose);
@@ -258,7 +258,7 @@ fn the_fast_walk_counts_the_portable_tests_and_a_few_more_f64_tests() {
 #[test]
 fn a_dense_scene_with_per_ray_box_tests_matches_the_reference() {
     let scene = clutter(4_400, 13);
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     assert!(bvh.triangles().len() > 50_000, "{} triangles", bvh.triangles().len());
     let mut agreement = Agreement {
         uncounted: true,
@@ -326,8 +326,8 @@ fn a_room_ten_kilometres_away_matches_the_reference() {
     // Scene-local (the default) and world coordinates (local origin at the world origin, so
     // every f32 coordinate carries 10 km of rounding).
     for bvh in [
-        SceneBvh::build(&scene),
-        SceneBvh::build_with_offset(&scene, DVec3::ZERO),
+        SceneBvh::build(&scene).unwrap(),
+        SceneBvh::build_with_offset(&scene, DVec3::ZERO).unwrap(),
     ] {
         for pose in poses(&scene) {
             agreement.frames(&bvh, &camera, &pose, "env1 at 10 km");
@@ -340,7 +340,7 @@ fn a_room_ten_kilometres_away_matches_the_reference() {
 fn edges_corners_grazing_rays_and_negative_zeros_match_the_reference() {
     let turned = Pose::new(DVec3::ZERO, dvec3(0.3, -0.5, 1.1)).world_from_body_rotation();
     for (label, world_from_cube) in [("axis-aligned cube", DMat3::IDENTITY), ("turned cube", turned)] {
-        let bvh = SceneBvh::build(&common::cube_room(world_from_cube));
+        let bvh = SceneBvh::build(&common::cube_room(world_from_cube)).unwrap();
         let centre = DVec3::splat(0.5) - bvh.offset();
         let mut rng = StdRng::seed_from_u64(21);
         let mut agreement = Agreement::default();
@@ -396,7 +396,7 @@ fn edges_corners_grazing_rays_and_negative_zeros_match_the_reference() {
 fn coincident_and_overlapping_coplanar_faces_resolve_to_the_lower_face_id_in_both_tracers() {
     let scene = common::coincident_faces();
     let (lower_copy, wall_4, wall_2, upper_copy, wall_5, triangle) = common::COINCIDENT_FACE_IDS;
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let camera = Camera::Equirectangular(Equirectangular {
         width: 256,
         height: 128,
@@ -483,7 +483,7 @@ fn stacked_tiles() -> (Scene, Vec<Option<usize>>) {
 #[test]
 fn ties_met_after_narrowing_and_hand_over_to_single_rays_match_the_reference() {
     let (scene, copy_of) = stacked_tiles();
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let camera = Camera::Equirectangular(Equirectangular {
         width: 512,
         height: 256,

@@ -15,7 +15,7 @@ use ply_rs_bw::ply::{DefaultElement, Property};
 fn rendered() -> omnisim::Frame {
     let scene = common::load("env1.ron");
     let camera = omnisim::Camera::Catadioptric(common::paper_omni());
-    let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene))
+    let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap())
         .render(
             &camera,
             &Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0)),
@@ -257,7 +257,7 @@ fn failed_write_leaves_nothing_behind() {
 #[test]
 fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let pinhole = omnisim::camera::Pinhole::with_horizontal_fov(160, 120, 90f64.to_radians());
     let pose = Pose::from_degrees(dvec3(-2.0, 0.3, 0.5), dvec3(0.0, 10.0, 20.0));
     let frame = trace::trace(&bvh, &omnisim::Camera::Pinhole(pinhole.clone()), &pose);
@@ -281,7 +281,7 @@ fn tum_depth_png_holds_z_times_5000_and_zero_for_misses() {
 /// Every plane of the paper's omni camera in env1, rendered on the f64 CPU tracer.
 fn rendered_with_every_plane(pose: &Pose) -> (omnisim::Scene, omnisim::Frame) {
     let scene = common::load("env1.ron");
-    let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+    let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap());
     let camera = omnisim::Camera::Catadioptric(common::paper_omni());
     let frame = tracer
         .renderer

@@ -39,7 +39,7 @@ fn poses() -> Vec<Pose> {
 fn gpu_matches_f64_reference_for_every_camera_and_room() {
     for room in common::ROOMS {
         let scene = common::load(room);
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         let gpu = common::gpu_tracer(&scene, &bvh);
         for camera in common::cameras() {
             let (mut pixels, mut same_face, mut worst_range, mut grazing) = (0usize, 0usize, 0f64, 0usize);
@@ -89,7 +89,7 @@ fn gpu_matches_f64_reference_for_every_camera_and_room() {
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(0.3, -0.2, 0.9), dvec3(5.0, 10.0, 30.0));
     for camera in common::cameras() {
@@ -118,7 +118,7 @@ fn gpu_hit_points_lie_on_the_ray_at_the_reported_range() {
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn gpu_edge_supersampling_matches_the_f64_reference() {
     let scene = common::load("env2.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
     let cpu = common::cpu_tracer(&scene, &bvh);
@@ -154,7 +154,7 @@ fn gpu_edge_supersampling_matches_the_f64_reference() {
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn images_traced_in_bands_equal_images_traced_at_once() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let mut gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
     let camera = common::cameras()[2].clone();
@@ -204,7 +204,7 @@ fn images_traced_in_bands_equal_images_traced_at_once() {
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn a_reshade_of_a_frame_of_another_size_is_an_error_and_the_next_reshade_works() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
     let camera = common::cameras()[4].clone();
@@ -248,7 +248,7 @@ fn a_reshade_of_a_frame_of_another_size_is_an_error_and_the_next_reshade_works()
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn frames_rendered_in_parallel_equal_frames_rendered_one_by_one() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = std::sync::Arc::new(common::gpu_tracer(&scene, &bvh));
     let cameras = [common::cameras()[2].clone(), common::cameras()[3].clone()];
     assert!(cameras.iter().all(Camera::has_lens_model));
@@ -308,7 +308,7 @@ fn frames_rendered_in_parallel_equal_frames_rendered_one_by_one() {
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn nan_rays_are_misses_on_the_gpu_as_on_the_cpu() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let camera = Camera::Catadioptric(common::paper_omni());
     for pose in [
@@ -332,7 +332,7 @@ fn nan_rays_are_misses_on_the_gpu_as_on_the_cpu() {
 fn coincident_faces_resolve_to_the_lower_face_id_on_the_gpu() {
     let scene = common::coincident_faces();
     let (lower_copy, wall_4, wall_2, upper_copy, ..) = common::COINCIDENT_FACE_IDS;
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let camera = Camera::Equirectangular(omnisim::camera::Equirectangular {
         width: 256,
@@ -382,7 +382,7 @@ fn gpu_matches_f64_reference_in_a_dense_scene() {
             object: 0,
         });
     }
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let camera = Camera::Equirectangular(omnisim::camera::Equirectangular {
         width: 256,
@@ -425,7 +425,7 @@ fn gpu_matches_f64_reference_in_a_dense_scene() {
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn auto_prefers_the_cpu_tracer_over_a_software_adapter() {
     let scene = common::load("env1.ron");
-    let mut gpu = common::gpu_tracer(&scene, &SceneBvh::build(&scene));
+    let mut gpu = common::gpu_tracer(&scene, &SceneBvh::build(&scene).unwrap());
     let software = gpu.renderer.gpu_renderer().unwrap().is_software();
     let auto = omnisim::Renderer::new(omnisim::BackendChoice::Auto).unwrap();
     if software {

@@ -78,7 +78,7 @@ fn validation_is_scale_aware_within_the_coordinate_limit() {
         )
     };
     let scene = at("(990000.0, 5.0, 0.0), (990000.001, 5.0, 0.0), (990000.0, 5.0, 0.001)").unwrap();
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     assert_eq!(bvh.triangles().len(), 1);
     let error = at("(990000.0, 5.0, 0.0), (990000.001, 5.0, 0.0), (990000.002, 5.0, 0.0)").unwrap_err();
     assert!(error.to_string().contains("degenerate"), "{error}");

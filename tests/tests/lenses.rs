@@ -111,7 +111,7 @@ fn lens_rigs() -> Vec<RigSpec> {
 #[test]
 fn range_and_depth_at_the_border_are_the_distance_to_the_plane() {
     let scene = room();
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let pose = Pose::new(dvec3(0.3, -0.2, 1.4), dvec3(0.1, -0.2, 0.5));
     let world_from_body = pose.world_from_body_rotation();
     for spec in lens_rigs() {
@@ -231,7 +231,7 @@ fn opencv_kalibr_and_ocamcalib_read_the_calibration_files_to_omnisims_pixels() {
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn the_gpu_reads_the_ray_table_in_bands_and_refines_lens_edges_like_the_cpu() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let mut gpu = common::gpu_tracer(&scene, &bvh);
     let cpu = common::cpu_tracer(&scene, &bvh);
     let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(0.0, 15.0, 100.0));
@@ -274,7 +274,7 @@ fn stereo(lens: Option<LensSpec>, distortion: Option<Vec<f64>>, baseline: f64) -
 #[test]
 fn each_eye_of_a_stereo_lens_pair_is_the_single_lens_camera_at_that_eyes_pose() {
     let scene = room();
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let kb = LensSpec::KannalaBrandt {
         k: [0.02, -0.004, 1e-4, -2e-5],
     };
@@ -403,7 +403,7 @@ fn pixels_of(camera: &Catadioptric) -> impl Iterator<Item = glam::DVec2> {
 #[test]
 fn a_mirror_seen_through_a_lens_without_distortion_is_the_ideal_pinholes_bit_for_bit() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let pose = Pose::from_degrees(dvec3(0.3, -0.4, 0.9), dvec3(5.0, -10.0, 100.0));
     for zeros in [4, 5, 8, 12] {
         let lens = LensModel::Perspective(BrownConrady::new(&vec![0.0; zeros]).unwrap());

@@ -40,7 +40,7 @@ fn omni() -> Camera {
 
 /// The f64 CPU tracer and the GPU, each with `scene` prepared.
 fn tracers(scene: &Scene) -> Vec<(&'static str, Tracer)> {
-    let bvh = SceneBvh::build(scene);
+    let bvh = SceneBvh::build(scene).unwrap();
     let mut tracers = vec![("cpu", common::cpu_tracer(scene, &bvh))];
     tracers.push(("gpu", common::gpu_tracer(scene, &bvh)));
     tracers
@@ -381,7 +381,7 @@ impl ClosedBox {
 #[test]
 fn no_light_leaks_through_the_edges_and_corners_of_a_closed_box() {
     let closed = ClosedBox::new();
-    let bvh = SceneBvh::build(&closed.scene);
+    let bvh = SceneBvh::build(&closed.scene).unwrap();
     let appearance = Appearance::of(&closed.scene);
     let ambient_only = linear_rgb([180, 170, 150]) * 6.0 / 60.0;
     let mut rng = StdRng::seed_from_u64(7);
@@ -589,7 +589,7 @@ fn gpu_agrees_with_the_reference(
 ) {
     for room in LIT_ROOMS {
         let scene = lit_room(room);
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         let gpu = common::gpu_tracer(&scene, &bvh);
         let mut cpu = common::cpu_tracer(&scene, &bvh);
         for camera in cameras {
@@ -748,7 +748,7 @@ fn lit_rooms_are_the_reference_rooms_with_lamps_in_free_space() {
         let lighting = lit.lighting.as_ref().expect("a lit room");
         let names: Vec<&str> = lighting.lights.iter().map(|l| l.name.as_str()).collect();
         assert_eq!(names, ["ceiling lamp", "desk lamp"], "{lit_name}");
-        let bvh = SceneBvh::build(&lit);
+        let bvh = SceneBvh::build(&lit).unwrap();
         let object_hit = |origin: DVec3, direction: DVec3| {
             trace::closest_hit(&bvh, origin - bvh.offset(), direction, 0.0).map(|hit| {
                 let face = &lit.faces[bvh.triangle_face(hit.triangle) as usize];
@@ -814,7 +814,7 @@ fn colour_alone_equals_colour_beside_linear_colour() {
 fn a_lit_frame_is_each_pixel_shaded_alone_bit_for_bit() {
     for room in LIT_ROOMS {
         let scene = lit_room(room);
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         let mut tracer = common::cpu_tracer(&scene, &bvh);
         for cpu in [CpuTracer::Fast, CpuTracer::Reference] {
             tracer.renderer.set_cpu_tracer(cpu);

@@ -88,7 +88,7 @@ fn cylindrical_panorama_matches_its_closed_form() {
 #[test]
 fn stereo_disparity_is_f_b_over_z_on_a_planar_wall() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let rig = StereoRig::rectified(Pinhole::with_horizontal_fov(320, 240, 60f64.to_radians()), 0.12);
     let [left, right] = rig.pinholes();
     // Facing the east wall (x = 3) squarely from x = 0.5: z = 2.5 m on the whole wall.
@@ -118,7 +118,7 @@ fn stereo_disparity_is_f_b_over_z_on_a_planar_wall() {
 #[test]
 fn spherical_mirror_rays_obey_the_law_of_reflection() {
     let scene = common::load("env2.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let (radius, distance) = (0.05, 0.25);
     let camera = Catadioptric::spherical(200, 200, radius, distance);
     let traced = Camera::Catadioptric(camera.clone());
@@ -275,7 +275,7 @@ fn marker_centroids_land_where_the_unified_model_says() {
         })
         .collect();
     let scene = marker_scene(&markers);
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
     for camera in [
@@ -472,7 +472,7 @@ fn exported_calibration_reproduces_the_rendered_geometry() {
 #[test]
 fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let camera = Camera::Catadioptric(Catadioptric::spherical(160, 160, 0.05, 0.25));
     assert!(!camera.is_central());
     let pose = Pose::from_degrees(dvec3(-0.5, 0.2, 0.7), dvec3(0.0, 0.0, 45.0));

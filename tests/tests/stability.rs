@@ -213,8 +213,8 @@ fn far_scene_keeps_gpu_precision_with_the_scene_local_offset() {
             *vertex += shift;
         }
         let pose = Pose::new(dvec3(0.3, -0.2, 0.5) + shift, DVec3::ZERO);
-        let local = SceneBvh::build(&scene);
-        let naive = SceneBvh::build_with_offset(&scene, DVec3::ZERO);
+        let local = SceneBvh::build(&scene).unwrap();
+        let naive = SceneBvh::build_with_offset(&scene, DVec3::ZERO).unwrap();
         let reference = trace::trace(&local, &camera, &pose);
         // The reference itself must not care where its local origin is (up to the f32
         // rounding of the range a frame stores).
@@ -319,7 +319,7 @@ fn rim_cut_off_is_sharp_on_cpu_and_matches_gpu_away_from_the_rim_circle() {
     // Whole image in a closed room: every pixel whose ray exists hits, so hit/miss is the
     // ray generator's verdict; CPU and GPU may differ only next to the rim circle.
     let scene = common::load("env1.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let camera = Camera::Catadioptric(mirror.clone());
     let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
@@ -378,7 +378,7 @@ const CUBE_CENTRE: DVec3 = DVec3::splat(0.5);
 #[test]
 fn rays_at_shared_edges_and_corners_never_escape_a_cube_room() {
     for (label, world_from_cube) in cube_rooms() {
-        let bvh = SceneBvh::build(&cube_room(CUBE_CENTRE, world_from_cube));
+        let bvh = SceneBvh::build(&cube_room(CUBE_CENTRE, world_from_cube)).unwrap();
         let centre_local = CUBE_CENTRE - bvh.offset();
         let mut rng = StdRng::seed_from_u64(7);
         // Targets on every triangle edge (face borders and the diagonals inside each face):
@@ -442,7 +442,7 @@ fn rays_in_and_parallel_to_the_plane_of_a_face_stop_at_the_edge_they_reach() {
         // Only axis-aligned planes hold a ray exactly: direction component along the normal
         // exactly 0, origin coordinate exactly the plane's. Turned, both are rounded.
         let exactly_in_plane = world_from_cube == DMat3::IDENTITY;
-        let bvh = SceneBvh::build(&cube_room(CUBE_CENTRE, world_from_cube));
+        let bvh = SceneBvh::build(&cube_room(CUBE_CENTRE, world_from_cube)).unwrap();
         let centre_local = CUBE_CENTRE - bvh.offset();
         let mut rng = StdRng::seed_from_u64(8);
         for inset in INSETS {
@@ -520,7 +520,7 @@ fn millimetre_marker_and_ten_kilometre_floor_on_cpu_and_gpu() {
     let hi = projected.iter().copied().reduce(DVec2::max).unwrap();
     let projected_centre = projected.iter().sum::<DVec2>() / 4.0;
 
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let gpu = common::gpu_tracer(&scene, &bvh);
     let frames = [
         ("CPU", trace::trace(&bvh, &camera, &pose)),

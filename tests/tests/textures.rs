@@ -127,7 +127,7 @@ fn check_closed_form(camera: &Camera, colour: &[[u8; 3]], hits: &[bool], expecte
 fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_cpu() {
     let folder = tempfile::tempdir().unwrap();
     let scene = textured_square(folder.path());
-    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
 }
 
 #[test]
@@ -135,7 +135,7 @@ fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_cpu() {
 fn magnified_texels_are_the_bilinear_texel_at_the_closed_form_uv_on_the_gpu() {
     let folder = tempfile::tempdir().unwrap();
     let scene = textured_square(folder.path());
-    check_texels_exact(&common::gpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+    check_texels_exact(&common::gpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
 }
 
 /// The square of `textured_square` as a mesh file of `format` (written by this test), its
@@ -174,7 +174,7 @@ fn obj_with_mtl_and_ply_with_texcoords_map_their_textures_exactly() {
         let folder = tempfile::tempdir().unwrap();
         let scene = square_mesh(folder.path(), format);
         assert_eq!(scene.faces.len(), 2, "{format}");
-        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), true);
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), true);
     }
 }
 
@@ -292,7 +292,7 @@ fn check_fan_colours(folder: &Path, corners: [DVec3; 3], colours: [[u8; 3]; 3]) 
     )
     .unwrap();
     assert_eq!(scene.faces.len(), 1);
-    let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+    let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap());
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(64, 48, 60f64.to_radians()));
     let frame = tracer.render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO)).unwrap();
     let mut checked = 0;
@@ -506,7 +506,7 @@ fn worst_region(frame: &omnisim::Frame, shade: impl Fn(usize) -> f64) -> f64 {
 #[test]
 fn a_fine_checker_at_grazing_angles_averages_to_grey_and_point_sampling_would_alias() {
     let (scene, camera, pose) = fine_checker();
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let tracer = common::cpu_tracer(&scene, &bvh);
     let frame = tracer
         .render_planes(&camera, &pose, Planes::COLOUR.with(Plane::LinearColour))
@@ -649,7 +649,7 @@ fn ray_cone_footprints_equal_the_spacing_of_neighbouring_pixels_rays_for_every_c
 #[cfg_attr(omnisim_no_gpu, ignore = "needs a GPU adapter (README, Tests)")]
 fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
     let scene = common::load("env1-textured.ron");
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     let (cpu, gpu) = (common::cpu_tracer(&scene, &bvh), common::gpu_tracer(&scene, &bvh));
     let pose = Pose::from_degrees(dvec3(1.0, 0.0, 0.4), dvec3(0.0, 0.0, 200.0));
     for camera in [
@@ -809,7 +809,7 @@ fn load_glb(bytes: &[u8]) -> Result<Scene, omnisim::SceneError> {
 fn a_glb_square_through_its_node_hierarchy_maps_its_embedded_texture_exactly() {
     let scene = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
     assert_eq!(scene.faces.len(), 2);
-    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
 }
 
 #[test]
@@ -829,7 +829,7 @@ fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
     let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
     let render = |scene: &Scene| {
-        let tracer = common::cpu_tracer(scene, &SceneBvh::build(scene));
+        let tracer = common::cpu_tracer(scene, &SceneBvh::build(scene).unwrap());
         tracer.render(&camera, &pose).unwrap().colour().unwrap().to_vec()
     };
     let (a, b) = (render(&plain), render(&transformed));
@@ -1266,7 +1266,7 @@ fn the_shipped_crate_looks_the_same_from_obj_and_gltf_and_is_textured_in_ply() {
             !scene.surfaces.is_empty() && !scene.surfaces.textures.is_empty(),
             "{name}"
         );
-        let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene));
+        let tracer = common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap());
         tracer.render(&camera, &pose).unwrap().colour().unwrap().to_vec()
     };
     let (obj, gltf, ply) = (
@@ -1356,7 +1356,7 @@ fn render_mesh(folder: &Path, file: &str, lit: bool) -> (Camera, Vec<[u8; 3]>, V
         format!(r#"Scene(name: "gltf", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))]{lighting})"#);
     let scene = Scene::from_ron(&text, &folder.join("gltf.ron")).unwrap();
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
-    let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene))
+    let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap())
         .render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO))
         .unwrap();
     let hits = frame.pixels().iter().map(omnisim::advanced::Pixel::is_hit).collect();
@@ -1459,7 +1459,7 @@ fn a_gltf_and_a_glb_written_by_pygltflib_map_their_texture_exactly() {
             format!(r#"Scene(name: "pygltflib", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#);
         let scene = Scene::from_ron(&text, &folder.path().join("square.ron")).unwrap();
         assert_eq!(scene.faces.len(), 2, "{file}");
-        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
     }
 }
 
@@ -1474,7 +1474,7 @@ fn an_obj_and_a_ply_written_by_trimesh_keep_their_uvs_and_colours() {
     let text = r#"Scene(name: "trimesh", objects: [Mesh(name: "square", path: "square.obj", colour: (9, 9, 9))])"#;
     let scene = Scene::from_ron(text, &folder.path().join("square.ron")).unwrap();
     assert_eq!(scene.faces.len(), 2);
-    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), true);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), true);
     // The binary PLY's vertices and vertex colours.
     let corners = [dvec3(2.0, 1.0, -0.75), dvec3(2.0, -1.0, -0.75), dvec3(2.0, 0.0, 0.75)];
     check_fan_colours(folder.path(), corners, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
@@ -1507,7 +1507,7 @@ fn a_textured_frame_is_each_pixel_shaded_alone_bit_for_bit() {
         let pose = Pose::from_degrees(position, angles);
         let exact = angles == DVec3::ZERO;
         let loaded = common::load(scene);
-        let bvh = SceneBvh::build(&loaded);
+        let bvh = SceneBvh::build(&loaded).unwrap();
         let mut tracer = common::cpu_tracer(&loaded, &bvh);
         let appearance = tracer.scene.appearance();
         assert_eq!(appearance.lighting.is_some(), scene.contains("-lit"), "{scene}");
@@ -1610,7 +1610,7 @@ fn assert_encoded_alone(colour: [u8; 3], alone: DVec3, exact: bool, name: &str) 
 #[test]
 fn a_textured_frame_too_large_for_a_ray_table_is_each_pixel_shaded_alone_bit_for_bit() {
     let loaded = common::load("env1-textured.ron");
-    let bvh = SceneBvh::build(&loaded);
+    let bvh = SceneBvh::build(&loaded).unwrap();
     let mut tracer = common::cpu_tracer(&loaded, &bvh);
     tracer.renderer.set_cpu_tracer(CpuTracer::Fast);
     let appearance = tracer.scene.appearance();

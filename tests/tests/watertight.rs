@@ -39,7 +39,7 @@ fn no_ray_escapes_a_closed_room() {
     let camera = Camera::Equirectangular(Equirectangular { width: 96, height: 48 });
     for (seed, room) in common::ROOMS.iter().enumerate() {
         let scene = common::load(room);
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         for pose in random_poses(&scene, 200, seed as u64) {
             for tracer in [CpuTracer::Reference, CpuTracer::Fast] {
                 let frame = tracer.trace(&bvh, &camera, &pose);

@@ -423,7 +423,7 @@ impl Dataset {
         spec.outputs
             .check_scene(&scene)
             .map_err(|e| top("outputs", e.to_string()))?;
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).map_err(omnisim::RenderError::from)?;
         let mut warnings = scene.warnings.clone();
         let mut sets = Vec::with_capacity(spec.sets.len());
         let mut total_poses = 0;

@@ -290,7 +290,7 @@ mod tests {
     fn occluders_never_cross_the_scene_nor_hold_a_camera() {
         let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/env1.ron")).unwrap();
         let scene = Scene::from_ron(&text, std::path::Path::new("env1.ron")).unwrap();
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         let specs = [
             OccluderSpec {
                 shape: OccluderShape::Person,

@@ -49,7 +49,6 @@ pub mod output;
 pub mod pose;
 pub mod pose_sets;
 mod renderer;
-mod rig;
 pub mod scene;
 mod shade;
 mod trace;
@@ -57,11 +56,10 @@ mod trace;
 /// The vector and matrix types of the API (positions, angles, rotations).
 pub use glam;
 
-pub use camera::{Camera, RigSpec};
+pub use camera::{Camera, Rig, RigSpec, View};
 pub use frame::{Frame, Plane, Planes};
 pub use metadata::RenderMetadata;
 pub use output::OutputSet;
 pub use pose::Pose;
 pub use renderer::{BackendChoice, PreparedScene, RenderError, Renderer};
-pub use rig::{Rig, View};
 pub use scene::{Scene, SceneError};

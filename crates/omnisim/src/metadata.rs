@@ -7,11 +7,10 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::camera::{Camera, Catadioptric, MirrorShape, NO_DISPARITY, Pinhole, RigSpec};
+use crate::camera::{Camera, Catadioptric, MirrorShape, NO_DISPARITY, Pinhole, Rig, RigSpec};
 use crate::output;
 use crate::pose::Pose;
 use crate::renderer::{PreparedScene, Renderer};
-use crate::rig::Rig;
 use crate::scene::Scene;
 
 /// The contents of `render.json`.

@@ -261,7 +261,7 @@ mod tests {
     fn random_poses_keep_their_clearance_and_repeat_for_a_seed() {
         let text = r#"Scene(name: "cube", objects: [Box(name: "room", size: (4.0, 2.0, 2.0), colour: (9, 9, 9))])"#;
         let scene = crate::scene::Scene::from_ron(text, std::path::Path::new("cube.ron")).unwrap();
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         let spec = RandomPoses {
             count: 200,
             seed: 5,
@@ -316,7 +316,7 @@ mod tests {
             Box(name: "table", size: (1.0, 1.0, 0.8), position: (1.0, 0.0, 0.0), colour: (9, 9, 9)),
         ])"#;
         let scene = crate::scene::Scene::from_ron(text, std::path::Path::new("room.ron")).unwrap();
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         assert_eq!(misplaced(&scene, &bvh, dvec3(0.0, 0.0, 1.0)), None);
         assert_eq!(
             misplaced(&scene, &bvh, dvec3(1.2, 0.1, 0.4)),
@@ -356,7 +356,7 @@ mod tests {
         let path = dir.path().join("room.ron");
         std::fs::write(&path, text).unwrap();
         let scene = crate::scene::Scene::load(&path).unwrap();
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         // Inside the tetrahedron x, y, z > 0, x + y + z < 1 (moved by +1 in x).
         assert_eq!(
             misplaced(&scene, &bvh, dvec3(1.2, 0.2, 0.2)),

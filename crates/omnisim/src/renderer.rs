@@ -74,7 +74,7 @@ pub enum RenderError {
     /// A scene of more triangles than the BVH addresses (one built in code: scene files are
     /// refused on load).
     #[error("the scene has {0}")]
-    TooManyTriangles(#[from] crate::scene::TooManyTriangles),
+    TooManyTriangles(#[from] crate::accel::TooManyTriangles),
     /// A texture the renderer cannot filter (one built by hand, too large).
     #[error("texture {index} ({source_name}): {message}")]
     Texture {
@@ -242,8 +242,7 @@ impl Renderer {
     /// With `auto`, a scene the adapter cannot hold is traced on the CPU (see
     /// [`PreparedScene::fallback`]).
     pub fn prepare(&self, scene: &Scene) -> Result<PreparedScene, RenderError> {
-        crate::scene::check_triangle_count(scene.triangle_count())?;
-        let geometry = SceneBvh::build(scene);
+        let geometry = SceneBvh::build(scene)?;
         self.geometry_builds.fetch_add(1, Ordering::Relaxed);
         self.prepare_with(scene, geometry)
     }

@@ -236,7 +236,7 @@ pub(crate) fn run(command: PosesCommand) -> anyhow::Result<()> {
                 max_tilt: max_tilt.to_radians(),
                 clearance,
             };
-            let poses = pose_sets::random(&scene, &SceneBvh::build(&scene), &spec).with_context(|| {
+            let poses = pose_sets::random(&scene, &SceneBvh::build(&scene)?, &spec).with_context(|| {
                 format!("could not find {count} positions {clearance} m clear of every surface; lower --clearance, widen --z or ask for fewer")
             })?;
             write(&poses, "random", &out)

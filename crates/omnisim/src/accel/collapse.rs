@@ -25,19 +25,27 @@ const _: () = assert!(MAX_LEAF == 2);
 /// Nodes per part of each pass, from [`super::PARALLEL_FROM`] triangles (one part below).
 const PART_NODES: usize = 1 << 16;
 
+/// Whether [`collapse_leaf_pairs`] collapses a BVH2 of `triangles` triangles: obvhs leaves
+/// trees of up to `MAX_LEAF + 1` as they are (PLOC's leaves hold one triangle each, so these are
+/// its trees of up to `2 · MAX_LEAF + 1` nodes, a root that is a leaf among them). Once
+/// collapsed, every inner node holds more than `MAX_LEAF` triangles (two leaves of one would
+/// have been collapsed, and a collapsed node is a leaf): the wide BVH's build relies on it.
+pub(super) fn collapses(triangles: usize) -> bool {
+    triangles > MAX_LEAF as usize + 1
+}
+
 /// Collapses `bvh`'s sibling leaves into leaves of at most [`MAX_LEAF`] triangles, as obvhs's
-/// `collapse(bvh, MAX_LEAF, traversal_cost)` does for any `traversal_cost >= MAX_LEAF`. Drops
-/// the parent links (obvhs makes them again; the scene's BVH does not keep them: 4 bytes a
-/// BVH2 node, about 5 a triangle). Returns whether
-/// it collapsed them: every inner node then holds more than `MAX_LEAF` triangles (two leaves of
-/// one would have been collapsed, and a collapsed node is a leaf).
-pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) -> bool {
+/// `collapse(bvh, MAX_LEAF, traversal_cost)` does for any `traversal_cost >= MAX_LEAF`, where
+/// [`collapses`] says it does. Drops the parent links (obvhs makes them again; the scene's BVH
+/// does not keep them: 4 bytes a BVH2 node, about 5 a triangle).
+pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) {
     bvh.parents = Vec::new();
     let nodes = &bvh.nodes;
     let count = nodes.len();
-    // obvhs leaves BVHs of up to `MAX_LEAF + 1` triangles as they are, and a root that is a leaf.
-    if count <= 2 * MAX_LEAF as usize + 1 || nodes[0].is_leaf() {
-        return false;
+    // A BVH2 fresh from PLOC: one triangle a leaf.
+    debug_assert_eq!(count, (2 * bvh.primitive_indices.len()).saturating_sub(1));
+    if !collapses(bvh.primitive_indices.len()) {
+        return;
     }
     let order = &bvh.primitive_indices;
     let parallel = count / 2 >= super::PARALLEL_FROM;
@@ -147,7 +155,6 @@ pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) -> bool {
     each_part(parallel, new_nodes.chunks_mut(part_nodes).collect(), renumber);
     bvh.nodes = new_nodes;
     bvh.primitive_indices = new_order;
-    true
 }
 
 /// `f` of each of `parts`, on all threads where `parallel`, else on the calling thread (below
@@ -190,7 +197,7 @@ mod tests {
                     let mut uncollapsed = crate::accel::build_uncollapsed(corners, params);
                     assert!(uncollapsed.nodes.iter().all(|node| node.prim_count <= 1));
                     let mut ours = uncollapsed.clone();
-                    assert_eq!(collapse_leaf_pairs(&mut ours), corners.len() > 3, "{case}");
+                    collapse_leaf_pairs(&mut ours);
                     obvhs::bvh2::leaf_collapser::collapse(
                         &mut uncollapsed,
                         params.max_prims_per_leaf,
@@ -199,10 +206,22 @@ mod tests {
                     let bytes = |nodes: &[Bvh2Node]| bytemuck::cast_slice::<Bvh2Node, u8>(nodes).to_vec();
                     assert_eq!(bytes(&ours.nodes), bytes(&uncollapsed.nodes), "{case}");
                     assert_eq!(ours.primitive_indices, uncollapsed.primitive_indices, "{case}");
-                    if corners.len() > 3 {
+                    assert_eq!(collapses(corners.len()), corners.len() > 3, "{case}");
+                    if collapses(corners.len()) {
                         assert!(
                             ours.nodes.len() < 2 * ours.primitive_indices.len() - 1,
                             "{case}: nothing collapsed"
+                        );
+                        // No inner node of `MAX_LEAF` triangles or fewer: two leaves as children.
+                        let small = |node: &Bvh2Node| {
+                            let first = node.first_index as usize;
+                            let (left, right) = (&ours.nodes[first], &ours.nodes[first + 1]);
+                            left.is_leaf() && right.is_leaf() && left.prim_count + right.prim_count <= MAX_LEAF
+                        };
+                        let inner = ours.nodes.iter().filter(|node| !node.is_leaf());
+                        assert!(
+                            !inner.clone().any(small),
+                            "{case}: an inner node of {MAX_LEAF} or fewer"
                         );
                     }
                 }

@@ -112,17 +112,42 @@ pub struct SceneBvh {
     pub(crate) build_time: Duration,
 }
 
+/// A scene of more triangles than its BVH addresses ([`SceneBvh::MAX_TRIANGLES`]).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{triangles} triangles, more than the {} (2^29) omnisim traces in one scene (its BVH addresses \
+     triangles in 29 bits): split the scene into several, or simplify its meshes",
+    SceneBvh::MAX_TRIANGLES
+)]
+pub struct TooManyTriangles {
+    /// The scene's triangles (faces split as [`Scene::triangulate`] splits them).
+    pub triangles: usize,
+}
+
 impl SceneBvh {
-    /// Builds the BVH with the local origin at the centre of the scene's bounds. Panics above
-    /// 2^29 triangles (the wide BVH's leaves address them in 29 bits; about 110 GB of BVH),
-    /// which scene loading and `Renderer::prepare` refuse ([`crate::scene::check_triangle_count`]).
-    pub fn build(scene: &Scene) -> Self {
+    /// The most triangles a scene may have: the wide BVH's leaves address them in 29 bits
+    /// (about 110 GB of BVH).
+    pub const MAX_TRIANGLES: usize = wide::FIRST_TRIANGLE as usize + 1;
+
+    /// Refuses `triangles` over [`SceneBvh::MAX_TRIANGLES`], the one check of the cap: the build
+    /// asks it first, and scene loading after each object, to name the object that passes it.
+    pub fn check_triangle_count(triangles: usize) -> Result<(), TooManyTriangles> {
+        if triangles > Self::MAX_TRIANGLES {
+            return Err(TooManyTriangles { triangles });
+        }
+        Ok(())
+    }
+
+    /// Builds the BVH with the local origin at the centre of the scene's bounds; refuses a scene
+    /// of more than [`SceneBvh::MAX_TRIANGLES`] triangles.
+    pub fn build(scene: &Scene) -> Result<Self, TooManyTriangles> {
         let (lo, hi) = scene.bounds().unwrap_or((DVec3::ZERO, DVec3::ZERO));
         Self::build_with_offset(scene, (lo + hi) / 2.0)
     }
 
-    /// Builds the BVH with the local origin at `offset` (world metres). `build` picks the
-    /// scene's centre; other offsets exist to measure what that choice buys (docs/accuracy.md).
+    /// Builds the BVH with the local origin at `offset` (world metres), refusing what `build`
+    /// refuses. `build` picks the scene's centre; other offsets exist to measure what that
+    /// choice buys (docs/accuracy.md).
     ///
     /// Peak memory is what limits scene size, so the order matters: the face normals and the
     /// wide BVH are made only once the builder's working set is freed. The corners in face
@@ -131,13 +156,20 @@ impl SceneBvh {
     /// (docs/benchmarks.md, "2026-11-27 (build)"). Since then the build's heap high-water at
     /// 1M is below scene loading's (heaptrack 451 → 440 MB, the loader's; the peak RSS of
     /// 669 MB is the loader's pages reused; "2026-11-27 midday (build)").
-    pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Self {
+    pub fn build_with_offset(scene: &Scene, offset: DVec3) -> Result<Self, TooManyTriangles> {
         // Timed from the scene's faces, as Open3D's build is timed from its triangle arrays:
         // triangulation, boxes, obvhs, leaf order, the wide BVH and face normals.
         let start = Instant::now();
         // A mesh's faces are all triangles: triangle i is then face i, and the list of triangle
         // indices (16 bytes a triangle, made on one thread) is not needed.
-        let triangles = (!every_face_a_triangle(scene)).then(|| scene.triangle_indices());
+        let all_triangles = every_face_a_triangle(scene);
+        // Counted before anything is made for them.
+        Self::check_triangle_count(if all_triangles {
+            scene.faces.len()
+        } else {
+            scene.triangle_count()
+        })?;
+        let triangles = (!all_triangles).then(|| scene.triangle_indices());
         let triangle_count = triangles.as_ref().map_or(scene.faces.len(), Vec::len);
         let triangle = |i: usize| {
             triangles
@@ -154,8 +186,8 @@ impl SceneBvh {
         let read_once: Vec<Corners> = map_indices(triangle_count, |i| {
             Corners(triangle(i).corners(scene).map(|p| p - offset))
         });
-        let (mut bvh, inner_nodes_open) = if read_once.is_empty() {
-            (Bvh2::default(), false)
+        let mut bvh = if read_once.is_empty() {
+            Bvh2::default()
         } else {
             let params = if read_once.len() > LARGE_SCENE {
                 LARGE_BUILD_PARAMS
@@ -174,9 +206,9 @@ impl SceneBvh {
             (read_once[index].0, triangle(index).face)
         });
         drop((triangles, read_once, order));
-        let wide = WideBvh::build(&bvh, &corners, inner_nodes_open);
+        let wide = WideBvh::build(&bvh, &corners);
         let face_normals = map_indices(scene.faces.len(), |face| scene.face_normal(face));
-        Self {
+        Ok(Self {
             offset,
             triangles: corners,
             face,
@@ -184,7 +216,7 @@ impl SceneBvh {
             bvh,
             wide,
             build_time: start.elapsed(),
-        }
+        })
     }
 
     /// World position of the local origin: triangles and tracing rays are given relative to it.
@@ -227,12 +259,11 @@ impl SceneBvh {
 }
 
 /// obvhs's BVH2 over `corners` with `params`: its builder and reinsertion, then its leaf
-/// collapse as [`collapse::collapse_leaf_pairs`] does it (the same tree, on all threads); and
-/// whether every inner node holds more triangles than a leaf (true but for trees of up to three).
-fn build_bvh2(corners: &[Corners], params: BvhBuildParams) -> (Bvh2, bool) {
+/// collapse as [`collapse::collapse_leaf_pairs`] does it (the same tree, on all threads).
+fn build_bvh2(corners: &[Corners], params: BvhBuildParams) -> Bvh2 {
     let mut bvh = build_uncollapsed(corners, params);
-    let collapsed = collapse::collapse_leaf_pairs(&mut bvh);
-    (bvh, collapsed)
+    collapse::collapse_leaf_pairs(&mut bvh);
+    bvh
 }
 
 /// obvhs's BVH2 over `corners` before its leaves are collapsed: PLOC, then reinsertion.
@@ -284,6 +315,29 @@ mod tests {
     use crate::scene::Face;
     use glam::{Vec3, Vec4};
 
+    /// The cap is the wide BVH's: 2^29 triangles pass, one more is refused naming the count,
+    /// the cap and what to do, and `Renderer::prepare` (the build's refusal) says so (scene
+    /// loading's side: `library`'s `triangle_cap_tests`). A scene's count is what triangulating
+    /// it gives (env1 has polygons of more than three vertices), so no scene of that size is made.
+    #[test]
+    fn a_scene_over_2_pow_29_triangles_is_refused_by_its_count() {
+        assert!(SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES).is_ok());
+        let refusal = SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES + 1).unwrap_err();
+        let message = refusal.to_string();
+        assert_eq!(
+            message,
+            "536870913 triangles, more than the 536870912 (2^29) omnisim traces in one scene (its BVH addresses \
+             triangles in 29 bits): split the scene into several, or simplify its meshes"
+        );
+        assert_eq!(
+            crate::RenderError::from(refusal).to_string(),
+            format!("the scene has {message}")
+        );
+        let (scene, _) = crate::trace::test_scene("env1");
+        assert!(scene.faces.iter().any(|face| face.vertices.len() > 3));
+        assert_eq!(scene.triangle_count(), scene.triangulate().len());
+    }
+
     /// env1 plus a bumpy grid of `2 * cells²` triangles (as `omnisim bench
     /// --synthetic-triangles` adds one, `add_height_field` in the CLI, which this crate cannot call).
     pub(super) fn grid_scene(cells: usize) -> Scene {
@@ -324,7 +378,7 @@ mod tests {
             triangles_only.faces.retain(|face| face.vertices.len() == 3);
             assert!(triangles_only.faces.len() < mixed.faces.len());
             for scene in [mixed, triangles_only] {
-                let bvh = SceneBvh::build(&scene);
+                let bvh = SceneBvh::build(&scene).unwrap();
                 assert_eq!(bvh.face.len(), bvh.triangles.len());
                 let mut per_face = vec![0; scene.faces.len()];
                 for (corners, &face) in bvh.triangles.iter().zip(&bvh.face) {
@@ -400,7 +454,7 @@ mod tests {
                     faces,
                     ..Scene::default()
                 };
-                let bvh = SceneBvh::build(&scene);
+                let bvh = SceneBvh::build(&scene).unwrap();
                 let mut hits = 0;
                 for &direction in &directions {
                     let origin = -bvh.offset;
@@ -428,7 +482,7 @@ mod tests {
     fn wide_bvh_holds_every_triangle_once_in_bounded_memory() {
         for cells in [50, 160] {
             let scene = grid_scene(cells);
-            let bvh = SceneBvh::build(&scene);
+            let bvh = SceneBvh::build(&scene).unwrap();
             let count = bvh.triangles.len();
             assert!(count > 2 * cells * cells);
             // Walked from the root (above `PARALLEL_FROM` the subtrees are built apart and

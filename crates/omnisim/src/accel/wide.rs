@@ -63,10 +63,9 @@ pub(crate) struct WideBvh {
 }
 
 impl WideBvh {
-    /// Collapses `bvh` (whose leaves address `triangles`, in leaf order) into eight-wide nodes.
-    /// `inner_nodes_open`: every inner node of `bvh` holds more than `LEAF_TRIANGLES` triangles
-    /// (its leaf pairs collapsed), so each gets a wide node of its own without counting.
-    pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]], inner_nodes_open: bool) -> Self {
+    /// Collapses `bvh` (whose leaves address `triangles`, in leaf order; its leaf pairs
+    /// collapsed by `collapse::collapse_leaf_pairs`) into eight-wide nodes.
+    pub(crate) fn build(bvh: &Bvh2, triangles: &[[DVec3; 3]]) -> Self {
         let largest = |t: &[DVec3; 3]| t.iter().fold(0.0f64, |m, p| m.max(p.abs().max_element()));
         let extent = if triangles.len() < super::PARALLEL_FROM {
             triangles.iter().map(largest).fold(0.0, f64::max)
@@ -77,14 +76,15 @@ impl WideBvh {
             extent,
             ..Self::default()
         };
-        // Scene loading and `Renderer::prepare` refuse more (`scene::check_triangle_count`).
+        // `SceneBvh::build`, this build's one caller, refuses more before it gets here.
         assert!(triangles.len() <= FIRST_TRIANGLE as usize + 1, "over 2^29 triangles");
         if bvh.nodes.is_empty() {
             return wide;
         }
         let builder = Builder {
             nodes: &bvh.nodes,
-            inner_nodes_open,
+            // Then each inner node gets a wide node of its own without counting.
+            inner_nodes_open: super::collapse::collapses(triangles.len()),
         };
         // A root that is (or fits) one leaf is the single child of a node of its own.
         let (root, root_openable_lanes) = if !builder.openable(0) {
@@ -418,7 +418,7 @@ mod tests {
     #[test]
     fn open_replaces_a_node_by_its_largest_full_cut() {
         for cells in [50, 160] {
-            let bvh = SceneBvh::build(&grid_scene(cells));
+            let bvh = SceneBvh::build(&grid_scene(cells)).unwrap();
             let nodes = &bvh.bvh.nodes;
             let counts = subtree_triangles(nodes);
             let openable = |index: usize| !nodes[index].is_leaf() && counts[index] > LEAF_TRIANGLES;

@@ -13,6 +13,7 @@ pub mod lens;
 mod lens_camera;
 pub(crate) mod pinhole;
 mod ray_source;
+mod rig;
 mod solve;
 pub mod spec;
 mod stereo;
@@ -31,6 +32,7 @@ pub use lens::{KannalaBrandt, LensModel, Scaramuzza};
 pub use lens_camera::LensCamera;
 pub use pinhole::{BODY_FROM_OPTICAL, Pinhole};
 pub(crate) use ray_source::RaySource;
+pub use rig::{Rig, View};
 pub use spec::{
     FisheyeSpec, LensSpec, MirrorRaysSpec, MirrorSpec, MountSpec, OmniSpec, PinholeSpec, RigFileError, RigSpec,
     RigSpecError, StereoSpec,

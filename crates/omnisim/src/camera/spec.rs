@@ -11,10 +11,9 @@ use serde::{Deserialize, Serialize};
 
 use super::{
     BrownConrady, Camera, CameraError, Catadioptric, Cylindrical, Equirectangular, KannalaBrandt, LensCamera,
-    LensModel, MirrorRays, MirrorShape, Misalignment, Mount, Pinhole, Scaramuzza, StereoRig,
+    LensModel, MirrorRays, MirrorShape, Misalignment, Mount, Pinhole, Rig, Scaramuzza, StereoRig,
 };
 use crate::input::{InputError, locate, read_text, ron_options, without_bom};
-use crate::rig::Rig;
 
 /// The defaults every reader of a [`RigSpec`] shares (the command line, spec files, the
 /// vision commands): angles in degrees, lengths in metres, sizes in pixels.

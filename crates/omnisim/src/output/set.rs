@@ -12,11 +12,10 @@ use super::atomic::{FileStore, Sink, Synced, write_atomically};
 use super::folder::RunFolder;
 use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed};
 use crate::calibration;
-use crate::camera::Camera;
+use crate::camera::{Camera, Rig, View};
 use crate::frame::{Frame, Plane, Planes};
 use crate::metadata::{FrameMetadata, RenderMetadata};
 use crate::pose::Pose;
-use crate::rig::{Rig, View};
 use crate::scene::Scene;
 
 /// Which files a render writes. [`OutputSet::default`] is what `omnisim render` writes without

@@ -48,15 +48,3 @@ pub enum SceneError {
         source: std::io::Error,
     },
 }
-
-/// A scene of more triangles than omnisim can trace ([`super::MAX_SCENE_TRIANGLES`]).
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "{triangles} triangles, more than the {} (2^29) omnisim traces in one scene (its BVH addresses \
-     triangles in 29 bits): split the scene into several, or simplify its meshes",
-    super::MAX_SCENE_TRIANGLES
-)]
-pub struct TooManyTriangles {
-    /// The scene's triangles (faces split as [`super::Scene::triangulate`] splits them).
-    pub triangles: usize,
-}

@@ -15,6 +15,7 @@ use super::mesh::MeshTriangle;
 use super::surface::{Surface, Surfaces, UvMap, planar_uv};
 use super::texture::{BYTES_PER_TEXEL_WITH_MIPS, MAX_SCENE_TEXELS, PendingImage, Texture, Wrap, open_image};
 use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};
+use crate::accel::SceneBvh;
 use crate::input::locate;
 use crate::pose::rotation_xyz;
 use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb};
@@ -115,6 +116,7 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
                 &keeping,
                 &mut scene,
                 &mut surfaces,
+                triangles,
             ),
             ObjectFile::Box(b) => box_faces(b, angle(b.rotation)).and_then(|f| keep(f, &mut scene, &mut surfaces)),
             ObjectFile::Wall(w) => wall_face(w).and_then(|f| keep(f, &mut scene, &mut surfaces)),
@@ -122,9 +124,10 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
             ObjectFile::Polygon(p) => keep(polygon_face(p), &mut scene, &mut surfaces),
         }
         .map_err(&invalid)?;
-        // The object that passes the cap is named (the BVH's build would panic).
+        // The object that passes the cap is named (the BVH's build refuses the scene without
+        // naming it); a mesh is refused from its count before its faces are made.
         triangles += super::triangles_of(&scene.faces[first_face..]);
-        super::check_triangle_count(triangles).map_err(|e| invalid(format!("the scene now has {e}")))?;
+        check_scene_triangles(triangles).map_err(&invalid)?;
         if is_mesh && scene.faces.last().is_none_or(|f| f.object != index) {
             return Err(invalid("the mesh has no usable triangles (all have zero area)".into()));
         }
@@ -707,7 +710,9 @@ impl FaceKeeper<'_> {
 const MESH_CHUNK: usize = 1 << 15;
 
 /// Loads mesh `m` and keeps its faces (through `keeping`), each part of the mesh freed once
-/// kept; the number of faces dropped.
+/// kept; the number of faces dropped. Refuses it unmade if its triangles and the scene's
+/// `scene_triangles` so far pass the BVH's cap.
+#[allow(clippy::too_many_arguments)]
 fn keep_mesh_faces(
     m: &MeshFile,
     angles: DVec3,
@@ -716,6 +721,7 @@ fn keep_mesh_faces(
     keeping: &FaceKeeper,
     scene: &mut Scene,
     surfaces: &mut Surfaces,
+    scene_triangles: usize,
 ) -> Result<usize, String> {
     positive("scale", m.scale)?;
     let mesh_path = inside_folder(scene_path, &m.path, "mesh")?;
@@ -735,6 +741,9 @@ fn keep_mesh_faces(
     // The mesh's faces and surfaces allocated once, at their size: grown by doubling, the
     // surfaces' list of a 1 M-triangle mesh passed through blocks of 436 MB in all for its 208.
     let triangles: usize = parts.iter().map(Vec::len).sum();
+    // Refused from the counts before its faces are made (its triangles as read: zero-area ones,
+    // dropped as the faces are made, count too).
+    check_scene_triangles(scene_triangles + triangles)?;
     scene.faces.reserve_exact(triangles);
     let with_surface = parts.par_iter().flatten().filter(|t| t.carries_surface()).count();
     if with_surface > 0 {
@@ -761,6 +770,12 @@ fn keep_mesh_faces(
         }
     }
     Ok(dropped)
+}
+
+/// Refuses a scene of `triangles` so far, this object's included, over the BVH's cap
+/// ([`SceneBvh::check_triangle_count`]).
+fn check_scene_triangles(triangles: usize) -> Result<(), String> {
+    SceneBvh::check_triangle_count(triangles).map_err(|e| format!("the scene now has {e}"))
 }
 
 /// Cuts parts of `lengths` (in order) into chunks of at most `size` items, each chunk its
@@ -824,6 +839,55 @@ mod chunk_tests {
                 vec![(1, 7..10), (2, 0..1)],
                 vec![(2, 1..2)]
             ]
+        );
+    }
+}
+
+#[cfg(test)]
+mod triangle_cap_tests {
+    use super::*;
+
+    /// A mesh that would take the scene past the BVH's cap is refused from the counts, none of
+    /// its faces made, with the cap's message (which scene loading gives with the object's
+    /// place); one that fits is kept.
+    #[test]
+    fn a_mesh_past_the_cap_is_refused_before_its_faces_are_made() {
+        let dir = tempfile::tempdir().unwrap();
+        let square = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n";
+        std::fs::write(dir.path().join("square.obj"), square).unwrap();
+        let mesh = MeshFile {
+            name: "square".into(),
+            path: "square.obj".into(),
+            colour: (9, 9, 9),
+            scale: 1.0,
+            rotation: (0.0, 0.0, 0.0),
+            position: (0.0, 0.0, 0.0),
+        };
+        let keeping = FaceKeeper {
+            object: 0,
+            is_mesh: true,
+            placement: None,
+            face_placements: &[],
+        };
+        let keep = |scene_triangles| {
+            let mut scene = Scene::default();
+            let kept = keep_mesh_faces(
+                &mesh,
+                DVec3::ZERO,
+                &dir.path().join("s.ron"),
+                &mut TextureBank::default(),
+                &keeping,
+                &mut scene,
+                &mut Surfaces::default(),
+                scene_triangles,
+            );
+            (kept, scene.faces.len())
+        };
+        assert_eq!(keep(SceneBvh::MAX_TRIANGLES - 2), (Ok(0), 2));
+        let refusal = SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES + 1).unwrap_err();
+        assert_eq!(
+            keep(SceneBvh::MAX_TRIANGLES - 1),
+            (Err(format!("the scene now has {refusal}")), 0)
         );
     }
 }

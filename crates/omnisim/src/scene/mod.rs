@@ -25,23 +25,11 @@ use crate::input::locate;
 
 use glam::DVec3;
 
-pub use error::{SceneError, TooManyTriangles};
+pub use error::SceneError;
 pub use export::ExportFormat;
 pub use names::MAX_NAME_BYTES;
 pub use triangulate::Triangles;
 pub use validate::MAX_COORDINATE;
-
-/// The most triangles a scene may have: the wide BVH's leaves address them in 29 bits.
-pub const MAX_SCENE_TRIANGLES: usize = crate::accel::wide::FIRST_TRIANGLE as usize + 1;
-
-/// Refuses `triangles` over [`MAX_SCENE_TRIANGLES`]: scene loading and `Renderer::prepare` ask
-/// before a BVH is built, whose build would otherwise panic.
-pub fn check_triangle_count(triangles: usize) -> Result<(), TooManyTriangles> {
-    if triangles > MAX_SCENE_TRIANGLES {
-        return Err(TooManyTriangles { triangles });
-    }
-    Ok(())
-}
 
 /// A face's vertices. Most faces of large scenes are mesh triangles, so three are held inline
 /// (no heap allocation): 24 bytes less per triangle, where memory limits scene size.
@@ -192,27 +180,4 @@ fn bounds_of<'a>(faces: impl Iterator<Item = &'a Face>) -> Option<(DVec3, DVec3)
     let mut points = faces.flat_map(|f| f.vertices.iter().copied());
     let first = points.next()?;
     Some(points.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
-}
-
-#[cfg(test)]
-mod triangle_cap_tests {
-    use super::*;
-
-    /// The cap is the wide BVH's: 2^29 triangles pass, one more is refused naming the count,
-    /// the cap and what to do, on load (an object's error) and by `Renderer::prepare` alike; a
-    /// scene's count is what triangulating it gives (env1 has polygons of more than three
-    /// vertices).
-    #[test]
-    fn a_scene_over_2_pow_29_triangles_is_refused_by_its_count() {
-        assert!(check_triangle_count(MAX_SCENE_TRIANGLES).is_ok());
-        let message = check_triangle_count(MAX_SCENE_TRIANGLES + 1).unwrap_err().to_string();
-        assert_eq!(
-            message,
-            "536870913 triangles, more than the 536870912 (2^29) omnisim traces in one scene (its BVH addresses \
-             triangles in 29 bits): split the scene into several, or simplify its meshes"
-        );
-        let (scene, _) = crate::trace::test_scene("env1");
-        assert!(scene.faces.iter().any(|face| face.vertices.len() > 3));
-        assert_eq!(scene.triangle_count(), scene.triangulate().len());
-    }
 }

@@ -8,9 +8,12 @@
 //! `value + gradient · (P − anchor)` at the hit point on CPU and GPU alike, so the hit planes
 //! need no barycentrics. Faces without a surface are shaded exactly as before.
 
+use std::sync::OnceLock;
+
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
+use super::lighting::linear_to_srgb3;
 use super::texture::{Texture, Wrap};
 
 /// Index of a face without a surface in [`Surfaces::of_face`].
@@ -36,7 +39,7 @@ pub struct Surfaces {
     /// its frames never meet this table, and these surfaces cannot change under it (their
     /// lists are the crate's to write). Not part of the value: a clone (`Arc::make_mut` of
     /// shared surfaces) starts without it, and equality ignores it.
-    pub(crate) one_colour_faces: crate::shade::OneColourCache,
+    pub(crate) one_colour_faces: OneColourCache,
 }
 
 impl Surfaces {
@@ -85,8 +88,90 @@ impl Surfaces {
     }
 
     /// The faces of these surfaces that give one colour, made on first use.
-    pub(crate) fn one_colour_faces(&self) -> &crate::shade::OneColourFaces {
+    pub(crate) fn one_colour_faces(&self) -> &OneColourFaces {
         self.one_colour_faces.of(self)
+    }
+}
+
+/// For scenes without lighting (not faces with `Surface::unlit`), untextured: the 8-bit colour
+/// of each face whose surface gives every hit one colour. Vertex colours equal at its three
+/// corners (each face of what `omnisim scene export` writes, meshes coloured by face) are that
+/// colour, and a surface without colours leaves the face's own. Worked out once for a scene's
+/// surfaces (they keep it: [`OneColourCache`]), so that shading (`shade::shade_frame`) draws such
+/// faces as flat ones, by a byte looked up, instead of a colour interpolated and encoded per
+/// pixel; held here, beside the surfaces it is made from (env1 exported as a PLY,
+/// omni 250²: ~185 instructions a hit; docs/benchmarks.md, "2026-11-27 night (small)").
+#[derive(Debug)]
+pub(crate) struct OneColourFaces {
+    /// Per face, as long as `Surfaces::of_face`: the colour as `0x00RRGGBB`, or
+    /// [`OneColourFaces::FACE_COLOUR`] or [`OneColourFaces::VARYING`].
+    pub(crate) of_face: Vec<u32>,
+    /// Whether every face has colours that vary (a scan's mesh): then nothing is looked up,
+    /// and the frame is shaded as before the table.
+    pub(crate) every_face_varies: bool,
+}
+
+impl OneColourFaces {
+    /// The face's colour in the appearance (no surface, or one that leaves it).
+    pub(crate) const FACE_COLOUR: u32 = u32::MAX;
+    /// Colours that vary across the face: shaded per pixel.
+    pub(crate) const VARYING: u32 = u32::MAX - 1;
+
+    /// The faces of `surfaces`. A hit's vertex colour is `at_anchor + gradient · (P − anchor)`
+    /// (`Surface::colour_at`): with every gradient zero and a finite anchor, each product is
+    /// ±0 at a hit's finite point, so the sum equals `at_anchor` up to the sign of a zero,
+    /// which clamps and encodes alike. A non-finite anchor (only a hand-built surface has one)
+    /// is left to the pixel's own shading.
+    pub(crate) fn of(surfaces: &Surfaces) -> Self {
+        let of_face: Vec<u32> = surfaces
+            .of_face
+            .iter()
+            .map(|&index| match surfaces.list.get(index as usize) {
+                None => Self::FACE_COLOUR,
+                Some(surface) => match (&surface.uv, &surface.colours) {
+                    (None, None) => Self::FACE_COLOUR,
+                    (None, Some(colours)) if colours.gradient == [DVec3::ZERO; 3] && surface.anchor.is_finite() => {
+                        let [r, g, b] = linear_to_srgb3(colours.at_anchor.clamp(DVec3::ZERO, DVec3::ONE).to_array());
+                        u32::from_be_bytes([0, r, g, b])
+                    }
+                    _ => Self::VARYING,
+                },
+            })
+            .collect();
+        Self {
+            every_face_varies: !of_face.is_empty() && of_face.iter().all(|&entry| entry == Self::VARYING),
+            of_face,
+        }
+    }
+}
+
+/// [`Surfaces`]' table of [`OneColourFaces`], made on first use: derived from the surfaces, so
+/// a clone starts without it and it never makes two surfaces unequal.
+#[derive(Debug, Default)]
+pub(crate) struct OneColourCache(OnceLock<OneColourFaces>);
+
+impl OneColourCache {
+    /// The table of `surfaces` (whose cache this is), made on first use.
+    pub(crate) fn of(&self, surfaces: &Surfaces) -> &OneColourFaces {
+        self.0.get_or_init(|| OneColourFaces::of(surfaces))
+    }
+
+    /// The table, if a frame made it.
+    #[cfg(test)]
+    pub(crate) fn made(&self) -> Option<&OneColourFaces> {
+        self.0.get()
+    }
+}
+
+impl Clone for OneColourCache {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl PartialEq for OneColourCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
     }
 }
 

@@ -198,9 +198,21 @@ impl Texture {
         (self.levels[0].width, self.levels[0].height)
     }
 
+    /// Texels of every level.
+    pub(crate) fn texel_count(&self) -> usize {
+        self.levels.iter().map(|l| l.texels.len()).sum()
+    }
+
     /// Bytes the texels of every level take.
     pub fn bytes(&self) -> usize {
-        self.levels.iter().map(|l| l.texels.len() * 8).sum()
+        self.texel_count() * size_of::<u64>()
+    }
+
+    /// Bytes of every level's texels packed as sRGB ([`MipLevel::srgb_texels`], 4 a texel): the
+    /// copy the GPU upload holds on the host besides the texture (with 12 bytes of header a
+    /// level), for memory checks.
+    pub fn srgb_bytes(&self) -> usize {
+        self.texel_count() * size_of::<u32>()
     }
 
     /// Why the renderer cannot filter this texture, if it cannot: a level with a side above

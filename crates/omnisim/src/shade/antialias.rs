@@ -127,7 +127,7 @@ mod tests {
         let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(9, 9, 0.2));
         (
             scene.clone(),
-            SceneBvh::build(&scene),
+            SceneBvh::build(&scene).unwrap(),
             camera,
             Pose::new(DVec3::ZERO, dvec3(0.0, 0.0, 0.0)),
         )

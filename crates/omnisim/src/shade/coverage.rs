@@ -207,6 +207,6 @@ mod tests {
         )
         .unwrap();
         // Three triangles, five outline edges.
-        assert_eq!(Outline::of(&SceneBvh::build(&scene)).edges.len(), 5);
+        assert_eq!(Outline::of(&SceneBvh::build(&scene).unwrap()).edges.len(), 5);
     }
 }

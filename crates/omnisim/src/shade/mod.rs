@@ -17,7 +17,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use glam::{DMat3, DVec2, Vec3};
 
@@ -27,7 +27,7 @@ use crate::frame::{BACKGROUND, Frame, Pixel, Plane, Planes};
 use crate::pose::Pose;
 use crate::scene::Scene;
 use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb, linear_to_srgb3};
-use crate::scene::surface::{Surface, Surfaces, UvMap};
+use crate::scene::surface::{OneColourFaces, Surface, Surfaces, UvMap};
 use crate::scene::texture::Texture;
 use crate::trace::ray_table::{RayCache, RayTable};
 use crate::trace::{CpuTracer, PACKET, ShadowRays};
@@ -428,87 +428,6 @@ pub(crate) fn shade_frame(
         shade_planes::<true>(appearance, &lux, frame, planes);
     } else {
         textured::shade_planes(appearance, &lux, view, frame, planes);
-    }
-}
-
-/// For scenes without lighting (not faces with `Surface::unlit`), untextured: the 8-bit colour
-/// of each face whose surface gives every hit one colour. Vertex colours equal at its three
-/// corners (each face of what `omnisim scene export` writes, meshes coloured by face) are that
-/// colour, and a surface without colours leaves the face's own. Worked out once for a scene's
-/// surfaces (they keep it: [`OneColourCache`]), so such faces are drawn as flat ones are, by a byte
-/// looked up, instead of a colour interpolated and encoded per pixel (env1 exported as a PLY,
-/// omni 250²: ~185 instructions a hit; docs/benchmarks.md, "2026-11-27 night (small)").
-#[derive(Debug)]
-pub(crate) struct OneColourFaces {
-    /// Per face, as long as `Surfaces::of_face`: the colour as `0x00RRGGBB`, or
-    /// [`OneColourFaces::FACE_COLOUR`] or [`OneColourFaces::VARYING`].
-    of_face: Vec<u32>,
-    /// Whether every face has colours that vary (a scan's mesh): then nothing is looked up,
-    /// and the frame is shaded as before the table.
-    every_face_varies: bool,
-}
-
-impl OneColourFaces {
-    /// The face's colour in the appearance (no surface, or one that leaves it).
-    const FACE_COLOUR: u32 = u32::MAX;
-    /// Colours that vary across the face: shaded per pixel.
-    const VARYING: u32 = u32::MAX - 1;
-
-    /// The faces of `surfaces`. A hit's vertex colour is `at_anchor + gradient · (P − anchor)`
-    /// (`Surface::colour_at`): with every gradient zero and a finite anchor, each product is
-    /// ±0 at a hit's finite point, so the sum equals `at_anchor` up to the sign of a zero,
-    /// which clamps and encodes alike. A non-finite anchor (only a hand-built surface has one)
-    /// is left to the pixel's own shading.
-    pub(crate) fn of(surfaces: &Surfaces) -> Self {
-        let of_face: Vec<u32> = surfaces
-            .of_face
-            .iter()
-            .map(|&index| match surfaces.list.get(index as usize) {
-                None => Self::FACE_COLOUR,
-                Some(surface) => match (&surface.uv, &surface.colours) {
-                    (None, None) => Self::FACE_COLOUR,
-                    (None, Some(colours)) if colours.gradient == [DVec3::ZERO; 3] && surface.anchor.is_finite() => {
-                        let [r, g, b] = encode(colours.at_anchor.clamp(DVec3::ZERO, DVec3::ONE));
-                        u32::from_be_bytes([0, r, g, b])
-                    }
-                    _ => Self::VARYING,
-                },
-            })
-            .collect();
-        Self {
-            every_face_varies: !of_face.is_empty() && of_face.iter().all(|&entry| entry == Self::VARYING),
-            of_face,
-        }
-    }
-}
-
-/// [`Surfaces`]' table of [`OneColourFaces`], made on first use: derived from the surfaces, so
-/// a clone starts without it and it never makes two surfaces unequal.
-#[derive(Debug, Default)]
-pub(crate) struct OneColourCache(OnceLock<OneColourFaces>);
-
-impl OneColourCache {
-    /// The table of `surfaces` (whose cache this is), made on first use.
-    pub(crate) fn of(&self, surfaces: &Surfaces) -> &OneColourFaces {
-        self.0.get_or_init(|| OneColourFaces::of(surfaces))
-    }
-
-    /// The table, if a frame made it.
-    #[cfg(test)]
-    pub(crate) fn made(&self) -> Option<&OneColourFaces> {
-        self.0.get()
-    }
-}
-
-impl Clone for OneColourCache {
-    fn clone(&self) -> Self {
-        Self::default()
-    }
-}
-
-impl PartialEq for OneColourCache {
-    fn eq(&self, _: &Self) -> bool {
-        true
     }
 }
 

@@ -537,7 +537,7 @@ pub fn trace(bvh: &SceneBvh, camera: &Camera, pose: &Pose) -> Frame {
 pub(crate) fn test_scene(name: &str) -> (crate::scene::Scene, SceneBvh) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{name}.ron"));
     let scene = crate::scene::Scene::load(&path).unwrap();
-    let bvh = SceneBvh::build(&scene);
+    let bvh = SceneBvh::build(&scene).unwrap();
     (scene, bvh)
 }
 

@@ -227,7 +227,7 @@ mod tests {
     fn axis_rays_with_negative_zero_components_hit_the_walls() {
         let text = r#"Scene(name: "cube", objects: [Box(name: "room", size: (4.0, 2.0, 2.0), colour: (9, 9, 9))])"#;
         let scene = crate::scene::Scene::from_ron(text, std::path::Path::new("cube.ron")).unwrap();
-        let bvh = SceneBvh::build(&scene);
+        let bvh = SceneBvh::build(&scene).unwrap();
         let origin = DVec3::new(0.1, 0.2, 0.9) - bvh.offset;
         // −DVec3::X is (−1, −0, −0): signed zeros must not change what a ray hits.
         let expected = [

@@ -2,7 +2,7 @@
 //! [`View`]s, the images one pose produces, each with the file-name suffix that tells its
 //! files apart.
 
-use crate::camera::{Camera, StereoRig};
+use super::{Camera, StereoRig};
 
 /// The vision system of a render or data set: one camera, or a rectified stereo pair.
 #[derive(Debug, Clone, PartialEq)]
