@@ -414,7 +414,12 @@ fn every_file_is_byte_reproducible() {
         output::write_disparity_exr(&mut Synced, &path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
         output::write_tum_depth_png(&mut Synced, &path("z.png"), size, &depth).unwrap();
         let ray_maps = ["origin.exr", "direction.exr", "all.exr"].map(path);
-        output::write_ray_map_exrs(&mut Synced, ray_maps.each_ref().map(|p| p.as_path()), &camera).unwrap();
+        output::write_ray_map_exrs(
+            &mut Synced,
+            ray_maps.each_ref().map(std::path::PathBuf::as_path),
+            &camera,
+        )
+        .unwrap();
         output::write_normal_exr(&mut Synced, &path("n.exr"), &frame, ExrCompression::Zip).unwrap();
         output::write_point_cloud_ply(&mut Synced, &path("p.ply"), &frame, "test").unwrap();
         [

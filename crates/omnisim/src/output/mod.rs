@@ -454,8 +454,8 @@ pub fn ray_map_names(suffix: &str) -> [String; 3] {
 /// `direction_path` — and both in one six-channel EXR at `all_path`; NaN where the pixel sees
 /// nothing. Non-central cameras need them to rebuild points from range.
 ///
-/// The six-channel file is the one ray map of omnisim before OpenCV's readers were asked for
-/// (OpenCV and imageio refuse its channel names); it stays for the OpenEXR-based tools that
+/// The six-channel file is the one ray map of omnisim before `OpenCV`'s readers were asked for
+/// (`OpenCV` and imageio refuse its channel names); it stays for the OpenEXR-based tools that
 /// read it, among them `../shared/bench/same_rays.py`, which takes the first `raymap*` file by
 /// name — so its name sorts first.
 pub fn write_ray_map_exrs(
