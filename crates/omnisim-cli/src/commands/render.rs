@@ -322,10 +322,10 @@ fn check_memory(outputs: &OutputSet, rig: &Rig, scene: &Scene, backend: BackendA
     // The textures are loaded already: 8 bytes a texel, and their mips (`Texture::bytes`).
     let textures = &scene.surfaces.textures;
     let texture_bytes: u64 = textures.iter().map(|t| t.bytes() as u64).sum();
-    // The GPU upload's sRGB copy of them (`Texture::srgb_bytes`).
+    // The GPU upload's copy of them on the host (`Texture::gpu_words`, 4 bytes each).
     let upload_bytes = match backend {
         BackendArg::Cpu => 0,
-        BackendArg::Auto | BackendArg::Gpu => textures.iter().map(|t| t.srgb_bytes() as u64).sum(),
+        BackendArg::Auto | BackendArg::Gpu => textures.iter().map(|t| 4 * t.gpu_words() as u64).sum(),
     };
     let besides =
         crate::memory::FIXED_BYTES + scene.faces.len() as u64 * BVH_BYTES_PER_FACE + texture_bytes + upload_bytes;

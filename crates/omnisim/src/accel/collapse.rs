@@ -206,7 +206,6 @@ mod tests {
                     let bytes = |nodes: &[Bvh2Node]| bytemuck::cast_slice::<Bvh2Node, u8>(nodes).to_vec();
                     assert_eq!(bytes(&ours.nodes), bytes(&uncollapsed.nodes), "{case}");
                     assert_eq!(ours.primitive_indices, uncollapsed.primitive_indices, "{case}");
-                    assert_eq!(collapses(corners.len()), corners.len() > 3, "{case}");
                     if collapses(corners.len()) {
                         assert!(
                             ours.nodes.len() < 2 * ours.primitive_indices.len() - 1,
@@ -218,9 +217,8 @@ mod tests {
                             let (left, right) = (&ours.nodes[first], &ours.nodes[first + 1]);
                             left.is_leaf() && right.is_leaf() && left.prim_count + right.prim_count <= MAX_LEAF
                         };
-                        let inner = ours.nodes.iter().filter(|node| !node.is_leaf());
                         assert!(
-                            !inner.clone().any(small),
+                            !ours.nodes.iter().filter(|node| !node.is_leaf()).any(small),
                             "{case}: an inner node of {MAX_LEAF} or fewer"
                         );
                     }

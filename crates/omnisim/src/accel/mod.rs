@@ -130,7 +130,8 @@ impl SceneBvh {
     pub const MAX_TRIANGLES: usize = wide::FIRST_TRIANGLE as usize + 1;
 
     /// Refuses `triangles` over [`SceneBvh::MAX_TRIANGLES`], the one check of the cap: the build
-    /// asks it first, and scene loading after each object, to name the object that passes it.
+    /// asks it first, and scene loading before a mesh's faces are made and after each object,
+    /// to name the object that passes it.
     pub fn check_triangle_count(triangles: usize) -> Result<(), TooManyTriangles> {
         if triangles > Self::MAX_TRIANGLES {
             return Err(TooManyTriangles { triangles });

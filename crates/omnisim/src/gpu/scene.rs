@@ -142,11 +142,7 @@ impl GpuScene {
 fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32>) {
     // Each texture's level headers (first texel, width, height), then its texels; allocated
     // once, at its size (at least one word: WGSL arrays cannot be empty).
-    let words: usize = surfaces
-        .textures
-        .iter()
-        .map(|texture| 3 * texture.levels.len() + texture.texel_count())
-        .sum();
+    let words: usize = surfaces.textures.iter().map(|texture| texture.gpu_words()).sum();
     let mut textures: Vec<u32> = Vec::with_capacity(words.max(1));
     let mut levels_at = Vec::with_capacity(surfaces.textures.len());
     for texture in &surfaces.textures {

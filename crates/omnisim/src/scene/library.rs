@@ -743,7 +743,8 @@ fn keep_mesh_faces(
     let triangles: usize = parts.iter().map(Vec::len).sum();
     // Refused from the counts before its faces are made (its triangles as read: zero-area ones,
     // dropped as the faces are made, count too).
-    check_scene_triangles(scene_triangles + triangles)?;
+    SceneBvh::check_triangle_count(scene_triangles + triangles)
+        .map_err(|e| format!("with this mesh's triangles as read (zero-area ones included), the scene has {e}"))?;
     scene.faces.reserve_exact(triangles);
     let with_surface = parts.par_iter().flatten().filter(|t| t.carries_surface()).count();
     if with_surface > 0 {
@@ -887,7 +888,12 @@ mod triangle_cap_tests {
         let refusal = SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES + 1).unwrap_err();
         assert_eq!(
             keep(SceneBvh::MAX_TRIANGLES - 1),
-            (Err(format!("the scene now has {refusal}")), 0)
+            (
+                Err(format!(
+                    "with this mesh's triangles as read (zero-area ones included), the scene has {refusal}"
+                )),
+                0
+            )
         );
     }
 }

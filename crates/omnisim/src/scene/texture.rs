@@ -208,11 +208,12 @@ impl Texture {
         self.texel_count() * size_of::<u64>()
     }
 
-    /// Bytes of every level's texels packed as sRGB ([`MipLevel::srgb_texels`], 4 a texel): the
-    /// copy the GPU upload holds on the host besides the texture (with 12 bytes of header a
-    /// level), for memory checks.
-    pub fn srgb_bytes(&self) -> usize {
-        self.texel_count() * size_of::<u32>()
+    /// The 32-bit words this texture takes in the GPU's texture array: a header a level (first
+    /// texel, width, height), then every level's texels packed as sRGB
+    /// ([`MipLevel::srgb_texels`], a word a texel). The GPU upload lays it out so, and memory
+    /// checks count the host's copy of it by this.
+    pub fn gpu_words(&self) -> usize {
+        3 * self.levels.len() + self.texel_count()
     }
 
     /// Why the renderer cannot filter this texture, if it cannot: a level with a side above
