@@ -14,6 +14,7 @@ use super::{shader, wide};
 use crate::accel::SceneBvh;
 use crate::scene::lighting::{LightKind, linear_rgb};
 use crate::scene::surface::{NO_SURFACE, Surfaces};
+use crate::scene::texture::Texture;
 use crate::shade::Appearance;
 
 /// Per-frame buffers for one band size, reused between frames of one size.
@@ -142,7 +143,7 @@ impl GpuScene {
 fn surface_data(offset: DVec3, surfaces: &Surfaces) -> (Vec<GpuSurface>, Vec<u32>) {
     // Each texture's level headers (first texel, width, height), then its texels; allocated
     // once, at its size (at least one word: WGSL arrays cannot be empty).
-    let words: usize = surfaces.textures.iter().map(|texture| texture.gpu_words()).sum();
+    let words: usize = surfaces.textures.iter().map(Texture::gpu_words).sum();
     let mut textures: Vec<u32> = Vec::with_capacity(words.max(1));
     let mut levels_at = Vec::with_capacity(surfaces.textures.len());
     for texture in &surfaces.textures {
