@@ -494,6 +494,65 @@ def gltf_refused(folder):
         case(folder, name, f"{name}.glb", "pygltflib", refuse=[word, "triangle"])
 
 
+def gltf_bad(folder):
+    """Files that lie or break the spec: a located error each, no panic, no huge allocation."""
+    def bad(name, words, primitive_of, required=()):
+        blob = Blob()
+        save_gltf(folder, f"{name}.glb", one_mesh(primitive_of(blob)), blob, required=required)
+        case(folder, name, f"{name}.glb", "pygltflib", refuse=words)
+
+    def sparse_positions(blob, index, values_length):
+        values = blob.view(struct.pack("<3f", 1, 2, 3)[:values_length])
+        position = blob.raw_accessor({
+            "bufferView": blob.view(b"".join(struct.pack("<3f", *p) for p in STRIP)), "componentType": 5126,
+            "count": 6, "type": "VEC3", "min": [0, 0, 0], "max": [3, 3, 3],
+            "sparse": {"count": 1, "indices": {"bufferView": blob.view(struct.pack("<H", index)), "componentType": 5123},
+                       "values": {"bufferView": values}}})
+        return {"attributes": {"POSITION": position}, "mode": 5}
+
+    bad("gltf-bad-sparse-index", ["accessor 0 (POSITION)", "sparse index 9 is out of range"],
+        lambda blob: sparse_positions(blob, 9, 12))
+    bad("gltf-bad-sparse-truncated", ["accessor 0 (POSITION)", "reach beyond"], lambda blob: sparse_positions(blob, 1, 8))
+    bad("gltf-bad-huge-view-less", ["accessor 0 (POSITION)", "4000000000 elements"], lambda blob: {
+        "attributes": {"POSITION": blob.raw_accessor({"componentType": 5126, "count": 4000000000, "type": "VEC3",
+                                                      "min": [0, 0, 0], "max": [0, 0, 0]})},
+        "indices": blob.accessor([(0,), (1,), (2,)], "B", "SCALAR")})
+    bad("gltf-bad-float-indices", ["accessor 1 (indices)", "unsigned"], lambda blob: {
+        "attributes": {"POSITION": blob.accessor(STRIP, "f", "VEC3", minmax=True)},
+        "indices": blob.accessor([(0.0,), (1.0,), (2.0,)], "f", "SCALAR")})
+    bad("gltf-bad-colour-vec2", ["accessor 1 (COLOR_0)", "VEC3 or VEC4"], lambda blob: {
+        "attributes": {"POSITION": blob.accessor(STRIP, "f", "VEC3", minmax=True),
+                       "COLOR_0": blob.accessor([(0.5, 0.5)] * 6, "f", "VEC2")}, "mode": 5})
+    bad("gltf-bad-short-strip", ["TriangleStrip has 2 vertices", "3 or more"], lambda blob: {
+        "attributes": {"POSITION": blob.accessor(STRIP[:2], "f", "VEC3", minmax=True)}, "mode": 5})
+    bad("gltf-bad-positions-truncated", ["accessor 0 (POSITION)", "truncated"], lambda blob: {
+        "attributes": {"POSITION": blob.raw_accessor({"bufferView": blob.view(b"\0" * 40), "componentType": 5126,
+                                                      "count": 6, "type": "VEC3", "min": [0, 0, 0], "max": [0, 0, 0]})},
+        "mode": 5})
+    # i8 texture coordinates are KHR_mesh_quantization's (gltf's reader reached `unreachable!`).
+    blob = Blob()
+    position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
+    quantized = [(int(round(p[0] / 2 * 127)), -int(round(p[1] * 127))) for p in STRIP]
+    texcoord = blob.accessor(quantized, "b", "VEC2", normalized=True, stride=4)
+    (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
+    primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
+    document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+                        textures=[{"source": 0}], images=[{"uri": "tiles.png"}])
+    save_gltf(folder, "gltf-quantized-uv-i8.glb", document, blob, required=["KHR_mesh_quantization"])
+    uvs = [(dequantize(u, "b", True), dequantize(v, "b", True)) for u, v in quantized]
+    case(folder, "gltf-quantized-uv-i8", "gltf-quantized-uv-i8.glb", "pygltflib", faces_of(STRIP, triangles_of(5, 6)),
+         uvs=[[list(uvs[i]) for i in t] for t in triangles_of(5, 6)])
+    # A URI whose % escape is broken.
+    blob = Blob()
+    position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
+    texcoord = blob.accessor([(0.0, 0.0)] * 6, "f", "VEC2")
+    primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
+    document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+                        textures=[{"source": 0}], images=[{"uri": "tiles%zz.png"}])
+    save_gltf(folder, "gltf-bad-percent.gltf", document, blob)
+    case(folder, "gltf-bad-percent", "gltf-bad-percent.gltf", "pygltflib", refuse=["tiles%zz.png", "hexadecimal"])
+
+
 def trimesh_files(folder):
     """trimesh's own GLB (textured; vertex-coloured) and PLY (face colours)."""
     vertices = np.array(STRIP, dtype=np.float64)
@@ -653,14 +712,20 @@ def obj_files(folder):
     case(folder, "obj-kd-only", "obj-kd-only.obj", "hand", faces_of(points, fan),
          colours=[[srgb(0.2), srgb(0.4), srgb(0.6)]] * 4)
     obj("obj-missing-texture", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd absent.png\n")
-    case(folder, "obj-missing-texture", "obj-missing-texture.obj", "hand", refuse=["absent.png"])
+    case(folder, "obj-missing-texture", "obj-missing-texture.obj", "hand", refuse=["absent.png", "not found"])
+    obj("obj-unknown-map-option", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd -zoom 2 tiles.png\n")
+    case(folder, "obj-unknown-map-option", "obj-unknown-map-option.obj", "hand", refuse=["-zoom", "no option"])
+    obj("obj-map-option-without-value", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd -s tiles.png\n")
+    case(folder, "obj-map-option-without-value", "obj-map-option-without-value.obj", "hand",
+         refuse=["-s", "lacks its value"])
 
 
 def main(folder):
     folder = pathlib.Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     for writer in [gltf_topology, gltf_interleaved, gltf_quantization, gltf_colours, gltf_texcoord_sets,
-                   gltf_sparse_and_viewless, gltf_images, gltf_materials_and_nodes, gltf_refused, trimesh_files,
+                   gltf_sparse_and_viewless, gltf_images, gltf_materials_and_nodes, gltf_refused, gltf_bad,
+                   trimesh_files,
                    ply_files, obj_files]:
         writer(folder)
     (folder / "cases.json").write_text(json.dumps(CASES, indent=1))

@@ -736,6 +736,17 @@ fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
 /// the 4×3 texture is embedded, clamped. `uv` maps each local (u, v) to what the file
 /// stores, and `extension` is added to the texture info (`KHR_texture_transform` tests).
 fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>, mode: u32) -> Vec<u8> {
+    square_glb_drawn(uv, extension, mode, &[0, 1, 2, 0, 2, 3])
+}
+
+/// [`square_glb`] drawn as primitive `mode` through the corner `indices` (corners 0–3: top
+/// left, bottom left, bottom right, top right as the origin sees them).
+fn square_glb_drawn(
+    uv: impl Fn(DVec2) -> DVec2,
+    extension: Option<serde_json::Value>,
+    mode: u32,
+    indices: &[u16],
+) -> Vec<u8> {
     let corners = [
         [-1.0f32, 0.75, 0.0],
         [-1.0, -0.75, 0.0],
@@ -755,8 +766,8 @@ fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>,
             .flat_map(|uv| [uv.x as f32, uv.y as f32])
             .flat_map(f32::to_le_bytes),
     );
-    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
-    bin.extend([0, 0]);
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    bin.resize(bin.len().div_ceil(4) * 4, 0);
     let png_at = bin.len();
     let png = image_rgb(4, 3, &TEXELS.iter().flatten().copied().collect::<Vec<u8>>());
     bin.extend(&png);
@@ -783,12 +794,12 @@ fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>,
         "accessors": [
             {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1.0, -0.75, 0.0], "max": [1.0, 0.75, 0.0]},
             {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
-            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+            {"bufferView": 2, "componentType": 5123, "count": indices.len(), "type": "SCALAR"}
         ],
         "bufferViews": [
             {"buffer": 0, "byteOffset": 0, "byteLength": 48},
             {"buffer": 0, "byteOffset": 48, "byteLength": 32},
-            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 2 * indices.len()},
             {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()}
         ],
         "buffers": [{"byteLength": bin.len()}]
@@ -810,6 +821,28 @@ fn a_glb_square_through_its_node_hierarchy_maps_its_embedded_texture_exactly() {
     let scene = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
     assert_eq!(scene.faces.len(), 2);
     check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+}
+
+/// The square as a triangle list, a strip and a fan: the same two faces, textured exactly, all
+/// wound as the list is (their normals face the origin). glTF 2.0 (3.7.2.1) flips a strip's
+/// odd triangles (pᵢ = {vᵢ, vᵢ₊₁₊ᵢ﹪₂, vᵢ₊₂₋ᵢ﹪₂}) and turns a fan around its first vertex
+/// (pᵢ = {vᵢ₊₁, vᵢ₊₂, v₀}); a strip read without the flip, or a fan wound the other way,
+/// faces away.
+#[test]
+fn a_glb_square_as_a_strip_and_as_a_fan_is_the_triangle_lists_faces_wound_alike() {
+    for (mode, indices) in [(4, &[0u16, 1, 2, 0, 2, 3][..]), (5, &[1, 2, 0, 3][..]), (6, &[0, 1, 2, 3][..])] {
+        let scene = load_glb(&square_glb_drawn(|uv| uv, None, mode, indices)).unwrap();
+        assert_eq!(scene.faces.len(), 2, "mode {mode}");
+        for face in &scene.faces {
+            let v = &face.vertices;
+            let normal = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+            assert!(
+                (normal - dvec3(-1.0, 0.0, 0.0)).length() < 1e-9,
+                "mode {mode}: face {v:?} faces {normal}, not the origin"
+            );
+        }
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+    }
 }
 
 #[test]

@@ -20,6 +20,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use base64::Engine as _;
 use glam::{DMat4, DVec2, DVec3, DVec4};
+use gltf::accessor::Dimensions;
 use gltf::mesh::Mode;
 use gltf::texture::WrappingMode;
 use rayon::prelude::*;
@@ -631,12 +632,17 @@ fn read_primitive(
                 let linear = linear * look.factor;
                 [linear.x, linear.y, linear.z].map(linear_to_srgb)
             };
-            Some(if accessor.dimensions() == gltf::accessor::Dimensions::Vec3 {
-                accessor::read(&accessor, buffers, "COLOR_0", |[r, g, b]| {
-                    encode(DVec4::new(r, g, b, 1.0))
-                })?
-            } else {
-                accessor::read(&accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?
+            Some(match accessor.dimensions() {
+                Dimensions::Vec3 => {
+                    accessor::read(&accessor, buffers, "COLOR_0", |[r, g, b]| encode(DVec4::new(r, g, b, 1.0)))?
+                }
+                Dimensions::Vec4 => accessor::read(&accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?,
+                other => {
+                    return Err(format!(
+                        "accessor {} (COLOR_0) is {other:?}; COLOR_0 must be VEC3 or VEC4",
+                        accessor.index()
+                    ));
+                }
             })
         }
     };
