@@ -463,6 +463,15 @@ def gltf_materials_and_nodes(folder):
                                                            triangles_of(5, 6))
     case(folder, "gltf-matrix-trs", "gltf-matrix-trs.glb", "pygltflib", faces)
 
+    # A mirroring node (negative determinant): the spec takes its triangles' front faces as
+    # clockwise, so the faces keep their front by turning the other way.
+    document = {"scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "scale": [-1, 1, 1]}],
+                "meshes": [{"primitives": [{"attributes": {"POSITION": position}, "mode": 5}]}]}
+    save_gltf(folder, "gltf-mirrored.glb", document, blob)
+    mirrored = [(-x, y, z) for x, y, z in STRIP]
+    case(folder, "gltf-mirrored", "gltf-mirrored.glb", "pygltflib",
+         faces_of(mirrored, [(a, c, b) for a, b, c in triangles_of(5, 6)]))
+
     # No `scene`: the first scene is shown (node 0), not node 1 of the second.
     document = {"scenes": [{"nodes": [0]}, {"nodes": [1]}],
                 "nodes": [{"mesh": 0}, {"mesh": 0, "translation": [0, 0, 5]}],
@@ -644,6 +653,15 @@ def ply_files(folder):
     uvs = [[[float(np.float32(points[i][0] / 2)), 1 - points[i][1]] for i in t] for t in triangles]
     case(folder, "ply-texcoord", "ply-texcoord.ply", "plyfile", faces_of(points, triangles), uvs=uvs,
          texel={"x": 1, "y": 0, "rgb": list(TEXELS[0][1])})
+    # The PLY type names of the 2012 spec (float32, uint8, int32), another element before the
+    # faces, extra face properties, and Windows line ends in an ASCII file.
+    header = ["ply", "format ascii 1.0", "comment written by hand", "obj_info aliases", "element vertex 6",
+              "property float32 x", "property float32 y", "property float32 z", "element material 1",
+              "property uint8 index", "element face 2", "property list uint8 int32 vertex_indices",
+              "property int32 segment_id", "end_header"]
+    body = [" ".join(str(c) for c in p) for p in points] + ["0", "4 0 2 3 1 7", "4 2 4 5 3 8"]
+    (folder / "ply-type-aliases.ply").write_bytes("\r\n".join(header + body).encode() + b"\r\n")
+    case(folder, "ply-type-aliases", "ply-type-aliases.ply", "hand", expected)
     # Open3D's writer (ASCII and binary), vertex colours and normals.
     mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.array(points, dtype=np.float64)),
                                      o3d.utility.Vector3iVector(np.array(triangles, dtype=np.int32)))
@@ -711,6 +729,11 @@ def obj_files(folder):
     obj("obj-kd-only", positive, "newmtl tiles\nKd 0.2 0.4 0.6\n")
     case(folder, "obj-kd-only", "obj-kd-only.obj", "hand", faces_of(points, fan),
          colours=[[srgb(0.2), srgb(0.4), srgb(0.6)]] * 4)
+    # Windows line ends in the OBJ and its MTL, and an MTL file name with a space.
+    (folder / "obj crlf.mtl").write_bytes(plain_mtl.replace("\n", "\r\n").encode())
+    text = "mtllib obj crlf.mtl\n" + vertices + "usemtl tiles\n" + positive
+    (folder / "obj-crlf.obj").write_bytes(text.replace("\n", "\r\n").encode())
+    case(folder, "obj-crlf", "obj-crlf.obj", "hand", faces_of(points, fan), **textured)
     obj("obj-missing-texture", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd absent.png\n")
     case(folder, "obj-missing-texture", "obj-missing-texture.obj", "hand", refuse=["absent.png", "not found"])
     obj("obj-unknown-map-option", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd -zoom 2 tiles.png\n")

@@ -830,7 +830,11 @@ fn a_glb_square_through_its_node_hierarchy_maps_its_embedded_texture_exactly() {
 /// faces away.
 #[test]
 fn a_glb_square_as_a_strip_and_as_a_fan_is_the_triangle_lists_faces_wound_alike() {
-    for (mode, indices) in [(4, &[0u16, 1, 2, 0, 2, 3][..]), (5, &[1, 2, 0, 3][..]), (6, &[0, 1, 2, 3][..])] {
+    for (mode, indices) in [
+        (4, &[0u16, 1, 2, 0, 2, 3][..]),
+        (5, &[1, 2, 0, 3][..]),
+        (6, &[0, 1, 2, 3][..]),
+    ] {
         let scene = load_glb(&square_glb_drawn(|uv| uv, None, mode, indices)).unwrap();
         assert_eq!(scene.faces.len(), 2, "mode {mode}");
         for face in &scene.faces {

@@ -37,6 +37,18 @@ pub(super) struct CornerUvs {
 }
 
 impl MeshTriangle {
+    /// Turns the triangle the other way round (its corners 1 and 2, with their texture
+    /// coordinates and colours, swapped).
+    pub(super) fn reverse_winding(&mut self) {
+        self.vertices.swap(1, 2);
+        if let Some(texture) = &mut self.texture {
+            texture.uv.swap(1, 2);
+        }
+        if let Some(colours) = &mut self.corner_colours {
+            colours.swap(1, 2);
+        }
+    }
+
     /// Whether [`MeshTriangle::surface`] can give this triangle a surface: a texture, vertex
     /// colours or an unlit material.
     pub(super) fn carries_surface(&self) -> bool {

@@ -183,9 +183,15 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     // Placed in one parallel pass over all parts, not one a part: a file of 200,000 primitives
     // spent most of its load handing them to the threads one by one (docs/benchmarks.md,
     // "2026-11-27 night2 (parts)").
+    // A mirroring node (negative determinant) makes the file's clockwise triangles the front
+    // ones (glTF 2.0, 3.7.2.1): each is turned round so that the faces keep their front.
     parts.par_iter_mut().for_each(|(part, world)| {
+        let mirrored = world.determinant() < 0.0;
         part.par_iter_mut().with_min_len(PLACED_TOGETHER).for_each(|triangle| {
             triangle.vertices = triangle.vertices.map(|vertex| world.transform_point3(vertex));
+            if mirrored {
+                triangle.reverse_winding();
+            }
         });
     });
     Ok(parts.into_iter().map(|(part, _)| part).collect())
@@ -633,10 +639,12 @@ fn read_primitive(
                 [linear.x, linear.y, linear.z].map(linear_to_srgb)
             };
             Some(match accessor.dimensions() {
-                Dimensions::Vec3 => {
-                    accessor::read(&accessor, buffers, "COLOR_0", |[r, g, b]| encode(DVec4::new(r, g, b, 1.0)))?
+                Dimensions::Vec3 => accessor::read(&accessor, buffers, "COLOR_0", |[r, g, b]| {
+                    encode(DVec4::new(r, g, b, 1.0))
+                })?,
+                Dimensions::Vec4 => {
+                    accessor::read(&accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?
                 }
-                Dimensions::Vec4 => accessor::read(&accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?,
                 other => {
                     return Err(format!(
                         "accessor {} (COLOR_0) is {other:?}; COLOR_0 must be VEC3 or VEC4",
