@@ -1697,7 +1697,7 @@ fn same_triangle(got: &[DVec3], expected: &[DVec3; 3], tolerance: f64) -> Option
     (0..3).find(|&turn| (0..3).all(|k| (got[(k + turn) % 3] - expected[k]).length() <= tolerance))
 }
 
-/// What one case of tests/readers/write_format_variants.py must read as: its faces, and where
+/// What one case of `tests/readers/write_format_variants.py` must read as: its faces, and where
 /// given their colours, texture coordinates, vertex colours and a texel of the first texture.
 /// Every difference is returned, so that one run lists every variant read wrongly.
 fn check_variant(folder: &Path, case: &serde_json::Value) -> Vec<String> {
@@ -1818,7 +1818,7 @@ fn check_variant(folder: &Path, case: &serde_json::Value) -> Vec<String> {
 
 /// The mesh files users and independent checkers bring (glTF from pygltflib and trimesh in every
 /// topology, index width, quantization, colour and image kind, sparse and view-less accessors,
-/// node and scene layouts; PLY from plyfile, trimesh and Open3D in every encoding and list type;
+/// node and scene layouts; PLY from plyfile, trimesh and `Open3D` in every encoding and list type;
 /// OBJ with MTL options, negative indices, n-gons and awkward paths): each reads as its format
 /// defines it, and what omnisim cannot show is refused by name (README, "Scene files").
 #[test]

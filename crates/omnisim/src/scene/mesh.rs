@@ -209,7 +209,7 @@ fn index_list(p: Property) -> Option<Vec<i64>> {
 }
 
 /// A colour channel's byte: integer properties as they are (clamped to 0–255), float ones
-/// (Open3D's and MeshLab's `float red` …) from [0, 1].
+/// (as some scanners' writers give `float red` …) from [0, 1].
 fn colour_byte(p: &Property) -> Option<u8> {
     let v = scalar(p)?;
     let v = if matches!(p, Property::Float(_) | Property::Double(_)) {

@@ -272,15 +272,14 @@ const PLACED_TOGETHER: usize = 4096;
 /// root node: one that is no node's child), each with its node's world transform, in the order
 /// the hierarchy is walked.
 fn placements(document: &gltf::Document) -> Result<Vec<(gltf::Mesh<'_>, DMat4)>, String> {
-    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
-        Some(scene) => scene.nodes().collect(),
-        None => {
-            let mut is_child = vec![false; document.nodes().len()];
-            for child in document.nodes().flat_map(|node| node.children()) {
-                is_child[child.index()] = true;
-            }
-            document.nodes().filter(|node| !is_child[node.index()]).collect()
+    let roots: Vec<gltf::Node> = if let Some(scene) = document.default_scene().or_else(|| document.scenes().next()) {
+        scene.nodes().collect()
+    } else {
+        let mut is_child = vec![false; document.nodes().len()];
+        for child in document.nodes().flat_map(|node| node.children()) {
+            is_child[child.index()] = true;
         }
+        document.nodes().filter(|node| !is_child[node.index()]).collect()
     };
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots.into_iter().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     let mut visits = 0usize;
