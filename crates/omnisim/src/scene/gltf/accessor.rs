@@ -190,9 +190,9 @@ fn read_as<C: Component, T: Copy, const N: usize>(
 
 #[cfg(test)]
 mod tests {
-    use super::Component;
+    use super::{Component, read, read_indices};
 
-    /// The spec's normalization (glTF 2.0, "Animation" and "Accessor Data Types"): signed
+    /// The spec's normalization (glTF 2.0, 3.11 "Animation" and the accessor tables): signed
     /// types clamp their lowest value at −1; unsigned ones reach exactly 1.
     #[test]
     fn normalized_components_follow_the_spec() {
@@ -204,5 +204,60 @@ mod tests {
         assert_eq!(u16::value(&[0xff, 0xff], true), 1.0);
         assert_eq!(u16::value(&1000u16.to_le_bytes(), false), 1000.0);
         assert_eq!(i16::value(&(-7i16).to_le_bytes(), false), -7.0);
+    }
+
+    /// A quantized (normalized i16, byteStride 8) VEC3 accessor with a sparse substitute, a
+    /// view-less VEC2 accessor (zeros) with one, u8 indices, and the same read past its view.
+    #[test]
+    fn strided_quantized_sparse_and_view_less_accessors_read_their_closed_forms() {
+        let mut bin = Vec::new();
+        for element in [[32767i16, 0, -32768], [16384, -16384, 1], [0, 0, 0]] {
+            bin.extend(element.iter().flat_map(|c| c.to_le_bytes()));
+            bin.extend([0xee, 0xee]); // the stride's padding, never read
+        }
+        bin.extend([2u8, 0, 1, 0]); // indices 2, 0, 1 (and padding)
+        bin.extend(1u16.to_le_bytes()); // sparse index 1 of the VEC2s
+        bin.extend(2u16.to_le_bytes()); // sparse index 2 of the VEC3s
+        bin.extend([0.25f32, -4.0].iter().flat_map(|v| v.to_le_bytes()));
+        bin.extend([-32767i16, 32767, 0].iter().flat_map(|c| c.to_le_bytes()));
+        let json = serde_json::json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"byteLength": bin.len()}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 24, "byteStride": 8},
+                {"buffer": 0, "byteOffset": 24, "byteLength": 3},
+                {"buffer": 0, "byteOffset": 28, "byteLength": 2},
+                {"buffer": 0, "byteOffset": 30, "byteLength": 2},
+                {"buffer": 0, "byteOffset": 32, "byteLength": 8},
+                {"buffer": 0, "byteOffset": 40, "byteLength": 6},
+                {"buffer": 0, "byteOffset": 0, "byteLength": 20, "byteStride": 8}
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC3",
+                 "sparse": {"count": 1, "indices": {"bufferView": 3, "componentType": 5123},
+                            "values": {"bufferView": 5}}},
+                {"componentType": 5126, "count": 3, "type": "VEC2",
+                 "sparse": {"count": 1, "indices": {"bufferView": 2, "componentType": 5123},
+                            "values": {"bufferView": 4}}},
+                {"bufferView": 1, "componentType": 5121, "count": 3, "type": "SCALAR"},
+                {"bufferView": 6, "componentType": 5122, "count": 3, "type": "VEC3"}
+            ]
+        });
+        let gltf = gltf::Gltf::from_slice(&serde_json::to_vec(&json).unwrap()).unwrap();
+        let accessor = |i: usize| gltf.document.accessors().nth(i).unwrap();
+        let buffers = [bin];
+        let positions = read(&accessor(0), &buffers, "POSITION", |p: [f64; 3]| p).unwrap();
+        assert_eq!(
+            positions,
+            [[1.0, 0.0, -1.0], [16384.0 / 32767.0, -16384.0 / 32767.0, 1.0 / 32767.0], [-1.0, 1.0, 0.0]]
+        );
+        let uvs = read(&accessor(1), &buffers, "TEXCOORD_0", |uv: [f64; 2]| uv).unwrap();
+        assert_eq!(uvs, [[0.0, 0.0], [0.25, -4.0], [0.0, 0.0]]);
+        assert_eq!(read_indices(&accessor(2), &buffers).unwrap(), [2, 0, 1]);
+        // The third element's six bytes end at 22, past the view's 20.
+        let past = read(&accessor(3), &buffers, "POSITION", |p: [f64; 3]| p).unwrap_err();
+        assert!(past.contains("accessor 3 (POSITION)") && past.contains("truncated"), "{past}");
+        let wrong_width = read(&accessor(1), &buffers, "COLOR_0", |c: [f64; 3]| c).unwrap_err();
+        assert!(wrong_width.contains("must be VEC3"), "{wrong_width}");
     }
 }
