@@ -472,6 +472,32 @@ def gltf_materials_and_nodes(folder):
     case(folder, "gltf-mirrored", "gltf-mirrored.glb", "pygltflib",
          faces_of(mirrored, [(a, c, b) for a, b, c in triangles_of(5, 6)]))
 
+    # EXT_mesh_gpu_instancing (gltfpack -mi, gltf-transform instance): three instances, the
+    # rotation a normalized i16 quaternion (a quarter turn about z), each after the node's TRS.
+    blob = Blob()
+    position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
+    offsets = [(0.0, 0.0, 0.0), (5.0, 0.0, 0.0), (0.0, 5.0, 1.0)]
+    half = int(round(math.sqrt(0.5) * 32767))
+    turns = [(0, 0, 0, 32767), (0, 0, half, half), (0, 0, 0, 32767)]
+    sizes = [(1.0, 1.0, 1.0), (1.0, 1.0, 1.0), (2.0, 2.0, 2.0)]
+    attributes = {"TRANSLATION": blob.accessor(offsets, "f", "VEC3"),
+                  "ROTATION": blob.accessor(turns, "h", "VEC4", normalized=True),
+                  "SCALE": blob.accessor(sizes, "f", "VEC3")}
+    document = {"scene": 0, "scenes": [{"nodes": [0]}],
+                "nodes": [{"mesh": 0, "translation": [0, 0, 10],
+                           "extensions": {"EXT_mesh_gpu_instancing": {"attributes": attributes}}}],
+                "meshes": [{"primitives": [{"attributes": {"POSITION": position}, "mode": 5}]}]}
+    save_gltf(folder, "gltf-instancing.glb", document, blob, required=["EXT_mesh_gpu_instancing"])
+    faces = []
+    for offset, turn, size in zip(offsets, turns, sizes):
+        z, w = turn[2] / 32767, turn[3] / 32767
+        angle = 2 * math.atan2(z, w)
+        c, s = math.cos(angle), math.sin(angle)
+        placed = [(c * x * size[0] - s * y * size[1] + offset[0], s * x * size[0] + c * y * size[1] + offset[1],
+                   z_ * size[2] + offset[2] + 10) for x, y, z_ in STRIP]
+        faces += faces_of(placed, triangles_of(5, 6))
+    case(folder, "gltf-instancing", "gltf-instancing.glb", "pygltflib", faces)
+
     # No `scene`: the first scene is shown (node 0), not node 1 of the second.
     document = {"scenes": [{"nodes": [0]}, {"nodes": [1]}],
                 "nodes": [{"mesh": 0}, {"mesh": 0, "translation": [0, 0, 5]}],

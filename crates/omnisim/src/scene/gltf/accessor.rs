@@ -249,14 +249,21 @@ mod tests {
         let positions = read(&accessor(0), &buffers, "POSITION", |p: [f64; 3]| p).unwrap();
         assert_eq!(
             positions,
-            [[1.0, 0.0, -1.0], [16384.0 / 32767.0, -16384.0 / 32767.0, 1.0 / 32767.0], [-1.0, 1.0, 0.0]]
+            [
+                [1.0, 0.0, -1.0],
+                [16384.0 / 32767.0, -16384.0 / 32767.0, 1.0 / 32767.0],
+                [-1.0, 1.0, 0.0]
+            ]
         );
         let uvs = read(&accessor(1), &buffers, "TEXCOORD_0", |uv: [f64; 2]| uv).unwrap();
         assert_eq!(uvs, [[0.0, 0.0], [0.25, -4.0], [0.0, 0.0]]);
         assert_eq!(read_indices(&accessor(2), &buffers).unwrap(), [2, 0, 1]);
         // The third element's six bytes end at 22, past the view's 20.
         let past = read(&accessor(3), &buffers, "POSITION", |p: [f64; 3]| p).unwrap_err();
-        assert!(past.contains("accessor 3 (POSITION)") && past.contains("truncated"), "{past}");
+        assert!(
+            past.contains("accessor 3 (POSITION)") && past.contains("truncated"),
+            "{past}"
+        );
         let wrong_width = read(&accessor(1), &buffers, "COLOR_0", |c: [f64; 3]| c).unwrap_err();
         assert!(wrong_width.contains("must be VEC3"), "{wrong_width}");
     }

@@ -1,7 +1,8 @@
 //! glTF 2.0 (`.gltf` with its buffers and images, or one `.glb`) through the gltf crate: the
 //! default scene's node hierarchy with its transforms, triangle primitives (lists, strips and
 //! fans), `baseColorFactor`, `baseColorTexture` (its sampler's wrap modes and its `texCoord`
-//! set), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit` and `KHR_mesh_quantization`.
+//! set), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization` and
+//! `EXT_mesh_gpu_instancing`.
 //!
 //! A glTF file becomes one scene object, each of its triangles a face (as for PLY and OBJ).
 //! Buffers and images are resolved here rather than by gltf's `import`, so that a file opens
@@ -19,7 +20,7 @@ use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use base64::Engine as _;
-use glam::{DMat4, DVec2, DVec3, DVec4};
+use glam::{DMat4, DQuat, DVec2, DVec3, DVec4};
 use gltf::accessor::Dimensions;
 use gltf::mesh::Mode;
 use gltf::texture::WrappingMode;
@@ -30,7 +31,12 @@ use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTr
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
-const SUPPORTED_EXTENSIONS: [&str; 3] = ["KHR_texture_transform", "KHR_materials_unlit", "KHR_mesh_quantization"];
+const SUPPORTED_EXTENSIONS: [&str; 4] = [
+    "KHR_texture_transform",
+    "KHR_materials_unlit",
+    "KHR_mesh_quantization",
+    "EXT_mesh_gpu_instancing",
+];
 
 /// How to make a file that requires `extension` readable, for its refusal.
 fn without_extension(extension: &str) -> &'static str {
@@ -100,7 +106,7 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
         .buffers()
         .map(|buffer| load_buffer(&buffer, gltf.blob.as_deref(), textures))
         .collect::<Result<Vec<_>, _>>()?;
-    let placed = placements(document)?;
+    let placed = placements(document, &buffers)?;
     // Points and lines first: their accessors' counts are no triangles for the cap below.
     for (mesh, _) in &placed {
         if let Some(primitive) = mesh
@@ -197,6 +203,66 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     Ok(parts.into_iter().map(|(part, _)| part).collect())
 }
 
+/// The instance transforms of `node`'s `EXT_mesh_gpu_instancing`, each applied after the
+/// node's own (as a child node of that TRS would be), or `None` without the extension.
+fn instances(node: &gltf::Node, document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Option<Vec<DMat4>>, String> {
+    let Some(extension) = node.extension_value("EXT_mesh_gpu_instancing") else {
+        return Ok(None);
+    };
+    let what = format!("node {} (EXT_mesh_gpu_instancing)", node.index());
+    let attribute = |name: &str| match extension.get("attributes").and_then(|list| list.get(name)) {
+        None => Ok(None),
+        Some(index) => index
+            .as_u64()
+            .and_then(|i| document.accessors().nth(usize::try_from(i).ok()?))
+            .map(Some)
+            .ok_or_else(|| format!("{what}: its {name} names no accessor")),
+    };
+    let in_node = |e: String| format!("{what}: {e}");
+    let translations = attribute("TRANSLATION")?
+        .map(|a| accessor::read(&a, buffers, "TRANSLATION", DVec3::from_array))
+        .transpose()
+        .map_err(in_node)?;
+    let rotations = attribute("ROTATION")?
+        .map(|a| accessor::read(&a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
+        .transpose()
+        .map_err(in_node)?;
+    let scales = attribute("SCALE")?
+        .map(|a| accessor::read(&a, buffers, "SCALE", DVec3::from_array))
+        .transpose()
+        .map_err(in_node)?;
+    let counts = [
+        translations.as_ref().map(Vec::len),
+        rotations.as_ref().map(Vec::len),
+        scales.as_ref().map(Vec::len),
+    ];
+    let count = counts
+        .iter()
+        .flatten()
+        .copied()
+        .max()
+        .ok_or_else(|| format!("{what}: it has none of TRANSLATION, ROTATION and SCALE"))?;
+    if counts.iter().flatten().any(|&n| n != count) {
+        return Err(format!("{what}: its TRANSLATION, ROTATION and SCALE counts differ"));
+    }
+    (0..count)
+        .map(|i| {
+            let instance = DMat4::from_scale_rotation_translation(
+                scales.as_ref().map_or(DVec3::ONE, |s| s[i]),
+                // Normalized integer quaternions are only nearly unit ones.
+                rotations.as_ref().map_or(DQuat::IDENTITY, |r| r[i].normalize()),
+                translations.as_ref().map_or(DVec3::ZERO, |t| t[i]),
+            );
+            if instance.is_finite() {
+                Ok(instance)
+            } else {
+                Err(format!("{what}: instance {i}'s transform is not finite"))
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Some)
+}
+
 /// The document of `bytes`, validated by gltf-json except where gltf-json refuses what omnisim
 /// reads: `KHR_mesh_quantization` (which gltf-json does not know) and accessors without a
 /// buffer view (all zeros by the spec; gltf-json asks for a view). A required extension
@@ -271,7 +337,7 @@ const PLACED_TOGETHER: usize = 4096;
 /// The meshes of the default scene's node hierarchy (else of the first scene, else of every
 /// root node: one that is no node's child), each with its node's world transform, in the order
 /// the hierarchy is walked.
-fn placements(document: &gltf::Document) -> Result<Vec<(gltf::Mesh<'_>, DMat4)>, String> {
+fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<Vec<(gltf::Mesh<'a>, DMat4)>, String> {
     let roots: Vec<gltf::Node> = if let Some(scene) = document.default_scene().or_else(|| document.scenes().next()) {
         scene.nodes().collect()
     } else {
@@ -298,7 +364,20 @@ fn placements(document: &gltf::Document) -> Result<Vec<(gltf::Mesh<'_>, DMat4)>,
             return Err(format!("node {}: its transform is not finite", node.index()));
         }
         if let Some(mesh) = node.mesh() {
-            placed.push((mesh, world));
+            match instances(&node, document, buffers)? {
+                None => placed.push((mesh, world)),
+                Some(instances) => {
+                    // Each instance a placement, counted as a node visit against the cap.
+                    visits = visits.saturating_add(instances.len());
+                    if visits > MAX_NODE_VISITS {
+                        return Err(format!(
+                            "node {}: its instances pass {MAX_NODE_VISITS} placements",
+                            node.index()
+                        ));
+                    }
+                    placed.extend(instances.into_iter().map(|instance| (mesh.clone(), world * instance)));
+                }
+            }
         }
         stack.extend(node.children().map(|child| (child, world, depth + 1)));
     }
