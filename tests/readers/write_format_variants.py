@@ -69,10 +69,15 @@ def png(width, height, colour_type, depth, rows, palette=None):
 TEXELS = [[(200, 30, 60), (20, 180, 90)], [(10, 20, 250), (240, 240, 10)]]
 
 
+def tiles_png():
+    """TEXELS as an 8-bit RGB PNG."""
+    return png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS])
+
+
 def image_variants():
     """(name, file bytes, the texel at (1, 0) as it must read) of each image kind."""
     flat = [[c for rgb in row for c in rgb] for row in TEXELS]
-    out = [("rgb8", png(2, 2, 2, 8, flat), TEXELS[0][1])]
+    out = [("rgb8", tiles_png(), TEXELS[0][1])]
     wide = [[c * 257 + 3 for c in row] for row in flat]
     out.append(("rgb16", png(2, 2, 2, 16, wide), tuple(round((c * 257 + 3) / 257) for c in TEXELS[0][1])))
     out.append(("rgba8", png(2, 2, 6, 8, [[c for rgb in row for c in (*rgb, 128)] for row in TEXELS]), TEXELS[0][1]))
@@ -192,6 +197,15 @@ def one_mesh(primitive, nodes=None, materials=None, **extra):
     return document
 
 
+def textured(folder, attributes, info=None, nodes=None, uri="tiles.png"):
+    """A document of one strip of `attributes` whose material shows the 2×2 `tiles.png`
+    (written into `folder`) through the texture info `info`."""
+    (folder / "tiles.png").write_bytes(tiles_png())
+    primitive = {"attributes": attributes, "mode": 5, "material": 0}
+    return one_mesh(primitive, nodes=nodes, textures=[{"source": 0}], images=[{"uri": uri}],
+                    materials=[{"pbrMetallicRoughness": {"baseColorTexture": info or {"index": 0}}}])
+
+
 def faces_of(points, triangles):
     return [[list(points[i]) for i in t] for t in triangles]
 
@@ -225,11 +239,7 @@ def gltf_interleaved(folder):
                                   "type": "VEC3", "min": [0, 0, 0], "max": [2, 1, 0.5]})
     texcoord = blob.raw_accessor({"bufferView": view, "byteOffset": 12, "componentType": 5126, "count": 6,
                                   "type": "VEC2"})
-    image = png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS])
-    (folder / "tiles.png").write_bytes(image)
-    primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
-    document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
-                        textures=[{"source": 0}], images=[{"uri": "tiles.png"}])
+    document = textured(folder, {"POSITION": position, "TEXCOORD_0": texcoord})
     save_gltf(folder, "gltf-interleaved.gltf", document, blob)
     triangles = triangles_of(5, 6)
     case(folder, "gltf-interleaved", "gltf-interleaved.gltf", "pygltflib", faces_of(STRIP, triangles),
@@ -260,11 +270,8 @@ def gltf_quantization(folder):
             scale = (2.0, 2.0, 2.0) if normalized else (2 / top,) * 3
             uv_quantized = [(int(round(p[0] / 2 * 255)), int(round(p[1] * 255))) for p in STRIP]
             texcoord = blob.accessor(uv_quantized, "B", "VEC2", normalized=True, stride=4)
-            (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
-            primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
-            document = one_mesh(primitive, nodes=[{"mesh": 0, "scale": list(scale)}],
-                                materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
-                                textures=[{"source": 0}], images=[{"uri": "tiles.png"}])
+            document = textured(folder, {"POSITION": position, "TEXCOORD_0": texcoord},
+                                nodes=[{"mesh": 0, "scale": list(scale)}])
             name = f"gltf-quantized-{ {'b': 'i8', 'B': 'u8', 'h': 'i16', 'H': 'u16'}[component] }" + (
                 "-normalized" if normalized else "")
             save_gltf(folder, f"{name}.glb", document, blob, required=["KHR_mesh_quantization"])
@@ -280,9 +287,7 @@ def gltf_quantization(folder):
     uv_quantized = [(int(p[0] * 512), int(p[1] * 1024)) for p in STRIP]
     texcoord = blob.accessor(uv_quantized, "H", "VEC2", stride=4)
     transform = {"KHR_texture_transform": {"scale": [1 / 1024, 1 / 1024]}}
-    primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
-    document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {
-        "index": 0, "extensions": transform}}}], textures=[{"source": 0}], images=[{"uri": "tiles.png"}])
+    document = textured(folder, {"POSITION": position, "TEXCOORD_0": texcoord}, {"index": 0, "extensions": transform})
     save_gltf(folder, "gltf-quantized-uv-u16.glb", document, blob,
               required=["KHR_mesh_quantization", "KHR_texture_transform"])
     scale = float(np.float32(1 / 1024))
@@ -321,7 +326,6 @@ def gltf_texcoord_sets(folder):
     """TEXCOORD_1 picked by texCoord 1, and KHR_texture_transform's own texCoord."""
     first = [(0.0, 0.0)] * 6
     second = [(p[0] / 2, p[1]) for p in STRIP]
-    (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
     for name, info in [("gltf-texcoord-1", {"index": 0, "texCoord": 1}),
                        ("gltf-transform-texcoord", {"index": 0, "texCoord": 0, "extensions": {
                            "KHR_texture_transform": {"texCoord": 1, "offset": [0.25, 0.5]}}})]:
@@ -329,10 +333,7 @@ def gltf_texcoord_sets(folder):
         position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
         uv0 = blob.accessor(first, "f", "VEC2")
         uv1 = blob.accessor(second, "f", "VEC2")
-        primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": uv0, "TEXCOORD_1": uv1}, "mode": 5,
-                     "material": 0}
-        document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": info}}],
-                            textures=[{"source": 0}], images=[{"uri": "tiles.png"}])
+        document = textured(folder, {"POSITION": position, "TEXCOORD_0": uv0, "TEXCOORD_1": uv1}, info)
         save_gltf(folder, f"{name}.gltf", document, blob,
                   required=["KHR_texture_transform"] if "extensions" in info else ())
         offset = (0.25, 0.5) if "extensions" in info else (0.0, 0.0)
@@ -372,10 +373,7 @@ def gltf_sparse_and_viewless(folder):
     blob = Blob()
     position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
     zeros = blob.raw_accessor({"componentType": 5126, "count": 6, "type": "VEC2"})
-    (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
-    primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": zeros}, "mode": 5, "material": 0}
-    document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
-                        textures=[{"source": 0}], images=[{"uri": "tiles.png"}])
+    document = textured(folder, {"POSITION": position, "TEXCOORD_0": zeros})
     save_gltf(folder, "gltf-no-view-uvs.glb", document, blob)
     triangles = triangles_of(5, 6)
     case(folder, "gltf-no-view-uvs", "gltf-no-view-uvs.glb", "pygltflib", faces_of(STRIP, triangles),
@@ -423,7 +421,7 @@ def gltf_images(folder):
 def gltf_materials_and_nodes(folder):
     """A texture shared by two materials, a material without a texture, no material; a node
     matrix against TRS, a mesh placed twice, no default scene, no scenes."""
-    (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
+    (folder / "tiles.png").write_bytes(tiles_png())
     blob = Blob()
     position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
     texcoord = blob.accessor([(p[0] / 2, p[1]) for p in STRIP], "f", "VEC2")
@@ -569,10 +567,7 @@ def gltf_bad(folder):
     position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
     quantized = [(int(round(p[0] / 2 * 127)), -int(round(p[1] * 127))) for p in STRIP]
     texcoord = blob.accessor(quantized, "b", "VEC2", normalized=True, stride=4)
-    (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
-    primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
-    document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
-                        textures=[{"source": 0}], images=[{"uri": "tiles.png"}])
+    document = textured(folder, {"POSITION": position, "TEXCOORD_0": texcoord})
     save_gltf(folder, "gltf-quantized-uv-i8.glb", document, blob, required=["KHR_mesh_quantization"])
     uvs = [(dequantize(u, "b", True), dequantize(v, "b", True)) for u, v in quantized]
     case(folder, "gltf-quantized-uv-i8", "gltf-quantized-uv-i8.glb", "pygltflib", faces_of(STRIP, triangles_of(5, 6)),
@@ -581,9 +576,7 @@ def gltf_bad(folder):
     blob = Blob()
     position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
     texcoord = blob.accessor([(0.0, 0.0)] * 6, "f", "VEC2")
-    primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
-    document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
-                        textures=[{"source": 0}], images=[{"uri": "tiles%zz.png"}])
+    document = textured(folder, {"POSITION": position, "TEXCOORD_0": texcoord}, uri="tiles%zz.png")
     save_gltf(folder, "gltf-bad-percent.gltf", document, blob)
     case(folder, "gltf-bad-percent", "gltf-bad-percent.gltf", "pygltflib", refuse=["tiles%zz.png", "hexadecimal"])
 
@@ -667,7 +660,7 @@ def ply_files(folder):
         case(folder, name, f"{name}.ply", "plyfile", faces_of(points, triangles),
              corner_colours=[[list(rgb[i]) for i in t] for t in triangles])
     # Matterport/MeshLab: per-face texcoord lists and `comment TextureFile`; texnumber picks the file.
-    (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
+    (folder / "tiles.png").write_bytes(tiles_png())
     vertex = np.array([tuple(p) for p in points], dtype=[("x", "f4"), ("y", "f4"), ("z", "f4")])
     face = np.empty(len(triangles), dtype=[("vertex_indices", "i4", (3,)), ("texcoord", "f4", (6,)),
                                            ("texnumber", "i4")])
@@ -703,7 +696,7 @@ def ply_files(folder):
 # ---------------------------------------------------------------- OBJ and MTL by hand
 
 def obj_files(folder):
-    (folder / "tiles.png").write_bytes(png(2, 2, 2, 8, [[c for rgb in row for c in rgb] for row in TEXELS]))
+    (folder / "tiles.png").write_bytes(tiles_png())
     (folder / "sub").mkdir(exist_ok=True)
     (folder / "sub" / "tiles.png").write_bytes((folder / "tiles.png").read_bytes())
     (folder / "my tiles.png").write_bytes((folder / "tiles.png").read_bytes())
