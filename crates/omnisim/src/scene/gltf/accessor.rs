@@ -136,26 +136,23 @@ fn read_as<C: Component, T: Copy, const N: usize>(
             name()
         )
     };
-    let mut list: Vec<T> = match accessor.view() {
-        Some(view) => {
-            let stride = view.stride().unwrap_or(size);
-            let bytes = elements(&view, accessor.offset(), count, size, stride, buffers).ok_or_else(truncated)?;
-            // The last element may end before a full stride does.
-            (0..count)
-                .map(|i| decode(&bytes[i * stride..i * stride + size]))
-                .collect()
+    let mut list: Vec<T> = if let Some(view) = accessor.view() {
+        let stride = view.stride().unwrap_or(size);
+        let bytes = elements(&view, accessor.offset(), count, size, stride, buffers).ok_or_else(truncated)?;
+        // The last element may end before a full stride does.
+        (0..count)
+            .map(|i| decode(&bytes[i * stride..i * stride + size]))
+            .collect()
+    } else {
+        let backed = buffers.iter().map(Vec::len).sum::<usize>().max(VIEW_LESS_FLOOR);
+        if count > backed {
+            return Err(format!(
+                "{} has no buffer view and {count} elements, more than the file's {backed} buffer bytes could \
+                 describe",
+                name()
+            ));
         }
-        None => {
-            let backed = buffers.iter().map(Vec::len).sum::<usize>().max(VIEW_LESS_FLOOR);
-            if count > backed {
-                return Err(format!(
-                    "{} has no buffer view and {count} elements, more than the file's {backed} buffer bytes \
-                     could describe",
-                    name()
-                ));
-            }
-            vec![make([0.0; N]); count]
-        }
+        vec![make([0.0; N]); count]
     };
     if let Some(sparse) = accessor.sparse() {
         let substitutes = sparse.count();
