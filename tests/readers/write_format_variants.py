@@ -553,6 +553,9 @@ def gltf_bad(folder):
     bad("gltf-bad-view-less-past-the-file", ["accessor 0 (POSITION)", "no buffer view and 100000000 elements"],
         lambda blob: {"attributes": {"POSITION": blob.raw_accessor({
             "componentType": 5126, "count": 100000000, "type": "VEC3", "min": [0, 0, 0], "max": [0, 0, 0]})}})
+    # gltf-json's validation indexed the accessors with this unchecked (a panic in the base).
+    bad("gltf-bad-position-accessor", ["mesh 0 primitive 0", "names accessor 9"], lambda blob: {
+        "attributes": {"POSITION": 9, "NORMAL": blob.accessor(STRIP, "f", "VEC3")}})
     bad("gltf-bad-float-indices", ["accessor 1 (indices)", "unsigned"], lambda blob: {
         "attributes": {"POSITION": blob.accessor(STRIP, "f", "VEC3", minmax=True)},
         "indices": blob.accessor([(0.0,), (1.0,), (2.0,)], "f", "SCALAR")})

@@ -712,25 +712,6 @@ fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
     }
 }
 
-/// A GLB container of `json` and the binary chunk `bin` (both padded to 4 bytes).
-fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
-    let mut json = serde_json::to_vec(json).unwrap();
-    json.resize(json.len().div_ceil(4) * 4, b' ');
-    let mut bin = bin.to_vec();
-    bin.resize(bin.len().div_ceil(4) * 4, 0);
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = b"glTF".to_vec();
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((json.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(json);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(bin);
-    out
-}
-
 /// The textured square as a GLB: the square lies in its node's xy plane, placed at x = 2
 /// facing the origin by a parent node (scale 2, translation) and a child (rotation, scale ½);
 /// the 4×3 texture is embedded, clamped. `uv` maps each local (u, v) to what the file
@@ -804,7 +785,7 @@ fn square_glb_drawn(
         ],
         "buffers": [{"byteLength": bin.len()}]
     });
-    glb(&json, &bin)
+    common::glb(&json, &bin)
 }
 
 fn load_glb(bytes: &[u8]) -> Result<Scene, omnisim::SceneError> {
@@ -936,7 +917,7 @@ fn primitives_sharing_texture_coordinates_under_different_transforms_each_get_th
         ],
         "buffers": [{"byteLength": bin.len()}]
     });
-    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let scene = load_glb(&common::glb(&json, &bin)).unwrap();
     assert_eq!(scene.faces.len(), 6);
     // offset + R(rotation)·(scale ⊙ uv), the extension's formula, written out here (its
     // numbers are read as f32).
@@ -1016,7 +997,7 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
     let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
     json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
     json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-    let draco = error(&glb(&json, &good[json_end + 8..]));
+    let draco = error(&common::glb(&json, &good[json_end + 8..]));
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
 }
 
@@ -1049,7 +1030,7 @@ fn shared_indices_glb(mode: u32) -> Vec<u8> {
         ],
         "buffers": [{"byteLength": bin.len()}],
     });
-    glb(&json, &bin)
+    common::glb(&json, &bin)
 }
 
 /// The meshes of [`shared_indices_glb`] are more than a mesh may hold (50 M triangles):
@@ -1103,7 +1084,7 @@ fn a_gltf_mesh_placed_by_two_nodes_is_in_the_scene_twice_as_one_object() {
         "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}],
         "buffers": [{"byteLength": bin.len()}]
     });
-    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let scene = load_glb(&common::glb(&json, &bin)).unwrap();
     let translated = [dvec3(1.0, 0.0, 2.0), dvec3(3.0, 0.0, 2.0), dvec3(1.0, 2.0, 2.0)];
     let rotated = [dvec3(1.0, 0.0, 0.0), dvec3(1.0, 1.0, 0.0), dvec3(0.0, 0.0, 0.0)];
     assert_eq!(scene.faces.len(), 2);
@@ -1242,7 +1223,7 @@ fn a_gltf_of_thousands_of_primitives_under_a_node_hierarchy_is_read_face_by_face
         "bufferViews": views,
         "buffers": [{"byteLength": bin.len()}]
     });
-    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let scene = load_glb(&common::glb(&json, &bin)).unwrap();
     let mut faces = scene.faces.iter().enumerate();
     let mut dropped = 0;
     for g in (0..GROUPS).rev() {

@@ -283,6 +283,23 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
         ));
     }
     let json = gltf.document.as_json();
+    // gltf-json's own check of a POSITION accessor indexes the accessors unchecked (a panic):
+    // every attribute's accessor is checked here first.
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive
+                .attributes
+                .values()
+                .map(|index| index.value())
+                .find(|&index| index >= json.accessors.len())
+            {
+                return Err(format!(
+                    "mesh {m} primitive {p}: an attribute names accessor {index}, but the file has {}",
+                    json.accessors.len()
+                ));
+            }
+        }
+    }
     let mut problems = Vec::new();
     json.validate(json, gltf::json::Path::new, &mut |path, error| {
         let path = path();
