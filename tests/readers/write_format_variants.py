@@ -759,6 +759,17 @@ def obj_files(folder):
     text = "mtllib obj crlf.mtl\n" + vertices + "usemtl tiles\n" + positive
     (folder / "obj-crlf.obj").write_bytes(text.replace("\n", "\r\n").encode())
     case(folder, "obj-crlf", "obj-crlf.obj", "hand", faces_of(points, fan), **textured)
+    # `Kd r` stands for `Kd r r r` (tobj panicked on it); two numbers are refused.
+    obj("obj-kd-one-number", positive, "newmtl tiles\nKd 0.5\n")
+    case(folder, "obj-kd-one-number", "obj-kd-one-number.obj", "hand", faces_of(points, fan),
+         colours=[[srgb(0.5)] * 3] * 4)
+    obj("obj-bad-kd-two-numbers", positive, "newmtl tiles\nKd 0.5 0.25\n")
+    case(folder, "obj-bad-kd-two-numbers", "obj-bad-kd-two-numbers.obj", "hand",
+         refuse=["line 2", "Kd needs one number (grey) or three"])
+    # A face index far past any mesh (tobj's arithmetic on it overflowed).
+    obj("obj-bad-face-index", positive + "f 1/1 2/2 3/4611686018427387904\n", plain_mtl)
+    case(folder, "obj-bad-face-index", "obj-bad-face-index.obj", "hand",
+         refuse=["line 17", "face index 4611686018427387904 refers to no texture coordinate"])
     obj("obj-missing-texture", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd absent.png\n")
     case(folder, "obj-missing-texture", "obj-missing-texture.obj", "hand", refuse=["absent.png", "not found"])
     obj("obj-unknown-map-option", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd -zoom 2 tiles.png\n")

@@ -353,3 +353,67 @@ fn mutated_gltf_files_never_panic() {
         failures.join("\n")
     );
 }
+
+/// Seeded token and byte edits of a textured ASCII PLY (face `texcoord` lists, `texnumber`,
+/// `comment TextureFile`, float colours) and of an OBJ with its MTL (`map_Kd` options, negative
+/// indices, n-gons): loading never panics, and every refusal is located.
+#[test]
+fn mutated_text_meshes_never_panic() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut png = Vec::new();
+    let mut encoder = png::Encoder::new(&mut png, 2, 1);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder
+        .write_header()
+        .unwrap()
+        .write_image_data(&[255, 0, 0, 0, 0, 255])
+        .unwrap();
+    std::fs::write(folder.path().join("tiles.png"), png).unwrap();
+    let ply = "ply\nformat ascii 1.0\ncomment TextureFile tiles.png\nelement vertex 4\nproperty float x\n\
+               property float y\nproperty float z\nproperty float red\nproperty float green\nproperty float blue\n\
+               element face 2\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\n\
+               property int texnumber\nend_header\n0 0 0 1 0 0\n1 0 0 0 1 0\n1 1 0 0 0 1\n0 1 0.5 0.5 0.5 0.5\n\
+               3 0 1 2 6 0 0 1 0 1 1 0\n4 0 2 3 1 8 0 0 1 1 0 1 0.5 0.5 0\n";
+    let obj = "mtllib mesh.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0.5\nvt 0 0\nvt 1 0\nvt 1 1 0\nvt 0 1\n\
+               usemtl tiles\nf -4/-4 -3/-3 -2/-2 -1/-1\nf 1/1 2/2 3/3\n";
+    let mtl = "newmtl tiles\nKd 1 0.5 0.25\nmap_Kd -s 2 2 1 -o 0.5 0.25 -clamp on -bm 0.5 tiles.png\n";
+    let mut rng = StdRng::seed_from_u64(21);
+    let mut failures = Vec::new();
+    for (file, text, beside) in [
+        ("mesh.ply", ply, None),
+        ("mesh.obj", obj, Some(mtl)),
+        ("mesh.obj", obj, None),
+    ] {
+        for round in 0..MUTATIONS / 5 {
+            let edit = |text: &str, rng: &mut StdRng| {
+                if rng.random_bool(0.5) {
+                    mutate_tokens(text, rng)
+                } else {
+                    mutate_bytes(text, rng)
+                }
+            };
+            // The OBJ's MTL is edited in the second OBJ pass, the OBJ itself in the first.
+            let (text, mtl) = match beside {
+                Some(mtl) => (text.to_string(), edit(mtl, &mut rng)),
+                None => (edit(text, &mut rng), mtl.to_string()),
+            };
+            std::fs::write(folder.path().join(file), &text).unwrap();
+            std::fs::write(folder.path().join("mesh.mtl"), &mtl).unwrap();
+            let scene =
+                format!(r#"Scene(name: "fuzz", objects: [Mesh(name: "m", path: "{file}", colour: (9, 9, 9))])"#);
+            let loaded = catch_unwind(AssertUnwindSafe(|| {
+                Scene::from_ron(&scene, &folder.path().join("fuzz.ron"))
+            }));
+            match loaded {
+                Err(_) => failures.push(format!("{file} round {round} panicked:\n{text}\n{mtl}")),
+                Ok(Err(e)) if !e.to_string().contains(file) && !e.to_string().contains("object 'm'") => {
+                    failures.push(format!(
+                        "{file} round {round}: the error names neither file nor object: {e}"
+                    ));
+                }
+                Ok(_) => {}
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}:\n{}", failures.len(), failures.join("\n"));
+}

@@ -7,7 +7,7 @@
 //! Windows path's backslashes are taken as folder separators.
 
 use std::cell::RefCell;
-use std::io::BufRead;
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 use glam::{DVec2, dvec3};
@@ -86,9 +86,116 @@ fn texture_map(text: &str) -> Result<(String, TextureMap), String> {
     Ok((file, map))
 }
 
+/// An MTL's text with every colour statement (`Ka`, `Kd`, `Ks`, `Ke`) of one number written
+/// out as three: the format lets `Kd r` stand for `Kd r r r`, and tobj panics on fewer than
+/// three. Two numbers are refused, naming the line.
+fn colours_of_three(text: &str) -> Result<String, String> {
+    let mut out = String::with_capacity(text.len());
+    for (number, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match (words.next(), words.clone().count()) {
+            (Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")), 1) => {
+                let r = words.next().unwrap_or_default();
+                out += &format!("{key} {r} {r} {r}");
+            }
+            (Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")), 0 | 2) => {
+                return Err(format!(
+                    "mtllib: line {}: {key} needs one number (grey) or three (r g b)",
+                    number + 1
+                ));
+            }
+            _ => out += line,
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// Largest face index read (OBJ indices count from 1): far past any mesh omnisim reads.
+const MAX_FACE_INDEX: i64 = 1 << 31;
+
+/// An OBJ's lines handed to tobj, each face's indices checked first: tobj computes with an
+/// index of any size unchecked (an overflow: a panic with overflow checks, a wrong texture
+/// coordinate without), so a zero index, one past [`MAX_FACE_INDEX`] or a relative one
+/// before the first element is refused here, naming its line.
+struct CheckedFaces<R> {
+    inner: R,
+    /// The line being handed on, and how much of it has been.
+    line: Vec<u8>,
+    at: usize,
+    /// Its line number, and how many `v`, `vt`, `vn` came before it.
+    number: usize,
+    counts: [i64; 3],
+    problem: Option<String>,
+}
+
+impl<R: BufRead> CheckedFaces<R> {
+    fn check(&mut self) -> Result<(), String> {
+        let text = String::from_utf8_lossy(&self.line);
+        let mut words = text.split_whitespace();
+        match words.next() {
+            Some("v") => self.counts[0] += 1,
+            Some("vt") => self.counts[1] += 1,
+            Some("vn") => self.counts[2] += 1,
+            Some("f") => {
+                for corner in words {
+                    for (k, index) in corner.split('/').enumerate().take(3) {
+                        // What is no number tobj refuses itself.
+                        let Ok(i) = index.parse::<i64>() else { continue };
+                        if i == 0 || i > MAX_FACE_INDEX || (i < 0 && self.counts[k] + i < 0) {
+                            return Err(format!(
+                                "line {}: face index {index} refers to no {} (indices count from 1, negative \
+                                 ones back from the last read)",
+                                self.number,
+                                ["vertex", "texture coordinate", "normal"][k]
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+}
+
+impl<R: BufRead> Read for CheckedFaces<R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let n = {
+            let line = self.fill_buf()?;
+            let n = line.len().min(out.len());
+            out[..n].copy_from_slice(&line[..n]);
+            n
+        };
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for CheckedFaces<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.at == self.line.len() {
+            self.line.clear();
+            self.at = 0;
+            if self.inner.read_until(b'\n', &mut self.line)? > 0 {
+                self.number += 1;
+                if let Err(problem) = self.check() {
+                    self.problem = Some(problem.clone());
+                    return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, problem));
+                }
+            }
+        }
+        Ok(&self.line[self.at..])
+    }
+
+    fn consume(&mut self, n: usize) {
+        self.at += n;
+    }
+}
+
 /// Reads an OBJ's triangles, their vertex colours, and through its MTL their colours and
 /// textures.
-pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
+pub(super) fn load_obj(reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
@@ -102,8 +209,13 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
             .ok_or_else(|| "the mtllib name is not UTF-8".to_string())
             .and_then(|name| super::library::inside_folder(textures.mesh, name, "mtllib"))
             .and_then(|path| crate::input::open_regular(&path, MTL_LIMIT).map_err(|e| format!("mtllib: {e}")));
-        match opened {
-            Ok(file) => tobj::load_mtl_buf(&mut std::io::BufReader::new(file)).inspect_err(|_| {
+        let text = opened.and_then(|mut file| {
+            let mut bytes = Vec::new();
+            file.read_to_end(&mut bytes).map_err(|e| format!("mtllib: {e}"))?;
+            colours_of_three(&String::from_utf8_lossy(&bytes))
+        });
+        match text {
+            Ok(text) => tobj::load_mtl_buf(&mut text.as_bytes()).inspect_err(|_| {
                 *mtl_problem.borrow_mut() = Some("mtllib: not a readable MTL file".into());
             }),
             Err(problem) => {
@@ -112,8 +224,19 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
             }
         }
     };
-    let (models, materials) =
-        tobj::load_obj_buf(&mut reader, &options, load_mtl).map_err(|e| format!("not a readable OBJ file: {e}"))?;
+    let mut reader = CheckedFaces {
+        inner: reader,
+        line: Vec::new(),
+        at: 0,
+        number: 0,
+        counts: [0; 3],
+        problem: None,
+    };
+    let loaded = tobj::load_obj_buf(&mut reader, &options, load_mtl);
+    if let Some(problem) = reader.problem {
+        return Err(problem);
+    }
+    let (models, materials) = loaded.map_err(|e| format!("not a readable OBJ file: {e}"))?;
     if let Some(problem) = mtl_problem.into_inner() {
         return Err(problem);
     }

@@ -290,7 +290,7 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
             if let Some(index) = primitive
                 .attributes
                 .values()
-                .map(|index| index.value())
+                .map(gltf::json::Index::value)
                 .find(|&index| index >= json.accessors.len())
             {
                 return Err(format!(
