@@ -111,91 +111,9 @@ fn colours_of_three(text: &str) -> Result<String, String> {
     Ok(out)
 }
 
-/// Largest face index read (OBJ indices count from 1): far past any mesh omnisim reads.
-const MAX_FACE_INDEX: i64 = 1 << 31;
-
-/// An OBJ's lines handed to tobj, each face's indices checked first: tobj computes with an
-/// index of any size unchecked (an overflow: a panic with overflow checks, a wrong texture
-/// coordinate without), so a zero index, one past [`MAX_FACE_INDEX`] or a relative one
-/// before the first element is refused here, naming its line.
-struct CheckedFaces<R> {
-    inner: R,
-    /// The line being handed on, and how much of it has been.
-    line: Vec<u8>,
-    at: usize,
-    /// Its line number, and how many `v`, `vt`, `vn` came before it.
-    number: usize,
-    counts: [i64; 3],
-    problem: Option<String>,
-}
-
-impl<R: BufRead> CheckedFaces<R> {
-    fn check(&mut self) -> Result<(), String> {
-        let text = String::from_utf8_lossy(&self.line);
-        let mut words = text.split_whitespace();
-        match words.next() {
-            Some("v") => self.counts[0] += 1,
-            Some("vt") => self.counts[1] += 1,
-            Some("vn") => self.counts[2] += 1,
-            Some("f") => {
-                for corner in words {
-                    for (k, index) in corner.split('/').enumerate().take(3) {
-                        // What is no number tobj refuses itself.
-                        let Ok(i) = index.parse::<i64>() else { continue };
-                        if i == 0 || i > MAX_FACE_INDEX || (i < 0 && self.counts[k] + i < 0) {
-                            return Err(format!(
-                                "line {}: face index {index} refers to no {} (indices count from 1, negative \
-                                 ones back from the last read)",
-                                self.number,
-                                ["vertex", "texture coordinate", "normal"][k]
-                            ));
-                        }
-                    }
-                }
-            }
-            _ => {}
-        }
-        Ok(())
-    }
-}
-
-impl<R: BufRead> Read for CheckedFaces<R> {
-    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
-        let n = {
-            let line = self.fill_buf()?;
-            let n = line.len().min(out.len());
-            out[..n].copy_from_slice(&line[..n]);
-            n
-        };
-        self.consume(n);
-        Ok(n)
-    }
-}
-
-impl<R: BufRead> BufRead for CheckedFaces<R> {
-    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
-        if self.at == self.line.len() {
-            self.line.clear();
-            self.at = 0;
-            if self.inner.read_until(b'\n', &mut self.line)? > 0 {
-                self.number += 1;
-                if let Err(problem) = self.check() {
-                    self.problem = Some(problem.clone());
-                    return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, problem));
-                }
-            }
-        }
-        Ok(&self.line[self.at..])
-    }
-
-    fn consume(&mut self, n: usize) {
-        self.at += n;
-    }
-}
-
 /// Reads an OBJ's triangles, their vertex colours, and through its MTL their colours and
 /// textures.
-pub(super) fn load_obj(reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
+pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
@@ -224,19 +142,8 @@ pub(super) fn load_obj(reader: impl BufRead, textures: &mut MeshTextures) -> Res
             }
         }
     };
-    let mut reader = CheckedFaces {
-        inner: reader,
-        line: Vec::new(),
-        at: 0,
-        number: 0,
-        counts: [0; 3],
-        problem: None,
-    };
-    let loaded = tobj::load_obj_buf(&mut reader, &options, load_mtl);
-    if let Some(problem) = reader.problem {
-        return Err(problem);
-    }
-    let (models, materials) = loaded.map_err(|e| format!("not a readable OBJ file: {e}"))?;
+    let (models, materials) =
+        tobj::load_obj_buf(&mut reader, &options, load_mtl).map_err(|e| format!("not a readable OBJ file: {e}"))?;
     if let Some(problem) = mtl_problem.into_inner() {
         return Err(problem);
     }
