@@ -184,6 +184,19 @@ fn mutated_scene_files_never_panic_and_errors_say_where() {
     );
 }
 
+/// A 2×1 RGB PNG (a red and a blue texel).
+fn two_texel_png() -> Vec<u8> {
+    let mut png = Vec::new();
+    let mut encoder = png::Encoder::new(&mut png, 2, 1);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder
+        .write_header()
+        .unwrap()
+        .write_image_data(&[255, 0, 0, 0, 0, 255])
+        .unwrap();
+    png
+}
+
 /// A GLB of the glTF readers' every path: a quantized (normalized i16, byteStride 8) POSITION
 /// with a sparse substitute, a triangle strip through u8 indices, normalized u8 texture
 /// coordinates under `KHR_texture_transform`, a u16 VEC4 `COLOR_0`, a view-less accessor, an
@@ -201,14 +214,7 @@ fn every_path_glb() -> (serde_json::Value, Vec<u8>) {
     bin.extend([100i16, 100, 100].iter().flat_map(|c| c.to_le_bytes())); // sparse value at 78
     bin.extend([0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0].iter().flat_map(|v| v.to_le_bytes())); // instances at 84
     let png_at = bin.len();
-    let mut png = Vec::new();
-    let mut encoder = png::Encoder::new(&mut png, 2, 1);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder
-        .write_header()
-        .unwrap()
-        .write_image_data(&[255, 0, 0, 0, 0, 255])
-        .unwrap();
+    let png = two_texel_png();
     bin.extend(&png);
     let json = serde_json::json!({
         "asset": {"version": "2.0"},
@@ -360,14 +366,7 @@ fn mutated_gltf_files_never_panic() {
 #[test]
 fn mutated_text_meshes_never_panic() {
     let folder = tempfile::tempdir().unwrap();
-    let mut png = Vec::new();
-    let mut encoder = png::Encoder::new(&mut png, 2, 1);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder
-        .write_header()
-        .unwrap()
-        .write_image_data(&[255, 0, 0, 0, 0, 255])
-        .unwrap();
+    let png = two_texel_png();
     std::fs::write(folder.path().join("tiles.png"), png).unwrap();
     let ply = "ply\nformat ascii 1.0\ncomment TextureFile tiles.png\nelement vertex 4\nproperty float x\n\
                property float y\nproperty float z\nproperty float red\nproperty float green\nproperty float blue\n\
