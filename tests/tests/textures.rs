@@ -712,30 +712,22 @@ fn the_gpu_filters_the_textured_room_as_the_cpu_does() {
     }
 }
 
-/// A GLB container of `json` and the binary chunk `bin` (both padded to 4 bytes).
-fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
-    let mut json = serde_json::to_vec(json).unwrap();
-    json.resize(json.len().div_ceil(4) * 4, b' ');
-    let mut bin = bin.to_vec();
-    bin.resize(bin.len().div_ceil(4) * 4, 0);
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = b"glTF".to_vec();
-    out.extend(2u32.to_le_bytes());
-    out.extend((total as u32).to_le_bytes());
-    out.extend((json.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(json);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(bin);
-    out
-}
-
 /// The textured square as a GLB: the square lies in its node's xy plane, placed at x = 2
 /// facing the origin by a parent node (scale 2, translation) and a child (rotation, scale ½);
 /// the 4×3 texture is embedded, clamped. `uv` maps each local (u, v) to what the file
 /// stores, and `extension` is added to the texture info (`KHR_texture_transform` tests).
 fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>, mode: u32) -> Vec<u8> {
+    square_glb_drawn(uv, extension, mode, &[0, 1, 2, 0, 2, 3])
+}
+
+/// [`square_glb`] drawn as primitive `mode` through the corner `indices` (corners 0–3: top
+/// left, bottom left, bottom right, top right as the origin sees them).
+fn square_glb_drawn(
+    uv: impl Fn(DVec2) -> DVec2,
+    extension: Option<serde_json::Value>,
+    mode: u32,
+    indices: &[u16],
+) -> Vec<u8> {
     let corners = [
         [-1.0f32, 0.75, 0.0],
         [-1.0, -0.75, 0.0],
@@ -755,8 +747,8 @@ fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>,
             .flat_map(|uv| [uv.x as f32, uv.y as f32])
             .flat_map(f32::to_le_bytes),
     );
-    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
-    bin.extend([0, 0]);
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    bin.resize(bin.len().div_ceil(4) * 4, 0);
     let png_at = bin.len();
     let png = image_rgb(4, 3, &TEXELS.iter().flatten().copied().collect::<Vec<u8>>());
     bin.extend(&png);
@@ -783,17 +775,17 @@ fn square_glb(uv: impl Fn(DVec2) -> DVec2, extension: Option<serde_json::Value>,
         "accessors": [
             {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1.0, -0.75, 0.0], "max": [1.0, 0.75, 0.0]},
             {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
-            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+            {"bufferView": 2, "componentType": 5123, "count": indices.len(), "type": "SCALAR"}
         ],
         "bufferViews": [
             {"buffer": 0, "byteOffset": 0, "byteLength": 48},
             {"buffer": 0, "byteOffset": 48, "byteLength": 32},
-            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 2 * indices.len()},
             {"buffer": 0, "byteOffset": png_at, "byteLength": png.len()}
         ],
         "buffers": [{"byteLength": bin.len()}]
     });
-    glb(&json, &bin)
+    common::glb(&json, &bin)
 }
 
 fn load_glb(bytes: &[u8]) -> Result<Scene, omnisim::SceneError> {
@@ -810,6 +802,32 @@ fn a_glb_square_through_its_node_hierarchy_maps_its_embedded_texture_exactly() {
     let scene = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
     assert_eq!(scene.faces.len(), 2);
     check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
+}
+
+/// The square as a triangle list, a strip and a fan: the same two faces, textured exactly, all
+/// wound as the list is (their normals face the origin). glTF 2.0 (3.7.2.1) flips a strip's
+/// odd triangles (pᵢ = {vᵢ, vᵢ₊₁₊ᵢ﹪₂, vᵢ₊₂₋ᵢ﹪₂}) and turns a fan around its first vertex
+/// (pᵢ = {vᵢ₊₁, vᵢ₊₂, v₀}); a strip read without the flip, or a fan wound the other way,
+/// faces away.
+#[test]
+fn a_glb_square_as_a_strip_and_as_a_fan_is_the_triangle_lists_faces_wound_alike() {
+    for (mode, indices) in [
+        (4, &[0u16, 1, 2, 0, 2, 3][..]),
+        (5, &[1, 2, 0, 3][..]),
+        (6, &[0, 1, 2, 3][..]),
+    ] {
+        let scene = load_glb(&square_glb_drawn(|uv| uv, None, mode, indices)).unwrap();
+        assert_eq!(scene.faces.len(), 2, "mode {mode}");
+        for face in &scene.faces {
+            let v = &face.vertices;
+            let normal = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+            assert!(
+                (normal - dvec3(-1.0, 0.0, 0.0)).length() < 1e-9,
+                "mode {mode}: face {v:?} faces {normal}, not the origin"
+            );
+        }
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+    }
 }
 
 #[test]
@@ -899,7 +917,7 @@ fn primitives_sharing_texture_coordinates_under_different_transforms_each_get_th
         ],
         "buffers": [{"byteLength": bin.len()}]
     });
-    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let scene = load_glb(&common::glb(&json, &bin)).unwrap();
     assert_eq!(scene.faces.len(), 6);
     // offset + R(rotation)·(scale ⊙ uv), the extension's formula, written out here (its
     // numbers are read as f32).
@@ -979,7 +997,7 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
     let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
     json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
     json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-    let draco = error(&glb(&json, &good[json_end + 8..]));
+    let draco = error(&common::glb(&json, &good[json_end + 8..]));
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
 }
 
@@ -1012,7 +1030,7 @@ fn shared_indices_glb(mode: u32) -> Vec<u8> {
         ],
         "buffers": [{"byteLength": bin.len()}],
     });
-    glb(&json, &bin)
+    common::glb(&json, &bin)
 }
 
 /// The meshes of [`shared_indices_glb`] are more than a mesh may hold (50 M triangles):
@@ -1066,7 +1084,7 @@ fn a_gltf_mesh_placed_by_two_nodes_is_in_the_scene_twice_as_one_object() {
         "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}],
         "buffers": [{"byteLength": bin.len()}]
     });
-    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let scene = load_glb(&common::glb(&json, &bin)).unwrap();
     let translated = [dvec3(1.0, 0.0, 2.0), dvec3(3.0, 0.0, 2.0), dvec3(1.0, 2.0, 2.0)];
     let rotated = [dvec3(1.0, 0.0, 0.0), dvec3(1.0, 1.0, 0.0), dvec3(0.0, 0.0, 0.0)];
     assert_eq!(scene.faces.len(), 2);
@@ -1205,7 +1223,7 @@ fn a_gltf_of_thousands_of_primitives_under_a_node_hierarchy_is_read_face_by_face
         "bufferViews": views,
         "buffers": [{"byteLength": bin.len()}]
     });
-    let scene = load_glb(&glb(&json, &bin)).unwrap();
+    let scene = load_glb(&common::glb(&json, &bin)).unwrap();
     let mut faces = scene.faces.iter().enumerate();
     let mut dropped = 0;
     for g in (0..GROUPS).rev() {
@@ -1652,4 +1670,155 @@ fn a_textured_frame_too_large_for_a_ray_table_is_each_pixel_shaded_alone_bit_for
             "{width}×{height} {angles}: {textured_pixels} textured pixels"
         );
     }
+}
+
+/// The corners of `got` turned so that its first corner is `expected`'s (a rotation keeps the
+/// winding), if its corners are `expected`'s to within `tolerance`.
+fn same_triangle(got: &[DVec3], expected: &[DVec3; 3], tolerance: f64) -> Option<usize> {
+    (0..3).find(|&turn| (0..3).all(|k| (got[(k + turn) % 3] - expected[k]).length() <= tolerance))
+}
+
+/// What one case of `tests/readers/write_format_variants.py` must read as: its faces, and where
+/// given their colours, texture coordinates, vertex colours and a texel of the first texture.
+/// Every difference is returned, so that one run lists every variant read wrongly.
+fn check_variant(folder: &Path, case: &serde_json::Value) -> Vec<String> {
+    let name = case["name"].as_str().unwrap();
+    let loaded = Scene::from_ron(
+        &std::fs::read_to_string(folder.join(case["scene"].as_str().unwrap())).unwrap(),
+        &folder.join(case["scene"].as_str().unwrap()),
+    );
+    let scene = match (loaded, case["refuse"].as_array()) {
+        (Ok(_), Some(_)) => return vec![format!("{name}: read, but must be refused")],
+        (Err(e), Some(words)) => {
+            let message = e.to_string();
+            return words
+                .iter()
+                .map(|w| w.as_str().unwrap())
+                .filter(|w| !message.contains(w))
+                .map(|w| format!("{name}: refused without naming {w}: {message}"))
+                .collect();
+        }
+        (Err(e), None) => return vec![format!("{name}: refused: {e}")],
+        (Ok(scene), None) => scene,
+    };
+    let point = |v: &serde_json::Value| DVec3::from_array([0, 1, 2].map(|k| v[k].as_f64().unwrap()));
+    let expected: Vec<[DVec3; 3]> = case["faces"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| [0, 1, 2].map(|k| point(&f[k])))
+        .collect();
+    if scene.faces.len() != expected.len() {
+        return vec![format!(
+            "{name}: {} faces, the format defines {}",
+            scene.faces.len(),
+            expected.len()
+        )];
+    }
+    let mut problems = Vec::new();
+    let mut taken = vec![false; scene.faces.len()];
+    for (e, corners) in expected.iter().enumerate() {
+        let found = scene.faces.iter().enumerate().find_map(|(k, face)| {
+            (!taken[k])
+                .then(|| same_triangle(&face.vertices, corners, 1e-5))
+                .flatten()
+                .map(|turn| (k, turn))
+        });
+        let Some((k, turn)) = found else {
+            problems.push(format!(
+                "{name}: face {e} {corners:?} is not in the scene (or wound the other way)"
+            ));
+            continue;
+        };
+        taken[k] = true;
+        let face = &scene.faces[k];
+        let vertex = |c: usize| face.vertices[(c + turn) % 3];
+        if let Some(colour) = case["colours"].get(e) {
+            let colour: Vec<u8> = colour
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| c.as_u64().unwrap() as u8)
+                .collect();
+            if (0..3).any(|c| face.colour[c].abs_diff(colour[c]) > 1) {
+                problems.push(format!(
+                    "{name}: face {e} colour {:?}, expected {colour:?}",
+                    face.colour
+                ));
+            }
+        }
+        let surface = scene.surfaces.of(k as u32);
+        if let Some(uvs) = case["uvs"].get(e) {
+            match surface.and_then(|s| s.uv.as_ref().map(|map| (s, map))) {
+                None => problems.push(format!("{name}: face {e} has no texture coordinates")),
+                Some((surface, map)) => {
+                    for c in 0..3 {
+                        let want = DVec2::new(uvs[c][0].as_f64().unwrap(), uvs[c][1].as_f64().unwrap());
+                        let got = omnisim::scene::surface::Surface::uv_at(map, surface.anchor, vertex(c));
+                        if (got - want).length() > 1e-5 {
+                            problems.push(format!("{name}: face {e} corner {c}: uv {got}, expected {want}"));
+                        }
+                    }
+                }
+            }
+        }
+        if let Some(colours) = case["corner_colours"].get(e) {
+            match surface.and_then(|s| s.colours.as_ref().map(|map| (s, map))) {
+                None => problems.push(format!("{name}: face {e} has no vertex colours")),
+                Some((surface, map)) => {
+                    for c in 0..3 {
+                        let linear = omnisim::scene::surface::Surface::colour_at(map, surface.anchor, vertex(c));
+                        let got = linear.to_array().map(linear_to_srgb);
+                        let want: Vec<u8> = (0..3).map(|k| colours[c][k].as_u64().unwrap() as u8).collect();
+                        if (0..3).any(|k| got[k].abs_diff(want[k]) > 1) {
+                            problems.push(format!(
+                                "{name}: face {e} corner {c}: colour {got:?}, expected {want:?}"
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if let Some(texel) = case.get("texel") {
+        let at = |key: &str| texel[key].as_u64().unwrap() as u32;
+        let within = texel.get("within").map_or(1, |w| w.as_u64().unwrap() as u8);
+        match scene.surfaces.textures.first() {
+            None => problems.push(format!("{name}: no texture")),
+            Some(texture) => {
+                let got = texture.levels[0].texel(at("x"), at("y"));
+                let want: Vec<u8> = (0..3).map(|k| texel["rgb"][k].as_u64().unwrap() as u8).collect();
+                if (0..3).any(|k| got[k].abs_diff(want[k]) > within) {
+                    problems.push(format!("{name}: texel {got:?}, expected {want:?}"));
+                }
+            }
+        }
+    }
+    problems
+}
+
+/// The mesh files users and independent checkers bring (glTF from pygltflib and trimesh in every
+/// topology, index width, quantization, colour and image kind, sparse and view-less accessors,
+/// node and scene layouts; PLY from plyfile, trimesh and `Open3D` in every encoding and list type;
+/// OBJ with MTL options, negative indices, n-gons and awkward paths): each reads as its format
+/// defines it, and what omnisim cannot show is refused by name (README, "Scene files").
+#[test]
+#[cfg_attr(omnisim_no_python, ignore = "needs OMNISIM_PYTHON (README, Tests)")]
+fn files_from_independent_writers_read_as_their_formats_define() {
+    let folder = tempfile::tempdir().unwrap();
+    run_python_writer("tests/readers/write_format_variants.py", folder.path());
+    let cases: Vec<serde_json::Value> =
+        serde_json::from_slice(&std::fs::read(folder.path().join("cases.json")).unwrap()).unwrap();
+    assert!(cases.len() > 90, "{} cases", cases.len());
+    let problems: Vec<String> = cases
+        .iter()
+        .flat_map(|case| check_variant(folder.path(), case))
+        .collect();
+    assert!(
+        problems.is_empty(),
+        "{} of {} cases read wrongly:\n{}",
+        problems.len(),
+        cases.len(),
+        problems.join("\n")
+    );
 }

@@ -270,3 +270,22 @@ pub(crate) fn coincident_faces() -> Scene {
 /// Faces of [`coincident_faces`] after the insertion: the copy of wall 4 (id 0), wall 4 (5),
 /// wall 2 (3), its copy (7), wall 5 (6) and the triangle across it (8).
 pub(crate) const COINCIDENT_FACE_IDS: (usize, usize, usize, usize, usize, usize) = (0, 5, 3, 7, 6, 8);
+
+/// A GLB container of `json` and the binary chunk `bin` (both padded to 4 bytes).
+pub(crate) fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
+    let mut json = serde_json::to_vec(json).unwrap();
+    json.resize(json.len().div_ceil(4) * 4, b' ');
+    let mut bin = bin.to_vec();
+    bin.resize(bin.len().div_ceil(4) * 4, 0);
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = b"glTF".to_vec();
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(json);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    out
+}

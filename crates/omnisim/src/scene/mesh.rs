@@ -37,6 +37,18 @@ pub(super) struct CornerUvs {
 }
 
 impl MeshTriangle {
+    /// Turns the triangle the other way round (its corners 1 and 2, with their texture
+    /// coordinates and colours, swapped).
+    pub(super) fn reverse_winding(&mut self) {
+        self.vertices.swap(1, 2);
+        if let Some(texture) = &mut self.texture {
+            texture.uv.swap(1, 2);
+        }
+        if let Some(colours) = &mut self.corner_colours {
+            colours.swap(1, 2);
+        }
+    }
+
     /// Whether [`MeshTriangle::surface`] can give this triangle a surface: a texture, vertex
     /// colours or an unlit material.
     pub(super) fn carries_surface(&self) -> bool {
@@ -196,6 +208,18 @@ fn index_list(p: Property) -> Option<Vec<i64>> {
     })
 }
 
+/// A colour channel's byte: integer properties as they are (clamped to 0–255), float ones
+/// (as some scanners' writers give `float red` …) from [0, 1].
+fn colour_byte(p: &Property) -> Option<u8> {
+    let v = scalar(p)?;
+    let v = if matches!(p, Property::Float(_) | Property::Double(_)) {
+        (v * 255.0).round()
+    } else {
+        v
+    };
+    Some(v.clamp(0.0, 255.0) as u8)
+}
+
 /// The colour channel a PLY property name stands for.
 fn channel(name: &str) -> Option<usize> {
     match name {
@@ -237,8 +261,8 @@ impl PropertyAccess for PlyVertex {
                 return PropertyAccessResult::Ignored;
             }
             _ => {
-                if let (Some(k), Some(v)) = (channel(name), scalar(&property)) {
-                    self.rgb[k] = Some(v.clamp(0.0, 255.0) as u8);
+                if let (Some(k), Some(v)) = (channel(name), colour_byte(&property)) {
+                    self.rgb[k] = Some(v);
                 }
                 return PropertyAccessResult::Ignored;
             }
@@ -270,7 +294,7 @@ impl PropertyAccess for PlyFace {
 
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
         if let Some(k) = channel(name) {
-            self.rgb[k] = scalar(&property).map(|v| v.clamp(0.0, 255.0) as u8);
+            self.rgb[k] = colour_byte(&property);
             return PropertyAccessResult::Ignored;
         }
         if name == "texcoord" {

@@ -1,13 +1,16 @@
 //! Wavefront OBJ meshes through tobj, with their MTL materials: `Kd` (the face colour, a
 //! linear reflectance) and `map_Kd` (a texture read through the `vt` coordinates, tinted by
 //! `Kd` as the MTL format says). The `mtllib` is opened under the rules of meshes: relative to
-//! the OBJ's folder and inside it, a regular file of bounded size.
+//! the OBJ's folder and inside it, a regular file of bounded size. A `map_Kd` statement's
+//! options are read (`-s` and `-o` scale and shift the texture coordinates, `-clamp on` clamps
+//! them; the others, which change no base colour omnisim shows, are passed over), and a
+//! Windows path's backslashes are taken as folder separators.
 
 use std::cell::RefCell;
-use std::io::BufRead;
+use std::io::{BufRead, Read};
 use std::path::Path;
 
-use glam::dvec3;
+use glam::{DVec2, dvec3};
 
 use super::lighting::linear_to_srgb;
 use super::mesh::{CornerUvs, MeshTextures, MeshTriangle, mean_colour, uv_from_v_up};
@@ -19,7 +22,93 @@ const MTL_LIMIT: u64 = 16 << 20;
 /// One material as the triangles use it: sRGB face colour and texture, if any.
 struct Material {
     colour: Option<[u8; 3]>,
-    texture: Option<u32>,
+    texture: Option<(u32, TextureMap)>,
+}
+
+/// A `map_Kd` statement: its file and the options that change where texels land.
+#[derive(Clone, Copy, Default)]
+struct TextureMap {
+    /// `-s u v`: texture coordinates scaled (1, 1 when absent).
+    scale: Option<DVec2>,
+    /// `-o u v`: texture coordinates shifted, after scaling.
+    offset: DVec2,
+    /// `-clamp on`.
+    clamp: bool,
+}
+
+/// The file name and options of a `map_Kd` statement's text (after `map_Kd`).
+fn texture_map(text: &str) -> Result<(String, TextureMap), String> {
+    let mut map = TextureMap::default();
+    let mut words = text.split_whitespace().peekable();
+    let bad = |option: &str| format!("map_Kd {text}: the option {option} lacks its value");
+    while let Some(&option) = words.peek() {
+        if !option.starts_with('-') {
+            break;
+        }
+        words.next();
+        // Up to three numbers (u, v, w); omitted ones as the MTL format defaults them.
+        let mut numbers = |default: f64| {
+            let mut values = Vec::new();
+            while values.len() < 3
+                && let Some(value) = words.peek().and_then(|w| w.parse::<f64>().ok())
+            {
+                values.push(value);
+                words.next();
+            }
+            let first = *values.first().ok_or_else(|| bad(option))?;
+            Ok::<DVec2, String>(DVec2::new(first, values.get(1).copied().unwrap_or(default)))
+        };
+        match option {
+            "-s" => map.scale = Some(numbers(1.0)?),
+            "-o" => map.offset = numbers(0.0)?,
+            "-t" => {
+                numbers(0.0)?;
+            }
+            "-mm" => {
+                numbers(0.0)?;
+            }
+            "-clamp" => map.clamp = words.next().ok_or_else(|| bad(option))? == "on",
+            "-blendu" | "-blendv" | "-bm" | "-boost" | "-cc" | "-imfchan" | "-texres" | "-type" => {
+                words.next().ok_or_else(|| bad(option))?;
+            }
+            other => {
+                return Err(format!(
+                    "map_Kd {text}: {other} is no option of the MTL format (-blendu, -blendv, -bm, -boost, -cc, \
+                     -clamp, -imfchan, -mm, -o, -s, -t, -texres, -type)"
+                ));
+            }
+        }
+    }
+    let file = words.collect::<Vec<_>>().join(" ").replace('\\', "/");
+    if file.is_empty() {
+        return Err(format!("map_Kd {text}: names no file"));
+    }
+    Ok((file, map))
+}
+
+/// An MTL's text with every colour statement (`Ka`, `Kd`, `Ks`, `Ke`) of one number written
+/// out as three: the format lets `Kd r` stand for `Kd r r r`, and tobj panics on fewer than
+/// three. Two numbers are refused, naming the line.
+fn colours_of_three(text: &str) -> Result<String, String> {
+    let mut out = String::with_capacity(text.len());
+    for (number, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match (words.next(), words.clone().count()) {
+            (Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")), 1) => {
+                let r = words.next().unwrap_or_default();
+                out += &format!("{key} {r} {r} {r}");
+            }
+            (Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")), 0 | 2) => {
+                return Err(format!(
+                    "mtllib: line {}: {key} needs one number (grey) or three (r g b)",
+                    number + 1
+                ));
+            }
+            _ => out += line,
+        }
+        out.push('\n');
+    }
+    Ok(out)
 }
 
 /// Reads an OBJ's triangles, their vertex colours, and through its MTL their colours and
@@ -38,8 +127,13 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
             .ok_or_else(|| "the mtllib name is not UTF-8".to_string())
             .and_then(|name| super::library::inside_folder(textures.mesh, name, "mtllib"))
             .and_then(|path| crate::input::open_regular(&path, MTL_LIMIT).map_err(|e| format!("mtllib: {e}")));
-        match opened {
-            Ok(file) => tobj::load_mtl_buf(&mut std::io::BufReader::new(file)).inspect_err(|_| {
+        let text = opened.and_then(|mut file| {
+            let mut bytes = Vec::new();
+            file.read_to_end(&mut bytes).map_err(|e| format!("mtllib: {e}"))?;
+            colours_of_three(&String::from_utf8_lossy(&bytes))
+        });
+        match text {
+            Ok(text) => tobj::load_mtl_buf(&mut text.as_bytes()).inspect_err(|_| {
                 *mtl_problem.borrow_mut() = Some("mtllib: not a readable MTL file".into());
             }),
             Err(problem) => {
@@ -56,8 +150,16 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
     // An OBJ without an mtllib has no materials; one whose mtllib failed was refused above.
     let materials = materials.unwrap_or_default();
     // Every material's texture at once: they decode on all threads.
-    let names: Vec<&str> = materials.iter().filter_map(|m| m.diffuse_texture.as_deref()).collect();
-    let mut images = textures.images(&names)?.into_iter();
+    let maps = materials
+        .iter()
+        .filter_map(|m| m.diffuse_texture.as_deref())
+        .map(texture_map)
+        .collect::<Result<Vec<_>, String>>()?;
+    let names: Vec<&str> = maps.iter().map(|(file, _)| file.as_str()).collect();
+    let mut images = textures
+        .images(&names)?
+        .into_iter()
+        .zip(maps.iter().map(|(_, map)| *map));
     let materials: Vec<Material> = materials
         .iter()
         .map(|m| Material {
@@ -96,12 +198,14 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
                     .texcoords
                     .get(i..i + 2)
                     .ok_or_else(|| missing("texture coordinate"))?;
-                uv_from_v_up(f64::from(uv[0]), f64::from(uv[1]), &what)
+                let map = texture.map(|(_, map)| map).unwrap_or_default();
+                let uv = DVec2::new(f64::from(uv[0]), f64::from(uv[1])) * map.scale.unwrap_or(DVec2::ONE) + map.offset;
+                uv_from_v_up(uv.x, uv.y, &what)
             };
             let texture = match texture {
-                Some(texture) => Some(CornerUvs {
+                Some((texture, map)) => Some(CornerUvs {
                     texture,
-                    wrap: [Wrap::Repeat; 2],
+                    wrap: [if map.clamp { Wrap::Clamp } else { Wrap::Repeat }; 2],
                     uv: [uv(corners[0])?, uv(corners[1])?, uv(corners[2])?],
                 }),
                 None => None,

@@ -1,15 +1,18 @@
 //! glTF 2.0 (`.gltf` with its buffers and images, or one `.glb`) through the gltf crate: the
-//! default scene's node hierarchy with its transforms, triangle primitives, `baseColorFactor`,
-//! `baseColorTexture` (its sampler's wrap modes and its `texCoord` set), `COLOR_0`,
-//! `KHR_texture_transform` and `KHR_materials_unlit`.
+//! default scene's node hierarchy with its transforms, triangle primitives (lists, strips and
+//! fans), `baseColorFactor`, `baseColorTexture` (its sampler's wrap modes and its `texCoord`
+//! set), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization` and
+//! `EXT_mesh_gpu_instancing`.
 //!
 //! A glTF file becomes one scene object, each of its triangles a face (as for PLY and OBJ).
 //! Buffers and images are resolved here rather than by gltf's `import`, so that a file opens
 //! nothing outside the scene's folder: external URIs go through the mesh path rules, `data:`
-//! URIs are decoded, and every accessor is checked against its buffer (with checked
-//! arithmetic) before it is read. What omnisim cannot show faithfully (Draco, compressed
-//! textures, any other required extension, points and lines, sparse accessors) is refused by
-//! name.
+//! URIs are decoded, and accessors are read by `accessor.rs` (every component type, sparse
+//! and view-less ones) with every range checked first. What omnisim cannot show faithfully
+//! (Draco and meshopt compression, compressed textures, any other required extension, points
+//! and lines) is refused by name.
+
+mod accessor;
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
@@ -17,7 +20,8 @@ use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use base64::Engine as _;
-use glam::{DMat4, DVec2, DVec3, DVec4};
+use glam::{DMat4, DQuat, DVec2, DVec3, DVec4};
+use gltf::accessor::Dimensions;
 use gltf::mesh::Mode;
 use gltf::texture::WrappingMode;
 use rayon::prelude::*;
@@ -27,7 +31,27 @@ use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTr
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
-const SUPPORTED_EXTENSIONS: [&str; 2] = ["KHR_texture_transform", "KHR_materials_unlit"];
+const SUPPORTED_EXTENSIONS: [&str; 4] = [
+    "KHR_texture_transform",
+    "KHR_materials_unlit",
+    "KHR_mesh_quantization",
+    "EXT_mesh_gpu_instancing",
+];
+
+/// How to make a file that requires `extension` readable, for its refusal.
+fn without_extension(extension: &str) -> &'static str {
+    match extension {
+        "KHR_draco_mesh_compression" => {
+            "re-export without Draco compression (Blender: glTF export, Data > Compression off; gltf-pipeline \
+             without -d)"
+        }
+        "EXT_meshopt_compression" => "re-export without meshopt compression (gltfpack without -c or -cc)",
+        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" | "MSFT_texture_dds" => {
+            "re-export its textures as PNG or JPEG"
+        }
+        _ => "re-export without it",
+    }
+}
 
 /// Deepest node hierarchy followed, and most node visits (a node may be shared): a file whose
 /// hierarchy loops or multiplies beyond these is refused rather than followed forever.
@@ -76,28 +100,22 @@ impl UvTransform {
 /// Reads a glTF or GLB file's triangles (`bytes` its whole content): a part for each
 /// placement of a primitive, in the order the node hierarchy is walked.
 pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<MeshParts, String> {
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
+    let gltf = parse(bytes)?;
     let document = &gltf.document;
-    if let Some(unsupported) = document
-        .extensions_required()
-        .find(|name| !SUPPORTED_EXTENSIONS.contains(name))
-    {
-        return Err(format!(
-            "the file requires the extension {unsupported}, which omnisim does not support (it reads {}); \
-             re-export without it (Draco and compressed textures: e.g. gltf-transform decompress / png)",
-            SUPPORTED_EXTENSIONS.join(", ")
-        ));
-    }
     let buffers = document
         .buffers()
         .map(|buffer| load_buffer(&buffer, gltf.blob.as_deref(), textures))
         .collect::<Result<Vec<_>, _>>()?;
-    let placed = placements(document)?;
+    let placed = placements(document, &buffers)?;
     // Points and lines first: their accessors' counts are no triangles for the cap below.
     for (mesh, _) in &placed {
-        if let Some(primitive) = mesh.primitives().find(|primitive| primitive.mode() != Mode::Triangles) {
+        if let Some(primitive) = mesh
+            .primitives()
+            .find(|primitive| triangles_of(primitive.mode(), 3).is_none())
+        {
             return Err(format!(
-                "mesh {} primitive {}: its mode is {:?}; omnisim reads triangle primitives only",
+                "mesh {} primitive {}: its mode is {:?}; omnisim reads triangle primitives only (lists, strips \
+                 and fans): points and lines have no surface to see",
                 mesh.index(),
                 primitive.index(),
                 primitive.mode()
@@ -113,7 +131,8 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
                 (Some(indices), _) | (None, Some(indices)) => indices.count(),
                 (None, None) => 0,
             };
-            placed_triangles = placed_triangles.saturating_add(corners / 3);
+            let triangles = triangles_of(primitive.mode(), corners).unwrap_or(0);
+            placed_triangles = placed_triangles.saturating_add(triangles);
             if placed_triangles > MAX_MESH_TRIANGLES {
                 return Err(format!(
                     "mesh {} primitive {}: {}",
@@ -170,23 +189,180 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     // Placed in one parallel pass over all parts, not one a part: a file of 200,000 primitives
     // spent most of its load handing them to the threads one by one (docs/benchmarks.md,
     // "2026-11-27 night2 (parts)").
+    // A mirroring node (negative determinant) makes the file's clockwise triangles the front
+    // ones (glTF 2.0, 3.7.2.1): each is turned round so that the faces keep their front.
     parts.par_iter_mut().for_each(|(part, world)| {
+        let mirrored = world.determinant() < 0.0;
         part.par_iter_mut().with_min_len(PLACED_TOGETHER).for_each(|triangle| {
             triangle.vertices = triangle.vertices.map(|vertex| world.transform_point3(vertex));
+            if mirrored {
+                triangle.reverse_winding();
+            }
         });
     });
     Ok(parts.into_iter().map(|(part, _)| part).collect())
+}
+
+/// The instance transforms of `node`'s `EXT_mesh_gpu_instancing`, each applied after the
+/// node's own (as a child node of that TRS would be), or `None` without the extension.
+fn instances(node: &gltf::Node, document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Option<Vec<DMat4>>, String> {
+    let Some(extension) = node.extension_value("EXT_mesh_gpu_instancing") else {
+        return Ok(None);
+    };
+    let what = format!("node {} (EXT_mesh_gpu_instancing)", node.index());
+    let attribute = |name: &str| match extension.get("attributes").and_then(|list| list.get(name)) {
+        None => Ok(None),
+        Some(index) => index
+            .as_u64()
+            .and_then(|i| document.accessors().nth(usize::try_from(i).ok()?))
+            .map(Some)
+            .ok_or_else(|| format!("{what}: its {name} names no accessor")),
+    };
+    let in_node = |e: String| format!("{what}: {e}");
+    let translations = attribute("TRANSLATION")?
+        .map(|a| accessor::read(&a, buffers, "TRANSLATION", DVec3::from_array))
+        .transpose()
+        .map_err(in_node)?;
+    let rotations = attribute("ROTATION")?
+        .map(|a| accessor::read(&a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
+        .transpose()
+        .map_err(in_node)?;
+    let scales = attribute("SCALE")?
+        .map(|a| accessor::read(&a, buffers, "SCALE", DVec3::from_array))
+        .transpose()
+        .map_err(in_node)?;
+    let counts = [
+        translations.as_ref().map(Vec::len),
+        rotations.as_ref().map(Vec::len),
+        scales.as_ref().map(Vec::len),
+    ];
+    let count = counts
+        .iter()
+        .flatten()
+        .copied()
+        .max()
+        .ok_or_else(|| format!("{what}: it has none of TRANSLATION, ROTATION and SCALE"))?;
+    if counts.iter().flatten().any(|&n| n != count) {
+        return Err(format!("{what}: its TRANSLATION, ROTATION and SCALE counts differ"));
+    }
+    (0..count)
+        .map(|i| {
+            let instance = DMat4::from_scale_rotation_translation(
+                scales.as_ref().map_or(DVec3::ONE, |s| s[i]),
+                // Normalized integer quaternions are only nearly unit ones.
+                rotations.as_ref().map_or(DQuat::IDENTITY, |r| r[i].normalize()),
+                translations.as_ref().map_or(DVec3::ZERO, |t| t[i]),
+            );
+            if instance.is_finite() {
+                Ok(instance)
+            } else {
+                Err(format!("{what}: instance {i}'s transform is not finite"))
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map(Some)
+}
+
+/// The document of `bytes`, validated by gltf-json except where gltf-json refuses what omnisim
+/// reads: `KHR_mesh_quantization` (which gltf-json does not know) and accessors without a
+/// buffer view (all zeros by the spec; gltf-json asks for a view). A required extension
+/// omnisim lacks is refused by name, with how to re-export the file without it.
+fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
+    use gltf::json::validation::{Error, Validate};
+    let gltf =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| format!("not a readable glTF 2.0 file: {e}"))?;
+    if let Some(unsupported) = gltf
+        .document
+        .extensions_required()
+        .find(|name| !SUPPORTED_EXTENSIONS.contains(name))
+    {
+        return Err(format!(
+            "the file requires the extension {unsupported}, which omnisim does not support (it reads {}); {}",
+            SUPPORTED_EXTENSIONS.join(", "),
+            without_extension(unsupported)
+        ));
+    }
+    let json = gltf.document.as_json();
+    // gltf-json's own check of a POSITION accessor indexes the accessors unchecked (a panic):
+    // every attribute's accessor is checked here first.
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive
+                .attributes
+                .values()
+                .map(gltf::json::Index::value)
+                .find(|&index| index >= json.accessors.len())
+            {
+                return Err(format!(
+                    "mesh {m} primitive {p}: an attribute names accessor {index}, but the file has {}",
+                    json.accessors.len()
+                ));
+            }
+        }
+    }
+    let mut problems = Vec::new();
+    json.validate(json, gltf::json::Path::new, &mut |path, error| {
+        let path = path();
+        let at = path.as_str();
+        let read_here = at.starts_with("extensionsRequired")
+            || (at.starts_with("accessors[") && at.ends_with("].bufferView") && error == Error::Missing);
+        if !read_here {
+            problems.push(format!("{path}: {error}"));
+        }
+    });
+    if !problems.is_empty() {
+        return Err(format!("not a readable glTF 2.0 file: {}", problems.join("; ")));
+    }
+    Ok(gltf)
+}
+
+/// How many triangles a primitive of `mode` draws through `corners` vertices; `None` for
+/// points and lines.
+fn triangles_of(mode: Mode, corners: usize) -> Option<usize> {
+    match mode {
+        Mode::Triangles => Some(corners / 3),
+        Mode::TriangleStrip | Mode::TriangleFan => Some(corners.saturating_sub(2)),
+        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => None,
+    }
+}
+
+/// The corners of each triangle, three by three, of a primitive of `mode` drawn through the
+/// vertices `order`, as glTF 2.0 (3.7.2.1) defines them: a strip's odd triangles flipped so
+/// that all keep one winding (pᵢ = {vᵢ, vᵢ₊₁₊ᵢ﹪₂, vᵢ₊₂₋ᵢ﹪₂}), a fan's around its first
+/// vertex (pᵢ = {vᵢ₊₁, vᵢ₊₂, v₀}).
+fn triangle_corners(mode: Mode, order: Vec<u32>) -> Result<Vec<u32>, String> {
+    let n = order.len();
+    match mode {
+        Mode::Triangles if n.is_multiple_of(3) => Ok(order),
+        Mode::Triangles => Err(format!("{n} indices is not a whole number of triangles")),
+        Mode::TriangleStrip | Mode::TriangleFan if n < 3 => {
+            Err(format!("its {mode:?} has {n} vertices; a strip or fan needs 3 or more"))
+        }
+        Mode::TriangleStrip => Ok((0..n - 2)
+            .flat_map(|i| [order[i], order[i + 1 + i % 2], order[i + 2 - i % 2]])
+            .collect()),
+        Mode::TriangleFan => Ok((0..n - 2)
+            .flat_map(|i| [order[i + 1], order[i + 2], order[0]])
+            .collect()),
+        other => Err(format!("its mode is {other:?}, not triangles")),
+    }
 }
 
 /// Fewest triangles of a part placed by one task: a small primitive's stay on one thread.
 const PLACED_TOGETHER: usize = 4096;
 
 /// The meshes of the default scene's node hierarchy (else of the first scene, else of every
-/// node), each with its node's world transform, in the order the hierarchy is walked.
-fn placements(document: &gltf::Document) -> Result<Vec<(gltf::Mesh<'_>, DMat4)>, String> {
-    let roots: Vec<gltf::Node> = match document.default_scene().or_else(|| document.scenes().next()) {
-        Some(scene) => scene.nodes().collect(),
-        None => document.nodes().collect(),
+/// root node: one that is no node's child), each with its node's world transform, in the order
+/// the hierarchy is walked.
+fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<Vec<(gltf::Mesh<'a>, DMat4)>, String> {
+    let roots: Vec<gltf::Node> = if let Some(scene) = document.default_scene().or_else(|| document.scenes().next()) {
+        scene.nodes().collect()
+    } else {
+        let mut is_child = vec![false; document.nodes().len()];
+        for child in document.nodes().flat_map(|node| node.children()) {
+            is_child[child.index()] = true;
+        }
+        document.nodes().filter(|node| !is_child[node.index()]).collect()
     };
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots.into_iter().map(|n| (n, DMat4::IDENTITY, 0)).collect();
     let mut visits = 0usize;
@@ -205,7 +381,20 @@ fn placements(document: &gltf::Document) -> Result<Vec<(gltf::Mesh<'_>, DMat4)>,
             return Err(format!("node {}: its transform is not finite", node.index()));
         }
         if let Some(mesh) = node.mesh() {
-            placed.push((mesh, world));
+            match instances(&node, document, buffers)? {
+                None => placed.push((mesh, world)),
+                Some(instances) => {
+                    // Each instance a placement, counted as a node visit against the cap.
+                    visits = visits.saturating_add(instances.len());
+                    if visits > MAX_NODE_VISITS {
+                        return Err(format!(
+                            "node {}: its instances pass {MAX_NODE_VISITS} placements",
+                            node.index()
+                        ));
+                    }
+                    placed.extend(instances.into_iter().map(|instance| (mesh.clone(), world * instance)));
+                }
+            }
         }
         stack.extend(node.children().map(|child| (child, world, depth + 1)));
     }
@@ -240,11 +429,10 @@ fn load_images(
         .iter()
         .enumerate()
         .map(|(i, (image, _))| match image.source() {
-            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
-                super::library::inside_folder(textures.mesh, uri, "texture")
-                    .map(|path| format!("image {}", path.display()))
-                    .map_err(shown_by(i))
-            }
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => percent_decoded(uri)
+                .and_then(|name| super::library::inside_folder(textures.mesh, &name, "texture"))
+                .map(|path| format!("image {}", path.display()))
+                .map_err(shown_by(i)),
             _ => Ok(format!("image {} inside {}", image.index(), textures.mesh.display())),
         })
         .collect::<Result<Vec<String>, String>>()?;
@@ -270,7 +458,7 @@ fn load_buffer(buffer: &gltf::Buffer, blob: Option<&[u8]>, textures: &MeshTextur
             if let Some(encoded) = data_uri(uri) {
                 encoded.map_err(|e| format!("{what}: {e}"))?
             } else {
-                let path = super::library::inside_folder(textures.mesh, uri, "buffer")?;
+                let path = super::library::inside_folder(textures.mesh, &percent_decoded(uri)?, "buffer")?;
                 let mut bytes = Vec::new();
                 std::io::Read::read_to_end(
                     &mut crate::input::open_regular(&path, BUFFER_LIMIT).map_err(|e| format!("{what}: {e}"))?,
@@ -291,6 +479,29 @@ fn load_buffer(buffer: &gltf::Buffer, blob: Option<&[u8]>, textures: &MeshTextur
     Ok(data)
 }
 
+/// The file name a relative URI stands for: its `%XX` escapes decoded (glTF's URIs are RFC
+/// 3986's, so `my%20tiles.png` names `my tiles.png`).
+fn percent_decoded(uri: &str) -> Result<String, String> {
+    let bytes = uri.as_bytes();
+    let mut name = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let byte = bytes
+                .get(i + 1..i + 3)
+                .and_then(|hex| std::str::from_utf8(hex).ok())
+                .and_then(|hex| u8::from_str_radix(hex, 16).ok())
+                .ok_or_else(|| format!("the URI {uri} has a % not followed by two hexadecimal digits"))?;
+            name.push(byte);
+            i += 3;
+        } else {
+            name.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(name).map_err(|_| format!("the URI {uri} decodes to a name that is not UTF-8"))
+}
+
 /// The decoded bytes of a `data:...;base64,` URI, or `None` for any other URI.
 fn data_uri(uri: &str) -> Option<Result<Vec<u8>, String>> {
     let rest = uri.strip_prefix("data:")?;
@@ -300,39 +511,6 @@ fn data_uri(uri: &str) -> Option<Result<Vec<u8>, String>> {
             .map_err(|_| "its data URI is not valid base64".to_string()),
         None => Err("a data URI must be base64-encoded".to_string()),
     })
-}
-
-/// Checks that `accessor` lies inside its view and its view inside its buffer, with checked
-/// arithmetic (a lying file must neither panic the reader nor wrap around).
-fn check_accessor(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<(), String> {
-    // Named only in an error: formatted for every accessor, the name was a twentieth of the
-    // read of a file of 200,000 primitives (docs/benchmarks.md, "2026-11-27 night2 (parts)").
-    let what = || format!("accessor {}", accessor.index());
-    if accessor.sparse().is_some() {
-        return Err(format!("{} is sparse, which omnisim does not read", what()));
-    }
-    let view = accessor
-        .view()
-        .ok_or_else(|| format!("{} has no buffer view (all zeros), which omnisim does not read", what()))?;
-    let count = accessor.count();
-    if count == 0 {
-        return Err(format!("{} has no elements", what()));
-    }
-    let size = accessor.size();
-    let stride = view.stride().unwrap_or(size);
-    let end = (count - 1)
-        .checked_mul(stride)
-        .and_then(|n| n.checked_add(size))
-        .and_then(|n| n.checked_add(accessor.offset()));
-    let view_end = view.offset().checked_add(view.length());
-    let buffer = &buffers[view.buffer().index()];
-    match (end, view_end) {
-        (Some(end), Some(view_end)) if end <= view.length() && view_end <= buffer.len() => Ok(()),
-        _ => Err(format!(
-            "{} ({count} elements) reaches beyond its buffer view or buffer: the file is truncated or corrupt",
-            what()
-        )),
-    }
 }
 
 fn wrap(mode: WrappingMode) -> Wrap {
@@ -398,7 +576,8 @@ fn open_image<'a>(
         }
         gltf::image::Source::Uri { uri, .. } => match data_uri(uri) {
             Some(bytes) => texture::open_bytes(bytes.map_err(|e| format!("{what}: {e}"))?, &what),
-            None => super::library::inside_folder(mesh, uri, "texture")
+            None => percent_decoded(uri)
+                .and_then(|name| super::library::inside_folder(mesh, &name, "texture"))
                 .and_then(|path| texture::open_image(&path))
                 .map_err(|e| format!("{primitive}: {e}")),
         },
@@ -422,8 +601,8 @@ type ReadOnceByKey<K, T> = Mutex<HashMap<K, ReadOnce<T>>>;
 struct SharedReads {
     /// How many of the primitives read each accessor (by index) as POSITION or TEXCOORD.
     readers: Vec<u32>,
-    /// By POSITION accessor; `None` where gltf cannot read it.
-    positions: ReadOnceByKey<usize, Option<Vec<DVec3>>>,
+    /// By POSITION accessor.
+    positions: ReadOnceByKey<usize, Result<Vec<DVec3>, String>>,
     /// By TEXCOORD accessor and the bits of the `KHR_texture_transform` applied to them.
     uvs: ReadOnceByKey<(usize, [u64; 5]), Result<Vec<DVec2>, String>>,
 }
@@ -482,8 +661,8 @@ impl SharedReads {
     }
 }
 
-/// The triangles of one primitive (of triangles: `load_gltf` refuses other modes first), in
-/// its mesh's own coordinates.
+/// The triangles of one primitive (a list, strip or fan: `load_gltf` refuses other modes
+/// first), in its mesh's own coordinates.
 fn read_primitive(
     primitive: &gltf::Primitive,
     buffers: &[Vec<u8>],
@@ -491,51 +670,44 @@ fn read_primitive(
     shared: &SharedReads,
 ) -> Result<Vec<MeshTriangle>, String> {
     let look = look(&primitive.material(), images);
-    for (_, accessor) in primitive.attributes() {
-        check_accessor(&accessor, buffers)?;
-    }
-    if let Some(indices) = primitive.indices() {
-        check_accessor(&indices, buffers)?;
-    }
-    let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(Vec::as_slice));
-    let no_positions = "it has no POSITION attribute";
-    let accessor = primitive.get(&gltf::Semantic::Positions).ok_or(no_positions)?;
+    let accessor = primitive
+        .get(&gltf::Semantic::Positions)
+        .ok_or("it has no POSITION attribute")?;
     let positions = shared.read(&shared.positions, accessor.index(), accessor.index(), || {
-        reader
-            .read_positions()
-            .map(|positions| positions.map(|p| DVec3::from_array(p.map(f64::from))).collect())
+        accessor::read(&accessor, buffers, "POSITION", DVec3::from_array)
     });
-    let positions: &Vec<DVec3> = positions.list().as_ref().ok_or(no_positions)?;
-    let indices: Vec<u32> = match reader.read_indices() {
-        Some(indices) => indices.into_u32().collect(),
+    let positions: &Vec<DVec3> = positions.list().as_ref().map_err(Clone::clone)?;
+    let order: Vec<u32> = match primitive.indices() {
+        Some(indices) => accessor::read_indices(&indices, buffers)?,
+        // At most `accessor::MAX_ELEMENTS` vertices: u32 indices.
         None => (0..positions.len() as u32).collect(),
     };
-    if let Some(&i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+    if let Some(&i) = order.iter().find(|&&i| i as usize >= positions.len()) {
         return Err(format!(
             "index {i} is out of range: there are {} vertices",
             positions.len()
         ));
     }
-    if !indices.len().is_multiple_of(3) {
-        return Err(format!("{} indices is not a whole number of triangles", indices.len()));
+    if triangles_of(primitive.mode(), order.len()).is_some_and(|n| n > MAX_MESH_TRIANGLES) {
+        return Err(too_many_triangles());
     }
+    let corners = triangle_corners(primitive.mode(), order)?;
     let uv_list = match &look.texture {
         None => None,
         Some((_, _, set, transform)) => {
-            let no_uvs = || format!("its material's texture reads TEXCOORD_{set}, which it does not have");
-            let accessor = primitive.get(&gltf::Semantic::TexCoords(*set)).ok_or_else(no_uvs)?;
+            let semantic = format!("TEXCOORD_{set}");
+            let accessor = primitive
+                .get(&gltf::Semantic::TexCoords(*set))
+                .ok_or_else(|| format!("its material's texture reads {semantic}, which it does not have"))?;
             Some(shared.read(
                 &shared.uvs,
                 accessor.index(),
                 (accessor.index(), transform.bits()),
                 || {
-                    reader
-                        .read_tex_coords(*set)
-                        .ok_or_else(no_uvs)?
-                        .into_f32()
+                    let uvs = accessor::read(&accessor, buffers, &semantic, DVec2::from_array)?;
+                    uvs.into_iter()
                         .enumerate()
                         .map(|(i, uv)| {
-                            let uv = DVec2::from_array(uv.map(f64::from));
                             if uv.is_finite() {
                                 Ok(transform.apply(uv))
                             } else {
@@ -554,23 +726,34 @@ fn read_primitive(
     if uvs.as_ref().is_some_and(|uvs| uvs.len() < positions.len()) {
         return Err("TEXCOORD has fewer entries than POSITION".into());
     }
-    let colours: Option<Vec<[u8; 3]>> = reader.read_colors(0).map(|colours| {
-        colours
-            .into_rgba_f32()
-            .map(|c| {
-                let linear = DVec4::from_array(c.map(f64::from)) * look.factor;
+    let colours: Option<Vec<[u8; 3]>> = match primitive.get(&gltf::Semantic::Colors(0)) {
+        None => None,
+        Some(accessor) => {
+            let encode = |linear: DVec4| {
+                let linear = linear * look.factor;
                 [linear.x, linear.y, linear.z].map(linear_to_srgb)
+            };
+            Some(match accessor.dimensions() {
+                Dimensions::Vec3 => accessor::read(&accessor, buffers, "COLOR_0", |[r, g, b]| {
+                    encode(DVec4::new(r, g, b, 1.0))
+                })?,
+                Dimensions::Vec4 => {
+                    accessor::read(&accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?
+                }
+                other => {
+                    return Err(format!(
+                        "accessor {} (COLOR_0) is {other:?}; COLOR_0 must be VEC3 or VEC4",
+                        accessor.index()
+                    ));
+                }
             })
-            .collect()
-    });
+        }
+    };
     if colours.as_ref().is_some_and(|c| c.len() < positions.len()) {
         return Err("COLOR_0 has fewer entries than POSITION".into());
     }
-    if indices.len() / 3 > MAX_MESH_TRIANGLES {
-        return Err(too_many_triangles());
-    }
-    let mut triangles = Vec::with_capacity(indices.len() / 3);
-    for corners in indices.chunks_exact(3) {
+    let mut triangles = Vec::with_capacity(corners.len() / 3);
+    for corners in corners.chunks_exact(3) {
         let at = |k: usize| corners[k] as usize;
         triangles.push(MeshTriangle {
             vertices: [positions[at(0)], positions[at(1)], positions[at(2)]],
