@@ -826,7 +826,7 @@ fn a_glb_square_as_a_strip_and_as_a_fan_is_the_triangle_lists_faces_wound_alike(
                 "mode {mode}: face {v:?} faces {normal}, not the origin"
             );
         }
-        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene)), false);
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
     }
 }
 
