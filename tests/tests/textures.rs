@@ -1822,3 +1822,68 @@ fn files_from_independent_writers_read_as_their_formats_define() {
         problems.join("\n")
     );
 }
+
+/// 40 accessors of a million f32 VEC3s over a 1 MiB buffer (`view_less`: without a buffer view,
+/// each within its own bound; else all aliasing one 12 MiB view), each the POSITION of two
+/// meshes of one triangle: each accessor is within bounds, but together they would decode about
+/// 1 GB from a file of 1 or 12 MiB (review of the formats branch, 1.1).
+fn many_large_accessors_glb(view_less: bool) -> Vec<u8> {
+    let elements = 1usize << 20;
+    let accessors = 40;
+    let (bin, views) = if view_less {
+        (
+            vec![0u8; elements],
+            serde_json::json!([{"buffer": 0, "byteOffset": 0, "byteLength": 4}]),
+        )
+    } else {
+        let views = serde_json::json!([
+            {"buffer": 0, "byteOffset": 0, "byteLength": 4},
+            {"buffer": 0, "byteOffset": 4, "byteLength": 12 * elements},
+        ]);
+        (vec![0u8; 4 + 12 * elements], views)
+    };
+    let mut accessor_list =
+        vec![serde_json::json!({"bufferView": 0, "componentType": 5121, "count": 3, "type": "SCALAR"})];
+    accessor_list.extend((0..accessors).map(|_| {
+        let mut accessor = serde_json::json!({"componentType": 5126, "count": elements, "type": "VEC3",
+                                              "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0]});
+        if !view_less {
+            accessor["bufferView"] = serde_json::json!(1);
+        }
+        accessor
+    }));
+    let meshes = 2 * accessors;
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..meshes).collect::<Vec<_>>()}],
+        "nodes": (0..meshes).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
+        "meshes": (0..meshes)
+            .map(|m| serde_json::json!({"primitives": [{"attributes": {"POSITION": 1 + m / 2}, "indices": 0}]}))
+            .collect::<Vec<_>>(),
+        "accessors": accessor_list,
+        "bufferViews": views,
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    common::glb(&json, &bin)
+}
+
+/// [`many_large_accessors_glb`]'s files are refused before any accessor is read, naming the
+/// mesh, primitive and accessor that pass the file's read budget and how to mend the file.
+#[test]
+fn accessors_that_together_pass_the_files_read_budget_are_refused_before_reading() {
+    for view_less in [true, false] {
+        let error = load_glb(&many_large_accessors_glb(view_less))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("square.glb")
+                && error.contains("mesh ")
+                && error.contains(" primitive 0: accessor ")
+                && error.contains("(POSITION)")
+                && error.contains("buffer bytes"),
+            "{error}"
+        );
+    }
+}
