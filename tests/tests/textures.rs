@@ -1887,3 +1887,39 @@ fn accessors_that_together_pass_the_files_read_budget_are_refused_before_reading
         );
     }
 }
+
+/// A node of `EXT_mesh_gpu_instancing` whose TRANSLATION accessor claims 2 M instances (over a
+/// view of one): refused for passing the node-visit cap from the accessor's count, before its
+/// translations are read (read first, they were refused as truncated, or decoded, GBs of them
+/// for a large file, only to be refused after).
+#[test]
+fn instances_past_the_node_visit_cap_are_refused_before_they_are_read() {
+    let mut bin = vec![0u8; 36 + 12];
+    for (k, value) in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0].into_iter().enumerate() {
+        bin[12 + 4 * k..16 + 4 * k].copy_from_slice(&value.to_le_bytes());
+    }
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["EXT_mesh_gpu_instancing"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 1}}}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 2_000_000, "type": "VEC3"},
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 12},
+        ],
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    let error = load_glb(&common::glb(&json, &bin)).map(|_| ()).unwrap_err().to_string();
+    assert!(
+        error.contains("node 0 (EXT_mesh_gpu_instancing): accessor 1 holds 2000000 instances")
+            && error.contains("node visits pass 1000000"),
+        "{error}"
+    );
+}

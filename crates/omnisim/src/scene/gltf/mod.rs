@@ -263,8 +263,14 @@ fn within_read_budget(primitives: &[(usize, gltf::Primitive)], buffers: &[Vec<u8
 }
 
 /// The instance transforms of `node`'s `EXT_mesh_gpu_instancing`, each applied after the
-/// node's own (as a child node of that TRS would be), or `None` without the extension.
-fn instances(node: &gltf::Node, document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Option<Vec<DMat4>>, String> {
+/// node's own (as a child node of that TRS would be), or `None` without the extension. More
+/// than `most` instances are refused from the accessors' counts, before any is read.
+fn instances(
+    node: &gltf::Node,
+    document: &gltf::Document,
+    buffers: &[Vec<u8>],
+    most: usize,
+) -> Result<Option<Vec<DMat4>>, String> {
     let Some(extension) = node.extension_value("EXT_mesh_gpu_instancing") else {
         return Ok(None);
     };
@@ -278,15 +284,28 @@ fn instances(node: &gltf::Node, document: &gltf::Document, buffers: &[Vec<u8>]) 
             .ok_or_else(|| format!("{what}: its {name} names no accessor")),
     };
     let in_node = |e: String| format!("{what}: {e}");
-    let translations = attribute("TRANSLATION")?
+    let [translation, rotation, scale] = ["TRANSLATION", "ROTATION", "SCALE"].map(attribute);
+    let (translation, rotation, scale) = (translation?, rotation?, scale?);
+    if let Some(accessor) = [&translation, &rotation, &scale]
+        .into_iter()
+        .flatten()
+        .find(|accessor| accessor.count() > most)
+    {
+        return Err(format!(
+            "{what}: accessor {} holds {} instances, and with them the node visits pass {MAX_NODE_VISITS}",
+            accessor.index(),
+            accessor.count()
+        ));
+    }
+    let translations = translation
         .map(|a| accessor::read(&a, buffers, "TRANSLATION", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
-    let rotations = attribute("ROTATION")?
+    let rotations = rotation
         .map(|a| accessor::read(&a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
         .transpose()
         .map_err(in_node)?;
-    let scales = attribute("SCALE")?
+    let scales = scale
         .map(|a| accessor::read(&a, buffers, "SCALE", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
@@ -440,17 +459,12 @@ fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<V
             return Err(format!("node {}: its transform is not finite", node.index()));
         }
         if let Some(mesh) = node.mesh() {
-            match instances(&node, document, buffers)? {
+            match instances(&node, document, buffers, MAX_NODE_VISITS - visits)? {
                 None => placed.push((mesh, world)),
                 Some(instances) => {
-                    // Each instance a placement, counted as a node visit against the cap.
-                    visits = visits.saturating_add(instances.len());
-                    if visits > MAX_NODE_VISITS {
-                        return Err(format!(
-                            "node {}: its instances pass {MAX_NODE_VISITS} placements",
-                            node.index()
-                        ));
-                    }
+                    // Each instance a placement, counted as a node visit against the cap
+                    // (`instances` refuses more than the visits left).
+                    visits += instances.len();
                     placed.extend(instances.into_iter().map(|instance| (mesh.clone(), world * instance)));
                 }
             }
