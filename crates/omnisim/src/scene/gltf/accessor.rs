@@ -18,11 +18,13 @@ const MAX_ELEMENTS: usize = 3 * MAX_MESH_TRIANGLES;
 /// Fewest elements an accessor without a buffer view may hold whatever the file's size.
 /// Beyond it, such an accessor (zeros, and its sparse substitutes) may hold no more elements
 /// than the file's buffers hold bytes: its count is backed by no bytes of its own, and a
-/// 400-byte file asking for 100 M zeros took 2.7 GB and 4.5 s before the bound.
+/// 400-byte file asking for 100 M zeros took 2.7 GB and 4.5 s before the bound. This bounds
+/// one accessor; `within_read_budget` (gltf/mod.rs) bounds all that a file's primitives read.
 const VIEW_LESS_FLOOR: usize = 4096;
 
 /// One component type as stored: its size and its value (normalized as the spec says:
-/// signed types clamped at −1, unsigned ones divided by their largest value).
+/// signed types clamped at −1, unsigned ones divided by their largest value; the spec has no
+/// normalized u32 or f32, read leniently all the same).
 trait Component {
     const SIZE: usize;
     fn value(bytes: &[u8], normalized: bool) -> f64;
