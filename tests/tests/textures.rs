@@ -1005,32 +1005,45 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
 /// file), each one primitive of `mode` (4: triangles, 0: points).
 fn shared_indices_glb(mode: u32) -> Vec<u8> {
     let corners = 3_000_000usize;
-    let mut bin = vec![0u8; 36];
-    for (k, value) in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0].into_iter().enumerate() {
-        bin[12 + 4 * k..16 + 4 * k].copy_from_slice(&value.to_le_bytes());
-    }
-    bin.resize(36 + corners, 0);
-    let meshes = 51;
-    let json = serde_json::json!({
+    let bin = triangle_then_zeros(corners);
+    let mut json = meshes_one_per_node(
+        (0..51)
+            .map(|_| serde_json::json!({"attributes": {"POSITION": 0}, "indices": 1, "mode": mode}))
+            .collect(),
+    );
+    json["accessors"] = serde_json::json!([
+        {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+         "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+        {"bufferView": 1, "componentType": 5121, "count": corners, "type": "SCALAR"},
+    ]);
+    json["bufferViews"] = serde_json::json!([
+        {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+        {"buffer": 0, "byteOffset": 36, "byteLength": corners},
+    ]);
+    json["buffers"] = serde_json::json!([{"byteLength": bin.len()}]);
+    common::glb(&json, &bin)
+}
+
+/// A buffer of one triangle's f32 corners (0, 0, 0), (1, 0, 0), (0, 1, 0), then `zeros` bytes.
+fn triangle_then_zeros(zeros: usize) -> Vec<u8> {
+    let mut bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    bin.resize(36 + zeros, 0);
+    bin
+}
+
+/// A glTF document (no buffers yet) of one mesh for each of `primitives`, each placed by a
+/// root node of the default scene.
+fn meshes_one_per_node(primitives: Vec<serde_json::Value>) -> serde_json::Value {
+    serde_json::json!({
         "asset": {"version": "2.0"},
         "scene": 0,
-        "scenes": [{"nodes": (0..meshes).collect::<Vec<_>>()}],
-        "nodes": (0..meshes).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
-        "meshes": (0..meshes)
-            .map(|_| serde_json::json!({"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "mode": mode}]}))
-            .collect::<Vec<_>>(),
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
-            {"bufferView": 1, "componentType": 5121, "count": corners, "type": "SCALAR"},
-        ],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
-            {"buffer": 0, "byteOffset": 36, "byteLength": corners},
-        ],
-        "buffers": [{"byteLength": bin.len()}],
-    });
-    common::glb(&json, &bin)
+        "scenes": [{"nodes": (0..primitives.len()).collect::<Vec<_>>()}],
+        "nodes": (0..primitives.len()).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
+        "meshes": primitives.into_iter().map(|p| serde_json::json!({"primitives": [p]})).collect::<Vec<_>>(),
+    })
 }
 
 /// The meshes of [`shared_indices_glb`] are more than a mesh may hold (50 M triangles):
@@ -1852,19 +1865,14 @@ fn many_large_accessors_glb(view_less: bool) -> Vec<u8> {
         }
         accessor
     }));
-    let meshes = 2 * accessors;
-    let json = serde_json::json!({
-        "asset": {"version": "2.0"},
-        "scene": 0,
-        "scenes": [{"nodes": (0..meshes).collect::<Vec<_>>()}],
-        "nodes": (0..meshes).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
-        "meshes": (0..meshes)
-            .map(|m| serde_json::json!({"primitives": [{"attributes": {"POSITION": 1 + m / 2}, "indices": 0}]}))
-            .collect::<Vec<_>>(),
-        "accessors": accessor_list,
-        "bufferViews": views,
-        "buffers": [{"byteLength": bin.len()}],
-    });
+    let mut json = meshes_one_per_node(
+        (0..2 * accessors)
+            .map(|m| serde_json::json!({"attributes": {"POSITION": 1 + m / 2}, "indices": 0}))
+            .collect(),
+    );
+    json["accessors"] = serde_json::json!(accessor_list);
+    json["bufferViews"] = views;
+    json["buffers"] = serde_json::json!([{"byteLength": bin.len()}]);
     common::glb(&json, &bin)
 }
 
@@ -1894,10 +1902,7 @@ fn accessors_that_together_pass_the_files_read_budget_are_refused_before_reading
 /// for a large file, only to be refused after).
 #[test]
 fn instances_past_the_node_visit_cap_are_refused_before_they_are_read() {
-    let mut bin = vec![0u8; 36 + 12];
-    for (k, value) in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0].into_iter().enumerate() {
-        bin[12 + 4 * k..16 + 4 * k].copy_from_slice(&value.to_le_bytes());
-    }
+    let bin = triangle_then_zeros(12);
     let json = serde_json::json!({
         "asset": {"version": "2.0"},
         "extensionsUsed": ["EXT_mesh_gpu_instancing"],
