@@ -1005,32 +1005,45 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
 /// file), each one primitive of `mode` (4: triangles, 0: points).
 fn shared_indices_glb(mode: u32) -> Vec<u8> {
     let corners = 3_000_000usize;
-    let mut bin = vec![0u8; 36];
-    for (k, value) in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0].into_iter().enumerate() {
-        bin[12 + 4 * k..16 + 4 * k].copy_from_slice(&value.to_le_bytes());
-    }
-    bin.resize(36 + corners, 0);
-    let meshes = 51;
-    let json = serde_json::json!({
+    let bin = triangle_then_zeros(corners);
+    let mut json = meshes_one_per_node(
+        (0..51)
+            .map(|_| serde_json::json!({"attributes": {"POSITION": 0}, "indices": 1, "mode": mode}))
+            .collect(),
+    );
+    json["accessors"] = serde_json::json!([
+        {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+         "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+        {"bufferView": 1, "componentType": 5121, "count": corners, "type": "SCALAR"},
+    ]);
+    json["bufferViews"] = serde_json::json!([
+        {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+        {"buffer": 0, "byteOffset": 36, "byteLength": corners},
+    ]);
+    json["buffers"] = serde_json::json!([{"byteLength": bin.len()}]);
+    common::glb(&json, &bin)
+}
+
+/// A buffer of one triangle's f32 corners (0, 0, 0), (1, 0, 0), (0, 1, 0), then `zeros` bytes.
+fn triangle_then_zeros(zeros: usize) -> Vec<u8> {
+    let mut bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    bin.resize(36 + zeros, 0);
+    bin
+}
+
+/// A glTF document (no buffers yet) of one mesh for each of `primitives`, each placed by a
+/// root node of the default scene.
+fn meshes_one_per_node(primitives: Vec<serde_json::Value>) -> serde_json::Value {
+    serde_json::json!({
         "asset": {"version": "2.0"},
         "scene": 0,
-        "scenes": [{"nodes": (0..meshes).collect::<Vec<_>>()}],
-        "nodes": (0..meshes).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
-        "meshes": (0..meshes)
-            .map(|_| serde_json::json!({"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "mode": mode}]}))
-            .collect::<Vec<_>>(),
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
-            {"bufferView": 1, "componentType": 5121, "count": corners, "type": "SCALAR"},
-        ],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
-            {"buffer": 0, "byteOffset": 36, "byteLength": corners},
-        ],
-        "buffers": [{"byteLength": bin.len()}],
-    });
-    common::glb(&json, &bin)
+        "scenes": [{"nodes": (0..primitives.len()).collect::<Vec<_>>()}],
+        "nodes": (0..primitives.len()).map(|m| serde_json::json!({"mesh": m})).collect::<Vec<_>>(),
+        "meshes": primitives.into_iter().map(|p| serde_json::json!({"primitives": [p]})).collect::<Vec<_>>(),
+    })
 }
 
 /// The meshes of [`shared_indices_glb`] are more than a mesh may hold (50 M triangles):
@@ -1820,5 +1833,98 @@ fn files_from_independent_writers_read_as_their_formats_define() {
         problems.len(),
         cases.len(),
         problems.join("\n")
+    );
+}
+
+/// 40 accessors of a million f32 VEC3s over a 1 MiB buffer (`view_less`: without a buffer view,
+/// each within its own bound; else all aliasing one 12 MiB view), each the POSITION of two
+/// meshes of one triangle: each accessor is within bounds, but together they would decode about
+/// 1 GB from a file of 1 or 12 MiB (review of the formats branch, 1.1).
+fn many_large_accessors_glb(view_less: bool) -> Vec<u8> {
+    let elements = 1usize << 20;
+    let accessors = 40;
+    let (bin, views) = if view_less {
+        (
+            vec![0u8; elements],
+            serde_json::json!([{"buffer": 0, "byteOffset": 0, "byteLength": 4}]),
+        )
+    } else {
+        let views = serde_json::json!([
+            {"buffer": 0, "byteOffset": 0, "byteLength": 4},
+            {"buffer": 0, "byteOffset": 4, "byteLength": 12 * elements},
+        ]);
+        (vec![0u8; 4 + 12 * elements], views)
+    };
+    let mut accessor_list =
+        vec![serde_json::json!({"bufferView": 0, "componentType": 5121, "count": 3, "type": "SCALAR"})];
+    accessor_list.extend((0..accessors).map(|_| {
+        let mut accessor = serde_json::json!({"componentType": 5126, "count": elements, "type": "VEC3",
+                                              "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0]});
+        if !view_less {
+            accessor["bufferView"] = serde_json::json!(1);
+        }
+        accessor
+    }));
+    let mut json = meshes_one_per_node(
+        (0..2 * accessors)
+            .map(|m| serde_json::json!({"attributes": {"POSITION": 1 + m / 2}, "indices": 0}))
+            .collect(),
+    );
+    json["accessors"] = serde_json::json!(accessor_list);
+    json["bufferViews"] = views;
+    json["buffers"] = serde_json::json!([{"byteLength": bin.len()}]);
+    common::glb(&json, &bin)
+}
+
+/// [`many_large_accessors_glb`]'s files are refused before any accessor is read, naming the
+/// mesh, primitive and accessor that pass the file's read budget and how to mend the file.
+#[test]
+fn accessors_that_together_pass_the_files_read_budget_are_refused_before_reading() {
+    for view_less in [true, false] {
+        let error = load_glb(&many_large_accessors_glb(view_less))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("square.glb")
+                && error.contains("mesh ")
+                && error.contains(" primitive 0: accessor ")
+                && error.contains("(POSITION)")
+                && error.contains("buffer bytes"),
+            "{error}"
+        );
+    }
+}
+
+/// A node of `EXT_mesh_gpu_instancing` whose TRANSLATION accessor claims 2 M instances (over a
+/// view of one): refused for passing the node-visit cap from the accessor's count, before its
+/// translations are read (read first, they were refused as truncated, or decoded, GBs of them
+/// for a large file, only to be refused after).
+#[test]
+fn instances_past_the_node_visit_cap_are_refused_before_they_are_read() {
+    let bin = triangle_then_zeros(12);
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["EXT_mesh_gpu_instancing"],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 1}}}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+            {"bufferView": 1, "componentType": 5126, "count": 2_000_000, "type": "VEC3"},
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 12},
+        ],
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    let error = load_glb(&common::glb(&json, &bin)).map(|_| ()).unwrap_err().to_string();
+    assert!(
+        error.contains("node 0 (EXT_mesh_gpu_instancing): accessor 1 holds 2000000 instances")
+            && error.contains("node visits pass 1000000"),
+        "{error}"
     );
 }

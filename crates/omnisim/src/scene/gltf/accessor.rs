@@ -18,11 +18,13 @@ const MAX_ELEMENTS: usize = 3 * MAX_MESH_TRIANGLES;
 /// Fewest elements an accessor without a buffer view may hold whatever the file's size.
 /// Beyond it, such an accessor (zeros, and its sparse substitutes) may hold no more elements
 /// than the file's buffers hold bytes: its count is backed by no bytes of its own, and a
-/// 400-byte file asking for 100 M zeros took 2.7 GB and 4.5 s before the bound.
+/// 400-byte file asking for 100 M zeros took 2.7 GB and 4.5 s before the bound. This bounds
+/// one accessor; `within_read_budget` (gltf/mod.rs) bounds all that a file's primitives read.
 const VIEW_LESS_FLOOR: usize = 4096;
 
 /// One component type as stored: its size and its value (normalized as the spec says:
-/// signed types clamped at −1, unsigned ones divided by their largest value).
+/// signed types clamped at −1, unsigned ones divided by their largest value; the spec has no
+/// normalized u32 or f32, read leniently all the same).
 trait Component {
     const SIZE: usize;
     fn value(bytes: &[u8], normalized: bool) -> f64;
@@ -77,22 +79,35 @@ pub(super) fn read<T: Copy, const N: usize>(
     what: &str,
     make: impl Fn([f64; N]) -> T,
 ) -> Result<Vec<T>, String> {
+    read_normalized_if(accessor, accessor.normalized(), buffers, what, make)
+}
+
+/// [`read`], its components normalized where `normalized` says, whatever the accessor's flag.
+fn read_normalized_if<T: Copy, const N: usize>(
+    accessor: &gltf::Accessor,
+    normalized: bool,
+    buffers: &[Vec<u8>],
+    what: &str,
+    make: impl Fn([f64; N]) -> T,
+) -> Result<Vec<T>, String> {
     match accessor.data_type() {
-        DataType::I8 => read_as::<i8, T, N>(accessor, buffers, what, make),
-        DataType::U8 => read_as::<u8, T, N>(accessor, buffers, what, make),
-        DataType::I16 => read_as::<i16, T, N>(accessor, buffers, what, make),
-        DataType::U16 => read_as::<u16, T, N>(accessor, buffers, what, make),
-        DataType::U32 => read_as::<u32, T, N>(accessor, buffers, what, make),
-        DataType::F32 => read_as::<f32, T, N>(accessor, buffers, what, make),
+        DataType::I8 => read_as::<i8, T, N>(accessor, normalized, buffers, what, make),
+        DataType::U8 => read_as::<u8, T, N>(accessor, normalized, buffers, what, make),
+        DataType::I16 => read_as::<i16, T, N>(accessor, normalized, buffers, what, make),
+        DataType::U16 => read_as::<u16, T, N>(accessor, normalized, buffers, what, make),
+        DataType::U32 => read_as::<u32, T, N>(accessor, normalized, buffers, what, make),
+        DataType::F32 => read_as::<f32, T, N>(accessor, normalized, buffers, what, make),
     }
 }
 
-/// The corner indices of `accessor` (unsigned integer scalars, as the spec requires).
+/// The corner indices of `accessor` (unsigned integer scalars, as the spec requires), read as
+/// integers even where the file sets `normalized`, which the spec forbids on indices: read
+/// normalized, they would all be 0 or 1.
 pub(super) fn read_indices(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
     match accessor.data_type() {
         DataType::U8 | DataType::U16 | DataType::U32 => {
             // Exact in f64, and below 2³² by their type.
-            read(accessor, buffers, "indices", |[i]: [f64; 1]| i as u32)
+            read_normalized_if(accessor, false, buffers, "indices", |[i]: [f64; 1]| i as u32)
         }
         other => Err(format!(
             "accessor {} (indices) holds {other:?} components; indices must be unsigned 8, 16 or 32-bit integers",
@@ -103,6 +118,7 @@ pub(super) fn read_indices(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Re
 
 fn read_as<C: Component, T: Copy, const N: usize>(
     accessor: &gltf::Accessor,
+    normalized: bool,
     buffers: &[Vec<u8>],
     what: &str,
     make: impl Fn([f64; N]) -> T,
@@ -127,7 +143,6 @@ fn read_as<C: Component, T: Copy, const N: usize>(
             name()
         ));
     }
-    let normalized = accessor.normalized();
     let size = N * C::SIZE;
     let decode = |bytes: &[u8]| make(std::array::from_fn(|k| C::value(&bytes[k * C::SIZE..], normalized)));
     let truncated = || {
@@ -219,7 +234,8 @@ mod tests {
     }
 
     /// A quantized (normalized i16, byteStride 8) VEC3 accessor with a sparse substitute, a
-    /// view-less VEC2 accessor (zeros) with one, u8 indices, and the same read past its view.
+    /// view-less VEC2 accessor (zeros) with one, u8 indices (also flagged `normalized`), and the
+    /// VEC3s read past their view.
     #[test]
     fn strided_quantized_sparse_and_view_less_accessors_read_their_closed_forms() {
         let mut bin = Vec::new();
@@ -232,6 +248,7 @@ mod tests {
         bin.extend(2u16.to_le_bytes()); // sparse index 2 of the VEC3s
         bin.extend([0.25f32, -4.0].iter().flat_map(|v| v.to_le_bytes()));
         bin.extend([-32767i16, 32767, 0].iter().flat_map(|c| c.to_le_bytes()));
+        bin.extend([2u8, 0, 255]); // indices 2, 0, 255, flagged normalized
         let json = serde_json::json!({
             "asset": {"version": "2.0"},
             "buffers": [{"byteLength": bin.len()}],
@@ -242,7 +259,8 @@ mod tests {
                 {"buffer": 0, "byteOffset": 30, "byteLength": 2},
                 {"buffer": 0, "byteOffset": 32, "byteLength": 8},
                 {"buffer": 0, "byteOffset": 40, "byteLength": 6},
-                {"buffer": 0, "byteOffset": 0, "byteLength": 20, "byteStride": 8}
+                {"buffer": 0, "byteOffset": 0, "byteLength": 20, "byteStride": 8},
+                {"buffer": 0, "byteOffset": 46, "byteLength": 3}
             ],
             "accessors": [
                 {"bufferView": 0, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC3",
@@ -252,7 +270,8 @@ mod tests {
                  "sparse": {"count": 1, "indices": {"bufferView": 2, "componentType": 5123},
                             "values": {"bufferView": 4}}},
                 {"bufferView": 1, "componentType": 5121, "count": 3, "type": "SCALAR"},
-                {"bufferView": 6, "componentType": 5122, "count": 3, "type": "VEC3"}
+                {"bufferView": 6, "componentType": 5122, "count": 3, "type": "VEC3"},
+                {"bufferView": 7, "componentType": 5121, "normalized": true, "count": 3, "type": "SCALAR"}
             ]
         });
         let gltf = gltf::Gltf::from_slice(&serde_json::to_vec(&json).unwrap()).unwrap();
@@ -270,6 +289,8 @@ mod tests {
         let uvs = read(&accessor(1), &buffers, "TEXCOORD_0", |uv: [f64; 2]| uv).unwrap();
         assert_eq!(uvs, [[0.0, 0.0], [0.25, -4.0], [0.0, 0.0]]);
         assert_eq!(read_indices(&accessor(2), &buffers).unwrap(), [2, 0, 1]);
+        // The same bytes flagged `normalized` (which the spec forbids on indices): still integers.
+        assert_eq!(read_indices(&accessor(4), &buffers).unwrap(), [2, 0, 255]);
         // The third element's six bytes end at 22, past the view's 20.
         let past = read(&accessor(3), &buffers, "POSITION", |p: [f64; 3]| p).unwrap_err();
         assert!(

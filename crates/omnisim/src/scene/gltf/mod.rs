@@ -14,8 +14,8 @@
 
 mod accessor;
 
-use std::collections::HashMap;
 use std::collections::hash_map::Entry;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -154,6 +154,7 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
             }
         }
     }
+    within_read_budget(&primitives, &buffers)?;
     let images = load_images(&primitives, document, &buffers, textures)?;
     let shared = SharedReads::new(&primitives, document.accessors().len());
     // On all threads.
@@ -203,9 +204,73 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     Ok(parts.into_iter().map(|(part, _)| part).collect())
 }
 
+/// Fewest elements the primitives of one file may read together, whatever its buffers' size.
+const READ_FLOOR: usize = 1 << 20;
+
+/// Refuses a file whose primitives would read more elements, all together, than its buffers
+/// hold bytes (plus [`READ_FLOOR`]), before anything is read. Each accessor is bounded alone,
+/// but accessors without a buffer view (zeros), or many over one view, each read by a
+/// primitive, took a 1 MB file to 950 MB. Every element a file stores takes a byte at least,
+/// so only such accessors pass. Counted as `read_primitive` reads: a POSITION or TEXCOORD list
+/// once for all the primitives that share it ([`SharedReads`]), indices and `COLOR_0` for each
+/// primitive.
+fn within_read_budget(primitives: &[(usize, gltf::Primitive)], buffers: &[Vec<u8>]) -> Result<(), String> {
+    let budget = buffers.iter().map(Vec::len).sum::<usize>().saturating_add(READ_FLOOR);
+    let mut shared_positions = HashSet::new();
+    let mut shared_uvs = HashSet::new();
+    let mut read = 0usize;
+    for (mesh, primitive) in primitives {
+        let mut reads: Vec<(gltf::Accessor, String)> = Vec::new();
+        if let Some(positions) = primitive.get(&gltf::Semantic::Positions)
+            && shared_positions.insert(positions.index())
+        {
+            reads.push((positions, "POSITION".into()));
+        }
+        if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
+            let (set, transform) = texture_coordinates(&info);
+            if let Some(uvs) = primitive.get(&gltf::Semantic::TexCoords(set))
+                && shared_uvs.insert((uvs.index(), transform.bits()))
+            {
+                reads.push((uvs, format!("TEXCOORD_{set}")));
+            }
+        }
+        reads.extend(primitive.indices().map(|indices| (indices, "indices".into())));
+        reads.extend(
+            primitive
+                .get(&gltf::Semantic::Colors(0))
+                .map(|colours| (colours, "COLOR_0".into())),
+        );
+        for (accessor, what) in reads {
+            read = read.saturating_add(accessor.count());
+            if read > budget {
+                let view = if accessor.view().is_some() {
+                    ""
+                } else {
+                    "no buffer view and "
+                };
+                return Err(format!(
+                    "mesh {mesh} primitive {}: accessor {} ({what}) has {view}{} elements, which bring the elements \
+                     read to {read}, more than the file's buffer bytes (plus {READ_FLOOR}), {budget}, could hold: \
+                     its accessors lack buffer views or overlap; re-export the file, each accessor over its own bytes",
+                    primitive.index(),
+                    accessor.index(),
+                    accessor.count()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The instance transforms of `node`'s `EXT_mesh_gpu_instancing`, each applied after the
-/// node's own (as a child node of that TRS would be), or `None` without the extension.
-fn instances(node: &gltf::Node, document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Option<Vec<DMat4>>, String> {
+/// node's own (as a child node of that TRS would be), or `None` without the extension. More
+/// than `most` instances are refused from the accessors' counts, before any is read.
+fn instances(
+    node: &gltf::Node,
+    document: &gltf::Document,
+    buffers: &[Vec<u8>],
+    most: usize,
+) -> Result<Option<Vec<DMat4>>, String> {
     let Some(extension) = node.extension_value("EXT_mesh_gpu_instancing") else {
         return Ok(None);
     };
@@ -219,15 +284,28 @@ fn instances(node: &gltf::Node, document: &gltf::Document, buffers: &[Vec<u8>]) 
             .ok_or_else(|| format!("{what}: its {name} names no accessor")),
     };
     let in_node = |e: String| format!("{what}: {e}");
-    let translations = attribute("TRANSLATION")?
+    let [translation, rotation, scale] = ["TRANSLATION", "ROTATION", "SCALE"].map(attribute);
+    let (translation, rotation, scale) = (translation?, rotation?, scale?);
+    if let Some(accessor) = [&translation, &rotation, &scale]
+        .into_iter()
+        .flatten()
+        .find(|accessor| accessor.count() > most)
+    {
+        return Err(format!(
+            "{what}: accessor {} holds {} instances, and with them the node visits pass {MAX_NODE_VISITS}",
+            accessor.index(),
+            accessor.count()
+        ));
+    }
+    let translations = translation
         .map(|a| accessor::read(&a, buffers, "TRANSLATION", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
-    let rotations = attribute("ROTATION")?
+    let rotations = rotation
         .map(|a| accessor::read(&a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
         .transpose()
         .map_err(in_node)?;
-    let scales = attribute("SCALE")?
+    let scales = scale
         .map(|a| accessor::read(&a, buffers, "SCALE", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
@@ -381,17 +459,12 @@ fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<V
             return Err(format!("node {}: its transform is not finite", node.index()));
         }
         if let Some(mesh) = node.mesh() {
-            match instances(&node, document, buffers)? {
+            match instances(&node, document, buffers, MAX_NODE_VISITS - visits)? {
                 None => placed.push((mesh, world)),
                 Some(instances) => {
-                    // Each instance a placement, counted as a node visit against the cap.
-                    visits = visits.saturating_add(instances.len());
-                    if visits > MAX_NODE_VISITS {
-                        return Err(format!(
-                            "node {}: its instances pass {MAX_NODE_VISITS} placements",
-                            node.index()
-                        ));
-                    }
+                    // Each instance a placement, counted as a node visit against the cap
+                    // (`instances` refuses more than the visits left).
+                    visits += instances.len();
                     placed.extend(instances.into_iter().map(|instance| (mesh.clone(), world * instance)));
                 }
             }
@@ -521,6 +594,21 @@ fn wrap(mode: WrappingMode) -> Wrap {
     }
 }
 
+/// The TEXCOORD set a base-colour texture reads, and the `KHR_texture_transform` applied to it.
+fn texture_coordinates(info: &gltf::texture::Info) -> (u32, UvTransform) {
+    match info.texture_transform() {
+        None => (info.tex_coord(), UvTransform::IDENTITY),
+        Some(t) => (
+            t.tex_coord().unwrap_or(info.tex_coord()),
+            UvTransform {
+                offset: DVec2::from_array(t.offset().map(f64::from)),
+                rotation: f64::from(t.rotation()),
+                scale: DVec2::from_array(t.scale().map(f64::from)),
+            },
+        ),
+    }
+}
+
 /// The look of a primitive's material, its base-colour texture one of `images` (by image
 /// index, [`load_images`]).
 fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
@@ -533,17 +621,7 @@ fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
             let image = texture.source();
             let id = images[image.index()].expect("load_images decodes every image a placed primitive shows");
             let sampler = texture.sampler();
-            let (set, transform) = match info.texture_transform() {
-                None => (info.tex_coord(), UvTransform::IDENTITY),
-                Some(t) => (
-                    t.tex_coord().unwrap_or(info.tex_coord()),
-                    UvTransform {
-                        offset: DVec2::from_array(t.offset().map(f64::from)),
-                        rotation: f64::from(t.rotation()),
-                        scale: DVec2::from_array(t.scale().map(f64::from)),
-                    },
-                ),
-            };
+            let (set, transform) = texture_coordinates(&info);
             Some((id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], set, transform))
         }
     };
