@@ -46,12 +46,19 @@ def strip(triangles, part):
     return positions, uvs, indices, wide
 
 
-def positive(text):
-    """An argparse type: a whole number of at least 1 (counts divide the parts among them)."""
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is not at least 1")
-    return value
+def at_least(least):
+    """An argparse type: a whole number of at least `least`."""
+    def check(text):
+        value = int(text)
+        if value < least:
+            raise argparse.ArgumentTypeError(f"{value} is not at least {least}")
+        return value
+    return check
+
+
+# Counts that divide the parts among them; textures may be 0 (none).
+positive = at_least(1)
+non_negative = at_least(0)
 
 
 def main():
@@ -61,7 +68,7 @@ def main():
     parser.add_argument("--triangles", type=positive, default=50, help="triangles per primitive")
     parser.add_argument("--nodes", type=positive, default=2000, help="nodes with a mesh")
     parser.add_argument("--materials", type=positive, default=200)
-    parser.add_argument("--textures", type=int, default=50)
+    parser.add_argument("--textures", type=non_negative, default=50)
     parser.add_argument("--size", type=positive, default=256, help="texture side in texels")
     parser.add_argument("--merge", action="store_true", help="the same placed triangles as one primitive of material 0")
     args = parser.parse_args()

@@ -17,7 +17,7 @@ import argparse
 import pathlib
 
 from make_big_gltf import noise_png
-from make_parts_gltf import positive, strip
+from make_parts_gltf import non_negative, positive, strip
 
 
 def main():
@@ -26,7 +26,7 @@ def main():
     parser.add_argument("--groups", type=positive, default=20000)
     parser.add_argument("--triangles", type=positive, default=50, help="triangles per group")
     parser.add_argument("--materials", type=positive, default=100)
-    parser.add_argument("--textures", type=int, default=100)
+    parser.add_argument("--textures", type=non_negative, default=100)
     parser.add_argument("--size", type=positive, default=256, help="texture side in texels")
     args = parser.parse_args()
     out = args.out

@@ -97,7 +97,7 @@ pub fn opencv_stereo(rig: &StereoRig) -> String {
                     None =>
                         "OpenCV has no model for this lens: M1, D1, M2, D2 are left out; the\n\
                              # cameras are in calibration-kalibr.yaml where Kalibr has the model, render.json and the\n\
-                             # ray maps (raymap-*-left/right.exr).",
+                             # ray maps (raymap-left-*.exr, raymap-right-*.exr).",
                 }
             );
             opencv.map(|form| (form.coefficients, form.xi))

@@ -53,7 +53,7 @@ pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) {
     // triangles in order. Read in node order; parents then look their children's pair up in
     // these lists (1 and 8 bytes a pair) instead of in the nodes (two 32-byte nodes across two
     // cache lines, scattered).
-    let (collapses, pairs): (Vec<bool>, Vec<[u32; 2]>) = super::map_indices_unzip(count / 2, |p| {
+    let (pair_collapses, pairs): (Vec<bool>, Vec<[u32; 2]>) = super::map_indices_unzip(count / 2, |p| {
         let (left, right) = (&nodes[2 * p + 1], &nodes[2 * p + 2]);
         if left.is_leaf() && right.is_leaf() && left.prim_count + right.prim_count <= MAX_LEAF {
             // Both leaves hold one triangle: a leaf holds at least one.
@@ -65,7 +65,7 @@ pub(super) fn collapse_leaf_pairs(bvh: &mut Bvh2) {
             (false, [0; 2])
         }
     });
-    let pair = |first: usize| collapses[first / 2];
+    let pair = |first: usize| pair_collapses[first / 2];
     // Node j's sibling pair is pair (j − 1) / 2.
     let kept = |j: usize| j == 0 || !pair(j - 1);
     // Triangles node j holds once collapsed: its own if a kept leaf, its children's if they pair.
