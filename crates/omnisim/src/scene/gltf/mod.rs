@@ -220,29 +220,32 @@ fn within_read_budget(primitives: &[(usize, gltf::Primitive)], buffers: &[Vec<u8
     let mut shared_uvs = HashSet::new();
     let mut read = 0usize;
     for (mesh, primitive) in primitives {
-        let mut reads: Vec<(gltf::Accessor, String)> = Vec::new();
+        // Named only in an error (formatting every name cost a twentieth of a many-part read:
+        // docs/benchmarks.md, "2026-11-27 night2 (parts)"); a TEXCOORD list with its set.
+        let mut reads: Vec<(gltf::Accessor, &str, Option<u32>)> = Vec::new();
         if let Some(positions) = primitive.get(&gltf::Semantic::Positions)
             && shared_positions.insert(positions.index())
         {
-            reads.push((positions, "POSITION".into()));
+            reads.push((positions, "POSITION", None));
         }
         if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
             let (set, transform) = texture_coordinates(&info);
             if let Some(uvs) = primitive.get(&gltf::Semantic::TexCoords(set))
                 && shared_uvs.insert((uvs.index(), transform.bits()))
             {
-                reads.push((uvs, format!("TEXCOORD_{set}")));
+                reads.push((uvs, "TEXCOORD", Some(set)));
             }
         }
-        reads.extend(primitive.indices().map(|indices| (indices, "indices".into())));
+        reads.extend(primitive.indices().map(|indices| (indices, "indices", None)));
         reads.extend(
             primitive
                 .get(&gltf::Semantic::Colors(0))
-                .map(|colours| (colours, "COLOR_0".into())),
+                .map(|colours| (colours, "COLOR_0", None)),
         );
-        for (accessor, what) in reads {
+        for (accessor, name, set) in reads {
             read = read.saturating_add(accessor.count());
             if read > budget {
+                let what = set.map_or_else(|| name.to_string(), |set| format!("{name}_{set}"));
                 let view = if accessor.view().is_some() {
                     ""
                 } else {
@@ -766,9 +769,8 @@ fn read_primitive(
             positions.len()
         ));
     }
-    if triangles_of(primitive.mode(), order.len()).is_some_and(|n| n > MAX_MESH_TRIANGLES) {
-        return Err(too_many_triangles());
-    }
+    // `load_gltf` capped every primitive's triangles from these counts before any read.
+    debug_assert!(triangles_of(primitive.mode(), order.len()).is_none_or(|n| n <= MAX_MESH_TRIANGLES));
     let corners = triangle_corners(primitive.mode(), order)?;
     let uv_list = match &look.texture {
         None => None,
