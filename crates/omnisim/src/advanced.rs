@@ -5,7 +5,8 @@
 //! [`shade`], [`encode`], [`edge_pixels`]) and the GPU renderer. Colour conversions are in
 //! [`scene::lighting`](crate::scene::lighting).
 
-pub use crate::accel::{SceneBvh, TooManyTriangles};
+pub use crate::accel::SceneBvh;
+pub use crate::scene::TooManyTriangles;
 pub use crate::frame::Pixel;
 #[cfg(feature = "gpu")]
 pub use crate::gpu::{GpuError, GpuRenderer, GpuStages};

@@ -74,7 +74,7 @@ pub enum RenderError {
     /// A scene of more triangles than the BVH addresses (one built in code: scene files are
     /// refused on load).
     #[error("the scene has {0}")]
-    TooManyTriangles(#[from] crate::accel::TooManyTriangles),
+    TooManyTriangles(#[from] crate::scene::TooManyTriangles),
     /// A texture the renderer cannot filter (one built by hand, too large).
     #[error("texture {index} ({source_name}): {message}")]
     Texture {

@@ -16,8 +16,8 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use rayon::prelude::*;
 
-use crate::scene::Scene;
 use crate::scene::triangulate::TriangleIndex;
+use crate::scene::{Scene, TooManyTriangles};
 use wide::WideBvh;
 
 /// obvhs's medium build with leaves of at most two triangles instead of eight, and without its
@@ -39,6 +39,8 @@ const BUILD_PARAMS: BvhBuildParams = BvhBuildParams {
 // leaves as `collapse::collapse_leaf_pairs` does (leaves of `collapse::MAX_LEAF`, a traversal
 // cost of at least that, no reinsertion after the collapse).
 const _: () = {
+    // The leaves address every triangle a scene may have.
+    assert!(SceneBvh::MAX_TRIANGLES <= wide::FIRST_TRIANGLE as usize + 1);
     assert!(collapse::MAX_LEAF as usize <= wide::MAX_LEAF_TRIANGLES);
     let presets = [BUILD_PARAMS, LARGE_BUILD_PARAMS];
     let mut i = 0;
@@ -112,32 +114,10 @@ pub struct SceneBvh {
     pub(crate) build_time: Duration,
 }
 
-/// A scene of more triangles than its BVH addresses ([`SceneBvh::MAX_TRIANGLES`]).
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "{triangles} triangles, more than the {} (2^29) omnisim traces in one scene (its BVH addresses \
-     triangles in 29 bits): split the scene into several, or simplify its meshes",
-    SceneBvh::MAX_TRIANGLES
-)]
-pub struct TooManyTriangles {
-    /// The scene's triangles (faces split as [`Scene::triangulate`] splits them).
-    pub triangles: usize,
-}
-
 impl SceneBvh {
-    /// The most triangles a scene may have: the wide BVH's leaves address them in 29 bits
-    /// (about 110 GB of BVH).
-    pub const MAX_TRIANGLES: usize = wide::FIRST_TRIANGLE as usize + 1;
-
-    /// Refuses `triangles` over [`SceneBvh::MAX_TRIANGLES`], the one check of the cap: the build
-    /// asks it first, and scene loading before a mesh's faces are made and after each object,
-    /// to name the object that passes it.
-    pub fn check_triangle_count(triangles: usize) -> Result<(), TooManyTriangles> {
-        if triangles > Self::MAX_TRIANGLES {
-            return Err(TooManyTriangles { triangles });
-        }
-        Ok(())
-    }
+    /// The most triangles a scene may have, [`crate::scene::MAX_TRIANGLES`], which the wide
+    /// BVH's leaves address.
+    pub const MAX_TRIANGLES: usize = crate::scene::MAX_TRIANGLES;
 
     /// Builds the BVH with the local origin at the centre of the scene's bounds; refuses a scene
     /// of more than [`SceneBvh::MAX_TRIANGLES`] triangles.
@@ -165,7 +145,7 @@ impl SceneBvh {
         // indices (16 bytes a triangle, made on one thread) is not needed.
         let all_triangles = every_face_a_triangle(scene);
         // Counted before anything is made for them.
-        Self::check_triangle_count(if all_triangles {
+        crate::scene::check_triangle_count(if all_triangles {
             scene.faces.len()
         } else {
             scene.triangle_count()
@@ -322,8 +302,8 @@ mod tests {
     /// it gives (env1 has polygons of more than three vertices), so no scene of that size is made.
     #[test]
     fn a_scene_over_2_pow_29_triangles_is_refused_by_its_count() {
-        assert!(SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES).is_ok());
-        let refusal = SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES + 1).unwrap_err();
+        assert!(crate::scene::check_triangle_count(SceneBvh::MAX_TRIANGLES).is_ok());
+        let refusal = crate::scene::check_triangle_count(SceneBvh::MAX_TRIANGLES + 1).unwrap_err();
         let message = refusal.to_string();
         assert_eq!(
             message,

@@ -15,7 +15,6 @@ use super::mesh::MeshTriangle;
 use super::surface::{Surface, Surfaces, UvMap, planar_uv};
 use super::texture::{BYTES_PER_TEXEL_WITH_MIPS, MAX_SCENE_TEXELS, PendingImage, Texture, Wrap, open_image};
 use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};
-use crate::accel::SceneBvh;
 use crate::input::locate;
 use crate::pose::rotation_xyz;
 use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb};
@@ -711,7 +710,7 @@ const MESH_CHUNK: usize = 1 << 15;
 
 /// Loads mesh `m` and keeps its faces (through `keeping`), each part of the mesh freed once
 /// kept; the number of faces dropped. Refuses it unmade if its triangles and the scene's
-/// `scene_triangles` so far pass the BVH's cap.
+/// `scene_triangles` so far pass the scene's cap ([`super::MAX_TRIANGLES`]).
 #[allow(clippy::too_many_arguments)]
 fn keep_mesh_faces(
     m: &MeshFile,
@@ -743,7 +742,7 @@ fn keep_mesh_faces(
     let triangles: usize = parts.iter().map(Vec::len).sum();
     // Refused from the counts before its faces are made (its triangles as read: zero-area ones,
     // dropped as the faces are made, count too).
-    SceneBvh::check_triangle_count(scene_triangles + triangles)
+    super::check_triangle_count(scene_triangles + triangles)
         .map_err(|e| format!("with this mesh's triangles as read (zero-area ones included), the scene has {e}"))?;
     scene.faces.reserve_exact(triangles);
     let with_surface = parts.par_iter().flatten().filter(|t| t.carries_surface()).count();
@@ -773,10 +772,10 @@ fn keep_mesh_faces(
     Ok(dropped)
 }
 
-/// Refuses a scene of `triangles` so far, this object's included, over the BVH's cap
-/// ([`SceneBvh::check_triangle_count`]).
+/// Refuses a scene of `triangles` so far, this object's included, over the cap
+/// ([`super::check_triangle_count`]).
 fn check_scene_triangles(triangles: usize) -> Result<(), String> {
-    SceneBvh::check_triangle_count(triangles).map_err(|e| format!("the scene now has {e}"))
+    super::check_triangle_count(triangles).map_err(|e| format!("the scene now has {e}"))
 }
 
 /// Cuts parts of `lengths` (in order) into chunks of at most `size` items, each chunk its
@@ -847,8 +846,9 @@ mod chunk_tests {
 #[cfg(test)]
 mod triangle_cap_tests {
     use super::*;
+    use crate::scene::{MAX_TRIANGLES, check_triangle_count};
 
-    /// A mesh that would take the scene past the BVH's cap is refused from the counts, none of
+    /// A mesh that would take the scene past the triangle cap is refused from the counts, none of
     /// its faces made, with the cap's message (which scene loading gives with the object's
     /// place); one that fits is kept.
     #[test]
@@ -884,10 +884,10 @@ mod triangle_cap_tests {
             );
             (kept, scene.faces.len())
         };
-        assert_eq!(keep(SceneBvh::MAX_TRIANGLES - 2), (Ok(0), 2));
-        let refusal = SceneBvh::check_triangle_count(SceneBvh::MAX_TRIANGLES + 1).unwrap_err();
+        assert_eq!(keep(MAX_TRIANGLES - 2), (Ok(0), 2));
+        let refusal = check_triangle_count(MAX_TRIANGLES + 1).unwrap_err();
         assert_eq!(
-            keep(SceneBvh::MAX_TRIANGLES - 1),
+            keep(MAX_TRIANGLES - 1),
             (
                 Err(format!(
                     "with this mesh's triangles as read (zero-area ones included), the scene has {refusal}"

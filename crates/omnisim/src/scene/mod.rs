@@ -35,6 +35,31 @@ pub use validate::MAX_COORDINATE;
 /// (no heap allocation): 24 bytes less per triangle, where memory limits scene size.
 pub type Vertices = smallvec::SmallVec<[DVec3; 3]>;
 
+/// The most triangles a scene may have (faces split as [`Scene::triangulate`] splits them): the
+/// BVH's wide leaves address them in 29 bits (about 110 GB of BVH).
+pub const MAX_TRIANGLES: usize = 1 << 29;
+
+/// A scene of more triangles than omnisim traces ([`MAX_TRIANGLES`]).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{triangles} triangles, more than the {MAX_TRIANGLES} (2^29) omnisim traces in one scene (its BVH addresses \
+     triangles in 29 bits): split the scene into several, or simplify its meshes"
+)]
+pub struct TooManyTriangles {
+    /// The scene's triangles (faces split as [`Scene::triangulate`] splits them).
+    pub triangles: usize,
+}
+
+/// Refuses `triangles` over [`MAX_TRIANGLES`], the one check of the cap: loading asks it before
+/// a mesh's faces are made and after each object (to name the object that passes it), and the
+/// BVH's build before anything is made.
+pub fn check_triangle_count(triangles: usize) -> Result<(), TooManyTriangles> {
+    if triangles > MAX_TRIANGLES {
+        return Err(TooManyTriangles { triangles });
+    }
+    Ok(())
+}
+
 /// A planar convex-or-concave polygon with one colour, the unit a scene is made of.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Face {
