@@ -6,10 +6,10 @@
 //! [`scene::lighting`](crate::scene::lighting).
 
 pub use crate::accel::SceneBvh;
-pub use crate::scene::TooManyTriangles;
 pub use crate::frame::Pixel;
 #[cfg(feature = "gpu")]
 pub use crate::gpu::{GpuError, GpuRenderer, GpuStages};
+pub use crate::scene::TooManyTriangles;
 pub use crate::shade::antialias::edge_pixels;
 pub use crate::shade::{Appearance, Footprint, encode, shade};
 pub use crate::trace::counts::TraversalCounts;

@@ -1,12 +1,14 @@
 //! Reading files a user names: only regular files (a FIFO would block forever, `/dev/zero`
-//! would fill memory), never more bytes than a stated limit, and error messages that name the
-//! file without quoting what is in it; and, for RON files, errors that say where ([`locate`]).
+//! would fill memory), never more bytes than a stated limit, the files a file names (a scene's
+//! meshes and textures, a mesh's own) only from its folder and below (`inside_folder`), and
+//! error messages that name the file without quoting what is in it; and, for RON files, errors
+//! that say where ([`locate`]).
 
 pub mod locate;
 
 use std::fs::File;
 use std::io::{Read, Take};
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 /// Largest scene file read: 64 MiB holds some 400,000 objects.
 pub const SCENE_LIMIT: u64 = 64 << 20;
@@ -127,6 +129,24 @@ pub fn read_text(path: &Path, limit: u64) -> Result<String, InputError> {
         path: path.to_path_buf(),
         at: e.utf8_error().valid_up_to(),
     })
+}
+
+/// The path of file `relative` (as a scene file or a mesh names it) below the folder of
+/// `parent`: a file from anyone reads from its own folder and below only.
+pub(crate) fn inside_folder(parent: &Path, relative: &str, what: &str) -> Result<PathBuf, String> {
+    let path = Path::new(relative);
+    if relative.is_empty()
+        || path
+            .components()
+            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
+    {
+        return Err(format!(
+            "{what} path '{}' must be relative to the scene file's folder (a mesh's own files: to the mesh's \
+             folder) and stay inside it (no '..', no absolute path); put the file beside it or in a folder below it",
+            shown(relative, 80)
+        ));
+    }
+    Ok(parent.parent().unwrap_or(Path::new(".")).join(path))
 }
 
 /// How every RON input (scenes, data-set specs) is parsed: newtype variants unwrapped and

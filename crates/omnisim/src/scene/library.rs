@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 use std::ops::Range;
-use std::path::{Component, Path, PathBuf};
+use std::path::Path;
 
 use glam::{DVec2, DVec3, dvec3};
 use rayon::prelude::*;
@@ -291,7 +291,7 @@ fn place(
 ) -> Result<Placement, (&'static str, String)> {
     let texture = match (&file.image, &file.pattern) {
         (Some(image), None) => {
-            let path = inside_folder(scene_path, image, "texture image").map_err(|e| ("image", e))?;
+            let path = crate::input::inside_folder(scene_path, image, "texture image").map_err(|e| ("image", e))?;
             bank.add_image(format!("image {}", path.display()), || open_image(&path))
                 .map_err(|e| ("image", e))?
         }
@@ -326,24 +326,6 @@ fn place(
         offset: DVec2::new(file.offset.0, file.offset.1),
         wrap: file.wrap,
     })
-}
-
-/// The path of file `relative` (as a scene file or a mesh names it) below the folder of
-/// `parent`: a file from anyone reads from its own folder and below only.
-pub(super) fn inside_folder(parent: &Path, relative: &str, what: &str) -> Result<PathBuf, String> {
-    let path = Path::new(relative);
-    if relative.is_empty()
-        || path
-            .components()
-            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir))
-    {
-        return Err(format!(
-            "{what} path '{}' must be relative to the scene file's folder (a mesh's own files: to the mesh's \
-             folder) and stay inside it (no '..', no absolute path); put the file beside it or in a folder below it",
-            crate::input::shown(relative, 80)
-        ));
-    }
-    Ok(parent.parent().unwrap_or(Path::new(".")).join(path))
 }
 
 /// Checks the lighting section; light names share one namespace with object names so that
@@ -723,7 +705,7 @@ fn keep_mesh_faces(
     scene_triangles: usize,
 ) -> Result<usize, String> {
     positive("scale", m.scale)?;
-    let mesh_path = inside_folder(scene_path, &m.path, "mesh")?;
+    let mesh_path = crate::input::inside_folder(scene_path, &m.path, "mesh")?;
     let mut parts = mesh::load(&mesh_path, bank)?;
     let world_from_object = rotation_xyz(angles);
     let position = dvec3(m.position.0, m.position.1, m.position.2);

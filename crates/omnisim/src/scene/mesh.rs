@@ -152,7 +152,7 @@ impl MeshTextures<'_> {
     pub(super) fn images(&mut self, names: &[&str]) -> Result<Vec<u32>, String> {
         let paths = names
             .iter()
-            .map(|name| super::library::inside_folder(self.mesh, name, "texture"))
+            .map(|name| crate::input::inside_folder(self.mesh, name, "texture"))
             .collect::<Result<Vec<PathBuf>, String>>()?;
         let keys: Vec<String> = paths.iter().map(|path| format!("image {}", path.display())).collect();
         self.bank.add_images(&keys, |i| super::texture::open_image(&paths[i]))

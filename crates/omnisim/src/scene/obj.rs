@@ -125,7 +125,7 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
         let opened = name
             .to_str()
             .ok_or_else(|| "the mtllib name is not UTF-8".to_string())
-            .and_then(|name| super::library::inside_folder(textures.mesh, name, "mtllib"))
+            .and_then(|name| crate::input::inside_folder(textures.mesh, name, "mtllib"))
             .and_then(|path| crate::input::open_regular(&path, MTL_LIMIT).map_err(|e| format!("mtllib: {e}")));
         let text = opened.and_then(|mut file| {
             let mut bytes = Vec::new();

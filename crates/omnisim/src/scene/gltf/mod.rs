@@ -506,7 +506,7 @@ fn load_images(
         .enumerate()
         .map(|(i, (image, _))| match image.source() {
             gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => percent_decoded(uri)
-                .and_then(|name| super::library::inside_folder(textures.mesh, &name, "texture"))
+                .and_then(|name| crate::input::inside_folder(textures.mesh, &name, "texture"))
                 .map(|path| format!("image {}", path.display()))
                 .map_err(shown_by(i)),
             _ => Ok(format!("image {} inside {}", image.index(), textures.mesh.display())),
@@ -534,7 +534,7 @@ fn load_buffer(buffer: &gltf::Buffer, blob: Option<&[u8]>, textures: &MeshTextur
             if let Some(encoded) = data_uri(uri) {
                 encoded.map_err(|e| format!("{what}: {e}"))?
             } else {
-                let path = super::library::inside_folder(textures.mesh, &percent_decoded(uri)?, "buffer")?;
+                let path = crate::input::inside_folder(textures.mesh, &percent_decoded(uri)?, "buffer")?;
                 let mut bytes = Vec::new();
                 std::io::Read::read_to_end(
                     &mut crate::input::open_regular(&path, BUFFER_LIMIT).map_err(|e| format!("{what}: {e}"))?,
@@ -658,7 +658,7 @@ fn open_image<'a>(
         gltf::image::Source::Uri { uri, .. } => match data_uri(uri) {
             Some(bytes) => texture::open_bytes(bytes.map_err(|e| format!("{what}: {e}"))?, &what),
             None => percent_decoded(uri)
-                .and_then(|name| super::library::inside_folder(mesh, &name, "texture"))
+                .and_then(|name| crate::input::inside_folder(mesh, &name, "texture"))
                 .and_then(|path| texture::open_image(&path))
                 .map_err(|e| format!("{primitive}: {e}")),
         },
