@@ -9,7 +9,7 @@ use glam::{DVec2, DVec3};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Encoding, Property, PropertyAccess, PropertyAccessResult};
 
-use super::library::TextureBank;
+use super::build::TextureBank;
 use super::lighting::srgb_to_linear;
 use super::surface::{ColourMap, Surface, UvMap, gradient};
 use super::texture::Wrap;

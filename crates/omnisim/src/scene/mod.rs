@@ -4,11 +4,11 @@
 //! faces (`library.rs`, meshes via `mesh.rs`), checks every face (`validate.rs`) and reports
 //! any problem with the file, line and object it comes from.
 
+mod build;
 mod error;
 mod export;
 pub mod file;
 mod gltf;
-mod library;
 pub mod lighting;
 mod mesh;
 mod names;
@@ -133,7 +133,7 @@ impl Scene {
                 message,
             }
         })?;
-        library::build(parsed, text, path)
+        build::build(parsed, text, path)
     }
 
     /// The stem of this scene's output file names: the name itself when it was loaded from a
