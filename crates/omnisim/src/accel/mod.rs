@@ -296,10 +296,11 @@ mod tests {
     use crate::scene::Face;
     use glam::{Vec3, Vec4};
 
-    /// The cap is the wide BVH's: 2^29 triangles pass, one more is refused naming the count,
-    /// the cap and what to do, and `Renderer::prepare` (the build's refusal) says so (scene
-    /// loading's side: `library`'s `triangle_cap_tests`). A scene's count is what triangulating
-    /// it gives (env1 has polygons of more than three vertices), so no scene of that size is made.
+    /// The cap is the scene's, which the wide BVH's leaves address: 2^29 triangles pass, one
+    /// more is refused naming the count, the cap and what to do, and `Renderer::prepare` (the
+    /// build's refusal) says so (scene loading's side: `scene::build`'s `triangle_cap_tests`).
+    /// A scene's count is what triangulating it gives (env1 has polygons of more than three
+    /// vertices), so no scene of that size is made.
     #[test]
     fn a_scene_over_2_pow_29_triangles_is_refused_by_its_count() {
         assert!(crate::scene::check_triangle_count(SceneBvh::MAX_TRIANGLES).is_ok());

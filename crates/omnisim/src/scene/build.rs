@@ -1,27 +1,28 @@
-//! The object library: turns each object of a scene file into planar faces.
+//! Builds a [`Scene`] from a parsed scene file: each object's faces (the library's shapes and
+//! textures, `library.rs`; a mesh's triangles, `mesh.rs`) checked on all threads and kept with
+//! their surfaces, names checked and located in the file, the triangle cap asked after each
+//! object, and the lighting section checked.
 
 use std::collections::HashMap;
 use std::ops::Range;
 use std::path::Path;
 
-use glam::{DVec2, DVec3, dvec3};
+use glam::{DVec3, dvec3};
 use rayon::prelude::*;
 
-use super::file::{
-    AngleUnit, BoxFile, FloorFile, LightFile, LightingFile, MeshFile, ObjectFile, PolygonFile, SceneFile, TextureFile,
-    WallFile,
+use super::file::{AngleUnit, LightFile, LightingFile, MeshFile, ObjectFile, SceneFile, TextureFile};
+use super::library::{
+    Placement, RawFace, box_face_textures, box_faces, floor_face, place, polygon_face, positive, wall_face,
 };
 use super::mesh::MeshTriangle;
-use super::surface::{Surface, Surfaces, UvMap, planar_uv};
-use super::texture::{BYTES_PER_TEXEL_WITH_MIPS, MAX_SCENE_TEXELS, PendingImage, Texture, Wrap, open_image};
+use super::surface::Surfaces;
+use super::texture_bank::TextureBank;
 use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};
 use crate::input::locate;
 use crate::pose::rotation_xyz;
 use crate::scene::lighting::{Light, LightKind, Lighting, linear_rgb};
 
-/// Box face names, in the order their colours are listed in error messages.
-const BOX_FACES: [&str; 6] = ["front", "back", "left", "right", "top", "bottom"];
-
+/// The scene of `file` (`text`, read from `path`, locates its errors).
 pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, SceneError> {
     if let Err(problem) = names::check_scene_name(&file.name) {
         let (line, column) = locate::scene_field(text, "name").unwrap_or((1, 1));
@@ -149,183 +150,9 @@ pub(super) fn build(file: SceneFile, text: &str, path: &Path) -> Result<Scene, S
     if let Some(lighting) = &file.lighting {
         scene.lighting = Some(build_lighting(lighting, &seen, text, path)?);
     }
-    surfaces.textures = bank.textures;
-    surfaces.sources = bank.sources;
+    (surfaces.textures, surfaces.sources) = bank.into_textures();
     scene.surfaces = std::sync::Arc::new(surfaces);
     Ok(scene)
-}
-
-/// The scene's textures so far, each file or pattern decoded or baked once however many
-/// objects use it.
-#[derive(Default)]
-pub(super) struct TextureBank {
-    textures: Vec<Texture>,
-    /// The source of each texture, which is also its key in `by_key`.
-    sources: Vec<String>,
-    by_key: HashMap<String, u32>,
-    /// Texels of the finest levels of the textures so far, counted against
-    /// [`MAX_SCENE_TEXELS`] before each is made.
-    texels: u64,
-}
-
-impl TextureBank {
-    /// The index of the texture `source` names (a pattern: one texture per source), made by
-    /// `make` the first time (a pattern is small: counted once made).
-    pub(super) fn get_or_add(
-        &mut self,
-        source: String,
-        make: impl FnOnce() -> Result<Texture, String>,
-    ) -> Result<u32, String> {
-        if let Some(&index) = self.by_key.get(&source) {
-            return Ok(index);
-        }
-        let texture = make()?;
-        let (width, height) = texture.size();
-        self.count(u64::from(width) * u64::from(height), &source)?;
-        Ok(self.insert(source, texture))
-    }
-
-    /// [`TextureBank::add_images`] of one image.
-    pub(super) fn add_image<'a>(
-        &mut self,
-        key: String,
-        open: impl Fn() -> Result<PendingImage<'a>, String>,
-    ) -> Result<u32, String> {
-        Ok(self.add_images(&[key], |_| open())?[0])
-    }
-
-    /// The indices of the images keyed `keys` (a file, a glTF's image: one texture per key);
-    /// `open(i)` reads the header of the i-th where its key is new. The new images are counted
-    /// against the scene's texel cap in order, from their headers, and only when every header
-    /// has passed are they decoded and mipped, on all threads (four 2048² PNGs took 3.1 G
-    /// instructions one after another: docs/benchmarks.md, 2026-11-27 night (load)). The error
-    /// is the first header failure in key order, else the first decoding failure in key order.
-    pub(super) fn add_images<'a>(
-        &mut self,
-        keys: &[String],
-        open: impl Fn(usize) -> Result<PendingImage<'a>, String>,
-    ) -> Result<Vec<u32>, String> {
-        let mut pending: Vec<(&String, PendingImage)> = Vec::new();
-        for (i, key) in keys.iter().enumerate() {
-            if !self.by_key.contains_key(key) && !pending.iter().any(|(earlier, _)| *earlier == key) {
-                let image = open(i)?;
-                let (width, height) = image.size();
-                self.count(u64::from(width) * u64::from(height), image.name())?;
-                pending.push((key, image));
-            }
-        }
-        // Every result kept, in order (rayon's collect into a `Result` keeps whichever error
-        // came first in time).
-        let decoded: Vec<(&String, Result<Texture, String>)> = pending
-            .into_par_iter()
-            .map(|(key, image)| (key, image.decode()))
-            .collect();
-        for (key, texture) in decoded {
-            self.insert(key.clone(), texture?);
-        }
-        Ok(keys.iter().map(|key| self.by_key[key]).collect())
-    }
-
-    /// Counts `texels` more texels of the texture `name` names, unless that takes the scene
-    /// past [`MAX_SCENE_TEXELS`].
-    fn count(&mut self, texels: u64, name: &str) -> Result<(), String> {
-        let total = self.texels + texels;
-        if total > MAX_SCENE_TEXELS {
-            return Err(format!(
-                "{name}: its {texels} texels would bring the scene's textures to {total} texels, more than omnisim \
-                 loads ({MAX_SCENE_TEXELS} texels, {:.1} GB at {BYTES_PER_TEXEL_WITH_MIPS:.1} bytes a texel with \
-                 mips); scale the textures down or use fewer",
-                MAX_SCENE_TEXELS as f64 * BYTES_PER_TEXEL_WITH_MIPS / 1e9
-            ));
-        }
-        self.texels = total;
-        Ok(())
-    }
-
-    /// Adds `texture` under `source`; its index.
-    fn insert(&mut self, source: String, texture: Texture) -> u32 {
-        let index = self.textures.len() as u32;
-        self.textures.push(texture);
-        self.sources.push(source.clone());
-        self.by_key.insert(source, index);
-        index
-    }
-}
-
-/// A library object's texture, decoded, and how it lies on the object's faces.
-struct Placement {
-    texture: u32,
-    scale: DVec2,
-    rotation: f64,
-    offset: DVec2,
-    wrap: Wrap,
-}
-
-impl Placement {
-    /// The surface of a (validated) face of the object.
-    fn surface(&self, vertices: &[DVec3]) -> Surface {
-        let anchor = vertices[0];
-        let normal = validate::newell_normal(vertices).normalize();
-        let (at_anchor, gradient) = planar_uv(anchor, normal, self.scale, self.rotation, self.offset);
-        Surface {
-            anchor,
-            uv: Some(UvMap {
-                texture: self.texture,
-                wrap: [self.wrap; 2],
-                at_anchor,
-                gradient,
-            }),
-            colours: None,
-            unlit: false,
-        }
-    }
-}
-
-/// Checks and loads a library object's `texture` (`rotation` already in radians); errors
-/// name the field (below `texture`) and the problem.
-fn place(
-    file: &TextureFile,
-    rotation: f64,
-    scene_path: &Path,
-    bank: &mut TextureBank,
-) -> Result<Placement, (&'static str, String)> {
-    let texture = match (&file.image, &file.pattern) {
-        (Some(image), None) => {
-            let path = crate::input::inside_folder(scene_path, image, "texture image").map_err(|e| ("image", e))?;
-            bank.add_image(format!("image {}", path.display()), || open_image(&path))
-                .map_err(|e| ("image", e))?
-        }
-        (None, Some(pattern)) => bank
-            .get_or_add(format!("pattern {pattern:?} baked to {}² texels", file.texels), || {
-                pattern.bake(file.texels)
-            })
-            .map_err(|e| ("pattern", e))?,
-        _ => {
-            return Err((
-                "image",
-                "give exactly one of image: \"file.png\" or pattern: Checker(...) | Bricks(...) | Wood(...) | \
-                 Noise(...)"
-                    .into(),
-            ));
-        }
-    };
-    let (sx, sy) = file.scale;
-    if !(sx.is_finite() && sx > 0.0 && sy.is_finite() && sy > 0.0) {
-        return Err((
-            "scale",
-            format!("scale must be two positive finite lengths in metres (one repeat across, down), not ({sx}, {sy})"),
-        ));
-    }
-    if !(rotation.is_finite() && file.offset.0.is_finite() && file.offset.1.is_finite()) {
-        return Err(("rotation", "rotation and offset must be finite".into()));
-    }
-    Ok(Placement {
-        texture,
-        scale: DVec2::new(sx, sy),
-        rotation,
-        offset: DVec2::new(file.offset.0, file.offset.1),
-        wrap: file.wrap,
-    })
 }
 
 /// Checks the lighting section; light names share one namespace with object names so that
@@ -433,146 +260,6 @@ fn build_lighting(
         white: file.white,
         lights,
     })
-}
-
-/// A face as an object makes it: vertices, colour, and the surface a mesh gives it.
-type RawFace = (Vertices, (u8, u8, u8), Option<Surface>);
-
-fn positive(what: &str, value: f64) -> Result<(), String> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(format!(
-            "{what} must be a positive finite number of metres, not {value}"
-        ))
-    }
-}
-
-/// The texture of each face of box `b`, in `box_faces` order, where `face_textures` gives
-/// one: the face's own key, else `sides` for a vertical face. Unknown keys are refused.
-fn box_face_textures(b: &BoxFile) -> Result<[Option<(&str, &TextureFile)>; 6], String> {
-    if let Some(unknown) = b
-        .face_textures
-        .keys()
-        .find(|k| k.as_str() != "sides" && !BOX_FACES.contains(&k.as_str()))
-    {
-        return Err(format!(
-            "unknown face '{}' in face_textures; the faces are {} and sides (front, back, left and right)",
-            crate::input::shown(unknown, 40),
-            BOX_FACES.join(", ")
-        ));
-    }
-    let of_name = |name: &'static str| b.face_textures.get(name).map(|t| (name, t));
-    Ok(BOX_FACES.map(|name| {
-        let vertical = !matches!(name, "top" | "bottom");
-        of_name(name).or_else(|| if vertical { of_name("sides") } else { None })
-    }))
-}
-
-fn box_faces(b: &BoxFile, angles: DVec3) -> Result<Vec<RawFace>, String> {
-    positive("size.0 (l1)", b.size.0)?;
-    positive("size.1 (l2)", b.size.1)?;
-    positive("size.2 (l3)", b.size.2)?;
-    if let Some(unknown) = b.faces.keys().find(|k| !BOX_FACES.contains(&k.as_str())) {
-        return Err(format!(
-            "unknown face '{unknown}' in faces; the faces are {}",
-            BOX_FACES.join(", ")
-        ));
-    }
-    let (hx, hy, h) = (b.size.0 / 2.0, b.size.1 / 2.0, b.size.2);
-    let corner = |x: f64, y: f64, z: f64| dvec3(x, y, z);
-    let local: [(&str, [DVec3; 4]); 6] = [
-        (
-            "front",
-            [
-                corner(hx, -hy, 0.0),
-                corner(hx, hy, 0.0),
-                corner(hx, hy, h),
-                corner(hx, -hy, h),
-            ],
-        ),
-        (
-            "back",
-            [
-                corner(-hx, hy, 0.0),
-                corner(-hx, -hy, 0.0),
-                corner(-hx, -hy, h),
-                corner(-hx, hy, h),
-            ],
-        ),
-        (
-            "left",
-            [
-                corner(hx, hy, 0.0),
-                corner(-hx, hy, 0.0),
-                corner(-hx, hy, h),
-                corner(hx, hy, h),
-            ],
-        ),
-        (
-            "right",
-            [
-                corner(-hx, -hy, 0.0),
-                corner(hx, -hy, 0.0),
-                corner(hx, -hy, h),
-                corner(-hx, -hy, h),
-            ],
-        ),
-        (
-            "top",
-            [
-                corner(-hx, -hy, h),
-                corner(hx, -hy, h),
-                corner(hx, hy, h),
-                corner(-hx, hy, h),
-            ],
-        ),
-        (
-            "bottom",
-            [
-                corner(-hx, hy, 0.0),
-                corner(hx, hy, 0.0),
-                corner(hx, -hy, 0.0),
-                corner(-hx, -hy, 0.0),
-            ],
-        ),
-    ];
-    let world_from_object = rotation_xyz(angles);
-    let position = dvec3(b.position.0, b.position.1, b.position.2);
-    Ok(local
-        .iter()
-        .map(|(name, corners)| {
-            let colour = b.faces.get(*name).copied().unwrap_or(b.colour);
-            let vertices = corners.iter().map(|c| position + world_from_object * *c).collect();
-            (vertices, colour, None)
-        })
-        .collect())
-}
-
-fn wall_face(w: &WallFile) -> Result<Vec<RawFace>, String> {
-    positive("height", w.height)?;
-    let (a, b) = (w.from, w.to);
-    let top = w.bottom + w.height;
-    Ok(vec![(
-        smallvec::smallvec![
-            dvec3(a.0, a.1, w.bottom),
-            dvec3(b.0, b.1, w.bottom),
-            dvec3(b.0, b.1, top),
-            dvec3(a.0, a.1, top),
-        ],
-        w.colour,
-        None,
-    )])
-}
-
-fn floor_face(f: &FloorFile) -> Vec<RawFace> {
-    let vertices = f.corners.iter().map(|c| dvec3(c.0, c.1, f.z)).collect();
-    vec![(vertices, f.colour, None)]
-}
-
-fn polygon_face(p: &PolygonFile) -> Vec<RawFace> {
-    let vertices = p.vertices.iter().map(|v| dvec3(v.0, v.1, v.2)).collect();
-    vec![(vertices, p.colour, None)]
 }
 
 /// Longest object or light name, bytes: names are listed, printed in errors and written into

@@ -2,7 +2,8 @@
 //!
 //! Everything here is plain data deserialised by serde; `deny_unknown_fields` makes a misspelt
 //! field an error instead of a silently ignored line. Geometry is produced from these
-//! descriptions in `library.rs` and checked in `validate.rs`.
+//! descriptions in `build.rs` (the library's shapes in `library.rs`, meshes in `mesh.rs`) and
+//! checked in `validate.rs`.
 
 use std::collections::BTreeMap;
 

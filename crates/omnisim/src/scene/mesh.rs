@@ -9,10 +9,10 @@ use glam::{DVec2, DVec3};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Encoding, Property, PropertyAccess, PropertyAccessResult};
 
-use super::build::TextureBank;
 use super::lighting::srgb_to_linear;
 use super::surface::{ColourMap, Surface, UvMap, gradient};
 use super::texture::Wrap;
+use super::texture_bank::TextureBank;
 
 /// One triangle of a mesh, in the mesh file's own coordinates.
 #[derive(Clone)]

@@ -1,14 +1,16 @@
 //! Scenes: a face soup of coloured planar polygons grouped into named objects.
 //!
-//! `Scene::load` reads a RON file (schema in `file.rs`), expands each library object into
-//! faces (`library.rs`, meshes via `mesh.rs`), checks every face (`validate.rs`) and reports
-//! any problem with the file, line and object it comes from.
+//! `Scene::load` reads a RON file (schema in `file.rs`) and builds the scene (`build.rs`):
+//! each library object's faces and textures (`library.rs`), each mesh's triangles (`mesh.rs`
+//! and its formats), their textures decoded once (`texture_bank.rs`), every face checked
+//! (`validate.rs`), and any problem reported with the file, line and object it comes from.
 
 mod build;
 mod error;
 mod export;
 pub mod file;
 mod gltf;
+mod library;
 pub mod lighting;
 mod mesh;
 mod names;
@@ -16,6 +18,7 @@ mod obj;
 pub mod pattern;
 pub mod surface;
 pub mod texture;
+mod texture_bank;
 pub(crate) mod triangulate;
 mod validate;
 
