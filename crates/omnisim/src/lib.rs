@@ -37,6 +37,7 @@
 
 mod accel;
 pub mod advanced;
+mod atomic_file;
 pub mod avx2;
 pub mod calibration;
 pub mod camera;

@@ -5,7 +5,7 @@ use std::io::Write;
 use std::path::Path;
 
 use super::{Scene, SceneError};
-use crate::output::atomic::write_atomically;
+use crate::atomic_file::write_atomically;
 
 /// File formats `Scene::export` writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
