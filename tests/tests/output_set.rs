@@ -55,10 +55,10 @@ fn frame_entries_and_run_files_account_for_every_file_in_the_folder() {
             pose,
         };
         metadata
-            .frames
-            .push(outputs.write_frame(&mut folder, &target, &rig, &frames).unwrap());
+            .write_frame(&outputs, &mut folder, &target, &rig, &frames)
+            .unwrap();
     }
-    let run_files = outputs.write_run_files(&mut folder, &scene, &rig, &metadata).unwrap();
+    let run_files = metadata.write_run_files(&outputs, &mut folder, &scene, &rig).unwrap();
     folder.finish().unwrap();
 
     // Per view: png, range, depth png + exr, object, face, normal, linear, ply; plus disparity.
@@ -226,7 +226,7 @@ fn segmentation_without_the_object_plane_is_refused_not_written_blank() {
         pose: &pose,
     };
     let error = everything()
-        .write_frame(&mut folder, &target, &rig, &[frame])
+        .write_frame_files(&mut folder, &target, &rig, &[frame])
         .unwrap_err();
     assert!(error.to_string().contains("no object plane"), "{error}");
     assert!(error.path.ends_with("t-0000-object.png"));

@@ -3,12 +3,16 @@
 //! its pose and files. Typed, so that a data-set manifest can reuse the parts; the field names
 //! are the file's format and stay as they are.
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
 use crate::camera::{Camera, Catadioptric, MirrorShape, NO_DISPARITY, Pinhole, Rig, RigSpec};
-use crate::output;
+use crate::frame::Frame;
+use crate::output::atomic::{Synced, write_atomically};
+use crate::output::folder::RunFolder;
+use crate::output::{self, Destination, FrameTarget, OutputError, OutputSet};
 use crate::pose::Pose;
 use crate::renderer::{PreparedScene, Renderer};
 use crate::scene::Scene;
@@ -50,6 +54,58 @@ impl RenderMetadata {
             conventions: Conventions::of(rig),
             frames: Vec::new(),
         }
+    }
+
+    /// Writes frame `target`'s files as `outputs` asks ([`OutputSet::write_frame_files`]) and
+    /// adds its entry, the files relative to the output folder.
+    pub fn write_frame(
+        &mut self,
+        outputs: &OutputSet,
+        folder: &mut impl Destination,
+        target: &FrameTarget,
+        rig: &Rig,
+        frames: &[Frame],
+    ) -> Result<(), OutputError> {
+        let written = outputs.write_frame_files(folder, target, rig, frames)?;
+        let files = written
+            .into_iter()
+            .map(|path| path.strip_prefix(folder.dir()).map(Path::to_path_buf).unwrap_or(path))
+            .collect();
+        self.frames
+            .push(FrameMetadata::new(target.index, target.stem(), target.pose, files));
+        Ok(())
+    }
+
+    /// Writes the files of a render run that are not per frame: those of
+    /// [`OutputSet::write_set_files`], `poses.txt` (TUM, the frames' poses) and `render.json`
+    /// (this). Returns their paths.
+    pub fn write_run_files(
+        &self,
+        outputs: &OutputSet,
+        folder: &mut RunFolder,
+        scene: &Scene,
+        rig: &Rig,
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let mut written = outputs.write_set_files(folder, scene, rig)?;
+        let poses_path = Destination::claim(folder, "poses.txt".into())?;
+        write_atomically(&poses_path, |out| {
+            writeln!(
+                out,
+                "# omnisim poses, TUM format: index tx ty tz qx qy qz qw (world_from_body; metres)"
+            )?;
+            for frame in &self.frames {
+                let [x, y, z] = frame.position;
+                let [qx, qy, qz, qw] = frame.quaternion_xyzw;
+                writeln!(out, "{} {x} {y} {z} {qx} {qy} {qz} {qw}", frame.index)?;
+            }
+            Ok(())
+        })
+        .map_err(output::failed(&poses_path))?;
+        written.push(poses_path);
+        let metadata_path = Destination::claim(folder, "render.json".into())?;
+        output::write_json(&mut Synced, &metadata_path, self)?;
+        written.push(metadata_path);
+        Ok(written)
     }
 }
 

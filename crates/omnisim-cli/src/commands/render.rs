@@ -274,15 +274,13 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             index,
             pose,
         };
-        metadata
-            .frames
-            .push(outputs.write_frame(&mut run, &target, &rig, &frames)?);
+        metadata.write_frame(&outputs, &mut run, &target, &rig, &frames)?;
         progress.step(index + 1, poses.len(), false, "")?;
     }
     progress.finish();
     let render_seconds = render_started.elapsed().as_secs_f64();
 
-    let run_files = outputs.write_run_files(&mut run, &scene, &rig, &metadata)?;
+    let run_files = metadata.write_run_files(&outputs, &mut run, &scene, &rig)?;
     run.finish()?;
     let frame_files = metadata.frames.iter().flat_map(|f| &f.files).map(|f| args.out.join(f));
     for path in frame_files.chain(run_files) {

@@ -100,8 +100,17 @@ impl OutputError {
     }
 }
 
-fn failed(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {
+pub(crate) fn failed(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {
     move |e| OutputError::at(path, e)
+}
+
+/// Pretty-printed JSON of `value`, written through `store`.
+pub(crate) fn write_json(store: &mut impl FileStore, path: &Path, value: &impl Serialize) -> Result<(), OutputError> {
+    store
+        .store(path, |out| {
+            serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)
+        })
+        .map_err(failed(path))
 }
 
 /// The PNG encoder of every per-frame image: fast deflate (fdeflate) with the Sub filter on

@@ -1,20 +1,19 @@
 //! Which files a render writes, and writing them: per view of every frame (colour, range,
 //! depth, point cloud, segmentation, normals, linear colour), per frame of a stereo rig
-//! (disparity), and once per run (calibration, ray maps, poses, segmentation legend,
-//! `render.json`). Files are named `<scene>-<index>` + the view's suffix + the kind's suffix.
+//! (disparity), and once per set of frames (calibration, ray maps, segmentation legend; a
+//! render's `poses.txt` and `render.json` come from its record, `metadata.rs`). Files are named
+//! `<scene>-<index>` + the view's suffix + the kind's suffix.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::atomic::{FileStore, Sink, Synced, write_atomically};
+use super::atomic::{FileStore, Sink};
 use super::folder::RunFolder;
-use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed};
+use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed, write_json};
 use crate::calibration;
 use crate::camera::{Camera, Rig, View};
 use crate::frame::{Frame, Plane, Planes};
-use crate::metadata::{FrameMetadata, RenderMetadata};
 use crate::pose::Pose;
 use crate::scene::Scene;
 
@@ -340,23 +339,6 @@ impl OutputSet {
         Ok(written)
     }
 
-    /// [`OutputSet::write_frame_files`], returning the frame's entry for `render.json` with
-    /// the files relative to the output folder.
-    pub fn write_frame(
-        &self,
-        folder: &mut impl Destination,
-        target: &FrameTarget,
-        rig: &Rig,
-        frames: &[Frame],
-    ) -> Result<FrameMetadata, OutputError> {
-        let written = self.write_frame_files(folder, target, rig, frames)?;
-        let files = written
-            .into_iter()
-            .map(|path| path.strip_prefix(folder.dir()).map(Path::to_path_buf).unwrap_or(path))
-            .collect();
-        Ok(FrameMetadata::new(target.index, target.stem(), target.pose, files))
-    }
-
     /// Writes the files of a set of frames that are not per frame into `folder`: calibration
     /// in the formats robotics tools read, the ray maps of each view (origin, direction,
     /// and both in one file) and the segmentation legend (if asked for).
@@ -388,37 +370,6 @@ impl OutputSet {
         }
         Ok(written)
     }
-
-    /// Writes the files of a render run that are not per frame: those of
-    /// [`OutputSet::write_set_files`], `poses.txt` (TUM) and `render.json`. Returns their paths.
-    pub fn write_run_files(
-        &self,
-        folder: &mut RunFolder,
-        scene: &Scene,
-        rig: &Rig,
-        metadata: &RenderMetadata,
-    ) -> Result<Vec<PathBuf>, OutputError> {
-        let mut written = self.write_set_files(folder, scene, rig)?;
-        let poses_path = Destination::claim(folder, "poses.txt".into())?;
-        write_atomically(&poses_path, |out| {
-            writeln!(
-                out,
-                "# omnisim poses, TUM format: index tx ty tz qx qy qz qw (world_from_body; metres)"
-            )?;
-            for frame in &metadata.frames {
-                let [x, y, z] = frame.position;
-                let [qx, qy, qz, qw] = frame.quaternion_xyzw;
-                writeln!(out, "{} {x} {y} {z} {qx} {qy} {qz} {qw}", frame.index)?;
-            }
-            Ok(())
-        })
-        .map_err(failed(&poses_path))?;
-        written.push(poses_path);
-        let metadata_path = Destination::claim(folder, "render.json".into())?;
-        write_json(&mut Synced, &metadata_path, metadata)?;
-        written.push(metadata_path);
-        Ok(written)
-    }
 }
 
 /// Calibration files of `rig` where its model has a standard form: (file name, contents).
@@ -442,15 +393,6 @@ fn calibration_files(rig: &Rig) -> Vec<(String, String)> {
         Rig::Single(Camera::Equirectangular(_) | Camera::Cylindrical(_)) => Vec::new(),
     };
     files.into_iter().map(|(name, text)| (name.to_owned(), text)).collect()
-}
-
-/// Pretty-printed JSON of `value`, written through `store`.
-fn write_json(store: &mut impl FileStore, path: &Path, value: &impl Serialize) -> Result<(), OutputError> {
-    store
-        .store(path, |out| {
-            serde_json::to_writer_pretty(&mut *out, value).map_err(std::io::Error::other)
-        })
-        .map_err(failed(path))
 }
 
 fn describe_pose(pose: &Pose) -> String {
