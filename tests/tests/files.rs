@@ -410,8 +410,8 @@ fn every_file_is_byte_reproducible() {
         let size = (frame.width, frame.height);
         output::write_png(&mut Synced, &path("c.png"), &frame).unwrap();
         output::write_range_exr(&mut Synced, &path("r.exr"), &frame, &camera, ExrCompression::Zip).unwrap();
-        output::write_axial_depth_exr(&mut Synced, &path("z.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
-        output::write_disparity_exr(&mut Synced, &path("d.exr"), size, depth.clone(), ExrCompression::Zip).unwrap();
+        output::write_axial_depth_exr(&mut Synced, &path("z.exr"), size, &depth, ExrCompression::Zip).unwrap();
+        output::write_disparity_exr(&mut Synced, &path("d.exr"), size, &depth, ExrCompression::Zip).unwrap();
         output::write_tum_depth_png(&mut Synced, &path("z.png"), size, &depth).unwrap();
         let ray_maps = ["origin.exr", "direction.exr", "all.exr"].map(path);
         output::write_ray_map_exrs(

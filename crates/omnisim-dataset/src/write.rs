@@ -73,14 +73,14 @@ impl Dataset {
                     output::write_tum_depth_png(&mut folder, &png, size, &values)?;
                     let exr = set_dir.join(format!("{stem}{suffix}-depth-noisy.exr"));
                     let compression = self.spec.outputs.exr_compression;
-                    output::write_axial_depth_exr(&mut folder, &exr, size, values.clone(), compression)?;
+                    output::write_axial_depth_exr(&mut folder, &exr, size, &values, compression)?;
                     sensor_depth.get_or_insert(values);
                 } else {
                     let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
                     let values = noise::depth(&ranges, model, &mut rng);
                     let exr = set_dir.join(format!("{stem}{suffix}-range-noisy.exr"));
                     let compression = self.spec.outputs.exr_compression;
-                    output::write_ranges_exr(&mut folder, &exr, size, values, camera, compression)?;
+                    output::write_ranges_exr(&mut folder, &exr, size, &values, camera, compression)?;
                 }
             }
             if sensor_depth.is_none() {
@@ -96,7 +96,7 @@ impl Dataset {
                 &mut folder,
                 &path,
                 (frames[0].width, frames[0].height),
-                values,
+                &values,
                 self.spec.outputs.exr_compression,
             )?;
         }

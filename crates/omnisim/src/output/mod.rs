@@ -160,8 +160,8 @@ pub fn write_range_exr(
     camera: &Camera,
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
-    let ranges = frame.pixels().iter().map(|p| p.range).collect();
-    write_ranges_exr(to, path, (frame.width, frame.height), ranges, camera, compression)
+    let ranges: Vec<f32> = frame.pixels().iter().map(|p| p.range).collect();
+    write_ranges_exr(to, path, (frame.width, frame.height), &ranges, camera, compression)
 }
 
 /// [`write_range_exr`] of ranges already read from a frame's pixels (or perturbed from them).
@@ -169,7 +169,7 @@ pub fn write_ranges_exr(
     to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
-    ranges: Vec<f32>,
+    ranges: &[f32],
     camera: &Camera,
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
@@ -222,7 +222,7 @@ pub fn write_disparity_exr(
     to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
-    disparity: Vec<f32>,
+    disparity: &[f32],
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     let convention = "disparity of the left image in pixels: u_left - u_right = fx*baseline/z, z = depth along \
@@ -236,7 +236,7 @@ pub fn write_axial_depth_exr(
     to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
-    depth: Vec<f32>,
+    depth: &[f32],
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     write_channel_exr(to, path, size, "z", AXIAL_DEPTH_CONVENTION, depth, compression)
@@ -282,7 +282,7 @@ fn write_channel_exr(
     size: (u32, u32),
     quantity: &str,
     convention: &str,
-    values: Vec<f32>,
+    values: &[f32],
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     write_exr(
@@ -291,7 +291,7 @@ fn write_channel_exr(
         size,
         quantity,
         convention,
-        vec![(VALUE_CHANNEL, values)],
+        &[(VALUE_CHANNEL, values)],
         compression,
     )
 }
@@ -325,25 +325,28 @@ impl ExrCompression {
     }
 }
 
-/// f32 channels of one image: `quantity` in the header attribute of that name, the convention
-/// in `comments`.
+/// f32 channels of one image, each (name, values): `quantity` in the header attribute of that
+/// name, the convention in `comments`.
 fn write_exr(
     to: &mut impl FileStore,
     path: &Path,
     size: (u32, u32),
     quantity: &str,
     convention: &str,
-    channels: Vec<(&str, Vec<f32>)>,
+    channels: &[(&str, &[f32])],
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     use exr::prelude::*;
-    let image = exr_image(size, quantity, convention, channels, compression);
+    // The headers need the channels' names alone: the image holds no samples, and the values
+    // are read from `channels` as they are (a copy of the ray maps' six planes, for one).
+    let names = channels.iter().map(|&(name, _)| (name, Vec::new())).collect();
+    let image = exr_image(size, quantity, convention, names, compression);
     let headers = (&image).write().infer_meta_data();
     // The channels in the file's order (by name), as each scan line holds them.
     let channels: Vec<&[f32]> = (image.layer_data.channel_data.list.iter())
-        .filter_map(|channel| match &channel.sample_data {
-            FlatSamples::F32(values) => Some(values.as_slice()),
-            _ => None,
+        .map(|channel| {
+            let named = channels.iter().find(|(name, _)| channel.name == **name);
+            named.expect("the image's channels are those given").1
         })
         .collect();
     to.store(path, |out| {
@@ -355,8 +358,8 @@ fn write_exr(
     .map_err(failed(path))
 }
 
-/// The `exr` image of f32 `channels` with omnisim's attributes; its headers are what
-/// [`write_exr`] writes.
+/// The `exr` image of f32 `channels` with omnisim's attributes; its headers (which the samples
+/// do not change) are what [`write_exr`] writes.
 fn exr_image(
     size: (u32, u32),
     quantity: &str,
@@ -489,15 +492,14 @@ pub fn write_ray_map_exrs(
         }
     }
     let size = (width, height);
-    let [ox, oy, oz] = origin.clone();
-    let [dx, dy, dz] = direction.clone();
+    let ([ox, oy, oz], [dx, dy, dz]) = (&origin, &direction);
     write_exr(
         store,
         all_path,
         size,
         "ray origin and direction",
         RAY_MAP_CONVENTION,
-        vec![
+        &[
             ("origin.X", ox),
             ("origin.Y", oy),
             ("origin.Z", oz),
@@ -513,7 +515,7 @@ pub fn write_ray_map_exrs(
         size,
         "ray origin",
         RAY_MAP_CONVENTION,
-        origin,
+        &origin,
         ExrCompression::Zip,
     )?;
     write_xyz_exr(
@@ -522,7 +524,7 @@ pub fn write_ray_map_exrs(
         size,
         "ray direction",
         RAY_MAP_CONVENTION,
-        direction,
+        &direction,
         ExrCompression::Zip,
     )
 }
@@ -536,7 +538,7 @@ pub(crate) fn write_xyz_exr(
     size: (u32, u32),
     quantity: &str,
     convention: &str,
-    [x, y, z]: [Vec<f32>; 3],
+    [x, y, z]: &[Vec<f32>; 3],
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     write_exr(
@@ -545,7 +547,7 @@ pub(crate) fn write_xyz_exr(
         size,
         quantity,
         convention,
-        vec![("R", x), ("G", y), ("B", z)],
+        &[("R", x), ("G", y), ("B", z)],
         compression,
     )
 }
@@ -702,13 +704,14 @@ mod tests {
             .to_buffered(&mut expected)
             .unwrap();
         let mut kept = Kept::default();
+        let borrowed: Vec<(&str, &[f32])> = channels.iter().map(|(name, values)| (*name, &values[..])).collect();
         write_exr(
             &mut kept,
             Path::new("x.exr"),
             size,
             "range",
             "text",
-            channels.clone(),
+            &borrowed,
             compression,
         )
         .unwrap();

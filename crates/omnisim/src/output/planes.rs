@@ -127,7 +127,7 @@ pub fn write_normal_exr(
         (frame.width, frame.height),
         "normal",
         NORMAL_CONVENTION,
-        channels,
+        &channels,
         compression,
     )
 }
@@ -155,7 +155,7 @@ pub fn write_linear_exr(
         (frame.width, frame.height),
         "linear colour",
         LINEAR_CONVENTION,
-        [channel(0), channel(1), channel(2)],
+        &[channel(0), channel(1), channel(2)],
         compression,
     )
 }

@@ -250,7 +250,7 @@ impl OutputSet {
             let exr = target.path(folder, &format!("{suffix}-range.exr"))?;
             let pass = super::PixelPass::read(frame, self.point_cloud && folder.encodes_in_memory());
             (hits, points) = (Some(pass.hits), pass.points);
-            super::write_ranges_exr(folder, &exr, size, pass.ranges, camera, self.exr_compression)?;
+            super::write_ranges_exr(folder, &exr, size, &pass.ranges, camera, self.exr_compression)?;
             written.push(exr);
         }
         if let (true, Some(pinhole)) = (self.depth, camera.depth_frame()) {
@@ -258,7 +258,7 @@ impl OutputSet {
             let depth_png = target.path(folder, &format!("{suffix}-depth.png"))?;
             super::write_tum_depth_png(folder, &depth_png, size, &depth)?;
             let depth_exr = target.path(folder, &format!("{suffix}-depth.exr"))?;
-            super::write_axial_depth_exr(folder, &depth_exr, size, depth, self.exr_compression)?;
+            super::write_axial_depth_exr(folder, &depth_exr, size, &depth, self.exr_compression)?;
             written.extend([depth_png, depth_exr]);
         }
         if self.segmentation {
@@ -331,7 +331,7 @@ impl OutputSet {
                 folder,
                 &path,
                 (frames[0].width, frames[0].height),
-                disparity,
+                &disparity,
                 self.exr_compression,
             )?;
             written.push(path);
