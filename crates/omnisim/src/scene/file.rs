@@ -9,7 +9,6 @@ use std::collections::BTreeMap;
 
 use serde::Deserialize;
 
-use super::pattern::Pattern;
 use super::texture::Wrap;
 
 /// An sRGB colour, 0–255 per channel.
@@ -251,6 +250,73 @@ pub struct TextureFile {
     /// How the image continues past its edges.
     #[serde(default)]
     pub wrap: Wrap,
+}
+
+/// A procedural pattern of a scene file's `texture`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub enum Pattern {
+    /// `squares × squares` squares per repeat in two colours.
+    Checker {
+        /// The two colours, the first at the top-left square.
+        colours: (Rgb, Rgb),
+        /// Squares along each side of one repeat.
+        #[serde(default = "eight")]
+        squares: u32,
+    },
+    /// Courses of bricks, every other course shifted by half a brick, in mortar.
+    Bricks {
+        /// Mean brick colour; each brick varies around it (seeded).
+        brick: Rgb,
+        /// Mortar colour.
+        mortar: Rgb,
+        /// Courses per repeat.
+        #[serde(default = "four")]
+        rows: u32,
+        /// Bricks per course per repeat.
+        #[serde(default = "two")]
+        columns: u32,
+        /// Seed of the brick colours.
+        #[serde(default)]
+        seed: u64,
+    },
+    /// Wood-like grain: rings along u, disturbed by noise.
+    Wood {
+        /// Light wood colour.
+        light: Rgb,
+        /// Dark grain colour.
+        dark: Rgb,
+        /// Rings per repeat.
+        #[serde(default = "eight")]
+        rings: u32,
+        /// Seed of the grain.
+        #[serde(default)]
+        seed: u64,
+    },
+    /// Smooth value noise between two colours.
+    Noise {
+        /// Colour at noise 0.
+        low: Rgb,
+        /// Colour at noise 1.
+        high: Rgb,
+        /// Noise cells along each side of one repeat.
+        #[serde(default = "eight")]
+        cells: u32,
+        /// Seed of the noise.
+        #[serde(default)]
+        seed: u64,
+    },
+}
+
+fn two() -> u32 {
+    2
+}
+
+fn four() -> u32 {
+    4
+}
+
+fn eight() -> u32 {
+    8
 }
 
 fn pattern_texels() -> u32 {

@@ -1,83 +1,16 @@
 //! Seeded procedural patterns, baked at load into ordinary textures (one sampling path for
-//! images and patterns). Every pattern tiles: one repeat is the unit square of texture
+//! images and patterns); a scene file writes them as a texture's [`Pattern`] (`file.rs`). Every pattern tiles: one repeat is the unit square of texture
 //! coordinates, and its edges meet its opposite edges, so `Repeat` shows no seams.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::Deserialize;
 
+pub use super::file::Pattern;
 use super::file::Rgb;
 use super::texture::Texture;
 
 /// Largest baked pattern side, texels.
 pub const MAX_PATTERN_TEXELS: u32 = 4096;
-
-/// A procedural pattern of a scene file's `texture`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-pub enum Pattern {
-    /// `squares × squares` squares per repeat in two colours.
-    Checker {
-        /// The two colours, the first at the top-left square.
-        colours: (Rgb, Rgb),
-        /// Squares along each side of one repeat.
-        #[serde(default = "eight")]
-        squares: u32,
-    },
-    /// Courses of bricks, every other course shifted by half a brick, in mortar.
-    Bricks {
-        /// Mean brick colour; each brick varies around it (seeded).
-        brick: Rgb,
-        /// Mortar colour.
-        mortar: Rgb,
-        /// Courses per repeat.
-        #[serde(default = "four")]
-        rows: u32,
-        /// Bricks per course per repeat.
-        #[serde(default = "two")]
-        columns: u32,
-        /// Seed of the brick colours.
-        #[serde(default)]
-        seed: u64,
-    },
-    /// Wood-like grain: rings along u, disturbed by noise.
-    Wood {
-        /// Light wood colour.
-        light: Rgb,
-        /// Dark grain colour.
-        dark: Rgb,
-        /// Rings per repeat.
-        #[serde(default = "eight")]
-        rings: u32,
-        /// Seed of the grain.
-        #[serde(default)]
-        seed: u64,
-    },
-    /// Smooth value noise between two colours.
-    Noise {
-        /// Colour at noise 0.
-        low: Rgb,
-        /// Colour at noise 1.
-        high: Rgb,
-        /// Noise cells along each side of one repeat.
-        #[serde(default = "eight")]
-        cells: u32,
-        /// Seed of the noise.
-        #[serde(default)]
-        seed: u64,
-    },
-}
-
-fn two() -> u32 {
-    2
-}
-
-fn four() -> u32 {
-    4
-}
-
-fn eight() -> u32 {
-    8
-}
 
 impl Pattern {
     /// The pattern baked into a `texels × texels` texture with its mips.
