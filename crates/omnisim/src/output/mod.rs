@@ -337,8 +337,9 @@ fn write_exr(
     compression: ExrCompression,
 ) -> Result<(), OutputError> {
     use exr::prelude::*;
-    // The headers need the channels' names alone: the image holds no samples, and the values
-    // are read from `channels` as they are (a copy of the ray maps' six planes, for one).
+    // The headers need the channels' names alone, so the image holds no samples and the values
+    // are read from `channels` where they lie (owned samples cost the ray maps a copy of their
+    // six planes).
     let names = channels.iter().map(|&(name, _)| (name, Vec::new())).collect();
     let image = exr_image(size, quantity, convention, names, compression);
     let headers = (&image).write().infer_meta_data();
