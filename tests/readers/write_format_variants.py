@@ -766,10 +766,11 @@ def obj_files(folder):
     obj("obj-bad-kd-two-numbers", positive, "newmtl tiles\nKd 0.5 0.25\n")
     case(folder, "obj-bad-kd-two-numbers", "obj-bad-kd-two-numbers.obj", "hand",
          refuse=["line 2", "Kd needs one number (grey) or three"])
-    # A face index far past any mesh: refused by tobj (without its line).
+    # A face index far past any mesh: refused naming its line (mtllib, 6 v, 6 vt, usemtl, 2 faces before it).
     obj("obj-bad-face-index", positive + "f 1/1 2/2 3/4611686018427387904\n", plain_mtl)
     case(folder, "obj-bad-face-index", "obj-bad-face-index.obj", "hand",
-         refuse=["obj-bad-face-index.obj", "texcoord index out of bounds"])
+         refuse=["obj-bad-face-index.obj", "line 17: face index 4611686018427387904 names no texture coordinate",
+                 "the file has 6 texture coordinates"])
     obj("obj-missing-texture", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd absent.png\n")
     case(folder, "obj-missing-texture", "obj-missing-texture.obj", "hand", refuse=["absent.png", "not found"])
     obj("obj-unknown-map-option", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd -zoom 2 tiles.png\n")

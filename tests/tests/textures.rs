@@ -415,6 +415,23 @@ fn bad_textured_meshes_get_located_errors() {
             "nope.jpg: file not found",
         ),
         (
+            "obj face index past the vertices",
+            mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n", &[]),
+            "a.obj: line 5: face index 9 names no vertex: the file has 3 vertices (`v` lines); OBJ indices count \
+             from 1",
+        ),
+        (
+            "obj face index past the texture coordinates",
+            mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/5 3/1\n", &[]),
+            "line 5: face index 5 names no texture coordinate: the file has 1 texture coordinates (`vt` lines)",
+        ),
+        (
+            // tobj reads an object's faces against the vertices before the object ends.
+            "obj face index of a vertex of a later object",
+            mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\no next\nv 0 0 1\nf 1 2 3\n", &[]),
+            "line 4: face index 4 names no vertex: the file has 3 vertices (`v` lines) before this face",
+        ),
+        (
             "obj NaN UV",
             mesh_error(
                 "a.obj",

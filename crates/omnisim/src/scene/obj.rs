@@ -142,8 +142,16 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
             }
         }
     };
-    let (models, materials) =
-        tobj::load_obj_buf(&mut reader, &options, load_mtl).map_err(|e| format!("not a readable OBJ file: {e}"))?;
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &options, load_mtl).map_err(|e| {
+        let unlocated = || format!("not a readable OBJ file: {e}");
+        match e {
+            // tobj names only the kind of index: the file is read again to find the face.
+            tobj::LoadError::FaceVertexOutOfBounds
+            | tobj::LoadError::FaceTexCoordOutOfBounds
+            | tobj::LoadError::FaceNormalOutOfBounds => bad_face_index(textures.mesh).unwrap_or_else(unlocated),
+            _ => unlocated(),
+        }
+    })?;
     if let Some(problem) = mtl_problem.into_inner() {
         return Err(problem);
     }
@@ -170,7 +178,10 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
     let mut triangles = Vec::new();
     for model in models {
         let mesh = &model.mesh;
-        let missing = |what: &str| format!("object '{}' refers to a {what} that does not exist", model.name);
+        let missing = |what: &str| {
+            bad_face_index(textures.mesh)
+                .unwrap_or_else(|| format!("object '{}' refers to a {what} that does not exist", model.name))
+        };
         let position = |i: u32| {
             let i = i as usize * 3;
             mesh.positions
@@ -222,4 +233,74 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
         }
     }
     Ok(triangles)
+}
+
+/// The elements an OBJ face corner's `v/vt/vn` indices name: statement, one, several.
+const CORNER_ELEMENTS: [(&str, &str, &str); 3] = [
+    ("v", "vertex", "vertices"),
+    ("vt", "texture coordinate", "texture coordinates"),
+    ("vn", "normal", "normals"),
+];
+
+/// The first face index of the OBJ at `path` that names no element, with its line, the
+/// element count and how to mend it; else the first that names an element defined only after
+/// its face (tobj reads a face against the elements before its object ends). Read again, after
+/// tobj refused the file (its error names no line), so that a good file pays nothing for it.
+/// `None` where every index is in range.
+fn bad_face_index(path: &Path) -> Option<String> {
+    let mut text = Vec::new();
+    crate::input::open_regular(path, crate::input::MESH_LIMIT)
+        .ok()?
+        .read_to_end(&mut text)
+        .ok()?;
+    let text = String::from_utf8_lossy(&text);
+    let element = |line: &str| {
+        let key = line.split_whitespace().next()?;
+        CORNER_ELEMENTS.iter().position(|&(statement, _, _)| statement == key)
+    };
+    let mut totals = [0i128; 3];
+    for k in text.lines().filter_map(element) {
+        totals[k] += 1;
+    }
+    let mut defined = [0i128; 3];
+    let mut later = None;
+    for (number, line) in text.lines().enumerate() {
+        if let Some(k) = element(line) {
+            defined[k] += 1;
+            continue;
+        }
+        let mut words = line.split_whitespace();
+        if !matches!(words.next(), Some("f" | "l")) {
+            continue;
+        }
+        for corner in words {
+            for (k, index) in corner.split('/').enumerate().take(3) {
+                // tobj passes over vt and vn indices where the file has none of them.
+                let Ok(raw) = index.parse::<i128>() else { continue };
+                if k > 0 && totals[k] == 0 {
+                    continue;
+                }
+                let at = if raw < 0 { defined[k] + raw } else { raw - 1 };
+                let (statement, one, several) = CORNER_ELEMENTS[k];
+                let out_of_range = |count: i128, before: &str| {
+                    format!(
+                        "line {}: face index {raw} names no {one}: the file has {count} {several} (`{statement}` \
+                         lines){before}; OBJ indices count from 1, and negative ones back from the face: mend the \
+                         face or re-export the file",
+                        number + 1
+                    )
+                };
+                if at < 0 {
+                    return Some(out_of_range(defined[k], " before this face"));
+                }
+                if at >= totals[k] {
+                    return Some(out_of_range(totals[k], ""));
+                }
+                if at >= defined[k] && later.is_none() {
+                    later = Some(out_of_range(defined[k], " before this face"));
+                }
+            }
+        }
+    }
+    later
 }
