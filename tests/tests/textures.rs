@@ -446,6 +446,42 @@ fn bad_textured_meshes_get_located_errors() {
     }
 }
 
+/// An OBJ whose first `mtllib` line names two MTL files (the format's list of names) and whose
+/// second names a third: each face takes the `Kd` of its material from whichever file defines
+/// it. MTL files that together pass the 16 MiB cap on an OBJ's MTL bytes (each within it) are
+/// refused, naming the file that passes it.
+#[test]
+fn every_file_of_every_mtllib_line_is_read_within_one_budget() {
+    let folder = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(folder.path().join(name), text).unwrap();
+    write("a.mtl", "newmtl red\nKd 1 0 0\n");
+    write("b.mtl", "newmtl green\nKd 0 1 0\n");
+    write("c d.mtl", "newmtl blue\nKd 0 0 1\n");
+    let mut obj = String::from("mtllib a.mtl b.mtl\nmtllib c d.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for material in ["red", "green", "blue"] {
+        obj += &format!("usemtl {material}\nf 1 2 3\n");
+    }
+    write("a.obj", &obj);
+    let load = || {
+        Scene::from_ron(
+            r#"Scene(name: "mtl", objects: [Mesh(name: "m", path: "a.obj", colour: (9, 9, 9))])"#,
+            &folder.path().join("mtl.ron"),
+        )
+    };
+    let scene = load().unwrap();
+    let colours: Vec<[u8; 3]> = scene.faces.iter().map(|face| face.colour).collect();
+    assert_eq!(colours, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
+    // Two files of 9 MiB each (comments): each within the cap, together past it.
+    let comments = format!("newmtl red\nKd 1 0 0\n{}", "# padding padding padding padding\n".repeat(9 << 15));
+    write("a.mtl", &comments);
+    write("b.mtl", &comments.replace("red", "green"));
+    let error = load().map(|_| ()).unwrap_err().to_string();
+    assert!(
+        error.contains("b.mtl: the OBJ's MTL files hold more than 16777216 bytes together"),
+        "{error}"
+    );
+}
+
 /// The start of a PNG whose header claims `side` × `side` RGB texels: its header and the first
 /// bytes of its data, no more (it cannot be decoded; a reader that tried would fail).
 fn png_start(side: u32) -> Vec<u8> {
