@@ -428,7 +428,11 @@ fn bad_textured_meshes_get_located_errors() {
         (
             // tobj reads an object's faces against the vertices before the object ends.
             "obj face index of a vertex of a later object",
-            mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\no next\nv 0 0 1\nf 1 2 3\n", &[]),
+            mesh_error(
+                "a.obj",
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\no next\nv 0 0 1\nf 1 2 3\n",
+                &[],
+            ),
             "line 4: face index 4 names no vertex: the file has 3 vertices (`v` lines) before this face",
         ),
         (
@@ -472,7 +476,10 @@ fn every_file_of_every_mtllib_line_is_read_within_one_budget() {
     let colours: Vec<[u8; 3]> = scene.faces.iter().map(|face| face.colour).collect();
     assert_eq!(colours, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
     // Two files of 9 MiB each (comments): each within the cap, together past it.
-    let comments = format!("newmtl red\nKd 1 0 0\n{}", "# padding padding padding padding\n".repeat(9 << 15));
+    let comments = format!(
+        "newmtl red\nKd 1 0 0\n{}",
+        "# padding padding padding padding\n".repeat(9 << 15)
+    );
     write("a.mtl", &comments);
     write("b.mtl", &comments.replace("red", "green"));
     let error = load().map(|_| ()).unwrap_err().to_string();
@@ -1036,7 +1043,11 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
         None,
         4,
     ));
-    assert!(nan.contains("not finite"), "{nan}");
+    assert!(
+        nan.contains("mesh 0 primitive 0: accessor 1 (TEXCOORD_0) vertex 2: texture coordinate")
+            && nan.contains("not finite"),
+        "{nan}"
+    );
     // Index 7 of 4 vertices, and a required extension omnisim lacks.
     let mut bytes = good.clone();
     let at = bytes
@@ -1045,13 +1056,53 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
         .unwrap();
     bytes[at + 2] = 7;
     let out_of_range = error(&bytes);
-    assert!(out_of_range.contains("index 7 is out of range"), "{out_of_range}");
-    let json_end = 20 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
-    let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
-    json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-    json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-    let draco = error(&common::glb(&json, &good[json_end + 8..]));
+    assert!(
+        out_of_range.contains(
+            "mesh 0 primitive 0: accessor 2 (indices): index 7 is out of range of accessor 0 (POSITION)'s 4 vertices"
+        ),
+        "{out_of_range}"
+    );
+    // The good file with its JSON changed by `edit`.
+    let edited = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let json_end = 20 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
+        let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
+        edit(&mut json);
+        error(&common::glb(&json, &good[json_end + 8..]))
+    };
+    let draco = edited(&|json| {
+        json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+        json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    });
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
+    // Each refusal of a primitive names the mesh, the primitive and the accessor or material
+    // at fault.
+    type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
+    let cases: [(Edit, &str); 4] = [
+        (
+            &|json| json["accessors"][1]["count"] = 3.into(),
+            "mesh 0 primitive 0: accessor 1 (TEXCOORD_0) has 3 entries, fewer than accessor 0 (POSITION)'s 4 vertices",
+        ),
+        (
+            &|json| {
+                let colours = serde_json::json!({"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"});
+                json["accessors"].as_array_mut().unwrap().push(colours);
+                json["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = 3.into();
+            },
+            "mesh 0 primitive 0: accessor 3 (COLOR_0) has 3 entries, fewer than accessor 0 (POSITION)'s 4 vertices",
+        ),
+        (
+            &|json| json["accessors"][2]["count"] = 5.into(),
+            "mesh 0 primitive 0: accessor 2 (indices): 5 indices is not a whole number of triangles",
+        ),
+        (
+            &|json| json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = 1.into(),
+            "mesh 0 primitive 0: material 0's base colour texture reads TEXCOORD_1, which the primitive does not have",
+        ),
+    ];
+    for (edit, expected) in cases {
+        let message = edited(edit);
+        assert!(message.contains(expected), "{message}");
+    }
 }
 
 /// 51 meshes that share one index accessor of a million triangles' corners (3 MB of the
@@ -1109,7 +1160,7 @@ fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
     assert!(
         error.contains("square.glb")
             && error.contains("glb.ron")
-            && error.contains("mesh 0 primitive 0: more than 50000000 triangles"),
+            && error.contains("mesh 0 primitive 0 (accessor 1, 3000000 corners): more than 50000000 triangles"),
         "{error}"
     );
 }

@@ -72,11 +72,12 @@ fn elements<'a>(
 }
 
 /// Reads `accessor` of `N`-component elements, each made into a `T` by `make`, as
-/// `what` (`POSITION`, `TEXCOORD_1`, …: named in errors with the accessor's index).
+/// `what` (`POSITION`, `TEXCOORD_1`, …: named in errors with the accessor's index, and formatted
+/// only for them).
 pub(super) fn read<T: Copy, const N: usize>(
     accessor: &gltf::Accessor,
     buffers: &[Vec<u8>],
-    what: &str,
+    what: impl std::fmt::Display + Copy,
     make: impl Fn([f64; N]) -> T,
 ) -> Result<Vec<T>, String> {
     read_normalized_if(accessor, accessor.normalized(), buffers, what, make)
@@ -87,7 +88,7 @@ fn read_normalized_if<T: Copy, const N: usize>(
     accessor: &gltf::Accessor,
     normalized: bool,
     buffers: &[Vec<u8>],
-    what: &str,
+    what: impl std::fmt::Display + Copy,
     make: impl Fn([f64; N]) -> T,
 ) -> Result<Vec<T>, String> {
     match accessor.data_type() {
@@ -120,7 +121,7 @@ fn read_as<C: Component, T: Copy, const N: usize>(
     accessor: &gltf::Accessor,
     normalized: bool,
     buffers: &[Vec<u8>],
-    what: &str,
+    what: impl std::fmt::Display + Copy,
     make: impl Fn([f64; N]) -> T,
 ) -> Result<Vec<T>, String> {
     let name = || format!("accessor {} ({what})", accessor.index());

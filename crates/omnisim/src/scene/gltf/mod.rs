@@ -127,17 +127,21 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     let mut placed_triangles = 0usize;
     for (mesh, _) in &placed {
         for primitive in mesh.primitives() {
-            let corners = match (primitive.indices(), primitive.get(&gltf::Semantic::Positions)) {
-                (Some(indices), _) | (None, Some(indices)) => indices.count(),
-                (None, None) => 0,
+            let Some(corners) = primitive
+                .indices()
+                .or_else(|| primitive.get(&gltf::Semantic::Positions))
+            else {
+                continue;
             };
-            let triangles = triangles_of(primitive.mode(), corners).unwrap_or(0);
+            let triangles = triangles_of(primitive.mode(), corners.count()).unwrap_or(0);
             placed_triangles = placed_triangles.saturating_add(triangles);
             if placed_triangles > MAX_MESH_TRIANGLES {
                 return Err(format!(
-                    "mesh {} primitive {}: {}",
+                    "mesh {} primitive {} (accessor {}, {} corners): {}",
                     mesh.index(),
                     primitive.index(),
+                    corners.index(),
+                    corners.count(),
                     too_many_triangles()
                 ));
             }
@@ -301,15 +305,18 @@ fn instances(
         ));
     }
     let translations = translation
-        .map(|a| accessor::read(&a, buffers, "TRANSLATION", DVec3::from_array))
+        .as_ref()
+        .map(|a| accessor::read(a, buffers, "TRANSLATION", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
     let rotations = rotation
-        .map(|a| accessor::read(&a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
+        .as_ref()
+        .map(|a| accessor::read(a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
         .transpose()
         .map_err(in_node)?;
     let scales = scale
-        .map(|a| accessor::read(&a, buffers, "SCALE", DVec3::from_array))
+        .as_ref()
+        .map(|a| accessor::read(a, buffers, "SCALE", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
     let counts = [
@@ -324,7 +331,18 @@ fn instances(
         .max()
         .ok_or_else(|| format!("{what}: it has none of TRANSLATION, ROTATION and SCALE"))?;
     if counts.iter().flatten().any(|&n| n != count) {
-        return Err(format!("{what}: its TRANSLATION, ROTATION and SCALE counts differ"));
+        let listed: Vec<String> = ["TRANSLATION", "ROTATION", "SCALE"]
+            .iter()
+            .zip([&translation, &rotation, &scale])
+            .filter_map(|(name, accessor)| {
+                let accessor = accessor.as_ref()?;
+                Some(format!("accessor {} ({name}) {}", accessor.index(), accessor.count()))
+            })
+            .collect();
+        return Err(format!(
+            "{what}: its TRANSLATION, ROTATION and SCALE counts differ ({}); give each one per instance",
+            listed.join(", ")
+        ));
     }
     (0..count)
         .map(|i| {
@@ -452,8 +470,9 @@ fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<V
         visits += 1;
         if depth > MAX_DEPTH || visits > MAX_NODE_VISITS {
             return Err(format!(
-                "the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node visits (a \
-                 loop?)"
+                "node {}: the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node \
+                 visits (a loop?)",
+                node.index()
             ));
         }
         let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
@@ -758,55 +777,87 @@ fn read_primitive(
         accessor::read(&accessor, buffers, "POSITION", DVec3::from_array)
     });
     let positions: &Vec<DVec3> = positions.list().as_ref().map_err(Clone::clone)?;
-    let order: Vec<u32> = match primitive.indices() {
-        Some(indices) => accessor::read_indices(&indices, buffers)?,
+    // The accessor the corners come from, for errors: the indices, else the positions.
+    let order_from = primitive.indices();
+    let order: Vec<u32> = match &order_from {
+        Some(indices) => accessor::read_indices(indices, buffers)?,
         // At most `accessor::MAX_ELEMENTS` vertices: u32 indices.
         None => (0..positions.len() as u32).collect(),
     };
-    if let Some(&i) = order.iter().find(|&&i| i as usize >= positions.len()) {
-        return Err(format!(
-            "index {i} is out of range: there are {} vertices",
+    // Named only in an error, as in `within_read_budget`.
+    let position_count = |accessor: &gltf::Accessor| {
+        format!(
+            "accessor {} (POSITION)'s {} vertices",
+            accessor.index(),
             positions.len()
+        )
+    };
+    if let Some(&i) = order.iter().find(|&&i| i as usize >= positions.len()) {
+        let indices = order_from.as_ref().map_or(accessor.index(), gltf::Accessor::index);
+        return Err(format!(
+            "accessor {indices} (indices): index {i} is out of range of {}",
+            position_count(&accessor)
         ));
     }
     // `load_gltf` capped every primitive's triangles from these counts before any read.
     debug_assert!(triangles_of(primitive.mode(), order.len()).is_none_or(|n| n <= MAX_MESH_TRIANGLES));
-    let corners = triangle_corners(primitive.mode(), order)?;
+    let corners = triangle_corners(primitive.mode(), order).map_err(|e| match &order_from {
+        Some(indices) => format!("accessor {} (indices): {e}", indices.index()),
+        None => format!("accessor {} (POSITION, no indices): {e}", accessor.index()),
+    })?;
     let uv_list = match &look.texture {
         None => None,
         Some((_, _, set, transform)) => {
-            let semantic = format!("TEXCOORD_{set}");
-            let accessor = primitive
-                .get(&gltf::Semantic::TexCoords(*set))
-                .ok_or_else(|| format!("its material's texture reads {semantic}, which it does not have"))?;
-            Some(shared.read(
+            let uv_accessor = primitive.get(&gltf::Semantic::TexCoords(*set)).ok_or_else(|| {
+                format!(
+                    "material {}'s base colour texture reads TEXCOORD_{set}, which the primitive does not have",
+                    primitive
+                        .material()
+                        .index()
+                        .map_or("default".to_string(), |m| m.to_string())
+                )
+            })?;
+            let list = shared.read(
                 &shared.uvs,
-                accessor.index(),
-                (accessor.index(), transform.bits()),
+                uv_accessor.index(),
+                (uv_accessor.index(), transform.bits()),
                 || {
-                    let uvs = accessor::read(&accessor, buffers, &semantic, DVec2::from_array)?;
+                    let uvs = accessor::read(&uv_accessor, buffers, format_args!("TEXCOORD_{set}"), DVec2::from_array)?;
                     uvs.into_iter()
                         .enumerate()
                         .map(|(i, uv)| {
                             if uv.is_finite() {
                                 Ok(transform.apply(uv))
                             } else {
-                                Err(format!("vertex {i}: texture coordinate {uv} is not finite"))
+                                Err(format!(
+                                    "accessor {} (TEXCOORD_{set}) vertex {i}: texture coordinate {uv} is not finite",
+                                    uv_accessor.index()
+                                ))
                             }
                         })
                         .collect()
                 },
-            ))
+            );
+            Some((uv_accessor, *set, list))
         }
     };
     let uvs: Option<&Vec<DVec2>> = match &uv_list {
         None => None,
-        Some(read) => Some(read.list().as_ref().map_err(Clone::clone)?),
+        Some((uv_accessor, set, read)) => {
+            let uvs = read.list().as_ref().map_err(Clone::clone)?;
+            if uvs.len() < positions.len() {
+                return Err(format!(
+                    "accessor {} (TEXCOORD_{set}) has {} entries, fewer than {}",
+                    uv_accessor.index(),
+                    uvs.len(),
+                    position_count(&accessor)
+                ));
+            }
+            Some(uvs)
+        }
     };
-    if uvs.as_ref().is_some_and(|uvs| uvs.len() < positions.len()) {
-        return Err("TEXCOORD has fewer entries than POSITION".into());
-    }
-    let colours: Option<Vec<[u8; 3]>> = match primitive.get(&gltf::Semantic::Colors(0)) {
+    let colour_accessor = primitive.get(&gltf::Semantic::Colors(0));
+    let colours: Option<Vec<[u8; 3]>> = match &colour_accessor {
         None => None,
         Some(accessor) => {
             let encode = |linear: DVec4| {
@@ -829,8 +880,15 @@ fn read_primitive(
             })
         }
     };
-    if colours.as_ref().is_some_and(|c| c.len() < positions.len()) {
-        return Err("COLOR_0 has fewer entries than POSITION".into());
+    if let (Some(colours), Some(colour_accessor)) = (&colours, &colour_accessor)
+        && colours.len() < positions.len()
+    {
+        return Err(format!(
+            "accessor {} (COLOR_0) has {} entries, fewer than {}",
+            colour_accessor.index(),
+            colours.len(),
+            position_count(&accessor)
+        ));
     }
     let mut triangles = Vec::with_capacity(corners.len() / 3);
     for corners in corners.chunks_exact(3) {
