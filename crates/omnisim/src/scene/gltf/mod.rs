@@ -1,8 +1,8 @@
 //! glTF 2.0 (`.gltf` with its buffers and images, or one `.glb`) through the gltf crate: the
 //! default scene's node hierarchy with its transforms, triangle primitives (lists, strips and
 //! fans), `baseColorFactor`, `baseColorTexture` (its sampler's wrap modes and its `texCoord`
-//! set), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization` and
-//! `EXT_mesh_gpu_instancing`.
+//! set), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization`,
+//! `EXT_mesh_gpu_instancing` and `EXT_texture_webp`.
 //!
 //! A glTF file becomes one scene object, each of its triangles a face (as for PLY and OBJ).
 //! Buffers and images are resolved here rather than by gltf's `import`, so that a file opens
@@ -31,11 +31,12 @@ use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTr
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
-const SUPPORTED_EXTENSIONS: [&str; 4] = [
+const SUPPORTED_EXTENSIONS: [&str; 5] = [
     "KHR_texture_transform",
     "KHR_materials_unlit",
     "KHR_mesh_quantization",
     "EXT_mesh_gpu_instancing",
+    "EXT_texture_webp",
 ];
 
 /// How to make a file that requires `extension` readable, for its refusal.
@@ -46,9 +47,7 @@ fn without_extension(extension: &str) -> &'static str {
              without -d)"
         }
         "EXT_meshopt_compression" => "re-export without meshopt compression (gltfpack without -c or -cc)",
-        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" | "MSFT_texture_dds" => {
-            "re-export its textures as PNG or JPEG"
-        }
+        "KHR_texture_basisu" | "EXT_texture_avif" | "MSFT_texture_dds" => "re-export its textures as PNG, JPEG or WebP",
         _ => "re-export without it",
     }
 }
@@ -403,8 +402,10 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
     json.validate(json, gltf::json::Path::new, &mut |path, error| {
         let path = path();
         let at = path.as_str();
+        // A texture's own source may be left out for `EXT_texture_webp`'s (`texture_image`).
         let read_here = at.starts_with("extensionsRequired")
-            || (at.starts_with("accessors[") && at.ends_with("].bufferView") && error == Error::Missing);
+            || (at.starts_with("accessors[") && at.ends_with("].bufferView") && error == Error::Missing)
+            || (at.starts_with("textures[") && at.ends_with("].source") && error == Error::Missing);
         if !read_here {
             problems.push(format!("{path}: {error}"));
         }
@@ -496,23 +497,56 @@ fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<V
     Ok(placed)
 }
 
-/// The bank index of each image the base colour of one of `primitives` (each with its mesh's
-/// index) shows, by image index: read from their headers in the order first shown, then decoded
-/// on all threads. An error names the first primitive that shows the image.
+/// The image `texture` shows: `EXT_texture_webp`'s source where it names one (the texture's
+/// own `source` is then a fallback for viewers without WebP), else the texture's own.
+fn texture_image<'a>(texture: &gltf::Texture, document: &'a gltf::Document) -> Result<gltf::Image<'a>, String> {
+    let webp = texture
+        .extension_value("EXT_texture_webp")
+        .and_then(|webp| webp.get("source")?.as_u64());
+    // gltf-json marks a texture without a source by u32::MAX, which names no image.
+    let own = document.as_json().textures[texture.index()].source.value() as u64;
+    let index = webp.unwrap_or(own);
+    usize::try_from(index)
+        .ok()
+        .and_then(|index| document.images().nth(index))
+        .ok_or_else(|| match webp {
+            Some(index) => format!(
+                "texture {}: its EXT_texture_webp source names image {index}, but the file has {}",
+                texture.index(),
+                document.images().len()
+            ),
+            None => format!(
+                "texture {} names no image (no source, no EXT_texture_webp source)",
+                texture.index()
+            ),
+        })
+}
+
+/// The bank index of the image each texture shown by the base colour of one of `primitives`
+/// (each with its mesh's index) shows, by texture index: read from their headers in the order
+/// first shown, then decoded on all threads. An error names the first primitive that shows the
+/// image.
 fn load_images(
     primitives: &[(usize, gltf::Primitive)],
     document: &gltf::Document,
     buffers: &[Vec<u8>],
     textures: &mut MeshTextures,
 ) -> Result<Vec<Option<u32>>, String> {
-    // Each image shown, with the first primitive that shows it.
+    // Each image shown, with the first primitive that shows it, and each texture's image.
     let mut shown: Vec<(gltf::Image, String)> = Vec::new();
     let mut is_shown = vec![false; document.images().len()];
+    let mut image_of_texture = vec![None; document.textures().len()];
     for (mesh, primitive) in primitives {
         if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
-            let image = info.texture().source();
+            let texture = info.texture();
+            if image_of_texture[texture.index()].is_some() {
+                continue;
+            }
+            let primitive = format!("mesh {mesh} primitive {}", primitive.index());
+            let image = texture_image(&texture, document).map_err(|e| format!("{primitive}: {e}"))?;
+            image_of_texture[texture.index()] = Some(image.index());
             if !std::mem::replace(&mut is_shown[image.index()], true) {
-                shown.push((image, format!("mesh {mesh} primitive {}", primitive.index())));
+                shown.push((image, primitive));
             }
         }
     }
@@ -539,7 +573,10 @@ fn load_images(
     for ((image, _), index) in shown.iter().zip(added) {
         images[image.index()] = Some(index);
     }
-    Ok(images)
+    Ok(image_of_texture
+        .into_iter()
+        .map(|image| image.and_then(|image| images[image]))
+        .collect())
 }
 
 /// The bytes of a buffer: the GLB's binary chunk, a `data:` URI, or a file beside the glTF.
@@ -631,8 +668,8 @@ fn texture_coordinates(info: &gltf::texture::Info) -> (u32, UvTransform) {
     }
 }
 
-/// The look of a primitive's material, its base-colour texture one of `images` (by image
-/// index, [`load_images`]).
+/// The look of a primitive's material, its base-colour texture's image one of `images` (by
+/// texture index, [`load_images`]).
 fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
     let pbr = material.pbr_metallic_roughness();
     let factor = DVec4::from_array(pbr.base_color_factor().map(f64::from));
@@ -640,8 +677,7 @@ fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
         None => None,
         Some(info) => {
             let texture = info.texture();
-            let image = texture.source();
-            let id = images[image.index()].expect("load_images decodes every image a placed primitive shows");
+            let id = images[texture.index()].expect("load_images decodes every image a placed primitive shows");
             let sampler = texture.sampler();
             let (set, transform) = texture_coordinates(&info);
             Some((id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], set, transform))
