@@ -848,6 +848,14 @@ fn square_glb_drawn(
     common::glb(&json, &bin)
 }
 
+/// The GLB `glb` with its JSON changed by `edit` (its binary chunk kept).
+fn with_json(glb: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let json_end = 20 + u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..json_end]).unwrap();
+    edit(&mut json);
+    common::glb(&json, &glb[json_end + 8..])
+}
+
 fn load_glb(bytes: &[u8]) -> Result<Scene, omnisim::SceneError> {
     let folder = tempfile::tempdir().unwrap();
     std::fs::write(folder.path().join("square.glb"), bytes).unwrap();
@@ -918,6 +926,54 @@ fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
         .max()
         .unwrap();
     assert!(worst <= 1, "largest difference {worst}/255");
+}
+
+/// `KHR_materials_pbrSpecularGlossiness` (older Sketchfab and 3ds Max exports): its diffuse
+/// texture, through its `KHR_texture_transform`, and its diffuse factor are the base colour,
+/// not the metallic-roughness fallback beside them (red, untextured: read instead, the texels
+/// and colours below differ).
+#[test]
+fn specular_glossiness_diffuse_texture_and_factor_are_the_base_colour() {
+    let specular_glossiness = |glb: Vec<u8>, factor: [f64; 4], textured: bool| {
+        with_json(&glb, |json| {
+            let info = json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].take();
+            let mut diffuse = serde_json::json!({"diffuseFactor": factor});
+            if textured {
+                diffuse["diffuseTexture"] = info;
+            }
+            json["materials"][0] = serde_json::json!({
+                "pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.0, 0.0, 1.0]},
+                "extensions": {"KHR_materials_pbrSpecularGlossiness": diffuse}
+            });
+            json["extensionsUsed"] =
+                serde_json::json!(["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness"]);
+        })
+    };
+    // The file's coordinates the inverse of a transform that the extension's texture info
+    // applies: the texels land where the plain square's do.
+    let (offset, rotation, scale) = (DVec2::new(0.1, -0.2), 0.3f64, DVec2::new(1.5, 0.75));
+    let inverse = |t: DVec2| {
+        let (sin, cos) = rotation.sin_cos();
+        let r = t - offset;
+        DVec2::new(cos * r.x + sin * r.y, -sin * r.x + cos * r.y) / scale
+    };
+    let transform =
+        serde_json::json!({"offset": [offset.x, offset.y], "rotation": rotation, "scale": [scale.x, scale.y]});
+    for glb in [square_glb(|uv| uv, None, 4), square_glb(inverse, Some(transform), 4)] {
+        let scene = load_glb(&specular_glossiness(glb, [1.0; 4], true)).unwrap();
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
+    }
+    let scene = load_glb(&specular_glossiness(
+        square_glb(|uv| uv, None, 4),
+        [0.2, 0.4, 0.6, 1.0],
+        false,
+    ))
+    .unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    for (k, face) in scene.faces.iter().enumerate() {
+        assert_eq!(face.colour, [0.2, 0.4, 0.6].map(linear_to_srgb));
+        assert!(scene.surfaces.of(k as u32).is_none_or(|surface| surface.uv.is_none()));
+    }
 }
 
 /// Three one-primitive meshes whose primitives share one `TEXCOORD_0` accessor (read once for
@@ -1062,13 +1118,7 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
         ),
         "{out_of_range}"
     );
-    // The good file with its JSON changed by `edit`.
-    let edited = |edit: &dyn Fn(&mut serde_json::Value)| {
-        let json_end = 20 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
-        let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
-        edit(&mut json);
-        error(&common::glb(&json, &good[json_end + 8..]))
-    };
+    let edited = |edit: &dyn Fn(&mut serde_json::Value)| error(&with_json(&good, edit));
     let draco = edited(&|json| {
         json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
         json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);

@@ -1,7 +1,7 @@
 //! glTF 2.0 (`.gltf` with its buffers and images, or one `.glb`) through the gltf crate: the
 //! default scene's node hierarchy with its transforms, triangle primitives (lists, strips and
 //! fans), `baseColorFactor`, `baseColorTexture` (its sampler's wrap modes and its `texCoord`
-//! set), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization`,
+//! set; or `KHR_materials_pbrSpecularGlossiness`'s diffuse factor and texture), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization`,
 //! `EXT_mesh_gpu_instancing` and `EXT_texture_webp`.
 //!
 //! A glTF file becomes one scene object, each of its triangles a face (as for PLY and OBJ).
@@ -31,9 +31,10 @@ use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTr
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
-const SUPPORTED_EXTENSIONS: [&str; 5] = [
+const SUPPORTED_EXTENSIONS: [&str; 6] = [
     "KHR_texture_transform",
     "KHR_materials_unlit",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization",
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
@@ -231,7 +232,7 @@ fn within_read_budget(primitives: &[(usize, gltf::Primitive)], buffers: &[Vec<u8
         {
             reads.push((positions, "POSITION", None));
         }
-        if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
+        if let (_, Some(info)) = base_colour(&primitive.material()) {
             let (set, transform) = texture_coordinates(&info);
             if let Some(uvs) = primitive.get(&gltf::Semantic::TexCoords(set))
                 && shared_uvs.insert((uvs.index(), transform.bits()))
@@ -537,7 +538,7 @@ fn load_images(
     let mut is_shown = vec![false; document.images().len()];
     let mut image_of_texture = vec![None; document.textures().len()];
     for (mesh, primitive) in primitives {
-        if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
+        if let (_, Some(info)) = base_colour(&primitive.material()) {
             let texture = info.texture();
             if image_of_texture[texture.index()].is_some() {
                 continue;
@@ -668,12 +669,26 @@ fn texture_coordinates(info: &gltf::texture::Info) -> (u32, UvTransform) {
     }
 }
 
+/// A material's base colour factor and texture: `KHR_materials_pbrSpecularGlossiness`'s diffuse
+/// ones where the material has it (older Sketchfab and 3ds Max exports; its metallic-roughness
+/// values are then a fallback for viewers without the extension), else `baseColorFactor` and
+/// `baseColorTexture`.
+fn base_colour<'a>(material: &gltf::Material<'a>) -> ([f32; 4], Option<gltf::texture::Info<'a>>) {
+    match material.pbr_specular_glossiness() {
+        Some(diffuse) => (diffuse.diffuse_factor(), diffuse.diffuse_texture()),
+        None => {
+            let pbr = material.pbr_metallic_roughness();
+            (pbr.base_color_factor(), pbr.base_color_texture())
+        }
+    }
+}
+
 /// The look of a primitive's material, its base-colour texture's image one of `images` (by
 /// texture index, [`load_images`]).
 fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
-    let pbr = material.pbr_metallic_roughness();
-    let factor = DVec4::from_array(pbr.base_color_factor().map(f64::from));
-    let texture = match pbr.base_color_texture() {
+    let (factor, texture) = base_colour(material);
+    let factor = DVec4::from_array(factor.map(f64::from));
+    let texture = match texture {
         None => None,
         Some(info) => {
             let texture = info.texture();
