@@ -1067,10 +1067,10 @@ fn a_quantized_square_maps_its_texture_exactly() {
     check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
 }
 
-#[test]
-fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
-    // offset + R(rotation)·(scale ⊙ uv), the extension's formula, baked into the file's
-    // coordinates, against the same coordinates left to the extension.
+/// [`square_glb`] with a `KHR_texture_transform` on its texture info and, in the file, the
+/// inverse of the extension's formula (offset + R(rotation)·(scale ⊙ uv)) applied to its
+/// coordinates: read right, its texels land where the plain square's do.
+fn transformed_square_glb() -> Vec<u8> {
     let (offset, rotation, scale) = (DVec2::new(0.1, -0.2), 0.3f64, DVec2::new(1.5, 0.75));
     let inverse = |t: DVec2| {
         let (sin, cos) = rotation.sin_cos();
@@ -1079,8 +1079,13 @@ fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
     };
     let transform =
         serde_json::json!({"offset": [offset.x, offset.y], "rotation": rotation, "scale": [scale.x, scale.y]});
+    square_glb(inverse, Some(transform), 4)
+}
+
+#[test]
+fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
     let plain = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
-    let transformed = load_glb(&square_glb(inverse, Some(transform), 4)).unwrap();
+    let transformed = load_glb(&transformed_square_glb()).unwrap();
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
     let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
     let render = |scene: &Scene| {
@@ -1118,17 +1123,7 @@ fn specular_glossiness_diffuse_texture_and_factor_are_the_base_colour() {
                 serde_json::json!(["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness"]);
         })
     };
-    // The file's coordinates the inverse of a transform that the extension's texture info
-    // applies: the texels land where the plain square's do.
-    let (offset, rotation, scale) = (DVec2::new(0.1, -0.2), 0.3f64, DVec2::new(1.5, 0.75));
-    let inverse = |t: DVec2| {
-        let (sin, cos) = rotation.sin_cos();
-        let r = t - offset;
-        DVec2::new(cos * r.x + sin * r.y, -sin * r.x + cos * r.y) / scale
-    };
-    let transform =
-        serde_json::json!({"offset": [offset.x, offset.y], "rotation": rotation, "scale": [scale.x, scale.y]});
-    for glb in [square_glb(|uv| uv, None, 4), square_glb(inverse, Some(transform), 4)] {
+    for glb in [square_glb(|uv| uv, None, 4), transformed_square_glb()] {
         let scene = load_glb(&specular_glossiness(glb, [1.0; 4], true)).unwrap();
         check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
     }
