@@ -65,7 +65,8 @@ const BUFFER_LIMIT: u64 = crate::input::MESH_LIMIT;
 struct Look {
     colour: [u8; 3],
     factor: DVec4,
-    texture: Option<(u32, [Wrap; 2], u32, UvTransform)>,
+    /// The bank index of its image and the wrap modes (its coordinates: [`Sources::uvs`]).
+    texture: Option<(u32, [Wrap; 2])>,
     unlit: bool,
 }
 
@@ -208,6 +209,32 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     Ok(parts.into_iter().map(|(part, _)| part).collect())
 }
 
+/// The accessors one primitive's triangles are read from: the one list that the read budget,
+/// the shared reads and the read itself take them from.
+struct Sources<'a> {
+    positions: Option<gltf::Accessor<'a>>,
+    /// The TEXCOORD set the base colour texture reads, its `KHR_texture_transform`, and the
+    /// primitive's accessor of that set, if it has one.
+    uvs: Option<(u32, UvTransform, Option<gltf::Accessor<'a>>)>,
+    indices: Option<gltf::Accessor<'a>>,
+    colours: Option<gltf::Accessor<'a>>,
+}
+
+impl<'a> Sources<'a> {
+    fn of(primitive: &gltf::Primitive<'a>) -> Sources<'a> {
+        let uvs = base_colour(&primitive.material()).1.map(|info| {
+            let (set, transform) = texture_coordinates(&info);
+            (set, transform, primitive.get(&gltf::Semantic::TexCoords(set)))
+        });
+        Sources {
+            positions: primitive.get(&gltf::Semantic::Positions),
+            uvs,
+            indices: primitive.indices(),
+            colours: primitive.get(&gltf::Semantic::Colors(0)),
+        }
+    }
+}
+
 /// Fewest elements the primitives of one file may read together, whatever its buffers' size.
 const READ_FLOOR: usize = 1 << 20;
 
@@ -224,29 +251,23 @@ fn within_read_budget(primitives: &[(usize, gltf::Primitive)], buffers: &[Vec<u8
     let mut shared_uvs = HashSet::new();
     let mut read = 0usize;
     for (mesh, primitive) in primitives {
+        let sources = Sources::of(primitive);
         // Named only in an error (formatting every name cost a twentieth of a many-part read:
         // docs/benchmarks.md, "2026-11-27 night2 (parts)"); a TEXCOORD list with its set.
-        let mut reads: Vec<(gltf::Accessor, &str, Option<u32>)> = Vec::new();
-        if let Some(positions) = primitive.get(&gltf::Semantic::Positions)
-            && shared_positions.insert(positions.index())
-        {
-            reads.push((positions, "POSITION", None));
-        }
-        if let (_, Some(info)) = base_colour(&primitive.material()) {
-            let (set, transform) = texture_coordinates(&info);
-            if let Some(uvs) = primitive.get(&gltf::Semantic::TexCoords(set))
-                && shared_uvs.insert((uvs.index(), transform.bits()))
-            {
-                reads.push((uvs, "TEXCOORD", Some(set)));
-            }
-        }
-        reads.extend(primitive.indices().map(|indices| (indices, "indices", None)));
-        reads.extend(
-            primitive
-                .get(&gltf::Semantic::Colors(0))
-                .map(|colours| (colours, "COLOR_0", None)),
-        );
-        for (accessor, name, set) in reads {
+        let positions = sources
+            .positions
+            .filter(|positions| shared_positions.insert(positions.index()));
+        let uvs = sources.uvs.and_then(|(set, transform, uvs)| {
+            uvs.filter(|uvs| shared_uvs.insert((uvs.index(), transform.bits())))
+                .map(|uvs| (uvs, "TEXCOORD", Some(set)))
+        });
+        let reads = [
+            positions.map(|positions| (positions, "POSITION", None)),
+            uvs,
+            sources.indices.map(|indices| (indices, "indices", None)),
+            sources.colours.map(|colours| (colours, "COLOR_0", None)),
+        ];
+        for (accessor, name, set) in reads.into_iter().flatten() {
             read = read.saturating_add(accessor.count());
             if read > budget {
                 let what = set.map_or_else(|| name.to_string(), |set| format!("{name}_{set}"));
@@ -674,12 +695,11 @@ fn texture_coordinates(info: &gltf::texture::Info) -> (u32, UvTransform) {
 /// values are then a fallback for viewers without the extension), else `baseColorFactor` and
 /// `baseColorTexture`.
 fn base_colour<'a>(material: &gltf::Material<'a>) -> ([f32; 4], Option<gltf::texture::Info<'a>>) {
-    match material.pbr_specular_glossiness() {
-        Some(diffuse) => (diffuse.diffuse_factor(), diffuse.diffuse_texture()),
-        None => {
-            let pbr = material.pbr_metallic_roughness();
-            (pbr.base_color_factor(), pbr.base_color_texture())
-        }
+    if let Some(diffuse) = material.pbr_specular_glossiness() {
+        (diffuse.diffuse_factor(), diffuse.diffuse_texture())
+    } else {
+        let pbr = material.pbr_metallic_roughness();
+        (pbr.base_color_factor(), pbr.base_color_texture())
     }
 }
 
@@ -694,8 +714,7 @@ fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
             let texture = info.texture();
             let id = images[texture.index()].expect("load_images decodes every image a placed primitive shows");
             let sampler = texture.sampler();
-            let (set, transform) = texture_coordinates(&info);
-            Some((id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], set, transform))
+            Some((id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())]))
         }
     };
     Look {
@@ -778,10 +797,12 @@ impl SharedReads {
     fn new(primitives: &[(usize, gltf::Primitive)], accessors: usize) -> SharedReads {
         let mut readers = vec![0u32; accessors];
         for (_, primitive) in primitives {
-            for (semantic, accessor) in primitive.attributes() {
-                if matches!(semantic, gltf::Semantic::Positions | gltf::Semantic::TexCoords(_)) {
-                    readers[accessor.index()] += 1;
-                }
+            let sources = Sources::of(primitive);
+            for accessor in [sources.positions, sources.uvs.and_then(|(_, _, uvs)| uvs)]
+                .into_iter()
+                .flatten()
+            {
+                readers[accessor.index()] += 1;
             }
         }
         SharedReads {
@@ -821,15 +842,14 @@ fn read_primitive(
     shared: &SharedReads,
 ) -> Result<Vec<MeshTriangle>, String> {
     let look = look(&primitive.material(), images);
-    let accessor = primitive
-        .get(&gltf::Semantic::Positions)
-        .ok_or("it has no POSITION attribute")?;
+    let sources = Sources::of(primitive);
+    let accessor = sources.positions.ok_or("it has no POSITION attribute")?;
     let positions = shared.read(&shared.positions, accessor.index(), accessor.index(), || {
         accessor::read(&accessor, buffers, "POSITION", DVec3::from_array)
     });
     let positions: &Vec<DVec3> = positions.list().as_ref().map_err(Clone::clone)?;
     // The accessor the corners come from, for errors: the indices, else the positions.
-    let order_from = primitive.indices();
+    let order_from = sources.indices;
     let order: Vec<u32> = match &order_from {
         Some(indices) => accessor::read_indices(indices, buffers)?,
         // At most `accessor::MAX_ELEMENTS` vertices: u32 indices.
@@ -856,10 +876,10 @@ fn read_primitive(
         Some(indices) => format!("accessor {} (indices): {e}", indices.index()),
         None => format!("accessor {} (POSITION, no indices): {e}", accessor.index()),
     })?;
-    let uv_list = match &look.texture {
+    let uv_list = match sources.uvs {
         None => None,
-        Some((_, _, set, transform)) => {
-            let uv_accessor = primitive.get(&gltf::Semantic::TexCoords(*set)).ok_or_else(|| {
+        Some((set, transform, uv_accessor)) => {
+            let uv_accessor = uv_accessor.ok_or_else(|| {
                 format!(
                     "material {}'s base colour texture reads TEXCOORD_{set}, which the primitive does not have",
                     primitive
@@ -889,7 +909,7 @@ fn read_primitive(
                         .collect()
                 },
             );
-            Some((uv_accessor, *set, list))
+            Some((uv_accessor, set, list))
         }
     };
     let uvs: Option<&Vec<DVec2>> = match &uv_list {
@@ -907,7 +927,7 @@ fn read_primitive(
             Some(uvs)
         }
     };
-    let colour_accessor = primitive.get(&gltf::Semantic::Colors(0));
+    let colour_accessor = sources.colours;
     let colours: Option<Vec<[u8; 3]>> = match &colour_accessor {
         None => None,
         Some(accessor) => {
@@ -916,11 +936,11 @@ fn read_primitive(
                 [linear.x, linear.y, linear.z].map(linear_to_srgb)
             };
             Some(match accessor.dimensions() {
-                Dimensions::Vec3 => accessor::read(&accessor, buffers, "COLOR_0", |[r, g, b]| {
+                Dimensions::Vec3 => accessor::read(accessor, buffers, "COLOR_0", |[r, g, b]| {
                     encode(DVec4::new(r, g, b, 1.0))
                 })?,
                 Dimensions::Vec4 => {
-                    accessor::read(&accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?
+                    accessor::read(accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?
                 }
                 other => {
                     return Err(format!(
@@ -951,7 +971,7 @@ fn read_primitive(
                 .texture
                 .as_ref()
                 .zip(uvs.as_ref())
-                .map(|((id, wrap, _, _), uvs)| CornerUvs {
+                .map(|((id, wrap), uvs)| CornerUvs {
                     texture: *id,
                     wrap: *wrap,
                     uv: [uvs[at(0)], uvs[at(1)], uvs[at(2)]],
