@@ -89,6 +89,27 @@ def image_variants():
     return out
 
 
+def tiles_image():
+    """TEXELS as a Pillow image (the TGA, BMP and WebP variants)."""
+    image = Image.new("RGB", (2, 2))
+    image.putdata([rgb for row in TEXELS for rgb in row])
+    return image
+
+
+def pillow_bytes(**save):
+    """TEXELS saved by Pillow with `save`'s arguments."""
+    import io
+    buffer = io.BytesIO()
+    tiles_image().save(buffer, **save)
+    return buffer.getvalue()
+
+
+# (name, file extension, Pillow's save arguments) of the texture files OBJ and PLY scans ship
+# besides PNG and JPEG (Matterport- and ScanNet-era exports).
+SCAN_IMAGES = [("tga", "tga", dict(format="TGA")), ("tga-rle", "tga", dict(format="TGA", compression="tga_rle")),
+               ("bmp", "bmp", dict(format="BMP"))]
+
+
 def jpeg(progressive):
     """A 16×16 JPEG of one colour (lossy: the texel is checked within a few levels)."""
     import io
@@ -380,8 +401,9 @@ def gltf_sparse_and_viewless(folder):
          uvs=[[[0.0, 0.0]] * 3 for _ in triangles])
 
 
-def textured_square(folder, name, image, mime=None, where="view", writer="pygltflib"):
-    """The strip with `image` as its base colour texture, in a GLB's view, a data URI or a file."""
+def textured_square(folder, name, image, mime=None, where="view", texture=None, fallback=None, used=(), required=()):
+    """The strip with `image` (image 0) as its base colour texture, in a GLB's view, a data URI
+    or a file, shown through `texture` (by default its `source`); a PNG `fallback` is image 1."""
     blob = Blob()
     position = blob.accessor(STRIP, "f", "VEC3", minmax=True)
     uvs = [(p[0] / 2, p[1]) for p in STRIP]
@@ -394,11 +416,14 @@ def textured_square(folder, name, image, mime=None, where="view", writer="pygltf
     else:
         (folder / where).write_bytes(image)
         source = {"uri": where.replace(" ", "%20")}
+    images = [source]
+    if fallback is not None:
+        images.append({"bufferView": blob.view(fallback), "mimeType": "image/png"})
     primitive = {"attributes": {"POSITION": position, "TEXCOORD_0": texcoord}, "mode": 5, "material": 0}
     document = one_mesh(primitive, materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
-                        textures=[{"source": 0}], images=[source])
+                        textures=[texture or {"source": 0}], images=images, extensionsUsed=list(used))
     file = f"{name}.glb" if where == "view" else f"{name}.gltf"
-    save_gltf(folder, file, document, blob, embed=True)
+    save_gltf(folder, file, document, blob, required=required, embed=True)
     return file, faces_of(STRIP, triangles_of(5, 6))
 
 
@@ -416,6 +441,17 @@ def gltf_images(folder):
     case(folder, "gltf-image-data-uri", file, "pygltflib", faces, texel={"x": 1, "y": 0, "rgb": TEXELS[0][1]})
     file, faces = textured_square(folder, "gltf-image-spaced-name", rgb8, where="my tiles.png")
     case(folder, "gltf-image-spaced-name", file, "pygltflib", faces, texel={"x": 1, "y": 0, "rgb": TEXELS[0][1]})
+    # EXT_texture_webp (lossless WebP by Pillow): with a PNG fallback as the texture's own source
+    # (other texels: read instead, the texel would differ), and alone (the extension required).
+    webp = pillow_bytes(format="WEBP", lossless=True)
+    inverted = png(2, 2, 2, 8, [[255 - c for rgb in row for c in rgb] for row in TEXELS])
+    webp_texture = {"extensions": {"EXT_texture_webp": {"source": 0}}}
+    file, faces = textured_square(folder, "gltf-image-webp", webp, "image/webp", texture={**webp_texture, "source": 1},
+                                  fallback=inverted, used=["EXT_texture_webp"])
+    case(folder, "gltf-image-webp", file, "Pillow", faces, texel={"x": 1, "y": 0, "rgb": TEXELS[0][1]})
+    file, faces = textured_square(folder, "gltf-image-webp-only", webp, "image/webp", texture=webp_texture,
+                                  required=["EXT_texture_webp"])
+    case(folder, "gltf-image-webp-only", file, "Pillow", faces, texel={"x": 1, "y": 0, "rgb": TEXELS[0][1]})
 
 
 def gltf_materials_and_nodes(folder):
@@ -678,6 +714,14 @@ def ply_files(folder):
     uvs = [[[float(np.float32(points[i][0] / 2)), 1 - points[i][1]] for i in t] for t in triangles]
     case(folder, "ply-texcoord", "ply-texcoord.ply", "plyfile", faces_of(points, triangles), uvs=uvs,
          texel={"x": 1, "y": 0, "rgb": list(TEXELS[0][1])})
+    # The same with the texture as TGA (uncompressed and RLE) and BMP, written by Pillow.
+    for kind, extension, save in SCAN_IMAGES:
+        tiles_image().save(folder / f"tiles-{kind}.{extension}", **save)
+        name = f"ply-texture-{kind}"
+        plyfile.PlyData([plyfile.PlyElement.describe(vertex, "vertex"), plyfile.PlyElement.describe(face, "face")],
+                        comments=[f"TextureFile tiles-{kind}.{extension}"]).write(str(folder / f"{name}.ply"))
+        case(folder, name, f"{name}.ply", "Pillow", faces_of(points, triangles), uvs=uvs,
+             texel={"x": 1, "y": 0, "rgb": list(TEXELS[0][1])})
     # The PLY type names of the 2012 spec (float32, uint8, int32), another element before the
     # faces, extra face properties, and Windows line ends in an ASCII file.
     header = ["ply", "format ascii 1.0", "comment written by hand", "obj_info aliases", "element vertex 6",
@@ -766,10 +810,24 @@ def obj_files(folder):
     obj("obj-bad-kd-two-numbers", positive, "newmtl tiles\nKd 0.5 0.25\n")
     case(folder, "obj-bad-kd-two-numbers", "obj-bad-kd-two-numbers.obj", "hand",
          refuse=["line 2", "Kd needs one number (grey) or three"])
-    # A face index far past any mesh: refused by tobj (without its line).
+    # A face index far past any mesh: refused naming its line (mtllib, 6 v, 6 vt, usemtl, 2 faces before it).
     obj("obj-bad-face-index", positive + "f 1/1 2/2 3/4611686018427387904\n", plain_mtl)
     case(folder, "obj-bad-face-index", "obj-bad-face-index.obj", "hand",
-         refuse=["obj-bad-face-index.obj", "texcoord index out of bounds"])
+         refuse=["obj-bad-face-index.obj", "line 17: face index 4611686018427387904 names no texture coordinate",
+                 "the file has 6 texture coordinates"])
+    # map_Kd as TGA (uncompressed and RLE) and BMP, written by Pillow; each cut short, refused.
+    for kind, extension, save in SCAN_IMAGES:
+        image = pillow_bytes(**save)
+        (folder / f"tiles-{kind}.{extension}").write_bytes(image)
+        (folder / f"tiles-{kind}-cut.{extension}").write_bytes(image[:len(image) // 2])
+        for cut in ["", "-cut"]:
+            name = f"obj-image-{kind}{cut}"
+            obj(name, positive, f"newmtl tiles\nKd 1 1 1\nmap_Kd tiles-{kind}{cut}.{extension}\n")
+            if cut:
+                case(folder, name, f"{name}.obj", "Pillow",
+                     refuse=[f"tiles-{kind}-cut.{extension}", f"not a readable {extension.upper()} image"])
+            else:
+                case(folder, name, f"{name}.obj", "Pillow", faces_of(points, fan), **textured)
     obj("obj-missing-texture", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd absent.png\n")
     case(folder, "obj-missing-texture", "obj-missing-texture.obj", "hand", refuse=["absent.png", "not found"])
     obj("obj-unknown-map-option", positive, "newmtl tiles\nKd 1 1 1\nmap_Kd -zoom 2 tiles.png\n")

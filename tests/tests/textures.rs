@@ -415,6 +415,27 @@ fn bad_textured_meshes_get_located_errors() {
             "nope.jpg: file not found",
         ),
         (
+            "obj face index past the vertices",
+            mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n", &[]),
+            "a.obj: line 5: face index 9 names no vertex: the file has 3 vertices (`v` lines); OBJ indices count \
+             from 1",
+        ),
+        (
+            "obj face index past the texture coordinates",
+            mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/5 3/1\n", &[]),
+            "line 5: face index 5 names no texture coordinate: the file has 1 texture coordinates (`vt` lines)",
+        ),
+        (
+            // tobj reads an object's faces against the vertices before the object ends.
+            "obj face index of a vertex of a later object",
+            mesh_error(
+                "a.obj",
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\no next\nv 0 0 1\nf 1 2 3\n",
+                &[],
+            ),
+            "line 4: face index 4 names no vertex: the file has 3 vertices (`v` lines) before this face",
+        ),
+        (
             "obj NaN UV",
             mesh_error(
                 "a.obj",
@@ -427,6 +448,45 @@ fn bad_textured_meshes_get_located_errors() {
     for (what, error, expected) in cases {
         assert!(error.contains(expected) && error.contains("bad.ron"), "{what}: {error}");
     }
+}
+
+/// An OBJ whose first `mtllib` line names two MTL files (the format's list of names) and whose
+/// second names a third: each face takes the `Kd` of its material from whichever file defines
+/// it. MTL files that together pass the 16 MiB cap on an OBJ's MTL bytes (each within it) are
+/// refused, naming the file that passes it.
+#[test]
+fn every_file_of_every_mtllib_line_is_read_within_one_budget() {
+    let folder = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| std::fs::write(folder.path().join(name), text).unwrap();
+    write("a.mtl", "newmtl red\nKd 1 0 0\n");
+    write("b.mtl", "newmtl green\nKd 0 1 0\n");
+    write("c d.mtl", "newmtl blue\nKd 0 0 1\n");
+    let mut obj = String::from("mtllib a.mtl b.mtl\nmtllib c d.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for material in ["red", "green", "blue"] {
+        obj += &format!("usemtl {material}\nf 1 2 3\n");
+    }
+    write("a.obj", &obj);
+    let load = || {
+        Scene::from_ron(
+            r#"Scene(name: "mtl", objects: [Mesh(name: "m", path: "a.obj", colour: (9, 9, 9))])"#,
+            &folder.path().join("mtl.ron"),
+        )
+    };
+    let scene = load().unwrap();
+    let colours: Vec<[u8; 3]> = scene.faces.iter().map(|face| face.colour).collect();
+    assert_eq!(colours, [[255, 0, 0], [0, 255, 0], [0, 0, 255]]);
+    // Two files of 9 MiB each (comments): each within the cap, together past it.
+    let comments = format!(
+        "newmtl red\nKd 1 0 0\n{}",
+        "# padding padding padding padding\n".repeat(9 << 15)
+    );
+    write("a.mtl", &comments);
+    write("b.mtl", &comments.replace("red", "green"));
+    let error = load().map(|_| ()).unwrap_err().to_string();
+    assert!(
+        error.contains("b.mtl: the OBJ's MTL files hold more than 16777216 bytes together"),
+        "{error}"
+    );
 }
 
 /// The start of a PNG whose header claims `side` × `side` RGB texels: its header and the first
@@ -788,6 +848,60 @@ fn square_glb_drawn(
     common::glb(&json, &bin)
 }
 
+/// The GLB `glb` with its JSON changed by `edit` (its binary chunk kept).
+fn with_json(glb: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    with_json_and_bytes(glb, &[], |json, _| edit(json))
+}
+
+/// The GLB `glb` with `extra` bytes appended to its binary chunk (at a 4-byte boundary, the
+/// offset `edit` is given) and its JSON changed by `edit`.
+fn with_json_and_bytes(glb: &[u8], extra: &[u8], edit: impl FnOnce(&mut serde_json::Value, usize)) -> Vec<u8> {
+    let json_end = 20 + u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&glb[20..json_end]).unwrap();
+    let mut bin = glb[json_end + 8..].to_vec();
+    bin.resize(bin.len().div_ceil(4) * 4, 0);
+    let at = bin.len();
+    bin.extend(extra);
+    json["buffers"][0]["byteLength"] = bin.len().into();
+    edit(&mut json, at);
+    common::glb(&json, &bin)
+}
+
+/// Appends `views` (byte offset, length and stride, if any) to `json`'s buffer views and an
+/// accessor over each (`accessors`: the rest of its fields), returning the first new
+/// accessor's index.
+fn add_accessors(
+    json: &mut serde_json::Value,
+    views: &[(usize, usize, Option<usize>)],
+    accessors: &[serde_json::Value],
+) -> usize {
+    let first_view = json["bufferViews"].as_array().unwrap().len();
+    let first = json["accessors"].as_array().unwrap().len();
+    for (k, ((offset, length, stride), accessor)) in views.iter().zip(accessors).enumerate() {
+        let mut view = serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": length});
+        if let Some(stride) = stride {
+            view["byteStride"] = (*stride).into();
+        }
+        json["bufferViews"].as_array_mut().unwrap().push(view);
+        let mut accessor = accessor.clone();
+        accessor["bufferView"] = (first_view + k).into();
+        json["accessors"].as_array_mut().unwrap().push(accessor);
+    }
+    first
+}
+
+/// The faces of `scene` face the origin (their normals along −x), as the square's do.
+fn assert_facing_the_origin(scene: &Scene) {
+    for face in &scene.faces {
+        let v = &face.vertices;
+        let normal = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        assert!(
+            (normal - dvec3(-1.0, 0.0, 0.0)).length() < 1e-9,
+            "face {v:?} faces {normal}, not the origin"
+        );
+    }
+}
+
 fn load_glb(bytes: &[u8]) -> Result<Scene, omnisim::SceneError> {
     let folder = tempfile::tempdir().unwrap();
     std::fs::write(folder.path().join("square.glb"), bytes).unwrap();
@@ -818,22 +932,145 @@ fn a_glb_square_as_a_strip_and_as_a_fan_is_the_triangle_lists_faces_wound_alike(
     ] {
         let scene = load_glb(&square_glb_drawn(|uv| uv, None, mode, indices)).unwrap();
         assert_eq!(scene.faces.len(), 2, "mode {mode}");
-        for face in &scene.faces {
-            let v = &face.vertices;
-            let normal = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
-            assert!(
-                (normal - dvec3(-1.0, 0.0, 0.0)).length() < 1e-9,
-                "mode {mode}: face {v:?} faces {normal}, not the origin"
-            );
-        }
+        assert_facing_the_origin(&scene);
         check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
     }
 }
 
+/// The square's node mirrored (scale −½ along its x: a negative determinant) winds the file's
+/// triangles clockwise as the origin sees them, which glTF 2.0 (3.7.2.1) then makes their front:
+/// the faces still face the origin, and the texture is seen mirrored, each pixel the bilinear
+/// texel at (1 − u, v). Read without the turn, the faces face away.
 #[test]
-fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
-    // offset + R(rotation)·(scale ⊙ uv), the extension's formula, baked into the file's
-    // coordinates, against the same coordinates left to the extension.
+fn a_mirroring_node_keeps_its_faces_front_and_shows_its_texture_mirrored() {
+    let glb = with_json(&square_glb(|uv| uv, None, 4), |json| {
+        json["nodes"][1]["scale"] = serde_json::json!([-0.5, 0.5, 0.5]);
+    });
+    let scene = load_glb(&glb).unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    assert_facing_the_origin(&scene);
+    let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
+    let frame = common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap())
+        .render(&camera, &Pose::new(DVec3::ZERO, DVec3::ZERO))
+        .unwrap();
+    let hits: Vec<bool> = frame.pixels().iter().map(omnisim::advanced::Pixel::is_hit).collect();
+    check_closed_form(&camera, frame.colour().unwrap(), &hits, |direction| {
+        let uv = closed_form_uv(direction);
+        bilinear_closed_form(1.0 - uv.x, uv.y, false)
+            .to_array()
+            .map(linear_to_srgb)
+    });
+}
+
+/// `EXT_mesh_gpu_instancing` on the square's node: three instances (TRANSLATION and SCALE in
+/// f32, ROTATION in normalized i16), each applied after the node's own transform, as a child
+/// node of that TRS would be: the faces are the closed form's parent · node · instance · corner,
+/// both triangles of each instance. A SCALE of fewer instances is refused naming each accessor.
+#[test]
+fn gpu_instances_are_placed_after_their_nodes_transform() {
+    let translations = [[0.0f32, 0.0, 0.0], [0.0, 0.0, -3.0], [1.0, 2.0, -6.0]];
+    let scales = [[1.0f32; 3], [0.5; 3], [1.0, 2.0, 1.0]];
+    // The identity twice, then a quarter turn about z: (0, 0, sin 45°, cos 45°), quantized.
+    let half = (0.5f64.sqrt() * 32767.0).round() as i16;
+    let rotations = [[0i16, 0, 0, 32767], [0, 0, 0, 32767], [0, 0, half, half]];
+    let mut extra: Vec<u8> = translations.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    extra.extend(scales.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    extra.extend(rotations.iter().flatten().flat_map(|v| v.to_le_bytes()));
+    let instanced = |scale_count: usize| {
+        with_json_and_bytes(&square_glb(|uv| uv, None, 4), &extra, |json, at| {
+            let vec3 = |count: usize| serde_json::json!({"componentType": 5126, "count": count, "type": "VEC3"});
+            let rotation = serde_json::json!({"componentType": 5122, "normalized": true, "count": 3, "type": "VEC4"});
+            let first = add_accessors(
+                json,
+                &[(at, 36, None), (at + 36, 36, None), (at + 72, 24, None)],
+                &[vec3(3), vec3(scale_count), rotation],
+            );
+            json["nodes"][1]["extensions"] = serde_json::json!({"EXT_mesh_gpu_instancing": {"attributes":
+                {"TRANSLATION": first, "SCALE": first + 1, "ROTATION": first + 2}}});
+            json["extensionsUsed"] = serde_json::json!(["KHR_texture_transform", "EXT_mesh_gpu_instancing"]);
+        })
+    };
+    let scene = load_glb(&instanced(3)).unwrap();
+    // The nodes of `square_glb`, by hand: parent (translation, scale 2) and child (rotation,
+    // scale ½).
+    let parent = glam::DMat4::from_translation(dvec3(2.0, 0.0, 0.0)) * glam::DMat4::from_scale(DVec3::splat(2.0));
+    let turn = glam::DQuat::from_mat3(&glam::DMat3::from_cols(-DVec3::Y, DVec3::Z, -DVec3::X));
+    let node = glam::DMat4::from_quat(turn) * glam::DMat4::from_scale(DVec3::splat(0.5));
+    let corners = [
+        dvec3(-1.0, 0.75, 0.0),
+        dvec3(-1.0, -0.75, 0.0),
+        dvec3(1.0, -0.75, 0.0),
+        dvec3(1.0, 0.75, 0.0),
+    ];
+    let instances = [
+        glam::DQuat::IDENTITY,
+        glam::DQuat::IDENTITY,
+        glam::DQuat::from_rotation_z(std::f64::consts::FRAC_PI_2),
+    ];
+    assert_eq!(scene.faces.len(), 6);
+    for (i, rotation) in instances.into_iter().enumerate() {
+        let instance = glam::DMat4::from_scale_rotation_translation(
+            DVec3::from_array(scales[i].map(f64::from)),
+            rotation,
+            DVec3::from_array(translations[i].map(f64::from)),
+        );
+        for triangle in [[0, 1, 2], [0, 2, 3]] {
+            let expected = triangle.map(|c| (parent * node * instance).transform_point3(corners[c]));
+            assert!(
+                scene
+                    .faces
+                    .iter()
+                    .any(|face| same_triangle(&face.vertices, &expected, 1e-6).is_some()),
+                "instance {i}: {expected:?} is not a face"
+            );
+        }
+    }
+    let error = load_glb(&instanced(2)).map(|_| ()).unwrap_err().to_string();
+    assert!(
+        error.contains(
+            "node 1 (EXT_mesh_gpu_instancing): its TRANSLATION, ROTATION and SCALE counts differ (accessor 3 \
+             (TRANSLATION) 3, accessor 5 (ROTATION) 3, accessor 4 (SCALE) 2)"
+        ),
+        "{error}"
+    );
+}
+
+/// `KHR_mesh_quantization`: the square's positions as i16 integers (four times the floats',
+/// the node scaled by ¼ more; six bytes an element, 8 apart) and its texture coordinates as
+/// normalized u16 (65535 is 1): texel-exact, as the float file is.
+#[test]
+fn a_quantized_square_maps_its_texture_exactly() {
+    let mut extra = Vec::new();
+    for [x, y] in [[-4i16, 3], [-4, -3], [4, -3], [4, 3]] {
+        extra.extend([x, y, 0, 0].iter().flat_map(|v| v.to_le_bytes()));
+    }
+    for [u, v] in [[0u16, 0], [0, 65535], [65535, 65535], [65535, 0]] {
+        extra.extend([u, v].iter().flat_map(|v| v.to_le_bytes()));
+    }
+    let glb = with_json_and_bytes(&square_glb(|uv| uv, None, 4), &extra, |json, at| {
+        let first = add_accessors(
+            json,
+            &[(at, 32, Some(8)), (at + 32, 16, None)],
+            &[
+                serde_json::json!({"componentType": 5122, "count": 4, "type": "VEC3", "min": [-4, -3, 0], "max": [4, 3, 0]}),
+                serde_json::json!({"componentType": 5123, "normalized": true, "count": 4, "type": "VEC2"}),
+            ],
+        );
+        json["meshes"][0]["primitives"][0]["attributes"] =
+            serde_json::json!({"POSITION": first, "TEXCOORD_0": first + 1});
+        json["nodes"][1]["scale"] = serde_json::json!([0.125, 0.125, 0.125]);
+        json["extensionsUsed"] = serde_json::json!(["KHR_texture_transform", "KHR_mesh_quantization"]);
+        json["extensionsRequired"] = serde_json::json!(["KHR_mesh_quantization"]);
+    });
+    let scene = load_glb(&glb).unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
+}
+
+/// [`square_glb`] with a `KHR_texture_transform` on its texture info and, in the file, the
+/// inverse of the extension's formula (offset + R(rotation)·(scale ⊙ uv)) applied to its
+/// coordinates: read right, its texels land where the plain square's do.
+fn transformed_square_glb() -> Vec<u8> {
     let (offset, rotation, scale) = (DVec2::new(0.1, -0.2), 0.3f64, DVec2::new(1.5, 0.75));
     let inverse = |t: DVec2| {
         let (sin, cos) = rotation.sin_cos();
@@ -842,8 +1079,13 @@ fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
     };
     let transform =
         serde_json::json!({"offset": [offset.x, offset.y], "rotation": rotation, "scale": [scale.x, scale.y]});
+    square_glb(inverse, Some(transform), 4)
+}
+
+#[test]
+fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
     let plain = load_glb(&square_glb(|uv| uv, None, 4)).unwrap();
-    let transformed = load_glb(&square_glb(inverse, Some(transform), 4)).unwrap();
+    let transformed = load_glb(&transformed_square_glb()).unwrap();
     let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(120, 90, 60f64.to_radians()));
     let pose = Pose::new(DVec3::ZERO, DVec3::ZERO);
     let render = |scene: &Scene| {
@@ -858,6 +1100,44 @@ fn khr_texture_transform_equals_the_coordinates_it_stands_for() {
         .max()
         .unwrap();
     assert!(worst <= 1, "largest difference {worst}/255");
+}
+
+/// `KHR_materials_pbrSpecularGlossiness` (older Sketchfab and 3ds Max exports): its diffuse
+/// texture, through its `KHR_texture_transform`, and its diffuse factor are the base colour,
+/// not the metallic-roughness fallback beside them (red, untextured: read instead, the texels
+/// and colours below differ).
+#[test]
+fn specular_glossiness_diffuse_texture_and_factor_are_the_base_colour() {
+    let specular_glossiness = |glb: Vec<u8>, factor: [f64; 4], textured: bool| {
+        with_json(&glb, |json| {
+            let info = json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].take();
+            let mut diffuse = serde_json::json!({"diffuseFactor": factor});
+            if textured {
+                diffuse["diffuseTexture"] = info;
+            }
+            json["materials"][0] = serde_json::json!({
+                "pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.0, 0.0, 1.0]},
+                "extensions": {"KHR_materials_pbrSpecularGlossiness": diffuse}
+            });
+            json["extensionsUsed"] =
+                serde_json::json!(["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness"]);
+        })
+    };
+    for glb in [square_glb(|uv| uv, None, 4), transformed_square_glb()] {
+        let scene = load_glb(&specular_glossiness(glb, [1.0; 4], true)).unwrap();
+        check_texels_exact(&common::cpu_tracer(&scene, &SceneBvh::build(&scene).unwrap()), false);
+    }
+    let scene = load_glb(&specular_glossiness(
+        square_glb(|uv| uv, None, 4),
+        [0.2, 0.4, 0.6, 1.0],
+        false,
+    ))
+    .unwrap();
+    assert_eq!(scene.faces.len(), 2);
+    for (k, face) in scene.faces.iter().enumerate() {
+        assert_eq!(face.colour, [0.2, 0.4, 0.6].map(linear_to_srgb));
+        assert!(scene.surfaces.of(k as u32).is_none_or(|surface| surface.uv.is_none()));
+    }
 }
 
 /// Three one-primitive meshes whose primitives share one `TEXCOORD_0` accessor (read once for
@@ -983,7 +1263,11 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
         None,
         4,
     ));
-    assert!(nan.contains("not finite"), "{nan}");
+    assert!(
+        nan.contains("mesh 0 primitive 0: accessor 1 (TEXCOORD_0) vertex 2: texture coordinate")
+            && nan.contains("not finite"),
+        "{nan}"
+    );
     // Index 7 of 4 vertices, and a required extension omnisim lacks.
     let mut bytes = good.clone();
     let at = bytes
@@ -992,13 +1276,47 @@ fn bad_gltf_files_get_located_errors_without_panicking() {
         .unwrap();
     bytes[at + 2] = 7;
     let out_of_range = error(&bytes);
-    assert!(out_of_range.contains("index 7 is out of range"), "{out_of_range}");
-    let json_end = 20 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
-    let mut json: serde_json::Value = serde_json::from_slice(&good[20..json_end]).unwrap();
-    json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-    json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-    let draco = error(&common::glb(&json, &good[json_end + 8..]));
+    assert!(
+        out_of_range.contains(
+            "mesh 0 primitive 0: accessor 2 (indices): index 7 is out of range of accessor 0 (POSITION)'s 4 vertices"
+        ),
+        "{out_of_range}"
+    );
+    let edited = |edit: &dyn Fn(&mut serde_json::Value)| error(&with_json(&good, edit));
+    let draco = edited(&|json| {
+        json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+        json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    });
     assert!(draco.contains("KHR_draco_mesh_compression"), "{draco}");
+    // Each refusal of a primitive names the mesh, the primitive and the accessor or material
+    // at fault.
+    type Edit<'a> = &'a dyn Fn(&mut serde_json::Value);
+    let cases: [(Edit, &str); 4] = [
+        (
+            &|json| json["accessors"][1]["count"] = 3.into(),
+            "mesh 0 primitive 0: accessor 1 (TEXCOORD_0) has 3 entries, fewer than accessor 0 (POSITION)'s 4 vertices",
+        ),
+        (
+            &|json| {
+                let colours = serde_json::json!({"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"});
+                json["accessors"].as_array_mut().unwrap().push(colours);
+                json["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = 3.into();
+            },
+            "mesh 0 primitive 0: accessor 3 (COLOR_0) has 3 entries, fewer than accessor 0 (POSITION)'s 4 vertices",
+        ),
+        (
+            &|json| json["accessors"][2]["count"] = 5.into(),
+            "mesh 0 primitive 0: accessor 2 (indices): 5 indices is not a whole number of triangles",
+        ),
+        (
+            &|json| json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = 1.into(),
+            "mesh 0 primitive 0: material 0's base colour texture reads TEXCOORD_1, which the primitive does not have",
+        ),
+    ];
+    for (edit, expected) in cases {
+        let message = edited(edit);
+        assert!(message.contains(expected), "{message}");
+    }
 }
 
 /// 51 meshes that share one index accessor of a million triangles' corners (3 MB of the
@@ -1056,7 +1374,7 @@ fn a_gltf_whose_placements_pass_the_triangle_cap_is_refused_before_reading() {
     assert!(
         error.contains("square.glb")
             && error.contains("glb.ron")
-            && error.contains("mesh 0 primitive 0: more than 50000000 triangles"),
+            && error.contains("mesh 0 primitive 0 (accessor 1, 3000000 corners): more than 50000000 triangles"),
         "{error}"
     );
 }
@@ -1322,14 +1640,19 @@ fn the_shipped_crate_looks_the_same_from_obj_and_gltf_and_is_textured_in_ply() {
 /// point (x, y): affine over the whole square, so both triangles interpolate this one
 /// function and it is the closed form everywhere on it.
 fn square_colour(x: f64, y: f64) -> DVec3 {
-    DVec3::new(0.2 + 0.3 * (x + 1.0) / 2.0, 0.9 - 0.5 * (y + 0.75) / 1.5, 0.5)
+    // Whole 255ths at the corners, which normalized u8 and u16 hold exactly.
+    DVec3::new(51.0 + 51.0 * (x + 1.0) / 2.0, 230.0 - 128.0 * (y + 0.75) / 1.5, 128.0) / 255.0
 }
 
+/// The `COLOR_0` component types: f32 (VEC3), and normalized u8 and u16 (VEC4, alpha 1).
+const COLOUR_COMPONENTS: [u32; 3] = [5126, 5121, 5123];
+
 /// A `.gltf` (JSON) whose geometry lives in an external `square.bin` beside it: the square of
-/// [`square_glb`] (same nodes: at x = 2 facing the origin) with `COLOR_0` (floats) from
-/// [`square_colour`], a `baseColorFactor` of `factor` and, where `unlit`, the
-/// `KHR_materials_unlit` extension. Written into `folder`; returns the glTF's file name.
-fn gltf_square_with_colours(folder: &Path, factor: [f64; 4], unlit: bool) -> &'static str {
+/// [`square_glb`] (same nodes: at x = 2 facing the origin) with `COLOR_0` from [`square_colour`]
+/// in `component`s (one of [`COLOUR_COMPONENTS`]), a `baseColorFactor` of `factor` and, where
+/// `unlit`, the `KHR_materials_unlit` extension. Written into `folder`; returns the glTF's file
+/// name.
+fn gltf_square_with_colours(folder: &Path, factor: [f64; 4], unlit: bool, component: u32) -> &'static str {
     let corners = [
         [-1.0f32, 0.75, 0.0],
         [-1.0, -0.75, 0.0],
@@ -1338,9 +1661,18 @@ fn gltf_square_with_colours(folder: &Path, factor: [f64; 4], unlit: bool) -> &'s
     ];
     let mut bin: Vec<u8> = corners.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
     for c in corners {
-        let colour = square_colour(f64::from(c[0]), f64::from(c[1]));
-        bin.extend(colour.to_array().iter().flat_map(|&k| (k as f32).to_le_bytes()));
+        let colour = square_colour(f64::from(c[0]), f64::from(c[1])).extend(1.0).to_array();
+        match component {
+            5126 => bin.extend(colour[..3].iter().flat_map(|&k| (k as f32).to_le_bytes())),
+            5121 => bin.extend(colour.map(|k| (k * 255.0).round() as u8)),
+            _ => bin.extend(
+                colour
+                    .iter()
+                    .flat_map(|&k| ((k * 65535.0).round() as u16).to_le_bytes()),
+            ),
+        }
     }
+    let (colours, colour_type) = (bin.len() - 48, if component == 5126 { "VEC3" } else { "VEC4" });
     bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
     std::fs::write(folder.join("square.bin"), &bin).unwrap();
     let rotation = glam::DQuat::from_mat3(&glam::DMat3::from_cols(-DVec3::Y, DVec3::Z, -DVec3::X));
@@ -1361,13 +1693,13 @@ fn gltf_square_with_colours(folder: &Path, factor: [f64; 4], unlit: bool) -> &'s
         "materials": [material],
         "accessors": [
             {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1.0, -0.75, 0.0], "max": [1.0, 0.75, 0.0]},
-            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 1, "componentType": component, "normalized": component != 5126, "count": 4, "type": colour_type},
             {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
         ],
         "bufferViews": [
             {"buffer": 0, "byteOffset": 0, "byteLength": 48},
-            {"buffer": 0, "byteOffset": 48, "byteLength": 48},
-            {"buffer": 0, "byteOffset": 96, "byteLength": 12}
+            {"buffer": 0, "byteOffset": 48, "byteLength": colours},
+            {"buffer": 0, "byteOffset": 48 + colours, "byteLength": 12}
         ],
         "buffers": [{"uri": "square.bin", "byteLength": bin.len()}]
     });
@@ -1394,34 +1726,38 @@ fn render_mesh(folder: &Path, file: &str, lit: bool) -> (Camera, Vec<[u8; 3]>, V
     (camera, frame.colour().unwrap().to_vec(), hits)
 }
 
+/// `COLOR_0` in f32 and in normalized u8 and u16 (linear, as the spec says), times a
+/// `baseColorFactor` other than 1: each pixel the closed form's colour at its hit point.
 #[test]
 fn gltf_vertex_colours_times_base_colour_factor_from_an_external_buffer_match_the_closed_form() {
     let folder = tempfile::tempdir().unwrap();
     let factor = [0.8, 0.5, 1.0, 1.0];
-    let file = gltf_square_with_colours(folder.path(), factor, false);
-    let (camera, colour, hits) = render_mesh(folder.path(), file, false);
-    check_closed_form(&camera, &colour, &hits, |direction| {
-        // World (2, y, z) is local (−y, z): the colour there, times the factor.
-        let point = direction * (2.0 / direction.x);
-        let linear = square_colour(-point.y, point.z) * DVec3::new(factor[0], factor[1], factor[2]);
-        linear.to_array().map(linear_to_srgb)
-    });
-    // The colours vary across the square (a flat mean would fail the closed form above).
-    let seen: std::collections::HashSet<[u8; 3]> = colour.iter().copied().collect();
-    assert!(seen.len() > 100, "{} colours", seen.len());
+    for component in COLOUR_COMPONENTS {
+        let file = gltf_square_with_colours(folder.path(), factor, false, component);
+        let (camera, colour, hits) = render_mesh(folder.path(), file, false);
+        check_closed_form(&camera, &colour, &hits, |direction| {
+            // World (2, y, z) is local (−y, z): the colour there, times the factor.
+            let point = direction * (2.0 / direction.x);
+            let linear = square_colour(-point.y, point.z) * DVec3::new(factor[0], factor[1], factor[2]);
+            linear.to_array().map(linear_to_srgb)
+        });
+        // The colours vary across the square (a flat mean would fail the closed form above).
+        let seen: std::collections::HashSet<[u8; 3]> = colour.iter().copied().collect();
+        assert!(seen.len() > 100, "component type {component}: {} colours", seen.len());
+    }
 }
 
 #[test]
 fn khr_materials_unlit_draws_the_albedo_whatever_the_lights() {
     let folder = tempfile::tempdir().unwrap();
     let factor = [1.0, 1.0, 1.0, 1.0];
-    let file = gltf_square_with_colours(folder.path(), factor, true);
+    let file = gltf_square_with_colours(folder.path(), factor, true, 5126);
     let (_, unlit_in_the_dark, _) = render_mesh(folder.path(), file, false);
     let (_, unlit_under_the_lamp, hits) = render_mesh(folder.path(), file, true);
     assert!(hits.iter().filter(|&&h| h).count() > 5000);
     assert_eq!(unlit_in_the_dark, unlit_under_the_lamp);
     // The same material without the extension is shaded by the lamp: nearly every pixel differs.
-    let file = gltf_square_with_colours(folder.path(), factor, false);
+    let file = gltf_square_with_colours(folder.path(), factor, false, 5126);
     let (_, lit, _) = render_mesh(folder.path(), file, true);
     let differing = lit
         .iter()
@@ -1435,7 +1771,7 @@ fn khr_materials_unlit_draws_the_albedo_whatever_the_lights() {
 #[test]
 fn a_missing_or_escaping_external_buffer_is_a_located_error() {
     let folder = tempfile::tempdir().unwrap();
-    let file = gltf_square_with_colours(folder.path(), [1.0; 4], false);
+    let file = gltf_square_with_colours(folder.path(), [1.0; 4], false, 5126);
     let load = |folder: &Path| {
         Scene::from_ron(
             &format!(r#"Scene(name: "gltf", objects: [Mesh(name: "square", path: "{file}", colour: (9, 9, 9))])"#),

@@ -228,7 +228,7 @@ pub struct PolygonFile {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TextureFile {
-    /// PNG or JPEG file, relative to the scene file's folder (and inside it).
+    /// PNG, JPEG, TGA, BMP or WebP file (by its extension), relative to the scene file's folder (and inside it).
     #[serde(default)]
     pub image: Option<String>,
     /// A seeded procedural pattern instead of an image.

@@ -1,14 +1,14 @@
 //! Wavefront OBJ meshes through tobj, with their MTL materials: `Kd` (the face colour, a
 //! linear reflectance) and `map_Kd` (a texture read through the `vt` coordinates, tinted by
-//! `Kd` as the MTL format says). The `mtllib` is opened under the rules of meshes: relative to
-//! the OBJ's folder and inside it, a regular file of bounded size. A `map_Kd` statement's
+//! `Kd` as the MTL format says). Every file of every `mtllib` line is opened under the rules of
+//! meshes: relative to the OBJ's folder and inside it, regular files of bounded size together. A `map_Kd` statement's
 //! options are read (`-s` and `-o` scale and shift the texture coordinates, `-clamp on` clamps
 //! them; the others, which change no base colour omnisim shows, are passed over), and a
 //! Windows path's backslashes are taken as folder separators.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::io::{BufRead, Read};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DVec2, dvec3};
 
@@ -16,7 +16,7 @@ use super::lighting::linear_to_srgb;
 use super::mesh::{CornerUvs, MeshTextures, MeshTriangle, mean_colour, uv_from_v_up};
 use super::texture::Wrap;
 
-/// Largest MTL file read.
+/// Most bytes of MTL files one OBJ reads, all its `mtllib` files together.
 const MTL_LIMIT: u64 = 16 << 20;
 
 /// One material as the triangles use it: sRGB face colour and texture, if any.
@@ -100,7 +100,7 @@ fn colours_of_three(text: &str) -> Result<String, String> {
             }
             (Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")), 0 | 2) => {
                 return Err(format!(
-                    "mtllib: line {}: {key} needs one number (grey) or three (r g b)",
+                    "line {}: {key} needs one number (grey) or three (r g b)",
                     number + 1
                 ));
             }
@@ -111,6 +111,39 @@ fn colours_of_three(text: &str) -> Result<String, String> {
     Ok(out)
 }
 
+/// The files of an `mtllib` line: the whole line where it names a file (a name with spaces, as
+/// Blender writes it), else each of its words (the format's list of names).
+fn mtl_files(mesh: &Path, line: &str) -> Result<Vec<PathBuf>, String> {
+    let whole = crate::input::inside_folder(mesh, line, "mtllib");
+    if !line.contains(char::is_whitespace) || whole.as_ref().is_ok_and(|path| path.is_file()) {
+        return whole.map(|path| vec![path]);
+    }
+    line.split_whitespace()
+        .map(|name| crate::input::inside_folder(mesh, name, "mtllib"))
+        .collect()
+}
+
+/// The materials of MTL file `path` (a regular file) as tobj reads them, its bytes added to
+/// `read`, the OBJ's MTL bytes so far, which may not pass [`MTL_LIMIT`].
+fn read_mtl(path: &Path, read: &Cell<u64>) -> Result<tobj::MTLLoadResult, String> {
+    let left = MTL_LIMIT - read.get();
+    let mut bytes = Vec::new();
+    crate::input::open_regular(path, MTL_LIMIT)
+        .map_err(|e| format!("mtllib: {e}"))?
+        .take(left + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| format!("mtllib: {e}"))?;
+    let named = |problem: &str| format!("mtllib {}: {problem}", path.display());
+    if bytes.len() as u64 > left {
+        return Err(named(&format!(
+            "the OBJ's MTL files hold more than {MTL_LIMIT} bytes together"
+        )));
+    }
+    read.set(read.get() + bytes.len() as u64);
+    let text = colours_of_three(&String::from_utf8_lossy(&bytes)).map_err(|e| named(&e))?;
+    Ok(tobj::load_mtl_buf(&mut text.as_bytes()))
+}
+
 /// Reads an OBJ's triangles, their vertex colours, and through its MTL their colours and
 /// textures.
 pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) -> Result<Vec<MeshTriangle>, String> {
@@ -119,31 +152,52 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
         single_index: true,
         ..Default::default()
     };
-    // tobj's material loader can only say that it failed: the reason waits here.
+    // tobj's material loader can only say that it failed: the first reason waits here.
     let mtl_problem: RefCell<Option<String>> = RefCell::new(None);
-    let load_mtl = |name: &Path| {
-        let opened = name
+    // The bytes of MTL files read for all of the OBJ's `mtllib` lines, against one MTL_LIMIT.
+    let mtl_bytes = Cell::new(0u64);
+    let load_mtl = |line: &Path| {
+        let libraries = line
             .to_str()
             .ok_or_else(|| "the mtllib name is not UTF-8".to_string())
-            .and_then(|name| crate::input::inside_folder(textures.mesh, name, "mtllib"))
-            .and_then(|path| crate::input::open_regular(&path, MTL_LIMIT).map_err(|e| format!("mtllib: {e}")));
-        let text = opened.and_then(|mut file| {
-            let mut bytes = Vec::new();
-            file.read_to_end(&mut bytes).map_err(|e| format!("mtllib: {e}"))?;
-            colours_of_three(&String::from_utf8_lossy(&bytes))
-        });
-        match text {
-            Ok(text) => tobj::load_mtl_buf(&mut text.as_bytes()).inspect_err(|_| {
-                *mtl_problem.borrow_mut() = Some("mtllib: not a readable MTL file".into());
-            }),
+            .and_then(|line| mtl_files(textures.mesh, line))
+            .and_then(|files| {
+                files
+                    .iter()
+                    .map(|file| {
+                        read_mtl(file, &mtl_bytes)?
+                            .map_err(|_| format!("mtllib {}: not a readable MTL file", file.display()))
+                    })
+                    .collect::<Result<Vec<_>, _>>()
+            });
+        match libraries {
+            // One library, as tobj merges those of several `mtllib` lines: a later file's
+            // material takes the name of an earlier one.
+            Ok(libraries) => Ok(libraries
+                .into_iter()
+                .reduce(|(mut materials, mut names), (more, more_names)| {
+                    let offset = materials.len();
+                    materials.extend(more);
+                    names.extend(more_names.into_iter().map(|(name, i)| (name, i + offset)));
+                    (materials, names)
+                })
+                .unwrap_or_default()),
             Err(problem) => {
-                *mtl_problem.borrow_mut() = Some(problem);
+                mtl_problem.borrow_mut().get_or_insert(problem);
                 Err(tobj::LoadError::OpenFileFailed)
             }
         }
     };
-    let (models, materials) =
-        tobj::load_obj_buf(&mut reader, &options, load_mtl).map_err(|e| format!("not a readable OBJ file: {e}"))?;
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &options, load_mtl).map_err(|e| {
+        let unlocated = || format!("not a readable OBJ file: {e}");
+        match e {
+            // tobj names only the kind of index: the file is read again to find the face.
+            tobj::LoadError::FaceVertexOutOfBounds
+            | tobj::LoadError::FaceTexCoordOutOfBounds
+            | tobj::LoadError::FaceNormalOutOfBounds => bad_face_index(textures.mesh).unwrap_or_else(unlocated),
+            _ => unlocated(),
+        }
+    })?;
     if let Some(problem) = mtl_problem.into_inner() {
         return Err(problem);
     }
@@ -170,7 +224,10 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
     let mut triangles = Vec::new();
     for model in models {
         let mesh = &model.mesh;
-        let missing = |what: &str| format!("object '{}' refers to a {what} that does not exist", model.name);
+        let missing = |what: &str| {
+            bad_face_index(textures.mesh)
+                .unwrap_or_else(|| format!("object '{}' refers to a {what} that does not exist", model.name))
+        };
         let position = |i: u32| {
             let i = i as usize * 3;
             mesh.positions
@@ -222,4 +279,74 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
         }
     }
     Ok(triangles)
+}
+
+/// The elements an OBJ face corner's `v/vt/vn` indices name: statement, one, several.
+const CORNER_ELEMENTS: [(&str, &str, &str); 3] = [
+    ("v", "vertex", "vertices"),
+    ("vt", "texture coordinate", "texture coordinates"),
+    ("vn", "normal", "normals"),
+];
+
+/// The first face index of the OBJ at `path` that names no element, with its line, the
+/// element count and how to mend it; else the first that names an element defined only after
+/// its face (tobj reads a face against the elements before its object ends). Read again, after
+/// tobj refused the file (its error names no line), so that a good file pays nothing for it.
+/// `None` where every index is in range.
+fn bad_face_index(path: &Path) -> Option<String> {
+    let mut text = Vec::new();
+    crate::input::open_regular(path, crate::input::MESH_LIMIT)
+        .ok()?
+        .read_to_end(&mut text)
+        .ok()?;
+    let text = String::from_utf8_lossy(&text);
+    let element = |line: &str| {
+        let key = line.split_whitespace().next()?;
+        CORNER_ELEMENTS.iter().position(|&(statement, _, _)| statement == key)
+    };
+    let mut totals = [0i128; 3];
+    for k in text.lines().filter_map(element) {
+        totals[k] += 1;
+    }
+    let mut defined = [0i128; 3];
+    let mut later = None;
+    for (number, line) in text.lines().enumerate() {
+        if let Some(k) = element(line) {
+            defined[k] += 1;
+            continue;
+        }
+        let mut words = line.split_whitespace();
+        if !matches!(words.next(), Some("f" | "l")) {
+            continue;
+        }
+        for corner in words {
+            for (k, index) in corner.split('/').enumerate().take(3) {
+                // tobj passes over vt and vn indices where the file has none of them.
+                let Ok(raw) = index.parse::<i128>() else { continue };
+                if k > 0 && totals[k] == 0 {
+                    continue;
+                }
+                let at = if raw < 0 { defined[k] + raw } else { raw - 1 };
+                let (statement, one, several) = CORNER_ELEMENTS[k];
+                let out_of_range = |count: i128, before: &str| {
+                    format!(
+                        "line {}: face index {raw} names no {one}: the file has {count} {several} (`{statement}` \
+                         lines){before}; OBJ indices count from 1, and negative ones back from the face: mend the \
+                         face or re-export the file",
+                        number + 1
+                    )
+                };
+                if at < 0 {
+                    return Some(out_of_range(defined[k], " before this face"));
+                }
+                if at >= totals[k] {
+                    return Some(out_of_range(totals[k], ""));
+                }
+                if at >= defined[k] && later.is_none() {
+                    later = Some(out_of_range(defined[k], " before this face"));
+                }
+            }
+        }
+    }
+    later
 }

@@ -320,7 +320,7 @@ enum ImageSource<'a> {
     Bytes(std::io::Cursor<std::borrow::Cow<'a, [u8]>>),
 }
 
-/// Reads the header of a PNG or JPEG file (`path` a regular file of at most
+/// Reads the header of a PNG, JPEG, TGA, BMP or WebP file (`path` a regular file of at most
 /// [`TEXTURE_FILE_LIMIT`] bytes). Its size is checked against [`MAX_TEXTURE_SIDE`] and
 /// [`MAX_TEXTURE_TEXELS`] before any pixel is decoded, so a file that claims 100k × 100k texels
 /// allocates nothing. Errors name the file, never its bytes.
@@ -334,7 +334,15 @@ pub(crate) fn open_image(path: &Path) -> Result<PendingImage<'static>, String> {
     {
         Some("png") => image::ImageFormat::Png,
         Some("jpg" | "jpeg") => image::ImageFormat::Jpeg,
-        _ => return Err(format!("{name}: unknown image format; use a .png, .jpg or .jpeg file")),
+        // TGA and BMP, as OBJ and PLY scans ship them; WebP, as glTF's EXT_texture_webp does.
+        Some("tga") => image::ImageFormat::Tga,
+        Some("bmp") => image::ImageFormat::Bmp,
+        Some("webp") => image::ImageFormat::WebP,
+        _ => {
+            return Err(format!(
+                "{name}: unknown image format; use a .png, .jpg, .jpeg, .tga, .bmp or .webp file"
+            ));
+        }
     };
     PendingImage::new(ImageSource::File(path.to_path_buf()), Some(format), name)
 }
@@ -432,7 +440,7 @@ fn read_header<R: std::io::BufRead + std::io::Seek>(
         .format()
         .ok_or("unsupported image: The image format could not be determined")?;
     header.limits(limits());
-    let (width, height) = header.into_dimensions().map_err(image_error)?;
+    let (width, height) = header.into_dimensions().map_err(|e| image_error(e, format))?;
     reader.rewind().map_err(|e| e.to_string())?;
     if width == 0 || height == 0 {
         return Err("the image has no pixels".into());
@@ -452,11 +460,11 @@ fn decode<R: std::io::BufRead + std::io::Seek>(
 ) -> Result<image::DynamicImage, String> {
     let mut reader = image::ImageReader::with_format(reader, format);
     reader.limits(limits());
-    reader.decode().map_err(image_error)
+    reader.decode().map_err(|e| image_error(e, format))
 }
 
-/// What went wrong reading an image, in words.
-fn image_error(error: image::ImageError) -> String {
+/// What went wrong reading an image of `format`, in words.
+fn image_error(error: image::ImageError, format: image::ImageFormat) -> String {
     match error {
         image::ImageError::Limits(_) => format!(
             "the image is larger than omnisim reads as a texture (at most {MAX_TEXTURE_SIDE} texels a side and \
@@ -464,7 +472,8 @@ fn image_error(error: image::ImageError) -> String {
         ),
         image::ImageError::Unsupported(u) => format!("unsupported image: {u}"),
         image::ImageError::Decoding(_) | image::ImageError::IoError(_) => {
-            "not a readable PNG or JPEG image (truncated or corrupt)".to_string()
+            let name = format.extensions_str().first().map_or("", |e| e).to_ascii_uppercase();
+            format!("not a readable {name} image (truncated or corrupt)")
         }
         other => format!("cannot decode the image: {other}"),
     }
@@ -579,6 +588,34 @@ mod tests {
             error.starts_with("image 0: ") && error.contains("larger than"),
             "{error}"
         );
+    }
+
+    /// A TGA and a BMP whose headers claim 60000² and 30000² texels: refused as the PNG's is,
+    /// naming the file, before any texel is read (they have none).
+    #[test]
+    fn tga_and_bmp_headers_past_the_caps_are_refused_before_decoding() {
+        // TGA: no id, no colour map, true colour; origin, size, 24 bits, top-left first.
+        let mut tga = vec![0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0];
+        tga.extend(60_000u16.to_le_bytes());
+        tga.extend(60_000u16.to_le_bytes());
+        tga.extend([24, 0x20]);
+        // BMP: file header, then a BITMAPINFOHEADER of 24 bits, uncompressed.
+        let mut bmp = b"BM".to_vec();
+        for field in [0u32, 0, 54, 40] {
+            bmp.extend(field.to_le_bytes());
+        }
+        bmp.extend(30_000i32.to_le_bytes());
+        bmp.extend(30_000i32.to_le_bytes());
+        bmp.extend(1u16.to_le_bytes());
+        bmp.extend(24u16.to_le_bytes());
+        bmp.extend([0; 24]);
+        let dir = tempfile::tempdir().unwrap();
+        for (name, bytes) in [("huge.tga", tga), ("huge.bmp", bmp)] {
+            let path = dir.path().join(name);
+            std::fs::write(&path, &bytes).unwrap();
+            let error = open_image(&path).err().unwrap();
+            assert!(error.contains(name) && error.contains("larger than"), "{error}");
+        }
     }
 
     /// CRC-32 (PNG's chunk checksum), bit by bit: only the test's one header needs it.

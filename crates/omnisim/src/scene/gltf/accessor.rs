@@ -72,24 +72,15 @@ fn elements<'a>(
 }
 
 /// Reads `accessor` of `N`-component elements, each made into a `T` by `make`, as
-/// `what` (`POSITION`, `TEXCOORD_1`, …: named in errors with the accessor's index).
+/// `what` (`POSITION`, `TEXCOORD_1`, …: named in errors with the accessor's index, and formatted
+/// only for them).
 pub(super) fn read<T: Copy, const N: usize>(
     accessor: &gltf::Accessor,
     buffers: &[Vec<u8>],
-    what: &str,
+    what: impl std::fmt::Display + Copy,
     make: impl Fn([f64; N]) -> T,
 ) -> Result<Vec<T>, String> {
-    read_normalized_if(accessor, accessor.normalized(), buffers, what, make)
-}
-
-/// [`read`], its components normalized where `normalized` says, whatever the accessor's flag.
-fn read_normalized_if<T: Copy, const N: usize>(
-    accessor: &gltf::Accessor,
-    normalized: bool,
-    buffers: &[Vec<u8>],
-    what: &str,
-    make: impl Fn([f64; N]) -> T,
-) -> Result<Vec<T>, String> {
+    let normalized = accessor.normalized();
     match accessor.data_type() {
         DataType::I8 => read_as::<i8, T, N>(accessor, normalized, buffers, what, make),
         DataType::U8 => read_as::<u8, T, N>(accessor, normalized, buffers, what, make),
@@ -104,11 +95,12 @@ fn read_normalized_if<T: Copy, const N: usize>(
 /// integers even where the file sets `normalized`, which the spec forbids on indices: read
 /// normalized, they would all be 0 or 1.
 pub(super) fn read_indices(accessor: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
+    // Exact in f64, and below 2³² by their type.
+    let index = |[i]: [f64; 1]| i as u32;
     match accessor.data_type() {
-        DataType::U8 | DataType::U16 | DataType::U32 => {
-            // Exact in f64, and below 2³² by their type.
-            read_normalized_if(accessor, false, buffers, "indices", |[i]: [f64; 1]| i as u32)
-        }
+        DataType::U8 => read_as::<u8, u32, 1>(accessor, false, buffers, "indices", index),
+        DataType::U16 => read_as::<u16, u32, 1>(accessor, false, buffers, "indices", index),
+        DataType::U32 => read_as::<u32, u32, 1>(accessor, false, buffers, "indices", index),
         other => Err(format!(
             "accessor {} (indices) holds {other:?} components; indices must be unsigned 8, 16 or 32-bit integers",
             accessor.index()
@@ -120,7 +112,7 @@ fn read_as<C: Component, T: Copy, const N: usize>(
     accessor: &gltf::Accessor,
     normalized: bool,
     buffers: &[Vec<u8>],
-    what: &str,
+    what: impl std::fmt::Display + Copy,
     make: impl Fn([f64; N]) -> T,
 ) -> Result<Vec<T>, String> {
     let name = || format!("accessor {} ({what})", accessor.index());

@@ -1,8 +1,8 @@
 //! glTF 2.0 (`.gltf` with its buffers and images, or one `.glb`) through the gltf crate: the
 //! default scene's node hierarchy with its transforms, triangle primitives (lists, strips and
 //! fans), `baseColorFactor`, `baseColorTexture` (its sampler's wrap modes and its `texCoord`
-//! set), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization` and
-//! `EXT_mesh_gpu_instancing`.
+//! set; or `KHR_materials_pbrSpecularGlossiness`'s diffuse factor and texture), `COLOR_0`, `KHR_texture_transform`, `KHR_materials_unlit`, `KHR_mesh_quantization`,
+//! `EXT_mesh_gpu_instancing` and `EXT_texture_webp`.
 //!
 //! A glTF file becomes one scene object, each of its triangles a face (as for PLY and OBJ).
 //! Buffers and images are resolved here rather than by gltf's `import`, so that a file opens
@@ -31,11 +31,13 @@ use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTr
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
-const SUPPORTED_EXTENSIONS: [&str; 4] = [
+const SUPPORTED_EXTENSIONS: [&str; 6] = [
     "KHR_texture_transform",
     "KHR_materials_unlit",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization",
     "EXT_mesh_gpu_instancing",
+    "EXT_texture_webp",
 ];
 
 /// How to make a file that requires `extension` readable, for its refusal.
@@ -46,9 +48,7 @@ fn without_extension(extension: &str) -> &'static str {
              without -d)"
         }
         "EXT_meshopt_compression" => "re-export without meshopt compression (gltfpack without -c or -cc)",
-        "KHR_texture_basisu" | "EXT_texture_webp" | "EXT_texture_avif" | "MSFT_texture_dds" => {
-            "re-export its textures as PNG or JPEG"
-        }
+        "KHR_texture_basisu" | "EXT_texture_avif" | "MSFT_texture_dds" => "re-export its textures as PNG, JPEG or WebP",
         _ => "re-export without it",
     }
 }
@@ -65,7 +65,8 @@ const BUFFER_LIMIT: u64 = crate::input::MESH_LIMIT;
 struct Look {
     colour: [u8; 3],
     factor: DVec4,
-    texture: Option<(u32, [Wrap; 2], u32, UvTransform)>,
+    /// The bank index of its image and the wrap modes (its coordinates: [`Sources::uvs`]).
+    texture: Option<(u32, [Wrap; 2])>,
     unlit: bool,
 }
 
@@ -127,17 +128,21 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     let mut placed_triangles = 0usize;
     for (mesh, _) in &placed {
         for primitive in mesh.primitives() {
-            let corners = match (primitive.indices(), primitive.get(&gltf::Semantic::Positions)) {
-                (Some(indices), _) | (None, Some(indices)) => indices.count(),
-                (None, None) => 0,
+            let Some(corners) = primitive
+                .indices()
+                .or_else(|| primitive.get(&gltf::Semantic::Positions))
+            else {
+                continue;
             };
-            let triangles = triangles_of(primitive.mode(), corners).unwrap_or(0);
+            let triangles = triangles_of(primitive.mode(), corners.count()).unwrap_or(0);
             placed_triangles = placed_triangles.saturating_add(triangles);
             if placed_triangles > MAX_MESH_TRIANGLES {
                 return Err(format!(
-                    "mesh {} primitive {}: {}",
+                    "mesh {} primitive {} (accessor {}, {} corners): {}",
                     mesh.index(),
                     primitive.index(),
+                    corners.index(),
+                    corners.count(),
                     too_many_triangles()
                 ));
             }
@@ -204,6 +209,32 @@ pub(super) fn load_gltf(bytes: &[u8], textures: &mut MeshTextures) -> Result<Mes
     Ok(parts.into_iter().map(|(part, _)| part).collect())
 }
 
+/// The accessors one primitive's triangles are read from: the one list that the read budget,
+/// the shared reads and the read itself take them from.
+struct Sources<'a> {
+    positions: Option<gltf::Accessor<'a>>,
+    /// The TEXCOORD set the base colour texture reads, its `KHR_texture_transform`, and the
+    /// primitive's accessor of that set, if it has one.
+    uvs: Option<(u32, UvTransform, Option<gltf::Accessor<'a>>)>,
+    indices: Option<gltf::Accessor<'a>>,
+    colours: Option<gltf::Accessor<'a>>,
+}
+
+impl<'a> Sources<'a> {
+    fn of(primitive: &gltf::Primitive<'a>) -> Sources<'a> {
+        let uvs = base_colour(&primitive.material()).1.map(|info| {
+            let (set, transform) = texture_coordinates(&info);
+            (set, transform, primitive.get(&gltf::Semantic::TexCoords(set)))
+        });
+        Sources {
+            positions: primitive.get(&gltf::Semantic::Positions),
+            uvs,
+            indices: primitive.indices(),
+            colours: primitive.get(&gltf::Semantic::Colors(0)),
+        }
+    }
+}
+
 /// Fewest elements the primitives of one file may read together, whatever its buffers' size.
 const READ_FLOOR: usize = 1 << 20;
 
@@ -220,29 +251,23 @@ fn within_read_budget(primitives: &[(usize, gltf::Primitive)], buffers: &[Vec<u8
     let mut shared_uvs = HashSet::new();
     let mut read = 0usize;
     for (mesh, primitive) in primitives {
+        let sources = Sources::of(primitive);
         // Named only in an error (formatting every name cost a twentieth of a many-part read:
         // docs/benchmarks.md, "2026-11-27 night2 (parts)"); a TEXCOORD list with its set.
-        let mut reads: Vec<(gltf::Accessor, &str, Option<u32>)> = Vec::new();
-        if let Some(positions) = primitive.get(&gltf::Semantic::Positions)
-            && shared_positions.insert(positions.index())
-        {
-            reads.push((positions, "POSITION", None));
-        }
-        if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
-            let (set, transform) = texture_coordinates(&info);
-            if let Some(uvs) = primitive.get(&gltf::Semantic::TexCoords(set))
-                && shared_uvs.insert((uvs.index(), transform.bits()))
-            {
-                reads.push((uvs, "TEXCOORD", Some(set)));
-            }
-        }
-        reads.extend(primitive.indices().map(|indices| (indices, "indices", None)));
-        reads.extend(
-            primitive
-                .get(&gltf::Semantic::Colors(0))
-                .map(|colours| (colours, "COLOR_0", None)),
-        );
-        for (accessor, name, set) in reads {
+        let positions = sources
+            .positions
+            .filter(|positions| shared_positions.insert(positions.index()));
+        let uvs = sources.uvs.and_then(|(set, transform, uvs)| {
+            uvs.filter(|uvs| shared_uvs.insert((uvs.index(), transform.bits())))
+                .map(|uvs| (uvs, "TEXCOORD", Some(set)))
+        });
+        let reads = [
+            positions.map(|positions| (positions, "POSITION", None)),
+            uvs,
+            sources.indices.map(|indices| (indices, "indices", None)),
+            sources.colours.map(|colours| (colours, "COLOR_0", None)),
+        ];
+        for (accessor, name, set) in reads.into_iter().flatten() {
             read = read.saturating_add(accessor.count());
             if read > budget {
                 let what = set.map_or_else(|| name.to_string(), |set| format!("{name}_{set}"));
@@ -301,15 +326,18 @@ fn instances(
         ));
     }
     let translations = translation
-        .map(|a| accessor::read(&a, buffers, "TRANSLATION", DVec3::from_array))
+        .as_ref()
+        .map(|a| accessor::read(a, buffers, "TRANSLATION", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
     let rotations = rotation
-        .map(|a| accessor::read(&a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
+        .as_ref()
+        .map(|a| accessor::read(a, buffers, "ROTATION", |[x, y, z, w]| DQuat::from_xyzw(x, y, z, w)))
         .transpose()
         .map_err(in_node)?;
     let scales = scale
-        .map(|a| accessor::read(&a, buffers, "SCALE", DVec3::from_array))
+        .as_ref()
+        .map(|a| accessor::read(a, buffers, "SCALE", DVec3::from_array))
         .transpose()
         .map_err(in_node)?;
     let counts = [
@@ -324,7 +352,18 @@ fn instances(
         .max()
         .ok_or_else(|| format!("{what}: it has none of TRANSLATION, ROTATION and SCALE"))?;
     if counts.iter().flatten().any(|&n| n != count) {
-        return Err(format!("{what}: its TRANSLATION, ROTATION and SCALE counts differ"));
+        let listed: Vec<String> = ["TRANSLATION", "ROTATION", "SCALE"]
+            .iter()
+            .zip([&translation, &rotation, &scale])
+            .filter_map(|(name, accessor)| {
+                let accessor = accessor.as_ref()?;
+                Some(format!("accessor {} ({name}) {}", accessor.index(), accessor.count()))
+            })
+            .collect();
+        return Err(format!(
+            "{what}: its TRANSLATION, ROTATION and SCALE counts differ ({}); give each one per instance",
+            listed.join(", ")
+        ));
     }
     (0..count)
         .map(|i| {
@@ -385,8 +424,10 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
     json.validate(json, gltf::json::Path::new, &mut |path, error| {
         let path = path();
         let at = path.as_str();
+        // A texture's own source may be left out for `EXT_texture_webp`'s (`texture_image`).
         let read_here = at.starts_with("extensionsRequired")
-            || (at.starts_with("accessors[") && at.ends_with("].bufferView") && error == Error::Missing);
+            || (at.starts_with("accessors[") && at.ends_with("].bufferView") && error == Error::Missing)
+            || (at.starts_with("textures[") && at.ends_with("].source") && error == Error::Missing);
         if !read_here {
             problems.push(format!("{path}: {error}"));
         }
@@ -452,8 +493,9 @@ fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<V
         visits += 1;
         if depth > MAX_DEPTH || visits > MAX_NODE_VISITS {
             return Err(format!(
-                "the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node visits (a \
-                 loop?)"
+                "node {}: the node hierarchy is deeper than {MAX_DEPTH} or has more than {MAX_NODE_VISITS} node \
+                 visits (a loop?)",
+                node.index()
             ));
         }
         let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
@@ -477,23 +519,56 @@ fn placements<'a>(document: &'a gltf::Document, buffers: &[Vec<u8>]) -> Result<V
     Ok(placed)
 }
 
-/// The bank index of each image the base colour of one of `primitives` (each with its mesh's
-/// index) shows, by image index: read from their headers in the order first shown, then decoded
-/// on all threads. An error names the first primitive that shows the image.
+/// The image `texture` shows: `EXT_texture_webp`'s source where it names one (the texture's
+/// own `source` is then a fallback for viewers without WebP), else the texture's own.
+fn texture_image<'a>(texture: &gltf::Texture, document: &'a gltf::Document) -> Result<gltf::Image<'a>, String> {
+    let webp = texture
+        .extension_value("EXT_texture_webp")
+        .and_then(|webp| webp.get("source")?.as_u64());
+    // gltf-json marks a texture without a source by u32::MAX, which names no image.
+    let own = document.as_json().textures[texture.index()].source.value() as u64;
+    let index = webp.unwrap_or(own);
+    usize::try_from(index)
+        .ok()
+        .and_then(|index| document.images().nth(index))
+        .ok_or_else(|| match webp {
+            Some(index) => format!(
+                "texture {}: its EXT_texture_webp source names image {index}, but the file has {}",
+                texture.index(),
+                document.images().len()
+            ),
+            None => format!(
+                "texture {} names no image (no source, no EXT_texture_webp source)",
+                texture.index()
+            ),
+        })
+}
+
+/// The bank index of the image each texture shown by the base colour of one of `primitives`
+/// (each with its mesh's index) shows, by texture index: read from their headers in the order
+/// first shown, then decoded on all threads. An error names the first primitive that shows the
+/// image.
 fn load_images(
     primitives: &[(usize, gltf::Primitive)],
     document: &gltf::Document,
     buffers: &[Vec<u8>],
     textures: &mut MeshTextures,
 ) -> Result<Vec<Option<u32>>, String> {
-    // Each image shown, with the first primitive that shows it.
+    // Each image shown, with the first primitive that shows it, and each texture's image.
     let mut shown: Vec<(gltf::Image, String)> = Vec::new();
     let mut is_shown = vec![false; document.images().len()];
+    let mut image_of_texture = vec![None; document.textures().len()];
     for (mesh, primitive) in primitives {
-        if let Some(info) = primitive.material().pbr_metallic_roughness().base_color_texture() {
-            let image = info.texture().source();
+        if let (_, Some(info)) = base_colour(&primitive.material()) {
+            let texture = info.texture();
+            if image_of_texture[texture.index()].is_some() {
+                continue;
+            }
+            let primitive = format!("mesh {mesh} primitive {}", primitive.index());
+            let image = texture_image(&texture, document).map_err(|e| format!("{primitive}: {e}"))?;
+            image_of_texture[texture.index()] = Some(image.index());
             if !std::mem::replace(&mut is_shown[image.index()], true) {
-                shown.push((image, format!("mesh {mesh} primitive {}", primitive.index())));
+                shown.push((image, primitive));
             }
         }
     }
@@ -520,7 +595,10 @@ fn load_images(
     for ((image, _), index) in shown.iter().zip(added) {
         images[image.index()] = Some(index);
     }
-    Ok(images)
+    Ok(image_of_texture
+        .into_iter()
+        .map(|image| image.and_then(|image| images[image]))
+        .collect())
 }
 
 /// The bytes of a buffer: the GLB's binary chunk, a `data:` URI, or a file beside the glTF.
@@ -612,20 +690,31 @@ fn texture_coordinates(info: &gltf::texture::Info) -> (u32, UvTransform) {
     }
 }
 
-/// The look of a primitive's material, its base-colour texture one of `images` (by image
-/// index, [`load_images`]).
+/// A material's base colour factor and texture: `KHR_materials_pbrSpecularGlossiness`'s diffuse
+/// ones where the material has it (older Sketchfab and 3ds Max exports; its metallic-roughness
+/// values are then a fallback for viewers without the extension), else `baseColorFactor` and
+/// `baseColorTexture`.
+fn base_colour<'a>(material: &gltf::Material<'a>) -> ([f32; 4], Option<gltf::texture::Info<'a>>) {
+    if let Some(diffuse) = material.pbr_specular_glossiness() {
+        (diffuse.diffuse_factor(), diffuse.diffuse_texture())
+    } else {
+        let pbr = material.pbr_metallic_roughness();
+        (pbr.base_color_factor(), pbr.base_color_texture())
+    }
+}
+
+/// The look of a primitive's material, its base-colour texture's image one of `images` (by
+/// texture index, [`load_images`]).
 fn look(material: &gltf::Material, images: &[Option<u32>]) -> Look {
-    let pbr = material.pbr_metallic_roughness();
-    let factor = DVec4::from_array(pbr.base_color_factor().map(f64::from));
-    let texture = match pbr.base_color_texture() {
+    let (factor, texture) = base_colour(material);
+    let factor = DVec4::from_array(factor.map(f64::from));
+    let texture = match texture {
         None => None,
         Some(info) => {
             let texture = info.texture();
-            let image = texture.source();
-            let id = images[image.index()].expect("load_images decodes every image a placed primitive shows");
+            let id = images[texture.index()].expect("load_images decodes every image a placed primitive shows");
             let sampler = texture.sampler();
-            let (set, transform) = texture_coordinates(&info);
-            Some((id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())], set, transform))
+            Some((id, [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())]))
         }
     };
     Look {
@@ -708,10 +797,12 @@ impl SharedReads {
     fn new(primitives: &[(usize, gltf::Primitive)], accessors: usize) -> SharedReads {
         let mut readers = vec![0u32; accessors];
         for (_, primitive) in primitives {
-            for (semantic, accessor) in primitive.attributes() {
-                if matches!(semantic, gltf::Semantic::Positions | gltf::Semantic::TexCoords(_)) {
-                    readers[accessor.index()] += 1;
-                }
+            let sources = Sources::of(primitive);
+            for accessor in [sources.positions, sources.uvs.and_then(|(_, _, uvs)| uvs)]
+                .into_iter()
+                .flatten()
+            {
+                readers[accessor.index()] += 1;
             }
         }
         SharedReads {
@@ -751,62 +842,93 @@ fn read_primitive(
     shared: &SharedReads,
 ) -> Result<Vec<MeshTriangle>, String> {
     let look = look(&primitive.material(), images);
-    let accessor = primitive
-        .get(&gltf::Semantic::Positions)
-        .ok_or("it has no POSITION attribute")?;
+    let sources = Sources::of(primitive);
+    let accessor = sources.positions.ok_or("it has no POSITION attribute")?;
     let positions = shared.read(&shared.positions, accessor.index(), accessor.index(), || {
         accessor::read(&accessor, buffers, "POSITION", DVec3::from_array)
     });
     let positions: &Vec<DVec3> = positions.list().as_ref().map_err(Clone::clone)?;
-    let order: Vec<u32> = match primitive.indices() {
-        Some(indices) => accessor::read_indices(&indices, buffers)?,
+    // The accessor the corners come from, for errors: the indices, else the positions.
+    let order_from = sources.indices;
+    let order: Vec<u32> = match &order_from {
+        Some(indices) => accessor::read_indices(indices, buffers)?,
         // At most `accessor::MAX_ELEMENTS` vertices: u32 indices.
         None => (0..positions.len() as u32).collect(),
     };
-    if let Some(&i) = order.iter().find(|&&i| i as usize >= positions.len()) {
-        return Err(format!(
-            "index {i} is out of range: there are {} vertices",
+    // Named only in an error, as in `within_read_budget`.
+    let position_count = |accessor: &gltf::Accessor| {
+        format!(
+            "accessor {} (POSITION)'s {} vertices",
+            accessor.index(),
             positions.len()
+        )
+    };
+    if let Some(&i) = order.iter().find(|&&i| i as usize >= positions.len()) {
+        let indices = order_from.as_ref().map_or(accessor.index(), gltf::Accessor::index);
+        return Err(format!(
+            "accessor {indices} (indices): index {i} is out of range of {}",
+            position_count(&accessor)
         ));
     }
     // `load_gltf` capped every primitive's triangles from these counts before any read.
     debug_assert!(triangles_of(primitive.mode(), order.len()).is_none_or(|n| n <= MAX_MESH_TRIANGLES));
-    let corners = triangle_corners(primitive.mode(), order)?;
-    let uv_list = match &look.texture {
+    let corners = triangle_corners(primitive.mode(), order).map_err(|e| match &order_from {
+        Some(indices) => format!("accessor {} (indices): {e}", indices.index()),
+        None => format!("accessor {} (POSITION, no indices): {e}", accessor.index()),
+    })?;
+    let uv_list = match sources.uvs {
         None => None,
-        Some((_, _, set, transform)) => {
-            let semantic = format!("TEXCOORD_{set}");
-            let accessor = primitive
-                .get(&gltf::Semantic::TexCoords(*set))
-                .ok_or_else(|| format!("its material's texture reads {semantic}, which it does not have"))?;
-            Some(shared.read(
+        Some((set, transform, uv_accessor)) => {
+            let uv_accessor = uv_accessor.ok_or_else(|| {
+                format!(
+                    "material {}'s base colour texture reads TEXCOORD_{set}, which the primitive does not have",
+                    primitive
+                        .material()
+                        .index()
+                        .map_or("default".to_string(), |m| m.to_string())
+                )
+            })?;
+            let list = shared.read(
                 &shared.uvs,
-                accessor.index(),
-                (accessor.index(), transform.bits()),
+                uv_accessor.index(),
+                (uv_accessor.index(), transform.bits()),
                 || {
-                    let uvs = accessor::read(&accessor, buffers, &semantic, DVec2::from_array)?;
+                    let uvs = accessor::read(&uv_accessor, buffers, format_args!("TEXCOORD_{set}"), DVec2::from_array)?;
                     uvs.into_iter()
                         .enumerate()
                         .map(|(i, uv)| {
                             if uv.is_finite() {
                                 Ok(transform.apply(uv))
                             } else {
-                                Err(format!("vertex {i}: texture coordinate {uv} is not finite"))
+                                Err(format!(
+                                    "accessor {} (TEXCOORD_{set}) vertex {i}: texture coordinate {uv} is not finite",
+                                    uv_accessor.index()
+                                ))
                             }
                         })
                         .collect()
                 },
-            ))
+            );
+            Some((uv_accessor, set, list))
         }
     };
     let uvs: Option<&Vec<DVec2>> = match &uv_list {
         None => None,
-        Some(read) => Some(read.list().as_ref().map_err(Clone::clone)?),
+        Some((uv_accessor, set, read)) => {
+            let uvs = read.list().as_ref().map_err(Clone::clone)?;
+            if uvs.len() < positions.len() {
+                return Err(format!(
+                    "accessor {} (TEXCOORD_{set}) has {} entries, fewer than {}",
+                    uv_accessor.index(),
+                    uvs.len(),
+                    position_count(&accessor)
+                ));
+            }
+            Some(uvs)
+        }
     };
-    if uvs.as_ref().is_some_and(|uvs| uvs.len() < positions.len()) {
-        return Err("TEXCOORD has fewer entries than POSITION".into());
-    }
-    let colours: Option<Vec<[u8; 3]>> = match primitive.get(&gltf::Semantic::Colors(0)) {
+    let colour_accessor = sources.colours;
+    let colours: Option<Vec<[u8; 3]>> = match &colour_accessor {
         None => None,
         Some(accessor) => {
             let encode = |linear: DVec4| {
@@ -814,11 +936,11 @@ fn read_primitive(
                 [linear.x, linear.y, linear.z].map(linear_to_srgb)
             };
             Some(match accessor.dimensions() {
-                Dimensions::Vec3 => accessor::read(&accessor, buffers, "COLOR_0", |[r, g, b]| {
+                Dimensions::Vec3 => accessor::read(accessor, buffers, "COLOR_0", |[r, g, b]| {
                     encode(DVec4::new(r, g, b, 1.0))
                 })?,
                 Dimensions::Vec4 => {
-                    accessor::read(&accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?
+                    accessor::read(accessor, buffers, "COLOR_0", |rgba| encode(DVec4::from_array(rgba)))?
                 }
                 other => {
                     return Err(format!(
@@ -829,8 +951,15 @@ fn read_primitive(
             })
         }
     };
-    if colours.as_ref().is_some_and(|c| c.len() < positions.len()) {
-        return Err("COLOR_0 has fewer entries than POSITION".into());
+    if let (Some(colours), Some(colour_accessor)) = (&colours, &colour_accessor)
+        && colours.len() < positions.len()
+    {
+        return Err(format!(
+            "accessor {} (COLOR_0) has {} entries, fewer than {}",
+            colour_accessor.index(),
+            colours.len(),
+            position_count(&accessor)
+        ));
     }
     let mut triangles = Vec::with_capacity(corners.len() / 3);
     for corners in corners.chunks_exact(3) {
@@ -842,7 +971,7 @@ fn read_primitive(
                 .texture
                 .as_ref()
                 .zip(uvs.as_ref())
-                .map(|((id, wrap, _, _), uvs)| CornerUvs {
+                .map(|((id, wrap), uvs)| CornerUvs {
                     texture: *id,
                     wrap: *wrap,
                     uv: [uvs[at(0)], uvs[at(1)], uvs[at(2)]],
