@@ -193,6 +193,69 @@ impl ConePlanes {
         each_lane([a, b, c, d, e, f, g], lane)
     }
 
+    /// The numbers of pixels `index`' footprints ([`each_lane`]'s planes' order) in AVX2
+    /// registers: read in place where they are `neighbours` (`index[k]` is `index[0] + k`),
+    /// else pixel by pixel (plain loads, where gathering them took as long: docs/benchmarks.md,
+    /// 2026-11-27 night2 (tex)); `None` where a pixel lies outside the table.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) fn lanes_avx2(
+        &self,
+        _: crate::avx2::Avx2,
+        index: &[usize; 8],
+        neighbours: bool,
+    ) -> Option<[std::arch::x86_64::__m256; 7]> {
+        use std::arch::x86_64::_mm256_loadu_ps;
+        // Written out plane by plane: a closure over the planes (`map`) was left a call.
+        if neighbours {
+            let [a, b, c, d, e, f, g] = self.in_place::<8>(index[0])?;
+            // SAFETY: each load reads the eight f32 of its lanes.
+            return Some(unsafe {
+                [
+                    _mm256_loadu_ps(a.as_ptr()),
+                    _mm256_loadu_ps(b.as_ptr()),
+                    _mm256_loadu_ps(c.as_ptr()),
+                    _mm256_loadu_ps(d.as_ptr()),
+                    _mm256_loadu_ps(e.as_ptr()),
+                    _mm256_loadu_ps(f.as_ptr()),
+                    _mm256_loadu_ps(g.as_ptr()),
+                ]
+            });
+        }
+        self.scattered_lanes(index)
+    }
+
+    /// [`ConePlanes::lanes_avx2`] of pixels that are not neighbours: out of line, so that the
+    /// neighbours' loads are inlined where their numbers are used.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    fn scattered_lanes(&self, index: &[usize; 8]) -> Option<[std::arch::x86_64::__m256; 7]> {
+        let [at_origin_x, at_origin_y] = &self.at_origin;
+        let [spread_x, spread_y] = &self.spread;
+        let [x, y, z] = &self.direction;
+        let last = index.iter().copied().max().unwrap_or(0);
+        if [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z]
+            .iter()
+            .any(|plane| last >= plane.len())
+        {
+            return None;
+        }
+        // SAFETY: every index is at most `last`, inside every plane (checked above).
+        Some(unsafe {
+            [
+                lanes_at(at_origin_x, index),
+                lanes_at(spread_x, index),
+                lanes_at(at_origin_y, index),
+                lanes_at(spread_y, index),
+                lanes_at(x, index),
+                lanes_at(y, index),
+                lanes_at(z, index),
+            ]
+        })
+    }
+
     /// The numbers of the `L` neighbouring pixels from `start` ([`each_lane`]'s planes), read
     /// in place, where they all lie in the table.
     #[inline(always)]
@@ -215,6 +278,19 @@ impl ConePlanes {
             lanes(z, start)?,
         ])
     }
+}
+
+/// The numbers of `plane` at `index`, by lane.
+///
+/// # Safety
+/// Every index lies inside `plane`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn lanes_at(plane: &[f32], index: &[usize; 8]) -> std::arch::x86_64::__m256 {
+    // SAFETY: the caller's.
+    let at = |k: usize| unsafe { *plane.get_unchecked(index[k]) };
+    std::arch::x86_64::_mm256_setr_ps(at(0), at(1), at(2), at(3), at(4), at(5), at(6), at(7))
 }
 
 /// `lane(k, cone, direction)` for each lane k of the numbers `planes` ([`ConePlanes`]' order:

@@ -173,47 +173,116 @@ impl SrgbEncoding {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn bytes_avx2(&self, _: crate::avx2::Avx2, linear: &[[f64; 3]; 8], bytes: &mut [[u8; 3]; 8]) {
-        use std::arch::x86_64::{
-            _CMP_LE_OQ, _mm_cvtsi128_si32, _mm_setr_epi8, _mm_setr_epi32, _mm_shuffle_epi8, _mm_storeu_si128,
-            _mm_sub_epi32, _mm256_castpd_si256, _mm256_castsi256_si128, _mm256_cmp_pd, _mm256_cvttpd_epi32,
-            _mm256_loadu_pd, _mm256_max_pd, _mm256_min_pd, _mm256_mul_pd, _mm256_permutevar8x32_epi32, _mm256_set1_pd,
-            _mm256_setr_epi32, _mm256_setr_pd, _mm256_setzero_pd,
-        };
+        use std::arch::x86_64::_mm256_loadu_pd;
         // 24 values, six chunks of four: no remainder is left out.
         let (values, bytes) = (linear.as_flattened(), bytes.as_flattened_mut());
         for (values, bytes) in values.chunks_exact(4).zip(bytes.chunks_exact_mut(4)) {
-            // SAFETY: the load reads the chunk's four values, the store writes the four i32 of
-            // `bucket`. Each c lies in [0, 1] (`max` takes a NaN, its first operand, to its
-            // second, 0, and anything not above 0 to 0; `min` keeps 1 as the bound), so its
-            // bucket is in 0..=4096, inside `buckets` (4097).
-            let four = unsafe {
-                let value = _mm256_loadu_pd(values.as_ptr());
-                let c = _mm256_min_pd(_mm256_max_pd(value, _mm256_setzero_pd()), _mm256_set1_pd(1.0));
-                let mut bucket = [0u32; 4];
-                _mm_storeu_si128(
-                    bucket.as_mut_ptr().cast(),
-                    _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64))),
-                );
-                let [g0, g1, g2, g3] = bucket.map(|bucket| *self.buckets.get_unchecked(bucket as usize));
-                let step = |guess: u8| self.steps[usize::from(guess)];
-                let guess = _mm_setr_epi32(g0.into(), g1.into(), g2.into(), g3.into());
-                let step = _mm256_setr_pd(step(g0), step(g1), step(g2), step(g3));
-                // All ones (-1) in each 64-bit lane whose value reaches the next step, its low
-                // halves gathered into four i32: the guess minus -1 is the byte, at most 255
-                // (the step after 255 is +inf). The four bytes packed into one u32, in order,
-                // where a store per byte cost about 10 instructions a textured pixel.
-                let reached = _mm256_castpd_si256(_mm256_cmp_pd::<_CMP_LE_OQ>(step, c));
-                let low = _mm256_permutevar8x32_epi32(reached, _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0));
-                let bytes = _mm_sub_epi32(guess, _mm256_castsi256_si128(low));
-                let packed = _mm_shuffle_epi8(
-                    bytes,
-                    _mm_setr_epi8(0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1),
-                );
-                _mm_cvtsi128_si32(packed) as u32
-            };
+            // SAFETY: the load reads the chunk's four values.
+            let four = self.four_bytes(unsafe { _mm256_loadu_pd(values.as_ptr()) });
             bytes.copy_from_slice(&four.to_le_bytes());
         }
     }
+
+    /// [`SrgbEncoding::byte`] of each of the four values `value`, packed in order (lane 0 the
+    /// low byte).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn four_bytes(&self, value: std::arch::x86_64::__m256d) -> u32 {
+        use std::arch::x86_64::{
+            _CMP_LE_OQ, _mm_cvtsi128_si32, _mm_setr_epi8, _mm_setr_epi32, _mm_shuffle_epi8, _mm_storeu_si128,
+            _mm_sub_epi32, _mm256_castpd_si256, _mm256_castsi256_si128, _mm256_cmp_pd, _mm256_cvttpd_epi32,
+            _mm256_max_pd, _mm256_min_pd, _mm256_mul_pd, _mm256_permutevar8x32_epi32, _mm256_set1_pd,
+            _mm256_setr_epi32, _mm256_setr_pd, _mm256_setzero_pd,
+        };
+        // Each c lies in [0, 1] (`max` takes a NaN, its first operand, to its second, 0, and
+        // anything not above 0 to 0; `min` keeps 1 as the bound), so its bucket is in
+        // 0..=4096, inside `buckets` (4097).
+        let c = _mm256_min_pd(_mm256_max_pd(value, _mm256_setzero_pd()), _mm256_set1_pd(1.0));
+        let mut bucket = [0u32; 4];
+        // SAFETY: the store writes the four i32 of `bucket`.
+        unsafe {
+            _mm_storeu_si128(
+                bucket.as_mut_ptr().cast(),
+                _mm256_cvttpd_epi32(_mm256_mul_pd(c, _mm256_set1_pd(BUCKETS as f64))),
+            );
+        }
+        // SAFETY: each bucket is in 0..=4096 (above), inside `buckets`.
+        let [g0, g1, g2, g3] = bucket.map(|bucket| unsafe { *self.buckets.get_unchecked(bucket as usize) });
+        let step = |guess: u8| self.steps[usize::from(guess)];
+        let guess = _mm_setr_epi32(g0.into(), g1.into(), g2.into(), g3.into());
+        let step = _mm256_setr_pd(step(g0), step(g1), step(g2), step(g3));
+        // All ones (-1) in each 64-bit lane whose value reaches the next step, its low halves
+        // gathered into four i32: the guess minus -1 is the byte, at most 255 (the step after
+        // 255 is +inf). The four bytes packed into one u32, in order, where a store per byte
+        // cost about 10 instructions a textured pixel.
+        let reached = _mm256_castpd_si256(_mm256_cmp_pd::<_CMP_LE_OQ>(step, c));
+        let low = _mm256_permutevar8x32_epi32(reached, _mm256_setr_epi32(0, 2, 4, 6, 0, 0, 0, 0));
+        let bytes = _mm_sub_epi32(guess, _mm256_castsi256_si128(low));
+        let packed = _mm_shuffle_epi8(
+            bytes,
+            _mm_setr_epi8(0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1),
+        );
+        _mm_cvtsi128_si32(packed) as u32
+    }
+
+    /// [`SrgbEncoding::byte`] of eight colours held by channel (red, green, blue; lanes 0–3
+    /// then 4–7), as colours (the bytes `bytes_avx2` gives them in lane order).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn channel_bytes_avx2(&self, channels: [[std::arch::x86_64::__m256d; 2]; 3]) -> [[u8; 3]; 8] {
+        use std::arch::x86_64::{
+            _mm_or_si128, _mm_set_epi64x, _mm_setr_epi8, _mm_shuffle_epi8, _mm_storel_epi64, _mm_storeu_si128,
+        };
+        // Each channel's eight bytes in a u64, lane 0 the low byte.
+        let [[red_low, red_high], [green_low, green_high], [blue_low, blue_high]] = channels;
+        let eight = |low: u32, high: u32| (u64::from(low) | u64::from(high) << 32) as i64;
+        let red = eight(self.four_bytes(red_low), self.four_bytes(red_high));
+        let green = eight(self.four_bytes(green_low), self.four_bytes(green_high));
+        let blue = eight(self.four_bytes(blue_low), self.four_bytes(blue_high));
+        // Byte 3k + c of the colours is channel c's byte k: red's k and green's 8 + k from one
+        // register, blue's k from another (-1: none), bytes 0–15 then 16–23.
+        let (red_green, blue) = (_mm_set_epi64x(green, red), _mm_set_epi64x(0, blue));
+        let first = _mm_or_si128(
+            _mm_shuffle_epi8(
+                red_green,
+                _mm_setr_epi8(0, 8, -1, 1, 9, -1, 2, 10, -1, 3, 11, -1, 4, 12, -1, 5),
+            ),
+            _mm_shuffle_epi8(
+                blue,
+                _mm_setr_epi8(-1, -1, 0, -1, -1, 1, -1, -1, 2, -1, -1, 3, -1, -1, 4, -1),
+            ),
+        );
+        let last = _mm_or_si128(
+            _mm_shuffle_epi8(
+                red_green,
+                _mm_setr_epi8(13, -1, 6, 14, -1, 7, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1),
+            ),
+            _mm_shuffle_epi8(
+                blue,
+                _mm_setr_epi8(-1, 5, -1, -1, 6, -1, -1, 7, -1, -1, -1, -1, -1, -1, -1, -1),
+            ),
+        );
+        let mut colours = [[0u8; 3]; 8];
+        let bytes = colours.as_flattened_mut();
+        // SAFETY: the stores write bytes 0–15 and 16–23 of the 24 of `colours`.
+        unsafe {
+            _mm_storeu_si128(bytes.as_mut_ptr().cast(), first);
+            _mm_storel_epi64(bytes[16..].as_mut_ptr().cast(), last);
+        }
+        colours
+    }
+}
+
+/// [`linear_to_srgb3`] of eight colours held in AVX2 registers by channel (red, green, blue;
+/// lanes 0–3 then 4–7): the same bytes as [`linear_to_srgb3_lanes`] of the same values in lane
+/// order (tested), without moving them into lane order first.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn channels_to_srgb3_avx2(channels: [[std::arch::x86_64::__m256d; 2]; 3]) -> [[u8; 3]; 8] {
+    ENCODING.channel_bytes_avx2(channels)
 }
 
 /// sRGB encoding (IEC 61966-2-1) of a linear value clamped to [0, 1], rounded to 8 bits, by
@@ -348,8 +417,27 @@ mod tests {
                 // SAFETY: `avx2` proves the CPU has AVX2.
                 unsafe { ENCODING.bytes_avx2(avx2, &colours, &mut bytes) };
                 assert_eq!(bytes, want, "AVX2 lanes, {colours:?}");
+                // SAFETY: as above.
+                assert_eq!(
+                    unsafe { by_channel(avx2, &colours) },
+                    want,
+                    "AVX2 by channel, {colours:?}"
+                );
             }
         }
+    }
+
+    /// [`channels_to_srgb3_avx2`] of `colours` put in registers by channel.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn by_channel(_: crate::avx2::Avx2, colours: &[[f64; 3]; 8]) -> [[u8; 3]; 8] {
+        use std::arch::x86_64::_mm256_setr_pd;
+        channels_to_srgb3_avx2(std::array::from_fn(|channel| {
+            std::array::from_fn(|half| {
+                let four = &colours[4 * half..];
+                _mm256_setr_pd(four[0][channel], four[1][channel], four[2][channel], four[3][channel])
+            })
+        }))
     }
 
     #[test]

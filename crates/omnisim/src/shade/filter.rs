@@ -11,7 +11,9 @@ use crate::avx2::Avx2;
 use crate::scene::texture::{MipLevel, Texture, Wrap};
 
 mod face;
-pub(crate) use face::{Detail, Levels, samples};
+pub(crate) use face::{Levels, samples};
+#[cfg(target_arch = "x86_64")]
+pub(crate) use face::{levels_of_detail, sums_avx2};
 
 /// The linear value of one step of a texel's 16-bit channel (`MipLevel::texels`), f32: each
 /// level's share is held times it, so that a tap's weight times the channel is its linear
@@ -905,12 +907,12 @@ mod tests {
             // The face's lanes in AVX2 registers throughout, where the CPU has AVX2: the bits of
             // the lanes set up together (on one level they read one slice, else each lane's).
             let face_levels = Levels::of(texture);
-            let face_samples = |detail| samples(Avx2::detected(), &face_levels, Wraps::of(wrap), [&u, &v], detail);
-            let face = face_samples(Detail::Levels(&lod));
+            let face_samples = |lod| samples(Avx2::detected(), &face_levels, Wraps::of(wrap), [&u, &v], lod);
+            let face = face_samples(&lod);
             assert!(face.is_some() || Avx2::detected().is_none());
             assert_eq!(face.map(bits).unwrap_or(together), together);
-            // From footprints' longer axes (the levels of detail worked out in the lanes too):
-            // the bits of their levels of detail, at lengths near, far, zero, infinite and NaN.
+            // At the levels of detail of footprints' longer axes near, far, zero, infinite and
+            // NaN (the coarsest level): the bits of the lanes set up together.
             let scale = (next() % 100_000) as f32 + 0.5;
             let length: [f32; LANES] = std::array::from_fn(|_| match next() % 8 {
                 0 => f32::NAN,
@@ -919,9 +921,13 @@ mod tests {
                 _ => (next() % 10_000) as f32 / 1e5,
             });
             let of_lengths = length.map(|length| level_of_detail(scale, length));
-            let from_levels = face_samples(Detail::Levels(&of_lengths));
-            let from_lengths = face_samples(Detail::Lengths(&length, scale));
-            assert_eq!(from_lengths.map(bits), from_levels.map(bits));
+            let mut of_footprints = Lookups::<LANES>::empty();
+            of_footprints.set_face(&levels, Wraps::of(wrap), &u, &v, &of_lengths, None);
+            let of_footprints = bits(trilinear_lanes(&of_footprints, None));
+            assert_eq!(
+                face_samples(&of_lengths).map(bits).unwrap_or(of_footprints),
+                of_footprints
+            );
             for k in 0..LANES {
                 let one = trilinear(texture, wrap, DVec2::new(u[k], v[k]), lod[k])
                     .to_array()
@@ -1028,13 +1034,7 @@ mod tests {
         let portable = trilinear_lanes(&lookups, None);
         assert_eq!(with_avx2_where_detected(&lookups), portable);
         let (u, v) = (lanes_in.map(|uv| uv.x), lanes_in.map(|uv| uv.y));
-        let face = samples(
-            Avx2::detected(),
-            &Levels::of(&texture),
-            wraps,
-            [&u, &v],
-            Detail::Levels(&[0.0; LANES]),
-        );
+        let face = samples(Avx2::detected(), &Levels::of(&texture), wraps, [&u, &v], &[0.0; LANES]);
         assert!(face.is_some() || Avx2::detected().is_none());
         assert_eq!(face.unwrap_or(portable), portable);
         for (k, &uv) in lanes_in.iter().enumerate() {
@@ -1045,27 +1045,12 @@ mod tests {
         let lod: [f32; LANES] = std::array::from_fn(|k| k as f32 / 5.0);
         lookups.set_face(&levels, wraps, &u, &v, &lod, None);
         let portable = trilinear_lanes(&lookups, None);
-        let face = samples(
-            Avx2::detected(),
-            &Levels::of(&texture),
-            wraps,
-            [&u, &v],
-            Detail::Levels(&lod),
-        );
+        let face = samples(Avx2::detected(), &Levels::of(&texture), wraps, [&u, &v], &lod);
         assert!(face.is_some() || Avx2::detected().is_none());
         assert_eq!(face.unwrap_or(portable), portable);
         // A texture without levels has no tables: the lanes are not asked.
         let no_levels = Texture { levels: Vec::new() };
-        assert!(
-            samples(
-                Avx2::detected(),
-                &Levels::of(&no_levels),
-                wraps,
-                [&u, &v],
-                Detail::Levels(&lod)
-            )
-            .is_none()
-        );
+        assert!(samples(Avx2::detected(), &Levels::of(&no_levels), wraps, [&u, &v], &lod).is_none());
     }
 
     /// The wraps' texel pairs, in lanes: each index i (its coordinate a quarter texel past i's

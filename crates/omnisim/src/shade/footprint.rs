@@ -23,7 +23,6 @@ use std::sync::Arc;
 
 use glam::{DMat3, DVec2, DVec3, Vec3};
 
-use crate::avx2::Avx2;
 use crate::camera::{Camera, CameraRay, Cone, ConePlanes, RaySource};
 use crate::pose::Pose;
 use crate::trace::ray_table::ConeTable;
@@ -158,43 +157,35 @@ impl Footprints<'_> {
 }
 
 impl Footprints<'_> {
-    /// [`Footprints::longer_axes`] of the eight neighbouring pixels from `start` at ranges
-    /// `range` on a face with unit normal `normal`, in AVX2 registers where `avx2` is there
-    /// and they come from a ray table: the same operations in the same order, so the same
-    /// bits (tested). `None` otherwise. LLVM's code for the lanes of `longer_axes` took
-    /// about ten instructions a lane (docs/benchmarks.md, 2026-11-26 night (tex)).
+    /// The ray table's cones, where the footprints come from one.
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    pub(crate) fn neighbours_longer_axes(
-        &self,
-        avx2: Option<Avx2>,
-        start: usize,
-        range: &[f32; 8],
-        normal: Vec3,
-    ) -> Option<[f32; 8]> {
-        #[cfg(target_arch = "x86_64")]
-        if let (Some(avx2), Footprints::Table(cones)) = (avx2, self)
-            && let Some(planes) = cones.in_place::<8>(start)
-        {
-            // SAFETY: `avx2` proves the CPU has AVX2, which `longer_axes_avx2` is compiled for.
-            return Some(unsafe { longer_axes_avx2(avx2, planes, range, normal) });
+    pub(crate) fn table(&self) -> Option<&ConePlanes> {
+        match self {
+            Footprints::Table(cones) => Some(cones),
+            _ => None,
         }
-        None
     }
 }
 
-/// [`Footprint::longer_axis`] of eight lanes whose cones and directions are `planes`
-/// ([`ConePlanes::in_place`]), at ranges `range`, on a face with unit normal `normal`.
+/// [`Footprints::longer_axes`] of eight lanes in AVX2 registers: from their cones' and
+/// directions' numbers `planes` ([`ConePlanes::lanes_avx2`]) and ranges `range`, on a face
+/// with unit normal `normal`, the same operations in the same order, so the same bits (tested).
+/// LLVM's code for the lanes of `longer_axes` took about ten instructions a lane
+/// (docs/benchmarks.md, 2026-11-26 night (tex)).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn longer_axes_avx2(_: Avx2, planes: [&[f32; 8]; 7], range: &[f32; 8], normal: Vec3) -> [f32; 8] {
+#[inline]
+pub(crate) fn longer_axes_in_lanes(
+    planes: [std::arch::x86_64::__m256; 7],
+    range: std::arch::x86_64::__m256,
+    normal: Vec3,
+) -> std::arch::x86_64::__m256 {
     use std::arch::x86_64::{
         __m256, _CMP_UNORD_Q, _mm256_add_ps, _mm256_andnot_ps, _mm256_blendv_ps, _mm256_cmp_ps, _mm256_div_ps,
-        _mm256_loadu_ps, _mm256_max_ps, _mm256_mul_ps, _mm256_set1_ps, _mm256_storeu_ps,
+        _mm256_max_ps, _mm256_mul_ps, _mm256_set1_ps,
     };
-    // SAFETY: each load reads the eight f32 of its array.
-    let load = |lanes: &[f32; 8]| unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
-    let [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z] = planes.map(load);
-    let range = load(range);
+    let [at_origin_x, spread_x, at_origin_y, spread_y, x, y, z] = planes;
     let magnitude = |value: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), value);
     // `f32::max`: the other where one is NaN (`max_ps` gives its second operand where either
     // is).
@@ -212,11 +203,7 @@ fn longer_axes_avx2(_: Avx2, planes: [&[f32; 8]; 7], range: &[f32; 8], normal: V
         ),
         _mm256_mul_ps(z, _mm256_set1_ps(normal.z)),
     );
-    let length = _mm256_div_ps(width, _mm256_max_ps(magnitude(cos), _mm256_set1_ps(f32::MIN_POSITIVE)));
-    let mut out = [0.0; 8];
-    // SAFETY: the store writes the eight f32 of `out`.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), length) };
-    out
+    _mm256_div_ps(width, _mm256_max_ps(magnitude(cos), _mm256_set1_ps(f32::MIN_POSITIVE)))
 }
 
 /// The footprint in the camera body's frame of a pixel whose cone is `cone` and ray
@@ -229,13 +216,20 @@ fn with_cone(cone: Cone, direction: Option<DVec3>) -> Footprint {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::avx2::Avx2;
     use crate::camera::Pinhole;
 
-    /// The longer axes of eight neighbouring pixels from a ray table, in AVX2 registers where
-    /// the CPU has them: the bits of the lanes as `longer_axes` works them out, at ranges and on
-    /// normals near, far, zero, infinite and NaN, for every run of eight that fits in the image.
+    /// The longer axes of eight pixels from a ray table in AVX2 registers: the bits of the lanes
+    /// as `longer_axes` works them out, at ranges and on normals near, far, zero, infinite and
+    /// NaN, for every run of eight neighbours that fits in the image and runs of pixels that
+    /// are not neighbours; none for pixels outside the table.
+    #[cfg(target_arch = "x86_64")]
     #[test]
-    fn neighbours_longer_axes_in_registers_are_the_lanes_bits() {
+    fn longer_axes_in_registers_are_the_lanes_bits() {
+        let Some(avx2) = Avx2::detected() else {
+            eprintln!("no AVX2 on this CPU: nothing to compare");
+            return;
+        };
         let camera = Camera::Pinhole(Pinhole::with_horizontal_fov(13, 5, 1.3));
         let planes = ConePlanes::of_image(&camera, |index| camera.pixel_ray(index));
         let footprints = Footprints::Table(&planes);
@@ -251,18 +245,47 @@ mod tests {
         for start in 0..pixels + 2 {
             for (turn, &normal) in normals.iter().enumerate() {
                 let range: [f32; 8] = std::array::from_fn(|k| ranges[(k + turn + start) % ranges.len()]);
-                let index: [usize; 8] = std::array::from_fn(|k| start + k);
-                let in_registers = footprints.neighbours_longer_axes(Avx2::detected(), start, &range, normal);
-                if start + 8 > pixels || Avx2::detected().is_none() {
-                    assert_eq!(in_registers, None);
-                    continue;
+                let spread = start % 3 + 1;
+                for (index, neighbours) in [
+                    (std::array::from_fn(|k| start + k), true),
+                    (std::array::from_fn(|k| (start + spread * k * k) % (pixels + 1)), false),
+                ] {
+                    // SAFETY: `avx2` proves the CPU has AVX2.
+                    let in_registers = unsafe { longer_axes_of(avx2, &planes, &index, neighbours, &range, normal) };
+                    if index.iter().any(|&index| index >= pixels) {
+                        assert_eq!(in_registers, None, "{index:?}");
+                        continue;
+                    }
+                    let lanes = footprints.longer_axes(&index, neighbours, &range, normal);
+                    assert_eq!(
+                        in_registers.map(|axes| axes.map(f32::to_bits)),
+                        Some(lanes.map(f32::to_bits)),
+                        "{index:?}"
+                    );
                 }
-                let lanes = footprints.longer_axes(&index, true, &range, normal);
-                assert_eq!(
-                    in_registers.map(|axes| axes.map(f32::to_bits)),
-                    Some(lanes.map(f32::to_bits))
-                );
             }
         }
+    }
+
+    /// [`longer_axes_in_lanes`] of pixels `index` of `planes`, through memory.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn longer_axes_of(
+        avx2: Avx2,
+        planes: &ConePlanes,
+        index: &[usize; 8],
+        neighbours: bool,
+        range: &[f32; 8],
+        normal: Vec3,
+    ) -> Option<[f32; 8]> {
+        use std::arch::x86_64::{_mm256_loadu_ps, _mm256_storeu_ps};
+        let lanes = planes.lanes_avx2(avx2, index, neighbours)?;
+        let mut out = [0.0; 8];
+        // SAFETY: the load reads the eight f32 of `range`, the store writes the eight of `out`.
+        unsafe {
+            let range = _mm256_loadu_ps(range.as_ptr());
+            _mm256_storeu_ps(out.as_mut_ptr(), longer_axes_in_lanes(lanes, range, normal));
+        }
+        Some(out)
     }
 }

@@ -1,7 +1,10 @@
 //! Frames of textured scenes: pixels on textured faces are shaded in runs of [`LANES`] pixels
 //! of one face, each stage over the run's lanes (coordinates and levels of detail, then
 //! `filter::trilinear_lanes`: wraps, weights and mixing, then lighting and encoding), the
-//! rest shaded one by one as `mod.rs` shades untextured scenes. The same colours as shading
+//! rest shaded one by one as `mod.rs` shades untextured scenes. With AVX2 and a ray table a
+//! run's stages stay in registers (`colours_avx2`: hits to bytes on an unlit face of one
+//! albedo without the linear plane, the usual run; `samples_avx2`: hits to samples
+//! otherwise), the same operations in the same order. The same colours as shading
 //! each pixel alone (`shade`): per pixel the same look-up, lanes that give the one-lane
 //! sample's bits (tested in `filter.rs`), the same lighting and encoding; only the footprint's
 //! angle is taken in the camera body's frame (the face's normal turned once per face), so its
@@ -14,13 +17,19 @@ use std::ops::Range;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::filter::{Detail, LANES, Levels, Lookups, Wraps, level_of_detail, samples, trilinear_lanes};
+use super::filter::{LANES, Levels, Lookups, Wraps, level_of_detail, samples, trilinear_lanes};
+#[cfg(target_arch = "x86_64")]
+use super::filter::{levels_of_detail, sums_avx2};
 use super::footprint::Footprints;
+#[cfg(target_arch = "x86_64")]
+use super::footprint::longer_axes_in_lanes;
 use super::{
     Appearance, Footprint, View, is_flat, lit, lit_by_lights, pixel_colour, shade_on, texture_of, untextured_albedo,
 };
 use crate::avx2::Avx2;
 use crate::frame::{BACKGROUND, Frame, NO_FACE, Pixel, Plane, Planes};
+#[cfg(target_arch = "x86_64")]
+use crate::scene::lighting::channels_to_srgb3_avx2;
 use crate::scene::lighting::linear_to_srgb3_lanes;
 use crate::scene::surface::{Surface, UvMap};
 
@@ -370,36 +379,49 @@ impl<'a> Shader<'a> {
         };
         let face = &run.face;
         let (surface, map) = (face.surface, face.map);
-        // As `texture_point` works them out for one pixel.
-        let (mut u, mut v) = ([0.0; LANES], [0.0; LANES]);
-        for k in 0..LANES {
-            let uv = Surface::uv_at(map, surface.anchor, hit[k].point);
-            (u[k], v[k]) = (uv.x, uv.y);
-        }
-        let range = hit.map(|hit| hit.range);
-        // In AVX2 registers from the footprints to the samples where the CPU has it and the
-        // footprints are a ray table's neighbours (most runs).
-        let in_registers = neighbours
-            .then(|| {
-                self.footprints
-                    .neighbours_longer_axes(avx2, start + first, &range, face.normal)
+        let appearance = self.appearance;
+        let lit_here = appearance.lighting.is_some() && lit_by_lights(Some(surface));
+        let index = run.slot.map(|slot| start + slot);
+        // The usual run, on an unlit face of one albedo without the linear plane: from the hits
+        // to the colours in AVX2 registers, where the CPU has it and the footprints are a ray
+        // table's; stage by stage through memory, an omni 250² frame took about 0.03 ms more and
+        // an equirect 1024×512 one about 0.25 ms (docs/benchmarks.md, 2026-11-28 (tex5)).
+        #[cfg(target_arch = "x86_64")]
+        if !lit_here
+            && chunk.linear.is_none()
+            && let Some(base) = face.base
+            && let Some(encoded) = self.in_registers(avx2, &hit, &index, neighbours, |avx2, hits, planes| {
+                // SAFETY: `avx2` proves the CPU has AVX2, which `colours_avx2` is compiled for.
+                unsafe { colours_avx2(avx2, hits, planes, face, base) }
             })
-            .flatten()
-            .and_then(|length| {
-                let detail = Detail::Lengths(&length, face.texels_per_metre_squared);
-                samples(avx2, face.levels, face.wraps, [&u, &v], detail)
-            });
+        {
+            write_colours(chunk, run, neighbours, &encoded);
+            return;
+        }
+        // Else the samples in registers there, the rest stage by stage.
+        #[cfg(target_arch = "x86_64")]
+        let in_registers = self.in_registers(avx2, &hit, &index, neighbours, |avx2, hits, planes| {
+            // SAFETY: `avx2` proves the CPU has AVX2, which `samples_avx2` is compiled for.
+            unsafe { samples_avx2(avx2, hits, planes, face) }
+        });
+        #[cfg(not(target_arch = "x86_64"))]
+        let in_registers = None;
         let samples = in_registers.unwrap_or_else(
             #[inline(always)]
             || {
-                let length =
-                    self.footprints
-                        .longer_axes(&run.slot.map(|slot| start + slot), neighbours, &range, face.normal);
+                // As `texture_point` works them out for one pixel.
+                let (mut u, mut v) = ([0.0; LANES], [0.0; LANES]);
+                for k in 0..LANES {
+                    let uv = Surface::uv_at(map, surface.anchor, hit[k].point);
+                    (u[k], v[k]) = (uv.x, uv.y);
+                }
+                let range = hit.map(|hit| hit.range);
+                let length = self.footprints.longer_axes(&index, neighbours, &range, face.normal);
                 let mut lod = [0.0; LANES];
                 for k in 0..LANES {
                     lod[k] = level_of_detail(face.texels_per_metre_squared, length[k]);
                 }
-                samples(avx2, face.levels, face.wraps, [&u, &v], Detail::Levels(&lod)).unwrap_or_else(
+                samples(avx2, face.levels, face.wraps, [&u, &v], &lod).unwrap_or_else(
                     #[inline(always)]
                     || {
                         lookups.set_face(face.levels.each(), face.wraps, &u, &v, &lod, avx2);
@@ -408,7 +430,6 @@ impl<'a> Shader<'a> {
                 )
             },
         );
-        let appearance = self.appearance;
         // Every lane, so that the loops have a fixed length: lanes past the run's length
         // (earlier pixels of the face) are shaded and encoded, and not written. The albedo
         // times the sample channel by channel over the lanes where the face's albedo is the
@@ -425,7 +446,7 @@ impl<'a> Shader<'a> {
             }
         }
         // Lit where the lights shine on the face (`lit` leaves the albedo as it is elsewhere).
-        if appearance.lighting.is_some() && lit_by_lights(Some(surface)) {
+        if lit_here {
             for (shaded, &slot) in shaded.iter_mut().zip(&run.slot) {
                 *shaded = lit(appearance, Some(surface), DVec3::from_array(*shaded), |_| {
                     self.lux[start + slot]
@@ -440,21 +461,151 @@ impl<'a> Shader<'a> {
         }
         // A textured pixel is never flat: its colour is always encoded.
         let encoded = linear_to_srgb3_lanes(&shaded, avx2);
-        if neighbours {
-            // One copy of the eight colours, where `copy_from_slice` of the colours mapped to
-            // `MaybeUninit` cost eight 3-byte loads and stores (about 56 instructions a run,
-            // docs/benchmarks.md, 2026-11-27 midday (tex)).
-            let colours = &mut chunk.colour[first..first + LANES];
-            // SAFETY: `MaybeUninit<[u8; 3]>` has the layout of `[u8; 3]`, and the copy writes
-            // the `LANES` colours of `colours`, a slice of that many, which does not overlap
-            // `encoded`, a local.
-            unsafe { std::ptr::copy_nonoverlapping(encoded.as_ptr(), colours.as_mut_ptr().cast::<[u8; 3]>(), LANES) };
-        } else {
-            for (&slot, &encoded) in run.slot.iter().zip(&encoded).take(run.len) {
-                chunk.colour[slot].write(encoded);
-            }
+        write_colours(chunk, run, neighbours, &encoded);
+    }
+
+    /// `work` of the run's hits `hits` (pixels `index`, `neighbours` where they follow one
+    /// another) and their footprints' numbers in registers, where `avx2` is there and the
+    /// footprints come from a ray table; `None` otherwise.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn in_registers<R>(
+        &self,
+        avx2: Option<Avx2>,
+        hits: &[&Pixel; LANES],
+        index: &[usize; LANES],
+        neighbours: bool,
+        work: impl FnOnce(Avx2, &[&Pixel; LANES], [Lanes; 7]) -> Option<R>,
+    ) -> Option<R> {
+        if let Some(avx2) = avx2
+            && let Some(cones) = self.footprints.table()
+            // SAFETY: `avx2` proves the CPU has AVX2, which `lanes_avx2` is compiled for.
+            && let Some(planes) = unsafe { cones.lanes_avx2(avx2, index, neighbours) }
+        {
+            return work(avx2, hits, planes);
+        }
+        None
+    }
+}
+
+/// Eight f32 lanes.
+#[cfg(target_arch = "x86_64")]
+type Lanes = std::arch::x86_64::__m256;
+
+/// Writes the colours `encoded` of `run`'s pixels in `chunk`: where they are `neighbours`,
+/// one copy of the eight colours, where `copy_from_slice` of the colours mapped to
+/// `MaybeUninit` cost eight 3-byte loads and stores (about 56 instructions a run,
+/// docs/benchmarks.md, 2026-11-27 midday (tex)); else each of the run's pixels.
+#[inline(always)]
+fn write_colours(chunk: &mut Chunk<'_>, run: &Run<'_>, neighbours: bool, encoded: &[[u8; 3]; LANES]) {
+    if neighbours {
+        let first = run.slot[0];
+        let colours = &mut chunk.colour[first..first + LANES];
+        // SAFETY: `MaybeUninit<[u8; 3]>` has the layout of `[u8; 3]`, and the copy writes the
+        // `LANES` colours of `colours`, a slice of that many, which does not overlap
+        // `encoded`, the caller's local.
+        unsafe { std::ptr::copy_nonoverlapping(encoded.as_ptr(), colours.as_mut_ptr().cast::<[u8; 3]>(), LANES) };
+    } else {
+        for (&slot, &encoded) in run.slot.iter().zip(encoded).take(run.len) {
+            chunk.colour[slot].write(encoded);
         }
     }
+}
+
+/// The trilinear sums (red, green, blue by lane) of a run's eight hits `hits` on `face` whose
+/// footprints' numbers are `planes` ([`ConePlanes::lanes_avx2`]): each hit's texture
+/// coordinates ([`uv_lanes`]), range, footprint's longer axis, level of detail and filtered
+/// sum in registers, the same operations in the same order as the portable lanes (the same
+/// bits, tested). `None` where the face's texture has no level tables.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn sums_of_hits(hits: &[&Pixel; LANES], planes: [Lanes; 7], face: &Face<'_>) -> Option<[Lanes; 3]> {
+    use std::arch::x86_64::_mm256_setr_ps;
+    let uv = uv_lanes(hits, face.surface.anchor, face.map);
+    let range = _mm256_setr_ps(
+        hits[0].range,
+        hits[1].range,
+        hits[2].range,
+        hits[3].range,
+        hits[4].range,
+        hits[5].range,
+        hits[6].range,
+        hits[7].range,
+    );
+    let length = longer_axes_in_lanes(planes, range, face.normal);
+    let lod = levels_of_detail(face.texels_per_metre_squared, length);
+    sums_avx2(face.levels, face.wraps, uv, lod)
+}
+
+/// [`sums_of_hits`] stored, as `samples` gives them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn samples_avx2(_: Avx2, hits: &[&Pixel; LANES], planes: [Lanes; 7], face: &Face<'_>) -> Option<[[f32; LANES]; 3]> {
+    let sums = sums_of_hits(hits, planes, face)?;
+    let mut out = [[0.0f32; LANES]; 3];
+    for (out, sum) in out.iter_mut().zip(sums) {
+        // SAFETY: the store writes the eight f32 of `out`.
+        unsafe { std::arch::x86_64::_mm256_storeu_ps(out.as_mut_ptr(), sum) };
+    }
+    Some(out)
+}
+
+/// The colours of a run's eight hits `hits` on an unlit `face` of albedo `base` whose
+/// footprints' numbers are `planes`: [`sums_of_hits`], the albedo times each ([`tint_lanes`])
+/// and their sRGB bytes, in registers by channel from the hits to the bytes: the bytes of the
+/// stages one after another through memory (tested).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn colours_avx2(
+    _: Avx2,
+    hits: &[&Pixel; LANES],
+    planes: [Lanes; 7],
+    face: &Face<'_>,
+    base: DVec3,
+) -> Option<[[u8; 3]; LANES]> {
+    let sums = sums_of_hits(hits, planes, face)?;
+    Some(channels_to_srgb3_avx2(tint_lanes(base, sums)))
+}
+
+/// [`Surface::uv_at`] of each of `hits` on a face whose surface is anchored at `anchor` and
+/// textured by `map`, four lanes a register: u of lanes 0–3 and 4–7, then v's; glam's
+/// operations in glam's order (the difference, then each gradient's products summed x, y, z,
+/// then the anchor's coordinate added), so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn uv_lanes(hits: &[&Pixel; LANES], anchor: DVec3, map: &UvMap) -> [[std::arch::x86_64::__m256d; 2]; 2] {
+    // Written out half by half: closures over the halves and axes were left calls.
+    let [u_low, v_low] = uv_four(&hits[..4], anchor, map);
+    let [u_high, v_high] = uv_four(&hits[4..], anchor, map);
+    [[u_low, u_high], [v_low, v_high]]
+}
+
+/// [`uv_lanes`] of four hits `hits`: u, then v.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn uv_four(hits: &[&Pixel], anchor: DVec3, map: &UvMap) -> [std::arch::x86_64::__m256d; 2] {
+    use std::arch::x86_64::{_mm256_add_pd, _mm256_mul_pd, _mm256_set1_pd, _mm256_setr_pd, _mm256_sub_pd};
+    let [p0, p1, p2, p3] = [hits[0].point, hits[1].point, hits[2].point, hits[3].point];
+    let dx = _mm256_sub_pd(_mm256_setr_pd(p0.x, p1.x, p2.x, p3.x), _mm256_set1_pd(anchor.x));
+    let dy = _mm256_sub_pd(_mm256_setr_pd(p0.y, p1.y, p2.y, p3.y), _mm256_set1_pd(anchor.y));
+    let dz = _mm256_sub_pd(_mm256_setr_pd(p0.z, p1.z, p2.z, p3.z), _mm256_set1_pd(anchor.z));
+    let [along_u, along_v] = map.gradient;
+    let dot = |g: DVec3| {
+        _mm256_add_pd(
+            _mm256_add_pd(
+                _mm256_mul_pd(_mm256_set1_pd(g.x), dx),
+                _mm256_mul_pd(_mm256_set1_pd(g.y), dy),
+            ),
+            _mm256_mul_pd(_mm256_set1_pd(g.z), dz),
+        )
+    };
+    [
+        _mm256_add_pd(_mm256_set1_pd(map.at_anchor.x), dot(along_u)),
+        _mm256_add_pd(_mm256_set1_pd(map.at_anchor.y), dot(along_v)),
+    ]
 }
 
 /// The end of the span of pixels from `start` on (a pixel of `hits`) that see its face: the
@@ -511,16 +662,16 @@ fn tinted(base: DVec3, samples: &[[f32; LANES]; 3], avx2: Option<Avx2>) -> [[f64
 #[target_feature(enable = "avx2")]
 fn tinted_avx2(_: Avx2, base: DVec3, samples: &[[f32; LANES]; 3]) -> [[f64; 3]; LANES] {
     use std::arch::x86_64::{
-        _mm_loadu_ps, _mm256_cvtps_pd, _mm256_mul_pd, _mm256_permute2f128_pd, _mm256_set1_pd, _mm256_storeu_pd,
-        _mm256_unpackhi_pd, _mm256_unpacklo_pd,
+        _mm256_loadu_ps, _mm256_permute2f128_pd, _mm256_storeu_pd, _mm256_unpackhi_pd, _mm256_unpacklo_pd,
     };
+    // SAFETY: each load reads the eight f32 of a channel.
+    let channels = tint_lanes(
+        base,
+        samples.map(|channel| unsafe { _mm256_loadu_ps(channel.as_ptr()) }),
+    );
     let mut shaded = [[0.0; 3]; LANES];
     for (half, out) in shaded.as_flattened_mut().chunks_exact_mut(12).enumerate() {
-        // SAFETY: each load reads four f32 of a channel's eight.
-        let [red, green, blue] = [0, 1, 2].map(|channel| {
-            let four = unsafe { _mm_loadu_ps(samples[channel][4 * half..].as_ptr()) };
-            _mm256_mul_pd(_mm256_set1_pd(base[channel]), _mm256_cvtps_pd(four))
-        });
+        let [red, green, blue] = channels.map(|channel| channel[half]);
         let red_green_even = _mm256_unpacklo_pd(red, green); // r0 g0 r2 g2
         let red_green_odd = _mm256_unpackhi_pd(red, green); // r1 g1 r3 g3
         let blue_red = _mm256_unpacklo_pd(blue, red_green_odd); // b0 r1 b2 r3
@@ -538,9 +689,108 @@ fn tinted_avx2(_: Avx2, base: DVec3, samples: &[[f32; LANES]; 3]) -> [[f64; 3]; 
     shaded
 }
 
+/// The albedo `base` times each lane's sample (`sums` red, green, blue by lane) in f64, by
+/// channel: lanes 0–3, then 4–7.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn tint_lanes(base: DVec3, sums: [std::arch::x86_64::__m256; 3]) -> [[std::arch::x86_64::__m256d; 2]; 3] {
+    use std::arch::x86_64::{
+        _mm256_castps256_ps128, _mm256_cvtps_pd, _mm256_extractf128_ps, _mm256_mul_pd, _mm256_set1_pd,
+    };
+    // Written out channel by channel: closures over the channels were left calls.
+    let [red, green, blue] = sums;
+    let (red_base, green_base, blue_base) = (_mm256_set1_pd(base.x), _mm256_set1_pd(base.y), _mm256_set1_pd(base.z));
+    [
+        [
+            _mm256_mul_pd(red_base, _mm256_cvtps_pd(_mm256_castps256_ps128(red))),
+            _mm256_mul_pd(red_base, _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(red))),
+        ],
+        [
+            _mm256_mul_pd(green_base, _mm256_cvtps_pd(_mm256_castps256_ps128(green))),
+            _mm256_mul_pd(green_base, _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(green))),
+        ],
+        [
+            _mm256_mul_pd(blue_base, _mm256_cvtps_pd(_mm256_castps256_ps128(blue))),
+            _mm256_mul_pd(blue_base, _mm256_cvtps_pd(_mm256_extractf128_ps::<1>(blue))),
+        ],
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Texture coordinates of eight hits in registers: `Surface::uv_at`'s bits, lane by lane, at
+    /// points near and far from the anchor, on maps with every sign of gradient, and at
+    /// infinite and NaN points.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn texture_coordinates_in_registers_are_uv_at_bits() {
+        let Some(avx2) = Avx2::detected() else {
+            eprintln!("no AVX2 on this CPU: nothing to compare");
+            return;
+        };
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let odd = [
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            -0.0,
+            1e300,
+            f64::MIN_POSITIVE,
+        ];
+        for turn in 0..2_000 {
+            let scale = [1e-3, 1.0, 7.3, 1e6][turn % 4];
+            let map = UvMap {
+                texture: 0,
+                wrap: [crate::scene::texture::Wrap::Repeat; 2],
+                at_anchor: glam::DVec2::new(next() * scale, next()),
+                gradient: [
+                    DVec3::new(next(), next(), next()) * scale,
+                    DVec3::new(next(), next(), next()) / scale,
+                ],
+            };
+            let anchor = DVec3::new(next(), next(), next()) * scale;
+            let hits: [Pixel; LANES] = std::array::from_fn(|k| Pixel {
+                point: match (turn % 50, k) {
+                    (0, k) => DVec3::splat(odd[k % odd.len()]),
+                    _ => anchor + DVec3::new(next(), next(), next()) * 3.0,
+                },
+                ..Pixel::MISS
+            });
+            // SAFETY: `avx2` proves the CPU has AVX2.
+            let lanes = unsafe { uv_of(avx2, &hits.each_ref(), anchor, &map) };
+            for (k, hit) in hits.iter().enumerate() {
+                let uv = Surface::uv_at(&map, anchor, hit.point);
+                assert_eq!(
+                    [lanes[0][k].to_bits(), lanes[1][k].to_bits()],
+                    [uv.x.to_bits(), uv.y.to_bits()],
+                    "turn {turn}, lane {k}"
+                );
+            }
+        }
+    }
+
+    /// [`uv_lanes`] of `hits`, through memory: u and v by lane.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn uv_of(_: Avx2, hits: &[&Pixel; LANES], anchor: DVec3, map: &UvMap) -> [[f64; LANES]; 2] {
+        let mut out = [[0.0; LANES]; 2];
+        for (out, halves) in out.iter_mut().zip(uv_lanes(hits, anchor, map)) {
+            for (four, half) in out.chunks_exact_mut(4).zip(halves) {
+                // SAFETY: the store writes four f64 of `out`'s eight.
+                unsafe { std::arch::x86_64::_mm256_storeu_pd(four.as_mut_ptr(), half) };
+            }
+        }
+        out
+    }
 
     /// The albedo times the samples in AVX2 registers, moved into lane order: the bits of the
     /// channel-by-channel loop, lane by lane, at zero, subnormal, small and large samples.

@@ -76,23 +76,14 @@ pub(crate) fn samples(
     levels: &Levels<'_>,
     wraps: Wraps,
     [u, v]: [&[f64; 8]; 2],
-    detail: Detail<'_>,
+    lod: &[f32; 8],
 ) -> Option<[[f32; 8]; 3]> {
     #[cfg(target_arch = "x86_64")]
     if let Some(avx2) = avx2 {
         // SAFETY: `avx2` proves the CPU has AVX2, which `samples_avx2` is compiled for.
-        return unsafe { samples_avx2(avx2, levels, wraps, [u, v], detail) };
+        return unsafe { samples_avx2(avx2, levels, wraps, [u, v], lod) };
     }
     None
-}
-
-/// What a run's lanes' levels of detail come from: each lane's level of detail, or its
-/// footprint's longer axis (metres) on a face of the texels per metre squared given
-/// (`level_of_detail` of each).
-#[derive(Clone, Copy)]
-pub(crate) enum Detail<'a> {
-    Levels(&'a [f32; 8]),
-    Lengths(&'a [f32; 8], f32),
 }
 
 /// The trilinear samples (red, green, blue by lane) of eight lanes on one face whose texture's
@@ -106,23 +97,38 @@ fn samples_avx2(
     levels: &Levels<'_>,
     wraps: Wraps,
     [u, v]: [&[f64; 8]; 2],
-    detail: Detail<'_>,
+    lod: &[f32; 8],
 ) -> Option<[[f32; 8]; 3]> {
-    let table = levels.table.as_ref()?;
-    // SAFETY: the loads read the eight f64 of `u` and `v` and the eight f32 of the footprint's
-    // numbers.
+    levels.table.as_ref()?;
+    // SAFETY: the loads read the eight f64 of `u` and `v` and the eight f32 of `lod`.
     let (u, v, lod) = unsafe {
         (
             [_mm256_loadu_pd(u.as_ptr()), _mm256_loadu_pd(u[4..].as_ptr())],
             [_mm256_loadu_pd(v.as_ptr()), _mm256_loadu_pd(v[4..].as_ptr())],
-            match detail {
-                Detail::Levels(lod) => _mm256_loadu_ps(lod.as_ptr()),
-                Detail::Lengths(length, texels_per_metre_squared) => {
-                    levels_of_detail(texels_per_metre_squared, _mm256_loadu_ps(length.as_ptr()))
-                }
-            },
+            _mm256_loadu_ps(lod.as_ptr()),
         )
     };
+    let sums = sums_avx2(levels, wraps, [u, v], lod)?;
+    let mut out = [[0.0f32; 8]; 3];
+    for (out, sum) in out.iter_mut().zip(sums) {
+        // SAFETY: the store writes the eight f32 of `out`.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), sum) };
+    }
+    Some(out)
+}
+
+/// [`samples_avx2`]'s sums (red, green, blue by lane) from registers: lanes 0–3 then 4–7 of
+/// the texture coordinates, and the levels of detail; `None` where `levels` has no tables.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn sums_avx2(
+    levels: &Levels<'_>,
+    wraps: Wraps,
+    [u, v]: [[__m256d; 2]; 2],
+    lod: __m256,
+) -> Option<[__m256; 3]> {
+    let table = levels.table.as_ref()?;
     // `level_below`: the level of detail clamped to the pyramid (NaN, which `min` passes on
     // as its second operand, reads the coarsest), its floor and fraction.
     let coarsest = _mm256_set1_ps((levels.each.len() - 1) as f32);
@@ -134,29 +140,21 @@ fn samples_avx2(
     let weighs = _mm256_cmp_ps::<_CMP_GT_OQ>(fraction, _mm256_setzero_ps());
     let coarse = _mm256_sub_epi32(fine, _mm256_castps_si256(weighs));
     // The rest with the face's wraps.
-    let sums = {
-        let u = wraps.wrap[0].reduce(u, wraps.periods[0]);
-        let v = wraps.wrap[1].reduce(v, wraps.periods[1]);
-        let finer = LevelLanes::new(levels, table, fine, _mm256_sub_ps(_mm256_set1_ps(1.0), fraction));
-        let finer = finer.taps([u, v], wraps);
-        // Where every lane's coarser level weighs zero its taps are left out, as
-        // `trilinear_lanes` leaves them; else each tap is the finer's plus the coarser's.
-        if _mm256_movemask_ps(weighs) == 0 {
-            summed(|tap| finer.weighted(tap))
-        } else {
-            let coarser = LevelLanes::new(levels, table, coarse, fraction).taps([u, v], wraps);
-            summed(|tap| {
-                let (finer, coarser) = (finer.weighted(tap), coarser.weighted(tap));
-                [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
-            })
-        }
-    };
-    let mut out = [[0.0f32; 8]; 3];
-    for (out, sum) in out.iter_mut().zip(sums) {
-        // SAFETY: the store writes the eight f32 of `out`.
-        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), sum) };
-    }
-    Some(out)
+    let u = wraps.wrap[0].reduce(u, wraps.periods[0]);
+    let v = wraps.wrap[1].reduce(v, wraps.periods[1]);
+    let finer = LevelLanes::new(levels, table, fine, _mm256_sub_ps(_mm256_set1_ps(1.0), fraction));
+    let finer = finer.taps([u, v], wraps);
+    // Where every lane's coarser level weighs zero its taps are left out, as
+    // `trilinear_lanes` leaves them; else each tap is the finer's plus the coarser's.
+    Some(if _mm256_movemask_ps(weighs) == 0 {
+        summed(|tap| finer.weighted(tap))
+    } else {
+        let coarser = LevelLanes::new(levels, table, coarse, fraction).taps([u, v], wraps);
+        summed(|tap| {
+            let (finer, coarser) = (finer.weighted(tap), coarser.weighted(tap));
+            [0, 1, 2].map(|channel| _mm256_add_ps(finer[channel], coarser[channel]))
+        })
+    })
 }
 
 /// The sum of the weighted taps `tap(k)` (red, green, blue by lane) in `trilinear_lanes`'
@@ -176,7 +174,7 @@ fn summed(tap: impl Fn(usize) -> [__m256; 3]) -> [__m256; 3] {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn levels_of_detail(texels_per_metre_squared: f32, length: __m256) -> __m256 {
+pub(crate) fn levels_of_detail(texels_per_metre_squared: f32, length: __m256) -> __m256 {
     let squared = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(texels_per_metre_squared), length), length);
     // `log2_by_bits` of the square (+0 below it, NaN too).
     let bits = _mm256_castps_si256(_mm256_max_ps(squared, _mm256_setzero_ps()));
