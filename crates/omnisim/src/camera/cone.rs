@@ -195,8 +195,9 @@ impl ConePlanes {
 
     /// The numbers of pixels `index`' footprints ([`each_lane`]'s planes' order) in AVX2
     /// registers: read in place where they are `neighbours` (`index[k]` is `index[0] + k`),
-    /// else pixel by pixel (plain loads, where gathering them took as long: docs/benchmarks.md,
-    /// 2026-11-27 night2 (tex)); `None` where a pixel lies outside the table.
+    /// else pixel by pixel (plain loads: a gather a plane cost more instructions, an equirect
+    /// frame +7.1 M, docs/benchmarks.md, 2026-11-26 night (tex)); `None` where a pixel lies
+    /// outside the table.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]

@@ -3,7 +3,7 @@
 //! `filter::trilinear_lanes`: wraps, weights and mixing, then lighting and encoding), the
 //! rest shaded one by one as `mod.rs` shades untextured scenes. With AVX2 and a ray table a
 //! run's stages stay in registers (`colours_avx2`: hits to bytes on an unlit face of one
-//! albedo without the linear plane, the usual run; `samples_avx2`: hits to samples
+//! albedo without the linear plane, the usual run; `samples_of_hits`: hits to samples
 //! otherwise), the same operations in the same order. The same colours as shading
 //! each pixel alone (`shade`): per pixel the same look-up, lanes that give the one-lane
 //! sample's bits (tested in `filter.rs`), the same lighting and encoding; only the footprint's
@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::filter::{LANES, Levels, Lookups, Wraps, level_of_detail, samples, trilinear_lanes};
 #[cfg(target_arch = "x86_64")]
-use super::filter::{levels_of_detail, sums_avx2};
+use super::filter::{levels_of_detail, stored, sums_avx2};
 use super::footprint::Footprints;
 #[cfg(target_arch = "x86_64")]
 use super::footprint::longer_axes_in_lanes;
@@ -355,8 +355,10 @@ impl<'a> Shader<'a> {
         self.finish_in(chunk, run, lookups, None);
     }
 
-    /// [`Shader::finish`]'s work, stage by stage over the run's lanes: texture coordinates
-    /// and levels of detail, the filter, the lighting and the sRGB encoding.
+    /// [`Shader::finish`]'s work over the run's lanes: on an unlit face of one albedo without
+    /// the linear plane, from the hits to the bytes in AVX2 registers where the CPU has them;
+    /// else stage by stage (texture coordinates and levels of detail, the filter, the
+    /// lighting, the sRGB encoding), the filter's samples in registers where it can.
     #[inline(always)]
     fn finish_in(&self, chunk: &mut Chunk<'_>, run: &Run<'a>, lookups: &mut Lookups<'a, LANES>, avx2: Option<Avx2>) {
         debug_assert!(
@@ -401,8 +403,8 @@ impl<'a> Shader<'a> {
         // Else the samples in registers there, the rest stage by stage.
         #[cfg(target_arch = "x86_64")]
         let in_registers = self.in_registers(avx2, &hit, &index, neighbours, |avx2, hits, planes| {
-            // SAFETY: `avx2` proves the CPU has AVX2, which `samples_avx2` is compiled for.
-            unsafe { samples_avx2(avx2, hits, planes, face) }
+            // SAFETY: `avx2` proves the CPU has AVX2, which `samples_of_hits` is compiled for.
+            unsafe { samples_of_hits(avx2, hits, planes, face) }
         });
         #[cfg(not(target_arch = "x86_64"))]
         let in_registers = None;
@@ -475,7 +477,7 @@ impl<'a> Shader<'a> {
         hits: &[&Pixel; LANES],
         index: &[usize; LANES],
         neighbours: bool,
-        work: impl FnOnce(Avx2, &[&Pixel; LANES], [Lanes; 7]) -> Option<R>,
+        work: impl FnOnce(Avx2, &[&Pixel; LANES], [F32x8; 7]) -> Option<R>,
     ) -> Option<R> {
         if let Some(avx2) = avx2
             && let Some(cones) = self.footprints.table()
@@ -488,9 +490,9 @@ impl<'a> Shader<'a> {
     }
 }
 
-/// Eight f32 lanes.
+/// Eight f32 lanes in an AVX2 register.
 #[cfg(target_arch = "x86_64")]
-type Lanes = std::arch::x86_64::__m256;
+type F32x8 = std::arch::x86_64::__m256;
 
 /// Writes the colours `encoded` of `run`'s pixels in `chunk`: where they are `neighbours`,
 /// one copy of the eight colours, where `copy_from_slice` of the colours mapped to
@@ -520,8 +522,12 @@ fn write_colours(chunk: &mut Chunk<'_>, run: &Run<'_>, neighbours: bool, encoded
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn sums_of_hits(hits: &[&Pixel; LANES], planes: [Lanes; 7], face: &Face<'_>) -> Option<[Lanes; 3]> {
+fn sums_of_hits(hits: &[&Pixel; LANES], planes: [F32x8; 7], face: &Face<'_>) -> Option<[F32x8; 3]> {
     use std::arch::x86_64::_mm256_setr_ps;
+    // Before any lane's work: without level tables the caller's stages do it all.
+    if !face.levels.in_registers() {
+        return None;
+    }
     let uv = uv_lanes(hits, face.surface.anchor, face.map);
     let range = _mm256_setr_ps(
         hits[0].range,
@@ -541,14 +547,8 @@ fn sums_of_hits(hits: &[&Pixel; LANES], planes: [Lanes; 7], face: &Face<'_>) -> 
 /// [`sums_of_hits`] stored, as `samples` gives them.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn samples_avx2(_: Avx2, hits: &[&Pixel; LANES], planes: [Lanes; 7], face: &Face<'_>) -> Option<[[f32; LANES]; 3]> {
-    let sums = sums_of_hits(hits, planes, face)?;
-    let mut out = [[0.0f32; LANES]; 3];
-    for (out, sum) in out.iter_mut().zip(sums) {
-        // SAFETY: the store writes the eight f32 of `out`.
-        unsafe { std::arch::x86_64::_mm256_storeu_ps(out.as_mut_ptr(), sum) };
-    }
-    Some(out)
+fn samples_of_hits(_: Avx2, hits: &[&Pixel; LANES], planes: [F32x8; 7], face: &Face<'_>) -> Option<[[f32; LANES]; 3]> {
+    sums_of_hits(hits, planes, face).map(|sums| stored(sums))
 }
 
 /// The colours of a run's eight hits `hits` on an unlit `face` of albedo `base` whose
@@ -560,7 +560,7 @@ fn samples_avx2(_: Avx2, hits: &[&Pixel; LANES], planes: [Lanes; 7], face: &Face
 fn colours_avx2(
     _: Avx2,
     hits: &[&Pixel; LANES],
-    planes: [Lanes; 7],
+    planes: [F32x8; 7],
     face: &Face<'_>,
     base: DVec3,
 ) -> Option<[[u8; 3]; LANES]> {

@@ -67,6 +67,12 @@ impl<'a> Levels<'a> {
     pub(crate) fn each(&self) -> &[Level<'a>] {
         &self.each
     }
+
+    /// Whether the lanes in registers can sample these levels (they have tables).
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn in_registers(&self) -> bool {
+        self.table.is_some()
+    }
 }
 
 /// [`samples_avx2`] where `avx2` is there (the proof that the CPU has AVX2), else `None`.
@@ -108,13 +114,20 @@ fn samples_avx2(
             _mm256_loadu_ps(lod.as_ptr()),
         )
     };
-    let sums = sums_avx2(levels, wraps, [u, v], lod)?;
+    sums_avx2(levels, wraps, [u, v], lod).map(|sums| stored(sums))
+}
+
+/// The red, green and blue lanes `sums` stored, as the portable samples give them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(crate) fn stored(sums: [__m256; 3]) -> [[f32; 8]; 3] {
     let mut out = [[0.0f32; 8]; 3];
     for (out, sum) in out.iter_mut().zip(sums) {
         // SAFETY: the store writes the eight f32 of `out`.
         unsafe { _mm256_storeu_ps(out.as_mut_ptr(), sum) };
     }
-    Some(out)
+    out
 }
 
 /// [`samples_avx2`]'s sums (red, green, blue by lane) from registers: lanes 0–3 then 4–7 of
