@@ -14,7 +14,7 @@ use super::file::{AngleUnit, LightFile, LightingFile, MeshFile, ObjectFile, Scen
 use super::library::{
     Placement, RawFace, box_face_textures, box_faces, floor_face, place, polygon_face, positive, wall_face,
 };
-use super::mesh::MeshTriangle;
+use super::mesh_data::MeshTriangle;
 use super::surface::Surfaces;
 use super::texture_bank::TextureBank;
 use super::{Face, Scene, SceneError, SceneObject, Vertices, mesh, names, validate};

@@ -2,7 +2,7 @@
 //!
 //! `Scene::load` reads a RON file (schema in `file.rs`) and builds the scene (`build.rs`):
 //! each library object's faces and textures (`library.rs`), each mesh's triangles (`mesh.rs`
-//! and its formats), their textures decoded once (`texture_bank.rs`), every face checked
+//! and its formats, filling `mesh_data.rs`), their textures decoded once (`texture_bank.rs`), every face checked
 //! (`validate.rs`), and any problem reported with the file, line and object it comes from.
 
 mod build;
@@ -13,6 +13,7 @@ mod gltf;
 mod library;
 pub mod lighting;
 mod mesh;
+mod mesh_data;
 mod names;
 mod obj;
 pub mod pattern;

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec2, dvec3};
 
 use super::lighting::linear_to_srgb;
-use super::mesh::{CornerUvs, MeshTextures, MeshTriangle, mean_colour, uv_from_v_up};
+use super::mesh_data::{CornerUvs, MeshTextures, MeshTriangle, mean_colour, uv_from_v_up};
 use super::texture::Wrap;
 
 /// Most bytes of MTL files one OBJ reads, all its `mtllib` files together.

@@ -10,7 +10,7 @@
 use gltf::accessor::DataType;
 use gltf::accessor::sparse::IndexType;
 
-use crate::scene::mesh::MAX_MESH_TRIANGLES;
+use crate::scene::mesh_data::MAX_MESH_TRIANGLES;
 
 /// Most elements one accessor may hold: as many corners as a mesh may have triangles'.
 const MAX_ELEMENTS: usize = 3 * MAX_MESH_TRIANGLES;

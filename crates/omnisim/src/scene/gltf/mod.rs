@@ -27,7 +27,7 @@ use gltf::texture::WrappingMode;
 use rayon::prelude::*;
 
 use super::lighting::linear_to_srgb;
-use super::mesh::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTriangle};
+use super::mesh_data::{CornerUvs, MAX_MESH_TRIANGLES, MeshParts, MeshTextures, MeshTriangle};
 use super::texture::{self, PendingImage, Wrap};
 
 /// Extensions omnisim implements; any other listed in `extensionsRequired` is refused.
