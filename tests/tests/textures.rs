@@ -178,7 +178,7 @@ fn obj_with_mtl_and_ply_with_texcoords_map_their_textures_exactly() {
     }
 }
 
-/// Triangles a mesh is made into faces at a time (`MESH_CHUNK` in omnisim's scene/library.rs).
+/// Triangles a mesh is made into faces at a time (`MESH_CHUNK` in omnisim's scene/build.rs).
 const MESH_CHUNK: usize = 1 << 15;
 
 /// A PLY strip of two chunks and a part of triangles, with zero-area triangles in each chunk

@@ -1,7 +1,9 @@
 //! `render.json`: everything needed to use rendered files without reading omnisim's code: the
 //! camera and its parameters, the conventions of every file, the backend, and every frame with
 //! its pose and files. Typed, so that a data-set manifest can reuse the parts; the field names
-//! are the file's format and stay as they are.
+//! are the file's format and stay as they are. The record also writes a frame's files through
+//! the output set (`RenderMetadata::write_frame`) and adds the frame's entry only once they are
+//! written, so output never needs to know the record.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! Writers for rendered frames: PNG colour, EXR range, PLY coloured point cloud, and (in
 //! `planes.rs`) segmentation, normals and linear colour. Each writes
-//! atomically (see `atomic.rs`) and names its units and conventions inside the file.
+//! atomically (see `crate::atomic_file`) and names its units and conventions inside the file.
 //!
 //! EXRs are scan lines stored in increasing order, ZIP-compressed unless the caller picks
 //! another lossless [`ExrCompression`]: the same values give the same bytes. Single-value images (range, depth, disparity) hold one channel

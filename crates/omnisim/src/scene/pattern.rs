@@ -1,5 +1,6 @@
 //! Seeded procedural patterns, baked at load into ordinary textures (one sampling path for
-//! images and patterns); a scene file writes them as a texture's [`Pattern`] (`file.rs`). Every pattern tiles: one repeat is the unit square of texture
+//! images and patterns); a scene file writes them as a texture's [`Pattern`] (`file.rs`).
+//! Every pattern tiles: one repeat is the unit square of texture
 //! coordinates, and its edges meet its opposite edges, so `Repeat` shows no seams.
 
 use rand::{Rng, SeedableRng};
