@@ -406,6 +406,28 @@ fn bad_textured_meshes_get_located_errors() {
             "x.mtl",
         ),
         (
+            // Empty files read no bytes: the count of files bounds what a long line makes.
+            "mtllib of many empty files",
+            mesh_error(
+                "a.obj",
+                format!(
+                    "mtllib {}\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                    vec!["e.mtl"; 65].join(" ")
+                ),
+                &[("e.mtl", "")],
+            ),
+            "names more than 64 MTL files",
+        ),
+        (
+            "mtllib list escaping the folder",
+            mesh_error(
+                "a.obj",
+                "mtllib m.mtl ../x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+                &[("m.mtl", "")],
+            ),
+            "mtllib path '../x.mtl' must be relative",
+        ),
+        (
             "missing map_Kd",
             mesh_error(
                 "a.obj",
