@@ -388,11 +388,15 @@ impl<'a> Shader<'a> {
         // to the colours in AVX2 registers, where the CPU has it and the footprints are a ray
         // table's; stage by stage through memory, an omni 250² frame took about 0.03 ms more and
         // an equirect 1024×512 one about 0.25 ms (docs/benchmarks.md, 2026-11-28 (tex5)).
+        // Registers only where the face's texture has level tables (only a texture built by
+        // hand lacks them): else its runs go stage by stage without loading their cones twice.
+        #[cfg(target_arch = "x86_64")]
+        let registers = avx2.filter(|_| face.levels.in_registers());
         #[cfg(target_arch = "x86_64")]
         if !lit_here
             && chunk.linear.is_none()
             && let Some(base) = face.base
-            && let Some(encoded) = self.in_registers(avx2, &hit, &index, neighbours, |avx2, hits, planes| {
+            && let Some(encoded) = self.in_registers(registers, &hit, &index, neighbours, |avx2, hits, planes| {
                 // SAFETY: `avx2` proves the CPU has AVX2, which `colours_avx2` is compiled for.
                 unsafe { colours_avx2(avx2, hits, planes, face, base) }
             })
@@ -402,7 +406,7 @@ impl<'a> Shader<'a> {
         }
         // Else the samples in registers there, the rest stage by stage.
         #[cfg(target_arch = "x86_64")]
-        let in_registers = self.in_registers(avx2, &hit, &index, neighbours, |avx2, hits, planes| {
+        let in_registers = self.in_registers(registers, &hit, &index, neighbours, |avx2, hits, planes| {
             // SAFETY: `avx2` proves the CPU has AVX2, which `samples_of_hits` is compiled for.
             unsafe { samples_of_hits(avx2, hits, planes, face) }
         });
@@ -524,10 +528,6 @@ fn write_colours(chunk: &mut Chunk<'_>, run: &Run<'_>, neighbours: bool, encoded
 #[inline]
 fn sums_of_hits(hits: &[&Pixel; LANES], planes: [F32x8; 7], face: &Face<'_>) -> Option<[F32x8; 3]> {
     use std::arch::x86_64::_mm256_setr_ps;
-    // Before any lane's work: without level tables the caller's stages do it all.
-    if !face.levels.in_registers() {
-        return None;
-    }
     let uv = uv_lanes(hits, face.surface.anchor, face.map);
     let range = _mm256_setr_ps(
         hits[0].range,
