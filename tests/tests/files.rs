@@ -6,7 +6,7 @@ mod common;
 use glam::dvec3;
 use omnisim::advanced::SceneBvh;
 use omnisim::output::ExrCompression;
-use omnisim::output::atomic::Synced;
+use omnisim::output::store::Synced;
 use omnisim::scene::ExportFormat;
 use omnisim::{Pose, advanced as trace, output};
 use ply_rs_bw::parser::Parser;
@@ -458,7 +458,7 @@ fn temporary_files_never_follow_links() {
     for name in [
         format!(".colour.png.partial-{pid}"),
         format!(".colour.png.partial-{}", pid + 1),
-        format!("{}{pid}-", output::atomic::TEMPORARY_PREFIX),
+        format!("{}{pid}-", omnisim::atomic_file::TEMPORARY_PREFIX),
         "colour.png".to_string(),
     ] {
         std::os::unix::fs::symlink(&victim, out.join(name)).unwrap();
@@ -471,7 +471,7 @@ fn temporary_files_never_follow_links() {
         .unwrap()
         .filter(|e| {
             let name = e.as_ref().unwrap().file_name().to_string_lossy().into_owned();
-            name.starts_with(output::atomic::TEMPORARY_PREFIX) && !name.ends_with('-')
+            name.starts_with(omnisim::atomic_file::TEMPORARY_PREFIX) && !name.ends_with('-')
         })
         .count();
     assert_eq!(temporaries, 0, "no temporary left behind");

@@ -480,7 +480,7 @@ fn ray_map_rebuilds_the_points_of_a_non_central_camera() {
     let dir = tempfile::tempdir().unwrap();
     let [origin_path, direction_path, all_path] = output::ray_map_names("").map(|name| dir.path().join(name));
     let paths = [&origin_path, &direction_path, &all_path].map(std::path::PathBuf::as_path);
-    output::write_ray_map_exrs(&mut output::atomic::Synced, paths, &camera).unwrap();
+    output::write_ray_map_exrs(&mut output::store::Synced, paths, &camera).unwrap();
     let (origin, quantity) = common::read_xyz_exr(&origin_path);
     assert_eq!(quantity, "ray origin");
     let (direction, quantity) = common::read_xyz_exr(&direction_path);

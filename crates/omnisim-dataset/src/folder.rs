@@ -9,12 +9,13 @@ use super::manifest::{FileEntry, FrameEntry, SetEntry, Stamp, inside, sha256_hex
 use super::{Dataset, DatasetError, SetPlan};
 use crate::files::{ENTRIES, GATE, MANIFEST, RUNNING, SET_ENTRY, STAMP, entry_path, io, read_entry_paths, write_file};
 use omnisim::Renderer;
-use omnisim::output::{self, atomic};
+use omnisim::atomic_file;
+use omnisim::output;
 
 /// Creates `dir` and removes the temporaries a killed run left there.
 pub(crate) fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
-    atomic::remove_stale_temporaries(dir).map_err(io(dir))?;
+    atomic_file::remove_stale_temporaries(dir).map_err(io(dir))?;
     Ok(())
 }
 
@@ -52,7 +53,7 @@ pub(crate) fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError
         output::folder::RealFolderError::Link(path) => DatasetError::Link { path },
         output::folder::RealFolderError::Io(path, source) => DatasetError::Io { path, source },
     })?;
-    atomic::remove_stale_temporaries(dir).map_err(io(dir))?;
+    atomic_file::remove_stale_temporaries(dir).map_err(io(dir))?;
     Ok(())
 }
 

@@ -43,6 +43,7 @@ pub mod occluders;
 pub mod preview;
 pub mod rng;
 mod run;
+mod set_files;
 mod sha256;
 pub mod spec;
 #[cfg(test)]

@@ -26,12 +26,13 @@ use super::manifest::{FileKind, to_json};
 use super::occluders::{self, Occluder};
 use super::rng::{Purpose, stream};
 use super::{Dataset, DatasetError, SetPlan};
-use crate::files::{ENTRIES, SET_ENTRY, SetFiles, io};
+use crate::files::{ENTRIES, SET_ENTRY, io};
 use crate::folder::{is_done, open_folder, prepare_subdir, set_entry};
 use crate::merge::assemble;
+use crate::set_files::SetFiles;
 use crate::write::{RenderedFrame, WrittenFrame};
+use omnisim::atomic_file::{Durability, DurableFolder, write_bytes_atomically};
 use omnisim::frame::{Frame, Plane};
-use omnisim::output::atomic::{Durability, DurableFolder, write_bytes_atomically};
 use omnisim::output::{PlainFolder, SegmentationLegend};
 use omnisim::{PreparedScene, Renderer};
 

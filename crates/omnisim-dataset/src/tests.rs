@@ -1548,7 +1548,7 @@ fn set_file_paths(out: &Path) -> Vec<PathBuf> {
 /// Syncing through `sync` (the folder's own sync unless it returns an error) in one-frame
 /// batches, so that tests can fail a batch or hold it while the run goes on.
 fn one_frame_batches<'s>(
-    sync: &'s (dyn Fn(&omnisim::output::atomic::DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
+    sync: &'s (dyn Fn(&omnisim::atomic_file::DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
 ) -> run::Syncing<'s> {
     run::Syncing {
         make_durable: sync,
@@ -1563,7 +1563,7 @@ fn one_frame_batches<'s>(
 fn failed_run(
     dataset: &Dataset,
     out: &Path,
-    sync: &(dyn Fn(&omnisim::output::atomic::DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
+    sync: &(dyn Fn(&omnisim::atomic_file::DurableFolder, &[PathBuf]) -> std::io::Result<()> + Sync),
 ) -> String {
     let result = dataset.run_syncing(
         &cpu(),
@@ -1619,7 +1619,7 @@ fn a_failed_batch_sync_is_an_error_and_vouches_for_nothing() {
     let (dir, dataset, reference) = done_small_data_set();
     let out = dir.path().join("again");
     let failed = std::sync::Mutex::new(Vec::new());
-    let sync = |folder: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+    let sync = |folder: &omnisim::atomic_file::DurableFolder, files: &[PathBuf]| {
         let mut failed = failed.lock().unwrap();
         if failed.is_empty() {
             failed.extend_from_slice(files);
@@ -1663,7 +1663,7 @@ fn a_failed_run_with_nothing_left_unsynced_makes_no_more_sync_calls() {
     // The last frame, so that its batch is the run's only one.
     forget(&out, "night", 0);
     let calls = std::sync::Mutex::new(Vec::new());
-    let sync = |_: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+    let sync = |_: &omnisim::atomic_file::DurableFolder, files: &[PathBuf]| {
         calls.lock().unwrap().push(files.len());
         Err(std::io::Error::other("write-back failed"))
     };
@@ -1684,7 +1684,7 @@ fn a_failed_batch_sync_after_a_stop_is_still_an_error() {
     let all_exist = |paths: &[PathBuf]| paths.iter().all(|path| path.exists());
     // map 0's batch is held until night 0 is written, so that night 0's batch goes (at the
     // end of the render loop) before map 0's entry is heard of and stops the run.
-    let sync = |folder: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+    let sync = |folder: &omnisim::atomic_file::DurableFolder, files: &[PathBuf]| {
         if files.iter().any(|path| last.contains(path)) {
             return Err(std::io::Error::other("write-back failed"));
         }
@@ -1729,7 +1729,7 @@ fn a_stop_while_a_batch_is_synced_leaves_its_frames_to_the_next_run() {
     let reference = snapshot(&out);
     let first = forget(&out, "map", 0);
     let (syncing, stopped) = (AtomicBool::new(false), AtomicBool::new(false));
-    let sync = |folder: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+    let sync = |folder: &omnisim::atomic_file::DurableFolder, files: &[PathBuf]| {
         if files.iter().any(|path| first.contains(path)) {
             syncing.store(true, Ordering::SeqCst);
             assert!(wait_until(|| stopped.load(Ordering::SeqCst)), "the run never stopped");
@@ -1780,7 +1780,7 @@ fn a_failed_sync_of_the_set_files_removes_them() {
     let (_dir, dataset, out) = done_small_data_set();
     let reference = snapshot(&out);
     let set_files = set_file_paths(&out);
-    let sync = |_: &omnisim::output::atomic::DurableFolder, files: &[PathBuf]| {
+    let sync = |_: &omnisim::atomic_file::DurableFolder, files: &[PathBuf]| {
         assert!(set_files.iter().all(|path| files.contains(path)));
         Err(std::io::Error::other("write-back failed"))
     };

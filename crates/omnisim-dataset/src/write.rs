@@ -15,8 +15,9 @@ use super::sha256;
 use super::{Dataset, DatasetError, noise};
 use crate::files::entry_path;
 use omnisim::Rig;
+use omnisim::atomic_file::{Durability, write_bytes_atomically};
 use omnisim::frame::Frame;
-use omnisim::output::atomic::{Durability, EncodeBuffer, FileStore, Sink, write_bytes_atomically};
+use omnisim::output::store::{EncodeBuffer, FileStore, Sink};
 use omnisim::output::{self, Destination, FrameTarget, OutputError, SegmentObject};
 
 impl Dataset {

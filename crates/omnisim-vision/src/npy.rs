@@ -25,7 +25,7 @@ pub fn write(path: &Path, shape: &[usize], values: &[f32]) -> Result<(), VisionE
     }
     let shape: Vec<u64> = shape.iter().map(|&n| n as u64).collect();
     // Atomically: never half a file, never through a link planted at `path`.
-    omnisim::output::atomic::write_atomically(path, |out| {
+    omnisim::atomic_file::write_atomically(path, |out| {
         let mut writer = npyz::WriteOptions::new()
             .default_dtype()
             .shape(&shape)

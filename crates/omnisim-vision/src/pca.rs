@@ -157,7 +157,7 @@ impl Pca {
         });
         let path = folder.join(SIDECAR);
         let text = serde_json::to_string_pretty(&sidecar).expect("a JSON value serialises") + "\n";
-        omnisim::output::atomic::write_atomically(&path, |out| std::io::Write::write_all(out, text.as_bytes()))
+        omnisim::atomic_file::write_atomically(&path, |out| std::io::Write::write_all(out, text.as_bytes()))
             .map_err(|source| VisionError::Io { path, source })
     }
 

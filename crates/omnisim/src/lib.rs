@@ -27,7 +27,7 @@
 //! let pose = Pose::from_degrees(dvec3(1.5, 0.0, 0.4), dvec3(0.0, 0.0, 60.0));
 //! let frame = renderer.render(&prepared, &camera, &pose, Planes::COLOUR)?;
 //! let path = std::env::temp_dir().join("omnisim-env1-omni.png");
-//! output::write_png(&mut output::atomic::Synced, &path, &frame)?;
+//! output::write_png(&mut output::store::Synced, &path, &frame)?;
 //! # assert!(frame.hit_count() > 0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -37,7 +37,7 @@
 
 mod accel;
 pub mod advanced;
-mod atomic_file;
+pub mod atomic_file;
 pub mod avx2;
 pub mod calibration;
 pub mod camera;

@@ -10,10 +10,11 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use crate::atomic_file::write_atomically;
 use crate::camera::{Camera, Catadioptric, MirrorShape, NO_DISPARITY, Pinhole, Rig, RigSpec};
 use crate::frame::Frame;
-use crate::output::atomic::{Synced, write_atomically};
 use crate::output::folder::RunFolder;
+use crate::output::store::Synced;
 use crate::output::{self, Destination, FrameTarget, OutputError, OutputSet};
 use crate::pose::Pose;
 use crate::renderer::{PreparedScene, Renderer};

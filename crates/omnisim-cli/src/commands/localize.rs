@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use omnisim::output::atomic::write_atomically;
+use omnisim::atomic_file::write_atomically;
 use omnisim::output::folder::create_real_folder;
 use omnisim_dataset::manifest::{FileKind, FrameEntry, Manifest, ManifestSet, sha256_hex};
 use omnisim_dataset::spec::ColourNoise;

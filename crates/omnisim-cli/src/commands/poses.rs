@@ -8,7 +8,7 @@ use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 use glam::{DVec3, dvec3};
 use omnisim::advanced::SceneBvh;
-use omnisim::output::atomic::write_atomically;
+use omnisim::atomic_file::write_atomically;
 use omnisim::pose_sets::{self, RandomPoses};
 use omnisim::{Pose, Scene};
 

@@ -9,7 +9,7 @@ use std::io::Write;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use omnisim::Camera;
-use omnisim::output::atomic::write_atomically;
+use omnisim::atomic_file::write_atomically;
 use omnisim::output::folder::create_real_folder;
 use omnisim_vision::{Interpolation, Raster, Remap, View};
 use serde_json::{Value, json};

@@ -8,8 +8,8 @@ use std::time::Instant;
 use anyhow::Context;
 use glam::dvec3;
 use omnisim::advanced::CpuTracer;
+use omnisim::atomic_file::write_atomically;
 use omnisim::camera::MirrorRays;
-use omnisim::output::atomic::write_atomically;
 use omnisim::{BackendChoice, Camera, Frame, Planes, Pose, PreparedScene, Renderer, Scene};
 use serde::{Deserialize, Serialize};
 

@@ -8,7 +8,7 @@ use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::atomic::{remove_stale_temporaries, temporary_prefix, write_atomically};
+use crate::atomic_file::{remove_stale_temporaries, temporary_prefix, write_atomically};
 
 /// The manifest's file name in every run folder.
 pub const MANIFEST_NAME: &str = "omnisim-run.txt";

@@ -9,11 +9,11 @@
 //! other layout `OpenCV` and imageio open (`OpenCV` returns them as B, G, R). What the values are
 //! is in the header: the string attribute `quantity` and `comments`.
 
-pub mod atomic;
 pub mod folder;
 mod planes;
 mod rle;
 mod set;
+pub mod store;
 
 pub use planes::{
     LINEAR_CONVENTION, MAX_SEGMENT_ID, NORMAL_CONVENTION, SegmentObject, SegmentationLegend, face_ids, write_id_png,
@@ -31,7 +31,7 @@ use glam::DVec2;
 
 use crate::camera::Camera;
 use crate::frame::{Frame, Pixel};
-use atomic::FileStore;
+use store::FileStore;
 
 /// The channel of single-value EXRs (range, depth, disparity).
 pub const VALUE_CHANNEL: &str = "Y";
@@ -682,7 +682,7 @@ mod tests {
         fn store(
             &mut self,
             path: &Path,
-            fill: impl FnOnce(&mut dyn atomic::Sink) -> std::io::Result<()>,
+            fill: impl FnOnce(&mut dyn store::Sink) -> std::io::Result<()>,
         ) -> std::io::Result<()> {
             let mut out = std::io::Cursor::new(Vec::new());
             fill(&mut out)?;

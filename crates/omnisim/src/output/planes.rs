@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::{ExrCompression, OutputError, OutputProblem, failed, write_xyz_exr};
 use crate::frame::{Frame, NO_FACE};
-use crate::output::atomic::FileStore;
+use crate::output::store::FileStore;
 use crate::scene::Scene;
 
 /// Text stored in normal-map EXR headers (`quantity` = `normal`).

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::atomic::{FileStore, Sink};
 use super::folder::RunFolder;
+use super::store::{FileStore, Sink};
 use super::{ExrCompression, MAX_SEGMENT_ID, OutputError, OutputProblem, failed, write_json};
 use crate::calibration;
 use crate::camera::{Camera, Rig, View};

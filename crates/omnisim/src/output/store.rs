@@ -1,16 +1,13 @@
 //! Where the file writers put their files ([`FileStore`]): straight into a temporary synced
 //! before its rename ([`Synced`]), or encoded in memory first ([`EncodeBuffer`]); never half a
-//! file under its name. The atomic writing itself (temporaries, renames, durability) lives
-//! below the scene and the outputs, since a scene's export writes through it too, and is
-//! re-exported here.
+//! file under its name. The atomic writing itself (temporaries, renames, durability) is
+//! `crate::atomic_file`, below the scene and the outputs, since a scene's export writes
+//! through it too.
 
 use std::io::{Cursor, Seek, Write};
 use std::path::Path;
 
-pub use crate::atomic_file::{
-    Durability, DurableFolder, TEMPORARY_PREFIX, remove_stale_temporaries, temporary_prefix, write_atomically,
-    write_bytes_atomically,
-};
+use crate::atomic_file::write_atomically;
 
 /// What a file writer writes into: bytes in order, and a seek back for EXR's offset table.
 pub trait Sink: Write + Seek {}
