@@ -95,6 +95,51 @@ fn scene_check_and_export() {
     assert!(!wrong.status.success() && text(&wrong.stderr).contains(".ply or .obj"));
 }
 
+/// `scene export` and `preview` replace what they wrote before, and refuse any other file at
+/// their output's name (a scene's own mesh, a user's picture), leaving it as it was.
+#[test]
+fn exports_and_previews_never_replace_a_users_file() {
+    let out = tempfile::tempdir().unwrap();
+    for name in ["mesh.ply", "mesh.obj"] {
+        let path = out.path().join(name);
+        let line = format!("scene export scenes/env2.ron {}", path.display());
+        for _ in 0..2 {
+            let again = omnisim(&line);
+            assert!(again.status.success(), "{line}: {}", text(&again.stderr));
+        }
+        let users = b"ply\nformat ascii 1.0\ncomment a user's own mesh\n";
+        std::fs::write(&path, users).unwrap();
+        let refused = omnisim(&line);
+        let stderr = text(&refused.stderr);
+        assert!(
+            !refused.status.success() && stderr.contains("is not a scene omnisim exported"),
+            "{line}: {stderr}"
+        );
+        assert_eq!(std::fs::read(&path).unwrap(), users);
+    }
+    let prefix = out.path().join("plan");
+    let line = format!("preview scenes/env1-dataset.ron --out {}", prefix.display());
+    for _ in 0..2 {
+        let again = omnisim(&line);
+        assert!(again.status.success(), "{line}: {}", text(&again.stderr));
+    }
+    let [svg, png] = ["svg", "png"].map(|extension| prefix.with_extension(extension));
+    // A user's picture at either name, with or without the preview's other file beside it.
+    for (users, other) in [(&png, &svg), (&svg, &png)] {
+        std::fs::remove_file(other).ok();
+        std::fs::write(users, b"a user's picture").unwrap();
+        let refused = omnisim(&line);
+        let stderr = text(&refused.stderr);
+        assert!(
+            !refused.status.success() && stderr.contains("is not a preview omnisim drew"),
+            "{line}: {stderr}"
+        );
+        assert_eq!(std::fs::read(users).unwrap(), b"a user's picture");
+        assert!(!other.exists(), "{} written", other.display());
+        std::fs::remove_file(users).unwrap();
+    }
+}
+
 /// Writes `scene` to a temporary folder, renders it, and returns (stderr, whether the output
 /// folder exists).
 fn render_bad(scene: &str) -> (String, bool) {

@@ -218,6 +218,21 @@ fn localize_meets_the_issues_checks() {
         third["results"].as_array().unwrap().len()
     );
     assert_same_images(&report, &third);
+
+    // So is one still well formed whose values were edited (its last value made NaN).
+    let values = phases.with_file_name("fourier.npy");
+    let mut bytes = std::fs::read(&values).unwrap();
+    let end = bytes.len();
+    bytes[end - 4..].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(&values, bytes).unwrap();
+    let stderr = omnisim(&args, dir.path());
+    assert_eq!(
+        stderr.matches("every descriptor from descriptors/").count(),
+        5,
+        "{stderr}"
+    );
+    let fourth: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
+    assert_same_images(&report, &fourth);
 }
 
 /// Every result of two reports gives the same per-image estimates.

@@ -14,7 +14,10 @@ use omnisim::output;
 
 /// Creates `dir` and removes the temporaries a killed run left there.
 pub(crate) fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    std::fs::create_dir_all(dir).map_err(|error| match output::folder::file_in_the_way(dir) {
+        Some(path) => DatasetError::NotAFolder { path },
+        None => io(dir)(error),
+    })?;
     atomic_file::remove_stale_temporaries(dir).map_err(io(dir))?;
     Ok(())
 }
@@ -51,6 +54,7 @@ pub(crate) fn refuse_nested(dir: &Path) -> Result<(), DatasetError> {
 pub(crate) fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError> {
     output::folder::create_real_folder(root, dir).map_err(|e| match e {
         output::folder::RealFolderError::Link(path) => DatasetError::Link { path },
+        output::folder::RealFolderError::NotAFolder(path) => DatasetError::NotAFolder { path },
         output::folder::RealFolderError::Io(path, source) => DatasetError::Io { path, source },
     })?;
     atomic_file::remove_stale_temporaries(dir).map_err(io(dir))?;

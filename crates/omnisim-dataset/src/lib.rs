@@ -166,6 +166,12 @@ pub enum DatasetError {
         /// The link.
         path: PathBuf,
     },
+    /// A folder of the data set (--out itself, or one above it) is a file.
+    #[error("{} is a file, not a folder: name a new or empty folder, or a data set's, for --out", path.display())]
+    NotAFolder {
+        /// The file in the way.
+        path: PathBuf,
+    },
     /// The output folder lies inside a data set's bookkeeping folder.
     #[error(
         "{} is or lies inside a data set's bookkeeping folder ({}, its frame entries): a data set there would be \
@@ -274,6 +280,7 @@ impl DatasetError {
                 | Self::NotADataSet { .. }
                 | Self::BadStamp { .. }
                 | Self::Link { .. }
+                | Self::NotAFolder { .. }
                 | Self::InBookkeeping { .. }
                 | Self::InDataSet { .. }
                 | Self::Spec { .. }

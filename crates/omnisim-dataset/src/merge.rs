@@ -114,18 +114,7 @@ pub(crate) fn assemble(
                 continue;
             }
             let entry: FrameEntry = read_json(&path)?;
-            // The stem names files (the contact sheet reads them): a plain name, as written.
-            if entry.index != index
-                || entry.stem.is_empty()
-                || entry.stem.starts_with('.')
-                || entry.stem.contains(['/', '\\'])
-            {
-                return Err(DatasetError::Corrupt {
-                    path: path.clone(),
-                    entry: path,
-                    problem: "its index or stem is not the one this frame was written with".into(),
-                });
-            }
+            check_frame_entry(&entry, index, &path)?;
             let fresh = written.contains(&(set.name.as_str(), index));
             for file in &entry.files {
                 if fresh {
@@ -266,7 +255,14 @@ fn copy_frames(source: &Path, dest: &Path, stamp: &Stamp) -> Result<(), DatasetE
             let files: Vec<FileEntry> = if entry.ends_with(SET_ENTRY) {
                 read_json::<SetEntry>(&entry)?.files
             } else {
-                read_json::<FrameEntry>(&entry)?.files
+                // Checked here, so that a bad entry is named in the shard it came from (its
+                // name is its index: `read_entry_paths` lists only such names).
+                let frame: FrameEntry = read_json(&entry)?;
+                let index = (entry.file_stem().and_then(|stem| stem.to_str()))
+                    .and_then(|stem| stem.parse().ok())
+                    .unwrap_or(usize::MAX);
+                check_frame_entry(&frame, index, &entry)?;
+                frame.files
             };
             for file in &files {
                 let bytes = read_verified(source, file, &entry)?;
@@ -283,6 +279,20 @@ fn copy_frames(source: &Path, dest: &Path, stamp: &Stamp) -> Result<(), DatasetE
                 &std::fs::read(&entry).map_err(io(&entry))?,
             )?;
         }
+    }
+    Ok(())
+}
+
+/// Refuses a frame entry whose index is not `index` or whose stem is not a plain name (it names
+/// files, which the contact sheet reads), as the frame was written.
+fn check_frame_entry(entry: &FrameEntry, index: usize, path: &Path) -> Result<(), DatasetError> {
+    if entry.index != index || entry.stem.is_empty() || entry.stem.starts_with('.') || entry.stem.contains(['/', '\\'])
+    {
+        return Err(DatasetError::Corrupt {
+            path: path.to_path_buf(),
+            entry: path.to_path_buf(),
+            problem: "its index or stem is not the one this frame was written with".into(),
+        });
     }
     Ok(())
 }

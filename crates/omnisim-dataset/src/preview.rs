@@ -182,19 +182,37 @@ impl Preview {
         rasterise(&self.svg, Some(self.view.size))
     }
 
-    /// Writes `PREFIX.svg` and `PREFIX.png` (each atomically); returns their paths.
+    /// Writes `PREFIX.svg` and `PREFIX.png` (each atomically, the PNG drawn before either is
+    /// written, so a failure leaves neither new); returns their paths.
     pub fn write(&self, prefix: &Path) -> Result<[PathBuf; 2], DatasetError> {
-        let with = |extension: &str| {
+        let [svg, png] = Self::paths(prefix);
+        let png_bytes = self.png()?;
+        super::files::write_file(&svg, self.svg.as_bytes())?;
+        super::files::write_file(&png, &png_bytes)?;
+        Ok([svg, png])
+    }
+
+    /// `PREFIX.svg` and `PREFIX.png`.
+    pub fn paths(prefix: &Path) -> [PathBuf; 2] {
+        ["svg", "png"].map(|extension| {
             let mut name = prefix.as_os_str().to_owned();
             name.push(format!(".{extension}"));
             PathBuf::from(name)
-        };
-        let (svg, png) = (with("svg"), with("png"));
-        super::files::write_file(&svg, self.svg.as_bytes())?;
-        super::files::write_file(&png, &self.png()?)?;
-        Ok([svg, png])
+        })
+    }
+
+    /// Whether an SVG file's first bytes are a preview's, so that a new preview may replace it
+    /// (and its PNG) where it would not replace a user's own picture.
+    pub fn wrote(svg_start: &[u8]) -> bool {
+        let text = String::from_utf8_lossy(svg_start);
+        let mut lines = text.lines();
+        lines.next().is_some_and(|first| first.starts_with(SVG_OPENING)) && lines.next() == Some(SVG_BACKGROUND)
     }
 }
+
+/// A preview's first line's start and its second line.
+const SVG_OPENING: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width=""#;
+const SVG_BACKGROUND: &str = r#"<rect width="100%" height="100%" fill="white"/>"#;
 
 /// An SVG drawing as PNG bytes, one pixel per SVG unit, at `size` (width, height) or the
 /// drawing's own size; text in the system's fonts.
@@ -244,9 +262,9 @@ impl Svg {
         let mut text = String::new();
         let _ = writeln!(
             text,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="DejaVu Sans, sans-serif" font-size="13">"#
+            r#"{SVG_OPENING}{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="DejaVu Sans, sans-serif" font-size="13">"#
         );
-        let _ = writeln!(text, r#"<rect width="100%" height="100%" fill="white"/>"#);
+        let _ = writeln!(text, "{SVG_BACKGROUND}");
         Self { text, view }
     }
 

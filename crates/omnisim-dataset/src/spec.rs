@@ -483,6 +483,16 @@ fn check(spec: &Spec, at: &SpecText) -> Result<(), DatasetError> {
     if spec.sets.is_empty() {
         return Err(top("sets", "a data set needs at least one set".into()));
     }
+    if spec.sets.len() > MAX_SETS {
+        return Err(top(
+            "sets",
+            format!(
+                "{} sets are more than {MAX_SETS}: a set is a folder with its own files, entries and contact \
+                 sheet; put the poses of sets that share their changes into one set",
+                spec.sets.len()
+            ),
+        ));
+    }
     let mut names = std::collections::HashSet::new();
     for set in &spec.sets {
         let fail = |field: &str, message: String| {
@@ -586,6 +596,10 @@ fn probability(field: &str, value: f64) -> Checked {
 
 /// Pose counts beyond this are refused: a typo, not a data set.
 pub const MAX_POSES: usize = 10_000_000;
+
+/// The most sets a data set holds: each is a folder, a preview colour and a legend line, so
+/// without a bound a spec's size alone (64 MiB, ~900,000 sets) sets the memory and folders made.
+pub const MAX_SETS: usize = 1000;
 
 fn check_poses(source: &PoseSource) -> Result<(), (String, String)> {
     let err = |field: &str, m: String| Err((field.to_string(), m));

@@ -557,6 +557,21 @@ fn merges_and_overwrites_say_what_they_met() {
         summary.notes
     );
     assert!(merge(&out, &[]).is_ok());
+    // A shard whose frame entry was edited: the shard's entry is named (the one to delete or
+    // restore), and nothing of it is copied over the destination's.
+    let shard = dir.path().join("shard");
+    run(&dataset, &shard, RunOptions::default(), None);
+    let edited = files::entry_path(&shard.join("map"), 0);
+    let text = std::fs::read_to_string(&edited).unwrap();
+    std::fs::write(&edited, text.replacen("\"index\": 0,", "\"index\": 1,", 1)).unwrap();
+    let ours = std::fs::read(files::entry_path(&out.join("map"), 0)).unwrap();
+    let merged = merge(&out, std::slice::from_ref(&shard));
+    let error = merged.err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        error.starts_with(&format!("{}:", edited.display())) && error.contains("index or stem"),
+        "{error}"
+    );
+    assert_eq!(std::fs::read(files::entry_path(&out.join("map"), 0)).unwrap(), ours);
 }
 
 #[cfg(unix)]
@@ -777,6 +792,16 @@ fn bad_specs_get_located_errors() {
             "{message}"
         );
     }
+    // More sets than a data set holds: refused at the list, before any is checked.
+    let many: String = (0..=crate::spec::MAX_SETS)
+        .map(|k| format!("Set(name: \"s{k}\", poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)])),"))
+        .collect();
+    let (_dir, spec) = project(&SPEC.replace("sets: [", &format!("sets: [{many}")));
+    let message = Dataset::load(&spec).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(
+        message.contains("spec.ron:6:") && message.contains("sets") && message.contains("more than 1000"),
+        "{message}"
+    );
     let refuse = SPEC.replace("lights: [Switch", "misplaced: Refuse, lights: [Switch");
     let (_dir, spec) = project(&refuse);
     let message = Dataset::load(&spec).err().map(|e| e.to_string()).unwrap_or_default();

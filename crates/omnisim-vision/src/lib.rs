@@ -98,7 +98,7 @@ pub enum VisionError {
     )]
     /// A camera without a closed-form projection.
     NonCentral,
-    #[error("the image is {got:?} pixels but {expected:?} are needed")]
+    #[error("the image is {}×{} pixels, but the camera's image is {}×{}", got.0, got.1, expected.0, expected.1)]
     /// An image of the wrong size.
     SizeMismatch {
         /// Its size.

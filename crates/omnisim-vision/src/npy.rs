@@ -1,6 +1,6 @@
 //! f32 arrays as `NumPy` `.npy` files (npyz), readable with `numpy.load`.
 
-use std::io::BufReader;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use npyz::WriterBuilder;
@@ -42,8 +42,14 @@ pub const READ_LIMIT: u64 = 2 << 30;
 
 /// Reads an f32 `.npy` file: (shape, row-major values). Only a regular file is opened.
 pub fn read(path: &Path) -> Result<(Vec<usize>, Vec<f32>), VisionError> {
-    let file = omnisim::input::open_regular(path, READ_LIMIT)?;
-    let npy = npyz::NpyFile::new(BufReader::new(file)).map_err(io_error(path))?;
+    let bytes = std::fs::metadata(path).map_err(io_error(path))?.len();
+    let mut file = BufReader::new(omnisim::input::open_regular(path, READ_LIMIT)?);
+    let header = file.fill_buf().map_err(io_error(path))?;
+    check_shape(header, bytes).map_err(|reason| VisionError::Format {
+        path: path.to_path_buf(),
+        reason,
+    })?;
+    let npy = npyz::NpyFile::new(file).map_err(io_error(path))?;
     if npy.order() != npyz::Order::C {
         return Err(VisionError::Format {
             path: path.to_path_buf(),
@@ -53,4 +59,71 @@ pub fn read(path: &Path) -> Result<(Vec<usize>, Vec<f32>), VisionError> {
     let shape = npy.shape().iter().map(|&n| n as usize).collect();
     let values = npy.into_vec::<f32>().map_err(io_error(path))?;
     Ok((shape, values))
+}
+
+/// Refuses a header whose shape holds more values than the file has bytes, before npyz reads
+/// it: npyz multiplies the shape's numbers unchecked (an overflow panic in debug builds, a
+/// wrapped count in release), and such a header can only be a damaged or crafted file.
+/// `start` is the file's first bytes (a `BufReader`'s buffer: 8 KiB, more than any header
+/// numpy writes), `bytes` its length.
+fn check_shape(start: &[u8], bytes: u64) -> Result<(), String> {
+    let Some(text) = start.strip_prefix(b"\x93NUMPY").and_then(|rest| rest.get(2..)) else {
+        return Ok(()); // not an .npy file: npyz says so
+    };
+    // The header's text, cut at its end or at what the buffer holds.
+    let text = String::from_utf8_lossy(text);
+    let Some(at) = text.find("'shape'").or_else(|| text.find("\"shape\"")) else {
+        return Ok(()); // no shape: npyz refuses the header
+    };
+    let tuple = &text[at..];
+    let Some(numbers) = tuple
+        .find('(')
+        .zip(tuple.find(')'))
+        .and_then(|(open, close)| tuple.get(open + 1..close))
+    else {
+        return Ok(());
+    };
+    let mut values: u64 = 1;
+    for number in numbers
+        .split(',')
+        .map(|n| n.trim().trim_end_matches('L'))
+        .filter(|n| !n.is_empty())
+    {
+        let n: u64 = number
+            .parse()
+            .map_err(|_| format!("the header's shape ({numbers}) holds '{number}', not a count"))?;
+        values = values.checked_mul(n).filter(|&v| v <= bytes).ok_or_else(|| {
+            format!("the header's shape ({numbers}) holds more values than the file's {bytes} bytes: the file is damaged; write it again")
+        })?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A header whose shape overflows (or merely exceeds the file) is a located format error;
+    /// npyz alone multiplied it unchecked (a panic in debug builds). The file as written reads.
+    #[test]
+    fn a_shape_larger_than_the_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("hog.npy");
+        write(&path, &[3, 2], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).unwrap();
+        assert_eq!(read(&path).unwrap(), (vec![3, 2], vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+        let written = std::fs::read(&path).unwrap();
+        for (shape, said) in [
+            ("(4611686018427387904, 4611686018427387904, 8)", "more values than"),
+            ("(100000, 2)", "more values than"),
+            ("(3, x)", "not a count"),
+        ] {
+            // The shape's tuple as npyz wrote it, whatever its spacing.
+            let open = written.iter().position(|&b| b == b'(').unwrap();
+            let close = open + written[open..].iter().position(|&b| b == b')').unwrap();
+            let patched = [&written[..open], shape.as_bytes(), &written[close + 1..]].concat();
+            std::fs::write(&path, patched).unwrap();
+            let error = read(&path).expect_err(shape).to_string();
+            assert!(error.contains("hog.npy") && error.contains(said), "{shape}: {error}");
+        }
+    }
 }

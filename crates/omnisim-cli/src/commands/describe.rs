@@ -543,7 +543,8 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
             let image = read_image(&frame.path, size)?;
             size = Some((image.width, image.height));
             let grey = image.to_grey();
-            let pano = panorama.as_ref().map(|p| p.of(&grey)).transpose()?;
+            let pano = (panorama.as_ref().map(|p| p.of(&grey)).transpose())
+                .with_context(|| format!("cannot make the panorama of {}", frame.path.display()))?;
             for (choice, result) in choices.iter().zip(&mut per_choice) {
                 if let (Reads::Panorama, Some((_, Some(seconds)))) = (choice.reads, &pano) {
                     result.panorama_seconds.push(*seconds);

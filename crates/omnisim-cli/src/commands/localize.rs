@@ -14,7 +14,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use omnisim::atomic_file::write_atomically;
 use omnisim::output::folder::create_real_folder;
-use omnisim_dataset::manifest::{FileKind, FrameEntry, Manifest, ManifestSet, sha256_hex};
+use omnisim_dataset::manifest::{FileKind, FrameEntry, Manifest, ManifestSet, hash_file, sha256_hex};
 use omnisim_dataset::spec::ColourNoise;
 use omnisim_vision::fourier::FourierSignature;
 use omnisim_vision::keypoints::Features;
@@ -397,6 +397,10 @@ struct CacheRecord {
     key: String,
     shape: Vec<usize>,
     seconds_per_image: f64,
+    /// SHA-256 of the values' file and of the phases' file where there is one, as written: a
+    /// file edited or damaged since (NaN written over its values, say) is described again.
+    values_sha256: String,
+    phases_sha256: Option<String>,
 }
 
 fn cache_files(out: &Path, set: &str, name: &str) -> (PathBuf, PathBuf, PathBuf) {
@@ -418,6 +422,10 @@ fn load_cached(out: &Path, set: &str, name: &str, key: &str, images: usize) -> O
         return None;
     }
     let (shape, data) = npy::read(&values).ok()?;
+    let unchanged = |path: &Path, sha256: &str| hash_file(path).is_ok_and(|(_, hash)| hash == sha256);
+    if !unchanged(&values, &record.values_sha256) {
+        return None;
+    }
     let agrees = |shape: &[usize]| shape.first() == Some(&images) && shape[1..] == record.shape[..];
     if !agrees(&shape) || record.shape.contains(&0) {
         return None;
@@ -425,7 +433,15 @@ fn load_cached(out: &Path, set: &str, name: &str, key: &str, images: usize) -> O
     let length: usize = shape.iter().skip(1).product();
     let rows_of = |data: Vec<f32>| -> Vec<Vec<f32>> { data.chunks(length).map(<[f32]>::to_vec).collect() };
     let phases = match npy::read(&phases) {
-        Ok((s, p)) if s == shape => Some(rows_of(p)),
+        Ok((s, p))
+            if s == shape
+                && record
+                    .phases_sha256
+                    .as_ref()
+                    .is_some_and(|hash| unchanged(&phases, hash)) =>
+        {
+            Some(rows_of(p))
+        }
         Ok(_) => return None,
         Err(_) if phases.exists() => return None,
         Err(_) => None,
@@ -455,6 +471,13 @@ fn store(out: &Path, set: &str, name: &str, key: &str, rows: &Rows) -> anyhow::R
         key: key.to_string(),
         shape: rows.shape.clone(),
         seconds_per_image: rows.seconds,
+        values_sha256: hash_file(&values)?.1,
+        phases_sha256: rows
+            .phases
+            .as_ref()
+            .map(|_| hash_file(&phases))
+            .transpose()?
+            .map(|(_, hash)| hash),
     })?;
     write_atomically(&record, |w| w.write_all(&text)).with_context(|| format!("cannot write {}", record.display()))
 }
@@ -479,7 +502,8 @@ fn describe_frame(
 ) -> anyhow::Result<Vec<FrameDescribed>> {
     let image = read_image(path, Some(size))?;
     let grey = image.to_grey();
-    let pano = panorama.map(|p| p.of(&grey)).transpose()?;
+    let pano = (panorama.map(|p| p.of(&grey)).transpose())
+        .with_context(|| format!("cannot make the panorama of {}", path.display()))?;
     chosen
         .iter()
         .map(|&i| {

@@ -134,25 +134,6 @@ fn parse_triple(text: &str) -> Result<DVec3, String> {
 /// How every pose file this command writes starts.
 const HEADER: &str = "# omnisim poses";
 
-/// Refuses to replace an existing file that is not a pose file this command wrote (`--out
-/// env1.ron` would have overwritten the scene).
-fn refuse_replacing_other_files(path: &std::path::Path) -> anyhow::Result<()> {
-    // Only a regular file is opened: a link to a FIFO would wait for a writer.
-    let mut start = [0u8; HEADER.len()];
-    let ours = match omnisim::input::open_regular(path, u64::MAX) {
-        Ok(mut file) => std::io::Read::read_exact(&mut file, &mut start).is_ok() && start == HEADER.as_bytes(),
-        Err(omnisim::input::InputError::NotAFile { .. }) => false,
-        Err(_) => return Ok(()),
-    };
-    if !ours {
-        anyhow::bail!(
-            "{} exists and is not a pose file omnisim wrote; choose another --out, or remove it first",
-            path.display()
-        );
-    }
-    Ok(())
-}
-
 fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
     let fill = |w: &mut dyn Write| -> std::io::Result<()> {
         writeln!(
@@ -170,7 +151,11 @@ fn write(poses: &[Pose], kind: &str, out: &Output) -> anyhow::Result<()> {
         Some(path) => {
             // A FIFO is refused before it is opened (opening it waits for a writer).
             super::prepare_file(path)?;
-            refuse_replacing_other_files(path)?;
+            super::refuse_replacing_other_files(
+                path,
+                |start| start.starts_with(HEADER.as_bytes()),
+                "a pose file omnisim wrote",
+            )?;
             write_atomically(path, |file| fill(file)).with_context(|| format!("cannot write {}", path.display()))?;
             crate::streams::stderr(format_args!("{} poses written to {}", poses.len(), path.display()))?;
         }

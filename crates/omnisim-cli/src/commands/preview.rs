@@ -40,10 +40,16 @@ pub(crate) fn run(mut args: PreviewArgs) -> anyhow::Result<()> {
         crate::streams::stderr(format_args!("warning: {warning}"))?;
     }
     let picture = preview::draw(&dataset)?;
-    for extension in [".svg", ".png"] {
-        let mut path = args.out.clone().into_os_string();
-        path.push(extension);
-        super::prepare_file(&PathBuf::from(path))?;
+    let [svg, png] = preview::Preview::paths(&args.out);
+    for path in [&svg, &png] {
+        super::prepare_file(path)?;
+    }
+    // A preview omnisim drew is replaced, SVG and PNG; any other file at either name is
+    // refused (a PNG is taken for a preview's only beside the preview's SVG).
+    let what = "a preview omnisim drew";
+    super::refuse_replacing_other_files(&svg, preview::Preview::wrote, what)?;
+    if !svg.exists() {
+        super::refuse_replacing_other_files(&png, |_| false, what)?;
     }
     let written = picture
         .write(&args.out)

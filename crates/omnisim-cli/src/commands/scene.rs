@@ -67,6 +67,9 @@ pub(crate) fn run(command: SceneCommand) -> anyhow::Result<()> {
                 .with_context(|| format!("{}: use a .ply or .obj file name", output.display()))?;
             let loaded = Scene::load(&scene)?;
             crate::commands::prepare_file(&output)?;
+            // Never over a file omnisim did not export (a scene's own mesh, say).
+            let exported = |start: &[u8]| format.wrote(start);
+            crate::commands::refuse_replacing_other_files(&output, exported, "a scene omnisim exported")?;
             loaded.export(&output, format)?;
             crate::streams::stdout(output.display())?;
         }

@@ -61,6 +61,12 @@ pub enum FolderError {
         /// The name refused.
         name: String,
     },
+    /// The folder, or one above it, is a file.
+    #[error("{} is a file, not a folder: name a new or empty folder", path.display())]
+    NotAFolder {
+        /// The file in the way.
+        path: PathBuf,
+    },
     /// The destination is a device, FIFO, socket or folder: writing it whole means replacing it.
     #[error(
         "{} is {kind}, not a regular file: omnisim writes a file by replacing it whole, which would remove {kind}; \
@@ -101,7 +107,7 @@ impl RunFolder {
             dir: dir.to_path_buf(),
             source,
         };
-        std::fs::create_dir_all(dir).map_err(io)?;
+        create_folder(dir)?;
         let mut notes = Vec::new();
         let stale = remove_stale_temporaries(dir).map_err(io)?;
         if stale > 0 {
@@ -213,7 +219,7 @@ pub fn prepare_file(path: &Path) -> Result<Vec<String>, FolderError> {
         dir: dir.to_path_buf(),
         source,
     };
-    std::fs::create_dir_all(dir).map_err(io)?;
+    create_folder(dir)?;
     let stale = remove_stale_temporaries(dir).map_err(io)?;
     tempfile::Builder::new()
         .prefix(&temporary_prefix())
@@ -235,16 +241,43 @@ pub enum RealFolderError {
     /// A level of the folder is a link: writing there would land wherever it points.
     #[error("{} is a link: omnisim writes only into real folders under the one named; remove the link", .0.display())]
     Link(PathBuf),
+    /// A level of the folder is a file.
+    #[error("{} is a file, not a folder: name a new or empty folder", .0.display())]
+    NotAFolder(PathBuf),
     /// The system refused.
     #[error("cannot create {}: {source}", .0.display(), source = .1)]
     Io(PathBuf, std::io::Error),
+}
+
+/// `create_dir_all`, naming the file in the way where `dir` or a folder above it is a file
+/// (the system says only "File exists" or "Not a directory", as if the folder were fine).
+fn create_folder(dir: &Path) -> Result<(), FolderError> {
+    std::fs::create_dir_all(dir).map_err(|source| match file_in_the_way(dir) {
+        Some(path) => FolderError::NotAFolder { path },
+        None => FolderError::Io {
+            dir: dir.to_path_buf(),
+            source,
+        },
+    })
+}
+
+/// The first of `dir` and the folders above it that exists and is not a folder (links
+/// followed), if one is.
+pub fn file_in_the_way(dir: &Path) -> Option<PathBuf> {
+    (dir.ancestors())
+        .filter(|path| !path.as_os_str().is_empty())
+        .find(|path| std::fs::metadata(path).is_ok_and(|metadata| !metadata.is_dir()))
+        .map(Path::to_path_buf)
 }
 
 /// Creates `dir` below `root` (which the user named, and may itself be a link) one level at a
 /// time, refusing a level that is a link: outputs written into `dir` then stay under `root`.
 /// A link swapped in afterwards is not seen.
 pub fn create_real_folder(root: &Path, dir: &Path) -> Result<(), RealFolderError> {
-    std::fs::create_dir_all(root).map_err(|e| RealFolderError::Io(root.to_path_buf(), e))?;
+    std::fs::create_dir_all(root).map_err(|e| match file_in_the_way(root) {
+        Some(path) => RealFolderError::NotAFolder(path),
+        None => RealFolderError::Io(root.to_path_buf(), e),
+    })?;
     let below = dir.strip_prefix(root).map_err(|_| {
         RealFolderError::Io(
             dir.to_path_buf(),
@@ -256,6 +289,7 @@ pub fn create_real_folder(root: &Path, dir: &Path) -> Result<(), RealFolderError
         path.push(part);
         match std::fs::symlink_metadata(&path) {
             Ok(metadata) if metadata.file_type().is_symlink() => return Err(RealFolderError::Link(path)),
+            Ok(metadata) if !metadata.is_dir() => return Err(RealFolderError::NotAFolder(path)),
             Ok(_) => {}
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => match std::fs::create_dir(&path) {
                 // Another writer (a shard) may make it first.

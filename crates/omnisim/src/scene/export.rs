@@ -16,7 +16,21 @@ pub enum ExportFormat {
     Obj,
 }
 
+/// The words an export's first lines name it by (after `comment ` in PLY, `# ` in OBJ).
+const SIGNATURE: &str = "omnisim scene '";
+
 impl ExportFormat {
+    /// Whether a file's first bytes are those of a scene export in this format, so that a new
+    /// export may replace it where it would not replace a user's own mesh.
+    pub fn wrote(self, start: &[u8]) -> bool {
+        match self {
+            Self::Ply => {
+                start.starts_with(format!("ply\nformat binary_little_endian 1.0\ncomment {SIGNATURE}").as_bytes())
+            }
+            Self::Obj => start.starts_with(format!("# {SIGNATURE}").as_bytes()),
+        }
+    }
+
     /// The format a file name asks for by its extension (`.ply`, `.obj`), if any.
     pub fn from_path(path: &Path) -> Option<Self> {
         match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
@@ -35,7 +49,7 @@ pub(super) fn export(scene: &Scene, path: &Path, format: ExportFormat) -> Result
                 // Corners are not shared: a vertex takes the colour of its face.
                 write!(
                     out,
-                    "ply\nformat binary_little_endian 1.0\ncomment omnisim scene '{}', metres, z up\n\
+                    "ply\nformat binary_little_endian 1.0\ncomment {SIGNATURE}{}', metres, z up\n\
                      element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
                      property uchar red\nproperty uchar green\nproperty uchar blue\n\
                      element face {}\nproperty list uchar int vertex_indices\nend_header\n",
@@ -62,7 +76,7 @@ pub(super) fn export(scene: &Scene, path: &Path, format: ExportFormat) -> Result
             ExportFormat::Obj => {
                 writeln!(
                     out,
-                    "# omnisim scene '{}', metres, z up; v x y z r g b (colours 0-1)",
+                    "# {SIGNATURE}{}', metres, z up; v x y z r g b (colours 0-1)",
                     scene.name.replace(['\n', '\r'], " ")
                 )?;
                 let mut current_object = u32::MAX;
