@@ -336,6 +336,16 @@ fn pose_files_for_grids_trajectories_and_random_tests_render() {
     assert!(!impossible.status.success() && text(&impossible.stderr).contains("--clearance"));
     let backwards = omnisim("poses grid --x 1:0:1 --y 0 --z 0");
     assert!(!backwards.status.success() && text(&backwards.stderr).contains("START:STOP:STEP"));
+    // Trajectories: a waypoint where no scene lies, one point twice, and a spacing shown as typed.
+    for (line, said) in [
+        ("--through 0,0,0 --through 1e300,0,0 --spacing 1e290", "beyond ±1e6 m"),
+        ("--through 0,0,0 --through 0,0,0 --spacing 1", "all the same point"),
+        ("--through 0,0,0 --through 1,0,0 --spacing 1e-300", "1 m every 1e-300 m is more than"),
+    ] {
+        let refused = omnisim(&format!("poses trajectory {line}"));
+        let stderr = text(&refused.stderr);
+        assert!(!refused.status.success() && stderr.contains(said), "{line}: {stderr}");
+    }
 }
 
 #[test]

@@ -10,6 +10,7 @@ use glam::{DVec3, dvec3};
 use omnisim::advanced::SceneBvh;
 use omnisim::atomic_file::write_atomically;
 use omnisim::pose_sets::{self, RandomPoses};
+use omnisim::scene::MAX_COORDINATE;
 use omnisim::{Pose, Scene};
 
 /// Write poses for a data set: one "x y z θx θy θz" per line (metres, degrees).
@@ -40,7 +41,7 @@ pub(crate) enum PosesCommand {
     )]
     Trajectory {
         /// A waypoint x,y,z in metres; give two or more, in order.
-        #[arg(long = "through", value_parser = parse_triple, allow_hyphen_values = true, required = true)]
+        #[arg(long = "through", value_parser = parse_position, allow_hyphen_values = true, required = true)]
         waypoints: Vec<DVec3>,
         /// Distance between consecutive poses, metres.
         #[arg(long, default_value_t = 0.1)]
@@ -114,6 +115,16 @@ fn parse_range(text: &str) -> Result<Values, String> {
     }
 }
 
+/// Metres as a person reads them: plain where that is short, else in exponent form (not 1e-300
+/// as three hundred digits).
+fn metres(value: f64) -> String {
+    if value == 0.0 || (1e-4..1e7).contains(&value.abs()) {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    }
+}
+
 fn parse_interval(text: &str) -> Result<(f64, f64), String> {
     let parts: Vec<f64> = text.split(':').map(number).collect::<Result<_, _>>()?;
     match parts[..] {
@@ -128,6 +139,17 @@ fn parse_triple(text: &str) -> Result<DVec3, String> {
     match parts[..] {
         [x, y, z] => Ok(dvec3(x, y, z)),
         _ => Err(format!("'{text}' is not three comma-separated numbers")),
+    }
+}
+
+/// A position, `x,y,z` in metres, where scenes may lie (as `--pose` takes it).
+fn parse_position(text: &str) -> Result<DVec3, String> {
+    let position = parse_triple(text)?;
+    match position.to_array().into_iter().find(|v| v.abs() > MAX_COORDINATE) {
+        Some(v) => Err(format!(
+            "{v:e} m in '{text}' is beyond ±{MAX_COORDINATE:e} m, where scenes may lie"
+        )),
+        None => Ok(position),
     }
 }
 
@@ -183,11 +205,18 @@ pub(crate) fn run(command: PosesCommand) -> anyhow::Result<()> {
                 bail!("a trajectory needs two or more --through waypoints");
             }
             if !(spacing.is_finite() && spacing > 0.0) {
-                bail!("--spacing must be a positive number of metres, not {spacing}");
+                bail!("--spacing must be a positive number of metres, not {spacing:e}");
             }
             let length: f64 = waypoints.windows(2).map(|w| w[0].distance(w[1])).sum();
+            if length == 0.0 {
+                bail!("the --through waypoints are all the same point: a trajectory needs two different ones");
+            }
             if length / spacing > MAX_POSES as f64 {
-                bail!("{length} m every {spacing} m is more than {MAX_POSES} poses; use a larger --spacing");
+                bail!(
+                    "{} m every {} m is more than {MAX_POSES} poses; use a larger --spacing",
+                    metres(length),
+                    metres(spacing)
+                );
             }
             write(&pose_sets::trajectory(&waypoints, spacing), "trajectory", &out)
         }
