@@ -340,7 +340,10 @@ fn pose_files_for_grids_trajectories_and_random_tests_render() {
     for (line, said) in [
         ("--through 0,0,0 --through 1e300,0,0 --spacing 1e290", "beyond ±1e6 m"),
         ("--through 0,0,0 --through 0,0,0 --spacing 1", "all the same point"),
-        ("--through 0,0,0 --through 1,0,0 --spacing 1e-300", "1 m every 1e-300 m is more than"),
+        (
+            "--through 0,0,0 --through 1,0,0 --spacing 1e-300",
+            "1 m every 1e-300 m is more than",
+        ),
     ] {
         let refused = omnisim(&format!("poses trajectory {line}"));
         let stderr = text(&refused.stderr);

@@ -351,6 +351,9 @@ fn describe_refuses_bad_requests() {
     image::RgbImage::new(60, 60)
         .save(dir.path().join("mixed/b.png"))
         .unwrap();
+    // A folder whose only image is an empty file.
+    std::fs::create_dir(dir.path().join("empty")).unwrap();
+    std::fs::write(dir.path().join("empty/a.png"), b"").unwrap();
     for (args, message) in [
         (
             vec!["describe", "ds", "-d", "sift:sigmaa=2", "--out", "x"],
@@ -493,6 +496,10 @@ fn describe_refuses_bad_requests() {
         (
             [&["project", "mixed"][..], &omni, &["--view", "panorama", "--out", "x"]].concat(),
             "is 60×60 pixels, but the camera's image is 120×120",
+        ),
+        (
+            [&["describe", "empty"][..], &omni, &["-d", "hog", "--out", "x"]].concat(),
+            "empty/a.png is an empty file, not an image",
         ),
     ] {
         let output = omnisim(&args, dir.path());

@@ -422,6 +422,10 @@ const IMAGE_LIMIT: u64 = 1 << 30;
 /// A reader of the image file `path`, opened only if it is a regular file (a FIFO would block).
 fn open_image(path: &Path) -> anyhow::Result<image::ImageReader<BufReader<Take<File>>>> {
     let file = omnisim::input::open_regular(path, IMAGE_LIMIT)?;
+    // Said plainly: the image crate calls an empty file one whose format it cannot determine.
+    if file.get_ref().metadata().is_ok_and(|metadata| metadata.len() == 0) {
+        bail!("{} is an empty file, not an image", path.display());
+    }
     image::ImageReader::new(BufReader::new(file))
         .with_guessed_format()
         .with_context(|| format!("cannot read image {}", path.display()))
