@@ -416,7 +416,7 @@ fn bad_textured_meshes_get_located_errors() {
                 ),
                 &[("e.mtl", "")],
             ),
-            "names more than 64 MTL files",
+            "give more than 64 MTL file names",
         ),
         (
             "mtllib list escaping the folder",
@@ -446,6 +446,23 @@ fn bad_textured_meshes_get_located_errors() {
             "obj face index past the texture coordinates",
             mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/5 3/1\n", &[]),
             "line 5: face index 5 names no texture coordinate: the file has 1 texture coordinates (`vt` lines)",
+        ),
+        (
+            // tobj's index arithmetic overflows on these (a panic where overflow checks are on:
+            // the workspace turns them off for tobj, Cargo.toml).
+            "obj relative face index before the first texture coordinate",
+            mesh_error("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-9 2/1 3/1\n", &[]),
+            "line 5: face index -9 names no texture coordinate: the file has 1 texture coordinates (`vt` lines) \
+             before this face",
+        ),
+        (
+            "obj face normal index of 19 digits",
+            mesh_error(
+                "a.obj",
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//9223372036854775807 2//1 3//1\n",
+                &[],
+            ),
+            "line 5: face index 9223372036854775807 names no normal: the file has 1 normals (`vn` lines);",
         ),
         (
             // tobj reads an object's faces against the vertices before the object ends.

@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::DatasetError;
 use omnisim::input::locate;
+use omnisim::input::shown_number as number;
 
 /// An sRGB colour, 0–255 per channel.
 pub type Rgb = (u8, u8, u8);
@@ -566,15 +567,6 @@ fn finite(field: &str, values: &[f64]) -> Checked {
             ),
         )),
         None => Ok(()),
-    }
-}
-
-/// `value` as a message shows it: 1e300, not its 301 digits.
-fn number(value: f64) -> String {
-    if value != 0.0 && !(1e-4..1e9).contains(&value.abs()) {
-        format!("{value:e}")
-    } else {
-        value.to_string()
     }
 }
 

@@ -380,7 +380,7 @@ impl Default for OmniSpec {
 #[derive(Debug, thiserror::Error)]
 pub enum RigSpecError {
     /// A field of view outside (0°, 180°).
-    #[error("{field} must be between 0 and 180 degrees (exclusive), not {degrees}")]
+    #[error("{field} must be between 0 and 180 degrees (exclusive), not {}", crate::input::shown_number(*degrees))]
     FieldOfView {
         /// `hfov` or `vfov`.
         field: &'static str,

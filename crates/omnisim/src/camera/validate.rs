@@ -5,6 +5,7 @@
 use glam::dvec2;
 
 use super::{Camera, Catadioptric, LensCamera, LensModel, MirrorShape, Pinhole, StereoRig};
+use crate::input::shown_number as number;
 
 /// Most pixels one image may have (a frame holds about 40 bytes a pixel in memory).
 pub const MAX_PIXELS: u64 = 100_000_000;
@@ -53,16 +54,6 @@ pub enum CameraError {
     /// A ray method the camera cannot use (the paper's shortcut on a non-central mirror).
     #[error("{0}")]
     Method(&'static str),
-}
-
-/// A number as people read it: plain for ordinary magnitudes, scientific otherwise (1e-300
-/// printed in full is 300 zeros).
-fn number(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() || (1e-4..1e9).contains(&v.abs()) {
-        format!("{v}")
-    } else {
-        format!("{v:e}")
-    }
 }
 
 pub(super) fn within(name: &'static str, value: f64, range: (f64, f64), unit: &'static str) -> Result<(), CameraError> {

@@ -163,6 +163,16 @@ pub fn without_bom(text: &str) -> &str {
     text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
+/// A number as an error message shows it: plain for ordinary magnitudes, scientific otherwise
+/// (1e-300 printed in full is 300 zeros).
+pub fn shown_number(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() || (1e-4..1e9).contains(&value.abs()) {
+        value.to_string()
+    } else {
+        format!("{value:e}")
+    }
+}
+
 /// User text as an error message shows it: escaped (no control characters reach the
 /// terminal) and at most `max` characters.
 pub fn shown(text: &str, max: usize) -> String {

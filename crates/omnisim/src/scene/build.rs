@@ -643,9 +643,11 @@ mod box_texture_tests {
             error.contains("unknown face 'lid' in face_textures") && error.contains("sides"),
             "{error}"
         );
-        let bad = "{ \"top\": (pattern: Checker(colours: ((0, 0, 0), (9, 9, 9)), squares: 2), scale: (0.0, 1.0)) }";
+        // 1e-300 shown as such, not as its 300 zeros.
+        let bad = "{ \"top\": (pattern: Checker(colours: ((0, 0, 0), (9, 9, 9)), squares: 2), scale: (0.0, 1e-300)) }";
         let error = load(bad).unwrap_err().to_string();
         assert!(error.contains("face_textures.\"top\".scale"), "{error}");
+        assert!(error.contains("not (0, 1e-300)") && error.len() < 400, "{error}");
         // Line 4 of the file, where face_textures is written.
         assert!(error.contains("s.ron:4:"), "{error}");
     }

@@ -91,7 +91,11 @@ pub(super) fn place(
     if !(sx.is_finite() && sx > 0.0 && sy.is_finite() && sy > 0.0) {
         return Err((
             "scale",
-            format!("scale must be two positive finite lengths in metres (one repeat across, down), not ({sx}, {sy})"),
+            format!(
+                "scale must be two positive finite lengths in metres (one repeat across, down), not ({}, {})",
+                crate::input::shown_number(sx),
+                crate::input::shown_number(sy)
+            ),
         ));
     }
     if !(rotation.is_finite() && file.offset.0.is_finite() && file.offset.1.is_finite()) {

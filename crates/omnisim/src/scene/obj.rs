@@ -111,20 +111,22 @@ fn colours_of_three(text: &str) -> Result<String, String> {
     Ok(out)
 }
 
-/// MTL files an OBJ may name in all: a bound on the paths made and files opened, which the
-/// byte budget alone does not give (a line of many names of empty files reads no bytes).
+/// MTL file names an OBJ's `mtllib` lines may give in all (a name given twice counts twice): a
+/// bound on the paths made and files opened, which the byte budget alone does not give (a line
+/// of many names of empty files reads no bytes).
 const MAX_MTL_FILES: usize = 64;
 
 /// The files of an `mtllib` line: the whole line where it names a file (a name with spaces, as
 /// Blender writes it), else each of its words (the format's list of names); `named` counts the
-/// OBJ's files so far, which may not pass [`MAX_MTL_FILES`].
+/// OBJ's names so far, which may not pass [`MAX_MTL_FILES`].
 fn mtl_files(mesh: &Path, line: &str, named: &Cell<usize>) -> Result<Vec<PathBuf>, String> {
     let whole = crate::input::inside_folder(mesh, line, "mtllib");
     let one_file = !line.contains(char::is_whitespace) || whole.as_ref().is_ok_and(|path| path.is_file());
     let count = if one_file { 1 } else { line.split_whitespace().count() };
     if named.get() + count > MAX_MTL_FILES {
         return Err(format!(
-            "mtllib: the OBJ names more than {MAX_MTL_FILES} MTL files; merge them into fewer files"
+            "mtllib: the OBJ's mtllib lines give more than {MAX_MTL_FILES} MTL file names in all (a name given \
+             twice counts twice); name each file once, or merge the materials into fewer files"
         ));
     }
     named.set(named.get() + count);
@@ -169,7 +171,7 @@ pub(super) fn load_obj(mut reader: impl BufRead, textures: &mut MeshTextures) ->
     let mtl_problem: RefCell<Option<String>> = RefCell::new(None);
     // The bytes of MTL files read for all of the OBJ's `mtllib` lines, against one MTL_LIMIT.
     let mtl_bytes = Cell::new(0u64);
-    // The MTL files named so far, against MAX_MTL_FILES.
+    // The MTL file names given so far, against MAX_MTL_FILES.
     let mtl_named = Cell::new(0usize);
     let load_mtl = |line: &Path| {
         let libraries = line

@@ -440,7 +440,12 @@ fn read_header<R: std::io::BufRead + std::io::Seek>(
         .format()
         .ok_or("unsupported image: The image format could not be determined")?;
     header.limits(limits());
-    let (width, height) = header.into_dimensions().map_err(|e| image_error(e, format))?;
+    let (width, height) = match header.into_dimensions() {
+        Ok(size) => size,
+        // image's BMP reader refuses a side over 65535 as corrupt before any limit sees it.
+        Err(_) if format == image::ImageFormat::Bmp && bmp_side_past_cap(reader) => return Err(too_large()),
+        Err(e) => return Err(image_error(e, format)),
+    };
     reader.rewind().map_err(|e| e.to_string())?;
     if width == 0 || height == 0 {
         return Err("the image has no pixels".into());
@@ -453,6 +458,31 @@ fn read_header<R: std::io::BufRead + std::io::Seek>(
     Ok((format, width, height))
 }
 
+/// Whether the BMP that `reader` holds claims a side over [`MAX_TEXTURE_SIDE`] in its header:
+/// width and height at byte 18, 16 bits each in the old 12-byte core header, else 32 (a negative
+/// height runs top-down).
+fn bmp_side_past_cap<R: std::io::Read + std::io::Seek>(reader: &mut R) -> bool {
+    let mut header = [0u8; 26];
+    if reader.rewind().is_err() || reader.read_exact(&mut header).is_err() || &header[..2] != b"BM" {
+        return false;
+    }
+    let field = |at: usize, bytes: usize| {
+        header[at..at + bytes]
+            .iter()
+            .rev()
+            .fold(0u32, |v, &b| v << 8 | u32::from(b))
+    };
+    let (width, height) = if field(14, 4) == 12 {
+        (field(18, 2), field(20, 2))
+    } else {
+        (
+            (field(18, 4) as i32).unsigned_abs(),
+            (field(22, 4) as i32).unsigned_abs(),
+        )
+    };
+    width.max(height) > MAX_TEXTURE_SIDE
+}
+
 /// Decodes the image of `format` that `reader` holds, under the size limits.
 fn decode<R: std::io::BufRead + std::io::Seek>(
     reader: R,
@@ -463,13 +493,18 @@ fn decode<R: std::io::BufRead + std::io::Seek>(
     reader.decode().map_err(|e| image_error(e, format))
 }
 
+/// Why an image past the caps is refused, and the mend.
+fn too_large() -> String {
+    format!(
+        "the image is larger than omnisim reads as a texture (at most {MAX_TEXTURE_SIDE} texels a side and \
+         {MAX_TEXTURE_TEXELS} texels); scale it down"
+    )
+}
+
 /// What went wrong reading an image of `format`, in words.
 fn image_error(error: image::ImageError, format: image::ImageFormat) -> String {
     match error {
-        image::ImageError::Limits(_) => format!(
-            "the image is larger than omnisim reads as a texture (at most {MAX_TEXTURE_SIDE} texels a side and \
-             {MAX_TEXTURE_TEXELS} texels); scale it down"
-        ),
+        image::ImageError::Limits(_) => too_large(),
         image::ImageError::Unsupported(u) => format!("unsupported image: {u}"),
         image::ImageError::Decoding(_) | image::ImageError::IoError(_) => {
             let name = format.extensions_str().first().map_or("", |e| e).to_ascii_uppercase();
@@ -590,8 +625,9 @@ mod tests {
         );
     }
 
-    /// A TGA and a BMP whose headers claim 60000² and 30000² texels: refused as the PNG's is,
-    /// naming the file, before any texel is read (they have none).
+    /// A TGA and a BMP whose headers claim 60000² and 30000² texels, and a BMP 70000 wide (a
+    /// side image's BMP reader refuses as corrupt): refused as the PNG's is, naming the file,
+    /// before any texel is read (they have none).
     #[test]
     fn tga_and_bmp_headers_past_the_caps_are_refused_before_decoding() {
         // TGA: no id, no colour map, true colour; origin, size, 24 bits, top-left first.
@@ -600,17 +636,25 @@ mod tests {
         tga.extend(60_000u16.to_le_bytes());
         tga.extend([24, 0x20]);
         // BMP: file header, then a BITMAPINFOHEADER of 24 bits, uncompressed.
-        let mut bmp = b"BM".to_vec();
-        for field in [0u32, 0, 54, 40] {
-            bmp.extend(field.to_le_bytes());
-        }
-        bmp.extend(30_000i32.to_le_bytes());
-        bmp.extend(30_000i32.to_le_bytes());
-        bmp.extend(1u16.to_le_bytes());
-        bmp.extend(24u16.to_le_bytes());
-        bmp.extend([0; 24]);
+        let bmp = |width: i32, height: i32| {
+            let mut bmp = b"BM".to_vec();
+            for field in [0u32, 0, 54, 40] {
+                bmp.extend(field.to_le_bytes());
+            }
+            bmp.extend(width.to_le_bytes());
+            bmp.extend(height.to_le_bytes());
+            bmp.extend(1u16.to_le_bytes());
+            bmp.extend(24u16.to_le_bytes());
+            bmp.extend([0; 24]);
+            bmp
+        };
         let dir = tempfile::tempdir().unwrap();
-        for (name, bytes) in [("huge.tga", tga), ("huge.bmp", bmp)] {
+        for (name, bytes) in [
+            ("huge.tga", tga),
+            ("huge.bmp", bmp(30_000, 30_000)),
+            ("wide.bmp", bmp(70_000, 1)),
+            ("tall.bmp", bmp(1, -70_000)),
+        ] {
             let path = dir.path().join(name);
             std::fs::write(&path, &bytes).unwrap();
             let error = open_image(&path).err().unwrap();
