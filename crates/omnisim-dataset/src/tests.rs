@@ -1,6 +1,7 @@
 //! End-to-end tests of data sets on a small lit room, on the CPU backend (f64, deterministic).
 
 use std::collections::BTreeMap;
+use std::fmt::Write as _;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -793,9 +794,13 @@ fn bad_specs_get_located_errors() {
         );
     }
     // More sets than a data set holds: refused at the list, before any is checked.
-    let many: String = (0..=crate::spec::MAX_SETS)
-        .map(|k| format!("Set(name: \"s{k}\", poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)])),"))
-        .collect();
+    let many = (0..=crate::spec::MAX_SETS).fold(String::new(), |mut text, k| {
+        let _ = write!(
+            text,
+            "Set(name: \"s{k}\", poses: List([(0.0, 0.0, 1.0, 0.0, 0.0, 0.0)])),"
+        );
+        text
+    });
     let (_dir, spec) = project(&SPEC.replace("sets: [", &format!("sets: [{many}")));
     let message = Dataset::load(&spec).err().map(|e| e.to_string()).unwrap_or_default();
     assert!(

@@ -9,6 +9,7 @@ use clap::{Args, Subcommand};
 use glam::{DVec3, dvec3};
 use omnisim::advanced::SceneBvh;
 use omnisim::atomic_file::write_atomically;
+use omnisim::input::shown_number;
 use omnisim::pose_sets::{self, RandomPoses};
 use omnisim::scene::MAX_COORDINATE;
 use omnisim::{Pose, Scene};
@@ -115,16 +116,6 @@ fn parse_range(text: &str) -> Result<Values, String> {
     }
 }
 
-/// Metres as a person reads them: plain where that is short, else in exponent form (not 1e-300
-/// as three hundred digits).
-fn metres(value: f64) -> String {
-    if value == 0.0 || (1e-4..1e7).contains(&value.abs()) {
-        format!("{value}")
-    } else {
-        format!("{value:e}")
-    }
-}
-
 fn parse_interval(text: &str) -> Result<(f64, f64), String> {
     let parts: Vec<f64> = text.split(':').map(number).collect::<Result<_, _>>()?;
     match parts[..] {
@@ -214,8 +205,8 @@ pub(crate) fn run(command: PosesCommand) -> anyhow::Result<()> {
             if length / spacing > MAX_POSES as f64 {
                 bail!(
                     "{} m every {} m is more than {MAX_POSES} poses; use a larger --spacing",
-                    metres(length),
-                    metres(spacing)
+                    shown_number(length),
+                    shown_number(spacing)
                 );
             }
             write(&pose_sets::trajectory(&waypoints, spacing), "trajectory", &out)
