@@ -95,6 +95,28 @@ fn scene_check_and_export() {
     assert!(!wrong.status.success() && text(&wrong.stderr).contains(".ply or .obj"));
 }
 
+/// An --out that is a file (or lies below one) is named as such, not as the system's "File
+/// exists", and nothing is written.
+#[test]
+fn an_output_folder_that_is_a_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("afile");
+    std::fs::write(&file, b"mine").unwrap();
+    for out in [file.clone(), file.join("below")] {
+        let line = format!(
+            "render scenes/env1.ron --camera omni --size 16x16 --pose 0,0,0.4,0,0,0 --out {}",
+            out.display()
+        );
+        let refused = omnisim(&line);
+        let stderr = text(&refused.stderr);
+        assert!(
+            !refused.status.success() && stderr.contains(&format!("{} is a file, not a folder", file.display())),
+            "{line}: {stderr}"
+        );
+        assert_eq!(std::fs::read(&file).unwrap(), b"mine");
+    }
+}
+
 /// `scene export` and `preview` replace what they wrote before, and refuse any other file at
 /// their output's name (a scene's own mesh, a user's picture), leaving it as it was.
 #[test]

@@ -501,6 +501,11 @@ fn describe_refuses_bad_requests() {
             [&["describe", "empty"][..], &omni, &["-d", "hog", "--out", "x"]].concat(),
             "empty/a.png is an empty file, not an image",
         ),
+        // Without a camera (--size alone) the images' size is met at their panorama: named too.
+        (
+            vec!["describe", "mixed", "-d", "fourier", "--size", "250x250", "--out", "x"],
+            "cannot make the panorama of mixed/a.png: the image is 120×120 pixels, but the camera's image is 250×250",
+        ),
     ] {
         let output = omnisim(&args, dir.path());
         let stderr = String::from_utf8_lossy(&output.stderr);

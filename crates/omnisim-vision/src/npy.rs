@@ -42,8 +42,9 @@ pub const READ_LIMIT: u64 = 2 << 30;
 
 /// Reads an f32 `.npy` file: (shape, row-major values). Only a regular file is opened.
 pub fn read(path: &Path) -> Result<(Vec<usize>, Vec<f32>), VisionError> {
-    let bytes = std::fs::metadata(path).map_err(io_error(path))?.len();
-    let mut file = BufReader::new(omnisim::input::open_regular(path, READ_LIMIT)?);
+    let file = omnisim::input::open_regular(path, READ_LIMIT)?;
+    let bytes = file.get_ref().metadata().map_err(io_error(path))?.len();
+    let mut file = BufReader::new(file);
     let header = file.fill_buf().map_err(io_error(path))?;
     check_shape(header, bytes).map_err(|reason| VisionError::Format {
         path: path.to_path_buf(),
@@ -83,7 +84,9 @@ fn check_shape(start: &[u8], bytes: u64) -> Result<(), String> {
     else {
         return Ok(());
     };
-    let mut values: u64 = 1;
+    // Overflowing at any step is refused even where a later 0 would make the product 0: npyz
+    // multiplies in the same order.
+    let mut values = Some(1_u64);
     for number in numbers
         .split(',')
         .map(|n| n.trim().trim_end_matches('L'))
@@ -92,11 +95,15 @@ fn check_shape(start: &[u8], bytes: u64) -> Result<(), String> {
         let n: u64 = number
             .parse()
             .map_err(|_| format!("the header's shape ({numbers}) holds '{number}', not a count"))?;
-        values = values.checked_mul(n).filter(|&v| v <= bytes).ok_or_else(|| {
-            format!("the header's shape ({numbers}) holds more values than the file's {bytes} bytes: the file is damaged; write it again")
-        })?;
+        values = values.and_then(|v| v.checked_mul(n));
     }
-    Ok(())
+    match values {
+        Some(values) if values <= bytes => Ok(()),
+        _ => Err(format!(
+            "the header's shape ({numbers}) holds more values than the file's {bytes} bytes: the file is damaged; \
+             write it again"
+        )),
+    }
 }
 
 #[cfg(test)]
@@ -112,14 +119,30 @@ mod tests {
         write(&path, &[3, 2], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).unwrap();
         assert_eq!(read(&path).unwrap(), (vec![3, 2], vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
         let written = std::fs::read(&path).unwrap();
+        // The shape's tuple as npyz wrote it, whatever its spacing.
+        let open = written.iter().position(|&b| b == b'(').unwrap();
+        let close = open + written[open..].iter().position(|&b| b == b')').unwrap();
+        // numpy's spelling, with its trailing comma, reads; so does a large count beside a 0.
+        let numpy = b"{'descr': '<f4', 'fortran_order': False, 'shape': (3, 2), }";
+        let header_start = written.iter().position(|&b| b == b'{').unwrap();
+        let header_end = written.iter().position(|&b| b == b'\n').unwrap();
+        let padding = (header_end - header_start).checked_sub(numpy.len()).unwrap();
+        let spelled = [
+            &written[..header_start],
+            numpy,
+            &vec![b' '; padding],
+            &written[header_end..],
+        ]
+        .concat();
+        std::fs::write(&path, spelled).unwrap();
+        assert_eq!(read(&path).unwrap().0, vec![3, 2]);
+        let empty = [&written[..open], b"(1000000, 0)", &written[close + 1..]].concat();
+        assert!(check_shape(&empty, 0).is_ok());
         for (shape, said) in [
             ("(4611686018427387904, 4611686018427387904, 8)", "more values than"),
             ("(100000, 2)", "more values than"),
             ("(3, x)", "not a count"),
         ] {
-            // The shape's tuple as npyz wrote it, whatever its spacing.
-            let open = written.iter().position(|&b| b == b'(').unwrap();
-            let close = open + written[open..].iter().position(|&b| b == b')').unwrap();
             let patched = [&written[..open], shape.as_bytes(), &written[close + 1..]].concat();
             std::fs::write(&path, patched).unwrap();
             let error = read(&path).expect_err(shape).to_string();

@@ -33,7 +33,19 @@ pub(crate) fn refuse_replacing_other_files(
             Some(start)
         }
         Err(omnisim::input::InputError::NotAFile { .. }) => None,
-        Err(_) => return Ok(()),
+        Err(omnisim::input::InputError::Io { error, .. }) if error.kind() == std::io::ErrorKind::NotFound => {
+            return Ok(());
+        }
+        // One that cannot be read (no permission) may be anyone's: never replaced unseen.
+        Err(error) => {
+            return Err(anyhow::Error::new(error)).with_context(|| {
+                format!(
+                    "{} exists and cannot be read to tell whether it is {what}; choose another output, or remove it \
+                     first",
+                    path.display()
+                )
+            });
+        }
     };
     if !start.is_some_and(|start| ours(&start)) {
         anyhow::bail!(
