@@ -405,9 +405,14 @@ fn mutated_text_meshes_never_panic() {
     let mtl = "newmtl tiles\nKd 1 0.5 0.25\nmap_Kd -s 2 2 1 -o 0.5 0.25 -clamp on -bm 0.5 tiles.png\n";
     let mut rng = StdRng::seed_from_u64(21);
     let mut failures = Vec::new();
-    // The OBJ and its MTL are edited in turn.
+    // The OBJ and its MTL are edited in turn, each as often as the PLY.
     for (file, text, beside) in [("mesh.ply", ply, None), ("mesh.obj", obj, Some(mtl))] {
-        for round in 0..MUTATIONS / 5 {
+        let rounds = if beside.is_some() {
+            2 * MUTATIONS / 5
+        } else {
+            MUTATIONS / 5
+        };
+        for round in 0..rounds {
             let edit = |text: &str, rng: &mut StdRng| {
                 if rng.random_bool(0.5) {
                     mutate_tokens(text, rng)

@@ -243,6 +243,13 @@ fn bad_options_are_explained() {
         "{}",
         text(&too_high.stderr)
     );
+    // A number out of range is shown as typed, not as 309 digits.
+    let wide = omnisim("render scenes/env1.ron --pose 0,0,0.4 --camera pinhole --hfov 1e308");
+    assert!(
+        !wide.status.success() && text(&wide.stderr).contains("(exclusive), not 1e308"),
+        "{}",
+        text(&wide.stderr)
+    );
 }
 
 #[test]

@@ -196,7 +196,10 @@ pub(crate) fn run(command: PosesCommand) -> anyhow::Result<()> {
                 bail!("a trajectory needs two or more --through waypoints");
             }
             if !(spacing.is_finite() && spacing > 0.0) {
-                bail!("--spacing must be a positive number of metres, not {}", shown_number(spacing));
+                bail!(
+                    "--spacing must be a positive number of metres, not {}",
+                    shown_number(spacing)
+                );
             }
             let length: f64 = waypoints.windows(2).map(|w| w[0].distance(w[1])).sum();
             if length == 0.0 {
