@@ -66,12 +66,30 @@ pub fn read(path: &Path) -> Result<(Vec<usize>, Vec<f32>), VisionError> {
 /// it: npyz multiplies the shape's numbers unchecked (an overflow panic in debug builds, a
 /// wrapped count in release), and such a header can only be a damaged or crafted file.
 /// `start` is the file's first bytes (a `BufReader`'s buffer: 8 KiB, more than any header
-/// numpy writes), `bytes` its length.
+/// numpy writes for an array of numbers), `bytes` its length.
 fn check_shape(start: &[u8], bytes: u64) -> Result<(), String> {
-    let Some(text) = start.strip_prefix(b"\x93NUMPY").and_then(|rest| rest.get(2..)) else {
+    let Some(&major) = start.strip_prefix(b"\x93NUMPY").and_then(|rest| rest.first()) else {
         return Ok(()); // not an .npy file: npyz says so
     };
-    // The header's text, cut at its end or at what the buffer holds.
+    // The header's length: two bytes after the version in version 1, four in 2 and 3.
+    let (length_bytes, text_start) = if major == 1 { (2, 10) } else { (4, 12) };
+    let Some(length) = start.get(8..8 + length_bytes) else {
+        return Ok(()); // truncated: npyz says so
+    };
+    let length = length.iter().rev().fold(0_u64, |n, &b| n << 8 | u64::from(b));
+    let text_end = text_start as u64 + length;
+    if text_end > bytes {
+        return Ok(()); // truncated: npyz says so
+    }
+    let Some(text) = usize::try_from(text_end)
+        .ok()
+        .and_then(|end| start.get(text_start..end))
+    else {
+        return Err(format!(
+            "its header is {length} bytes, more than the {} an array of numbers needs: a damaged or crafted file",
+            start.len()
+        ));
+    };
     let text = String::from_utf8_lossy(text);
     let Some(at) = text.find("'shape'").or_else(|| text.find("\"shape\"")) else {
         return Ok(()); // no shape: npyz refuses the header
@@ -82,7 +100,7 @@ fn check_shape(start: &[u8], bytes: u64) -> Result<(), String> {
         .zip(tuple.find(')'))
         .and_then(|(open, close)| tuple.get(open + 1..close))
     else {
-        return Ok(());
+        return Err("its header's shape is not a tuple of counts".to_string());
     };
     // Overflowing at any step is refused even where a later 0 would make the product 0: npyz
     // multiplies in the same order.
@@ -137,7 +155,20 @@ mod tests {
         std::fs::write(&path, spelled).unwrap();
         assert_eq!(read(&path).unwrap().0, vec![3, 2]);
         let empty = [&written[..open], b"(1000000, 0)", &written[close + 1..]].concat();
-        assert!(check_shape(&empty, 0).is_ok());
+        assert!(check_shape(&empty, empty.len() as u64).is_ok());
+        // A header longer than the buffer, its shape past the first 8 KiB: refused, not
+        // handed to npyz unchecked.
+        let mut long = written[..8].to_vec();
+        let text = format!(
+            "{{'descr': '<f4', {}'shape': (4611686018427387904, 4611686018427387904), }}\n",
+            " ".repeat(9000)
+        );
+        long.extend_from_slice(&u16::try_from(text.len()).unwrap().to_le_bytes());
+        long.extend_from_slice(text.as_bytes());
+        long.extend_from_slice(&[0; 24]);
+        std::fs::write(&path, long).unwrap();
+        let error = read(&path).expect_err("a long header").to_string();
+        assert!(error.contains("more than the 8192"), "{error}");
         for (shape, said) in [
             ("(4611686018427387904, 4611686018427387904, 8)", "more values than"),
             ("(100000, 2)", "more values than"),
