@@ -351,9 +351,11 @@ fn describe_refuses_bad_requests() {
     image::RgbImage::new(60, 60)
         .save(dir.path().join("mixed/b.png"))
         .unwrap();
-    // A folder whose only image is an empty file.
+    // A folder whose only image is an empty file, and one whose PNG header claims 2³¹ − 1 square.
     std::fs::create_dir(dir.path().join("empty")).unwrap();
     std::fs::write(dir.path().join("empty/a.png"), b"").unwrap();
+    std::fs::create_dir(dir.path().join("huge")).unwrap();
+    std::fs::write(dir.path().join("huge/a.png"), png_claiming(i32::MAX as u32)).unwrap();
     for (args, message) in [
         (
             vec!["describe", "ds", "-d", "sift:sigmaa=2", "--out", "x"],
@@ -501,6 +503,10 @@ fn describe_refuses_bad_requests() {
             [&["describe", "empty"][..], &omni, &["-d", "hog", "--out", "x"]].concat(),
             "empty/a.png is an empty file, not an image",
         ),
+        (
+            vec!["describe", "huge", "-d", "fourier", "--size", "250x250", "--out", "x"],
+            "huge/a.png: its header claims an image larger than images are read here",
+        ),
         // Without a camera (--size alone) the images' size is met at their panorama: named too.
         (
             vec!["describe", "mixed", "-d", "fourier", "--size", "250x250", "--out", "x"],
@@ -515,6 +521,34 @@ fn describe_refuses_bad_requests() {
         );
         assert!(!dir.path().join("x").exists(), "{args:?} created --out");
     }
+}
+
+/// A PNG of one black pixel whose header claims `side` × `side` RGB pixels (its chunks' CRCs
+/// right, so that only the claimed size is wrong).
+fn png_claiming(side: u32) -> Vec<u8> {
+    let crc = |bytes: &[u8]| {
+        !bytes.iter().fold(!0_u32, |crc, &byte| {
+            (0..8).fold(crc ^ u32::from(byte), |c, _| {
+                if c & 1 == 1 { 0xedb8_8320 ^ (c >> 1) } else { c >> 1 }
+            })
+        })
+    };
+    let chunk = |kind: &[u8], data: &[u8]| {
+        let body = [kind, data].concat();
+        [&(data.len() as u32).to_be_bytes()[..], &body, &crc(&body).to_be_bytes()].concat()
+    };
+    let header = [&side.to_be_bytes()[..], &side.to_be_bytes(), &[8, 2, 0, 0, 0]].concat();
+    // A stored (uncompressed) deflate block of one filtered row: filter byte and one pixel.
+    let data = [
+        0x78, 0x01, 0x01, 0x04, 0x00, 0xfb, 0xff, 0, 0, 0, 0, 0x00, 0x04, 0x00, 0x01,
+    ];
+    [
+        &b"\x89PNG\r\n\x1a\n"[..],
+        &chunk(b"IHDR", &header),
+        &chunk(b"IDAT", &data),
+        &chunk(b"IEND", b""),
+    ]
+    .concat()
 }
 
 /// Links planted in the output folder are replaced (a file) or refused (a set folder), never

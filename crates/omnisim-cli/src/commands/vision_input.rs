@@ -435,14 +435,25 @@ fn open_image(path: &Path) -> anyhow::Result<image::ImageReader<BufReader<Take<F
 fn image_size(path: &Path) -> anyhow::Result<(u32, u32)> {
     open_image(path)?
         .into_dimensions()
-        .with_context(|| format!("cannot read image {}", path.display()))
+        .map_err(|error| unreadable(path, error))
+}
+
+/// Why the image at `path` cannot be read, said plainly where the image crate's words are not
+/// ("Memory limit exceeded" for a header that claims a huge image).
+fn unreadable(path: &Path, error: image::ImageError) -> anyhow::Error {
+    match error {
+        image::ImageError::Limits(_) => anyhow::anyhow!(
+            "cannot read image {}: its header claims an image larger than images are read here (at most 512 MiB \
+             decoded); is it a camera image?",
+            path.display()
+        ),
+        error => anyhow::Error::new(error).context(format!("cannot read image {}", path.display())),
+    }
 }
 
 /// An image file as RGB 0..1, checked to be `size` (all images of a set are).
 pub(crate) fn read_image(path: &Path, size: Option<(usize, usize)>) -> anyhow::Result<Raster> {
-    let image = open_image(path)?
-        .decode()
-        .with_context(|| format!("cannot read image {}", path.display()))?;
+    let image = open_image(path)?.decode().map_err(|error| unreadable(path, error))?;
     let raster = Raster::from_image(&image);
     if let Some(size) = size {
         same_size(path, (raster.width, raster.height), size, "the set's first image")?;
