@@ -424,6 +424,14 @@ impl Dataset {
             )
         };
         let rig = spec.rig.build().map_err(|e| top("rig", e.to_string()))?;
+        if !spec.outputs.writes_frame_files(&rig) {
+            return Err(top(
+                "outputs",
+                "no output is written for this rig's frames: turn on colour, range or point_cloud (depth is \
+                 written for pinhole views only, disparity for stereo rigs only)"
+                    .into(),
+            ));
+        }
         let scene_path = spec::scene_path(&spec, path).map_err(|m| top("scene", m))?;
         let scene_text = omnisim::input::read_text(&scene_path, omnisim::input::SCENE_LIMIT)?;
         let mut scene = Scene::from_ron(&scene_text, &scene_path)?;

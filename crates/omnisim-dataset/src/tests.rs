@@ -781,6 +781,15 @@ fn bad_specs_get_located_errors() {
             "set 'map': layouts[0]",
             "for this rig use Euroc",
         ),
+        (
+            SPEC.replace(
+                "outputs: (point_cloud: false, segmentation: true)",
+                "outputs: (colour: false, range: false, depth: false, point_cloud: false, disparity: true)",
+            ),
+            "spec.ron:5:",
+            "outputs",
+            "no output is written for this rig's frames",
+        ),
     ];
     for (text, at, place, what) in cases {
         let (_dir, spec) = project(&text);

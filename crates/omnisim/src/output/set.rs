@@ -214,6 +214,20 @@ impl OutputSet {
         parts
     }
 
+    /// Whether a frame through `rig` gets any file of these: depth is written for pinhole views
+    /// only and disparity for stereo rigs only, so a set of outputs may name files and still
+    /// write none for a rig.
+    pub fn writes_frame_files(&self, rig: &Rig) -> bool {
+        self.colour
+            || self.range
+            || self.point_cloud
+            || self.segmentation
+            || self.normals
+            || self.linear
+            || (self.depth && rig.views().iter().any(|view| view.camera.depth_frame().is_some()))
+            || (self.disparity && matches!(rig, Rig::Stereo(_)))
+    }
+
     /// The planes a frame needs for these files (always colour: the point cloud is coloured).
     pub fn planes(&self) -> Planes {
         let mut planes = Planes::COLOUR;
