@@ -13,6 +13,16 @@ use omnisim::scene::MAX_COORDINATE;
 /// in every step, and no one means it.
 const MAX_ANGLE_DEGREES: f64 = 1e6;
 
+/// Refuses a coordinate of `position` (metres, as `text` gave it) beyond where scenes may lie.
+pub(crate) fn check_position(position: &[f64], text: &str) -> Result<(), String> {
+    match position.iter().find(|v| v.abs() > MAX_COORDINATE) {
+        Some(v) => Err(format!(
+            "{v:e} m in '{text}' is beyond ±{MAX_COORDINATE:e} m, where scenes may lie"
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Parses `x,y,z,θx,θy,θz` (commas or spaces; angles in degrees; missing angles are 0). An
 /// empty value between commas is an error, not skipped: `1,,2,3` is not (1, 2, 3).
 pub(crate) fn parse_pose(text: &str) -> Result<Pose, String> {
@@ -45,11 +55,7 @@ pub(crate) fn parse_pose(text: &str) -> Result<Pose, String> {
             )
         })?;
     }
-    if let Some(v) = values[..3].iter().find(|v| v.abs() > MAX_COORDINATE) {
-        return Err(format!(
-            "{v:e} m in '{shown}' is beyond ±{MAX_COORDINATE:e} m, where scenes may lie"
-        ));
-    }
+    check_position(&values[..3], &shown)?;
     if let Some(v) = values[3..].iter().find(|v| v.abs() > MAX_ANGLE_DEGREES) {
         return Err(format!(
             "{v:e}° in '{shown}' is beyond ±{MAX_ANGLE_DEGREES:e}°: angles are in degrees"

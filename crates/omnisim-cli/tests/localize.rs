@@ -189,15 +189,19 @@ fn localize_meets_the_issues_checks() {
     assert!(svg.contains(&spec_hash[..12]) && svg.contains("omnisim localize ds --map map"));
     assert!(std::fs::metadata(dir.path().join("loc/report.png")).unwrap().len() > 1000);
 
+    // Runs again, and returns its report once it has read `cached` sets' descriptors from the
+    // cache (the others described again).
+    let rerun = |cached: usize| -> Value {
+        let stderr = omnisim(&args, dir.path());
+        assert_eq!(
+            stderr.matches("every descriptor from descriptors/").count(),
+            cached,
+            "{stderr}"
+        );
+        serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap()
+    };
     // A second run describes nothing again and reports the same errors.
-    let stderr = omnisim(&args, dir.path());
-    assert_eq!(
-        stderr.matches("every descriptor from descriptors/").count(),
-        6,
-        "{stderr}"
-    );
-    let again: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
-    assert_same_images(&report, &again);
+    assert_same_images(&report, &rerun(6));
 
     // A damaged cache file is not trusted: that set is described again, with the same results.
     let phases = std::fs::read_dir(dir.path().join("loc/descriptors"))
@@ -206,13 +210,7 @@ fn localize_meets_the_issues_checks() {
         .find(|path| path.exists())
         .expect("a cached Fourier phases file");
     std::fs::write(&phases, b"not an npy file").unwrap();
-    let stderr = omnisim(&args, dir.path());
-    assert_eq!(
-        stderr.matches("every descriptor from descriptors/").count(),
-        5,
-        "{stderr}"
-    );
-    let third: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
+    let third = rerun(5);
     assert_eq!(
         report["results"].as_array().unwrap().len(),
         third["results"].as_array().unwrap().len()
@@ -225,14 +223,7 @@ fn localize_meets_the_issues_checks() {
     let end = bytes.len();
     bytes[end - 4..].copy_from_slice(&f32::NAN.to_le_bytes());
     std::fs::write(&values, bytes).unwrap();
-    let stderr = omnisim(&args, dir.path());
-    assert_eq!(
-        stderr.matches("every descriptor from descriptors/").count(),
-        5,
-        "{stderr}"
-    );
-    let fourth: Value = serde_json::from_slice(&std::fs::read(dir.path().join("loc/report.json")).unwrap()).unwrap();
-    assert_same_images(&report, &fourth);
+    assert_same_images(&report, &rerun(5));
 }
 
 /// Every result of two reports gives the same per-image estimates.

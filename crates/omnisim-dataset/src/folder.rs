@@ -14,12 +14,19 @@ use omnisim::output;
 
 /// Creates `dir` and removes the temporaries a killed run left there.
 pub(crate) fn prepare_dir(dir: &Path) -> Result<(), DatasetError> {
-    std::fs::create_dir_all(dir).map_err(|error| match output::folder::file_in_the_way(dir) {
-        Some(path) => DatasetError::NotAFolder { path },
-        None => io(dir)(error),
-    })?;
+    // `dir` itself, which the user named, may be a link.
+    output::folder::create_real_folder(dir, dir).map_err(refused)?;
     atomic_file::remove_stale_temporaries(dir).map_err(io(dir))?;
     Ok(())
+}
+
+/// A data set's error for a folder [`output::folder::create_real_folder`] could not make.
+fn refused(error: output::folder::RealFolderError) -> DatasetError {
+    match error {
+        output::folder::RealFolderError::Link(path) => DatasetError::Link { path },
+        output::folder::RealFolderError::NotAFolder(path) => DatasetError::NotAFolder { path },
+        output::folder::RealFolderError::Io(path, source) => DatasetError::Io { path, source },
+    }
 }
 
 /// Refuses a data-set folder `dir` inside a set's bookkeeping folder (`.frames`) or inside
@@ -52,11 +59,7 @@ pub(crate) fn refuse_nested(dir: &Path) -> Result<(), DatasetError> {
 /// [`prepare_dir`] for a folder inside the data-set folder `root`, refused where a level is a
 /// link (a set folder linked elsewhere would have the run write there).
 pub(crate) fn prepare_subdir(root: &Path, dir: &Path) -> Result<(), DatasetError> {
-    output::folder::create_real_folder(root, dir).map_err(|e| match e {
-        output::folder::RealFolderError::Link(path) => DatasetError::Link { path },
-        output::folder::RealFolderError::NotAFolder(path) => DatasetError::NotAFolder { path },
-        output::folder::RealFolderError::Io(path, source) => DatasetError::Io { path, source },
-    })?;
+    output::folder::create_real_folder(root, dir).map_err(refused)?;
     atomic_file::remove_stale_temporaries(dir).map_err(io(dir))?;
     Ok(())
 }

@@ -11,7 +11,6 @@ use omnisim::advanced::SceneBvh;
 use omnisim::atomic_file::write_atomically;
 use omnisim::input::shown_number;
 use omnisim::pose_sets::{self, RandomPoses};
-use omnisim::scene::MAX_COORDINATE;
 use omnisim::{Pose, Scene};
 
 /// Write poses for a data set: one "x y z θx θy θz" per line (metres, degrees).
@@ -136,12 +135,8 @@ fn parse_triple(text: &str) -> Result<DVec3, String> {
 /// A position, `x,y,z` in metres, where scenes may lie (as `--pose` takes it).
 fn parse_position(text: &str) -> Result<DVec3, String> {
     let position = parse_triple(text)?;
-    match position.to_array().into_iter().find(|v| v.abs() > MAX_COORDINATE) {
-        Some(v) => Err(format!(
-            "{v:e} m in '{text}' is beyond ±{MAX_COORDINATE:e} m, where scenes may lie"
-        )),
-        None => Ok(position),
-    }
+    crate::poses::check_position(&position.to_array(), &omnisim::input::shown(text, 80))?;
+    Ok(position)
 }
 
 /// How every pose file this command writes starts.

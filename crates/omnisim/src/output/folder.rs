@@ -263,7 +263,7 @@ fn create_folder(dir: &Path) -> Result<(), FolderError> {
 
 /// The first of `dir` and the folders above it that exists and is not a folder (links
 /// followed), if one is.
-pub fn file_in_the_way(dir: &Path) -> Option<PathBuf> {
+fn file_in_the_way(dir: &Path) -> Option<PathBuf> {
     (dir.ancestors())
         .filter(|path| !path.as_os_str().is_empty())
         .find(|path| std::fs::metadata(path).is_ok_and(|metadata| !metadata.is_dir()))

@@ -11,6 +11,7 @@ use super::surface::{Surface, UvMap, planar_uv};
 use super::texture::{Wrap, open_image};
 use super::texture_bank::TextureBank;
 use super::{Vertices, validate};
+use crate::input::shown_number;
 use crate::pose::rotation_xyz;
 
 /// Box face names, in the order their colours are listed in error messages.
@@ -93,8 +94,8 @@ pub(super) fn place(
             "scale",
             format!(
                 "scale must be two positive finite lengths in metres (one repeat across, down), not ({}, {})",
-                crate::input::shown_number(sx),
-                crate::input::shown_number(sy)
+                shown_number(sx),
+                shown_number(sy)
             ),
         ));
     }
