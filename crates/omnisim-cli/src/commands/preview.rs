@@ -20,7 +20,8 @@ pub(crate) struct PreviewArgs {
     /// Data-set spec (RON), e.g. scenes/env1-dataset.ron.
     pub spec: PathBuf,
     /// Output prefix: writes PREFIX.svg and PREFIX.png (their folder is created); a folder
-    /// (an existing one, or a path ending in '/') gets FOLDER/preview.svg and .png.
+    /// (an existing one, or a path ending in '/') gets FOLDER/preview.svg and .png. Existing
+    /// files there are replaced only if they are a preview omnisim drew.
     #[arg(long)]
     pub out: PathBuf,
 }

@@ -27,7 +27,8 @@ pub(crate) enum SceneCommand {
     Export {
         /// Scene file (RON).
         scene: PathBuf,
-        /// Output file: .ply or .obj.
+        /// Output file: .ply or .obj. An existing file there is replaced only if it is an
+        /// omnisim export (never a scene's own mesh or another tool's file).
         output: PathBuf,
     },
 }
