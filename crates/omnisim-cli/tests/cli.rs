@@ -925,6 +925,42 @@ fn gpu_probes_keep_stderr_clean() {
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
 }
 
+/// wgpu's variables that choose no adapter are named in a plain error (wgpu's own helper
+/// panics on a `WGPU_ADAPTER_NAME` that matches nothing), and `auto` renders on the CPU.
+#[test]
+#[cfg(target_os = "linux")] // no Metal adapter exists there, whatever the machine
+fn gpu_variables_that_choose_no_adapter_are_named() {
+    for (variable, value) in [
+        ("WGPU_ADAPTER_NAME", "no-such-adapter-omnisim"),
+        ("WGPU_BACKEND", "metal"),
+    ] {
+        for backend in ["gpu", "auto"] {
+            let dir = tempfile::tempdir().unwrap();
+            let result = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+                .args(["render", "scenes/env1.ron", "--size", "32x32", "--pose", "0,0,0.4"])
+                .args(["--backend", backend, "--out"])
+                .arg(dir.path().join("out"))
+                .env(variable, value)
+                .current_dir(workspace())
+                .output()
+                .unwrap();
+            let stderr = text(&result.stderr);
+            assert!(!stderr.contains("panicked"), "{variable} {backend}: {stderr}");
+            if backend == "gpu" {
+                assert_eq!(result.status.code(), Some(1), "{variable}: {stderr}");
+                assert!(stderr.contains(&format!("{variable}={value}")), "{stderr}");
+                assert!(
+                    stderr.contains(&format!("unset {variable}")) || stderr.contains("unset it"),
+                    "{stderr}"
+                );
+            } else {
+                assert!(result.status.success(), "{variable} auto: {stderr}");
+                assert!(dir.path().join("out/render.json").exists(), "{variable} auto");
+            }
+        }
+    }
+}
+
 /// The outputs opened by the readers people use (`OpenCV`, imageio, `OpenEXR`, plyfile, `PyYAML`,
 /// evo), in the Python environment .ci/run makes; see `tests/readers/check_outputs.py`. Every
 /// EXR, normals and ray maps included, must open in `OpenCV` and imageio.

@@ -10,6 +10,28 @@ pub enum GpuError {
     /// No adapter opened (no driver, or none of the requested backend).
     #[error("no Vulkan, Metal or DX12 adapter found ({0}); install the GPU's Vulkan driver, or use the CPU backend")]
     NoAdapter(String),
+    /// `WGPU_BACKEND` asked for backends that gave no adapter.
+    #[error(
+        "no adapter of WGPU_BACKEND={asked} found ({why}); unset WGPU_BACKEND to let omnisim choose \
+         (Vulkan, Metal or DX12), name another (vulkan, metal, dx12, gl), or use the CPU backend"
+    )]
+    NoAdapterOfBackend {
+        /// The variable's value.
+        asked: String,
+        /// What wgpu said.
+        why: String,
+    },
+    /// `WGPU_ADAPTER_NAME` matched none of the adapters.
+    #[error(
+        "WGPU_ADAPTER_NAME={asked} is part of no adapter's name (adapters found: {found}); give part of one of \
+         those names, or unset it to let omnisim choose"
+    )]
+    NoAdapterNamed {
+        /// The variable's value.
+        asked: String,
+        /// The adapters there are, with their backends, or "none".
+        found: String,
+    },
     /// `auto` found only a software adapter, which is slower than the CPU tracer.
     #[error(
         "the only adapter, {0}, is a software rasteriser on the CPU, where the f64 CPU tracer is faster \
@@ -177,14 +199,49 @@ impl GpuContext {
         Ok(context)
     }
 
+    /// The adapter `WGPU_ADAPTER_NAME` names part of (as wgpu's `initialize_adapter_from_env`
+    /// matches, which panics where none does), else the best one `WGPU_POWER_PREF` leads to.
+    fn adapter(instance: &wgpu::Instance) -> Result<wgpu::Adapter, GpuError> {
+        if let Ok(asked) = std::env::var("WGPU_ADAPTER_NAME") {
+            let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+            let wanted = asked.to_lowercase();
+            let found: Vec<String> = (adapters.iter())
+                .map(|adapter| {
+                    let info = adapter.get_info();
+                    format!("{} ({:?})", info.name, info.backend)
+                })
+                .collect();
+            return (adapters.into_iter())
+                .find(|adapter| adapter.get_info().name.to_lowercase().contains(&wanted))
+                .ok_or_else(|| GpuError::NoAdapterNamed {
+                    asked,
+                    found: if found.is_empty() {
+                        "none".into()
+                    } else {
+                        found.join(", ")
+                    },
+                });
+        }
+        pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),
+            ..Default::default()
+        }))
+        .map_err(|e| match std::env::var("WGPU_BACKEND") {
+            Ok(asked) => GpuError::NoAdapterOfBackend {
+                asked,
+                why: e.to_string(),
+            },
+            Err(_) => GpuError::NoAdapter(e.to_string()),
+        })
+    }
+
     fn open() -> Result<Self, GpuError> {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if wgpu::Backends::from_env().is_none() {
             descriptor.backends = wgpu::Backends::PRIMARY;
         }
         let instance = wgpu::Instance::new(descriptor);
-        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&instance, None))
-            .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let adapter = Self::adapter(&instance)?;
         let info = adapter.get_info();
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
