@@ -102,10 +102,41 @@ fn keep_freed_memory() {
     }
 }
 
+/// Threads a core at most that `RAYON_NUM_THREADS` may ask for: more only cost memory (a stack
+/// and an allocator arena each) and start-up time; at 99,999 the pool took longer to start than
+/// any render, and where the address space is limited it never started at all.
+const THREADS_PER_CORE_AT_MOST: usize = 4;
+
 /// Starts rayon's threads now, while the command reads its scene, rather than at the first
-/// parallel call (the BVH build's, whose time would include the threads' start).
+/// parallel call (the BVH build's, whose time would include the threads' start): as many as
+/// `RAYON_NUM_THREADS` asks up to [`THREADS_PER_CORE_AT_MOST`] a core, else one a core. Where
+/// the system refuses that many, a pool of one thread, and a warning either way.
 fn start_thread_pool() {
-    rayon::spawn(|| {});
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let most = cores.saturating_mul(THREADS_PER_CORE_AT_MOST);
+    let asked = std::env::var("RAYON_NUM_THREADS").ok();
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(asked) = asked.as_deref().and_then(|v| v.trim().parse::<usize>().ok())
+        && asked > most
+    {
+        warn(format_args!(
+            "RAYON_NUM_THREADS={asked} is more than {THREADS_PER_CORE_AT_MOST} threads for each of this machine's \
+             {cores} cores; using {most}"
+        ));
+        builder = builder.num_threads(most);
+    }
+    if let Err(error) = builder.build_global() {
+        warn(format_args!(
+            "could not start the worker threads ({error}); working on one thread"
+        ));
+        // The global pool is unset after a failed build; one thread is the least that works.
+        let _ = rayon::ThreadPoolBuilder::new().num_threads(1).build_global();
+    }
+}
+
+/// A warning on standard error before the command runs (nothing to stop if it cannot be said).
+fn warn(message: std::fmt::Arguments) {
+    let _ = streams::stderr(format_args!("warning: {message}"));
 }
 
 /// A write past the process's file-size limit (`ulimit -f`) raises SIGXFSZ, which kills the

@@ -1317,6 +1317,26 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     let record: serde_json::Value = serde_json::from_slice(&pooled.stdout).unwrap();
     assert_eq!(record["threads"], 3, "{record}");
     assert!(record["device"].as_str().unwrap().ends_with("on 3 threads"), "{record}");
+    // A pool beyond four threads a core is capped, with a warning (99,999 threads took longer
+    // to start than the render, and never started under a limited address space).
+    let cores = std::thread::available_parallelism().unwrap().get();
+    let capped = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args("bench env1 --camera omni --size 32x32 --backend cpu --runs 1 --warmup 0".split_whitespace())
+        .env("RAYON_NUM_THREADS", "99999")
+        .current_dir(workspace())
+        .output()
+        .expect("omnisim runs");
+    assert!(capped.status.success(), "{}", text(&capped.stderr));
+    let record: serde_json::Value = serde_json::from_slice(&capped.stdout).unwrap();
+    assert_eq!(record["threads"], 4 * cores, "{record}");
+    assert!(
+        text(&capped.stderr).contains(&format!(
+            "RAYON_NUM_THREADS=99999 is more than 4 threads for each of this machine's {cores} cores; using {}",
+            4 * cores
+        )),
+        "{}",
+        text(&capped.stderr)
+    );
     let unknown = omnisim("bench no-such-anchor --backend cpu --runs 1");
     assert_eq!(unknown.status.code(), Some(1));
     assert!(
