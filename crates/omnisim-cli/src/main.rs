@@ -60,8 +60,11 @@ enum Command {
 fn main() -> std::process::ExitCode {
     keep_freed_memory();
     report_file_size_limits();
-    let _runtime_dir = quiet_wayland_probe();
-    start_thread_pool();
+    quiet_wayland_probe();
+    if let Err(error) = start_thread_pool() {
+        let _ = streams::stderr(format_args!("error: {error}"));
+        return std::process::ExitCode::FAILURE;
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => commands::render::run(&args),
@@ -107,31 +110,78 @@ fn keep_freed_memory() {
 /// any render, and where the address space is limited it never started at all.
 const THREADS_PER_CORE_AT_MOST: usize = 4;
 
+/// The stack sizes `RUST_MIN_STACK` may set for the threads this program starts: below the
+/// smallest the workers overflowed (at 16 KiB), above the largest they were refused.
+const THREAD_STACK: std::ops::RangeInclusive<usize> = (2 << 20)..=(64 << 20);
+
 /// Starts rayon's threads now, while the command reads its scene, rather than at the first
 /// parallel call (the BVH build's, whose time would include the threads' start): as many as
-/// `RAYON_NUM_THREADS` asks up to [`THREADS_PER_CORE_AT_MOST`] a core, else one a core. Where
-/// the system refuses that many, a pool of one thread, and a warning either way.
-fn start_thread_pool() {
+/// `RAYON_NUM_THREADS` (or rayon's older `RAYON_RS_NUM_CPUS`) asks up to
+/// [`THREADS_PER_CORE_AT_MOST`] a core, else one a core; one thread where the system refuses
+/// that many (a process or address-space limit), and an error where it refuses even one.
+fn start_thread_pool() -> anyhow::Result<()> {
+    keep_thread_stacks_in_range();
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     let most = cores.saturating_mul(THREADS_PER_CORE_AT_MOST);
-    let asked = std::env::var("RAYON_NUM_THREADS").ok();
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(asked) = asked.as_deref().and_then(|v| v.trim().parse::<usize>().ok())
-        && asked > most
-    {
+    // rayon's order: the first of the two that is a count above zero.
+    let asked = ["RAYON_NUM_THREADS", "RAYON_RS_NUM_CPUS"].into_iter().find_map(|name| {
+        let threads = std::env::var(name)
+            .ok()?
+            .trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|&n| n > 0)?;
+        Some((name, threads))
+    });
+    let threads = match asked {
+        Some((name, asked)) if asked > most => {
+            warn(format_args!(
+                "{name}={asked} is more than {THREADS_PER_CORE_AT_MOST} threads for each of this machine's \
+                 {cores} cores; using {most}"
+            ));
+            most
+        }
+        Some((_, asked)) => asked,
+        None => cores,
+    };
+    let pool = |threads: usize| rayon::ThreadPoolBuilder::new().num_threads(threads);
+    // rayon's global pool can be set once: a failed start would leave it unset for good, so
+    // the pool is tried on its own first.
+    if let Err(error) = pool(threads).build() {
         warn(format_args!(
-            "RAYON_NUM_THREADS={asked} is more than {THREADS_PER_CORE_AT_MOST} threads for each of this machine's \
-             {cores} cores; using {most}"
+            "could not start {threads} worker threads ({error}); working on one"
         ));
-        builder = builder.num_threads(most);
+        return pool(1).build_global().map_err(|error| {
+            anyhow::anyhow!(
+                "cannot start a worker thread ({error}): raise the limit on processes (ulimit -u) or on \
+                 address space (ulimit -v)"
+            )
+        });
     }
-    if let Err(error) = builder.build_global() {
-        warn(format_args!(
-            "could not start the worker threads ({error}); working on one thread"
-        ));
-        // The global pool is unset after a failed build; one thread is the least that works.
-        let _ = rayon::ThreadPoolBuilder::new().num_threads(1).build_global();
+    pool(threads)
+        .build_global()
+        .map_err(|error| anyhow::anyhow!("cannot start the worker threads: {error}"))
+}
+
+/// Sets `RUST_MIN_STACK` inside [`THREAD_STACK`] (with a warning) where it is set outside,
+/// before any thread starts: the Rust runtime reads it once, for every thread after.
+fn keep_thread_stacks_in_range() {
+    let Some(asked) = std::env::var_os("RUST_MIN_STACK") else {
+        return;
+    };
+    let bytes = asked.to_str().and_then(|text| text.trim().parse::<usize>().ok());
+    if bytes.is_some_and(|bytes| THREAD_STACK.contains(&bytes)) {
+        return;
     }
+    let kept = bytes.unwrap_or(0).clamp(*THREAD_STACK.start(), *THREAD_STACK.end());
+    warn(format_args!(
+        "RUST_MIN_STACK={} is not a stack size from {} to {} bytes; using {kept}",
+        asked.to_string_lossy(),
+        THREAD_STACK.start(),
+        THREAD_STACK.end()
+    ));
+    // SAFETY: called in main before any other thread exists (`start_thread_pool` is first).
+    unsafe { std::env::set_var("RUST_MIN_STACK", kept.to_string()) };
 }
 
 /// A warning on standard error before the command runs (nothing to stop if it cannot be said).
@@ -152,16 +202,15 @@ fn report_file_size_limits() {
 
 /// Mesa's Vulkan device-select layer looks for a Wayland compositor whenever adapters are
 /// listed, and without XDG_RUNTIME_DIR libwayland prints "XDG_RUNTIME_DIR is invalid or not set"
-/// twice. With no runtime dir there is no compositor to find, so an empty private one changes
-/// nothing but the noise. Returns the folder, removed when dropped.
-fn quiet_wayland_probe() -> Option<tempfile::TempDir> {
-    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
-        return None;
+/// twice. With no runtime dir there is no compositor to find; an absolute path to no folder says
+/// so to libwayland as quietly as an empty folder would, and leaves nothing behind when the
+/// process is killed (a private folder made here was left in the temporary folder each time).
+fn quiet_wayland_probe() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some_and(|dir| !dir.is_empty()) {
+        return;
     }
-    let dir = tempfile::Builder::new().prefix("omnisim-runtime-").tempdir().ok()?;
     // SAFETY: called first thing in main, before any other thread exists.
-    unsafe { std::env::set_var("XDG_RUNTIME_DIR", dir.path()) };
-    Some(dir)
+    unsafe { std::env::set_var("XDG_RUNTIME_DIR", "/nonexistent/omnisim-no-runtime-dir") };
 }
 
 /// The error and its causes joined by ": ", leaving out a cause whose text the message already

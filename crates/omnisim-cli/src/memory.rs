@@ -77,7 +77,7 @@ pub(crate) fn limits() -> Vec<Limit> {
 /// Address space a render needing `resident` bytes reserves: that, and an allocator arena for
 /// each worker thread and one more.
 pub(crate) fn address_space(resident: u64) -> u64 {
-    let threads = rayon::current_num_threads() as u64;
+    let threads = std::thread::available_parallelism().map_or(1, std::num::NonZero::get) as u64;
     resident + (threads + 1) * ARENA_BYTES
 }
 

@@ -1317,26 +1317,6 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
     let record: serde_json::Value = serde_json::from_slice(&pooled.stdout).unwrap();
     assert_eq!(record["threads"], 3, "{record}");
     assert!(record["device"].as_str().unwrap().ends_with("on 3 threads"), "{record}");
-    // A pool beyond four threads a core is capped, with a warning (99,999 threads took longer
-    // to start than the render, and never started under a limited address space).
-    let cores = std::thread::available_parallelism().unwrap().get();
-    let capped = Command::new(env!("CARGO_BIN_EXE_omnisim"))
-        .args("bench env1 --camera omni --size 32x32 --backend cpu --runs 1 --warmup 0".split_whitespace())
-        .env("RAYON_NUM_THREADS", "99999")
-        .current_dir(workspace())
-        .output()
-        .expect("omnisim runs");
-    assert!(capped.status.success(), "{}", text(&capped.stderr));
-    let record: serde_json::Value = serde_json::from_slice(&capped.stdout).unwrap();
-    assert_eq!(record["threads"], 4 * cores, "{record}");
-    assert!(
-        text(&capped.stderr).contains(&format!(
-            "RAYON_NUM_THREADS=99999 is more than 4 threads for each of this machine's {cores} cores; using {}",
-            4 * cores
-        )),
-        "{}",
-        text(&capped.stderr)
-    );
     let unknown = omnisim("bench no-such-anchor --backend cpu --runs 1");
     assert_eq!(unknown.status.code(), Some(1));
     assert!(
@@ -1351,6 +1331,55 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
         assert!(!said.contains("../"), "{said}");
     }
     assert!(text(&help.stdout).contains("bench/compare.sh"));
+}
+
+/// Thread settings beyond what works are kept in range with a warning: a pool beyond four
+/// threads a core (99,999 took longer to start than the render and, under a limited address
+/// space, never started: a panic), by either of rayon's variables; worker stacks below 2 MiB
+/// (16 KiB overflowed) or above 64 MiB (refused).
+#[test]
+fn thread_settings_beyond_what_works_are_kept_in_range() {
+    let cores = std::thread::available_parallelism().unwrap().get();
+    for variable in ["RAYON_NUM_THREADS", "RAYON_RS_NUM_CPUS"] {
+        let capped = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args("bench env1 --camera omni --size 32x32 --backend cpu --runs 1 --warmup 0".split_whitespace())
+            .env_remove("RAYON_NUM_THREADS")
+            .env(variable, "99999")
+            .current_dir(workspace())
+            .output()
+            .expect("omnisim runs");
+        assert!(capped.status.success(), "{}", text(&capped.stderr));
+        let record: serde_json::Value = serde_json::from_slice(&capped.stdout).unwrap();
+        assert_eq!(record["threads"], 4 * cores, "{variable}: {record}");
+        assert!(
+            text(&capped.stderr).contains(&format!(
+                "{variable}=99999 is more than 4 threads for each of this machine's {cores} cores; using {}",
+                4 * cores
+            )),
+            "{}",
+            text(&capped.stderr)
+        );
+    }
+    for (stack, kept) in [("16384", 2 << 20), ("100000000000", 64 << 20), ("lots", 2 << 20)] {
+        let dir = tempfile::tempdir().unwrap();
+        let rendered = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(
+                "render scenes/env1.ron --pose 1.5,0,0.4,0,0,60 --size 300x300 --backend cpu --out".split_whitespace(),
+            )
+            .arg(dir.path().join("out"))
+            .env("RUST_MIN_STACK", stack)
+            .current_dir(workspace())
+            .output()
+            .expect("omnisim runs");
+        let stderr = text(&rendered.stderr);
+        assert!(rendered.status.success(), "RUST_MIN_STACK={stack}: {stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "RUST_MIN_STACK={stack} is not a stack size from 2097152 to 67108864 bytes; using {kept}"
+            )),
+            "{stderr}"
+        );
+    }
 }
 
 /// docs/speed-accuracy.svg is what `bench --chart --chart-from` draws from the figures beside
