@@ -925,6 +925,33 @@ fn gpu_probes_keep_stderr_clean() {
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
 }
 
+/// A scene whose file name is not UTF-8 is refused before any frame (render.json records the
+/// scene's file in JSON), not after every frame is written.
+#[cfg(unix)]
+#[test]
+fn a_scene_name_that_is_not_utf8_is_refused_before_rendering() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join(std::ffi::OsStr::from_bytes(b"env1\xff.ron"));
+    std::fs::copy(workspace().join("scenes/env1.ron"), &scene).unwrap();
+    let out = dir.path().join("out");
+    let result = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .arg("render")
+        .arg(&scene)
+        .args(["--pose", "0,0,0.4", "--backend", "cpu", "--out"])
+        .arg(&out)
+        .current_dir(workspace())
+        .output()
+        .unwrap();
+    let stderr = text(&result.stderr);
+    assert_eq!(result.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("is not a UTF-8 name: render.json records the scene's file"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "nothing written");
+}
+
 /// wgpu's variables that choose no adapter are named in a plain error (wgpu's own helper
 /// panics on a `WGPU_ADAPTER_NAME` that matches nothing), and `auto` renders on the CPU.
 #[test]

@@ -517,3 +517,34 @@ fn a_set_name_that_leaves_the_output_folder_is_refused() {
     assert!(stderr.contains("not a plain folder name"), "{stderr}");
     assert!(!dir.path().join("x").exists() && !dir.path().join("nested/x").exists());
 }
+
+/// A non-UTF-8 argument (here the output folder's name) is recorded in the report's command as
+/// near as UTF-8 can, not a panic after all the work (`std::env::args` panicked on it).
+#[cfg(unix)]
+#[test]
+fn an_argument_that_is_not_utf8_is_recorded_lossily() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    dataset(dir.path());
+    let out = OsStr::from_bytes(b"loc\xff");
+    let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args([
+            "localize", "ds", "--map", "map", "--test", "clean", "-d", "fourier", "--out",
+        ])
+        .arg(out)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    let report: Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join(out).join("report.json")).unwrap()).unwrap();
+    let command: Vec<&str> = report["command"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a.as_str().unwrap())
+        .collect();
+    assert_eq!(command.last(), Some(&"loc\u{fffd}"), "{command:?}");
+}

@@ -467,7 +467,7 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
         bail!("--pca-fit needs at least 1 component");
     }
     if let Some(basis) = &args.pca_basis {
-        super::vision_input::recordable(basis).context("--pca-basis")?;
+        super::recordable(basis, super::vision_input::SIDECARS_RECORD).context("--pca-basis")?;
     }
     let input = args.input.read()?;
     super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;

@@ -15,6 +15,18 @@ pub(crate) mod speed_accuracy;
 pub(crate) mod sweep;
 pub(crate) mod vision_input;
 
+/// Refuses a path that is not UTF-8 where `recorded_in` (what records it, e.g. "render.json
+/// records the scene's file") writes it to JSON, which holds only UTF-8.
+pub(crate) fn recordable(path: &std::path::Path, recorded_in: &str) -> anyhow::Result<()> {
+    if path.to_str().is_none() {
+        anyhow::bail!(
+            "{} is not a UTF-8 name: {recorded_in}, in JSON, which holds only UTF-8; rename it",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// Refuses to replace an existing file at `path` whose first bytes `ours` does not recognise
 /// as a file this command writes (`--out env1.ron` would have overwritten the scene, `scene
 /// export` a scene's own mesh); `what` names such files in the message. A missing file is

@@ -161,6 +161,8 @@ impl From<ExrCompressionArg> for ExrCompression {
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     omnisim::input::check_regular(&args.scene, omnisim::input::SCENE_LIMIT)?;
+    // Refused before any frame is written, not at render.json after them all.
+    super::recordable(&args.scene, "render.json records the scene's file")?;
     let rig_spec = args.camera.spec()?;
     let rig = rig_spec.build()?;
     let views = rig.views();

@@ -17,6 +17,10 @@ use serde::Deserialize;
 
 use crate::camera_args::CameraArgs;
 
+/// Why describe and project refuse a path that is not UTF-8 ([`super::recordable`]); a lossy
+/// name could also give two images the same outputs.
+pub(crate) const SIDECARS_RECORD: &str = "describe and project record the files they read in JSON sidecars";
+
 /// The input folder and how to read it.
 #[derive(Debug, Clone, Args)]
 pub(crate) struct InputArgs {
@@ -94,7 +98,7 @@ impl InputArgs {
     }
 
     pub(crate) fn read(&self) -> anyhow::Result<Input> {
-        recordable(&self.input)?;
+        super::recordable(&self.input, SIDECARS_RECORD)?;
         let manifest = self.input.join("manifest.json");
         if manifest.is_file() {
             if self.camera_given() {
@@ -307,7 +311,7 @@ impl InputArgs {
                 .and_then(|e| e.to_str())
                 .is_some_and(|e| e.eq_ignore_ascii_case("png"));
             if image && path.is_file() {
-                recordable(&path)?;
+                super::recordable(&path, SIDECARS_RECORD)?;
                 paths.push(path);
             }
         }
@@ -355,19 +359,6 @@ impl RenderView {
             })
             .collect()
     }
-}
-
-/// Refuses a path that is not UTF-8: the sidecars record every input path in JSON, which
-/// holds only UTF-8 (and a lossy name could give two images the same outputs).
-pub(crate) fn recordable(path: &Path) -> anyhow::Result<()> {
-    if path.to_str().is_none() {
-        bail!(
-            "{} is not a UTF-8 name: describe and project record the files they read in JSON sidecars, which hold \
-             only UTF-8; rename it",
-            path.display()
-        );
-    }
-    Ok(())
 }
 
 /// Refuses an output folder that is one the images are read from: a second run would read
