@@ -615,6 +615,32 @@ fn files_in(dir: &Path) -> Vec<String> {
     names
 }
 
+/// A folder another run works in now (it holds the folder's lock: here this test does) is
+/// refused, and nothing is written; once the lock is let go the same run goes ahead. Two
+/// renders started together into one folder both found it free and mixed their files.
+#[test]
+fn a_folder_in_use_by_another_run_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let held = std::fs::File::open(&out).unwrap();
+    if held.try_lock().is_err() {
+        eprintln!("this file system cannot lock a folder: nothing to test");
+        return;
+    }
+    let render = format!(
+        "render scenes/env1.ron --pose 0,0,0.4 --size 32x32 --backend cpu --out {}",
+        out.display()
+    );
+    let refused = omnisim(&render);
+    let stderr = text(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is in use by another omnisim run now"), "{stderr}");
+    assert!(files_in(&out).is_empty(), "nothing written: {:?}", files_in(&out));
+    drop(held);
+    assert!(succeeds(&render), "the same run once the folder is free");
+}
+
 #[test]
 fn a_folder_holds_one_run() {
     let dir = tempfile::tempdir().unwrap();

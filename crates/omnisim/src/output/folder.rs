@@ -42,6 +42,16 @@ pub enum FolderError {
         /// How many files it wrote.
         count: usize,
     },
+    /// Another run works in the folder now.
+    #[error(
+        "{} is in use by another omnisim run now (it holds the folder's lock): wait for it to end, or choose another \
+         output folder",
+        dir.display()
+    )]
+    InUse {
+        /// The folder.
+        dir: PathBuf,
+    },
     /// The folder holds files no run recorded.
     #[error(
         "{} already holds files that no omnisim run recorded (no {MANIFEST_NAME}), e.g. '{example}'. Choose an empty \
@@ -86,6 +96,8 @@ pub enum FolderError {
 pub struct RunFolder {
     dir: PathBuf,
     manifest: File,
+    /// The folder's lock, held while the run works ([`lock_folder`]).
+    _lock: Option<File>,
     claimed: HashSet<String>,
     /// What opening did that the user should hear about (stale files removed).
     pub notes: Vec<String>,
@@ -108,6 +120,7 @@ impl RunFolder {
             source,
         };
         create_folder(dir)?;
+        let lock = lock_folder(dir)?;
         let mut notes = Vec::new();
         let stale = remove_stale_temporaries(dir).map_err(io)?;
         if stale > 0 {
@@ -158,6 +171,7 @@ impl RunFolder {
         Ok(Self {
             dir: dir.to_path_buf(),
             manifest,
+            _lock: lock,
             claimed: carried.into_iter().collect(),
             notes,
         })
@@ -193,6 +207,21 @@ impl RunFolder {
         };
         writeln!(self.manifest, "complete").map_err(io)?;
         self.manifest.sync_all().map_err(io)
+    }
+}
+
+/// Locks the folder itself (the system's advisory lock on the folder, not a file in it) for
+/// as long as the returned handle lives, which the system ends with the process however it
+/// ends: two runs started into one folder together both found it free and mixed their files.
+/// Where the system cannot lock a folder (Windows, some network file systems) there is no lock.
+fn lock_folder(dir: &Path) -> Result<Option<File>, FolderError> {
+    let Ok(folder) = File::open(dir) else {
+        return Ok(None);
+    };
+    match folder.try_lock() {
+        Ok(()) => Ok(Some(folder)),
+        Err(std::fs::TryLockError::WouldBlock) => Err(FolderError::InUse { dir: dir.to_path_buf() }),
+        Err(std::fs::TryLockError::Error(_)) => Ok(None),
     }
 }
 
