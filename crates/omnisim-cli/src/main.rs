@@ -214,7 +214,8 @@ fn quiet_wayland_probe() {
 }
 
 /// The error and its causes joined by ": ", leaving out a cause whose text the message already
-/// holds (library errors quote their OS error, which is also their source).
+/// holds (library errors quote their OS error, which is also their source), and the limit to
+/// raise where a process limit caused it.
 fn describe(error: &anyhow::Error) -> String {
     let mut message = String::new();
     for cause in error.chain().map(ToString::to_string) {
@@ -225,11 +226,55 @@ fn describe(error: &anyhow::Error) -> String {
             message.push_str(&cause);
         }
     }
+    if let Some(limit) = error
+        .chain()
+        .find_map(|cause| process_limit(cause.downcast_ref::<std::io::Error>()?))
+    {
+        message.push_str(limit);
+    }
     message
+}
+
+/// What to do where the system refused because of one of the process's limits (`ulimit`),
+/// which its own words ("File too large", "Too many open files") do not say.
+fn process_limit(error: &std::io::Error) -> Option<&'static str> {
+    /// EMFILE, which has no `ErrorKind` of its own: 24 on every Unix.
+    const TOO_MANY_OPEN_FILES: i32 = 24;
+    if error.kind() == std::io::ErrorKind::FileTooLarge {
+        Some(" (the file would pass the file-size limit: see or raise `ulimit -f`)")
+    } else if cfg!(unix) && error.raw_os_error() == Some(TOO_MANY_OPEN_FILES) {
+        Some(" (more files open than the limit allows: see or raise `ulimit -n`)")
+    } else {
+        None
+    }
 }
 
 #[cfg(test)]
 mod tests {
+    /// A cause that is a process limit's refusal gets the limit to raise, wherever it sits in
+    /// the chain; other errors get nothing added.
+    #[test]
+    fn process_limits_are_named() {
+        let too_large =
+            anyhow::Error::new(std::io::Error::from(std::io::ErrorKind::FileTooLarge)).context("cannot write x");
+        assert!(
+            super::describe(&too_large).ends_with("see or raise `ulimit -f`)"),
+            "{}",
+            super::describe(&too_large)
+        );
+        #[cfg(unix)]
+        {
+            let open = anyhow::Error::new(std::io::Error::from_raw_os_error(24)).context("cannot open y");
+            assert!(
+                super::describe(&open).ends_with("see or raise `ulimit -n`)"),
+                "{}",
+                super::describe(&open)
+            );
+        }
+        let other = anyhow::Error::new(std::io::Error::from(std::io::ErrorKind::NotFound)).context("z");
+        assert!(!super::describe(&other).contains("ulimit"));
+    }
+
     #[test]
     fn causes_already_quoted_are_not_repeated() {
         let os = std::io::Error::from(std::io::ErrorKind::NotFound);
