@@ -46,21 +46,7 @@ pub(crate) fn limits() -> Vec<Limit> {
             left: true,
         });
     }
-    // cgroup v2: "0::/path" names this process's group.
-    let group =
-        read("/proc/self/cgroup").and_then(|text| text.lines().find_map(|l| l.strip_prefix("0::").map(str::to_string)));
-    if let Some(group) = group {
-        let file =
-            |name: &str| read(&format!("/sys/fs/cgroup{group}/{name}")).and_then(|t| t.trim().parse::<u64>().ok());
-        if let Some(max) = file("memory.max") {
-            limits.push(Limit {
-                bytes: max.saturating_sub(file("memory.current").unwrap_or(0)),
-                what: "the memory left to its cgroup (memory.max)",
-                address_space: false,
-                left: true,
-            });
-        }
-    }
+    limits.extend(cgroup_limit(read));
     if let Some(meminfo) = read("/proc/meminfo")
         && let Some(ram) = kib_field(&meminfo, "MemTotal:")
     {
@@ -79,6 +65,50 @@ pub(crate) fn limits() -> Vec<Limit> {
 pub(crate) fn address_space(resident: u64) -> u64 {
     let threads = std::thread::available_parallelism().map_or(1, std::num::NonZero::get) as u64;
     resident + (threads + 1) * ARENA_BYTES
+}
+
+/// The memory left to this process's cgroup: v2's `memory.max` less `memory.current`, else v1's
+/// `memory.limit_in_bytes` less `memory.usage_in_bytes` (hosts and older container runtimes
+/// with v1 hierarchies; at the group's path, or at the hierarchy's root where a cgroup namespace
+/// shows the group as the root). `read` reads a file's text.
+fn cgroup_limit(read: impl Fn(&str) -> Option<String>) -> Option<Limit> {
+    /// v1 writes a limit of "none" as the largest page-aligned i64.
+    const UNLIMITED: u64 = 1 << 62;
+    let number = |path: &str| read(path).and_then(|t| t.trim().parse::<u64>().ok());
+    let groups = read("/proc/self/cgroup")?;
+    // "0::/path": this process's v2 group.
+    if let Some(group) = groups.lines().find_map(|l| l.strip_prefix("0::"))
+        && let Some(max) = number(&format!("/sys/fs/cgroup{group}/memory.max"))
+    {
+        return Some(Limit {
+            bytes: max.saturating_sub(number(&format!("/sys/fs/cgroup{group}/memory.current")).unwrap_or(0)),
+            what: "the memory left to its cgroup (memory.max)",
+            address_space: false,
+            left: true,
+        });
+    }
+    // "4:memory:/path" (or "4:cpu,memory:/path"): its v1 memory group.
+    let group = groups.lines().find_map(|l| {
+        let mut parts = l.splitn(3, ':');
+        let (_, controllers, path) = (parts.next()?, parts.next()?, parts.next()?);
+        controllers.split(',').any(|c| c == "memory").then_some(path)
+    })?;
+    [
+        format!("/sys/fs/cgroup/memory{group}"),
+        "/sys/fs/cgroup/memory".to_string(),
+    ]
+    .into_iter()
+    .find_map(|dir| {
+        let limit = number(&format!("{dir}/memory.limit_in_bytes"))?;
+        Some((limit, number(&format!("{dir}/memory.usage_in_bytes")).unwrap_or(0)))
+    })
+    .filter(|&(limit, _)| limit < UNLIMITED)
+    .map(|(limit, used)| Limit {
+        bytes: limit.saturating_sub(used),
+        what: "the memory left to its cgroup (memory.limit_in_bytes)",
+        address_space: false,
+        left: true,
+    })
 }
 
 /// A "Name:   1234 kB" field of a /proc file, in bytes.
@@ -182,6 +212,47 @@ mod tests {
             left: true,
         },
     ];
+
+    /// The cgroup's limit from v2 files, or v1's at the group's path or the hierarchy's root,
+    /// and none where v1 says unlimited or nothing is mounted.
+    #[test]
+    fn cgroup_limits_are_read_from_v2_or_v1() {
+        let files = |files: Vec<(&'static str, &'static str)>| {
+            move |path: &str| files.iter().find(|(p, _)| *p == path).map(|(_, text)| text.to_string())
+        };
+        let v2 = cgroup_limit(files(vec![
+            ("/proc/self/cgroup", "0::/job\n"),
+            ("/sys/fs/cgroup/job/memory.max", "1000000\n"),
+            ("/sys/fs/cgroup/job/memory.current", "250000\n"),
+        ]));
+        assert_eq!(
+            v2.map(|l| (l.bytes, l.what)),
+            Some((750_000, "the memory left to its cgroup (memory.max)"))
+        );
+        let v1 = |limit: &'static str, at: &'static str| {
+            cgroup_limit(files(vec![
+                ("/proc/self/cgroup", "5:devices:/\n4:cpu,memory:/job\n0::/\n"),
+                (at, limit),
+                ("/sys/fs/cgroup/memory/job/memory.usage_in_bytes", "100\n"),
+                ("/sys/fs/cgroup/memory/memory.usage_in_bytes", "300\n"),
+            ]))
+        };
+        let at_group = v1("1000\n", "/sys/fs/cgroup/memory/job/memory.limit_in_bytes");
+        assert_eq!(
+            at_group.map(|l| (l.bytes, l.what)),
+            Some((900, "the memory left to its cgroup (memory.limit_in_bytes)"))
+        );
+        let at_root = v1("1000\n", "/sys/fs/cgroup/memory/memory.limit_in_bytes");
+        assert_eq!(at_root.map(|l| l.bytes), Some(700));
+        assert_eq!(
+            v1(
+                "9223372036854771712\n",
+                "/sys/fs/cgroup/memory/job/memory.limit_in_bytes"
+            ),
+            None
+        );
+        assert_eq!(cgroup_limit(files(vec![("/proc/self/cgroup", "0::/\n")])), None);
+    }
 
     #[test]
     fn a_need_over_a_limit_is_refused_naming_both() {
