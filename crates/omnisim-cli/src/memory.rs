@@ -152,10 +152,17 @@ pub(crate) fn check(need: &Need, limits: &[Limit]) -> anyhow::Result<()> {
             (total, String::new())
         };
         if bytes > limit.bytes {
+            let space = if limit.address_space {
+                format!(
+                    " of address space ({} of it the threads' allocator arenas, reserved and hardly used)",
+                    gigabytes(need.address_space - need.resident)
+                )
+            } else {
+                String::new()
+            };
             bail!(
-                "{what} needs about {}{}{besides}, more than {} ({}): {fix}",
+                "{what} needs about {}{space}{besides}, more than {} ({}): {fix}",
                 gigabytes(bytes),
-                if limit.address_space { " of address space" } else { "" },
                 limit.what,
                 gigabytes(limit.bytes)
             );
@@ -263,8 +270,9 @@ mod tests {
         let message = check(&big, &LIMITS).unwrap_err().to_string();
         assert_eq!(
             message,
-            "a 10000x10000 render needs about 4.10 GB of address space, more than the address space left under \
-             ulimit -v (4.00 GB): render a smaller image, fewer outputs or fewer views"
+            "a 10000x10000 render needs about 4.10 GB of address space (0.60 GB of it the threads' allocator \
+             arenas, reserved and hardly used), more than the address space left under ulimit -v (4.00 GB): render a \
+             smaller image, fewer outputs or fewer views"
         );
         let message = check(&need(9_000_000_000, 9_000_000_000, 0), &LIMITS)
             .unwrap_err()
@@ -288,8 +296,9 @@ mod tests {
             .to_string();
         assert!(
             message.contains(
-                "needs about 4.50 GB of address space besides the 1.00 GB already loaded, more than the \
-                              address space left under ulimit -v (4.00 GB)"
+                "needs about 4.50 GB of address space (1.50 GB of it the threads' allocator arenas, reserved and \
+                 hardly used) besides the 1.00 GB already loaded, more than the address space left under ulimit -v \
+                 (4.00 GB)"
             ),
             "{message}"
         );

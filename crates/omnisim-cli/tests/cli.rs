@@ -546,7 +546,7 @@ fn a_render_that_cannot_fit_its_memory_is_refused_up_front() {
     assert!(
         stderr.contains("a 10000x10000 render of 1 view(s) (55 bytes a pixel: hit planes 48, colour 3, range writer 4")
             && stderr.contains("needs about 5.")
-            && stderr.contains("of address space, more than the address space left under ulimit -v (4."),
+            && stderr.contains("of it the threads' allocator arenas, reserved and hardly used), more than the address space left under ulimit -v (4."),
         "{stderr}"
     );
     assert!(!out.exists(), "nothing is written");
