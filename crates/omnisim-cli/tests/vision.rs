@@ -928,3 +928,26 @@ fn a_stereo_render_folder_is_described_through_its_left_camera() {
         serde_json::from_slice(&std::fs::read(dir.path().join("d/st/block-hog.json")).unwrap()).unwrap();
     assert_eq!(sidecar["shape"][0], 1, "one left image per pose: {sidecar}");
 }
+
+/// describe writes nothing before every image is described, but learns first that --out cannot
+/// take files: here --out lies below a file, and the refusal comes before the images are read
+/// (one of which is not an image, which would fail the work with another message).
+#[test]
+fn describe_refuses_an_unwritable_out_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let images = dir.path().join("images");
+    std::fs::create_dir(&images).unwrap();
+    let rendered = render_folder(dir.path());
+    std::fs::copy(rendered.join("env1-0000.png"), images.join("a.png")).unwrap();
+    std::fs::write(images.join("b.png"), b"not a PNG").unwrap();
+    std::fs::write(dir.path().join("taken"), b"a file").unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+        .args(["describe", "images", "-d", "hog", "--out", "taken/out"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("taken is a file, not a folder"), "{stderr}");
+    assert!(!stderr.contains("b.png"), "refused before reading the images: {stderr}");
+}
