@@ -11,13 +11,34 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// CI log may want fewer).
 const EVERY: Duration = Duration::from_secs(10);
 
-/// The interval between plain lines.
+/// The interval between plain lines: `OMNISIM_PROGRESS_SECONDS` where it is a number of seconds
+/// (beyond what a `Duration` holds: never), else [`EVERY`] with a warning, once a process.
 fn interval() -> Duration {
-    std::env::var("OMNISIM_PROGRESS_SECONDS")
-        .ok()
-        .and_then(|text| text.parse::<f64>().ok())
-        .and_then(|seconds| Duration::try_from_secs_f64(seconds).ok())
-        .unwrap_or(EVERY)
+    let Some(text) = std::env::var_os("OMNISIM_PROGRESS_SECONDS") else {
+        return EVERY;
+    };
+    let seconds = text.to_str().and_then(|t| t.trim().parse::<f64>().ok());
+    match seconds {
+        Some(seconds) if seconds >= 0.0 => Duration::try_from_secs_f64(seconds).unwrap_or(Duration::MAX),
+        _ => {
+            static WARNED: std::sync::Once = std::sync::Once::new();
+            WARNED.call_once(|| {
+                let _ = crate::streams::stderr(format_args!(
+                    "warning: OMNISIM_PROGRESS_SECONDS={} is not a number of seconds (0 or more); progress lines come \
+                     every {} s",
+                    text.to_string_lossy(),
+                    EVERY.as_secs()
+                ));
+            });
+            EVERY
+        }
+    }
+}
+
+/// Whether standard error is a terminal that draws a bar: not where `TERM=dumb`, where the bar
+/// draws nothing and plain lines keep a long run from being silent.
+fn draws_bars() -> bool {
+    std::io::stderr().is_terminal() && std::env::var_os("TERM").is_none_or(|term| term != "dumb")
 }
 
 pub(crate) struct Progress {
@@ -43,7 +64,7 @@ impl Progress {
     pub(crate) fn new(unit: &'static str) -> Self {
         Self {
             unit,
-            terminal: std::io::stderr().is_terminal(),
+            terminal: draws_bars(),
             every: interval(),
             bar: None,
             started: Instant::now(),

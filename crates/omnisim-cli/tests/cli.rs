@@ -1606,6 +1606,23 @@ fn a_render_without_a_terminal_reports_progress() {
         dir.path().join("q").display()
     ));
     assert!(!text(&quiet.stderr).contains("poses, "), "{}", text(&quiet.stderr));
+    // A value that is no number of seconds is said once, and the default kept.
+    for odd in ["-1", "abc", "NaN"] {
+        let warned = Command::new(env!("CARGO_BIN_EXE_omnisim"))
+            .args(
+                "render scenes/env1.ron --size 32x32 --pose 0,0,0.4 --backend cpu --no-ply --overwrite --out"
+                    .split_whitespace(),
+            )
+            .arg(dir.path().join("w"))
+            .env("OMNISIM_PROGRESS_SECONDS", odd)
+            .current_dir(workspace())
+            .output()
+            .unwrap();
+        let stderr = text(&warned.stderr);
+        assert!(warned.status.success(), "{stderr}");
+        let warning = format!("warning: OMNISIM_PROGRESS_SECONDS={odd} is not a number of seconds (0 or more)");
+        assert_eq!(stderr.matches(&warning).count(), 1, "{stderr}");
+    }
 }
 
 #[test]

@@ -341,9 +341,8 @@ fn io_hint(error: &std::io::Error) -> &'static str {
         ErrorKind::NotADirectory => " (a part of this path is a file, not a folder: choose another path)",
         ErrorKind::StorageFull => " (the disk is full: free space, then run the same command again to resume)",
         ErrorKind::FileTooLarge => " (beyond the file-size limit, see `ulimit -f`)",
-        ErrorKind::PermissionDenied | ErrorKind::ReadOnlyFilesystem => {
-            " (no permission to write there: choose another folder)"
-        }
+        ErrorKind::PermissionDenied => " (no permission to write there: choose another folder)",
+        ErrorKind::ReadOnlyFilesystem => " (the file system is read-only: choose another folder)",
         _ => "",
     }
 }

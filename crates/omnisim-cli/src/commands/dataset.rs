@@ -116,8 +116,8 @@ pub(crate) fn run(args: DatasetArgs) -> anyhow::Result<()> {
         Err(final_error) if final_error.needs_a_change() => return Err(final_error.into()),
         Err(stopped) => {
             return Err(anyhow::Error::new(stopped).context(format!(
-                "data set {} into {} stopped; frames already finished are kept: remove the cause and run the same \
-                 command again to resume",
+                "data set {} into {} stopped: remove the cause and run the same command again to resume after the \
+                 frames already finished (if any; they are kept)",
                 spec.display(),
                 out.display()
             )));
