@@ -234,7 +234,8 @@ fn resolve_scene(scene: &Path) -> anyhow::Result<PathBuf> {
     if scene.is_file() || !is_name {
         return Ok(scene.to_path_buf());
     }
-    let cache = std::env::var_os("BENCH_CACHE")
+    // Empty counts as unset, as in bench/*.sh's `${BENCH_CACHE:-…}`.
+    let cache = (std::env::var_os("BENCH_CACHE").filter(|cache| !cache.is_empty()))
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("HOME").map(|home| Path::new(&home).join(".cache/omnisim-bench")));
     let file = scene.with_extension("ron");
