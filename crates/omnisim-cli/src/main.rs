@@ -117,23 +117,14 @@ const THREAD_STACK: std::ops::RangeInclusive<usize> = (2 << 20)..=(64 << 20);
 /// Starts rayon's threads now, while the command reads its scene, rather than at the first
 /// parallel call (the BVH build's, whose time would include the threads' start): as many as
 /// `RAYON_NUM_THREADS` (or rayon's older `RAYON_RS_NUM_CPUS`) asks up to
-/// [`THREADS_PER_CORE_AT_MOST`] a core, else one a core; one thread where the system refuses
-/// that many (a process or address-space limit), and an error where it refuses even one.
+/// [`THREADS_PER_CORE_AT_MOST`] a core, else one a core. rayon's global pool can be started
+/// once: where the system refuses the threads (a process or address-space limit), the error
+/// says what to lower, rather than a panic at the first parallel call.
 fn start_thread_pool() -> anyhow::Result<()> {
     keep_thread_stacks_in_range();
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     let most = cores.saturating_mul(THREADS_PER_CORE_AT_MOST);
-    // rayon's order: the first of the two that is a count above zero.
-    let asked = ["RAYON_NUM_THREADS", "RAYON_RS_NUM_CPUS"].into_iter().find_map(|name| {
-        let threads = std::env::var(name)
-            .ok()?
-            .trim()
-            .parse::<usize>()
-            .ok()
-            .filter(|&n| n > 0)?;
-        Some((name, threads))
-    });
-    let threads = match asked {
+    let threads = match asked_threads() {
         Some((name, asked)) if asked > most => {
             warn(format_args!(
                 "{name}={asked} is more than {THREADS_PER_CORE_AT_MOST} threads for each of this machine's \
@@ -144,23 +135,29 @@ fn start_thread_pool() -> anyhow::Result<()> {
         Some((_, asked)) => asked,
         None => cores,
     };
-    let pool = |threads: usize| rayon::ThreadPoolBuilder::new().num_threads(threads);
-    // rayon's global pool can be set once: a failed start would leave it unset for good, so
-    // the pool is tried on its own first.
-    if let Err(error) = pool(threads).build() {
-        warn(format_args!(
-            "could not start {threads} worker threads ({error}); working on one"
-        ));
-        return pool(1).build_global().map_err(|error| {
-            anyhow::anyhow!(
-                "cannot start a worker thread ({error}): raise the limit on processes (ulimit -u) or on \
-                 address space (ulimit -v)"
-            )
-        });
-    }
-    pool(threads)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
         .build_global()
-        .map_err(|error| anyhow::anyhow!("cannot start the worker threads: {error}"))
+        .map_err(|error| {
+            anyhow::anyhow!(
+                "cannot start {threads} worker threads ({error}): set RAYON_NUM_THREADS to fewer, or raise the limit \
+                 on processes (ulimit -u) or on address space (ulimit -v)"
+            )
+        })
+}
+
+/// The worker threads asked for, and by which variable, as rayon reads them: a count above
+/// zero in `RAYON_NUM_THREADS`; `0` there means rayon's default; otherwise its older
+/// `RAYON_RS_NUM_CPUS` above zero.
+fn asked_threads() -> Option<(&'static str, usize)> {
+    let count = |name: &str| std::env::var(name).ok().and_then(|text| text.parse::<usize>().ok());
+    match count("RAYON_NUM_THREADS") {
+        Some(0) => None,
+        Some(threads) => Some(("RAYON_NUM_THREADS", threads)),
+        None => count("RAYON_RS_NUM_CPUS")
+            .filter(|&threads| threads > 0)
+            .map(|threads| ("RAYON_RS_NUM_CPUS", threads)),
+    }
 }
 
 /// Sets `RUST_MIN_STACK` inside [`THREAD_STACK`] (with a warning) where it is set outside,
@@ -180,7 +177,7 @@ fn keep_thread_stacks_in_range() {
         THREAD_STACK.start(),
         THREAD_STACK.end()
     ));
-    // SAFETY: called in main before any other thread exists (`start_thread_pool` is first).
+    // SAFETY: called in main before any other thread exists (the pool starts after it).
     unsafe { std::env::set_var("RUST_MIN_STACK", kept.to_string()) };
 }
 
@@ -243,7 +240,7 @@ fn process_limit(error: &std::io::Error) -> Option<&'static str> {
     /// EMFILE, which has no `ErrorKind` of its own: 24 on every Unix.
     const TOO_MANY_OPEN_FILES: i32 = 24;
     if error.kind() == std::io::ErrorKind::FileTooLarge {
-        Some(" (the file would pass the file-size limit: see or raise `ulimit -f`)")
+        Some(" (the file would pass the process's file-size limit, `ulimit -f`, or the file system's)")
     } else if cfg!(unix) && error.raw_os_error() == Some(TOO_MANY_OPEN_FILES) {
         Some(" (more files open than the limit allows: see or raise `ulimit -n`)")
     } else {
@@ -260,7 +257,7 @@ mod tests {
         let too_large =
             anyhow::Error::new(std::io::Error::from(std::io::ErrorKind::FileTooLarge)).context("cannot write x");
         assert!(
-            super::describe(&too_large).ends_with("see or raise `ulimit -f`)"),
+            super::describe(&too_large).ends_with("file-size limit, `ulimit -f`, or the file system's)"),
             "{}",
             super::describe(&too_large)
         );

@@ -70,18 +70,30 @@ pub(crate) fn address_space(resident: u64) -> u64 {
 /// The memory left to this process's cgroup: v2's `memory.max` less `memory.current`, else v1's
 /// `memory.limit_in_bytes` less `memory.usage_in_bytes` (hosts and older container runtimes
 /// with v1 hierarchies; at the group's path, or at the hierarchy's root where a cgroup namespace
-/// shows the group as the root). `read` reads a file's text.
+/// shows the group as the root). Either usage less the inactive file cache (`memory.stat`),
+/// which the kernel reclaims before it fails an allocation, as `docker stats` counts it.
+/// `read` reads a file's text.
 fn cgroup_limit(read: impl Fn(&str) -> Option<String>) -> Option<Limit> {
     /// v1 writes a limit of "none" as the largest page-aligned i64.
     const UNLIMITED: u64 = 1 << 62;
     let number = |path: &str| read(path).and_then(|t| t.trim().parse::<u64>().ok());
+    // A `memory.stat` field ("inactive_file 1234").
+    let stat = |dir: &str, field: &str| {
+        read(&format!("{dir}/memory.stat"))?
+            .lines()
+            .find_map(|l| l.strip_prefix(field)?.strip_prefix(' ')?.trim().parse::<u64>().ok())
+    };
     let groups = read("/proc/self/cgroup")?;
     // "0::/path": this process's v2 group.
     if let Some(group) = groups.lines().find_map(|l| l.strip_prefix("0::"))
         && let Some(max) = number(&format!("/sys/fs/cgroup{group}/memory.max"))
     {
+        let dir = format!("/sys/fs/cgroup{group}");
+        let used = number(&format!("{dir}/memory.current"))
+            .unwrap_or(0)
+            .saturating_sub(stat(&dir, "inactive_file").unwrap_or(0));
         return Some(Limit {
-            bytes: max.saturating_sub(number(&format!("/sys/fs/cgroup{group}/memory.current")).unwrap_or(0)),
+            bytes: max.saturating_sub(used),
             what: "the memory left to its cgroup (memory.max)",
             address_space: false,
             left: true,
@@ -100,7 +112,10 @@ fn cgroup_limit(read: impl Fn(&str) -> Option<String>) -> Option<Limit> {
     .into_iter()
     .find_map(|dir| {
         let limit = number(&format!("{dir}/memory.limit_in_bytes"))?;
-        Some((limit, number(&format!("{dir}/memory.usage_in_bytes")).unwrap_or(0)))
+        let used = number(&format!("{dir}/memory.usage_in_bytes"))
+            .unwrap_or(0)
+            .saturating_sub(stat(&dir, "total_inactive_file").unwrap_or(0));
+        Some((limit, used))
     })
     .filter(|&(limit, _)| limit < UNLIMITED)
     .map(|(limit, used)| Limit {
@@ -231,16 +246,25 @@ mod tests {
             ("/proc/self/cgroup", "0::/job\n"),
             ("/sys/fs/cgroup/job/memory.max", "1000000\n"),
             ("/sys/fs/cgroup/job/memory.current", "250000\n"),
+            (
+                "/sys/fs/cgroup/job/memory.stat",
+                "anon 100000\ninactive_file 50000\nactive_file 1\n",
+            ),
         ]));
+        // 250,000 used less 50,000 of inactive file cache.
         assert_eq!(
             v2.map(|l| (l.bytes, l.what)),
-            Some((750_000, "the memory left to its cgroup (memory.max)"))
+            Some((800_000, "the memory left to its cgroup (memory.max)"))
         );
         let v1 = |limit: &'static str, at: &'static str| {
             cgroup_limit(files(vec![
                 ("/proc/self/cgroup", "5:devices:/\n4:cpu,memory:/job\n0::/\n"),
                 (at, limit),
-                ("/sys/fs/cgroup/memory/job/memory.usage_in_bytes", "100\n"),
+                ("/sys/fs/cgroup/memory/job/memory.usage_in_bytes", "140\n"),
+                (
+                    "/sys/fs/cgroup/memory/job/memory.stat",
+                    "inactive_file 7\ntotal_inactive_file 40\n",
+                ),
                 ("/sys/fs/cgroup/memory/memory.usage_in_bytes", "300\n"),
             ]))
         };

@@ -33,10 +33,11 @@ pub(crate) fn identity(scene: &Path, rig: &RigSpec, poses: &[Pose], outputs: &st
     ))
 }
 
-/// Opens `out` for the run `identity`, printing what was cleaned up.
-pub(crate) fn open(out: &Path, identity: &str, overwrite: bool) -> anyhow::Result<RunFolder> {
-    // The program as its name, not the path it was run from.
-    let command: Vec<String> = std::env::args_os()
+/// This process's command line as a record shows it: the program as its name, not the path it
+/// was run from (the record is read elsewhere), and arguments that are not UTF-8 (file names)
+/// as near as UTF-8 can.
+pub(crate) fn command_line() -> Vec<String> {
+    std::env::args_os()
         .enumerate()
         .map(|(i, arg)| {
             let arg = std::path::PathBuf::from(arg);
@@ -47,8 +48,12 @@ pub(crate) fn open(out: &Path, identity: &str, overwrite: bool) -> anyhow::Resul
             };
             shown.to_string_lossy().into_owned()
         })
-        .collect();
-    let folder = RunFolder::open(out, identity, &command.join(" "), overwrite)?;
+        .collect()
+}
+
+/// Opens `out` for the run `identity`, printing what was cleaned up.
+pub(crate) fn open(out: &Path, identity: &str, overwrite: bool) -> anyhow::Result<RunFolder> {
+    let folder = RunFolder::open(out, identity, &command_line().join(" "), overwrite)?;
     for note in &folder.notes {
         crate::streams::stderr(format_args!("note: {note}"))?;
     }

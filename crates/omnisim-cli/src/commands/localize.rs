@@ -928,15 +928,7 @@ pub(crate) fn run(args: &LocalizeArgs) -> anyhow::Result<()> {
         schema: SCHEMA.to_string(),
         tool: "omnisim".to_string(),
         version: env!("CARGO_PKG_VERSION").to_string(),
-        // The program as `omnisim`, wherever it was installed: the report is read elsewhere.
-        // Arguments that are not UTF-8 (file names) are shown as near as UTF-8 can.
-        command: std::iter::once("omnisim".to_string())
-            .chain(
-                std::env::args_os()
-                    .skip(1)
-                    .map(|arg| arg.to_string_lossy().into_owned()),
-            )
-            .collect(),
+        command: crate::run_folder::command_line(),
         dataset: DatasetRecord {
             folder: args.dataset.display().to_string(),
             spec_sha256,

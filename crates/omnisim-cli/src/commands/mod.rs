@@ -17,7 +17,7 @@ pub(crate) mod vision_input;
 
 /// Checks, without leaving anything, that `out` (or the nearest folder above it that exists,
 /// where it will be made) takes files: a command that works for hours before it writes learns
-/// at once that it could not (a read-only or full file system, no permission).
+/// at once that it could not (a read-only file system, no permission).
 pub(crate) fn check_writable(out: &std::path::Path) -> anyhow::Result<()> {
     let existing = out
         .ancestors()
@@ -29,7 +29,11 @@ pub(crate) fn check_writable(out: &std::path::Path) -> anyhow::Result<()> {
             existing.display()
         );
     }
-    let probe = existing.join(format!(".omnisim-probe-{}", std::process::id()));
+    // Named by process and time: a probe a killed run left cannot be mistaken for a refusal.
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |since| since.as_nanos());
+    let probe = existing.join(format!(".omnisim-probe-{}-{nanos}", std::process::id()));
     std::fs::File::options()
         .write(true)
         .create_new(true)

@@ -226,12 +226,14 @@ impl GpuContext {
             power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),
             ..Default::default()
         }))
+        // WGPU_BACKEND is named where it chose the backends (an empty or unknown value leaves
+        // wgpu's primary ones).
         .map_err(|e| match std::env::var("WGPU_BACKEND") {
-            Ok(asked) => GpuError::NoAdapterOfBackend {
+            Ok(asked) if wgpu::Backends::from_env().is_some() => GpuError::NoAdapterOfBackend {
                 asked,
                 why: e.to_string(),
             },
-            Err(_) => GpuError::NoAdapter(e.to_string()),
+            _ => GpuError::NoAdapter(e.to_string()),
         })
     }
 

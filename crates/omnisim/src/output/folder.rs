@@ -120,8 +120,8 @@ impl RunFolder {
             source,
         };
         create_folder(dir)?;
-        let lock = lock_folder(dir)?;
         let mut notes = Vec::new();
+        let lock = lock_folder(dir, &mut notes)?;
         let stale = remove_stale_temporaries(dir).map_err(io)?;
         if stale > 0 {
             notes.push(format!(
@@ -213,15 +213,22 @@ impl RunFolder {
 /// Locks the folder itself (the system's advisory lock on the folder, not a file in it) for
 /// as long as the returned handle lives, which the system ends with the process however it
 /// ends: two runs started into one folder together both found it free and mixed their files.
-/// Where the system cannot lock a folder (Windows, some network file systems) there is no lock.
-fn lock_folder(dir: &Path) -> Result<Option<File>, FolderError> {
+/// Where the system cannot open a folder as a file (Windows) there is no lock; where its file
+/// system cannot lock one (some network file systems), `notes` says so.
+fn lock_folder(dir: &Path, notes: &mut Vec<String>) -> Result<Option<File>, FolderError> {
     let Ok(folder) = File::open(dir) else {
         return Ok(None);
     };
     match folder.try_lock() {
         Ok(()) => Ok(Some(folder)),
         Err(std::fs::TryLockError::WouldBlock) => Err(FolderError::InUse { dir: dir.to_path_buf() }),
-        Err(std::fs::TryLockError::Error(_)) => Ok(None),
+        Err(std::fs::TryLockError::Error(e)) => {
+            notes.push(format!(
+                "{} cannot be locked ({e}): a second run started into it at the same time would not be refused",
+                dir.display()
+            ));
+            Ok(None)
+        }
     }
 }
 
