@@ -1413,6 +1413,27 @@ fn thread_settings_beyond_what_works_are_kept_in_range() {
             text(&capped.stderr)
         );
     }
+    // Threads the system refuses (here 64 MiB stacks for eight or more threads under a 300 MB
+    // address space) end the command with what to lower, not a panic at the first parallel call.
+    #[cfg(target_os = "linux")]
+    {
+        let refused = Command::new("bash")
+            .args([
+                "-c",
+                "ulimit -v 300000; exec \"$0\" --version",
+                env!("CARGO_BIN_EXE_omnisim"),
+            ])
+            .env("RUST_MIN_STACK", (64 << 20).to_string())
+            .env("RAYON_NUM_THREADS", "8")
+            .output()
+            .unwrap();
+        let stderr = text(&refused.stderr);
+        assert_eq!(refused.status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains("worker threads") && stderr.contains("set RAYON_NUM_THREADS to fewer"),
+            "{stderr}"
+        );
+    }
     for (stack, kept) in [("16384", 2 << 20), ("100000000000", 64 << 20), ("lots", 2 << 20)] {
         let dir = tempfile::tempdir().unwrap();
         let rendered = Command::new(env!("CARGO_BIN_EXE_omnisim"))
