@@ -223,11 +223,9 @@ fn describe(error: &anyhow::Error) -> String {
             message.push_str(&cause);
         }
     }
-    // Unless a library's own hint named the limit already.
     if let Some(limit) = error
         .chain()
         .find_map(|cause| process_limit(cause.downcast_ref::<std::io::Error>()?))
-        && !message.contains("ulimit")
     {
         message.push_str(limit);
     }

@@ -201,6 +201,8 @@ fn write_failures_end_with_a_clear_message_and_resume_to_the_same_bytes() {
         stderr.contains(".ply: File too large") && stderr.contains("run the same command again to resume"),
         "{stderr}"
     );
+    // The limit behind it is named, once, whichever writer's error carried it.
+    assert_eq!(stderr.matches("`ulimit -f`").count(), 1, "{stderr}");
     let partial = snapshot(&limited);
     assert!(
         partial.keys().any(|p| p.ends_with("env1-0000.png")),

@@ -340,7 +340,6 @@ fn io_hint(error: &std::io::Error) -> &'static str {
     match error.kind() {
         ErrorKind::NotADirectory => " (a part of this path is a file, not a folder: choose another path)",
         ErrorKind::StorageFull => " (the disk is full: free space, then run the same command again to resume)",
-        ErrorKind::FileTooLarge => " (beyond the file-size limit, see `ulimit -f`)",
         ErrorKind::PermissionDenied => " (no permission to write there: choose another folder)",
         ErrorKind::ReadOnlyFilesystem => " (the file system is read-only: choose another folder)",
         _ => "",

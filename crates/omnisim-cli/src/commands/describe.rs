@@ -473,7 +473,7 @@ pub(crate) fn run(args: &DescribeArgs) -> anyhow::Result<()> {
     super::vision_input::refuse_writing_among_inputs(&args.out, &input)?;
     // Nothing is written before every image is described (below), but a folder that cannot
     // take the outputs is found now, not after the work.
-    super::check_writable(&args.out)?;
+    omnisim::output::folder::check_writable(&args.out)?;
     if args.pca_fit.is_some() && input.sets.iter().any(|s| s.name == PCA_FOLDER) {
         bail!(
             "a set named '{PCA_FOLDER}' would share OUT/{PCA_FOLDER} with the PCA bases: leave it out (--set) or describe it without --pca-fit"

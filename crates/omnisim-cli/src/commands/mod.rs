@@ -15,39 +15,6 @@ pub(crate) mod speed_accuracy;
 pub(crate) mod sweep;
 pub(crate) mod vision_input;
 
-/// Checks, without leaving anything, that `out` (or the nearest folder above it that exists,
-/// where it will be made) takes files: a command that works for hours before it writes learns
-/// at once that it could not (a read-only file system, no permission).
-pub(crate) fn check_writable(out: &std::path::Path) -> anyhow::Result<()> {
-    let existing = out
-        .ancestors()
-        .find(|dir| !dir.as_os_str().is_empty() && dir.exists())
-        .unwrap_or(std::path::Path::new("."));
-    if !existing.is_dir() {
-        anyhow::bail!(
-            "{} is a file, not a folder: name a new or empty folder",
-            existing.display()
-        );
-    }
-    // Named by process and time: a probe a killed run left cannot be mistaken for a refusal.
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |since| since.as_nanos());
-    let probe = existing.join(format!(".omnisim-probe-{}-{nanos}", std::process::id()));
-    std::fs::File::options()
-        .write(true)
-        .create_new(true)
-        .open(&probe)
-        .with_context(|| {
-            format!(
-                "cannot write in {} (where --out {} would be): choose a folder you can write",
-                existing.display(),
-                out.display()
-            )
-        })?;
-    std::fs::remove_file(&probe).with_context(|| format!("cannot remove {}", probe.display()))
-}
-
 /// Refuses a path that is not UTF-8 where `recorded_in` (what records it, e.g. "render.json
 /// records the scene's file") writes it to JSON, which holds only UTF-8.
 pub(crate) fn recordable(path: &std::path::Path, recorded_in: &str) -> anyhow::Result<()> {

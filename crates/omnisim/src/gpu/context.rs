@@ -203,24 +203,27 @@ impl GpuContext {
     /// matches, which panics where none does), else the best one `WGPU_POWER_PREF` leads to.
     fn adapter(instance: &wgpu::Instance) -> Result<wgpu::Adapter, GpuError> {
         if let Ok(asked) = std::env::var("WGPU_ADAPTER_NAME") {
-            let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+            let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
             let wanted = asked.to_lowercase();
+            if let Some(at) =
+                (adapters.iter()).position(|adapter| adapter.get_info().name.to_lowercase().contains(&wanted))
+            {
+                return Ok(adapters.swap_remove(at));
+            }
             let found: Vec<String> = (adapters.iter())
                 .map(|adapter| {
                     let info = adapter.get_info();
                     format!("{} ({:?})", info.name, info.backend)
                 })
                 .collect();
-            return (adapters.into_iter())
-                .find(|adapter| adapter.get_info().name.to_lowercase().contains(&wanted))
-                .ok_or_else(|| GpuError::NoAdapterNamed {
-                    asked,
-                    found: if found.is_empty() {
-                        "none".into()
-                    } else {
-                        found.join(", ")
-                    },
-                });
+            return Err(GpuError::NoAdapterNamed {
+                asked,
+                found: if found.is_empty() {
+                    "none".into()
+                } else {
+                    found.join(", ")
+                },
+            });
         }
         pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),

@@ -257,10 +257,7 @@ pub fn prepare_file(path: &Path) -> Result<Vec<String>, FolderError> {
     };
     create_folder(dir)?;
     let stale = remove_stale_temporaries(dir).map_err(io)?;
-    tempfile::Builder::new()
-        .prefix(&temporary_prefix())
-        .tempfile_in(dir)
-        .map_err(io)?;
+    probe(dir).map_err(io)?;
     Ok(if stale > 0 {
         vec![format!(
             "removed {stale} temporary file(s) that an interrupted run left in {}",
@@ -283,6 +280,32 @@ pub enum RealFolderError {
     /// The system refused.
     #[error("cannot create {}: {source}", .0.display(), source = .1)]
     Io(PathBuf, std::io::Error),
+}
+
+/// Checks, creating nothing that stays, that the folder `dir` will take files: `dir` itself
+/// where it exists, else the nearest folder above it that does (where it would be made). For a
+/// command that works long before it writes (`describe`), so that a folder that cannot take
+/// its outputs (a read-only file system, no permission) is found before the work.
+pub fn check_writable(dir: &Path) -> Result<(), FolderError> {
+    if let Some(path) = file_in_the_way(dir) {
+        return Err(FolderError::NotAFolder { path });
+    }
+    let existing = (dir.ancestors())
+        .find(|folder| !folder.as_os_str().is_empty() && folder.exists())
+        .unwrap_or(Path::new("."));
+    probe(existing).map_err(|source| FolderError::Io {
+        dir: existing.to_path_buf(),
+        source,
+    })
+}
+
+/// Creates a temporary file in `dir` and removes it: whether `dir` takes files. A probe a
+/// killed process leaves is a temporary, which the next run's cleaning removes.
+fn probe(dir: &Path) -> std::io::Result<()> {
+    tempfile::Builder::new()
+        .prefix(&temporary_prefix())
+        .tempfile_in(dir)
+        .map(drop)
 }
 
 /// `create_dir_all`, naming the file in the way where `dir` or a folder above it is a file

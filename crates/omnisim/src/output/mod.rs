@@ -65,8 +65,10 @@ pub struct OutputError {
 /// Why a file could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputProblem {
-    /// The system refused, or an encoder failed.
-    #[error(transparent)]
+    /// The system refused, or an encoder failed. Said as the system says it, and kept as the
+    /// error's source (not `transparent`, which would hide it from a search of the causes: the
+    /// CLI names the process limit behind an EFBIG or EMFILE that way).
+    #[error("{0}")]
     Io(#[from] std::io::Error),
     /// The run's folder refused the name (another run's file, a link).
     #[error(transparent)]
