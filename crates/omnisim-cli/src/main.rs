@@ -34,7 +34,14 @@ metres, radians inside; world z up; body x forward, y left, z up; pose rotation 
 R = Rx(θx)·Ry(θy)·Rz(θz) as in the reference paper.\n\n\
 Examples:\n  omnisim render scenes/env1.ron --camera omni --pose 1.5,0,0.4,0,0,60 --out out/\n  \
 omnisim poses grid --x=-2:2:0.5 --y=-1:0.5:0.5 --z 0.4 --out grid.txt\n  \
-omnisim render scenes/env1.ron --camera omni --poses-file grid.txt --out out/grid"
+omnisim render scenes/env1.ron --camera omni --poses-file grid.txt --out out/grid",
+    after_long_help = "Environment:\n  \
+RAYON_NUM_THREADS       CPU worker threads (default: one a core; at most four a core)\n  \
+WGPU_BACKEND            GPU backends to try: vulkan, metal, dx12, gl (default: Vulkan, Metal, DX12)\n  \
+WGPU_ADAPTER_NAME       part of the GPU adapter's name to use, any case\n  \
+WGPU_POWER_PREF         low or high: which adapter to prefer\n  \
+OMNISIM_PROGRESS_SECONDS  seconds between progress lines when standard error is no terminal (default 10)\n  \
+BENCH_CACHE             where bench finds the anchor scenes room and clutter (default ~/.cache/omnisim-bench)"
 )]
 struct Cli {
     #[command(subcommand)]

@@ -1392,6 +1392,12 @@ fn bench_finds_scenes_by_name_and_counts_tests_per_ray() {
 /// (16 KiB overflowed) or above 64 MiB (refused).
 #[test]
 fn thread_settings_beyond_what_works_are_kept_in_range() {
+    // --help names the variables read, with their limits.
+    let help = text(&omnisim("--help").stdout);
+    for variable in ["RAYON_NUM_THREADS", "WGPU_ADAPTER_NAME", "OMNISIM_PROGRESS_SECONDS"] {
+        assert!(help.contains(variable), "{help}");
+    }
+    assert!(help.contains("at most four a core"), "{help}");
     let cores = std::thread::available_parallelism().unwrap().get();
     for variable in ["RAYON_NUM_THREADS", "RAYON_RS_NUM_CPUS"] {
         let capped = Command::new(env!("CARGO_BIN_EXE_omnisim"))
